@@ -1,0 +1,1 @@
+"""mirrorscan's browser tool (viser) and command line; a thin layer over mirrorcore."""

@@ -1,0 +1,35 @@
+"""The `mirrorscan` command line (DESIGN.md's script contract): exit 0 on success, 2 with a one-line error on bad input."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from mirrorcore.errors import MirrorscanError
+
+# Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
+COMMANDS: list[str] = []  # filled as the subcommands land
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mirrorscan", description="3D scanning with one depth camera and mirrors.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(f"app.commands.{name}").register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except MirrorscanError as exc:
+        print(f"mirrorscan {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"mirrorscan {args.command}: cancelled", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,31 @@
+"""Benchmarks behind `mirrorscan bench`: each module in MODULES has run() -> dict of figure name -> value."""
+from __future__ import annotations
+
+import importlib
+import time
+from typing import Callable
+
+MODULES = ["bench.alg1"]
+
+
+def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> float:
+    """Median wall-clock milliseconds of fn() over `repeat` runs after `warmup` runs."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append((time.perf_counter() - t0) * 1e3)
+    times.sort()
+    return times[len(times) // 2]
+
+
+def run_all(progress: Callable[[str], None] | None = None) -> dict[str, float]:
+    """Run every benchmark module; returns the merged figures."""
+    figures: dict[str, float] = {}
+    for name in MODULES:
+        if progress:
+            progress(name)
+        figures.update(importlib.import_module(name).run())
+    return figures

@@ -1,0 +1,28 @@
+"""Atomic file writes: write beside the target, flush to disk, keep one backup, then rename over the target."""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+
+def write_atomic(path: str | Path, data: bytes, backup: bool = False) -> None:
+    """Replace `path` with `data` so that a reader sees either the old file or the new one, never a partial one.
+
+    backup : keep the previous version as `path` + '.bak' (copied before the rename).
+    Raises OSError (full disk, read-only folder...) with the target left untouched.
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        if backup and path.exists():
+            shutil.copy2(path, path.with_name(path.name + ".bak"))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

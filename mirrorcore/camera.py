@@ -1,0 +1,212 @@
+"""Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and projection.
+
+Conventions (DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth camera's centre,
+pixel (u, v) = (column, row) with integer coordinates at pixel centres.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, replace
+from functools import cached_property
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .errors import FileFormatError
+
+_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """A depth camera's pinhole model.
+
+    width, height : int, pixels
+    fx, fy : float, focal lengths in pixels
+    cx, cy : float, principal point in pixels (pixel centres are integers)
+    depth_scale : float, metres per unit of the uint16 depth images on disk
+    """
+
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    depth_scale: float = 0.001
+
+    def __post_init__(self) -> None:
+        if not (int(self.width) > 0 and int(self.height) > 0):
+            raise FileFormatError(f"camera: width and height must be positive, got {self.width}x{self.height}")
+        values = np.array([self.fx, self.fy, self.cx, self.cy, self.depth_scale], dtype=float)
+        if not np.all(np.isfinite(values)) or self.fx <= 0 or self.fy <= 0 or self.depth_scale <= 0:
+            raise FileFormatError(
+                f"camera: fx, fy and depth_scale must be finite and positive, got fx={self.fx} fy={self.fy} "
+                f"depth_scale={self.depth_scale}")
+        object.__setattr__(self, "width", int(self.width))
+        object.__setattr__(self, "height", int(self.height))
+
+    # ----------------------------------------------------------------- constructors and presets
+    @classmethod
+    def from_dict(cls, data: dict, where: str = "camera") -> "Intrinsics":
+        """Build from a mapping with the keys of DESIGN.md's `camera` object; raises FileFormatError naming `where`."""
+        if not isinstance(data, dict):
+            raise FileFormatError(f"{where}: expected an object with {', '.join(_FIELDS)}")
+        missing = [k for k in _FIELDS[:6] if k not in data]
+        if missing:
+            raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
+        try:
+            values = {k: float(data[k]) for k in _FIELDS if k in data}
+        except (TypeError, ValueError) as exc:
+            raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
+        if values["width"] != int(values["width"]) or values["height"] != int(values["height"]):
+            raise FileFormatError(f"{where}: width and height must be integers")
+        return cls(**values)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def kinect_v1(cls) -> "Intrinsics":
+        """Kinect v1 depth (IR) camera, Nicolas Burrus' calibration, 640x480."""
+        return cls(640, 480, 594.21434211923247, 591.04053696870778, 339.30780975300314, 242.73913761751615)
+
+    @classmethod
+    def primesense(cls) -> "Intrinsics":
+        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault), 640x480."""
+        return cls(640, 480, 525.0, 525.0, 319.5, 239.5)
+
+    def scaled(self, factor: float) -> "Intrinsics":
+        """The same camera at `factor` times the resolution (pixel centres stay at integer coordinates)."""
+        w, h = round(self.width * factor), round(self.height * factor)
+        return replace(self, width=w, height=h, fx=self.fx * factor, fy=self.fy * factor,
+                       cx=(self.cx + 0.5) * factor - 0.5, cy=(self.cy + 0.5) * factor - 0.5)
+
+    # ----------------------------------------------------------------- matrices and ray tables
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(height, width) of the images."""
+        return self.height, self.width
+
+    @property
+    def K(self) -> np.ndarray:
+        """(3, 3) float64 camera matrix."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @cached_property
+    def rays(self) -> np.ndarray:
+        """(H, W, 3) float32 read-only table of (x/z, y/z, 1) for every pixel: reprojection is depth[..., None] * rays."""
+        u = (np.arange(self.width, dtype=np.float64) - self.cx) / self.fx
+        v = (np.arange(self.height, dtype=np.float64) - self.cy) / self.fy
+        table = np.empty((self.height, self.width, 3), dtype=np.float32)
+        table[..., 0] = u[None, :]
+        table[..., 1] = v[:, None]
+        table[..., 2] = 1.0
+        table.flags.writeable = False
+        return table
+
+
+def reproject_pixels(intr: Intrinsics, u: np.ndarray, v: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Paper eq. 1: pixels with depth to points in the camera frame.
+
+    u, v : (n,) pixel coordinates (any real values); z : (n,) depth in metres
+    returns points_cam : (n, 3) float32, metres, camera frame
+    """
+    z = np.asarray(z, dtype=np.float32)
+    x = (np.asarray(u, dtype=np.float32) - np.float32(intr.cx)) * (z / np.float32(intr.fx))
+    y = (np.asarray(v, dtype=np.float32) - np.float32(intr.cy)) * (z / np.float32(intr.fy))
+    return np.stack([x, y, z], axis=-1)
+
+
+def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None = None):
+    """Reproject the valid pixels of a depth image (paper eq. 1, through the cached ray table).
+
+    depth : (H, W) float, metres, 0 = no reading; mask : optional (H, W) bool, pixels to keep
+    returns points_cam (n, 3) float32 and pixels (n, 2) int32 as (u, v), in row-major pixel order
+    """
+    depth = check_depth_shape(intr, depth)
+    keep = depth > 0
+    if mask is not None:
+        keep &= mask
+    v, u = np.nonzero(keep)
+    points = intr.rays[v, u] * depth[v, u, None].astype(np.float32)
+    return points, np.stack([u, v], axis=-1).astype(np.int32)
+
+
+def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Project camera-frame points to pixel coordinates (inverse of eq. 1).
+
+    points_cam : (n, 3) float, metres, camera frame; only points with z > 0 project.
+    returns uv : (n, 2) float64 pixel coordinates (NaN where z <= 0) and z : (n,) float64 depth
+    """
+    p = np.asarray(points_cam, dtype=np.float64).reshape(-1, 3)
+    z = p[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = np.stack([intr.fx * p[:, 0] / z + intr.cx, intr.fy * p[:, 1] / z + intr.cy], axis=-1)
+    uv[z <= 0] = np.nan
+    return uv, z
+
+
+def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth image") -> np.ndarray:
+    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the intrinsics."""
+    depth = np.asarray(depth)
+    if depth.shape != intr.shape:
+        raise FileFormatError(
+            f"{where}: size {depth.shape[1] if depth.ndim > 1 else '?'}x{depth.shape[0] if depth.ndim else '?'} "
+            f"does not match the camera's {intr.width}x{intr.height}")
+    return depth
+
+
+# --------------------------------------------------------------------- intrinsics files
+def save_open3d_json(intr: Intrinsics, path: str | Path) -> None:
+    """Write Open3D's PinholeCameraIntrinsic JSON (column-major intrinsic_matrix)."""
+    data = {"width": intr.width, "height": intr.height, "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
+    Path(path).write_text(json.dumps(data, indent=2))
+
+
+def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
+    """Read Open3D's PinholeCameraIntrinsic JSON; raises FileFormatError naming the file."""
+    try:
+        data = json.loads(Path(path).read_text())
+        K = np.asarray(data["intrinsic_matrix"], dtype=float).reshape(3, 3).T
+        return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2], K[1, 2], depth_scale)
+    except FileFormatError as exc:
+        raise FileFormatError(f"{path}: {exc}") from None
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON ({type(exc).__name__}: {exc})") from None
+
+
+def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
+    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with cv2.FileStorage."""
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
+    try:
+        fs.write("image_width", intr.width)
+        fs.write("image_height", intr.height)
+        fs.write("camera_matrix", intr.K)
+        fs.write("depth_scale", intr.depth_scale)
+    finally:
+        fs.release()
+
+
+def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
+    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height); raises FileFormatError."""
+    if not Path(path).is_file():
+        raise FileFormatError(f"{path}: no such file")
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except cv2.error as exc:
+        raise FileFormatError(f"{path}: not an OpenCV YAML file ({str(exc).strip().splitlines()[-1]})") from None
+    try:
+        K = fs.getNode("camera_matrix").mat()
+        w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
+        scale_node = fs.getNode("depth_scale")
+        scale = depth_scale if scale_node.empty() else scale_node.real()
+    finally:
+        fs.release()
+    if K is None or K.shape != (3, 3) or not w or not h:
+        raise FileFormatError(f"{path}: needs camera_matrix (3x3), image_width and image_height")
+    try:
+        return Intrinsics(int(w), int(h), K[0, 0], K[1, 1], K[0, 2], K[1, 2], scale)
+    except FileFormatError as exc:
+        raise FileFormatError(f"{path}: {exc}") from None

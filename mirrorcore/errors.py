@@ -1,0 +1,13 @@
+"""Errors that mirrorscan reports to a user: one line that names what is wrong and where."""
+
+
+class MirrorscanError(Exception):
+    """Bad input or a request that cannot be met; the message is one line meant for the user."""
+
+
+class CalibrationError(MirrorscanError):
+    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid markers...)."""
+
+
+class FileFormatError(MirrorscanError):
+    """A file (session, depth image, PLY, intrinsics, scene) is missing, unreadable or malformed."""

@@ -1,0 +1,33 @@
+"""The one palette of source colours (viewer, exports, plots): 0 = direct view, j = through mirror j."""
+from __future__ import annotations
+
+import numpy as np
+
+# Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 8 mirrors.
+SOURCE_COLORS = np.array([
+    [150, 150, 150],   # 0: direct, grey
+    [230, 159, 0],     # mirror 1: orange
+    [86, 180, 233],    # mirror 2: sky blue
+    [0, 158, 115],     # mirror 3: green
+    [204, 121, 167],   # mirror 4: pink
+    [213, 94, 0],      # mirror 5: vermilion
+    [0, 114, 178],     # mirror 6: blue
+    [240, 228, 66],    # mirror 7: yellow
+], dtype=np.uint8)
+
+
+def source_color(source: int) -> np.ndarray:
+    """(3,) uint8 RGB of one source."""
+    return source_colors(np.array([source]))[0]
+
+
+def source_colors(sources: np.ndarray) -> np.ndarray:
+    """sources : (n,) integer labels -> (n, 3) uint8 RGB."""
+    sources = np.asarray(sources, dtype=np.int64)
+    idx = np.where(sources == 0, 0, 1 + (sources - 1) % (len(SOURCE_COLORS) - 1))
+    return SOURCE_COLORS[idx]
+
+
+def source_name(source: int) -> str:
+    """'direct' or 'mirror j'."""
+    return "direct" if source == 0 else f"mirror {source}"

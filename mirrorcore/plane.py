@@ -1,0 +1,158 @@
+"""Planes, signed distances and reflection through a mirror plane (paper eq. 2 and 3), plane fitting by SVD and RANSAC.
+
+Convention (DESIGN.md): a plane is (a, b, c, d) with a unit normal n = (a, b, c) pointing to the camera's side, so that
+n.P + d > 0 in front of the mirror (the camera's side; d > 0 because the camera is at the origin) and < 0 behind it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import CalibrationError
+from .ransac import ransac_iterations
+
+
+@dataclass(frozen=True)
+class Plane:
+    """An oriented plane n.P + d = 0 with |n| = 1 and the camera (origin) on the positive side (d > 0)."""
+
+    normal: tuple[float, float, float]
+    d: float
+
+    @classmethod
+    def from_abcd(cls, abcd, where: str = "plane") -> "Plane":
+        """Normalise (a, b, c, d) and orient it to the camera's side; raises CalibrationError for a zero normal or a
+        plane through the camera (d = 0: no side is the camera's)."""
+        p = np.asarray(abcd, dtype=np.float64).reshape(-1)
+        if p.shape != (4,) or not np.all(np.isfinite(p)):
+            raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {list(np.ravel(abcd))}")
+        norm = np.linalg.norm(p[:3])
+        if norm < 1e-12:
+            raise CalibrationError(f"{where}: the plane's normal (a, b, c) is zero")
+        p = p / norm
+        if abs(p[3]) < 1e-9:
+            raise CalibrationError(f"{where}: the plane passes through the camera")
+        if p[3] < 0:
+            p = -p
+        return cls((float(p[0]), float(p[1]), float(p[2])), float(p[3]))
+
+    @classmethod
+    def from_point_normal(cls, point, normal) -> "Plane":
+        """The plane through `point` (3,) with normal `normal` (3,), oriented to the camera's side."""
+        n = np.asarray(normal, dtype=np.float64)
+        return cls.from_abcd([*n, -float(np.dot(n, point))])
+
+    @property
+    def n(self) -> np.ndarray:
+        """(3,) float64 unit normal, towards the camera."""
+        return np.array(self.normal)
+
+    @property
+    def abcd(self) -> np.ndarray:
+        """(4,) float64 [a, b, c, d]."""
+        return np.array([*self.normal, self.d])
+
+    def to_list(self) -> list[float]:
+        return [float(x) for x in self.abcd]
+
+    def signed_distance(self, points: np.ndarray) -> np.ndarray:
+        """points : (..., 3) metres -> (...,) metres, > 0 on the camera's side, < 0 behind the mirror."""
+        points = np.asarray(points)
+        return points @ self.n.astype(points.dtype if points.dtype == np.float32 else np.float64) + self.d
+
+    def reflect(self, points: np.ndarray) -> np.ndarray:
+        """Paper eq. 3: P_r = P - 2 (n.P + d) n. points : (..., 3) -> (..., 3), same float dtype (float32 stays float32)."""
+        points = np.asarray(points)
+        dtype = points.dtype if points.dtype in (np.float32, np.float64) else np.float64
+        points = points.astype(dtype, copy=False)
+        n = self.n.astype(dtype)
+        return points - (2 * (points @ n + dtype.type(self.d)))[..., None] * n
+
+    def reflection_matrix(self) -> np.ndarray:
+        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1]. It is its own inverse, det = -1."""
+        n = self.n
+        M = np.eye(4)
+        M[:3, :3] -= 2.0 * np.outer(n, n)
+        M[:3, 3] = -2.0 * self.d * n
+        return M
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Orthogonal projection of points (..., 3) onto the plane."""
+        points = np.asarray(points, dtype=np.float64)
+        return points - self.signed_distance(points)[..., None] * self.n
+
+    def angle_to(self, other: "Plane") -> float:
+        """Angle between the two normals, degrees."""
+        return float(np.degrees(np.arccos(np.clip(np.dot(self.n, other.n), -1.0, 1.0))))
+
+
+def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
+    """Least-squares plane through points (n >= 3, not collinear), paper eq. 2 solved by SVD of the centred points.
+
+    points : (n, 3) metres, camera frame. Raises CalibrationError when fewer than 3 points or they are collinear.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(points) < 3:
+        raise CalibrationError(f"{where}: at least 3 points are needed to fit a plane, got {len(points)}")
+    centroid = points.mean(axis=0)
+    _, s, vt = np.linalg.svd(points - centroid, full_matrices=False)
+    if s[1] <= 1e-6 * max(s[0], 1e-12) or s[1] < 1e-9:
+        raise CalibrationError(f"{where}: the points are collinear; a plane needs points spread in two directions")
+    return Plane.from_point_normal(centroid, vt[2])
+
+
+@dataclass(frozen=True)
+class PlaneFit:
+    """A RANSAC + SVD plane fit: the plane, which points are inliers, and residuals (metres, signed) of all points."""
+
+    plane: Plane
+    inliers: np.ndarray
+    residuals: np.ndarray
+
+    @property
+    def rms(self) -> float:
+        """RMS distance of the inliers to the plane, metres."""
+        return float(np.sqrt(np.mean(self.residuals[self.inliers] ** 2)))
+
+
+def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
+                     confidence: float = 0.999, max_iterations: int = 2000, where: str = "plane") -> PlaneFit:
+    """RANSAC on 3-point samples, then an SVD refit on the inliers (repeated once with the refit's inliers).
+
+    points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for depth-dependent noise).
+    Degenerate (collinear) samples are skipped. Raises CalibrationError when no plane can be fitted.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    fit_plane_svd(points, where)  # refuses fewer than 3 or collinear points with a clear message
+    threshold = np.broadcast_to(np.asarray(threshold, dtype=np.float64), (len(points),))
+    best, best_count, needed, it = None, -1, max_iterations, 0
+    batch = 64
+    while it < min(needed, max_iterations):
+        samples = rng.integers(0, len(points), size=(batch, 3))
+        a, b, c = points[samples[:, 0]], points[samples[:, 1]], points[samples[:, 2]]
+        normals = np.cross(b - a, c - a)
+        norms = np.linalg.norm(normals, axis=1)
+        ok = norms > 1e-12
+        normals = normals[ok] / norms[ok, None]
+        ds = -np.einsum("ij,ij->i", normals, a[ok])
+        if len(normals):
+            dist = np.abs(points @ normals.T + ds)                  # (n, k)
+            counts = (dist < threshold[:, None]).sum(axis=0)
+            k = int(np.argmax(counts))
+            if counts[k] > best_count:
+                best_count, best = int(counts[k]), (normals[k], ds[k])
+                needed = ransac_iterations(best_count / len(points), 3, confidence)
+        it += batch
+    if best is None or best_count < 3:
+        raise CalibrationError(f"{where}: no three points define a plane")
+    inliers = np.abs(points @ best[0] + best[1]) < threshold
+    for _ in range(2):
+        plane = fit_plane_svd(points[inliers], where)
+        residuals = plane.signed_distance(points)
+        refit = np.abs(residuals) < threshold
+        if refit.sum() < 3 or np.array_equal(refit, inliers):
+            break
+        inliers = refit
+    residuals = plane.signed_distance(points)
+    return PlaneFit(plane, inliers, residuals)

@@ -1,0 +1,83 @@
+"""Image polygons (mirror boundaries, regions of interest): validation and rasterisation to pixel masks."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .errors import MirrorscanError
+
+
+def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:
+    """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
+
+    Refuses (MirrorscanError naming `where`): fewer than 3 vertices, non-finite values, vertices outside the image
+    of size `shape` = (H, W) when given, a polygon with no area, and a polygon whose edges cross each other.
+    """
+    try:
+        poly = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise MirrorscanError(f"{where}: vertices must be [u, v] pairs of numbers") from None
+    if poly.ndim != 2 or poly.shape[1] != 2:
+        raise MirrorscanError(f"{where}: vertices must be [u, v] pairs, got an array of shape {poly.shape}")
+    if len(poly) < 3:
+        raise MirrorscanError(f"{where}: a polygon needs at least 3 vertices, got {len(poly)}")
+    if not np.all(np.isfinite(poly)):
+        raise MirrorscanError(f"{where}: vertices must be finite numbers")
+    if shape is not None:
+        outside = np.nonzero((poly[:, 0] < -0.5) | (poly[:, 1] < -0.5) | (poly[:, 0] > shape[1] - 0.5)
+                             | (poly[:, 1] > shape[0] - 0.5))[0]
+        if len(outside):
+            i = int(outside[0])
+            raise MirrorscanError(f"{where}: vertex {i + 1} ({poly[i, 0]:g}, {poly[i, 1]:g}) is outside the "
+                                  f"{shape[1]}x{shape[0]} image")
+    if abs(polygon_area(poly)) < 1e-9:
+        raise MirrorscanError(f"{where}: the polygon has no area (its vertices are collinear)")
+    crossing = first_crossing(poly)
+    if crossing is not None:
+        raise MirrorscanError(f"{where}: the polygon crosses itself (edges {crossing[0] + 1} and {crossing[1] + 1})")
+    return poly
+
+
+def polygon_area(poly: np.ndarray) -> float:
+    """Signed area (shoelace) of (n, 2) vertices, pixels^2."""
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
+    """The first pair (i, j) of non-adjacent edges that intersect (edge i runs from vertex i to i+1), or None."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    n = len(poly)
+    i, j = np.triu_indices(n, k=2)
+    keep = ~((i == 0) & (j == n - 1))                # the first and last edges share vertex 0
+    i, j = i[keep], j[keep]
+
+    def orient(p, q, r):
+        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
+
+    def on_segment(p, q, r):  # r collinear with p-q lies within its bounding box
+        return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0], q[:, 0]))
+                & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1], q[:, 1])))
+
+    p1, q1, p2, q2 = a[i], b[i], a[j], b[j]
+    o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
+    hit = (o1 != o2) & (o3 != o4) & (o1 != 0) & (o2 != 0) & (o3 != 0) & (o4 != 0)
+    hit |= (o1 == 0) & on_segment(p1, q1, p2)
+    hit |= (o2 == 0) & on_segment(p1, q1, q2)
+    hit |= (o3 == 0) & on_segment(p2, q2, p1)
+    hit |= (o4 == 0) & on_segment(p2, q2, q1)
+    k = np.nonzero(hit)[0]
+    return (int(i[k[0]]), int(j[k[0]])) if len(k) else None
+
+
+def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """Rasterise a polygon to an (H, W) bool mask: pixels inside or on an edge are True.
+
+    Vertices are given in pixel coordinates (u, v) and kept to 1/16 pixel (OpenCV's fixed-point rasteriser).
+    """
+    shift = 4
+    pts = np.round(np.asarray(poly, dtype=np.float64) * (1 << shift)).astype(np.int32).reshape(-1, 1, 2)
+    mask = np.zeros(shape, dtype=np.uint8)
+    cv2.fillPoly(mask, [pts], 1, lineType=cv2.LINE_8, shift=shift)
+    cv2.polylines(mask, [pts], True, 1, lineType=cv2.LINE_8, shift=shift)
+    return mask.astype(bool)
