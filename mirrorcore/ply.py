@@ -1,0 +1,66 @@
+"""PLY files of source-labelled clouds (DESIGN.md layout): binary_little_endian, x y z float32 (metres, camera frame),
+red green blue uchar (source colour), source uchar."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from .atomic import write_atomic
+from .errors import FileFormatError
+from .palette import source_colors
+
+_VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
+                    ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
+
+
+def encode_ply(points: np.ndarray, sources: np.ndarray) -> bytes:
+    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j) -> PLY bytes."""
+    points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
+    sources = np.asarray(sources).reshape(-1)
+    if len(sources) != len(points):
+        raise ValueError(f"encode_ply: {len(points)} points but {len(sources)} source labels")
+    if len(sources) and (sources.min() < 0 or sources.max() > 255):
+        raise ValueError("encode_ply: source labels must be in 0..255")
+    vertex = np.empty(len(points), dtype=_VERTEX)
+    vertex["x"], vertex["y"], vertex["z"] = points.T
+    colors = source_colors(sources)
+    vertex["red"], vertex["green"], vertex["blue"] = colors.T
+    vertex["source"] = sources
+    header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
+              "source 0 = direct, j = mirror j\n"
+              f"element vertex {len(points)}\n"
+              + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n" for n in _VERTEX.names)
+              + "end_header\n")
+    return header.encode("ascii") + vertex.tobytes()
+
+
+def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray) -> None:
+    """Write a labelled cloud atomically (see encode_ply)."""
+    write_atomic(path, encode_ply(points, sources))
+
+
+def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
+    """Read the vertices of any PLY (ours, Open3D's, MeshLab's...).
+
+    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source` property.
+    Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such file")
+    with open(path, "rb") as f:
+        if f.read(3) != b"ply":
+            raise FileFormatError(f"{path}: not a PLY file (it does not start with 'ply')")
+    try:
+        geometry = trimesh.load(path, file_type="ply", process=False)
+        vertex = geometry.metadata["_ply_raw"]["vertex"]["data"]
+    except Exception as exc:  # trimesh raises many kinds on broken files; all mean the same to the user
+        raise FileFormatError(f"{path}: broken PLY ({type(exc).__name__}: {exc})") from None
+    names = vertex.dtype.names or ()
+    if not {"x", "y", "z"} <= set(names):
+        raise FileFormatError(f"{path}: the PLY's vertices have no x, y, z")
+    points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
+    sources = np.asarray(vertex["source"], dtype=np.uint8).reshape(-1) if "source" in names else None
+    return points, sources
