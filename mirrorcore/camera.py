@@ -96,13 +96,11 @@ class Intrinsics:
 
     @cached_property
     def rays(self) -> np.ndarray:
-        """(H, W, 3) float32 read-only table of (x/z, y/z, 1) for every pixel: reprojection is depth[..., None] * rays."""
-        u = (np.arange(self.width, dtype=np.float64) - self.cx) / self.fx
-        v = (np.arange(self.height, dtype=np.float64) - self.cy) / self.fy
-        table = np.empty((self.height, self.width, 3), dtype=np.float32)
-        table[..., 0] = u[None, :]
-        table[..., 1] = v[:, None]
-        table[..., 2] = 1.0
+        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z reprojects to
+        (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that gathers and products stay contiguous."""
+        table = np.empty((2, self.height, self.width), dtype=np.float32)
+        table[0] = ((np.arange(self.width) - self.cx) / self.fx)[None, :]
+        table[1] = ((np.arange(self.height) - self.cy) / self.fy)[:, None]
         table.flags.writeable = False
         return table
 
@@ -130,7 +128,8 @@ def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None
     if mask is not None:
         keep &= mask
     v, u = np.nonzero(keep)
-    points = intr.rays[v, u] * depth[v, u, None].astype(np.float32)
+    z = depth[v, u].astype(np.float32)
+    points = np.stack([intr.rays[0, v, u] * z, intr.rays[1, v, u] * z, z], axis=-1)
     return points, np.stack([u, v], axis=-1).astype(np.int32)
 
 

@@ -1,0 +1,45 @@
+"""A source-labelled point cloud: points in the camera frame, the source of each point, the pixel it came from."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .palette import source_colors, source_name
+
+
+@dataclass(frozen=True, eq=False)
+class Cloud:
+    """points : (n, 3) float32 metres, camera frame; sources : (n,) uint8, 0 = direct, j = mirror j;
+    pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width : image width."""
+
+    points: np.ndarray
+    sources: np.ndarray
+    pixel_index: np.ndarray
+    width: int
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @property
+    def pixels(self) -> np.ndarray:
+        """(n, 2) int32 pixel coordinates (u, v)."""
+        v, u = np.divmod(self.pixel_index, self.width)
+        return np.stack([u, v], axis=-1).astype(np.int32)
+
+    @property
+    def colors(self) -> np.ndarray:
+        """(n, 3) uint8 source colours (palette.py)."""
+        return source_colors(self.sources)
+
+    def select(self, keep: np.ndarray) -> "Cloud":
+        """The sub-cloud of a boolean mask or index array over the points."""
+        return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
+
+    def of_source(self, source: int) -> "Cloud":
+        return self.select(self.sources == source)
+
+    def counts(self, n_mirrors: int) -> dict[str, int]:
+        """Points per source name, every source listed (zero when absent): {'direct': n0, 'mirror 1': n1, ...}."""
+        counts = np.bincount(self.sources, minlength=n_mirrors + 1)
+        return {source_name(j): int(counts[j]) for j in range(n_mirrors + 1)}
