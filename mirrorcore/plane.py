@@ -21,9 +21,12 @@ class Plane:
     d: float
 
     @classmethod
-    def from_abcd(cls, abcd, where: str = "plane") -> "Plane":
-        """Normalise (a, b, c, d) and orient it to the camera's side; raises CalibrationError for a zero normal or a
-        plane through the camera (d = 0: no side is the camera's)."""
+    def from_abcd(cls, abcd, where: str = "plane", orient: bool = True) -> "Plane":
+        """Normalise (a, b, c, d); raises CalibrationError for a zero normal or a plane through the camera (d = 0).
+
+        orient : True flips a plane given with d < 0 to the camera's side; False refuses it (the convention says the
+        camera is in front, d > 0: a stored plane with d < 0 would put the camera behind the mirror).
+        """
         p = np.asarray(abcd, dtype=np.float64).reshape(-1)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
             raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {list(np.ravel(abcd))}")
@@ -34,6 +37,9 @@ class Plane:
         if abs(p[3]) < 1e-9:
             raise CalibrationError(f"{where}: the plane passes through the camera")
         if p[3] < 0:
+            if not orient:
+                raise CalibrationError(f"{where}: d < 0 puts the camera behind the mirror; a plane's normal must "
+                                       "point to the camera's side (d > 0)")
             p = -p
         return cls((float(p[0]), float(p[1]), float(p[2])), float(p[3]))
 

@@ -140,7 +140,7 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> MirrorSpec:
     plane = data.get("plane")
     if plane is not None:
         try:
-            plane = Plane.from_abcd(plane, f"{where}: plane")
+            plane = Plane.from_abcd(plane, f"{where}: plane", orient=False)
         except MirrorscanError as exc:
             raise FileFormatError(str(exc)) from None
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}

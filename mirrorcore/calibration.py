@@ -1,0 +1,164 @@
+"""Mirror calibration, the three ways of the paper's section 3: from markers on the glass, from the mirror's frame (a
+region), and from pairs of real and virtual points of a calibration object."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import Intrinsics, check_depth_shape, reproject_pixels
+from .depthops import median_depth
+from .errors import CalibrationError
+from .noise import axial_sigma
+from .plane import Plane, fit_plane_ransac
+from .polygon import polygon_mask, validate_polygon
+
+MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
+MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
+MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line are collinear
+MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
+INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
+MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A fitted mirror plane and how well the data support it.
+
+    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC
+    per_marker_mm : (k,) RMS distance of each marker's points to the plane, mm (NaN for an unusable marker; empty for
+    region and pair calibrations)
+    """
+
+    plane: Plane
+    rms_mm: float
+    n_points: int
+    n_inliers: int
+    per_marker_mm: tuple[float, ...] = ()
+
+    @property
+    def worst_marker(self) -> tuple[int, float] | None:
+        """(0-based index, mm) of the marker farthest from the plane, or None without markers."""
+        values = np.asarray(self.per_marker_mm, dtype=float)
+        if not len(values) or np.all(np.isnan(values)):
+            return None
+        i = int(np.nanargmax(values))
+        return i, float(values[i])
+
+    def summary(self) -> str:
+        text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
+        worst = self.worst_marker
+        if worst is not None:
+            text += f", {sum(np.isfinite(self.per_marker_mm))} markers, worst marker {worst[0] + 1} at {worst[1]:.2f} mm"
+        return text
+
+
+def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
+                  window: int = MARKER_WINDOW) -> np.ndarray:
+    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker pixel (u, v)."""
+    u0, v0 = int(round(marker[0])), int(round(marker[1]))
+    u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
+    v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
+    patch = depth[v1:v2, u1:u2]
+    vv, uu = np.nonzero(patch > 0)
+    return reproject_pixels(intr, uu + u1, vv + v1, patch[vv, uu])
+
+
+def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np.random.Generator,
+                           name: str = "mirror", window: int = MARKER_WINDOW) -> Calibration:
+    """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
+
+    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median)
+    markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
+    The inlier threshold is INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the
+    mirror and the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
+    through the camera.
+    """
+    depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
+    markers = np.asarray(markers, dtype=np.float64).reshape(-1, 2)
+    groups = [marker_points(intr, depth, m, window) for m in markers]
+    usable = [len(g) >= MIN_MARKER_PIXELS for g in groups]
+    if sum(usable) < 3:
+        dead = [i + 1 for i, ok in enumerate(usable) if not ok]
+        detail = f"; marker(s) {', '.join(map(str, dead))} have no depth reading within {window} px" if dead else ""
+        raise CalibrationError(f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
+    centres = np.array([np.median(g, axis=0) for g, ok in zip(groups, usable) if ok])
+    spread = _distance_to_best_line(centres).max()
+    if spread < MIN_MARKER_SPREAD:
+        used = [i + 1 for i, ok in enumerate(usable) if ok]
+        raise CalibrationError(f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
+                               f"(all within {spread * 1000:.0f} mm of one line); place one off that line")
+    points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
+    owner = np.concatenate([np.full(len(g), i) for i, (g, ok) in enumerate(zip(groups, usable)) if ok])
+    fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
+    _check_camera_side(fit.plane, name)
+    per_marker = np.full(len(markers), np.nan)
+    sq = np.bincount(owner, weights=fit.residuals ** 2, minlength=len(markers))
+    count = np.bincount(owner, minlength=len(markers))
+    per_marker[count > 0] = np.sqrt(sq[count > 0] / count[count > 0]) * 1e3
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()), tuple(per_marker.tolist()))
+
+
+def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,
+                          name: str = "mirror") -> Calibration:
+    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper: "if it is large
+    enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u, v).
+    Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too thin for a plane."""
+    depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
+    polygon = validate_polygon(polygon, intr.shape, f"{name}: region")
+    inside = polygon_mask(polygon, intr.shape) & (depth > 0)
+    v, u = np.nonzero(inside)
+    if len(u) < MIN_REGION_PIXELS:
+        raise CalibrationError(f"{name}: the region has {len(u)} pixels with depth, {MIN_REGION_PIXELS} are needed")
+    points = reproject_pixels(intr, u, v, depth[v, u])
+    if _distance_to_best_line(points).max() < MIN_MARKER_SPREAD:
+        raise CalibrationError(f"{name}: the region is too thin to define a plane")
+    fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
+    _check_camera_side(fit.plane, name)
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()))
+
+
+def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
+    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its virtual image).
+
+    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a calibration
+    object seen directly and behind the mirror. The normal is the mean of the unit directions virtual -> real
+    (towards the camera's side); d makes the plane pass through the pairs' midpoints on average.
+    rms_mm reports the RMS of |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where the
+    plane puts it. Raises CalibrationError for no pairs, coincident pairs, or a camera behind the resulting plane.
+    """
+    real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
+    virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)
+    if len(real) == 0 or real.shape != virtual.shape:
+        raise CalibrationError(f"{name}: pairs need as many real points as virtual ones, at least one "
+                               f"(got {len(real)} and {len(virtual)})")
+    diff = real - virtual
+    length = np.linalg.norm(diff, axis=1)
+    if np.any(length < 1e-6):
+        raise CalibrationError(f"{name}: pair(s) {', '.join(str(i + 1) for i in np.nonzero(length < 1e-6)[0])} "
+                               "have the real and virtual point in the same place")
+    n = (diff / length[:, None]).mean(axis=0)
+    n /= np.linalg.norm(n)
+    d = -float(np.mean((real + virtual) / 2 @ n))
+    if d <= 0:
+        raise CalibrationError(f"{name}: these pairs put the camera behind the mirror; are the real and virtual "
+                               "points swapped?")
+    plane = Plane.from_abcd([*n, d])
+    _check_camera_side(plane, name)
+    err = np.linalg.norm(plane.reflect(virtual) - real, axis=1) / 2
+    return Calibration(plane, float(np.sqrt(np.mean(err ** 2))) * 1e3, len(real), len(real))
+
+
+def _distance_to_best_line(points: np.ndarray) -> np.ndarray:
+    """(n,) distances (metres) of points (n, 3) to their least-squares line."""
+    centred = points - points.mean(axis=0)
+    if len(points) < 2:
+        return np.zeros(len(points))
+    direction = np.linalg.svd(centred, full_matrices=False)[2][0]
+    return np.linalg.norm(centred - np.outer(centred @ direction, direction), axis=1)
+
+
+def _check_camera_side(plane: Plane, name: str) -> None:
+    if plane.d < MIN_CAMERA_DISTANCE:
+        raise CalibrationError(f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
+                               "must face the mirror, not lie in its plane")

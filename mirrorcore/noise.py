@@ -1,0 +1,15 @@
+"""Depth noise of a structured-light camera (Kinect v1 class), used for noise-aware thresholds.
+
+Axial noise grows with the square of the depth (Khoshelham & Elberink 2012): sigma(z) = 1.425e-3 * z^2 metres.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+KINECT_AXIAL_COEF = 1.425e-3   # metres of axial standard deviation per metre^2 of depth
+MIN_SIGMA = 0.5e-3             # a floor (metres) so that thresholds never collapse to zero near the camera
+
+
+def axial_sigma(z: np.ndarray | float) -> np.ndarray:
+    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored at MIN_SIGMA."""
+    return np.maximum(KINECT_AXIAL_COEF * np.square(np.asarray(z, dtype=np.float64)), MIN_SIGMA)

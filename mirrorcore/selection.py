@@ -1,0 +1,107 @@
+"""Object selection: which pixels of a depth frame are the object (background subtraction with a depth-dependent
+tolerance, depth range, region of interest, removal of specks and flying pixels)."""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+import cv2
+import numpy as np
+
+from .camera import Intrinsics, check_depth_shape
+from .errors import FileFormatError, MirrorscanError
+from .noise import axial_sigma
+from .polygon import polygon_mask, validate_polygon
+
+
+@dataclass(frozen=True)
+class Selection:
+    """How to find the object in a frame. Distances in metres.
+
+    depth_min, depth_max : readings outside [depth_min, depth_max] are not the object (mirror views read the virtual
+        depth, farther than the object itself: leave room for it)
+    background_sigmas : a pixel is the object when it is closer than the background by more than this many standard
+        deviations of the difference of two readings (sqrt(2) * sigma(z)), and at least min_gap
+    min_gap : metres, the smallest difference that counts as the object
+    flying_sigmas, flying_gap : a pixel whose depth is farther than the nearest object neighbour by more than
+        max(flying_sigmas * sigma(z), flying_gap * z) is a flying pixel at a depth edge and is dropped
+    min_blob : connected pieces of the object with fewer pixels than this are specks and are dropped
+    roi : optional polygon (u, v) pixels; only pixels inside it (or on its edge) can be the object
+    smooth : smooth the object's depth (edge-aware, in disparity) before reconstruction
+    """
+
+    depth_min: float = 0.4
+    depth_max: float = 6.0
+    background_sigmas: float = 4.0
+    min_gap: float = 0.02
+    flying_sigmas: float = 6.0
+    flying_gap: float = 0.03
+    min_blob: int = 40
+    roi: tuple[tuple[float, float], ...] | None = None
+    smooth: bool = True
+
+    @classmethod
+    def from_json(cls, data, where: str = "selection") -> "Selection":
+        """From a session.json 'selection' object; unknown keys are refused, missing ones take the defaults."""
+        if data is None:
+            return cls()
+        if not isinstance(data, dict):
+            raise FileFormatError(f"{where}: must be a JSON object")
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise FileFormatError(f"{where}: unknown key(s) {', '.join(unknown)}")
+        values = dict(data)
+        if values.get("roi") is not None:
+            try:
+                values["roi"] = tuple(map(tuple, validate_polygon(values["roi"], None, f"{where}: roi").tolist()))
+            except MirrorscanError as exc:
+                raise FileFormatError(str(exc)) from None
+        try:
+            sel = cls(**values)
+            numbers = [float(getattr(sel, f.name)) for f in fields(cls) if f.name not in ("roi", "smooth")]
+        except (TypeError, ValueError) as exc:
+            raise FileFormatError(f"{where}: {exc}") from None
+        if not all(np.isfinite(numbers)) or sel.depth_min < 0 or sel.depth_max <= sel.depth_min:
+            raise FileFormatError(f"{where}: needs finite numbers and 0 <= depth_min < depth_max")
+        return sel
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["roi"] = None if self.roi is None else [list(p) for p in self.roi]
+        return data
+
+
+def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | None,
+                selection: Selection = Selection()) -> np.ndarray:
+    """The object's pixels in a depth frame.
+
+    depth : (H, W) float metres, 0 = no reading; background : (H, W) float metres of the scene without the object
+    (0 = no reading there), or None to select by depth range and region only.
+    returns (H, W) bool. A pixel with no background reading counts as the object when it has a reading now.
+    """
+    depth = check_depth_shape(intr, depth)
+    mask = (depth >= selection.depth_min) & (depth <= selection.depth_max)
+    if background is not None:
+        background = check_depth_shape(intr, background, "background")
+        tolerance = np.maximum(selection.background_sigmas * np.sqrt(2.0) * axial_sigma(background), selection.min_gap)
+        mask &= (background <= 0) | (depth < background - tolerance)
+    if selection.roi is not None:
+        mask &= polygon_mask(np.asarray(selection.roi), intr.shape)
+    mask &= ~flying_pixels(depth, mask, selection)
+    return remove_specks(mask, selection.min_blob)
+
+
+def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
+    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings at depth edges)."""
+    nearest = np.where(mask, depth, np.inf).astype(np.float32)
+    nearest = cv2.erode(nearest, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
+    gap = np.maximum(selection.flying_sigmas * axial_sigma(depth), selection.flying_gap * depth)
+    return mask & (depth - nearest > gap)
+
+
+def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
+    """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool -> (H, W) bool."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    keep = stats[:, cv2.CC_STAT_AREA] >= min_blob
+    keep[0] = False
+    return keep[labels]
