@@ -30,11 +30,11 @@ def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = 
             i = int(outside[0])
             raise MirrorscanError(f"{where}: vertex {i + 1} ({poly[i, 0]:g}, {poly[i, 1]:g}) is outside the "
                                   f"{shape[1]}x{shape[0]} image")
-    if abs(polygon_area(poly)) < 1e-9:
-        raise MirrorscanError(f"{where}: the polygon has no area (its vertices are collinear)")
     crossing = first_crossing(poly)
     if crossing is not None:
         raise MirrorscanError(f"{where}: the polygon crosses itself (edges {crossing[0] + 1} and {crossing[1] + 1})")
+    if abs(polygon_area(poly)) < 1e-9:
+        raise MirrorscanError(f"{where}: the polygon has no area (its vertices are collinear)")
     return poly
 
 
@@ -71,13 +71,13 @@ def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
 
 
 def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """Rasterise a polygon to an (H, W) bool mask: pixels inside or on an edge are True.
+    """Rasterise a polygon to an (H, W) bool mask with OpenCV.
 
-    Vertices are given in pixel coordinates (u, v) and kept to 1/16 pixel (OpenCV's fixed-point rasteriser).
+    Vertices (u, v) snap to the nearest pixel centre. A pixel is in the mask when its centre is inside the snapped
+    polygon or on an edge (and, as OpenCV rasterises, within half a pixel outside an edge): every pixel a user sees
+    under the drawn outline counts as inside.
     """
-    shift = 4
-    pts = np.round(np.asarray(poly, dtype=np.float64) * (1 << shift)).astype(np.int32).reshape(-1, 1, 2)
+    pts = np.round(np.asarray(poly, dtype=np.float64)).astype(np.int32).reshape(-1, 1, 2)
     mask = np.zeros(shape, dtype=np.uint8)
-    cv2.fillPoly(mask, [pts], 1, lineType=cv2.LINE_8, shift=shift)
-    cv2.polylines(mask, [pts], True, 1, lineType=cv2.LINE_8, shift=shift)
+    cv2.fillPoly(mask, [pts], 1, lineType=cv2.LINE_8)
     return mask.astype(bool)

@@ -1,0 +1,65 @@
+"""`mirrorscan calibrate SESSION [--frame I]`: fit every mirror's plane and write it into session.json."""
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+
+import numpy as np
+
+from mirrorcore.calibration import Calibration, calibrate_from_markers, calibrate_from_region
+from mirrorcore.errors import CalibrationError
+from mirrorcore.session import Session, load_session, save_session
+
+MAX_MEDIAN_FRAMES = 30
+
+
+def register(sub) -> None:
+    p = sub.add_parser("calibrate", help="fit every mirror's plane from its markers; write it into session.json")
+    p.add_argument("session", help="session folder")
+    p.add_argument("--frame", type=int, default=None,
+                   help="use this frame only (default: per-pixel median of the background and up to "
+                        f"{MAX_MEDIAN_FRAMES} frames)")
+    p.add_argument("--method", choices=["markers", "region"], default="markers",
+                   help="markers: the mirror's 'markers'; region: the mirror's 'region' polygon (its frame)")
+    p.add_argument("--seed", type=int, default=0, help="RANSAC seed")
+    p.set_defaults(run=run)
+
+
+def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
+    """(k, H, W) metres: the frame asked for, or the background and up to MAX_MEDIAN_FRAMES evenly spaced frames."""
+    if frame is not None:
+        return session.read_frame(frame)[None]
+    picks = np.unique(np.linspace(0, len(session.frames) - 1, min(len(session.frames), MAX_MEDIAN_FRAMES)).astype(int))
+    stack = [session.read_frame(int(i)) for i in picks] if session.frames else []
+    background = session.read_background()
+    if background is not None:
+        stack.append(background)
+    if not stack:
+        raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
+    return np.stack(stack)
+
+
+def calibrate_mirror(session: Session, index: int, depth: np.ndarray, method: str,
+                     rng: np.random.Generator) -> Calibration:
+    mirror = session.mirrors[index]
+    if method == "region":
+        if "region" not in mirror.extra:
+            raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
+        return calibrate_from_region(session.camera, depth, mirror.extra["region"], rng, mirror.name)
+    return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
+
+
+def run(args: argparse.Namespace) -> int:
+    session = load_session(args.session)
+    if not session.mirrors:
+        raise CalibrationError(f"{session.path}: the session has no mirrors")
+    depth = calibration_depth(session, args.frame)
+    rng = np.random.default_rng(args.seed)
+    # all mirrors first: one failure writes nothing
+    results = [calibrate_mirror(session, i, depth, args.method, rng) for i in range(len(session.mirrors))]
+    for i, result in enumerate(results):
+        session = session.with_mirror(i, replace(session.mirrors[i], plane=result.plane))
+        print(f"{session.mirrors[i].name}: plane {np.round(result.plane.abcd, 5).tolist()}  {result.summary()}")
+    save_session(session)
+    print(f"wrote {session.path}")
+    return 0

@@ -1,0 +1,149 @@
+"""Session folders, depth PNGs and PLY files: round trips, clear errors, and nothing lost on failure."""
+import json
+import os
+
+import numpy as np
+import open3d as o3d
+import pytest
+import trimesh
+
+from mirrorcore.camera import Intrinsics
+from mirrorcore.depthio import read_depth_png, write_depth_png
+from mirrorcore.errors import FileFormatError
+from mirrorcore.plane import Plane
+from mirrorcore.ply import read_ply, write_ply
+from mirrorcore.session import MirrorSpec, Session, load_session, save_session
+
+CAMERA = Intrinsics.primesense()
+
+
+def make_session(root) -> Session:
+    write_depth_png(root / "background.png", np.full(CAMERA.shape, 3.0), 0.001)
+    (root / "frames").mkdir(parents=True, exist_ok=True)
+    write_depth_png(root / "frames/000000.png", np.full(CAMERA.shape, 2.5), 0.001)
+    mirrors = (MirrorSpec("mirror 1", ((10.0, 20.0), (30.5, 40.0), (50.0, 20.0)), ((0, 0), (100, 0), (100, 100)),
+                          Plane.from_abcd([0.3, 0, -1, 2.5])),
+               MirrorSpec("mirror 2", extra={"note": "kept"}))
+    return Session(root, CAMERA, mirrors, "background.png", ("frames/000000.png",), {"selection": {"depth_max": 5}})
+
+
+def test_session_round_trip(tmp_path):
+    session = make_session(tmp_path)
+    save_session(session)
+    loaded = load_session(tmp_path)
+    np.testing.assert_allclose(loaded.mirrors[0].plane.abcd, session.mirrors[0].plane.abcd, rtol=0, atol=1e-15)
+    assert loaded.with_mirror(0, session.mirrors[0]) == session
+    assert loaded.mirrors[1].extra == {"note": "kept"} and loaded.extra == {"selection": {"depth_max": 5}}
+    assert loaded.read_frame(0)[0, 0] == pytest.approx(2.5)
+    assert loaded.read_background()[5, 5] == pytest.approx(3.0)
+    data = json.loads((tmp_path / "session.json").read_text())
+    assert set(data) >= {"version", "camera", "mirrors", "background", "frames"} and data["version"] == 1
+    assert data["mirrors"][1]["plane"] is None
+
+
+def test_save_keeps_the_previous_version(tmp_path):
+    session = make_session(tmp_path)
+    save_session(session)
+    first = (tmp_path / "session.json").read_text()
+    save_session(session.with_mirror(1, MirrorSpec("renamed")))
+    assert (tmp_path / "session.json.bak").read_text() == first
+    assert load_session(tmp_path).mirrors[1].name == "renamed"
+
+
+def test_failed_save_leaves_the_session_intact(tmp_path, monkeypatch):
+    session = make_session(tmp_path)
+    save_session(session)
+    before = (tmp_path / "session.json").read_bytes()
+
+    def full_disk(*args):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(os, "fsync", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        save_session(session.with_mirror(0, MirrorSpec("changed")))
+    assert (tmp_path / "session.json").read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["background.png", "frames", "session.json"]
+
+
+def edit(tmp_path, change):
+    save_session(make_session(tmp_path))
+    data = json.loads((tmp_path / "session.json").read_text())
+    change(data)
+    (tmp_path / "session.json").write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.pop("camera"), "missing key\\(s\\) camera"),
+    (lambda d: d.update(version=7), "unknown version 7"),
+    (lambda d: d["camera"].pop("fx"), "camera: missing key\\(s\\) fx"),
+    (lambda d: d["mirrors"][0].update(markers=[[700, 3]]), r"mirrors\[0\] \(mirror 1\): markers\[0\]: pixel \(700, 3\) is outside"),
+    (lambda d: d["mirrors"][0].update(markers=[[1, "a"]]), r"markers\[0\]: must be a pair of numbers"),
+    (lambda d: d["mirrors"][0].update(boundary=[[0, 0], [9, 9], [9, 0], [0, 9]]), "crosses itself"),
+    (lambda d: d["mirrors"][0].update(boundary=[[0, 0], [9, 9]]), "at least 3 vertices"),
+    (lambda d: d["mirrors"][0].update(plane=[0, 0, 0, 1]), "normal .* is zero"),
+    (lambda d: d["mirrors"][0].update(plane=[0, 0, 1, -2]), "camera behind the mirror"),
+    (lambda d: d["mirrors"][0].update(name=""), "'name' must be a non-empty string"),
+    (lambda d: d.update(frames=["../../etc/passwd"]), r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
+    (lambda d: d.update(background="/etc/passwd"), "background: path '/etc/passwd' leaves the session folder"),
+])
+def test_bad_session_files(tmp_path, change, message):
+    edit(tmp_path, change)
+    before = (tmp_path / "session.json").read_bytes()
+    with pytest.raises(FileFormatError, match=message):
+        load_session(tmp_path)
+    assert (tmp_path / "session.json").read_bytes() == before
+
+
+def test_malformed_and_missing_session(tmp_path):
+    with pytest.raises(FileFormatError, match="no such file"):
+        load_session(tmp_path)
+    (tmp_path / "session.json").write_text('{"version": 1, "camera": ')
+    with pytest.raises(FileFormatError, match="invalid JSON at line 1"):
+        load_session(tmp_path)
+
+
+def test_depth_png_round_trip_and_bad_images(tmp_path):
+    depth = np.random.default_rng(0).uniform(0.5, 4, CAMERA.shape)
+    depth[0, 0] = 0
+    write_depth_png(tmp_path / "d.png", depth, 0.001)
+    back = read_depth_png(tmp_path / "d.png", 0.001, CAMERA.shape)
+    assert back.dtype == np.float32 and back[0, 0] == 0
+    assert np.abs(back - depth).max() <= 0.0005 + 1e-6
+    import cv2
+    cv2.imwrite(str(tmp_path / "8bit.png"), np.zeros((480, 640), np.uint8))
+    with pytest.raises(FileFormatError, match="8bit.png: a depth image is 16-bit, this one is uint8"):
+        read_depth_png(tmp_path / "8bit.png", 0.001)
+    with pytest.raises(FileFormatError, match="size 640x480 does not match the camera's 320x240"):
+        read_depth_png(tmp_path / "d.png", 0.001, (240, 320))
+    (tmp_path / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage")
+    with pytest.raises(FileFormatError, match="corrupt.png: not a readable image"):
+        read_depth_png(tmp_path / "corrupt.png", 0.001)
+
+
+def test_ply_layout_and_readers(tmp_path):
+    pts = np.random.default_rng(1).normal(size=(50, 3)).astype(np.float32)
+    src = np.repeat([0, 1, 2, 1, 0], 10)
+    write_ply(tmp_path / "c.ply", pts, src)
+    raw = (tmp_path / "c.ply").read_bytes()
+    header = raw[:raw.index(b"end_header")].decode()
+    assert "format binary_little_endian 1.0" in header
+    assert [line.split()[-1] for line in header.splitlines() if line.startswith("property")] == \
+        ["x", "y", "z", "red", "green", "blue", "source"]
+    assert "float x" in header and "uchar source" in header and "face" not in header
+    p, s = read_ply(tmp_path / "c.ply")
+    np.testing.assert_array_equal(p, pts)
+    np.testing.assert_array_equal(s, src)
+    o3d_cloud = o3d.io.read_point_cloud(str(tmp_path / "c.ply"))
+    np.testing.assert_allclose(np.asarray(o3d_cloud.points), pts, atol=1e-7)
+    colours = (np.asarray(o3d_cloud.colors) * 255).round()
+    assert (colours[:10] == colours[0]).all() and not (colours[10] == colours[0]).all()  # colour by source
+    assert len(trimesh.load(tmp_path / "c.ply").vertices) == 50
+
+
+def test_broken_ply(tmp_path):
+    (tmp_path / "x.ply").write_bytes(b"not a ply")
+    with pytest.raises(FileFormatError, match="x.ply: not a PLY file"):
+        read_ply(tmp_path / "x.ply")
+    write_ply(tmp_path / "t.ply", np.zeros((10, 3)), np.zeros(10, int))
+    (tmp_path / "t.ply").write_bytes((tmp_path / "t.ply").read_bytes()[:-50])
+    with pytest.raises(FileFormatError, match="t.ply: broken PLY"):
+        read_ply(tmp_path / "t.ply")

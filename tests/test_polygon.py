@@ -1,0 +1,54 @@
+"""Polygons: validation (too few vertices, self-crossing, outside the image) and rasterisation at the edges."""
+import cv2
+import numpy as np
+import pytest
+
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.polygon import polygon_mask, validate_polygon
+
+
+def test_square_mask_includes_its_edges_only():
+    mask = polygon_mask(np.array([[2, 1], [5, 1], [5, 3], [2, 3]], float), (6, 8))
+    expected = np.zeros((6, 8), bool)
+    expected[1:4, 2:6] = True           # rows (v) 1..3, columns (u) 2..5: u and v not swapped, edges included
+    np.testing.assert_array_equal(mask, expected)
+
+
+def test_mask_agrees_with_point_in_polygon():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        centre = rng.uniform(100, 200, 2)
+        angles = np.sort(rng.uniform(0, 2 * np.pi, 7))
+        poly = centre + np.stack([np.cos(angles), np.sin(angles)], 1) * rng.uniform(30, 90, (7, 1))
+        mask = polygon_mask(poly, (300, 300))
+        v, u = np.mgrid[0:300, 0:300]
+        contour = np.round(poly).astype(np.float32).reshape(-1, 1, 2)     # vertices snap to pixel centres
+        dist = np.array([cv2.pointPolygonTest(contour, (float(x), float(y)), True)
+                         for x, y in zip(u.ravel()[::7], v.ravel()[::7])])
+        sampled = mask.ravel()[::7]
+        assert sampled[dist >= 0].all()            # inside or on an edge: in the mask
+        assert not sampled[dist < -0.5].any()      # more than half a pixel outside: not in it
+
+
+def test_pixel_centres_on_an_edge_are_inside():
+    tri = np.array([[10, 10], [30, 10], [10, 30]], float)
+    mask = polygon_mask(tri, (40, 40))
+    assert mask[10, 10:31].all() and mask[10:31, 10].all()     # the two axis-aligned edges
+    assert mask[20, 20] and not mask[21, 21]                   # on the hypotenuse; one step past it
+
+
+@pytest.mark.parametrize("poly, message", [
+    ([[0, 0], [1, 1]], "at least 3 vertices"),
+    ([[0, 0], [10, 10], [10, 0], [0, 10]], r"crosses itself \(edges 1 and 3\)"),
+    ([[0, 0], [5, 5], [10, 10]], "no area"),
+    ([[0, 0], [700, 0], [0, 10]], r"vertex 2 \(700, 0\) is outside the 640x480 image"),
+    ([[0, 0], [np.nan, 0], [0, 10]], "finite"),
+])
+def test_bad_polygons(poly, message):
+    with pytest.raises(MirrorscanError, match=message):
+        validate_polygon(poly, (480, 640), "mirror 1: boundary")
+
+
+def test_valid_concave_polygon_passes():
+    poly = validate_polygon([[0, 0], [10, 0], [5, 3], [10, 10], [0, 10]], (480, 640))
+    assert poly.shape == (5, 2)
