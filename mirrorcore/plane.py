@@ -124,7 +124,8 @@ class PlaneFit:
 
 def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
                      confidence: float = 0.999, max_iterations: int = 2000, where: str = "plane") -> PlaneFit:
-    """RANSAC on 3-point samples, then an SVD refit on the inliers (repeated once with the refit's inliers).
+    """RANSAC on 3-point samples scored by MSAC (sum of squared distances capped at the threshold, so that among
+    planes with as many inliers the closest wins), then an SVD refit on the inliers, repeated until they settle.
 
     points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for depth-dependent noise).
     Degenerate (collinear) samples are skipped. Raises CalibrationError when no plane can be fitted.
@@ -132,8 +133,8 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     fit_plane_svd(points, where)  # refuses fewer than 3 or collinear points with a clear message
     threshold = np.broadcast_to(np.asarray(threshold, dtype=np.float64), (len(points),))
-    best, best_count, needed, it = None, -1, max_iterations, 0
-    batch = 64
+    cap = threshold[:, None] ** 2
+    best, best_cost, needed, it, batch = None, np.inf, max_iterations, 0, 64
     while it < min(needed, max_iterations):
         samples = rng.integers(0, len(points), size=(batch, 3))
         a, b, c = points[samples[:, 0]], points[samples[:, 1]], points[samples[:, 2]]
@@ -143,22 +144,22 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
         normals = normals[ok] / norms[ok, None]
         ds = -np.einsum("ij,ij->i", normals, a[ok])
         if len(normals):
-            dist = np.abs(points @ normals.T + ds)                  # (n, k)
-            counts = (dist < threshold[:, None]).sum(axis=0)
-            k = int(np.argmax(counts))
-            if counts[k] > best_count:
-                best_count, best = int(counts[k]), (normals[k], ds[k])
-                needed = ransac_iterations(best_count / len(points), 3, confidence)
+            sq = (points @ normals.T + ds) ** 2                     # (n, k)
+            costs = np.minimum(sq, cap).sum(axis=0)
+            k = int(np.argmin(costs))
+            if costs[k] < best_cost:
+                best_cost, best = costs[k], (normals[k], ds[k])
+                needed = ransac_iterations(float(np.mean(sq[:, k] < cap[:, 0])), 3, confidence)
         it += batch
-    if best is None or best_count < 3:
+    if best is None:
         raise CalibrationError(f"{where}: no three points define a plane")
     inliers = np.abs(points @ best[0] + best[1]) < threshold
-    for _ in range(2):
-        plane = fit_plane_svd(points[inliers], where)
-        residuals = plane.signed_distance(points)
-        refit = np.abs(residuals) < threshold
+    plane = fit_plane_svd(points[inliers], where) if inliers.sum() >= 3 else Plane.from_point_normal(
+        -best[1] * best[0], best[0])
+    for _ in range(5):
+        refit = np.abs(plane.signed_distance(points)) < threshold
         if refit.sum() < 3 or np.array_equal(refit, inliers):
             break
         inliers = refit
-    residuals = plane.signed_distance(points)
-    return PlaneFit(plane, inliers, residuals)
+        plane = fit_plane_svd(points[inliers], where)
+    return PlaneFit(plane, inliers, plane.signed_distance(points))

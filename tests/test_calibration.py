@@ -1,0 +1,111 @@
+"""Mirror calibration from markers, from a region and from pairs; degenerate input is refused by name."""
+import numpy as np
+import pytest
+from helpers import plane_depth
+
+from mirrorcore.calibration import calibrate_from_markers, calibrate_from_pairs, calibrate_from_region
+from mirrorcore.camera import Intrinsics, project_points
+from mirrorcore.errors import CalibrationError
+from mirrorcore.noise import axial_sigma
+from mirrorcore.plane import Plane
+
+CAMERA = Intrinsics.kinect_v1()
+GLASS = Plane.from_point_normal([0.4, 0.0, 2.6], [-0.5, 0.05, -1.0])
+MARKERS = np.array([[420, 100], [560, 120], [430, 380], [580, 360], [500, 240], [460, 300], [540, 180], [610, 250]],
+                   float)
+
+
+def mirror_frame(rng=None, virtual_extra=0.8) -> np.ndarray:
+    """Depth of a scene where 9x9 squares around each marker read the glass and the rest of the glass shows a virtual
+    scene farther away (as a structured-light camera sees it); optional Kinect-like noise."""
+    glass = plane_depth(CAMERA, GLASS)
+    depth = glass + virtual_extra
+    for u, v in MARKERS.astype(int):
+        depth[v - 4:v + 5, u - 4:u + 5] = glass[v - 4:v + 5, u - 4:u + 5]
+    if rng is not None:
+        depth = depth + rng.normal(size=depth.shape).astype(np.float32) * axial_sigma(depth).astype(np.float32)
+    return depth
+
+
+def test_noiseless_markers_give_the_exact_plane():
+    cal = calibrate_from_markers(CAMERA, mirror_frame(), MARKERS, np.random.default_rng(0), "mirror 1")
+    np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-5)
+    assert cal.rms_mm < 0.01 and cal.n_points == 8 * 25 and cal.n_inliers == cal.n_points
+    assert len(cal.per_marker_mm) == 8 and max(cal.per_marker_mm) < 0.01
+
+
+def test_noisy_markers_over_a_median_of_frames():
+    rng = np.random.default_rng(1)
+    one = calibrate_from_markers(CAMERA, mirror_frame(rng), MARKERS, np.random.default_rng(0))
+    many = calibrate_from_markers(CAMERA, np.stack([mirror_frame(rng) for _ in range(9)]), MARKERS,
+                                  np.random.default_rng(0))
+    for cal, tol_deg, tol_mm in ((one, 1.5, 6.0), (many, 0.6, 2.5)):
+        assert cal.plane.angle_to(GLASS) < tol_deg
+        assert abs(cal.plane.signed_distance(np.array([0.4, 0.0, 2.6]))) * 1e3 < tol_mm
+    assert many.rms_mm < one.rms_mm
+
+
+def test_a_marker_off_the_glass_is_the_worst_marker():
+    depth = mirror_frame()
+    u, v = MARKERS[2].astype(int)
+    depth[v - 4:v + 5, u - 4:u + 5] += 0.3    # clicked beside its marker: the glass shows a virtual point there
+    cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
+    np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-5)   # RANSAC leaves it out...
+    assert cal.n_inliers == 7 * 25
+    assert cal.worst_marker[0] == 2 and cal.worst_marker[1] > 40     # ...and the report points at it
+    assert "worst marker 3" in cal.summary()
+
+
+def test_markers_on_invalid_depth_are_named():
+    depth = mirror_frame()
+    for u, v in MARKERS[[1, 3, 4]].astype(int):
+        depth[v - 4:v + 5, u - 4:u + 5] = 0
+    with pytest.raises(CalibrationError, match=r"mirror 2: 2 usable marker\(s\) of 5, 3 are needed; "
+                                               r"marker\(s\) 2, 4, 5 have no depth reading"):
+        calibrate_from_markers(CAMERA, depth, MARKERS[:5], np.random.default_rng(0), "mirror 2")
+
+
+def test_too_few_and_collinear_markers():
+    with pytest.raises(CalibrationError, match=r"mirror 1: 2 usable marker\(s\) of 2"):
+        calibrate_from_markers(CAMERA, mirror_frame(), MARKERS[:2], np.random.default_rng(0), "mirror 1")
+    line = np.array([[420, 100], [470, 150], [520, 200], [570, 250]], float)
+    depth = plane_depth(CAMERA, GLASS)
+    with pytest.raises(CalibrationError, match="mirror 1: markers 1, 2, 3, 4 are \\(nearly\\) collinear"):
+        calibrate_from_markers(CAMERA, depth, line, np.random.default_rng(0), "mirror 1")
+
+
+def test_plane_through_the_camera_is_refused():
+    real, virtual = np.array([[0.01, 0.0, 1.0]]), np.array([[-0.05, 0.0, 1.0]])   # bisector x = -0.02
+    with pytest.raises(CalibrationError, match="mirror 1: the fitted plane passes 20 mm from the camera"):
+        calibrate_from_pairs(real, virtual, "mirror 1")
+
+
+def test_region_calibration():
+    depth = plane_depth(CAMERA, GLASS)
+    frame = [[410, 90], [600, 90], [600, 110], [410, 110]]   # a strip of the mirror's frame
+    cal = calibrate_from_region(CAMERA, depth, frame, np.random.default_rng(0))
+    np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-5)
+    depth[:] = 0
+    with pytest.raises(CalibrationError, match="the region has 0 pixels with depth, 50 are needed"):
+        calibrate_from_region(CAMERA, depth, frame, np.random.default_rng(0))
+
+
+def test_pairs_calibration():
+    rng = np.random.default_rng(2)
+    real = rng.uniform([-0.3, -0.3, 1.8], [0.3, 0.3, 2.2], (6, 3))
+    virtual = GLASS.reflect(real)
+    cal = calibrate_from_pairs(real, virtual)
+    np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-9)
+    assert cal.rms_mm < 1e-6
+    with pytest.raises(CalibrationError, match="swapped"):
+        calibrate_from_pairs(virtual, real)
+    with pytest.raises(CalibrationError, match="pair\\(s\\) 1 have the real and virtual point in the same place"):
+        calibrate_from_pairs(real[:1], real[:1])
+
+
+def test_markers_project_where_clicked():
+    """The calibration uses the pixel that was clicked: (u, v), not (v, u)."""
+    cal = calibrate_from_markers(CAMERA, mirror_frame(), MARKERS, np.random.default_rng(0))
+    centre = GLASS.project(np.array([0.4, 0.0, 2.6]))
+    uv, _ = project_points(CAMERA, centre[None])
+    assert 300 < uv[0, 0] < 640 and cal.plane.signed_distance(centre) == pytest.approx(0, abs=1e-5)

@@ -1,0 +1,86 @@
+"""Algorithm 1: which pixels are reflected, through which mirror, and where their points go."""
+import numpy as np
+import pytest
+from helpers import sphere_depth
+
+from mirrorcore.camera import Intrinsics
+from mirrorcore.plane import Plane
+from mirrorcore.reconstruct import reconstruct_raw
+from mirrorcore.rig import Mirror, Rig
+
+CAMERA = Intrinsics(8, 6, fx=4.0, fy=4.0, cx=3.5, cy=2.5)
+PLANE = Plane.from_abcd([0, 0, -1, 2.0])               # glass at z = 2, facing the camera
+LEFT = np.array([[0, 0], [3, 0], [3, 5], [0, 5]], float)  # columns 0..3 (edges included)
+
+
+def rig(*mirrors) -> Rig:
+    return Rig(CAMERA, tuple(mirrors))
+
+
+def test_behind_the_glass_inside_the_boundary_is_reflected():
+    depth = np.full(CAMERA.shape, 3.0, np.float32)       # everything reads 1 m behind the glass
+    cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth)
+    u = cloud.pixels[:, 0]
+    assert (cloud.sources[u <= 3] == 1).all() and (cloud.sources[u >= 4] == 0).all()   # boundary edge u = 3 inside
+    np.testing.assert_allclose(cloud.points[u <= 3, 2], 1.0, atol=1e-6)   # z = 3 reflected through z = 2 -> 1
+    np.testing.assert_allclose(cloud.points[u >= 4, 2], 3.0)
+    # x and y are reflected too: through z = 2 they keep their value
+    x_direct = (u[u <= 3] - CAMERA.cx) / CAMERA.fx * 3.0
+    np.testing.assert_allclose(cloud.points[u <= 3, 0], x_direct, atol=1e-6)
+
+
+def test_points_in_front_of_the_mirror_are_never_reflected():
+    depth = np.full(CAMERA.shape, 1.5, np.float32)       # in front of the glass (the real object, a marker)
+    cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth)
+    assert (cloud.sources == 0).all()
+    np.testing.assert_allclose(cloud.points[:, 2], 1.5)
+
+
+def test_first_mirror_wins_where_boundaries_overlap():
+    near = Plane.from_abcd([0, 0, -1, 2.0])
+    far = Plane.from_abcd([0, 0, -1, 2.5])
+    all_pixels = np.array([[0, 0], [7, 0], [7, 5], [0, 5]], float)
+    depth = np.full(CAMERA.shape, 2.2, np.float32)       # behind `near` only
+    cloud = reconstruct_raw(rig(Mirror("far", far, all_pixels), Mirror("near", near, LEFT)), depth)
+    u = cloud.pixels[:, 0]
+    assert (cloud.sources[u <= 3] == 2).all()            # far does not apply (in front of it), near does
+    assert (cloud.sources[u >= 4] == 0).all()
+    depth[:] = 3.0                                        # behind both: the first in session order wins
+    cloud = reconstruct_raw(rig(Mirror("far", far, all_pixels), Mirror("near", near, LEFT)), depth)
+    assert (cloud.sources == 1).all()
+    np.testing.assert_allclose(cloud.points[:, 2], 2.0, atol=1e-6)
+
+
+def test_mask_and_missing_readings():
+    depth = np.full(CAMERA.shape, 3.0, np.float32)
+    depth[0, 0] = 0
+    mask = np.zeros(CAMERA.shape, bool)
+    mask[0, :2] = True
+    cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth, mask)
+    assert cloud.pixels.tolist() == [[1, 0]]             # (0, 0) has no reading; only masked pixels
+
+
+def test_uncalibrated_mirror_pixels_are_left_out():
+    depth = np.full(CAMERA.shape, 3.0, np.float32)
+    cloud = reconstruct_raw(rig(Mirror("m", None, LEFT)), depth)
+    assert (cloud.pixels[:, 0] >= 4).all() and (cloud.sources == 0).all()
+    assert cloud.counts(1) == {"direct": 24, "mirror 1": 0}
+
+
+def test_reflected_sphere_lands_on_the_real_sphere():
+    """A virtual sphere behind a tilted mirror, rendered analytically, comes back onto the real one."""
+    camera = Intrinsics.primesense()
+    mirror = Plane.from_point_normal([0.0, 0.0, 2.5], [0.3, 0.1, -1.0])
+    centre, radius = np.array([0.05, 0.0, 2.1]), 0.115
+    virtual_centre = mirror.reflect(centre)
+    depth = sphere_depth(camera, virtual_centre, radius)
+    boundary = np.array([[0, 0], [639, 0], [639, 479], [0, 479]], float)
+    cloud = reconstruct_raw(Rig(camera, (Mirror("m", mirror, boundary),)), depth)
+    assert len(cloud) > 1000 and (cloud.sources == 1).all()
+    dist = np.linalg.norm(cloud.points - centre, axis=1)
+    assert np.abs(dist - radius).max() < 1e-4
+
+
+def test_wrong_depth_size_is_refused():
+    with pytest.raises(Exception, match="does not match the camera's 8x6"):
+        reconstruct_raw(rig(), np.zeros((5, 5)))

@@ -1,0 +1,90 @@
+"""Object selection: background subtraction with a depth-dependent tolerance, flying pixels, specks, ROI, range."""
+import numpy as np
+from helpers import sphere_depth
+
+from mirrorcore.camera import Intrinsics
+from mirrorcore.depthops import median_depth, smooth_depth
+from mirrorcore.noise import axial_sigma
+from mirrorcore.selection import Selection, object_mask
+
+CAMERA = Intrinsics.primesense()
+
+
+def noisy(depth: np.ndarray, rng) -> np.ndarray:
+    return np.where(depth > 0, depth + rng.normal(size=depth.shape) * axial_sigma(depth), 0).astype(np.float32)
+
+
+def scene(rng, wall=4.0):
+    sphere = sphere_depth(CAMERA, [0.0, 0.0, 2.0], 0.115)
+    truth = sphere > 0
+    background = np.full(CAMERA.shape, wall, np.float32)
+    frame = np.where(truth, sphere, background)
+    return noisy(background, rng), noisy(frame, rng), truth
+
+
+def test_noisy_far_wall_does_not_leak():
+    rng = np.random.default_rng(0)
+    background, frame, truth = scene(rng, wall=4.0)           # sigma(4 m) = 23 mm: a fixed 5 cm tolerance leaks
+    mask = object_mask(CAMERA, frame, background, Selection(smooth=False))
+    assert (mask & ~truth).sum() == 0
+    assert (mask & truth).sum() > 0.97 * truth.sum()
+    fixed = (frame > 0) & (frame < background - 0.05)          # what a fixed tolerance would do
+    assert (fixed & ~truth).sum() > 100
+
+
+def test_flying_pixels_and_specks_are_removed():
+    rng = np.random.default_rng(1)
+    background, frame, truth = scene(rng, wall=3.0)
+    edge = truth & ~np.roll(truth, 1, axis=1)                   # left silhouette pixels of the sphere
+    v, u = np.nonzero(edge)
+    frame[v, u - 1] = 2.5                                       # mixed readings half-way to the wall
+    frame[10:12, 10:12] = 1.0                                   # a 4-pixel speck near the camera
+    mask = object_mask(CAMERA, frame, background, Selection(min_blob=20))
+    assert not mask[v, u - 1].any()
+    assert not mask[10:12, 10:12].any()
+    assert (mask & truth).sum() > 0.97 * truth.sum()
+
+
+def test_roi_and_depth_range():
+    rng = np.random.default_rng(2)
+    background, frame, truth = scene(rng)
+    half = Selection(roi=((0, 0), (319, 0), (319, 479), (0, 479)))
+    mask = object_mask(CAMERA, frame, background, half)
+    assert mask[:, 320:].sum() == 0 and mask[:, :320].sum() > 0.45 * truth.sum()
+    assert not object_mask(CAMERA, frame, None, Selection(depth_min=2.5, depth_max=3.0)).any()
+    no_background = object_mask(CAMERA, frame, None, Selection(depth_max=2.5))
+    assert (no_background & ~truth).sum() == 0 and (no_background & truth).sum() > 0.97 * truth.sum()
+
+
+def test_selection_json_errors():
+    import pytest
+
+    from mirrorcore.errors import FileFormatError
+    assert Selection.from_json({"depth_max": 5}).depth_max == 5
+    assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0), (5, 0), (0, 5))
+    with pytest.raises(FileFormatError, match="unknown key\\(s\\) colour"):
+        Selection.from_json({"colour": 1})
+    with pytest.raises(FileFormatError, match="depth_min < depth_max"):
+        Selection.from_json({"depth_min": 3, "depth_max": 2})
+    with pytest.raises(FileFormatError, match="roi: the polygon crosses itself"):
+        Selection.from_json({"roi": [[0, 0], [9, 9], [9, 0], [0, 9]]})
+
+
+def test_median_ignores_missing_readings():
+    frames = np.array([[[1.0, 0.0]], [[3.0, 0.0]], [[0.0, 2.0]]], np.float32)
+    np.testing.assert_array_equal(median_depth(frames), [[2.0, 2.0]])
+
+
+def test_smoothing_reduces_noise_and_keeps_edges():
+    rng = np.random.default_rng(3)
+    truth = np.full(CAMERA.shape, 2.0, np.float32)
+    truth[:, 320:] = 3.0
+    depth = noisy(truth, rng)
+    mask = np.ones(CAMERA.shape, bool)
+    smoothed = smooth_depth(depth, mask)
+    left = np.s_[:, 10:300]
+    assert np.std(smoothed[left] - 2.0) < 0.4 * np.std(depth[left] - 2.0)
+    assert abs(np.mean(smoothed[left]) - 2.0) < 5e-4                     # no bias
+    assert np.abs(smoothed[:, 318:322] - truth[:, 318:322]).max() < 0.05   # no blur across the 1 m edge
+    mask[:, :100] = False
+    assert (smooth_depth(depth, mask)[:, :100] == depth[:, :100]).all()    # unmasked pixels untouched
