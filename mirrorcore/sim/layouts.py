@@ -1,0 +1,134 @@
+"""Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`) and three or more mirrors on an
+arc around it (`arc_scene`); `make_object` turns a command-line object name into a SceneObject."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..camera import Intrinsics
+from ..errors import MirrorscanError
+from .scene import Mirror, Room, Scene, SceneObject
+
+SPHERE_RADIUS = 0.115       # the paper's sphere (figure 4)
+CYLINDER_RADIUS = 0.150     # the paper's cylinder (figure 5)
+FIGURE_HEIGHT = 1.75
+MIRROR_SIZE = (0.6, 1.0)    # width, height, metres
+MARKER_SIZE = 0.04
+APEX_GAP = 0.02             # clearance between a V mirror's inner edge and the apex, metres
+_UP = np.array([0.0, -1.0, 0.0])
+
+
+def make_object(spec: str, distance: float = 2.0, floor_y: float = 1.0, gait_hz: float = 1.0) -> SceneObject:
+    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis at `distance` m.
+
+    The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box is a 0.3 m cube;
+    the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at y = floor_y.
+    Raises MirrorscanError for an unknown name.
+    """
+    centre = (0.0, 0.0, float(distance))
+    if spec == "sphere":
+        return SceneObject("sphere", centre, radius=SPHERE_RADIUS)
+    if spec == "cylinder":
+        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6, axis=(0.0, 1.0, 0.0))
+    if spec == "box":
+        return SceneObject("box", centre, size=(0.3, 0.3, 0.3))
+    if spec == "figure":
+        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT, gait_hz=gait_hz)
+    if spec.startswith("mesh:") and len(spec) > 5:
+        return SceneObject("mesh", centre, path=spec[5:])
+    raise MirrorscanError(f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
+
+
+def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
+    """The middle (3,) of an object, its horizontal half-size and its height, metres (a mesh counts as 0.3 m wide)."""
+    centre = np.asarray(obj.centre, dtype=np.float64)
+    if obj.type == "figure":
+        return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
+    half = {"sphere": obj.radius, "cylinder": obj.radius, "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
+    tall = {"sphere": 2 * obj.radius, "cylinder": obj.height, "box": obj.size[1]}.get(obj.type, 0.3)
+    return centre, half, tall
+
+
+def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
+    """Six markers near the corners and the middles of the top and bottom edges (spread, not collinear)."""
+    s, t = 0.42 * width, 0.42 * height
+    return ((-s, -t), (0.0, -t), (s, -t), (-s, t), (0.0, t), (s, t))
+
+
+def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float]) -> Mirror:
+    return Mirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
+                  _markers(*size), MARKER_SIZE)
+
+
+def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
+              size: tuple[float, float] = MIRROR_SIZE) -> tuple[Mirror, Mirror]:
+    """Two vertical mirrors in a V behind `target` (3,), apex on the far side, `angle_deg` between their surfaces.
+
+    Each plane is `mirror_distance` metres from the target; each mirror is centred where the camera's ray to the
+    target's virtual image crosses its plane (kept clear of the apex). Mirror 1 is on the left (-x), mirror 2 right.
+    """
+    if not 10.0 <= angle_deg <= 175.0:
+        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, got {angle_deg:g}")
+    half = np.radians(angle_deg) / 2
+    forward = target / np.linalg.norm(target)
+    side = np.cross(_UP, forward)
+    side /= np.linalg.norm(side)                      # +x for a target on the optical axis
+    apex = target + forward * mirror_distance / np.sin(half)
+    mirrors = []
+    for j, sign in enumerate((-1.0, 1.0)):
+        normal = -sign * np.cos(half) * side - np.sin(half) * forward
+        along = sign * np.sin(half) * side - np.cos(half) * forward      # from the apex towards the camera's side
+        image = target - 2 * mirror_distance * normal                     # virtual image of the target
+        crossing = image * np.dot(normal, apex) / np.dot(normal, image)
+        s = max(float(np.dot(crossing - apex, along)), size[0] / 2 + APEX_GAP)
+        mirrors.append(_mirror(f"mirror {j + 1}", apex + s * along, normal, size))
+    return tuple(mirrors)
+
+
+def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float, clearance: float,
+                size: tuple[float, float] = MIRROR_SIZE) -> tuple[Mirror, ...]:
+    """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over `span_deg` degrees
+    centred on the far side, left to right. Each faces the half-way direction between the camera and the target, so
+    the camera sees the target's image in the mirror's middle. A mirror whose image would hide behind the real object
+    (within 25 deg of straight behind) is raised by `clearance` m and tilted down to it.
+    """
+    mirrors = []
+    for j, phi in enumerate(np.radians(np.linspace(-span_deg / 2, span_deg / 2, n_mirrors))):
+        centre = target + radius * np.array([np.sin(phi), 0.0, np.cos(phi)])
+        if abs(phi) < np.radians(25.0):
+            centre = centre + _UP * clearance
+        normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(target - centre)
+        mirrors.append(_mirror(f"mirror {j + 1}", centre, normal / np.linalg.norm(normal), size))
+    return tuple(mirrors)
+
+
+def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere", distance: float = 2.0,
+                mirror_distance: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+                gait_hz: float = 1.0) -> Scene:
+    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis `distance` m away, two
+    mirrors in a V at `angle_deg` behind it, `mirror_distance` m from the object's middle (default: its half-width
+    + 0.25 m), a floor 1 m below the camera and a back wall. n_mirrors > 2 gives `arc_scene` instead.
+    """
+    if n_mirrors < 2:
+        raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
+    if n_mirrors > 2:
+        return arc_scene(n_mirrors, object, distance, camera=camera, room=room, gait_hz=gait_hz)
+    obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
+    target, half, tall = object_extent(obj)
+    md = half + 0.25 if mirror_distance is None else mirror_distance
+    size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
+    return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,), room)
+
+
+def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float = 2.0, radius: float | None = None,
+              span_deg: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+              gait_hz: float = 1.0) -> Scene:
+    """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the object's
+    half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg)."""
+    if n_mirrors < 2:
+        raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
+    obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
+    target, half, tall = object_extent(obj)
+    span = min(60.0 * (n_mirrors - 1), 200.0) if span_deg is None else span_deg
+    size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
+    mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span, 3 * half, size)
+    return Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room)

@@ -1,0 +1,283 @@
+"""Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their JSON file.
+
+Everything is in the camera frame of DESIGN.md: metres, OpenCV axes (x right, y down, z forward), origin at the depth
+camera. "Up" in the room is -y. A scene file is JSON:
+
+    {"version": 1,
+     "camera": {"width": 640, ...} or "kinect_v1" or "primesense",
+     "mirrors": [{"name": "mirror 1", "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
+                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04}],
+     "objects": [{"type": "sphere", "centre": [0, 0, 2], "radius": 0.115}, ...],
+     "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null}
+
+A mirror's `normal` points to the reflective side, which must face the camera; `up` is the direction of its height
+(made orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its right
+(up x normal) and up axes; markers are matte squares of side `marker_size` lying on the glass.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_atomic
+from ..camera import Intrinsics
+from ..errors import FileFormatError
+from ..plane import Plane
+
+SCENE_VERSION = 1
+OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
+_CAMERA_PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
+
+
+def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
+    """A 3-vector of finite floats (normalised when `unit`); raises FileFormatError naming `where`."""
+    try:
+        v = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise FileFormatError(f"{where}: must be 3 numbers [x, y, z], got {value!r}") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise FileFormatError(f"{where}: must be 3 finite numbers [x, y, z], got {value!r}")
+    if unit:
+        norm = np.linalg.norm(v)
+        if norm < 1e-12:
+            raise FileFormatError(f"{where}: the direction is zero")
+        v = v / norm
+    return float(v[0]), float(v[1]), float(v[2])
+
+
+def _positive(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+        raise FileFormatError(f"{where}: must be a positive number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Mirror:
+    """A flat rectangular mirror with matte square markers stuck on its glass.
+
+    centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
+    up : (3,) unit, the direction of `height` (orthogonal to normal); width, height : metres;
+    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a marker, metres.
+    """
+
+    name: str
+    centre: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    up: tuple[float, float, float]
+    width: float
+    height: float
+    markers: tuple[tuple[float, float], ...] = ()
+    marker_size: float = 0.04
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.normal, dtype=np.float64)
+        n /= np.linalg.norm(n)
+        up = np.asarray(self.up, dtype=np.float64)
+        up = up - np.dot(up, n) * n
+        if np.linalg.norm(up) < 1e-9:
+            raise FileFormatError(f"{self.name}: 'up' must not be parallel to the normal")
+        object.__setattr__(self, "normal", tuple(float(x) for x in n))
+        object.__setattr__(self, "up", tuple(float(x) for x in up / np.linalg.norm(up)))
+        if np.dot(n, -np.asarray(self.centre)) <= 0:
+            raise FileFormatError(f"{self.name}: the reflective side (normal) faces away from the camera")
+
+    @property
+    def axes(self) -> np.ndarray:
+        """(3, 3) float64 rows: right, up, normal (a right-handed orthonormal frame)."""
+        n, up = np.asarray(self.normal), np.asarray(self.up)
+        return np.stack([np.cross(up, n), up, n])
+
+    @property
+    def plane(self) -> Plane:
+        """The true mirror plane in the DESIGN.md convention (unit normal towards the camera, d > 0)."""
+        return Plane.from_point_normal(self.centre, self.normal)
+
+    def local_to_camera(self, st: np.ndarray) -> np.ndarray:
+        """st : (k, 2) metres on the glass (right, up) -> (k, 3) float64 points, camera frame."""
+        st = np.asarray(st, dtype=np.float64).reshape(-1, 2)
+        return np.asarray(self.centre) + st @ self.axes[:2]
+
+    def corners(self) -> np.ndarray:
+        """(4, 3) float64 corners in order around the rectangle (a simple polygon in any view)."""
+        w, h = self.width / 2, self.height / 2
+        return self.local_to_camera([[-w, -h], [w, -h], [w, h], [-w, h]])
+
+    def marker_centres(self) -> np.ndarray:
+        """(k, 3) float64 marker centres on the glass, camera frame."""
+        return self.local_to_camera(np.asarray(self.markers, dtype=np.float64).reshape(-1, 2))
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal), "up": list(self.up),
+                "width": self.width, "height": self.height, "markers": [list(m) for m in self.markers],
+                "marker_size": self.marker_size}
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    """An object in front of the mirrors.
+
+    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle of a cylinder's
+    axis, a box's centre, where a mesh's bounding-box centre goes, the point on the floor between a figure's feet.
+    radius : sphere/cylinder radius, metres. height : cylinder length or figure height, metres.
+    axis : (3,) unit cylinder axis. size : (3,) box edges along x, y, z, metres.
+    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale : metres per unit.
+    gait_hz : strides per second of a figure walking in place (0 = standing still).
+    """
+
+    type: str
+    centre: tuple[float, float, float]
+    radius: float = 0.115
+    height: float = 0.5
+    axis: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    size: tuple[float, float, float] = (0.3, 0.3, 0.3)
+    path: str | None = None
+    scale: float = 1.0
+    gait_hz: float = 0.0
+
+    @property
+    def animated(self) -> bool:
+        return self.type == "figure" and self.gait_hz > 0
+
+    def to_json(self) -> dict:
+        """Only the keys that matter for this type."""
+        keys = {"sphere": ("radius",), "cylinder": ("radius", "height", "axis"), "box": ("size",),
+                "mesh": ("path", "scale"), "figure": ("height", "gait_hz")}[self.type]
+        out = {"type": self.type, "centre": list(self.centre)}
+        out.update({k: (list(v) if isinstance(v, tuple) else v) for k in keys for v in [getattr(self, k)]})
+        return out
+
+
+@dataclass(frozen=True)
+class Room:
+    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2 * half_width wide."""
+
+    floor_y: float = 1.0
+    back_z: float = 4.2
+    half_width: float = 4.0
+
+    def to_json(self) -> dict:
+        return {"floor_y": self.floor_y, "back_z": self.back_z, "half_width": self.half_width}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None)."""
+
+    camera: Intrinsics
+    mirrors: tuple[Mirror, ...]
+    objects: tuple[SceneObject, ...] = ()
+    room: Room | None = field(default_factory=Room)
+
+    def to_json(self) -> dict:
+        return {"version": SCENE_VERSION, "camera": self.camera.to_dict(),
+                "mirrors": [m.to_json() for m in self.mirrors], "objects": [o.to_json() for o in self.objects],
+                "room": None if self.room is None else self.room.to_json()}
+
+
+# --------------------------------------------------------------------- JSON reading with one-line errors
+def scene_from_json(data, where: str = "scene") -> Scene:
+    """Validate a parsed scene file; raises FileFormatError naming `where` and the offending key."""
+    if not isinstance(data, dict):
+        raise FileFormatError(f"{where}: the top level must be a JSON object")
+    for key in ("camera", "mirrors", "objects"):
+        if key not in data:
+            raise FileFormatError(f"{where}: missing key '{key}'")
+    if data.get("version", SCENE_VERSION) != SCENE_VERSION:
+        raise FileFormatError(f"{where}: unknown version {data['version']!r}; this reads version {SCENE_VERSION}")
+    cam = data["camera"]
+    if isinstance(cam, str):
+        if cam not in _CAMERA_PRESETS:
+            raise FileFormatError(f"{where}: camera: unknown preset {cam!r} (use {', '.join(_CAMERA_PRESETS)})")
+        camera = _CAMERA_PRESETS[cam]()
+    else:
+        camera = Intrinsics.from_dict(cam, f"{where}: camera")
+    for key in ("mirrors", "objects"):
+        if not isinstance(data[key], list):
+            raise FileFormatError(f"{where}: '{key}' must be a list")
+    mirrors = tuple(_mirror(m, f"{where}: mirrors[{i}]") for i, m in enumerate(data["mirrors"]))
+    objects = tuple(_object(o, f"{where}: objects[{i}]") for i, o in enumerate(data["objects"]))
+    room = data.get("room", Room().to_json())
+    if room is not None:
+        if not isinstance(room, dict):
+            raise FileFormatError(f"{where}: room: must be an object or null")
+        room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k)) for k in ("floor_y", "back_z")},
+                    half_width=_positive(room.get("half_width", Room.half_width), f"{where}: room.half_width"))
+    return Scene(camera, mirrors, objects, room)
+
+
+def _number(data: dict, key: str, where: str, default: float) -> float:
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise FileFormatError(f"{where}.{key}: must be a number, got {value!r}")
+    return float(value)
+
+
+def _require(data, keys: tuple[str, ...], where: str) -> None:
+    if not isinstance(data, dict):
+        raise FileFormatError(f"{where}: must be a JSON object")
+    missing = [k for k in keys if k not in data]
+    if missing:
+        raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
+
+
+def _mirror(data, where: str) -> Mirror:
+    _require(data, ("centre", "normal", "up", "width", "height"), where)
+    markers = data.get("markers", [])
+    try:
+        st = np.asarray(markers, dtype=np.float64).reshape(-1, 2)
+        if not np.all(np.isfinite(st)) or (len(markers) and np.asarray(markers).ndim != 2):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise FileFormatError(f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
+    name = data.get("name", where.rsplit("[", 1)[-1].rstrip("]"))
+    return Mirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
+                  _vec(data["up"], f"{where}.up", True), _positive(data["width"], f"{where}.width"),
+                  _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
+                  _positive(data.get("marker_size", Mirror.marker_size), f"{where}.marker_size"))
+
+
+def _object(data, where: str) -> SceneObject:
+    _require(data, ("type", "centre"), where)
+    kind = data["type"]
+    if kind not in OBJECT_TYPES:
+        raise FileFormatError(f"{where}.type: unknown object type {kind!r} (use {', '.join(OBJECT_TYPES)})")
+    if kind == "mesh" and not isinstance(data.get("path"), str):
+        raise FileFormatError(f"{where}.path: a mesh object needs the path of a mesh file")
+    gait = _number(data, "gait_hz", where, 0.0)
+    if gait < 0:
+        raise FileFormatError(f"{where}.gait_hz: must not be negative, got {gait}")
+    return SceneObject(
+        kind, _vec(data["centre"], f"{where}.centre"),
+        radius=_positive(data.get("radius", SceneObject.radius), f"{where}.radius"),
+        height=_positive(data.get("height", SceneObject.height), f"{where}.height"),
+        axis=_vec(data.get("axis", SceneObject.axis), f"{where}.axis", unit=True),
+        size=tuple(_positive(s, f"{where}.size") for s in _vec(data.get("size", SceneObject.size), f"{where}.size")),
+        path=data.get("path"), scale=_positive(data.get("scale", 1.0), f"{where}.scale"), gait_hz=gait)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read a scene file; raises FileFormatError naming the file (and the key) on any problem.
+
+    A relative mesh `path` inside the file is taken relative to the scene file's folder.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such scene file")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path}: not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    scene = scene_from_json(data, str(path))
+    objects = tuple(o if o.path is None or Path(o.path).is_absolute() else
+                    replace(o, path=str(path.parent / o.path)) for o in scene.objects)
+    return Scene(scene.camera, scene.mirrors, objects, scene.room)
+
+
+def save_scene(scene: Scene, path: str | Path) -> None:
+    """Write a scene file atomically (UTF-8 JSON, indented)."""
+    write_atomic(path, (json.dumps(scene.to_json(), indent=2) + "\n").encode("utf-8"))

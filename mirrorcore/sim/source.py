@@ -1,0 +1,68 @@
+"""The simulated rig as a depth source: SimulatedRig renders frames (30 fps, animated objects) with the sensor model."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import Intrinsics
+from ..plane import Plane
+from .render import GroundTruth, Renderer
+from .scene import Scene
+from .sensor import SensorModel
+
+FPS = 30.0
+
+
+@dataclass(frozen=True)
+class SimFrame:
+    """One simulated frame: `depth` (H, W) float32 metres as the sensor reports it (0 = no reading), the ideal
+    `truth` behind it (GroundTruth: ideal depth, surfaces, mirrors, real points) and its time `t` in seconds."""
+
+    depth: np.ndarray
+    truth: GroundTruth
+    t: float
+
+
+class SimulatedRig:
+    """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a sensor model.
+
+    scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its noise from
+    np.random.default_rng([seed, i]), so frames are reproducible in any order; two_bounces : render mirror-to-mirror
+    rays; fps : frame rate of `frame(i)` (time i / fps).
+    """
+
+    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0, two_bounces: bool = True,
+                 fps: float = FPS):
+        self.scene = scene
+        self.sensor = SensorModel.kinect_v1() if sensor is None else sensor
+        self.seed = int(seed)
+        self.fps = float(fps)
+        self._renderer = Renderer(scene, two_bounces)
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        return self.scene.camera
+
+    @property
+    def planes(self) -> tuple[Plane, ...]:
+        """The true mirror planes, session order, DESIGN.md convention."""
+        return tuple(m.plane for m in self.scene.mirrors)
+
+    @property
+    def animated(self) -> bool:
+        """True when an object moves (frames differ beyond noise)."""
+        return self._renderer.animated
+
+    def render(self, t: float, rng: np.random.Generator, with_objects: bool = True) -> SimFrame:
+        """The frame at time t seconds with noise drawn from `rng`; without the objects when `with_objects` is False."""
+        truth = self._renderer.render(t, with_objects)
+        return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t))
+
+    def frame(self, i: int) -> SimFrame:
+        """Frame i (0-based) at time i / fps, reproducible from (seed, i)."""
+        return self.render(i / self.fps, np.random.default_rng([self.seed, 0, int(i)]))
+
+    def background(self) -> SimFrame:
+        """The scene without its objects (for background subtraction), reproducible from the seed."""
+        return self.render(0.0, np.random.default_rng([self.seed, 1]), with_objects=False)
