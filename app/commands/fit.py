@@ -1,0 +1,63 @@
+"""`mirrorscan fit {sphere,cylinder} CLOUD.ply [--json]`: RANSAC fit of a cloud, radius, RMSE and mean error (paper sec. 5)."""
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from mirrorcore.errors import FileFormatError
+from mirrorcore.fit_errors import FitErrors, ShapeFit
+from mirrorcore.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
+from mirrorcore.palette import source_name
+from mirrorcore.ply import read_ply
+
+_FITS = {"sphere": fit_sphere, "cylinder": fit_cylinder}
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fit", help="fit a sphere or a cylinder to a cloud; radius, RMSE and mean error as in the paper",
+        description="RANSAC fit, then least squares on the inliers. Errors (paper eq. 4 and 5) are over all points and "
+                    "per source (when the PLY has a `source` property), and over the inliers. Lengths are printed in "
+                    "mm; in --json, centre and axis are in metres (camera frame), figures ending in _mm in mm.")
+    parser.add_argument("shape", choices=sorted(_FITS), help="the shape to fit")
+    parser.add_argument("cloud", metavar="CLOUD.ply", help="a point cloud PLY (any; a `source` property is used)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
+    parser.add_argument("--threshold", type=float, default=1e3 * DEFAULT_THRESHOLD, metavar="MM",
+                        help="RANSAC inlier distance in mm (default %(default)g)")
+    parser.add_argument("--min-radius", type=float, default=1e3 * DEFAULT_RADIUS_RANGE[0], metavar="MM",
+                        help="reject models with a smaller radius, mm (default %(default)g)")
+    parser.add_argument("--max-radius", type=float, default=1e3 * DEFAULT_RADIUS_RANGE[1], metavar="MM",
+                        help="reject models with a larger radius, mm (default %(default)g)")
+    parser.add_argument("--seed", type=int, default=0, help="RANSAC random seed (default %(default)s)")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    points, sources = read_ply(args.cloud)
+    if len(points) == 0:
+        raise FileFormatError(f"{args.cloud}: the PLY has no points")
+    fit = _FITS[args.shape](points, np.random.default_rng(args.seed), threshold=1e-3 * args.threshold,
+                            sources=sources, radius_range=(1e-3 * args.min_radius, 1e-3 * args.max_radius),
+                            where=args.cloud)
+    print(json.dumps({"file": args.cloud, **fit.to_json()}) if args.json else summary(fit, args.cloud))
+    return 0
+
+
+def summary(fit: ShapeFit, name: str) -> str:
+    """A few lines for a person: the shape, then RMSE and mean error over all points, the inliers and each source."""
+    shape = fit.shape
+    where = (f"centre ({', '.join(f'{x:.4f}' for x in shape.center)}) m" if shape.kind == "sphere" else
+             f"axis through ({', '.join(f'{x:.4f}' for x in shape.axis_point)}) m, "
+             f"direction ({', '.join(f'{x:.4f}' for x in shape.axis_direction)})")
+    rows = [("all points", fit.errors), ("inliers", fit.inlier_errors),
+            *((source_name(s), e) for s, e in fit.per_source.items())]
+    return "\n".join([f"{name}: {shape.kind}, radius {1e3 * shape.radius:.2f} mm, {where}",
+                      f"  {np.count_nonzero(fit.inliers)} of {len(fit.inliers)} points within "
+                      f"{1e3 * fit.threshold:g} mm", *(f"  {label:<11} {_figures(e)}" for label, e in rows)])
+
+
+def _figures(errors: FitErrors) -> str:
+    return (f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  mean error {1e3 * errors.mean_error:+7.2f} mm"
+            f"  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm")
