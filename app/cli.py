@@ -8,7 +8,7 @@ import sys
 from mirrorcore.errors import MirrorscanError
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS: list[str] = ["fit"]  # filled as the subcommands land
+COMMANDS: list[str] = ["fit", "simulate"]  # filled as the subcommands land
 
 
 def build_parser() -> argparse.ArgumentParser:

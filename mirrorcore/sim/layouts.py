@@ -69,8 +69,9 @@ def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
     if not 10.0 <= angle_deg <= 175.0:
         raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, got {angle_deg:g}")
     half = np.radians(angle_deg) / 2
-    forward = target / np.linalg.norm(target)
-    side = np.cross(_UP, forward)
+    forward = target * [1.0, 0.0, 1.0]                 # horizontal: the mirrors stand vertical
+    forward /= np.linalg.norm(forward)
+    side = np.cross(forward, _UP)
     side /= np.linalg.norm(side)                      # +x for a target on the optical axis
     apex = target + forward * mirror_distance / np.sin(half)
     mirrors = []

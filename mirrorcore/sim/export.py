@@ -1,0 +1,108 @@
+"""Writing a simulated rig to disk: a session folder of DESIGN.md (markers and mirror outlines in pixels, background,
+frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder, then renamed)."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from ..camera import Intrinsics, project_points
+from ..depthio import write_depth_png
+from ..errors import MirrorscanError
+from ..session import MirrorSpec, Session, save_session
+from .render import MARKER, GroundTruth
+from .scene import Mirror
+from .source import SimulatedRig
+
+TRUTH_FILE = "truth.json"
+
+
+def mirror_outline(camera: Intrinsics, mirror: Mirror) -> np.ndarray:
+    """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a convex simple
+    polygon. Raises MirrorscanError when a corner is behind the camera or the mirror is out of view."""
+    uv, z = project_points(camera, mirror.corners())
+    if np.any(z <= 0):
+        raise MirrorscanError(f"{mirror.name}: part of the mirror is behind the camera")
+    w, h = camera.width - 0.5, camera.height - 0.5
+    image = np.array([[-0.5, -0.5], [w, -0.5], [w, h], [-0.5, h]], dtype=np.float32)
+    area, clipped = cv2.intersectConvexConvex(uv.astype(np.float32), image)
+    if clipped is None or area <= 1.0:
+        raise MirrorscanError(f"{mirror.name}: the mirror is not in the camera's view")
+    return np.clip(clipped.reshape(-1, 2).astype(np.float64), -0.5, [w, h])
+
+
+def visible_markers(camera: Intrinsics, mirror: Mirror, index: int, truth: GroundTruth) -> np.ndarray:
+    """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the camera sees directly
+    (the ideal render shows that mirror's marker at the rounded pixel)."""
+    uv, z = project_points(camera, mirror.marker_centres())
+    pix = np.round(uv[z > 0]).astype(int)
+    inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
+    uv, pix = uv[z > 0][inside], pix[inside]
+    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1], pix[:, 0]] == 0)
+    points = truth.points[pix[:, 1], pix[:, 0]]
+    on_this = np.abs(mirror.plane.signed_distance(points.astype(np.float64))) < 1e-3
+    return uv[seen & on_this]
+
+
+def truth_json(rig: SimulatedRig, noise: str) -> dict:
+    """The truth.json object: scene, true planes [a, b, c, d] (DESIGN.md convention), objects, seed, fps, noise."""
+    scene = rig.scene
+    objects = [o.to_json() for o in scene.objects]
+    return {"version": 1, "seed": rig.seed, "fps": rig.fps, "noise": noise,
+            "object": objects[0] if objects else None, "objects": objects,
+            "planes": [p.to_list() for p in rig.planes],
+            "mirrors": [{"name": m.name, "plane": m.plane.to_list(), "corners": m.corners().tolist(),
+                         "markers": m.marker_centres().tolist()} for m in scene.mirrors],
+            "scene": scene.to_json()}
+
+
+def write_session(rig: SimulatedRig, out: str | Path, n_frames: int, noise: str = "kinect",
+                  progress: bool = True) -> Path:
+    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with truth.json.
+
+    `out` must not exist or be an empty folder; nothing is left behind on error (MirrorscanError, OSError).
+    Returns the folder's path.
+    """
+    out = Path(out)
+    if n_frames < 1:
+        raise MirrorscanError(f"--frames: at least one frame, got {n_frames}")
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise MirrorscanError(f"{out}: already exists and is not an empty folder")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        tmp.chmod(0o777 & ~umask)                  # mkdtemp makes it private; a session folder is not
+        _write(rig, tmp, n_frames, noise, progress)
+        if out.exists():
+            out.rmdir()
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out
+
+
+def _write(rig: SimulatedRig, folder: Path, n_frames: int, noise: str, progress: bool) -> None:
+    camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
+    (folder / "frames").mkdir()
+    write_depth_png(folder / "background.png", rig.background().depth, scale)
+    frames = []
+    for i in tqdm(range(n_frames), desc="frames", unit="frame", disable=not progress):
+        frame = rig.frame(i)
+        if i == 0:
+            first_truth = frame.truth
+        frames.append(f"frames/{i:06d}.png")
+        write_depth_png(folder / frames[-1], frame.depth, scale)
+    mirrors = tuple(MirrorSpec(m.name, tuple(map(tuple, visible_markers(camera, m, j, first_truth).tolist())),
+                               tuple(map(tuple, mirror_outline(camera, m).tolist())))
+                    for j, m in enumerate(rig.scene.mirrors, start=1))
+    save_session(Session(folder, camera, mirrors, "background.png", tuple(frames)))
+    (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")

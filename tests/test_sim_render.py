@@ -1,0 +1,103 @@
+"""Simulated rig against analytic truth: object and marker pixels reflected through the true planes land on the true
+sphere and mirror planes; two-bounce rays follow their switch; the paper scene shows the object in every mirror."""
+import numpy as np
+import pytest
+
+from mirrorcore.camera import Intrinsics
+from mirrorcore.sim.layouts import arc_scene, paper_scene
+from mirrorcore.sim.render import MARKER, Renderer
+
+CAMERA = Intrinsics.kinect_v1().scaled(0.5)
+TOL = 0.5e-3  # metres
+
+
+def _virtual_points(truth):
+    """Reprojected virtual points (H, W, 3) float64 from the ideal depth."""
+    rays = truth.camera.rays
+    z = truth.depth.astype(np.float64)
+    return np.stack([rays[0] * z, rays[1] * z, z], axis=-1)
+
+
+@pytest.fixture(scope="module")
+def paper():
+    scene = paper_scene(camera=CAMERA)
+    return scene, Renderer(scene).render(0.0)
+
+
+def test_sphere_pixels_reflected_through_true_planes_lie_on_the_sphere(paper):
+    scene, truth = paper
+    sphere = scene.objects[0]
+    virtual = _virtual_points(truth)
+    for j in range(len(scene.mirrors) + 1):
+        sel = truth.object_mask & (truth.source == j)
+        assert sel.sum() > 300, f"source {j} shows only {sel.sum()} object pixels"
+        p = virtual[sel]
+        if j:
+            p = scene.mirrors[j - 1].plane.reflect(p)
+            assert np.all(scene.mirrors[j - 1].plane.signed_distance(virtual[sel]) < 0)   # virtual: behind the glass
+        err = np.abs(np.linalg.norm(p - sphere.centre, axis=1) - sphere.radius)
+        assert err.max() < TOL, f"source {j}: max |P - c| - r = {err.max() * 1e3:.3f} mm"
+
+
+def test_truth_points_are_the_real_surface(paper):
+    scene, truth = paper
+    sphere = scene.objects[0]
+    pts = truth.points[truth.object_mask]
+    assert np.abs(np.linalg.norm(pts - sphere.centre, axis=1) - sphere.radius).max() < TOL
+    assert np.all(np.isnan(truth.points[truth.depth == 0]))
+
+
+def test_marker_pixels_lie_on_the_true_mirror_planes(paper):
+    scene, truth = paper
+    virtual = _virtual_points(truth)
+    for j, mirror in enumerate(scene.mirrors, start=1):
+        # a direct marker pixel's point is on the glass of exactly one mirror
+        d = np.abs(mirror.plane.signed_distance(virtual[(truth.surface == MARKER) & (truth.bounces == 0)]))
+        on = d < TOL
+        assert on.sum() > 6 * 20, f"mirror {j}: {on.sum()} marker pixels"
+        # every marker centre is seen directly (not occluded)
+        uv = np.round(np.c_[CAMERA.fx, CAMERA.fy] * mirror.marker_centres()[:, :2]
+                      / mirror.marker_centres()[:, 2:] + np.c_[CAMERA.cx, CAMERA.cy]).astype(int)
+        assert np.all(truth.surface[uv[:, 1], uv[:, 0]] == MARKER)
+
+
+def test_two_bounces_follow_the_switch():
+    scene = paper_scene(angle_deg=90, camera=CAMERA)
+    with_two = Renderer(scene, two_bounces=True).render()
+    without = Renderer(scene, two_bounces=False).render()
+    two = with_two.bounces == 2
+    assert two.sum() > 1000
+    assert (without.bounces == 2).sum() == 0
+    assert np.all(without.depth[two] == 0)
+    # a two-bounce pixel names two different mirrors
+    first, second = with_two.first_mirror[two], with_two.second_mirror[two]
+    assert np.all((first > 0) & (second > 0) & (first != second))
+
+
+def test_object_stays_behind_the_mirror_edge():
+    """No pixel shows the object through a mirror outside the true mirror rectangle."""
+    scene, truth = paper_scene(camera=CAMERA), None
+    truth = Renderer(scene).render()
+    virtual = _virtual_points(truth)
+    for j, mirror in enumerate(scene.mirrors, start=1):
+        sel = truth.object_mask & (truth.first_mirror == j)
+        t = virtual[sel] * (mirror.plane.d / -(virtual[sel] @ mirror.plane.n))[:, None]    # ray meets the plane
+        local = (t - mirror.centre) @ mirror.axes[:2].T
+        assert np.all(np.abs(local[:, 0]) <= mirror.width / 2 + 1e-6)
+        assert np.all(np.abs(local[:, 1]) <= mirror.height / 2 + 1e-6)
+
+
+@pytest.mark.parametrize("n", [3, 4])
+def test_arc_scenes_show_the_object_in_every_mirror(n):
+    truth = Renderer(arc_scene(n, camera=CAMERA)).render()
+    counts = [int((truth.object_mask & (truth.source == j)).sum()) for j in range(n + 1)]
+    assert min(counts) > 200, counts
+
+
+def test_walking_figure_moves_and_background_has_no_object():
+    scene = paper_scene(object="figure", distance=3.0, camera=CAMERA)
+    r = Renderer(scene)
+    a, b = r.render(0.0), r.render(0.25)
+    assert a.object_mask.sum() > 2000
+    assert (a.object_mask != b.object_mask).sum() > 100
+    assert not r.render(0.0, with_objects=False).object_mask.any()

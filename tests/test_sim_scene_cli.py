@@ -1,0 +1,85 @@
+"""Scene files (round trip, one-line errors naming file and key) and `mirrorscan simulate` writing a session."""
+import json
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from mirrorcore.errors import FileFormatError
+from mirrorcore.plane import Plane
+from mirrorcore.session import load_session
+from mirrorcore.sim.layouts import arc_scene, paper_scene
+from mirrorcore.sim.scene import load_scene, save_scene
+
+
+@pytest.mark.parametrize("scene", [paper_scene(), arc_scene(4), paper_scene(object="figure", distance=3.0)])
+def test_scene_file_round_trip(tmp_path, scene):
+    save_scene(scene, tmp_path / "scene.json")
+    loaded = load_scene(tmp_path / "scene.json")
+    assert (loaded.camera, loaded.objects, loaded.room) == (scene.camera, scene.objects, scene.room)
+    for a, b in zip(loaded.mirrors, scene.mirrors):
+        assert a.name == b.name and a.markers == b.markers
+        np.testing.assert_allclose(a.corners(), b.corners(), atol=1e-12)
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda d: d["mirrors"][0].pop("normal"), "mirrors[0]: missing key(s) normal"),
+    (lambda d: d["mirrors"][1].update(width=-1), "mirrors[1].width"),
+    (lambda d: d["objects"][0].update(type="teapot"), "objects[0].type"),
+    (lambda d: d["objects"][0].update(centre=[0, 1]), "objects[0].centre"),
+    (lambda d: d.pop("camera"), "missing key 'camera'"),
+])
+def test_broken_scene_file_names_file_and_key(tmp_path, edit, key):
+    data = paper_scene().to_json()
+    edit(data)
+    path = tmp_path / "broken.json"
+    path.write_text(json.dumps(data))
+    with pytest.raises(FileFormatError) as err:
+        load_scene(path)
+    message = str(err.value)
+    assert str(path) in message and key in message and "\n" not in message
+
+
+def test_invalid_json_is_one_line(tmp_path):
+    path = tmp_path / "bad.json"
+    path.write_text("{\"camera\": ")
+    with pytest.raises(FileFormatError, match="bad.json: invalid JSON at line 1"):
+        load_scene(path)
+
+
+def test_simulate_writes_a_loadable_session_and_truth(tmp_path, capsys):
+    out = tmp_path / "session"
+    assert main(["simulate", str(out), "--frames", "3", "--seed", "4", "--quiet"]) == 0
+    session = load_session(out)
+    assert len(session.frames) == 3 and session.read_frame(2).shape == (480, 640)
+    assert session.read_background() is not None
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["object"]["type"] == "sphere" and truth["object"]["radius"] == 0.115
+    assert len(truth["planes"]) == len(session.mirrors) == 2
+    for spec, abcd in zip(session.mirrors, truth["planes"]):
+        plane = Plane.from_abcd(abcd)
+        assert plane.d > 0 and np.allclose(plane.abcd, abcd)
+        assert len(spec.markers) == 6 and len(spec.boundary) >= 4 and spec.plane is None
+    frame = session.read_frame(0)
+    assert (frame > 0).mean() > 0.5
+
+
+def test_simulate_cli_errors_leave_nothing(tmp_path, capsys):
+    out = tmp_path / "s"
+    assert main(["simulate", str(out), "--object", "teapot", "--quiet"]) == 2
+    assert "unknown object" in capsys.readouterr().err and not out.exists()
+    bad = tmp_path / "scene.json"
+    bad.write_text("[]")
+    assert main(["simulate", str(out), "--scene", str(bad), "--quiet"]) == 2
+    assert not out.exists() and list(tmp_path.iterdir()) == [bad]
+    assert main(["simulate", str(out), "--scene", str(bad), "--angle", "90", "--quiet"]) == 2
+
+
+def test_simulate_from_scene_file_with_figure(tmp_path):
+    scene_file = tmp_path / "rig.json"
+    save_scene(paper_scene(object="figure", distance=3.0, angle_deg=100), scene_file)
+    out = tmp_path / "walk"
+    assert main(["simulate", str(out), "--scene", str(scene_file), "--frames", "2", "--noise", "none",
+                 "--quiet"]) == 0
+    session = load_session(out)
+    assert not np.array_equal(session.read_frame(0), session.read_frame(1))
