@@ -7,8 +7,10 @@ import sys
 
 from mirrorcore.errors import MirrorscanError
 
+from .runtime import keep_frame_buffers
+
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS: list[str] = ["fit", "simulate"]  # filled as the subcommands land
+COMMANDS = ["calibrate", "reconstruct", "fit", "bench"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -21,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    keep_frame_buffers()
     try:
         return int(args.run(args) or 0)
     except MirrorscanError as exc:

@@ -58,8 +58,8 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
         vertex = geometry.metadata["_ply_raw"]["vertex"]["data"]
     except Exception as exc:  # trimesh raises many kinds on broken files; all mean the same to the user
         raise FileFormatError(f"{path}: broken PLY ({type(exc).__name__}: {exc})") from None
-    names = vertex.dtype.names or ()
-    if not {"x", "y", "z"} <= set(names):
+    names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())  # ASCII: dict of columns
+    if not {"x", "y", "z"} <= names:
         raise FileFormatError(f"{path}: the PLY's vertices have no x, y, z")
     points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
     sources = np.asarray(vertex["source"], dtype=np.uint8).reshape(-1) if "source" in names else None

@@ -10,42 +10,47 @@ from .rig import Rig
 
 
 def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:
-    """Paper Algorithm 1, vectorised.
+    """Paper Algorithm 1, vectorised over the whole image with the rig's precomputed ReflectionTable.
 
     A pixel inside mirror j's boundary whose point lies behind plane j (n.P + d < 0) is reflected through plane j
     (paper eq. 3) and labelled j; mirrors are tried in session order and the first that applies wins (the algorithm's
     `break`). Every other pixel is direct (label 0), including pixels inside a boundary but in front of its mirror
     (the real object, a marker on the glass). Pixels inside the boundary of a mirror with no plane yet are left out
-    unless an earlier mirror took them: their true position is unknown.
+    unless a calibrated mirror reflects them: their true position is unknown.
 
     depth : (H, W) float metres, 0 = no reading; mask : optional (H, W) bool, the pixels to use (the object)
     returns the Cloud of the used pixels with a reading, in row-major pixel order.
     """
-    intr = rig.intrinsics
-    depth = check_depth_shape(intr, depth)
+    intr, table = rig.intrinsics, rig.reflection_table
+    depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
+    behind = depth > table.threshold
+    # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
+    step = (np.float32(-2) * (depth * table.ray_dot + table.offset)) * behind
+    rows = np.empty((*intr.shape, 4), dtype=np.float32)   # x, y, z, source per pixel: gathered in one take below
+    rows[..., 0] = depth * intr.rays[0] + step * table.normal[0]
+    rows[..., 1] = depth * intr.rays[1] + step * table.normal[1]
+    rows[..., 2] = depth + step * table.normal[2]
+    rows[..., 3] = table.label * behind
     keep = depth > 0 if mask is None else (mask & (depth > 0))
+    if table.overlap.any():
+        _later_mirrors(rig, depth, rows, keep & table.overlap & ~behind)
+    keep &= ~table.uncalibrated | (rows[..., 3] > 0)
     index = np.flatnonzero(keep)
-    # points as three contiguous rows (3, n): numpy's per-row products are several times faster than on (n, 3)
-    xyz = np.empty((3, len(index)), dtype=np.float32)
-    xyz[2] = depth.reshape(-1)[index]
-    rays = intr.rays.reshape(2, -1)
-    xyz[0] = rays[0, index] * xyz[2]
-    xyz[1] = rays[1, index] * xyz[2]
-    sources = np.zeros(len(index), dtype=np.uint8)
-    bits = rig.inside_bits.reshape(-1)[index]
-    unassigned = np.ones(len(index), dtype=bool)
+    picked = np.take(rows.reshape(-1, 4), index, axis=0)
+    return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), index, intr.width)
+
+
+def _later_mirrors(rig: Rig, depth: np.ndarray, rows: np.ndarray, pending: np.ndarray) -> None:
+    """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place)."""
+    v, u = np.nonzero(pending)
+    points = rows[v, u, :3].astype(np.float64)
+    bits = rig.inside_bits[v, u]
+    todo = np.ones(len(v), dtype=bool)
     for j, mirror in enumerate(rig.mirrors, start=1):
         if mirror.plane is None:
             continue
-        n = mirror.plane.n.astype(np.float32)
-        distance = n[0] * xyz[0] + n[1] * xyz[1] + n[2] * xyz[2] + np.float32(mirror.plane.d)
-        reflect = unassigned & (distance < 0) & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
-        step = np.where(reflect, np.float32(-2) * distance, np.float32(0))  # eq. 3, zero where not reflected
-        for k in range(3):
-            xyz[k] += step * n[k]
-        sources += reflect.view(np.uint8) * np.uint8(j)
-        unassigned &= ~reflect
-    if rig.uncalibrated_bits:
-        kept = ~unassigned | ((bits & np.uint32(rig.uncalibrated_bits)) == 0)
-        return Cloud(xyz.T[kept], sources[kept], index[kept], intr.width)
-    return Cloud(xyz.T, sources, index, intr.width)
+        hit = todo & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
+        hit &= mirror.plane.signed_distance(points) < 0
+        rows[v[hit], u[hit], :3] = mirror.plane.reflect(points[hit])
+        rows[v[hit], u[hit], 3] = j
+        todo &= ~hit

@@ -61,14 +61,57 @@ class Rig:
         return bits
 
     @cached_property
-    def uncalibrated_bits(self) -> int:
-        """Bit mask of the mirrors that have a boundary but no plane yet."""
-        return sum(1 << j for j, m in enumerate(self.mirrors) if m.plane is None and m.boundary is not None)
+    def reflection_table(self) -> "ReflectionTable":
+        """Per-pixel geometry of Algorithm 1, computed once per rig (see ReflectionTable)."""
+        return ReflectionTable.from_rig(self)
 
-    def mirror_label(self) -> np.ndarray:
-        """(H, W) uint8: j for pixels inside mirror j's boundary (the first in session order on overlaps), else 0."""
-        bits = self.inside_bits
-        label = np.zeros(bits.shape, dtype=np.uint8)
-        for j in range(len(self.mirrors), 0, -1):
-            label[(bits >> np.uint32(j - 1)) & np.uint32(1) == 1] = j
-        return label
+
+@dataclass(frozen=True, eq=False)
+class ReflectionTable:
+    """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose
+    boundary holds it (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
+    z (n . ray) + d < 0. All arrays are (H, W) (normal: (3, H, W)), read-only.
+
+    label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
+    threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray leaves the glass)
+    normal, offset, ray_dot : float32, that mirror's n and d, and n . (x/z, y/z, 1) of the pixel's ray
+    overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are tried there too)
+    uncalibrated : bool, inside the boundary of a mirror that has no plane yet
+    """
+
+    label: np.ndarray
+    threshold: np.ndarray
+    normal: np.ndarray
+    offset: np.ndarray
+    ray_dot: np.ndarray
+    overlap: np.ndarray
+    uncalibrated: np.ndarray
+
+    @classmethod
+    def from_rig(cls, rig: Rig) -> "ReflectionTable":
+        shape, rays = rig.intrinsics.shape, rig.intrinsics.rays
+        label = np.zeros(shape, np.uint8)
+        count = np.zeros(shape, np.uint8)
+        normal = np.zeros((3, *shape), np.float32)
+        offset = np.zeros(shape, np.float32)
+        uncalibrated = np.zeros(shape, bool)
+        for j, mirror in enumerate(rig.mirrors, start=1):
+            if mirror.boundary is None:
+                continue
+            inside = polygon_mask(mirror.boundary, shape)
+            if mirror.plane is None:
+                uncalibrated |= inside
+                continue
+            first = inside & (label == 0)
+            label[first] = j
+            normal[:, first] = mirror.plane.n[:, None]
+            offset[first] = mirror.plane.d
+            count += inside
+        ray_dot = normal[0] * rays[0] + normal[1] * rays[1] + normal[2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
+        arrays = dict(label=label, threshold=threshold, normal=normal, offset=offset, ray_dot=ray_dot,
+                      overlap=count > 1, uncalibrated=uncalibrated)
+        for a in arrays.values():
+            a.flags.writeable = False
+        return cls(**arrays)

@@ -139,6 +139,15 @@ def test_ply_layout_and_readers(tmp_path):
     assert len(trimesh.load(tmp_path / "c.ply").vertices) == 50
 
 
+def test_ascii_ply_from_another_tool(tmp_path):
+    pts = np.random.default_rng(2).normal(size=(20, 3))
+    o3d.io.write_point_cloud(str(tmp_path / "a.ply"), o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts)),
+                             write_ascii=True)
+    p, s = read_ply(tmp_path / "a.ply")
+    np.testing.assert_allclose(p, pts, atol=1e-5)
+    assert s is None
+
+
 def test_broken_ply(tmp_path):
     (tmp_path / "x.ply").write_bytes(b"not a ply")
     with pytest.raises(FileFormatError, match="x.ply: not a PLY file"):
