@@ -1,0 +1,14 @@
+"""Benchmark of the simulated rig: one 640x480 Kinect v1 frame of the walking figure with two mirrors, with noise."""
+from __future__ import annotations
+
+import itertools
+
+from bench import median_ms
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.source import SimulatedRig
+
+
+def run() -> dict[str, float]:
+    rig = SimulatedRig(paper_scene(object="figure", distance=3.0), seed=0)
+    frames = itertools.count()
+    return {"sim_frame_ms": median_ms(lambda: rig.frame(next(frames)), repeat=30)}
