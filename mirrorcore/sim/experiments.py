@@ -1,0 +1,82 @@
+"""The paper's experiments on the simulated rig: reconstruction error against the angle between the two mirrors
+(figure 4a, sphere r = 115 mm at 2 m) and against the object-to-mirror distance (figure 5a, cylinder r = 150 mm).
+Each trial runs the whole pipeline: calibrate the mirrors from their markers, select the object against the
+background, Algorithm 1, then RANSAC fit of the shape; errors over all points as the paper measures them."""
+from __future__ import annotations
+
+import matplotlib
+import numpy as np
+from tqdm import tqdm
+
+from ..calibration import calibrate_from_markers
+from ..fitting import fit_cylinder, fit_sphere
+from ..pipeline import object_cloud
+from ..rig import Mirror as RigMirror
+from ..rig import Rig
+from .export import mirror_outline, visible_markers
+from .layouts import paper_scene
+from .scene import Scene
+from .sensor import SensorModel
+from .source import SimulatedRig
+
+ANGLES = tuple(range(60, 161, 20))                      # degrees between the mirror surfaces
+MIRROR_DISTANCES = (0.25, 0.35, 0.45, 0.55, 0.65)       # metres from the cylinder's axis to each mirror
+COLUMNS = ("parameter", "seed", "rmse_mm", "mean_error_mm", "radius_mm", "points", "mirror_points")
+
+
+def run_trial(scene: Scene, seed: int) -> dict[str, float]:
+    """One noisy Kinect frame of `scene` (a sphere or a cylinder) through the whole pipeline -> the fit's figures."""
+    sim = SimulatedRig(scene, SensorModel.kinect_v1(), seed)
+    frame, background = sim.frame(0), sim.background().depth
+    cam, rng = sim.intrinsics, np.random.default_rng(seed)
+    mirrors = []
+    for j, m in enumerate(scene.mirrors, start=1):
+        markers = visible_markers(cam, m, j, frame.truth)
+        plane = calibrate_from_markers(cam, np.stack([frame.depth, background]), markers, rng, m.name).plane
+        mirrors.append(RigMirror(m.name, plane, mirror_outline(cam, m)))
+    cloud = object_cloud(Rig(cam, tuple(mirrors)), frame.depth, background)
+    fit = (fit_sphere if scene.objects[0].type == "sphere" else fit_cylinder)(cloud.points, rng,
+                                                                              sources=cloud.sources)
+    errors = fit.errors
+    return {"rmse_mm": 1e3 * errors.rmse, "mean_error_mm": 1e3 * errors.mean_error,
+            "radius_mm": 1e3 * fit.shape.radius, "points": float(len(cloud)),
+            "mirror_points": float(np.count_nonzero(cloud.sources))}
+
+
+def experiment_scenes(name: str) -> list[tuple[float, Scene]]:
+    """'angle' -> (angle, sphere scene) pairs; 'distance' -> (mirror distance, cylinder scene) pairs."""
+    if name == "angle":
+        return [(float(a), paper_scene(angle_deg=a, object="sphere", distance=2.0)) for a in ANGLES]
+    return [(d, paper_scene(angle_deg=120.0, object="cylinder", distance=2.0, mirror_distance=d))
+            for d in MIRROR_DISTANCES]
+
+
+def run_experiment(name: str, seeds: int, progress: bool = True) -> list[dict[str, float]]:
+    """Rows (one per parameter and seed, keys COLUMNS) of experiment 'angle' or 'distance'."""
+    trials = [(p, scene, s) for p, scene in experiment_scenes(name) for s in range(seeds)]
+    return [{"parameter": p, "seed": float(s), **run_trial(scene, s)}
+            for p, scene, s in tqdm(trials, desc=name, unit="trial", disable=not progress)]
+
+
+def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
+    """PNG of the mean (line) and standard deviation (band) over seeds of RMSE and mean error against the parameter."""
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt    # after choosing the headless backend
+    params = np.array([r["parameter"] for r in rows])
+    xs = np.unique(params)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for key, label in (("rmse_mm", "RMSE"), ("mean_error_mm", "mean error")):
+        values = np.array([r[key] for r in rows])
+        mean = np.array([values[params == x].mean() for x in xs])
+        std = np.array([values[params == x].std() for x in xs])
+        ax.plot(xs, mean, marker="o", label=label)
+        ax.fill_between(xs, mean - std, mean + std, alpha=0.25)
+    ax.set_xlabel("angle between the mirrors (deg)" if name == "angle" else "object to mirror distance (m)")
+    ax.set_ylabel("error (mm)")
+    ax.set_title(f"simulated Kinect v1, {'sphere r=115 mm' if name == 'angle' else 'cylinder r=150 mm'}, "
+                 f"{len(rows) // len(xs)} seeds")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
