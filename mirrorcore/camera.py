@@ -133,6 +133,17 @@ def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None
     return points, np.stack([u, v], axis=-1).astype(np.int32)
 
 
+def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
+    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres, camera frame
+    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a mirrorcore.plane.Plane."""
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy, np.ones(len(uv))], axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -plane.d / (rays @ plane.n)
+    t[~(t > 0)] = np.nan
+    return rays * t[:, None]
+
+
 def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Project camera-frame points to pixel coordinates (inverse of eq. 1).
 

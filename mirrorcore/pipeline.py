@@ -12,12 +12,15 @@ from .session import Session
 
 
 def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | None,
-                 selection: Selection = Selection()) -> Cloud:
-    """The object's source-labelled cloud of one frame. depth, background : (H, W) float metres (background may be None)."""
+                 selection: Selection = Selection()) -> tuple[Cloud, np.ndarray]:
+    """The object's source-labelled cloud of one frame, and the object mask it came from.
+
+    depth, background : (H, W) float metres (background may be None) -> (Cloud, (H, W) bool mask)
+    """
     mask = object_mask(rig.intrinsics, depth, background, selection)
     if selection.smooth:
         depth = smooth_depth(depth, mask)
-    return reconstruct_raw(rig, depth, mask)
+    return reconstruct_raw(rig, depth, mask), mask
 
 
 def session_selection(session: Session) -> Selection:

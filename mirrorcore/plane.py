@@ -83,6 +83,14 @@ class Plane:
         M[:3, 3] = -2.0 * self.d * n
         return M
 
+    def virtual_camera_pose(self) -> np.ndarray:
+        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image, as a proper rigid
+        transform: the reflection of the camera's axes with its x axis flipped back (images seen through a mirror are
+        flipped left-right). Its origin is the camera reflected through the plane, -2 d n."""
+        M = self.reflection_matrix()
+        M[:3, 0] = -M[:3, 0]
+        return M
+
     def project(self, points: np.ndarray) -> np.ndarray:
         """Orthogonal projection of points (..., 3) onto the plane."""
         points = np.asarray(points, dtype=np.float64)

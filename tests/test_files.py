@@ -156,3 +156,16 @@ def test_broken_ply(tmp_path):
     (tmp_path / "t.ply").write_bytes((tmp_path / "t.ply").read_bytes()[:-50])
     with pytest.raises(FileFormatError, match="t.ply: broken PLY"):
         read_ply(tmp_path / "t.ply")
+
+
+def test_saved_files_follow_the_umask_and_keep_their_mode(tmp_path):
+    old = os.umask(0o022)
+    try:
+        session = make_session(tmp_path)
+        save_session(session)
+        assert (tmp_path / "session.json").stat().st_mode & 0o777 == 0o644
+        (tmp_path / "session.json").chmod(0o600)
+        save_session(session)
+        assert (tmp_path / "session.json").stat().st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
             index = int(args.frame)
         except ValueError:
             raise MirrorscanError(f"--frame: expected an integer or 'all', got {args.frame!r}") from None
-        cloud = object_cloud(rig, session.read_frame(index), background, selection)
+        cloud, _ = object_cloud(rig, session.read_frame(index), background, selection)
         write_ply(out, cloud.points, cloud.sources)
         print(f"wrote {out}: {len(cloud)} points " + ", ".join(f"{k} {v}" for k, v in
                                                                   cloud.counts(len(rig.mirrors)).items()))
@@ -59,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     work = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:  # write into a hidden folder, rename it at the end: a failure or Ctrl-C leaves no half-written folder
         for i in tqdm(range(len(session.frames)), desc="reconstruct", unit="frame"):
-            cloud = object_cloud(rig, session.read_frame(i), background, selection)
+            cloud, _ = object_cloud(rig, session.read_frame(i), background, selection)
             write_ply(work / f"{Path(session.frames[i]).stem}.ply", cloud.points, cloud.sources)
         work.rename(out)
     finally:

@@ -34,7 +34,7 @@ def run_trial(scene: Scene, seed: int) -> dict[str, float]:
         markers = visible_markers(cam, m, j, frame.truth)
         plane = calibrate_from_markers(cam, np.stack([frame.depth, background]), markers, rng, m.name).plane
         mirrors.append(RigMirror(m.name, plane, mirror_outline(cam, m)))
-    cloud = object_cloud(Rig(cam, tuple(mirrors)), frame.depth, background)
+    cloud, _ = object_cloud(Rig(cam, tuple(mirrors)), frame.depth, background)
     fit = (fit_sphere if scene.objects[0].type == "sphere" else fit_cylinder)(cloud.points, rng,
                                                                               sources=cloud.sources)
     errors = fit.errors
