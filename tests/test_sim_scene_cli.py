@@ -1,15 +1,20 @@
-"""Scene files (round trip, one-line errors naming file and key) and `mirrorscan simulate` writing a session."""
+"""Scene files (round trip, one-line errors naming file and key), the session mirrors of a simulated rig and
+`mirrorscan simulate` writing a session."""
 import json
 
+import cv2
 import numpy as np
 import pytest
 
 from app.cli import main
+from mirrorcore.camera import Intrinsics
 from mirrorcore.errors import FileFormatError
 from mirrorcore.plane import Plane
 from mirrorcore.session import load_session
+from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import arc_scene, paper_scene
 from mirrorcore.sim.scene import load_scene, save_scene
+from mirrorcore.sim.source import SimulatedRig
 
 
 @pytest.mark.parametrize("scene", [paper_scene(), arc_scene(4), paper_scene(object="figure", distance=3.0)])
@@ -45,6 +50,16 @@ def test_invalid_json_is_one_line(tmp_path):
     path.write_text("{\"camera\": ")
     with pytest.raises(FileFormatError, match="bad.json: invalid JSON at line 1"):
         load_scene(path)
+
+
+def test_session_mirrors_hold_visible_markers_inside_outlines():
+    rig = SimulatedRig(paper_scene(camera=Intrinsics.kinect_v1().scaled(0.5)))
+    specs = session_mirrors(rig, rig.frame(0).truth)
+    assert [s.name for s in specs] == [m.name for m in rig.scene.mirrors]
+    for spec in specs:
+        assert len(spec.markers) == 6 and len(spec.boundary) >= 4 and spec.plane is None
+        outline = np.array(spec.boundary, dtype=np.float32)
+        assert all(cv2.pointPolygonTest(outline, uv, False) > 0 for uv in spec.markers)
 
 
 def test_simulate_writes_a_loadable_session_and_truth(tmp_path, capsys):

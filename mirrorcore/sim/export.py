@@ -1,5 +1,6 @@
 """Writing a simulated rig to disk: a session folder of DESIGN.md (markers and mirror outlines in pixels, background,
-frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder, then renamed)."""
+frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder, then renamed);
+`session_mirrors` gives the session's mirrors in memory."""
 from __future__ import annotations
 
 import json
@@ -48,6 +49,16 @@ def visible_markers(camera: Intrinsics, mirror: Mirror, index: int, truth: Groun
     points = truth.points[pix[:, 1], pix[:, 0]]
     on_this = np.abs(mirror.plane.signed_distance(points.astype(np.float64))) < 1e-3
     return uv[seen & on_this]
+
+
+def session_mirrors(rig: SimulatedRig, truth: GroundTruth) -> tuple[MirrorSpec, ...]:
+    """The rig's mirrors as a session holds them (session order): the pixels (u, v) of the marker centres that `truth`
+    shows directly (see `visible_markers`) and each mirror's outline in the image (`mirror_outline`); no planes.
+    Raises MirrorscanError when a mirror is out of view."""
+    camera = rig.intrinsics
+    return tuple(MirrorSpec(m.name, tuple(map(tuple, visible_markers(camera, m, j, truth).tolist())),
+                            tuple(map(tuple, mirror_outline(camera, m).tolist())))
+                 for j, m in enumerate(rig.scene.mirrors, start=1))
 
 
 def truth_json(rig: SimulatedRig, noise: str) -> dict:
@@ -101,8 +112,5 @@ def _write(rig: SimulatedRig, folder: Path, n_frames: int, noise: str, progress:
             first_truth = frame.truth
         frames.append(f"frames/{i:06d}.png")
         write_depth_png(folder / frames[-1], frame.depth, scale)
-    mirrors = tuple(MirrorSpec(m.name, tuple(map(tuple, visible_markers(camera, m, j, first_truth).tolist())),
-                               tuple(map(tuple, mirror_outline(camera, m).tolist())))
-                    for j, m in enumerate(rig.scene.mirrors, start=1))
-    save_session(Session(folder, camera, mirrors, "background.png", tuple(frames)))
+    save_session(Session(folder, camera, session_mirrors(rig, first_truth), "background.png", tuple(frames)))
     (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")
