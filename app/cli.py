@@ -10,7 +10,7 @@ from mirrorcore.errors import MirrorscanError
 from .runtime import keep_frame_buffers
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS = ["calibrate", "reconstruct", "fit", "simulate", "experiment", "bench"]
+COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment", "bench"]
 
 
 def build_parser() -> argparse.ArgumentParser:

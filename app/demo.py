@@ -1,0 +1,36 @@
+"""The built-in demo: the paper's two-mirror rig with a person walking in place, simulated, its mirrors calibrated
+from their markers exactly as a user's would be."""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from mirrorcore.calibration import calibrate_from_markers
+from mirrorcore.session import Session
+from mirrorcore.sim.export import session_mirrors
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sources import SimulatedSource
+
+CALIBRATION_FRAMES = 5
+
+
+def demo_source() -> SimulatedSource:
+    return SimulatedSource(SimulatedRig(paper_scene(object="figure", distance=3.0), seed=0),
+                           "simulated rig (person walking, two mirrors at 120°)")
+
+
+def calibrated_session(source: SimulatedSource, root: Path) -> Session:
+    """A session for a simulated source: markers and boundaries where the simulator draws them, planes calibrated from
+    the markers over the median of the background and a few frames (RANSAC + SVD, as for a real rig)."""
+    rig = source.rig
+    background = rig.background()
+    depth = np.stack([background.depth] + [rig.frame(i).depth for i in range(CALIBRATION_FRAMES)])
+    session = Session(root, rig.intrinsics, session_mirrors(rig, background.truth))
+    rng = np.random.default_rng(0)
+    for i, mirror in enumerate(session.mirrors):
+        result = calibrate_from_markers(rig.intrinsics, depth, mirror.markers, rng, mirror.name)
+        session = session.with_mirror(i, replace(mirror, plane=result.plane))
+    return session
