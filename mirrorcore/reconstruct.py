@@ -2,6 +2,7 @@
 seen in a mirror through its plane)."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from .camera import check_depth_shape
@@ -10,7 +11,7 @@ from .rig import Rig
 
 
 def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:
-    """Paper Algorithm 1, vectorised over the whole image with the rig's precomputed ReflectionTable.
+    """Paper Algorithm 1, vectorised over the pixels with the rig's precomputed ReflectionTable.
 
     A pixel inside mirror j's boundary whose point lies behind plane j (n.P + d < 0) is reflected through plane j
     (paper eq. 3) and labelled j; mirrors are tried in session order and the first that applies wins (the algorithm's
@@ -23,34 +24,43 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     """
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
-    behind = depth > table.threshold
-    # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
-    step = (np.float32(-2) * (depth * table.ray_dot + table.offset)) * behind
-    rows = np.empty((*intr.shape, 4), dtype=np.float32)   # x, y, z, source per pixel: gathered in one take below
-    rows[..., 0] = depth * intr.rays[0] + step * table.normal[0]
-    rows[..., 1] = depth * intr.rays[1] + step * table.normal[1]
-    rows[..., 2] = depth + step * table.normal[2]
-    rows[..., 3] = table.label * behind
     keep = depth > 0 if mask is None else (mask & (depth > 0))
-    if table.overlap.any():
-        _later_mirrors(rig, depth, rows, keep & table.overlap & ~behind)
-    keep &= ~table.uncalibrated | (rows[..., 3] > 0)
-    index = np.flatnonzero(keep)
-    picked = np.take(rows.reshape(-1, 4), index, axis=0)
-    return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), index, intr.width)
+    win = _bounding_window(keep)                 # all the work happens in the kept pixels' bounding box
+    z = depth[win]
+    behind = z > table.threshold[win]
+    # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
+    step = (np.float32(-2) * (z * table.ray_dot[win] + table.offset[win])) * behind
+    out = np.empty((*z.shape, 4), dtype=np.float32)   # x, y, z, source per pixel: gathered in one take below
+    out[..., 0] = z * intr.rays[0][win] + step * table.normal[0][win]
+    out[..., 1] = z * intr.rays[1][win] + step * table.normal[1][win]
+    out[..., 2] = z + step * table.normal[2][win]
+    out[..., 3] = table.label[win] * behind
+    if table.overlap[win].any():
+        _later_mirrors(rig, win, out, keep[win] & table.overlap[win] & ~behind)
+    keep[win] &= ~table.uncalibrated[win] | (out[..., 3] > 0)
+    # row-major order inside the window is the image's row-major order: the same ranks index both
+    picked = np.take(out.reshape(-1, 4), np.flatnonzero(keep[win]), axis=0)
+    return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), np.flatnonzero(keep), intr.width)
 
 
-def _later_mirrors(rig: Rig, depth: np.ndarray, rows: np.ndarray, pending: np.ndarray) -> None:
-    """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place)."""
+def _bounding_window(keep: np.ndarray) -> tuple[slice, slice]:
+    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `keep` (empty if none)."""
+    u, v, w, h = cv2.boundingRect(keep.view(np.uint8))
+    return slice(v, v + h), slice(u, u + w)
+
+
+def _later_mirrors(rig: Rig, win: tuple[slice, slice], out: np.ndarray, pending: np.ndarray) -> None:
+    """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place).
+    win : the window of the image that `out` (h, w, 4) and `pending` (h, w) bool cover."""
     v, u = np.nonzero(pending)
-    points = rows[v, u, :3].astype(np.float64)
-    bits = rig.inside_bits[v, u]
+    points = out[v, u, :3].astype(np.float64)
+    bits = rig.inside_bits[win][v, u]
     todo = np.ones(len(v), dtype=bool)
     for j, mirror in enumerate(rig.mirrors, start=1):
         if mirror.plane is None:
             continue
         hit = todo & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
         hit &= mirror.plane.signed_distance(points) < 0
-        rows[v[hit], u[hit], :3] = mirror.plane.reflect(points[hit])
-        rows[v[hit], u[hit], 3] = j
+        out[v[hit], u[hit], :3] = mirror.plane.reflect(points[hit])
+        out[v[hit], u[hit], 3] = j
         todo &= ~hit

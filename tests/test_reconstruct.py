@@ -84,3 +84,19 @@ def test_reflected_sphere_lands_on_the_real_sphere():
 def test_wrong_depth_size_is_refused():
     with pytest.raises(Exception, match="does not match the camera's 8x6"):
         reconstruct_raw(rig(), np.zeros((5, 5)))
+
+
+def test_empty_mask_gives_an_empty_cloud():
+    cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), np.full(CAMERA.shape, 3.0, np.float32),
+                            np.zeros(CAMERA.shape, bool))
+    assert len(cloud) == 0 and cloud.points.shape == (0, 3) and cloud.sources.dtype == np.uint8
+
+
+def test_a_window_off_the_corner_keeps_pixel_indices():
+    """Only the pixel (u=6, v=4) is masked: its point and its index come from that pixel, not the window's corner."""
+    depth = np.full(CAMERA.shape, 3.0, np.float32)
+    mask = np.zeros(CAMERA.shape, bool)
+    mask[4, 6] = True
+    cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth, mask)
+    assert cloud.pixels.tolist() == [[6, 4]]
+    np.testing.assert_allclose(cloud.points[0], [(6 - 3.5) / 4 * 3, (4 - 2.5) / 4 * 3, 3.0], atol=1e-6)
