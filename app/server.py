@@ -26,6 +26,7 @@ class MirrorscanApp:
         self.view.show_rig(self.state.current.rig)
         self.loop = LiveLoop(source, self.state, self._on_frame, self._on_error)
         self.panel = LivePanel(self.server, self.view, self.loop, source.name)
+        self.server.on_client_connect(self.view.look_from_home)
         self._last_error = ""
 
     @property

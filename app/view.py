@@ -26,6 +26,17 @@ def downsample(cloud: Cloud, max_points: int) -> Cloud:
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
+def initial_view(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, look-at point) in metres for a newly opened tab: above, to the right of and a little in front
+    of the object, so that its front (direct) and back (mirrors) both show; the object is taken to stand in front of
+    the mirrors (on the optical axis at 2 m without mirrors)."""
+    centres = [pixels_on_plane(rig.intrinsics, m.boundary, m.plane).mean(axis=0)
+               for m in rig.mirrors if m.plane is not None and m.boundary is not None]
+    centres = [c for c in centres if np.all(np.isfinite(c))]
+    target = 0.85 * np.mean(centres, axis=0) if centres else np.array([0.0, 0.0, 2.0])
+    return target + np.array([2.2, -1.2, -1.4]), target
+
+
 class SceneView:
     """Owns the scene nodes: /camera, /mirrors/<j>/..., /cloud/<source>."""
 
@@ -40,6 +51,7 @@ class SceneView:
         scene, intr = self.server.scene, rig.intrinsics
         fov, aspect = frustum_angles(intr)
         scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(40, 40, 40))
+        self.home = initial_view(rig)
         scene.remove_by_name("/mirrors")
         for j, mirror in enumerate(rig.mirrors, start=1):
             if mirror.plane is None or mirror.boundary is None:
@@ -54,7 +66,7 @@ class SceneView:
             pose = mirror.plane.virtual_camera_pose()
             scene.add_camera_frustum(f"/mirrors/{j}/virtual_camera", fov, aspect, scale=FRUSTUM_SCALE, color=colour,
                                      wxyz=tf.SO3.from_matrix(pose[:3, :3]).wxyz, position=pose[:3, 3])
-            scene.add_label(f"/mirrors/{j}/label", mirror.name, position=outline.mean(axis=0))
+            scene.add_label(f"/mirrors/{j}/label", mirror.name, position=outline[np.argmin(outline[:, 1])])
 
     def show_cloud(self, cloud: Cloud, n_sources: int) -> None:
         """Replace the live cloud: one node per source (0..n_sources-1), downsampled to MAX_POINTS in all."""
@@ -72,6 +84,13 @@ class SceneView:
                     handle.points = np.ascontiguousarray(part)
             for j in [k for k in self._clouds if k >= n_sources]:
                 self._clouds.pop(j).remove()
+
+    def look_from_home(self, client: viser.ClientHandle) -> None:
+        """Point a tab's camera at the rig (see initial_view), with -y up as in the camera frame."""
+        position, target = self.home
+        client.camera.up_direction = (0.0, -1.0, 0.0)
+        client.camera.position = tuple(position)
+        client.camera.look_at = tuple(target)
 
     def set_point_size(self, size: float) -> None:
         self.point_size = size
