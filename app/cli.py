@@ -7,8 +7,6 @@ import sys
 
 from mirrorcore.errors import MirrorscanError
 
-from .runtime import keep_frame_buffers
-
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
 COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment", "bench"]
 
@@ -23,11 +21,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    keep_frame_buffers()
     try:
         return int(args.run(args) or 0)
     except MirrorscanError as exc:
         print(f"mirrorscan {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file that cannot be read or written: name it, no traceback
+        print(f"mirrorscan {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"mirrorscan {args.command}: cancelled", file=sys.stderr)

@@ -11,13 +11,20 @@ def write_atomic(path: str | Path, data: bytes, backup: bool = False) -> None:
     """Replace `path` with `data` so that a reader sees either the old file or the new one, never a partial one.
 
     backup : keep the previous version as `path` + '.bak' (copied before the rename).
-    Raises OSError (full disk, read-only folder...) with the target left untouched.
+    Raises OSError (full disk, read-only folder...) naming `path`, with the target left untouched.
     """
     path = Path(path)
+    try:
+        _write_beside(path, data, backup)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+
+
+def _write_beside(path: Path, data: bytes, backup: bool) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.chmod(tmp, path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
+            os.fchmod(f.fileno(), path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask())
             f.write(data)
             f.flush()
             os.fsync(f.fileno())

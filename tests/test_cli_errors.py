@@ -93,3 +93,9 @@ def test_missing_session_and_bad_frame_index(session, tmp_path, capsys):
 
 def test_fit_on_a_missing_file(tmp_path, capsys):
     fails(capsys, tmp_path, ["fit", "sphere", tmp_path / "none.ply"], "none.ply: no such file")
+
+
+def test_unwritable_output_is_one_line(session, tmp_path, capsys):
+    assert main(["calibrate", str(session)]) == 0
+    (tmp_path / "a_file").write_text("not a folder")
+    fails(capsys, tmp_path, ["reconstruct", session, "-o", tmp_path / "a_file" / "o.ply"], "a_file/o.ply: Not a directory")
