@@ -9,19 +9,33 @@ import numpy as np
 from tqdm import tqdm
 
 from ..calibration import calibrate_from_markers
+from ..fit_errors import Cylinder, FitErrors, Sphere
 from ..fitting import fit_cylinder, fit_sphere
 from ..pipeline import object_cloud
 from ..rig import Mirror as RigMirror
 from ..rig import Rig
 from .export import mirror_outline, visible_markers
 from .layouts import paper_scene
-from .scene import Scene
+from .scene import Scene, SceneObject
 from .sensor import SensorModel
 from .source import SimulatedRig
 
 ANGLES = tuple(range(60, 161, 20))                      # degrees between the mirror surfaces
 MIRROR_DISTANCES = (0.25, 0.35, 0.45, 0.55, 0.65)       # metres from the cylinder's axis to each mirror
-COLUMNS = ("parameter", "seed", "rmse_mm", "mean_error_mm", "radius_mm", "points", "mirror_points")
+COLUMNS = ("parameter", "seed", "rmse_mm", "mean_error_mm", "mean_abs_error_mm", "radius_mm", "radius_error_mm",
+           "true_rmse_mm", "points", "mirror_points")
+# What the plot shows: the paper's two errors against the fitted shape, and the cloud's error against the true one.
+# (The signed mean error about a least-squares fit is zero by construction, so the paper's "mean error", which it
+# plots above zero, is read as the mean of |dist - R|.)
+PLOTTED = (("rmse_mm", "RMSE (fitted shape)"), ("mean_abs_error_mm", "mean error |d - R| (fitted shape)"),
+           ("true_rmse_mm", "RMSE to the true shape"))
+
+
+def true_shape(obj: SceneObject) -> Sphere | Cylinder:
+    """The analytic shape of a scene's sphere or cylinder."""
+    if obj.type == "sphere":
+        return Sphere(tuple(obj.centre), obj.radius)
+    return Cylinder(tuple(obj.centre), tuple(obj.axis), obj.radius)
 
 
 def run_trial(scene: Scene, seed: int) -> dict[str, float]:
@@ -37,10 +51,12 @@ def run_trial(scene: Scene, seed: int) -> dict[str, float]:
     cloud, _ = object_cloud(Rig(cam, tuple(mirrors)), frame.depth, background)
     fit = (fit_sphere if scene.objects[0].type == "sphere" else fit_cylinder)(cloud.points, rng,
                                                                               sources=cloud.sources)
-    errors = fit.errors
+    errors, truth = fit.errors, true_shape(scene.objects[0])
+    true_errors = FitErrors.from_deviations(truth.deviations(cloud.points))
     return {"rmse_mm": 1e3 * errors.rmse, "mean_error_mm": 1e3 * errors.mean_error,
-            "radius_mm": 1e3 * fit.shape.radius, "points": float(len(cloud)),
-            "mirror_points": float(np.count_nonzero(cloud.sources))}
+            "mean_abs_error_mm": 1e3 * errors.mean_abs_error, "radius_mm": 1e3 * fit.shape.radius,
+            "radius_error_mm": 1e3 * (fit.shape.radius - truth.radius), "true_rmse_mm": 1e3 * true_errors.rmse,
+            "points": float(len(cloud)), "mirror_points": float(np.count_nonzero(cloud.sources))}
 
 
 def experiment_scenes(name: str) -> list[tuple[float, Scene]]:
@@ -59,13 +75,13 @@ def run_experiment(name: str, seeds: int, progress: bool = True) -> list[dict[st
 
 
 def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
-    """PNG of the mean (line) and standard deviation (band) over seeds of RMSE and mean error against the parameter."""
+    """PNG of the mean (line) and standard deviation (band) over seeds of the PLOTTED errors against the parameter."""
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt    # after choosing the headless backend
     params = np.array([r["parameter"] for r in rows])
     xs = np.unique(params)
     fig, ax = plt.subplots(figsize=(6, 4))
-    for key, label in (("rmse_mm", "RMSE"), ("mean_error_mm", "mean error")):
+    for key, label in PLOTTED:
         values = np.array([r[key] for r in rows])
         mean = np.array([values[params == x].mean() for x in xs])
         std = np.array([values[params == x].std() for x in xs])
