@@ -3,8 +3,13 @@ each pixel gets the depth of the VIRTUAL point along its unfolded ray, plus per-
 
 A structured-light camera sees through a mirror at the depth of the virtual image: the reported depth of a pixel is
 z of (camera origin + ray direction * total path length). Markers are matte squares on the glass; a mirror's back is
-matte too. Static geometry is merged into one RaycastingScene built once; an animated object rebuilds it per frame
-(a few thousand triangles, about a millisecond: cheaper than casting every ray into a second scene).
+matte too.
+
+The camera's rays and the static geometry (room, glass, markers) never change, so every pixel's path through the static
+geometry (up to three segments) is traced once, when the Renderer is made: that is the background. A frame casts only
+into a scene of the objects, and only the segments that can reach one: the pixels inside the projected bounding box of
+an object's image through the mirrors the segment has reflected off (a conservative window). A segment that meets an
+object before its static surface ends there; the result is the same as casting every ray into one scene of everything.
 """
 from __future__ import annotations
 
@@ -14,7 +19,7 @@ from functools import cached_property
 import numpy as np
 import open3d as o3d
 
-from ..camera import Intrinsics
+from ..camera import Intrinsics, project_points
 from ..plane import Plane
 from .objects import object_geometry
 from .scene import Scene
@@ -104,6 +109,56 @@ def _static_meshes(scene: Scene) -> tuple[list, list, list]:
     return room, glass, markers
 
 
+def _raycasting_scene(meshes: list[tuple[np.ndarray, np.ndarray]]) -> o3d.t.geometry.RaycastingScene:
+    """A RaycastingScene of meshes (vertices (n, 3) float32, faces (m, 3) uint32); geometry id i = meshes[i]."""
+    rc = o3d.t.geometry.RaycastingScene()
+    for vertices, faces in meshes:
+        rc.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(faces))
+    return rc
+
+
+def _box_corners(vertices: np.ndarray) -> np.ndarray:
+    """vertices : (n, 3) -> (8, 3) float64 corners of their axis-aligned bounding box."""
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    return np.stack(np.meshgrid(*zip(lo, hi), indexing="ij"), axis=-1).reshape(-1, 3).astype(np.float64)
+
+
+def _pixel_window(camera: Intrinsics, points: np.ndarray) -> tuple[slice, slice] | None:
+    """The image window (rows, columns) holding every pixel whose ray passes through the convex hull of `points` (k, 3)
+    metres, camera frame: the bounding rectangle of their projections widened by a pixel; the whole image when a point
+    is not in front of the camera; None when the rectangle lies outside the image."""
+    uv, z = project_points(camera, points)
+    if np.any(z <= 0):
+        return slice(None), slice(None)
+    lo = np.maximum(np.floor(uv.min(axis=0)).astype(int) - 1, 0)
+    hi = np.minimum(np.ceil(uv.max(axis=0)).astype(int) + 2, [camera.width, camera.height])
+    if np.any(lo >= hi):
+        return None
+    return slice(lo[1], hi[1]), slice(lo[0], hi[0])
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """Segment s of the static paths (s = 0: from the camera; s: after s reflections), for the k pixels whose path
+    reaches it.
+
+    pixels : (k,) int64 flat (row-major) pixel indices. rays : (k, 6) float32 origin and unit direction, metres,
+    camera frame. start : (k,) float32 path length at the origin, metres. t_hit : (k,) float32 distance along the ray
+    to the static surface the segment ends on, inf for none. mirror_paths : per path, the 0-based mirrors the ray
+    reflected off before the segment, in the order it met them (one empty path for s = 0). path : (H, W) int16 index
+    into mirror_paths, row : (H, W) int32 the pixel's index into pixels; both -1 where the pixel's path does not reach
+    segment s.
+    """
+
+    pixels: np.ndarray
+    rays: np.ndarray
+    start: np.ndarray
+    t_hit: np.ndarray
+    mirror_paths: tuple[tuple[int, ...], ...]
+    path: np.ndarray
+    row: np.ndarray
+
+
 class Renderer:
     """Ideal ray-cast rendering of a Scene: `render(t)` -> GroundTruth.
 
@@ -115,52 +170,23 @@ class Renderer:
         self.scene = scene
         self.max_bounces = 2 if two_bounces else 1
         room, glass, markers = _static_meshes(scene)
-        self._static = room + glass + markers
-        self._objects = [object_geometry(o) for o in scene.objects]
         m = len(scene.mirrors)
-        # geometry id -> kind and index (mirror 0-based / object index); the last entry is for misses
-        self._kind = np.array([ROOM] * len(room) + [_MIRROR] * m + [MARKER] * m + [OBJECT] * len(self._objects)
-                              + [NONE], dtype=np.uint8)
-        self._index = np.array([-1] * len(room) + [*range(m)] * 2 + [*range(len(self._objects))] + [-1],
-                               dtype=np.int16)
+        # static geometry id -> kind and mirror index (0-based); the last entry is for misses
+        self._kind = np.array([ROOM] * len(room) + [_MIRROR] * m + [MARKER] * m + [NONE], dtype=np.uint8)
+        self._index = np.array([-1] * len(room) + [*range(m)] * 2 + [-1], dtype=np.int16)
         self._normals = np.array([mm.normal for mm in scene.mirrors], dtype=np.float32).reshape(-1, 3)
         self._planes = tuple(mm.plane for mm in scene.mirrors)
-        self._cache: dict[bool, o3d.t.geometry.RaycastingScene] = {}
+        self._objects = [object_geometry(o) for o in scene.objects]
+        self._still_objects: tuple[o3d.t.geometry.RaycastingScene, list[np.ndarray]] | None = None
         xy = scene.camera.rays.reshape(2, -1)                    # (x/z, y/z) per pixel, row-major
         rays = np.stack([xy[0], xy[1], np.ones_like(xy[0])], axis=1)
         self._dirs = rays / np.linalg.norm(rays, axis=1, keepdims=True)   # (H*W, 3) float32 unit camera rays
-        self._camera_rays = o3d.core.Tensor(np.concatenate([np.zeros_like(self._dirs), self._dirs], axis=1))
+        self._dirs_z = np.ascontiguousarray(self._dirs[:, 2])             # (H*W,) their z: depth per path length
+        self._background, self._segments = self._trace_static(_raycasting_scene(room + glass + markers))
 
     @property
     def animated(self) -> bool:
         return any(g.animated for g in self._objects)
-
-    def _raycasting_scene(self, t: float, with_objects: bool) -> o3d.t.geometry.RaycastingScene:
-        """The scene at time t; cached unless an object moves."""
-        cached = self._cache.get(with_objects)
-        if cached is not None and not (with_objects and self.animated):
-            return cached
-        rc = o3d.t.geometry.RaycastingScene()
-        meshes = self._static + ([g.mesh_at(t) for g in self._objects] if with_objects else [])
-        for vertices, faces in meshes:
-            rc.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(faces))
-        self._cache[with_objects] = rc
-        return rc
-
-    def _cast(self, rc, rays: o3d.core.Tensor, dirs: np.ndarray, can_reflect: bool):
-        """Cast (k, 6) rays -> path length t (k,) float32 (0 where nothing is seen), kind (k,) uint8 (_MIRROR where
-        the ray reflects on) and index (k,) int16 (mirror 0-based or object index)."""
-        ans = rc.cast_rays(rays)
-        t = ans["t_hit"].numpy()
-        gid = np.minimum(ans["geometry_ids"].numpy(), len(self._kind) - 1)   # misses (INVALID_ID) -> last entry
-        kind, index = self._kind[gid], self._index[gid]
-        glass = np.flatnonzero(kind == _MIRROR)
-        facing = np.einsum("ij,ij->i", dirs[glass], self._normals[index[glass]]) < 0
-        kind[glass[~facing]] = MIRROR_BACK
-        if not can_reflect:
-            kind[glass[facing]] = NONE          # glass reached with the bounce budget spent: no reading
-        t[kind == NONE] = 0
-        return t, kind, index
 
     def _reflected(self, origins, dirs, t, mirror) -> tuple[np.ndarray, np.ndarray]:
         """Rays (k, 3) that hit mirrors `mirror` (k,) 0-based after t (k,) -> the reflected rays' origins, dirs."""
@@ -169,30 +195,92 @@ class Renderer:
         new = dirs - 2 * np.einsum("ij,ij->i", dirs, n)[:, None] * n
         return hit + _REFLECT_OFFSET * new, new
 
+    def _trace_static(self, rc: o3d.t.geometry.RaycastingScene) -> tuple[tuple[np.ndarray, ...], list[_Segment]]:
+        """Every pixel's path through the static geometry `rc` -> the background, flat (H*W,) arrays (depth float32
+        metres, surface uint8, first_mirror uint8, second_mirror uint8), and the segments of the paths."""
+        shape, m = self.scene.camera.shape, len(self._planes)
+        n = shape[0] * shape[1]
+        length, surface, labels = np.zeros(n, np.float32), np.zeros(n, np.uint8), np.zeros((2, n), np.uint8)
+        pixels, start = np.arange(n), np.zeros(n, np.float32)
+        origins, dirs = np.zeros_like(self._dirs), self._dirs
+        mirror_paths, path = ((),), np.zeros(n, np.int64)
+        segments = []
+        for bounce in range(self.max_bounces + 1):
+            rays = np.concatenate([origins, dirs], axis=1)
+            ans = rc.cast_rays(o3d.core.Tensor(rays))
+            t_hit = ans["t_hit"].numpy()
+            gid = np.minimum(ans["geometry_ids"].numpy(), len(self._kind) - 1)   # misses (INVALID_ID) -> last entry
+            kind, index = self._kind[gid], self._index[gid]
+            glass = np.flatnonzero(kind == _MIRROR)
+            facing = np.einsum("ij,ij->i", dirs[glass], self._normals[index[glass]]) < 0
+            kind[glass[~facing]] = MIRROR_BACK
+            if bounce == self.max_bounces:
+                kind[glass[facing]] = NONE          # glass reached with the bounce budget spent: no reading
+            maps = np.full((2, n), -1, np.int32)
+            maps[:, pixels] = path, np.arange(len(pixels))
+            segments.append(_Segment(pixels, rays, start, t_hit, mirror_paths, maps[0].astype(np.int16).reshape(shape),
+                                     maps[1].reshape(shape)))
+            end = np.flatnonzero(kind != _MIRROR)
+            surface[pixels[end]] = kind[end]
+            length[pixels[end]] = start[end] + t_hit[end]
+            go = np.flatnonzero(kind == _MIRROR)
+            if len(go) == 0:
+                break
+            labels[bounce, pixels[go]] = index[go] + 1
+            keys, path = np.unique(path[go] * m + index[go], return_inverse=True)
+            mirror_paths = tuple(mirror_paths[k // m] + (int(k % m),) for k in keys)
+            origins, dirs = self._reflected(origins[go], dirs[go], t_hit[go], index[go])
+            start, pixels = start[go] + t_hit[go] + np.float32(_REFLECT_OFFSET), pixels[go]
+        depth = np.where(surface != NONE, length * self._dirs_z, 0).astype(np.float32)
+        return (depth, surface, labels[0], labels[1]), segments
+
+    def _object_scene(self, t: float) -> tuple[o3d.t.geometry.RaycastingScene, list[np.ndarray]]:
+        """The objects at time t in a RaycastingScene of their own (geometry id = object index) and the corners (8, 3)
+        of each one's bounding box; built once unless an object moves."""
+        if self._still_objects is not None:
+            return self._still_objects
+        meshes = [g.mesh_at(t) for g in self._objects]
+        built = _raycasting_scene(meshes), [_box_corners(vertices) for vertices, _ in meshes]
+        if not self.animated:
+            self._still_objects = built
+        return built
+
+    def _candidates(self, segment: _Segment, boxes: list[np.ndarray], done: np.ndarray) -> np.ndarray:
+        """(c,) int64 indices into `segment` of the rays that may hit an object: the pixels inside the window of each
+        box's image through the mirrors of each path, leaving out the pixels `done` (d,) int64 (flat indices)."""
+        take = np.zeros(len(segment.pixels), bool)
+        for p, mirrors in enumerate(segment.mirror_paths):
+            for corners in boxes:
+                for j in reversed(mirrors):               # the virtual image V = M_first(M_second(X))
+                    corners = self._planes[j].reflect(corners)
+                window = _pixel_window(self.scene.camera, corners)
+                if window is not None:
+                    take[segment.row[window][segment.path[window] == p]] = True
+        done_rows = segment.row.reshape(-1)[done]
+        take[done_rows[done_rows >= 0]] = False
+        return np.flatnonzero(take)
+
     def render(self, t: float = 0.0, with_objects: bool = True) -> GroundTruth:
         """The ideal view at time t seconds (objects left out when `with_objects` is False: the background)."""
-        rc = self._raycasting_scene(t, with_objects)
-        length, surface, index = self._cast(rc, self._camera_rays, self._dirs, True)
-        first = np.where(surface == _MIRROR, index + 1, 0).astype(np.uint8)
-        second = np.zeros_like(first)
-        obj = np.where(surface == OBJECT, index, -1).astype(np.int16)
-        idx = np.flatnonzero(surface == _MIRROR)
-        origins, dirs = self._reflected(np.zeros((len(idx), 3), np.float32), self._dirs[idx], length[idx],
-                                        index[idx])
-        for bounce in range(1, self.max_bounces + 1):
-            if len(idx) == 0:
-                break
-            t_seg, kind, index = self._cast(rc, o3d.core.Tensor(np.concatenate([origins, dirs], axis=1)), dirs,
-                                            bounce < self.max_bounces)
-            length[idx] += t_seg + _REFLECT_OFFSET
-            surface[idx] = kind
-            hit_obj = kind == OBJECT
-            obj[idx[hit_obj]] = index[hit_obj]
-            go = np.flatnonzero(kind == _MIRROR)
-            second[idx[go]] = index[go] + 1
-            origins, dirs = self._reflected(origins[go], dirs[go], t_seg[go], index[go])
-            idx = idx[go]
-        depth = np.where(surface != NONE, length * self._dirs[:, 2], 0).astype(np.float32)
+        depth, surface, first, second = (a.copy() for a in self._background)
+        obj = np.full(len(depth), -1, np.int16)
+        if with_objects and self._objects:
+            rc, boxes = self._object_scene(t)
+            done = np.zeros(0, np.int64)                  # pixels whose path ended on an object
+            for bounce, segment in enumerate(self._segments):
+                rows = self._candidates(segment, boxes, done)
+                if len(rows) == 0:
+                    continue
+                ans = rc.cast_rays(o3d.core.Tensor(segment.rays[rows]))
+                t_obj = ans["t_hit"].numpy()
+                hit = np.flatnonzero(t_obj < segment.t_hit[rows])
+                rows, pix = rows[hit], segment.pixels[rows[hit]]
+                surface[pix] = OBJECT
+                obj[pix] = ans["geometry_ids"].numpy()[hit]
+                depth[pix] = (segment.start[rows] + t_obj[hit]) * self._dirs_z[pix]
+                for labels in (first, second)[bounce:]:
+                    labels[pix] = 0                   # reflections the static path made after the object
+                done = np.concatenate([done, pix])
         shape = self.scene.camera.shape
         return GroundTruth(self.scene.camera, self._planes, depth.reshape(shape), surface.reshape(shape),
                            first.reshape(shape), second.reshape(shape), obj.reshape(shape))
