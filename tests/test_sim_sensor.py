@@ -1,10 +1,12 @@
-"""Kinect v1 sensor model: total axial std k Z^2 at 1, 2 and 3 m, exact noiseless mode, visible quantisation steps,
-seeds, range, IR shadow and the Burrus raw disparity round trip."""
+"""Kinect v1 sensor model: total axial std k Z^2 at 1, 2 and 3 m, the Gaussian table, exact noiseless mode, visible
+quantisation steps, seeds, range, IR shadow (and its window against a running minimum over whole rows) and the Burrus
+raw disparity round trip."""
 import numpy as np
 import pytest
 
 from mirrorcore.camera import Intrinsics
-from mirrorcore.sim.sensor import RAW_INVALID, SensorModel, depth_to_raw, ir_shadow, raw_to_depth
+from mirrorcore.sim.sensor import (RAW_INVALID, SensorModel, depth_to_raw, ir_shadow, raw_to_depth,
+                                   standard_normal)
 
 CAMERA = Intrinsics.kinect_v1()
 
@@ -27,6 +29,14 @@ def test_axial_std_matches_khoshelham(z):
 def test_axial_std_on_a_flat_wall_facing_the_camera(z):
     out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, _wall(z), np.random.default_rng(2))
     assert np.std(out[out > 0]) == pytest.approx(1.425e-3 * z * z, rel=0.10)
+
+
+def test_standard_normal_table_has_gaussian_moments_and_tails():
+    x = standard_normal(np.random.default_rng(3), (1000, 1000))
+    assert x.dtype == np.float32 and x.shape == (1000, 1000)
+    assert abs(x.mean()) < 0.005 and x.std() == pytest.approx(1.0, abs=0.005)
+    assert np.mean(np.abs(x) > 2) == pytest.approx(0.0455, abs=0.001)       # two-sided tail of N(0, 1)
+    assert np.abs(x).max() < 4.4
 
 
 def test_noiseless_mode_is_exact():
@@ -68,6 +78,22 @@ def test_ir_shadow_is_beside_the_near_edge_away_from_the_projector():
     cols = np.flatnonzero(row)
     assert cols.max() == 299 and abs(len(cols) - width) <= 1.5
     assert not shadow[100].any() and not shadow[240, 300:].any()
+
+
+def test_ir_shadow_equals_a_running_minimum_over_whole_rows():
+    """The window of the largest disparity loses nothing: near objects at 0.5 m (90 px of disparity), gaps of no
+    reading, random depths."""
+    rng = np.random.default_rng(4)
+    depth = rng.uniform(0.5, 5.0, CAMERA.shape).astype(np.float32)
+    depth[rng.random(CAMERA.shape) < 0.2] = 0
+    fb = CAMERA.fx * 0.075
+    with np.errstate(divide="ignore"):
+        xp = np.where(depth > 0, np.arange(CAMERA.width) - fb / depth, np.inf)
+    right_min = np.minimum.accumulate(xp[:, ::-1], axis=1)[:, ::-1]
+    beyond = np.concatenate([right_min[:, 1:], np.full((CAMERA.height, 1), np.inf)], axis=1)
+    for tolerance in (0.0, 0.1, 3.0):
+        np.testing.assert_array_equal(ir_shadow(depth, fb, tolerance), (depth > 0) & (beyond < xp - tolerance))
+    assert not ir_shadow(np.zeros(CAMERA.shape, np.float32), fb).any()
 
 
 def test_burrus_raw_round_trip_within_quantisation():

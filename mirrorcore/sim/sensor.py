@@ -7,6 +7,10 @@ disparity with variance sigma_D^2 - q^2 / 12 and then rounds to the step q = 1/8
 give sigma_z = k Z^2 (Sheppard's correction; checked at 1, 2 and 3 m in the tests). The quantisation is applied even
 without the noise when `quantise` is set: `SensorModel.kinect_v1(noise=False)` shows the depth steps (f b / (n q)).
 
+The Gaussian draws come from a table of its 65536 equiprobable quantiles (`standard_normal`): every probability is
+within 1/65536 of the exact Gaussian's (tails stop at 4.33 std), and drawing is about five times faster than with
+rng.standard_normal.
+
 IR shadow (an image-space approximation, exact for a rectified horizontal baseline): the projector sits `baseline`
 metres along +x. A point at pixel column u with disparity D lies on the projector ray x_p = u - D; along an image row
 that ray passes in front of a pixel u' > u whose x_p(u') < x_p(u), so pixel u is in shadow when the smallest x_p to its
@@ -17,7 +21,9 @@ that would pass beside a mirror's edge.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from math import erfc
+from statistics import NormalDist
 
 import cv2
 import numpy as np
@@ -83,31 +89,50 @@ class SensorModel:
         sigma = self.disparity_noise_std(camera.fx)
         if sigma == 0 and not self.quantise:
             return out
-        v, u = np.nonzero(out)
-        disparity = fb / out[v, u]
+        with np.errstate(divide="ignore"):
+            disparity = np.divide(fb, out)                              # inf where there is no reading
         if sigma > 0:
-            disparity += np.float32(sigma) * rng.standard_normal(len(disparity), dtype=np.float32)
+            disparity += np.float32(sigma) * standard_normal(rng, out.shape)
         if self.quantise:
             step = np.float32(self.disparity_step)
-            disparity = np.round(disparity / step) * step
-        with np.errstate(divide="ignore"):
-            z = np.where(disparity > 0, fb / disparity, 0)
-        out[v, u] = np.where((z >= self.min_range) & (z <= self.max_range), z, 0)
-        return out
+            np.round(np.divide(disparity, step, out=disparity), out=disparity)
+            disparity *= step
+        z = np.divide(fb, disparity, out=np.zeros_like(disparity), where=disparity > 0)
+        return np.where((z >= self.min_range) & (z <= self.max_range), z, np.float32(0))
+
+
+@cache
+def _normal_quantiles() -> np.ndarray:
+    """(65536,) float32 quantiles of N(0, 1) at probabilities (i + 0.5) / 65536: from -4.33 to 4.33, std 0.99999."""
+    inv_cdf = NormalDist().inv_cdf
+    return np.array([inv_cdf((i + 0.5) / 65536) for i in range(65536)], dtype=np.float32)
+
+
+def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
+    """`shape` float32 draws of N(0, 1): quantiles of 16-bit uniform integers from `rng` (see `_normal_quantiles`),
+    so the probability of any interval is within 1/65536 of the Gaussian's; tails stop at 4.33 std."""
+    return np.take(_normal_quantiles(), rng.integers(0, 65536, shape, dtype=np.uint16))
 
 
 def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarray:
     """(H, W) bool: pixels the projector (at +x, f*b = `fb` pixel-metres) cannot light (see the module docstring).
 
-    depth : (H, W) float32 metres, 0 = nothing there (never an occluder).
+    depth : (H, W) float32 metres, 0 = nothing there (never an occluder). tolerance : pixels, >= 0.
+    A pixel u can only be shadowed by a pixel u' < u + D_max (D_max = the largest disparity f b / z in the image),
+    since x_p(u') >= u' - D_max and x_p(u) < u: a running minimum over that window (an erosion) is enough.
     """
+    depth = np.asarray(depth, dtype=np.float32)
     cols = np.arange(depth.shape[1], dtype=np.float32)
     with np.errstate(divide="ignore"):
-        xp = np.where(depth > 0, cols - fb / depth, np.inf).astype(np.float32)
-    right_min = np.minimum.accumulate(xp[:, ::-1], axis=1)[:, ::-1]
-    beyond = np.full_like(xp, np.inf)
-    beyond[:, :-1] = right_min[:, 1:]
-    return (depth > 0) & (beyond < xp - tolerance)
+        disparity = np.divide(np.float32(fb), depth)
+    disparity[depth <= 0] = -np.inf                                  # x_p = +inf: never an occluder
+    d_max = disparity.max()
+    if not np.isfinite(d_max):
+        return np.zeros(depth.shape, bool)
+    xp = cols - disparity
+    window = np.ones((1, min(int(np.ceil(d_max)) + 2, depth.shape[1])), np.uint8)   # u' in [u, u + D_max + 1]
+    right_min = cv2.erode(xp, window, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
+    return (depth > 0) & (right_min < xp - tolerance)          # u' = u itself never passes (tolerance >= 0)
 
 
 def lateral_jitter(depth: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
@@ -118,11 +143,19 @@ def lateral_jitter(depth: np.ndarray, sigma: float, rng: np.random.Generator) ->
     """
     h, w = depth.shape
     k = round(256 * 0.5 * erfc(0.5 / (sigma * np.sqrt(2.0))))       # 256 * P(N(0, sigma) > 0.5): rounds to +1
-    r = rng.integers(0, 256, (2, h, w), dtype=np.uint8)             # probabilities to 1/256, cheaper than floats
-    offset = (r >= 256 - k).astype(np.float32) - (r < k)
-    map_x = offset[0] + np.arange(w, dtype=np.float32)
-    map_y = offset[1] + np.arange(h, dtype=np.float32)[:, None]
-    return cv2.remap(depth, map_x, map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    step = np.zeros(256, np.int16)                                   # random byte -> offset -1, 0 or +1
+    step[:k], step[256 - k:] = -1, 1
+    offset = cv2.LUT(rng.integers(0, 256, (h, w, 2), dtype=np.uint8), step)   # (u, v) offsets, probabilities to 1/256
+    offset += _pixel_grid(h, w)
+    return cv2.remap(depth, offset, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+
+
+@cache
+def _pixel_grid(h: int, w: int) -> np.ndarray:
+    """(h, w, 2) int16 read-only (u, v) of every pixel: an OpenCV CV_16SC2 map."""
+    grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)), axis=-1)
+    grid.flags.writeable = False
+    return grid
 
 
 def depth_to_raw(depth: np.ndarray) -> np.ndarray:
