@@ -12,6 +12,7 @@ from .atomic import write_atomic
 from .camera import Intrinsics
 from .depthio import read_depth_png
 from .errors import FileFormatError, MirrorscanError
+from .jsonfile import read_json
 from .plane import Plane
 from .polygon import validate_polygon
 
@@ -88,16 +89,7 @@ class Session:
 def load_session(folder: str | Path) -> Session:
     """Read and validate SESSION/session.json; raises FileFormatError with the file and the offending key."""
     folder = Path(folder)
-    path = folder / SESSION_FILE
-    if not path.is_file():
-        raise FileFormatError(f"{path}: no such file (is {folder} a session folder?)")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path}: not UTF-8 text") from None
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    return session_from_json(data, folder)
+    return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)"), folder)
 
 
 def session_from_json(data, folder: Path) -> Session:

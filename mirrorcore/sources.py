@@ -1,7 +1,6 @@
 """Depth sources: where frames come from (the simulated rig, a session's recorded frames), behind one interface."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Protocol
 
@@ -9,6 +8,7 @@ import numpy as np
 
 from .camera import Intrinsics
 from .errors import FileFormatError, MirrorscanError
+from .jsonfile import read_json
 from .session import Session
 from .sim.export import TRUTH_FILE
 from .sim.layouts import paper_scene
@@ -82,7 +82,7 @@ def session_scene(session: Session | None) -> Scene | None:
     if session is None or not (Path(session.root) / TRUTH_FILE).is_file():
         return None
     path = Path(session.root) / TRUTH_FILE
-    try:
-        return scene_from_json(json.loads(path.read_text(encoding="utf-8"))["scene"], f"{path}: scene")
-    except (json.JSONDecodeError, KeyError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: no readable scene ({type(exc).__name__})") from None
+    data = read_json(path, "truth file")
+    if not isinstance(data, dict) or "scene" not in data:
+        raise FileFormatError(f"{path}: missing key 'scene'")
+    return scene_from_json(data["scene"], f"{path}: scene")

@@ -25,6 +25,7 @@ import numpy as np
 from ..atomic import write_atomic
 from ..camera import Intrinsics
 from ..errors import FileFormatError
+from ..jsonfile import read_json
 from ..plane import Plane
 
 SCENE_VERSION = 1
@@ -264,15 +265,7 @@ def load_scene(path: str | Path) -> Scene:
     A relative mesh `path` inside the file is taken relative to the scene file's folder.
     """
     path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(f"{path}: no such scene file")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path}: not UTF-8 text") from None
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    scene = scene_from_json(data, str(path))
+    scene = scene_from_json(read_json(path, "scene file"), str(path))
     objects = tuple(o if o.path is None or Path(o.path).is_absolute() else
                     replace(o, path=str(path.parent / o.path)) for o in scene.objects)
     return Scene(scene.camera, scene.mirrors, objects, scene.room)
