@@ -1,0 +1,70 @@
+"""`mirrorscan experiment angle|distance` run in-process with one seed: one CSV row per parameter value, errors
+positive and a few millimetres, radii near the truth, a readable PNG; bad input exits 2 with one line and writes
+nothing."""
+import contextlib
+import csv
+import io
+
+import cv2
+import pytest
+
+from app.cli import main
+from mirrorcore.sim.experiments import ANGLES, COLUMNS, MIRROR_DISTANCES
+from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
+
+EXPERIMENTS = {"angle": (ANGLES, SPHERE_RADIUS), "distance": (MIRROR_DISTANCES, CYLINDER_RADIUS)}
+
+
+@pytest.fixture(scope="module", params=sorted(EXPERIMENTS))
+def experiment(request, tmp_path_factory):
+    """(name, output prefix, CSV header, CSV rows as dicts of floats, stdout) of one run with one seed."""
+    name = request.param
+    prefix = tmp_path_factory.mktemp(name) / f"exp-{name}"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["experiment", name, "-o", str(prefix), "--seeds", "1", "--quiet"]) == 0
+    with open(prefix.with_suffix(".csv"), newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        header, rows = reader.fieldnames, [{k: float(v) for k, v in row.items()} for row in reader]
+    return name, prefix, header, rows, out.getvalue()
+
+
+def test_csv_has_one_row_per_parameter_and_seed(experiment):
+    name, prefix, header, rows, out = experiment
+    assert header == list(COLUMNS)
+    assert [r["parameter"] for r in rows] == pytest.approx([float(p) for p in EXPERIMENTS[name][0]])
+    assert all(r["seed"] == 0 for r in rows)
+    assert str(prefix.with_suffix(".csv")) in out and str(prefix.with_suffix(".png")) in out
+
+
+def test_errors_are_positive_and_millimetres_and_radii_near_the_truth(experiment):
+    name, _, _, rows, _ = experiment
+    true_radius_mm = 1e3 * EXPERIMENTS[name][1]
+    for r in rows:
+        # Kinect v1 at 2 m: depth noise std about 5.7 mm per point; the fits see 1.5 to 3 mm
+        for key in ("rmse_mm", "mean_abs_error_mm", "true_rmse_mm"):
+            assert 0.5 < r[key] < 5.0, (r["parameter"], key, r[key])
+        assert abs(r["mean_error_mm"]) < 1e-3            # signed mean about a least-squares fit
+        assert r["radius_mm"] == pytest.approx(true_radius_mm, abs=2.0)
+        assert r["radius_error_mm"] == pytest.approx(r["radius_mm"] - true_radius_mm, abs=1e-9)
+        assert 1000 < r["points"] and 0.2 * r["points"] < r["mirror_points"] < 0.8 * r["points"]
+
+
+def test_png_is_a_plot(experiment):
+    _, prefix, _, _, _ = experiment
+    image = cv2.imread(str(prefix.with_suffix(".png")))
+    assert image is not None and image.shape == (480, 720, 3)      # 6 x 4 inches at 120 dpi
+    assert image.std() > 10                                          # not a blank canvas
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--seeds", "0"], "--seeds: at least 1, got 0"),
+    (["-o", "{tmp}/missing/exp"], "missing: no such folder"),
+])
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)                                     # where the default prefix would write
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    assert main(["experiment", "angle", "--quiet", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert list(tmp_path.iterdir()) == []
