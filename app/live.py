@@ -92,7 +92,7 @@ class LiveLoop:
 
     def run_once(self) -> LiveFrame:
         """Read and process the next frame on the calling thread (also what the thread does each turn)."""
-        frame = process_frame(self.state.current, self.index, self.source.read(self.index))
+        frame = process_frame(self.state.current, self.index, self.source.read(self.index).depth)
         self.index += 1
         self.on_frame(frame)
         self.rate.tick(time.perf_counter())

@@ -19,7 +19,7 @@ def test_shipped_demo_session_is_calibrated_and_scans_the_sphere():
     assert len(session.mirrors) == 2 and all(m.plane is not None for m in session.mirrors)
     source = open_source(None, session)
     assert isinstance(source, SessionSource) and source.frame_count == len(session.frames) == 5
-    cloud, _ = object_cloud(Rig.from_session(session), source.read(0), source.background(), session_selection(session))
+    cloud, _ = object_cloud(Rig.from_session(session), source.read(0).depth, source.background(), session_selection(session))
     assert (np.bincount(cloud.sources, minlength=3) > 1000).all()
     fit = fit_sphere(cloud.points, np.random.default_rng(0))
     assert abs(fit.shape.radius - 0.115) < 0.002
@@ -28,11 +28,11 @@ def test_shipped_demo_session_is_calibrated_and_scans_the_sphere():
 def test_session_replay_loops_and_sim_follows_the_sessions_scene():
     session = load_session(DEMO)
     replay = SessionSource(session)
-    np.testing.assert_array_equal(replay.read(6), replay.read(1))
+    np.testing.assert_array_equal(replay.read(6).depth, replay.read(1).depth)
     sim = open_source("sim", session)
     assert isinstance(sim, SimulatedSource) and sim.frame_count is None
     assert sim.rig.scene == session_scene(session)
-    assert sim.read(0).shape == (480, 640)
+    assert sim.read(0).depth.shape == (480, 640)
 
 
 def test_bad_source_specs(tmp_path):

@@ -1,0 +1,253 @@
+"""Recorded depth sources that users already have: session folders, folders of 16-bit PNG, TUM RGB-D folders and
+.npz stacks. All are seekable: frame_count frames, read(i) for any i (modulo frame_count: playing loops)."""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..camera import Intrinsics, load_open3d_json, load_opencv_yaml
+from ..depthio import read_depth_png
+from ..errors import FileFormatError
+from ..jsonfile import read_json
+from ..session import Session
+from .base import DepthSource, Frame, checked_depth
+
+CAMERA_SIDECAR = "camera.json"             # DESIGN.md's camera object, beside a folder's PNGs
+OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
+TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
+TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
+PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
+
+
+class ImageSequenceSource(DepthSource):
+    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and optional colour.
+
+    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or None entries), or
+    None for none.
+    """
+
+    def __init__(self, name: str, intrinsics: Intrinsics, paths: list[Path], timestamps: np.ndarray,
+                 colour_paths: list[Path | None] | None = None, fps: float = 30.0):
+        self.name, self.intrinsics, self.fps = name, intrinsics, float(fps)
+        self.paths, self.timestamps, self.colour_paths = list(paths), np.asarray(timestamps, float), colour_paths
+        self.frame_count = len(self.paths)
+        if not self.frame_count:
+            raise FileFormatError(f"{name}: no depth frames")
+
+    def read(self, i: int) -> Frame:
+        i = self._wrap(i)
+        depth = read_depth_png(self.paths[i], self.intrinsics.depth_scale, self.intrinsics.shape)
+        colour = None if self.colour_paths is None else read_colour(self.colour_paths[i], self.intrinsics)
+        return Frame(depth, float(self.timestamps[i]), colour)
+
+
+class SessionSource(ImageSequenceSource):
+    """A session's recorded frames at `fps`; timestamps from session.json's optional 'timestamps' list, else i / fps."""
+
+    def __init__(self, session: Session, fps: float = 30.0):
+        self.session = session
+        n = len(session.frames)
+        stamps = session.extra.get("timestamps")
+        if not (isinstance(stamps, list) and len(stamps) == n and all(_is_number(t) for t in stamps)):
+            stamps = np.arange(n) / fps
+        super().__init__(f"session {Path(session.root).name}", session.camera,
+                         [Path(session.root) / f for f in session.frames], np.asarray(stamps, float), fps=fps)
+
+    def background(self) -> np.ndarray | None:
+        return self.session.read_background()
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+
+
+def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None,
+                    fps: float = 30.0) -> ImageSequenceSource:
+    """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
+
+    The camera: `camera` when given, else the folder's camera.json (DESIGN.md's camera object) or intrinsic.json
+    (Open3D). depth_scale (metres per unit): the argument, else camera.json's, else 0.001. Raises FileFormatError.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise FileFormatError(f"{folder}: no such folder of depth PNGs")
+    paths = sorted(folder.glob("*.png"))
+    if not paths:
+        raise FileFormatError(f"{folder}: no .png files")
+    camera = camera or folder_camera(folder)
+    if depth_scale is not None:
+        camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
+    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths, np.arange(len(paths)) / fps, fps=fps)
+
+
+def folder_camera(folder: Path) -> Intrinsics:
+    """The camera described beside a folder's images: camera.json, else intrinsic.json; FileFormatError if neither."""
+    if (folder / CAMERA_SIDECAR).is_file():
+        path = folder / CAMERA_SIDECAR
+        return Intrinsics.from_dict(read_json(path, "camera file"), str(path))
+    if (folder / OPEN3D_SIDECAR).is_file():
+        return load_open3d_json(folder / OPEN3D_SIDECAR)
+    raise FileFormatError(f"{folder}: no {CAMERA_SIDECAR} or {OPEN3D_SIDECAR}; give the camera as "
+                          f"?camera=FILE|{'|'.join(PRESETS)}")
+
+
+def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
+    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json (DESIGN.md's camera
+    object or Open3D's PinholeCameraIntrinsic)."""
+    if value in PRESETS:
+        return Intrinsics(**{**PRESETS[value]().to_dict(), "depth_scale": depth_scale})
+    path = Path(value)
+    if path.suffix.lower() in (".yaml", ".yml"):
+        return load_opencv_yaml(path, depth_scale)
+    data = read_json(path, "camera file")
+    if isinstance(data, dict) and "intrinsic_matrix" in data:
+        return load_open3d_json(path, depth_scale)
+    return Intrinsics.from_dict({"depth_scale": depth_scale, **data} if isinstance(data, dict) else data, str(path))
+
+
+def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None
+             ) -> ImageSequenceSource:
+    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x 5000, colour
+    from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera defaults to TUM's recommended
+    525 / 525 / 319.5 / 239.5 at 640x480."""
+    folder = Path(folder)
+    depth_stamps, depth_paths = read_tum_list(folder / "depth.txt")
+    scale = TUM_DEPTH_SCALE if depth_scale is None else depth_scale
+    camera = Intrinsics(**{**(camera or Intrinsics.primesense()).to_dict(), "depth_scale": scale})
+    colour = None
+    if (folder / "rgb.txt").is_file():
+        colour_stamps, colour_paths = read_tum_list(folder / "rgb.txt")
+        nearest = nearest_stamps(colour_stamps, depth_stamps)
+        ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
+        colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
+    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0], 1e-9) if len(depth_stamps) > 1 else 30.0
+    return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
+
+
+def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
+    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's folder."""
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
+    stamps, paths = [], []
+    for n, line in enumerate(path.read_text().splitlines(), 1):
+        parts = line.split()
+        if not parts or parts[0].startswith("#"):
+            continue
+        if len(parts) < 2 or not _parses(parts[0]):
+            raise FileFormatError(f"{path}: line {n} is not 'timestamp path'")
+        stamps.append(float(parts[0]))
+        paths.append(path.parent / parts[1])
+    if not stamps:
+        raise FileFormatError(f"{path}: lists no frames")
+    order = np.argsort(stamps, kind="stable")
+    return np.asarray(stamps)[order], [paths[i] for i in order]
+
+
+def _parses(text: str) -> bool:
+    try:
+        return bool(np.isfinite(float(text)))
+    except ValueError:
+        return False
+
+
+def nearest_stamps(stamps: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float -> (m,) int."""
+    right = np.searchsorted(stamps, queries).clip(0, len(stamps) - 1)
+    left = (right - 1).clip(0)
+    return np.where(np.abs(stamps[left] - queries) <= np.abs(stamps[right] - queries), left, right)
+
+
+def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
+    """A colour image as (H, W, 3) uint8 RGB of the camera's size, or None for no path."""
+    if path is None:
+        return None
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise FileFormatError(f"{path}: not a readable colour image")
+    if bgr.shape[:2] != intr.shape:
+        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the depth camera's "
+                              f"{intr.width}x{intr.height}")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+class StackSource(DepthSource):
+    """Frames held in memory as a stack of sensor units.
+
+    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float seconds;
+    colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.raw (uint16).
+    NaN, inf and values <= 0 read as no reading.
+    """
+
+    def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float, timestamps: np.ndarray,
+                 colour: np.ndarray | None = None, fps: float = 30.0):
+        self.name, self.intrinsics, self.fps, self.frame_count = name, intrinsics, float(fps), len(units)
+        self.units, self.scale = units, np.float32(scale)
+        self.timestamps, self.colour = np.asarray(timestamps, float), colour
+
+    def read(self, i: int) -> Frame:
+        i = self._wrap(i)
+        units = self.units[i]
+        with np.errstate(invalid="ignore", over="ignore"):
+            depth = checked_depth(units.astype(np.float32) * self.scale, self.intrinsics, self.name)
+        raw = units.astype(np.uint16) if np.issubdtype(units.dtype, np.integer) else None
+        return Frame(depth, float(self.timestamps[i]), None if self.colour is None else self.colour[i], raw)
+
+
+def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
+    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale` metres (integer
+    stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3) camera matrix, optional
+    `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3) uint8 RGB. Raises FileFormatError."""
+    path = Path(path)
+    arrays = load_npz(path)
+    for key in ("depth", "K"):
+        if key not in arrays:
+            raise FileFormatError(f"{path}: missing array '{key}' (has {', '.join(sorted(arrays)) or 'none'})")
+    depth = arrays["depth"][None] if arrays["depth"].ndim == 2 else arrays["depth"]
+    integer = np.issubdtype(depth.dtype, np.integer)
+    if depth.ndim != 3 or not (integer or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
+        raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got {depth.dtype} "
+                              f"{depth.shape}")
+    if integer and "depth_scale" not in arrays:
+        raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per unit)")
+    scale = float(_optional(path, arrays, "depth_scale", (), np.number, 1.0))
+    if not (np.isfinite(scale) and scale > 0):
+        raise FileFormatError(f"{path}: 'depth_scale' must be positive, got {scale:g}")
+    K = _optional(path, arrays, "K", (3, 3), np.number, None).astype(float)
+    try:
+        camera = Intrinsics(depth.shape[2], depth.shape[1], K[0, 0], K[1, 1], K[0, 2], K[1, 2],
+                            scale if integer else 0.001)
+    except FileFormatError as exc:
+        raise FileFormatError(f"{path}: {exc}") from None
+    stamps = _optional(path, arrays, "timestamps", (len(depth),), np.number,
+                       np.arange(len(depth)) / fps)
+    colour = _optional(path, arrays, "colour", (*depth.shape, 3), np.uint8, None)
+    return StackSource(f"npz {path.name}", camera, depth, scale, stamps, colour, fps)
+
+
+def _optional(path: Path, arrays: dict, key: str, shape: tuple, kind: type, default):
+    """arrays[key] checked for shape and dtype kind (np.floating, np.uint8...), or `default` when absent."""
+    if key not in arrays:
+        return default
+    value = arrays[key]
+    if value.shape != shape or not np.issubdtype(value.dtype, kind):
+        raise FileFormatError(f"{path}: '{key}' must be {kind.__name__} of shape {shape}, got {value.dtype} "
+                              f"{value.shape}")
+    return value
+
+
+def load_npz(path: Path) -> dict[str, np.ndarray]:
+    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt or pickled."""
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such .npz file")
+    if not zipfile.is_zipfile(path):
+        raise FileFormatError(f"{path}: not a .npz archive (not a zip file)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: data[key] for key in data.files}
+    except ValueError:
+        raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
+    except (OSError, zipfile.BadZipFile, EOFError) as exc:
+        raise FileFormatError(f"{path}: not a readable .npz file ({exc})") from None

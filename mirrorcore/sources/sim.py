@@ -1,0 +1,50 @@
+"""Simulated depth sources: the simulated rig as a live camera, and the scene a simulated session was made from."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import FileFormatError
+from ..jsonfile import read_json
+from ..session import Session
+from ..sim.export import TRUTH_FILE
+from ..sim.layouts import paper_scene
+from ..sim.scene import Scene, load_scene, scene_from_json
+from ..sim.source import SimulatedRig
+from .base import DepthSource, Frame
+
+
+class SimulatedSource(DepthSource):
+    """The simulated rig as a live source: read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise
+    reproducible from the rig's seed), so it has no frame count but any frame can be asked for."""
+
+    def __init__(self, rig: SimulatedRig, name: str = "simulated rig"):
+        self.rig, self.name = rig, name
+        self.intrinsics, self.fps, self.frame_count = rig.intrinsics, rig.fps, None
+
+    def read(self, i: int) -> Frame:
+        frame = self.rig.frame(i)
+        return Frame(frame.depth, frame.t)
+
+    def background(self) -> np.ndarray:
+        return self.rig.background().depth
+
+
+def open_simulated(target: str, session: Session | None) -> SimulatedSource:
+    """'sim' (target ''): the session's simulated scene when it has a truth.json, else the paper's rig with a walking
+    figure at 3 m; 'sim:SCENE.json': a scene file."""
+    if target:
+        return SimulatedSource(SimulatedRig(load_scene(target)), f"simulated {Path(target).name}")
+    return SimulatedSource(SimulatedRig(session_scene(session) or paper_scene(object="figure", distance=3.0)))
+
+
+def session_scene(session: Session | None) -> Scene | None:
+    """The simulated scene a session was made from (its truth.json), or None."""
+    if session is None or not (Path(session.root) / TRUTH_FILE).is_file():
+        return None
+    path = Path(session.root) / TRUTH_FILE
+    data = read_json(path, "truth file")
+    if not isinstance(data, dict) or "scene" not in data:
+        raise FileFormatError(f"{path}: missing key 'scene'")
+    return scene_from_json(data["scene"], f"{path}: scene")
