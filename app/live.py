@@ -4,16 +4,21 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from mirrorcore.cloud import Cloud
+from mirrorcore.errors import MirrorscanError
 from mirrorcore.pipeline import object_cloud
 from mirrorcore.sources import DepthSource
 
 from .state import SharedState, Snapshot
+
+RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,17 +58,21 @@ class RateMeter:
 
 
 class LiveLoop:
-    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate.
+    """Runs source -> process_frame -> listeners on a daemon thread, at most at the source's frame rate.
 
-    on_frame(LiveFrame) is called on the loop's thread; an exception in it or in the source is passed to on_error
-    and the loop goes on with the next frame after a short pause (a camera may come back).
+    Each listener(LiveFrame) is called on the loop's thread; an exception in one or in the source is passed to
+    on_error and the loop goes on with the next frame after a short pause (a camera may come back).
     """
 
-    def __init__(self, source: DepthSource, state: SharedState, on_frame: Callable[[LiveFrame], None],
+    def __init__(self, source: DepthSource, state: SharedState,
                  on_error: Callable[[Exception], None] = lambda exc: None):
-        self.source, self.state, self.on_frame, self.on_error = source, state, on_frame, on_error
+        self.source, self.state, self.on_error = source, state, on_error
+        self.listeners: list[Callable[[LiveFrame], None]] = []
         self.rate = RateMeter()
         self.index = 0
+        self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
+        self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
+        self._ahead: tuple[int, Future] | None = None
         self._paused = threading.Event()
         self._step = threading.Event()
         self._stop = threading.Event()
@@ -77,6 +86,7 @@ class LiveLoop:
         self._step.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5)
+        self._reader.shutdown(wait=True, cancel_futures=True)
 
     @property
     def paused(self) -> bool:
@@ -91,12 +101,56 @@ class LiveLoop:
         self._step.set()
 
     def run_once(self) -> LiveFrame:
-        """Read and process the next frame on the calling thread (also what the thread does each turn)."""
-        frame = process_frame(self.state.current, self.index, self.source.read(self.index).depth)
+        """Read and process the next frame on the calling thread (also what the thread does each turn). The frame
+        after it is read meanwhile on a helper thread, so reading (ray casting, file or device I/O) and processing
+        share the two cores."""
+        depth = self._read(self.index)
+        self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
+        frame = process_frame(self.state.current, self.index, depth)
         self.index += 1
-        self.on_frame(frame)
+        self._recent.append(depth)
+        for listener in list(self.listeners):
+            listener(frame)
         self.rate.tick(time.perf_counter())
         return frame
+
+    def _read(self, index: int) -> np.ndarray:
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None and ahead[0] == index:
+            return ahead[1].result().depth
+        return self.source.read(index).depth
+
+    def recent_depths(self) -> np.ndarray | None:
+        """(k, H, W) metres: the last RECENT_FRAMES depth frames (for calibration over their median), or None."""
+        frames = list(self._recent)
+        return np.stack(frames) if frames else None
+
+    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0) -> list:
+        """The depth of n frames read after this call (blocks; progress(k) after each): the frame already read ahead
+        is skipped, so a scene changed just before the call (the object taken out) is what is collected. While paused,
+        frames are stepped one by one. Raises MirrorscanError when the source stops delivering for `timeout` s."""
+        frames: list[np.ndarray] = []
+        done = threading.Event()
+        first = self.index + 2   # the frame in hand and the one read ahead may predate the call
+
+        def take(frame: LiveFrame) -> None:
+            if frame.index >= first and len(frames) < n:
+                frames.append(frame.depth)
+                progress(len(frames))
+            if len(frames) >= n:
+                done.set()
+
+        self.listeners.append(take)
+        try:
+            deadline = time.monotonic() + timeout
+            while not done.wait(0.1):
+                if self.paused:
+                    self.step()
+                if time.monotonic() > deadline:
+                    raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in {timeout:.0f} s")
+        finally:
+            self.listeners.remove(take)
+        return frames
 
     def _run(self) -> None:
         period = 1.0 / self.source.fps

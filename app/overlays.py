@@ -25,17 +25,40 @@ def draw_mask(rgb: np.ndarray, mask: np.ndarray, alpha: float = 0.55) -> np.ndar
     return rgb
 
 
-def draw_mirrors(rgb: np.ndarray, mirrors: Sequence[MirrorSpec]) -> np.ndarray:
-    """Draw each mirror's boundary (closed polygon) and numbered markers in the mirror's source colour (in place)."""
-    for j, mirror in enumerate(mirrors, start=1):
-        colour = tuple(int(c) for c in source_color(j))
-        if len(mirror.boundary) >= 2:
-            pts = np.round(np.asarray(mirror.boundary)).astype(np.int32).reshape(-1, 1, 2)
-            cv2.polylines(rgb, [pts], len(mirror.boundary) >= 3, colour, 2, cv2.LINE_AA)
-        for k, (u, v) in enumerate(mirror.markers, start=1):
-            centre = (int(round(u)), int(round(v)))
-            cv2.circle(rgb, centre, 5, (255, 255, 255), 2, cv2.LINE_AA)
-            cv2.circle(rgb, centre, 5, colour, 1, cv2.LINE_AA)
-            cv2.putText(rgb, f"{j}.{k}", (centre[0] + 7, centre[1] - 5), cv2.FONT_HERSHEY_SIMPLEX, 0.4,
-                        (255, 255, 255), 1, cv2.LINE_AA)
+def draw_polygon(rgb: np.ndarray, vertices, colour, closed: bool, selected: int | None = None) -> np.ndarray:
+    """A polygon's edges (closed or still open) and its corners, the selected corner ringed in white (in place)."""
+    if not len(vertices):
+        return rgb
+    pts = np.round(np.asarray(vertices, dtype=float)).astype(np.int32).reshape(-1, 1, 2)
+    if len(vertices) >= 2:
+        cv2.polylines(rgb, [pts], closed, colour, 2, cv2.LINE_AA)
+    for k, (u, v) in enumerate(pts.reshape(-1, 2)):
+        cv2.circle(rgb, (int(u), int(v)), 3 if closed else 4, colour, -1, cv2.LINE_AA)
+        if k == selected:
+            cv2.circle(rgb, (int(u), int(v)), 8, (255, 255, 255), 2, cv2.LINE_AA)
+    return rgb
+
+
+def draw_markers(rgb: np.ndarray, markers, colour, mirror_number: int) -> np.ndarray:
+    """Numbered markers 'j.k' (mirror j, marker k) as rings in the mirror's colour (in place)."""
+    for k, (u, v) in enumerate(markers, start=1):
+        centre = (int(round(u)), int(round(v)))
+        cv2.circle(rgb, centre, 6, (255, 255, 255), 2, cv2.LINE_AA)
+        cv2.circle(rgb, centre, 6, colour, 1, cv2.LINE_AA)
+        cv2.putText(rgb, f"{mirror_number}.{k}", (centre[0] + 8, centre[1] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                    (255, 255, 255), 1, cv2.LINE_AA)
+    return rgb
+
+
+def draw_mirrors(rgb: np.ndarray, mirrors: Sequence[MirrorSpec], drafts: dict | None = None,
+                 selected_vertex: tuple[int, int] | None = None) -> np.ndarray:
+    """Each mirror's boundary (its open draft while one is drawn) and numbered markers, in the mirror's source colour.
+    drafts : {mirror index: vertices}; selected_vertex : (mirror index, vertex index) to ring (in place)."""
+    drafts = drafts or {}
+    for i, mirror in enumerate(mirrors):
+        colour = tuple(int(c) for c in source_color(i + 1))
+        closed = i not in drafts
+        picked = selected_vertex[1] if selected_vertex and selected_vertex[0] == i else None
+        draw_polygon(rgb, mirror.boundary if closed else drafts[i], colour, closed, picked)
+        draw_markers(rgb, mirror.markers, colour, i + 1)
     return rgb

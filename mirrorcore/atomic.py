@@ -24,7 +24,7 @@ def _write_beside(path: Path, data: bytes, backup: bool) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
-            os.fchmod(f.fileno(), path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~_umask())
+            os.fchmod(f.fileno(), path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~current_umask())
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
@@ -36,7 +36,7 @@ def _write_beside(path: Path, data: bytes, backup: bool) -> None:
         raise
 
 
-def _umask() -> int:
+def current_umask() -> int:
     """The process's file mode creation mask (read by setting it, then restoring it)."""
     mask = os.umask(0)
     os.umask(mask)

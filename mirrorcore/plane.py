@@ -33,7 +33,8 @@ class Plane:
         norm = np.linalg.norm(p[:3])
         if norm < 1e-12:
             raise CalibrationError(f"{where}: the plane's normal (a, b, c) is zero")
-        p = p / norm
+        if abs(norm - 1.0) > 1e-12:     # a stored unit normal loads bit for bit
+            p = p / norm
         if abs(p[3]) < 1e-9:
             raise CalibrationError(f"{where}: the plane passes through the camera")
         if p[3] < 0:

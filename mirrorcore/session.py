@@ -3,12 +3,16 @@ saved atomically with one backup (session.json.bak)."""
 from __future__ import annotations
 
 import json
+import os
+import re
+import shutil
+import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .atomic import write_atomic
+from .atomic import current_umask, write_atomic
 from .camera import Intrinsics
 from .depthio import read_depth_png
 from .errors import FileFormatError, MirrorscanError
@@ -171,3 +175,39 @@ def save_session(session: Session) -> None:
     Path(session.root).mkdir(parents=True, exist_ok=True)
     text = json.dumps(session.to_json(), indent=2) + "\n"
     write_atomic(session.path, text.encode("utf-8"), backup=True)
+
+
+_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_ .-]{0,99}$")
+
+
+def session_folder(sessions_dir: str | Path, name: str) -> Path:
+    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long, or could leave the
+    folder (separators, '..', leading dots)."""
+    name = name.strip()
+    if not _NAME.match(name) or ".." in name:
+        raise MirrorscanError(f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
+                              "at most 100 characters, starting with a letter, digit or '_'")
+    return Path(sessions_dir) / name
+
+
+def copy_session(session: Session, folder: str | Path) -> Session:
+    """Save a session under a new folder with its background and frames; all or nothing. Refuses an existing folder
+    that is not empty. Returns the session as it now lives in `folder`."""
+    folder = Path(folder)
+    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise MirrorscanError(f"{folder}: already exists; choose another name")
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
+    try:
+        for rel in ([session.background] if session.background else []) + list(session.frames):
+            (work / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(Path(session.root) / rel, work / rel)
+        save_session(replace(session, root=work))
+        os.chmod(work, 0o777 & ~current_umask())
+        if folder.exists():
+            folder.rmdir()
+        os.replace(work, folder)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    return replace(session, root=folder)

@@ -14,7 +14,7 @@ from app.server import MirrorscanApp
 def app():
     source = demo_source()
     session = calibrated_session(source, Path("unused"))
-    app = MirrorscanApp(session, source, port=0)
+    app = MirrorscanApp(session, source, port=0, autosave=False)
     yield app
     app.stop()
 
@@ -39,8 +39,9 @@ def test_live_frames_reach_the_view(app):
         assert handle.points.dtype == np.float32
         assert len(handle.points) == pytest.approx(counts["direct" if j == 0 else f"mirror {j}"] / max(
             1, int(np.ceil(len(frame.cloud) / 60_000))), rel=0.05, abs=3)
-    assert "mirror 2" in app.panel.legend.content
-    assert app.panel.depth.image.shape == (480, 640, 3)
+    assert "mirror 2" in app.live_panel.legend.content
+    assert app.screen.handle.image.shape == (480, 640, 3)
+    assert "depth frame:" in app.live_panel.depth_range.content
 
 
 def wait_for(condition, seconds=20.0):

@@ -6,36 +6,54 @@ import logging
 import time
 from pathlib import Path
 
-from mirrorcore.session import load_session
-from mirrorcore.sources import open_source
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.session import Session, load_session, save_session
+from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source
 from ..server import MirrorscanApp
 
 log = logging.getLogger("mirrorscan")
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 
 
 def register(sub) -> None:
     p = sub.add_parser("serve", help="the browser tool (no arguments: the simulated rig)")
-    p.add_argument("session", nargs="?", help="session folder (default: the built-in simulated demo)")
-    p.add_argument("--source", help="sim, sim:SCENE.json or session (default: the session's frames, else sim)")
+    p.add_argument("session", nargs="?",
+                   help="session folder; a new (or empty) folder starts an empty session there "
+                        "(default: the built-in simulated demo, saved only on 'Save as')")
+    p.add_argument("--source", help="where frames come from (default: the session's frames, else the simulated rig); "
+                                    "see `mirrorscan sources`")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
     p.set_defaults(run=run)
 
 
+def session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
+    """(session, source, autosave) for the command's arguments."""
+    if folder is None:
+        source = demo_source() if spec in (None, "sim") else open_source(spec, None)
+        return calibrated_session(source, Path("sessions") / "untitled"), source, False
+    root = Path(folder)
+    if (root / "session.json").is_file():
+        session = load_session(root)
+        return session, open_source(spec, session), True
+    if root.exists() and (not root.is_dir() or any(root.iterdir())):
+        raise MirrorscanError(f"{root}: not a session folder (no session.json) and not empty")
+    source = open_source(spec or "sim", None)
+    session = Session(root, source.intrinsics)
+    save_session(session)
+    log.info("started an empty session in %s", root)
+    return session, source, True
+
+
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
-    if args.host not in ("127.0.0.1", "localhost", "::1"):
+    if args.host not in LOCAL_HOSTS:
         log.warning("listening on %s: anyone who can reach this address can see and change the session", args.host)
-    if args.session is None:
-        # without a session the source is simulated: its markers and boundaries are known, its planes calibrated
-        source = demo_source() if args.source in (None, "sim") else open_source(args.source, None)
-        session = calibrated_session(source, Path("sessions") / "live")
-    else:
-        session = load_session(args.session)
-        source = open_source(args.source, session)
-    app = MirrorscanApp(session, source, args.host, args.port)
+    session, source, autosave = session_and_source(args.session, args.source)
+    sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
+    app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir)
     app.start()
     log.info("mirrorscan is at http://%s:%d (Ctrl-C to stop)", args.host, app.port)
     try:

@@ -17,13 +17,18 @@ from .base import DepthSource, Frame
 
 class SimulatedSource(DepthSource):
     """The simulated rig as a live source: read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise
-    reproducible from the rig's seed), so it has no frame count but any frame can be asked for."""
+    reproducible from the rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view`
+    False renders the scene without its objects, as when the person steps out to capture the background."""
 
     def __init__(self, rig: SimulatedRig, name: str = "simulated rig"):
         self.rig, self.name = rig, name
         self.intrinsics, self.fps, self.frame_count = rig.intrinsics, rig.fps, None
+        self.objects_in_view = True
 
     def read(self, i: int) -> Frame:
+        if not self.objects_in_view:
+            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]), False).depth,
+                         i / self.fps)
         frame = self.rig.frame(i)
         return Frame(frame.depth, frame.t)
 

@@ -1,0 +1,73 @@
+"""The "Session" folder: where the session lives, open another, save it under a new name, and export the current
+cloud as PLY (downloaded to the browser and saved in the session's exports/ folder)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import viser
+
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.ply import encode_ply
+from mirrorcore.atomic import write_atomic
+from mirrorcore.session import SESSION_FILE, copy_session, load_session, session_folder
+
+if TYPE_CHECKING:
+    from ..server import MirrorscanApp
+
+EXPORTS = "exports"
+
+
+class FilesPanel:
+    def __init__(self, app: "MirrorscanApp"):
+        gui, self.app = app.server.gui, app
+        with gui.add_folder("Session", expand_by_default=False):
+            self.where = gui.add_markdown("")
+            self.open_choice = gui.add_dropdown("Open", ("",))
+            self.open = gui.add_button("Open session")
+            self.new_name = gui.add_text("Save as", "")
+            self.save_as = gui.add_button("Save as new session")
+        with gui.add_folder("Export"):
+            self.export = gui.add_button("Export cloud as PLY")
+            self.exported = gui.add_markdown("")
+        self.open.on_click(lambda e: app.act(e.client, self._open))
+        self.save_as.on_click(lambda e: app.act(e.client, self._save_as))
+        self.export.on_click(lambda e: app.act(e.client, lambda: self.export_cloud(e.client)))
+        self.refresh()
+
+    def refresh(self) -> None:
+        editor = self.app.editor
+        state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
+        error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
+        self.where.content = f"`{editor.session.root}` ({state}){error}"
+        names = tuple(sorted(p.parent.name for p in self.app.sessions_dir.glob(f"*/{SESSION_FILE}"))) or ("",)
+        if self.open_choice.options != names:
+            self.open_choice.options = names
+
+    def _open(self) -> None:
+        if not self.open_choice.value:
+            raise MirrorscanError(f"no saved session in {self.app.sessions_dir}")
+        self.app.open_session(load_session(session_folder(self.app.sessions_dir, self.open_choice.value)))
+
+    def _save_as(self) -> None:
+        folder = session_folder(self.app.sessions_dir, self.new_name.value)
+        self.app.open_session(copy_session(self.app.editor.session, folder))
+        self.new_name.value = ""
+
+    def export_cloud(self, client: viser.ClientHandle | None) -> Path | None:
+        """The current cloud as PLY: sent to `client` as a download and, for a saved session, written into its
+        exports/ folder (returned)."""
+        frame = self.app.last_frame
+        if frame is None:
+            raise MirrorscanError("no cloud yet to export")
+        name = f"frame-{frame.index:06d}.ply"
+        data = encode_ply(frame.cloud.points, frame.cloud.sources)
+        saved = None
+        if self.app.editor.autosave:
+            saved = Path(self.app.editor.session.root) / EXPORTS / name
+            saved.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(saved, data)
+        if client is not None:
+            client.send_file_download(name, data, save_immediately=True)
+        self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
+        return saved

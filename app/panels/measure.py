@@ -1,0 +1,102 @@
+"""The "Measure" folder: fit a sphere or a cylinder to the current cloud and report radius, RMSE and mean error as
+the paper does, overall and per source; while tracking, fit the live frames and plot the error over time."""
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from typing import TYPE_CHECKING
+
+import numpy as np
+import viser.uplot as uplot
+
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.fit_errors import ShapeFit
+from mirrorcore.fitting import fit_cylinder, fit_sphere
+from mirrorcore.palette import source_name
+
+if TYPE_CHECKING:
+    from ..live import LiveFrame
+    from ..server import MirrorscanApp
+
+HISTORY = 300          # fits kept in the plot
+TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
+
+
+def fit_report(fit: ShapeFit) -> str:
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (mm)."""
+    e = fit.errors
+    lines = [f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
+             f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
+             "", "| | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
+             f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "
+             f"{e.mean_abs_error * 1e3:.2f} mm |"]
+    for source, s in fit.per_source.items():
+        lines.append(f"| {source_name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
+                     f"{s.mean_abs_error * 1e3:.2f} mm |")
+    return "\n".join(lines)
+
+
+class MeasurePanel:
+    def __init__(self, app: "MirrorscanApp"):
+        gui, self.app = app.server.gui, app
+        self.history: deque[tuple[float, float, float]] = deque(maxlen=HISTORY)   # (seconds, rmse mm, radius mm)
+        self._busy = threading.Lock()
+        self._started = time.monotonic()
+        self._last_track = 0.0
+        with gui.add_folder("Measure"):
+            self.shape = gui.add_dropdown("Shape", ("sphere", "cylinder"), initial_value="sphere")
+            self.threshold = gui.add_number("Inlier threshold (mm)", initial_value=20.0, min=1.0, max=200.0)
+            self.run = gui.add_button("Fit to the current cloud")
+            self.track = gui.add_checkbox("Track while live", initial_value=False)
+            self.report = gui.add_markdown("")
+            self.plot = gui.add_uplot(
+                (np.zeros(1), np.zeros(1), np.zeros(1)),
+                (uplot.Series(label="time (s)"), uplot.Series(label="RMSE (mm)", stroke="#e69f00", width=2),
+                 uplot.Series(label="radius (mm)", stroke="#0072b2", width=2, scale="radius")),
+                scales={"x": uplot.Scale(time=False), "radius": uplot.Scale(auto=True)},
+                axes=(uplot.Axis(), uplot.Axis(label="RMSE (mm)"), uplot.Axis(side=1, scale="radius",
+                                                                               label="radius (mm)")),
+                height=180, visible=False)
+        self.run.on_click(lambda e: app.act(e.client, self.fit_current))
+
+    def fit(self, frame: "LiveFrame") -> ShapeFit:
+        cloud = frame.cloud
+        if len(cloud) < 10:
+            raise MirrorscanError(f"the current cloud has {len(cloud)} points; a fit needs more")
+        fitter = fit_sphere if self.shape.value == "sphere" else fit_cylinder
+        return fitter(cloud.points, np.random.default_rng(0), threshold=self.threshold.value / 1000,
+                      sources=cloud.sources)
+
+    def fit_current(self) -> ShapeFit:
+        frame = self.app.last_frame
+        if frame is None:
+            raise MirrorscanError("no frame yet")
+        result = self.fit(frame)
+        self.report.content = fit_report(result)
+        self._record(result)
+        return result
+
+    def on_frame(self, frame: "LiveFrame") -> None:
+        """While tracking, start a fit of this frame on a worker thread at most TRACK_HZ times a second."""
+        now = time.monotonic()
+        if not self.track.value or now - self._last_track < 1 / TRACK_HZ or not self._busy.acquire(blocking=False):
+            return
+        self._last_track = now
+        threading.Thread(target=self._track, args=(frame,), daemon=True).start()
+
+    def _track(self, frame: "LiveFrame") -> None:
+        try:
+            result = self.fit(frame)
+            self.report.content = fit_report(result)
+            self._record(result)
+        except MirrorscanError as exc:
+            self.report.content = f"tracking: {exc}"
+        finally:
+            self._busy.release()
+
+    def _record(self, result: ShapeFit) -> None:
+        self.history.append((time.monotonic() - self._started, result.errors.rmse * 1e3, result.shape.radius * 1e3))
+        t, rmse, radius = (np.array(c) for c in zip(*self.history))
+        self.plot.data = (t, rmse, radius)
+        self.plot.visible = True

@@ -1,0 +1,164 @@
+"""End to end in a real headless Chromium: from an empty session on the simulated rig, calibrate both mirrors by
+clicking on the depth frame, watch every source fill, fit the sphere, export the cloud through a download."""
+from __future__ import annotations
+
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.server import MirrorscanApp
+from mirrorcore.ply import read_ply
+from mirrorcore.session import Session
+from mirrorcore.sim.export import session_mirrors
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sources import SimulatedSource
+
+playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+ARTIFACTS = Path(__file__).parent / "artifacts"
+LIVE_FPS = 8.0           # software WebGL on 2 cores: keep the stream light while the test drives the page
+CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
+
+
+def wait_for(condition, seconds: float = 60.0, what: str = "condition"):
+    deadline = time.monotonic() + seconds
+    while True:
+        value = condition()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.1)
+
+
+@pytest.fixture(scope="module")
+def rig():
+    return SimulatedRig(paper_scene(object="sphere"), seed=0, fps=LIVE_FPS)
+
+
+@pytest.fixture(scope="module")
+def app(rig, tmp_path_factory):
+    root = tmp_path_factory.mktemp("browser") / "session"
+    app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0,
+                        sessions_dir=root.parent)
+    app.start()
+    yield app
+    app.stop()
+
+
+@pytest.fixture(scope="module")
+def page(app):
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=[
+            "--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            "--no-first-run"])
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.goto(f"http://127.0.0.1:{app.port}/")
+        client = wait_for(lambda: next(iter(app.server.get_clients().values()), None), what="the tab to connect")
+        camera_ready = wait_for(lambda: _camera_known(client), what="the tab's camera")
+        assert camera_ready
+        app.screen.look_at(client)
+        yield page, client
+        browser.close()
+
+
+def _camera_known(client) -> bool:
+    try:
+        client.camera.wxyz
+        return True
+    except Exception:     # viser raises until the browser has reported its camera
+        return False
+
+
+def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
+    """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes, vertical fov)."""
+    import viser.transforms as tf
+    camera = client.camera
+    R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
+    p = R.T @ (np.asarray(world) - np.asarray(camera.position))
+    box = page.locator("canvas").first.bounding_box()
+    f = (box["height"] / 2) / np.tan(camera.fov / 2)
+    return box["x"] + box["width"] / 2 + f * p[0] / p[2], box["y"] + box["height"] / 2 + f * p[1] / p[2]
+
+
+def click_pixel(page, app, client, uv) -> None:
+    x, y = canvas_point(page, client, app.screen.world_of_pixel(*uv))
+    page.mouse.click(x, y)
+    time.sleep(CLICK_PAUSE)
+
+
+def choose(page, label: str, option: str) -> None:
+    page.get_by_label(label, exact=True).click()
+    page.get_by_role("option", name=option, exact=True).click()
+    time.sleep(0.2)
+
+
+def button(page, name: str) -> None:
+    page.get_by_role("button", name=name, exact=True).click()
+    time.sleep(0.3)
+
+
+def test_calibrate_watch_measure_export(app, page, rig):
+    page, client = page
+    truth = session_mirrors(rig, rig.background().truth)        # where the simulator drew markers and mirrors
+    wait_for(lambda: app.last_frame is not None, what="the first live frame")
+    camera_moved = wait_for(lambda: abs(client.camera.position[2] - app.screen.centre[2]) > 0.5, what="the view")
+    assert camera_moved
+    time.sleep(1.0)
+
+    for j, mirror in enumerate(truth):
+        button(page, "Add a mirror")
+        wait_for(lambda: len(app.editor.session.mirrors) == j + 1, what=f"mirror {j + 1}")
+        choose(page, "Mirror", f"mirror {j + 1}")
+        choose(page, "Click to", "markers")
+        for uv in mirror.markers[:4]:
+            click_pixel(page, app, client, uv)
+        clicked = wait_for(lambda: len(app.editor.session.mirrors[j].markers) == 4 and app.editor.session.mirrors[j],
+                           what=f"mirror {j + 1}'s markers")
+        np.testing.assert_allclose(np.array(clicked.markers), np.array(mirror.markers[:4]), atol=1.0)
+
+        choose(page, "Click to", "boundary")
+        corners = np.clip(np.array(mirror.boundary), 1, [rig.intrinsics.width - 2, rig.intrinsics.height - 2])
+        for uv in corners:
+            click_pixel(page, app, client, uv)
+        button(page, "Close boundary")
+        drawn = wait_for(lambda: app.editor.session.mirrors[j].boundary, what=f"mirror {j + 1}'s boundary")
+        np.testing.assert_allclose(np.array(drawn), corners, atol=1.0)
+
+    button(page, "Fit all planes")
+    wait_for(lambda: all(m.plane is not None for m in app.editor.session.mirrors), what="the planes")
+    for fitted, true in zip(app.editor.session.mirrors, rig.planes):
+        assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
+    shown = page.get_by_text(re.compile(r"mirror 1: RMS [0-9.]+ mm")).inner_text()
+    rms = float(re.search(r"RMS ([0-9.]+) mm", shown).group(1))
+    assert 0.5 < rms < 15.0                                      # Kinect noise at ~2.5 m: a few mm
+
+    def counts():
+        text = page.locator("body").inner_text()
+        found = {name: int(n.replace(",", "")) for name, n in re.findall(r"(direct|mirror \d): ([\d,]+) points", text)}
+        return found if len(found) == 3 and min(found.values()) > 0 else None
+    assert min(wait_for(counts, what="points from every source").values()) > 500
+
+    choose(page, "Click to", "inspect")
+    button(page, "Fit to the current cloud")
+    report = page.get_by_text(re.compile(r"sphere: radius")).inner_text()
+    radius = float(re.search(r"radius ([0-9.]+) mm", report).group(1))
+    assert abs(radius - 115.0) < 3.0
+
+    with page.expect_download() as download:
+        button(page, "Export cloud as PLY")
+    target = ARTIFACTS / "browser-export.ply"
+    ARTIFACTS.mkdir(exist_ok=True)
+    download.value.save_as(target)
+    points, sources = read_ply(target)
+    assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
+    saved = Path(app.editor.session.root) / "exports"
+    assert len(list(saved.glob("*.ply"))) == 1
+
+    app.view.look_from_home(client)
+    time.sleep(2.0)
+    page.screenshot(path=ARTIFACTS / "browser-final.png")
