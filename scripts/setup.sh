@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
 # Set up mirrorscan on a fresh Debian/Ubuntu machine: system libraries, a virtual environment in .venv, the package.
 #   scripts/setup.sh          the tool
-#   scripts/setup.sh --test   the tool and what the test suite needs
+#   scripts/setup.sh --test   the tool and what the test suite needs (with the depth camera libraries: libfreenect,
+#                             its replay driver and gcc for the Kinect test, OpenNI2, pyrealsense2)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 extras=""
-[ "${1:-}" = "--test" ] && extras="[test]"
+packages=(libusb-1.0-0 libgomp1)
+if [ "${1:-}" = "--test" ]; then
+  extras="[test,devices]"
+  # PyPI freenect builds (Cython, gcc, Python headers) against libfreenect-dev; OpenNI2's loader wants libOpenNI2.so.
+  packages+=(libfreenect-dev libfreenect0.5 libusb-1.0-0-dev libopenni2-dev gcc python3-dev)
+fi
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 
 # open3d needs libusb-1.0-0 and libgomp1; the virtual environment needs python3-venv on Debian/Ubuntu.
 missing=()
-for pkg in libusb-1.0-0 libgomp1; do
+for pkg in "${packages[@]}"; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
 python3 -c "import venv, ensurepip" >/dev/null 2>&1 || missing+=(python3-venv)
