@@ -8,7 +8,7 @@ import sys
 from mirrorcore.errors import MirrorscanError
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment", "bench"]
+COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment", "sources", "record", "bench"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -45,7 +45,8 @@ class ImageSequenceSource(DepthSource):
 
 
 class SessionSource(ImageSequenceSource):
-    """A session's recorded frames at `fps`; timestamps from session.json's optional 'timestamps' list, else i / fps."""
+    """A session's recorded frames at `fps`; timestamps from session.json's optional 'timestamps' list (else i / fps),
+    colour from its optional 'colour_frames' list (paths relative to the session folder)."""
 
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
@@ -53,8 +54,11 @@ class SessionSource(ImageSequenceSource):
         stamps = session.extra.get("timestamps")
         if not (isinstance(stamps, list) and len(stamps) == n and all(_is_number(t) for t in stamps)):
             stamps = np.arange(n) / fps
+        colour = session.extra.get("colour_frames")
+        listed = isinstance(colour, list) and len(colour) == n and all(isinstance(c, str) for c in colour)
+        colour = [Path(session.root) / c for c in colour] if listed else None
         super().__init__(f"session {Path(session.root).name}", session.camera,
-                         [Path(session.root) / f for f in session.frames], np.asarray(stamps, float), fps=fps)
+                         [Path(session.root) / f for f in session.frames], np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
         return self.session.read_background()
