@@ -11,3 +11,7 @@ class CalibrationError(MirrorscanError):
 
 class FileFormatError(MirrorscanError):
     """A file (session, depth image, PLY, intrinsics, scene) is missing, unreadable or malformed."""
+
+
+class Cancelled(MirrorscanError):
+    """A long computation (carving, fusion) was stopped by its caller's cancel request; nothing was returned."""

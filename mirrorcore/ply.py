@@ -1,5 +1,6 @@
-"""PLY files of source-labelled clouds (DESIGN.md layout): binary_little_endian, x y z float32 (metres, camera frame),
-red green blue uchar (source colour), source uchar."""
+"""PLY files of source-labelled clouds and meshes (DESIGN.md layout): binary_little_endian, x y z float32 (metres,
+camera frame), red green blue uchar (source colour), source uchar; faces (vertex_indices, uchar count + int32) for
+meshes."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,10 +14,12 @@ from .palette import source_colors
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
+_FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 
 
-def encode_ply(points: np.ndarray, sources: np.ndarray) -> bytes:
-    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j) -> PLY bytes."""
+def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
+    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j); faces : optional
+    (m, 3) int vertex indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)
     if len(sources) != len(points):
@@ -32,13 +35,25 @@ def encode_ply(points: np.ndarray, sources: np.ndarray) -> bytes:
               "source 0 = direct, j = mirror j\n"
               f"element vertex {len(points)}\n"
               + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n" for n in _VERTEX.names)
+              + ("" if faces is None else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")
               + "end_header\n")
-    return header.encode("ascii") + vertex.tobytes()
+    return header.encode("ascii") + vertex.tobytes() + (b"" if faces is None else _face_bytes(faces, len(points)))
 
 
-def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray) -> None:
-    """Write a labelled cloud atomically (see encode_ply)."""
-    write_atomic(path, encode_ply(points, sources))
+def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
+    """(m, 3) int triangles -> the binary face element (a uchar 3 then three int32 per face)."""
+    faces = np.asarray(faces).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() >= n_vertices):
+        raise ValueError(f"encode_ply: face indices must be in 0..{n_vertices - 1}")
+    face = np.empty(len(faces), dtype=_FACE)
+    face["count"] = 3
+    face["vertex_indices"] = faces
+    return face.tobytes()
+
+
+def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> None:
+    """Write a labelled cloud, or a mesh with `faces`, atomically (see encode_ply)."""
+    write_atomic(path, encode_ply(points, sources, faces))
 
 
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
