@@ -98,8 +98,8 @@ class Plane:
         return points - self.signed_distance(points)[..., None] * self.n
 
     def angle_to(self, other: "Plane") -> float:
-        """Angle between the two normals, degrees."""
-        return float(np.degrees(np.arccos(np.clip(np.dot(self.n, other.n), -1.0, 1.0))))
+        """Angle between the two normals, degrees (atan2 of the cross and dot products: exact near 0 and 180)."""
+        return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)), np.dot(self.n, other.n))))
 
 
 def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
