@@ -20,6 +20,7 @@ from .depthscreen import DepthScreen
 from .editor import SessionEditor
 from .live import LiveFrame, LiveLoop
 from .overlays import colorize_depth, draw_mask, draw_mirrors, draw_polygon
+from .panels.dense import DensePanel
 from .panels.files import FilesPanel
 from .panels.live import LivePanel
 from .panels.measure import MeasurePanel
@@ -61,6 +62,7 @@ class MirrorscanApp:
         self.mirrors_panel = MirrorsPanel(self)
         self.selection_panel = SelectionPanel(self)
         self.measure_panel = MeasurePanel(self)
+        self.dense_panel = DensePanel(self)
         self.files_panel = FilesPanel(self)
         self.loop.listeners.append(self._on_frame)
         self.editor.listeners.append(lambda _: self._on_session_change())

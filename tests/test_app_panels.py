@@ -91,3 +91,31 @@ def test_save_as_and_open(app):
     app.files_panel.open_choice.value = "scan"
     app.files_panel._open()
     assert app.editor.session.root.name == "scan"
+
+
+@pytest.mark.parametrize("method", ["carve (consistent)", "TSDF fusion (mesh)"])
+def test_dense_runs_shows_and_exports(app, method):
+    panel = app.dense_panel
+    panel.method.value, panel.voxel.value = method, 4.0
+    panel.box_around_cloud()
+    low, high = np.array(panel.low.value), np.array(panel.high.value)
+    assert np.all(high - low > 0.2) and np.all(high - low < 0.6)        # the sphere (23 cm) and its margin
+    panel.start().join(timeout=120)
+    vertices, sources, faces = panel.result
+    assert set(np.unique(sources)) <= {0, 1, 2} and len(vertices) > 500
+    assert (faces is not None) == (method.startswith("TSDF"))
+    centre = np.array([0.0, 0.0, 2.0])
+    assert np.median(np.abs(np.linalg.norm(vertices - centre, axis=1) - 0.115)) < 0.004
+    saved = app.files_panel.export_dense(None)
+    points, labels = read_ply(saved)
+    assert len(points) == len(vertices)
+
+
+def test_dense_cancel(app):
+    panel = app.dense_panel
+    panel.method.value, panel.voxel.value = "carve (consistent)", 1.0
+    panel.box_around_cloud()
+    thread = panel.start()                                # 1 mm voxels: ~25 million, several seconds
+    panel._cancel.set()                                   # the Cancel button
+    thread.join(timeout=120)
+    assert panel.status.content == "cancelled" and not panel.progress.visible and not panel.run.disabled

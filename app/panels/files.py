@@ -29,10 +29,12 @@ class FilesPanel:
             self.save_as = gui.add_button("Save as new session")
         with gui.add_folder("Export"):
             self.export = gui.add_button("Export cloud as PLY")
+            self.export_mesh = gui.add_button("Export dense result as PLY")
             self.exported = gui.add_markdown("")
         self.open.on_click(lambda e: app.act(e.client, self._open))
         self.save_as.on_click(lambda e: app.act(e.client, self._save_as))
         self.export.on_click(lambda e: app.act(e.client, lambda: self.export_cloud(e.client)))
+        self.export_mesh.on_click(lambda e: app.act(e.client, lambda: self.export_dense(e.client)))
         self.refresh()
 
     def refresh(self) -> None:
@@ -55,13 +57,27 @@ class FilesPanel:
         self.new_name.value = ""
 
     def export_cloud(self, client: viser.ClientHandle | None) -> Path | None:
-        """The current cloud as PLY: sent to `client` as a download and, for a saved session, written into its
-        exports/ folder (returned)."""
+        """The current cloud as PLY (see _export)."""
         frame = self.app.last_frame
         if frame is None:
             raise MirrorscanError("no cloud yet to export")
-        name = f"frame-{frame.index:06d}.ply"
-        data = encode_ply(frame.cloud.points, frame.cloud.sources)
+        saved = self._export(f"frame-{frame.index:06d}.ply", encode_ply(frame.cloud.points, frame.cloud.sources),
+                             client)
+        self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
+        return saved
+
+    def export_dense(self, client: viser.ClientHandle | None) -> Path | None:
+        """The last dense result (carved voxels, or the fused mesh with its faces) as PLY (see _export)."""
+        data = self.app.dense_panel.export_bytes()
+        if data is None:
+            raise MirrorscanError("no dense result yet: run one in the Dense folder")
+        saved = self._export(f"dense-{self.app.dense_panel.method_name()}.ply", data, client)
+        self.exported.content = "dense result" + (f" saved as `{saved}`" if saved else " downloaded")
+        return saved
+
+    def _export(self, name: str, data: bytes, client: viser.ClientHandle | None) -> Path | None:
+        """Send PLY bytes to `client` as a download and, for a saved session, write them into its exports/ folder
+        (the path returned)."""
         saved = None
         if self.app.editor.autosave:
             saved = Path(self.app.editor.session.root) / EXPORTS / name
@@ -69,5 +85,4 @@ class FilesPanel:
             write_atomic(saved, data)
         if client is not None:
             client.send_file_download(name, data, save_immediately=True)
-        self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
         return saved
