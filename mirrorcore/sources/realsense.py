@@ -11,7 +11,8 @@ from .base import DepthSource, Frame, require
 from .files import StackSource
 
 REALSENSE_INSTALL = "pip install 'mirrorscan[devices]' (PyPI pyrealsense2)"
-BAG_END_WAIT_MS = 1000          # a bag's playback has ended when no frame comes for this long
+BAG_END_WAIT_MS = 1000          # wait this long for a bag's next frame, then ask whether its playback stopped
+BAG_MAX_WAITS = 10              # ... at most this many times in a row
 
 
 class RealSenseSource(DepthSource):
@@ -68,13 +69,16 @@ def open_bag(path: str | Path) -> StackSource:
     except RuntimeError as exc:
         raise FileFormatError(f"{path}: not a readable RealSense recording ({exc})") from None
     try:
-        profile.get_device().as_playback().set_real_time(False)
+        playback = profile.get_device().as_playback()
+        playback.set_real_time(False)
         camera, fps = profile_camera(rs, profile)
-        units, stamps = [], []
-        while True:
+        units, stamps, waits = [], [], 0
+        while waits < BAG_MAX_WAITS:
             ok, frames = pipe.try_wait_for_frames(BAG_END_WAIT_MS)
-            if not ok:
-                break
+            if not ok:                      # the end, or a slow machine: only a stopped playback is the end
+                waits = BAG_MAX_WAITS if playback.current_status() == rs.playback_status.stopped else waits + 1
+                continue
+            waits = 0
             depth = frames.get_depth_frame()
             units.append(np.asanyarray(depth.get_data()).copy())
             stamps.append(depth.get_timestamp() * 1e-3)
