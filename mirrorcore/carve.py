@@ -108,14 +108,14 @@ def _carve_slab(rig: Rig, views: tuple[View, ...], volume: Volume, th: float, sl
     local = np.flatnonzero(z >= direct.cull_depth[direct_pixels(rig.intrinsics, volume, slab)] - np.float32(th))
     index, points = volume.slab_points(slab, local)
     free = ~in_front_of_mirrors(rig, points)
-    best = np.full(len(points), np.inf, np.float32)
-    best_source = np.full(len(points), NO_SOURCE, np.uint8)
+    best = np.full(points.shape[1], np.inf, np.float32)
+    best_source = np.full(points.shape[1], NO_SOURCE, np.uint8)
     for view in views:
         p = transform(view, points)
         d, surface = sample(rig.intrinsics, view, p)
         with np.errstate(invalid="ignore"):
-            free |= p[:, 2] < d - th
-            gap = np.where(surface, np.abs(p[:, 2] - d), np.inf)
+            free |= p[2] < d - th
+            gap = np.where(surface, np.abs(p[2] - d), np.inf)
         closer = gap < np.minimum(best, th + np.float32(1e-9))
         best = np.where(closer, gap, best)
         best_source[closer] = view.source
@@ -133,15 +133,15 @@ def _paper_slab(rig: Rig, views: tuple[View, ...], images: _PaperImages, volume:
     index, points = volume.slab_points(slab, local)
     front = in_front_of_mirrors(rig, points)
     with np.errstate(invalid="ignore"):
-        direct = np.abs(np.linalg.norm(points, axis=1) - images.distance[pixel[local]]) < th
-    every_mirror = np.ones(len(points), bool)
-    best = np.full(len(points), np.inf, np.float32)
-    best_source = np.zeros(len(points), np.uint8)
+        direct = np.abs(np.linalg.norm(points, axis=0) - images.distance[pixel[local]]) < th
+    every_mirror = np.ones(points.shape[1], bool)
+    best = np.full(points.shape[1], np.inf, np.float32)
+    best_source = np.zeros(points.shape[1], np.uint8)
     for view, inside in zip(views[1:], images.inside):
         p = transform(view, points)
         at = pixel_index(intr, *project(intr, p))
         with np.errstate(invalid="ignore"):
-            gap = np.abs(np.linalg.norm(p, axis=1) - images.distance[at])
+            gap = np.abs(np.linalg.norm(p, axis=0) - images.distance[at])
             every_mirror &= images.object[at] & inside[at] & (gap < th)
         closer = gap < best
         best = np.where(closer, gap, best)

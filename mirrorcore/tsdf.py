@@ -82,18 +82,18 @@ def _fuse_slab(rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, volum
     local = np.flatnonzero(z >= cull[direct_pixels(rig.intrinsics, volume, slab)] - np.float32(trunc))
     index, points = volume.slab_points(slab, local)
     keep = in_front_of_mirrors(rig, points)
-    index, points = index[keep], points[keep]
-    total = np.zeros(len(points), np.float32)
-    sum_w = np.zeros(len(points), np.float32)
-    best_w = np.zeros(len(points), np.float32)
-    best_source = np.full(len(points), NO_SOURCE, np.uint8)
+    index, points = index[keep], points[:, keep]
+    total = np.zeros(points.shape[1], np.float32)
+    sum_w = np.zeros(points.shape[1], np.float32)
+    best_w = np.zeros(points.shape[1], np.float32)
+    best_source = np.full(points.shape[1], NO_SOURCE, np.uint8)
     for views in frames:
         for view in views:
             p = transform(view, points)
             d, surface = sample(rig.intrinsics, view, p)
             with np.errstate(invalid="ignore", divide="ignore"):
-                sdf = d - p[:, 2]
-                w = np.where(surface & (sdf > -trunc), np.float32(1) / np.square(np.square(p[:, 2])), 0)
+                sdf = d - p[2]
+                w = np.where(surface & (sdf > -trunc), np.float32(1) / np.square(np.square(p[2])), 0)
                 total += w * np.minimum(np.where(w > 0, sdf, 0) / np.float32(trunc), 1)
             sum_w += w
             better = w > best_w

@@ -79,9 +79,10 @@ def _flat(image: np.ndarray, pad) -> np.ndarray:
 
 
 def transform(view: View, points: np.ndarray) -> np.ndarray:
-    """points (n, 3) float32 camera frame -> (n, 3) float32 in the frame this view projects (see View.to_view)."""
-    r, t = view.to_view[:, :3].astype(np.float32), view.to_view[:, 3].astype(np.float32)
-    return points @ r.T + t
+    """points (3, n) float32 rows x, y, z, camera frame -> (3, n) float32 in the frame this view projects
+    (see View.to_view); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is several times slower)."""
+    m = view.to_view.astype(np.float32)
+    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3] for r in range(3)])
 
 
 def pixel_index(intr: Intrinsics, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -94,15 +95,15 @@ def pixel_index(intr: Intrinsics, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def project(intr: Intrinsics, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 3) float32 points in a view's frame -> u, v (n,) float32 pixel coordinates, NaN where z <= 0."""
+    """(3, n) float32 points in a view's frame -> u, v (n,) float32 pixel coordinates, NaN where z <= 0."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(p[:, 2] > 0, np.float32(1) / p[:, 2], np.float32(np.nan))
-    return (np.float32(intr.fx) * p[:, 0] * inv + np.float32(intr.cx),
-            np.float32(intr.fy) * p[:, 1] * inv + np.float32(intr.cy))
+        inv = np.where(p[2] > 0, np.float32(1) / p[2], np.float32(np.nan))
+    return (np.float32(intr.fx) * p[0] * inv + np.float32(intr.cx),
+            np.float32(intr.fy) * p[1] * inv + np.float32(intr.cy))
 
 
 def sample(intr: Intrinsics, view: View, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The view's depth at points p (n, 3) float32 in the view's frame (see `transform`), with sub-pixel lookup.
+    """The view's depth at points p (3, n) float32 in the view's frame (see `transform`), with sub-pixel lookup.
 
     Where the four pixels around a point all show the surface within BILINEAR_GAP of each other, the depth is their
     bilinear interpolation and the point counts as on the surface's ray. Elsewhere (a depth edge, the silhouette, no
@@ -142,9 +143,11 @@ def direct_pixels(intr: Intrinsics, volume: Volume, slab: slice) -> np.ndarray:
 
 
 def in_front_of_mirrors(rig: Rig, points: np.ndarray) -> np.ndarray:
-    """(n,) bool: the points lie in front of every calibrated mirror plane (the volume the algorithms carve)."""
-    ok = np.ones(len(points), bool)
+    """points (3, n) float32 camera frame -> (n,) bool: in front of every calibrated mirror plane (the volume the
+    algorithms carve)."""
+    ok = np.ones(points.shape[1], bool)
     for m in rig.mirrors:
         if m.plane is not None:
-            ok &= m.plane.signed_distance(points) > 0
+            n = m.plane.n.astype(np.float32)
+            ok &= n[0] * points[0] + n[1] * points[1] + n[2] * points[2] + np.float32(m.plane.d) > 0
     return ok

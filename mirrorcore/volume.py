@@ -79,10 +79,11 @@ class Volume:
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
     def slab_points(self, slab: slice, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """C-order indices (n,) int64 into the grid and centres (n, 3) float32 of the voxels of slab `slab` (see
-        `slabs`) at flat indices `local` (n,) within the slab."""
+        """C-order indices (n,) int64 into the grid and centres (3, n) float32 (rows x, y, z, metres) of the voxels of
+        slab `slab` (see `slabs`) at flat indices `local` (n,) within the slab."""
         index = local + slab.start * self.shape[1] * self.shape[2]
-        return index, self.centres(index)
+        ijk = np.unravel_index(index, self.shape)
+        return index, np.stack([(o + self.voxel * i).astype(np.float32) for o, i in zip(self.origin, ijk)])
 
     def slabs(self, max_voxels: int = CHUNK_VOXELS) -> list[slice]:
         """Slices along x (axis 0) of at most max(max_voxels, one x-plane) voxels each, covering the grid."""
