@@ -26,7 +26,8 @@ import numpy as np
 
 from .errors import MirrorscanError
 from .rig import Rig
-from .views import View, direct_pixels, in_front_of_mirrors, pixel_index, project, rig_views, sample, transform
+from .views import (View, direct_pixels, in_front_of_mirrors, padded_flat, pixel_index, project, rig_views, sample,
+                    transform)
 from .volume import Progress, Volume, run_slabs
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states
@@ -91,12 +92,11 @@ class _PaperImages:
     def of(cls, rig: Rig, depth: np.ndarray, mask: np.ndarray) -> "_PaperImages":
         rays = rig.intrinsics.rays
         z = np.asarray(depth, np.float32)
-        flat = lambda a, pad: np.append(a.ravel(), np.array(pad, a.dtype))
         bits = rig.inside_bits
-        inside = tuple(flat(((bits >> np.uint32(j)) & 1).astype(bool), False)
+        inside = tuple(padded_flat(((bits >> np.uint32(j)) & 1).astype(bool), False)
                        for j, m in enumerate(rig.mirrors) if m.plane is not None and m.boundary is not None)
-        return cls(flat(np.asarray(mask, bool) & (z > 0), False),
-                   flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan), inside)
+        return cls(padded_flat(np.asarray(mask, bool) & (z > 0), False),
+                   padded_flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan), inside)
 
 
 def _carve_slab(rig: Rig, views: tuple[View, ...], volume: Volume, th: float, slab: slice, state: np.ndarray,

@@ -56,9 +56,9 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, trunca
     """
     depths = np.asarray(depths, np.float32)
     depths = depths[None] if depths.ndim == 2 else depths
-    masks = np.asarray(masks, bool).reshape(depths.shape) if np.size(masks) == depths.size else None
-    if masks is None:
-        raise MirrorscanError(f"fuse: {np.shape(masks)} masks for {depths.shape} depth frames")
+    if np.size(masks) != depths.size:
+        raise MirrorscanError(f"fuse: masks of shape {np.shape(masks)} for depth frames of shape {depths.shape}")
+    masks = np.asarray(masks, bool).reshape(depths.shape)
     trunc = 3 * volume.voxel if truncation is None else float(truncation)
     if not trunc > 0:
         raise MirrorscanError(f"fuse: the truncation must be positive, got {truncation}")

@@ -70,11 +70,12 @@ def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]
 
 def _view(source: int, to_view: np.ndarray, depth: np.ndarray, surface: np.ndarray) -> View:
     cull = cv2.erode(np.where(np.isnan(depth), np.inf, depth).astype(np.float32), np.ones((3, 3), np.uint8))
-    return View(source, np.asarray(to_view, np.float64), _flat(depth, np.nan), _flat(surface, False), _flat(cull, np.inf))
+    return View(source, np.asarray(to_view, np.float64), padded_flat(depth, np.nan), padded_flat(surface, False),
+                padded_flat(cull, np.inf))
 
 
-def _flat(image: np.ndarray, pad) -> np.ndarray:
-    """(H, W) -> (H*W + 1,) with `pad` in the last cell: index H*W reads `pad` (points off the image)."""
+def padded_flat(image: np.ndarray, pad) -> np.ndarray:
+    """(H, W) image -> (H*W + 1,) of its dtype with `pad` in the last cell: index H*W (see pixel_index) reads `pad`."""
     return np.append(image.ravel(), np.array(pad, image.dtype))
 
 

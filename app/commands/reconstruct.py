@@ -97,7 +97,8 @@ def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, 
         raise MirrorscanError(f"--frames: expected a positive number, got {count}")
     first = index % len(session.frames) if -len(session.frames) <= index < len(session.frames) else index
     if first + count > len(session.frames):
-        raise MirrorscanError(f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past the end")
+        raise MirrorscanError(f"--frames: the session has {len(session.frames)} frames, "
+                              f"{first} + {count} is past the end")
     prepared = [prepare_frame(rig, session.read_frame(i), background, selection) for i in range(first, first + count)]
     depths, masks = (np.stack(a) for a in zip(*prepared))
     options = DenseOptions(args.voxel, args.margin, None if args.bounds is None else
