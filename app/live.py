@@ -14,7 +14,7 @@ import numpy as np
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.pipeline import object_cloud
-from mirrorcore.sources import DepthSource
+from mirrorcore.sources import DepthSource, Frame
 
 from .state import SharedState, Snapshot
 
@@ -23,10 +23,11 @@ RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
 @dataclass(frozen=True, eq=False)
 class LiveFrame:
-    """One processed frame: its index, depth (H, W) metres, object mask (H, W) bool, merged cloud, and the snapshot
-    (session, rig) it was processed with; process_ms is the time from reading to the cloud."""
+    """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres, object mask (H, W)
+    bool, merged cloud, and the snapshot (session, rig) it was processed with; process_ms is the processing time."""
 
     index: int
+    timestamp: float
     depth: np.ndarray
     mask: np.ndarray
     cloud: Cloud
@@ -34,10 +35,10 @@ class LiveFrame:
     process_ms: float
 
 
-def process_frame(snapshot: Snapshot, index: int, depth: np.ndarray) -> LiveFrame:
+def process_frame(snapshot: Snapshot, index: int, frame: Frame) -> LiveFrame:
     t0 = time.perf_counter()
-    cloud, mask = object_cloud(snapshot.rig, depth, snapshot.background, snapshot.selection)
-    return LiveFrame(index, depth, mask, cloud, snapshot, (time.perf_counter() - t0) * 1e3)
+    cloud, mask = object_cloud(snapshot.rig, frame.depth, snapshot.background, snapshot.selection)
+    return LiveFrame(index, frame.timestamp, frame.depth, mask, cloud, snapshot, (time.perf_counter() - t0) * 1e3)
 
 
 class RateMeter:
@@ -72,6 +73,7 @@ class LiveLoop:
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
+        self._turn = threading.Lock()     # one frame at a time; switching source or seeking waits for it
         self._ahead: tuple[int, Future] | None = None
         self._paused = threading.Event()
         self._step = threading.Event()
@@ -104,21 +106,32 @@ class LiveLoop:
         """Read and process the next frame on the calling thread (also what the thread does each turn). The frame
         after it is read meanwhile on a helper thread, so reading (ray casting, file or device I/O) and processing
         share the two cores."""
-        depth = self._read(self.index)
-        self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
-        frame = process_frame(self.state.current, self.index, depth)
-        self.index += 1
-        self._recent.append(depth)
+        with self._turn:
+            source_frame = self._read(self.index)
+            self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
+            frame = process_frame(self.state.current, self.index, source_frame)
+            self.index += 1
+        self._recent.append(frame.depth)
         for listener in list(self.listeners):
             listener(frame)
         self.rate.tick(time.perf_counter())
         return frame
 
-    def _read(self, index: int) -> np.ndarray:
+    def use_source(self, source: DepthSource) -> None:
+        """Play another source of the same camera from its first frame."""
+        with self._turn:
+            self.source, self.index, self._ahead = source, 0, None
+
+    def seek(self, index: int) -> None:
+        """Play on from frame `index` (a seekable source)."""
+        with self._turn:
+            self.index, self._ahead = int(index), None
+
+    def _read(self, index: int) -> Frame:
         ahead, self._ahead = self._ahead, None
         if ahead is not None and ahead[0] == index:
-            return ahead[1].result().depth
-        return self.source.read(index).depth
+            return ahead[1].result()
+        return self.source.read(index)
 
     def recent_depths(self) -> np.ndarray | None:
         """(k, H, W) metres: the last RECENT_FRAMES depth frames (for calibration over their median), or None."""

@@ -25,6 +25,7 @@ from .panels.files import FilesPanel
 from .panels.live import LivePanel
 from .panels.measure import MeasurePanel
 from .panels.mirrors import MirrorsPanel
+from .panels.record import RecordPanel
 from .panels.selection import SelectionPanel
 from .state import SharedState, Snapshot
 from .view import SceneView
@@ -63,6 +64,7 @@ class MirrorscanApp:
         self.selection_panel = SelectionPanel(self)
         self.measure_panel = MeasurePanel(self)
         self.dense_panel = DensePanel(self)
+        self.record_panel = RecordPanel(self)
         self.files_panel = FilesPanel(self)
         self.loop.listeners.append(self._on_frame)
         self.editor.listeners.append(lambda _: self._on_session_change())
@@ -99,6 +101,15 @@ class MirrorscanApp:
         self.editor.autosave = True
         self._background = (None, None)
         self.editor.replace_session(session)
+
+    def use_source(self, source: DepthSource) -> None:
+        """Take frames from another source of the same camera (a recording to replay)."""
+        if source.intrinsics.shape != self.source.intrinsics.shape:
+            raise MirrorscanError(f"{source.name}: its {source.intrinsics.width}x{source.intrinsics.height} frames "
+                                  f"do not fit this session's camera")
+        self.source = source
+        self.loop.use_source(source)
+        self.live_panel.follow_source(source)
 
     def set_background(self, depth: np.ndarray, relative_path: str) -> None:
         """Use `depth` (H, W metres) as the background; saved beside a saved session as `relative_path`."""

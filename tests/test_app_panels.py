@@ -119,3 +119,31 @@ def test_dense_cancel(app):
     panel._cancel.set()                                   # the Cancel button
     thread.join(timeout=120)
     assert panel.status.content == "cancelled" and not panel.progress.visible and not panel.run.disabled
+
+
+def test_record_then_replay_with_the_calibration(app):
+    panel = app.record_panel
+    panel.start()
+    start = app.loop.index
+    deadline = time.monotonic() + 30
+    while app.loop.index < start + 6:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    recorded = panel.stop()
+    assert len(recorded.frames) >= 4 and len(recorded.extra["timestamps"]) == len(recorded.frames)
+    saved = load_session(recorded.root)
+    assert saved.mirrors == app.editor.session.mirrors and saved.background == "background.png"
+    first = saved.read_frame(0)
+    panel.play_recording()
+    assert app.source.frame_count == len(recorded.frames) and app.live_panel.seek.visible
+    assert app.editor.session.root == recorded.root
+    app.loop.pause(True)
+    time.sleep(0.3)
+    app.loop.seek(0)
+    app.loop.step()
+    deadline = time.monotonic() + 30
+    while app.last_frame.index != 0:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
+    app.loop.pause(False)

@@ -29,7 +29,7 @@ def legend_html(counts: dict[str, int]) -> str:
 class LivePanel:
     def __init__(self, app: "MirrorscanApp"):
         gui, self.app = app.server.gui, app
-        gui.add_markdown(f"**mirrorscan** · source: {app.source.name}")
+        self.title = gui.add_markdown("")
         with gui.add_folder("Live"):
             self.rate = gui.add_markdown("starting…")
             self.legend = gui.add_html("")
@@ -39,6 +39,7 @@ class LivePanel:
                 self.look_3d = gui.add_button("Look at the 3D scene")
                 self.look_depth = gui.add_button("Look at the depth frame")
             self.pause = gui.add_checkbox("Pause", initial_value=False)
+            self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.step = gui.add_button("Step one frame", disabled=True)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
         self.look_3d.on_click(lambda e: app.view.look_from_home(e.client))
@@ -46,7 +47,16 @@ class LivePanel:
         self.pause.on_update(lambda _: self._on_pause())
         self.step.on_click(lambda _: app.loop.step())
         self.size.on_update(lambda _: app.view.set_point_size(self.size.value / 1000))
+        self.seek.on_update(lambda e: app.loop.seek(self.seek.value) if e.client is not None else None)
         self._last_stats = 0.0
+        self.follow_source(app.source)
+
+    def follow_source(self, source) -> None:
+        """Name the source; show the frame slider for a recording (seekable), hide it for a live camera."""
+        self.title.content = f"**mirrorscan** · source: {source.name}"
+        if source.frame_count:
+            self.seek.max = max(source.frame_count - 1, 1)
+        self.seek.visible = bool(source.frame_count)
 
     def _on_pause(self) -> None:
         self.app.loop.pause(self.pause.value)
@@ -60,6 +70,9 @@ class LivePanel:
         self._last_stats = now
         self.rate.content = (f"frame {frame.index} · **{self.app.loop.rate.fps:.1f} fps** · "
                              f"processing {frame.process_ms:.1f} ms")
+        count = self.app.source.frame_count
+        if count:
+            self.seek.value = frame.index % count
         self.legend.content = legend_html(frame.cloud.counts(len(frame.snapshot.rig.mirrors)))
 
     def show_pixel(self, u: float, v: float, depth: float) -> None:

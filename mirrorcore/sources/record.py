@@ -28,7 +28,7 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
     """Record `source` into a new session folder and return its Session.
 
     Stops at the first of: `frames` frames; a frame whose timestamp is `seconds` or more after the first one; the end
-    of a seekable source (one pass); cancel() returning True; Ctrl-C. A cancelled or interrupted recording keeps what
+    of the source's iteration (one pass of a recording); cancel() returning True; Ctrl-C. A cancelled or interrupted recording keeps what
     was recorded as a valid session (session.json is written last, atomically); then KeyboardInterrupt is raised
     again. On any other error the folder is removed. progress(n, frame) is called after frame n (1-based) is written.
     folder : must not exist, or be empty. Raises MirrorscanError, FileFormatError, OSError.
@@ -43,9 +43,10 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
     (folder / "frames").mkdir(parents=True, exist_ok=True)
     try:
         try:
+            frames_in = iter(source)      # a recording's frames once, a live source's until it ends
             while len(names) < limit and not cancel():
-                frame = source.read(len(names))
-                if seconds is not None and stamps and frame.timestamp - stamps[0] >= seconds:
+                frame = next(frames_in, None)
+                if frame is None or seconds is not None and stamps and frame.timestamp - stamps[0] >= seconds:
                     break
                 write_depth_png(folder / FRAME_NAME.format(len(names)), frame.depth, scale)
                 if frame.colour is not None:
