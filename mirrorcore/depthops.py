@@ -22,6 +22,16 @@ def median_depth(frames: np.ndarray) -> np.ndarray:
     return out
 
 
+def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:
+    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `mask`, grown by `pad`
+    pixels on each side within the image (empty slices when the mask is empty)."""
+    u, v, w, h = cv2.boundingRect(mask.view(np.uint8))
+    if w == 0:
+        return slice(0, 0), slice(0, 0)
+    rows, cols = mask.shape
+    return slice(max(v - pad, 0), min(v + h + pad, rows)), slice(max(u - pad, 0), min(u + w + pad, cols))
+
+
 def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength: float = 3.0) -> np.ndarray:
     """Edge-aware smoothing of the masked pixels of a depth image, in inverse depth (disparity).
 
@@ -33,13 +43,13 @@ def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength:
     depth : (H, W) float metres; mask : (H, W) bool -> (H, W) float32 metres (unmasked pixels as they were)
     """
     depth = np.asarray(depth, dtype=np.float32)
-    use = mask & (depth > 0)
-    w = np.zeros_like(depth)
-    w[use] = 1.0 / depth[use]
-    # Pixels outside the mask get w = -1: a range difference of > 1 m^-1 gives them zero weight.
-    w[~use] = -1.0
-    filtered = cv2.bilateralFilter(w, 2 * radius + 1, strength * KINECT_AXIAL_COEF, radius)
     out = depth.copy()
-    good = use & (filtered > 0)
-    out[good] = 1.0 / filtered[good]
+    win = bounding_window(mask, radius)          # the filter only needs the masked pixels and their neighbours
+    use = mask[win] & (depth[win] > 0)
+    # Pixels outside the mask get w = -1: a range difference of > 1 m^-1 gives them zero weight.
+    w = np.where(use, 1.0 / np.where(use, depth[win], 1.0), -1.0).astype(np.float32)
+    if w.size:
+        filtered = cv2.bilateralFilter(w, 2 * radius + 1, strength * KINECT_AXIAL_COEF, radius)
+        good = use & (filtered > 0)
+        out[win][good] = 1.0 / filtered[good]
     return out

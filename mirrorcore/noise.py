@@ -11,5 +11,8 @@ MIN_SIGMA = 0.5e-3             # a floor (metres) so that thresholds never colla
 
 
 def axial_sigma(z: np.ndarray | float) -> np.ndarray:
-    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored at MIN_SIGMA."""
-    return np.maximum(KINECT_AXIAL_COEF * np.square(np.asarray(z, dtype=np.float64)), MIN_SIGMA)
+    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored at MIN_SIGMA.
+    float32 input gives float32 (per-pixel images), anything else float64."""
+    z = np.asarray(z)
+    z = z if z.dtype == np.float32 else z.astype(np.float64)
+    return np.maximum(z.dtype.type(KINECT_AXIAL_COEF) * np.square(z), z.dtype.type(MIN_SIGMA))

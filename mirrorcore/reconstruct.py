@@ -2,11 +2,11 @@
 seen in a mirror through its plane)."""
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from .camera import check_depth_shape
 from .cloud import Cloud
+from .depthops import bounding_window
 from .rig import Rig
 
 
@@ -25,7 +25,7 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
     keep = depth > 0 if mask is None else (mask & (depth > 0))
-    win = _bounding_window(keep)                 # all the work happens in the kept pixels' bounding box
+    win = bounding_window(keep)                 # all the work happens in the kept pixels' bounding box
     z = depth[win]
     behind = z > table.threshold[win]
     # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
@@ -41,12 +41,6 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     # row-major order inside the window is the image's row-major order: the same ranks index both
     picked = np.take(out.reshape(-1, 4), np.flatnonzero(keep[win]), axis=0)
     return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), np.flatnonzero(keep), intr.width)
-
-
-def _bounding_window(keep: np.ndarray) -> tuple[slice, slice]:
-    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `keep` (empty if none)."""
-    u, v, w, h = cv2.boundingRect(keep.view(np.uint8))
-    return slice(v, v + h), slice(u, u + w)
 
 
 def _later_mirrors(rig: Rig, win: tuple[slice, slice], out: np.ndarray, pending: np.ndarray) -> None:

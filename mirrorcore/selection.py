@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from .camera import Intrinsics, check_depth_shape
+from .depthops import bounding_window
 from .errors import FileFormatError, MirrorscanError
 from .noise import axial_sigma
 from .polygon import polygon_mask, validate_polygon
@@ -87,21 +88,24 @@ def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | No
         mask &= (background <= 0) | (depth < background - tolerance)
     if selection.roi is not None:
         mask &= polygon_mask(np.asarray(selection.roi), intr.shape)
-    mask &= ~flying_pixels(depth, mask, selection)
-    return remove_specks(mask, selection.min_blob)
+    win = bounding_window(mask, 1)               # the clean-up looks at the candidates and their neighbours only
+    if mask[win].size:
+        mask[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection), selection.min_blob)
+    return mask
 
 
 def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
     """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings at depth edges)."""
     nearest = np.where(mask, depth, np.inf).astype(np.float32)
     nearest = cv2.erode(nearest, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
-    gap = np.maximum(selection.flying_sigmas * axial_sigma(depth), selection.flying_gap * depth)
+    depth = np.asarray(depth, dtype=np.float32)
+    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(depth), np.float32(selection.flying_gap) * depth)
     return mask & (depth - nearest > gap)
 
 
 def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
     """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool -> (H, W) bool."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
-    keep = stats[:, cv2.CC_STAT_AREA] >= min_blob
+    count, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+    keep = np.bincount(labels.reshape(-1), minlength=count) >= min_blob   # (its ...WithStats is 10x slower here)
     keep[0] = False
     return keep[labels]
