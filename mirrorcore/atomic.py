@@ -1,10 +1,15 @@
-"""Atomic file writes: write beside the target, flush to disk, keep one backup, then rename over the target."""
+"""Atomic writes: a file written beside its target, flushed, then renamed over it (one backup kept); a folder built
+under a hidden name beside its target, then renamed into place."""
 from __future__ import annotations
 
 import os
 import shutil
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
+
+from .errors import MirrorscanError
 
 
 def write_atomic(path: str | Path, data: bytes, backup: bool = False) -> None:
@@ -41,3 +46,23 @@ def current_umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+@contextmanager
+def new_folder(path: str | Path) -> Iterator[Path]:
+    """Build a folder all or nothing: yields a hidden temporary folder beside `path`, renamed to `path` when the block
+    ends normally and removed when it raises (Ctrl-C included). `path` must not exist or be an empty folder
+    (MirrorscanError otherwise)."""
+    path = Path(path)
+    if path.exists() and (not path.is_dir() or any(path.iterdir())):
+        raise MirrorscanError(f"{path}: already exists and is not an empty folder")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        os.chmod(work, 0o777 & ~current_umask())   # mkdtemp makes it private; the folder is not
+        yield work
+        if path.exists():
+            path.rmdir()
+        os.replace(work, path)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)    # gone already after the rename

@@ -3,16 +3,14 @@ saved atomically with one backup (session.json.bak)."""
 from __future__ import annotations
 
 import json
-import os
 import re
 import shutil
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .atomic import current_umask, write_atomic
+from .atomic import new_folder, write_atomic
 from .camera import Intrinsics
 from .depthio import read_depth_png
 from .errors import FileFormatError, MirrorscanError
@@ -194,20 +192,9 @@ def copy_session(session: Session, folder: str | Path) -> Session:
     """Save a session under a new folder with its background and frames; all or nothing. Refuses an existing folder
     that is not empty. Returns the session as it now lives in `folder`."""
     folder = Path(folder)
-    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
-        raise MirrorscanError(f"{folder}: already exists; choose another name")
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
-    try:
+    with new_folder(folder) as work:
         for rel in ([session.background] if session.background else []) + list(session.frames):
             (work / rel).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(Path(session.root) / rel, work / rel)
         save_session(replace(session, root=work))
-        os.chmod(work, 0o777 & ~current_umask())
-        if folder.exists():
-            folder.rmdir()
-        os.replace(work, folder)
-    except BaseException:
-        shutil.rmtree(work, ignore_errors=True)
-        raise
     return replace(session, root=folder)

@@ -100,7 +100,9 @@ def test_dense_runs_shows_and_exports(app, method):
     panel.box_around_cloud()
     low, high = np.array(panel.low.value), np.array(panel.high.value)
     assert np.all(high - low > 0.2) and np.all(high - low < 0.6)        # the sphere (23 cm) and its margin
+    panel.result = None
     panel.start().join(timeout=120)
+    assert panel.result is not None, panel.status.content
     vertices, sources, faces = panel.result
     assert set(np.unique(sources)) <= {0, 1, 2} and len(vertices) > 500
     assert (faces is not None) == (method.startswith("TSDF"))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from mirrorcore.carve import FREE, HIDDEN, NO_SOURCE, SURFACE, carve
+from mirrorcore.carve import FREE, HIDDEN, NO_SOURCE, carve
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.volume import Volume

@@ -1,6 +1,5 @@
 """Recording sources into session folders: record then replay gives the same frames bit for bit; Ctrl-C and cancel
 keep a valid session; errors leave nothing; the `record` and `sources` commands."""
-from pathlib import Path
 
 import numpy as np
 import pytest

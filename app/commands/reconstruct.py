@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import shutil
 import signal
-import tempfile
 import threading
 from contextlib import contextmanager
 from pathlib import Path
@@ -13,6 +11,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from mirrorcore.atomic import new_folder
 from mirrorcore.carve import CarveResult
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, prepare_frame, reconstruct_dense
 from mirrorcore.errors import Cancelled, MirrorscanError
@@ -74,17 +73,10 @@ def run(args: argparse.Namespace) -> int:
     if args.method != "raw":
         raise MirrorscanError(f"--frame all: only with --method raw; {args.method} makes one result from one frame "
                               "(tsdf: --frames N fuses N frames)")
-    if out.exists():
-        raise MirrorscanError(f"{out}: already exists; give a new folder for --frame all")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    work = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:  # write into a hidden folder, rename it at the end: a failure or Ctrl-C leaves no half-written folder
+    with new_folder(out) as work:   # a failure or Ctrl-C leaves no half-written folder
         for i in tqdm(range(len(session.frames)), desc="reconstruct", unit="frame"):
             cloud, _ = object_cloud(rig, session.read_frame(i), background, selection)
             write_ply(work / f"{Path(session.frames[i]).stem}.ply", cloud.points, cloud.sources)
-        work.rename(out)
-    finally:
-        shutil.rmtree(work, ignore_errors=True)
     print(f"wrote {len(session.frames)} PLY files into {out}")
     return 0
 

@@ -4,15 +4,13 @@ frames) plus truth.json with the true objects and planes, all or nothing (built 
 from __future__ import annotations
 
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
 from tqdm import tqdm
 
+from ..atomic import new_folder
 from ..camera import Intrinsics, project_points
 from ..depthio import write_depth_png
 from ..errors import MirrorscanError
@@ -83,21 +81,8 @@ def write_session(rig: SimulatedRig, out: str | Path, n_frames: int, noise: str 
     out = Path(out)
     if n_frames < 1:
         raise MirrorscanError(f"--frames: at least one frame, got {n_frames}")
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
-        raise MirrorscanError(f"{out}: already exists and is not an empty folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        umask = os.umask(0)
-        os.umask(umask)
-        tmp.chmod(0o777 & ~umask)                  # mkdtemp makes it private; a session folder is not
-        _write(rig, tmp, n_frames, noise, progress)
-        if out.exists():
-            out.rmdir()
-        os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    with new_folder(out) as work:
+        _write(rig, work, n_frames, noise, progress)
     return out
 
 
