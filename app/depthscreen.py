@@ -12,6 +12,7 @@ from mirrorcore.camera import Intrinsics
 SCREEN_DISTANCE = 1.5   # metres behind the depth camera
 SCREEN_HEIGHT = 1.2     # metres
 VIEW_FOV_DEG = 50.0     # the tab's vertical field of view when it looks at the screen
+VIEW_SHIFT = 0.12       # of the screen's width: the view looks right of centre, the side panel covers the right
 
 
 class DepthScreen:
@@ -58,11 +59,12 @@ class DepthScreen:
 
     def look_at(self, client: viser.ClientHandle) -> None:
         """Put a tab's camera squarely behind the screen so that the whole depth frame fills its view."""
-        distance = 0.55 * self.height / np.tan(np.radians(VIEW_FOV_DEG) / 2)
+        distance = 0.6 * self.height / np.tan(np.radians(VIEW_FOV_DEG) / 2)
+        target = self.centre + np.array([VIEW_SHIFT * self.width, 0.0, 0.0])
         client.camera.fov = np.radians(VIEW_FOV_DEG)
         client.camera.up_direction = (0.0, -1.0, 0.0)
-        client.camera.position = tuple(self.centre - np.array([0.0, 0.0, distance]))
-        client.camera.look_at = tuple(self.centre)
+        client.camera.position = tuple(target - np.array([0.0, 0.0, distance]))
+        client.camera.look_at = tuple(target)
 
     def _clicked(self, event) -> None:
         pixel = self.pixel_of_ray(event.ray_origin, event.ray_direction)
