@@ -67,3 +67,16 @@ def test_loop_thread_pause_and_step(app):
     app.loop.pause(False)
     wait_for(lambda: app.loop.index >= held + 3)
     assert app.loop.rate.fps > 0
+
+
+def test_depth_screen_maps_rays_to_pixels_and_back(app):
+    screen = app.screen
+    eye = screen.centre - [0.3, -0.2, 2.0]                            # somewhere behind the screen
+    for uv in [(0.0, 0.0), (319.5, 239.5), (639.0, 479.0), (100.25, 400.75)]:
+        target = screen.world_of_pixel(*uv)
+        got = screen.pixel_of_ray(eye, target - eye)
+        np.testing.assert_allclose(got, uv, atol=1e-9)
+    assert screen.world_of_pixel(0, 0)[0] < screen.world_of_pixel(639, 0)[0]      # u grows with x: not mirrored
+    assert screen.world_of_pixel(0, 0)[1] < screen.world_of_pixel(0, 479)[1]      # v grows with y (down)
+    assert screen.pixel_of_ray(eye, [0.0, 0.0, -1.0]) is None                      # pointing away
+    assert screen.pixel_of_ray(eye, screen.world_of_pixel(0, 0) - [0.5, 0, 0] - eye) is None   # beside it
