@@ -81,6 +81,11 @@ class SessionEditor:
             self._set_mirror(index, replace(self._mirror(index), markers=()))
 
     # ------------------------------------------------------------------ boundaries
+    def open_drafts(self) -> dict[int, tuple[tuple[float, float], ...]]:
+        """A copy of the boundaries being drawn, {mirror index: vertices} (safe to read from another thread)."""
+        with self._lock:
+            return dict(self.drafts)
+
     def boundary_vertices(self, index: int) -> tuple[tuple[float, float], ...]:
         """The vertices shown for a mirror: its open draft if one is being drawn, else its closed boundary."""
         with self._lock:

@@ -168,7 +168,7 @@ class MirrorscanApp:
         valid = frame.depth[frame.depth > 0]
         near, far = np.percentile(valid, [1, 99]) if len(valid) else (0.5, 4.5)
         rgb = draw_mask(colorize_depth(frame.depth, near, far), frame.mask)
-        draw_mirrors(rgb, self.editor.session.mirrors, dict(self.editor.drafts), self.mirrors_panel.selected_vertex)
+        draw_mirrors(rgb, self.editor.session.mirrors, self.editor.open_drafts(), self.mirrors_panel.selected_vertex)
         roi = self.state.current.selection.roi
         if roi:
             draw_polygon(rgb, roi, ROI_COLOUR, closed=True)
