@@ -99,7 +99,7 @@ class MirrorscanApp:
     def open_session(self, session: Session) -> None:
         """Edit another session (autosaved in its folder from now on)."""
         self.editor.autosave = True
-        self._background = (None, None)
+        self._background = (None, self.source.background())   # the session's own, if any, is read on the change
         self.editor.replace_session(session)
 
     def use_source(self, source: DepthSource) -> None:
@@ -125,19 +125,21 @@ class MirrorscanApp:
 
     def show_pixel(self, u: float, v: float) -> None:
         frame = self.last_frame
-        depth = 0.0 if frame is None else float(frame.depth[int(round(v)), int(round(u))])
-        self.live_panel.show_pixel(u, v, depth)
+        if frame is not None:
+            rows, cols = frame.depth.shape
+            depth = float(frame.depth[min(int(round(v)), rows - 1), min(int(round(u)), cols - 1)])
+            self.live_panel.show_pixel(u, v, depth)
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:
         session = self.editor.session
-        if session.background and session.background != self._background[0]:
-            self._background = (session.background, session.read_background())
-        elif not session.background and self._background[0] is not None:
-            self._background = (None, self.source.background())
         try:
+            if session.background and session.background != self._background[0]:
+                self._background = (session.background, session.read_background())
+            elif not session.background and self._background[0] is not None:
+                self._background = (None, self.source.background())
             self.state.replace(Snapshot.build(session, self._background[1]))
-        except MirrorscanError as exc:   # e.g. a selection that the session file cannot hold: keep the last state
+        except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state
             self.notify(None, "Session not applied", str(exc))
             return
         self.view.show_rig(self.state.current.rig)
