@@ -16,6 +16,7 @@ import numpy as np
 from .errors import FileFormatError
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
+MAX_IMAGE_SIDE = 16384   # pixels: no depth camera comes near; a larger size in a file is damage, not a camera
 
 
 @dataclass(frozen=True)
@@ -37,8 +38,10 @@ class Intrinsics:
     depth_scale: float = 0.001
 
     def __post_init__(self) -> None:
-        if not (int(self.width) > 0 and int(self.height) > 0):
-            raise FileFormatError(f"camera: width and height must be positive, got {self.width}x{self.height}")
+        size = np.array([self.width, self.height], dtype=float)
+        if not (np.all(np.isfinite(size)) and np.all(size >= 1) and np.all(size <= MAX_IMAGE_SIDE)):
+            raise FileFormatError(f"camera: width and height must be 1 to {MAX_IMAGE_SIDE} pixels, "
+                                  f"got {size[0]:g}x{size[1]:g}")
         values = np.array([self.fx, self.fy, self.cx, self.cy, self.depth_scale], dtype=float)
         if not np.all(np.isfinite(values)) or self.fx <= 0 or self.fy <= 0 or self.depth_scale <= 0:
             raise FileFormatError(
@@ -60,9 +63,12 @@ class Intrinsics:
             values = {k: float(data[k]) for k in _FIELDS if k in data}
         except (TypeError, ValueError) as exc:
             raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
-        if values["width"] != int(values["width"]) or values["height"] != int(values["height"]):
-            raise FileFormatError(f"{where}: width and height must be integers")
-        return cls(**values)
+        if not (values["width"].is_integer() and values["height"].is_integer()):
+            raise FileFormatError(f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
+        try:
+            return cls(**values)
+        except FileFormatError as exc:
+            raise FileFormatError(f"{where}: {str(exc).removeprefix('camera: ')}") from None
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -152,7 +158,7 @@ def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray
     """
     p = np.asarray(points_cam, dtype=np.float64).reshape(-1, 3)
     z = p[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         uv = np.stack([intr.fx * p[:, 0] / z + intr.cx, intr.fy * p[:, 1] / z + intr.cy], axis=-1)
     uv[z <= 0] = np.nan
     return uv, z
@@ -183,7 +189,7 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
         return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2], K[1, 2], depth_scale)
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+    except (OSError, ValueError, KeyError, TypeError, OverflowError) as exc:
         raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON ({type(exc).__name__}: {exc})") from None
 
 
@@ -203,18 +209,18 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height); raises FileFormatError."""
     if not Path(path).is_file():
         raise FileFormatError(f"{path}: no such file")
-    try:
+    try:   # OpenCV raises cv2.error on bad YAML, SystemError on an empty file
         fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
+        try:
+            K = fs.getNode("camera_matrix").mat()
+            w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
+            scale_node = fs.getNode("depth_scale")
+            scale = depth_scale if scale_node.empty() else scale_node.real()
+        finally:
+            fs.release()
+    except (cv2.error, SystemError) as exc:
         raise FileFormatError(f"{path}: not an OpenCV YAML file ({str(exc).strip().splitlines()[-1]})") from None
-    try:
-        K = fs.getNode("camera_matrix").mat()
-        w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
-        scale_node = fs.getNode("depth_scale")
-        scale = depth_scale if scale_node.empty() else scale_node.real()
-    finally:
-        fs.release()
-    if K is None or K.shape != (3, 3) or not w or not h:
+    if K is None or K.shape != (3, 3) or not (np.isfinite(w) and np.isfinite(h) and w >= 1 and h >= 1):
         raise FileFormatError(f"{path}: needs camera_matrix (3x3), image_width and image_height")
     try:
         return Intrinsics(int(w), int(h), K[0, 0], K[1, 1], K[0, 2], K[1, 2], scale)

@@ -27,9 +27,12 @@ class Plane:
         orient : True flips a plane given with d < 0 to the camera's side; False refuses it (the convention says the
         camera is in front, d > 0: a stored plane with d < 0 would put the camera behind the mirror).
         """
-        p = np.asarray(abcd, dtype=np.float64).reshape(-1)
+        try:
+            p = np.asarray(abcd, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            p = np.full(0, np.nan)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
-            raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {list(np.ravel(abcd))}")
+            raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
         norm = np.linalg.norm(p[:3])
         if norm < 1e-12:
             raise CalibrationError(f"{where}: the plane's normal (a, b, c) is zero")

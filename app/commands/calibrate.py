@@ -3,10 +3,12 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
 from mirrorcore.calibration import Calibration, calibrate_from_markers, calibrate_from_region
+from mirrorcore.depthio import require_readings
 from mirrorcore.errors import CalibrationError
 from mirrorcore.session import Session, load_session, save_session
 
@@ -28,7 +30,7 @@ def register(sub) -> None:
 def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
     """(k, H, W) metres: the frame asked for, or the background and up to MAX_MEDIAN_FRAMES evenly spaced frames."""
     if frame is not None:
-        return session.read_frame(frame)[None]
+        return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
     picks = np.unique(np.linspace(0, len(session.frames) - 1, min(len(session.frames), MAX_MEDIAN_FRAMES)).astype(int))
     stack = [session.read_frame(int(i)) for i in picks] if session.frames else []
     background = session.read_background()
@@ -36,7 +38,7 @@ def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
         stack.append(background)
     if not stack:
         raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
-    return np.stack(stack)
+    return require_readings(np.stack(stack), f"{session.path}: the frames and the background")
 
 
 def calibrate_mirror(session: Session, index: int, depth: np.ndarray, method: str,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import zipfile
+import zlib
 from pathlib import Path
 
 import cv2
@@ -248,10 +249,12 @@ def load_npz(path: Path) -> dict[str, np.ndarray]:
         raise FileFormatError(f"{path}: no such .npz file")
     if not zipfile.is_zipfile(path):
         raise FileFormatError(f"{path}: not a .npz archive (not a zip file)")
-    try:
-        with np.load(path, allow_pickle=False) as data:
+    try:   # our own file handle: numpy leaves its own open when the archive is broken
+        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
             return {key: data[key] for key in data.files}
-    except ValueError:
-        raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
-    except (OSError, zipfile.BadZipFile, EOFError) as exc:
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
         raise FileFormatError(f"{path}: not a readable .npz file ({exc})") from None
+    except (OSError, zipfile.BadZipFile, EOFError, NotImplementedError, zlib.error) as exc:
+        raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
