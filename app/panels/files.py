@@ -1,5 +1,6 @@
-"""The "Session" folder: where the session lives, open another, save it under a new name, and export the current
-cloud as PLY (downloaded to the browser and saved in the session's exports/ folder)."""
+"""The "Session" folder: where the session lives, open another, save it under a new name, upload a depth PNG as the
+background, and export the current cloud as PLY (downloaded to the browser and saved in the session's exports/
+folder)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,15 +8,19 @@ from typing import TYPE_CHECKING
 
 import viser
 
+from mirrorcore.atomic import write_atomic
+from mirrorcore.depthio import decode_depth_png, require_readings
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
-from mirrorcore.atomic import write_atomic
 from mirrorcore.session import SESSION_FILE, copy_session, load_session, session_folder
+
+from .selection import BACKGROUND_FILE
 
 if TYPE_CHECKING:
     from ..server import MirrorscanApp
 
 EXPORTS = "exports"
+MAX_UPLOAD_MB = 20   # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
 
 
 class FilesPanel:
@@ -27,12 +32,16 @@ class FilesPanel:
             self.open = gui.add_button("Open session")
             self.new_name = gui.add_text("Save as", "")
             self.save_as = gui.add_button("Save as new session")
+            self.upload = gui.add_upload_button("Upload background (16-bit depth PNG)", mime_type="image/png",
+                                                hint=f"the scene without the object; at most {MAX_UPLOAD_MB} MB")
         with gui.add_folder("Export"):
             self.export = gui.add_button("Export cloud as PLY")
             self.export_mesh = gui.add_button("Export dense result as PLY")
             self.exported = gui.add_markdown("")
         self.open.on_click(lambda e: app.act(e.client, self._open))
         self.save_as.on_click(lambda e: app.act(e.client, self._save_as))
+        self.upload.on_upload(lambda e: app.act(e.client, lambda: self.upload_background(e.target.value.name,
+                                                                                        e.target.value.content)))
         self.export.on_click(lambda e: app.act(e.client, lambda: self.export_cloud(e.client)))
         self.export_mesh.on_click(lambda e: app.act(e.client, lambda: self.export_dense(e.client)))
         self.refresh()
@@ -55,6 +64,19 @@ class FilesPanel:
         folder = session_folder(self.app.sessions_dir, self.new_name.value)
         self.app.open_session(copy_session(self.app.editor.session, folder))
         self.new_name.value = ""
+
+    def upload_background(self, name: str, data: bytes) -> None:
+        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the session's
+        background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB, a name not ending in .png,
+        an image that is not 16-bit or not the camera's size, and one with no reading at all."""
+        if len(data) > MAX_UPLOAD_MB * 2**20:
+            raise MirrorscanError(f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "
+                                  "upload may have")
+        if not name.lower().endswith(".png"):
+            raise MirrorscanError(f"{name}: not a .png file; upload a 16-bit depth PNG")
+        camera = self.app.editor.session.camera
+        depth = require_readings(decode_depth_png(data, camera.depth_scale, camera.shape, name), name)
+        self.app.set_background(depth, BACKGROUND_FILE)
 
     def export_cloud(self, client: viser.ClientHandle | None) -> Path | None:
         """The current cloud as PLY (see _export)."""
