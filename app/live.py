@@ -76,8 +76,10 @@ class LiveLoop:
         self._turn = threading.Lock()     # one frame at a time; switching source or seeking waits for it
         self._ahead: tuple[int, Future] | None = None
         self._paused = threading.Event()
-        self._step = threading.Event()
+        self._wake = threading.Event()    # set on pause, step and stop: the paused loop looks at its state again
         self._stop = threading.Event()
+        self._steps = 0                   # single steps asked for while paused (guarded by _step_lock)
+        self._step_lock = threading.Lock()
         self._thread = threading.Thread(target=self._run, name="mirrorscan-live", daemon=True)
 
     def start(self) -> None:
@@ -85,7 +87,7 @@ class LiveLoop:
 
     def stop(self) -> None:
         self._stop.set()
-        self._step.set()
+        self._wake.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5)
         self._reader.shutdown(wait=True, cancel_futures=True)
@@ -96,11 +98,20 @@ class LiveLoop:
 
     def pause(self, paused: bool) -> None:
         (self._paused.set if paused else self._paused.clear)()
-        self._step.set()  # wake the loop
+        self._wake.set()
 
     def step(self) -> None:
         """Process exactly one more frame while paused."""
-        self._step.set()
+        with self._step_lock:
+            self._steps += 1
+        self._wake.set()
+
+    def _take_step(self) -> bool:
+        with self._step_lock:
+            if self._steps:
+                self._steps -= 1
+                return True
+            return False
 
     def run_once(self) -> LiveFrame:
         """Read and process the next frame on the calling thread (also what the thread does each turn). The frame
@@ -157,7 +168,7 @@ class LiveLoop:
         try:
             deadline = time.monotonic() + timeout
             while not done.wait(0.1):
-                if self.paused:
+                if self.paused and not self._steps:   # one frame at a time while paused
                     self.step()
                 if time.monotonic() > deadline:
                     raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in {timeout:.0f} s")
@@ -166,19 +177,15 @@ class LiveLoop:
         return frames
 
     def _run(self) -> None:
-        period = 1.0 / self.source.fps
         while not self._stop.is_set():
-            if self._paused.is_set():
-                self._step.wait()
-                if self._stop.is_set():
-                    break
-                if not self._step.is_set():
-                    continue
-            self._step.clear()
+            if self._paused.is_set() and not self._take_step():
+                self._wake.wait()
+                self._wake.clear()         # the state is looked at again before waiting again: no wake is lost
+                continue
             started = time.perf_counter()
             try:
                 self.run_once()
             except Exception as exc:  # noqa: BLE001 - a bad frame or a lost camera must not end the loop
                 self.on_error(exc)
                 self._stop.wait(0.5)
-            self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
+            self._stop.wait(max(0.0, 1.0 / self.source.fps - (time.perf_counter() - started)))
