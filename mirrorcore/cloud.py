@@ -36,9 +36,6 @@ class Cloud:
         """The sub-cloud of a boolean mask or index array over the points."""
         return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
 
-    def of_source(self, source: int) -> "Cloud":
-        return self.select(self.sources == source)
-
     def counts(self, n_mirrors: int) -> dict[str, int]:
         """Points per source name, every source listed (zero when absent): {'direct': n0, 'mirror 1': n1, ...}."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
