@@ -15,7 +15,7 @@ from .errors import MirrorscanError
 def write_atomic(path: str | Path, data: bytes, backup: bool = False) -> None:
     """Replace `path` with `data` so that a reader sees either the old file or the new one, never a partial one.
 
-    backup : keep the previous version as `path` + '.bak' (copied before the rename).
+    backup : keep the previous version as `path` + '.bak' (itself replaced atomically, before the rename).
     Raises OSError (full disk, read-only folder...) naming `path`, with the target left untouched.
     """
     path = Path(path)
@@ -34,11 +34,23 @@ def _write_beside(path: Path, data: bytes, backup: bool) -> None:
             f.flush()
             os.fsync(f.fileno())
         if backup and path.exists():
-            shutil.copy2(path, path.with_name(path.name + ".bak"))
+            _link_or_copy(path, tmp + ".bak")
+            os.replace(tmp + ".bak", path.with_name(path.name + ".bak"))
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
+        Path(tmp + ".bak").unlink(missing_ok=True)
         raise
+
+
+def _link_or_copy(source: Path, target: str) -> None:
+    """A second name for `source` (a hard link: instant, and the old version once `source` is replaced), or a copy
+    where the file system has no hard links. The backup is then renamed into place: a process killed while making
+    it leaves the previous backup, never a partial one."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
 
 
 def current_umask() -> int:

@@ -1,0 +1,151 @@
+"""Soak test of the browser tool: the live demo streamed to several simulated browser tabs (websocket clients on
+127.0.0.1) for a set time while the session is edited and autosaved; reports memory (RSS), frames, frame rate, what
+every tab received, and whether every edit reached the disk.
+
+    .venv/bin/python -m bench.soak --minutes 10 --clients 4      # the long run; the test suite runs ~25 s of it
+"""
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import msgspec
+import viser
+import websockets.asyncio.client
+
+from app.demo import calibrated_session, demo_source
+from app.server import MirrorscanApp
+from mirrorcore.session import load_session
+
+WARM_UP = 0.2          # fraction of the run after which memory is taken as the baseline
+EDIT_EVERY_S = 5.0     # a mirror is renamed (and autosaved) this often
+SAMPLE_EVERY_S = 1.0   # RSS sampled this often
+LATE_CLIENT_S = 3.0    # the tab opened at the end listens this long
+CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
+    "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,
+    "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640, "look_at": [0.0, 0.0, 1.0],
+    "up_direction": [0.0, -1.0, 0.0]})
+
+
+@dataclass
+class SoakReport:
+    """What a soak run measured. rss_* in MB of the whole process (server, live loop and the simulated tabs);
+    rss_growth_mb = end - baseline after the warm-up; fps = frames / seconds; messages: per tab, in order; max_gap_s:
+    the longest silence any tab saw; edits / edits_on_disk: session renames made / found in session.json at the end;
+    late_messages: what a tab opened at the end received (the whole current state); errors: live loop errors."""
+
+    seconds: float
+    clients: int
+    frames: int = 0
+    fps: float = 0.0
+    rss_start_mb: float = 0.0
+    rss_warm_mb: float = 0.0
+    rss_end_mb: float = 0.0
+    rss_max_mb: float = 0.0
+    rss_growth_mb: float = 0.0
+    messages: list[int] = field(default_factory=list)
+    max_gap_s: float = 0.0
+    edits: int = 0
+    edits_on_disk: bool = False
+    late_messages: int = 0
+    errors: list[str] = field(default_factory=list)
+
+
+def describe(exc: BaseException) -> str:
+    """'Type: message' and the innermost frames (file:line) where it was raised, for the report."""
+    where = "; ".join(f"{Path(f.filename).name}:{f.lineno}" for f in traceback.extract_tb(exc.__traceback__)[-4:])
+    return f"{type(exc).__name__}: {exc} (at {where})"
+
+
+def rss_mb() -> float:
+    """Resident memory of this process in MB (Linux /proc)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+async def listen(url: str, until: float) -> tuple[int, float]:
+    """One simulated tab: connect with viser's protocol, report a camera view (viser counts a tab as connected from
+    then on), read every message until time.monotonic() >= until.
+    Returns (messages received, longest gap between two messages in seconds)."""
+    count, gap, last = 0, 0.0, time.monotonic()
+    async with websockets.asyncio.client.connect(url, subprotocols=[f"viser-v{viser.__version__}"],
+                                                 max_size=None) as ws:
+        await ws.send(CAMERA_MESSAGE)
+        while (left := until - time.monotonic()) > 0:
+            try:
+                await asyncio.wait_for(ws.recv(), timeout=min(left, 1.0))
+            except asyncio.TimeoutError:
+                continue
+            now = time.monotonic()
+            count, gap, last = count + 1, max(gap, now - last), now
+    return count, max(gap, until - last)
+
+
+async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
+    return list(await asyncio.gather(*(listen(url, until) for _ in range(n))))
+
+
+def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
+    """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`, renaming a mirror every
+    EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder by default). Stops by itself."""
+    report = SoakReport(seconds, clients, rss_start_mb=rss_mb())
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(folder or tmp) / "soak"
+        source = demo_source()
+        app = MirrorscanApp(calibrated_session(source, root), source, port=0, autosave=True,
+                            sessions_dir=root.parent)
+        report_error = app.loop.on_error
+        app.loop.on_error = lambda exc: (report.errors.append(describe(exc)), report_error(exc))
+        url = f"ws://127.0.0.1:{app.port}"
+        start = time.monotonic()
+        until = start + seconds
+        tabs: list[tuple[int, float]] = []
+        listener = threading.Thread(target=lambda: tabs.extend(asyncio.run(_tabs(url, clients, until))), daemon=True)
+        try:
+            app.start()
+            listener.start()
+            next_edit, rss = start + EDIT_EVERY_S, []
+            while (now := time.monotonic()) < until:
+                rss.append(rss_mb())
+                if not report.rss_warm_mb and now - start >= WARM_UP * seconds:
+                    report.rss_warm_mb = rss[-1]
+                if now >= next_edit:
+                    report.edits += 1
+                    app.editor.rename_mirror(0, f"mirror 1 edit {report.edits}")
+                    next_edit += EDIT_EVERY_S
+                time.sleep(min(SAMPLE_EVERY_S, max(0.0, until - now)))
+            report.frames = app.loop.index
+            report.fps = report.frames / (time.monotonic() - start)
+            listener.join(timeout=30)
+            late = asyncio.run(_tabs(url, 1, time.monotonic() + LATE_CLIENT_S))
+        finally:
+            app.stop()
+        report.rss_end_mb, report.rss_max_mb = rss_mb(), max(rss + [rss_mb()])
+        report.rss_growth_mb = report.rss_end_mb - (report.rss_warm_mb or report.rss_start_mb)
+        report.messages = [count for count, _ in tabs]
+        report.max_gap_s = max((gap for _, gap in tabs), default=float("inf"))
+        report.late_messages = late[0][0]
+        report.edits_on_disk = load_session(root).mirrors[0].name == app.editor.session.mirrors[0].name == (
+            f"mirror 1 edit {report.edits}" if report.edits else "mirror 1")
+    return report
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.soak", description=__doc__.splitlines()[0])
+    parser.add_argument("--minutes", type=float, default=10.0, help="how long to stream (default 10)")
+    parser.add_argument("--clients", type=int, default=4, help="simulated browser tabs (default 4)")
+    args = parser.parse_args(argv)
+    print(json.dumps(asdict(run(args.minutes * 60, args.clients)), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
