@@ -15,7 +15,7 @@ from app.server import MirrorscanApp
 from mirrorcore.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
 from mirrorcore.depthio import encode_depth_png, read_depth_png
 from mirrorcore.errors import FileFormatError, MirrorscanError
-from mirrorcore.session import Session, load_session, session_folder
+from mirrorcore.session import Session, load_session, save_session, session_folder
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.source import SimulatedRig
 from mirrorcore.sources import SimulatedSource, open_source
@@ -73,8 +73,9 @@ def test_empty_and_damaged_intrinsics_files(tmp_path):
         load_opencv_yaml(tmp_path / "inf.yaml")
 
 
-def test_calibrating_blank_frames_says_so_and_changes_nothing(tmp_path, capsys):
+def test_blank_frames_are_named_by_calibrate_and_reconstruct_and_change_nothing(tmp_path, capsys):
     assert main(["simulate", str(tmp_path / "s"), "--noise", "none", "--quiet"]) == 0
+    assert main(["calibrate", str(tmp_path / "s")]) == 0
     for name in ["background.png", "frames/000000.png"]:
         cv2.imwrite(str(tmp_path / "s" / name), np.zeros(CAMERA.shape, np.uint16))
     before = (tmp_path / "s/session.json").read_bytes()
@@ -85,14 +86,19 @@ def test_calibrating_blank_frames_says_so_and_changes_nothing(tmp_path, capsys):
     assert main(["calibrate", str(tmp_path / "s"), "--frame", "0"]) == 2
     assert "frames/000000.png: no depth reading at all" in capsys.readouterr().err
     assert (tmp_path / "s/session.json").read_bytes() == before
+    for method in ["raw", "tsdf"]:
+        assert main(["reconstruct", str(tmp_path / "s"), "-o", str(tmp_path / "out.ply"), "--method", method]) == 2
+        assert "frames/000000.png: no depth reading at all" in capsys.readouterr().err
+    assert not (tmp_path / "out.ply").exists()
 
 
 # ---------------------------------------------------------------------------- the browser's background upload
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     rig = SimulatedRig(paper_scene(object="sphere"), seed=1, fps=15.0)
-    root = tmp_path_factory.mktemp("upload") / "scan"
-    app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0, sessions_dir=root.parent)
+    session = Session(tmp_path_factory.mktemp("upload") / "scan", rig.intrinsics)
+    save_session(session)
+    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=session.root.parent)
     yield app
     app.stop()
 

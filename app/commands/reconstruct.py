@@ -14,6 +14,7 @@ from tqdm import tqdm
 from mirrorcore.atomic import new_folder
 from mirrorcore.carve import CarveResult
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, prepare_frame, reconstruct_dense
+from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import object_cloud, session_selection
 from mirrorcore.ply import write_ply
@@ -52,6 +53,12 @@ def calibrated_rig(session: Session) -> Rig:
     return Rig.from_session(session)
 
 
+def read_scan_frame(session: Session, index: int) -> np.ndarray:
+    """Frame `index` as (H, W) metres, refused when it has no reading at all (nothing to scan in it). `--frame all`
+    reads frames as they are: a recording may begin with blank frames while the camera starts."""
+    return require_readings(session.read_frame(index), str(Path(session.root) / session.frames[index]))
+
+
 def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
     rig = calibrated_rig(session)
@@ -65,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
             raise MirrorscanError(f"--frame: expected an integer or 'all', got {args.frame!r}") from None
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
-        cloud, _ = object_cloud(rig, session.read_frame(index), background, selection)
+        cloud, _ = object_cloud(rig, read_scan_frame(session, index), background, selection)
         write_ply(out, cloud.points, cloud.sources)
         print(f"wrote {out}: {len(cloud)} points " + ", ".join(f"{k} {v}" for k, v in
                                                                   cloud.counts(len(rig.mirrors)).items()))
@@ -91,7 +98,8 @@ def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, 
     if first + count > len(session.frames):
         raise MirrorscanError(f"--frames: the session has {len(session.frames)} frames, "
                               f"{first} + {count} is past the end")
-    prepared = [prepare_frame(rig, session.read_frame(i), background, selection) for i in range(first, first + count)]
+    prepared = [prepare_frame(rig, read_scan_frame(session, i), background, selection)
+                for i in range(first, first + count)]
     depths, masks = (np.stack(a) for a in zip(*prepared))
     options = DenseOptions(args.voxel, args.margin, None if args.bounds is None else
                            (tuple(args.bounds[:3]), tuple(args.bounds[3:])), args.threshold, args.truncation)
