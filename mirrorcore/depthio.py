@@ -48,7 +48,7 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
 def _check_png_size(head: bytes, shape: tuple[int, int] | None, where: str) -> None:
     """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W) or a side above MAX_IMAGE_SIDE. Other
     formats pass (they are checked after decoding)."""
-    if head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
+    if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
         return
     width, height = struct.unpack(">II", head[16:24])
     if max(width, height) > MAX_IMAGE_SIDE:

@@ -105,10 +105,11 @@ def test_scene_file(folder, data):
 
 
 PNG = encode_depth_png(np.random.default_rng(0).uniform(0.5, 4, CAMERA.shape), 0.001)
+png_headers = st.builds(lambda n, rest: PNG[:n] + rest, st.integers(8, 33), st.binary(max_size=40))
 
 
 @EXAMPLES
-@given(st.one_of(st.binary(max_size=300), damaged_bytes(PNG)), st.sampled_from([None, CAMERA.shape]))
+@given(st.one_of(st.binary(max_size=300), damaged_bytes(PNG), png_headers), st.sampled_from([None, CAMERA.shape]))
 def test_depth_png_bytes(folder, raw, shape):
     (folder / "d.png").write_bytes(raw)
     depth = ends_cleanly(read_depth_png, folder / "d.png", 0.001, shape)
