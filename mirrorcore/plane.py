@@ -33,6 +33,7 @@ class Plane:
             p = np.full(0, np.nan)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
             raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
+        p = p / max(1.0, np.abs(p[:3]).max())   # components near the float limit would overflow the norm
         norm = np.linalg.norm(p[:3])
         if norm < 1e-12:
             raise CalibrationError(f"{where}: the plane's normal (a, b, c) is zero")
