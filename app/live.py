@@ -72,6 +72,7 @@ class LiveLoop:
         self.rate = RateMeter()
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
+        self._recent_lock = threading.Lock()   # appended on the loop's thread, copied on the browser's
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
         self._turn = threading.Lock()     # one frame at a time; switching source or seeking waits for it
         self._ahead: tuple[int, Future] | None = None
@@ -122,7 +123,8 @@ class LiveLoop:
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
             frame = process_frame(self.state.current, self.index, source_frame)
             self.index += 1
-        self._recent.append(frame.depth)
+        with self._recent_lock:
+            self._recent.append(frame.depth)
         for listener in list(self.listeners):
             listener(frame)
         self.rate.tick(time.perf_counter())
@@ -146,7 +148,8 @@ class LiveLoop:
 
     def recent_depths(self) -> np.ndarray | None:
         """(k, H, W) metres: the last RECENT_FRAMES depth frames (for calibration over their median), or None."""
-        frames = list(self._recent)
+        with self._recent_lock:
+            frames = list(self._recent)
         return np.stack(frames) if frames else None
 
     def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0) -> list:

@@ -42,6 +42,7 @@ class MeasurePanel:
         gui, self.app = app.server.gui, app
         self.history: deque[tuple[float, float, float]] = deque(maxlen=HISTORY)   # (seconds, rmse mm, radius mm)
         self._busy = threading.Lock()
+        self._history_lock = threading.Lock()   # fits are recorded from the tracking thread and from button clicks
         self._started = time.monotonic()
         self._last_track = 0.0
         with gui.add_folder("Measure"):
@@ -96,7 +97,8 @@ class MeasurePanel:
             self._busy.release()
 
     def _record(self, result: ShapeFit) -> None:
-        self.history.append((time.monotonic() - self._started, result.errors.rmse * 1e3, result.shape.radius * 1e3))
-        t, rmse, radius = (np.array(c) for c in zip(*self.history))
+        with self._history_lock:
+            self.history.append((time.monotonic() - self._started, result.errors.rmse * 1e3, result.shape.radius * 1e3))
+            t, rmse, radius = (np.array(c) for c in zip(*self.history))
         self.plot.data = (t, rmse, radius)
         self.plot.visible = True
