@@ -2,6 +2,7 @@
 planes and the object selection, with undo and autosave. Pure logic over mirrorcore.session; thread-safe."""
 from __future__ import annotations
 
+import functools
 import threading
 from dataclasses import replace
 from typing import Callable
@@ -16,6 +17,24 @@ from mirrorcore.session import MirrorSpec, Session, save_session
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0   # pixels: a click this close to a vertex picks it
+
+
+def _edits(method):
+    """Run an editing method under the editor's lock, then tell the listeners (outside the lock, so that a listener
+    may take its own locks in any order) when it changed something."""
+
+    @functools.wraps(method)
+    def wrapper(self: "SessionEditor", *args, **kwargs):
+        with self._lock:
+            try:
+                result = method(self, *args, **kwargs)
+            finally:
+                session, changed, self._changed = self._session, self._changed, False
+        if changed:
+            for listener in list(self.listeners):
+                listener(session)
+        return result
+    return wrapper
 
 
 class SessionEditor:
@@ -34,6 +53,7 @@ class SessionEditor:
         self.autosave = autosave
         self.listeners: list[Callable[[Session], None]] = []
         self.last_save_error: str | None = None
+        self._changed = False
 
     @property
     def session(self) -> Session:
@@ -41,44 +61,44 @@ class SessionEditor:
             return self._session
 
     # ------------------------------------------------------------------ mirrors
+    @_edits
     def add_mirror(self, name: str | None = None) -> int:
         """Append a mirror (named 'mirror N' by default); returns its index (0-based)."""
-        with self._lock:
-            names = {m.name for m in self._session.mirrors}
-            name = (name or "").strip() or next(f"mirror {k}" for k in range(1, 1000) if f"mirror {k}" not in names)
-            self._check_name(name, None)
-            self._commit(replace(self._session, mirrors=self._session.mirrors + (MirrorSpec(name),)))
-            return len(self._session.mirrors) - 1
+        names = {m.name for m in self._session.mirrors}
+        name = (name or "").strip() or next(f"mirror {k}" for k in range(1, 1000) if f"mirror {k}" not in names)
+        self._check_name(name, None)
+        self._commit(replace(self._session, mirrors=self._session.mirrors + (MirrorSpec(name),)))
+        return len(self._session.mirrors) - 1
 
+    @_edits
     def rename_mirror(self, index: int, name: str) -> None:
-        with self._lock:
-            name = name.strip()
-            self._check_name(name, index)
-            self._set_mirror(index, replace(self._mirror(index), name=name))
+        name = name.strip()
+        self._check_name(name, index)
+        self._set_mirror(index, replace(self._mirror(index), name=name))
 
+    @_edits
     def remove_mirror(self, index: int) -> None:
-        with self._lock:
-            self._mirror(index)
-            mirrors = self._session.mirrors[:index] + self._session.mirrors[index + 1:]
-            self.drafts = {(k if k < index else k - 1): v for k, v in self.drafts.items() if k != index}
-            self._commit(replace(self._session, mirrors=mirrors))
+        self._mirror(index)
+        mirrors = self._session.mirrors[:index] + self._session.mirrors[index + 1:]
+        self.drafts = {(k if k < index else k - 1): v for k, v in self.drafts.items() if k != index}
+        self._commit(replace(self._session, mirrors=mirrors))
 
     # ------------------------------------------------------------------ markers
+    @_edits
     def add_marker(self, index: int, uv: tuple[float, float]) -> None:
-        with self._lock:
-            mirror = self._mirror(index)
-            self._set_mirror(index, replace(mirror, markers=mirror.markers + (self._pixel(uv),)))
+        mirror = self._mirror(index)
+        self._set_mirror(index, replace(mirror, markers=mirror.markers + (self._pixel(uv),)))
 
+    @_edits
     def remove_last_marker(self, index: int) -> None:
-        with self._lock:
-            mirror = self._mirror(index)
-            if not mirror.markers:
-                raise MirrorscanError(f"{mirror.name}: no marker to remove")
-            self._set_mirror(index, replace(mirror, markers=mirror.markers[:-1]))
+        mirror = self._mirror(index)
+        if not mirror.markers:
+            raise MirrorscanError(f"{mirror.name}: no marker to remove")
+        self._set_mirror(index, replace(mirror, markers=mirror.markers[:-1]))
 
+    @_edits
     def clear_markers(self, index: int) -> None:
-        with self._lock:
-            self._set_mirror(index, replace(self._mirror(index), markers=()))
+        self._set_mirror(index, replace(self._mirror(index), markers=()))
 
     # ------------------------------------------------------------------ boundaries
     def open_drafts(self) -> dict[int, tuple[tuple[float, float], ...]]:
@@ -91,23 +111,23 @@ class SessionEditor:
         with self._lock:
             return self.drafts.get(index, self._mirror(index).boundary)
 
+    @_edits
     def add_vertex(self, index: int, uv: tuple[float, float]) -> None:
         """Add a corner to the mirror's open boundary (starting a new draft if its boundary is closed or empty)."""
-        with self._lock:
-            self._mirror(index)
-            self.drafts[index] = self.drafts.get(index, ()) + (self._pixel(uv),)
-            self._notify()
+        self._mirror(index)
+        self.drafts[index] = self.drafts.get(index, ()) + (self._pixel(uv),)
+        self._notify()
 
+    @_edits
     def close_boundary(self, index: int) -> None:
         """Validate the draft (>= 3 vertices, not self-crossing) and make it the mirror's boundary."""
-        with self._lock:
-            mirror = self._mirror(index)
-            draft = self.drafts.get(index)
-            if not draft:
-                raise MirrorscanError(f"{mirror.name}: no open boundary to close; click its corners first")
-            validate_polygon(draft, self._session.camera.shape, f"{mirror.name}: boundary")
-            del self.drafts[index]
-            self._set_mirror(index, replace(mirror, boundary=draft))
+        mirror = self._mirror(index)
+        draft = self.drafts.get(index)
+        if not draft:
+            raise MirrorscanError(f"{mirror.name}: no open boundary to close; click its corners first")
+        validate_polygon(draft, self._session.camera.shape, f"{mirror.name}: boundary")
+        del self.drafts[index]
+        self._set_mirror(index, replace(mirror, boundary=draft))
 
     def nearest_vertex(self, index: int, uv: tuple[float, float]) -> int | None:
         """The vertex of the shown boundary within PICK_RADIUS pixels of uv, or None."""
@@ -118,18 +138,18 @@ class SessionEditor:
         k = int(np.argmin(dist))
         return k if dist[k] <= PICK_RADIUS else None
 
+    @_edits
     def move_vertex(self, index: int, vertex: int, uv: tuple[float, float]) -> None:
-        with self._lock:
-            self._edit_vertices(index, vertex, lambda v: v[:vertex] + (self._pixel(uv),) + v[vertex + 1:])
+        self._edit_vertices(index, vertex, lambda v: v[:vertex] + (self._pixel(uv),) + v[vertex + 1:])
 
+    @_edits
     def delete_vertex(self, index: int, vertex: int) -> None:
-        with self._lock:
-            self._edit_vertices(index, vertex, lambda v: v[:vertex] + v[vertex + 1:])
+        self._edit_vertices(index, vertex, lambda v: v[:vertex] + v[vertex + 1:])
 
+    @_edits
     def clear_boundary(self, index: int) -> None:
-        with self._lock:
-            self.drafts.pop(index, None)
-            self._set_mirror(index, replace(self._mirror(index), boundary=()))
+        self.drafts.pop(index, None)
+        self._set_mirror(index, replace(self._mirror(index), boundary=()))
 
     def _edit_vertices(self, index: int, vertex: int, edit) -> None:
         mirror = self._mirror(index)
@@ -145,41 +165,41 @@ class SessionEditor:
         self._set_mirror(index, replace(mirror, boundary=edited))
 
     # ------------------------------------------------------------------ calibration and selection
+    @_edits
     def set_plane(self, index: int, plane: Plane | None) -> None:
-        with self._lock:
-            self._set_mirror(index, replace(self._mirror(index), plane=plane))
+        self._set_mirror(index, replace(self._mirror(index), plane=plane))
 
+    @_edits
     def set_selection(self, selection: Selection) -> None:
-        with self._lock:
-            extra = {**self._session.extra, "selection": selection.to_json()}
-            self._commit(replace(self._session, extra=extra))
+        extra = {**self._session.extra, "selection": selection.to_json()}
+        self._commit(replace(self._session, extra=extra))
 
+    @_edits
     def set_background(self, relative_path: str | None) -> None:
-        with self._lock:
-            self._commit(replace(self._session, background=relative_path))
+        self._commit(replace(self._session, background=relative_path))
 
+    @_edits
     def replace_session(self, session: Session) -> None:
         """Open another session (undo history and drafts are dropped)."""
-        with self._lock:
-            self._session, self._undo, self.drafts = session, [], {}
-            self._notify()
+        self._session, self._undo, self.drafts = session, [], {}
+        self._notify()
 
     # ------------------------------------------------------------------ undo
+    @_edits
     def undo(self) -> None:
         """Go back one change: an open draft loses its last vertex first, then sessions are restored."""
-        with self._lock:
-            open_drafts = [k for k, v in self.drafts.items() if v]
-            if open_drafts:
-                k = open_drafts[-1]
-                self.drafts[k] = self.drafts[k][:-1]
-                if not self.drafts[k]:
-                    del self.drafts[k]
-                self._notify()
-                return
-            if not self._undo:
-                raise MirrorscanError("nothing to undo")
-            self._session = self._undo.pop()
-            self._save_and_notify()
+        open_drafts = [k for k, v in self.drafts.items() if v]
+        if open_drafts:
+            k = open_drafts[-1]
+            self.drafts[k] = self.drafts[k][:-1]
+            if not self.drafts[k]:
+                del self.drafts[k]
+            self._notify()
+            return
+        if not self._undo:
+            raise MirrorscanError("nothing to undo")
+        self._session = self._undo.pop()
+        self._save_and_notify()
 
     # ------------------------------------------------------------------ internals
     def _mirror(self, index: int) -> MirrorSpec:
@@ -218,5 +238,4 @@ class SessionEditor:
         self._notify()
 
     def _notify(self) -> None:
-        for listener in self.listeners:
-            listener(self._session)
+        self._changed = True

@@ -4,6 +4,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import threading
 import time
 from pathlib import Path
 from typing import Callable
@@ -53,6 +54,7 @@ class MirrorscanApp:
                             else source.background())
         self.state = SharedState(Snapshot.build(session, self._background[1]))
         self.last_frame: LiveFrame | None = None
+        self._scene_lock = threading.RLock()   # the loop's thread and the browser's callbacks both redraw the scene
         self._last_screen = 0.0
         self._last_error = ""
         self.view = SceneView(self.server)
@@ -132,6 +134,10 @@ class MirrorscanApp:
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:
+        with self._scene_lock:
+            self._apply_session()
+
+    def _apply_session(self) -> None:
         session = self.editor.session
         try:
             if session.background and session.background != self._background[0]:
@@ -152,6 +158,10 @@ class MirrorscanApp:
         self.mirrors_panel.handle_click(u, v, client)
 
     def _on_frame(self, frame: LiveFrame) -> None:
+        with self._scene_lock:
+            self._show_frame(frame)
+
+    def _show_frame(self, frame: LiveFrame) -> None:
         self.last_frame = frame
         self._last_error = ""
         self.view.show_cloud(frame.cloud, len(frame.snapshot.rig.mirrors) + 1)
@@ -163,6 +173,10 @@ class MirrorscanApp:
 
     def redraw_screen(self) -> None:
         """The depth frame with the object mask, mirrors (and drafts), the picked vertex and the region of interest."""
+        with self._scene_lock:
+            self._draw_screen()
+
+    def _draw_screen(self) -> None:
         frame = self.last_frame
         if frame is None:
             return

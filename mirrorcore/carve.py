@@ -28,10 +28,9 @@ from .errors import MirrorscanError
 from .rig import Rig
 from .views import (View, direct_pixels, in_front_of_mirrors, padded_flat, pixel_index, project, rig_views, sample,
                     transform)
-from .volume import Progress, Volume, run_slabs
+from .volume import NO_SOURCE, Progress, Volume, run_slabs
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states
-NO_SOURCE = 255                          # source grid value of voxels that no view sees on the surface
 METHODS = ("paper", "carve")
 
 

@@ -23,9 +23,8 @@ from .errors import MirrorscanError
 from .mesh import Mesh, marching_cubes
 from .rig import Rig
 from .views import View, direct_pixels, in_front_of_mirrors, rig_views, sample, transform
-from .volume import Progress, Volume, run_slabs
+from .volume import NO_SOURCE, Progress, Volume, run_slabs
 
-NO_SOURCE = 255
 
 
 @dataclass(frozen=True, eq=False)

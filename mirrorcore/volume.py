@@ -14,6 +14,7 @@ from .errors import Cancelled, MirrorscanError
 MAX_VOXELS = 1_000_000_000        # refuse grids beyond this (a few GB of state alone)
 CHUNK_VOXELS = 1 << 18            # voxels per slab: temporaries stay in the CPU caches and memory stays bounded
 
+NO_SOURCE = 255   # the source grids' value for voxels that no view labels
 Progress = Callable[[float], None]   # called with the fraction done, 0 < fraction <= 1
 
 

@@ -74,3 +74,13 @@ def test_bad_requests(noisy):
     far = Volume.from_bounds([5, 5, 5], [5.1, 5.1, 5.1], 0.01)
     with pytest.raises(MirrorscanError, match="no surface"):
         fuse(scene.rig, depth, mask, far).mesh()
+
+
+def test_mesh_vertices_take_the_nearest_labelled_corner():
+    """A vertex whose nearest voxel has no label takes the label of the nearest corner of its cube that has one."""
+    from mirrorcore.mesh import _corner_labels
+    from mirrorcore.volume import NO_SOURCE
+    source = np.full((3, 3, 3), NO_SOURCE, np.uint8)
+    source[1, 1, 1], source[2, 1, 1] = 2, 1
+    verts = np.array([[1.2, 1.0, 1.0], [1.6, 1.0, 1.0], [0.4, 1.0, 1.0]])
+    np.testing.assert_array_equal(_corner_labels(verts, source), [2, 1, 2])
