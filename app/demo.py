@@ -2,12 +2,11 @@
 from their markers exactly as a user's would be."""
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from mirrorcore.calibration import calibrate_from_markers
+from mirrorcore.calibration import calibrate_session
 from mirrorcore.session import Session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
@@ -29,8 +28,4 @@ def calibrated_session(source: SimulatedSource, root: Path) -> Session:
     background = rig.background()
     depth = np.stack([background.depth] + [rig.frame(i).depth for i in range(CALIBRATION_FRAMES)])
     session = Session(root, rig.intrinsics, session_mirrors(rig, background.truth))
-    rng = np.random.default_rng(0)
-    for i, mirror in enumerate(session.mirrors):
-        result = calibrate_from_markers(rig.intrinsics, depth, mirror.markers, rng, mirror.name)
-        session = session.with_mirror(i, replace(mirror, plane=result.plane))
-    return session
+    return calibrate_session(session, depth, np.random.default_rng(0))[0]

@@ -166,8 +166,12 @@ class SessionEditor:
 
     # ------------------------------------------------------------------ calibration and selection
     @_edits
-    def set_plane(self, index: int, plane: Plane | None) -> None:
-        self._set_mirror(index, replace(self._mirror(index), plane=plane))
+    def set_planes(self, planes: dict[int, Plane | None]) -> None:
+        """Set the planes of several mirrors {index: plane} as one change (one undo step, one save)."""
+        session = self._session
+        for index, plane in planes.items():
+            session = session.with_mirror(index, replace(self._mirror(index), plane=plane))
+        self._commit(session)
 
     @_edits
     def set_selection(self, selection: Selection) -> None:

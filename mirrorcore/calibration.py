@@ -2,7 +2,7 @@
 region), and from pairs of real and virtual points of a calibration object."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -12,6 +12,7 @@ from .errors import CalibrationError
 from .noise import axial_sigma
 from .plane import Plane, fit_plane_ransac
 from .polygon import polygon_mask, validate_polygon
+from .session import MirrorSpec, Session
 
 MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
 MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
@@ -147,6 +148,30 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
     _check_camera_side(plane, name)
     err = np.linalg.norm(plane.reflect(virtual) - real, axis=1) / 2
     return Calibration(plane, float(np.sqrt(np.mean(err ** 2))) * 1e3, len(real), len(real))
+
+
+def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
+                      method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
+    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers, or with
+    method 'region' from the polygon in each mirror's extra key 'region'; all or nothing: the first refusal raises
+    CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
+    returns the session with the new planes, and (index, Calibration) for each mirror calibrated."""
+    indices = range(len(session.mirrors)) if indices is None else list(indices)
+    if not len(indices):
+        raise CalibrationError(f"{session.path}: the session has no mirrors")
+    results = [(i, _calibrate_mirror(session, session.mirrors[i], depth, method, rng)) for i in indices]
+    for i, result in results:
+        session = session.with_mirror(i, replace(session.mirrors[i], plane=result.plane))
+    return session, results
+
+
+def _calibrate_mirror(session: Session, mirror: MirrorSpec, depth: np.ndarray, method: str,
+                      rng: np.random.Generator) -> Calibration:
+    if method == "region":
+        if "region" not in mirror.extra:
+            raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
+        return calibrate_from_region(session.camera, depth, mirror.extra["region"], rng, mirror.name)
+    return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
 
 
 def _distance_to_best_line(points: np.ndarray) -> np.ndarray:

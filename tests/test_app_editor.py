@@ -115,7 +115,7 @@ def test_session_round_trip_through_the_editor(editor, tmp_path):
     for uv in SQUARE:
         editor.add_vertex(0, uv)
     editor.close_boundary(0)
-    editor.set_plane(0, Plane.from_abcd([0.5, 0, -0.8, 2.4]))
+    editor.set_planes({0: Plane.from_abcd([0.5, 0, -0.8, 2.4])})
     editor.set_selection(Selection(depth_max=3.5))
     loaded = load_session(tmp_path)
     assert loaded.mirrors[0].markers == ((10.0, 20.0),)
@@ -143,3 +143,11 @@ def test_listeners_hear_every_change(editor):
     editor.add_marker(0, (1, 1))
     editor.add_vertex(0, (2, 2))
     assert heard == [1, 1]
+
+
+def test_planes_of_several_mirrors_are_one_undo_step(editor):
+    editor.add_mirror()
+    editor.set_planes({0: Plane.from_abcd([0.5, 0, -0.8, 2.4]), 1: Plane.from_abcd([-0.5, 0, -0.8, 2.4])})
+    assert all(m.plane is not None for m in editor.session.mirrors)
+    editor.undo()
+    assert all(m.plane is None for m in editor.session.mirrors) and len(editor.session.mirrors) == 2

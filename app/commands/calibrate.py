@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from mirrorcore.calibration import Calibration, calibrate_from_markers, calibrate_from_region
+from mirrorcore.calibration import calibrate_session
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import CalibrationError
 from mirrorcore.session import Session, load_session, save_session
@@ -41,26 +40,13 @@ def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
     return require_readings(np.stack(stack), f"{session.path}: the frames and the background")
 
 
-def calibrate_mirror(session: Session, index: int, depth: np.ndarray, method: str,
-                     rng: np.random.Generator) -> Calibration:
-    mirror = session.mirrors[index]
-    if method == "region":
-        if "region" not in mirror.extra:
-            raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
-        return calibrate_from_region(session.camera, depth, mirror.extra["region"], rng, mirror.name)
-    return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
-
-
 def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")
     depth = calibration_depth(session, args.frame)
-    rng = np.random.default_rng(args.seed)
-    # all mirrors first: one failure writes nothing
-    results = [calibrate_mirror(session, i, depth, args.method, rng) for i in range(len(session.mirrors))]
-    for i, result in enumerate(results):
-        session = session.with_mirror(i, replace(session.mirrors[i], plane=result.plane))
+    session, results = calibrate_session(session, depth, np.random.default_rng(args.seed), method=args.method)
+    for i, result in results:
         print(f"{session.mirrors[i].name}: plane {np.round(result.plane.abcd, 5).tolist()}  {result.summary()}")
     save_session(session)
     print(f"wrote {session.path}")

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import viser
 
-from mirrorcore.calibration import calibrate_from_markers
+from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
 
 if TYPE_CHECKING:
@@ -145,9 +145,6 @@ class MirrorsPanel:
         depth = self.app.loop.recent_depths()
         if depth is None:
             raise MirrorscanError("no frame yet to calibrate from")
-        session, rng = self.app.editor.session, np.random.default_rng(0)
-        results = [(i, calibrate_from_markers(session.camera, depth, session.mirrors[i].markers, rng,
-                                              session.mirrors[i].name)) for i in indices]
-        for i, result in results:
-            self.app.editor.set_plane(i, result.plane)
+        session, results = calibrate_session(self.app.editor.session, depth, np.random.default_rng(0), indices)
+        self.app.editor.set_planes({i: result.plane for i, result in results})
         self.result.content = "\n\n".join(f"**{session.mirrors[i].name}**: {r.summary()}" for i, r in results)
