@@ -6,20 +6,22 @@ frame is also carved (the consistent carving, mirrorcore.carve) and fused (TSDF 
 voxels: their RMSE to the true shape beside the raw cloud's (the paper found its carved clouds less accurate)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import matplotlib
 import numpy as np
 from tqdm import tqdm
 
-from ..calibration import calibrate_from_markers
+from ..calibration import calibrate_session
 from ..carve import carve
 from ..dense import DenseOptions, dense_volume, prepare_frame
 from ..fit_errors import Cylinder, FitErrors, Sphere
 from ..fitting import fit_cylinder, fit_sphere
 from ..reconstruct import reconstruct_raw
-from ..rig import Mirror as RigMirror
 from ..rig import Rig
+from ..session import Session
 from ..tsdf import fuse
-from .export import mirror_outline, visible_markers
+from .export import session_mirrors
 from .layouts import paper_scene
 from .scene import Scene, SceneObject
 from .sensor import SensorModel
@@ -50,13 +52,9 @@ def run_trial(scene: Scene, seed: int) -> dict[str, float]:
     """One noisy Kinect frame of `scene` (a sphere or a cylinder) through the whole pipeline -> the fit's figures."""
     sim = SimulatedRig(scene, SensorModel.kinect_v1(), seed)
     frame, background = sim.frame(0), sim.background().depth
-    cam, rng = sim.intrinsics, np.random.default_rng(seed)
-    mirrors = []
-    for j, m in enumerate(scene.mirrors, start=1):
-        markers = visible_markers(cam, m, j, frame.truth)
-        plane = calibrate_from_markers(cam, np.stack([frame.depth, background]), markers, rng, m.name).plane
-        mirrors.append(RigMirror(m.name, plane, mirror_outline(cam, m)))
-    rig = Rig(cam, tuple(mirrors))
+    rng = np.random.default_rng(seed)
+    session = Session(Path("."), sim.intrinsics, session_mirrors(sim, frame.truth))   # as a user clicks them
+    rig = Rig.from_session(calibrate_session(session, np.stack([frame.depth, background]), rng)[0])
     depth, mask = prepare_frame(rig, frame.depth, background)     # as pipeline.object_cloud selects and smooths
     cloud = reconstruct_raw(rig, depth, mask)
     fit = (fit_sphere if scene.objects[0].type == "sphere" else fit_cylinder)(cloud.points, rng,
