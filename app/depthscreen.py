@@ -57,13 +57,18 @@ class DepthScreen:
         y = ((v + 0.5) / self.intr.height - 0.5) * self.height
         return self.centre + np.array([x, y, 0.0])
 
-    def look_at(self, client: viser.ClientHandle) -> None:
-        """Put a tab's camera squarely behind the screen so that the whole depth frame fills its view."""
+    def view_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """(camera position, look-at point), metres: squarely behind the screen, the whole depth frame in view."""
         distance = 0.6 * self.height / np.tan(np.radians(VIEW_FOV_DEG) / 2)
         target = self.centre + np.array([VIEW_SHIFT * self.width, 0.0, 0.0])
+        return target - np.array([0.0, 0.0, distance]), target
+
+    def look_at(self, client: viser.ClientHandle) -> None:
+        """Put a tab's camera at view_pose()."""
+        position, target = self.view_pose()
         client.camera.fov = np.radians(VIEW_FOV_DEG)
         client.camera.up_direction = (0.0, -1.0, 0.0)
-        client.camera.position = tuple(target - np.array([0.0, 0.0, distance]))
+        client.camera.position = tuple(position)
         client.camera.look_at = tuple(target)
 
     def _clicked(self, event) -> None:
