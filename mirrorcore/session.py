@@ -20,6 +20,7 @@ from .polygon import validate_polygon
 
 VERSION = 1
 SESSION_FILE = "session.json"
+BACKGROUND_FILE = "background.png"   # where a captured or rendered background is saved
 _TOP_KEYS = ("version", "camera", "mirrors", "background", "frames")
 _MIRROR_KEYS = ("name", "markers", "boundary", "plane")
 

@@ -11,12 +11,12 @@ import numpy as np
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.polygon import validate_polygon
+from mirrorcore.session import BACKGROUND_FILE
 from mirrorcore.sources import SimulatedSource
 
 if TYPE_CHECKING:
     from ..server import MirrorscanApp
 
-BACKGROUND_FILE = "background.png"
 
 
 class SelectionPanel:

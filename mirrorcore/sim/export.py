@@ -14,7 +14,7 @@ from ..atomic import new_folder
 from ..camera import Intrinsics, project_points
 from ..depthio import write_depth_png
 from ..errors import MirrorscanError
-from ..session import MirrorSpec, Session, save_session
+from ..session import BACKGROUND_FILE, MirrorSpec, Session, save_session
 from .render import MARKER, GroundTruth
 from .scene import Mirror
 from .source import SimulatedRig
@@ -89,7 +89,7 @@ def write_session(rig: SimulatedRig, out: str | Path, n_frames: int, noise: str 
 def _write(rig: SimulatedRig, folder: Path, n_frames: int, noise: str, progress: bool) -> None:
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
-    write_depth_png(folder / "background.png", rig.background().depth, scale)
+    write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)
     frames = []
     for i in tqdm(range(n_frames), desc="frames", unit="frame", disable=not progress):
         frame = rig.frame(i)
@@ -97,5 +97,5 @@ def _write(rig: SimulatedRig, folder: Path, n_frames: int, noise: str, progress:
             first_truth = frame.truth
         frames.append(f"frames/{i:06d}.png")
         write_depth_png(folder / frames[-1], frame.depth, scale)
-    save_session(Session(folder, camera, session_mirrors(rig, first_truth), "background.png", tuple(frames)))
+    save_session(Session(folder, camera, session_mirrors(rig, first_truth), BACKGROUND_FILE, tuple(frames)))
     (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")

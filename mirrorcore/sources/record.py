@@ -15,7 +15,7 @@ import cv2
 from ..atomic import write_atomic
 from ..depthio import write_depth_png
 from ..errors import FileFormatError, MirrorscanError
-from ..session import Session, save_session
+from ..session import BACKGROUND_FILE, Session, save_session
 from .base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"
@@ -68,9 +68,9 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
 def _save(source: DepthSource, folder: Path, names: list[str], colours: list[str], stamps: list[float]) -> Session:
     background = source.background()
     if background is not None:
-        write_depth_png(folder / "background.png", background, source.intrinsics.depth_scale)
+        write_depth_png(folder / BACKGROUND_FILE, background, source.intrinsics.depth_scale)
     extra = {"timestamps": stamps, **({"colour_frames": colours} if colours and len(colours) == len(names) else {})}
-    session = Session(folder, source.intrinsics, (), None if background is None else "background.png", tuple(names),
+    session = Session(folder, source.intrinsics, (), None if background is None else BACKGROUND_FILE, tuple(names),
                       extra)
     save_session(session)
     return session
