@@ -10,14 +10,14 @@ from mirrorcore.calibration import calibrate_session
 from mirrorcore.session import Session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
 
 CALIBRATION_FRAMES = 5
 
 
 def demo_source() -> SimulatedSource:
-    return SimulatedSource(SimulatedRig(paper_scene(object="figure", distance=3.0), seed=0),
+    return SimulatedSource(Simulator(paper_scene(object="figure", distance=3.0), seed=0),
                            "simulated rig (person walking, two mirrors at 120°)")
 
 

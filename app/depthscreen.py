@@ -7,7 +7,7 @@ from typing import Callable
 import numpy as np
 import viser
 
-from mirrorcore.camera import Intrinsics
+from mirrorcore.geometry.camera import Intrinsics
 
 SCREEN_DISTANCE = 1.5   # metres behind the depth camera
 SCREEN_HEIGHT = 1.2     # metres

@@ -10,10 +10,10 @@ from typing import Callable
 import numpy as np
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.plane import Plane
-from mirrorcore.polygon import validate_polygon
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.selection import Selection
-from mirrorcore.session import MirrorSpec, Session, save_session
+from mirrorcore.session import Session, SessionMirror, save_session
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0   # pixels: a click this close to a vertex picks it
@@ -67,7 +67,7 @@ class SessionEditor:
         names = {m.name for m in self._session.mirrors}
         name = (name or "").strip() or next(f"mirror {k}" for k in range(1, 1000) if f"mirror {k}" not in names)
         self._check_name(name, None)
-        self._commit(replace(self._session, mirrors=self._session.mirrors + (MirrorSpec(name),)))
+        self._commit(replace(self._session, mirrors=self._session.mirrors + (SessionMirror(name),)))
         return len(self._session.mirrors) - 1
 
     @_edits
@@ -175,8 +175,7 @@ class SessionEditor:
 
     @_edits
     def set_selection(self, selection: Selection) -> None:
-        extra = {**self._session.extra, "selection": selection.to_json()}
-        self._commit(replace(self._session, extra=extra))
+        self._commit(replace(self._session, selection=selection))
 
     @_edits
     def set_background(self, relative_path: str | None) -> None:
@@ -206,7 +205,7 @@ class SessionEditor:
         self._save_and_notify()
 
     # ------------------------------------------------------------------ internals
-    def _mirror(self, index: int) -> MirrorSpec:
+    def _mirror(self, index: int) -> SessionMirror:
         if not 0 <= index < len(self._session.mirrors):
             raise MirrorscanError(f"no mirror {index + 1}; the session has {len(self._session.mirrors)}")
         return self._session.mirrors[index]
@@ -224,7 +223,7 @@ class SessionEditor:
             raise MirrorscanError(f"pixel ({u:g}, {v:g}) is outside the {cam.width}x{cam.height} image")
         return round(u, 2), round(v, 2)
 
-    def _set_mirror(self, index: int, mirror: MirrorSpec) -> None:
+    def _set_mirror(self, index: int, mirror: SessionMirror) -> None:
         self._commit(self._session.with_mirror(index, mirror))
 
     def _commit(self, session: Session) -> None:

@@ -7,11 +7,11 @@ from typing import Sequence
 import cv2
 import numpy as np
 
-from mirrorcore.palette import source_color
-from mirrorcore.session import MirrorSpec
+from mirrorcore.palette import source_colour
+from mirrorcore.session import SessionMirror
 
 
-def colorize_depth(depth: np.ndarray, near: float, far: float) -> np.ndarray:
+def colourise_depth(depth: np.ndarray, near: float, far: float) -> np.ndarray:
     """(H, W) metres -> (H, W, 3) uint8 RGB, turbo colour map from `near` (red) to `far` (blue); no reading is black."""
     scaled = np.clip((far - depth) / max(far - near, 1e-6), 0, 1)
     rgb = cv2.applyColorMap((scaled * 255).astype(np.uint8), cv2.COLORMAP_TURBO)[..., ::-1]
@@ -50,13 +50,13 @@ def draw_markers(rgb: np.ndarray, markers, colour, mirror_number: int) -> np.nda
     return rgb
 
 
-def draw_mirrors(rgb: np.ndarray, mirrors: Sequence[MirrorSpec], drafts: dict | None = None,
+def draw_mirrors(rgb: np.ndarray, mirrors: Sequence[SessionMirror], drafts: dict | None = None,
                  selected_vertex: tuple[int, int] | None = None) -> np.ndarray:
     """Each mirror's boundary (its open draft while one is drawn) and numbered markers, in the mirror's source colour.
     drafts : {mirror index: vertices}; selected_vertex : (mirror index, vertex index) to ring (in place)."""
     drafts = drafts or {}
     for i, mirror in enumerate(mirrors):
-        colour = tuple(int(c) for c in source_color(i + 1))
+        colour = tuple(int(c) for c in source_colour(i + 1))
         closed = i not in drafts
         picked = selected_vertex[1] if selected_vertex and selected_vertex[0] == i else None
         draw_polygon(rgb, mirror.boundary if closed else drafts[i], colour, closed, picked)

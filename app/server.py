@@ -20,7 +20,7 @@ from mirrorcore.sources import DepthSource
 from .depthscreen import DepthScreen
 from .editor import SessionEditor
 from .live import LiveFrame, LiveLoop
-from .overlays import colorize_depth, draw_mask, draw_mirrors, draw_polygon
+from .overlays import colourise_depth, draw_mask, draw_mirrors, draw_polygon
 from .panels.dense import DensePanel
 from .panels.files import FilesPanel
 from .panels.live import LivePanel
@@ -183,9 +183,9 @@ class MirrorscanApp:
         self._last_screen = time.perf_counter()
         valid = frame.depth[frame.depth > 0]
         near, far = np.percentile(valid, [1, 99]) if len(valid) else (0.5, 4.5)
-        rgb = draw_mask(colorize_depth(frame.depth, near, far), frame.mask)
+        rgb = draw_mask(colourise_depth(frame.depth, near, far), frame.mask)
         draw_mirrors(rgb, self.editor.session.mirrors, self.editor.open_drafts(), self.mirrors_panel.selected_vertex)
-        roi = self.state.current.selection.roi
+        roi = self.state.current.session.selection.roi
         if roi:
             draw_polygon(rgb, roi, ROI_COLOUR, closed=True)
         if self.selection_panel.roi_draft:

@@ -7,26 +7,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mirrorcore.pipeline import session_selection
 from mirrorcore.rig import Rig
-from mirrorcore.selection import Selection
 from mirrorcore.session import Session
 
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
-    """One consistent state: the session, its rig (reflection tables built once), selection and background depth."""
+    """One consistent state: the session, its rig (reflection tables built once) and the background depth (H, W)
+    metres or None."""
 
     session: Session
     rig: Rig
-    selection: Selection
     background: np.ndarray | None
 
     @classmethod
     def build(cls, session: Session, background: np.ndarray | None) -> "Snapshot":
         rig = Rig.from_session(session)
         rig.reflection_table  # built here, once, not in the first live frame
-        return cls(session, rig, session_selection(session), background)
+        return cls(session, rig, background)
 
 
 class SharedState:

@@ -6,9 +6,9 @@ import numpy as np
 import viser
 import viser.transforms as tf
 
-from mirrorcore.camera import Intrinsics, pixels_on_plane
 from mirrorcore.cloud import Cloud
-from mirrorcore.palette import source_color, source_name
+from mirrorcore.geometry.camera import Intrinsics, pixels_on_plane
+from mirrorcore.palette import source_colour, source_name
 from mirrorcore.rig import Rig
 
 MAX_POINTS = 60_000        # points sent to the browser per frame (evenly strided), all sources together
@@ -56,7 +56,7 @@ class SceneView:
         for j, mirror in enumerate(rig.mirrors, start=1):
             if mirror.plane is None or mirror.boundary is None:
                 continue
-            colour = tuple(int(c) for c in source_color(j))
+            colour = tuple(int(c) for c in source_colour(j))
             outline = pixels_on_plane(intr, mirror.boundary, mirror.plane)
             if not np.all(np.isfinite(outline)):
                 continue
@@ -78,7 +78,7 @@ class SceneView:
                 if handle is None:
                     self._clouds[j] = self.server.scene.add_point_cloud(
                         f"/cloud/{source_name(j).replace(' ', '_')}", np.ascontiguousarray(part),
-                        tuple(int(c) for c in source_color(j)), point_size=self.point_size, precision="float32",
+                        tuple(int(c) for c in source_colour(j)), point_size=self.point_size, precision="float32",
                         point_shape="circle")
                 else:
                     handle.points = np.ascontiguousarray(part)

@@ -7,17 +7,16 @@ import open3d as o3d
 
 from bench import median_ms
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.rig import Mirror, Rig
 from mirrorcore.selection import Selection, object_mask
-from mirrorcore.sim.export import mirror_outline
+from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 
 
 def run() -> dict[str, float]:
-    sim = SimulatedRig(paper_scene(object="figure", distance=3.0), seed=0)
+    sim = Simulator(paper_scene(object="figure", distance=3.0), seed=0)
     camera = sim.intrinsics
-    rig = Rig(camera, tuple(Mirror(m.name, m.plane, mirror_outline(camera, m)) for m in sim.scene.mirrors))
+    rig = true_rig(sim.scene)
     depth = sim.frame(0).depth
     mask = object_mask(camera, depth, sim.background().depth, Selection())
     rig.reflection_table  # built once per rig, as the live loop does

@@ -8,14 +8,13 @@ from typing import Callable
 import numpy as np
 
 from bench import median_ms
-from mirrorcore.carve import carve
-from mirrorcore.dense import prepare_frame
-from mirrorcore.rig import Mirror, Rig
-from mirrorcore.sim.export import mirror_outline
+from mirrorcore.dense.carve import carve
+from mirrorcore.dense.tsdf import fuse
+from mirrorcore.dense.volume import Volume
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
-from mirrorcore.tsdf import fuse
-from mirrorcore.volume import Volume
+from mirrorcore.sim.simulator import Simulator
 
 
 def peak_mb(fn: Callable[[], object]) -> float:
@@ -29,9 +28,8 @@ def peak_mb(fn: Callable[[], object]) -> float:
 
 
 def run() -> dict[str, float]:
-    sim = SimulatedRig(paper_scene(object="sphere"), seed=0)
-    camera = sim.intrinsics
-    rig = Rig(camera, tuple(Mirror(m.name, m.plane, mirror_outline(camera, m)) for m in sim.scene.mirrors))
+    sim = Simulator(paper_scene(object="sphere"), seed=0)
+    rig = true_rig(sim.scene)
     depth, mask = prepare_frame(rig, sim.frame(0).depth, sim.background().depth)
     centre = np.asarray(sim.scene.objects[0].centre)
     volume = Volume.from_bounds(centre - 0.2, centre + 0.2, 0.002)

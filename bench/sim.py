@@ -5,10 +5,10 @@ import itertools
 
 from bench import median_ms
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 
 
 def run() -> dict[str, float]:
-    rig = SimulatedRig(paper_scene(object="figure", distance=3.0), seed=0)
+    rig = Simulator(paper_scene(object="figure", distance=3.0), seed=0)
     frames = itertools.count()
     return {"sim_frame_ms": median_ms(lambda: rig.frame(next(frames)), repeat=30)}

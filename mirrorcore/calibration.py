@@ -6,13 +6,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .camera import Intrinsics, check_depth_shape, reproject_pixels
 from .depthops import median_depth
 from .errors import CalibrationError
+from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
+from .geometry.plane import Plane, fit_plane_ransac
+from .geometry.polygon import polygon_mask, validate_polygon
 from .noise import axial_sigma
-from .plane import Plane, fit_plane_ransac
-from .polygon import polygon_mask, validate_polygon
-from .session import MirrorSpec, Session
+from .session import Session, SessionMirror
 
 MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
 MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
@@ -153,7 +153,7 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
                       method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
     """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers, or with
-    method 'region' from the polygon in each mirror's extra key 'region'; all or nothing: the first refusal raises
+    method 'region' from each mirror's region polygon; all or nothing: the first refusal raises
     CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
     returns the session with the new planes, and (index, Calibration) for each mirror calibrated."""
     indices = range(len(session.mirrors)) if indices is None else list(indices)
@@ -165,12 +165,12 @@ def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Genera
     return session, results
 
 
-def _calibrate_mirror(session: Session, mirror: MirrorSpec, depth: np.ndarray, method: str,
+def _calibrate_mirror(session: Session, mirror: SessionMirror, depth: np.ndarray, method: str,
                       rng: np.random.Generator) -> Calibration:
     if method == "region":
-        if "region" not in mirror.extra:
+        if not mirror.region:
             raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
-        return calibrate_from_region(session.camera, depth, mirror.extra["region"], rng, mirror.name)
+        return calibrate_from_region(session.camera, depth, mirror.region, rng, mirror.name)
     return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
 
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .palette import source_colors, source_name
+from .palette import source_colours, source_name
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,9 +28,9 @@ class Cloud:
         return np.stack([u, v], axis=-1).astype(np.int32)
 
     @property
-    def colors(self) -> np.ndarray:
+    def colours(self) -> np.ndarray:
         """(n, 3) uint8 source colours (palette.py)."""
-        return source_colors(self.sources)
+        return source_colours(self.sources)
 
     def select(self, keep: np.ndarray) -> "Cloud":
         """The sub-cloud of a boolean mask or index array over the points."""

@@ -8,8 +8,8 @@ import cv2
 import numpy as np
 
 from .atomic import write_atomic
-from .camera import MAX_IMAGE_SIDE
 from .errors import FileFormatError, MirrorscanError
+from .geometry.camera import MAX_IMAGE_SIDE
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

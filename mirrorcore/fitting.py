@@ -14,8 +14,8 @@ import numpy as np
 import open3d as o3d
 
 from .errors import MirrorscanError
-from .fit_errors import Cylinder, ShapeFit, Sphere
-from .ransac import ransac_iterations
+from .geometry.ransac import ransac_iterations
+from .shapes import Cylinder, ShapeFit, Sphere
 
 DEFAULT_THRESHOLD = 0.02
 """Inlier distance, metres: about 3 sigma of Kinect v1 depth noise at 2 m (5.7 mm axial noise and 11.5 mm depth steps:

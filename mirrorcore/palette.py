@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 # Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 8 mirrors.
-SOURCE_COLORS = np.array([
+SOURCE_COLOURS = np.array([
     [150, 150, 150],   # 0: direct, grey
     [230, 159, 0],     # mirror 1: orange
     [86, 180, 233],    # mirror 2: sky blue
@@ -16,16 +16,16 @@ SOURCE_COLORS = np.array([
 ], dtype=np.uint8)
 
 
-def source_color(source: int) -> np.ndarray:
+def source_colour(source: int) -> np.ndarray:
     """(3,) uint8 RGB of one source."""
-    return source_colors(np.array([source]))[0]
+    return source_colours(np.array([source]))[0]
 
 
-def source_colors(sources: np.ndarray) -> np.ndarray:
+def source_colours(sources: np.ndarray) -> np.ndarray:
     """sources : (n,) integer labels -> (n, 3) uint8 RGB."""
     sources = np.asarray(sources, dtype=np.int64)
-    idx = np.where(sources == 0, 0, 1 + (sources - 1) % (len(SOURCE_COLORS) - 1))
-    return SOURCE_COLORS[idx]
+    idx = np.where(sources == 0, 0, 1 + (sources - 1) % (len(SOURCE_COLOURS) - 1))
+    return SOURCE_COLOURS[idx]
 
 
 def source_name(source: int) -> str:

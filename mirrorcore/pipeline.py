@@ -1,4 +1,5 @@
-"""From a depth frame to the object's merged cloud: select the object, smooth its depth, run Algorithm 1."""
+"""From a depth frame to the object's merged cloud: select the object, smooth its depth (prepare_frame, which the
+dense methods share), then Algorithm 1."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +9,16 @@ from .depthops import smooth_depth
 from .reconstruct import reconstruct_raw
 from .rig import Rig
 from .selection import Selection, object_mask
-from .session import Session
+
+
+def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | None,
+                  selection: Selection = Selection()) -> tuple[np.ndarray, np.ndarray]:
+    """The object's pixels and the depth the reconstruction uses: depth, background (H, W) float metres
+    (background may be None) -> (depth (H, W) float32 metres, smoothed on the object when selection.smooth;
+    mask (H, W) bool)."""
+    mask = object_mask(rig.intrinsics, depth, background, selection)
+    depth = smooth_depth(depth, mask) if selection.smooth else depth
+    return np.asarray(depth, np.float32), mask
 
 
 def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | None,
@@ -17,12 +27,5 @@ def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | None,
 
     depth, background : (H, W) float metres (background may be None) -> (Cloud, (H, W) bool mask)
     """
-    mask = object_mask(rig.intrinsics, depth, background, selection)
-    if selection.smooth:
-        depth = smooth_depth(depth, mask)
+    depth, mask = prepare_frame(rig, depth, background, selection)
     return reconstruct_raw(rig, depth, mask), mask
-
-
-def session_selection(session: Session) -> Selection:
-    """The session's object selection (session.json key 'selection'), defaults where it says nothing."""
-    return Selection.from_json(session.extra.get("selection"), f"{session.path}: selection")

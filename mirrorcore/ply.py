@@ -10,7 +10,7 @@ import trimesh
 
 from .atomic import write_atomic
 from .errors import FileFormatError
-from .palette import source_colors
+from .palette import source_colours
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
@@ -28,8 +28,8 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
         raise ValueError("encode_ply: source labels must be in 0..255")
     vertex = np.empty(len(points), dtype=_VERTEX)
     vertex["x"], vertex["y"], vertex["z"] = points.T
-    colors = source_colors(sources)
-    vertex["red"], vertex["green"], vertex["blue"] = colors.T
+    colours = source_colours(sources)
+    vertex["red"], vertex["green"], vertex["blue"] = colours.T
     vertex["source"] = sources
     header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
               "source 0 = direct, j = mirror j\n"

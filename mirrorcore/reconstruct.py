@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .camera import check_depth_shape
 from .cloud import Cloud
 from .depthops import bounding_window
+from .geometry.camera import check_depth_shape
 from .rig import Rig
 
 

@@ -6,10 +6,10 @@ from functools import cached_property
 
 import numpy as np
 
-from .camera import Intrinsics
 from .errors import MirrorscanError
-from .plane import Plane
-from .polygon import polygon_mask, validate_polygon
+from .geometry.camera import Intrinsics
+from .geometry.plane import Plane
+from .geometry.polygon import polygon_mask, validate_polygon
 from .session import Session
 
 MAX_MIRRORS = 32  # one bit per mirror in Rig.inside_bits

@@ -7,11 +7,11 @@ from dataclasses import asdict, dataclass, fields
 import cv2
 import numpy as np
 
-from .camera import Intrinsics, check_depth_shape
 from .depthops import bounding_window
 from .errors import FileFormatError, MirrorscanError
+from .geometry.camera import Intrinsics, check_depth_shape
+from .geometry.polygon import polygon_mask, validate_polygon
 from .noise import axial_sigma
-from .polygon import polygon_mask, validate_polygon
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,6 @@
-"""The session folder of DESIGN.md: session.json (camera, mirrors, background, frames), loaded with clear errors and
-saved atomically with one backup (session.json.bak)."""
+"""The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
+(camera, mirrors, background, frames, and the extensions selection, timestamps, colour_frames, a mirror's id and
+region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
 from __future__ import annotations
 
 import json
@@ -11,66 +12,108 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from .atomic import new_folder, write_atomic
-from .camera import Intrinsics
 from .depthio import read_depth_png
 from .errors import FileFormatError, MirrorscanError
+from .geometry.camera import Intrinsics
+from .geometry.plane import Plane
+from .geometry.polygon import validate_polygon
 from .jsonfile import read_json
-from .plane import Plane
-from .polygon import validate_polygon
+from .selection import Selection
 
 VERSION = 1
 SESSION_FILE = "session.json"
 BACKGROUND_FILE = "background.png"   # where a captured or rendered background is saved
-_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames")
-_MIRROR_KEYS = ("name", "markers", "boundary", "plane")
+_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames")
+_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region")
+
+Pixels = tuple[tuple[float, float], ...]
 
 
 @dataclass(frozen=True)
-class MirrorSpec:
+class SessionMirror:
     """One mirror as the user set it up.
 
+    name : shown to people, unique in the session
     markers : (k, 2) pixel coordinates (u, v) clicked on the mirror's markers
     boundary : (b, 2) pixel polygon of the mirror's outline in the image (empty until drawn)
     plane : the calibrated plane, or None
+    id : a stable identity (>= 1, unique in the session), kept when other mirrors are removed or reordered; 0 until
+        the session gives it one (Session.__post_init__)
+    region : optional (r, 2) pixel polygon on the mirror's frame, for calibration by region
     extra : keys of the mirror's JSON object that this version does not know, kept as they were
     """
 
     name: str
-    markers: tuple[tuple[float, float], ...] = ()
-    boundary: tuple[tuple[float, float], ...] = ()
+    markers: Pixels = ()
+    boundary: Pixels = ()
     plane: Plane | None = None
+    id: int = 0
+    region: Pixels | None = None
     extra: dict = field(default_factory=dict, compare=False)
 
     def to_json(self) -> dict:
-        return {"name": self.name, "markers": [list(m) for m in self.markers],
+        data = {"id": self.id, "name": self.name, "markers": [list(m) for m in self.markers],
                 "boundary": [list(b) for b in self.boundary],
-                "plane": None if self.plane is None else self.plane.to_list(), **self.extra}
+                "plane": None if self.plane is None else self.plane.to_list()}
+        if self.region is not None:
+            data["region"] = [list(p) for p in self.region]
+        return {**data, **self.extra}
 
 
 @dataclass(frozen=True)
 class Session:
-    """A session folder in memory. Paths in `background` and `frames` are relative to `root` (POSIX style)."""
+    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative to `root`
+    (POSIX style).
+
+    selection : how the object is found in a frame (the defaults unless the file says otherwise)
+    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
+    colour_frames : n colour PNG paths, one per frame, or None
+    extra : top-level keys this version does not know, kept as they were
+
+    Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
+    """
 
     root: Path
     camera: Intrinsics
-    mirrors: tuple[MirrorSpec, ...] = ()
+    mirrors: tuple[SessionMirror, ...] = ()
     background: str | None = None
     frames: tuple[str, ...] = ()
+    selection: Selection = Selection()
+    timestamps: tuple[float, ...] | None = None
+    colour_frames: tuple[str, ...] | None = None
     extra: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        if any(m.id < 1 for m in self.mirrors):
+            object.__setattr__(self, "mirrors", _with_ids(self.mirrors))
 
     @property
     def path(self) -> Path:
         return Path(self.root) / SESSION_FILE
 
     def to_json(self) -> dict:
-        return {"version": VERSION, "camera": self.camera.to_dict(), "mirrors": [m.to_json() for m in self.mirrors],
-                "background": self.background, "frames": list(self.frames), **self.extra}
+        data = {"version": VERSION, "camera": self.camera.to_dict(), "mirrors": [m.to_json() for m in self.mirrors],
+                "background": self.background, "frames": list(self.frames)}
+        if self.selection != Selection():
+            data["selection"] = self.selection.to_json()
+        if self.timestamps is not None:
+            data["timestamps"] = list(self.timestamps)
+        if self.colour_frames is not None:
+            data["colour_frames"] = list(self.colour_frames)
+        return {**data, **self.extra}
 
-    def with_mirror(self, index: int, mirror: MirrorSpec) -> "Session":
+    def with_mirror(self, index: int, mirror: SessionMirror) -> "Session":
         """A copy with mirror `index` (0-based) replaced."""
         mirrors = list(self.mirrors)
         mirrors[index] = mirror
         return replace(self, mirrors=tuple(mirrors))
+
+    def mirror_index(self, mirror_id: int) -> int:
+        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when there is none."""
+        for i, m in enumerate(self.mirrors):
+            if m.id == mirror_id:
+                return i
+        raise MirrorscanError(f"{self.path}: no mirror with id {mirror_id} (it was removed?)")
 
     def read_frame(self, index: int) -> np.ndarray:
         """Frame `index` (0-based, negative counts from the end) as (H, W) float32 metres."""
@@ -89,6 +132,14 @@ class Session:
         return read_depth_png(Path(self.root) / rel, self.camera.depth_scale, self.camera.shape)
 
 
+def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
+    """Give the mirrors without an id (0) the smallest ids not taken, in order."""
+    taken = {m.id for m in mirrors if m.id >= 1}
+    free = (k for k in range(1, len(mirrors) + len(taken) + 1) if k not in taken)
+    return tuple(m if m.id >= 1 else replace(m, id=next(free)) for m in mirrors)
+
+
+# --------------------------------------------------------------------- reading
 def load_session(folder: str | Path) -> Session:
     """Read and validate SESSION/session.json; raises FileFormatError with the file and the offending key."""
     folder = Path(folder)
@@ -96,7 +147,8 @@ def load_session(folder: str | Path) -> Session:
 
 
 def session_from_json(data, folder: Path) -> Session:
-    """Validate a parsed session.json (see DESIGN.md); `folder` is the session folder that paths are relative to."""
+    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that paths are relative
+    to. Raises FileFormatError naming the file and the key."""
     where = str(Path(folder) / SESSION_FILE)
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
@@ -106,32 +158,40 @@ def session_from_json(data, folder: Path) -> Session:
     if data["version"] != VERSION:
         raise FileFormatError(f"{where}: unknown version {data['version']!r}; this mirrorscan reads version {VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
-    if not isinstance(data["mirrors"], list):
-        raise FileFormatError(f"{where}: 'mirrors' must be a list")
-    mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]") for i, m in enumerate(data["mirrors"]))
+    mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
+                    for i, m in enumerate(_list(data["mirrors"], f"{where}: mirrors")))
+    _check_ids(mirrors, where)
     background = data.get("background")
     if background is not None:
         background = _relative_path(background, folder, f"{where}: background")
-    if not isinstance(data["frames"], list):
-        raise FileFormatError(f"{where}: 'frames' must be a list of paths")
-    frames = tuple(_relative_path(f, folder, f"{where}: frames[{i}]") for i, f in enumerate(data["frames"]))
+    frames = _paths(data["frames"], folder, f"{where}: frames")
+    timestamps = data.get("timestamps")
+    if timestamps is not None:
+        timestamps = _timestamps(timestamps, len(frames), f"{where}: timestamps")
+    colour_frames = data.get("colour_frames")
+    if colour_frames is not None:
+        colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames")
+        if len(colour_frames) != len(frames):
+            raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
-    return Session(Path(folder), camera, mirrors, background, frames, extra)
+    return Session(Path(folder), camera, mirrors, background, frames,
+                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra)
 
 
-def _mirror_from_json(data, camera: Intrinsics, where: str) -> MirrorSpec:
+def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: a mirror must be a JSON object")
     if not isinstance(data.get("name"), str) or not data["name"].strip():
         raise FileFormatError(f"{where}: 'name' must be a non-empty string")
     where = f"{where} ({data['name']})"
+    mirror_id = data.get("id", 0)                # none yet: the session gives it one
+    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int) or not 1 <= mirror_id < 2**31):
+        raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {mirror_id!r}")
     markers = _pixels(data.get("markers", []), camera, f"{where}: markers")
-    boundary = _pixels(data.get("boundary", []), camera, f"{where}: boundary")
-    if boundary:
-        try:
-            validate_polygon(boundary, camera.shape, f"{where}: boundary")
-        except MirrorscanError as exc:
-            raise FileFormatError(str(exc)) from None
+    boundary = _polygon(data.get("boundary", []), camera, f"{where}: boundary")
+    region = data.get("region")
+    if region is not None:
+        region = _polygon(region, camera, f"{where}: region")
     plane = data.get("plane")
     if plane is not None:
         try:
@@ -139,15 +199,26 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> MirrorSpec:
         except MirrorscanError as exc:
             raise FileFormatError(str(exc)) from None
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return MirrorSpec(data["name"], markers, boundary, plane, extra)
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, extra)
 
 
-def _pixels(value, camera: Intrinsics, where: str) -> tuple[tuple[float, float], ...]:
-    """A list of [u, v] inside the image -> tuple of (u, v) floats."""
+def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
+    ids = [m.id for m in mirrors if m.id]
+    if len(set(ids)) != len(ids):
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        raise FileFormatError(f"{where}: mirrors: id {twice[0]} is given to more than one mirror")
+
+
+def _list(value, where: str) -> list:
     if not isinstance(value, list):
-        raise FileFormatError(f"{where}: must be a list of [u, v] pixels")
+        raise FileFormatError(f"{where}: must be a list")
+    return value
+
+
+def _pixels(value, camera: Intrinsics, where: str) -> Pixels:
+    """A list of [u, v] inside the image -> tuple of (u, v) floats."""
     out = []
-    for i, p in enumerate(value):
+    for i, p in enumerate(_list(value, where)):
         if (not isinstance(p, (list, tuple)) or len(p) != 2
                 or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and np.isfinite(c) for c in p)):
             raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got {p!r}")
@@ -157,6 +228,21 @@ def _pixels(value, camera: Intrinsics, where: str) -> tuple[tuple[float, float],
                                   f"{camera.width}x{camera.height} image")
         out.append((u, v))
     return tuple(out)
+
+
+def _polygon(value, camera: Intrinsics, where: str) -> Pixels:
+    """A polygon of pixels (empty allowed), checked by validate_polygon when it has vertices."""
+    pixels = _pixels(value, camera, where)
+    if pixels:
+        try:
+            validate_polygon(pixels, camera.shape, where)
+        except MirrorscanError as exc:
+            raise FileFormatError(str(exc)) from None
+    return pixels
+
+
+def _paths(value, folder: Path, where: str) -> tuple[str, ...]:
+    return tuple(_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(_list(value, where)))
 
 
 def _relative_path(value, folder: Path, where: str) -> str:
@@ -169,6 +255,17 @@ def _relative_path(value, folder: Path, where: str) -> str:
     return str(rel)
 
 
+def _timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
+    stamps = _list(value, where)
+    if len(stamps) != n_frames:
+        raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
+    for i, t in enumerate(stamps):
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
+            raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got {t!r}")
+    return tuple(float(t) for t in stamps)
+
+
+# --------------------------------------------------------------------- writing
 def save_session(session: Session) -> None:
     """Write session.json atomically; the previous version is kept as session.json.bak."""
     Path(session.root).mkdir(parents=True, exist_ok=True)
@@ -190,11 +287,12 @@ def session_folder(sessions_dir: str | Path, name: str) -> Path:
 
 
 def copy_session(session: Session, folder: str | Path) -> Session:
-    """Save a session under a new folder with its background and frames; all or nothing. Refuses an existing folder
-    that is not empty. Returns the session as it now lives in `folder`."""
+    """Save a session under a new folder with its background, frames and colour frames; all or nothing. Refuses an
+    existing folder that is not empty. Returns the session as it now lives in `folder`."""
     folder = Path(folder)
     with new_folder(folder) as work:
-        for rel in ([session.background] if session.background else []) + list(session.frames):
+        for rel in ([session.background] if session.background else []) + list(session.frames) \
+                + list(session.colour_frames or ()):
             (work / rel).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(Path(session.root) / rel, work / rel)
         save_session(replace(session, root=work))

@@ -6,13 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mirrorcore.camera import Intrinsics
-from mirrorcore.rig import Mirror, Rig
-from mirrorcore.sim.export import mirror_outline
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.rig import Rig
+from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.render import GroundTruth
 from mirrorcore.sim.sensor import SensorModel
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 
 
 @dataclass(frozen=True, eq=False)
@@ -27,9 +27,8 @@ class SphereScene:
 
 def sphere_scene(scale: float, sensor: SensorModel, seed: int = 0) -> SphereScene:
     scene = paper_scene(camera=Intrinsics.kinect_v1().scaled(scale))
-    sim = SimulatedRig(scene, sensor, seed)
-    cam = sim.intrinsics
-    rig = Rig(cam, tuple(Mirror(m.name, m.plane, mirror_outline(cam, m)) for m in scene.mirrors))
+    sim = Simulator(scene, sensor, seed)
+    rig = true_rig(scene)
     frame = sim.frame(0)
     obj = scene.objects[0]
     return SphereScene(rig, frame.depth, sim.background().depth, frame.truth, np.asarray(obj.centre), obj.radius)

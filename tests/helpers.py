@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mirrorcore.camera import Intrinsics
-from mirrorcore.plane import Plane
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
 
 
 def plane_depth(intr: Intrinsics, plane: Plane) -> np.ndarray:

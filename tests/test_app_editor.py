@@ -5,9 +5,9 @@ import os
 import pytest
 
 from app.editor import SessionEditor
-from mirrorcore.camera import Intrinsics
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.plane import Plane
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.selection import Selection
 from mirrorcore.session import Session, load_session
 
@@ -120,7 +120,7 @@ def test_session_round_trip_through_the_editor(editor, tmp_path):
     loaded = load_session(tmp_path)
     assert loaded.mirrors[0].markers == ((10.0, 20.0),)
     assert loaded.mirrors[0].boundary == editor.session.mirrors[0].boundary
-    assert loaded.extra["selection"]["depth_max"] == 3.5
+    assert loaded.selection.depth_max == 3.5
     assert loaded.mirrors[0].plane.angle_to(editor.session.mirrors[0].plane) < 1e-9
 
 

@@ -11,13 +11,13 @@ from mirrorcore.ply import read_ply
 from mirrorcore.session import Session, load_session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
 
 
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
-    rig = SimulatedRig(paper_scene(object="sphere"), seed=1, fps=15.0)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
     root = tmp_path_factory.mktemp("panels") / "scan"
     app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0, sessions_dir=root.parent)
     app.loop.start()
@@ -132,7 +132,7 @@ def test_record_then_replay_with_the_calibration(app):
         assert time.monotonic() < deadline
         time.sleep(0.05)
     recorded = panel.stop()
-    assert len(recorded.frames) >= 4 and len(recorded.extra["timestamps"]) == len(recorded.frames)
+    assert len(recorded.frames) >= 4 and len(recorded.timestamps) == len(recorded.frames)
     saved = load_session(recorded.root)
     assert saved.mirrors == app.editor.session.mirrors and saved.background == "background.png"
     first = saved.read_frame(0)

@@ -14,7 +14,7 @@ from mirrorcore.ply import read_ply
 from mirrorcore.session import Session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
 
 playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
@@ -37,7 +37,7 @@ def wait_for(condition, seconds: float = 120.0, what: str = "condition"):
 
 @pytest.fixture(scope="module")
 def rig():
-    return SimulatedRig(paper_scene(object="sphere"), seed=0, fps=LIVE_FPS)
+    return Simulator(paper_scene(object="sphere"), seed=0, fps=LIVE_FPS)
 
 
 @pytest.fixture(scope="module")

@@ -3,11 +3,15 @@ import numpy as np
 import pytest
 from helpers import plane_depth
 
-from mirrorcore.calibration import calibrate_from_markers, calibrate_from_pairs, calibrate_from_region
-from mirrorcore.camera import Intrinsics, project_points
+from mirrorcore.calibration import (
+    calibrate_from_markers,
+    calibrate_from_pairs,
+    calibrate_from_region,
+)
 from mirrorcore.errors import CalibrationError
+from mirrorcore.geometry.camera import Intrinsics, project_points
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.noise import axial_sigma
-from mirrorcore.plane import Plane
 
 CAMERA = Intrinsics.kinect_v1()
 GLASS = Plane.from_point_normal([0.4, 0.0, 2.6], [-0.5, 0.05, -1.0])

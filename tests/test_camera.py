@@ -4,9 +4,17 @@ import json
 import numpy as np
 import pytest
 
-from mirrorcore.camera import (Intrinsics, load_open3d_json, load_opencv_yaml, project_points, reproject_depth,
-                               reproject_pixels, save_open3d_json, save_opencv_yaml)
 from mirrorcore.errors import FileFormatError
+from mirrorcore.geometry.camera import (
+    Intrinsics,
+    load_open3d_json,
+    load_opencv_yaml,
+    project_points,
+    reproject_depth,
+    reproject_pixels,
+    save_open3d_json,
+    save_opencv_yaml,
+)
 
 
 def test_reprojection_by_hand():

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from mirrorcore.carve import FREE, HIDDEN, NO_SOURCE, carve
+from mirrorcore.dense.carve import FREE, HIDDEN, NO_SOURCE, carve
+from mirrorcore.dense.volume import Volume
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.sim.sensor import SensorModel
-from mirrorcore.volume import Volume
 from tests.dense_scene import sphere_scene
 
 VOXEL = 0.002

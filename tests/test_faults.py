@@ -17,12 +17,13 @@ import numpy as np
 import pytest
 
 from app.server import MirrorscanApp
-from bench.soak import listen, run as soak
-from mirrorcore.camera import Intrinsics
+from bench.soak import listen
+from bench.soak import run as soak
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import MirrorSpec, Session, load_session, save_session
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import DepthSource, Frame, SimulatedSource
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,20 +31,20 @@ KILLS = 12
 SAVER = textwrap.dedent("""
     import sys
     from pathlib import Path
-    from mirrorcore.camera import Intrinsics
-    from mirrorcore.session import MirrorSpec, Session, save_session
+    from mirrorcore.geometry.camera import Intrinsics
+    from mirrorcore.session import SessionMirror, Session, save_session
     root, k = Path(sys.argv[1]), 0
     while True:   # sessions of changing size (0 to 20 kB), saved as fast as possible until killed
         k += 1
         markers = tuple((float(i % 600), float(i % 400)) for i in range(k % 500))
-        save_session(Session(root, Intrinsics.primesense(), (MirrorSpec(f"mirror {k}", markers),)))
+        save_session(Session(root, Intrinsics.primesense(), (SessionMirror(f"mirror {k}", markers),)))
 """)
 
 
 def test_a_process_killed_while_saving_leaves_a_session_that_loads(tmp_path):
     """SIGKILL at random moments of a save loop: session.json, and its backup on its own, always load."""
     rng = np.random.default_rng(7)
-    save_session(Session(tmp_path, Intrinsics.primesense(), (MirrorSpec("first"),)))
+    save_session(Session(tmp_path, Intrinsics.primesense(), (SessionMirror("first"),)))
     names = set()
     for _ in range(KILLS):
         saver = subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path)], cwd=ROOT)
@@ -59,7 +60,7 @@ def test_a_process_killed_while_saving_leaves_a_session_that_loads(tmp_path):
 
 def test_a_write_interrupted_half_way_leaves_the_previous_file(tmp_path, monkeypatch):
     """A save stopped inside its write (Ctrl-C, or any exception) keeps the old file and leaves no temporary file."""
-    session = Session(tmp_path, Intrinsics.primesense(), (MirrorSpec("kept"),))
+    session = Session(tmp_path, Intrinsics.primesense(), (SessionMirror("kept"),))
     save_session(session)
     before = sorted(p.name for p in tmp_path.iterdir()), (tmp_path / "session.json").read_bytes()
 
@@ -67,13 +68,13 @@ def test_a_write_interrupted_half_way_leaves_the_previous_file(tmp_path, monkeyp
         raise KeyboardInterrupt
     monkeypatch.setattr(os, "fsync", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        save_session(session.with_mirror(0, MirrorSpec("lost")))
+        save_session(session.with_mirror(0, SessionMirror("lost")))
     assert (sorted(p.name for p in tmp_path.iterdir()), (tmp_path / "session.json").read_bytes()) == before
 
 
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
-    rig = SimulatedRig(paper_scene(object="sphere"), seed=1, fps=15.0)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
     root = tmp_path_factory.mktemp("faults") / "scan"
     app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0, sessions_dir=root.parent)
     for _ in range(3):
@@ -138,7 +139,7 @@ class FlakySource(DepthSource):
 
 
 def test_an_unplugged_camera_is_reported_once_and_the_loop_recovers(monkeypatch):
-    rig = SimulatedRig(paper_scene(object="sphere"), seed=1, fps=15.0)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
     source = FlakySource(SimulatedSource(rig), first=5, down=4)
     app = MirrorscanApp(Session(Path("unused"), rig.intrinsics), source, port=0, autosave=False)
     said = []

@@ -7,12 +7,13 @@ import open3d as o3d
 import pytest
 import trimesh
 
-from mirrorcore.camera import Intrinsics
 from mirrorcore.depthio import read_depth_png, write_depth_png
 from mirrorcore.errors import FileFormatError
-from mirrorcore.plane import Plane
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.ply import read_ply, write_ply
-from mirrorcore.session import MirrorSpec, Session, load_session, save_session
+from mirrorcore.selection import Selection
+from mirrorcore.session import Session, SessionMirror, load_session, save_session
 
 CAMERA = Intrinsics.primesense()
 
@@ -21,10 +22,11 @@ def make_session(root) -> Session:
     write_depth_png(root / "background.png", np.full(CAMERA.shape, 3.0), 0.001)
     (root / "frames").mkdir(parents=True, exist_ok=True)
     write_depth_png(root / "frames/000000.png", np.full(CAMERA.shape, 2.5), 0.001)
-    mirrors = (MirrorSpec("mirror 1", ((10.0, 20.0), (30.5, 40.0), (50.0, 20.0)), ((0, 0), (100, 0), (100, 100)),
+    mirrors = (SessionMirror("mirror 1", ((10.0, 20.0), (30.5, 40.0), (50.0, 20.0)), ((0, 0), (100, 0), (100, 100)),
                           Plane.from_abcd([0.3, 0, -1, 2.5])),
-               MirrorSpec("mirror 2", extra={"note": "kept"}))
-    return Session(root, CAMERA, mirrors, "background.png", ("frames/000000.png",), {"selection": {"depth_max": 5}})
+               SessionMirror("mirror 2", extra={"note": "kept"}))
+    return Session(root, CAMERA, mirrors, "background.png", ("frames/000000.png",), Selection(depth_max=5.0),
+                   extra={"note": "kept too"})
 
 
 def test_session_round_trip(tmp_path):
@@ -33,7 +35,8 @@ def test_session_round_trip(tmp_path):
     loaded = load_session(tmp_path)
     np.testing.assert_allclose(loaded.mirrors[0].plane.abcd, session.mirrors[0].plane.abcd, rtol=0, atol=1e-15)
     assert loaded.with_mirror(0, session.mirrors[0]) == session
-    assert loaded.mirrors[1].extra == {"note": "kept"} and loaded.extra == {"selection": {"depth_max": 5}}
+    assert loaded.mirrors[1].extra == {"note": "kept"} and loaded.extra == {"note": "kept too"}
+    assert loaded.selection == Selection(depth_max=5.0) and [m.id for m in loaded.mirrors] == [1, 2]
     assert loaded.read_frame(0)[0, 0] == pytest.approx(2.5)
     assert loaded.read_background()[5, 5] == pytest.approx(3.0)
     data = json.loads((tmp_path / "session.json").read_text())
@@ -45,7 +48,7 @@ def test_save_keeps_the_previous_version(tmp_path):
     session = make_session(tmp_path)
     save_session(session)
     first = (tmp_path / "session.json").read_text()
-    save_session(session.with_mirror(1, MirrorSpec("renamed")))
+    save_session(session.with_mirror(1, SessionMirror("renamed")))
     assert (tmp_path / "session.json.bak").read_text() == first
     assert load_session(tmp_path).mirrors[1].name == "renamed"
 
@@ -59,7 +62,7 @@ def test_failed_save_leaves_the_session_intact(tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(os, "fsync", full_disk)
     with pytest.raises(OSError, match="No space left"):
-        save_session(session.with_mirror(0, MirrorSpec("changed")))
+        save_session(session.with_mirror(0, SessionMirror("changed")))
     assert (tmp_path / "session.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["background.png", "frames", "session.json"]
 

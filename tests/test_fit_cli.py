@@ -10,8 +10,8 @@ import open3d as o3d
 import pytest
 
 from app.cli import main
-from mirrorcore.camera import Intrinsics, reproject_depth
 from mirrorcore.fitting import fit_sphere
+from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.ply import write_ply
 
 GLOBE_DEPTH = Path("/work/shared/data/real/tum_globe_depth.png")
@@ -128,7 +128,7 @@ def test_real_globe_sphere_fit_and_cli(tmp_path, capsys):
     fit = fit_sphere(points, np.random.default_rng(0))
     # measured: radius 220.6 mm, centre (-0.925, -0.784, 2.314) m, RMSE 8.1 mm (all points), 7.8 mm (98.8 % inliers)
     assert 0.21 < fit.shape.radius < 0.23
-    assert 2.25 < fit.shape.center[2] < 2.4 and fit.shape.center[2] - fit.shape.radius == pytest.approx(
+    assert 2.25 < fit.shape.centre[2] < 2.4 and fit.shape.centre[2] - fit.shape.radius == pytest.approx(
         points[:, 2].min(), abs=0.03)                                  # the nearest point is on the front of the globe
     assert 0.004 < fit.errors.rmse < 0.012                             # Kinect-class noise at 2.1-2.3 m
     assert fit.inliers.mean() > 0.95 and abs(fit.errors.mean_error) < 0.002

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.fit_errors import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
 from mirrorcore.fitting import estimate_normals, fit_cylinder, fit_sphere
+from mirrorcore.shapes import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
 
 
 # ------------------------------------------------------------------------------------------------ synthetic scans
@@ -146,7 +146,7 @@ def test_sphere_exact_partial_views_recovered(seed, mirrors):
     truth, points, sources = _sphere_scan(np.random.default_rng(seed), mirrors)
     fit = fit_sphere(points, np.random.default_rng(seed), sources=sources)
     tol = 1e-6 * truth.radius
-    np.testing.assert_allclose(fit.shape.center, truth.center, rtol=0, atol=tol)
+    np.testing.assert_allclose(fit.shape.centre, truth.centre, rtol=0, atol=tol)
     assert fit.shape.radius == pytest.approx(truth.radius, rel=1e-6)
     assert fit.inliers.all() and fit.errors.rmse < tol
     assert sorted(fit.per_source) == list(range(1 + mirrors))
@@ -182,7 +182,7 @@ def test_sphere_with_noise_and_outliers(seed, mirrors):
     truth, points, sources = _sphere_scan(rng, mirrors, n=4000)
     points, sources = _corrupt(rng, points, sources, SIGMA, OUTLIERS)
     fit = fit_sphere(points, np.random.default_rng(seed), threshold=THRESHOLD, sources=sources)
-    assert np.linalg.norm(np.array(fit.shape.center) - truth.center) < 2 * TOL
+    assert np.linalg.norm(np.array(fit.shape.centre) - truth.centre) < 2 * TOL
     assert fit.shape.radius == pytest.approx(truth.radius, abs=TOL)
     assert 0.7 * SIGMA < fit.inlier_errors.rmse < 1.1 * SIGMA
     assert fit.errors.rmse > 3 * fit.inlier_errors.rmse                 # all points: the outliers count
@@ -234,7 +234,7 @@ def test_per_source_errors_and_their_sign(kind):
 def _outward_normals(shape: Sphere | Cylinder, points: np.ndarray) -> np.ndarray:
     """(n, 3) unit outward surface normals of points on the shape."""
     if isinstance(shape, Sphere):
-        return _unit(points - np.array(shape.center))
+        return _unit(points - np.array(shape.centre))
     q = points - np.array(shape.axis_point)
     d = np.array(shape.axis_direction)
     return _unit(q - np.outer(q @ d, d))

@@ -2,13 +2,14 @@
 reprojection, planes fitted under noise stay close to the truth, and any numbers given as a plane or a polygon end in
 a plane, a polygon or our own one-line error."""
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from mirrorcore.camera import Intrinsics, project_points, reproject_pixels
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.plane import Plane, fit_plane_ransac, fit_plane_svd
-from mirrorcore.polygon import validate_polygon
+from mirrorcore.geometry.camera import Intrinsics, project_points, reproject_pixels
+from mirrorcore.geometry.plane import Plane, fit_plane_ransac, fit_plane_svd
+from mirrorcore.geometry.polygon import validate_polygon
 
 EXAMPLES = settings(max_examples=150, deadline=None)
 unit = st.floats(-1, 1, allow_nan=False)

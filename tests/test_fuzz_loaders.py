@@ -8,20 +8,27 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from mirrorcore.camera import Intrinsics, load_open3d_json, load_opencv_yaml, save_open3d_json, save_opencv_yaml
 from mirrorcore.depthio import encode_depth_png, read_depth_png
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.geometry.camera import (
+    Intrinsics,
+    load_open3d_json,
+    load_opencv_yaml,
+    save_open3d_json,
+    save_opencv_yaml,
+)
 from mirrorcore.ply import encode_ply, read_ply
-from mirrorcore.session import MirrorSpec, Session, load_session, session_from_json
+from mirrorcore.session import Session, SessionMirror, load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
 from mirrorcore.sources.files import open_npz
 
 EXAMPLES = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 CAMERA = Intrinsics(64, 48, 50.0, 50.0, 31.5, 23.5)
-SESSION = Session(Path("."), CAMERA, (MirrorSpec("m", ((5.0, 5.0), (20.0, 6.0), (8.0, 30.0)), ((0, 0), (40, 0), (0, 40))),),
+SESSION = Session(Path("."), CAMERA, (SessionMirror("m", ((5.0, 5.0), (20.0, 6.0), (8.0, 30.0)), ((0, 0), (40, 0), (0, 40))),),
                   None, ("frames/000000.png",)).to_json()
 SCENE = paper_scene(object="sphere").to_json()
 

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from mirrorcore.errors import CalibrationError
-from mirrorcore.plane import Plane, fit_plane_ransac, fit_plane_svd
-from mirrorcore.ransac import ransac_iterations
+from mirrorcore.geometry.plane import Plane, fit_plane_ransac, fit_plane_svd
+from mirrorcore.geometry.ransac import ransac_iterations
 
 
 def mirror_2m() -> Plane:

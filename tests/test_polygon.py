@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.polygon import polygon_mask, validate_polygon
+from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
 
 
 def test_square_mask_includes_its_edges_only():

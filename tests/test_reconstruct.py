@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from helpers import sphere_depth
 
-from mirrorcore.camera import Intrinsics
-from mirrorcore.plane import Plane
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.rig import Mirror, Rig
 

@@ -10,13 +10,20 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
-from mirrorcore.sources import Frame, Recorder, SessionSource, SimulatedSource, open_source, record
+from mirrorcore.sim.simulator import Simulator
+from mirrorcore.sources import (
+    Frame,
+    Recorder,
+    SessionSource,
+    SimulatedSource,
+    open_source,
+    record,
+)
 
 
 @pytest.fixture(scope="module")
 def rig():
-    return SimulatedRig(paper_scene(object="sphere", distance=2.0), seed=1)
+    return Simulator(paper_scene(object="sphere", distance=2.0), seed=1)
 
 
 def test_recording_a_simulated_session_replays_bit_for_bit(rig, tmp_path):
@@ -38,8 +45,8 @@ def test_record_command_on_the_live_simulator(rig, tmp_path, capsys):
     assert main(["record", "sim", str(tmp_path / "live"), "--frames", "3", "--quiet"]) == 0
     assert "recorded 3 frames" in capsys.readouterr().out
     session = load_session(tmp_path / "live")
-    assert session.extra["timestamps"] == pytest.approx([0, 1 / 30, 2 / 30]) and session.background
-    live = SimulatedSource(SimulatedRig(paper_scene(object="figure", distance=3.0)))
+    assert session.timestamps == pytest.approx([0, 1 / 30, 2 / 30]) and session.background
+    live = SimulatedSource(Simulator(paper_scene(object="figure", distance=3.0)))
     for i, frame in enumerate(SessionSource(session)):                       # 1 mm units on disk
         assert encode_depth_png(frame.depth, 0.001) == encode_depth_png(live.read(i).depth, 0.001)
     assert main(["record", "sim", str(tmp_path / "live"), "--frames", "1"]) == 2

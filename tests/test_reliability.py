@@ -12,12 +12,12 @@ import pytest
 
 from app.cli import build_parser, main
 from app.server import MirrorscanApp
-from mirrorcore.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
 from mirrorcore.depthio import encode_depth_png, read_depth_png
 from mirrorcore.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
 from mirrorcore.session import Session, load_session, save_session, session_folder
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource, open_source
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,7 +95,7 @@ def test_blank_frames_are_named_by_calibrate_and_reconstruct_and_change_nothing(
 # ---------------------------------------------------------------------------- the browser's background upload
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
-    rig = SimulatedRig(paper_scene(object="sphere"), seed=1, fps=15.0)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
     session = Session(tmp_path_factory.mktemp("upload") / "scan", rig.intrinsics)
     save_session(session)
     app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=session.root.parent)

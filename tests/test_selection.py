@@ -2,8 +2,8 @@
 import numpy as np
 from helpers import sphere_depth
 
-from mirrorcore.camera import Intrinsics
 from mirrorcore.depthops import median_depth, smooth_depth
+from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.noise import axial_sigma
 from mirrorcore.selection import Selection, object_mask
 

@@ -9,7 +9,7 @@ import cv2
 import pytest
 
 from app.cli import main
-from mirrorcore.sim.experiments import ANGLES, COLUMNS, MIRROR_DISTANCES
+from app.experiments import ANGLES, COLUMNS, MIRROR_DISTANCES
 from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
 
 EXPERIMENTS = {"angle": (ANGLES, SPHERE_RADIUS), "distance": (MIRROR_DISTANCES, CYLINDER_RADIUS)}

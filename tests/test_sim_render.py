@@ -4,9 +4,9 @@ per-frame casts limited to the objects' windows lose no pixel."""
 import numpy as np
 import pytest
 
-from mirrorcore.camera import Intrinsics
-from mirrorcore.sim.layouts import arc_scene, paper_scene
+from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
+from mirrorcore.sim.layouts import arc_scene, paper_scene
 from mirrorcore.sim.render import MARKER, Renderer
 
 CAMERA = Intrinsics.kinect_v1().scaled(0.5)

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from mirrorcore.camera import Intrinsics
 from mirrorcore.errors import FileFormatError
-from mirrorcore.plane import Plane
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import arc_scene, paper_scene
 from mirrorcore.sim.scene import load_scene, save_scene
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 
 
 @pytest.mark.parametrize("scene", [paper_scene(), arc_scene(4), paper_scene(object="figure", distance=3.0)])
@@ -53,7 +53,7 @@ def test_invalid_json_is_one_line(tmp_path):
 
 
 def test_session_mirrors_hold_visible_markers_inside_outlines():
-    rig = SimulatedRig(paper_scene(camera=Intrinsics.kinect_v1().scaled(0.5)))
+    rig = Simulator(paper_scene(camera=Intrinsics.kinect_v1().scaled(0.5)))
     specs = session_mirrors(rig, rig.frame(0).truth)
     assert [s.name for s in specs] == [m.name for m in rig.scene.mirrors]
     for spec in specs:

@@ -1,12 +1,10 @@
 """Kinect v1 sensor model: total axial std k Z^2 at 1, 2 and 3 m, the Gaussian table, exact noiseless mode, visible
-quantisation steps, seeds, range, IR shadow (and its window against a running minimum over whole rows) and the Burrus
-raw disparity round trip."""
+quantisation steps, seeds, range, IR shadow (and its window against a running minimum over whole rows)."""
 import numpy as np
 import pytest
 
-from mirrorcore.camera import Intrinsics
-from mirrorcore.sim.sensor import (RAW_INVALID, SensorModel, depth_to_raw, ir_shadow, raw_to_depth,
-                                   standard_normal)
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.sim.sensor import SensorModel, ir_shadow, standard_normal
 
 CAMERA = Intrinsics.kinect_v1()
 
@@ -94,15 +92,3 @@ def test_ir_shadow_equals_a_running_minimum_over_whole_rows():
     for tolerance in (0.0, 0.1, 3.0):
         np.testing.assert_array_equal(ir_shadow(depth, fb, tolerance), (depth > 0) & (beyond < xp - tolerance))
     assert not ir_shadow(np.zeros(CAMERA.shape, np.float32), fb).any()
-
-
-def test_burrus_raw_round_trip_within_quantisation():
-    z = np.linspace(0.5, 4.5, 10001)
-    raw = depth_to_raw(z)
-    assert raw.dtype == np.uint16 and raw.max() < 2047
-    back = raw_to_depth(raw)
-    # rounding moves 1/z by at most half a raw step |A| / 2, so |back - z| <= |A| / 2 * z * back
-    assert np.all(np.abs(back - z) <= 0.5 * 0.0030711016 * z * back * 1.0001 + 1e-6)
-    np.testing.assert_array_equal(depth_to_raw(raw_to_depth(raw)), raw)
-    assert depth_to_raw(np.array([0.0, 0.1, np.nan]).tolist()).tolist() == [RAW_INVALID] * 3
-    assert raw_to_depth(np.array([RAW_INVALID, 1200])).tolist() == [0.0, 0.0]

@@ -6,10 +6,15 @@ import pytest
 
 from mirrorcore.errors import FileFormatError, MirrorscanError
 from mirrorcore.fitting import fit_sphere
-from mirrorcore.pipeline import object_cloud, session_selection
+from mirrorcore.pipeline import object_cloud
 from mirrorcore.rig import Rig
 from mirrorcore.session import load_session
-from mirrorcore.sources import SessionSource, SimulatedSource, open_source, session_scene
+from mirrorcore.sources import (
+    SessionSource,
+    SimulatedSource,
+    open_source,
+    session_scene,
+)
 
 DEMO = Path(__file__).resolve().parents[1] / "sessions" / "demo"
 
@@ -19,7 +24,7 @@ def test_shipped_demo_session_is_calibrated_and_scans_the_sphere():
     assert len(session.mirrors) == 2 and all(m.plane is not None for m in session.mirrors)
     source = open_source(None, session)
     assert isinstance(source, SessionSource) and source.frame_count == len(session.frames) == 5
-    cloud, _ = object_cloud(Rig.from_session(session), source.read(0).depth, source.background(), session_selection(session))
+    cloud, _ = object_cloud(Rig.from_session(session), source.read(0).depth, source.background(), session.selection)
     assert (np.bincount(cloud.sources, minlength=3) > 1000).all()
     fit = fit_sphere(cloud.points, np.random.default_rng(0))
     assert abs(fit.shape.radius - 0.115) < 0.002

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from mirrorcore.errors import FileFormatError, MirrorscanError
+from mirrorcore.kinect import BURRUS_A, depth_to_disparity
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.sensor import BURRUS_A, depth_to_raw
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import open_source
 from mirrorcore.sources.base import require
 
@@ -26,7 +26,7 @@ READER = """import sys, numpy as np
 from mirrorcore.sources import open_source
 with open_source("freenect:0") as source:
     frames = [source.read(i) for i in range(int(sys.argv[2]))]
-np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]), raw=np.stack([f.raw for f in frames]),
+np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]), raw=np.stack([f.units for f in frames]),
          t=np.array([f.timestamp for f in frames]))
 """
 
@@ -48,9 +48,9 @@ def write_fakenect(folder: Path, raws: list[np.ndarray], period: float, padding:
                     "libfreenect-dev) and gcc for the freenect_camera_to_world shim")
 def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
     require("freenect", "freenect:0", "pip install 'mirrorscan[devices]'")
-    rig = SimulatedRig(paper_scene(object="sphere", distance=2.0), seed=3)
+    rig = Simulator(paper_scene(object="sphere", distance=2.0), seed=3)
     truth = np.stack([rig.frame(i).depth for i in range(4)])
-    raws = [depth_to_raw(d) for d in truth]
+    raws = [depth_to_disparity(d) for d in truth]
     write_fakenect(tmp_path / "rec", raws, period=0.2, padding=60)
     (tmp_path / "shim.c").write_text(SHIM)
     subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "shim.so"), str(tmp_path / "shim.c")], check=True)
@@ -112,7 +112,7 @@ def test_realsense_bag_written_here_reads_back_exactly(tmp_path):
         assert source.frame_count == 3 and (source.intrinsics.fx, source.intrinsics.fy) == (580.0, 581.0)
         got = [source.read(i) for i in (2, 0, 1)]                       # seekable: any order
     for frame, expected in zip(got, frames[[2, 0, 1]]):
-        np.testing.assert_array_equal(frame.raw, expected)
+        np.testing.assert_array_equal(frame.units, expected)
         scale = np.float32(source.intrinsics.depth_scale)
         np.testing.assert_array_equal(frame.depth, expected.astype(np.float32) * scale)
     assert source.intrinsics.depth_scale == pytest.approx(0.001)

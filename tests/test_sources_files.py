@@ -7,9 +7,9 @@ import cv2
 import numpy as np
 import pytest
 
-from mirrorcore.camera import Intrinsics, reproject_depth
 from mirrorcore.errors import FileFormatError, MirrorscanError
 from mirrorcore.fitting import fit_sphere
+from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.sources import Frame, StackSource, open_source, parse_spec
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real"
@@ -55,7 +55,7 @@ def test_tum_folder_finds_the_globe_at_2_2_m_with_its_colour(tmp_path):
     points, _ = reproject_depth(source.intrinsics, frame.depth, near)
     globe = fit_sphere(points, np.random.default_rng(0)).shape
     assert 0.20 < globe.radius < 0.24                  # an inflatable globe, about 21-23 cm
-    assert 2.2 < globe.center[2] < 2.45                 # its front at about 2.1 m, its centre one radius behind
+    assert 2.2 < globe.centre[2] < 2.45                 # its front at about 2.1 m, its centre one radius behind
 
 
 def test_npz_stack_integer_and_float_with_no_readings(tmp_path):
@@ -66,13 +66,13 @@ def test_npz_stack_integer_and_float_with_no_readings(tmp_path):
     assert isinstance(source, StackSource) and source.intrinsics == Intrinsics(2, 2, 500, 500, 0.5, 0.5, 0.001)
     frame = source.read(0)
     assert isinstance(frame, Frame) and frame.timestamp == 5.0 and frame.colour is None
-    np.testing.assert_array_equal(frame.raw, depth[0])
+    np.testing.assert_array_equal(frame.units, depth[0])
     np.testing.assert_allclose(frame.depth, [[1.0, 0.0], [2.0, 65.535]], rtol=1e-6)
     floats = np.array([[np.nan, np.inf], [-1.0, 2.5]], np.float32)
     np.savez(tmp_path / "f.npz", depth=floats, K=K)
     frame = open_source(f"npz:{tmp_path / 'f.npz'}").read(0)
     np.testing.assert_array_equal(frame.depth, [[0, 0], [0, 2.5]])
-    assert frame.raw is None and frame.depth.dtype == np.float32
+    assert frame.units is None and frame.depth.dtype == np.float32
 
 
 def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):

@@ -6,13 +6,14 @@ import numpy as np
 import open3d as o3d
 import pytest
 
-from mirrorcore.dense import DenseOptions, dense_volume, prepare_frame
+from mirrorcore.dense import DenseOptions, dense_volume
+from mirrorcore.dense.tsdf import fuse
+from mirrorcore.dense.volume import Volume
 from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply, write_ply
 from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.sim.sensor import SensorModel
-from mirrorcore.tsdf import fuse
-from mirrorcore.volume import Volume
 from tests.dense_scene import sphere_scene
 
 
@@ -78,8 +79,8 @@ def test_bad_requests(noisy):
 
 def test_mesh_vertices_take_the_nearest_labelled_corner():
     """A vertex whose nearest voxel has no label takes the label of the nearest corner of its cube that has one."""
-    from mirrorcore.mesh import _corner_labels
-    from mirrorcore.volume import NO_SOURCE
+    from mirrorcore.dense.mesh import _corner_labels
+    from mirrorcore.dense.volume import NO_SOURCE
     source = np.full((3, 3, 3), NO_SOURCE, np.uint8)
     source[1, 1, 1], source[2, 1, 1] = 2, 1
     verts = np.array([[1.2, 1.0, 1.0], [1.6, 1.0, 1.0], [0.4, 1.0, 1.0]])

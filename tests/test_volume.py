@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
+from mirrorcore.dense.volume import Volume, run_slabs
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.volume import Volume, run_slabs
 
 
 def test_box_to_grid_and_back():

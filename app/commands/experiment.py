@@ -6,9 +6,9 @@ import csv
 import io
 from pathlib import Path
 
+from app.experiments import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.sim.experiments import COLUMNS, plot_experiment, run_experiment
 
 
 def register(sub) -> None:

@@ -7,10 +7,15 @@ import json
 import numpy as np
 
 from mirrorcore.errors import FileFormatError
-from mirrorcore.fit_errors import FitErrors, ShapeFit
-from mirrorcore.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
+from mirrorcore.fitting import (
+    DEFAULT_RADIUS_RANGE,
+    DEFAULT_THRESHOLD,
+    fit_cylinder,
+    fit_sphere,
+)
 from mirrorcore.palette import source_name
 from mirrorcore.ply import read_ply
+from mirrorcore.shapes import FitErrors, ShapeFit
 
 _FITS = {"sphere": fit_sphere, "cylinder": fit_cylinder}
 
@@ -48,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 def summary(fit: ShapeFit, name: str) -> str:
     """A few lines for a person: the shape, then RMSE and mean error over all points, the inliers and each source."""
     shape = fit.shape
-    where = (f"centre ({', '.join(f'{x:.4f}' for x in shape.center)}) m" if shape.kind == "sphere" else
+    where = (f"centre ({', '.join(f'{x:.4f}' for x in shape.centre)}) m" if shape.kind == "sphere" else
              f"axis through ({', '.join(f'{x:.4f}' for x in shape.axis_point)}) m, "
              f"direction ({', '.join(f'{x:.4f}' for x in shape.axis_direction)})")
     rows = [("all points", fit.errors), ("inliers", fit.inlier_errors),

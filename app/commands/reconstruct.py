@@ -12,11 +12,11 @@ import numpy as np
 from tqdm import tqdm
 
 from mirrorcore.atomic import new_folder
-from mirrorcore.carve import CarveResult
-from mirrorcore.dense import METHODS, DenseOptions, dense_volume, prepare_frame, reconstruct_dense
+from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
+from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.pipeline import object_cloud, session_selection
+from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
 from mirrorcore.session import Session, load_session
@@ -62,7 +62,7 @@ def read_scan_frame(session: Session, index: int) -> np.ndarray:
 def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
     rig = calibrated_rig(session)
-    selection = session_selection(session)
+    selection = session.selection
     background = session.read_background()
     out = Path(args.output)
     if args.frame != "all":

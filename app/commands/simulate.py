@@ -8,7 +8,7 @@ from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
 from mirrorcore.sim.sensor import SensorModel
-from mirrorcore.sim.source import SimulatedRig
+from mirrorcore.sim.simulator import Simulator
 
 _LAYOUT_OPTIONS = ("object", "angle", "mirrors", "distance")
 
@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
             raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
         scene = paper_scene(120.0 if args.angle is None else args.angle, args.mirrors or 2, args.object or "sphere",
                             2.0 if args.distance is None else args.distance)
-    rig = SimulatedRig(scene, SensorModel.from_name(args.noise), args.seed, two_bounces=not args.single_bounce)
+    rig = Simulator(scene, SensorModel.from_name(args.noise), args.seed, two_bounces=not args.single_bounce)
     out = write_session(rig, args.out, args.frames, args.noise, progress=not args.quiet)
     print(f"wrote {out} ({args.frames} frame{'s' if args.frames != 1 else ''}, {len(scene.mirrors)} mirrors)")
     return 0

@@ -9,12 +9,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 import trimesh
 
-from mirrorcore.carve import CarveResult
-from mirrorcore.dense import DenseOptions, dense_volume, prepare_frame, reconstruct_dense
+from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
+from mirrorcore.dense.carve import CarveResult
+from mirrorcore.dense.volume import Volume
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.palette import source_colors
+from mirrorcore.palette import source_colours
+from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import encode_ply
-from mirrorcore.volume import Volume
 
 if TYPE_CHECKING:
     from ..server import MirrorscanApp
@@ -88,7 +89,7 @@ class DensePanel:
         self.run.disabled, self.cancel.disabled = True, False
         self.progress.visible, self.progress.value = True, 0.0
         try:
-            prepared = [prepare_frame(snapshot.rig, d, snapshot.background, snapshot.selection) for d in depths]
+            prepared = [prepare_frame(snapshot.rig, d, snapshot.background, snapshot.session.selection) for d in depths]
             options = self.options()
             volume = dense_volume(snapshot.rig, *prepared[-1], options)   # refuses boxes of too many voxels
             result = reconstruct_dense(snapshot.rig, np.stack([p[0] for p in prepared]),
@@ -111,13 +112,13 @@ class DensePanel:
             points, sources = result.surface_points()
             self.result = (points, sources, None)
             self.app.server.scene.remove_by_name("/dense/mesh")
-            self.app.server.scene.add_point_cloud("/dense/points", points + shift, source_colors(sources),
+            self.app.server.scene.add_point_cloud("/dense/points", points + shift, source_colours(sources),
                                                   point_size=volume.voxel, precision="float32")
             self.status.content = f"{result.method}: {len(points):,} surface voxels of {volume.voxel * 1e3:.1f} mm"
             return
         mesh = result.mesh()
         self.result = (mesh.vertices, mesh.sources, mesh.faces)
-        coloured = trimesh.Trimesh(mesh.vertices + shift, mesh.faces, vertex_colors=source_colors(mesh.sources),
+        coloured = trimesh.Trimesh(mesh.vertices + shift, mesh.faces, vertex_colors=source_colours(mesh.sources),
                                    process=False)
         self.app.server.scene.remove_by_name("/dense/points")
         self.app.server.scene.add_mesh_trimesh("/dense/mesh", coloured)

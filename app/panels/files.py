@@ -12,8 +12,13 @@ from mirrorcore.atomic import write_atomic
 from mirrorcore.depthio import decode_depth_png, require_readings
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
-from mirrorcore.session import BACKGROUND_FILE, SESSION_FILE, copy_session, load_session, session_folder
-
+from mirrorcore.session import (
+    BACKGROUND_FILE,
+    SESSION_FILE,
+    copy_session,
+    load_session,
+    session_folder,
+)
 
 if TYPE_CHECKING:
     from ..server import MirrorscanApp

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-from mirrorcore.palette import source_color
+from mirrorcore.palette import source_colour
 
 from ..live import LiveFrame
 
@@ -19,7 +19,7 @@ def legend_html(counts: dict[str, int]) -> str:
     """One line per source: a swatch in the source colour, its name and its point count."""
     rows = []
     for j, (name, count) in enumerate(counts.items()):
-        r, g, b = (int(c) for c in source_color(j))
+        r, g, b = (int(c) for c in source_colour(j))
         rows.append(f'<div style="font-size:0.85em"><span style="display:inline-block;width:0.9em;height:0.9em;'
                     f'background:rgb({r},{g},{b});margin-right:0.4em;border-radius:2px"></span>'
                     f'{name}: <b>{count:,}</b> points</div>')

@@ -11,9 +11,9 @@ import numpy as np
 import viser.uplot as uplot
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.fit_errors import ShapeFit
 from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.palette import source_name
+from mirrorcore.shapes import ShapeFit
 
 if TYPE_CHECKING:
     from ..live import LiveFrame

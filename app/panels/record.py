@@ -52,8 +52,7 @@ class RecordPanel:
         self.start_button.disabled, self.stop_button.disabled = False, True
         recorded = recorder.stop()
         current = self.app.editor.session
-        self.recorded = replace(recorded, mirrors=current.mirrors,
-                                extra={**recorded.extra, **{k: v for k, v in current.extra.items() if k == "selection"}})
+        self.recorded = replace(recorded, mirrors=current.mirrors, selection=current.selection)
         save_session(self.recorded)
         dropped = f" ({self.tap.dropped} dropped: the disk was too slow)" if self.tap.dropped else ""
         self.status.content = f"recorded {len(recorded.frames)} frames into `{recorded.root}`{dropped}"

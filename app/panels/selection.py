@@ -10,7 +10,7 @@ import numpy as np
 
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.polygon import validate_polygon
+from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.session import BACKGROUND_FILE
 from mirrorcore.sources import SimulatedSource
 
@@ -24,7 +24,7 @@ class SelectionPanel:
         gui, self.app = app.server.gui, app
         self.roi_draft: tuple[tuple[float, float], ...] = ()
         self._capture = threading.Lock()
-        selection = app.state.current.selection
+        selection = app.state.current.session.selection
         with gui.add_folder("Object"):
             if isinstance(app.source, SimulatedSource):
                 self.object_in_scene = gui.add_checkbox("Simulated object in the scene", initial_value=True)
@@ -48,13 +48,13 @@ class SelectionPanel:
         snapshot = self.app.state.current
         source = ("captured" if snapshot.session.background else "from the source") \
             if snapshot.background is not None else "none: the object is every pixel in the depth range"
-        roi = snapshot.selection.roi
+        roi = snapshot.session.selection.roi
         self.background.content = (f"Background: {source}. Region of interest: "
                                     f"{'%d corners' % len(roi) if roi else 'whole image'}"
                                     + (f" (drawing: {len(self.roi_draft)} corners)" if self.roi_draft else "") + ".")
 
     def _set(self, **changes) -> None:
-        self.app.editor.set_selection(replace(self.app.state.current.selection, **changes))
+        self.app.editor.set_selection(replace(self.app.state.current.session.selection, **changes))
 
     def _set_range(self) -> None:
         low, high = self.range.value

@@ -1,6 +1,6 @@
-"""Writing a simulated rig to disk: a session folder of DESIGN.md (markers and mirror outlines in pixels, background,
+"""Writing a simulated rig to disk: a session folder of docs/DESIGN.md (markers and mirror outlines in pixels, background,
 frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder, then renamed);
-`session_mirrors` gives the session's mirrors in memory."""
+`session_mirrors` gives the session's mirrors in memory and `true_rig` the rig of a perfect calibration."""
 from __future__ import annotations
 
 import json
@@ -11,18 +11,19 @@ import numpy as np
 from tqdm import tqdm
 
 from ..atomic import new_folder
-from ..camera import Intrinsics, project_points
 from ..depthio import write_depth_png
 from ..errors import MirrorscanError
-from ..session import BACKGROUND_FILE, MirrorSpec, Session, save_session
+from ..geometry.camera import Intrinsics, project_points
+from ..rig import Mirror, Rig
+from ..session import BACKGROUND_FILE, Session, SessionMirror, save_session
 from .render import MARKER, GroundTruth
-from .scene import Mirror
-from .source import SimulatedRig
+from .scene import Scene, SceneMirror
+from .simulator import Simulator
 
 TRUTH_FILE = "truth.json"
 
 
-def mirror_outline(camera: Intrinsics, mirror: Mirror) -> np.ndarray:
+def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
     """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a convex simple
     polygon. Raises MirrorscanError when a corner is behind the camera or the mirror is out of view."""
     uv, z = project_points(camera, mirror.corners())
@@ -36,7 +37,13 @@ def mirror_outline(camera: Intrinsics, mirror: Mirror) -> np.ndarray:
     return np.clip(clipped.reshape(-1, 2).astype(np.float64), -0.5, [w, h])
 
 
-def visible_markers(camera: Intrinsics, mirror: Mirror, index: int, truth: GroundTruth) -> np.ndarray:
+def true_rig(scene: Scene) -> Rig:
+    """The rig of a scene as a perfect calibration would give it: the true planes and each mirror's outline in the
+    image (mirror_outline), in session order."""
+    return Rig(scene.camera, tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m)) for m in scene.mirrors))
+
+
+def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int, truth: GroundTruth) -> np.ndarray:
     """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the camera sees directly
     (the ideal render shows that mirror's marker at the rounded pixel)."""
     uv, z = project_points(camera, mirror.marker_centres())
@@ -49,17 +56,17 @@ def visible_markers(camera: Intrinsics, mirror: Mirror, index: int, truth: Groun
     return uv[seen & on_this]
 
 
-def session_mirrors(rig: SimulatedRig, truth: GroundTruth) -> tuple[MirrorSpec, ...]:
+def session_mirrors(rig: Simulator, truth: GroundTruth) -> tuple[SessionMirror, ...]:
     """The rig's mirrors as a session holds them (session order): the pixels (u, v) of the marker centres that `truth`
     shows directly (see `visible_markers`) and each mirror's outline in the image (`mirror_outline`); no planes.
     Raises MirrorscanError when a mirror is out of view."""
     camera = rig.intrinsics
-    return tuple(MirrorSpec(m.name, tuple(map(tuple, visible_markers(camera, m, j, truth).tolist())),
+    return tuple(SessionMirror(m.name, tuple(map(tuple, visible_markers(camera, m, j, truth).tolist())),
                             tuple(map(tuple, mirror_outline(camera, m).tolist())))
                  for j, m in enumerate(rig.scene.mirrors, start=1))
 
 
-def truth_json(rig: SimulatedRig, noise: str) -> dict:
+def truth_json(rig: Simulator, noise: str) -> dict:
     """The truth.json object: scene, true planes [a, b, c, d] (DESIGN.md convention), objects, seed, fps, noise."""
     scene = rig.scene
     objects = [o.to_json() for o in scene.objects]
@@ -71,7 +78,7 @@ def truth_json(rig: SimulatedRig, noise: str) -> dict:
             "scene": scene.to_json()}
 
 
-def write_session(rig: SimulatedRig, out: str | Path, n_frames: int, noise: str = "kinect",
+def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "kinect",
                   progress: bool = True) -> Path:
     """Render the background and `n_frames` frames of `rig` into a new session folder `out` with truth.json.
 
@@ -86,7 +93,7 @@ def write_session(rig: SimulatedRig, out: str | Path, n_frames: int, noise: str 
     return out
 
 
-def _write(rig: SimulatedRig, folder: Path, n_frames: int, noise: str, progress: bool) -> None:
+def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool) -> None:
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)

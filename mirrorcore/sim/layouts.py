@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import Intrinsics
 from ..errors import MirrorscanError
-from .scene import Mirror, Room, Scene, SceneObject
+from ..geometry.camera import Intrinsics
+from .scene import Room, Scene, SceneMirror, SceneObject
 
 SPHERE_RADIUS = 0.115       # the paper's sphere (figure 4)
 CYLINDER_RADIUS = 0.150     # the paper's cylinder (figure 5)
@@ -54,13 +54,13 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
     return ((-s, -t), (0.0, -t), (s, -t), (-s, t), (0.0, t), (s, t))
 
 
-def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float]) -> Mirror:
-    return Mirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
+def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float]) -> SceneMirror:
+    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
                   _markers(*size), MARKER_SIZE)
 
 
 def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
-              size: tuple[float, float] = MIRROR_SIZE) -> tuple[Mirror, Mirror]:
+              size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, SceneMirror]:
     """Two vertical mirrors in a V behind `target` (3,), apex on the far side, `angle_deg` between their surfaces.
 
     Each plane is `mirror_distance` metres from the target; each mirror is centred where the camera's ray to the
@@ -86,7 +86,7 @@ def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
 
 
 def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float, clearance: float,
-                size: tuple[float, float] = MIRROR_SIZE) -> tuple[Mirror, ...]:
+                size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, ...]:
     """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over `span_deg` degrees
     centred on the far side, left to right. Each faces the half-way direction between the camera and the target, so
     the camera sees the target's image in the mirror's middle. A mirror whose image would hide behind the real object

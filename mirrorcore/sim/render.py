@@ -19,8 +19,8 @@ from functools import cached_property
 import numpy as np
 import open3d as o3d
 
-from ..camera import Intrinsics, project_points
-from ..plane import Plane
+from ..geometry.camera import Intrinsics, project_points
+from ..geometry.plane import Plane
 from .objects import object_geometry
 from .scene import Scene
 

@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_atomic
-from ..camera import Intrinsics
 from ..errors import FileFormatError
+from ..geometry.camera import Intrinsics
+from ..geometry.plane import Plane
 from ..jsonfile import read_json
-from ..plane import Plane
 
 SCENE_VERSION = 1
 OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
@@ -56,7 +56,7 @@ def _positive(value, where: str) -> float:
 
 
 @dataclass(frozen=True)
-class Mirror:
+class SceneMirror:
     """A flat rectangular mirror with matte square markers stuck on its glass.
 
     centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
@@ -168,7 +168,7 @@ class Scene:
     """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None)."""
 
     camera: Intrinsics
-    mirrors: tuple[Mirror, ...]
+    mirrors: tuple[SceneMirror, ...]
     objects: tuple[SceneObject, ...] = ()
     room: Room | None = field(default_factory=Room)
 
@@ -224,7 +224,7 @@ def _require(data, keys: tuple[str, ...], where: str) -> None:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
 
 
-def _mirror(data, where: str) -> Mirror:
+def _mirror(data, where: str) -> SceneMirror:
     _require(data, ("centre", "normal", "up", "width", "height"), where)
     markers = data.get("markers", [])
     try:
@@ -234,10 +234,10 @@ def _mirror(data, where: str) -> Mirror:
     except (TypeError, ValueError):
         raise FileFormatError(f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
     name = data.get("name", where.rsplit("[", 1)[-1].rstrip("]"))
-    return Mirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
+    return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
                   _vec(data["up"], f"{where}.up", True), _positive(data["width"], f"{where}.width"),
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
-                  _positive(data.get("marker_size", Mirror.marker_size), f"{where}.marker_size"))
+                  _positive(data.get("marker_size", SceneMirror.marker_size), f"{where}.marker_size"))
 
 
 def _object(data, where: str) -> SceneObject:

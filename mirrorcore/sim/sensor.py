@@ -1,5 +1,5 @@
 """Kinect v1 sensor model applied to an ideal depth image (range, IR shadow, lateral and axial noise, 1/8-pixel
-disparity quantisation) and the Kinect's raw 11-bit disparity (Burrus) with its inverse.
+disparity quantisation).
 
 Axial noise: Khoshelham & Elberink (2012) give a total depth std sigma_z = k Z^2 with k = 1.425e-3 / m. In disparity
 D = f b / Z (f = fx pixels, b = baseline) that is a constant sigma_D = k f b pixels, so the model adds Gaussian noise in
@@ -28,11 +28,7 @@ from statistics import NormalDist
 import cv2
 import numpy as np
 
-from ..camera import Intrinsics
-
-BURRUS_A = -0.0030711016     # z = 1 / (raw * A + B), metres (Nicolas Burrus' Kinect v1 calibration)
-BURRUS_B = 3.3309495161
-RAW_INVALID = 2047
+from ..geometry.camera import Intrinsics
 
 
 @dataclass(frozen=True)
@@ -156,26 +152,3 @@ def _pixel_grid(h: int, w: int) -> np.ndarray:
     grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)), axis=-1)
     grid.flags.writeable = False
     return grid
-
-
-def depth_to_raw(depth: np.ndarray) -> np.ndarray:
-    """Metres -> Kinect v1 raw 11-bit disparity (inverse of the Burrus formula), uint16; 0 or out of range -> 2047.
-
-    depth : (...) float metres. Raw values 0..1084 hold depths from 0.30 m to about 530 m.
-    """
-    depth = np.asarray(depth, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        raw = np.round((1.0 / depth - BURRUS_B) / BURRUS_A)
-    ok = (depth > 0) & np.isfinite(raw) & (raw >= 0) & (raw < _RAW_LIMIT)
-    return np.where(ok, raw, RAW_INVALID).astype(np.uint16)
-
-
-def raw_to_depth(raw: np.ndarray) -> np.ndarray:
-    """Kinect v1 raw 11-bit disparity -> metres (Burrus: z = 1 / (raw * -0.0030711016 + 3.3309495161)), float32;
-    2047 and values with no positive depth (raw >= 1085) -> 0."""
-    raw = np.asarray(raw, dtype=np.float64)
-    ok = (raw < _RAW_LIMIT) & (raw >= 0)
-    return np.where(ok, 1.0 / np.where(ok, raw * BURRUS_A + BURRUS_B, 1.0), 0.0).astype(np.float32)
-
-
-_RAW_LIMIT = int(np.ceil(-BURRUS_B / BURRUS_A))     # 1085: from here on the formula gives no positive depth

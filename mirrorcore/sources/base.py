@@ -1,4 +1,4 @@
-"""The depth source interface: Frame (one depth image with its time, colour and raw sensor values) and DepthSource."""
+"""The depth source interface: Frame (one depth image with its time, colour and the sensor's own units) and DepthSource."""
 from __future__ import annotations
 
 import importlib
@@ -9,8 +9,8 @@ from typing import Iterator
 
 import numpy as np
 
-from ..camera import Intrinsics, check_depth_shape
 from ..errors import MirrorscanError
+from ..geometry.camera import Intrinsics, check_depth_shape
 
 
 @dataclass(frozen=True)
@@ -20,14 +20,14 @@ class Frame:
     depth : (H, W) float32, metres, 0 = no reading (never NaN or inf)
     timestamp : float, seconds on the source's clock (a recording's own times, or seconds since a live source opened)
     colour : (H, W, 3) uint8 RGB registered to the depth image, or None
-    raw : (H, W) uint16, the sensor's own values before conversion to metres (Kinect v1: 11-bit disparity,
+    units : (H, W) uint16, the sensor's own values before conversion to metres (Kinect v1: 11-bit disparity,
           2047 = no reading; RealSense: z16 units), or None
     """
 
     depth: np.ndarray
     timestamp: float
     colour: np.ndarray | None = None
-    raw: np.ndarray | None = None
+    units: np.ndarray | None = None
 
 
 class DepthSource(ABC):

@@ -8,9 +8,9 @@ from typing import Callable
 
 import numpy as np
 
-from ..camera import Intrinsics
 from ..errors import FileFormatError, MirrorscanError
-from ..sim.sensor import raw_to_depth
+from ..geometry.camera import Intrinsics
+from ..kinect import disparity_to_depth
 from .base import DepthSource, Frame, require
 
 FREENECT_INSTALL = "Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' (PyPI freenect builds against it)"
@@ -22,15 +22,15 @@ _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM"
 class FreenectSource(DepthSource):
     """A Kinect v1 through libfreenect's sync wrapper, live.
 
-    Frames are raw 11-bit disparity (Frame.raw, uint16, 2047 = no reading) converted to metres by `disparity_model`
+    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres by `disparity_model`
     ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default Nicolas Burrus' calibration
-    z = 1 / (raw * -0.0030711016 + 3.3309495161) (mirrorcore.sim.sensor.raw_to_depth); pass another function to
+    z = 1 / (counts * -0.0030711016 + 3.3309495161) (mirrorcore.kinect.disparity_to_depth); pass another function to
     use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1() (Burrus).
     Timestamps are seconds since the source opened, on the host's clock.
     """
 
     def __init__(self, index: int = 0, intrinsics: Intrinsics | None = None,
-                 disparity_model: Callable[[np.ndarray], np.ndarray] = raw_to_depth):
+                 disparity_model: Callable[[np.ndarray], np.ndarray] = disparity_to_depth):
         self.name, self.index = f"freenect:{index}", int(index)
         self._freenect = require("freenect", self.name, FREENECT_INSTALL)
         self.intrinsics, self.fps, self.frame_count = intrinsics or Intrinsics.kinect_v1(), 30.0, None
@@ -41,8 +41,8 @@ class FreenectSource(DepthSource):
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
         if got is None:
             raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and readable by this user?)")
-        raw = np.array(got[0], dtype=np.uint16)           # a copy: the binding reuses its buffer
-        return Frame(self.disparity_model(raw), time.monotonic() - self._t0, raw=raw)
+        counts = np.array(got[0], dtype=np.uint16)        # a copy: the binding reuses its buffer
+        return Frame(self.disparity_model(counts), time.monotonic() - self._t0, units=counts)
 
     def read(self, i: int) -> Frame:
         frame, self._first = self._first or self._grab(), None
@@ -55,7 +55,7 @@ class FreenectSource(DepthSource):
 class OpenNI2Source(DepthSource):
     """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording (seekable).
 
-    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.raw holds those units);
+    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units holds those units);
     intrinsics from the stream's fields of view (principal point at the image centre); timestamps from the device,
     seconds.
     """
@@ -93,8 +93,9 @@ class OpenNI2Source(DepthSource):
             self._playback.seek(self._stream, self._wrap(i))
         frame = self._stream.read_frame()
         h, w = self.intrinsics.shape
-        raw = np.frombuffer(frame.get_buffer_as_uint16(), np.uint16, h * w).reshape(h, w).copy()
-        return Frame(raw.astype(np.float32) * np.float32(self.intrinsics.depth_scale), frame.timestamp * 1e-6, raw=raw)
+        units = np.frombuffer(frame.get_buffer_as_uint16(), np.uint16, h * w).reshape(h, w).copy()
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), frame.timestamp * 1e-6,
+                     units=units)
 
     def close(self) -> None:
         self._stream.stop()

@@ -9,9 +9,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..camera import Intrinsics, load_open3d_json, load_opencv_yaml
 from ..depthio import read_depth_png
 from ..errors import FileFormatError
+from ..geometry.camera import Intrinsics, load_open3d_json, load_opencv_yaml
 from ..jsonfile import read_json
 from ..session import Session
 from .base import DepthSource, Frame, checked_depth
@@ -46,27 +46,18 @@ class ImageSequenceSource(DepthSource):
 
 
 class SessionSource(ImageSequenceSource):
-    """A session's recorded frames at `fps`; timestamps from session.json's optional 'timestamps' list (else i / fps),
-    colour from its optional 'colour_frames' list (paths relative to the session folder)."""
+    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour frames."""
 
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
-        n = len(session.frames)
-        stamps = session.extra.get("timestamps")
-        if not (isinstance(stamps, list) and len(stamps) == n and all(_is_number(t) for t in stamps)):
-            stamps = np.arange(n) / fps
-        colour = session.extra.get("colour_frames")
-        listed = isinstance(colour, list) and len(colour) == n and all(isinstance(c, str) for c in colour)
-        colour = [Path(session.root) / c for c in colour] if listed else None
-        super().__init__(f"session {Path(session.root).name}", session.camera,
-                         [Path(session.root) / f for f in session.frames], np.asarray(stamps, float), colour, fps)
+        root = Path(session.root)
+        stamps = session.timestamps if session.timestamps is not None else np.arange(len(session.frames)) / fps
+        colour = None if session.colour_frames is None else [root / c for c in session.colour_frames]
+        super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
+                         np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
         return self.session.read_background()
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
 
 
 def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None,
@@ -182,7 +173,7 @@ class StackSource(DepthSource):
     """Frames held in memory as a stack of sensor units.
 
     units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float seconds;
-    colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.raw (uint16).
+    colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.units (uint16).
     NaN, inf and values <= 0 read as no reading.
     """
 
@@ -197,8 +188,8 @@ class StackSource(DepthSource):
         units = self.units[i]
         with np.errstate(invalid="ignore", over="ignore"):
             depth = checked_depth(units.astype(np.float32) * self.scale, self.intrinsics, self.name)
-        raw = units.astype(np.uint16) if np.issubdtype(units.dtype, np.integer) else None
-        return Frame(depth, float(self.timestamps[i]), None if self.colour is None else self.colour[i], raw)
+        sensor_units = units.astype(np.uint16) if np.issubdtype(units.dtype, np.integer) else None
+        return Frame(depth, float(self.timestamps[i]), None if self.colour is None else self.colour[i], sensor_units)
 
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..camera import Intrinsics
 from ..errors import FileFormatError, MirrorscanError
+from ..geometry.camera import Intrinsics
 from .base import DepthSource, Frame, require
 from .files import StackSource
 
@@ -17,7 +17,7 @@ BAG_START_S = 5.0               # a playback still stopped this long after its s
 
 
 class RealSenseSource(DepthSource):
-    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units (Frame.raw holds
+    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units (Frame.units holds
     the z16 values), intrinsics from the depth stream's profile, timestamps from the device in seconds."""
 
     def __init__(self, serial: str = ""):
@@ -39,9 +39,9 @@ class RealSenseSource(DepthSource):
 
     def read(self, i: int) -> Frame:
         depth = self._pipe.wait_for_frames().get_depth_frame()
-        raw = np.asanyarray(depth.get_data()).copy()
-        return Frame(raw.astype(np.float32) * np.float32(self.intrinsics.depth_scale), depth.get_timestamp() * 1e-3,
-                     raw=raw)
+        units = np.asanyarray(depth.get_data()).copy()
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), depth.get_timestamp() * 1e-3,
+                     units=units)
 
     def close(self) -> None:
         self._pipe.stop()
@@ -61,7 +61,7 @@ def _camera(stream, units: float) -> Intrinsics:
 
 def open_bag(path: str | Path) -> StackSource:
     """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read whole into memory at open so that it
-    is seekable: depth frames as z16 units (Frame.raw) times the recorded depth units, device timestamps in seconds.
+    is seekable: depth frames as z16 units (Frame.units) times the recorded depth units, device timestamps in seconds.
     The depth sensor of the playback device is read through a callback with real-time playback off, so that the
     playback waits for each frame (a pipeline drops frames on a busy machine). Raises FileFormatError for a missing or
     unreadable bag."""

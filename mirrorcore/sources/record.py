@@ -1,5 +1,5 @@
-"""Recording any depth source into a session folder (DESIGN.md's format: uint16 PNG frames, session.json with the
-extra keys 'timestamps' and, when the source has colour, 'colour_frames'): record() and the threaded Recorder.
+"""Recording any depth source into a session folder (docs/DESIGN.md's format: uint16 PNG frames, session.json with
+'timestamps' and, when the source has colour, 'colour_frames'): record() and the threaded Recorder.
 
 For the browser tool: Recorder(source, folder).start(); .frames counts what is written; .stop() returns the Session.
 """
@@ -69,9 +69,9 @@ def _save(source: DepthSource, folder: Path, names: list[str], colours: list[str
     background = source.background()
     if background is not None:
         write_depth_png(folder / BACKGROUND_FILE, background, source.intrinsics.depth_scale)
-    extra = {"timestamps": stamps, **({"colour_frames": colours} if colours and len(colours) == len(names) else {})}
     session = Session(folder, source.intrinsics, (), None if background is None else BACKGROUND_FILE, tuple(names),
-                      extra)
+                      timestamps=tuple(stamps),
+                      colour_frames=tuple(colours) if colours and len(colours) == len(names) else None)
     save_session(session)
     return session
 

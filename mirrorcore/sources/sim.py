@@ -11,7 +11,7 @@ from ..session import Session
 from ..sim.export import TRUTH_FILE
 from ..sim.layouts import paper_scene
 from ..sim.scene import Scene, load_scene, scene_from_json
-from ..sim.source import SimulatedRig
+from ..sim.simulator import Simulator
 from .base import DepthSource, Frame
 
 
@@ -20,7 +20,7 @@ class SimulatedSource(DepthSource):
     reproducible from the rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view`
     False renders the scene without its objects, as when the person steps out to capture the background."""
 
-    def __init__(self, rig: SimulatedRig, name: str = "simulated rig"):
+    def __init__(self, rig: Simulator, name: str = "simulated rig"):
         self.rig, self.name = rig, name
         self.intrinsics, self.fps, self.frame_count = rig.intrinsics, rig.fps, None
         self.objects_in_view = True
@@ -40,8 +40,8 @@ def open_simulated(target: str, session: Session | None) -> SimulatedSource:
     """'sim' (target ''): the session's simulated scene when it has a truth.json, else the paper's rig with a walking
     figure at 3 m; 'sim:SCENE.json': a scene file."""
     if target:
-        return SimulatedSource(SimulatedRig(load_scene(target)), f"simulated {Path(target).name}")
-    return SimulatedSource(SimulatedRig(session_scene(session) or paper_scene(object="figure", distance=3.0)))
+        return SimulatedSource(Simulator(load_scene(target)), f"simulated {Path(target).name}")
+    return SimulatedSource(Simulator(session_scene(session) or paper_scene(object="figure", distance=3.0)))
 
 
 def session_scene(session: Session | None) -> Scene | None:

@@ -9,7 +9,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import Cancelled, MirrorscanError
+from ..errors import Cancelled, MirrorscanError
 
 MAX_VOXELS = 1_000_000_000        # refuse grids beyond this (a few GB of state alone)
 CHUNK_VOXELS = 1 << 18            # voxels per slab: temporaries stay in the CPU caches and memory stays bounded

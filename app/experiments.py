@@ -12,20 +12,21 @@ import matplotlib
 import numpy as np
 from tqdm import tqdm
 
-from ..calibration import calibrate_session
-from ..carve import carve
-from ..dense import DenseOptions, dense_volume, prepare_frame
-from ..fit_errors import Cylinder, FitErrors, Sphere
-from ..fitting import fit_cylinder, fit_sphere
-from ..reconstruct import reconstruct_raw
-from ..rig import Rig
-from ..session import Session
-from ..tsdf import fuse
-from .export import session_mirrors
-from .layouts import paper_scene
-from .scene import Scene, SceneObject
-from .sensor import SensorModel
-from .source import SimulatedRig
+from mirrorcore.calibration import calibrate_session
+from mirrorcore.dense import DenseOptions, dense_volume
+from mirrorcore.dense.carve import carve
+from mirrorcore.dense.tsdf import fuse
+from mirrorcore.fitting import fit_cylinder, fit_sphere
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.reconstruct import reconstruct_raw
+from mirrorcore.rig import Rig
+from mirrorcore.session import Session
+from mirrorcore.shapes import Cylinder, FitErrors, Sphere
+from mirrorcore.sim.export import session_mirrors
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.scene import Scene, SceneObject
+from mirrorcore.sim.sensor import SensorModel
+from mirrorcore.sim.simulator import Simulator
 
 ANGLES = tuple(range(60, 161, 20))                      # degrees between the mirror surfaces
 MIRROR_DISTANCES = (0.25, 0.35, 0.45, 0.55, 0.65)       # metres from the cylinder's axis to each mirror
@@ -50,7 +51,7 @@ def true_shape(obj: SceneObject) -> Sphere | Cylinder:
 
 def run_trial(scene: Scene, seed: int) -> dict[str, float]:
     """One noisy Kinect frame of `scene` (a sphere or a cylinder) through the whole pipeline -> the fit's figures."""
-    sim = SimulatedRig(scene, SensorModel.kinect_v1(), seed)
+    sim = Simulator(scene, SensorModel.kinect_v1(), seed)
     frame, background = sim.frame(0), sim.background().depth
     rng = np.random.default_rng(seed)
     session = Session(Path("."), sim.intrinsics, session_mirrors(sim, frame.truth))   # as a user clicks them
@@ -91,7 +92,7 @@ def run_experiment(name: str, seeds: int, progress: bool = True) -> list[dict[st
 def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
     """PNG of the mean (line) and standard deviation (band) over seeds of the PLOTTED errors against the parameter."""
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt    # after choosing the headless backend
+    import matplotlib.pyplot as plt  # after choosing the headless backend
     params = np.array([r["parameter"] for r in rows])
     xs = np.unique(params)
     fig, ax = plt.subplots(figsize=(6, 4))

@@ -13,7 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .errors import FileFormatError
+from ..errors import FileFormatError
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
 MAX_IMAGE_SIDE = 16384   # pixels: no depth camera comes near; a larger size in a file is damage, not a camera

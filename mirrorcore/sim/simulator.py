@@ -1,12 +1,12 @@
-"""The simulated rig as a depth source: SimulatedRig renders frames (30 fps, animated objects) with the sensor model."""
+"""The simulated rig as a depth source: Simulator renders frames (30 fps, animated objects) with the sensor model."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Intrinsics
-from ..plane import Plane
+from ..geometry.camera import Intrinsics
+from ..geometry.plane import Plane
 from .render import GroundTruth, Renderer
 from .scene import Scene
 from .sensor import SensorModel
@@ -24,7 +24,7 @@ class SimFrame:
     t: float
 
 
-class SimulatedRig:
+class Simulator:
     """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a sensor model.
 
     scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its noise from

@@ -21,17 +21,17 @@ def _as_points(points: np.ndarray) -> np.ndarray:
 class Sphere:
     """centre : (3,) metres, camera frame; radius : metres."""
 
-    center: tuple[float, float, float]
+    centre: tuple[float, float, float]
     radius: float
 
     kind = "sphere"
 
     def deviations(self, points: np.ndarray) -> np.ndarray:
         """Paper eq. 4's terms: points (n, 3) metres -> (n,) float64 signed dist(P, centre) - R, metres."""
-        return np.linalg.norm(_as_points(points) - np.array(self.center), axis=1) - self.radius
+        return np.linalg.norm(_as_points(points) - np.array(self.centre), axis=1) - self.radius
 
     def to_json(self) -> dict:
-        return {"shape": self.kind, "radius_mm": 1e3 * self.radius, "center": list(self.center)}
+        return {"shape": self.kind, "radius_mm": 1e3 * self.radius, "center": list(self.centre)}
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ class ShapeFit:
         return {} if self.sources is None else per_source_errors(self.deviations, self.sources)
 
     def to_json(self) -> dict:
-        """The shape (radius_mm; center, or axis_point and axis_direction, in metres, camera frame), the figures over all
+        """The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres, camera frame), the figures over all
         points (points, rmse_mm, mean_error_mm, mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source
         {"direct": {...}, "mirror 1": {...}}."""
         return {**self.shape.to_json(), **self.errors.to_json(), "inliers": int(np.count_nonzero(self.inliers)),

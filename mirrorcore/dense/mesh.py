@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage.measure import marching_cubes as _skimage_marching_cubes
 
-from .errors import MirrorscanError
+from ..errors import MirrorscanError
 from .volume import NO_SOURCE, Volume
 
 

@@ -24,10 +24,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MirrorscanError
-from .rig import Rig
-from .views import (View, direct_pixels, in_front_of_mirrors, padded_flat, pixel_index, project, rig_views, sample,
-                    transform)
+from ..errors import MirrorscanError
+from ..rig import Rig
+from .views import (
+    View,
+    direct_pixels,
+    in_front_of_mirrors,
+    padded_flat,
+    pixel_index,
+    project,
+    rig_views,
+    sample,
+    transform,
+)
 from .volume import NO_SOURCE, Progress, Volume, run_slabs
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states

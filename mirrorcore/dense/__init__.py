@@ -1,17 +1,16 @@
-"""Dense reconstruction of frames of a static object: the same object selection and smoothing as Algorithm 1, a volume
-around the raw cloud, then space carving (methods 'paper', 'carve') or volumetric fusion ('tsdf')."""
+"""Dense reconstruction of frames of a static object: frames prepared as for Algorithm 1 (mirrorcore.pipeline.
+prepare_frame), a volume around the raw cloud, then space carving (methods 'paper', 'carve') or volumetric fusion
+('tsdf')."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import MirrorscanError
+from ..reconstruct import reconstruct_raw
+from ..rig import Rig
 from .carve import CarveResult, carve
-from .depthops import smooth_depth
-from .errors import MirrorscanError
-from .reconstruct import reconstruct_raw
-from .rig import Rig
-from .selection import Selection, object_mask
 from .tsdf import TsdfResult, fuse
 from .volume import Progress, Volume
 
@@ -31,14 +30,6 @@ class DenseOptions:
     truncation: float | None = None
 
 
-def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | None,
-                  selection: Selection = Selection()) -> tuple[np.ndarray, np.ndarray]:
-    """The depth the dense methods use and the object mask, as Algorithm 1 gets them in pipeline.object_cloud:
-    depth (H, W) float metres -> (smoothed depth (H, W) float32 metres, mask (H, W) bool)."""
-    mask = object_mask(rig.intrinsics, depth, background, selection)
-    return (smooth_depth(depth, mask) if selection.smooth else depth).astype(np.float32), mask
-
-
 def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOptions) -> Volume:
     """options.bounds, or the bounding box of the raw cloud (Algorithm 1) of one prepared frame grown by the margin."""
     if options.bounds is not None:
@@ -49,7 +40,8 @@ def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOp
 def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, method: str,
                       options: DenseOptions = DenseOptions(), progress: Progress | None = None,
                       cancel=None) -> CarveResult | TsdfResult:
-    """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see prepare_frame).
+    """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see
+    mirrorcore.pipeline.prepare_frame).
 
     depths, masks : (F, H, W) float metres / bool. Raises MirrorscanError for an unknown method, Cancelled when
     `cancel` (a threading.Event or a callable returning True) asks to stop."""

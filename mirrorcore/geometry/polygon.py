@@ -4,7 +4,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .errors import MirrorscanError
+from ..errors import MirrorscanError
 
 
 def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .camera import Intrinsics, check_depth_shape
-from .polygon import polygon_mask
-from .rig import Rig
+from ..geometry.camera import Intrinsics, check_depth_shape
+from ..geometry.polygon import polygon_mask
+from ..rig import Rig
 from .volume import Volume
 
 BILINEAR_GAP = 0.03   # metres: four neighbours spread wider than this are a depth edge (nearest pixel used there)

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import CalibrationError
+from ..errors import CalibrationError
 from .ransac import ransac_iterations
 
 
