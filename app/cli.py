@@ -1,4 +1,4 @@
-"""The `mirrorscan` command line (DESIGN.md's script contract): exit 0 on success, 2 with a one-line error on bad input."""
+"""The `mirrorscan` command line (docs/DESIGN.md's script contract): exit 0 on success, 2 with a one-line error on bad input."""
 from __future__ import annotations
 
 import argparse

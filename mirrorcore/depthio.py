@@ -1,4 +1,4 @@
-"""Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading (DESIGN.md)."""
+"""Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading (docs/DESIGN.md)."""
 from __future__ import annotations
 
 import struct

@@ -1,4 +1,4 @@
-"""PLY files of source-labelled clouds and meshes (DESIGN.md layout): binary_little_endian, x y z float32 (metres,
+"""PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y z float32 (metres,
 camera frame), red green blue uchar (source colour), source uchar; faces (vertex_indices, uchar count + int32) for
 meshes."""
 from __future__ import annotations

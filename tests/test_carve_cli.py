@@ -1,5 +1,5 @@
 """`mirrorscan reconstruct --method paper|carve|tsdf` on the shipped demo session (sphere, two mirrors, Kinect noise):
-PLY files of the DESIGN.md layout, a cancelled run writes nothing, bad requests exit 2 with one line."""
+PLY files of the docs/DESIGN.md layout, a cancelled run writes nothing, bad requests exit 2 with one line."""
 import threading
 
 import numpy as np

@@ -1,6 +1,6 @@
 """Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and projection.
 
-Conventions (DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth camera's centre,
+Conventions (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth camera's centre,
 pixel (u, v) = (column, row) with integer coordinates at pixel centres.
 """
 from __future__ import annotations
@@ -53,7 +53,8 @@ class Intrinsics:
     # ----------------------------------------------------------------- constructors and presets
     @classmethod
     def from_dict(cls, data: dict, where: str = "camera") -> "Intrinsics":
-        """Build from a mapping with the keys of DESIGN.md's `camera` object; raises FileFormatError naming `where`."""
+        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md); raises FileFormatError
+        naming `where`."""
         if not isinstance(data, dict):
             raise FileFormatError(f"{where}: expected an object with {', '.join(_FIELDS)}")
         missing = [k for k in _FIELDS[:6] if k not in data]

@@ -1,7 +1,7 @@
 """Planes, signed distances and reflection through a mirror plane (paper eq. 2 and 3), plane fitting by SVD and RANSAC.
 
-Convention (DESIGN.md): a plane is (a, b, c, d) with a unit normal n = (a, b, c) pointing to the camera's side, so that
-n.P + d > 0 in front of the mirror (the camera's side; d > 0 because the camera is at the origin) and < 0 behind it.
+Convention (docs/DESIGN.md): a plane is (a, b, c, d) with a unit normal n = (a, b, c) pointing to the camera's side, so
+that n.P + d > 0 in front of the mirror (the camera's side; d > 0 because the camera is at the origin) and < 0 behind it.
 """
 from __future__ import annotations
 

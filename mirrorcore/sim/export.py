@@ -1,6 +1,7 @@
-"""Writing a simulated rig to disk: a session folder of docs/DESIGN.md (markers and mirror outlines in pixels, background,
-frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder, then renamed);
-`session_mirrors` gives the session's mirrors in memory and `true_rig` the rig of a perfect calibration."""
+"""Writing a simulated rig to disk: a session folder (docs/DESIGN.md: markers and mirror outlines in pixels,
+background, frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder,
+then renamed); `session_mirrors` gives the session's mirrors in memory and `true_rig` the rig of a perfect
+calibration."""
 from __future__ import annotations
 
 import json
@@ -67,7 +68,7 @@ def session_mirrors(rig: Simulator, truth: GroundTruth) -> tuple[SessionMirror, 
 
 
 def truth_json(rig: Simulator, noise: str) -> dict:
-    """The truth.json object: scene, true planes [a, b, c, d] (DESIGN.md convention), objects, seed, fps, noise."""
+    """The truth.json object: scene, true planes [a, b, c, d] (docs/DESIGN.md convention), objects, seed, fps, noise."""
     scene = rig.scene
     objects = [o.to_json() for o in scene.objects]
     return {"version": 1, "seed": rig.seed, "fps": rig.fps, "noise": noise,

@@ -63,8 +63,8 @@ class GroundTruth:
 
     @property
     def source(self) -> np.ndarray:
-        """(H, W) int8 in DESIGN.md's convention: 0 = direct, j = through mirror j (one bounce); -1 = two bounces or
-        no surface."""
+        """(H, W) int8 source labels (docs/DESIGN.md): 0 = direct, j = through mirror j (one bounce); -1 = two bounces
+        or no surface."""
         src = self.first_mirror.astype(np.int8)
         src[(self.second_mirror > 0) | (self.surface == NONE)] = -1
         return src

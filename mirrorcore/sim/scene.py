@@ -1,7 +1,7 @@
 """Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their JSON file.
 
-Everything is in the camera frame of DESIGN.md: metres, OpenCV axes (x right, y down, z forward), origin at the depth
-camera. "Up" in the room is -y. A scene file is JSON:
+Everything is in the camera frame (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the
+depth camera. "Up" in the room is -y. A scene file is JSON:
 
     {"version": 1,
      "camera": {"width": 640, ...} or "kinect_v1" or "primesense",
@@ -93,7 +93,7 @@ class SceneMirror:
 
     @property
     def plane(self) -> Plane:
-        """The true mirror plane in the DESIGN.md convention (unit normal towards the camera, d > 0)."""
+        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d > 0)."""
         return Plane.from_point_normal(self.centre, self.normal)
 
     def local_to_camera(self, st: np.ndarray) -> np.ndarray:

@@ -46,7 +46,7 @@ class Simulator:
 
     @property
     def planes(self) -> tuple[Plane, ...]:
-        """The true mirror planes, session order, DESIGN.md convention."""
+        """The true mirror planes, session order, docs/DESIGN.md convention."""
         return tuple(m.plane for m in self.scene.mirrors)
 
     @property

@@ -16,7 +16,7 @@ from ..jsonfile import read_json
 from ..session import Session
 from .base import DepthSource, Frame, checked_depth
 
-CAMERA_SIDECAR = "camera.json"             # DESIGN.md's camera object, beside a folder's PNGs
+CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, beside a folder's PNGs
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
@@ -64,7 +64,7 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_
                     fps: float = 30.0) -> ImageSequenceSource:
     """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
 
-    The camera: `camera` when given, else the folder's camera.json (DESIGN.md's camera object) or intrinsic.json
+    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object) or intrinsic.json
     (Open3D). depth_scale (metres per unit): the argument, else camera.json's, else 0.001. Raises FileFormatError.
     """
     folder = Path(folder)
@@ -91,8 +91,8 @@ def folder_camera(folder: Path) -> Intrinsics:
 
 
 def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
-    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json (DESIGN.md's camera
-    object or Open3D's PinholeCameraIntrinsic)."""
+    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json (the session's camera
+    object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
     if value in PRESETS:
         return Intrinsics(**{**PRESETS[value]().to_dict(), "depth_scale": depth_scale})
     path = Path(value)
