@@ -1,22 +1,39 @@
-"""Editing a session from the browser: mirrors, markers, boundary polygons (drawn vertex by vertex, then closed),
-planes and the object selection, with undo and autosave. Pure logic over mirrorcore.session; thread-safe."""
+"""Editing the session from the browser: mirrors, markers, boundaries, planes, the object selection and the
+background, every edit naming its mirror by its stable id. Undo and redo are kept per mirror (and for the session's
+own changes: adding or removing a mirror, the selection, the background), each step named for the button. Pure logic
+over mirrorcore.session; thread-safe; autosaved after every change."""
 from __future__ import annotations
 
 import functools
 import threading
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Callable
 
+import cv2
 import numpy as np
 
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.rig import MAX_MIRRORS
 from mirrorcore.selection import Selection
-from mirrorcore.session import Session, SessionMirror, save_session
+from mirrorcore.session import Pixels, Session, SessionMirror, save_session
 
 UNDO_DEPTH = 100
-PICK_RADIUS = 8.0   # pixels: a click this close to a vertex picks it
+PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
+ON_EDGE = 1.5            # pixels: a marker this close outside its mirror's boundary still counts as on it
+SESSION_SCOPE = 0        # the undo scope of changes that are not one mirror's (mirror ids start at 1)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One undoable change: its label for the button ('marker 2.3', 'remove mirror 1'), and what undo and redo put
+    back: in a mirror's scope, its SessionMirror before and after; in the session's scope, the change that undoes it
+    and the change itself, (kind, a, b) as _restore reads them."""
+
+    label: str
+    before: object
+    after: object
 
 
 def _edits(method):
@@ -38,18 +55,19 @@ def _edits(method):
 
 
 class SessionEditor:
-    """The session being edited and the boundaries being drawn.
+    """The session being edited, shared by every tab.
 
     Every change validates its input (MirrorscanError with a one-line message on refusal, nothing changed), records
-    the previous session for undo, saves the session when `autosave` is on and it has a folder, and calls the
-    listeners with the new session. Drafts (boundaries still open) are not part of the session until closed.
+    an undo step in its scope (the mirror's id, or SESSION_SCOPE), saves the session when `autosave` is on, and calls
+    the listeners with the new session. A mirror is named by its id everywhere: an edit meant for a mirror that was
+    removed meanwhile is refused, never applied to another one.
     """
 
     def __init__(self, session: Session, autosave: bool = True):
         self._lock = threading.RLock()
         self._session = session
-        self._undo: list[Session] = []
-        self.drafts: dict[int, tuple[tuple[float, float], ...]] = {}
+        self._undo: dict[int, list[Step]] = {}
+        self._redo: dict[int, list[Step]] = {}
         self.autosave = autosave
         self.listeners: list[Callable[[Session], None]] = []
         self.last_save_error: str | None = None
@@ -60,160 +78,193 @@ class SessionEditor:
         with self._lock:
             return self._session
 
+    def mirror(self, mirror_id: int) -> SessionMirror:
+        """The mirror with this id; MirrorscanError when it is gone."""
+        with self._lock:
+            return self._session.mirrors[self._index(mirror_id)]
+
     # ------------------------------------------------------------------ mirrors
     @_edits
     def add_mirror(self, name: str | None = None) -> int:
-        """Append a mirror (named 'mirror N' by default); returns its index (0-based)."""
-        names = {m.name for m in self._session.mirrors}
-        name = (name or "").strip() or next(f"mirror {k}" for k in range(1, 1000) if f"mirror {k}" not in names)
+        """Append a mirror (named 'mirror N' by default, N its id); returns its id."""
+        mirrors = self._session.mirrors
+        if len(mirrors) >= MAX_MIRRORS:
+            raise MirrorscanError(f"a session holds at most {MAX_MIRRORS} mirrors")
+        mirror_id = max([m.id for m in mirrors] + [0]) + 1
+        names = {m.name for m in mirrors}
+        name = (name or "").strip() or next(f"mirror {k}" for k in range(mirror_id, mirror_id + 1000)
+                                             if f"mirror {k}" not in names)
         self._check_name(name, None)
-        self._commit(replace(self._session, mirrors=self._session.mirrors + (SessionMirror(name),)))
-        return len(self._session.mirrors) - 1
+        mirror = SessionMirror(name, id=mirror_id)
+        self._change(f"add {name}", ("add", len(mirrors), mirror), replace(self._session, mirrors=mirrors + (mirror,)))
+        return mirror_id
 
     @_edits
-    def rename_mirror(self, index: int, name: str) -> None:
+    def rename_mirror(self, mirror_id: int, name: str) -> None:
         name = name.strip()
-        self._check_name(name, index)
-        self._set_mirror(index, replace(self._mirror(index), name=name))
+        self._check_name(name, mirror_id)
+        self._set_mirror(mirror_id, f"name of {self.mirror(mirror_id).name}", name=name)
 
     @_edits
-    def remove_mirror(self, index: int) -> None:
-        self._mirror(index)
+    def remove_mirror(self, mirror_id: int) -> None:
+        """Remove a mirror; undo (in the session's scope) puts it back where it was, with its id and history."""
+        index = self._index(mirror_id)
+        mirror = self._session.mirrors[index]
         mirrors = self._session.mirrors[:index] + self._session.mirrors[index + 1:]
-        self.drafts = {(k if k < index else k - 1): v for k, v in self.drafts.items() if k != index}
-        self._commit(replace(self._session, mirrors=mirrors))
+        self._change(f"remove {mirror.name}", ("remove", index, mirror), replace(self._session, mirrors=mirrors))
 
     # ------------------------------------------------------------------ markers
     @_edits
-    def add_marker(self, index: int, uv: tuple[float, float]) -> None:
-        mirror = self._mirror(index)
-        self._set_mirror(index, replace(mirror, markers=mirror.markers + (self._pixel(uv),)))
+    def add_marker(self, mirror_id: int, uv: tuple[float, float]) -> int:
+        """Add a marker; refused outside the image and, once the mirror has a boundary, outside it (a stray click
+        under the panel or on another mirror must not reach the fit). Returns its index (0-based)."""
+        mirror = self.mirror(mirror_id)
+        uv = self._on_mirror(mirror, uv)
+        self._set_mirror(mirror_id, f"marker {self._marker_name(mirror, len(mirror.markers))}",
+                         markers=mirror.markers + (uv,))
+        return len(mirror.markers)
 
     @_edits
-    def remove_last_marker(self, index: int) -> None:
-        mirror = self._mirror(index)
+    def move_marker(self, mirror_id: int, k: int, uv: tuple[float, float]) -> None:
+        mirror = self.mirror(mirror_id)
+        self._marker(mirror, k)
+        uv = self._on_mirror(mirror, uv)
+        self._set_mirror(mirror_id, f"move marker {self._marker_name(mirror, k)}",
+                         markers=mirror.markers[:k] + (uv,) + mirror.markers[k + 1:])
+
+    @_edits
+    def delete_marker(self, mirror_id: int, k: int) -> None:
+        mirror = self.mirror(mirror_id)
+        self._marker(mirror, k)
+        self._set_mirror(mirror_id, f"delete marker {self._marker_name(mirror, k)}",
+                         markers=mirror.markers[:k] + mirror.markers[k + 1:])
+
+    @_edits
+    def clear_markers(self, mirror_id: int) -> None:
+        mirror = self.mirror(mirror_id)
         if not mirror.markers:
-            raise MirrorscanError(f"{mirror.name}: no marker to remove")
-        self._set_mirror(index, replace(mirror, markers=mirror.markers[:-1]))
-
-    @_edits
-    def clear_markers(self, index: int) -> None:
-        self._set_mirror(index, replace(self._mirror(index), markers=()))
+            raise MirrorscanError(f"{mirror.name}: no markers to clear")
+        self._set_mirror(mirror_id, f"clear the markers of {mirror.name}", markers=())
 
     # ------------------------------------------------------------------ boundaries
-    def open_drafts(self) -> dict[int, tuple[tuple[float, float], ...]]:
-        """A copy of the boundaries being drawn, {mirror index: vertices} (safe to read from another thread)."""
-        with self._lock:
-            return dict(self.drafts)
-
-    def boundary_vertices(self, index: int) -> tuple[tuple[float, float], ...]:
-        """The vertices shown for a mirror: its open draft if one is being drawn, else its closed boundary."""
-        with self._lock:
-            return self.drafts.get(index, self._mirror(index).boundary)
+    @_edits
+    def set_boundary(self, mirror_id: int, vertices: Pixels) -> None:
+        """Make a drawn polygon the mirror's boundary (at least 3 vertices in the image, not crossing itself)."""
+        mirror = self.mirror(mirror_id)
+        vertices = tuple(self._pixel(uv) for uv in vertices)
+        validate_polygon(vertices, self._session.camera.shape, f"{mirror.name}: boundary")
+        self._set_mirror(mirror_id, f"boundary of {mirror.name}", boundary=vertices)
 
     @_edits
-    def add_vertex(self, index: int, uv: tuple[float, float]) -> None:
-        """Add a corner to the mirror's open boundary (starting a new draft if its boundary is closed or empty)."""
-        self._mirror(index)
-        self.drafts[index] = self.drafts.get(index, ()) + (self._pixel(uv),)
-        self._notify()
-
-    @_edits
-    def close_boundary(self, index: int) -> None:
-        """Validate the draft (>= 3 vertices, not self-crossing) and make it the mirror's boundary."""
-        mirror = self._mirror(index)
-        draft = self.drafts.get(index)
-        if not draft:
-            raise MirrorscanError(f"{mirror.name}: no open boundary to close; click its corners first")
-        validate_polygon(draft, self._session.camera.shape, f"{mirror.name}: boundary")
-        del self.drafts[index]
-        self._set_mirror(index, replace(mirror, boundary=draft))
-
-    def nearest_vertex(self, index: int, uv: tuple[float, float]) -> int | None:
-        """The vertex of the shown boundary within PICK_RADIUS pixels of uv, or None."""
-        vertices = np.asarray(self.boundary_vertices(index), dtype=float).reshape(-1, 2)
-        if not len(vertices):
-            return None
-        dist = np.hypot(*(vertices - np.asarray(uv, dtype=float)).T)
-        k = int(np.argmin(dist))
-        return k if dist[k] <= PICK_RADIUS else None
-
-    @_edits
-    def move_vertex(self, index: int, vertex: int, uv: tuple[float, float]) -> None:
-        self._edit_vertices(index, vertex, lambda v: v[:vertex] + (self._pixel(uv),) + v[vertex + 1:])
-
-    @_edits
-    def delete_vertex(self, index: int, vertex: int) -> None:
-        self._edit_vertices(index, vertex, lambda v: v[:vertex] + v[vertex + 1:])
-
-    @_edits
-    def clear_boundary(self, index: int) -> None:
-        self.drafts.pop(index, None)
-        self._set_mirror(index, replace(self._mirror(index), boundary=()))
-
-    def _edit_vertices(self, index: int, vertex: int, edit) -> None:
-        mirror = self._mirror(index)
-        vertices = self.boundary_vertices(index)
-        if not 0 <= vertex < len(vertices):
-            raise MirrorscanError(f"{mirror.name}: no vertex {vertex + 1}")
-        edited = edit(vertices)
-        if index in self.drafts:
-            self.drafts[index] = edited
-            self._notify()
-            return
+    def move_vertex(self, mirror_id: int, vertex: int, uv: tuple[float, float]) -> None:
+        mirror = self.mirror(mirror_id)
+        self._vertex(mirror, vertex)
+        edited = mirror.boundary[:vertex] + (self._pixel(uv),) + mirror.boundary[vertex + 1:]
         validate_polygon(edited, self._session.camera.shape, f"{mirror.name}: boundary")
-        self._set_mirror(index, replace(mirror, boundary=edited))
+        self._set_mirror(mirror_id, f"move corner {vertex + 1} of {mirror.name}", boundary=edited)
 
-    # ------------------------------------------------------------------ calibration and selection
     @_edits
-    def set_planes(self, planes: dict[int, Plane | None]) -> None:
-        """Set the planes of several mirrors {index: plane} as one change (one undo step, one save)."""
-        session = self._session
-        for index, plane in planes.items():
-            session = session.with_mirror(index, replace(self._mirror(index), plane=plane))
-        self._commit(session)
+    def delete_vertex(self, mirror_id: int, vertex: int) -> None:
+        mirror = self.mirror(mirror_id)
+        self._vertex(mirror, vertex)
+        edited = mirror.boundary[:vertex] + mirror.boundary[vertex + 1:]
+        validate_polygon(edited, self._session.camera.shape, f"{mirror.name}: boundary")
+        self._set_mirror(mirror_id, f"delete corner {vertex + 1} of {mirror.name}", boundary=edited)
+
+    @_edits
+    def clear_boundary(self, mirror_id: int) -> None:
+        mirror = self.mirror(mirror_id)
+        if not mirror.boundary:
+            raise MirrorscanError(f"{mirror.name}: no boundary to clear")
+        self._set_mirror(mirror_id, f"clear the boundary of {mirror.name}", boundary=())
+
+    # ------------------------------------------------------------------ calibration, selection, background
+    @_edits
+    def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]]) -> None:
+        """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, all or
+        nothing. Refused when a mirror is gone or its markers, boundary or region changed since: a fit computed on
+        another state is never applied (fit again)."""
+        for mirror_id, (_, based_on) in planes.items():
+            current = self.mirror(mirror_id)
+            if (current.markers, current.boundary, current.region) != (based_on.markers, based_on.boundary,
+                                                                      based_on.region):
+                raise MirrorscanError(f"{current.name} changed while its plane was computed; fit it again")
+        for mirror_id, (plane, _) in planes.items():
+            self._set_mirror(mirror_id, f"plane of {self.mirror(mirror_id).name}", plane=plane)
 
     @_edits
     def set_selection(self, selection: Selection) -> None:
-        self._commit(replace(self._session, selection=selection))
+        self._change("object selection", ("selection", self._session.selection, selection),
+                     replace(self._session, selection=selection))
 
     @_edits
     def set_background(self, relative_path: str | None) -> None:
-        self._commit(replace(self._session, background=relative_path))
+        self._change("background", ("background", self._session.background, relative_path),
+                     replace(self._session, background=relative_path))
 
     @_edits
     def replace_session(self, session: Session) -> None:
-        """Open another session (undo history and drafts are dropped)."""
-        self._session, self._undo, self.drafts = session, [], {}
-        self._notify()
+        """Open another session (the undo history is dropped)."""
+        self._session, self._undo, self._redo = session, {}, {}
+        self._changed = True
 
-    # ------------------------------------------------------------------ undo
+    # ------------------------------------------------------------------ undo and redo
+    def undo_label(self, scope: int) -> str | None:
+        """What undo in this scope (a mirror id, or SESSION_SCOPE) would take back, or None."""
+        with self._lock:
+            steps = self._undo.get(scope)
+            return steps[-1].label if steps else None
+
+    def redo_label(self, scope: int) -> str | None:
+        with self._lock:
+            steps = self._redo.get(scope)
+            return steps[-1].label if steps else None
+
     @_edits
-    def undo(self) -> None:
-        """Go back one change: an open draft loses its last vertex first, then sessions are restored."""
-        open_drafts = [k for k, v in self.drafts.items() if v]
-        if open_drafts:
-            k = open_drafts[-1]
-            self.drafts[k] = self.drafts[k][:-1]
-            if not self.drafts[k]:
-                del self.drafts[k]
-            self._notify()
-            return
-        if not self._undo:
-            raise MirrorscanError("nothing to undo")
-        self._session = self._undo.pop()
+    def undo(self, scope: int) -> str:
+        """Take back the last change in a scope (a mirror id, or SESSION_SCOPE); returns its label."""
+        return self._travel(scope, self._undo, self._redo, "before", "undo")
+
+    @_edits
+    def redo(self, scope: int) -> str:
+        return self._travel(scope, self._redo, self._undo, "after", "redo")
+
+    def _travel(self, scope: int, source: dict, target: dict, side: str, verb: str) -> str:
+        steps = source.get(scope)
+        if not steps:
+            raise MirrorscanError(f"nothing to {verb}")
+        step = steps[-1]
+        self._session = self._restore(scope, getattr(step, side))
+        steps.pop()
+        target.setdefault(scope, []).append(step)
         self._save_and_notify()
+        return step.label
+
+    def _restore(self, scope: int, state) -> Session:
+        """The session with one side of a step put back: a mirror's record (mirror scope) or a session change."""
+        session = self._session
+        if scope != SESSION_SCOPE:
+            return session.with_mirror(self._index(scope), state)
+        kind, a, b = state
+        if kind == "add":            # ("add", index, mirror): the mirror is absent before, present after
+            return replace(session, mirrors=session.mirrors[:a] + (b,) + session.mirrors[a:])
+        if kind == "remove":
+            return replace(session, mirrors=tuple(m for m in session.mirrors if m.id != b.id))
+        return replace(session, **{kind: b})
 
     # ------------------------------------------------------------------ internals
-    def _mirror(self, index: int) -> SessionMirror:
-        if not 0 <= index < len(self._session.mirrors):
-            raise MirrorscanError(f"no mirror {index + 1}; the session has {len(self._session.mirrors)}")
-        return self._session.mirrors[index]
+    def _index(self, mirror_id: int) -> int:
+        for i, m in enumerate(self._session.mirrors):
+            if m.id == mirror_id:
+                return i
+        raise MirrorscanError(f"mirror {mirror_id} is no longer in the session (removed in another tab?)")
 
-    def _check_name(self, name: str, index: int | None) -> None:
+    def _check_name(self, name: str, mirror_id: int | None) -> None:
         if not name:
             raise MirrorscanError("a mirror needs a name")
-        if any(m.name == name for k, m in enumerate(self._session.mirrors) if k != index):
+        if len(name) > 100:
+            raise MirrorscanError(f"a mirror's name has at most 100 characters, got {len(name)}")
+        if any(m.name == name for m in self._session.mirrors if m.id != mirror_id):
             raise MirrorscanError(f"there is already a mirror named {name!r}")
 
     def _pixel(self, uv) -> tuple[float, float]:
@@ -223,11 +274,43 @@ class SessionEditor:
             raise MirrorscanError(f"pixel ({u:g}, {v:g}) is outside the {cam.width}x{cam.height} image")
         return round(u, 2), round(v, 2)
 
-    def _set_mirror(self, index: int, mirror: SessionMirror) -> None:
-        self._commit(self._session.with_mirror(index, mirror))
+    def _on_mirror(self, mirror: SessionMirror, uv) -> tuple[float, float]:
+        """A marker's pixel, refused outside the image or (when the mirror has a boundary) off the mirror."""
+        uv = self._pixel(uv)
+        if mirror.boundary:
+            contour = np.asarray(mirror.boundary, np.float32).reshape(-1, 1, 2)
+            if cv2.pointPolygonTest(contour, uv, True) < -ON_EDGE:
+                raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its boundary; a marker "
+                                      "must be on the mirror")
+        return uv
 
-    def _commit(self, session: Session) -> None:
-        self._undo = (self._undo + [self._session])[-UNDO_DEPTH:]
+    @staticmethod
+    def _marker_name(mirror: SessionMirror, k: int) -> str:
+        return f"{mirror.id}.{k + 1}"
+
+    @staticmethod
+    def _marker(mirror: SessionMirror, k: int) -> None:
+        if not 0 <= k < len(mirror.markers):
+            raise MirrorscanError(f"{mirror.name}: no marker {mirror.id}.{k + 1}")
+
+    @staticmethod
+    def _vertex(mirror: SessionMirror, vertex: int) -> None:
+        if not 0 <= vertex < len(mirror.boundary):
+            raise MirrorscanError(f"{mirror.name}: no corner {vertex + 1}")
+
+    def _set_mirror(self, mirror_id: int, label: str, **changes) -> None:
+        index = self._index(mirror_id)
+        before = self._session.mirrors[index]
+        after = replace(before, **changes)
+        self._commit(mirror_id, Step(label, before, after), self._session.with_mirror(index, after))
+
+    def _change(self, label: str, change: tuple, session: Session) -> None:
+        """A change of the session's own (SESSION_SCOPE): change = (kind, a, b), see _restore and _inverse."""
+        self._commit(SESSION_SCOPE, Step(label, _inverse(change), change), session)
+
+    def _commit(self, scope: int, step: Step, session: Session) -> None:
+        self._undo[scope] = (self._undo.get(scope, []) + [step])[-UNDO_DEPTH:]
+        self._redo.pop(scope, None)
         self._session = session
         self._save_and_notify()
 
@@ -238,7 +321,14 @@ class SessionEditor:
                 save_session(self._session)
             except OSError as exc:   # the previous file is intact (atomic write); say so and go on
                 self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
-        self._notify()
-
-    def _notify(self) -> None:
         self._changed = True
+
+
+def _inverse(change: tuple) -> tuple:
+    """The session change that undoes `change`: an added mirror is removed, a removed one put back, a value swapped."""
+    kind, a, b = change
+    if kind == "add":
+        return ("remove", a, b)
+    if kind == "remove":
+        return ("add", a, b)
+    return (kind, b, a)

@@ -1,5 +1,5 @@
-"""The live loop: read a frame from the source, select the object, run Algorithm 1, hand the result to the view;
-on its own thread, with pause, single steps, and a measured frame rate."""
+"""The live loop: read a frame from the source, select the object, run Algorithm 1, hand the result to one callback
+(the app publishes it to the tabs); on its own thread, with pause, single steps, seeking and a measured frame rate."""
 from __future__ import annotations
 
 import threading
@@ -7,16 +7,19 @@ import time
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
 
 from mirrorcore.cloud import Cloud
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import object_cloud
 from mirrorcore.sources import DepthSource, Frame
 
+from .overlays import depth_layer, depth_range
 from .state import SharedState, Snapshot
+from .stream import SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
@@ -34,6 +37,27 @@ class LiveFrame:
     snapshot: Snapshot
     process_ms: float
 
+    # What the tabs show of it, made once by the first tab that asks (a frozen dataclass keeps cached properties).
+    @cached_property
+    def mirror_ids(self) -> tuple[int, ...]:
+        """The ids of the mirrors in session order: a source's colour follows its mirror's id."""
+        return tuple(m.id for m in self.snapshot.session.mirrors)
+
+    @cached_property
+    def parts(self) -> list[SourcePart]:
+        """The cloud as it is streamed (see app.stream)."""
+        return stream_parts(self.cloud, len(self.snapshot.rig.mirrors) + 1)
+
+    @cached_property
+    def depth_range(self) -> tuple[float, float]:
+        """(near, far) metres of the depth frame's grey scale."""
+        return depth_range(self.depth)
+
+    @cached_property
+    def depth_rgb(self) -> np.ndarray:
+        """(H, W, 3) uint8: the depth frame with the object tinted, under every tab's overlay."""
+        return depth_layer(self.depth, self.mask, *self.depth_range)
+
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame) -> LiveFrame:
     t0 = time.perf_counter()
@@ -45,34 +69,34 @@ class RateMeter:
     """Frames per second over a sliding window of the last `window` frame times."""
 
     def __init__(self, window: int = 30):
-        self._times: list[float] = []
-        self._window = window
+        self._times: deque[float] = deque(maxlen=window)
 
     def tick(self, now: float) -> None:
-        self._times = (self._times + [now])[-self._window:]
+        self._times.append(now)
 
     @property
     def fps(self) -> float:
-        if len(self._times) < 2:
+        times = list(self._times)
+        if len(times) < 2:
             return 0.0
-        return (len(self._times) - 1) / max(self._times[-1] - self._times[0], 1e-9)
+        return (len(times) - 1) / max(times[-1] - times[0], 1e-9)
 
 
 class LiveLoop:
-    """Runs source -> process_frame -> listeners on a daemon thread, at most at the source's frame rate.
+    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate.
 
-    Each listener(LiveFrame) is called on the loop's thread; an exception in one or in the source is passed to
-    on_error and the loop goes on with the next frame after a short pause (a camera may come back).
+    on_frame(LiveFrame) is called on the loop's thread; an exception there or in the source is passed to on_error and
+    the loop goes on with the next frame after a short pause (a camera may come back).
     """
 
-    def __init__(self, source: DepthSource, state: SharedState,
+    def __init__(self, source: DepthSource, state: SharedState, on_frame: Callable[[LiveFrame], None],
                  on_error: Callable[[Exception], None] = lambda exc: None):
-        self.source, self.state, self.on_error = source, state, on_error
-        self.listeners: list[Callable[[LiveFrame], None]] = []
+        self.source, self.state, self.on_frame, self.on_error = source, state, on_frame, on_error
         self.rate = RateMeter()
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
         self._recent_lock = threading.Lock()   # appended on the loop's thread, copied on the browser's
+        self._collectors: list[Callable[[LiveFrame], None]] = []
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
         self._turn = threading.Lock()     # one frame at a time; switching source or seeking waits for it
         self._ahead: tuple[int, Future] | None = None
@@ -125,8 +149,10 @@ class LiveLoop:
             self.index += 1
         with self._recent_lock:
             self._recent.append(frame.depth)
-        for listener in list(self.listeners):
-            listener(frame)
+            collectors = list(self._collectors)
+        for collect in collectors:
+            collect(frame)
+        self.on_frame(frame)
         self.rate.tick(time.perf_counter())
         return frame
 
@@ -152,10 +178,12 @@ class LiveLoop:
             frames = list(self._recent)
         return np.stack(frames) if frames else None
 
-    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0) -> list:
+    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0,
+                cancel: threading.Event | None = None) -> list[np.ndarray]:
         """The depth of n frames read after this call (blocks; progress(k) after each): the frame already read ahead
         is skipped, so a scene changed just before the call (the object taken out) is what is collected. While paused,
-        frames are stepped one by one. Raises MirrorscanError when the source stops delivering for `timeout` s."""
+        frames are stepped one by one. Raises MirrorscanError when the source stops delivering for `timeout` s,
+        mirrorcore.errors.Cancelled when `cancel` is set."""
         frames: list[np.ndarray] = []
         done = threading.Event()
         first = self.index + 2   # the frame in hand and the one read ahead may predate the call
@@ -167,16 +195,20 @@ class LiveLoop:
             if len(frames) >= n:
                 done.set()
 
-        self.listeners.append(take)
+        with self._recent_lock:
+            self._collectors.append(take)
         try:
             deadline = time.monotonic() + timeout
             while not done.wait(0.1):
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled(f"stopped after {len(frames)} of {n} frames")
                 if self.paused and not self._steps:   # one frame at a time while paused
                     self.step()
                 if time.monotonic() > deadline:
                     raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in {timeout:.0f} s")
         finally:
-            self.listeners.remove(take)
+            with self._recent_lock:
+                self._collectors.remove(take)
         return frames
 
     def _run(self) -> None:

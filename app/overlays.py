@@ -1,64 +1,143 @@
-"""What the depth view shows: the depth frame colourised, with the object mask, the mirrors' boundaries and their
-numbered markers drawn over it (OpenCV), as an RGB image for the browser."""
+"""What the depth frame shows, in two layers: the frame itself (depth in grey, near bright, the object tinted), made
+once per frame and shared by every tab, and a tab's overlay (mirror outlines, numbered markers coloured by their
+residual, drafts, picks), redrawn only when what it shows changes. Drawn with OpenCV as RGB images for the browser."""
 from __future__ import annotations
 
-from typing import Sequence
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from mirrorcore.palette import source_colour
-from mirrorcore.session import SessionMirror
+OBJECT_TINT = np.array([255, 214, 120], np.float32)   # the object's pixels, a warm light yellow over the grey depth
+NO_READING = (24, 24, 32)                             # pixels with no depth reading
+HALO = (16, 16, 16)                                   # dark edge under every line and mark
+WHITE = (255, 255, 255)
+QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40), "unknown": (235, 235, 235)}
+FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
-def colourise_depth(depth: np.ndarray, near: float, far: float) -> np.ndarray:
-    """(H, W) metres -> (H, W, 3) uint8 RGB, turbo colour map from `near` (red) to `far` (blue); no reading is black."""
-    scaled = np.clip((far - depth) / max(far - near, 1e-6), 0, 1)
-    rgb = cv2.applyColorMap((scaled * 255).astype(np.uint8), cv2.COLORMAP_TURBO)[..., ::-1]
-    rgb[depth <= 0] = 0
-    return np.ascontiguousarray(rgb)
+def depth_range(depth: np.ndarray) -> tuple[float, float]:
+    """(near, far) metres: the 1st and 99th percentiles of the readings of (H, W) `depth` (a 1-in-16 sample), or
+    (0.5, 4.5) without readings."""
+    sample = depth[::4, ::4]
+    valid = sample[sample > 0]
+    if not len(valid):
+        return 0.5, 4.5
+    near, far = np.percentile(valid, [1, 99])
+    return float(near), float(max(far, near + 0.01))
 
 
-def draw_mask(rgb: np.ndarray, mask: np.ndarray, alpha: float = 0.55) -> np.ndarray:
-    """Lighten the object's pixels (mask : (H, W) bool) so the selection shows over the depth colours (in place)."""
-    rgb[mask] = (rgb[mask] * (1 - alpha) + 255 * alpha).astype(np.uint8)
+def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
+    """(H, W) metres and the object mask (H, W) bool -> (H, W, 3) uint8 RGB: grey from white (near) to dark (far),
+    the object's pixels tinted, no reading dark blue-black."""
+    scale = 215.0 / max(far - near, 1e-6)
+    grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)   # near -> 235, far -> 20
+    rgb = cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB)
+    if mask.any():
+        tinted = cv2.addWeighted(rgb, 0.45, np.broadcast_to(OBJECT_TINT.astype(np.uint8), rgb.shape), 0.55, 0)
+        np.copyto(rgb, tinted, where=mask[..., None])
+    rgb[depth <= 0] = NO_READING
     return rgb
 
 
-def draw_polygon(rgb: np.ndarray, vertices, colour, closed: bool, selected: int | None = None) -> np.ndarray:
-    """A polygon's edges (closed or still open) and its corners, the selected corner ringed in white (in place)."""
-    if not len(vertices):
-        return rgb
-    pts = np.round(np.asarray(vertices, dtype=float)).astype(np.int32).reshape(-1, 1, 2)
-    if len(vertices) >= 2:
-        cv2.polylines(rgb, [pts], closed, colour, 2, cv2.LINE_AA)
-    for k, (u, v) in enumerate(pts.reshape(-1, 2)):
-        cv2.circle(rgb, (int(u), int(v)), 3 if closed else 4, colour, -1, cv2.LINE_AA)
-        if k == selected:
-            cv2.circle(rgb, (int(u), int(v)), 8, (255, 255, 255), 2, cv2.LINE_AA)
-    return rgb
+def compose(base: np.ndarray, overlay: np.ndarray) -> np.ndarray:
+    """The overlay (H, W, 4) uint8 RGBA, alpha 0 or 255, over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8."""
+    out = base.copy()
+    np.copyto(out, overlay[..., :3], where=overlay[..., 3:] > 0)
+    return out
 
 
-def draw_markers(rgb: np.ndarray, markers, colour, mirror_number: int) -> np.ndarray:
-    """Numbered markers 'j.k' (mirror j, marker k) as rings in the mirror's colour (in place)."""
-    for k, (u, v) in enumerate(markers, start=1):
-        centre = (int(round(u)), int(round(v)))
-        cv2.circle(rgb, centre, 6, (255, 255, 255), 2, cv2.LINE_AA)
-        cv2.circle(rgb, centre, 6, colour, 1, cv2.LINE_AA)
-        cv2.putText(rgb, f"{mirror_number}.{k}", (centre[0] + 8, centre[1] - 6), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                    (255, 255, 255), 1, cv2.LINE_AA)
-    return rgb
+@dataclass(frozen=True)
+class MarkerMark:
+    """A marker as drawn: pixel (u, v), label ('2.3'), the quality that colours its centre ('good', 'fair', 'poor',
+    'unknown'), and whether it is picked (ringed) or flagged by a fit proposal (crossed)."""
+
+    uv: tuple[float, float]
+    label: str
+    quality: str = "unknown"
+    picked: bool = False
+    flagged: bool = False
 
 
-def draw_mirrors(rgb: np.ndarray, mirrors: Sequence[SessionMirror], drafts: dict | None = None,
-                 selected_vertex: tuple[int, int] | None = None) -> np.ndarray:
-    """Each mirror's boundary (its open draft while one is drawn) and numbered markers, in the mirror's source colour.
-    drafts : {mirror index: vertices}; selected_vertex : (mirror index, vertex index) to ring (in place)."""
-    drafts = drafts or {}
-    for i, mirror in enumerate(mirrors):
-        colour = tuple(int(c) for c in source_colour(i + 1))
-        closed = i not in drafts
-        picked = selected_vertex[1] if selected_vertex and selected_vertex[0] == i else None
-        draw_polygon(rgb, mirror.boundary if closed else drafts[i], colour, closed, picked)
-        draw_markers(rgb, mirror.markers, colour, i + 1)
-    return rgb
+@dataclass(frozen=True)
+class MirrorMarks:
+    """One mirror as drawn: its colour, its outline (closed, or an open draft), the picked corner, its markers."""
+
+    colour: tuple[int, int, int]
+    outline: tuple[tuple[float, float], ...]
+    closed: bool
+    markers: tuple[MarkerMark, ...] = ()
+    picked_corner: int | None = None
+    selected: bool = False
+
+
+class Overlay:
+    """A tab's overlay image (H, W, 4) RGBA, drawn from its marks; labels are placed so that they do not cover each
+    other or a marker."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.image = np.zeros((*shape, 4), np.uint8)
+        self._labels: list[tuple[int, int, int, int]] = []
+
+    def draw(self, mirrors: list[MirrorMarks], region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
+        """Redraw everything: the mirrors (selected last, on top) and the region of interest (vertices, closed)."""
+        self.image[:] = 0
+        self._labels = []
+        ordered = sorted(mirrors, key=lambda m: m.selected)
+        for mirror in ordered:
+            self._polygon(mirror.outline, mirror.colour, mirror.closed, mirror.picked_corner, 3 if mirror.selected else 2)
+        if region is not None:
+            self._polygon(region[0], WHITE, region[1], None, 2)
+        for mirror in ordered:                       # markers above every outline, labels last of all
+            for marker in mirror.markers:
+                self._marker(marker, mirror.colour)
+        for mirror in ordered:
+            for marker in mirror.markers:
+                self._label(marker.uv, marker.label)
+
+    def _rgba(self, colour) -> tuple[int, int, int, int]:
+        return (int(colour[0]), int(colour[1]), int(colour[2]), 255)
+
+    def _polygon(self, vertices, colour, closed: bool, picked: int | None, thickness: int) -> None:
+        if not len(vertices):
+            return
+        pts = np.round(np.asarray(vertices, float)).astype(np.int32).reshape(-1, 1, 2)
+        if len(vertices) >= 2:
+            cv2.polylines(self.image, [pts], closed, self._rgba(HALO), thickness + 2, cv2.LINE_AA)
+            cv2.polylines(self.image, [pts], closed, self._rgba(colour), thickness, cv2.LINE_AA)
+        for k, (u, v) in enumerate(pts.reshape(-1, 2)):
+            cv2.circle(self.image, (int(u), int(v)), 5, self._rgba(HALO), -1, cv2.LINE_AA)
+            cv2.circle(self.image, (int(u), int(v)), 3, self._rgba(colour), -1, cv2.LINE_AA)
+            if k == picked:
+                cv2.circle(self.image, (int(u), int(v)), 9, self._rgba(WHITE), 2, cv2.LINE_AA)
+
+    def _marker(self, marker: MarkerMark, colour) -> None:
+        centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
+        cv2.circle(self.image, centre, 8, self._rgba(HALO), -1, cv2.LINE_AA)
+        cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)
+        cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1, cv2.LINE_AA)
+        if marker.picked:
+            cv2.circle(self.image, centre, 12, self._rgba(WHITE), 2, cv2.LINE_AA)
+        if marker.flagged:
+            for sign in (1, -1):
+                cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign), (centre[0] + 11, centre[1] + 11 * sign),
+                         self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
+
+    def _label(self, uv, text: str) -> None:
+        """A label on a dark box beside its marker, at the first of eight places around it that is free."""
+        (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
+        u, v = int(round(uv[0])), int(round(uv[1]))
+        rows, cols = self.image.shape[:2]
+        for du, dv in ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14),
+                       (-w // 2, 20 + h), (14, 4), (-14 - w, 4)):
+            x0, y0 = min(max(u + du, 0), cols - w - 4), min(max(v + dv, h + 3), rows - 4)
+            box = (x0 - 2, y0 - h - 3, x0 + w + 2, y0 + base)
+            if not any(_overlap(box, other) for other in self._labels):
+                break
+        self._labels.append(box)
+        cv2.rectangle(self.image, box[:2], box[2:], self._rgba(HALO), -1)
+        cv2.putText(self.image, text, (x0, y0), FONT, 0.45, self._rgba(WHITE), 1, cv2.LINE_AA)
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]

@@ -1,31 +1,33 @@
-"""Recording what the browser tool shows: the live loop's frames, tapped as a depth source that mirrorcore's recorder
-writes into a session folder; the recording ends when the tap is closed (the Stop button)."""
+"""Recording what the browser tool shows: the live frames, tapped from the app's event bus as a depth source that
+mirrorcore's recorder writes into a session folder; the recording ends when the tap is closed (the Stop button)."""
 from __future__ import annotations
 
 import queue
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.sources import DepthSource, Frame
 
-from .live import LiveFrame, LiveLoop
+from .live import LiveFrame
 
 BACKLOG = 120   # frames waiting to be written before the oldest are dropped (a slow disk must not stall the view)
 
 
 class LiveTap(DepthSource):
-    """The frames the live loop processes from now on, in order, as a live source; iteration ends at close()."""
+    """The live frames of `source` from now on, in order, as a live source; iteration ends at close().
 
-    def __init__(self, loop: LiveLoop):
-        source = loop.source
-        self.loop, self.name = loop, f"recording of {source.name}"
+    subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the function that stops it.
+    """
+
+    def __init__(self, source: DepthSource, subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
+        self.name = f"recording of {source.name}"
         self.intrinsics, self.fps, self.frame_count = source.intrinsics, source.fps, None
         self._background = source.background()
         self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=BACKLOG)
         self.dropped = 0
-        loop.listeners.append(self._take)
+        self._unsubscribe: Callable[[], None] | None = subscribe(self._take)
 
     def _take(self, frame: LiveFrame) -> None:
         try:
@@ -49,6 +51,7 @@ class LiveTap(DepthSource):
 
     def close(self) -> None:
         """Stop tapping; the frames already taken are still delivered, then iteration ends."""
-        if self._take in self.loop.listeners:
-            self.loop.listeners.remove(self._take)
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+            self._unsubscribe = None
             self._frames.put(None)

@@ -1,30 +1,42 @@
-"""The server's shared state: the session and what is derived from it (rig, selection, background), swapped whole
-under a lock so that the live loop and the browser callbacks always see one consistent snapshot."""
+"""The server's shared state: the session and what is derived from it (rig, background, the grade of every marker),
+swapped whole under a lock so that the live loop and the browser callbacks always see one consistent snapshot."""
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from mirrorcore.markers import MarkerResiduals, marker_residuals
 from mirrorcore.rig import Rig
 from mirrorcore.session import Session
 
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
-    """One consistent state: the session, its rig (reflection tables built once) and the background depth (H, W)
-    metres or None."""
+    """One consistent state: the session, its rig (reflection tables built once), the background depth (H, W) metres
+    or None, and for each calibrated mirror (by id) how far each marker lies from its plane (mirrorcore.markers)."""
 
     session: Session
     rig: Rig
     background: np.ndarray | None
+    marker_residuals: dict[int, MarkerResiduals] = field(default_factory=dict)
+
+    @property
+    def marker_grades(self) -> dict[int, tuple[str, ...]]:
+        """{mirror id: each marker's grade, 'good', 'fair', 'poor' or 'unknown'}."""
+        return {mirror_id: r.grades for mirror_id, r in self.marker_residuals.items()}
 
     @classmethod
-    def build(cls, session: Session, background: np.ndarray | None) -> "Snapshot":
+    def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None) -> "Snapshot":
+        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers (none without)."""
         rig = Rig.from_session(session)
         rig.reflection_table  # built here, once, not in the first live frame
-        return cls(session, rig, background)
+        residuals = {}
+        if depths is not None:
+            residuals = {m.id: marker_residuals(session.camera, depths, m.markers, m.plane)
+                         for m in session.mirrors if m.plane is not None and m.markers}
+        return cls(session, rig, background, residuals)
 
 
 class SharedState:

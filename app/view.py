@@ -1,18 +1,24 @@
-"""The 3D scene in the browser: the depth camera, each mirror (translucent quad and virtual camera), and the live
-merged cloud as one point cloud per source in the source colours."""
+"""One tab's 3D scene: the depth camera, each mirror (a translucent pane, its name, its virtual camera), the live
+cloud (one node per source, float16 offsets from a centre), and the dense result in a layer of its own (its own
+colours, a label, its box). Every node belongs to the tab's client, so each tab shows and streams only what it
+looks at."""
 from __future__ import annotations
 
 import numpy as np
 import viser
 import viser.transforms as tf
 
-from mirrorcore.cloud import Cloud
 from mirrorcore.geometry.camera import Intrinsics, pixels_on_plane
-from mirrorcore.palette import source_colour, source_name
+from mirrorcore.palette import source_colour
 from mirrorcore.rig import Rig
 
-MAX_POINTS = 60_000        # points sent to the browser per frame (evenly strided), all sources together
-FRUSTUM_SCALE = 0.25       # metres
+from .jobs import DenseResult
+from .stream import SourcePart
+
+FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small
+DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
+BOX_COLOUR = (90, 90, 90)
+HOME_DIRECTION = np.array([1.0, -0.55, -0.75])   # from the scene's centre towards the first view (right, up, front)
 
 
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
@@ -20,79 +26,140 @@ def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
     return 2 * np.arctan2(intr.height / 2, intr.fy), intr.width / intr.height
 
 
-def downsample(cloud: Cloud, max_points: int) -> Cloud:
-    """Every k-th point so that at most max_points remain (the order is row-major, so this thins evenly)."""
-    step = max(1, int(np.ceil(len(cloud) / max_points)))
-    return cloud if step == 1 else cloud.select(slice(None, None, step))
+def mirror_outline(intr: Intrinsics, mirror) -> np.ndarray | None:
+    """(b, 3) metres: a calibrated mirror's boundary lifted onto its plane, or None."""
+    if mirror.plane is None or mirror.boundary is None:
+        return None
+    outline = pixels_on_plane(intr, mirror.boundary, mirror.plane)
+    return outline if np.all(np.isfinite(outline)) else None
 
 
-def initial_view(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
-    """(camera position, look-at point) in metres for a newly opened tab: above, to the right of and a little in front
-    of the object, so that its front (direct) and back (mirrors) both show; the object is taken to stand in front of
-    the mirrors (on the optical axis at 2 m without mirrors)."""
-    centres = [pixels_on_plane(rig.intrinsics, m.boundary, m.plane).mean(axis=0)
-               for m in rig.mirrors if m.plane is not None and m.boundary is not None]
-    centres = [c for c in centres if np.all(np.isfinite(c))]
-    target = 0.85 * np.mean(centres, axis=0) if centres else np.array([0.0, 0.0, 2.0])
-    return target + np.array([2.2, -1.2, -1.4]), target
+def scene_points(rig: Rig) -> np.ndarray:
+    """(k, 3) metres: the points the first view must show, the camera, the mirrors' corners and where the object is
+    expected (in front of the mirrors, on the optical axis at 2 m without them)."""
+    outlines = [o for o in (mirror_outline(rig.intrinsics, m) for m in rig.mirrors) if o is not None]
+    points = [np.zeros((1, 3))] + outlines
+    centres = [o.mean(axis=0) for o in outlines]
+    points.append((0.85 * np.mean(centres, axis=0) if centres else np.array([0.0, 0.0, 2.0]))[None])
+    return np.concatenate(points)
 
 
-class SceneView:
-    """Owns the scene nodes: /camera, /mirrors/<j>/..., /cloud/<source>."""
+def home_pose(points: np.ndarray, fov: float, aspect: float) -> tuple[np.ndarray, np.ndarray]:
+    """(camera position, look-at point) in metres that frame `points` (k, 3) for a view of vertical field of view
+    `fov` (radians) and `aspect` (width / height), looking from HOME_DIRECTION."""
+    centre = (points.min(axis=0) + points.max(axis=0)) / 2
+    radius = float(np.linalg.norm(points - centre, axis=1).max())
+    half = min(fov / 2, np.arctan(np.tan(fov / 2) * aspect))
+    distance = 1.1 * radius / np.sin(half)
+    direction = HOME_DIRECTION / np.linalg.norm(HOME_DIRECTION)
+    return centre + distance * direction, centre
 
-    def __init__(self, server: viser.ViserServer):
-        self.server = server
-        self.point_size = 0.006
+
+class TabScene:
+    """Owns one tab's scene nodes: /camera, /mirrors/<id>/..., /cloud/<source>, /dense/..."""
+
+    def __init__(self, client: viser.ClientHandle, point_size: float = 0.006):
+        self.client, self.scene = client, client.scene
+        self.point_size = point_size
         self._clouds: dict[int, viser.PointCloudHandle] = {}
-        server.scene.set_up_direction("-y")
+        self._labels: list[viser.LabelHandle] = []
+        self._dense: list = []                     # the dense result's nodes (result, label)
+        self._box = None
+        self.labels_visible = True
+        self.scene.set_up_direction("-y")
 
-    def show_rig(self, rig: Rig) -> None:
-        """(Re)draw the camera and the mirrors of a rig; the cloud nodes are kept."""
-        scene, intr = self.server.scene, rig.intrinsics
+    def show_rig(self, rig: Rig, mirror_ids: tuple[int, ...]) -> None:
+        """(Re)draw the camera and the calibrated mirrors, each in the colour of its id; the clouds are kept."""
+        intr = rig.intrinsics
         fov, aspect = frustum_angles(intr)
-        scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(40, 40, 40))
-        self.home = initial_view(rig)
-        scene.remove_by_name("/mirrors")
-        for j, mirror in enumerate(rig.mirrors, start=1):
-            if mirror.plane is None or mirror.boundary is None:
+        self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
+        self.scene.remove_by_name("/mirrors")
+        self._labels = []
+        for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
+            outline = mirror_outline(intr, mirror)
+            if outline is None:
                 continue
-            colour = tuple(int(c) for c in source_colour(j))
-            outline = pixels_on_plane(intr, mirror.boundary, mirror.plane)
-            if not np.all(np.isfinite(outline)):
-                continue
+            colour = tuple(int(c) for c in source_colour(1, (mirror_id,)))
             faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)], dtype=np.uint32)
-            scene.add_mesh_simple(f"/mirrors/{j}/glass", outline.astype(np.float32), faces, color=colour,
-                                  opacity=0.25, side="double")
+            self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32), faces,
+                                       color=colour, opacity=0.2, side="double")
             pose = mirror.plane.virtual_camera_pose()
-            scene.add_camera_frustum(f"/mirrors/{j}/virtual_camera", fov, aspect, scale=FRUSTUM_SCALE, color=colour,
-                                     wxyz=tf.SO3.from_matrix(pose[:3, :3]).wxyz, position=pose[:3, 3])
-            scene.add_label(f"/mirrors/{j}/label", mirror.name, position=outline[np.argmin(outline[:, 1])])
+            self.scene.add_camera_frustum(f"/mirrors/{mirror_id}/virtual_camera", fov, aspect, scale=FRUSTUM_SCALE,
+                                          color=colour, wxyz=tf.SO3.from_matrix(pose[:3, :3]).wxyz,
+                                          position=pose[:3, 3])
+            self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
+                                                     position=outline[np.argmin(outline[:, 1])],
+                                                     visible=self.labels_visible))
 
-    def show_cloud(self, cloud: Cloud, n_sources: int) -> None:
-        """Replace the live cloud: one node per source (0..n_sources-1), downsampled to MAX_POINTS in all."""
-        cloud = downsample(cloud, MAX_POINTS)
-        with self.server.atomic():
-            for j in range(n_sources):
-                part = cloud.points[cloud.sources == j]
-                handle = self._clouds.get(j)
-                if handle is None:
-                    self._clouds[j] = self.server.scene.add_point_cloud(
-                        f"/cloud/{source_name(j).replace(' ', '_')}", np.ascontiguousarray(part),
-                        tuple(int(c) for c in source_colour(j)), point_size=self.point_size, precision="float32",
-                        point_shape="circle")
+    def show_labels(self, visible: bool) -> None:
+        """Show or hide the mirrors' names (hidden while the depth frame is in view: no label over it)."""
+        self.labels_visible = visible
+        for label in self._labels:
+            label.visible = visible
+
+    def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...]) -> None:
+        """Replace the live cloud: one node per part (source), placed at its centre; nodes of sources beyond the
+        parts are removed."""
+        with self.client.atomic():
+            for part in parts:
+                handle = self._clouds.get(part.source)
+                precision = "float16" if part.offsets.dtype == np.float16 else "float32"
+                if handle is None or handle.precision != precision:
+                    if handle is not None:
+                        handle.remove()
+                    colour = tuple(int(c) for c in source_colour(part.source, mirror_ids))
+                    self._clouds[part.source] = self.scene.add_point_cloud(
+                        f"/cloud/{part.source}", part.offsets, colour, point_size=self.point_size,
+                        precision=precision, point_shape="circle", position=tuple(part.centre))
                 else:
-                    handle.points = np.ascontiguousarray(part)
-            for j in [k for k in self._clouds if k >= n_sources]:
+                    handle.points = part.offsets
+                    handle.position = tuple(part.centre)
+            for j in [k for k in self._clouds if k >= len(parts)]:
                 self._clouds.pop(j).remove()
 
-    def look_from_home(self, client: viser.ClientHandle) -> None:
-        """Point a tab's camera at the rig (see initial_view), with -y up as in the camera frame."""
-        position, target = self.home
-        client.camera.up_direction = (0.0, -1.0, 0.0)
-        client.camera.position = tuple(position)
-        client.camera.look_at = tuple(target)
+    def recolour(self, mirror_ids: tuple[int, ...]) -> None:
+        """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
+        for source, handle in self._clouds.items():
+            handle.colors = tuple(int(c) for c in source_colour(source, mirror_ids))
+
+    def show_clouds(self, visible: bool) -> None:
+        for handle in self._clouds.values():
+            handle.visible = visible
 
     def set_point_size(self, size: float) -> None:
         self.point_size = size
         for handle in self._clouds.values():
             handle.point_size = size
+
+    def show_dense(self, result: DenseResult | None, visible: bool) -> None:
+        """The dense result at its place, in its own colour, with a label and its box; or nothing."""
+        for handle in self._dense:
+            handle.remove()
+        self._dense = []
+        if result is None:
+            return
+        if result.faces is None:
+            node = self.scene.add_point_cloud("/dense/result", result.vertices, DENSE_COLOUR, point_size=result.voxel,
+                                              precision="float32", visible=visible)
+        else:
+            node = self.scene.add_mesh_simple("/dense/result", result.vertices.astype(np.float32),
+                                              result.faces.astype(np.uint32), color=DENSE_COLOUR, visible=visible)
+        top = np.array([(result.low[0] + result.high[0]) / 2, result.low[1], (result.low[2] + result.high[2]) / 2])
+        self._dense = [node, self.scene.add_label("/dense/label", f"dense: {result.summary}", position=top,
+                                                  visible=visible)]
+
+    def show_dense_layer(self, visible: bool) -> None:
+        """Show or hide the dense result, its label and its box."""
+        for handle in self._dense + ([self._box] if self._box is not None else []):
+            handle.visible = visible
+
+    def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
+        """The dense reconstruction's box as a wireframe (or none)."""
+        if self._box is not None:
+            self._box.remove()
+            self._box = None
+        if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
+            return
+        low, high = np.asarray(low, float), np.asarray(high, float)
+        self._box = self.scene.add_box("/dense/box", color=BOX_COLOUR, dimensions=tuple(high - low),
+                                       position=tuple((low + high) / 2), wireframe=True)

@@ -17,24 +17,18 @@ import traceback
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import msgspec
 import viser
 import websockets.asyncio.client
 
 from app.demo import calibrated_session, demo_source
 from app.server import MirrorscanApp
+from bench.tabs import CAMERA_MESSAGE
 from mirrorcore.session import load_session
 
 WARM_UP = 0.2          # fraction of the run after which memory is taken as the baseline
 EDIT_EVERY_S = 5.0     # a mirror is renamed (and autosaved) this often
 SAMPLE_EVERY_S = 1.0   # RSS sampled this often
 LATE_CLIENT_S = 3.0    # the tab opened at the end listens this long
-CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
-    "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,
-    "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640, "look_at": [0.0, 0.0, 1.0],
-    "up_direction": [0.0, -1.0, 0.0]})
-
-
 @dataclass
 class SoakReport:
     """What a soak run measured. rss_* in MB of the whole process (server, live loop and the simulated tabs);
@@ -119,7 +113,7 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
                     report.rss_warm_mb = rss[-1]
                 if now >= next_edit:
                     report.edits += 1
-                    app.editor.rename_mirror(0, f"mirror 1 edit {report.edits}")
+                    app.editor.rename_mirror(1, f"mirror 1 edit {report.edits}")
                     next_edit += EDIT_EVERY_S
                 time.sleep(min(SAMPLE_EVERY_S, max(0.0, until - now)))
             report.frames = app.loop.index

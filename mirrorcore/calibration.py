@@ -11,11 +11,17 @@ from .errors import CalibrationError
 from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from .geometry.plane import Plane, fit_plane_ransac
 from .geometry.polygon import polygon_mask, validate_polygon
+from .markers import (
+    GRADES,
+    MARKER_WINDOW,
+    MIN_MARKER_PIXELS,
+    MarkerResiduals,
+    marker_points,
+    marker_residuals,
+)
 from .noise import axial_sigma
 from .session import Session, SessionMirror
 
-MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
-MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
 MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line are collinear
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
 INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
@@ -26,56 +32,46 @@ MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camer
 class Calibration:
     """A fitted mirror plane and how well the data support it.
 
-    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC
-    per_marker_mm : (k,) RMS distance of each marker's points to the plane, mm (NaN for an unusable marker; empty for
-    region and pair calibrations)
+    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC;
+    markers : for a markers fit, how far each marker's centre lies from the plane against the noise there (None for
+    region and pair calibrations); centre : (3,) metres, the middle of the points used (where a change of the plane
+    is measured).
     """
 
     plane: Plane
     rms_mm: float
     n_points: int
     n_inliers: int
-    per_marker_mm: tuple[float, ...] = ()
-
-    @property
-    def worst_marker(self) -> tuple[int, float] | None:
-        """(0-based index, mm) of the marker farthest from the plane, or None without markers."""
-        values = np.asarray(self.per_marker_mm, dtype=float)
-        if not len(values) or np.all(np.isnan(values)):
-            return None
-        i = int(np.nanargmax(values))
-        return i, float(values[i])
+    markers: MarkerResiduals | None = None
+    centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def summary(self) -> str:
+        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor, and the farthest."""
         text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
-        worst = self.worst_marker
-        if worst is not None:
-            text += f", {sum(np.isfinite(self.per_marker_mm))} markers, worst marker {worst[0] + 1} at {worst[1]:.2f} mm"
+        if self.markers is not None:
+            grades = self.markers.grades
+            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES if grades.count(g))
+            ratio = np.asarray(self.markers.distance_mm) / np.asarray(self.markers.sigma_mm)
+            if np.any(np.isfinite(ratio)):
+                worst = int(np.nanargmax(ratio))
+                text += (f" (farthest: marker {worst + 1}, {self.markers.distance_mm[worst]:.1f} mm, "
+                         f"{ratio[worst]:.1f} sigma)")
         return text
-
-
-def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
-                  window: int = MARKER_WINDOW) -> np.ndarray:
-    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker pixel (u, v)."""
-    u0, v0 = int(round(marker[0])), int(round(marker[1]))
-    u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
-    v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
-    patch = depth[v1:v2, u1:u2]
-    vv, uu = np.nonzero(patch > 0)
-    return reproject_pixels(intr, uu + u1, vv + v1, patch[vv, uu])
 
 
 def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np.random.Generator,
                            name: str = "mirror", window: int = MARKER_WINDOW) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
-    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median)
+    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median, inside the
+    markers' windows only)
     markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
     The inlier threshold is INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the
     mirror and the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
     through the camera.
     """
-    depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
+    depth = np.asarray(depth)
+    check_depth_shape(intr, depth[-1] if depth.ndim == 3 else depth, f"{name}: depth image")
     markers = np.asarray(markers, dtype=np.float64).reshape(-1, 2)
     groups = [marker_points(intr, depth, m, window) for m in markers]
     usable = [len(g) >= MIN_MARKER_PIXELS for g in groups]
@@ -90,14 +86,10 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
         raise CalibrationError(f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
                                f"(all within {spread * 1000:.0f} mm of one line); place one off that line")
     points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
-    owner = np.concatenate([np.full(len(g), i) for i, (g, ok) in enumerate(zip(groups, usable)) if ok])
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
-    per_marker = np.full(len(markers), np.nan)
-    sq = np.bincount(owner, weights=fit.residuals ** 2, minlength=len(markers))
-    count = np.bincount(owner, minlength=len(markers))
-    per_marker[count > 0] = np.sqrt(sq[count > 0] / count[count > 0]) * 1e3
-    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()), tuple(per_marker.tolist()))
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
+                       marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]))
 
 
 def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,
@@ -116,7 +108,7 @@ def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.
         raise CalibrationError(f"{name}: the region is too thin to define a plane")
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
-    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()))
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()), centre=_centre(points))
 
 
 def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
@@ -147,7 +139,8 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
     plane = Plane.from_abcd([*n, d])
     _check_camera_side(plane, name)
     err = np.linalg.norm(plane.reflect(virtual) - real, axis=1) / 2
-    return Calibration(plane, float(np.sqrt(np.mean(err ** 2))) * 1e3, len(real), len(real))
+    return Calibration(plane, float(np.sqrt(np.mean(err ** 2))) * 1e3, len(real), len(real),
+                       centre=_centre((real + virtual) / 2))
 
 
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
@@ -172,6 +165,11 @@ def _calibrate_mirror(session: Session, mirror: SessionMirror, depth: np.ndarray
             raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
         return calibrate_from_region(session.camera, depth, mirror.region, rng, mirror.name)
     return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
+
+
+def _centre(points: np.ndarray) -> tuple[float, float, float]:
+    """The mean of points (n, 3) as a tuple of floats, metres."""
+    return tuple(float(c) for c in np.mean(points, axis=0))
 
 
 def _distance_to_best_line(points: np.ndarray) -> np.ndarray:

@@ -1,6 +1,8 @@
 """The one palette of source colours (viewer, exports, plots): 0 = direct view, j = through mirror j."""
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 
 # Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 8 mirrors.
@@ -16,14 +18,18 @@ SOURCE_COLOURS = np.array([
 ], dtype=np.uint8)
 
 
-def source_colour(source: int) -> np.ndarray:
-    """(3,) uint8 RGB of one source."""
-    return source_colours(np.array([source]))[0]
+def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
+    """(3,) uint8 RGB of one source (see source_colours)."""
+    return source_colours(np.array([source]), mirror_ids)[0]
 
 
-def source_colours(sources: np.ndarray) -> np.ndarray:
-    """sources : (n,) integer labels -> (n, 3) uint8 RGB."""
+def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
+    """sources : (n,) integer labels -> (n, 3) uint8 RGB. A mirror's colour follows its label j, or, given the ids of
+    the mirrors in session order (mirror_ids[j - 1] for label j), its id: a mirror keeps its colour when another one
+    is removed."""
     sources = np.asarray(sources, dtype=np.int64)
+    if mirror_ids is not None and len(sources):
+        sources = np.concatenate([[0], np.asarray(mirror_ids, np.int64)])[sources]
     idx = np.where(sources == 0, 0, 1 + (sources - 1) % (len(SOURCE_COLOURS) - 1))
     return SOURCE_COLOURS[idx]
 

@@ -1,10 +1,12 @@
-"""Session editing behind the browser tool, without a browser: markers, boundaries, undo, autosave, round trip."""
+"""Session editing behind the browser tool, without a browser: mirrors named by their stable id, markers guarded by
+the image and the mirror's boundary, boundaries, undo and redo per mirror with named steps, removal that can be
+undone, fits computed on a state that changed meanwhile refused, autosave and round trip."""
 import json
 import os
 
 import pytest
 
-from app.editor import SessionEditor
+from app.editor import SESSION_SCOPE, SessionEditor
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
@@ -12,12 +14,13 @@ from mirrorcore.selection import Selection
 from mirrorcore.session import Session, load_session
 
 SQUARE = [(10, 10), (100, 10), (100, 100), (10, 100)]
+PLANE = Plane.from_abcd([0.5, 0, -0.8, 2.4])
 
 
 @pytest.fixture
 def editor(tmp_path):
     editor = SessionEditor(Session(tmp_path, Intrinsics.kinect_v1()))
-    editor.add_mirror()
+    assert editor.add_mirror() == 1
     return editor
 
 
@@ -26,128 +29,155 @@ def saved(tmp_path) -> dict:
 
 
 def test_markers_are_kept_where_clicked_and_saved(editor, tmp_path):
-    editor.add_marker(0, (120.4, 33.0))
-    editor.add_marker(0, (200, 300))
-    assert editor.session.mirrors[0].markers == ((120.4, 33.0), (200.0, 300.0))
+    assert editor.add_marker(1, (120.4, 33.0)) == 0
+    assert editor.add_marker(1, (200, 300)) == 1
+    assert editor.mirror(1).markers == ((120.4, 33.0), (200.0, 300.0))
     assert saved(tmp_path)["mirrors"][0]["markers"] == [[120.4, 33.0], [200.0, 300.0]]   # autosaved, (u, v)
-    editor.remove_last_marker(0)
-    assert editor.session.mirrors[0].markers == ((120.4, 33.0),)
-    editor.clear_markers(0)
-    assert editor.session.mirrors[0].markers == ()
+    assert saved(tmp_path)["mirrors"][0]["id"] == 1
+    editor.move_marker(1, 0, (121, 34))
+    editor.delete_marker(1, 1)
+    assert editor.mirror(1).markers == ((121.0, 34.0),)
     with pytest.raises(MirrorscanError, match="pixel \\(640, 5\\) is outside the 640x480 image"):
-        editor.add_marker(0, (640, 5))
-    with pytest.raises(MirrorscanError, match="no marker to remove"):
-        editor.remove_last_marker(0)
+        editor.add_marker(1, (640, 5))
+    with pytest.raises(MirrorscanError, match="no marker 1.2"):
+        editor.delete_marker(1, 1)
+    editor.clear_markers(1)
+    with pytest.raises(MirrorscanError, match="no markers to clear"):
+        editor.clear_markers(1)
 
 
-def test_boundary_is_drawn_then_closed(editor, tmp_path):
-    for uv in SQUARE[:2]:
-        editor.add_vertex(0, uv)
-    assert editor.session.mirrors[0].boundary == ()               # still a draft: not in the session
+def test_a_marker_off_its_mirror_is_refused_and_changes_nothing(editor, tmp_path):
+    editor.set_boundary(1, SQUARE)
+    editor.add_marker(1, (100.5, 50))                              # on the edge (within 1.5 px) counts
+    before = (tmp_path / "session.json").read_bytes()
+    with pytest.raises(MirrorscanError, match="mirror 1: \\(300, 400\\) is outside its boundary"):
+        editor.add_marker(1, (300, 400))                           # a stray click under the panel
+    with pytest.raises(MirrorscanError, match="outside its boundary"):
+        editor.move_marker(1, 0, (103, 50))
+    assert (tmp_path / "session.json").read_bytes() == before and editor.mirror(1).markers == ((100.5, 50.0),)
+
+
+def test_boundaries_are_validated_and_nothing_changes_on_refusal(editor, tmp_path):
     with pytest.raises(MirrorscanError, match="at least 3 vertices"):
-        editor.close_boundary(0)
-    for uv in SQUARE[2:]:
-        editor.add_vertex(0, uv)
-    editor.close_boundary(0)
-    assert editor.session.mirrors[0].boundary == tuple((float(u), float(v)) for u, v in SQUARE)
-    assert 0 not in editor.drafts
-    assert len(saved(tmp_path)["mirrors"][0]["boundary"]) == 4
-
-
-def test_crossing_boundaries_are_refused_and_nothing_changes(editor, tmp_path):
-    for uv in [(10, 10), (100, 100), (100, 10), (10, 100)]:
-        editor.add_vertex(0, uv)
+        editor.set_boundary(1, SQUARE[:2])
     with pytest.raises(MirrorscanError, match="crosses itself"):
-        editor.close_boundary(0)
-    assert editor.session.mirrors[0].boundary == ()
-    editor.clear_boundary(0)
-    for uv in SQUARE:
-        editor.add_vertex(0, uv)
-    editor.close_boundary(0)
+        editor.set_boundary(1, [(10, 10), (100, 100), (100, 10), (10, 100)])
+    assert editor.mirror(1).boundary == ()
+    editor.set_boundary(1, SQUARE)
     before = (tmp_path / "session.json").read_bytes()
     with pytest.raises(MirrorscanError, match="crosses itself"):
-        editor.move_vertex(0, 1, (10, 120))                       # would cross the opposite edge
+        editor.move_vertex(1, 1, (10, 120))                       # would cross the opposite edge
     assert (tmp_path / "session.json").read_bytes() == before
-    editor.delete_vertex(0, 0)                                    # a triangle is still a boundary
-    assert len(editor.session.mirrors[0].boundary) == 3
+    editor.move_vertex(1, 2, (120, 110))
+    assert editor.mirror(1).boundary[2] == (120.0, 110.0)
+    editor.delete_vertex(1, 0)                                    # a triangle is still a boundary
     with pytest.raises(MirrorscanError, match="at least 3 vertices"):
-        editor.delete_vertex(0, 0)
-    assert len(editor.session.mirrors[0].boundary) == 3
+        editor.delete_vertex(1, 0)
+    assert len(editor.mirror(1).boundary) == 3
+    editor.clear_boundary(1)
+    assert editor.mirror(1).boundary == ()
 
 
-def test_move_and_pick_vertices(editor):
-    for uv in SQUARE:
-        editor.add_vertex(0, uv)
-    editor.close_boundary(0)
-    assert editor.nearest_vertex(0, (103, 96)) == 2
-    assert editor.nearest_vertex(0, (50, 50)) is None
-    editor.move_vertex(0, 2, (120, 110))
-    assert editor.session.mirrors[0].boundary[2] == (120.0, 110.0)
+def test_undo_and_redo_are_per_mirror_and_named(editor):
+    editor.add_mirror()
+    editor.add_marker(1, (1, 2))
+    editor.add_marker(2, (5, 6))
+    editor.add_marker(1, (3, 4))
+    assert editor.undo_label(1) == "marker 1.2" and editor.undo_label(2) == "marker 2.1"
+    assert editor.undo(2) == "marker 2.1"                          # mirror 2's own step, mirror 1 untouched
+    assert editor.mirror(2).markers == () and len(editor.mirror(1).markers) == 2
+    assert editor.undo(1) == "marker 1.2" and editor.mirror(1).markers == ((1.0, 2.0),)
+    assert editor.redo_label(1) == "marker 1.2"
+    editor.redo(1)
+    assert editor.mirror(1).markers == ((1.0, 2.0), (3.0, 4.0))
+    editor.add_marker(1, (7, 8))                                   # a new step clears that mirror's redo
+    assert editor.redo_label(1) is None and editor.redo_label(2) == "marker 2.1"
+    with pytest.raises(MirrorscanError, match="nothing to redo"):
+        editor.redo(1)
 
 
-def test_undo_restores_sessions_and_draft_vertices(editor):
-    editor.add_marker(0, (1, 2))
-    editor.add_marker(0, (3, 4))
-    editor.add_vertex(0, (5, 5))
-    editor.undo()                                                  # the open draft loses its vertex first
-    assert 0 not in editor.drafts and len(editor.session.mirrors[0].markers) == 2
-    editor.undo()
-    assert editor.session.mirrors[0].markers == ((1.0, 2.0),)
-    editor.undo()
-    editor.undo()                                                  # the mirror itself
-    assert editor.session.mirrors == ()
-    with pytest.raises(MirrorscanError, match="nothing to undo"):
-        editor.undo()
-
-
-def test_mirrors_add_rename_remove(editor):
-    assert editor.add_mirror() == 1 and editor.session.mirrors[1].name == "mirror 2"
-    editor.rename_mirror(1, "left")
+def test_removal_keeps_ids_and_colours_and_can_be_undone(editor, tmp_path):
+    editor.add_mirror()
+    editor.add_marker(1, (1, 1))
+    editor.rename_mirror(2, "left")
     with pytest.raises(MirrorscanError, match="already a mirror named 'left'"):
-        editor.rename_mirror(0, "left")
-    editor.add_vertex(1, (1, 1))
-    editor.remove_mirror(0)
-    assert [m.name for m in editor.session.mirrors] == ["left"] and editor.drafts == {0: ((1.0, 1.0),)}
+        editor.rename_mirror(1, "left")
+    editor.remove_mirror(1)
+    assert [(m.id, m.name) for m in editor.session.mirrors] == [(2, "left")]   # mirror 2 stays mirror 2
+    assert editor.add_mirror() == 3                                  # ids are never reused while in the session
+    assert editor.undo_label(SESSION_SCOPE) == "add mirror 3"
+    editor.undo(SESSION_SCOPE)
+    assert editor.undo(SESSION_SCOPE) == "remove mirror 1"
+    assert [m.id for m in editor.session.mirrors] == [1, 2] and editor.mirror(1).markers == ((1.0, 1.0),)
+    assert editor.undo(1) == "marker 1.1"                            # its own history came back with it
+    assert [m["id"] for m in saved(tmp_path)["mirrors"]] == [1, 2]
+
+
+def test_an_edit_for_a_removed_mirror_is_refused(editor):
+    editor.add_mirror()
+    editor.remove_mirror(1)
+    with pytest.raises(MirrorscanError, match="mirror 1 is no longer in the session"):
+        editor.add_marker(1, (5, 5))
+    assert editor.mirror(2).markers == ()
+
+
+def test_a_fit_computed_on_another_state_is_never_applied(editor):
+    """The race of two tabs: a plane fitted for mirror 1 while another tab removes mirror 1, or moves its markers,
+    must not land anywhere."""
+    editor.add_mirror()
+    editor.add_marker(1, (5, 5))
+    fitted_on = editor.mirror(1)
+    editor.add_marker(1, (6, 6))                                     # the markers changed meanwhile
+    with pytest.raises(MirrorscanError, match="mirror 1 changed while its plane was computed; fit it again"):
+        editor.set_planes({1: (PLANE, fitted_on)})
+    fitted_on = editor.mirror(1)
+    editor.remove_mirror(1)                                           # the mirror is gone meanwhile
+    with pytest.raises(MirrorscanError, match="mirror 1 is no longer in the session"):
+        editor.set_planes({1: (PLANE, fitted_on)})
+    assert all(m.plane is None for m in editor.session.mirrors)      # mirror 2 did not receive it
+
+
+def test_planes_of_several_mirrors_are_set_together_and_undone_per_mirror(editor):
+    editor.add_mirror()
+    other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
+    editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))})
+    assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
+    assert editor.undo(2) == "plane of mirror 2"
+    assert editor.mirror(2).plane is None and editor.mirror(1).plane == PLANE
 
 
 def test_session_round_trip_through_the_editor(editor, tmp_path):
-    editor.add_marker(0, (10, 20))
-    for uv in SQUARE:
-        editor.add_vertex(0, uv)
-    editor.close_boundary(0)
-    editor.set_planes({0: Plane.from_abcd([0.5, 0, -0.8, 2.4])})
+    editor.add_marker(1, (10, 20))
+    editor.set_boundary(1, [(0, 0), (200, 0), (200, 200), (0, 200)])
+    editor.set_planes({1: (PLANE, editor.mirror(1))})
     editor.set_selection(Selection(depth_max=3.5))
     loaded = load_session(tmp_path)
-    assert loaded.mirrors[0].markers == ((10.0, 20.0),)
-    assert loaded.mirrors[0].boundary == editor.session.mirrors[0].boundary
+    assert loaded.mirrors[0].markers == ((10.0, 20.0),) and loaded.mirrors[0].id == 1
+    assert loaded.mirrors[0].boundary == editor.mirror(1).boundary
     assert loaded.selection.depth_max == 3.5
-    assert loaded.mirrors[0].plane.angle_to(editor.session.mirrors[0].plane) < 1e-9
+    assert loaded.mirrors[0].plane.angle_to(PLANE) < 1e-9
+    editor.undo(SESSION_SCOPE)
+    assert load_session(tmp_path).selection == Selection()
 
 
 def test_a_failed_autosave_keeps_the_last_good_file(editor, tmp_path, monkeypatch):
-    editor.add_marker(0, (10, 20))
+    editor.add_marker(1, (10, 20))
     good = (tmp_path / "session.json").read_bytes()
 
     def full_disk(*args):
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(os, "fsync", full_disk)
-    editor.add_marker(0, (30, 40))
+    editor.add_marker(1, (30, 40))
     assert "No space left on device" in editor.last_save_error
     assert (tmp_path / "session.json").read_bytes() == good
-    assert len(editor.session.mirrors[0].markers) == 2            # the edit itself is kept in memory
+    assert len(editor.mirror(1).markers) == 2            # the edit itself is kept in memory
 
 
-def test_listeners_hear_every_change(editor):
+def test_listeners_hear_every_change_and_refusals_are_silent(editor):
     heard = []
     editor.listeners.append(lambda s: heard.append(len(s.mirrors[0].markers)))
-    editor.add_marker(0, (1, 1))
-    editor.add_vertex(0, (2, 2))
-    assert heard == [1, 1]
-
-
-def test_planes_of_several_mirrors_are_one_undo_step(editor):
-    editor.add_mirror()
-    editor.set_planes({0: Plane.from_abcd([0.5, 0, -0.8, 2.4]), 1: Plane.from_abcd([-0.5, 0, -0.8, 2.4])})
-    assert all(m.plane is not None for m in editor.session.mirrors)
-    editor.undo()
-    assert all(m.plane is None for m in editor.session.mirrors) and len(editor.session.mirrors) == 2
+    editor.add_marker(1, (1, 1))
+    with pytest.raises(MirrorscanError):
+        editor.add_marker(1, (9999, 1))
+    editor.undo(1)
+    assert heard == [1, 0]

@@ -1,76 +1,100 @@
-"""The browser tool without a browser: the demo session is calibrated from its markers, and the live loop turns
-frames into a cloud with every source, shown in the scene and the panel."""
+"""The browser tool without a browser, on the demo: the live loop turns frames into a cloud with every source; a tab
+gets it as float16 offsets within 0.3 mm, one node per source, and the depth frame; a tab looking at the depth frame,
+or hidden, is not sent the cloud; pause and step; the depth screen's pixel mapping and framing."""
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from app.demo import calibrated_session, demo_source
-from app.server import MirrorscanApp
+from app.stream import FLOAT16_EXTENT, stream_parts
+from bench.tabs import wait_for
+from mirrorcore.cloud import Cloud
 
 
-@pytest.fixture(scope="module")
-def app():
-    source = demo_source()
-    session = calibrated_session(source, Path("unused"))
-    app = MirrorscanApp(session, source, port=0, autosave=False)
-    yield app
-    app.stop()
-
-
-def test_demo_planes_are_calibrated_close_to_the_truth(app):
+def test_demo_planes_are_calibrated_close_to_the_truth(demo):
+    app, _ = demo
     truth = app.loop.source.rig.planes
-    for mirror, true in zip(app.state.current.session.mirrors, truth):
+    for mirror, true in zip(app.snapshot.session.mirrors, truth):
         assert mirror.plane.angle_to(true) < 1.0
         assert abs(mirror.plane.d - true.d) < 0.01
 
 
-def test_live_frames_reach_the_view(app):
+def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
+    rng = np.random.default_rng(0)
+    points = (rng.uniform(-0.95, 0.95, (20_000, 3)) + [0.3, -0.2, 3.0]).astype(np.float32)
+    sources = rng.integers(0, 3, len(points)).astype(np.uint8)
+    parts = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), 3)
+    for part in parts:
+        assert part.offsets.dtype == np.float16
+        back = part.offsets.astype(np.float64) + part.centre
+        np.testing.assert_array_less(np.abs(back - points[sources == part.source]), 0.3e-3)
+    wide = points * [1, 1, 1] + np.where(np.arange(len(points)) % 2, 0, 2.5 * FLOAT16_EXTENT)[:, None]
+    parts = stream_parts(Cloud(wide.astype(np.float32), sources, np.arange(len(points)), 640), 4)
+    assert {p.offsets.dtype for p in parts[:3]} == {np.dtype(np.float32)}    # too wide for float16: float32
+    assert len(parts[3].offsets) == 0                                         # an absent source is cleared
+
+
+def test_live_frames_reach_the_tab(demo):
+    app, headless = demo
+    tab = headless.tab
     frame = app.loop.run_once()
     counts = frame.cloud.counts(2)
     assert min(counts.values()) > 1000, counts
-    assert app.port > 0
-    nodes = app.view._clouds
+    nodes = tab.scene._clouds
     assert sorted(nodes) == [0, 1, 2]
-    shown = sum(len(h.points) for h in nodes.values())
-    assert 0 < shown <= 60_000 and shown >= min(len(frame.cloud), 60_000) * 0.95
     for j, handle in nodes.items():                       # each node holds only its own source's points
-        assert handle.points.dtype == np.float32
-        assert len(handle.points) == pytest.approx(counts["direct" if j == 0 else f"mirror {j}"] / max(
-            1, int(np.ceil(len(frame.cloud) / 60_000))), rel=0.05, abs=3)
-    assert "mirror 2" in app.live_panel.legend.content
-    assert app.screen.handle.image.shape == (480, 640, 3)
-    assert "depth frame:" in app.live_panel.depth_range.content
+        assert handle.precision == "float16" and len(handle.points) == list(counts.values())[j]
+        got = handle.points.astype(np.float64) + handle.position
+        np.testing.assert_array_less(np.abs(got - frame.cloud.points[frame.cloud.sources == j]), 0.3e-3)
+    assert "mirror 2" in tab.header.legend.content
+    tab._send_screen(force=True)
+    assert tab.screen.handle.image.shape == (480, 640, 3)
 
 
-def wait_for(condition, seconds=20.0):
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.02)
+def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo):
+    app, headless = demo
+    tab = headless.tab
+
+    def bytes_per_frame(n: int = 6) -> float:
+        app.loop.run_once()
+        time.sleep(0.3)
+        start = headless.bytes
+        for _ in range(n):
+            app.loop.run_once()
+        time.sleep(0.5)                                     # let the messages reach the tab
+        return (headless.bytes - start) / n
+    in_3d = bytes_per_frame()
+    tab.look("depth")
+    looking_at_depth = bytes_per_frame()
+    tab.look("3d")
+    tab.hidden = True
+    hidden = bytes_per_frame()
+    tab.hidden = False
+    assert in_3d > 100_000                                  # ~41k points as float16 offsets: ~250 kB a frame
+    assert looking_at_depth < 0.3 * in_3d and hidden < 2_000, (in_3d, looking_at_depth, hidden)
 
 
-def test_loop_thread_pause_and_step(app):
+def test_loop_thread_pause_and_step(demo):
+    app, _ = demo
     app.loop.start()
     start = app.loop.index
     wait_for(lambda: app.loop.index >= start + 2)             # running
-    app.loop.pause(True)
+    app.pause(True)
     time.sleep(0.3)                                            # let a frame in progress finish
     held = app.loop.index
     time.sleep(0.5)
     assert app.loop.index == held                              # paused: no new frames
-    app.loop.step()
+    app.step()
     wait_for(lambda: app.loop.index == held + 1)
     time.sleep(0.3)
     assert app.loop.index == held + 1                          # exactly one
-    app.loop.pause(False)
+    app.pause(False)
     wait_for(lambda: app.loop.index >= held + 3)
-    assert app.loop.rate.fps > 0
+    assert app.fps() > 0
 
 
-def test_depth_screen_maps_rays_to_pixels_and_back(app):
-    screen = app.screen
+def test_depth_screen_maps_rays_to_pixels_and_back(demo):
+    screen = demo[1].tab.screen
     eye = screen.centre - [0.3, -0.2, 2.0]                            # somewhere behind the screen
     for uv in [(0.0, 0.0), (319.5, 239.5), (639.0, 479.0), (100.25, 400.75)]:
         target = screen.world_of_pixel(*uv)
@@ -80,3 +104,15 @@ def test_depth_screen_maps_rays_to_pixels_and_back(app):
     assert screen.world_of_pixel(0, 0)[1] < screen.world_of_pixel(0, 479)[1]      # v grows with y (down)
     assert screen.pixel_of_ray(eye, [0.0, 0.0, -1.0]) is None                      # pointing away
     assert screen.pixel_of_ray(eye, screen.world_of_pixel(0, 0) - [0.5, 0, 0] - eye) is None   # beside it
+
+
+@pytest.mark.parametrize("aspect", [0.8, 1.04, 16 / 9])
+def test_the_depth_frame_fills_the_free_area(demo, aspect):
+    """From the view pose, every corner of the frame is inside the tab's view of 50 deg, and one side fits."""
+    screen = demo[1].tab.screen
+    position, target = screen.view_pose(aspect)
+    distance = target[2] - position[2]
+    half_h = np.tan(np.radians(25)) * distance
+    half_w = half_h * aspect
+    assert screen.height / 2 <= half_h and screen.width / 2 <= half_w
+    assert max(screen.height / 2 / half_h, screen.width / 2 / half_w) > 0.95     # not lost in the middle

@@ -1,151 +1,212 @@
-"""The browser tool's panels without a browser, on the simulated sphere rig: background capture, plane fitting,
-measuring, exporting, save as and open, and how refusals reach the user."""
+"""The browser tool's steps without a browser, on the simulated sphere rig, through a headless tab: background
+capture, both mirrors calibrated by clicking boundaries and markers, a stray marker refused, a bad fit shown as a
+proposal and applied only on confirmation, measuring, exports that never overwrite, save as and open, dense runs
+and cancel, record and replay, and two tabs that keep their own click mode and mirror."""
 import time
 
 import numpy as np
 import pytest
 
-from app.server import MirrorscanApp
+from app.panels.dense import DensePanel
+from app.panels.measure import MeasurePanel
+from app.panels.mirrors import MirrorsPanel
+from app.panels.object import ObjectPanel
+from app.panels.record import RecordPanel
+from app.panels.session import SessionPanel
+from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import read_ply
-from mirrorcore.session import Session, load_session
+from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
-from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import SimulatedSource
 
 
-@pytest.fixture(scope="module")
-def app(tmp_path_factory):
-    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
-    root = tmp_path_factory.mktemp("panels") / "scan"
-    app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0, sessions_dir=root.parent)
-    app.loop.start()
-    deadline = time.monotonic() + 30
-    while app.last_frame is None:
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    yield app
-    app.stop()
+def panel(tab, kind):
+    return next(p for p in tab.panels if isinstance(p, kind))
 
 
-def test_background_capture_with_the_object_out_of_view(app):
+def click(tab, uv) -> None:
+    """A click on the tab's depth frame at pixel uv (as the screen reports it)."""
+    tab._clicked(float(uv[0]), float(uv[1]))
+
+
+def calibrate_by_clicking(app, tab) -> None:
+    """Add both mirrors and click their outlines and markers where the simulator shows them, then fit all."""
+    mirrors = panel(tab, MirrorsPanel)
+    rig = app.source.rig
+    for truth in session_mirrors(rig, rig.background().truth):
+        mirrors._add()                                   # Add a mirror: selects it, boundary mode
+        assert tab.state.mode == "boundary" and tab.state.view == "depth"
+        for uv in truth.boundary:
+            click(tab, uv)
+        click(tab, truth.boundary[0])                    # the first corner again closes it
+        assert tab.state.mode == "markers"
+        for uv in truth.markers:
+            click(tab, uv)
+    time.sleep(0.5)                                      # a few frames for the median
+    mirrors.fit_planes([m.id for m in app.editor.session.mirrors])
+
+
+def test_background_capture_with_the_object_out_of_view(sphere):
+    app, headless = sphere
     app.source.objects_in_view = False
     try:
-        app.selection_panel.capture_background(3)
+        panel(headless.tab, ObjectPanel)._capture()
+        wait_for(lambda: not app.jobs.running("background"), what="the capture")
+        wait_for(lambda: app.snapshot.background is not None and app.snapshot.session.background)
     finally:
         app.source.objects_in_view = True
-    session = app.editor.session
-    assert session.background == "background.png"
-    saved = load_session(session.root).read_background()
-    np.testing.assert_allclose(saved, app.state.current.background, atol=0.0006)   # 1 mm units on disk
-    assert not app.selection_panel.progress.visible and "captured" in app.selection_panel.background.content
+    saved = load_session(app.editor.session.root).read_background()
+    np.testing.assert_allclose(saved, app.snapshot.background, atol=0.0006)   # 1 mm units on disk
+    object_panel = panel(headless.tab, ObjectPanel)
+    wait_for(lambda: "captured" in object_panel.status.content)
+    assert not object_panel.progress.visible
 
 
-def test_calibrate_both_mirrors_and_measure(app):
-    rig = app.source.rig
-    for j, mirror in enumerate(session_mirrors(rig, rig.background().truth)):
-        app.editor.add_mirror()
-        for uv in mirror.markers:
-            app.editor.add_marker(j, uv)
-        for uv in mirror.boundary:
-            app.editor.add_vertex(j, uv)
-        app.editor.close_boundary(j)
-    time.sleep(0.5)                                     # a few frames for the median
-    app.mirrors_panel.fit_planes(range(2))
-    for fitted, true in zip(app.editor.session.mirrors, rig.planes):
+def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
+    app, headless = sphere
+    tab = headless.tab
+    calibrate_by_clicking(app, tab)
+    for fitted, true in zip(app.editor.session.mirrors, app.source.rig.planes):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
-    assert "worst marker" in app.mirrors_panel.result.content
-    time.sleep(0.5)                                     # frames with the new rig
-    fit = app.measure_panel.fit_current()
+    mirrors = panel(tab, MirrorsPanel)
+    assert "markers: 6 good" in mirrors.result.content and mirrors.proposal is None
+    wait_for(lambda: set(app.snapshot.marker_grades) == {1, 2})
+    assert set(app.snapshot.marker_grades[1]) == {"good"}
+    assert mirrors.undo.label == "Undo: plane of mirror 2"            # named, for the selected mirror
+    time.sleep(0.5)                                                   # frames with the new rig
+    measure = panel(tab, MeasurePanel)
+    fit = measure.fit_current()
     assert abs(fit.shape.radius - 0.115) < 0.003
-    assert "mirror 2" in app.measure_panel.report.content and app.measure_panel.plot.visible
+    assert "mirror 2" in measure.report.content and measure.plot.visible
 
 
-def test_export_saves_beside_the_session(app):
-    saved = app.files_panel.export_cloud(None)
-    points, sources = read_ply(saved)
-    assert saved.parent.name == "exports" and len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
+def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes):
+    app, headless = sphere
+    tab, said = headless.tab, notes(app)
+    mirrors = panel(tab, MirrorsPanel)
+    tab.state.mirror_id, tab.state.mode = 2, "markers"
+    before = app.editor.mirror(2)
+    click(tab, (630, 470))                                    # beside the panel, off mirror 2
+    assert said and "outside its boundary" in said[-1] and app.editor.mirror(2) == before
+    # a marker inside the outline but clicked on the floor seen through the glass: the fit moves little, but the
+    # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
+    bottom = max(before.boundary, key=lambda p: p[1])
+    click(tab, (bottom[0] - 10, bottom[1] - 6))
+    plane = app.editor.mirror(2).plane
+    mirrors.fit_planes([2])
+    assert mirrors.proposal is not None and app.editor.mirror(2).plane == plane            # not applied
+    assert mirrors.review.visible and "⚠" in mirrors.review.content
+    assert tab.state.flagged_markers == (len(before.markers),)                             # shown on the image
+    mirrors._discard()
+    assert app.editor.mirror(2).plane == plane and not mirrors.review.visible
+    mirrors.fit_planes([2])
+    mirrors._apply()                                                                      # on confirmation
+    assert app.editor.mirror(2).plane != plane
+    tab.state.picked_marker = len(before.markers)                                         # delete just that one
+    mirrors._delete_marker()
+    assert app.editor.mirror(2).markers == before.markers
+    mirrors.fit_planes([2])
+    assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
 
 
-def test_refusals_become_notifications(app, monkeypatch):
-    said = []
-    monkeypatch.setattr(app, "notify", lambda client, title, message: said.append(message))
-    app.act(None, lambda: app.editor.add_marker(0, (9999, 1)))
-    app.act(None, lambda: app.editor.close_boundary(0))
+def test_exports_never_overwrite(sphere):
+    app, headless = sphere
+    session = panel(headless.tab, SessionPanel)
+    first, second = session.export_cloud(), session.export_cloud()
+    assert first != second and first.parent.name == second.parent.name == "exports"
+    points, sources = read_ply(first)
+    assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
+
+
+def test_refusals_become_notifications(sphere, notes):
+    app, headless = sphere
+    said = notes(app)
+    headless.tab.act(lambda: app.editor.add_marker(1, (9999, 1)))
+    headless.tab.act(lambda: app.editor.set_boundary(1, [(1, 1), (2, 2)]))
     assert said == ["pixel (9999, 1) is outside the 640x480 image",
-                    "mirror 1: no open boundary to close; click its corners first"]
+                    "mirror 1: boundary: a polygon needs at least 3 vertices, got 2"]
 
 
-def test_save_as_and_open(app):
-    app.files_panel.new_name.value = "../escape"
+def test_two_tabs_keep_their_own_mode_and_mirror(sphere):
+    app, first = sphere
+    with HeadlessTab(app) as second:
+        first.tab.state.mode, first.tab.state.mirror_id = "boundary", 1
+        panel(second.tab, MirrorsPanel)._set_mode("inspect")
+        panel(second.tab, MirrorsPanel)._select("mirror 2")
+        assert first.tab.state.mode == "boundary" and first.tab.state.mirror_id == 1
+        assert second.tab.state.mode == "inspect" and second.tab.state.mirror_id == 2
+
+
+def test_save_as_and_open(sphere):
+    app, headless = sphere
+    files = panel(headless.tab, SessionPanel)
+    files.new_name.value = "../escape"
     with pytest.raises(MirrorscanError, match="session name '../escape'"):
-        app.files_panel._save_as()
-    app.files_panel.new_name.value = "copy 1"
-    app.files_panel._save_as()
+        files._save_as()
+    files.new_name.value = "copy 1"
+    files._save_as()
     copy = app.sessions_dir / "copy 1"
     assert app.editor.session.root == copy and (copy / "background.png").is_file()
     assert load_session(copy).mirrors == app.editor.session.mirrors
-    app.files_panel.refresh()
-    assert set(app.files_panel.open_choice.options) == {"scan", "copy 1"}
-    app.files_panel.open_choice.value = "scan"
-    app.files_panel._open()
+    files.refresh()
+    assert set(files.open_choice.options) == {"scan", "copy 1"}
+    files.open_choice.value = "scan"
+    files._open()
     assert app.editor.session.root.name == "scan"
 
 
 @pytest.mark.parametrize("method", ["carve (consistent)", "TSDF fusion (mesh)"])
-def test_dense_runs_shows_and_exports(app, method):
-    panel = app.dense_panel
-    panel.method.value, panel.voxel.value = method, 4.0
-    panel.box_around_cloud()
-    low, high = np.array(panel.low.value), np.array(panel.high.value)
+def test_dense_runs_shows_and_exports(sphere, method):
+    app, headless = sphere
+    dense = panel(headless.tab, DensePanel)
+    dense.method.value, dense.voxel.value = method, 4.0
+    dense.box_around_cloud()
+    low, high = np.array(dense.low.value), np.array(dense.high.value)
     assert np.all(high - low > 0.2) and np.all(high - low < 0.6)        # the sphere (23 cm) and its margin
-    panel.result = None
-    panel.start().join(timeout=120)
-    assert panel.result is not None, panel.status.content
-    vertices, sources, faces = panel.result
-    assert set(np.unique(sources)) <= {0, 1, 2} and len(vertices) > 500
-    assert (faces is not None) == (method.startswith("TSDF"))
-    centre = np.array([0.0, 0.0, 2.0])
-    assert np.median(np.abs(np.linalg.norm(vertices - centre, axis=1) - 0.115)) < 0.004
-    saved = app.files_panel.export_dense(None)
-    points, labels = read_ply(saved)
-    assert len(points) == len(vertices)
+    made = app.jobs.dense_result.made if app.jobs.dense_result else 0
+    dense.start()
+    result = wait_for(lambda: app.jobs.dense_result if app.jobs.dense_result and app.jobs.dense_result.made > made
+                      else None, 180, "the dense result")
+    assert set(np.unique(result.sources)) <= {0, 1, 2} and len(result.vertices) > 500
+    assert (result.faces is not None) == (method.startswith("TSDF"))
+    assert np.median(np.abs(np.linalg.norm(result.vertices - [0.0, 0.0, 2.0], axis=1) - 0.115)) < 0.004
+    wait_for(lambda: headless.tab.scene._dense, what="the result drawn")
+    assert headless.tab.scene._box is not None                                        # with its box
+    dense.export_result()
+    saved = sorted((app.editor.session.root / "exports").glob(f"dense-{result.method}-*.ply"))[-1]
+    points, _ = read_ply(saved)
+    assert len(points) == len(result.vertices)
 
 
-def test_dense_cancel(app):
-    panel = app.dense_panel
-    panel.method.value, panel.voxel.value = "carve (consistent)", 1.0
-    panel.box_around_cloud()
-    thread = panel.start()                                # 1 mm voxels: ~25 million, several seconds
-    panel._cancel.set()                                   # the Cancel button
-    thread.join(timeout=120)
-    assert panel.status.content == "cancelled" and not panel.progress.visible and not panel.run.disabled
+def test_dense_cancel(sphere):
+    app, headless = sphere
+    dense = panel(headless.tab, DensePanel)
+    dense.method.value, dense.voxel.value = "carve (consistent)", 1.0
+    dense.box_around_cloud()
+    dense.start()                                          # 1 mm voxels: ~25 million, several seconds
+    app.jobs.cancel("dense")                               # the Cancel button
+    wait_for(lambda: dense.status.content == "cancelled", 120)
+    assert not dense.progress.visible and not dense.run.disabled
 
 
-def test_record_then_replay_with_the_calibration(app):
-    panel = app.record_panel
-    panel.start()
+def test_record_then_replay_with_the_calibration(sphere):
+    app, headless = sphere
+    record = panel(headless.tab, RecordPanel)
+    record.start()
     start = app.loop.index
-    deadline = time.monotonic() + 30
-    while app.loop.index < start + 6:
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    recorded = panel.stop()
+    wait_for(lambda: app.loop.index >= start + 6)
+    recorded = record.stop()
     assert len(recorded.frames) >= 4 and len(recorded.timestamps) == len(recorded.frames)
     saved = load_session(recorded.root)
     assert saved.mirrors == app.editor.session.mirrors and saved.background == "background.png"
     first = saved.read_frame(0)
-    panel.play_recording()
-    assert app.source.frame_count == len(recorded.frames) and app.live_panel.seek.visible
+    record.play_recording()
+    assert app.source.frame_count == len(recorded.frames) and headless.tab.header.seek.visible
     assert app.editor.session.root == recorded.root
-    app.loop.pause(True)
+    app.pause(True)
     time.sleep(0.3)
-    app.loop.seek(0)
-    app.loop.step()
-    deadline = time.monotonic() + 30
-    while app.last_frame.index != 0:
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
+    app.seek(0)
+    app.step()
+    wait_for(lambda: app.last_frame.index == 0)
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
-    app.loop.pause(False)
+    app.pause(False)

@@ -15,7 +15,7 @@ FLOORS = {
     "noise": 2, "kinect": 2, "depthops": 2, "depthio": 2, "selection": 2,
     "session": 3, "ply": 3,
     "rig": 4, "cloud": 4, "reconstruct": 4,
-    "calibration": 5,
+    "calibration": 5, "markers": 5,
     "pipeline": 6,
     "dense": 7,
     "shapes": 8, "fitting": 8,

@@ -11,14 +11,12 @@ import numpy as np
 import pytest
 
 from app.cli import build_parser, main
-from app.server import MirrorscanApp
+from app.panels.session import SessionPanel
 from mirrorcore.depthio import encode_depth_png, read_depth_png
 from mirrorcore.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
-from mirrorcore.session import Session, load_session, save_session, session_folder
-from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import SimulatedSource, open_source
+from mirrorcore.session import Session, load_session, session_folder
+from mirrorcore.sources import open_source
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMERA = Intrinsics.primesense()
@@ -94,32 +92,24 @@ def test_blank_frames_are_named_by_calibrate_and_reconstruct_and_change_nothing(
 
 # ---------------------------------------------------------------------------- the browser's background upload
 @pytest.fixture(scope="module")
-def app(tmp_path_factory):
-    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=15.0)
-    session = Session(tmp_path_factory.mktemp("upload") / "scan", rig.intrinsics)
-    save_session(session)
-    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=session.root.parent)
-    yield app
-    app.stop()
-
-
-@pytest.fixture
-def notes(app, monkeypatch):
-    said: list[str] = []
-    monkeypatch.setattr(app, "notify", lambda client, title, message: said.append(message))
-    return said
+def files(sphere):
+    """(app, the Session step of its tab)."""
+    app, headless = sphere
+    return app, next(p for p in headless.tab.panels if isinstance(p, SessionPanel))
 
 
 def saved_files(root: Path) -> dict:
     return {p.name: p.read_bytes() for p in root.iterdir() if p.is_file()}
 
 
-def test_uploaded_background_is_used_and_saved(app, notes):
+def test_uploaded_background_is_used_and_saved(files, notes):
+    app, panel = files
+    said = notes(app)
     depth = app.source.background()
-    app.act(None, lambda: app.files_panel.upload_background("bg.png", encode_depth_png(depth, 0.001)))
-    assert notes == [] and app.editor.session.background == "background.png"
+    app.act(None, lambda: panel.upload_background("bg.png", encode_depth_png(depth, 0.001)))
+    assert said == [] and app.editor.session.background == "background.png"
     np.testing.assert_allclose(load_session(app.editor.session.root).read_background(), depth, atol=0.0006)
-    np.testing.assert_allclose(app.state.current.background, depth, atol=0.0006)
+    np.testing.assert_allclose(app.snapshot.background, depth, atol=0.0006)
 
 
 @pytest.mark.parametrize("name, data, message", [
@@ -130,12 +120,14 @@ def test_uploaded_background_is_used_and_saved(app, notes):
     ("blank.png", encode_depth_png(np.zeros(CAMERA.shape), 0.001), "blank.png: no depth reading at all"),
     ("junk.png", b"\x89PNG\r\n\x1a\n" + bytes(100), "junk.png: not a readable image"),
 ])
-def test_bad_uploads_are_notified_and_change_nothing(app, notes, name, data, message):
+def test_bad_uploads_are_notified_and_change_nothing(files, notes, name, data, message):
+    app, panel = files
+    said = notes(app)
     root = Path(app.editor.session.root)
-    before, background = saved_files(root), app.state.current.background
-    app.act(None, lambda: app.files_panel.upload_background(name, data))
-    assert len(notes) == 1 and message in notes[0]
-    assert saved_files(root) == before and app.state.current.background is background
+    before, background = saved_files(root), app.snapshot.background
+    app.act(None, lambda: panel.upload_background(name, data))
+    assert len(said) == 1 and message in said[0]
+    assert saved_files(root) == before and app.snapshot.background is background
 
 
 # ---------------------------------------------------------------------------- security
@@ -151,28 +143,31 @@ def listening_addresses(port: int) -> set[str]:
     return found
 
 
-def test_the_server_listens_on_loopback_only_by_default(app):
+def test_the_server_listens_on_loopback_only_by_default(files):
+    app, _ = files
     assert build_parser().parse_args(["serve"]).host == "127.0.0.1"
     assert listening_addresses(app.port) == {"0100007F"}        # 127.0.0.1, nothing on 0.0.0.0 or ::
 
 
 @pytest.mark.parametrize("name", ["..", "../escape", "a/../../b", "a/b", "/etc", "C:\\x", "a\\..\\b", ".hidden", "",
                                   "x" * 101, "~root", "a\0b", "a\nb"])
-def test_session_names_cannot_leave_the_sessions_folder(app, notes, tmp_path, name):
+def test_session_names_cannot_leave_the_sessions_folder(files, notes, tmp_path, name):
+    app, panel = files
+    said = notes(app)
     with pytest.raises(MirrorscanError, match="session name"):
         session_folder(tmp_path / "sessions", name)
     outside = sorted(p.name for p in Path(app.sessions_dir).parent.iterdir())
-    app.files_panel.new_name.value = name
-    app.act(None, app.files_panel._save_as)
-    assert len(notes) == 1 and "session name" in notes[0]
+    panel.new_name.value = name
+    app.act(None, panel._save_as)
+    assert len(said) == 1 and "session name" in said[0]
     assert sorted(p.name for p in Path(app.sessions_dir).parent.iterdir()) == outside
 
 
-def test_good_session_names_and_exports_stay_inside(app, tmp_path):
+def test_good_session_names_and_exports_stay_inside(files, tmp_path):
+    app, panel = files
     for name in ["scan 1", "a.b-c_d", "_x"]:
         assert session_folder(tmp_path, name).resolve().parent == tmp_path.resolve()
-    app.loop.run_once()
-    saved = app.files_panel.export_cloud(None)
+    saved = panel.export_cloud()
     assert saved.resolve().parent == (Path(app.editor.session.root) / "exports").resolve()
 
 

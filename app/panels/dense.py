@@ -1,63 +1,75 @@
-"""The "Dense" folder: carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the recent frames of
-a static object inside a box (automatic around the cloud, adjustable), with a progress bar and a cancel button; the
-result is shown beside the live cloud, as points or a mesh in the source colours, and can be exported."""
+"""Step 4, "Dense": carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the recent frames of a
+static object inside a box (around the live cloud, shown in 3D and in the fields, editable), with a progress bar and
+a cancel button. The result is shared by every tab, drawn in its own colour and layer with a label, and exported
+under a new name each time."""
 from __future__ import annotations
 
-import threading
-from typing import TYPE_CHECKING
-
 import numpy as np
-import trimesh
 
-from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
-from mirrorcore.dense.carve import CarveResult
+from mirrorcore.dense import DenseOptions
 from mirrorcore.dense.volume import Volume
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.palette import source_colours
-from mirrorcore.pipeline import prepare_frame
+from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
 
-if TYPE_CHECKING:
-    from ..server import MirrorscanApp
+from ..context import TabContext
+from ..events import DenseChanged, JobProgress
+from ..exports import export_ply
+from ..jobs import DENSE
 
+TITLE = "Dense"
 METHODS = {"carve (consistent)": "carve", "TSDF fusion (mesh)": "tsdf", "Algorithm 2 as in the paper": "paper"}
-BOX_COLOUR = (120, 120, 120)
 
 
 class DensePanel:
-    def __init__(self, app: "MirrorscanApp"):
-        gui, self.app = app.server.gui, app
-        self.result: tuple[np.ndarray, np.ndarray, np.ndarray | None] | None = None   # vertices, sources, faces
-        self._cancel = threading.Event()
-        self._running = threading.Lock()
-        with gui.add_folder("Dense (static object)", expand_by_default=False):
-            self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
-            self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
-            self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
-            self.frames = gui.add_slider("Frames to fuse", min=1, max=5, step=1, initial_value=1)
+    TITLE = TITLE
+
+    def __init__(self, tab: TabContext):
+        gui, self.tab, self.services = tab.gui, tab, tab.services
+        self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
+        self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
+        self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
+        self.frames = gui.add_slider("Frames to fuse", min=1, max=5, step=1, initial_value=1)
+        self.run = gui.add_button("Run", color="blue")
+        self.cancel = gui.add_button("Cancel", disabled=True, color="red")
+        self.progress = gui.add_progress_bar(0.0, visible=False)
+        self.status = gui.add_markdown("")
+        self.show = gui.add_checkbox("Show the dense result", initial_value=True)
+        self.export = gui.add_button("Export the dense result as PLY", disabled=True)
+        with gui.add_folder("Box (m, camera frame)", expand_by_default=False):
             self.margin = gui.add_slider("Margin around the cloud (mm)", min=0.0, max=200.0, step=5.0,
                                          initial_value=20.0)
             self.auto = gui.add_button("Box around the current cloud")
-            self.low = gui.add_vector3("Box min (m)", (0.0, 0.0, 0.0), step=0.01)
-            self.high = gui.add_vector3("Box max (m)", (0.0, 0.0, 0.0), step=0.01)
-            self.run = gui.add_button("Run")
-            self.cancel = gui.add_button("Cancel", disabled=True, color="red")
-            self.progress = gui.add_progress_bar(0.0, visible=False)
-            self.status = gui.add_markdown("")
-        self.auto.on_click(lambda e: app.act(e.client, self.box_around_cloud))
+            self.low = gui.add_vector3("Box min", (0.0, 0.0, 0.0), step=0.01)
+            self.high = gui.add_vector3("Box max", (0.0, 0.0, 0.0), step=0.01)
+        act = tab.act
+        self.auto.on_click(lambda _: act(self.box_around_cloud))
         self.low.on_update(lambda _: self._show_box())
         self.high.on_update(lambda _: self._show_box())
-        self.run.on_click(lambda e: app.act(e.client, self.start))
-        self.cancel.on_click(lambda _: self._cancel.set())
+        self.run.on_click(lambda _: act(self.start))
+        self.cancel.on_click(lambda _: self.services.jobs.cancel(DENSE))
+        self.show.on_update(lambda _: tab.scene.show_dense_layer(bool(self.show.value)))
+        self.export.on_click(lambda _: act(self.export_result))
+        self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
+                             self.services.bus.subscribe(DenseChanged, self._on_result)]
+        if self.services.jobs.dense_result is not None:
+            self._on_result(DenseChanged(self.services.jobs.dense_result))
+
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
+
+    def _box(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(self.low.value, float), np.array(self.high.value, float)
 
     def options(self) -> DenseOptions:
-        bounds = (tuple(self.low.value), tuple(self.high.value))
-        has_box = all(h > lo for lo, h in zip(*bounds))
-        return DenseOptions(self.voxel.value / 1000, self.margin.value / 1000, bounds if has_box else None,
-                            self.threshold.value / 1000)
+        low, high = self._box()
+        bounds = (tuple(low), tuple(high)) if np.all(high > low) else None
+        return DenseOptions(self.voxel.value / 1000, self.margin.value / 1000, bounds, self.threshold.value / 1000)
 
     def box_around_cloud(self) -> Volume:
-        frame = self.app.last_frame
+        """Put the box around the live cloud (grown by the margin), in the fields and in 3D."""
+        frame = self.services.last_frame
         if frame is None or len(frame.cloud) == 0:
             raise MirrorscanError("no cloud yet to put a box around")
         volume = Volume.around(frame.cloud.points, self.voxel.value / 1000, self.margin.value / 1000)
@@ -66,70 +78,40 @@ class DensePanel:
         return volume
 
     def _show_box(self) -> None:
-        low, high = np.array(self.low.value), np.array(self.high.value)
-        if np.all(high > low):
-            self.app.server.scene.add_box("/dense/box", color=BOX_COLOUR, dimensions=tuple(high - low),
-                                          position=tuple((low + high) / 2), wireframe=True)
+        low, high = self._box()
+        self.tab.scene.show_box(low, high)
 
-    # ------------------------------------------------------------------ running
-    def start(self) -> threading.Thread:
-        """Start the chosen method on a worker thread (one at a time); returns the thread."""
-        depths = self.app.loop.recent_depths()
-        if depths is None:
-            raise MirrorscanError("no frame yet")
-        if not self._running.acquire(blocking=False):
-            raise MirrorscanError("a dense reconstruction is already running; cancel it first")
-        self._cancel.clear()
-        thread = threading.Thread(target=self._work, args=(depths[-int(self.frames.value):],), daemon=True)
-        thread.start()
-        return thread
+    def start(self) -> None:
+        """Run the chosen method on the shared worker (one run at a time); the box is the one shown (set around the
+        cloud first when it is empty)."""
+        if not np.all(self._box()[1] > self._box()[0]):
+            self.box_around_cloud()
+        method = METHODS[self.method.value]
+        self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
 
-    def _work(self, depths: np.ndarray) -> None:
-        method, snapshot = METHODS[self.method.value], self.app.state.current
-        self.run.disabled, self.cancel.disabled = True, False
-        self.progress.visible, self.progress.value = True, 0.0
-        try:
-            prepared = [prepare_frame(snapshot.rig, d, snapshot.background, snapshot.session.selection) for d in depths]
-            options = self.options()
-            volume = dense_volume(snapshot.rig, *prepared[-1], options)   # refuses boxes of too many voxels
-            result = reconstruct_dense(snapshot.rig, np.stack([p[0] for p in prepared]),
-                                       np.stack([p[1] for p in prepared]), volume, method, options,
-                                       lambda f: setattr(self.progress, "value", 100.0 * f), self._cancel)
-            self._show(result, volume)
-        except Cancelled:
-            self.status.content = "cancelled"
-        except MirrorscanError as exc:
-            self.status.content = f"not done: {exc}"
-        finally:
-            self.progress.visible = False
-            self.run.disabled, self.cancel.disabled = False, True
-            self._running.release()
-
-    def _show(self, result, volume: Volume) -> None:
-        """Draw the result beside the live cloud (shifted along +x by the box's width and 20 cm)."""
-        shift = np.array([volume.voxel * volume.shape[0] + 0.2, 0.0, 0.0])
-        if isinstance(result, CarveResult):
-            points, sources = result.surface_points()
-            self.result = (points, sources, None)
-            self.app.server.scene.remove_by_name("/dense/mesh")
-            self.app.server.scene.add_point_cloud("/dense/points", points + shift, source_colours(sources),
-                                                  point_size=volume.voxel, precision="float32")
-            self.status.content = f"{result.method}: {len(points):,} surface voxels of {volume.voxel * 1e3:.1f} mm"
+    def _on_job(self, event: JobProgress) -> None:
+        if event.job != DENSE:
             return
-        mesh = result.mesh()
-        self.result = (mesh.vertices, mesh.sources, mesh.faces)
-        coloured = trimesh.Trimesh(mesh.vertices + shift, mesh.faces, vertex_colors=source_colours(mesh.sources),
-                                   process=False)
-        self.app.server.scene.remove_by_name("/dense/points")
-        self.app.server.scene.add_mesh_trimesh("/dense/mesh", coloured)
-        self.status.content = f"tsdf: mesh of {len(mesh.vertices):,} vertices, {len(mesh.faces):,} faces"
+        running = event.fraction is not None
+        self.run.disabled, self.cancel.disabled = running, not running
+        self.progress.visible = running
+        if running:
+            self.progress.value = 100.0 * event.fraction
+        self.status.content = event.status
 
-    def method_name(self) -> str:
-        return METHODS[self.method.value]
+    def _on_result(self, event: DenseChanged) -> None:
+        result = event.result
+        self.export.disabled = result is None
+        if result is not None:
+            self.low.value, self.high.value = tuple(result.low), tuple(result.high)
+            self.status.content = result.summary
 
-    def export_bytes(self) -> bytes | None:
-        """The last result as PLY (points, or a mesh with faces), or None."""
-        if self.result is None:
-            return None
-        vertices, sources, faces = self.result
-        return encode_ply(vertices, sources, faces)
+    def export_result(self) -> None:
+        """The last dense result (carved voxels, or the fused mesh with its faces) as PLY, under a new name."""
+        result = self.services.jobs.dense_result
+        if result is None:
+            raise MirrorscanError("no dense result yet: Run one first")
+        data = encode_ply(result.vertices, result.sources, result.faces)
+        root = self.services.editor.session.root if self.services.editor.autosave else None
+        saved = export_ply(root, f"dense-{result.method}", data, self.tab.client)
+        self.status.content = f"{result.summary}; " + (f"saved as `{saved}`" if saved else "downloaded")

@@ -1,80 +1,127 @@
-"""The "Live" folder: frame rate, points per source with the colour legend, pause / step, point size, and the two
-camera views (the 3D scene, the depth frame)."""
+"""The status header above the steps: the source and frame rate, one 'Start here' line that says what to do next,
+the view (3D scene or depth frame), the legend with the points per source, and playback (pause, step, frame,
+point size)."""
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
 
 from mirrorcore.palette import source_colour
+from mirrorcore.session import Session
 
+from ..context import TabContext, TabState
+from ..events import LoopChanged
 from ..live import LiveFrame
 
-if TYPE_CHECKING:
-    from ..server import MirrorscanApp
-
 STATS_HZ = 4.0
+VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 
 
-def legend_html(counts: dict[str, int]) -> str:
-    """One line per source: a swatch in the source colour, its name and its point count."""
-    rows = []
-    for j, (name, count) in enumerate(counts.items()):
-        r, g, b = (int(c) for c in source_colour(j))
-        rows.append(f'<div style="font-size:0.85em"><span style="display:inline-block;width:0.9em;height:0.9em;'
-                    f'background:rgb({r},{g},{b});margin-right:0.4em;border-radius:2px"></span>'
-                    f'{name}: <b>{count:,}</b> points</div>')
-    return "".join(rows)
+def legend_html(counts: list[int], names: list[str], mirror_ids: tuple[int, ...]) -> str:
+    """One line: a swatch in each source's colour (source j = counts[j]), its name and its point count."""
+    items = []
+    for j, (name, count) in enumerate(zip(names, counts)):
+        r, g, b = (int(c) for c in source_colour(j, mirror_ids))
+        items.append(f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;'
+                     f'width:0.8em;height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:2px">'
+                     f'</span>{name} <b>{count:,}</b></span>')
+    return f'<div style="font-size:0.85em;line-height:1.5">{"".join(items)}</div>'
+
+
+def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool) -> str:
+    """What to do next, in one line, from where the session and this tab stand."""
+    if not has_frame:
+        return "Waiting for the first frame from the source…"
+    if not session.mirrors:
+        return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
+    look = "" if state.view == "depth" else "Look at the **Depth frame** (above); "
+    mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
+    if not mirror.boundary:
+        return f"{look}{mirror.name}: choose **Boundary** and click its corners; click the first corner to close."
+    if len(mirror.markers) < 3:
+        what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
+        return f"{look}{mirror.name}: choose **Markers** and click {what} on the mirror."
+    if mirror.plane is None:
+        return f"{mirror.name}: **Fit plane**."
+    todo = [m.name for m in session.mirrors if m.plane is None or not m.boundary]
+    if todo:
+        return f"Now {todo[0]}: select it and do the same."
+    if not has_background:
+        return "Mirrors done. **Object**: capture the background with the object out of view."
+    return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
 
 
 class LivePanel:
-    def __init__(self, app: "MirrorscanApp"):
-        gui, self.app = app.server.gui, app
+    def __init__(self, tab: TabContext):
+        gui, self.tab, services = tab.gui, tab, tab.services
         self.title = gui.add_markdown("")
-        with gui.add_folder("Live"):
-            self.rate = gui.add_markdown("starting…")
-            self.legend = gui.add_html("")
-            self.depth_range = gui.add_markdown("")
-            self.pixel = gui.add_markdown("Click the depth frame to read a pixel.")
-            with gui.add_folder("View", expand_by_default=True):
-                self.look_3d = gui.add_button("Look at the 3D scene")
-                self.look_depth = gui.add_button("Look at the depth frame")
-            self.pause = gui.add_checkbox("Pause", initial_value=False)
+        self.rate = gui.add_markdown("starting…")
+        self.hint = gui.add_markdown("")
+        self.view = gui.add_button_group("View", tuple(VIEWS))
+        self.legend = gui.add_html("")
+        with gui.add_folder("Playback and pixel", expand_by_default=False):
+            self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
+            self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
-            self.step = gui.add_button("Step one frame", disabled=True)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
-        self.look_3d.on_click(lambda e: app.view.look_from_home(e.client))
-        self.look_depth.on_click(lambda e: app.screen.look_at(e.client))
-        self.pause.on_update(lambda _: self._on_pause())
-        self.step.on_click(lambda _: app.loop.step())
-        self.size.on_update(lambda _: app.view.set_point_size(self.size.value / 1000))
-        self.seek.on_update(lambda e: app.loop.seek(self.seek.value) if e.client is not None else None)
+            self.pixel = gui.add_markdown("Inspect mode: click the depth frame to read a pixel.")
+        self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
+        self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
+        self.step.on_click(lambda _: services.step())
+        self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
+        self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
+        tab.on_click("inspect", self.show_pixel)
+        tab.on_state(lambda _: self.refresh_hint())
+        self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)
         self._last_stats = 0.0
-        self.follow_source(app.source)
+        self._follow(services.source)
 
-    def follow_source(self, source) -> None:
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        self._unsubscribe()
+
+    def _on_loop(self, event: LoopChanged) -> None:
+        self.pause.value = event.paused
+        self.step.disabled = not event.paused
+        self._follow(event.source)
+
+    def _follow(self, source) -> None:
         """Name the source; show the frame slider for a recording (seekable), hide it for a live camera."""
-        self.title.content = f"**mirrorscan** · source: {source.name}"
+        self.title.content = f"**{source.name}**"
         if source.frame_count:
             self.seek.max = max(source.frame_count - 1, 1)
         self.seek.visible = bool(source.frame_count)
 
-    def _on_pause(self) -> None:
-        self.app.loop.pause(self.pause.value)
-        self.step.disabled = not self.pause.value
+    def refresh_hint(self) -> None:
+        services = self.tab.services
+        snapshot = services.snapshot
+        self.hint.content = "➜ " + start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
+                                              snapshot.background is not None)
 
     def show(self, frame: LiveFrame) -> None:
         """Refresh the figures at STATS_HZ (every frame while paused)."""
         now = time.perf_counter()
-        if now - self._last_stats < 1 / STATS_HZ and not self.app.loop.paused:
+        if now - self._last_stats < 1 / STATS_HZ and not self.tab.services.paused:
             return
+        first = self._last_stats == 0.0
         self._last_stats = now
-        self.rate.content = (f"frame {frame.index} · **{self.app.loop.rate.fps:.1f} fps** · "
+        self.rate.content = (f"frame {frame.index} · **{self.tab.services.fps():.1f} fps** · "
                              f"processing {frame.process_ms:.1f} ms")
-        count = self.app.source.frame_count
+        count = self.tab.services.source.frame_count
         if count:
             self.seek.value = frame.index % count
-        self.legend.content = legend_html(frame.cloud.counts(len(frame.snapshot.rig.mirrors)))
+        names = ["direct"] + [m.name for m in frame.snapshot.session.mirrors]
+        counts = list(frame.cloud.counts(len(names) - 1).values())
+        self.legend.content = legend_html(counts, names, frame.mirror_ids)
+        if first:
+            self.refresh_hint()
 
-    def show_pixel(self, u: float, v: float, depth: float) -> None:
+    def show_pixel(self, u: float, v: float) -> None:
+        frame = self.tab.services.last_frame
+        if frame is None:
+            return
+        rows, cols = frame.depth.shape
+        depth = float(frame.depth[min(int(round(v)), rows - 1), min(int(round(u)), cols - 1)])
         reading = f"{depth:.3f} m" if depth > 0 else "no reading"
         self.pixel.content = f"pixel ({u:.1f}, {v:.1f}): {reading}"
+        self.tab.services.notify(self.tab.client, "Pixel", self.pixel.content, error=False)
+

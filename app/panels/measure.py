@@ -1,5 +1,5 @@
-"""The "Measure" folder: fit a sphere or a cylinder to the current cloud and report radius, RMSE and mean error as
-the paper does, overall and per source; while tracking, fit the live frames and plot the error over time."""
+"""Step 3, "Measure": fit a sphere or a cylinder to the current cloud and report radius, RMSE and mean error as
+the paper does, overall and per source; while tracking, fit the live frames and plot the error over time (per tab)."""
 from __future__ import annotations
 
 import threading
@@ -15,16 +15,20 @@ from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.palette import source_name
 from mirrorcore.shapes import ShapeFit
 
+from ..context import TabContext
+from ..events import FrameReady
+
 if TYPE_CHECKING:
     from ..live import LiveFrame
-    from ..server import MirrorscanApp
+
+TITLE = "Measure"
 
 HISTORY = 300          # fits kept in the plot
 TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
 
 
-def fit_report(fit: ShapeFit) -> str:
-    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (mm)."""
+def fit_report(fit: ShapeFit, names: list[str]) -> str:
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (names[j] for source j), mm."""
     e = fit.errors
     lines = [f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
@@ -32,34 +36,40 @@ def fit_report(fit: ShapeFit) -> str:
              f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "
              f"{e.mean_abs_error * 1e3:.2f} mm |"]
     for source, s in fit.per_source.items():
-        lines.append(f"| {source_name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
+        lines.append(f"| {names[source] if source < len(names) else source_name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
                      f"{s.mean_abs_error * 1e3:.2f} mm |")
     return "\n".join(lines)
 
 
 class MeasurePanel:
-    def __init__(self, app: "MirrorscanApp"):
-        gui, self.app = app.server.gui, app
+    TITLE = TITLE
+
+    def __init__(self, tab: TabContext):
+        gui, self.tab, self.services = tab.gui, tab, tab.services
         self.history: deque[tuple[float, float, float]] = deque(maxlen=HISTORY)   # (seconds, rmse mm, radius mm)
         self._busy = threading.Lock()
         self._history_lock = threading.Lock()   # fits are recorded from the tracking thread and from button clicks
         self._started = time.monotonic()
         self._last_track = 0.0
-        with gui.add_folder("Measure"):
-            self.shape = gui.add_dropdown("Shape", ("sphere", "cylinder"), initial_value="sphere")
-            self.threshold = gui.add_number("Inlier threshold (mm)", initial_value=20.0, min=1.0, max=200.0)
-            self.run = gui.add_button("Fit to the current cloud")
-            self.track = gui.add_checkbox("Track while live", initial_value=False)
-            self.report = gui.add_markdown("")
-            self.plot = gui.add_uplot(
-                (np.zeros(1), np.zeros(1), np.zeros(1)),
-                (uplot.Series(label="time (s)"), uplot.Series(label="RMSE (mm)", stroke="#e69f00", width=2),
-                 uplot.Series(label="radius (mm)", stroke="#0072b2", width=2, scale="radius")),
-                scales={"x": uplot.Scale(time=False), "radius": uplot.Scale(auto=True)},
-                axes=(uplot.Axis(), uplot.Axis(label="RMSE (mm)"), uplot.Axis(side=1, scale="radius",
-                                                                               label="radius (mm)")),
-                height=180, visible=False)
-        self.run.on_click(lambda e: app.act(e.client, self.fit_current))
+        self.shape = gui.add_dropdown("Shape", ("sphere", "cylinder"), initial_value="sphere")
+        self.threshold = gui.add_number("Inlier threshold (mm)", initial_value=20.0, min=1.0, max=200.0)
+        self.run = gui.add_button("Fit to the current cloud")
+        self.track = gui.add_checkbox("Track while live", initial_value=False)
+        self.report = gui.add_markdown("")
+        self.plot = gui.add_uplot(
+            (np.zeros(1), np.zeros(1), np.zeros(1)),
+            (uplot.Series(label="time (s)"), uplot.Series(label="RMSE (mm)", stroke="#e69f00", width=2),
+             uplot.Series(label="radius (mm)", stroke="#0072b2", width=2, scale="radius")),
+            scales={"x": uplot.Scale(time=False), "radius": uplot.Scale(auto=True)},
+            axes=(uplot.Axis(), uplot.Axis(label="RMSE (mm)"), uplot.Axis(side=1, scale="radius",
+                                                                           label="radius (mm)")),
+            height=180, visible=False)
+        self.run.on_click(lambda _: tab.act(self.fit_current))
+        self._unsubscribe = self.services.bus.subscribe(FrameReady, lambda e: self.on_frame(e.frame))
+
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        self._unsubscribe()
 
     def fit(self, frame: "LiveFrame") -> ShapeFit:
         cloud = frame.cloud
@@ -70,11 +80,11 @@ class MeasurePanel:
                       sources=cloud.sources)
 
     def fit_current(self) -> ShapeFit:
-        frame = self.app.last_frame
+        frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no frame yet")
         result = self.fit(frame)
-        self.report.content = fit_report(result)
+        self.report.content = fit_report(result, _names(frame))
         self._record(result)
         return result
 
@@ -89,7 +99,7 @@ class MeasurePanel:
     def _track(self, frame: "LiveFrame") -> None:
         try:
             result = self.fit(frame)
-            self.report.content = fit_report(result)
+            self.report.content = fit_report(result, _names(frame))
             self._record(result)
         except MirrorscanError as exc:
             self.report.content = f"tracking: {exc}"
@@ -102,3 +112,8 @@ class MeasurePanel:
             t, rmse, radius = (np.array(c) for c in zip(*self.history))
         self.plot.data = (t, rmse, radius)
         self.plot.visible = True
+
+
+def _names(frame: "LiveFrame") -> list[str]:
+    """The sources' names of a frame: 'direct', then the mirrors' names."""
+    return ["direct"] + [m.name for m in frame.snapshot.session.mirrors]

@@ -1,150 +1,347 @@
-"""The "Mirrors" folder: add, rename and remove mirrors; what a click on the depth frame does (inspect, place markers,
-draw the boundary, draw the region of interest); undo; fit the planes and report how well they fit."""
+"""Step 1, "Mirrors": add and select mirrors, click their boundaries and markers on the depth frame, fit their planes.
+Every marker is listed and coloured by its distance to the plane against the depth noise; a single marker can be
+picked, moved or deleted; a fit that would move a calibrated plane a lot, or that markers disagree with, is a
+proposal shown beside the plane it would replace and applied only on confirmation. Undo and redo are per mirror."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
-import viser
 
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.markers import review_fit
+from mirrorcore.session import SessionMirror
 
-if TYPE_CHECKING:
-    from ..server import MirrorscanApp
+from ..context import TabContext
+from ..editor import PICK_RADIUS, SESSION_SCOPE
+from ..overlays import QUALITY_COLOURS
 
-MODES = ("inspect", "markers", "boundary", "region of interest")
-NO_MIRROR = "(no mirror)"
+TITLE = "Mirrors"
+NO_MIRROR = "(no mirror yet)"
+CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary"}
+HELP = {
+    "inspect": "A click on the depth frame reads the pixel.",
+    "markers": "Click a marker's centre to add it; click an existing one to pick it.",
+    "boundary": "Click the corners in order; click the first again to close.",
+    "region": "Drawing the region of interest (Object step).",
+}
+GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
 class MirrorsPanel:
-    def __init__(self, app: "MirrorscanApp"):
-        gui, self.app = app.server.gui, app
-        self.selected_vertex: tuple[int, int] | None = None   # (mirror, vertex) picked for moving or deleting
-        with gui.add_folder("Mirrors"):
-            self.add = gui.add_button("Add a mirror")
-            self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
-            with gui.add_folder("Rename or remove", expand_by_default=False):
-                self.name = gui.add_text("Name", "")
-                self.rename = gui.add_button("Rename")
-                self.remove = gui.add_button("Remove", color="red")
-            self.mode = gui.add_dropdown("Click to", MODES, initial_value="inspect")
-            self.help = gui.add_markdown("")
-            self.undo = gui.add_button("Undo")
+    TITLE = TITLE
+
+    def __init__(self, tab: TabContext):
+        gui, self.tab, self.services = tab.gui, tab, tab.services
+        self.proposal: dict[int, tuple] | None = None    # mirror id -> (plane, mirror as fitted, review)
+        self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
+        self.add = gui.add_button("Add a mirror")
+        self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
+        self.help = gui.add_markdown(HELP["inspect"])
+        self.fit = gui.add_button("Fit plane", color="blue")
+        self.fit_all = gui.add_button("Fit all planes")
+        self.review = gui.add_markdown("", visible=False)
+        self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
+        self.discard = gui.add_button("Keep the current plane(s)", visible=False)
+        self.undo = gui.add_button("Undo", disabled=True)
+        self.redo = gui.add_button("Redo", disabled=True)
+        self.move = gui.add_button("Move the picked marker", visible=False)
+        self.delete = gui.add_button("Delete the picked marker", visible=False)
+        self.close = gui.add_button("Close boundary", visible=False)
+        self.delete_corner = gui.add_button("Delete the picked corner", visible=False)
+        self.clear_boundary = gui.add_button("Clear boundary", visible=False)
+        self.markers = gui.add_html("")
+        self.result = gui.add_markdown("")
+        with gui.add_folder("Rename, remove, clear", expand_by_default=False):
+            self.name = gui.add_text("Name", "")
+            self.rename = gui.add_button("Rename")
             self.clear_markers = gui.add_button("Clear markers")
-            self.close = gui.add_button("Close boundary")
-            self.delete_vertex = gui.add_button("Delete picked vertex")
-            self.clear_boundary = gui.add_button("Clear boundary")
-            self.fit = gui.add_button("Fit plane")
-            self.fit_all = gui.add_button("Fit all planes")
-            self.result = gui.add_markdown("")
+            self.remove = gui.add_button("Remove this mirror…", color="red")
+            self.restore = gui.add_button("Undo", visible=False)
         self._wire()
+        tab.on_click("markers", self._marker_click)
+        tab.on_click("boundary", self._boundary_click)
+        tab.on_state(lambda _: self.refresh())
         self.refresh()
 
     def _wire(self) -> None:
-        act = self.app.act
-        self.mirror.on_update(lambda _: self.refresh())
-        self.mode.on_update(lambda _: self._on_mode())
-        self.add.on_click(lambda e: act(e.client, self._add))
-        self.rename.on_click(lambda e: act(e.client, lambda: self.app.editor.rename_mirror(self.index(), self.name.value)))
-        self.remove.on_click(lambda e: act(e.client, lambda: self.app.editor.remove_mirror(self.index())))
-        self.undo.on_click(lambda e: act(e.client, self.app.editor.undo))
-        self.clear_markers.on_click(lambda e: act(e.client, lambda: self.app.editor.clear_markers(self.index())))
-        self.close.on_click(lambda e: act(e.client, self._close))
-        self.delete_vertex.on_click(lambda e: act(e.client, self._delete_vertex))
-        self.clear_boundary.on_click(lambda e: act(e.client, lambda: self.app.editor.clear_boundary(self.index())))
-        self.fit.on_click(lambda e: act(e.client, lambda: self.fit_planes([self.index()])))
-        self.fit_all.on_click(lambda e: act(e.client, lambda: self.fit_planes(range(len(self.app.editor.session.mirrors)))))
+        editor, act = self.services.editor, self.tab.act
+        self.mirror.on_update(lambda e: e.client is not None and self._select(self.mirror.value))
+        self.mode.on_click(lambda e: self._set_mode(CLICK_MODES[e.target.value]))
+        self.add.on_click(lambda _: act(self._add))
+        self.fit.on_click(lambda _: act(lambda: self.fit_planes([self._id()])))
+        self.fit_all.on_click(lambda _: act(lambda: self.fit_planes([m.id for m in editor.session.mirrors])))
+        self.apply.on_click(lambda _: act(self._apply))
+        self.discard.on_click(lambda _: act(self._discard))
+        self.undo.on_click(lambda _: act(lambda: self._travel(editor.undo)))
+        self.redo.on_click(lambda _: act(lambda: self._travel(editor.redo)))
+        self.move.on_click(lambda _: act(self._start_move))
+        self.delete.on_click(lambda _: act(self._delete_marker))
+        self.close.on_click(lambda _: act(self._close_boundary))
+        self.delete_corner.on_click(lambda _: act(self._delete_corner))
+        self.clear_boundary.on_click(lambda _: act(lambda: self._clear_boundary()))
+        self.rename.on_click(lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value)))
+        self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
+        self.remove.on_click(lambda _: act(self._confirm_remove))
+        self.restore.on_click(lambda _: act(lambda: editor.undo(SESSION_SCOPE)))
 
-    # ------------------------------------------------------------------ selection of the mirror
-    def index(self) -> int:
-        """The selected mirror (0-based); MirrorscanError when there is none."""
-        names = [m.name for m in self.app.editor.session.mirrors]
-        if self.mirror.value not in names:
-            raise MirrorscanError("add a mirror first (Mirrors > Add a mirror)")
-        return names.index(self.mirror.value)
+    # ------------------------------------------------------------------ the selected mirror
+    def _id(self) -> int:
+        """The selected mirror's id; MirrorscanError when there is none."""
+        if self.tab.state.mirror_id is None:
+            raise MirrorscanError("add a mirror first (Mirrors › Add a mirror)")
+        return self.tab.state.mirror_id
+
+    def _mirror(self) -> SessionMirror:
+        return self.services.editor.mirror(self._id())
+
+    def _select(self, name: str) -> None:
+        mirror = next((m for m in self.services.editor.session.mirrors if m.name == name), None)
+        state = self.tab.state
+        state.mirror_id = None if mirror is None else mirror.id
+        state.picked_marker = state.picked_corner = None
+        state.moving_marker = False
+        if state.mode in ("markers", "boundary"):     # a mode is chosen for a mirror, not carried to the next
+            state.mode = "inspect"
+        self.tab.changed()
+
+    def _set_mode(self, mode: str) -> None:
+        state = self.tab.state
+        state.mode, state.picked_marker, state.picked_corner, state.moving_marker = mode, None, None, False
+        if mode != "inspect" and state.view != "depth":
+            self.tab.look("depth")
+        self.tab.changed()
 
     def _add(self) -> None:
-        index = self.app.editor.add_mirror()
-        self.mirror.value = self.app.editor.session.mirrors[index].name
-
-    def refresh(self) -> None:
-        """Follow the session: the mirror list, the name field, what the buttons can do."""
-        session = self.app.editor.session
-        names = tuple(m.name for m in session.mirrors) or (NO_MIRROR,)
-        if self.mirror.options != names:
-            current = self.mirror.value
-            self.mirror.options = names
-            self.mirror.value = current if current in names else names[-1]
-        has = bool(session.mirrors)
-        for button in (self.rename, self.remove, self.clear_markers, self.close, self.clear_boundary, self.fit):
-            button.disabled = not has
-        self.fit_all.disabled = not has
-        self.delete_vertex.disabled = self.selected_vertex is None
-        if has and self.mirror.value in names and self.name.value != self.mirror.value:
-            self.name.value = self.mirror.value
-        self._on_mode()
-
-    def _on_mode(self) -> None:
-        self.help.content = {
-            "inspect": "Clicks on the depth frame show the pixel and its depth.",
-            "markers": "Click the centre of each marker on the selected mirror (3 or more, spread out).",
-            "boundary": "Click the mirror's corners in order; click the first corner again (or *Close boundary*) "
-                        "to close. On a closed boundary, click a corner to pick it, then click where it goes.",
-            "region of interest": "Click the corners of the region where the object can be; *Close boundary* "
-                                  "closes it (Object folder: *Clear region* removes it).",
-        }[self.mode.value]
+        mirror_id = self.services.editor.add_mirror()
+        self.tab.state.mirror_id = mirror_id
+        self._set_mode("boundary")
 
     # ------------------------------------------------------------------ clicks on the depth frame
-    def handle_click(self, u: float, v: float, client: viser.ClientHandle) -> None:
-        """What a click at pixel (u, v) does in the current mode; refusals become the client's notification."""
-        mode = self.mode.value
-        if mode == "inspect":
-            self.app.show_pixel(u, v)
-        elif mode == "markers":
-            self.app.act(client, lambda: self.app.editor.add_marker(self.index(), (u, v)))
-        elif mode == "boundary":
-            self.app.act(client, lambda: self._boundary_click(u, v))
+    def _marker_click(self, u: float, v: float) -> None:
+        editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
+        if state.moving_marker and state.picked_marker is not None:
+            editor.move_marker(mirror.id, state.picked_marker, (u, v))
+            state.moving_marker = False
         else:
-            self.app.act(client, lambda: self.app.selection_panel.add_roi_vertex(u, v))
+            near = _nearest(mirror.markers, (u, v))
+            if near is not None:
+                state.picked_marker = None if near == state.picked_marker else near
+            else:
+                state.picked_marker = editor.add_marker(mirror.id, (u, v))
+        self.tab.changed()
 
     def _boundary_click(self, u: float, v: float) -> None:
-        editor, index = self.app.editor, self.index()
-        picked = editor.nearest_vertex(index, (u, v))
-        if index in editor.drafts:
-            if picked == 0 and len(editor.drafts[index]) >= 3:
-                self._close()
-            else:
-                editor.add_vertex(index, (u, v))
-        elif self.selected_vertex is not None and self.selected_vertex[0] == index:
-            vertex, self.selected_vertex = self.selected_vertex[1], None
-            editor.move_vertex(index, vertex, (u, v))
-        elif picked is not None:
-            self.selected_vertex = (index, picked)
-            self.app.redraw_screen()
+        editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
+        draft = state.drafts.get(mirror.id)
+        if draft is not None:
+            if _nearest(draft, (u, v)) == 0 and len(draft) >= 3:
+                self._close_boundary()
+                return
+            state.drafts[mirror.id] = draft + ((round(u, 2), round(v, 2)),)
+        elif state.picked_corner is not None:
+            corner, state.picked_corner = state.picked_corner, None
+            editor.move_vertex(mirror.id, corner, (u, v))
+        elif (near := _nearest(mirror.boundary, (u, v))) is not None:
+            state.picked_corner = near
+        elif mirror.boundary:
+            raise MirrorscanError(f"{mirror.name} has a boundary: click a corner to pick and move it, or "
+                                  "Clear boundary to draw it again")
         else:
-            editor.add_vertex(index, (u, v))
-        self.refresh()
+            state.drafts[mirror.id] = ((round(u, 2), round(v, 2)),)
+        self.tab.changed()
 
-    def _close(self) -> None:
-        if self.mode.value == "region of interest":
-            self.app.selection_panel.close_roi()
-        else:
-            self.app.editor.close_boundary(self.index())
+    def _close_boundary(self) -> None:
+        mirror_id = self._id()
+        draft = self.tab.state.drafts.get(mirror_id)
+        if not draft:
+            raise MirrorscanError("no open boundary to close; click its corners first")
+        self.services.editor.set_boundary(mirror_id, draft)
+        del self.tab.state.drafts[mirror_id]
+        self.tab.state.mode = "markers" if len(self._mirror().markers) < 3 else "inspect"
+        self.tab.changed()
 
-    def _delete_vertex(self) -> None:
-        if self.selected_vertex is None:
-            raise MirrorscanError("pick a vertex first: in boundary mode, click a corner of a closed boundary")
-        mirror, vertex = self.selected_vertex
-        self.selected_vertex = None
-        self.app.editor.delete_vertex(mirror, vertex)
+    def _clear_boundary(self) -> None:
+        mirror_id = self._id()
+        if self.tab.state.drafts.pop(mirror_id, None) is None:
+            self.services.editor.clear_boundary(mirror_id)
+        self.tab.state.picked_corner = None
+        self.tab.changed()
+
+    def _delete_corner(self) -> None:
+        state = self.tab.state
+        if state.picked_corner is None:
+            raise MirrorscanError("pick a corner first: in Boundary mode, click a corner of the closed boundary")
+        corner, state.picked_corner = state.picked_corner, None
+        self.services.editor.delete_vertex(self._id(), corner)
+        self.tab.changed()
+
+    def _start_move(self) -> None:
+        if self.tab.state.picked_marker is None:
+            raise MirrorscanError("pick a marker first: in Markers mode, click it")
+        self.tab.state.moving_marker = True
+        self.tab.changed()
+
+    def _delete_marker(self) -> None:
+        state = self.tab.state
+        if state.picked_marker is None:
+            raise MirrorscanError("pick a marker first: in Markers mode, click it")
+        marker, state.picked_marker = state.picked_marker, None
+        self.services.editor.delete_marker(self._id(), marker)
+        self.tab.changed()
+
+    def _travel(self, move) -> None:
+        """Undo or redo in the selected mirror's scope, or in the session's when the mirror has nothing to undo."""
+        editor = self.services.editor
+        scope = self.tab.state.mirror_id or SESSION_SCOPE
+        label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
+        move(scope if label is not None else SESSION_SCOPE)
+        self.tab.state.picked_marker = self.tab.state.picked_corner = None
+        self.tab.changed()
+
+    def _confirm_remove(self) -> None:
+        mirror = self._mirror()
+        modal = self.tab.client.gui.add_modal(f"Remove {mirror.name}?")
+        with modal:
+            self.tab.client.gui.add_markdown(f"{mirror.name} and its {len(mirror.markers)} markers, boundary and "
+                                             "plane leave the session. *Undo* below the Remove button brings it "
+                                             "back.")
+            yes = self.tab.client.gui.add_button(f"Remove {mirror.name}", color="red")
+            no = self.tab.client.gui.add_button("Keep it")
+        yes.on_click(lambda _: (modal.close(), self.tab.act(lambda: self.services.editor.remove_mirror(mirror.id))))
+        no.on_click(lambda _: modal.close())
 
     # ------------------------------------------------------------------ plane fitting
-    def fit_planes(self, indices) -> None:
-        """Calibrate the given mirrors from their markers on the median of the recent frames; all or nothing."""
-        depth = self.app.loop.recent_depths()
+    def fit_planes(self, mirror_ids: list[int]) -> None:
+        """Calibrate the given mirrors from their markers on the median of the recent frames, all or nothing. A fit
+        that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once."""
+        depth = self.services.recent_depths()
         if depth is None:
             raise MirrorscanError("no frame yet to calibrate from")
-        session, results = calibrate_session(self.app.editor.session, depth, np.random.default_rng(0), indices)
-        self.app.editor.set_planes({i: result.plane for i, result in results})
-        self.result.content = "\n\n".join(f"**{session.mirrors[i].name}**: {r.summary()}" for i, r in results)
+        session = self.services.editor.session
+        indices = [session.mirror_index(i) for i in mirror_ids]
+        _, results = calibrate_session(session, depth, np.random.default_rng(0), indices)
+        fits = {}
+        for i, calibration in results:
+            mirror = session.mirrors[i]
+            names = [f"{mirror.id}.{k + 1}" for k in range(len(mirror.markers))]
+            fits[mirror.id] = (calibration, mirror, review_fit(mirror.plane, calibration.plane, calibration.markers,
+                                                                np.asarray(calibration.centre), names))
+        report = "\n\n".join(f"**{m.name}**: {c.summary()}" for c, m, _ in fits.values())
+        if any(review.needs_confirmation for _, _, review in fits.values()):
+            self.proposal = fits
+            self.result.content = ""
+            self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
+        else:
+            self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
+            self.result.content = report
+        self.tab.changed()
+
+    def _apply(self) -> None:
+        fits, self.proposal = self.proposal, None
+        self.tab.state.flagged_markers = ()
+        if fits:
+            self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
+            self.result.content = "\n\n".join(f"**{m.name}**: {c.summary()} (applied on confirmation)"
+                                              for c, m, _ in fits.values())
+        self.tab.changed()
+
+    def _discard(self) -> None:
+        self.proposal = None
+        self.tab.state.flagged_markers = ()
+        self.result.content = "The proposed plane(s) were discarded; nothing changed."
+        self.tab.changed()
+
+    # ------------------------------------------------------------------ what the panel shows
+    def refresh(self) -> None:
+        """Follow the session and the tab's state: the mirror list, the mode, the buttons, the markers."""
+        session, state, editor = self.services.editor.session, self.tab.state, self.services.editor
+        names = tuple(m.name for m in session.mirrors) or (NO_MIRROR,)
+        selected = next((m for m in session.mirrors if m.id == state.mirror_id), None)
+        if self.mirror.options != names:
+            self.mirror.options = names
+        self.mirror.value = selected.name if selected else names[-1]
+        if selected and self.name.value != selected.name:
+            self.name.value = selected.name
+        has = selected is not None
+        for button in (self.fit, self.rename, self.remove, self.clear_markers):
+            button.disabled = not has
+        self.fit_all.disabled = not session.mirrors
+        self.help.content = HELP[state.mode] + (" Now click where it goes." if state.moving_marker else "")
+        markers, boundary = state.mode == "markers", state.mode == "boundary"
+        picked = state.picked_marker is not None and has
+        self.move.visible = self.delete.visible = markers
+        self.move.disabled = self.delete.disabled = not picked
+        if picked:
+            self.move.label = f"Move marker {selected.id}.{state.picked_marker + 1}"
+            self.delete.label = f"Delete marker {selected.id}.{state.picked_marker + 1}"
+        self.close.visible = self.delete_corner.visible = self.clear_boundary.visible = boundary
+        self.close.disabled = not (has and len(state.drafts.get(selected.id, ())) >= 3)
+        self.delete_corner.disabled = state.picked_corner is None
+        scope = state.mirror_id or SESSION_SCOPE
+        self._label(self.undo, "Undo", editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
+        self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
+        restore = editor.undo_label(SESSION_SCOPE)
+        self.restore.visible = bool(restore and restore.startswith("remove"))
+        if self.restore.visible:
+            self.restore.label = f"Undo: {restore}"
+        self._show_proposal()
+        self.markers.content = self._marker_list(selected)
+
+    @staticmethod
+    def _label(button, verb: str, what: str | None) -> None:
+        button.disabled = what is None
+        button.label = f"{verb}: {what}" if what else verb
+
+    def _show_proposal(self) -> None:
+        fits = self.proposal
+        for handle in (self.review, self.apply, self.discard):
+            handle.visible = fits is not None
+        self.fit.disabled = self.fit.disabled or fits is not None
+        if fits is None:
+            return
+        lines = ["**Proposal, not applied**: look before applying."]
+        for calibration, mirror, review in fits.values():
+            old = "uncalibrated" if mirror.plane is None else (f"turned {review.tilt_deg:.2f}°, moved "
+                                                               f"{review.shift_mm:.1f} mm")
+            lines.append(f"- **{mirror.name}**: {old}; {calibration.summary()}")
+            lines += [f"  - ⚠ {concern}" for concern in review.concerns]
+        self.review.content = "\n".join(lines)
+
+    def _marker_list(self, mirror: SessionMirror | None) -> str:
+        """Every marker of the mirror with its distance to the plane and the noise there, in its grade's colour (the
+        colour of its centre on the depth frame); a poor one says which way it is off."""
+        if mirror is None or not mirror.markers:
+            return ""
+        residuals = self.services.snapshot.marker_residuals.get(mirror.id)
+        rows = []
+        for k, (u, v) in enumerate(mirror.markers):
+            name = f"{mirror.id}.{k + 1}"
+            if k == self.tab.state.picked_marker:
+                name = f"<b>{name}</b>"
+            if residuals is None:
+                rows.append(_dot("unknown") + f"{name} ({u:.0f}, {v:.0f})")
+                continue
+            grade, d, s = residuals.grades[k], residuals.signed_mm[k], residuals.sigma_mm[k]
+            text = "no depth" if not np.isfinite(d) else f"{abs(d):.1f} mm ({abs(d) / s:.1f}σ)"
+            if grade == "poor":
+                text += " (hidden by something in front?)" if d > 0 else " (off the glass?)"
+            rows.append(_dot(grade) + f"{name} {text}")
+        legend = "" if residuals is None else (f"{_dot('good')}within 2σ of the plane {_dot('fair')}3σ "
+                                               f"{_dot('poor')}beyond (σ: the depth noise at the marker)")
+        return (f'<div style="font-size:0.8em;line-height:1.45">{legend}<br>'
+                + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
+
+
+def _dot(grade: str) -> str:
+    return (f'<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 0.25em;'
+            f'background:{GRADE_CSS[grade]}"></span>')
+
+
+def _nearest(points, uv) -> int | None:
+    """The index of the point (u, v) within PICK_RADIUS pixels of uv, or None."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not len(points):
+        return None
+    dist = np.hypot(*(points - np.asarray(uv, dtype=float)).T)
+    k = int(np.argmin(dist))
+    return k if dist[k] <= PICK_RADIUS else None

@@ -137,8 +137,9 @@ class PlaneFit:
 
 def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
                      confidence: float = 0.999, max_iterations: int = 2000, where: str = "plane") -> PlaneFit:
-    """RANSAC on 3-point samples scored by MSAC (sum of squared distances capped at the threshold, so that among
-    planes with as many inliers the closest wins), then an SVD refit on the inliers, repeated until they settle.
+    """RANSAC on 3-point samples scored by MSAC (squared distances in units of each point's threshold, capped at 1,
+    summed: every outlier costs the same wherever it lies, and among planes with as many inliers the closest wins),
+    then an SVD refit on the inliers, repeated until they settle.
 
     points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for depth-dependent noise).
     Degenerate (collinear) samples are skipped. Raises CalibrationError when no plane can be fitted.
@@ -158,7 +159,7 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
         ds = -np.einsum("ij,ij->i", normals, a[ok])
         if len(normals):
             sq = (points @ normals.T + ds) ** 2                     # (n, k)
-            costs = np.minimum(sq, cap).sum(axis=0)
+            costs = np.minimum(sq / cap, 1.0).sum(axis=0)     # a far (noisy) outlier weighs no more than a near one
             k = int(np.argmin(costs))
             if costs[k] < best_cost:
                 best_cost, best = costs[k], (normals[k], ds[k])

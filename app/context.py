@@ -1,0 +1,105 @@
+"""The narrow interfaces a panel works through: the app's shared services (the session editor, the current state,
+the live loop's controls, the shared jobs, the event bus) and its own tab (GUI, per-tab state, view). A panel
+reads and calls these and publishes events; it never reaches into another panel or a GUI handle it does not own."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Protocol
+
+import numpy as np
+import viser
+
+from mirrorcore.sources import DepthSource
+
+if TYPE_CHECKING:
+    from .editor import SessionEditor
+    from .events import EventBus
+    from .jobs import Jobs
+    from .live import LiveFrame
+    from .state import Snapshot
+
+MODES = ("inspect", "markers", "boundary", "region")
+
+
+class Services(Protocol):
+    """What the app shares with every tab."""
+
+    editor: "SessionEditor"
+    bus: "EventBus"
+    jobs: "Jobs"
+    sessions_dir: Path
+
+    @property
+    def snapshot(self) -> "Snapshot": ...
+
+    @property
+    def source(self) -> DepthSource: ...
+
+    @property
+    def last_frame(self) -> "LiveFrame | None": ...
+
+    @property
+    def paused(self) -> bool: ...
+
+    def pause(self, paused: bool) -> None: ...
+
+    def step(self) -> None: ...
+
+    def seek(self, index: int) -> None: ...
+
+    def fps(self) -> float: ...
+
+    def recent_depths(self) -> np.ndarray | None: ...
+
+    def open_session(self, session) -> None: ...
+
+    def use_source(self, source: DepthSource) -> None: ...
+
+    def set_background(self, depth: np.ndarray) -> None: ...
+
+    def notify(self, client: viser.ClientHandle | None, title: str, message: str, error: bool = True) -> None: ...
+
+    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None: ...
+
+
+@dataclass
+class TabState:
+    """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts being drawn (a
+    boundary per mirror id, the region of interest), the picked corner or marker, and the view ('3d' or 'depth')."""
+
+    mode: str = "inspect"
+    mirror_id: int | None = None
+    drafts: dict[int, tuple[tuple[float, float], ...]] = field(default_factory=dict)
+    region_draft: tuple[tuple[float, float], ...] = ()
+    picked_corner: int | None = None
+    picked_marker: int | None = None
+    moving_marker: bool = False
+    flagged_markers: tuple[int, ...] = ()
+    view: str = "3d"
+
+
+class TabContext(Protocol):
+    """What a panel of one tab works with."""
+
+    client: viser.ClientHandle
+    services: Services
+    state: TabState
+
+    @property
+    def gui(self): ...
+
+    def changed(self) -> None:
+        """The tab's state changed: redraw what shows it (overlay, hints) and tell the tab's panels."""
+
+    def on_state(self, callback: Callable[[TabState], None]) -> None:
+        """Call callback(state) after every change of the tab's state."""
+
+    def on_click(self, mode: str, handler: Callable[[float, float], None]) -> None:
+        """Route clicks on the depth frame in `mode` to handler(u, v)."""
+
+    def look(self, view: str) -> None:
+        """Show the 3D scene ('3d') or the depth frame ('depth') in this tab."""
+
+    def act(self, action: Callable[[], object]) -> None:
+        """Run a user's action of this tab; a refusal becomes a notification on this tab."""

@@ -1,0 +1,86 @@
+"""What happens in the browser tool, as events on one bus: the live loop, the session editor and the long jobs
+publish; the tabs (and their panels) subscribe. Panels never call each other: they publish and subscribe here."""
+from __future__ import annotations
+
+import logging
+import threading
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, TypeVar
+
+if TYPE_CHECKING:
+    from mirrorcore.sources import DepthSource
+
+    from .jobs import DenseResult
+    from .live import LiveFrame
+    from .state import Snapshot
+
+log = logging.getLogger("mirrorscan")
+E = TypeVar("E")
+
+
+@dataclass(frozen=True, eq=False)
+class FrameReady:
+    """The live loop processed a frame (on the loop's thread: subscribers must be quick)."""
+
+    frame: "LiveFrame"
+
+
+@dataclass(frozen=True, eq=False)
+class SessionChanged:
+    """The session (or its background) changed; `snapshot` is the new consistent state."""
+
+    snapshot: "Snapshot"
+
+
+@dataclass(frozen=True, eq=False)
+class LoopChanged:
+    """The live loop was paused, resumed or moved to another frame or source."""
+
+    paused: bool
+    source: "DepthSource"
+
+
+@dataclass(frozen=True, eq=False)
+class JobProgress:
+    """A long job shared by every tab ('dense', 'background', 'record') moved on: fraction done in [0, 1] or None
+    when it is not running, and a one-line status."""
+
+    job: str
+    fraction: float | None
+    status: str
+
+
+@dataclass(frozen=True, eq=False)
+class DenseChanged:
+    """A dense reconstruction finished (or was cleared: result None)."""
+
+    result: "DenseResult | None"
+
+
+class EventBus:
+    """Publish / subscribe by event type. publish() calls the subscribers of the event's type on the calling thread,
+    in order of subscription; one that raises is logged and the others still run."""
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._subscribers: dict[type, list[Callable[[Any], None]]] = {}
+
+    def subscribe(self, kind: type[E], callback: Callable[[E], None]) -> Callable[[], None]:
+        """Call callback(event) for every published event of type `kind`; returns the function that unsubscribes."""
+        with self._lock:
+            self._subscribers.setdefault(kind, []).append(callback)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                if callback in self._subscribers.get(kind, []):
+                    self._subscribers[kind].remove(callback)
+        return unsubscribe
+
+    def publish(self, event: object) -> None:
+        with self._lock:
+            callbacks = list(self._subscribers.get(type(event), []))
+        for callback in callbacks:
+            try:
+                callback(event)
+            except Exception:  # noqa: BLE001 - one broken tab must not stop the others
+                log.exception("%s failed in %r", type(event).__name__, callback)

@@ -1,0 +1,40 @@
+"""Exports of the browser tool: PLY bytes downloaded by the tab and, for a saved session, kept in its exports/
+folder under a name that never overwrites an earlier export (time-stamped, numbered if needed)."""
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import viser
+
+from mirrorcore.atomic import write_atomic
+
+EXPORTS = "exports"
+
+
+def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
+    """folder/stem-YYYYmmdd-HHMMSS.ply, or with -2, -3... when that file exists already (reserved by creating it
+    empty, exclusively, so that two exports in the same second never share a name)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    base = f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}"
+    for k in range(1, 10_000):
+        path = folder / (base + (f"-{k}" if k > 1 else "") + suffix)
+        try:
+            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            return path
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"{folder}: no free name for {stem}")
+
+
+def export_ply(session_root: Path | None, stem: str, data: bytes, client: viser.ClientHandle | None) -> Path | None:
+    """Send PLY bytes to `client` as a download and, when the session has a folder (session_root), keep them in its
+    exports/ folder; returns the path written, or None."""
+    saved = None
+    if session_root is not None:
+        saved = free_name(Path(session_root) / EXPORTS, stem)
+        write_atomic(saved, data)
+    if client is not None:
+        client.send_file_download((saved.name if saved else f"{stem}.ply"), data, save_immediately=True)
+    return saved

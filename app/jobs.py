@@ -1,0 +1,173 @@
+"""The long jobs every tab shares, one of each kind at a time: dense reconstruction of the recent frames, background
+capture, and recording. Each runs on a worker thread, reports JobProgress on the bus, can be cancelled, and
+publishes its result (DenseChanged; the background through the app; the recorded session)."""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
+from mirrorcore.dense.carve import CarveResult
+from mirrorcore.depthops import median_depth
+from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.session import Session, save_session
+from mirrorcore.sources.record import Recorder
+
+from .events import DenseChanged, EventBus, FrameReady, JobProgress
+from .recording import LiveTap
+
+if TYPE_CHECKING:
+    from .live import LiveLoop
+    from .state import SharedState
+
+DENSE, BACKGROUND, RECORD = "dense", "background", "record"
+
+
+@dataclass(frozen=True, eq=False)
+class DenseResult:
+    """A dense reconstruction: vertices (n, 3) float32 metres, camera frame; sources (n,) uint8; faces (m, 3) int32
+    or None (a carved cloud); the method; the box's corners low, high (3,) metres; voxel in metres; a one-line
+    description; when it was made (time.time())."""
+
+    vertices: np.ndarray
+    sources: np.ndarray
+    faces: np.ndarray | None
+    method: str
+    low: np.ndarray
+    high: np.ndarray
+    voxel: float
+    summary: str
+    made: float
+
+
+class Jobs:
+    """The shared jobs of one app. Starting a job while one of its kind runs is refused by name."""
+
+    def __init__(self, loop: "LiveLoop", state: "SharedState", bus: EventBus):
+        self.loop, self.state, self.bus = loop, state, bus
+        self.dense_result: DenseResult | None = None
+        self.recorder: Recorder | None = None
+        self._tap: LiveTap | None = None
+        self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
+        self._lock = threading.Lock()
+
+    def running(self, kind: str) -> bool:
+        with self._lock:
+            return kind in self._running
+
+    def cancel(self, kind: str) -> None:
+        with self._lock:
+            event = self._running.get(kind)
+        if event is not None:
+            event.set()
+
+    def _start(self, kind: str, work: Callable[[threading.Event], None], busy: str) -> threading.Thread:
+        with self._lock:
+            if kind in self._running:
+                raise MirrorscanError(busy)
+            cancel = self._running[kind] = threading.Event()
+
+        def run() -> None:
+            try:
+                work(cancel)
+            except Cancelled:
+                self.bus.publish(JobProgress(kind, None, "cancelled"))
+            except (MirrorscanError, OSError) as exc:
+                self.bus.publish(JobProgress(kind, None, f"not done: {exc}"))
+            finally:
+                with self._lock:
+                    self._running.pop(kind, None)
+        thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
+        thread.start()
+        return thread
+
+    # ------------------------------------------------------------------ dense reconstruction
+    def start_dense(self, method: str, options: DenseOptions, frames: int) -> threading.Thread:
+        """Carve or fuse the last `frames` frames (1 for carving) with the current calibration."""
+        depths = self.loop.recent_depths()
+        if depths is None:
+            raise MirrorscanError("no frame yet")
+        snapshot = self.state.current
+        return self._start(DENSE, lambda cancel: self._dense(snapshot, depths[-frames:], method, options, cancel),
+                           "a dense reconstruction is already running; cancel it first")
+
+    def _dense(self, snapshot, depths: np.ndarray, method: str, options: DenseOptions,
+               cancel: threading.Event) -> None:
+        self.bus.publish(JobProgress(DENSE, 0.0, f"{method}: preparing {len(depths)} frame(s)"))
+        prepared = [prepare_frame(snapshot.rig, d, snapshot.background, snapshot.session.selection) for d in depths]
+        volume = dense_volume(snapshot.rig, *prepared[-1], options)   # refuses boxes of too many voxels
+        shape = "x".join(map(str, volume.shape))
+        result = reconstruct_dense(snapshot.rig, np.stack([p[0] for p in prepared]),
+                                   np.stack([p[1] for p in prepared]), volume, method, options,
+                                   lambda f: self.bus.publish(JobProgress(DENSE, f, f"{method}: {shape} voxels")),
+                                   cancel)
+        low = np.asarray(volume.origin) - volume.voxel / 2
+        high = low + volume.voxel * np.asarray(volume.shape)
+        if isinstance(result, CarveResult):
+            points, sources = result.surface_points()
+            dense = DenseResult(points, sources, None, method, low, high, volume.voxel,
+                                f"{method}: {len(points):,} surface voxels of {volume.voxel * 1e3:.1f} mm", time.time())
+        else:
+            mesh = result.mesh()
+            dense = DenseResult(mesh.vertices, mesh.sources, mesh.faces, method, low, high, volume.voxel,
+                                f"tsdf: mesh of {len(mesh.vertices):,} vertices, {len(mesh.faces):,} faces",
+                                time.time())
+        self.dense_result = dense
+        self.bus.publish(DenseChanged(dense))
+        self.bus.publish(JobProgress(DENSE, None, dense.summary))
+
+    # ------------------------------------------------------------------ background
+    def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], None]) -> threading.Thread:
+        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres)."""
+        def work(cancel: threading.Event) -> None:
+            progress = lambda k: self.bus.publish(JobProgress(BACKGROUND, k / n_frames,  # noqa: E731
+                                                              f"{k} of {n_frames} frames"))
+            frames = self.loop.collect(n_frames, progress, cancel=cancel)
+            on_done(median_depth(np.stack(frames)))
+            self.bus.publish(JobProgress(BACKGROUND, None, f"captured from {n_frames} frames"))
+        return self._start(BACKGROUND, work, "a background capture is already running")
+
+    # ------------------------------------------------------------------ recording
+    def start_recording(self, folder, session: Session) -> None:
+        """Record the live frames into a new session `folder`; stop_recording() saves it with the mirrors and
+        selection of `session` as they are then."""
+        with self._lock:
+            if RECORD in self._running:
+                raise MirrorscanError("already recording; stop first")
+            self._running[RECORD] = threading.Event()
+        self._tap = LiveTap(self.loop.source, lambda take: self.bus.subscribe(FrameReady, lambda e: take(e.frame)))
+        self.recorder = Recorder(self._tap, folder).start()
+        self.bus.publish(JobProgress(RECORD, 0.0, f"recording into `{folder}`…"))
+        self._unsubscribe_count = self.bus.subscribe(FrameReady, lambda e: self._count(e.frame.index))
+
+    def _count(self, index: int) -> None:
+        """Say how many frames the recording holds, every 10th live frame."""
+        recorder = self.recorder
+        if recorder is not None and index % 10 == 0:
+            self.bus.publish(JobProgress(RECORD, 0.0, f"recording: {recorder.frames} frames into "
+                                                      f"`{recorder.folder}`"))
+
+    def stop_recording(self, current: Session) -> Session:
+        with self._lock:
+            if RECORD not in self._running or self.recorder is None or self._tap is None:
+                raise MirrorscanError("not recording")
+        recorder, tap = self.recorder, self._tap
+        self._unsubscribe_count()
+        tap.close()
+        try:
+            recorded = recorder.stop()
+        finally:
+            with self._lock:
+                self._running.pop(RECORD, None)
+            self.recorder = self._tap = None
+        recorded = replace(recorded, mirrors=current.mirrors, selection=current.selection)
+        save_session(recorded)
+        dropped = f" ({tap.dropped} dropped: the disk was too slow)" if tap.dropped else ""
+        self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
+                                                   f"`{recorded.root}`{dropped}"))
+        return recorded

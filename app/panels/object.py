@@ -1,0 +1,129 @@
+"""Step 2, "Object": which pixels are the object: capture the background (median of N frames, with progress), the
+depth range, edge-aware smoothing, and a region of interest drawn on the depth frame; with the simulated rig, take
+the object out of the scene to capture."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.sources import SimulatedSource
+
+from ..context import TabContext
+from ..events import JobProgress, SessionChanged
+from ..jobs import BACKGROUND
+from .mirrors import _nearest
+
+TITLE = "Object"
+
+
+class ObjectPanel:
+    TITLE = TITLE
+
+    def __init__(self, tab: TabContext):
+        gui, self.tab, self.services = tab.gui, tab, tab.services
+        selection = self.services.snapshot.session.selection
+        self.status = gui.add_markdown("")
+        if isinstance(self.services.source, SimulatedSource):
+            self.object_in_scene = gui.add_checkbox("Simulated object in the scene", initial_value=True)
+            self.object_in_scene.on_update(
+                lambda _: setattr(self.services.source, "objects_in_view", bool(self.object_in_scene.value)))
+        self.frames = gui.add_slider("Background frames", min=1, max=60, step=1, initial_value=15)
+        self.capture = gui.add_button("Capture background (object out of view)")
+        self.cancel = gui.add_button("Cancel capture", visible=False)
+        self.progress = gui.add_progress_bar(0.0, visible=False)
+        self.range = gui.add_multi_slider("Depth range (m)", min=0.0, max=8.0, step=0.05,
+                                          initial_value=(selection.depth_min, selection.depth_max))
+        self.smooth = gui.add_checkbox("Smooth depth (edge-aware)", initial_value=selection.smooth)
+        self.draw = gui.add_button("Draw a region of interest")
+        self.close = gui.add_button("Close the region", visible=False)
+        self.clear = gui.add_button("Clear the region of interest")
+        act = tab.act
+        self.capture.on_click(lambda _: act(self._capture))
+        self.cancel.on_click(lambda _: self.services.jobs.cancel(BACKGROUND))
+        self.range.on_update(lambda e: e.client is not None and act(self._set_range))
+        self.smooth.on_update(lambda e: e.client is not None and act(lambda: self._set(smooth=self.smooth.value)))
+        self.draw.on_click(lambda _: act(self._start_region))
+        self.close.on_click(lambda _: act(self._close_region))
+        self.clear.on_click(lambda _: act(self._clear_region))
+        tab.on_click("region", self._region_click)
+        tab.on_state(lambda _: self.refresh())
+        self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
+                             self.services.bus.subscribe(SessionChanged, lambda _: self.refresh())]
+        self.refresh()
+
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
+
+    def refresh(self) -> None:
+        snapshot, state = self.services.snapshot, self.tab.state
+        selection = snapshot.session.selection
+        source = ("captured" if snapshot.session.background else "from the source") \
+            if snapshot.background is not None else "none: the object is every pixel in the depth range"
+        roi = selection.roi
+        region = f"{len(roi)} corners" if roi else "the whole image"
+        if state.region_draft:
+            region += f" (drawing: {len(state.region_draft)} corners)"
+        self.status.content = f"Background: {source}. Region of interest: {region}."
+        self.range.value = (selection.depth_min, selection.depth_max)
+        self.smooth.value = selection.smooth
+        drawing = state.mode == "region"
+        self.close.visible = drawing
+        self.close.disabled = len(state.region_draft) < 3
+
+    def _set(self, **changes) -> None:
+        self.services.editor.set_selection(replace(self.services.snapshot.session.selection, **changes))
+
+    def _set_range(self) -> None:
+        low, high = self.range.value
+        if high - low < 0.05:
+            raise MirrorscanError("the depth range must be at least 5 cm wide")
+        self._set(depth_min=float(low), depth_max=float(high))
+
+    # ------------------------------------------------------------------ region of interest
+    def _start_region(self) -> None:
+        state = self.tab.state
+        state.mode, state.region_draft = "region", ()
+        self.tab.look("depth")
+        self.tab.changed()
+
+    def _region_click(self, u: float, v: float) -> None:
+        state = self.tab.state
+        if len(state.region_draft) >= 3 and _nearest(state.region_draft[:1], (u, v)) == 0:
+            self._close_region()
+            return
+        state.region_draft = state.region_draft + ((round(u, 2), round(v, 2)),)
+        self.tab.changed()
+
+    def _close_region(self) -> None:
+        state = self.tab.state
+        roi = validate_polygon(state.region_draft, self.services.snapshot.session.camera.shape, "region of interest")
+        state.region_draft, state.mode = (), "inspect"
+        self._set(roi=tuple(map(tuple, roi.tolist())))
+        self.tab.changed()
+
+    def _clear_region(self) -> None:
+        state = self.tab.state
+        state.region_draft = ()
+        if state.mode == "region":
+            state.mode = "inspect"
+        if self.services.snapshot.session.selection.roi is not None:
+            self._set(roi=None)
+        self.tab.changed()
+
+    # ------------------------------------------------------------------ background
+    def _capture(self) -> None:
+        self.services.jobs.capture_background(int(self.frames.value), self.services.set_background)
+
+    def _on_job(self, event: JobProgress) -> None:
+        if event.job != BACKGROUND:
+            return
+        running = event.fraction is not None
+        self.progress.visible = self.cancel.visible = running
+        self.capture.disabled = running
+        if running:
+            self.progress.value = 100.0 * event.fraction
+        else:
+            self.status.content = f"Background: {event.status}."

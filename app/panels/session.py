@@ -1,0 +1,89 @@
+"""The "Session" step: where the session lives, open another, save it under a new name, upload a depth PNG as the
+background, and export the current cloud as PLY (downloaded by the tab, kept in the session's exports/ folder under a
+new name each time)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from mirrorcore.depthio import decode_depth_png, require_readings
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.ply import encode_ply
+from mirrorcore.session import SESSION_FILE, copy_session, load_session, session_folder
+
+from ..context import TabContext
+from ..events import SessionChanged
+from ..exports import export_ply
+
+TITLE = "Session"
+MAX_UPLOAD_MB = 20   # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
+
+
+class SessionPanel:
+    TITLE = TITLE
+
+    def __init__(self, tab: TabContext):
+        gui, self.tab, self.services = tab.gui, tab, tab.services
+        self.where = gui.add_markdown("")
+        self.export = gui.add_button("Export the cloud as PLY", color="blue")
+        self.exported = gui.add_markdown("")
+        self.open_choice = gui.add_dropdown("Open", ("",))
+        self.open = gui.add_button("Open session")
+        self.new_name = gui.add_text("Save as", "")
+        self.save_as = gui.add_button("Save as new session")
+        self.upload = gui.add_upload_button("Upload background (16-bit depth PNG)", mime_type="image/png",
+                                            hint=f"the scene without the object; at most {MAX_UPLOAD_MB} MB")
+        act = tab.act
+        self.open.on_click(lambda _: act(self._open))
+        self.save_as.on_click(lambda _: act(self._save_as))
+        self.upload.on_upload(lambda e: act(lambda: self.upload_background(e.target.value.name,
+                                                                          e.target.value.content)))
+        self.export.on_click(lambda _: act(self.export_cloud))
+        self._unsubscribe = self.services.bus.subscribe(SessionChanged, lambda _: self.refresh())
+        self.refresh()
+
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        self._unsubscribe()
+
+    def refresh(self) -> None:
+        editor = self.services.editor
+        state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
+        error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
+        self.where.content = f"`{editor.session.root}` ({state}){error}"
+        names = tuple(sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}"))) or ("",)
+        if self.open_choice.options != names:
+            self.open_choice.options = names
+
+    def _open(self) -> None:
+        if not self.open_choice.value:
+            raise MirrorscanError(f"no saved session in {self.services.sessions_dir}")
+        self.services.open_session(load_session(session_folder(self.services.sessions_dir, self.open_choice.value)))
+
+    def _save_as(self) -> None:
+        folder = session_folder(self.services.sessions_dir, self.new_name.value)
+        self.services.open_session(copy_session(self.services.editor.session, folder))
+        self.new_name.value = ""
+
+    def upload_background(self, name: str, data: bytes) -> None:
+        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the session's
+        background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB, a name not ending in .png,
+        an image that is not 16-bit or not the camera's size, and one with no reading at all."""
+        if len(data) > MAX_UPLOAD_MB * 2**20:
+            raise MirrorscanError(f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "
+                                  "upload may have")
+        if not name.lower().endswith(".png"):
+            raise MirrorscanError(f"{name}: not a .png file; upload a 16-bit depth PNG")
+        camera = self.services.editor.session.camera
+        depth = require_readings(decode_depth_png(data, camera.depth_scale, camera.shape, name), name)
+        self.services.set_background(depth)
+
+    def export_cloud(self) -> Path | None:
+        """The current cloud as PLY, downloaded and (for a saved session) kept under a new name in exports/."""
+        frame = self.services.last_frame
+        if frame is None:
+            raise MirrorscanError("no cloud yet to export")
+        data = encode_ply(frame.cloud.points, frame.cloud.sources)
+        root = self.services.editor.session.root if self.services.editor.autosave else None
+        saved = export_ply(root, f"frame-{frame.index:06d}", data, self.tab.client)
+        self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
+        return saved

@@ -1,0 +1,217 @@
+"""One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene and depth frame,
+its GUI (a status header over one tab per step of the work), and what it streams: the live cloud only while it looks
+at the 3D scene and is not hidden, the depth frame at most DEPTH_HZ times a second and at once after an edit."""
+from __future__ import annotations
+
+import threading
+import time
+from typing import Callable
+
+import numpy as np
+import viser
+from viser import _messages
+
+from mirrorcore.palette import source_colour
+
+from .context import MODES, Services, TabState
+from .depthscreen import DepthScreen
+from .events import DenseChanged, FrameReady, SessionChanged
+from .live import LiveFrame
+from .overlays import MarkerMark, MirrorMarks, Overlay, compose
+from .panels import PANELS
+from .panels.live import LivePanel
+from .state import Snapshot
+from .view import TabScene, home_pose, scene_points
+
+DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view...
+DEPTH_HZ_BEHIND = 1.0   # ... and this often while the tab looks at the 3D scene
+HIDDEN_KEY = "mirrorscan-hidden"
+VISIBILITY_JS = """(() => {{
+  const key = "viser-user:{key}";
+  const put = () => localStorage.setItem(key, document.hidden ? "1" : "0");
+  document.addEventListener("visibilitychange", put);
+  put();
+}})();"""
+
+
+class Tab:
+    """Everything of one connected browser tab (see the module docstring)."""
+
+    def __init__(self, client: viser.ClientHandle, services: Services):
+        self.client, self.services = client, services
+        self.state = TabState()
+        self.hidden = False
+        self._lock = threading.RLock()
+        self._state_listeners: list[Callable[[TabState], None]] = []
+        self._click_handlers: dict[str, Callable[[float, float], None]] = {}
+        self._last_screen = 0.0
+        snapshot = services.snapshot
+        camera = snapshot.session.camera
+        self.scene = TabScene(client)
+        self.screen = DepthScreen(client, camera, self._clicked)
+        self.overlay = Overlay(camera.shape)
+        self._session_key: tuple | None = None
+        self.header = LivePanel(self)
+        group = client.gui.add_tab_group()
+        self.panels = []
+        for panel in PANELS:
+            with group.add_tab(panel.TITLE):
+                self.panels.append(panel(self))
+        self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
+                             services.bus.subscribe(SessionChanged, lambda e: self._on_session(e.snapshot)),
+                             services.bus.subscribe(DenseChanged, lambda e: self.scene.show_dense(e.result, True))]
+        self._on_session(snapshot)
+        self.scene.show_dense(services.jobs.dense_result, True)
+        self._framed = False
+        client.camera.on_update(self._first_view)
+        self._watch_visibility()
+
+    def _first_view(self, _) -> None:
+        """Once the tab has reported its canvas: frame the rig and the cloud for it."""
+        if not self._framed:
+            self._framed = True
+            self.look_home()
+
+    # ------------------------------------------------------------------ the TabContext protocol
+    @property
+    def gui(self):
+        return self.client.gui
+
+    def changed(self) -> None:
+        """The tab's state changed: redraw the overlay, re-send the depth frame, tell the panels."""
+        self._redraw_overlay()
+        self._send_screen(force=True)
+        for listener in list(self._state_listeners):
+            listener(self.state)
+
+    def on_state(self, callback: Callable[[TabState], None]) -> None:
+        self._state_listeners.append(callback)
+
+    def on_click(self, mode: str, handler: Callable[[float, float], None]) -> None:
+        assert mode in MODES, mode
+        self._click_handlers[mode] = handler
+
+    def act(self, action: Callable[[], object]) -> None:
+        self.services.act(self.client, action)
+
+    def look(self, view: str) -> None:
+        """Show the 3D scene or the depth frame; clouds and labels are hidden (and not sent) while the depth frame
+        is in view, and the depth frame fills the free area."""
+        with self._lock:
+            self.state.view = view
+        depth = view == "depth"
+        self.scene.show_clouds(not depth)
+        self.scene.show_labels(not depth)
+        self.scene.show_dense_layer(not depth)
+        if depth:
+            self.screen.look_at()
+            self._send_screen(force=True)
+        else:
+            self.look_home()
+        for listener in list(self._state_listeners):
+            listener(self.state)
+
+    # ------------------------------------------------------------------ views
+    def look_home(self) -> None:
+        """The first view: the rig (camera, mirrors) and where the object is, framed for this tab's canvas."""
+        camera = self.client.camera
+        try:
+            aspect = camera.image_width / max(camera.image_height, 1)
+        except AssertionError:            # the tab has not reported its canvas yet
+            aspect = 16 / 9
+        fov = np.radians(50.0)
+        frame = self.services.last_frame
+        points = scene_points(self.services.snapshot.rig)
+        if frame is not None and len(frame.cloud):
+            points = np.concatenate([points, frame.cloud.points[:: max(1, len(frame.cloud) // 500)]])
+        position, target = home_pose(points, fov, aspect)
+        with self.client.atomic():
+            camera.fov = fov
+            camera.up_direction = (0.0, -1.0, 0.0)
+            camera.position = tuple(position)
+            camera.look_at = tuple(target)
+
+    # ------------------------------------------------------------------ events
+    def _on_frame(self, event: FrameReady) -> None:
+        frame = event.frame
+        if self.state.view == "3d" and not self.hidden:
+            self.scene.show_cloud(frame.parts, frame.mirror_ids)
+        self._send_screen(frame=frame)
+        self.header.show(frame)
+
+    def _on_session(self, snapshot: Snapshot) -> None:
+        ids = tuple(m.id for m in snapshot.session.mirrors)
+        with self._lock:
+            self.state.drafts = {k: v for k, v in self.state.drafts.items() if k in ids}
+            if self.state.mirror_id not in ids:
+                self.state.mirror_id = ids[-1] if ids else None
+                self.state.picked_marker = self.state.picked_corner = None
+        key = tuple((m.id, m.name, m.plane, m.boundary) for m in snapshot.session.mirrors)
+        if key != self._session_key:
+            self._session_key = key
+            self.scene.show_rig(snapshot.rig, ids)
+            self.scene.recolour(ids)
+        self.changed()
+
+    def _clicked(self, u: float, v: float) -> None:
+        handler = self._click_handlers.get(self.state.mode)
+        if handler is not None:
+            self.act(lambda: handler(u, v))
+
+    # ------------------------------------------------------------------ the depth frame
+    def _redraw_overlay(self) -> None:
+        snapshot, state = self.services.snapshot, self.state
+        mirrors = []
+        for mirror in snapshot.session.mirrors:
+            selected = mirror.id == state.mirror_id
+            draft = state.drafts.get(mirror.id)
+            grades = snapshot.marker_grades.get(mirror.id, ("unknown",) * len(mirror.markers))
+            markers = tuple(MarkerMark(uv, f"{mirror.id}.{k + 1}", grades[k],
+                                       picked=selected and state.picked_marker == k,
+                                       flagged=selected and k in state.flagged_markers)
+                            for k, uv in enumerate(mirror.markers))
+            mirrors.append(MirrorMarks(tuple(int(c) for c in source_colour(1, (mirror.id,))),
+                                       draft if draft is not None else mirror.boundary, draft is None, markers,
+                                       state.picked_corner if selected else None, selected))
+        roi = snapshot.session.selection.roi
+        region = (state.region_draft, False) if state.region_draft else ((roi, True) if roi else None)
+        with self._lock:
+            self.overlay.draw(mirrors, region)
+
+    def _send_screen(self, frame: LiveFrame | None = None, force: bool = False) -> None:
+        """Compose the shared depth layer of the latest frame with this tab's overlay and send it, when forced (an
+        edit) or when DEPTH_HZ (DEPTH_HZ_BEHIND in the 3D view) allows; never to a hidden tab."""
+        frame = frame or self.services.last_frame
+        now = time.perf_counter()
+        rate = DEPTH_HZ if self.state.view == "depth" else DEPTH_HZ_BEHIND
+        if frame is None or self.hidden or (not force and now - self._last_screen < 1 / rate):
+            return
+        self._last_screen = now
+        with self._lock:
+            rgb = compose(frame.depth_rgb, self.overlay.image)
+        self.screen.show(rgb)
+
+    # ------------------------------------------------------------------ visibility
+    def _watch_visibility(self) -> None:
+        """Ask the browser to note in its localStorage whether this tab is hidden (viser has no message for it)."""
+        key = f"{HIDDEN_KEY}-{self.client.client_id}"
+        self.client._websock_connection.queue_message(   # viser's own way to run code in a tab (it loads plotly so)
+            _messages.RunJavascriptMessage(source=VISIBILITY_JS.format(key=key)))
+
+    def poll_visibility(self, timeout: float = 2.0) -> None:
+        """Read whether the tab is hidden (see _watch_visibility); a tab that comes back gets the current state."""
+        try:
+            value = self.client.local_storage.get_item(f"{HIDDEN_KEY}-{self.client.client_id}", timeout=timeout)
+        except (RuntimeError, TimeoutError):
+            return
+        hidden = value == "1"
+        if hidden != self.hidden:
+            self.hidden = hidden
+            if not hidden:
+                self._send_screen(force=True)
+
+    def close(self) -> None:
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
+        for panel in [self.header, *self.panels]:
+            getattr(panel, "detach", lambda: None)()

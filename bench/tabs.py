@@ -1,0 +1,63 @@
+"""A browser tab as the server sees it, without a browser: a websocket client speaking viser's protocol (its
+subprotocol, then a camera report, after which viser counts the tab as connected), reading every message on a
+thread and counting the bytes. The app then builds a Tab for it, which benchmarks measure and tests drive."""
+from __future__ import annotations
+
+import threading
+import time
+
+import msgspec
+import viser
+import websockets.sync.client
+
+CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
+    "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,
+    "near": 0.01, "far": 100.0, "image_height": 480, "image_width": 640, "look_at": [0.0, 0.0, 1.0],
+    "up_direction": [0.0, -1.0, 0.0]})
+
+
+def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
+    """Poll condition() until it returns something true (returned), or fail after `seconds`."""
+    deadline = time.monotonic() + seconds
+    while True:
+        value = condition()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.02)
+
+
+class HeadlessTab:
+    """Connect to `app` as a tab; .tab is the app's Tab for it; .bytes and .messages count what it received."""
+
+    def __init__(self, app):
+        before = set(app.tabs)
+        self.ws = websockets.sync.client.connect(f"ws://127.0.0.1:{app.port}",
+                                                 subprotocols=[f"viser-v{viser.__version__}"], max_size=None)
+        self.ws.send(CAMERA_MESSAGE)
+        self.bytes = self.messages = 0
+        self._closed = threading.Event()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        new = wait_for(lambda: set(app.tabs) - before, what="the tab to connect")   # ids start at 0: a set
+        self.tab = app.tabs[new.pop()]
+
+    def _read(self) -> None:
+        try:
+            while not self._closed.is_set():
+                message = self.ws.recv()
+                self.bytes += len(message)
+                self.messages += 1
+        except (websockets.ConnectionClosed, OSError):
+            pass
+
+    def close(self) -> None:
+        self._closed.set()
+        self.ws.close()
+        self._reader.join(timeout=5)
+
+    def __enter__(self) -> "HeadlessTab":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

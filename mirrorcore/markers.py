@@ -1,0 +1,116 @@
+"""Markers on a mirror's glass: the depth pixels around a clicked marker, each marker's centre, how far each lies from
+a plane against the depth noise there (graded good, fair, poor), and the review of a new fit against the plane it
+would replace (a large move, or markers that disagree, asks the user to confirm)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .depthops import median_depth
+from .geometry.camera import Intrinsics, reproject_pixels
+from .geometry.plane import Plane
+from .noise import axial_sigma
+
+MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
+MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
+GOOD_SIGMAS = 2.0          # a marker's centre within this many noise sigmas of the plane is good,
+FAIR_SIGMAS = 3.0          # within this many fair (the fit's inlier threshold), beyond it poor
+MAX_TILT_DEG = 3.0         # a fit that turns a calibrated plane by more than this...
+MAX_SHIFT_MM = 20.0        # ... or moves it by more than this at the markers asks for confirmation
+GRADES = ("good", "fair", "poor", "unknown")
+
+
+def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
+                  window: int = MARKER_WINDOW) -> np.ndarray:
+    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker pixel (u, v).
+    depth : (H, W), or (k, H, W) frames reduced to their per-pixel median inside the window only."""
+    u0, v0 = int(round(marker[0])), int(round(marker[1]))
+    u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
+    v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
+    patch = median_depth(np.asarray(depth)[..., v1:v2, u1:u2])
+    vv, uu = np.nonzero(patch > 0)
+    return reproject_pixels(intr, uu + u1, vv + v1, patch[vv, uu])
+
+
+@dataclass(frozen=True)
+class MarkerResiduals:
+    """Per marker (k,) float64: signed_mm, the signed distance of the marker's centre (the median of its points) to
+    a plane (> 0 on the camera's side: something in front of the glass hides it; < 0 behind: the click missed the
+    marker and the glass shows a virtual point); sigma_mm, the depth noise there; both NaN for a marker without
+    MIN_MARKER_PIXELS readings."""
+
+    signed_mm: tuple[float, ...]
+    sigma_mm: tuple[float, ...]
+
+    @property
+    def distance_mm(self) -> tuple[float, ...]:
+        """|signed_mm| per marker."""
+        return tuple(abs(d) for d in self.signed_mm)
+
+    @property
+    def grades(self) -> tuple[str, ...]:
+        """'good' (within GOOD_SIGMAS), 'fair' (within FAIR_SIGMAS), 'poor' or 'unknown' (no depth), per marker."""
+        ratio = np.asarray(self.distance_mm) / np.asarray(self.sigma_mm)
+        grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS], [0, 1, 2], 3)
+        return tuple(GRADES[g] for g in grade)
+
+    def poor(self) -> tuple[int, ...]:
+        """0-based indices of the poor markers."""
+        return tuple(i for i, g in enumerate(self.grades) if g == "poor")
+
+
+def marker_centres(intr: Intrinsics, depth: np.ndarray, markers, window: int = MARKER_WINDOW) -> np.ndarray:
+    """(k, 3) float64 metres: the median point of each marker's window, NaN rows for markers without depth."""
+    centres = np.full((len(markers), 3), np.nan)
+    for i, marker in enumerate(markers):
+        points = marker_points(intr, depth, marker, window)
+        if len(points) >= MIN_MARKER_PIXELS:
+            centres[i] = np.median(points, axis=0)
+    return centres
+
+
+def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
+                     window: int = MARKER_WINDOW) -> MarkerResiduals:
+    """How far each marker lies from `plane` against the depth noise at it. depth : (H, W) or (k, H, W) metres."""
+    centres = marker_centres(intr, depth, markers, window)
+    with np.errstate(invalid="ignore"):
+        signed = plane.signed_distance(centres) * 1e3
+        sigma = axial_sigma(centres[:, 2]) * 1e3
+    return MarkerResiduals(tuple(signed.tolist()), tuple(np.where(np.isnan(centres[:, 2]), np.nan, sigma).tolist()))
+
+
+@dataclass(frozen=True)
+class FitReview:
+    """A new plane against the one it would replace: tilt_deg between them, shift_mm along the normal at the
+    markers' centre (NaN without a previous plane), the poor markers (0-based) and, in words, why the user should
+    look before applying it (empty: apply at once)."""
+
+    tilt_deg: float
+    shift_mm: float
+    poor: tuple[int, ...]
+    concerns: tuple[str, ...]
+
+    @property
+    def needs_confirmation(self) -> bool:
+        return bool(self.concerns)
+
+
+def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, at: np.ndarray,
+               marker_names: list[str]) -> FitReview:
+    """Review a fit: at (3,) metres, where the shift is measured (the markers' centre); marker_names label the
+    markers in the concerns ('2.3')."""
+    tilt = shift = float("nan")
+    concerns = []
+    if previous is not None:
+        tilt = previous.angle_to(new)
+        shift = abs(float(previous.signed_distance(np.asarray(at, float)))) * 1e3
+        if tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM:
+            concerns.append(f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
+                            f"{MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)")
+    poor = residuals.poor()
+    if poor:
+        worst = ", ".join(f"{marker_names[i]} ({residuals.distance_mm[i]:.0f} mm, "
+                          f"{residuals.distance_mm[i] / residuals.sigma_mm[i]:.0f} sigma)" for i in poor)
+        concerns.append(f"marker(s) {worst} lie off the plane beyond the depth noise")
+    return FitReview(tilt, shift, poor, tuple(concerns))

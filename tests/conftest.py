@@ -1,0 +1,56 @@
+"""Shared fixtures: the browser tool on the simulated sphere rig (an empty session in a temporary folder, frames at
+15 fps) and on the built-in demo (calibrated, kept in memory), each with a headless tab connected; the
+notifications a test's actions raise."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from app.demo import calibrated_session, demo_source
+from app.server import MirrorscanApp
+from bench.tabs import HeadlessTab, wait_for
+from mirrorcore.session import Session, save_session
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.simulator import Simulator
+from mirrorcore.sources import SimulatedSource
+
+
+def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
+    """The browser tool on the simulated paper rig (sphere at 2 m, mirrors at 120 deg, seed 1), editing a new empty
+    session saved in `root`, its sessions folder the one above; not started."""
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=fps)
+    session = Session(root, rig.intrinsics)
+    save_session(session)
+    return MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent)
+
+
+@pytest.fixture(scope="module")
+def sphere(tmp_path_factory):
+    """(app, HeadlessTab) on the simulated sphere rig, the live loop running, a frame already processed."""
+    app = sphere_app(tmp_path_factory.mktemp("sphere") / "scan")
+    app.start()
+    wait_for(lambda: app.last_frame is not None, what="the first frame")
+    with HeadlessTab(app) as tab:
+        yield app, tab
+    app.stop()
+
+
+@pytest.fixture(scope="module")
+def demo():
+    """(app, HeadlessTab) on the built-in demo (calibrated, not saved), the live loop not started."""
+    source = demo_source()
+    app = MirrorscanApp(calibrated_session(source, Path("unused")), source, port=0, autosave=False)
+    with HeadlessTab(app) as tab:
+        yield app, tab
+    app.stop()
+
+
+@pytest.fixture
+def notes(monkeypatch):
+    """A function that starts recording the notifications of an app: notes(app) -> the list they land in."""
+    def record(app) -> list[str]:
+        said: list[str] = []
+        monkeypatch.setattr(app, "notify", lambda client, title, message, error=True: said.append(message))
+        return said
+    return record
