@@ -99,7 +99,7 @@ class Jobs:
     def _dense(self, snapshot, depths: np.ndarray, method: str, options: DenseOptions,
                cancel: threading.Event) -> None:
         self.bus.publish(JobProgress(DENSE, 0.0, f"{method}: preparing {len(depths)} frame(s)"))
-        prepared = [prepare_frame(snapshot.rig, d, snapshot.background, snapshot.session.selection) for d in depths]
+        prepared = [prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection) for d in depths]
         volume = dense_volume(snapshot.rig, *prepared[-1], options)   # refuses boxes of too many voxels
         shape = "x".join(map(str, volume.shape))
         result = reconstruct_dense(snapshot.rig, np.stack([p[0] for p in prepared]),

@@ -61,7 +61,7 @@ class LiveFrame:
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame) -> LiveFrame:
     t0 = time.perf_counter()
-    cloud, mask = object_cloud(snapshot.rig, frame.depth, snapshot.background, snapshot.session.selection)
+    cloud, mask = object_cloud(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
     return LiveFrame(index, frame.timestamp, frame.depth, mask, cloud, snapshot, (time.perf_counter() - t0) * 1e3)
 
 

@@ -9,17 +9,20 @@ import numpy as np
 
 from mirrorcore.markers import MarkerResiduals, marker_residuals
 from mirrorcore.rig import Rig
+from mirrorcore.selection import Backdrop
 from mirrorcore.session import Session
 
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
     """One consistent state: the session, its rig (reflection tables built once), the background depth (H, W) metres
-    or None, and for each calibrated mirror (by id) how far each marker lies from its plane (mirrorcore.markers)."""
+    or None and its Backdrop (the subtraction's limit map, made once), and for each calibrated mirror (by id) how far
+    each marker lies from its plane (mirrorcore.markers)."""
 
     session: Session
     rig: Rig
     background: np.ndarray | None
+    backdrop: Backdrop | None = None
     marker_residuals: dict[int, MarkerResiduals] = field(default_factory=dict)
 
     @property
@@ -36,7 +39,8 @@ class Snapshot:
         if depths is not None:
             residuals = {m.id: marker_residuals(session.camera, depths, m.markers, m.plane)
                          for m in session.mirrors if m.plane is not None and m.markers}
-        return cls(session, rig, background, residuals)
+        backdrop = None if background is None else Backdrop.of(background, session.selection)
+        return cls(session, rig, background, backdrop, residuals)
 
 
 class SharedState:

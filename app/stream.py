@@ -1,6 +1,9 @@
-"""The live cloud as it travels to a browser tab: at most MAX_POINTS points a frame, one part per source (a single
-colour each), positions as float16 offsets from the part's centre (6 bytes a point instead of 12) wherever that
-keeps every point within 0.3 mm; float32 where a part is too large for it."""
+"""The live cloud as it travels to a browser tab: at most MAX_POINTS points a frame, one node per source and half
+(a single colour each), positions as float16 offsets from the part's centre (6 bytes a point instead of 12) wherever
+that keeps every point within 0.3 mm, float32 where a part is too large for it. Each source's points are split into
+two interleaved halves (every other point); a live frame refreshes one half (even frames the first, odd frames the
+second), so a tab always shows every point while receiving half of them per frame; a paused or single frame sends
+both."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -9,18 +12,24 @@ import numpy as np
 
 from mirrorcore.cloud import Cloud
 
-MAX_POINTS = 60_000          # points sent per frame, all sources together (evenly strided)
+MAX_POINTS = 60_000          # points shown per frame, all sources together (evenly strided)
 FLOAT16_EXTENT = 1.0         # metres: offsets below this round to float16 within 2^-12 m (0.24 mm)
+HALVES = 2
 
 
 @dataclass(frozen=True, eq=False)
 class SourcePart:
-    """One source's points of a frame: centre (3,) float64 metres, camera frame; offsets (n, 3) float16 (or float32)
-    metres from the centre."""
+    """One half of one source's points of a frame: centre (3,) float64 metres, camera frame; offsets (n, 3) float16
+    (or float32) metres from the centre."""
 
     source: int
+    half: int
     centre: np.ndarray
     offsets: np.ndarray
+
+    @property
+    def key(self) -> tuple[int, int]:
+        return self.source, self.half
 
 
 def downsample(cloud: Cloud, max_points: int) -> Cloud:
@@ -30,18 +39,18 @@ def downsample(cloud: Cloud, max_points: int) -> Cloud:
 
 
 def stream_parts(cloud: Cloud, n_sources: int, max_points: int = MAX_POINTS) -> list[SourcePart]:
-    """The parts of sources 0..n_sources-1 (empty ones included, so that a source that left the view is cleared)."""
+    """The two halves of sources 0..n_sources-1, in that order (empty ones included, so that a source that left the
+    view is cleared); both halves of a source share its centre."""
     cloud = downsample(cloud, max_points)
-    order = np.argsort(cloud.sources, kind="stable")
-    bounds = np.searchsorted(cloud.sources[order], np.arange(n_sources + 1))
     parts = []
     for j in range(n_sources):
-        points = cloud.points[order[bounds[j]:bounds[j + 1]]]
+        points = cloud.points[cloud.sources == j]
         if not len(points):
-            parts.append(SourcePart(j, np.zeros(3), np.zeros((0, 3), np.float16)))
+            parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in range(HALVES)]
             continue
-        centre = (points.min(axis=0).astype(np.float64) + points.max(axis=0)) / 2
-        offsets = points - centre.astype(np.float32)
-        small = np.abs(offsets).max() < FLOAT16_EXTENT
-        parts.append(SourcePart(j, centre, offsets.astype(np.float16 if small else np.float32)))
+        low, high = points.min(axis=0), points.max(axis=0)
+        centre = (low + high) / np.float32(2)
+        dtype = np.float16 if float((high - low).max()) / 2 < FLOAT16_EXTENT else np.float32
+        parts += [SourcePart(j, half, centre.astype(np.float64), (points[half::HALVES] - centre).astype(dtype))
+                  for half in range(HALVES)]
     return parts

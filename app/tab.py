@@ -21,6 +21,7 @@ from .overlays import MarkerMark, MirrorMarks, Overlay, compose
 from .panels import PANELS
 from .panels.live import LivePanel
 from .state import Snapshot
+from .stream import HALVES
 from .view import TabScene, home_pose, scene_points
 
 DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view...
@@ -45,6 +46,7 @@ class Tab:
         self._state_listeners: list[Callable[[TabState], None]] = []
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
+        self._stale = True          # the cloud shown is not the last frame's: send both halves next
         snapshot = services.snapshot
         camera = snapshot.session.camera
         self.scene = TabScene(client)
@@ -100,6 +102,7 @@ class Tab:
         with self._lock:
             self.state.view = view
         depth = view == "depth"
+        self._stale = True
         self.scene.show_clouds(not depth)
         self.scene.show_labels(not depth)
         self.scene.show_dense_layer(not depth)
@@ -135,7 +138,9 @@ class Tab:
     def _on_frame(self, event: FrameReady) -> None:
         frame = event.frame
         if self.state.view == "3d" and not self.hidden:
-            self.scene.show_cloud(frame.parts, frame.mirror_ids)
+            whole = self.services.paused or self._stale
+            self.scene.show_cloud(frame.parts, frame.mirror_ids, None if whole else frame.index % HALVES)
+            self._stale = False
         self._send_screen(frame=frame)
         self.header.show(frame)
 
@@ -206,7 +211,7 @@ class Tab:
             return
         hidden = value == "1"
         if hidden != self.hidden:
-            self.hidden = hidden
+            self.hidden, self._stale = hidden, True
             if not hidden:
                 self._send_screen(force=True)
 

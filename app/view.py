@@ -61,7 +61,8 @@ class TabScene:
     def __init__(self, client: viser.ClientHandle, point_size: float = 0.006):
         self.client, self.scene = client, client.scene
         self.point_size = point_size
-        self._clouds: dict[int, viser.PointCloudHandle] = {}
+        self._clouds: dict[tuple[int, int], viser.PointCloudHandle] = {}    # (source, half) -> node
+        self.clouds_visible = True
         self._labels: list[viser.LabelHandle] = []
         self._dense: list = []                     # the dense result's nodes (result, label)
         self._box = None
@@ -97,32 +98,38 @@ class TabScene:
         for label in self._labels:
             label.visible = visible
 
-    def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...]) -> None:
-        """Replace the live cloud: one node per part (source), placed at its centre; nodes of sources beyond the
-        parts are removed."""
+    def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
+        """Update the live cloud's nodes (one per source and half, placed at the part's centre) from `parts`: only
+        the given half, or both (None); nodes of sources beyond the parts are removed."""
         with self.client.atomic():
             for part in parts:
-                handle = self._clouds.get(part.source)
-                precision = "float16" if part.offsets.dtype == np.float16 else "float32"
-                if handle is None or handle.precision != precision:
-                    if handle is not None:
-                        handle.remove()
-                    colour = tuple(int(c) for c in source_colour(part.source, mirror_ids))
-                    self._clouds[part.source] = self.scene.add_point_cloud(
-                        f"/cloud/{part.source}", part.offsets, colour, point_size=self.point_size,
-                        precision=precision, point_shape="circle", position=tuple(part.centre))
-                else:
-                    handle.points = part.offsets
-                    handle.position = tuple(part.centre)
-            for j in [k for k in self._clouds if k >= len(parts)]:
-                self._clouds.pop(j).remove()
+                if half is None or part.half == half:
+                    self._show_part(part, mirror_ids)
+            sources = {p.source for p in parts}
+            for key in [k for k in self._clouds if k[0] not in sources]:
+                self._clouds.pop(key).remove()
+
+    def _show_part(self, part: SourcePart, mirror_ids: tuple[int, ...]) -> None:
+        handle = self._clouds.get(part.key)
+        precision = "float16" if part.offsets.dtype == np.float16 else "float32"
+        if handle is not None and handle.precision == precision:
+            handle.points = part.offsets
+            handle.position = tuple(part.centre)
+            return
+        if handle is not None:
+            handle.remove()
+        colour = tuple(int(c) for c in source_colour(part.source, mirror_ids))
+        self._clouds[part.key] = self.scene.add_point_cloud(
+            f"/cloud/{part.source}/{part.half}", part.offsets, colour, point_size=self.point_size,
+            precision=precision, point_shape="circle", position=tuple(part.centre), visible=self.clouds_visible)
 
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
         """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
-        for source, handle in self._clouds.items():
+        for (source, _), handle in self._clouds.items():
             handle.colors = tuple(int(c) for c in source_colour(source, mirror_ids))
 
     def show_clouds(self, visible: bool) -> None:
+        self.clouds_visible = visible
         for handle in self._clouds.values():
             handle.visible = visible
 

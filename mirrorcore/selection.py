@@ -72,26 +72,57 @@ class Selection:
         return data
 
 
-def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | None,
+CORE_MARGIN = 16   # pixels: the clean-up looks this far around the candidates that have a solid 3x3 core
+
+
+@dataclass(frozen=True, eq=False)
+class Backdrop:
+    """The scene without the object, ready for subtraction: a pixel is the object where its depth is below `limit`.
+
+    depth : (H, W) float32 metres, 0 = no reading; limit : (H, W) float32 metres, the background's depth less the
+    tolerance max(background_sigmas * sqrt(2) * sigma(z), min_gap) (the noise of the difference of two readings), +inf
+    where the background has no reading (any reading there counts as the object). Made once per background and
+    selection (Backdrop.of), not per frame.
+    """
+
+    depth: np.ndarray
+    limit: np.ndarray
+
+    @classmethod
+    def of(cls, background: np.ndarray, selection: "Selection" = None) -> "Backdrop":
+        selection = Selection() if selection is None else selection
+        depth = np.asarray(background, np.float32)
+        tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(depth),
+                               np.float32(selection.min_gap))
+        return cls(depth, np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))
+
+
+def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                 selection: Selection = Selection()) -> np.ndarray:
     """The object's pixels in a depth frame.
 
-    depth : (H, W) float metres, 0 = no reading; background : (H, W) float metres of the scene without the object
-    (0 = no reading there), or None to select by depth range and region only.
-    returns (H, W) bool. A pixel with no background reading counts as the object when it has a reading now.
+    depth : (H, W) float metres, 0 = no reading; background : the scene without the object, (H, W) float metres (0 =
+    no reading there) or a Backdrop made once for it, or None to select by depth range and region only.
+    returns (H, W) bool. A pixel with no background reading counts as the object when it has a reading now. The
+    clean-up (flying pixels, specks) looks only within CORE_MARGIN pixels of the candidates that have a solid 3x3 core:
+    the scattered single pixels that background subtraction leaves are dropped without a pass over the whole frame
+    (a piece with no 3x3 core reaching farther than that would be dropped too).
     """
     depth = check_depth_shape(intr, depth)
     mask = (depth >= selection.depth_min) & (depth <= selection.depth_max)
     if background is not None:
-        background = check_depth_shape(intr, background, "background")
-        tolerance = np.maximum(selection.background_sigmas * np.sqrt(2.0) * axial_sigma(background), selection.min_gap)
-        mask &= (background <= 0) | (depth < background - tolerance)
+        if not isinstance(background, Backdrop):
+            background = Backdrop.of(check_depth_shape(intr, background, "background"), selection)
+        check_depth_shape(intr, background.limit, "background")
+        mask &= depth < background.limit
     if selection.roi is not None:
         mask &= polygon_mask(np.asarray(selection.roi), intr.shape)
-    win = bounding_window(mask, 1)               # the clean-up looks at the candidates and their neighbours only
+    cores = cv2.erode(mask.view(np.uint8), np.ones((3, 3), np.uint8))
+    win = bounding_window(cores.view(bool), CORE_MARGIN)   # beyond, a piece with no 3x3 core is a speck
+    cleaned = np.zeros_like(mask)
     if mask[win].size:
-        mask[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection), selection.min_blob)
-    return mask
+        cleaned[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection), selection.min_blob)
+    return cleaned
 
 
 def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
