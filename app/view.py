@@ -126,7 +126,7 @@ class TabScene:
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
         """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
         for (source, _), handle in self._clouds.items():
-            handle.colors = tuple(int(c) for c in source_colour(source, mirror_ids))
+            handle.colors = source_colour(source, mirror_ids)
 
     def show_clouds(self, visible: bool) -> None:
         self.clouds_visible = visible

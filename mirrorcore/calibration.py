@@ -11,14 +11,7 @@ from .errors import CalibrationError
 from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from .geometry.plane import Plane, fit_plane_ransac
 from .geometry.polygon import polygon_mask, validate_polygon
-from .markers import (
-    GRADES,
-    MARKER_WINDOW,
-    MIN_MARKER_PIXELS,
-    MarkerResiduals,
-    marker_points,
-    marker_residuals,
-)
+from .markers import GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS, MarkerResiduals, marker_points, marker_residuals
 from .noise import axial_sigma
 from .session import Session, SessionMirror
 

@@ -1,5 +1,8 @@
-"""End to end in a real headless Chromium: from an empty session on the simulated rig, calibrate both mirrors by
-clicking on the depth frame, watch every source fill, fit the sphere, export the cloud through a download."""
+"""End to end in a real headless Chromium, as a technician works: from an empty session on the simulated rig, add
+both mirrors, click their outlines and markers on the depth frame, fit the planes; a stray marker is refused, a bad
+fit is a proposal, a single marker is deleted, undo is per mirror, removal asks and can be undone, two tabs keep
+their own modes; the layout fits 1024x600; the dense result has its own layer; exports never overwrite; a click is
+drawn within 200 ms with the demo running, measured in the page; a hidden tab stops receiving the cloud."""
 from __future__ import annotations
 
 import re
@@ -9,182 +12,243 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.demo import calibrated_session, demo_source
 from app.server import MirrorscanApp
+from bench.tabs import wait_for
 from mirrorcore.ply import read_ply
-from mirrorcore.session import Session
 from mirrorcore.sim.export import session_mirrors
-from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import SimulatedSource
+from tests.browser import ARGS, CHROMIUM, button, click_pixel, look_at_the_depth_frame, open_tab, step, text
+from tests.conftest import sphere_app
 
 playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
 pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 ARTIFACTS = Path(__file__).parent / "artifacts"
 LIVE_FPS = 8.0           # software WebGL on 2 cores: keep the stream light while the test drives the page
-CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
-
-
-def wait_for(condition, seconds: float = 120.0, what: str = "condition"):
-    deadline = time.monotonic() + seconds
-    while True:
-        value = condition()
-        if value:
-            return value
-        assert time.monotonic() < deadline, f"timed out waiting for {what}"
-        time.sleep(0.1)
 
 
 @pytest.fixture(scope="module")
-def rig():
-    return Simulator(paper_scene(object="sphere"), seed=0, fps=LIVE_FPS)
+def browser():
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        yield browser
+        browser.close()
 
 
 @pytest.fixture(scope="module")
-def app(rig, tmp_path_factory):
-    root = tmp_path_factory.mktemp("browser") / "session"
-    app = MirrorscanApp(Session(root, rig.intrinsics), SimulatedSource(rig), port=0,
-                        sessions_dir=root.parent)
+def app(tmp_path_factory):
+    app = sphere_app(tmp_path_factory.mktemp("browser") / "session", fps=LIVE_FPS)
     app.start()
     yield app
     app.stop()
 
 
 @pytest.fixture(scope="module")
-def page(app):
-    with playwright.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=[
-            "--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
-            "--no-first-run"])
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(f"http://127.0.0.1:{app.port}/")
-        client = wait_for(lambda: next(iter(app.server.get_clients().values()), None), what="the tab to connect")
-        camera_ready = wait_for(lambda: _camera_known(client), what="the tab's camera")
-        assert camera_ready
-        look_at_the_depth_frame(app, client)
-        yield browser, page, client
-        browser.close()
+def tab(app, browser):
+    page, tab = open_tab(browser, app, 1400, 900)
+    yield page, tab
+    page.close()
 
 
-def look_at_the_depth_frame(app, client) -> None:
-    """Move the tab's view onto the depth frame and wait until the browser reports that view back, steadily (a late
-    report of its first view could otherwise overwrite the server's copy of the camera)."""
-    position = app.screen.view_pose()[0]
-    for _ in range(10):
-        app.screen.look_at(client)
-        time.sleep(1.5)
-        if np.allclose(client.camera.position, position, atol=1e-3):
-            time.sleep(1.0)
-            if np.allclose(client.camera.position, position, atol=1e-3):
-                return
-    raise AssertionError(f"the tab's camera stays at {client.camera.position}, not {position}")
+def test_first_minute_on_an_empty_session(app, tab):
+    page, _ = tab
+    wait_for(lambda: "Start here" in text(page), 60, "the Start here line")
+    assert "Add a mirror" in text(page)
+    assert page.get_by_role("button", name="Undo", exact=True).is_disabled()     # nothing to undo yet
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=ARTIFACTS / "browser-first-minute.png")
 
 
-def _camera_known(client) -> bool:
-    try:
-        client.camera.wxyz
-        return True
-    except Exception:     # viser raises until the browser has reported its camera
-        return False
-
-
-def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
-    """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes, vertical fov)."""
-    import viser.transforms as tf
-    camera = client.camera
-    R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
-    p = R.T @ (np.asarray(world) - np.asarray(camera.position))
-    box = page.locator("canvas").first.bounding_box()
-    f = (box["height"] / 2) / np.tan(camera.fov / 2)
-    return box["x"] + box["width"] / 2 + f * p[0] / p[2], box["y"] + box["height"] / 2 + f * p[1] / p[2]
-
-
-def click_pixel(page, app, client, uv, registered) -> None:
-    """Click pixel uv on the depth screen until registered() holds (a click can be lost on a loaded machine)."""
-    for _ in range(3):
-        x, y = canvas_point(page, client, app.screen.world_of_pixel(*uv))
-        page.mouse.click(x, y)
-        time.sleep(CLICK_PAUSE)
-        try:
-            wait_for(registered, seconds=10, what=f"the click at pixel {uv}")
-            return
-        except AssertionError:
-            continue
-    raise AssertionError(f"the click at pixel {uv} never reached the server")
-
-
-def choose(page, label: str, option: str, handle) -> None:
-    """Pick `option` in the dropdown `label` and wait until the server's handle holds it."""
-    page.get_by_label(label, exact=True).click()
-    page.get_by_role("option", name=option, exact=True).click()
-    wait_for(lambda: handle.value == option, what=f"{label} = {option}")
-
-
-def button(page, name: str) -> None:
-    page.get_by_role("button", name=name, exact=True).click()
-    time.sleep(0.3)
-
-
-def test_calibrate_watch_measure_export(app, page, rig):
-    browser, page, client = page
+def test_calibrate_both_mirrors_by_clicking(app, tab):
+    page, server_tab = tab
+    rig = app.source.rig
     truth = session_mirrors(rig, rig.background().truth)        # where the simulator drew markers and mirrors
-    wait_for(lambda: app.last_frame is not None, what="the first live frame")
-
-    for j, mirror in enumerate(truth):
-        button(page, "Add a mirror")
-        wait_for(lambda: len(app.editor.session.mirrors) == j + 1, what=f"mirror {j + 1}")
-        choose(page, "Mirror", f"mirror {j + 1}", app.mirrors_panel.mirror)
-        choose(page, "Click to", "markers", app.mirrors_panel.mode)
-        for k, uv in enumerate(mirror.markers[:4], start=1):
-            click_pixel(page, app, client, uv, lambda: len(app.editor.session.mirrors[j].markers) >= k)
-        clicked = wait_for(lambda: len(app.editor.session.mirrors[j].markers) == 4 and app.editor.session.mirrors[j],
-                           what=f"mirror {j + 1}'s markers")
-        np.testing.assert_allclose(np.array(clicked.markers), np.array(mirror.markers[:4]), atol=1.0)
-
-        choose(page, "Click to", "boundary", app.mirrors_panel.mode)
+    for j, mirror in enumerate(truth, start=1):
+        button(page, "Add a mirror")                              # selects it, boundary mode, the depth frame
+        wait_for(lambda: len(app.editor.session.mirrors) == j and server_tab.state.mode == "boundary")
+        if j == 1:
+            look_at_the_depth_frame(page, server_tab)
         corners = np.clip(np.array(mirror.boundary), 1, [rig.intrinsics.width - 2, rig.intrinsics.height - 2])
         for k, uv in enumerate(corners, start=1):
-            click_pixel(page, app, client, uv, lambda: len(app.editor.drafts.get(j, ())) >= k)
-        button(page, "Close boundary")
-        drawn = wait_for(lambda: app.editor.session.mirrors[j].boundary, what=f"mirror {j + 1}'s boundary")
-        np.testing.assert_allclose(np.array(drawn), corners, atol=1.0)
-
-    button(page, "Fit all planes")
-    wait_for(lambda: all(m.plane is not None for m in app.editor.session.mirrors), what="the planes")
+            click_pixel(page, server_tab, uv, lambda: len(server_tab.state.drafts.get(j, ())) >= k)
+        click_pixel(page, server_tab, corners[0], lambda: app.editor.mirror(j).boundary)   # closes it
+        np.testing.assert_allclose(np.array(app.editor.mirror(j).boundary), corners, atol=1.0)
+        wait_for(lambda: server_tab.state.mode == "markers", what="markers mode after the boundary")
+        for k, uv in enumerate(mirror.markers, start=1):
+            click_pixel(page, server_tab, uv, lambda: len(app.editor.mirror(j).markers) >= k)
+        np.testing.assert_allclose(np.array(app.editor.mirror(j).markers), np.array(mirror.markers), atol=1.0)
+        button(page, "Fit plane")
+        wait_for(lambda: app.editor.mirror(j).plane is not None, what=f"mirror {j}'s plane")
+        wait_for(lambda: f"mirror {j}: RMS" in text(page), what="the fit's report")
     for fitted, true in zip(app.editor.session.mirrors, rig.planes):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
-    shown = page.get_by_text(re.compile(r"mirror 1: RMS [0-9.]+ mm")).inner_text()
-    rms = float(re.search(r"RMS ([0-9.]+) mm", shown).group(1))
-    assert 0.5 < rms < 15.0                                      # Kinect noise at ~2.5 m: a few mm
+    report = re.search(r"mirror 2: RMS ([0-9.]+) mm.*?markers: (\d+) good", text(page), re.S)
+    assert 0.5 < float(report.group(1)) < 15.0 and int(report.group(2)) == len(truth[1].markers)
+    page.screenshot(path=ARTIFACTS / "browser-calibrated.png")
 
-    def counts():
-        text = page.locator("body").inner_text()
-        found = {name: int(n.replace(",", "")) for name, n in re.findall(r"(direct|mirror \d): ([\d,]+) points", text)}
-        return found if len(found) == 3 and min(found.values()) > 0 else None
-    assert min(wait_for(counts, what="points from every source").values()) > 500
 
-    late = browser.new_page(viewport={"width": 1000, "height": 700})   # a tab that joins now sees the same state
-    late.goto(f"http://127.0.0.1:{app.port}/")
-    wait_for(lambda: "mirror 2: RMS" in late.locator("body").inner_text(), what="the late tab's calibration report")
-    wait_for(lambda: re.search(r"mirror 2: [\d,]+ points", late.locator("body").inner_text()), what="late counts")
-    late.close()
+def test_a_stray_marker_is_refused_and_a_bad_fit_waits_for_confirmation(app, tab):
+    page, server_tab = tab
+    before = app.editor.mirror(2)
+    assert server_tab.state.mirror_id == 2 and server_tab.state.mode == "markers"
+    click_pixel(page, server_tab, (630, 470))                     # off mirror 2, where the panel used to cover
+    wait_for(lambda: "outside its boundary" in text(page), what="the refusal")
+    assert app.editor.mirror(2).markers == before.markers
+    bottom = max(before.boundary, key=lambda p: p[1])              # the floor seen through the glass
+    click_pixel(page, server_tab, (bottom[0] - 10, bottom[1] - 6),
+                lambda: len(app.editor.mirror(2).markers) == len(before.markers) + 1)
+    button(page, "Fit plane")
+    wait_for(lambda: "Proposal, not applied" in text(page), what="the proposal")
+    assert app.editor.mirror(2).plane == before.plane                                  # not applied
+    assert page.get_by_role("button", name="Apply the new plane(s)").is_visible()
+    button(page, "Keep the current plane(s)")
+    wait_for(lambda: "discarded" in text(page))
+    assert app.editor.mirror(2).plane == before.plane
+    # the stray marker is still picked: delete just that one
+    button(page, f"Delete marker 2.{len(before.markers) + 1}")
+    wait_for(lambda: app.editor.mirror(2).markers == before.markers, what="the marker deleted")
 
-    choose(page, "Click to", "inspect", app.mirrors_panel.mode)
+
+def test_undo_is_per_mirror_and_named(app, tab):
+    page, server_tab = tab
+    mirror1 = app.editor.mirror(1)
+    click_pixel(page, server_tab, mirror1.markers[0], lambda: server_tab.state.mirror_id == 2)   # not mirror 1's
+    page.get_by_label("Mirror", exact=True).click()
+    page.get_by_role("option", name="mirror 1", exact=True).click()
+    wait_for(lambda: server_tab.state.mirror_id == 1, what="mirror 1 selected")
+    wait_for(lambda: page.get_by_role("button", name="Undo: plane of mirror 1").is_visible(), what="undo label")
+    button(page, "Undo: plane of mirror 1")
+    wait_for(lambda: app.editor.mirror(1).plane is None, what="mirror 1's plane undone")
+    assert app.editor.mirror(2).plane is not None                                    # mirror 2 untouched
+    button(page, "Redo: plane of mirror 1")
+    wait_for(lambda: app.editor.mirror(1).plane is not None, what="redone")
+
+
+def test_removing_asks_and_can_be_undone(app, tab):
+    page, server_tab = tab
+    page.get_by_text("Rename, remove, clear").click()
+    button(page, "Remove this mirror…")
+    wait_for(lambda: page.get_by_role("button", name="Keep it").is_visible(), what="the confirmation")
+    button(page, "Keep it")
+    assert len(app.editor.session.mirrors) == 2
+    button(page, "Remove this mirror…")
+    button(page, "Remove mirror 1")
+    wait_for(lambda: [m.id for m in app.editor.session.mirrors] == [2], what="the removal")
+    button(page, "Undo: remove mirror 1")
+    wait_for(lambda: [m.id for m in app.editor.session.mirrors] == [1, 2], what="mirror 1 back")
+    assert app.editor.mirror(1).plane is not None
+
+
+def test_two_tabs_keep_their_own_mode(app, browser, tab):
+    page, server_tab = tab
+    server_tab.state.mode = "markers"
+    other, other_tab = open_tab(browser, app, 1000, 700)
+    try:
+        step(other, "Mirrors")
+        button(other, "Boundary")
+        wait_for(lambda: other_tab.state.mode == "boundary", what="the other tab's mode")
+        assert server_tab.state.mode == "markers"
+        wait_for(lambda: "mirror 2: RMS" in text(page))
+    finally:
+        other.close()
+
+
+def test_measure_the_sphere(app, tab):
+    page, _ = tab
+    button(page, "3D scene")
+    step(page, "Measure")
     button(page, "Fit to the current cloud")
-    report = page.get_by_text(re.compile(r"sphere: radius")).inner_text()
-    radius = float(re.search(r"radius ([0-9.]+) mm", report).group(1))
-    assert abs(radius - 115.0) < 3.0
+    report = wait_for(lambda: re.search(r"radius ([0-9.]+) mm", text(page)), what="the fit")
+    assert abs(float(report.group(1)) - 115.0) < 3.0
 
-    with page.expect_download() as download:
-        button(page, "Export cloud as PLY")
-    target = ARTIFACTS / "browser-export.ply"
-    ARTIFACTS.mkdir(exist_ok=True)
-    download.value.save_as(target)
-    points, sources = read_ply(target)
+
+def test_dense_result_has_its_own_layer(app, tab):
+    page, server_tab = tab
+    step(page, "Dense")
+    button(page, "Run")
+    wait_for(lambda: "surface voxels" in text(page), 180, "the carving")
+    wait_for(lambda: server_tab.scene._dense, what="the dense layer")
+    assert server_tab.scene._box is not None
+    page.get_by_label("Show the dense result").click()
+    wait_for(lambda: not any(h.visible for h in server_tab.scene._dense), what="the layer hidden")
+    page.get_by_label("Show the dense result").click()
+    page.screenshot(path=ARTIFACTS / "browser-dense.png")
+
+
+def test_exports_never_overwrite(app, tab):
+    page, _ = tab
+    step(page, "Session")
+    names = []
+    for _ in range(2):
+        with page.expect_download() as download:
+            button(page, "Export the cloud as PLY")
+        names.append(download.value.suggested_filename)
+        target = ARTIFACTS / names[-1]
+        download.value.save_as(target)
+    assert names[0] != names[1]
+    points, sources = read_ply(ARTIFACTS / names[0])
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
-    saved = Path(app.editor.session.root) / "exports"
-    assert len(list(saved.glob("*.ply"))) == 1
+    assert len(list((Path(app.editor.session.root) / "exports").glob("frame-*.ply"))) == 2
 
-    app.view.look_from_home(client)
-    time.sleep(2.0)
-    page.screenshot(path=ARTIFACTS / "browser-final.png")
+
+def test_the_layout_fits_1024x600(app, browser):
+    page, server_tab = open_tab(browser, app, 1024, 600)
+    try:
+        fit = page.get_by_role("button", name="Fit plane", exact=True).bounding_box()
+        assert fit["y"] + fit["height"] <= 600, fit                     # visible without scrolling
+        look_at_the_depth_frame(page, server_tab)
+        canvas = page.locator("canvas").first.bounding_box()
+        panel_left = page.get_by_role("button", name="Fit plane", exact=True).bounding_box()["x"]
+        from tests.browser import canvas_point
+        right, bottom = canvas_point(page, server_tab.client, server_tab.screen.world_of_pixel(639.5, 479.5))
+        left, top = canvas_point(page, server_tab.client, server_tab.screen.world_of_pixel(-0.5, -0.5))
+        assert canvas["x"] - 1 <= left and right <= panel_left and bottom <= 600 and top >= 0   # never under it
+        page.screenshot(path=ARTIFACTS / "browser-1024x600.png")
+    finally:
+        page.close()
+
+
+def test_a_hidden_tab_gets_no_cloud(app, browser):
+    page, server_tab = open_tab(browser, app, 1000, 700)
+    try:
+        wait_for(lambda: server_tab.scene._clouds, what="the cloud")
+        page.evaluate("""Object.defineProperty(document, "hidden", {value: true, configurable: true});
+                         document.dispatchEvent(new Event("visibilitychange"));""")
+        wait_for(lambda: server_tab.hidden, 10, "the server to know the tab is hidden")
+        page.evaluate("""Object.defineProperty(document, "hidden", {value: false, configurable: true});
+                         document.dispatchEvent(new Event("visibilitychange"));""")
+        wait_for(lambda: not server_tab.hidden, 10, "the tab back")
+    finally:
+        page.close()
+
+
+def test_a_click_is_drawn_within_200_ms_with_the_demo_running(browser, tmp_path):
+    source = demo_source()
+    demo = MirrorscanApp(calibrated_session(source, tmp_path / "demo"), source, port=0, autosave=False)
+    demo.start()
+    try:
+        page, server_tab = open_tab(browser, demo, 1400, 900)
+        look_at_the_depth_frame(page, server_tab)
+        server_tab.state.mirror_id, server_tab.state.mode = 1, "markers"
+        mirror = demo.editor.mirror(1)
+        u, v = np.mean(np.array(mirror.boundary), axis=0) + [0, -60]    # on the glass, away from the figure
+        latencies = []
+        for k in range(3):
+            page.evaluate(f"window.__probe = [{int(u)}, {int(v) + 40 * k}]; window.__depth = [];")
+            time.sleep(0.5)
+            baseline = wait_for(lambda: page.evaluate("window.__depth.length && window.__depth.at(-1)[2]"))
+            page.evaluate("window.__clicked = null; document.querySelector('canvas').addEventListener("
+                          "'pointerdown', () => { window.__clicked = performance.now(); }, {once: true});")
+            count = len(mirror.markers) + k + 1
+            click_pixel(page, server_tab, (u, v + 40 * k), lambda: len(demo.editor.mirror(1).markers) == count)
+            drawn = wait_for(lambda: page.evaluate(
+                """(base) => { const c = window.__clicked; if (c === null) return null;
+                   for (const [arrived, shown, patch] of window.__depth) {
+                     if (arrived < c || patch === null) continue;
+                     let diff = 0; for (let i = 0; i < patch.length; i++) diff += Math.abs(patch[i] - base[i]);
+                     if (diff / patch.length > 25) return shown - c; }
+                   return null; }""", baseline), 10, "the marker drawn in the page")
+            latencies.append(drawn)
+        assert max(latencies) < 200, latencies
+        page.close()
+    finally:
+        demo.stop()

@@ -3,11 +3,7 @@ import numpy as np
 import pytest
 from helpers import plane_depth
 
-from mirrorcore.calibration import (
-    calibrate_from_markers,
-    calibrate_from_pairs,
-    calibrate_from_region,
-)
+from mirrorcore.calibration import calibrate_from_markers, calibrate_from_pairs, calibrate_from_region
 from mirrorcore.errors import CalibrationError
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane

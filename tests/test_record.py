@@ -11,14 +11,7 @@ from mirrorcore.session import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import (
-    Frame,
-    Recorder,
-    SessionSource,
-    SimulatedSource,
-    open_source,
-    record,
-)
+from mirrorcore.sources import Frame, Recorder, SessionSource, SimulatedSource, open_source, record
 
 
 @pytest.fixture(scope="module")

@@ -9,12 +9,7 @@ from mirrorcore.fitting import fit_sphere
 from mirrorcore.pipeline import object_cloud
 from mirrorcore.rig import Rig
 from mirrorcore.session import load_session
-from mirrorcore.sources import (
-    SessionSource,
-    SimulatedSource,
-    open_source,
-    session_scene,
-)
+from mirrorcore.sources import SessionSource, SimulatedSource, open_source, session_scene
 
 DEMO = Path(__file__).resolve().parents[1] / "sessions" / "demo"
 

@@ -7,12 +7,7 @@ import json
 import numpy as np
 
 from mirrorcore.errors import FileFormatError
-from mirrorcore.fitting import (
-    DEFAULT_RADIUS_RANGE,
-    DEFAULT_THRESHOLD,
-    fit_cylinder,
-    fit_sphere,
-)
+from mirrorcore.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
 from mirrorcore.palette import source_name
 from mirrorcore.ply import read_ply
 from mirrorcore.shapes import FitErrors, ShapeFit

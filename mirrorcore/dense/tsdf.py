@@ -22,14 +22,7 @@ import numpy as np
 from ..errors import MirrorscanError
 from ..rig import Rig
 from .mesh import Mesh, marching_cubes
-from .views import (
-    View,
-    direct_pixels,
-    in_front_of_mirrors,
-    rig_views,
-    sample,
-    transform,
-)
+from .views import View, direct_pixels, in_front_of_mirrors, rig_views, sample, transform
 from .volume import NO_SOURCE, Progress, Volume, run_slabs
 
 

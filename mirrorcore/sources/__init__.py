@@ -15,22 +15,8 @@ from urllib.parse import parse_qsl
 from ..errors import MirrorscanError
 from ..session import SESSION_FILE, Session, load_session
 from .base import DepthSource, Frame, require
-from .devices import (
-    FREENECT_INSTALL,
-    OPENNI2_INSTALL,
-    FreenectSource,
-    OpenNI2Source,
-    initialise_openni2,
-)
-from .files import (
-    ImageSequenceSource,
-    SessionSource,
-    StackSource,
-    load_camera,
-    open_npz,
-    open_png_folder,
-    open_tum,
-)
+from .devices import FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource, OpenNI2Source, initialise_openni2
+from .files import ImageSequenceSource, SessionSource, StackSource, load_camera, open_npz, open_png_folder, open_tum
 from .realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
 from .record import Recorder, record
 from .sim import SimulatedSource, open_simulated, session_scene

@@ -1,0 +1,130 @@
+"""Driving the browser tool in headless Chromium as a technician would: open a tab at a window size, find the app's
+Tab for it, look at the depth frame, click pixels of it, press buttons, pick tabs of the side panel, and read in the
+page when the depth frame it shows changed (a hook on the page's websocket worker timestamps every depth-frame image
+and decodes it, so a test can tell when a click was drawn, measured in the page)."""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import viser.transforms as tf
+
+from bench.tabs import wait_for
+
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
+ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
+        "--no-first-run"]
+CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
+
+# Every depth-frame image the page receives: [arrival ms, ms when the next animation frame ran, the RGBA of the
+# 21x21 pixels around window.__probe (u, v) in the image] (the image is decoded in the page).
+DEPTH_HOOK = """
+window.__depth = [];
+window.__probe = null;
+const Base = window.Worker;
+window.Worker = class extends Base {
+  constructor(...args) {
+    super(...args);
+    this.addEventListener("message", (event) => {
+      const data = event.data;
+      if (!data || data.type !== "message_batch") return;
+      for (const m of data.messages) {
+        if (m.type !== "SceneNodeUpdateMessage" || m.name !== "/depth_frame" || !m.updates._data) continue;
+        const arrived = performance.now();
+        const bytes = new Uint8Array(m.updates._data);
+        const probe = window.__probe;
+        createImageBitmap(new Blob([bytes], {type: "image/jpeg"})).then((bitmap) => {
+          let patch = null;
+          if (probe) {
+            const canvas = new OffscreenCanvas(21, 21);
+            const context = canvas.getContext("2d");
+            context.drawImage(bitmap, probe[0] - 10, probe[1] - 10, 21, 21, 0, 0, 21, 21);
+            patch = Array.from(context.getImageData(0, 0, 21, 21).data);
+          }
+          requestAnimationFrame(() => window.__depth.push([arrived, performance.now(), patch]));
+        });
+      }
+    });
+  }
+};
+"""
+
+
+def open_tab(browser, app, width: int, height: int):
+    """A new page at width x height on the app, with the depth hook; returns (page, the app's Tab for it)."""
+    before = set(app.tabs)
+    page = browser.new_page(viewport={"width": width, "height": height})
+    page.add_init_script(DEPTH_HOOK)
+    page.goto(f"http://127.0.0.1:{app.port}/")
+    new = wait_for(lambda: set(app.tabs) - before, 60, "the tab to connect")
+    tab = app.tabs[new.pop()]
+    wait_for(lambda: camera_known(tab.client), 60, "the tab's camera")
+    return page, tab
+
+
+def camera_known(client) -> bool:
+    try:
+        client.camera.wxyz
+        client.camera.image_width
+        return True
+    except AssertionError:     # viser asserts until the browser has reported its camera
+        return False
+
+
+def button(page, name: str) -> None:
+    page.get_by_role("button", name=name, exact=True).click()
+    time.sleep(0.3)
+
+
+def step(page, title: str) -> None:
+    """Open a step of the side panel (a tab of its tab group)."""
+    page.get_by_role("tab", name=title, exact=True).click()
+    time.sleep(0.3)
+
+
+def look_at_the_depth_frame(page, tab) -> None:
+    """Press 'Depth frame' and wait until the browser reports the view back, steadily (a late report of the
+    previous view could otherwise overwrite the server's copy of the camera)."""
+    button(page, "Depth frame")
+    wait_for(lambda: tab.state.view == "depth", 30, "the depth view")
+    for _ in range(10):
+        aspect = tab.client.camera.image_width / tab.client.camera.image_height
+        position = tab.screen.view_pose(aspect)[0]
+        time.sleep(1.0)
+        if np.allclose(tab.client.camera.position, position, atol=1e-3):
+            time.sleep(0.5)
+            if np.allclose(tab.client.camera.position, position, atol=1e-3):
+                return
+        tab.screen.look_at()
+    raise AssertionError(f"the tab's camera stays at {tab.client.camera.position}, not {position}")
+
+
+def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
+    """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes, vertical fov)."""
+    camera = client.camera
+    R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
+    p = R.T @ (np.asarray(world) - np.asarray(camera.position))
+    box = page.locator("canvas").first.bounding_box()
+    f = (box["height"] / 2) / np.tan(camera.fov / 2)
+    return box["x"] + box["width"] / 2 + f * p[0] / p[2], box["y"] + box["height"] / 2 + f * p[1] / p[2]
+
+
+def click_pixel(page, tab, uv, registered=None, tries: int = 3) -> None:
+    """Click pixel uv of the tab's depth frame, until registered() holds when given (a click can be lost on a
+    loaded machine)."""
+    for _ in range(tries):
+        page.mouse.click(*canvas_point(page, tab.client, tab.screen.world_of_pixel(*uv)))
+        time.sleep(CLICK_PAUSE)
+        if registered is None:
+            return
+        try:
+            wait_for(registered, 10, f"the click at pixel {uv}")
+            return
+        except AssertionError:
+            continue
+    raise AssertionError(f"the click at pixel {uv} never reached the server")
+
+
+def text(page) -> str:
+    return page.locator("body").inner_text()
