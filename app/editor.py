@@ -141,10 +141,7 @@ class SessionEditor:
 
     @_edits
     def clear_markers(self, mirror_id: int) -> None:
-        mirror = self.mirror(mirror_id)
-        if not mirror.markers:
-            raise MirrorscanError(f"{mirror.name}: no markers to clear")
-        self._set_mirror(mirror_id, f"clear the markers of {mirror.name}", markers=())
+        self._clear(mirror_id, "markers")
 
     # ------------------------------------------------------------------ boundaries
     @_edits
@@ -173,10 +170,7 @@ class SessionEditor:
 
     @_edits
     def clear_boundary(self, mirror_id: int) -> None:
-        mirror = self.mirror(mirror_id)
-        if not mirror.boundary:
-            raise MirrorscanError(f"{mirror.name}: no boundary to clear")
-        self._set_mirror(mirror_id, f"clear the boundary of {mirror.name}", boundary=())
+        self._clear(mirror_id, "boundary")
 
     # ------------------------------------------------------------------ calibration, selection, background
     @_edits
@@ -297,6 +291,13 @@ class SessionEditor:
     def _vertex(mirror: SessionMirror, vertex: int) -> None:
         if not 0 <= vertex < len(mirror.boundary):
             raise MirrorscanError(f"{mirror.name}: no corner {vertex + 1}")
+
+    def _clear(self, mirror_id: int, field: str) -> None:
+        """Empty a mirror's markers or boundary (refused when there is nothing to clear)."""
+        mirror = self.mirror(mirror_id)
+        if not getattr(mirror, field):
+            raise MirrorscanError(f"{mirror.name}: no {field} to clear")
+        self._set_mirror(mirror_id, f"clear the {field} of {mirror.name}", **{field: ()})
 
     def _set_mirror(self, mirror_id: int, label: str, **changes) -> None:
         index = self._index(mirror_id)

@@ -23,7 +23,7 @@ from .recording import LiveTap
 
 if TYPE_CHECKING:
     from .live import LiveLoop
-    from .state import SharedState
+    from .state import Snapshot
 
 DENSE, BACKGROUND, RECORD = "dense", "background", "record"
 
@@ -48,8 +48,8 @@ class DenseResult:
 class Jobs:
     """The shared jobs of one app. Starting a job while one of its kind runs is refused by name."""
 
-    def __init__(self, loop: "LiveLoop", state: "SharedState", bus: EventBus):
-        self.loop, self.state, self.bus = loop, state, bus
+    def __init__(self, loop: "LiveLoop", snapshot: Callable[[], "Snapshot"], bus: EventBus):
+        self.loop, self.snapshot, self.bus = loop, snapshot, bus
         self.dense_result: DenseResult | None = None
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
@@ -92,7 +92,7 @@ class Jobs:
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet")
-        snapshot = self.state.current
+        snapshot = self.snapshot()
         return self._start(DENSE, lambda cancel: self._dense(snapshot, depths[-frames:], method, options, cancel),
                            "a dense reconstruction is already running; cancel it first")
 

@@ -18,7 +18,7 @@ from mirrorcore.pipeline import object_cloud
 from mirrorcore.sources import DepthSource, Frame
 
 from .overlays import depth_layer, depth_range
-from .state import SharedState, Snapshot
+from .state import Snapshot
 from .stream import SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
@@ -83,15 +83,16 @@ class RateMeter:
 
 
 class LiveLoop:
-    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate.
+    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate, with the
+    snapshot that snapshot() gives at each frame.
 
     on_frame(LiveFrame) is called on the loop's thread; an exception there or in the source is passed to on_error and
     the loop goes on with the next frame after a short pause (a camera may come back).
     """
 
-    def __init__(self, source: DepthSource, state: SharedState, on_frame: Callable[[LiveFrame], None],
+    def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot], on_frame: Callable[[LiveFrame], None],
                  on_error: Callable[[Exception], None] = lambda exc: None):
-        self.source, self.state, self.on_frame, self.on_error = source, state, on_frame, on_error
+        self.source, self.snapshot, self.on_frame, self.on_error = source, snapshot, on_frame, on_error
         self.rate = RateMeter()
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
@@ -145,7 +146,7 @@ class LiveLoop:
         with self._turn:
             source_frame = self._read(self.index)
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
-            frame = process_frame(self.state.current, self.index, source_frame)
+            frame = process_frame(self.snapshot(), self.index, source_frame)
             self.index += 1
         with self._recent_lock:
             self._recent.append(frame.depth)

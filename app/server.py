@@ -22,7 +22,7 @@ from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
 from .jobs import Jobs
 from .live import RECENT_FRAMES, LiveFrame, LiveLoop
-from .state import SharedState, Snapshot
+from .state import Snapshot
 from .tab import Tab
 
 log = logging.getLogger("mirrorscan")
@@ -49,11 +49,11 @@ class MirrorscanApp:
         self.editor = SessionEditor(session, autosave)
         self._background = (session.background, session.read_background() if session.background
                             else source.background())
-        self.state = SharedState(Snapshot.build(session, self._background[1]))
+        self._snapshot = Snapshot.build(session, self._background[1])
         self.last_frame: LiveFrame | None = None
         self._last_error = ""
-        self.loop = LiveLoop(source, self.state, self._on_frame, self._on_error)
-        self.jobs = Jobs(self.loop, self.state, self.bus)
+        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error)
+        self.jobs = Jobs(self.loop, lambda: self._snapshot, self.bus)
         self.tabs: dict[int, Tab] = {}
         self._tabs_lock = threading.Lock()
         self._session_lock = threading.Lock()      # snapshots are rebuilt one at a time, in order
@@ -104,7 +104,8 @@ class MirrorscanApp:
     # ------------------------------------------------------------------ the Services protocol
     @property
     def snapshot(self) -> Snapshot:
-        return self.state.current
+        """The current state (replaced whole on every change of the session or its background)."""
+        return self._snapshot
 
     @property
     def source(self) -> DepthSource:
@@ -183,7 +184,7 @@ class MirrorscanApp:
             except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state
                 self.notify(None, "Session not applied", str(exc))
                 return
-            self.state.replace(snapshot)
+            self._snapshot = snapshot
         self.bus.publish(SessionChanged(snapshot))
 
     def _on_frame(self, frame: LiveFrame) -> None:

@@ -1,8 +1,8 @@
-"""The server's shared state: the session and what is derived from it (rig, background, the grade of every marker),
-swapped whole under a lock so that the live loop and the browser callbacks always see one consistent snapshot."""
+"""The server's shared state: the session and what is derived from it (rig, background, the grade of every marker)
+as one immutable Snapshot, replaced whole (one reference, assigned atomically), so that the live loop and the browser
+callbacks always see one consistent state."""
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,20 +41,3 @@ class Snapshot:
                          for m in session.mirrors if m.plane is not None and m.markers}
         backdrop = None if background is None else Backdrop.of(background, session.selection)
         return cls(session, rig, background, backdrop, residuals)
-
-
-class SharedState:
-    """The current Snapshot, replaced atomically; readers take `current` and keep using it for a whole frame."""
-
-    def __init__(self, snapshot: Snapshot):
-        self._lock = threading.Lock()
-        self._snapshot = snapshot
-
-    @property
-    def current(self) -> Snapshot:
-        with self._lock:
-            return self._snapshot
-
-    def replace(self, snapshot: Snapshot) -> None:
-        with self._lock:
-            self._snapshot = snapshot

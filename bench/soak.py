@@ -31,8 +31,8 @@ SAMPLE_EVERY_S = 1.0   # RSS sampled this often
 LATE_CLIENT_S = 3.0    # the tab opened at the end listens this long
 @dataclass
 class SoakReport:
-    """What a soak run measured. rss_* in MB of the whole process (server, live loop and the simulated tabs);
-    rss_growth_mb = end - baseline after the warm-up; fps = frames / seconds; messages: per tab, in order; max_gap_s:
+    """What a soak run measured. rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB,
+    at the 'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps = frames / seconds; messages: per tab, in order; max_gap_s:
     the longest silence any tab saw; edits / edits_on_disk: session renames made / found in session.json at the end;
     late_messages: what a tab opened at the end received (the whole current state); errors: live loop errors."""
 
@@ -40,11 +40,7 @@ class SoakReport:
     clients: int
     frames: int = 0
     fps: float = 0.0
-    rss_start_mb: float = 0.0
-    rss_warm_mb: float = 0.0
-    rss_end_mb: float = 0.0
-    rss_max_mb: float = 0.0
-    rss_growth_mb: float = 0.0
+    rss_mb: dict[str, float] = field(default_factory=dict)
     messages: list[int] = field(default_factory=list)
     max_gap_s: float = 0.0
     edits: int = 0
@@ -90,7 +86,7 @@ async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
 def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
     """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`, renaming a mirror every
     EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder by default). Stops by itself."""
-    report = SoakReport(seconds, clients, rss_start_mb=rss_mb())
+    report = SoakReport(seconds, clients, rss_mb={"start": rss_mb()})
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(folder or tmp) / "soak"
         source = demo_source()
@@ -109,8 +105,8 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
             next_edit, rss = start + EDIT_EVERY_S, []
             while (now := time.monotonic()) < until:
                 rss.append(rss_mb())
-                if not report.rss_warm_mb and now - start >= WARM_UP * seconds:
-                    report.rss_warm_mb = rss[-1]
+                if "warm" not in report.rss_mb and now - start >= WARM_UP * seconds:
+                    report.rss_mb["warm"] = rss[-1]
                 if now >= next_edit:
                     report.edits += 1
                     app.editor.rename_mirror(1, f"mirror 1 edit {report.edits}")
@@ -122,8 +118,10 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
             late = asyncio.run(_tabs(url, 1, time.monotonic() + LATE_CLIENT_S))
         finally:
             app.stop()
-        report.rss_end_mb, report.rss_max_mb = rss_mb(), max(rss + [rss_mb()])
-        report.rss_growth_mb = report.rss_end_mb - (report.rss_warm_mb or report.rss_start_mb)
+        memory = report.rss_mb
+        memory["end"] = rss_mb()
+        memory["max"] = max(rss + [memory["end"]])
+        memory["growth"] = memory["end"] - memory.get("warm", memory["start"])
         report.messages = [count for count, _ in tabs]
         report.max_gap_s = max((gap for _, gap in tabs), default=float("inf"))
         report.late_messages = late[0][0]

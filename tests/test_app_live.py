@@ -57,27 +57,30 @@ def test_live_frames_reach_the_tab_every_point_within_a_third_of_a_millimetre(de
     assert tab.screen.handle.image.shape == (480, 640, 3)
 
 
-def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo):
+def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypatch):
     app, headless = demo
     tab = headless.tab
+    sent = []
+    show_cloud = tab.scene.show_cloud
+    monkeypatch.setattr(tab.scene, "show_cloud", lambda *args: (sent.append(len(args[0])), show_cloud(*args)))
 
     def bytes_per_frame(n: int = 6) -> float:
         app.loop.run_once()
         time.sleep(0.3)
-        start = headless.bytes
+        start, calls = headless.bytes, len(sent)
         for _ in range(n):
             app.loop.run_once()
         time.sleep(0.5)                                     # let the messages reach the tab
-        return (headless.bytes - start) / n
-    in_3d = bytes_per_frame()
+        return (headless.bytes - start) / n, len(sent) - calls
+    in_3d, clouds_3d = bytes_per_frame()
     tab.look("depth")
-    looking_at_depth = bytes_per_frame()
+    _, clouds_depth = bytes_per_frame()
     tab.look("3d")
     tab.hidden = True
-    hidden = bytes_per_frame()
+    hidden, clouds_hidden = bytes_per_frame()
     tab.hidden = False
-    assert in_3d > 80_000                                   # half of ~41k points as float16 offsets: ~125 kB
-    assert looking_at_depth < 0.3 * in_3d and hidden < 2_000, (in_3d, looking_at_depth, hidden)
+    assert in_3d > 80_000 and clouds_3d == 6                # half of ~41k points as float16 offsets: ~125 kB
+    assert clouds_depth == clouds_hidden == 0 and hidden < 2_000, (in_3d, hidden)
 
 
 def test_loop_thread_pause_and_step(demo):

@@ -172,4 +172,4 @@ def test_short_soak_with_four_tabs():
     assert report.errors == [] and report.frames > 0
     assert min(report.messages) > 0 and report.late_messages > 0
     assert report.edits >= 3 and report.edits_on_disk
-    assert report.rss_growth_mb < 60, report
+    assert report.rss_mb["growth"] < 60, report

@@ -175,30 +175,22 @@ def test_cylinder_exact_partial_views_any_orientation_recovered(seed, mirrors):
 SIGMA, OUTLIERS, THRESHOLD, TOL = 0.002, 0.2, 0.006, 0.002
 
 
+@pytest.mark.parametrize("kind", ["sphere", "cylinder"])
 @pytest.mark.parametrize("mirrors", [0, 2])
 @pytest.mark.parametrize("seed", range(3))
-def test_sphere_with_noise_and_outliers(seed, mirrors):
-    rng = np.random.default_rng(100 + seed)
-    truth, points, sources = _sphere_scan(rng, mirrors, n=4000)
+def test_shapes_with_noise_and_outliers(kind, seed, mirrors):
+    rng = np.random.default_rng((100 if kind == "sphere" else 200) + seed)
+    scan, fitter = (_sphere_scan, fit_sphere) if kind == "sphere" else (_cylinder_scan, fit_cylinder)
+    truth, points, sources = scan(rng, mirrors, n=4000)
     points, sources = _corrupt(rng, points, sources, SIGMA, OUTLIERS)
-    fit = fit_sphere(points, np.random.default_rng(seed), threshold=THRESHOLD, sources=sources)
-    assert np.linalg.norm(np.array(fit.shape.centre) - truth.centre) < 2 * TOL
-    assert fit.shape.radius == pytest.approx(truth.radius, abs=TOL)
+    fit = fitter(points, np.random.default_rng(seed), threshold=THRESHOLD, sources=sources)
+    if kind == "sphere":
+        assert np.linalg.norm(np.array(fit.shape.centre) - truth.centre) < 2 * TOL
+        assert fit.shape.radius == pytest.approx(truth.radius, abs=TOL)
+    else:
+        _assert_cylinder_close(fit.shape, truth, TOL)
     assert 0.7 * SIGMA < fit.inlier_errors.rmse < 1.1 * SIGMA
     assert fit.errors.rmse > 3 * fit.inlier_errors.rmse                 # all points: the outliers count
-    assert abs(fit.inlier_errors.mean_error) < 1e-9
-
-
-@pytest.mark.parametrize("mirrors", [0, 2])
-@pytest.mark.parametrize("seed", range(3))
-def test_cylinder_with_noise_and_outliers(seed, mirrors):
-    rng = np.random.default_rng(200 + seed)
-    truth, points, sources = _cylinder_scan(rng, mirrors, n=4000)
-    points, sources = _corrupt(rng, points, sources, SIGMA, OUTLIERS)
-    fit = fit_cylinder(points, np.random.default_rng(seed), threshold=THRESHOLD, sources=sources)
-    _assert_cylinder_close(fit.shape, truth, TOL)
-    assert 0.7 * SIGMA < fit.inlier_errors.rmse < 1.1 * SIGMA
-    assert fit.errors.rmse > 3 * fit.inlier_errors.rmse
     assert abs(fit.inlier_errors.mean_error) < 1e-9
 
 

@@ -168,12 +168,8 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _delete_corner(self) -> None:
-        state = self.tab.state
-        if state.picked_corner is None:
-            raise MirrorscanError("pick a corner first: in Boundary mode, click a corner of the closed boundary")
-        corner, state.picked_corner = state.picked_corner, None
-        self.services.editor.delete_vertex(self._id(), corner)
-        self.tab.changed()
+        self._delete_picked("picked_corner", self.services.editor.delete_vertex,
+                            "pick a corner first: in Boundary mode, click a corner of the closed boundary")
 
     def _start_move(self) -> None:
         if self.tab.state.picked_marker is None:
@@ -182,11 +178,16 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _delete_marker(self) -> None:
-        state = self.tab.state
-        if state.picked_marker is None:
-            raise MirrorscanError("pick a marker first: in Markers mode, click it")
-        marker, state.picked_marker = state.picked_marker, None
-        self.services.editor.delete_marker(self._id(), marker)
+        self._delete_picked("picked_marker", self.services.editor.delete_marker,
+                            "pick a marker first: in Markers mode, click it")
+
+    def _delete_picked(self, attribute: str, delete, refusal: str) -> None:
+        """Delete the picked corner or marker (the tab state's `attribute`) of the selected mirror."""
+        picked = getattr(self.tab.state, attribute)
+        if picked is None:
+            raise MirrorscanError(refusal)
+        setattr(self.tab.state, attribute, None)
+        delete(self._id(), picked)
         self.tab.changed()
 
     def _travel(self, move) -> None:
