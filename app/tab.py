@@ -61,9 +61,10 @@ class Tab:
                 self.panels.append(panel(self))
         self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
                              services.bus.subscribe(SessionChanged, lambda e: self._on_session(e.snapshot)),
-                             services.bus.subscribe(DenseChanged, lambda e: self.scene.show_dense(e.result, True))]
+                             services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result))]
         self._on_session(snapshot)
-        self.scene.show_dense(services.jobs.dense_result, True)
+        self.dense_visible, self.dense_beside = True, True
+        self.show_dense(services.jobs.dense_result)
         self._framed = False
         client.camera.on_update(self._first_view)
         self._watch_visibility()
@@ -105,7 +106,7 @@ class Tab:
         self._stale = True
         self.scene.show_clouds(not depth)
         self.scene.show_labels(not depth)
-        self.scene.show_dense_layer(not depth)
+        self.scene.show_dense_layer(self.dense_visible and not depth)
         if depth:
             self.screen.look_at()
             self._send_screen(force=True)
@@ -113,6 +114,10 @@ class Tab:
             self.look_home()
         for listener in list(self._state_listeners):
             listener(self.state)
+
+    def show_dense(self, result) -> None:
+        """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""
+        self.scene.show_dense(result, self.dense_visible and self.state.view == "3d", self.dense_beside)
 
     # ------------------------------------------------------------------ views
     def look_home(self) -> None:

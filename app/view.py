@@ -44,6 +44,13 @@ def scene_points(rig: Rig) -> np.ndarray:
     return np.concatenate(points)
 
 
+def beside_offset(result: DenseResult) -> np.ndarray:
+    """(3,) metres: where the dense result is drawn beside the live cloud, one box width to the left (-x) and one box
+    depth towards the camera (-z), with 10 cm between."""
+    size = np.asarray(result.high) - np.asarray(result.low)
+    return np.array([-(size[0] + 0.1), 0.0, -(size[2] + 0.1)])
+
+
 def home_pose(points: np.ndarray, fov: float, aspect: float) -> tuple[np.ndarray, np.ndarray]:
     """(camera position, look-at point) in metres that frame `points` (k, 3) for a view of vertical field of view
     `fov` (radians) and `aspect` (width / height), looking from HOME_DIRECTION."""
@@ -138,27 +145,29 @@ class TabScene:
         for handle in self._clouds.values():
             handle.point_size = size
 
-    def show_dense(self, result: DenseResult | None, visible: bool) -> None:
-        """The dense result at its place, in its own colour, with a label and its box; or nothing."""
+    def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
+        """The dense result in its own colour, with a label: at its place, or beside the live cloud (towards the
+        camera and to the left, clear of the mirrors); or nothing."""
         for handle in self._dense:
             handle.remove()
         self._dense = []
         if result is None:
             return
+        shift = beside_offset(result) if beside else np.zeros(3)
+        frame = self.scene.add_frame("/dense", show_axes=False, position=tuple(shift), visible=visible)
         if result.faces is None:
             node = self.scene.add_point_cloud("/dense/result", result.vertices, DENSE_COLOUR, point_size=result.voxel,
-                                              precision="float32", visible=visible)
+                                              precision="float32")
         else:
             node = self.scene.add_mesh_simple("/dense/result", result.vertices.astype(np.float32),
-                                              result.faces.astype(np.uint32), color=DENSE_COLOUR, visible=visible)
+                                              result.faces.astype(np.uint32), color=DENSE_COLOUR)
         top = np.array([(result.low[0] + result.high[0]) / 2, result.low[1], (result.low[2] + result.high[2]) / 2])
-        self._dense = [node, self.scene.add_label("/dense/label", f"dense: {result.summary}", position=top,
-                                                  visible=visible)]
+        self._dense = [frame, node, self.scene.add_label("/dense/label", f"dense: {result.summary}", position=top)]
 
     def show_dense_layer(self, visible: bool) -> None:
-        """Show or hide the dense result, its label and its box."""
-        for handle in self._dense + ([self._box] if self._box is not None else []):
-            handle.visible = visible
+        """Show or hide the dense result (and its label)."""
+        if self._dense:
+            self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
         """The dense reconstruction's box as a wireframe (or none)."""
@@ -168,5 +177,5 @@ class TabScene:
         if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
             return
         low, high = np.asarray(low, float), np.asarray(high, float)
-        self._box = self.scene.add_box("/dense/box", color=BOX_COLOUR, dimensions=tuple(high - low),
+        self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
                                        position=tuple((low + high) / 2), wireframe=True)

@@ -12,7 +12,7 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
 
 from ..context import TabContext
-from ..events import DenseChanged, JobProgress
+from ..events import DenseChanged, FrameReady, JobProgress
 from ..exports import export_ply
 from ..jobs import DENSE
 
@@ -34,6 +34,7 @@ class DensePanel:
         self.progress = gui.add_progress_bar(0.0, visible=False)
         self.status = gui.add_markdown("")
         self.show = gui.add_checkbox("Show the dense result", initial_value=True)
+        self.beside = gui.add_checkbox("Beside the live cloud (else in place)", initial_value=True)
         self.export = gui.add_button("Export the dense result as PLY", disabled=True)
         with gui.add_folder("Box (m, camera frame)", expand_by_default=False):
             self.margin = gui.add_slider("Margin around the cloud (mm)", min=0.0, max=200.0, step=5.0,
@@ -47,10 +48,12 @@ class DensePanel:
         self.high.on_update(lambda _: self._show_box())
         self.run.on_click(lambda _: act(self.start))
         self.cancel.on_click(lambda _: self.services.jobs.cancel(DENSE))
-        self.show.on_update(lambda _: tab.scene.show_dense_layer(bool(self.show.value)))
+        self.show.on_update(lambda _: self._layer())
+        self.beside.on_update(lambda _: self._layer())
         self.export.on_click(lambda _: act(self.export_result))
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
-                             self.services.bus.subscribe(DenseChanged, self._on_result)]
+                             self.services.bus.subscribe(DenseChanged, self._on_result),
+                             self.services.bus.subscribe(FrameReady, self._first_box)]
         if self.services.jobs.dense_result is not None:
             self._on_result(DenseChanged(self.services.jobs.dense_result))
 
@@ -58,6 +61,16 @@ class DensePanel:
         """Stop listening to the app (the tab closed)."""
         for unsubscribe in self._unsubscribe:
             unsubscribe()
+
+    def _first_box(self, event: FrameReady) -> None:
+        """Until a box is set, put it around the live cloud (the fields then show the real box)."""
+        low, high = self._box()
+        if not np.all(high > low) and len(event.frame.cloud):
+            self.box_around_cloud()
+
+    def _layer(self) -> None:
+        self.tab.dense_visible, self.tab.dense_beside = bool(self.show.value), bool(self.beside.value)
+        self.tab.show_dense(self.services.jobs.dense_result)
 
     def _box(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.low.value, float), np.array(self.high.value, float)

@@ -197,6 +197,7 @@ class MirrorsPanel:
         label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
         move(scope if label is not None else SESSION_SCOPE)
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
+        self.result.content = ""                   # the last fit's report no longer describes the mirror
         self.tab.changed()
 
     def _confirm_remove(self) -> None:
