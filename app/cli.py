@@ -1,4 +1,5 @@
-"""The `mirrorscan` command line (docs/DESIGN.md's script contract): exit 0 on success, 2 with a one-line error on bad input."""
+"""The `mirrorscan` command line (the script contract of docs/DESIGN.md): exit 0 on success, 2 with a one-line error
+on bad input."""
 from __future__ import annotations
 
 import argparse

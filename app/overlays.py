@@ -85,7 +85,8 @@ class Overlay:
         self._labels = []
         ordered = sorted(mirrors, key=lambda m: m.selected)
         for mirror in ordered:
-            self._polygon(mirror.outline, mirror.colour, mirror.closed, mirror.picked_corner, 3 if mirror.selected else 2)
+            width = 3 if mirror.selected else 2
+            self._polygon(mirror.outline, mirror.colour, mirror.closed, mirror.picked_corner, width)
         if region is not None:
             self._polygon(region[0], WHITE, region[1], None, 2)
         for mirror in ordered:                       # markers above every outline, labels last of all

@@ -1,4 +1,5 @@
-"""`mirrorscan fit {sphere,cylinder} CLOUD.ply [--json]`: RANSAC fit of a cloud, radius, RMSE and mean error (paper sec. 5)."""
+"""`mirrorscan fit {sphere,cylinder} CLOUD.ply [--json]`: RANSAC fit of a cloud, radius, RMSE and mean error (paper
+section 5)."""
 from __future__ import annotations
 
 import argparse
@@ -59,5 +60,5 @@ def summary(fit: ShapeFit, name: str) -> str:
 
 
 def _figures(errors: FitErrors) -> str:
-    return (f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  mean error {1e3 * errors.mean_error:+7.2f} mm"
-            f"  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm")
+    return (f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  "
+            f"mean error {1e3 * errors.mean_error:+7.2f} mm  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm")

@@ -36,7 +36,8 @@ def fit_report(fit: ShapeFit, names: list[str]) -> str:
              f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "
              f"{e.mean_abs_error * 1e3:.2f} mm |"]
     for source, s in fit.per_source.items():
-        lines.append(f"| {names[source] if source < len(names) else source_name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
+        name = names[source] if source < len(names) else source_name(source)
+        lines.append(f"| {name} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
                      f"{s.mean_abs_error * 1e3:.2f} mm |")
     return "\n".join(lines)
 
