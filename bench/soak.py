@@ -33,8 +33,9 @@ LATE_CLIENT_S = 3.0    # the tab opened at the end listens this long
 class SoakReport:
     """What a soak run measured. rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB,
     at the 'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps = frames /
-    seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits / edits_on_disk: session renames made / found in session.json at the end;
-    late_messages: what a tab opened at the end received (the whole current state); errors: live loop errors."""
+    seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits / edits_on_disk: session
+    renames made / found in session.json at the end; late_messages: what a tab opened at the end received (the whole
+    current state); errors: live loop errors."""
 
     seconds: float
     clients: int
