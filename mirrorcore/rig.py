@@ -10,9 +10,7 @@ from .errors import MirrorscanError
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import polygon_mask, validate_polygon
-from .session import Session
-
-MAX_MIRRORS = 32  # one bit per mirror in Rig.inside_bits
+from .session import MAX_MIRRORS, Session    # MAX_MIRRORS: one bit per mirror in Rig.inside_bits
 
 
 @dataclass(frozen=True)

@@ -62,7 +62,7 @@ class Intrinsics:
             raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
         try:
             values = {k: float(data[k]) for k in _FIELDS if k in data}
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
         if not (values["width"].is_integer() and values["height"].is_integer()):
             raise FileFormatError(f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
