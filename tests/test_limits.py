@@ -262,3 +262,13 @@ def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
     again = load_session(tmp_path)
     assert len(again.mirrors) == MAX_MIRRORS and Rig.from_session(again).mirrors
 
+
+
+def test_the_command_line_takes_the_budget_and_refuses_by_it(tmp_path, capsys, budget):
+    from app.cli import main
+    out = tmp_path / "mesh.ply"
+    assert main(["--memory", "64M", "reconstruct", DEMO, "-o", str(out), "--method", "tsdf", "--voxel", "0.001"]) == 2
+    err = capsys.readouterr().err
+    assert "memory budget of 64.0 MiB" in err and "--memory" in err and not out.exists()
+    assert main(["--memory", "lots", "sources"]) == 2
+    assert "--memory: 'lots' is not a size" in capsys.readouterr().err

@@ -50,7 +50,7 @@ def test_record_command_on_the_live_simulator(rig, tmp_path, capsys):
     for i, frame in enumerate(SessionSource(session)):                       # 1 mm units on disk
         assert encode_depth_png(frame.depth, 0.001) == encode_depth_png(live.read(i).depth, 0.001)
     assert main(["record", "sim", str(tmp_path / "live"), "--frames", "1"]) == 2
-    assert "exists and is not an empty folder" in capsys.readouterr().err
+    assert "live: is a session folder" in capsys.readouterr().err
     assert main(["record", "sim", str(tmp_path / "x"), "--seconds", "0"]) == 2
     assert not (tmp_path / "x").exists()
 

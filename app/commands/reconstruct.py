@@ -19,7 +19,7 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
-from mirrorcore.session import Session, load_session
+from mirrorcore.session import Session, check_output, load_session
 
 
 def register(sub) -> None:
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     rig = calibrated_rig(session)
     selection = session.selection
     background = session.read_background()
-    out = Path(args.output)
+    out = check_output(args.output, (args.session,))   # never over a session's files or its own input
     if args.frame != "all":
         try:
             index = int(args.frame)

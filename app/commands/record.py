@@ -7,6 +7,7 @@ import sys
 from tqdm import tqdm
 
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.session import check_output
 from mirrorcore.sources import open_source, record
 
 
@@ -27,6 +28,7 @@ def run(args: argparse.Namespace) -> int:
     for name in ("seconds", "frames"):
         if getattr(args, name) is not None and not getattr(args, name) > 0:
             raise MirrorscanError(f"--{name}: must be positive, got {getattr(args, name):g}")
+    check_output(args.session)
     with open_source(args.source) as source:
         if source.live and args.seconds is None and args.frames is None:
             print(f"recording {source.name} until Ctrl-C", file=sys.stderr)
