@@ -1,5 +1,5 @@
 """Recording sources into session folders: record then replay gives the same frames bit for bit; Ctrl-C and cancel
-keep a valid session; errors leave nothing; the `record` and `sources` commands."""
+keep a valid session, and so does an error after the first frame; the `record` and `sources` commands."""
 
 import numpy as np
 import pytest
@@ -68,12 +68,15 @@ class _Interrupted(SimulatedSource):
         return super().read(i)
 
 
-def test_ctrl_c_keeps_a_valid_session_and_errors_leave_nothing(rig, tmp_path):
+def test_ctrl_c_and_errors_keep_a_valid_session_of_what_was_recorded(rig, tmp_path):
     with pytest.raises(KeyboardInterrupt):
         record(_Interrupted(rig, 2), tmp_path / "kept", seconds=10)
     assert len(load_session(tmp_path / "kept").frames) == 2
-    with pytest.raises(MirrorscanError, match="camera unplugged"):
-        record(_Interrupted(rig, 2, error=True), tmp_path / "gone")
+    with pytest.raises(MirrorscanError, match="camera unplugged"):       # after 2 frames: they are kept
+        record(_Interrupted(rig, 2, error=True), tmp_path / "unplugged")
+    assert len(load_session(tmp_path / "unplugged").frames) == 2
+    with pytest.raises(MirrorscanError, match="camera unplugged"):       # before any frame: nothing is left
+        record(_Interrupted(rig, 0, error=True), tmp_path / "gone")
     assert not (tmp_path / "gone").exists()
 
 

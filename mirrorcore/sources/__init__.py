@@ -32,12 +32,12 @@ from .files import (
     open_tum,
 )
 from .realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
-from .record import Recorder, record
+from .record import Recorder, new_recording_folder, record
 from .sim import SimulatedSource, open_simulated, session_scene
 
 __all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS", "OpenNI2Source",
            "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource", "SourceKind", "StackSource",
-           "open_source", "parse_spec", "record", "session_scene"]
+           "new_recording_folder", "open_source", "parse_spec", "record", "session_scene"]
 _OPTIONS = ("camera", "scale", "fps")
 
 
