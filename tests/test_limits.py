@@ -272,3 +272,15 @@ def test_the_command_line_takes_the_budget_and_refuses_by_it(tmp_path, capsys, b
     assert "memory budget of 64.0 MiB" in err and "--memory" in err and not out.exists()
     assert main(["--memory", "lots", "sources"]) == 2
     assert "--memory: 'lots' is not a size" in capsys.readouterr().err
+
+
+def test_a_camera_or_a_cloud_file_beyond_the_budget_is_refused_before_its_tables(tmp_path, budget):
+    from mirrorcore.geometry.camera import Intrinsics
+    from mirrorcore.ply import read_ply, write_ply
+    huge = Intrinsics(16384, 16384, 1e4, 1e4, 8191.5, 8191.5)
+    with pytest.raises(MemoryBudgetError, match="rig: the per-pixel tables of a 16384x16384 camera: needs 16.0 GiB"):
+        Rig(huge, ())                                               # 16 GiB of tables: refused before any
+    write_ply(tmp_path / "cloud.ply", np.zeros((300_000, 3), np.float32), np.zeros(300_000, np.uint8))
+    budget(4 << 20)
+    with pytest.raises(MemoryBudgetError, match="cloud.ply: reading the PLY"):
+        read_ply(tmp_path / "cloud.ply")
