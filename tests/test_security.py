@@ -36,21 +36,23 @@ def _app(root) -> MirrorscanApp:
     return MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent)
 
 
-@pytest.fixture(scope="module")
-def app(tmp_path_factory):
+def _guarded(tmp_path_factory, host: str):
+    """An app protected with the policy of `host` (it listens on 127.0.0.1 whatever the policy)."""
     app = _app(tmp_path_factory.mktemp("guarded") / "scan")
-    app.guard = protect(app.server, "127.0.0.1")
+    app.guard = protect(app.server, host)
     yield app
     app.stop()
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    yield from _guarded(tmp_path_factory, "127.0.0.1")
 
 
 @pytest.fixture(scope="module")
 def remote(tmp_path_factory):
-    """An app protected as if it listened beyond loopback (it still listens on 127.0.0.1 only)."""
-    app = _app(tmp_path_factory.mktemp("remote") / "scan")
-    app.guard = protect(app.server, "0.0.0.0")
-    yield app
-    app.stop()
+    """As if it listened beyond loopback: a token is required."""
+    yield from _guarded(tmp_path_factory, "0.0.0.0")
 
 
 def http_get(port: int, path: str = "/", host: str | None = None, cookie: str | None = None):
