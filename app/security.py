@@ -23,6 +23,7 @@ import hmac
 import http
 import ipaddress
 import logging
+import re
 import secrets
 import socket
 import threading
@@ -150,8 +151,9 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
         return server._mirrorscan_guard
     if token is None and not is_loopback(host):
         token = new_token()
-    if token is not None and (len(token) < 16 or not token.isascii() or not token.isprintable() or " " in token):
-        raise MirrorscanError("--token: at least 16 printable ASCII characters without spaces")
+    if token is not None and not re.fullmatch(r"[A-Za-z0-9._~-]{16,}", token):
+        raise MirrorscanError("--token: at least 16 characters among letters, digits and . _ ~ - (they go in an "
+                              "address and a cookie)")
     names = {"localhost", *(n.lower() for n in allowed_hosts)}
     if not is_loopback(host):
         names |= {socket.gethostname().lower(), socket.getfqdn().lower()}

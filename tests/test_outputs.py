@@ -1,5 +1,6 @@
-"""No command writes over a file that belongs to a session, or over its own input (issue 15, point 1): before, `reconstruct
--o SESSION/session.json` replaced the session with a PLY (exit 0) and the next `calibrate` lost the calibration."""
+"""No command writes over a file that belongs to a session, or over its own input (issue 15, point 1): before,
+`reconstruct -o SESSION/session.json` replaced the session with a PLY (exit 0) and the next `calibrate` lost the
+calibration."""
 from __future__ import annotations
 
 import json

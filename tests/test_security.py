@@ -164,7 +164,7 @@ def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_
     assert protect(app.server, "127.0.0.1") is app.guard
     other = _app(tmp_path / "scan")
     try:
-        with pytest.raises(MirrorscanError, match="--token: at least 16"):
+        with pytest.raises(MirrorscanError, match="--token: at least 16 characters"):
             protect(other.server, "127.0.0.1", token="short")
         token = new_token()
         guard = protect(other.server, "127.0.0.1", token=token)            # on loopback, when asked for
