@@ -295,10 +295,13 @@ _filter = QuietProbes()
 
 
 def install_log_filter() -> QuietProbes:
-    """Put the QuietProbes filter on the websockets server logger (once per process) and return it."""
+    """Put the QuietProbes filter first on the websockets server logger (once per process) and return it. First:
+    viser adds a filter of its own there (on its first page request) that drops every failed handshake silently,
+    malformed requests included."""
     logger = logging.getLogger("websockets.server")
-    if _filter not in logger.filters:
-        logger.addFilter(_filter)
+    if _filter in logger.filters:
+        logger.removeFilter(_filter)
+    logger.filters.insert(0, _filter)
     return _filter
 
 
