@@ -12,7 +12,8 @@ import pytest
 
 from app.cli import main
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import check_output, load_session
+from mirrorcore.outputs import check_output
+from mirrorcore.session import load_session
 
 
 @pytest.fixture

@@ -9,7 +9,7 @@ from pathlib import Path
 from app.experiments import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import check_output
+from mirrorcore.outputs import check_output
 
 
 def register(sub) -> None:

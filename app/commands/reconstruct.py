@@ -19,7 +19,8 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
-from mirrorcore.session import Session, check_output, load_session
+from mirrorcore.outputs import check_output
+from mirrorcore.session import Session, load_session
 
 
 def register(sub) -> None:

@@ -11,7 +11,7 @@ from typing import Iterator
 from tqdm import tqdm
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import check_output
+from mirrorcore.outputs import check_output
 from mirrorcore.sources import open_source, record
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)    # a clean stop, like Ctrl-C: the session keeps every frame

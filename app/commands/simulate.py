@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import check_output
+from mirrorcore.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
