@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from .errors import FileFormatError
@@ -30,3 +31,15 @@ def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BY
         raise FileFormatError(f"{path}: nested too deeply to read") from None
     except ValueError as exc:      # an integer of more than 4300 digits
         raise FileFormatError(f"{path}: unreadable number ({exc})") from None
+
+
+def finite_number(value) -> float | None:
+    """A parsed JSON (or YAML) number as a finite float, or None: not a number, a boolean, infinite, NaN, or an
+    integer too large for a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None

@@ -4,7 +4,6 @@ region), saved atomically with one backup (session.json.bak). Keys this version 
 from __future__ import annotations
 
 import json
-import math
 import re
 import shutil
 import unicodedata
@@ -19,7 +18,7 @@ from .errors import FileFormatError, MirrorscanError
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import MAX_VERTICES, validate_polygon
-from .jsonfile import read_json
+from .jsonfile import finite_number, read_json
 from .selection import Selection
 
 VERSION = 1
@@ -234,22 +233,11 @@ def _list(value, where: str, limit: int | None = None, what: str = "items") -> l
     return value
 
 
-def _number(value) -> float | None:
-    """A JSON number as a finite float, or None (not a number, a boolean, infinite, or too large for a float)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if math.isfinite(number) else None
-
-
 def _pixels(value, camera: Intrinsics, where: str, limit: int = MAX_POLYGON_VERTICES) -> Pixels:
     """A list of at most `limit` [u, v] inside the image -> tuple of (u, v) floats."""
     out = []
     for i, p in enumerate(_list(value, where, limit, "points")):
-        uv = [_number(c) for c in p] if isinstance(p, (list, tuple)) and len(p) == 2 else [None]
+        uv = [finite_number(c) for c in p] if isinstance(p, (list, tuple)) and len(p) == 2 else [None]
         if None in uv:
             raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got {str(p)[:80]}")
         u, v = uv
@@ -289,7 +277,7 @@ def _timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
     stamps = _list(value, where)
     if len(stamps) != n_frames:
         raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
-    out = tuple(_number(t) for t in stamps)
+    out = tuple(finite_number(t) for t in stamps)
     if None in out:
         i = out.index(None)
         raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got {str(stamps[i])[:80]}")

@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 
 from ..errors import FileFormatError
+from ..jsonfile import finite_number
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
 MAX_YAML_BYTES = 1 << 20   # a camera file is a few hundred bytes
@@ -229,8 +230,8 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     if not isinstance(data, dict):
         raise FileFormatError(f"{path}: not an OpenCV YAML file (no keys)")
     K = _opencv_matrix(data.get("camera_matrix"))
-    w, h = (_finite(data.get(k)) for k in ("image_width", "image_height"))
-    scale = depth_scale if data.get("depth_scale") is None else _finite(data["depth_scale"])
+    w, h = (finite_number(data.get(k)) for k in ("image_width", "image_height"))
+    scale = depth_scale if data.get("depth_scale") is None else finite_number(data["depth_scale"])
     if K is None or w is None or h is None or scale is None or w < 1 or h < 1:
         raise FileFormatError(f"{path}: needs camera_matrix (3x3), image_width and image_height")
     try:
@@ -246,16 +247,5 @@ def _opencv_matrix(node) -> np.ndarray | None:
     values = node.get("data")
     if not isinstance(values, list) or len(values) != 9:
         return None
-    numbers = [_finite(v) for v in values]
+    numbers = [finite_number(v) for v in values]
     return None if None in numbers else np.array(numbers, float).reshape(3, 3)
-
-
-def _finite(value) -> float | None:
-    """A YAML number as a finite float, or None."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if np.isfinite(number) else None
