@@ -6,6 +6,7 @@ import argparse
 import importlib
 import sys
 
+from mirrorcore.budget import ENV, set_memory_budget
 from mirrorcore.errors import MirrorscanError
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
@@ -14,6 +15,9 @@ COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment"
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="mirrorscan", description="3D scanning with one depth camera and mirrors.")
+    parser.add_argument("--memory", metavar="SIZE",
+                        help=f"memory budget for work sized by your numbers, e.g. 8G (default: ${ENV}, else the "
+                             "smaller of 4G and half this machine's memory)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"app.commands.{name}").register(sub)
@@ -23,6 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if args.memory is not None:
+            set_memory_budget(args.memory)
         return int(args.run(args) or 0)
     except MirrorscanError as exc:
         print(f"mirrorscan {args.command}: error: {exc}", file=sys.stderr)

@@ -15,9 +15,8 @@ import numpy as np
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
-from mirrorcore.rig import MAX_MIRRORS
 from mirrorcore.selection import Selection
-from mirrorcore.session import Pixels, Session, SessionMirror, save_session
+from mirrorcore.session import MAX_MIRRORS, Pixels, Session, SessionMirror, check_limits, check_name, save_session
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
@@ -254,10 +253,7 @@ class SessionEditor:
         raise MirrorscanError(f"mirror {mirror_id} is no longer in the session (removed in another tab?)")
 
     def _check_name(self, name: str, mirror_id: int | None) -> None:
-        if not name:
-            raise MirrorscanError("a mirror needs a name")
-        if len(name) > 100:
-            raise MirrorscanError(f"a mirror's name has at most 100 characters, got {len(name)}")
+        check_name(name)
         if any(m.name == name for m in self._session.mirrors if m.id != mirror_id):
             raise MirrorscanError(f"there is already a mirror named {name!r}")
 
@@ -310,6 +306,7 @@ class SessionEditor:
         self._commit(SESSION_SCOPE, Step(label, _inverse(change), change), session)
 
     def _commit(self, scope: int, step: Step, session: Session) -> None:
+        check_limits(session)                         # the limits of a session that is read: it would not reopen
         self._undo[scope] = (self._undo.get(scope, []) + [step])[-UNDO_DEPTH:]
         self._redo.pop(scope, None)
         self._session = session

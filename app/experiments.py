@@ -6,12 +6,14 @@ frame is also carved (the consistent carving, mirrorcore.carve) and fused (TSDF 
 voxels: their RMSE to the true shape beside the raw cloud's (the paper found its carved clouds less accurate)."""
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import matplotlib
 import numpy as np
 from tqdm import tqdm
 
+from mirrorcore.atomic import write_atomic
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.carve import carve
@@ -109,5 +111,7 @@ def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
     ax.grid(True, alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=120)
     plt.close(fig)
+    write_atomic(path, png.getvalue())          # the previous plot, or the whole new one

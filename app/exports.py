@@ -9,6 +9,7 @@ from pathlib import Path
 import viser
 
 from mirrorcore.atomic import write_atomic
+from mirrorcore.outputs import check_output
 
 EXPORTS = "exports"
 
@@ -33,7 +34,7 @@ def export_ply(session_root: Path | None, stem: str, data: bytes, client: viser.
     exports/ folder; returns the path written, or None."""
     saved = None
     if session_root is not None:
-        saved = free_name(Path(session_root) / EXPORTS, stem)
+        saved = check_output(free_name(Path(session_root) / EXPORTS, stem))
         write_atomic(saved, data)
     if client is not None:
         client.send_file_download((saved.name if saved else f"{stem}.ply"), data, save_immediately=True)

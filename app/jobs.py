@@ -3,9 +3,11 @@ capture, and recording. Each runs on a worker thread, reports JobProgress on the
 publishes its result (DenseChanged; the background through the app; the recorded session)."""
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -16,7 +18,7 @@ from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.session import Session, save_session
-from mirrorcore.sources.record import Recorder
+from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from .events import DenseChanged, EventBus, FrameReady, JobProgress
 from .recording import LiveTap
@@ -25,6 +27,7 @@ if TYPE_CHECKING:
     from .live import LiveLoop
     from .state import Snapshot
 
+log = logging.getLogger("mirrorscan")
 DENSE, BACKGROUND, RECORD = "dense", "background", "record"
 
 
@@ -79,6 +82,9 @@ class Jobs:
                 self.bus.publish(JobProgress(kind, None, "cancelled"))
             except (MirrorscanError, OSError) as exc:
                 self.bus.publish(JobProgress(kind, None, f"not done: {exc}"))
+            except Exception as exc:  # noqa: BLE001 - a bug must still end the job with a status, never a blank one
+                log.exception("%s failed", kind)
+                self.bus.publish(JobProgress(kind, None, f"failed: {type(exc).__name__}: {exc}"))
             finally:
                 with self._lock:
                     self._running.pop(kind, None)
@@ -133,24 +139,36 @@ class Jobs:
         return self._start(BACKGROUND, work, "a background capture is already running")
 
     # ------------------------------------------------------------------ recording
-    def start_recording(self, folder, session: Session) -> None:
-        """Record the live frames into a new session `folder`; stop_recording() saves it with the mirrors and
-        selection of `session` as they are then."""
+    def start_recording(self, sessions_dir: Path) -> Path:
+        """Record the live frames into a new session folder in `sessions_dir` (a name of its own even when two
+        recordings start in the same second); stop_recording() saves it with the session's mirrors and selection as
+        they are then. Returns the folder."""
         with self._lock:
             if RECORD in self._running:
                 raise MirrorscanError("already recording; stop first")
             self._running[RECORD] = threading.Event()
-        self._tap = LiveTap(self.loop.source, lambda take: self.bus.subscribe(FrameReady, lambda e: take(e.frame)))
+        try:
+            folder = new_recording_folder(sessions_dir)
+            self._tap = LiveTap(self.loop.source,
+                                lambda take: self.bus.subscribe(FrameReady, lambda e: take(e.frame)))
+        except (MirrorscanError, OSError):
+            with self._lock:
+                self._running.pop(RECORD, None)
+            raise
         self.recorder = Recorder(self._tap, folder).start()
         self.bus.publish(JobProgress(RECORD, 0.0, f"recording into `{folder}`…"))
         self._unsubscribe_count = self.bus.subscribe(FrameReady, lambda e: self._count(e.frame.index))
+        return folder
 
     def _count(self, index: int) -> None:
         """Say how many frames the recording holds, every 10th live frame."""
         recorder = self.recorder
         if recorder is not None and index % 10 == 0:
-            self.bus.publish(JobProgress(RECORD, 0.0, f"recording: {recorder.frames} frames into "
-                                                      f"`{recorder.folder}`"))
+            if recorder.done and recorder.error is not None:
+                status = f"the recording stopped: {recorder.error}"
+            else:
+                status = f"recording: {recorder.frames} frames into `{recorder.folder}`"
+            self.bus.publish(JobProgress(RECORD, 0.0, status))
 
     def stop_recording(self, current: Session) -> Session:
         with self._lock:
@@ -160,7 +178,7 @@ class Jobs:
         self._unsubscribe_count()
         tap.close()
         try:
-            recorded = recorder.stop()
+            recorded = recorder.stop(timeout=5)     # always returns; a stuck source is named with what was saved
         finally:
             with self._lock:
                 self._running.pop(RECORD, None)

@@ -1,57 +1,100 @@
 """Recording what the browser tool shows: the live frames, tapped from the app's event bus as a depth source that
-mirrorcore's recorder writes into a session folder; the recording ends when the tap is closed (the Stop button)."""
+mirrorcore's recorder writes into a session folder; the recording ends when the tap is closed (the Stop button). One
+tap per source at a time, and nothing here ever blocks: a slow disk drops the newest frames, close() returns at
+once."""
 from __future__ import annotations
 
 import queue
+import threading
 from typing import Callable, Iterator
 
 import numpy as np
 
+from mirrorcore.budget import memory_budget
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.sources import DepthSource, Frame
 
 from .live import LiveFrame
 
-BACKLOG = 120   # frames waiting to be written before the oldest are dropped (a slow disk must not stall the view)
+BACKLOG = 120          # frames waiting to be written before new ones are dropped (a slow disk must not stall the view)
+POLL_S = 0.1           # how often a reader waiting for a frame looks whether the tap was closed
+_taps_lock = threading.Lock()
+_tapped: set[int] = set()    # id() of the sources with an open tap
+
+
+def backlog_frames(shape: tuple[int, int]) -> int:
+    """BACKLOG, or fewer when a quarter of the memory budget cannot hold that many float32 frames of `shape`."""
+    return int(max(1, min(BACKLOG, memory_budget() // 4 // (4 * shape[0] * shape[1]))))
 
 
 class LiveTap(DepthSource):
     """The live frames of `source` from now on, in order, as a live source; iteration ends at close().
 
     subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the function that stops it.
+    Raises MirrorscanError when the source already has an open tap (one recording at a time).
     """
 
     def __init__(self, source: DepthSource, subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
         self.name = f"recording of {source.name}"
         self.intrinsics, self.fps, self.frame_count = source.intrinsics, source.fps, None
         self._background = source.background()
-        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=BACKLOG)
+        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog_frames(source.intrinsics.shape))
+        self._closed = threading.Event()
         self.dropped = 0
+        self._key = id(source)
+        with _taps_lock:
+            if self._key in _tapped:
+                raise MirrorscanError("already recording: stop the current recording first")
+            _tapped.add(self._key)
         self._unsubscribe: Callable[[], None] | None = subscribe(self._take)
 
     def _take(self, frame: LiveFrame) -> None:
+        if self._closed.is_set():
+            return
         try:
             self._frames.put_nowait(Frame(frame.depth, frame.timestamp))
         except queue.Full:
             self.dropped += 1
 
+    def _next(self) -> Frame | None:
+        """The next frame, waiting for it; None once the tap is closed and every frame taken before was delivered."""
+        while True:
+            try:
+                frame = self._frames.get(timeout=POLL_S)
+            except queue.Empty:
+                if self._closed.is_set():
+                    return None
+                continue
+            if frame is not None:
+                return frame
+            if self._closed.is_set() and self._frames.empty():
+                return None
+
     def read(self, i: int) -> Frame:
         """The next live frame (blocks until the loop delivers it)."""
-        frame = self._frames.get()
+        frame = self._next()
         if frame is None:
             raise MirrorscanError(f"{self.name}: the recording has ended")
         return frame
 
     def __iter__(self) -> Iterator[Frame]:
-        while (frame := self._frames.get()) is not None:
+        while (frame := self._next()) is not None:
             yield frame
 
     def background(self) -> np.ndarray | None:
         return self._background
 
     def close(self) -> None:
-        """Stop tapping; the frames already taken are still delivered, then iteration ends."""
-        if self._unsubscribe is not None:
-            self._unsubscribe()
-            self._unsubscribe = None
-            self._frames.put(None)
+        """Stop tapping; the frames already taken are still delivered, then iteration ends. Never blocks; closing
+        twice does nothing."""
+        with _taps_lock:
+            unsubscribe, self._unsubscribe = self._unsubscribe, None
+            if unsubscribe is None:
+                return
+            _tapped.discard(self._key)
+        unsubscribe()
+        self._closed.set()
+        try:
+            self._frames.put_nowait(None)      # wakes a waiting reader at once; a full queue is drained first
+        except queue.Full:
+            pass

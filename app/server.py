@@ -20,8 +20,10 @@ from mirrorcore.sources import DepthSource
 
 from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
-from .jobs import Jobs
+from .jobs import RECORD, Jobs
 from .live import RECENT_FRAMES, LiveFrame, LiveLoop
+from .panels.session import MAX_UPLOAD_MB
+from .security import protect
 from .state import Snapshot
 from .tab import Tab
 
@@ -34,14 +36,20 @@ class MirrorscanApp:
     """Wires the session editor, the live loop, the jobs and the tabs (see the module docstring).
 
     session : the session to edit (autosaved when `autosave`); source : where frames come from; sessions_dir : the
-    folder that Open and Save as work in.
+    folder that Open and Save as work in; token : the secret a browser must give (required beyond loopback: a new
+    one when None; see app/security.py). The server is protected before it accepts a page.
     """
 
     def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1", port: int = 8080,
-                 autosave: bool = True, sessions_dir: str | Path = "sessions"):
+                 autosave: bool = True, sessions_dir: str | Path = "sessions", token: str | None = None):
         self._source, self.sessions_dir = source, Path(sessions_dir)
         with contextlib.redirect_stdout(io.StringIO()):   # viser prints a banner; stdout may be JSON (bench --json)
             self.server = viser.ViserServer(host=host, port=port, label="mirrorscan", verbose=False)
+        try:       # before any page can connect: Host, Origin and token checks, upload limits (app/security.py)
+            self.guard = protect(self.server, host, token, max_upload_bytes=MAX_UPLOAD_MB << 20)
+        except MirrorscanError:
+            self.server.stop()
+            raise
         self.server.gui.configure_theme(show_share_button=False, brand_color=(0, 114, 178))
         self.server.gui.main_panel.dock_right()
         self.server.gui.main_panel.set_width(PANEL_WIDTH)
@@ -72,7 +80,13 @@ class MirrorscanApp:
         self._poller.start()
 
     def stop(self) -> None:
+        """End a recording (its frames are kept), then the loop and the server."""
         self._stop.set()
+        if self.jobs.running(RECORD):
+            try:
+                self.jobs.stop_recording(self.editor.session)
+            except MirrorscanError as exc:
+                log.warning("recording not finished cleanly: %s", exc)
         self.loop.stop()
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()

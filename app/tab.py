@@ -42,6 +42,7 @@ class Tab:
         self.client, self.services = client, services
         self.state = TabState()
         self.hidden = False
+        self.closed = False
         self._lock = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
@@ -141,6 +142,8 @@ class Tab:
 
     # ------------------------------------------------------------------ events
     def _on_frame(self, event: FrameReady) -> None:
+        if self.closed:                        # a frame in flight while the tab went away
+            return
         frame = event.frame
         if self.state.view == "3d" and not self.hidden:
             whole = self.services.paused or self._stale
@@ -221,6 +224,7 @@ class Tab:
                 self._send_screen(force=True)
 
     def close(self) -> None:
+        self.closed = True
         for unsubscribe in self._unsubscribe:
             unsubscribe()
         for panel in [self.header, *self.panels]:

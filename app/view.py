@@ -148,8 +148,8 @@ class TabScene:
     def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
         """The dense result in its own colour, with a label: at its place, or beside the live cloud (towards the
         camera and to the left, clear of the mirrors); or nothing."""
-        for handle in self._dense:
-            handle.remove()
+        if self._dense:
+            self._dense[0].remove()                  # the frame, and the result and label under it
         self._dense = []
         if result is None:
             return

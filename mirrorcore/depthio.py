@@ -1,6 +1,7 @@
 """Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading (docs/DESIGN.md)."""
 from __future__ import annotations
 
+import os
 import struct
 from pathlib import Path
 
@@ -8,18 +9,39 @@ import cv2
 import numpy as np
 
 from .atomic import write_atomic
+from .budget import check_memory
 from .errors import FileFormatError, MirrorscanError
 from .geometry.camera import MAX_IMAGE_SIDE
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+DECODED_BYTES = 6         # a decoded pixel: uint16 as read, then float32 metres
+FILE_SLACK = 1 << 20      # bytes a depth file may hold beyond twice its raw pixels (headers, text chunks)
 
 
 def read_depth_png(path: str | Path, depth_scale: float, shape: tuple[int, int] | None = None) -> np.ndarray:
-    """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file when it is missing."""
+    """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file when it is missing,
+    or when it is larger than an image of its size can be (checked before reading it: see max_file_bytes)."""
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such depth image")
-    return decode_depth_png(path.read_bytes(), depth_scale, shape, str(path))
+    with open(path, "rb") as f:
+        head = f.read(24)
+        size = os.fstat(f.fileno()).st_size
+        pixels = _png_pixels(head, shape, str(path)) or (shape[0] * shape[1] if shape is not None else None)
+        limit = max_file_bytes(pixels) if pixels is not None else None
+        if limit is not None and size > limit:
+            raise FileFormatError(f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
+                                  f"hold (at most {limit:,}); the file is damaged or not a depth image")
+        check_memory(size, f"{path}: reading the file")
+        f.seek(0)
+        data = f.read()
+    return decode_depth_png(data, depth_scale, shape, str(path))
+
+
+def max_file_bytes(pixels: int) -> int:
+    """The largest file a 16-bit depth image of `pixels` pixels may be: twice its raw size (PNG's worst case, stored
+    without compression, is the raw size plus a byte a row and a few bytes a block), plus FILE_SLACK."""
+    return 4 * pixels + FILE_SLACK
 
 
 def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | None = None,
@@ -30,7 +52,7 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
     decoding: a small file can hold an image of gigabytes). returns (H, W) float32 metres, 0 = no reading.
     Raises FileFormatError naming `where` (the file) and what is wrong.
     """
-    _check_png_size(data[:24], shape, where)
+    _png_pixels(data[:24], shape, where)
     raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if raw is None:
         raise FileFormatError(f"{where}: not a readable image (corrupt or not a PNG)")
@@ -45,17 +67,20 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
     return raw.astype(np.float32) * np.float32(depth_scale)
 
 
-def _check_png_size(head: bytes, shape: tuple[int, int] | None, where: str) -> None:
-    """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W) or a side above MAX_IMAGE_SIDE. Other
-    formats pass (they are checked after decoding)."""
+def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int | None:
+    """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W), a side above MAX_IMAGE_SIDE, or an image
+    whose decoding would not fit in the memory budget; return its number of pixels. Other formats pass (None: they
+    are checked after decoding)."""
     if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
-        return
+        return None
     width, height = struct.unpack(">II", head[16:24])
     if max(width, height) > MAX_IMAGE_SIDE:
         raise FileFormatError(f"{where}: size {width}x{height} is too large for a depth image "
                               f"(at most {MAX_IMAGE_SIDE} pixels a side)")
     if shape is not None and (height, width) != tuple(shape):
         raise FileFormatError(f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
+    check_memory(width * height * DECODED_BYTES, f"{where}: decoding a {width}x{height} image")
+    return width * height
 
 
 def require_readings(depth: np.ndarray, where: str) -> np.ndarray:

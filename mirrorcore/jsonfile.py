@@ -2,20 +2,44 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from .errors import FileFormatError
 
 
-def read_json(path: str | Path, what: str = "file") -> object:
-    """The parsed content of a JSON file; FileFormatError naming the file when it is missing, not UTF-8 or invalid.
+MAX_JSON_BYTES = 64 << 20   # no file mirrorscan reads as JSON comes near; a larger one is refused before reading
+
+
+def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BYTES) -> object:
+    """The parsed content of a JSON file; FileFormatError naming the file when it is missing, larger than `max_bytes`
+    (checked before reading), not UTF-8, invalid, nested too deeply or holding a number too long to read.
     what : how the file is called in the 'no such ...' message ('session file', 'scene file'...)."""
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such {what}")
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise FileFormatError(f"{path}: {size:,} bytes, more than the {max_bytes:,} such a file may have")
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError:
         raise FileFormatError(f"{path}: not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise FileFormatError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise FileFormatError(f"{path}: nested too deeply to read") from None
+    except ValueError as exc:      # an integer of more than 4300 digits
+        raise FileFormatError(f"{path}: unreadable number ({exc})") from None
+
+
+def finite_number(value) -> float | None:
+    """A parsed JSON (or YAML) number as a finite float, or None: not a number, a boolean, infinite, NaN, or an
+    integer too large for a float."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None

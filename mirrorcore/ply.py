@@ -9,11 +9,13 @@ import numpy as np
 import trimesh
 
 from .atomic import write_atomic
+from .budget import check_memory
 from .errors import FileFormatError
 from .palette import source_colours
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
+READ_COPIES = 4     # trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
 _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 
 
@@ -68,6 +70,7 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     with open(path, "rb") as f:
         if f.read(3) != b"ply":
             raise FileFormatError(f"{path}: not a PLY file (it does not start with 'ply')")
+    check_memory(READ_COPIES * path.stat().st_size, f"{path}: reading the PLY")
     try:
         geometry = trimesh.load(path, file_type="ply", process=False)
         vertex = geometry.metadata["_ply_raw"]["vertex"]["data"]

@@ -6,13 +6,14 @@ from functools import cached_property
 
 import numpy as np
 
+from .budget import check_memory
 from .errors import MirrorscanError
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import polygon_mask, validate_polygon
-from .session import Session
+from .session import MAX_MIRRORS, Session    # MAX_MIRRORS: one bit per mirror in Rig.inside_bits
 
-MAX_MIRRORS = 32  # one bit per mirror in Rig.inside_bits
+PIXEL_BYTES = 64   # the rig's per-pixel tables and one frame through Algorithm 1: 47 bytes a pixel measured at 640x480
 
 
 @dataclass(frozen=True)
@@ -39,8 +40,12 @@ class Rig:
     mirrors: tuple[Mirror, ...]
 
     def __post_init__(self) -> None:
+        """Raises MirrorscanError for more than MAX_MIRRORS mirrors, MemoryBudgetError for a camera whose per-pixel
+        work (PIXEL_BYTES a pixel) would not fit in the memory budget."""
         if len(self.mirrors) > MAX_MIRRORS:
             raise MirrorscanError(f"rig: at most {MAX_MIRRORS} mirrors, got {len(self.mirrors)}")
+        w, h = self.intrinsics.width, self.intrinsics.height
+        check_memory(w * h * PIXEL_BYTES, f"rig: the per-pixel tables of a {w}x{h} camera")
 
     @classmethod
     def from_session(cls, session: Session) -> "Rig":

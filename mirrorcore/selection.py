@@ -60,7 +60,7 @@ class Selection:
         try:
             sel = cls(**values)
             numbers = [float(getattr(sel, f.name)) for f in fields(cls) if f.name not in ("roi", "smooth")]
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: {exc}") from None
         if not all(np.isfinite(numbers)) or sel.depth_min < 0 or sel.depth_max <= sel.depth_min:
             raise FileFormatError(f"{where}: needs finite numbers and 0 <= depth_min < depth_max")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import unicodedata
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
@@ -16,13 +17,23 @@ from .depthio import read_depth_png
 from .errors import FileFormatError, MirrorscanError
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
-from .geometry.polygon import validate_polygon
-from .jsonfile import read_json
+from .geometry.polygon import MAX_VERTICES, validate_polygon
+from .jsonfile import finite_number, read_json
 from .selection import Selection
 
 VERSION = 1
 SESSION_FILE = "session.json"
 BACKGROUND_FILE = "background.png"   # where a captured or rendered background is saved
+TRUTH_FILE = "truth.json"            # the simulator's scene and true planes, beside its session.json
+FRAMES_FOLDER = "frames"             # every file in it belongs to the session (a recording lists frames as they land)
+# Limits of what a session may hold: checked where a session is read (session_from_json) and where it is edited
+# (check_limits, which the browser's editor calls before it saves), so that a session that was saved always opens.
+MAX_MIRRORS = 32                    # one bit per mirror in the rig's per-pixel tables (mirrorcore.rig)
+MAX_MARKERS = 500                   # per mirror; a calibration needs 3 and uses a 5x5 window around each
+MAX_POLYGON_VERTICES = MAX_VERTICES  # per boundary or region (mirrorcore.geometry.polygon)
+MAX_NAME_LENGTH = 100               # characters of a mirror's name
+MAX_FRAMES = 1_000_000              # frames of a session: 9 hours at 30 fps
+MAX_SESSION_BYTES = 64 << 20        # session.json itself; a million frames listed take about 30 MB
 _TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames")
 _MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region")
 
@@ -143,7 +154,8 @@ def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
 def load_session(folder: str | Path) -> Session:
     """Read and validate SESSION/session.json; raises FileFormatError with the file and the offending key."""
     folder = Path(folder)
-    return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)"), folder)
+    return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)",
+                                       MAX_SESSION_BYTES), folder)
 
 
 def session_from_json(data, folder: Path) -> Session:
@@ -156,21 +168,22 @@ def session_from_json(data, folder: Path) -> Session:
     if missing:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
     if data["version"] != VERSION:
-        raise FileFormatError(f"{where}: unknown version {data['version']!r}; this mirrorscan reads version {VERSION}")
+        raise FileFormatError(f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
+                              f"{VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
     mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
-                    for i, m in enumerate(_list(data["mirrors"], f"{where}: mirrors")))
+                    for i, m in enumerate(_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS, "mirrors")))
     _check_ids(mirrors, where)
     background = data.get("background")
     if background is not None:
         background = _relative_path(background, folder, f"{where}: background")
-    frames = _paths(data["frames"], folder, f"{where}: frames")
+    frames = _paths(data["frames"], folder, f"{where}: frames", MAX_FRAMES)
     timestamps = data.get("timestamps")
     if timestamps is not None:
         timestamps = _timestamps(timestamps, len(frames), f"{where}: timestamps")
     colour_frames = data.get("colour_frames")
     if colour_frames is not None:
-        colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames")
+        colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
         if len(colour_frames) != len(frames):
             raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
@@ -181,13 +194,15 @@ def session_from_json(data, folder: Path) -> Session:
 def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: a mirror must be a JSON object")
-    if not isinstance(data.get("name"), str) or not data["name"].strip():
-        raise FileFormatError(f"{where}: 'name' must be a non-empty string")
+    try:
+        check_name(data.get("name"), f"{where}: name")
+    except MirrorscanError as exc:
+        raise FileFormatError(str(exc)) from None
     where = f"{where} ({data['name']})"
     mirror_id = data.get("id", 0)                # none yet: the session gives it one
     if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int) or not 1 <= mirror_id < 2**31):
-        raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {mirror_id!r}")
-    markers = _pixels(data.get("markers", []), camera, f"{where}: markers")
+        raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
+    markers = _pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
     boundary = _polygon(data.get("boundary", []), camera, f"{where}: boundary")
     region = data.get("region")
     if region is not None:
@@ -209,20 +224,23 @@ def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
         raise FileFormatError(f"{where}: mirrors: id {twice[0]} is given to more than one mirror")
 
 
-def _list(value, where: str) -> list:
+def _list(value, where: str, limit: int | None = None, what: str = "items") -> list:
+    """`value` when it is a list of at most `limit` items; FileFormatError naming `where` otherwise."""
     if not isinstance(value, list):
         raise FileFormatError(f"{where}: must be a list")
+    if limit is not None and len(value) > limit:
+        raise FileFormatError(f"{where}: {len(value):,} {what}, more than the {limit:,} a session may hold")
     return value
 
 
-def _pixels(value, camera: Intrinsics, where: str) -> Pixels:
-    """A list of [u, v] inside the image -> tuple of (u, v) floats."""
+def _pixels(value, camera: Intrinsics, where: str, limit: int = MAX_POLYGON_VERTICES) -> Pixels:
+    """A list of at most `limit` [u, v] inside the image -> tuple of (u, v) floats."""
     out = []
-    for i, p in enumerate(_list(value, where)):
-        if (not isinstance(p, (list, tuple)) or len(p) != 2
-                or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and np.isfinite(c) for c in p)):
-            raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got {p!r}")
-        u, v = float(p[0]), float(p[1])
+    for i, p in enumerate(_list(value, where, limit, "points")):
+        uv = [finite_number(c) for c in p] if isinstance(p, (list, tuple)) and len(p) == 2 else [None]
+        if None in uv:
+            raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got {str(p)[:80]}")
+        u, v = uv
         if not (-0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
             raise FileFormatError(f"{where}[{i}]: pixel ({u:g}, {v:g}) is outside the "
                                   f"{camera.width}x{camera.height} image")
@@ -241,13 +259,13 @@ def _polygon(value, camera: Intrinsics, where: str) -> Pixels:
     return pixels
 
 
-def _paths(value, folder: Path, where: str) -> tuple[str, ...]:
-    return tuple(_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(_list(value, where)))
+def _paths(value, folder: Path, where: str, limit: int) -> tuple[str, ...]:
+    return tuple(_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(_list(value, where, limit, "paths")))
 
 
 def _relative_path(value, folder: Path, where: str) -> str:
     """A path relative to the session folder that stays inside it; returned in POSIX form."""
-    if not isinstance(value, str) or not value:
+    if not isinstance(value, str) or not value or not _encodable(value) or "\0" in value:
         raise FileFormatError(f"{where}: must be a path relative to the session folder")
     rel = PurePosixPath(value.replace("\\", "/"))
     if rel.is_absolute() or ".." in rel.parts or (len(value) > 1 and value[1] == ":"):
@@ -259,10 +277,58 @@ def _timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
     stamps = _list(value, where)
     if len(stamps) != n_frames:
         raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
-    for i, t in enumerate(stamps):
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not np.isfinite(t):
-            raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got {t!r}")
-    return tuple(float(t) for t in stamps)
+    out = tuple(finite_number(t) for t in stamps)
+    if None in out:
+        i = out.index(None)
+        raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got {str(stamps[i])[:80]}")
+    return out
+
+
+def _encodable(text: str) -> bool:
+    """True when `text` can be written as UTF-8 (a JSON string may hold lone surrogates, which cannot)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+# --------------------------------------------------------------------- limits
+def check_name(name, where: str = "mirror name") -> str:
+    """A mirror's name: a string of 1 to MAX_NAME_LENGTH characters (not only spaces), writable as UTF-8, without
+    control characters. Returns it; MirrorscanError naming `where` otherwise."""
+    if not isinstance(name, str) or not name.strip():
+        raise MirrorscanError(f"{where}: must be a non-empty string")
+    if len(name) > MAX_NAME_LENGTH:
+        raise MirrorscanError(f"{where}: {len(name):,} characters, more than the {MAX_NAME_LENGTH} a name may have")
+    if not _encodable(name) or any(unicodedata.category(c) == "Cc" for c in name):
+        raise MirrorscanError(f"{where}: {name[:40]!r} holds characters that cannot be shown or saved "
+                              "(control characters or lone surrogates)")
+    return name
+
+
+def check_limits(session: Session) -> Session:
+    """Check a session against the limits that session_from_json applies when it is read (MAX_MIRRORS, MAX_MARKERS,
+    MAX_POLYGON_VERTICES, names, MAX_FRAMES), so that an edit that would make a session unreadable is refused before
+    it is saved. Returns the session; MirrorscanError naming the session file, the mirror and the limit."""
+    where = str(session.path)
+    if len(session.mirrors) > MAX_MIRRORS:
+        raise MirrorscanError(f"{where}: {len(session.mirrors)} mirrors, more than the {MAX_MIRRORS} a session may "
+                              "hold")
+    for i, m in enumerate(session.mirrors):
+        at = f"{where}: mirrors[{i}]"
+        check_name(m.name, f"{at}: name")
+        if len(m.markers) > MAX_MARKERS:
+            raise MirrorscanError(f"{at} ({m.name}): {len(m.markers)} markers, more than the {MAX_MARKERS} a mirror "
+                                  "may have")
+        for key, polygon in (("boundary", m.boundary), ("region", m.region or ())):
+            if len(polygon) > MAX_POLYGON_VERTICES:
+                raise MirrorscanError(f"{at} ({m.name}): {key}: {len(polygon):,} vertices, more than the "
+                                      f"{MAX_POLYGON_VERTICES:,} a polygon may have")
+    if len(session.frames) > MAX_FRAMES:
+        raise MirrorscanError(f"{where}: {len(session.frames):,} frames, more than the {MAX_FRAMES:,} a session may "
+                              "hold")
+    return session
 
 
 # --------------------------------------------------------------------- writing

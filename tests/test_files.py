@@ -84,7 +84,7 @@ def edit(tmp_path, change):
     (lambda d: d["mirrors"][0].update(boundary=[[0, 0], [9, 9]]), "at least 3 vertices"),
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 0, 1]), "normal .* is zero"),
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 1, -2]), "camera behind the mirror"),
-    (lambda d: d["mirrors"][0].update(name=""), "'name' must be a non-empty string"),
+    (lambda d: d["mirrors"][0].update(name=""), "name: must be a non-empty string"),
     (lambda d: d.update(frames=["../../etc/passwd"]), r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
     (lambda d: d.update(background="/etc/passwd"), "background: path '/etc/passwd' leaves the session folder"),
 ])

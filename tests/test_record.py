@@ -1,5 +1,5 @@
 """Recording sources into session folders: record then replay gives the same frames bit for bit; Ctrl-C and cancel
-keep a valid session; errors leave nothing; the `record` and `sources` commands."""
+keep a valid session, and so does an error after the first frame; the `record` and `sources` commands."""
 
 import numpy as np
 import pytest
@@ -43,7 +43,7 @@ def test_record_command_on_the_live_simulator(rig, tmp_path, capsys):
     for i, frame in enumerate(SessionSource(session)):                       # 1 mm units on disk
         assert encode_depth_png(frame.depth, 0.001) == encode_depth_png(live.read(i).depth, 0.001)
     assert main(["record", "sim", str(tmp_path / "live"), "--frames", "1"]) == 2
-    assert "exists and is not an empty folder" in capsys.readouterr().err
+    assert "live: is a session folder" in capsys.readouterr().err
     assert main(["record", "sim", str(tmp_path / "x"), "--seconds", "0"]) == 2
     assert not (tmp_path / "x").exists()
 
@@ -61,12 +61,15 @@ class _Interrupted(SimulatedSource):
         return super().read(i)
 
 
-def test_ctrl_c_keeps_a_valid_session_and_errors_leave_nothing(rig, tmp_path):
+def test_ctrl_c_and_errors_keep_a_valid_session_of_what_was_recorded(rig, tmp_path):
     with pytest.raises(KeyboardInterrupt):
         record(_Interrupted(rig, 2), tmp_path / "kept", seconds=10)
     assert len(load_session(tmp_path / "kept").frames) == 2
-    with pytest.raises(MirrorscanError, match="camera unplugged"):
-        record(_Interrupted(rig, 2, error=True), tmp_path / "gone")
+    with pytest.raises(MirrorscanError, match="camera unplugged"):       # after 2 frames: they are kept
+        record(_Interrupted(rig, 2, error=True), tmp_path / "unplugged")
+    assert len(load_session(tmp_path / "unplugged").frames) == 2
+    with pytest.raises(MirrorscanError, match="camera unplugged"):       # before any frame: nothing is left
+        record(_Interrupted(rig, 0, error=True), tmp_path / "gone")
     assert not (tmp_path / "gone").exists()
 
 

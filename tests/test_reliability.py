@@ -192,3 +192,16 @@ def test_the_source_has_no_eval_exec_pickle_or_shell():
     loads = [f"{p.relative_to(ROOT)}:{n}" for p in sources for n, line in enumerate(p.read_text().splitlines(), 1)
              if "np.load(" in line and "allow_pickle=False" not in line]
     assert loads == []
+
+
+def test_opencv_yaml_is_read_without_opencvs_parser(tmp_path):
+    """Damaged camera YAML once made cv2.FileStorage abort the process (found by the fuzzer); files written by OpenCV
+    still read back exactly."""
+    from mirrorcore.geometry.camera import Intrinsics, save_opencv_yaml
+    camera = Intrinsics(640, 480, 580.5, 581.25, 319.5, 239.75, 0.00025)
+    save_opencv_yaml(camera, tmp_path / "k.yaml")
+    assert load_opencv_yaml(tmp_path / "k.yaml", 0.001) == camera
+    for text in ("%YAML:1.0\n---\ncamera_matrix: !!opencv-matrix\n  rows: [", "a: &x [*x]", "\x00\x01", "- 1\n- 2"):
+        (tmp_path / "bad.yaml").write_text(text)
+        with pytest.raises(FileFormatError, match="bad.yaml: (not an OpenCV YAML file|needs camera_matrix)"):
+            load_opencv_yaml(tmp_path / "bad.yaml")

@@ -9,6 +9,7 @@ from pathlib import Path
 from app.experiments import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.outputs import check_output
 
 
 def register(sub) -> None:
@@ -28,6 +29,8 @@ def run(args: argparse.Namespace) -> int:
     prefix = Path(args.out or f"experiment-{args.name}")
     if not prefix.parent.is_dir():
         raise MirrorscanError(f"{prefix.parent}: no such folder")
+    for path in (prefix.with_suffix(".csv"), prefix.with_suffix(".png")):
+        check_output(path)                     # before minutes of work: never over a session's files
     rows = run_experiment(args.name, args.seeds, progress=not args.quiet)
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=COLUMNS)

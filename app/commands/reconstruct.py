@@ -16,6 +16,7 @@ from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_de
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.outputs import check_output
 from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
@@ -64,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     rig = calibrated_rig(session)
     selection = session.selection
     background = session.read_background()
-    out = Path(args.output)
+    out = check_output(args.output, (args.session,))   # never over a session's files or its own input
     if args.frame != "all":
         try:
             index = int(args.frame)

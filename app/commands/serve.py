@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import time
 from pathlib import Path
 
@@ -11,10 +12,11 @@ from mirrorcore.session import Session, load_session, save_session
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source
+from ..security import install_log_filter, is_loopback
 from ..server import MirrorscanApp
+from .record import STOP_SIGNALS
 
 log = logging.getLogger("mirrorscan")
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 
 
 def register(sub) -> None:
@@ -26,6 +28,8 @@ def register(sub) -> None:
                                     "see `mirrorscan sources`")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
+    p.add_argument("--token", help="a secret the browser must give (default: none on 127.0.0.1; beyond it a new one, "
+                                   "printed in the address to open)")
     p.set_defaults(run=run)
 
 
@@ -49,15 +53,26 @@ def session_and_source(folder: str | None, spec: str | None) -> tuple[Session, D
 
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
-    if args.host not in LOCAL_HOSTS:
-        log.warning("listening on %s: anyone who can reach this address can see and change the session", args.host)
+    install_log_filter()
     session, source, autosave = session_and_source(args.session, args.source)
     sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
-    app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir)
+    app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir, args.token)
+    if not is_loopback(args.host):
+        log.warning("listening on %s: whoever has the address with its token can see and change the session; "
+                    "prefer 127.0.0.1 and an SSH tunnel (see the README)", args.host)
     app.start()
-    log.info("mirrorscan is at http://%s:%d (Ctrl-C to stop)", args.host, app.port)
+    log.info("mirrorscan is at %s (Ctrl-C to stop)", app.guard.url)
+    previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
     try:
         while True:
             time.sleep(3600)
     finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
         app.stop()
+
+
+def _stop(signum, frame) -> None:
+    """SIGTERM and SIGHUP stop the server as Ctrl-C does (the session is saved at every edit; app.stop() ends a
+    recording and the live loop)."""
+    raise KeyboardInterrupt

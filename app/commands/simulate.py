@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
@@ -31,6 +32,8 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    mesh = args.object.removeprefix("mesh:") if args.object and args.object.startswith("mesh:") else None
+    check_output(args.out, tuple(p for p in (args.scene, mesh) if p))
     if args.scene is not None:
         given = [f"--{k}" for k in _LAYOUT_OPTIONS if getattr(args, k) is not None]
         if given:

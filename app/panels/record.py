@@ -3,8 +3,6 @@ selection), see it count, stop, and replay it with the frame slider (Playback, i
 time, shared by every tab."""
 from __future__ import annotations
 
-import time
-
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import Session
 from mirrorcore.sources import SessionSource
@@ -37,8 +35,7 @@ class RecordPanel:
         self._unsubscribe()
 
     def start(self) -> None:
-        folder = self.services.sessions_dir / time.strftime("recording-%Y%m%d-%H%M%S")
-        self.services.jobs.start_recording(folder, self.services.editor.session)
+        self.services.jobs.start_recording(self.services.sessions_dir)
 
     def stop(self) -> Session:
         """End the recording; it is saved with the current mirrors and object selection."""

@@ -9,9 +9,10 @@ from typing import Callable
 
 import numpy as np
 
+from ..budget import check_memory
 from ..errors import Cancelled, MirrorscanError
 
-MAX_VOXELS = 1_000_000_000        # refuse grids beyond this (a few GB of state alone)
+VOXEL_BYTES = 20                  # peak bytes per voxel of the costliest method: TSDF with its mesh measured 16.3
 CHUNK_VOXELS = 1 << 18            # voxels per slab: temporaries stay in the CPU caches and memory stays bounded
 
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
@@ -24,7 +25,8 @@ class Volume:
     metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k].
 
     origin : (3,) metres, centre of voxel (0, 0, 0); voxel : edge in metres; shape : (nx, ny, nz).
-    Raises MirrorscanError for a non-positive voxel size, an empty shape or more than MAX_VOXELS voxels.
+    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when the grids of a
+    reconstruction (VOXEL_BYTES a voxel) would not fit in the memory budget (mirrorcore.budget).
     """
 
     origin: tuple[float, float, float]
@@ -36,9 +38,9 @@ class Volume:
             raise MirrorscanError(f"volume: the voxel size must be positive, got {self.voxel}")
         if len(self.shape) != 3 or min(self.shape) < 1:
             raise MirrorscanError(f"volume: the grid needs at least one voxel per axis, got {self.shape}")
-        if self.size > MAX_VOXELS:
-            raise MirrorscanError(f"volume: {self.shape} is {self.size:,} voxels, more than {MAX_VOXELS:,}; "
-                                  "use larger voxels or a smaller box")
+        check_memory(float(np.prod(np.asarray(self.shape, float))) * VOXEL_BYTES,
+                     f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of {self.voxel * 1e3:g} mm "
+                     "(use larger voxels or a smaller box)")
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "shape", tuple(int(s) for s in self.shape))
 

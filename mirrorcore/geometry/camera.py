@@ -12,10 +12,13 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import yaml
 
 from ..errors import FileFormatError
+from ..jsonfile import finite_number
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
+MAX_YAML_BYTES = 1 << 20   # a camera file is a few hundred bytes
 MAX_IMAGE_SIDE = 16384   # pixels: no depth camera comes near; a larger size in a file is damage, not a camera
 
 
@@ -62,7 +65,7 @@ class Intrinsics:
             raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
         try:
             values = {k: float(data[k]) for k in _FIELDS if k in data}
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
         if not (values["width"].is_integer() and values["height"].is_integer()):
             raise FileFormatError(f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
@@ -207,23 +210,42 @@ def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
 
 
 def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
-    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height); raises FileFormatError."""
-    if not Path(path).is_file():
+    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional depth_scale); raises
+    FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's '%YAML:1.0' line and '!!opencv-matrix' tags are
+    set aside), not with OpenCV's own parser: damaged bytes made that one abort the whole process."""
+    path = Path(path)
+    if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
-    try:   # OpenCV raises cv2.error on bad YAML, SystemError on an empty file
-        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
-        try:
-            K = fs.getNode("camera_matrix").mat()
-            w, h = fs.getNode("image_width").real(), fs.getNode("image_height").real()
-            scale_node = fs.getNode("depth_scale")
-            scale = depth_scale if scale_node.empty() else scale_node.real()
-        finally:
-            fs.release()
-    except (cv2.error, SystemError) as exc:
-        raise FileFormatError(f"{path}: not an OpenCV YAML file ({str(exc).strip().splitlines()[-1]})") from None
-    if K is None or K.shape != (3, 3) or not (np.isfinite(w) and np.isfinite(h) and w >= 1 and h >= 1):
+    if path.stat().st_size > MAX_YAML_BYTES:
+        raise FileFormatError(f"{path}: {path.stat().st_size:,} bytes is too large for a camera file")
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+        body = "\n".join(lines[1:] if lines and lines[0].startswith("%YAML") else lines)
+        data = yaml.safe_load(body.replace("!!opencv-matrix", ""))
+    except UnicodeDecodeError:
+        raise FileFormatError(f"{path}: not UTF-8 text") from None
+    except (yaml.YAMLError, RecursionError, ValueError) as exc:
+        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise FileFormatError(f"{path}: not an OpenCV YAML file ({reason})") from None
+    if not isinstance(data, dict):
+        raise FileFormatError(f"{path}: not an OpenCV YAML file (no keys)")
+    K = _opencv_matrix(data.get("camera_matrix"))
+    w, h = (finite_number(data.get(k)) for k in ("image_width", "image_height"))
+    scale = depth_scale if data.get("depth_scale") is None else finite_number(data["depth_scale"])
+    if K is None or w is None or h is None or scale is None or w < 1 or h < 1:
         raise FileFormatError(f"{path}: needs camera_matrix (3x3), image_width and image_height")
     try:
         return Intrinsics(int(w), int(h), K[0, 0], K[1, 1], K[0, 2], K[1, 2], scale)
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
+
+
+def _opencv_matrix(node) -> np.ndarray | None:
+    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64, or None."""
+    if not isinstance(node, dict) or node.get("rows") != 3 or node.get("cols") != 3:
+        return None
+    values = node.get("data")
+    if not isinstance(values, list) or len(values) != 9:
+        return None
+    numbers = [finite_number(v) for v in values]
+    return None if None in numbers else np.array(numbers, float).reshape(3, 3)

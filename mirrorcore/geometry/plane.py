@@ -29,7 +29,7 @@ class Plane:
         """
         try:
             p = np.asarray(abcd, dtype=np.float64).reshape(-1)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             p = np.full(0, np.nan)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
             raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")

@@ -6,21 +6,27 @@ import numpy as np
 
 from ..errors import MirrorscanError
 
+MAX_VERTICES = 1000     # a drawn outline has a handful of corners; the crossing test is quadratic in the worst case
+PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB of temporaries)
+
 
 def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:
     """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
 
-    Refuses (MirrorscanError naming `where`): fewer than 3 vertices, non-finite values, vertices outside the image
-    of size `shape` = (H, W) when given, a polygon with no area, and a polygon whose edges cross each other.
+    Refuses (MirrorscanError naming `where`): fewer than 3 or more than MAX_VERTICES vertices, non-finite values,
+    vertices outside the image of size `shape` = (H, W) when given, a polygon with no area, and a polygon whose edges
+    cross each other.
     """
     try:
         poly = np.asarray(points, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise MirrorscanError(f"{where}: vertices must be [u, v] pairs of numbers") from None
     if poly.ndim != 2 or poly.shape[1] != 2:
         raise MirrorscanError(f"{where}: vertices must be [u, v] pairs, got an array of shape {poly.shape}")
     if len(poly) < 3:
         raise MirrorscanError(f"{where}: a polygon needs at least 3 vertices, got {len(poly)}")
+    if len(poly) > MAX_VERTICES:
+        raise MirrorscanError(f"{where}: {len(poly):,} vertices, more than the {MAX_VERTICES:,} a polygon may have")
     if not np.all(np.isfinite(poly)):
         raise MirrorscanError(f"{where}: vertices must be finite numbers")
     if shape is not None:
@@ -45,13 +51,32 @@ def polygon_area(poly: np.ndarray) -> float:
 
 
 def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
-    """The first pair (i, j) of non-adjacent edges that intersect (edge i runs from vertex i to i+1), or None."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    n = len(poly)
-    i, j = np.triu_indices(n, k=2)
-    keep = ~((i == 0) & (j == n - 1))                # the first and last edges share vertex 0
-    i, j = i[keep], j[keep]
+    """The first pair (i, j), i < j, of non-adjacent edges that intersect (edge i runs from vertex i to i+1), or None.
 
+    Memory stays bounded whatever the polygon's size: the pairs are tested in blocks of rows of at most PAIR_BLOCK
+    pairs, and only pairs whose bounding boxes overlap are tested exactly. Time is quadratic in the worst case, which
+    is why polygons are limited to MAX_VERTICES.
+    """
+    a = np.asarray(poly, dtype=np.float64)
+    b = np.roll(a, -1, axis=0)
+    n = len(a)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)                    # (n, 2) each edge's bounding box
+    rows = max(1, PAIR_BLOCK // max(n, 1))
+    for start in range(0, n, rows):
+        i = np.arange(start, min(start + rows, n))[:, None]
+        j = np.arange(n)[None, :]
+        pair = (j >= i + 2) & ~((i == 0) & (j == n - 1))            # non-adjacent, each pair once
+        pair &= np.all((lo[i] <= hi[j]) & (lo[j] <= hi[i]), axis=2)   # bounding boxes overlap
+        ii, jj = np.nonzero(pair)
+        hit = _segments_meet(a[ii + start], b[ii + start], a[jj], b[jj])
+        if hit.any():
+            k = int(np.argmax(hit))                                  # row-major: the first pair in (i, j) order
+            return int(ii[k] + start), int(jj[k])
+    return None
+
+
+def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """(k,) bool: segment p1-q1 meets segment p2-q2 (touching included); all inputs (k, 2) float."""
     def orient(p, q, r):
         return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
 
@@ -59,15 +84,13 @@ def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
         return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0], q[:, 0]))
                 & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1], q[:, 1])))
 
-    p1, q1, p2, q2 = a[i], b[i], a[j], b[j]
     o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
     hit = (o1 != o2) & (o3 != o4) & (o1 != 0) & (o2 != 0) & (o3 != 0) & (o4 != 0)
     hit |= (o1 == 0) & on_segment(p1, q1, p2)
     hit |= (o2 == 0) & on_segment(p1, q1, q2)
     hit |= (o3 == 0) & on_segment(p2, q2, p1)
     hit |= (o4 == 0) & on_segment(p2, q2, q1)
-    k = np.nonzero(hit)[0]
-    return (int(i[k[0]]), int(j[k[0]])) if len(k) else None
+    return hit
 
 
 def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -16,12 +16,11 @@ from ..depthio import write_depth_png
 from ..errors import MirrorscanError
 from ..geometry.camera import Intrinsics, project_points
 from ..rig import Mirror, Rig
-from ..session import BACKGROUND_FILE, Session, SessionMirror, save_session
+from ..session import BACKGROUND_FILE, TRUTH_FILE, Session, SessionMirror, save_session
 from .render import MARKER, GroundTruth
 from .scene import Scene, SceneMirror
 from .simulator import Simulator
 
-TRUTH_FILE = "truth.json"
 
 
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:

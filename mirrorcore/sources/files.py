@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..budget import check_memory
 from ..depthio import read_depth_png
 from ..errors import FileFormatError
 from ..geometry.camera import Intrinsics, load_open3d_json, load_opencv_yaml
@@ -20,6 +21,7 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
+_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
@@ -235,17 +237,39 @@ def _optional(path: Path, arrays: dict, key: str, shape: tuple, kind: type, defa
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt or pickled."""
+    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt or pickled, and
+    MemoryBudgetError when the arrays' declared shapes (read from their .npy headers first) would not fit in the
+    memory budget."""
     if not path.is_file():
         raise FileFormatError(f"{path}: no such .npz file")
     if not zipfile.is_zipfile(path):
         raise FileFormatError(f"{path}: not a .npz archive (not a zip file)")
     try:   # our own file handle: numpy leaves its own open when the archive is broken
-        with open(path, "rb") as f, np.load(f, allow_pickle=False) as data:
-            return {key: data[key] for key in data.files}
+        with open(path, "rb") as f:
+            check_memory(sum(npz_declared_bytes(f).values()), f"{path}: its arrays")
+            f.seek(0)
+            with np.load(f, allow_pickle=False) as data:
+                return {key: data[key] for key in data.files}
     except ValueError as exc:
         if "allow_pickle" in str(exc):
             raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
         raise FileFormatError(f"{path}: not a readable .npz file ({exc})") from None
     except (OSError, zipfile.BadZipFile, EOFError, NotImplementedError, zlib.error) as exc:
         raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+
+
+def npz_declared_bytes(file) -> dict[str, int]:
+    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item size), read without
+    loading any array: {member name: bytes}. Raises ValueError for a member that is not an .npy array."""
+    sizes = {}
+    with zipfile.ZipFile(file) as archive:
+        for info in archive.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with archive.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                if version not in _NPY_HEADERS:
+                    raise ValueError(f"{info.filename}: .npy format version {version} is not read here")
+                shape, _, dtype = _NPY_HEADERS[version](member, max_header_size=10_000)
+            sizes[info.filename] = int(np.prod(shape, dtype=object)) * max(dtype.itemsize, 1)
+    return sizes

@@ -1,6 +1,8 @@
 """Intel RealSense through pyrealsense2 (optional, imported only when used): live cameras and .bag recordings."""
 from __future__ import annotations
 
+import queue
+import threading
 import time
 from pathlib import Path
 
@@ -9,7 +11,6 @@ import numpy as np
 from ..errors import FileFormatError, MirrorscanError
 from ..geometry.camera import Intrinsics
 from .base import DepthSource, Frame, require
-from .files import StackSource
 
 REALSENSE_INSTALL = "pip install 'mirrorscan[devices]' (PyPI pyrealsense2)"
 BAG_TIMEOUT_S = 600.0           # a bag's playback that has not ended by then is reported as broken
@@ -59,59 +60,137 @@ def _camera(stream, units: float) -> Intrinsics:
     return Intrinsics(k.width, k.height, k.fx, k.fy, k.ppx, k.ppy, units)
 
 
-def open_bag(path: str | Path) -> StackSource:
-    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read whole into memory at open so that it
-    is seekable: depth frames as z16 units (Frame.units) times the recorded depth units, device timestamps in seconds.
-    The depth sensor of the playback device is read through a callback with real-time playback off, so that the
-    playback waits for each frame (a pipeline drops frames on a busy machine). Raises FileFormatError for a missing or
-    unreadable bag."""
-    path = Path(path)
-    if not path.is_file():
-        raise FileFormatError(f"{path}: no such .bag recording")
-    rs = require("pyrealsense2", f"bag:{path}", REALSENSE_INSTALL)
-    try:
-        playback = rs.context().load_device(str(path)).as_playback()
-        sensor = next((s for s in playback.query_sensors() if _depth_profile(rs, s) is not None), None)
-        if sensor is None:
-            raise FileFormatError(f"{path}: the recording has no depth stream")
-        profile = _depth_profile(rs, sensor)
-        playback.set_real_time(False)
-        units, stamps = [], []
+def open_bag(path: str | Path) -> "BagSource":
+    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a time (see BagSource).
+    Raises FileFormatError for a missing or unreadable bag."""
+    return BagSource(path)
 
-        def take(frame) -> None:
-            units.append(np.asanyarray(frame.get_data()).copy())
-            stamps.append(frame.get_timestamp() * 1e-3)
 
-        sensor.open(profile)
-        sensor.start(take)
+class BagSource(DepthSource):
+    """A .bag played from its file one frame at a time, so that memory does not grow with its length: depth frames as
+    z16 units (Frame.units) times the recorded depth units, device timestamps in seconds.
+
+    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the next frame takes
+    it from the playback; any other i restarts the playback from the start and skips to it (seeking costs a replay).
+    The depth sensor is read through a callback with real-time playback off, so the playback waits for each frame
+    (a pipeline drops frames on a busy machine); the callback hands frames over through a queue of BAG_QUEUE."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FileFormatError(f"{self.path}: no such .bag recording")
+        self.name = f"bag {self.path.name}"
+        self._rs = require("pyrealsense2", f"bag:{self.path}", REALSENSE_INSTALL)
+        self._player: _Playback | None = None
+        self._next = 0
+        with _Playback(self._rs, self.path, keep_data=False) as index:
+            self.intrinsics, self.fps = index.camera, index.fps
+            self.timestamps = []
+            while (item := index.next()) is not None:
+                self.timestamps.append(item[1])
+        self.frame_count = len(self.timestamps)
+        if not self.frame_count:
+            raise FileFormatError(f"{self.path}: the recording has no depth frames")
+
+    def read(self, i: int) -> Frame:
+        i = self._wrap(i)
+        if self._player is None or i < self._next:
+            self.close()
+            self._player, self._next = _Playback(self._rs, self.path).start(), 0
+        while True:
+            item = self._player.next()
+            if item is None:
+                raise FileFormatError(f"{self.path}: the playback ended after {self._next} frames, "
+                                      f"{self.frame_count} were counted")
+            self._next += 1
+            if self._next > i:
+                units, stamp = item
+                return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), stamp, units=units)
+
+    def close(self) -> None:
+        if self._player is not None:
+            self._player.close()
+            self._player = None
+
+
+BAG_QUEUE = 2           # frames decoded ahead of the reader
+
+
+class _Playback:
+    """One pass over a bag's depth frames: start(), then next() -> (units (H, W) uint16 or None, seconds) until None
+    at the end; close() (or the with block) stops it, even while the callback waits for room in the queue."""
+
+    def __init__(self, rs, path: Path, keep_data: bool = True):
+        self.rs, self.path, self.keep_data = rs, path, keep_data
+        self._queue: queue.Queue = queue.Queue(maxsize=BAG_QUEUE)
+        self._stopping = threading.Event()
+        self._started, self._delivered = False, 0
         try:
-            _wait_until_played(rs, playback, path, units)
-        finally:
-            sensor.stop()
-            sensor.close()
-        camera = _camera(profile, sensor.as_depth_sensor().get_depth_scale())
-    except RuntimeError as exc:
-        raise FileFormatError(f"{path}: not a readable RealSense recording ({exc})") from None
-    if not units:
-        raise FileFormatError(f"{path}: the recording has no depth frames")
-    return StackSource(f"bag {path.name}", camera, np.stack(units), camera.depth_scale, np.asarray(stamps),
-                       fps=float(profile.fps()))
+            self.playback = rs.context().load_device(str(path)).as_playback()
+            self.sensor = next((s for s in self.playback.query_sensors() if _depth_profile(rs, s) is not None), None)
+            if self.sensor is None:
+                raise FileFormatError(f"{path}: the recording has no depth stream")
+            self.profile = _depth_profile(rs, self.sensor)
+            self.camera = _camera(self.profile, self.sensor.as_depth_sensor().get_depth_scale())
+            self.fps = float(self.profile.fps())
+            self.playback.set_real_time(False)
+        except RuntimeError as exc:
+            raise FileFormatError(f"{path}: not a readable RealSense recording ({exc})") from None
+
+    def __enter__(self) -> "_Playback":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def start(self) -> "_Playback":
+        try:
+            self.sensor.open(self.profile)
+            self.sensor.start(self._take)
+        except RuntimeError as exc:
+            raise FileFormatError(f"{self.path}: not a readable RealSense recording ({exc})") from None
+        self._started, self._start_time = True, time.monotonic()
+        return self
+
+    def _take(self, frame) -> None:
+        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits too."""
+        item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None, frame.get_timestamp() * 1e-3)
+        while not self._stopping.is_set():
+            try:
+                self._queue.put(item, timeout=0.05)
+                return
+            except queue.Full:
+                continue
+
+    def next(self) -> tuple | None:
+        """The next frame, or None once the playback has stopped after delivering its frames (it reads 'stopped'
+        before it starts too: BAG_START_S). Raises FileFormatError when it has not ended within BAG_TIMEOUT_S."""
+        while True:
+            try:
+                item = self._queue.get(timeout=0.02)
+                self._delivered += 1
+                return item
+            except queue.Empty:
+                pass
+            stopped = self.playback.current_status() == self.rs.playback_status.stopped
+            waited = time.monotonic() - self._start_time
+            if stopped and self._queue.empty() and (self._delivered or waited > BAG_START_S):
+                return None
+            if waited > BAG_TIMEOUT_S:
+                raise FileFormatError(f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
+
+    def close(self) -> None:
+        self._stopping.set()
+        if self._started:
+            self._started = False
+            try:
+                self.sensor.stop()
+                self.sensor.close()
+            except RuntimeError:
+                pass
 
 
 def _depth_profile(rs, sensor):
     """The sensor's z16 depth stream profile, or None."""
     return next((p.as_video_stream_profile() for p in sensor.get_stream_profiles()
                  if p.stream_type() == rs.stream.depth), None)
-
-
-def _wait_until_played(rs, playback, path: Path, received: list) -> None:
-    """Wait for the playback to stop after delivering frames (it reads 'stopped' before it starts, too)."""
-    start = time.monotonic()
-    while True:
-        stopped = playback.current_status() == rs.playback_status.stopped
-        waited = time.monotonic() - start
-        if stopped and (received or waited > BAG_START_S):
-            return
-        if waited > BAG_TIMEOUT_S:
-            raise FileFormatError(f"{path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
-        time.sleep(0.01)

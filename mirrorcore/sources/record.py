@@ -1,12 +1,19 @@
 """Recording any depth source into a session folder (docs/DESIGN.md's format: uint16 PNG frames, session.json with
 'timestamps' and, when the source has colour, 'colour_frames'): record() and the threaded Recorder.
 
-For the browser tool: Recorder(source, folder).start(); .frames counts what is written; .stop() returns the Session.
+A recording is a valid session at every moment: session.json is written (atomically) before the first frame and
+rewritten every SAVE_EVERY_S seconds with the frames that have landed, so a process killed mid-recording (SIGKILL, a
+crash, the power) leaves a session that opens with all its frames but the last second's.
+
+For the browser tool: Recorder(source, new_recording_folder(sessions_dir)).start(); .frames counts what is written;
+.stop() returns the Session and never waits longer than its timeout.
 """
 from __future__ import annotations
 
+import os
 import shutil
 import threading
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -20,6 +27,7 @@ from .base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"
 COLOUR_NAME = "frames/{:06d}_colour.png"
+SAVE_EVERY_S = 1.0          # session.json is rewritten this often while recording (and at the end)
 
 
 def record(source: DepthSource, folder: str | Path, seconds: float | None = None, frames: int | None = None,
@@ -28,52 +36,88 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
     """Record `source` into a new session folder and return its Session.
 
     Stops at the first of: `frames` frames; a frame whose timestamp is `seconds` or more after the first one; the end
-    of the source's iteration (one pass of a recording); cancel() returning True; Ctrl-C. A cancelled or interrupted recording keeps what
-    was recorded as a valid session (session.json is written last, atomically); then KeyboardInterrupt is raised
-    again. On any other error the folder is removed. progress(n, frame) is called after frame n (1-based) is written.
+    of the source's iteration (one pass of a recording); cancel() returning True; Ctrl-C. session.json is valid from
+    the start and rewritten every SAVE_EVERY_S seconds and at the end (see the module docstring). Ctrl-C, or an error
+    after the first frame (a camera unplugged), keeps what was recorded as a valid session and is raised again; an
+    error before any frame removes the folder. progress(n, frame) is called after frame n (1-based) is written.
     folder : must not exist, or be empty. Raises MirrorscanError, FileFormatError, OSError.
     """
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise MirrorscanError(f"{folder}: exists and is not an empty folder; record into a new one")
-    scale = source.intrinsics.depth_scale
     limit = min(n for n in (frames, source.frame_count, float("inf")) if n is not None)
-    names, colours, stamps = [], [], []
     created = not folder.exists()
     (folder / "frames").mkdir(parents=True, exist_ok=True)
+    take = _Take(source, folder)
     try:
-        try:
-            frames_in = iter(source)      # a recording's frames once, a live source's until it ends
-            while len(names) < limit and not cancel():
-                frame = next(frames_in, None)
-                if frame is None or seconds is not None and stamps and frame.timestamp - stamps[0] >= seconds:
-                    break
-                write_depth_png(folder / FRAME_NAME.format(len(names)), frame.depth, scale)
-                if frame.colour is not None:
-                    write_colour_png(folder / COLOUR_NAME.format(len(names)), frame.colour)
-                    colours.append(COLOUR_NAME.format(len(names)))
-                names.append(FRAME_NAME.format(len(names)))
-                stamps.append(frame.timestamp)
-                progress(len(names), frame)
-        except KeyboardInterrupt:
-            _save(source, folder, names, colours, stamps)
-            raise
-        return _save(source, folder, names, colours, stamps)
+        take.save()
+        frames_in = iter(source)      # a recording's frames once, a live source's until it ends
+        while len(take.names) < limit and not cancel():
+            frame = next(frames_in, None)
+            if frame is None or seconds is not None and take.stamps and frame.timestamp - take.stamps[0] >= seconds:
+                break
+            take.add(frame)
+            progress(len(take.names), frame)
+        return take.save()
     except BaseException as exc:
-        if created and not isinstance(exc, KeyboardInterrupt):
+        if take.names or isinstance(exc, KeyboardInterrupt):
+            take.save()
+        elif created:
             shutil.rmtree(folder, ignore_errors=True)
         raise
 
 
-def _save(source: DepthSource, folder: Path, names: list[str], colours: list[str], stamps: list[float]) -> Session:
-    background = source.background()
-    if background is not None:
-        write_depth_png(folder / BACKGROUND_FILE, background, source.intrinsics.depth_scale)
-    session = Session(folder, source.intrinsics, (), None if background is None else BACKGROUND_FILE, tuple(names),
-                      timestamps=tuple(stamps),
-                      colour_frames=tuple(colours) if colours and len(colours) == len(names) else None)
-    save_session(session)
-    return session
+class _Take:
+    """The frames of one recording as they land, and its session.json saved at most every SAVE_EVERY_S seconds."""
+
+    def __init__(self, source: DepthSource, folder: Path):
+        self.source, self.folder = source, folder
+        self.names: list[str] = []
+        self.colours: list[str] = []
+        self.stamps: list[float] = []
+        self.background = None
+        background = source.background()
+        if background is not None:
+            write_depth_png(folder / BACKGROUND_FILE, background, source.intrinsics.depth_scale)
+            self.background = BACKGROUND_FILE
+        self._saved_at = time.monotonic()
+
+    def add(self, frame: Frame) -> None:
+        """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S old."""
+        n = len(self.names)
+        write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth, self.source.intrinsics.depth_scale)
+        if frame.colour is not None:
+            write_colour_png(self.folder / COLOUR_NAME.format(n), frame.colour)
+            self.colours.append(COLOUR_NAME.format(n))
+        self.names.append(FRAME_NAME.format(n))
+        self.stamps.append(frame.timestamp)
+        if time.monotonic() - self._saved_at >= SAVE_EVERY_S:
+            self.save()
+
+    def save(self) -> Session:
+        session = Session(self.folder, self.source.intrinsics, (), self.background, tuple(self.names),
+                          timestamps=tuple(self.stamps),
+                          colour_frames=tuple(self.colours) if self.colours and len(self.colours) == len(self.names)
+                          else None)
+        save_session(session)
+        self._saved_at = time.monotonic()
+        return session
+
+
+def new_recording_folder(parent: str | Path, prefix: str = "recording") -> Path:
+    """Create and return a new empty folder `parent`/PREFIX-YYYYmmdd-HHMMSS (with -2, -3... when that name is taken):
+    made with an exclusive mkdir, so two recordings started in the same second never share a folder."""
+    parent = Path(parent)
+    parent.mkdir(parents=True, exist_ok=True)
+    stem = f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}"
+    for n in range(1, 10_000):
+        folder = parent / (stem if n == 1 else f"{stem}-{n}")
+        try:
+            os.mkdir(folder)
+        except FileExistsError:
+            continue
+        return folder
+    raise MirrorscanError(f"{parent}: no free name for a recording {stem}-N")
 
 
 def write_colour_png(path: Path, colour) -> None:
@@ -87,7 +131,9 @@ def write_colour_png(path: Path, colour) -> None:
 class Recorder:
     """record() on a background thread, for a UI: start(), then stop() (or wait for the limit) to get the Session.
 
-    frames : int, frames written so far; done : bool; error : the exception that ended it, or None.
+    frames : int, frames written so far; done : bool; error : the exception that ended it, or None. stop() returns
+    within its timeout whatever the source does (a source blocked in a read is left to end on its own; the
+    recording's session.json is valid all along).
     """
 
     def __init__(self, source: DepthSource, folder: str | Path, seconds: float | None = None,
@@ -105,14 +151,17 @@ class Recorder:
         self._thread.start()
         return self
 
-    def stop(self, timeout: float = 30.0) -> Session:
-        """Stop recording, wait for the session to be written and return it; raises the error that ended it."""
+    def stop(self, timeout: float = 10.0) -> Session:
+        """Stop recording, wait (at most `timeout` seconds) for the session to be written and return it; raises the
+        error that ended it, or MirrorscanError when the recording has not ended in time."""
         self._cancel.set()
-        self._thread.join(timeout)
+        if self._thread.ident is not None:
+            self._thread.join(timeout)
         if self.error is not None:
             raise self.error
         if self.session is None:
-            raise MirrorscanError(f"{self.folder}: the recording did not finish within {timeout:g} s")
+            raise MirrorscanError(f"{self.folder}: the recording did not end within {timeout:g} s (its source is "
+                                  f"not delivering frames); {self.frames} frames are saved there")
         return self.session
 
     def _run(self) -> None:

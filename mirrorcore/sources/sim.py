@@ -7,8 +7,7 @@ import numpy as np
 
 from ..errors import FileFormatError
 from ..jsonfile import read_json
-from ..session import Session
-from ..sim.export import TRUTH_FILE
+from ..session import TRUTH_FILE, Session
 from ..sim.layouts import paper_scene
 from ..sim.scene import Scene, load_scene, scene_from_json
 from ..sim.simulator import Simulator

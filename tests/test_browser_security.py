@@ -1,0 +1,104 @@
+"""The browser tool's guard in a real browser (headless Chromium): the page opened with ?token= connects (the cookie
+it gets is what its websocket carries), the page without it is told what to open, and a page of another site that
+opens a websocket to the tool is refused (issue 15, point 3)."""
+from __future__ import annotations
+
+import http.server
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import viser
+
+from app.security import new_token
+from app.server import MirrorscanApp
+from mirrorcore.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.simulator import Simulator
+from mirrorcore.sources import SimulatedSource
+
+playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
+pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
+
+EVIL_PAGE = """<html><body><script>
+const ws = new WebSocket("ws://127.0.0.1:%d/", ["viser-v%s"]);
+ws.onopen = () => { document.title = "opened"; };
+ws.onclose = () => { if (document.title !== "opened") document.title = "refused"; };
+</script></body></html>"""
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    rig = Simulator(paper_scene(object="sphere"), seed=0, fps=5.0)
+    root = tmp_path_factory.mktemp("browser-guard") / "scan"
+    session = Session(root, rig.intrinsics, (SessionMirror("mirror 1"), SessionMirror("mirror 2")))
+    save_session(session)
+    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent, token=new_token())   # as
+    # shared on a network: a token
+    app.start()
+    yield app
+    app.stop()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=[
+            "--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            "--no-first-run"])
+        yield browser
+        browser.close()
+
+
+def wait_for(condition, seconds: float = 60.0):
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        time.sleep(0.2)
+    return None
+
+
+def test_the_page_with_its_token_connects_and_without_it_is_told_what_to_open(app, browser):
+    stranger = browser.new_context()
+    page = stranger.new_page()
+    response = page.goto(f"http://127.0.0.1:{app.port}/")
+    assert response.status == 403 and "needs its token" in page.content()
+    time.sleep(1)
+    assert not app.server.get_clients()
+
+    user = browser.new_context()
+    page = user.new_page()
+    page.goto(app.guard.url)                                    # the address the server printed
+    assert wait_for(lambda: app.server.get_clients()), "the tab with the token did not connect"
+    cookies = {c["name"]: c for c in user.cookies()}
+    assert cookies[f"mirrorscan-token-{app.port}"]["httpOnly"]
+    page.get_by_role("button", name="Add a mirror").wait_for(timeout=60_000)   # the GUI arrived over the websocket
+    user.close()
+    stranger.close()
+
+
+def test_another_sites_page_cannot_open_the_tools_websocket(app, browser, tmp_path):
+    evil = tmp_path / "evil"
+    evil.mkdir()
+    (evil / "index.html").write_text(EVIL_PAGE % (app.port, viser.__version__))
+    handler = lambda *a, **k: http.server.SimpleHTTPRequestHandler(*a, directory=str(evil), **k)  # noqa: E731
+    site = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=site.serve_forever, daemon=True).start()
+    try:
+        context = browser.new_context()
+        page = context.new_page()
+        page.goto(app.guard.url)                                # the user's own tab has the cookie...
+        assert wait_for(lambda: app.server.get_clients())
+        clients = len(app.server.get_clients())
+        other = context.new_page()
+        other.goto(f"http://127.0.0.1:{site.server_port}/")     # ...and another site opens the websocket
+        assert wait_for(lambda: other.title() in ("opened", "refused"), 30) and other.title() == "refused"
+        assert len(app.server.get_clients()) == clients
+        context.close()
+    finally:
+        site.shutdown()
+    assert [m.name for m in load_session(app.editor.session.root).mirrors] == ["mirror 1", "mirror 2"]

@@ -1,0 +1,202 @@
+"""Recordings are never lost and never stuck (issue 15, points 4 and 5): a recording is a valid session at every moment
+(real processes killed with SIGKILL, stopped with SIGTERM and SIGHUP), Stop always returns, one recording at a time
+per live loop, and recordings started in the same second get folders of their own."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from app.recording import LiveTap
+from mirrorcore.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.session import load_session
+from mirrorcore.sources import DepthSource, Frame, Recorder, new_recording_folder
+
+ROOT = Path(__file__).resolve().parents[1]
+CAMERA = Intrinsics(64, 48, 60.0, 60.0, 31.5, 23.5)
+
+RECORDER_SCRIPT = """
+import sys, time
+from mirrorcore.sources import Recorder, open_source
+Recorder(open_source("sim"), sys.argv[1]).start()
+time.sleep(600)
+"""
+
+
+def _env() -> dict:
+    return {**os.environ, "PYTHONPATH": str(ROOT)}
+
+
+def _listed(folder: Path) -> int:
+    """Frames that session.json lists now (0 while it is missing or being replaced)."""
+    try:
+        return len(load_session(folder).frames)
+    except MirrorscanError:
+        return 0
+
+
+def _wait_for_frames(process: subprocess.Popen, folder: Path, count: int, timeout: float = 90.0) -> None:
+    deadline = time.monotonic() + timeout
+    while _listed(folder) < count:
+        assert process.poll() is None, process.stderr.read()[-2000:] if process.stderr else "exited"
+        assert time.monotonic() < deadline, f"fewer than {count} frames listed in {timeout:g} s"
+        time.sleep(0.2)
+
+
+def _check_opens_with_its_frames(folder: Path) -> int:
+    """The session opens, lists only whole frames, each readable, and no more than one second's worth are unlisted."""
+    session = load_session(folder)
+    for i in range(len(session.frames)):
+        assert session.read_frame(i).shape == session.camera.shape
+    on_disk = sorted(p.name for p in (folder / "frames").glob("[0-9]*.png"))
+    assert [Path(f).name for f in session.frames] == on_disk[:len(session.frames)]
+    assert len(on_disk) - len(session.frames) <= 60                # at most ~1 s of frames after the last save
+    assert len(session.timestamps) == len(session.frames)
+    return len(session.frames)
+
+
+@pytest.mark.parametrize("how", ["command", "recorder"])
+def test_a_recording_killed_with_sigkill_opens_with_its_frames(tmp_path, how):
+    folder = tmp_path / "take"
+    argv = ([sys.executable, "-m", "app.cli", "record", "sim", str(folder), "--quiet"] if how == "command"
+            else [sys.executable, "-c", RECORDER_SCRIPT, str(folder)])
+    process = subprocess.Popen(argv, cwd=ROOT, env=_env(), stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_frames(process, folder, 8)
+        time.sleep(0.3)                                             # kill it between two saves
+        process.kill()
+        process.wait(10)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert _check_opens_with_its_frames(folder) >= 8
+
+
+@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_record_stops_cleanly_on_sigterm_and_sighup(tmp_path, signum, status):
+    folder = tmp_path / "take"
+    process = subprocess.Popen([sys.executable, "-m", "app.cli", "record", "sim", str(folder), "--quiet"], cwd=ROOT,
+                               env=_env(), stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_frames(process, folder, 5)
+        process.send_signal(signum)
+        _, err = process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == status, err
+    assert f"stopped by {signal.Signals(signum).name}" in err
+    session = load_session(folder)
+    on_disk = sorted(p.name for p in (folder / "frames").glob("*.png"))
+    assert [Path(f).name for f in session.frames] == on_disk            # every frame written is listed
+    assert not list(folder.rglob(".*.tmp"))
+
+
+class _Stalled(DepthSource):
+    """A live source whose camera stops delivering after `good` frames (a read then blocks until released)."""
+
+    def __init__(self, good: int):
+        self.name, self.intrinsics, self.fps, self.frame_count = "stalled", CAMERA, 30.0, None
+        self.good, self.release = good, threading.Event()
+
+    def read(self, i: int) -> Frame:
+        if i >= self.good:
+            self.release.wait(30)
+        return Frame(np.full(CAMERA.shape, 1.5, np.float32), i / 30)
+
+
+def test_stop_returns_even_when_the_source_is_stuck(tmp_path):
+    source = _Stalled(good=3)
+    recorder = Recorder(source, tmp_path / "r").start()
+    while recorder.frames < 3:
+        time.sleep(0.01)
+    t0 = time.monotonic()
+    with pytest.raises(MirrorscanError, match="did not end within 0.5 s .* 3 frames are saved there"):
+        recorder.stop(timeout=0.5)
+    assert time.monotonic() - t0 < 2
+    source.release.set()
+    recorder._thread.join(5)
+    assert not recorder._thread.is_alive()                          # it stopped after the stalled read: no more frames
+    assert len(load_session(tmp_path / "r").frames) == 4
+
+
+def _loop() -> SimpleNamespace:
+    """What LiveTap uses of the app: the source and a way to subscribe to its frames (here, a list of listeners)."""
+    listeners: list = []
+
+    def subscribe(take):
+        listeners.append(take)
+        return lambda: listeners.remove(take)
+    source = SimpleNamespace(name="sim", intrinsics=CAMERA, fps=30.0, background=lambda: None)
+    return SimpleNamespace(source=source, listeners=listeners, tap=lambda: LiveTap(source, subscribe))
+
+
+def _live_frame(i: int) -> SimpleNamespace:
+    return SimpleNamespace(depth=np.full(CAMERA.shape, 1.0 + i, np.float32), timestamp=i / 30)
+
+
+def test_closing_a_full_tap_never_blocks_and_delivers_what_it_took():
+    loop = _loop()
+    tap = loop.tap()
+    for i in range(500):                                            # nobody reads: the queue fills, then drops
+        for listener in list(loop.listeners):
+            listener(_live_frame(i))
+    assert tap.dropped > 0
+    done = threading.Event()
+    threading.Thread(target=lambda: (tap.close(), done.set()), daemon=True).start()
+    assert done.wait(2), "close() blocked on the full queue"
+    taken = list(tap)                                               # the frames taken before close, then the end
+    assert len(taken) == 500 - tap.dropped and taken[0].timestamp == 0
+    assert not loop.listeners
+
+
+def test_one_recording_at_a_time_on_a_live_loop_and_stop_after_stop():
+    loop = _loop()
+    first = loop.tap()
+    with pytest.raises(MirrorscanError, match="already recording"):
+        loop.tap()
+    first.close()
+    first.close()                                                   # twice: nothing
+    second = loop.tap()                                          # Record again after Stop
+    second.close()
+
+
+def test_record_stop_record_within_a_second_records_both(tmp_path):
+    loop = _loop()
+    sessions = []
+    for take in range(2):
+        tap = loop.tap()
+        recorder = Recorder(tap, new_recording_folder(tmp_path)).start()
+        for i in range(5):
+            for listener in list(loop.listeners):
+                listener(_live_frame(i))
+        while recorder.frames < 5:
+            time.sleep(0.01)
+        tap.close()
+        sessions.append(recorder.stop(timeout=5))
+    assert sessions[0].root != sessions[1].root
+    assert [len(load_session(s.root).frames) for s in sessions] == [5, 5]
+
+
+def test_recordings_started_in_the_same_second_get_their_own_folders(tmp_path):
+    folders, barrier = [], threading.Barrier(8)
+
+    def start() -> None:
+        barrier.wait()
+        folders.append(new_recording_folder(tmp_path))
+
+    threads = [threading.Thread(target=start) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(set(folders)) == 8 and all(f.is_dir() and not any(f.iterdir()) for f in folders)
