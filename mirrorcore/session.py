@@ -1,6 +1,6 @@
 """The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
-(camera, mirrors, background, frames, and the extensions selection, timestamps, colour_frames, a mirror's id and
-region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
+(camera, mirrors, background, frames, and the extensions selection, bounces, timestamps, colour_frames, a mirror's
+id and region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
 from __future__ import annotations
 
 import json
@@ -18,12 +18,14 @@ from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import validate_polygon
 from .jsonfile import read_json
+from .palette import MAX_ORDER
 from .selection import Selection
 
 VERSION = 1
 SESSION_FILE = "session.json"
 BACKGROUND_FILE = "background.png"   # where a captured or rendered background is saved
-_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames")
+_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames",
+             "bounces")
 _MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region")
 
 Pixels = tuple[tuple[float, float], ...]
@@ -69,6 +71,7 @@ class Session:
     timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
     colour_frames : n colour PNG paths, one per frame, or None
     extra : top-level keys this version does not know, kept as they were
+    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig)
 
     Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
     """
@@ -82,6 +85,7 @@ class Session:
     timestamps: tuple[float, ...] | None = None
     colour_frames: tuple[str, ...] | None = None
     extra: dict = field(default_factory=dict, compare=False)
+    bounces: int = MAX_ORDER
 
     def __post_init__(self) -> None:
         if any(m.id < 1 for m in self.mirrors):
@@ -100,6 +104,8 @@ class Session:
             data["timestamps"] = list(self.timestamps)
         if self.colour_frames is not None:
             data["colour_frames"] = list(self.colour_frames)
+        if self.bounces != MAX_ORDER:
+            data["bounces"] = self.bounces
         return {**data, **self.extra}
 
     def with_mirror(self, index: int, mirror: SessionMirror) -> "Session":
@@ -173,9 +179,13 @@ def session_from_json(data, folder: Path) -> Session:
         colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames")
         if len(colour_frames) != len(frames):
             raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
+    bounces = data.get("bounces", MAX_ORDER)
+    if isinstance(bounces, bool) or not isinstance(bounces, int) or not 1 <= bounces <= MAX_ORDER:
+        raise FileFormatError(f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
     return Session(Path(folder), camera, mirrors, background, frames,
-                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra)
+                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra,
+                   bounces)
 
 
 def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:

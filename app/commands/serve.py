@@ -2,16 +2,19 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import time
 from pathlib import Path
 
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.rig import check_bounces
 from mirrorcore.session import Session, load_session, save_session
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source
 from ..server import MirrorscanApp
+from .reconstruct import add_bounces_option
 
 log = logging.getLogger("mirrorscan")
 LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
@@ -26,11 +29,21 @@ def register(sub) -> None:
                                     "see `mirrorscan sources`")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
+    add_bounces_option(p)
     p.set_defaults(run=run)
 
 
-def session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
-    """(session, source, autosave) for the command's arguments."""
+def session_and_source(folder: str | None, spec: str | None,
+                       bounces: int | None = None) -> tuple[Session, DepthSource, bool]:
+    """(session, source, autosave) for the command's arguments; `bounces` (--bounces) becomes the session's setting
+    (saved with its next change)."""
+    if bounces is not None:
+        check_bounces(bounces)
+    session, source, autosave = _session_and_source(folder, spec)
+    return (session if bounces is None else dataclasses.replace(session, bounces=bounces)), source, autosave
+
+
+def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
     if folder is None:
         source = demo_source() if spec in (None, "sim") else open_source(spec, None)
         return calibrated_session(source, Path("sessions") / "untitled"), source, False
@@ -51,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     if args.host not in LOCAL_HOSTS:
         log.warning("listening on %s: anyone who can reach this address can see and change the session", args.host)
-    session, source, autosave = session_and_source(args.session, args.source)
+    session, source, autosave = session_and_source(args.session, args.source, args.bounces)
     sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
     app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir)
     app.start()
