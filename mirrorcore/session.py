@@ -1,6 +1,7 @@
 """The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
 (camera, mirrors, background, frames, and the extensions selection, bounces, timestamps, colour_frames, a mirror's
-id and region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
+id and region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as
+they were."""
 from __future__ import annotations
 
 import json

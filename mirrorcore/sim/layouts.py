@@ -70,7 +70,8 @@ def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_
     its reflective side and the unit direction `along` its glass from the apex towards the camera's side. The V's
     bisector points from the camera to the target, turned by `turn_deg` about the vertical (positive: apex to +x)."""
     if not 10.0 <= angle_deg <= 175.0:
-        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, got {angle_deg:g}")
+        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
+                              f"got {angle_deg:g}")
     half, turn = np.radians(angle_deg) / 2, np.radians(turn_deg)
     toward = target * [1.0, 0.0, 1.0]                  # horizontal: the mirrors stand vertical
     toward /= np.linalg.norm(toward)
