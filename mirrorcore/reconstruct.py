@@ -5,10 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .cloud import Cloud
-from .depthops import bounding_window
-from .geometry.camera import check_depth_shape
-from .paths import Chains
-from .rig import Rig
+from .geometry.camera import Intrinsics, check_depth_shape
+from .rig import ReflectionTable, Rig
 
 
 def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:
@@ -31,66 +29,72 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
     keep = depth > 0 if mask is None else (mask & (depth > 0))
-    win = bounding_window(keep)                 # all the work happens in the kept pixels' bounding box
-    z = depth[win]
-    behind = z > table.threshold[win]
-    # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
-    step = (np.float32(-2) * (z * table.ray_dot[win] + table.offset[win])) * behind
-    out = np.empty((*z.shape, 4), dtype=np.float32)   # x, y, z, source per pixel: gathered in one take below
-    out[..., 0] = z * intr.rays[0][win] + step * table.normal[0][win]
-    out[..., 1] = z * intr.rays[1][win] + step * table.normal[1][win]
-    out[..., 2] = z + step * table.normal[2][win]
-    out[..., 3] = table.label[win] * behind
-    if table.overlap[win].any():
-        _later_mirrors(rig, win, out, keep[win] & table.overlap[win] & ~behind)
+    index = np.flatnonzero(keep)                # every step below reads the kept pixels only, in row-major order
+    z = np.take(depth.reshape(-1), index)
+    behind = z > np.take(table.threshold.reshape(-1), index)
+    rows = np.flatnonzero(behind)
+    pixel = np.take(index, rows)
+    sources = np.zeros(len(index), np.uint8)
+    sources[rows] = np.take(table.label.reshape(-1), pixel)
+    points = np.stack(_first_mirror(intr, table, index, z, rows, pixel), axis=1)
+    if table.any_overlap:
+        _later_mirrors(rig, index, points, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
+    drop = np.zeros(len(index), bool)
     if len(table.chains):
-        _further_mirrors(table.chains, depth, win, out, keep)
-    keep[win] &= ~table.uncalibrated[win] | (out[..., 3] > 0)
-    # row-major order inside the window is the image's row-major order: the same ranks index both
-    picked = np.take(out.reshape(-1, 4), np.flatnonzero(keep[win]), axis=0)
-    return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), np.flatnonzero(keep), intr.width)
+        _further_mirrors(table, index, z, points, sources, drop)
+    if table.any_uncalibrated:
+        drop |= table.uncalibrated.reshape(-1)[index] & (sources == 0)
+    if drop.any():
+        index, points, sources = index[~drop], points[~drop], sources[~drop]
+    return Cloud(points, sources, index, intr.width)
 
 
-def _later_mirrors(rig: Rig, win: tuple[slice, slice], out: np.ndarray, pending: np.ndarray) -> None:
+def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
+                  pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points x, y, z ((n,) float32 each) of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the rows
+    `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
+    P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
+    xyz = [z * np.take(intr.rays[0].reshape(-1), index), z * np.take(intr.rays[1].reshape(-1), index), z.copy()]
+    depth = np.take(z, rows)
+    step = np.float32(-2) * (depth * np.take(table.ray_dot.reshape(-1), pixel)
+                             + np.take(table.offset.reshape(-1), pixel))
+    for axis in range(3):
+        xyz[axis][rows] = np.take(xyz[axis], rows) + step * np.take(table.normal[axis].reshape(-1), pixel)
+    return tuple(xyz)
+
+
+def _later_mirrors(rig: Rig, index: np.ndarray, points: np.ndarray, sources: np.ndarray, rows: np.ndarray) -> None:
     """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place).
-    win : the window of the image that `out` (h, w, 4) and `pending` (h, w) bool cover."""
-    v, u = np.nonzero(pending)
-    points = out[v, u, :3].astype(np.float64)
-    bits = rig.inside_bits[win][v, u]
-    todo = np.ones(len(v), dtype=bool)
+    index : (n,) flat pixel indices of points (n, 3) float32 and sources (n,); rows : the rows to try."""
+    candidates = points[rows].astype(np.float64)
+    bits = rig.inside_bits.reshape(-1)[index[rows]]
+    todo = np.ones(len(rows), dtype=bool)
     for j, mirror in enumerate(rig.mirrors, start=1):
         if mirror.plane is None:
             continue
         hit = todo & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
-        hit &= mirror.plane.signed_distance(points) < 0
-        out[v[hit], u[hit], :3] = mirror.plane.reflect(points[hit])
-        out[v[hit], u[hit], 3] = j
+        hit &= mirror.plane.signed_distance(candidates) < 0
+        points[rows[hit]] = mirror.plane.reflect(candidates[hit])
+        sources[rows[hit]] = j
         todo &= ~hit
 
 
-def _further_mirrors(chains: Chains, depth: np.ndarray, win: tuple[slice, slice], out: np.ndarray,
-                     keep: np.ndarray) -> None:
-    """Reflect the kept points of the chains' pixels in the window `win` through the further mirrors their depth is
-    beyond, relabel them, and drop those beyond the cutoff (in place). depth : (H, W) float32 metres; out : (h, w, 4)
-    the window's points and labels after the first mirror; keep : (H, W) bool."""
-    width = depth.shape[1]
-    v, u = np.divmod(chains.pixel, width)
-    rows = np.flatnonzero((v >= win[0].start) & (v < win[0].stop) & (u >= win[1].start) & (u < win[1].stop))
-    rows = rows[keep.reshape(-1)[chains.pixel[rows]]]
+def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, points: np.ndarray,
+                     sources: np.ndarray, drop: np.ndarray) -> None:
+    """Reflect the points of the chains' pixels through the further mirrors their depth is beyond and relabel them;
+    mark in `drop` those beyond the cutoff (in place). index : (n,) flat pixel indices of z (n,) float32, points
+    (n, 3) float32, sources (n,) and drop (n,) bool."""
+    chain = table.chain_row.reshape(-1)[index]
+    rows = np.flatnonzero(chain >= 0)
     if not len(rows):
         return
-    z = depth.reshape(-1)[chains.pixel[rows]]
-    wv, wu = v[rows] - win[0].start, u[rows] - win[1].start
-    points = out[wv, wu, :3]
-    labels = out[wv, wu, 3]
+    chains, chain, depth = table.chains, chain[rows], z[rows]
     for level in range(chains.threshold.shape[1]):
-        go = np.flatnonzero(z > chains.threshold[rows, level])
+        go = np.flatnonzero(depth > chains.threshold[chain, level])
         if not len(go):
             break
-        n, d = chains.normal[rows[go], level], chains.offset[rows[go], level]
-        p = points[go]
-        points[go] = p - (np.float32(2) * (np.einsum("ij,ij->i", p, n) + d))[:, None] * n
-        labels[go] = chains.label[rows[go], level]
-    out[wv, wu, :3] = points
-    out[wv, wu, 3] = labels
-    keep.reshape(-1)[chains.pixel[rows[z > chains.cutoff[rows]]]] = False
+        n, d = chains.normal[chain[go], level], chains.offset[chain[go], level]
+        p = points[rows[go]]
+        points[rows[go]] = p - (np.float32(2) * (np.einsum("ij,ij->i", p, n) + d))[:, None] * n
+        sources[rows[go]] = chains.label[chain[go], level]
+    drop[rows[depth > chains.cutoff[chain]]] = True

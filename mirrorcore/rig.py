@@ -123,6 +123,22 @@ class ReflectionTable:
     uncalibrated: np.ndarray
     chains: Chains
 
+    @cached_property
+    def any_overlap(self) -> bool:
+        return bool(self.overlap.any())
+
+    @cached_property
+    def any_uncalibrated(self) -> bool:
+        return bool(self.uncalibrated.any())
+
+    @cached_property
+    def chain_row(self) -> np.ndarray:
+        """(H, W) int32 read-only: each pixel's row in `chains`, -1 for the pixels not in it."""
+        rows = np.full(self.label.shape, -1, np.int32)
+        rows.reshape(-1)[self.chains.pixel] = np.arange(len(self.chains), dtype=np.int32)
+        rows.flags.writeable = False
+        return rows
+
     @classmethod
     def from_rig(cls, rig: Rig) -> "ReflectionTable":
         shape, rays = rig.intrinsics.shape, rig.intrinsics.rays
