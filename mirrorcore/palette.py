@@ -71,6 +71,22 @@ def sequence_label(sequence) -> int | None:
     return _LABEL_OF.get(sequence)
 
 
+def _order(source: int) -> int:
+    try:
+        return len(source_sequence(source))
+    except ValueError:
+        return -1
+
+
+_ORDERS = np.array([_order(s) for s in range(256)], np.int8)
+
+
+def source_orders(sources: np.ndarray) -> np.ndarray:
+    """sources : (n,) integer labels 0..255 -> (n,) int8 how many mirrors each view looks through in turn (0 direct,
+    1 a mirror, 2 or 3 a sequence), -1 for a label that names no view."""
+    return _ORDERS[np.asarray(sources, dtype=np.int64)]
+
+
 def source_name(source: int) -> str:
     """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b (...); 'source N' for a
     label that names no view."""

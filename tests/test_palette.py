@@ -11,6 +11,7 @@ from mirrorcore.palette import (
     source_colour,
     source_colours,
     source_name,
+    source_orders,
     source_sequence,
 )
 
@@ -61,3 +62,8 @@ def test_multi_bounce_colours_are_shades_of_the_last_mirror_and_distinct():
     colours = source_colours(np.array([0, 1, 2, 33, 34, 35, 36])).astype(int)
     distance = np.linalg.norm(colours[:, None] - colours[None], axis=2) + 1000 * np.eye(7)
     assert distance.min() > 30
+
+
+def test_orders_count_the_mirrors_of_each_label():
+    assert source_orders(np.array([0, 1, 32, 33, 34, 35, 36, 37, 224, 225, 255])).tolist() == \
+        [0, 1, 1, 2, 2, 3, 3, 2, 2, -1, -1]

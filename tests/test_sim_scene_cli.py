@@ -12,7 +12,7 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
-from mirrorcore.sim.layouts import HINGE_GAP, arc_scene, kaleidoscope_scene, kaleidoscope_turn, paper_scene
+from mirrorcore.sim.layouts import HINGE_GAP, HINGED_CLEARANCE, arc_scene, kaleidoscope_scene, paper_scene
 from mirrorcore.sim.scene import load_scene, save_scene
 from mirrorcore.sim.simulator import Simulator
 
@@ -104,8 +104,9 @@ def test_simulate_from_scene_file_with_figure(tmp_path):
 @pytest.mark.parametrize("angle", [45.0, 60.0, 72.0, 90.0, 120.0])
 def test_kaleidoscope_mirrors_meet_at_the_apex(angle):
     """A hinged pair: the planes are `angle` apart, their inner edges HINGE_GAP from one common vertical line (the
-    apex), each plane 15 cm from the sphere's surface; the V is turned by a quarter of the angle exactly when
-    180 / angle is whole (60, 90: an image would lie straight behind the sphere), else not at all."""
+    apex), each plane HINGED_CLEARANCE from the sphere's surface when it stands on the bisector. Where an image would
+    lie straight behind the sphere (180 / angle whole), the V is turned by a quarter of the angle below 90 degrees
+    (the apex leaves the optical axis) and the sphere moves 115 mm sideways at 90; otherwise neither."""
     scene = kaleidoscope_scene(angle)
     m1, m2 = scene.mirrors
     between = 180.0 - m1.plane.angle_to(m2.plane)        # normals face into the V: the surfaces are 180 - that apart
@@ -120,9 +121,13 @@ def test_kaleidoscope_mirrors_meet_at_the_apex(angle):
         edges = (corners[[0, 3]].mean(0), corners[[1, 2]].mean(0))            # the middles of the two side edges
         assert min(np.linalg.norm(e - apex) for e in edges) == pytest.approx(HINGE_GAP, abs=1e-9)
     sphere = scene.objects[0]
+    offset = 0.115 if angle == 90.0 else 0.0
+    np.testing.assert_allclose(sphere.centre, [offset, 0.0, 2.0], atol=1e-12)
+    on_bisector = np.array(sphere.centre) - [offset, 0.0, 0.0]
     for m in (m1, m2):
-        assert m.plane.signed_distance(np.array(sphere.centre)) == pytest.approx(sphere.radius + 0.15)
-    assert kaleidoscope_turn(angle) == {60.0: 15.0, 90.0: 22.5, 45.0: 11.25}.get(angle, 0.0)
+        assert m.plane.signed_distance(on_bisector) == pytest.approx(sphere.radius + HINGED_CLEARANCE)
+    turned = np.degrees(np.arctan2(apex[0], apex[2] - 2.0))      # the apex seen from the sphere's place on the axis
+    assert turned == pytest.approx({45.0: 11.25, 60.0: 15.0}.get(angle, 0.0), abs=1e-9)
 
 
 def test_simulate_kaleidoscope_and_bounces(tmp_path, capsys):

@@ -3,6 +3,8 @@ the apex (`kaleidoscope_scene`: views through several mirrors in turn), and thre
 (`arc_scene`); `make_object` turns a command-line object name into a SceneObject."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import MirrorscanError
@@ -17,7 +19,7 @@ MARKER_SIZE = 0.04
 APEX_GAP = 0.02             # clearance between a V mirror's inner edge and the apex, metres
 HINGE_GAP = 0.002           # between the inner edges of a hinged pair (kaleidoscope_scene) and their apex, metres
 HINGED_WIDTH = 1.4          # width of each mirror of a hinged pair, metres: past the object's images in it
-HINGED_CLEARANCE = 0.15     # default gap between the object and each mirror of a hinged pair, metres
+HINGED_CLEARANCE = 0.135    # default gap between the object and each mirror of a hinged pair, metres
 HINGED_MARKER_SIZE = 0.08   # a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
 _UP = np.array([0.0, -1.0, 0.0])
 
@@ -163,23 +165,33 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float = 2.0,
     return Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room)
 
 
-def kaleidoscope_turn(angle_deg: float) -> float:
-    """The default turn (degrees) of a hinged pair: a quarter of the angle when 180 / angle is a whole number (an
-    image of the object through several mirrors would then lie straight behind it, hidden from the camera), else 0."""
+def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, float]:
+    """Where the object stands in a hinged pair by default: (turn_deg, offset metres). When 180 / angle is a whole
+    number, an image of the object through several mirrors lies straight behind it, hidden from the camera; then,
+    from 90 degrees up, the object moves sideways by its half-width (offset), and below, the V is turned by a quarter
+    of the angle (turning a 90-degree V shows one mirror so obliquely that its markers calibrate it poorly, and moving
+    the object at 60 degrees hides its images through two mirrors instead). Otherwise neither."""
     ratio = 180.0 / angle_deg
-    return angle_deg / 4 if abs(ratio - round(ratio)) < 1e-9 else 0.0
+    if abs(ratio - round(ratio)) > 1e-9:
+        return 0.0, 0.0
+    return (0.0, half_width) if angle_deg >= 90.0 else (angle_deg / 4, 0.0)
 
 
 def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float = 2.0,
                        mirror_distance: float | None = None, turn_deg: float | None = None,
-                       camera: Intrinsics | None = None, room: Room | None = Room(), gait_hz: float = 1.0) -> Scene:
+                       offset: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+                       gait_hz: float = 1.0) -> Scene:
     """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the mirrors meet at the
     apex, so that below about 90 degrees the camera sees the object through two and three mirrors in turn (the
-    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width + 0.15 m;
-    turn_deg : the V turned about the vertical, default `kaleidoscope_turn(angle_deg)`."""
+    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width +
+    HINGED_CLEARANCE; turn_deg : the V turned about the vertical; offset : metres the object stands to the side of
+    the V's bisector (+x: towards mirror 2); both default to `kaleidoscope_placement`."""
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
     target, half, tall = object_extent(obj)
     md = half + HINGED_CLEARANCE if mirror_distance is None else mirror_distance
-    turn = kaleidoscope_turn(angle_deg) if turn_deg is None else turn_deg
+    default_turn, default_offset = kaleidoscope_placement(angle_deg, half)
+    turn = default_turn if turn_deg is None else turn_deg
+    shift = np.array([default_offset if offset is None else offset, 0.0, 0.0])
+    obj = replace(obj, centre=tuple((np.asarray(obj.centre) + shift).tolist()))
     size = (max(HINGED_WIDTH, 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
     return Scene(camera or Intrinsics.kinect_v1(), hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)
