@@ -25,13 +25,14 @@ MIN_PATH = 1e-6    # metres: a reflected ray meets a mirror at least this far al
 @dataclass(frozen=True, eq=False)
 class Chains:
     """The c pixels whose ray, after its first mirror, meets another one (sorted by pixel), for a rig followed up to
-    K reflections. Depths are z in metres along the pixel's own (unfolded) ray.
+    K reflections. Depths are z in metres along the pixel's own (unfolded) ray. Row k of the per-level arrays is about
+    the (k + 2)-th mirror the rays meet (level-major, so that a frame reads each level contiguously).
 
     pixel : (c,) int64 flat index v * W + u
-    threshold : (c, K - 1) float32, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no more, or the
+    threshold : (K - 1, c) float32, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no more, or the
         encoding has no label for the sequence; see cutoff)
-    label : (c, K - 1) uint8, the source label of a point beyond that threshold (palette.sequence_label)
-    normal : (c, K - 1, 3) float32 and offset : (c, K - 1) float32, that mirror's plane (n, d)
+    label : (K - 1, c) uint8, the source label of a point beyond that threshold (palette.sequence_label)
+    normal : (K - 1, c, 3) float32 and offset : (K - 1, c) float32, that mirror's plane (n, d)
     cutoff : (c,) float32, beyond this depth a point came through more mirrors than are followed (or a sequence that
         no label names): its place is not known and it is left out; inf when it never is
     """
@@ -57,8 +58,8 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
     """
     pixel = np.flatnonzero(np.isfinite(threshold))
     levels = bounces - 1
-    chains = Chains(pixel, np.full((len(pixel), levels), np.inf, np.float32), np.zeros((len(pixel), levels), np.uint8),
-                    np.zeros((len(pixel), levels, 3), np.float32), np.zeros((len(pixel), levels), np.float32),
+    chains = Chains(pixel, np.full((levels, len(pixel)), np.inf, np.float32), np.zeros((levels, len(pixel)), np.uint8),
+                    np.zeros((levels, len(pixel), 3), np.float32), np.zeros((levels, len(pixel)), np.float32),
                     np.full(len(pixel), np.inf, np.float32))
     rows = np.arange(len(pixel))                              # the rays still followed: rows of `chains`
     z = threshold.reshape(-1)[pixel].astype(np.float64)
@@ -79,19 +80,21 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
         _record(chains, level, rows, z, label, nxt, planes)
         point = point + t[:, None] * direction
         direction, mirror = _reflect_directions(direction, planes, nxt), nxt
-    keep = np.isfinite(chains.cutoff) | np.isfinite(chains.threshold).any(axis=1)
-    return Chains(*(a[keep] for a in vars(chains).values()))
+    keep = np.isfinite(chains.cutoff) | np.isfinite(chains.threshold).any(axis=0)
+    return Chains(chains.pixel[keep], *(np.ascontiguousarray(a[:, keep]) for a in
+                                        (chains.threshold, chains.label, chains.normal, chains.offset)),
+                  chains.cutoff[keep])
 
 
 def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: np.ndarray, mirror: np.ndarray,
             planes: tuple[Plane | None, ...]) -> None:
     """Write, for rows `rows` of `chains`, the depth z where the ray meets its (level + 2)-th mirror `mirror`
     (1-based), that mirror's plane and the label of the sequence so far."""
-    chains.threshold[rows, level] = z
-    chains.label[rows, level] = label
+    chains.threshold[level, rows] = z
+    chains.label[level, rows] = label
     for j in np.unique(mirror):
-        chains.normal[rows[mirror == j], level] = planes[j - 1].n
-        chains.offset[rows[mirror == j], level] = planes[j - 1].d
+        chains.normal[level, rows[mirror == j]] = planes[j - 1].n
+        chains.offset[level, rows[mirror == j]] = planes[j - 1].d
 
 
 def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...], mirror: np.ndarray) -> np.ndarray:

@@ -36,22 +36,23 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     pixel = np.take(index, rows)
     sources = np.zeros(len(index), np.uint8)
     sources[rows] = np.take(table.label.reshape(-1), pixel)
-    points = np.stack(_first_mirror(intr, table, index, z, rows, pixel), axis=1)
+    xyz = _first_mirror(intr, table, index, z, rows, pixel)
     if table.any_overlap:
-        _later_mirrors(rig, index, points, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
-    drop = np.zeros(len(index), bool)
+        _later_mirrors(rig, index, xyz, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
+    drop = np.zeros(len(index), bool) if len(table.chains) or table.any_uncalibrated else None
     if len(table.chains):
-        _further_mirrors(table, index, z, points, sources, drop)
+        _further_mirrors(table, index, z, xyz, sources, drop)
     if table.any_uncalibrated:
         drop |= table.uncalibrated.reshape(-1)[index] & (sources == 0)
-    if drop.any():
-        index, points, sources = index[~drop], points[~drop], sources[~drop]
-    return Cloud(points, sources, index, intr.width)
+    if drop is not None and drop.any():
+        kept = np.flatnonzero(~drop)
+        index, sources, xyz = index[kept], sources[kept], [np.take(a, kept) for a in xyz]
+    return Cloud(np.stack(xyz, axis=1), sources, index, intr.width)
 
 
 def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
-                  pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The points x, y, z ((n,) float32 each) of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the rows
+                  pixel: np.ndarray) -> list[np.ndarray]:
+    """The points [x, y, z] ((n,) float32 each) of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the rows
     `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
     P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
     xyz = [z * np.take(intr.rays[0].reshape(-1), index), z * np.take(intr.rays[1].reshape(-1), index), z.copy()]
@@ -60,13 +61,13 @@ def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z
                              + np.take(table.offset.reshape(-1), pixel))
     for axis in range(3):
         xyz[axis][rows] = np.take(xyz[axis], rows) + step * np.take(table.normal[axis].reshape(-1), pixel)
-    return tuple(xyz)
+    return xyz
 
 
-def _later_mirrors(rig: Rig, index: np.ndarray, points: np.ndarray, sources: np.ndarray, rows: np.ndarray) -> None:
+def _later_mirrors(rig: Rig, index: np.ndarray, xyz: list[np.ndarray], sources: np.ndarray, rows: np.ndarray) -> None:
     """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place).
-    index : (n,) flat pixel indices of points (n, 3) float32 and sources (n,); rows : the rows to try."""
-    candidates = points[rows].astype(np.float64)
+    index : (n,) flat pixel indices of the points xyz (three (n,) float32) and sources (n,); rows : the rows to try."""
+    candidates = np.stack([np.take(a, rows) for a in xyz], axis=1).astype(np.float64)
     bits = rig.inside_bits.reshape(-1)[index[rows]]
     todo = np.ones(len(rows), dtype=bool)
     for j, mirror in enumerate(rig.mirrors, start=1):
@@ -74,27 +75,32 @@ def _later_mirrors(rig: Rig, index: np.ndarray, points: np.ndarray, sources: np.
             continue
         hit = todo & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
         hit &= mirror.plane.signed_distance(candidates) < 0
-        points[rows[hit]] = mirror.plane.reflect(candidates[hit])
+        reflected = mirror.plane.reflect(candidates[hit])
+        for axis in range(3):
+            xyz[axis][rows[hit]] = reflected[:, axis]
         sources[rows[hit]] = j
         todo &= ~hit
 
 
-def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, points: np.ndarray,
+def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: list[np.ndarray],
                      sources: np.ndarray, drop: np.ndarray) -> None:
     """Reflect the points of the chains' pixels through the further mirrors their depth is beyond and relabel them;
-    mark in `drop` those beyond the cutoff (in place). index : (n,) flat pixel indices of z (n,) float32, points
-    (n, 3) float32, sources (n,) and drop (n,) bool."""
-    chain = table.chain_row.reshape(-1)[index]
+    mark in `drop` those beyond the cutoff (in place). index : (n,) flat pixel indices of z (n,) float32, the points
+    xyz (three (n,) float32), sources (n,) and drop (n,) bool."""
+    chain = np.take(table.chain_row.reshape(-1), index)
     rows = np.flatnonzero(chain >= 0)
     if not len(rows):
         return
-    chains, chain, depth = table.chains, chain[rows], z[rows]
-    for level in range(chains.threshold.shape[1]):
-        go = np.flatnonzero(depth > chains.threshold[chain, level])
+    chains, chain, depth = table.chains, np.take(chain, rows), np.take(z, rows)
+    for level in range(len(chains.threshold)):
+        go = np.flatnonzero(depth > np.take(chains.threshold[level], chain))
         if not len(go):
             break
-        n, d = chains.normal[chain[go], level], chains.offset[chain[go], level]
-        p = points[rows[go]]
-        points[rows[go]] = p - (np.float32(2) * (np.einsum("ij,ij->i", p, n) + d))[:, None] * n
-        sources[rows[go]] = chains.label[chain[go], level]
-    drop[rows[depth > chains.cutoff[chain]]] = True
+        at, which = np.take(rows, go), np.take(chain, go)
+        n, d = np.take(chains.normal[level], which, axis=0), np.take(chains.offset[level], which)
+        p = [np.take(a, at) for a in xyz]
+        step = np.float32(-2) * (p[0] * n[:, 0] + p[1] * n[:, 1] + p[2] * n[:, 2] + d)
+        for axis in range(3):
+            xyz[axis][at] = p[axis] + step * n[:, axis]
+        sources[at] = np.take(chains.label[level], which)
+    drop[rows[depth > np.take(chains.cutoff, chain)]] = True

@@ -38,11 +38,11 @@ def test_the_corner_by_hand():
     row = chains.pixel // CAMERA.width
     assert sorted(set(column)) == [5, 6, 7] and sorted(row[column == 5]) == [1, 2, 3]
     assert len(chains) == 3 + 2 * CAMERA.height
-    np.testing.assert_allclose(chains.threshold[:, 0], np.where(column == 5, 8 / 3, 2.0), rtol=1e-6)
-    np.testing.assert_array_equal(chains.label[:, 0], np.where(column == 5, 33, 34))   # 1 then 2; 2 then 1
-    assert np.all(np.isinf(chains.threshold[:, 1])) and np.all(np.isinf(chains.cutoff))   # no third mirror
-    np.testing.assert_allclose(chains.normal[:, 0], [SIDE.n if c == 5 else GLASS.n for c in column])
-    np.testing.assert_allclose(chains.offset[:, 0], np.where(column == 5, 1.0, 2.0))
+    np.testing.assert_allclose(chains.threshold[0], np.where(column == 5, 8 / 3, 2.0), rtol=1e-6)
+    np.testing.assert_array_equal(chains.label[0], np.where(column == 5, 33, 34))   # 1 then 2; 2 then 1
+    assert np.all(np.isinf(chains.threshold[1])) and np.all(np.isinf(chains.cutoff))   # no third mirror
+    np.testing.assert_allclose(chains.normal[0], [SIDE.n if c == 5 else GLASS.n for c in column])
+    np.testing.assert_allclose(chains.offset[0], np.where(column == 5, 1.0, 2.0))
 
 
 @pytest.mark.parametrize("z, source, point", [

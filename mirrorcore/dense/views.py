@@ -104,8 +104,8 @@ class _Segments:
     def of(cls, table: ReflectionTable, z: np.ndarray) -> "_Segments":
         chains = table.chains
         flat_threshold = table.threshold.reshape(-1)[chains.pixel]
-        start = np.concatenate([flat_threshold[:, None], chains.threshold], axis=1)
-        end = np.minimum(np.concatenate([chains.threshold, chains.cutoff[:, None]], axis=1), chains.cutoff[:, None])
+        start = np.concatenate([flat_threshold[:, None], chains.threshold.T], axis=1)
+        end = np.minimum(np.concatenate([chains.threshold.T, chains.cutoff[:, None]], axis=1), chains.cutoff[:, None])
         return cls(chains, table.label.reshape(-1)[chains.pixel], start, end, z.reshape(-1)[chains.pixel], z.shape)
 
     def end_first(self, mirror: int, seen: np.ndarray, surface: np.ndarray) -> None:
@@ -124,7 +124,7 @@ class _Segments:
         """The depth (H, W) float32, surface (H, W) bool and outline (H, W) bool of the sequence `label`'s view: its
         pixels see the ray's segment after that sequence (empty up to the measured depth, or up to the next mirror);
         elsewhere, and where the measured point lies before the segment, the view knows nothing (NaN)."""
-        rows, level = np.nonzero(self.chains.label == label)
+        level, rows = np.nonzero(self.chains.label == label)
         pixel, start, end, z = self.chains.pixel[rows], self.start[rows, level + 1], self.end[rows, level + 1], \
             self.z[rows]
         after = (z == 0) | (z > start)
