@@ -38,8 +38,15 @@ class Cloud:
         return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
 
     def counts(self, n_mirrors: int) -> dict[str, int]:
-        """Points per source name: the direct view and every mirror listed (zero when absent), then each view through
-        several mirrors that has points, in label order: {'direct': n0, 'mirror 1': n1, ..., 'mirror 1 then 2': n33}."""
+        """Points per source name of the direct view and every mirror, listed even when absent: {'direct': n0,
+        'mirror 1': n1, ...}. The views through several mirrors are in `source_counts`."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
-        present = [int(s) for s in np.flatnonzero(counts) if s > n_mirrors]
-        return {source_name(j): int(counts[j]) for j in (*range(n_mirrors + 1), *present)}
+        return {source_name(j): int(counts[j]) for j in range(n_mirrors + 1)}
+
+    def source_counts(self, n_mirrors: int) -> dict[int, int]:
+        """Points per source label: the direct view and every mirror listed even when absent, then each view through
+        several mirrors in turn that has points, in label order: {0: n0, 1: n1, ..., 33: n33, ...} (name and colour
+        of a label: mirrorcore.palette.source_name, source_colour)."""
+        counts = np.bincount(self.sources, minlength=n_mirrors + 1)
+        listed = [*range(n_mirrors + 1), *(int(s) for s in np.flatnonzero(counts) if s > n_mirrors)]
+        return {j: int(counts[j]) for j in listed}

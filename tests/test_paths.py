@@ -92,6 +92,15 @@ def test_every_object_pixel_comes_back_to_its_true_place_with_its_label(kaleidos
     assert (cloud.sources >= 33).sum() > 0.15 * len(cloud)
 
 
+def test_source_counts_list_the_views_through_several_mirrors(kaleidoscope):
+    scene, truth, rig = kaleidoscope
+    cloud = reconstruct_raw(rig, truth.depth, truth.object_mask)
+    counts = cloud.source_counts(2)
+    assert list(counts)[:3] == [0, 1, 2] and sum(counts.values()) == len(cloud)
+    assert set(counts) == {0, 1, 2} | set(cloud.sources.tolist()) and min(list(counts)[3:]) >= 33
+    assert cloud.counts(2) == {"direct": counts[0], "mirror 1": counts[1], "mirror 2": counts[2]}
+
+
 def test_fewer_bounces_drop_the_longer_paths_and_never_misplace_them(kaleidoscope):
     scene, truth, rig = kaleidoscope
     full = reconstruct_raw(rig, truth.depth, truth.object_mask)

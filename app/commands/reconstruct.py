@@ -17,7 +17,7 @@ from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import object_cloud, prepare_frame
-from mirrorcore.palette import MAX_ORDER
+from mirrorcore.palette import MAX_ORDER, source_name
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
 from mirrorcore.session import Session, load_session
@@ -83,8 +83,8 @@ def run(args: argparse.Namespace) -> int:
             return run_dense(args, rig, session, index, background, selection, out)
         cloud, _ = object_cloud(rig, read_scan_frame(session, index), background, selection)
         write_ply(out, cloud.points, cloud.sources)
-        print(f"wrote {out}: {len(cloud)} points " + ", ".join(f"{k} {v}" for k, v in
-                                                                  cloud.counts(len(rig.mirrors)).items()))
+        print(f"wrote {out}: {len(cloud)} points " + ", ".join(
+            f"{source_name(k)} {v}" for k, v in cloud.source_counts(len(rig.mirrors)).items()))
         return 0
     if args.method != "raw":
         raise MirrorscanError(f"--frame all: only with --method raw; {args.method} makes one result from one frame "
