@@ -28,9 +28,10 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     """
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
-    keep = depth > 0 if mask is None else (mask & (depth > 0))
-    index = np.flatnonzero(keep)                # every step below reads the kept pixels only, in row-major order
-    z = np.take(depth.reshape(-1), index)
+    index = np.flatnonzero(depth > 0 if mask is None else mask)   # the pixels used, in row-major order: every step
+    z = np.take(depth.reshape(-1), index)                          # below reads them only
+    if mask is not None and not np.all(z > 0):
+        index, z = index[z > 0], z[z > 0]
     behind = z > np.take(table.threshold.reshape(-1), index)
     rows = np.flatnonzero(behind)
     pixel = np.take(index, rows)
