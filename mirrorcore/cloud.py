@@ -10,7 +10,8 @@ from .palette import source_colours, source_name
 
 @dataclass(frozen=True, eq=False)
 class Cloud:
-    """points : (n, 3) float32 metres, camera frame; sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
+    """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray before handing its
+    buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
     several mirrors in turn (mirrorcore.palette);
     pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width : image width."""
 

@@ -47,16 +47,19 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
         drop |= table.uncalibrated.reshape(-1)[index] & (sources == 0)
     if drop is not None and drop.any():
         kept = np.flatnonzero(~drop)
-        index, sources, xyz = index[kept], sources[kept], [np.take(a, kept) for a in xyz]
-    return Cloud(np.stack(xyz, axis=1), sources, index, intr.width)
+        index, sources, xyz = index[kept], sources[kept], np.take(xyz, kept, axis=1)
+    return Cloud(xyz.T, sources, index, intr.width)      # (n, 3) as a view of the (3, n) rows: no interleaving pass
 
 
 def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
-                  pixel: np.ndarray) -> list[np.ndarray]:
-    """The points [x, y, z] ((n,) float32 each) of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the rows
-    `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
+                  pixel: np.ndarray) -> np.ndarray:
+    """The points (3, n) float32, rows x, y, z, of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the
+    columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
     P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
-    xyz = [z * np.take(intr.rays[0].reshape(-1), index), z * np.take(intr.rays[1].reshape(-1), index), z.copy()]
+    xyz = np.empty((3, len(index)), np.float32)
+    np.multiply(z, np.take(intr.rays[0].reshape(-1), index), out=xyz[0])
+    np.multiply(z, np.take(intr.rays[1].reshape(-1), index), out=xyz[1])
+    xyz[2] = z
     depth = np.take(z, rows)
     step = np.float32(-2) * (depth * np.take(table.ray_dot.reshape(-1), pixel)
                              + np.take(table.offset.reshape(-1), pixel))
@@ -65,9 +68,9 @@ def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z
     return xyz
 
 
-def _later_mirrors(rig: Rig, index: np.ndarray, xyz: list[np.ndarray], sources: np.ndarray, rows: np.ndarray) -> None:
+def _later_mirrors(rig: Rig, index: np.ndarray, xyz: np.ndarray, sources: np.ndarray, rows: np.ndarray) -> None:
     """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place).
-    index : (n,) flat pixel indices of the points xyz (three (n,) float32) and sources (n,); rows : the rows to try."""
+    index : (n,) flat pixel indices of the points xyz (3, n) float32 and sources (n,); rows : the columns to try."""
     candidates = np.stack([np.take(a, rows) for a in xyz], axis=1).astype(np.float64)
     bits = rig.inside_bits.reshape(-1)[index[rows]]
     todo = np.ones(len(rows), dtype=bool)
@@ -83,11 +86,11 @@ def _later_mirrors(rig: Rig, index: np.ndarray, xyz: list[np.ndarray], sources: 
         todo &= ~hit
 
 
-def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: list[np.ndarray],
-                     sources: np.ndarray, drop: np.ndarray) -> None:
+def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: np.ndarray, sources: np.ndarray,
+                     drop: np.ndarray) -> None:
     """Reflect the points of the chains' pixels through the further mirrors their depth is beyond and relabel them;
     mark in `drop` those beyond the cutoff (in place). index : (n,) flat pixel indices of z (n,) float32, the points
-    xyz (three (n,) float32), sources (n,) and drop (n,) bool."""
+    xyz (3, n) float32, sources (n,) and drop (n,) bool."""
     chain = np.take(table.chain_row.reshape(-1), index)
     rows = np.flatnonzero(chain >= 0)
     if not len(rows):
