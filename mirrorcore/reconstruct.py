@@ -28,6 +28,8 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     """
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
+    if mask is not None:
+        mask = check_depth_shape(intr, mask, "object mask")
     index = np.flatnonzero(depth > 0 if mask is None else mask)   # the pixels used, in row-major order: every step
     z = np.take(depth.reshape(-1), index)                          # below reads them only
     if mask is not None and not np.all(z > 0):

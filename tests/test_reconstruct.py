@@ -89,6 +89,8 @@ def test_reflected_sphere_lands_on_the_real_sphere():
 def test_wrong_depth_size_is_refused():
     with pytest.raises(Exception, match="does not match the camera's 8x6"):
         reconstruct_raw(rig(), np.zeros((5, 5)))
+    with pytest.raises(Exception, match="object mask: size 8x5 does not match the camera's 8x6"):
+        reconstruct_raw(rig(), np.ones(CAMERA.shape), np.ones((5, 8), bool))
 
 
 def test_empty_mask_gives_an_empty_cloud():
