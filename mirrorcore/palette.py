@@ -10,7 +10,9 @@ every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from itertools import product
+from typing import Sequence
 
 import numpy as np
 
@@ -98,31 +100,42 @@ def source_name(source: int) -> str:
 
 
 def _mirror_colour(j: int) -> np.ndarray:
+    """(3,) float64 RGB of mirror colour number j >= 1 (a label, or a mirror's stable id)."""
     return SOURCE_COLOURS[1 + (j - 1) % (len(SOURCE_COLOURS) - 1)].astype(np.float64)
 
 
-def _label_colour(source: int) -> np.ndarray:
-    """A multi-bounce view is a shade of its last mirror's colour (the mirror that faces the object), tinted by the
-    mirrors before it (each weighing a quarter of the next), a quarter darker with each further mirror."""
+def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
+    """(3,) float64 RGB of a label. A mirror's colour follows its label j, or its id mirror_ids[j - 1] when given. A
+    multi-bounce view is a shade of its last mirror's colour (the mirror that faces the object), tinted by the mirrors
+    before it (each weighing a quarter of the next), a quarter darker with each further mirror."""
     try:
         sequence = source_sequence(source)
     except ValueError:
         return np.array(UNKNOWN_COLOUR, np.float64)
     if not sequence:
         return SOURCE_COLOURS[0].astype(np.float64)
+    colours = [_mirror_colour(mirror_ids[j - 1] if j <= len(mirror_ids) else j) for j in sequence]
     weights = 0.25 ** np.arange(len(sequence))[::-1]           # last mirror 1, the one before 0.25, ...
-    mix = sum(w * _mirror_colour(j) for w, j in zip(weights, sequence)) / weights.sum()
+    mix = sum(w * c for w, c in zip(weights, colours)) / weights.sum()
     return mix * 0.75 ** (len(sequence) - 1)
 
 
-_LOOKUP = np.array([_label_colour(s) for s in range(256)]).round().astype(np.uint8)   # (256, 3) RGB per label
+@lru_cache(maxsize=32)
+def _lookup(mirror_ids: tuple[int, ...]) -> np.ndarray:
+    """(256, 3) uint8 RGB of every label, for mirrors whose colours follow `mirror_ids` (() : their labels)."""
+    table = np.array([_label_colour(s, mirror_ids) for s in range(256)]).round().astype(np.uint8)
+    table.flags.writeable = False
+    return table
 
 
-def source_colours(sources: np.ndarray) -> np.ndarray:
-    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB. The one colour lookup of the project."""
-    return _LOOKUP[np.asarray(sources, dtype=np.int64)]
+def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
+    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB; the one colour lookup of the project. A mirror's
+    colour follows its label j, or, given the ids of the mirrors in session order (mirror_ids[j - 1] for label j), its
+    id: a mirror keeps its colour when another one is removed. Views through several mirrors take shades of theirs."""
+    ids = () if mirror_ids is None else tuple(int(i) for i in mirror_ids)
+    return _lookup(ids)[np.asarray(sources, dtype=np.int64)]
 
 
-def source_colour(source: int) -> np.ndarray:
-    """(3,) uint8 RGB of one source."""
-    return source_colours(np.array([source]))[0]
+def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
+    """(3,) uint8 RGB of one source (see source_colours)."""
+    return source_colours(np.array([source]), mirror_ids)[0]

@@ -67,3 +67,11 @@ def test_multi_bounce_colours_are_shades_of_the_last_mirror_and_distinct():
 def test_orders_count_the_mirrors_of_each_label():
     assert source_orders(np.array([0, 1, 32, 33, 34, 35, 36, 37, 224, 225, 255])).tolist() == \
         [0, 1, 1, 2, 2, 3, 3, 2, 2, -1, -1]
+
+
+def test_colours_follow_the_mirror_ids_when_given():
+    """Ids (3, 1) in session order: label 1 takes mirror colour 3, label 2 colour 1; 'mirror 1 then 2' is then a shade
+    of colour 1 (the last mirror's id), just as 'mirror 2 then 1' is without ids."""
+    np.testing.assert_array_equal(source_colours(np.array([0, 1, 2]), (3, 1)), SOURCE_COLOURS[[0, 3, 1]])
+    assert source_colour(33, (2, 1)).tolist() == source_colour(34).tolist()
+    assert source_colour(33, (1, 2)).tolist() == source_colour(33).tolist()
