@@ -112,6 +112,8 @@ class ReflectionTable:
     normal, offset, ray_dot : float32, that mirror's n and d, and n . (x/z, y/z, 1) of the pixel's ray
     overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are tried there too)
     uncalibrated : bool, inside the boundary of a mirror that has no plane yet
+    mirror_rows : (H*W, 5) float32, the same ray_dot, offset, nx, ny, nz interleaved by pixel, so that a frame reads
+    a reflected pixel's values in one gather (one cache line) rather than five (see `first_mirror_of`)
     """
 
     label: np.ndarray
@@ -121,7 +123,14 @@ class ReflectionTable:
     ray_dot: np.ndarray
     overlap: np.ndarray
     uncalibrated: np.ndarray
+    mirror_rows: np.ndarray
     chains: Chains
+
+    def first_mirror_of(self, pixel: np.ndarray) -> np.ndarray:
+        """(k,) flat pixel indices -> (k, 5) float32 rows of mirror_rows: ray_dot, offset, nx, ny, nz."""
+        rows = self.mirror_rows
+        items = rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).reshape(-1)
+        return np.take(items, pixel).view(np.float32).reshape(-1, rows.shape[1])
 
     @cached_property
     def any_overlap(self) -> bool:
@@ -162,8 +171,9 @@ class ReflectionTable:
         ray_dot = normal[0] * rays[0] + normal[1] * rays[1] + normal[2]
         with np.errstate(divide="ignore", invalid="ignore"):
             threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
+        mirror_rows = np.stack([a.reshape(-1) for a in (ray_dot, offset, *normal)], axis=1)
         arrays = dict(label=label, threshold=threshold, normal=normal, offset=offset, ray_dot=ray_dot,
-                      overlap=count > 1, uncalibrated=uncalibrated)
+                      overlap=count > 1, uncalibrated=uncalibrated, mirror_rows=mirror_rows)
         chains = trace_chains(rig.intrinsics, tuple(m.plane if m.boundary is not None else None for m in rig.mirrors),
                               rig.inside_bits, label, threshold, rig.bounces)
         for a in (*arrays.values(), *vars(chains).values()):
