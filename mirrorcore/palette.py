@@ -11,7 +11,7 @@ every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6
 from __future__ import annotations
 
 from functools import lru_cache
-from itertools import product
+from itertools import pairwise, product
 from typing import Sequence
 
 import numpy as np
@@ -41,7 +41,7 @@ def _multi_sequences() -> tuple[tuple[int, ...], ...]:
     for top in range(2, MAX_MIRRORS + 1):
         for length in range(2, MAX_ORDER + 1):
             group = [s for s in product(range(1, top + 1), repeat=length)
-                     if max(s) == top and all(a != b for a, b in zip(s, s[1:]))]
+                     if max(s) == top and all(a != b for a, b in pairwise(s))]
             if FIRST_MULTI_LABEL + len(out) + len(group) - 1 > LAST_LABEL:
                 return tuple(out)
             out.extend(group)

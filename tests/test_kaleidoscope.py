@@ -74,7 +74,7 @@ def test_the_views_through_two_mirrors_are_as_good_as_the_sensor_allows(scanned)
     1.5 times that of the views through one, or, where the sensor's own noise at their longer (virtual) depths grows
     by more than that (Kinect v1: sigma = 1.425e-3 z^2, at 60 degrees 1.62 times), at most 10 % above that growth:
     the composition of reflections adds nothing the sensor does not."""
-    noise, _, session, _, _, sources, _, fit = scanned
+    noise, _, session, *_, fit = scanned
     per_order = {}
     for name, errors in fit["per_source"].items():
         order = 0 if name == "direct" else len(name.split(" then "))

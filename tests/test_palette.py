@@ -1,5 +1,7 @@
 """Source labels (docs/DESIGN.md, Conventions): 0 direct and j mirror j unchanged, multi-bounce sequences from 33 in
 a fixed order, their names and colours."""
+from itertools import pairwise
+
 import numpy as np
 import pytest
 
@@ -35,7 +37,7 @@ def test_labels_and_sequences_are_inverse_and_fit_a_uchar():
     for i, sequence in enumerate(MULTI_SEQUENCES):
         assert sequence_label(sequence) == FIRST_MULTI_LABEL + i
         assert source_sequence(FIRST_MULTI_LABEL + i) == sequence
-        assert all(a != b for a, b in zip(sequence, sequence[1:]))
+        assert all(a != b for a, b in pairwise(sequence))
     # every sequence of two mirrors among 1-7 and of three among 1-6, and nothing beyond
     assert sum(len(s) == 2 for s in MULTI_SEQUENCES) == 7 * 6
     assert sum(len(s) == 3 for s in MULTI_SEQUENCES) == 6 * 5 * 5

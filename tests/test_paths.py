@@ -83,7 +83,7 @@ def kaleidoscope(request):
 def test_every_object_pixel_comes_back_to_its_true_place_with_its_label(kaleidoscope):
     """On the ideal frame, each pixel's point lands on the real surface it shows (not a ghost) and its label is
     the simulator's full sequence, for direct, one, two and three mirrors."""
-    scene, truth, rig = kaleidoscope
+    _, truth, rig = kaleidoscope
     cloud = reconstruct_raw(rig, truth.depth, truth.object_mask)
     assert len(cloud) == truth.object_mask.sum()
     real = truth.points.reshape(-1, 3)[cloud.pixel_index]
@@ -93,7 +93,7 @@ def test_every_object_pixel_comes_back_to_its_true_place_with_its_label(kaleidos
 
 
 def test_source_counts_list_the_views_through_several_mirrors(kaleidoscope):
-    scene, truth, rig = kaleidoscope
+    _, truth, rig = kaleidoscope
     cloud = reconstruct_raw(rig, truth.depth, truth.object_mask)
     counts = cloud.source_counts(2)
     assert list(counts)[:3] == [0, 1, 2] and sum(counts.values()) == len(cloud)
@@ -102,7 +102,7 @@ def test_source_counts_list_the_views_through_several_mirrors(kaleidoscope):
 
 
 def test_fewer_bounces_drop_the_longer_paths_and_never_misplace_them(kaleidoscope):
-    scene, truth, rig = kaleidoscope
+    _, truth, rig = kaleidoscope
     full = reconstruct_raw(rig, truth.depth, truth.object_mask)
     one = reconstruct_raw(dataclasses.replace(rig, bounces=1), truth.depth, truth.object_mask)
     assert set(one.sources.tolist()) <= {0, 1, 2}
@@ -115,7 +115,7 @@ def test_fewer_bounces_drop_the_longer_paths_and_never_misplace_them(kaleidoscop
 def test_virtual_cameras_map_real_points_to_what_the_camera_measures(kaleidoscope):
     """Each virtual camera's to_view takes the real point of one of its pixels to that pixel's measured (virtual)
     point; poses are proper rigid transforms whose origin is the camera seen through the mirrors."""
-    scene, truth, rig = kaleidoscope
+    _, truth, rig = kaleidoscope
     cameras = rig.virtual_cameras()
     assert [c.name for c in cameras[:3]] == ["direct", "mirror 1", "mirror 2"]
     assert [c.source for c in cameras] == sorted({c.source for c in cameras})

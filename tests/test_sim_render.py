@@ -4,9 +4,9 @@ the paper scene shows the object in every mirror; the per-frame casts limited to
 import numpy as np
 import pytest
 
+from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
-from mirrorcore.errors import MirrorscanError
 from mirrorcore.sim.layouts import arc_scene, kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import MARKER, MAX_BOUNCES, NONE, Renderer
 

@@ -16,8 +16,8 @@ from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_de
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.palette import MAX_ORDER, source_name
+from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
 from mirrorcore.session import Session, load_session
