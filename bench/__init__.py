@@ -21,6 +21,21 @@ def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> fl
     return times[len(times) // 2]
 
 
+def interleaved_ms(fns: dict[str, Callable[[], object]], repeat: int = 30, warmup: int = 3) -> dict[str, float]:
+    """Median wall-clock milliseconds of each fn() over `repeat` rounds that call every fn in turn (so that a busy
+    machine slows them alike), after `warmup` rounds."""
+    for _ in range(warmup):
+        for fn in fns.values():
+            fn()
+    times: dict[str, list[float]] = {name: [] for name in fns}
+    for _ in range(repeat):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append((time.perf_counter() - t0) * 1e3)
+    return {name: sorted(t)[len(t) // 2] for name, t in times.items()}
+
+
 def run_all(progress: Callable[[str], None] | None = None) -> dict[str, float]:
     """Run every benchmark module; returns the merged figures."""
     figures: dict[str, float] = {}

@@ -10,7 +10,9 @@ from .palette import source_colours, source_name
 
 @dataclass(frozen=True, eq=False)
 class Cloud:
-    """points : (n, 3) float32 metres, camera frame; sources : (n,) uint8, 0 = direct, j = mirror j;
+    """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray before handing its
+    buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
+    several mirrors in turn (mirrorcore.palette);
     pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width : image width."""
 
     points: np.ndarray
@@ -37,6 +39,15 @@ class Cloud:
         return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
 
     def counts(self, n_mirrors: int) -> dict[str, int]:
-        """Points per source name, every source listed (zero when absent): {'direct': n0, 'mirror 1': n1, ...}."""
+        """Points per source name of the direct view and every mirror, listed even when absent: {'direct': n0,
+        'mirror 1': n1, ...}. The views through several mirrors are in `source_counts`."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         return {source_name(j): int(counts[j]) for j in range(n_mirrors + 1)}
+
+    def source_counts(self, n_mirrors: int) -> dict[int, int]:
+        """Points per source label: the direct view and every mirror listed even when absent, then each view through
+        several mirrors in turn that has points, in label order: {0: n0, 1: n1, ..., 33: n33, ...} (name and colour
+        of a label: mirrorcore.palette.source_name, source_colour)."""
+        counts = np.bincount(self.sources, minlength=n_mirrors + 1)
+        listed = [*range(n_mirrors + 1), *(int(s) for s in np.flatnonzero(counts) if s > n_mirrors)]
+        return {j: int(counts[j]) for j in listed}

@@ -7,7 +7,6 @@ from pathlib import Path
 
 from .errors import FileFormatError
 
-
 MAX_JSON_BYTES = 64 << 20   # no file mirrorscan reads as JSON comes near; a larger one is refused before reading
 
 

@@ -1,11 +1,27 @@
-"""The one palette of source colours (viewer, exports, plots): 0 = direct view, j = through mirror j."""
+"""Source labels and their one palette (viewer, exports, plots): 0 = direct view, j = through mirror j, and labels from
+FIRST_MULTI_LABEL up for views through several mirrors in turn (docs/DESIGN.md, Conventions).
+
+A multi-bounce source is the sequence of mirrors its camera ray meets, in the order it meets them (the pixel lies in the
+first one's outline; the last one faces the object). Labels FIRST_MULTI_LABEL.. enumerate the sequences of 2 and 3
+mirrors (no mirror twice in a row) grouped by their highest mirror, then by length, then in lexicographic order:
+33 = (1, 2), 34 = (2, 1), 35 = (1, 2, 1), 36 = (2, 1, 2), 37 = (1, 3), ... The order does not depend on the rig, so
+a label reads the same in every file; whole groups are numbered while they fit under 255 (NO_SOURCE in dense grids):
+every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6.
+"""
 from __future__ import annotations
 
+from functools import lru_cache
+from itertools import pairwise, product
 from typing import Sequence
 
 import numpy as np
 
-# Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 8 mirrors.
+MAX_MIRRORS = 32            # labels 1..32 name single mirrors
+FIRST_MULTI_LABEL = MAX_MIRRORS + 1
+MAX_ORDER = 3               # the most mirrors a label can name in turn
+LAST_LABEL = 254            # 255 is reserved (dense grids' NO_SOURCE)
+
+# Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 7 mirrors.
 SOURCE_COLOURS = np.array([
     [150, 150, 150],   # 0: direct, grey
     [230, 159, 0],     # mirror 1: orange
@@ -16,24 +32,110 @@ SOURCE_COLOURS = np.array([
     [0, 114, 178],     # mirror 6: blue
     [240, 228, 66],    # mirror 7: yellow
 ], dtype=np.uint8)
+UNKNOWN_COLOUR = (60, 60, 60)   # a label that names no source (a file from elsewhere)
+
+
+def _multi_sequences() -> tuple[tuple[int, ...], ...]:
+    """The sequences of labels FIRST_MULTI_LABEL.. in order (see the module docstring)."""
+    out: list[tuple[int, ...]] = []
+    for top in range(2, MAX_MIRRORS + 1):
+        for length in range(2, MAX_ORDER + 1):
+            group = [s for s in product(range(1, top + 1), repeat=length)
+                     if max(s) == top and all(a != b for a, b in pairwise(s))]
+            if FIRST_MULTI_LABEL + len(out) + len(group) - 1 > LAST_LABEL:
+                return tuple(out)
+            out.extend(group)
+    return tuple(out)
+
+
+MULTI_SEQUENCES = _multi_sequences()
+_LABEL_OF = {s: FIRST_MULTI_LABEL + i for i, s in enumerate(MULTI_SEQUENCES)}
+
+
+def source_sequence(source: int) -> tuple[int, ...]:
+    """The mirrors (1-based, in the order the camera's ray meets them) of a label: () direct, (j,) mirror j, (a, b, ...)
+    a multi-bounce view. Raises ValueError for a label that names no source."""
+    source = int(source)
+    if 0 <= source <= MAX_MIRRORS:
+        return (source,) if source else ()
+    if FIRST_MULTI_LABEL <= source < FIRST_MULTI_LABEL + len(MULTI_SEQUENCES):
+        return MULTI_SEQUENCES[source - FIRST_MULTI_LABEL]
+    raise ValueError(f"source label {source} names no view")
+
+
+def sequence_label(sequence) -> int | None:
+    """The label of a sequence of mirrors (1-based, ray order): 0 for (), j for (j,), FIRST_MULTI_LABEL.. for longer
+    ones; None when the encoding has no label for it (more than MAX_ORDER mirrors, a mirror twice in a row, or a
+    mirror beyond what the labels cover)."""
+    sequence = tuple(int(j) for j in sequence)
+    if len(sequence) <= 1:
+        return (sequence[0] if 1 <= sequence[0] <= MAX_MIRRORS else None) if sequence else 0
+    return _LABEL_OF.get(sequence)
+
+
+def _order(source: int) -> int:
+    try:
+        return len(source_sequence(source))
+    except ValueError:
+        return -1
+
+
+_ORDERS = np.array([_order(s) for s in range(256)], np.int8)
+
+
+def source_orders(sources: np.ndarray) -> np.ndarray:
+    """sources : (n,) integer labels 0..255 -> (n,) int8 how many mirrors each view looks through in turn (0 direct,
+    1 a mirror, 2 or 3 a sequence), -1 for a label that names no view."""
+    return _ORDERS[np.asarray(sources, dtype=np.int64)]
+
+
+def source_name(source: int) -> str:
+    """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b (...); 'source N' for a
+    label that names no view."""
+    try:
+        sequence = source_sequence(source)
+    except ValueError:
+        return f"source {int(source)}"
+    return "direct" if not sequence else "mirror " + " then ".join(map(str, sequence))
+
+
+def _mirror_colour(j: int) -> np.ndarray:
+    """(3,) float64 RGB of mirror colour number j >= 1 (a label, or a mirror's stable id)."""
+    return SOURCE_COLOURS[1 + (j - 1) % (len(SOURCE_COLOURS) - 1)].astype(np.float64)
+
+
+def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
+    """(3,) float64 RGB of a label. A mirror's colour follows its label j, or its id mirror_ids[j - 1] when given. A
+    multi-bounce view is a shade of its last mirror's colour (the mirror that faces the object), tinted by the mirrors
+    before it (each weighing a quarter of the next), a quarter darker with each further mirror."""
+    try:
+        sequence = source_sequence(source)
+    except ValueError:
+        return np.array(UNKNOWN_COLOUR, np.float64)
+    if not sequence:
+        return SOURCE_COLOURS[0].astype(np.float64)
+    colours = [_mirror_colour(mirror_ids[j - 1] if j <= len(mirror_ids) else j) for j in sequence]
+    weights = 0.25 ** np.arange(len(sequence))[::-1]           # last mirror 1, the one before 0.25, ...
+    mix = sum(w * c for w, c in zip(weights, colours)) / weights.sum()
+    return mix * 0.75 ** (len(sequence) - 1)
+
+
+@lru_cache(maxsize=32)
+def _lookup(mirror_ids: tuple[int, ...]) -> np.ndarray:
+    """(256, 3) uint8 RGB of every label, for mirrors whose colours follow `mirror_ids` (() : their labels)."""
+    table = np.array([_label_colour(s, mirror_ids) for s in range(256)]).round().astype(np.uint8)
+    table.flags.writeable = False
+    return table
+
+
+def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
+    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB; the one colour lookup of the project. A mirror's
+    colour follows its label j, or, given the ids of the mirrors in session order (mirror_ids[j - 1] for label j), its
+    id: a mirror keeps its colour when another one is removed. Views through several mirrors take shades of theirs."""
+    ids = () if mirror_ids is None else tuple(int(i) for i in mirror_ids)
+    return _lookup(ids)[np.asarray(sources, dtype=np.int64)]
 
 
 def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
     """(3,) uint8 RGB of one source (see source_colours)."""
     return source_colours(np.array([source]), mirror_ids)[0]
-
-
-def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
-    """sources : (n,) integer labels -> (n, 3) uint8 RGB. A mirror's colour follows its label j, or, given the ids of
-    the mirrors in session order (mirror_ids[j - 1] for label j), its id: a mirror keeps its colour when another one
-    is removed."""
-    sources = np.asarray(sources, dtype=np.int64)
-    if mirror_ids is not None and len(sources):
-        sources = np.concatenate([[0], np.asarray(mirror_ids, np.int64)])[sources]
-    idx = np.where(sources == 0, 0, 1 + (sources - 1) % (len(SOURCE_COLOURS) - 1))
-    return SOURCE_COLOURS[idx]
-
-
-def source_name(source: int) -> str:
-    """'direct' or 'mirror j'."""
-    return "direct" if source == 0 else f"mirror {source}"

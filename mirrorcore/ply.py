@@ -20,7 +20,8 @@ _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
-    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j); faces : optional
+    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j, 33.. several
+    mirrors in turn: mirrorcore.palette); faces : optional
     (m, 3) int vertex indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)
@@ -34,7 +35,7 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
     vertex["red"], vertex["green"], vertex["blue"] = colours.T
     vertex["source"] = sources
     header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
-              "source 0 = direct, j = mirror j\n"
+              "source 0 = direct, j = mirror j, from 33 several mirrors in turn (docs/DESIGN.md)\n"
               f"element vertex {len(points)}\n"
               + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n" for n in _VERTEX.names)
               + ("" if faces is None else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")

@@ -1,13 +1,12 @@
 """Algorithm 1 of the paper: the merged, source-labelled cloud of one depth frame (reproject, then reflect the pixels
-seen in a mirror through its plane)."""
+seen in a mirror through its plane), generalised to pixels seen through several mirrors in turn (mirrorcore.paths)."""
 from __future__ import annotations
 
 import numpy as np
 
 from .cloud import Cloud
-from .depthops import bounding_window
-from .geometry.camera import check_depth_shape
-from .rig import Rig
+from .geometry.camera import Intrinsics, check_depth_shape
+from .rig import ReflectionTable, Rig
 
 
 def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:
@@ -19,42 +18,95 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     (the real object, a marker on the glass). Pixels inside the boundary of a mirror with no plane yet are left out
     unless a calibrated mirror reflects them: their true position is unknown.
 
+    Generalised to the kaleidoscope: where the pixel's ray, reflected, meets further mirrors (the rig's
+    ReflectionTable.chains), a point beyond the depth where it meets the k-th mirror is reflected through the k-th
+    mirror too (the composition of the reflections, X = M_k(...M_1(V))) and labelled with the sequence
+    (palette.sequence_label); a point beyond the last mirror followed (rig.bounces) is left out.
+
     depth : (H, W) float metres, 0 = no reading; mask : optional (H, W) bool, the pixels to use (the object)
     returns the Cloud of the used pixels with a reading, in row-major pixel order.
     """
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
-    keep = depth > 0 if mask is None else (mask & (depth > 0))
-    win = bounding_window(keep)                 # all the work happens in the kept pixels' bounding box
-    z = depth[win]
-    behind = z > table.threshold[win]
-    # eq. 3 as P_r = P + step * n with step = -2 (n.P + d): zero where the pixel is not reflected
-    step = (np.float32(-2) * (z * table.ray_dot[win] + table.offset[win])) * behind
-    out = np.empty((*z.shape, 4), dtype=np.float32)   # x, y, z, source per pixel: gathered in one take below
-    out[..., 0] = z * intr.rays[0][win] + step * table.normal[0][win]
-    out[..., 1] = z * intr.rays[1][win] + step * table.normal[1][win]
-    out[..., 2] = z + step * table.normal[2][win]
-    out[..., 3] = table.label[win] * behind
-    if table.overlap[win].any():
-        _later_mirrors(rig, win, out, keep[win] & table.overlap[win] & ~behind)
-    keep[win] &= ~table.uncalibrated[win] | (out[..., 3] > 0)
-    # row-major order inside the window is the image's row-major order: the same ranks index both
-    picked = np.take(out.reshape(-1, 4), np.flatnonzero(keep[win]), axis=0)
-    return Cloud(picked[:, :3], picked[:, 3].astype(np.uint8), np.flatnonzero(keep), intr.width)
+    if mask is not None:
+        mask = check_depth_shape(intr, mask, "object mask")
+    index = np.flatnonzero(depth > 0 if mask is None else mask)   # the pixels used, in row-major order: every step
+    z = np.take(depth.reshape(-1), index)                          # below reads them only
+    if mask is not None and not np.all(z > 0):
+        index, z = index[z > 0], z[z > 0]
+    behind = z > np.take(table.threshold.reshape(-1), index)
+    rows = np.flatnonzero(behind)
+    pixel = np.take(index, rows)
+    sources = np.zeros(len(index), np.uint8)
+    sources[rows] = np.take(table.label.reshape(-1), pixel)
+    xyz = _first_mirror(rig.intrinsics, table, index, z, rows, pixel)
+    if table.any_overlap:
+        _later_mirrors(rig, index, xyz, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
+    drop = np.zeros(len(index), bool) if len(table.chains) or table.any_uncalibrated else None
+    if len(table.chains):
+        _further_mirrors(table, index, z, xyz, sources, drop)
+    if table.any_uncalibrated:
+        drop |= table.uncalibrated.reshape(-1)[index] & (sources == 0)
+    if drop is not None and drop.any():
+        kept = np.flatnonzero(~drop)
+        index, sources, xyz = index[kept], sources[kept], np.take(xyz, kept, axis=1)
+    return Cloud(xyz.T, sources, index, intr.width)      # (n, 3) as a view of the (3, n) rows: no interleaving pass
 
 
-def _later_mirrors(rig: Rig, win: tuple[slice, slice], out: np.ndarray, pending: np.ndarray) -> None:
+def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
+                  pixel: np.ndarray) -> np.ndarray:
+    """The points (3, n) float32, rows x, y, z, of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the
+    columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
+    P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
+    rays = intr.rays
+    xyz = np.empty((3, len(index)), np.float32)
+    np.multiply(z, np.take(rays[0].reshape(-1), index), out=xyz[0])
+    np.multiply(z, np.take(rays[1].reshape(-1), index), out=xyz[1])
+    xyz[2] = z
+    mirror = table.first_mirror_of(pixel)                       # ray_dot, offset, nx, ny, nz
+    step = np.float32(-2) * (np.take(z, rows) * mirror[:, 0] + mirror[:, 1])
+    for axis in range(3):
+        xyz[axis][rows] = np.take(xyz[axis], rows) + step * mirror[:, 2 + axis]
+    return xyz
+
+
+def _later_mirrors(rig: Rig, index: np.ndarray, xyz: np.ndarray, sources: np.ndarray, rows: np.ndarray) -> None:
     """Where boundaries overlap and the first mirror did not apply, try the others in session order (in place).
-    win : the window of the image that `out` (h, w, 4) and `pending` (h, w) bool cover."""
-    v, u = np.nonzero(pending)
-    points = out[v, u, :3].astype(np.float64)
-    bits = rig.inside_bits[win][v, u]
-    todo = np.ones(len(v), dtype=bool)
+    index : (n,) flat pixel indices of the points xyz (3, n) float32 and sources (n,); rows : the columns to try."""
+    candidates = np.stack([np.take(a, rows) for a in xyz], axis=1).astype(np.float64)
+    bits = rig.inside_bits.reshape(-1)[index[rows]]
+    todo = np.ones(len(rows), dtype=bool)
     for j, mirror in enumerate(rig.mirrors, start=1):
         if mirror.plane is None:
             continue
         hit = todo & ((bits >> np.uint32(j - 1)) & np.uint32(1)).astype(bool)
-        hit &= mirror.plane.signed_distance(points) < 0
-        out[v[hit], u[hit], :3] = mirror.plane.reflect(points[hit])
-        out[v[hit], u[hit], 3] = j
+        hit &= mirror.plane.signed_distance(candidates) < 0
+        reflected = mirror.plane.reflect(candidates[hit])
+        for axis in range(3):
+            xyz[axis][rows[hit]] = reflected[:, axis]
+        sources[rows[hit]] = j
         todo &= ~hit
+
+
+def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: np.ndarray, sources: np.ndarray,
+                     drop: np.ndarray) -> None:
+    """Reflect the points of the chains' pixels through the further mirrors their depth is beyond and relabel them;
+    mark in `drop` those beyond the cutoff (in place). index : (n,) flat pixel indices of z (n,) float32, the points
+    xyz (3, n) float32, sources (n,) and drop (n,) bool."""
+    chain = np.take(table.chain_row.reshape(-1), index)
+    rows = np.flatnonzero(chain >= 0)
+    if not len(rows):
+        return
+    chains, chain, depth = table.chains, np.take(chain, rows), np.take(z, rows)
+    for level in range(len(chains.threshold)):
+        go = np.flatnonzero(depth > np.take(chains.threshold[level], chain))
+        if not len(go):
+            break
+        at, which = np.take(rows, go), np.take(chain, go)
+        n, d = np.take(chains.normal[level], which, axis=0), np.take(chains.offset[level], which)
+        p = [np.take(a, at) for a in xyz]
+        step = np.float32(-2) * (p[0] * n[:, 0] + p[1] * n[:, 1] + p[2] * n[:, 2] + d)
+        for axis in range(3):
+            xyz[axis][at] = p[axis] + step * n[:, axis]
+        sources[at] = np.take(chains.label[level], which)
+    drop[rows[depth > np.take(chains.cutoff, chain)]] = True

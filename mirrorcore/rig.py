@@ -1,4 +1,6 @@
-"""The rig: the depth camera's intrinsics and the mirrors (plane + image boundary), with boundary masks rasterised once."""
+"""The rig: the depth camera's intrinsics and the mirrors (plane + image boundary), how many reflections a ray is
+followed through, and the per-pixel tables of Algorithm 1 (boundary masks, the first mirror, the paths through further
+mirrors), built once."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -11,8 +13,11 @@ from .errors import MirrorscanError
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import polygon_mask, validate_polygon
-from .session import MAX_MIRRORS, Session    # MAX_MIRRORS: one bit per mirror in Rig.inside_bits
+from .palette import MAX_MIRRORS, MAX_ORDER, source_sequence
+from .paths import Chains, VirtualCamera, trace_chains
+from .session import Session
 
+DEFAULT_BOUNCES = MAX_ORDER   # reflections followed unless the session or the command says otherwise
 PIXEL_BYTES = 64   # the rig's per-pixel tables and one frame through Algorithm 1: 47 bytes a pixel measured at 640x480
 
 
@@ -34,10 +39,13 @@ class Mirror:
 
 @dataclass(frozen=True, eq=False)
 class Rig:
-    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1])."""
+    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]); bounces : the most
+    mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.paths; at 1, Algorithm 1 as the paper writes it,
+    with the points seen through a second mirror left out rather than misplaced)."""
 
     intrinsics: Intrinsics
     mirrors: tuple[Mirror, ...]
+    bounces: int = DEFAULT_BOUNCES
 
     def __post_init__(self) -> None:
         """Raises MirrorscanError for more than MAX_MIRRORS mirrors, MemoryBudgetError for a camera whose per-pixel
@@ -46,14 +54,21 @@ class Rig:
             raise MirrorscanError(f"rig: at most {MAX_MIRRORS} mirrors, got {len(self.mirrors)}")
         w, h = self.intrinsics.width, self.intrinsics.height
         check_memory(w * h * PIXEL_BYTES, f"rig: the per-pixel tables of a {w}x{h} camera")
+        check_bounces(self.bounces)
 
     @classmethod
-    def from_session(cls, session: Session) -> "Rig":
+    def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
+        """The session's rig, followed through `bounces` reflections (default: the session's setting)."""
         mirrors = tuple(
             Mirror(m.name, m.plane,
                    validate_polygon(m.boundary, session.camera.shape, f"{m.name}: boundary") if m.boundary else None)
             for m in session.mirrors)
-        return cls(session.camera, mirrors)
+        return cls(session.camera, mirrors, session.bounces if bounces is None else bounces)
+
+    @property
+    def planes(self) -> tuple[Plane | None, ...]:
+        """Each mirror's plane in session order, None where uncalibrated."""
+        return tuple(m.plane for m in self.mirrors)
 
     @cached_property
     def inside_bits(self) -> np.ndarray:
@@ -70,18 +85,41 @@ class Rig:
         """Per-pixel geometry of Algorithm 1, computed once per rig (see ReflectionTable)."""
         return ReflectionTable.from_rig(self)
 
+    def virtual_cameras(self) -> tuple[VirtualCamera, ...]:
+        """The views of the rig up to `bounces` mirrors: the camera, each calibrated mirror with a boundary, then each
+        sequence of mirrors that some pixel's ray follows (mirrorcore.paths), in label order. A mirror's `pixels` are
+        those Algorithm 1 gives it first; a sequence's, those whose ray meets its mirrors in turn."""
+        table = self.reflection_table
+        counts = np.bincount(table.label.reshape(-1), minlength=len(self.mirrors) + 1)
+        views = [VirtualCamera.of(self.planes, (), self.intrinsics.width * self.intrinsics.height)]
+        views += [VirtualCamera.of(self.planes, (j,), counts[j]) for j, m in enumerate(self.mirrors, start=1)
+                  if m.plane is not None and m.boundary is not None]
+        labels, pixels = np.unique(table.chains.label[table.chains.label > 0], return_counts=True)
+        views += [VirtualCamera.of(self.planes, source_sequence(int(s)), n) for s, n in zip(labels, pixels)]
+        return tuple(views)
+
+
+def check_bounces(bounces: int) -> int:
+    """`bounces` when it is a whole number from 1 to MAX_ORDER, else MirrorscanError naming --bounces."""
+    if isinstance(bounces, bool) or not isinstance(bounces, (int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
+        raise MirrorscanError(f"--bounces: the reflections followed must be 1 to {MAX_ORDER}, got {bounces!r}")
+    return int(bounces)
+
 
 @dataclass(frozen=True, eq=False)
 class ReflectionTable:
     """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose
     boundary holds it (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
-    z (n . ray) + d < 0. All arrays are (H, W) (normal: (3, H, W)), read-only.
+    z (n . ray) + d < 0. All arrays are (H, W) (normal: (3, H, W)), read-only; `chains` holds the few pixels whose
+    ray then meets further mirrors (mirrorcore.paths), followed up to the rig's `bounces`.
 
     label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
     threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray leaves the glass)
     normal, offset, ray_dot : float32, that mirror's n and d, and n . (x/z, y/z, 1) of the pixel's ray
     overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are tried there too)
     uncalibrated : bool, inside the boundary of a mirror that has no plane yet
+    mirror_rows : (H*W, 5) float32, the same ray_dot, offset, nx, ny, nz interleaved by pixel, so that a frame reads
+    a reflected pixel's values in one gather (one cache line) rather than five (see `first_mirror_of`)
     """
 
     label: np.ndarray
@@ -91,6 +129,30 @@ class ReflectionTable:
     ray_dot: np.ndarray
     overlap: np.ndarray
     uncalibrated: np.ndarray
+    mirror_rows: np.ndarray
+    chains: Chains
+
+    def first_mirror_of(self, pixel: np.ndarray) -> np.ndarray:
+        """(k,) flat pixel indices -> (k, 5) float32 rows of mirror_rows: ray_dot, offset, nx, ny, nz."""
+        rows = self.mirror_rows
+        items = rows.view(np.dtype((np.void, rows.shape[1] * rows.itemsize))).reshape(-1)
+        return np.take(items, pixel).view(np.float32).reshape(-1, rows.shape[1])
+
+    @cached_property
+    def any_overlap(self) -> bool:
+        return bool(self.overlap.any())
+
+    @cached_property
+    def any_uncalibrated(self) -> bool:
+        return bool(self.uncalibrated.any())
+
+    @cached_property
+    def chain_row(self) -> np.ndarray:
+        """(H, W) int32 read-only: each pixel's row in `chains`, -1 for the pixels not in it."""
+        rows = np.full(self.label.shape, -1, np.int32)
+        rows.reshape(-1)[self.chains.pixel] = np.arange(len(self.chains), dtype=np.int32)
+        rows.flags.writeable = False
+        return rows
 
     @classmethod
     def from_rig(cls, rig: Rig) -> "ReflectionTable":
@@ -115,8 +177,11 @@ class ReflectionTable:
         ray_dot = normal[0] * rays[0] + normal[1] * rays[1] + normal[2]
         with np.errstate(divide="ignore", invalid="ignore"):
             threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
+        mirror_rows = np.stack([a.reshape(-1) for a in (ray_dot, offset, *normal)], axis=1)
         arrays = dict(label=label, threshold=threshold, normal=normal, offset=offset, ray_dot=ray_dot,
-                      overlap=count > 1, uncalibrated=uncalibrated)
-        for a in arrays.values():
+                      overlap=count > 1, uncalibrated=uncalibrated, mirror_rows=mirror_rows)
+        chains = trace_chains(rig.intrinsics, tuple(m.plane if m.boundary is not None else None for m in rig.mirrors),
+                              rig.inside_bits, label, threshold, rig.bounces)
+        for a in (*arrays.values(), *vars(chains).values()):
             a.flags.writeable = False
-        return cls(**arrays)
+        return cls(**arrays, chains=chains)

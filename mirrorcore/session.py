@@ -1,6 +1,7 @@
 """The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
-(camera, mirrors, background, frames, and the extensions selection, timestamps, colour_frames, a mirror's id and
-region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
+(camera, mirrors, background, frames, and the extensions selection, bounces, timestamps, colour_frames, a mirror's
+id and region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as
+they were."""
 from __future__ import annotations
 
 import json
@@ -19,6 +20,7 @@ from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .geometry.polygon import MAX_VERTICES, validate_polygon
 from .jsonfile import finite_number, read_json
+from .palette import MAX_MIRRORS, MAX_ORDER
 from .selection import Selection
 
 VERSION = 1
@@ -28,13 +30,13 @@ TRUTH_FILE = "truth.json"            # the simulator's scene and true planes, be
 FRAMES_FOLDER = "frames"             # every file in it belongs to the session (a recording lists frames as they land)
 # Limits of what a session may hold: checked where a session is read (session_from_json) and where it is edited
 # (check_limits, which the browser's editor calls before it saves), so that a session that was saved always opens.
-MAX_MIRRORS = 32                    # one bit per mirror in the rig's per-pixel tables (mirrorcore.rig)
 MAX_MARKERS = 500                   # per mirror; a calibration needs 3 and uses a 5x5 window around each
 MAX_POLYGON_VERTICES = MAX_VERTICES  # per boundary or region (mirrorcore.geometry.polygon)
 MAX_NAME_LENGTH = 100               # characters of a mirror's name
 MAX_FRAMES = 1_000_000              # frames of a session: 9 hours at 30 fps
 MAX_SESSION_BYTES = 64 << 20        # session.json itself; a million frames listed take about 30 MB
-_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames")
+_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames",
+             "bounces")
 _MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region")
 
 Pixels = tuple[tuple[float, float], ...]
@@ -80,6 +82,7 @@ class Session:
     timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
     colour_frames : n colour PNG paths, one per frame, or None
     extra : top-level keys this version does not know, kept as they were
+    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig)
 
     Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
     """
@@ -93,6 +96,7 @@ class Session:
     timestamps: tuple[float, ...] | None = None
     colour_frames: tuple[str, ...] | None = None
     extra: dict = field(default_factory=dict, compare=False)
+    bounces: int = MAX_ORDER
 
     def __post_init__(self) -> None:
         if any(m.id < 1 for m in self.mirrors):
@@ -111,6 +115,8 @@ class Session:
             data["timestamps"] = list(self.timestamps)
         if self.colour_frames is not None:
             data["colour_frames"] = list(self.colour_frames)
+        if self.bounces != MAX_ORDER:
+            data["bounces"] = self.bounces
         return {**data, **self.extra}
 
     def with_mirror(self, index: int, mirror: SessionMirror) -> "Session":
@@ -186,9 +192,13 @@ def session_from_json(data, folder: Path) -> Session:
         colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
         if len(colour_frames) != len(frames):
             raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
+    bounces = data.get("bounces", MAX_ORDER)
+    if isinstance(bounces, bool) or not isinstance(bounces, int) or not 1 <= bounces <= MAX_ORDER:
+        raise FileFormatError(f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
     return Session(Path(folder), camera, mirrors, background, frames,
-                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra)
+                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra,
+                   bounces)
 
 
 def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:

@@ -22,7 +22,6 @@ from bench.soak import listen
 from bench.soak import run as soak
 from bench.tabs import wait_for
 from mirrorcore.dense import DenseOptions
-from mirrorcore.dense.volume import Volume
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.session import Session, SessionMirror, load_session, save_session
@@ -84,11 +83,11 @@ def tab(port: int, seconds: float) -> int:
     return asyncio.run(listen(f"ws://127.0.0.1:{port}", time.monotonic() + seconds))[0]
 
 
-def carve_around_the_cloud(app, voxel: float):
-    """Start the consistent carving of the last frame in a box around the cloud (2 cm margin); returns its thread."""
-    volume = Volume.around(app.last_frame.cloud.points, voxel, 0.02)
-    low = np.asarray(volume.origin) - voxel / 2
-    bounds = (tuple(low), tuple(low + voxel * np.asarray(volume.shape)))
+def carve_around_the_sphere(app, voxel: float):
+    """Start the consistent carving of the last frame in a 30 cm box around the simulated sphere; returns its
+    thread."""
+    centre = np.asarray(app.source.rig.scene.objects[0].centre)
+    bounds = (tuple(centre - 0.15), tuple(centre + 0.15))
     return app.jobs.start_dense("carve", DenseOptions(voxel, 0.02, bounds), 1)
 
 
@@ -99,7 +98,7 @@ def test_a_tab_closing_during_carving_does_not_stop_the_server(sphere):
     app.server.on_client_connect(lambda client: client.client_id in already or connected.append(client.client_id))
     dropped = threading.Thread(target=tab, args=(app.port, 0.5))
     dropped.start()
-    worker = carve_around_the_cloud(app, 0.0015)
+    worker = carve_around_the_sphere(app, 0.0015)
     dropped.join()                                # the tab is gone while the carving runs
     assert worker.is_alive() and len(connected) == 1
     worker.join(timeout=120)
@@ -117,7 +116,7 @@ def test_cancelled_carving_gives_its_memory_back(sphere):
     time.sleep(0.5)
     tracemalloc.start()
     before = tracemalloc.get_traced_memory()[0]
-    worker = carve_around_the_cloud(app, 0.001)   # ~25 million voxels: hundreds of MB if it ran to the end
+    worker = carve_around_the_sphere(app, 0.001)  # 27 million voxels: hundreds of MB if it ran to the end
     time.sleep(0.5)
     app.jobs.cancel("dense")                      # the Cancel button
     worker.join(timeout=120)

@@ -1,4 +1,5 @@
 """Session folders, depth PNGs and PLY files: round trips, clear errors, and nothing lost on failure."""
+import dataclasses
 import json
 import os
 
@@ -44,6 +45,17 @@ def test_session_round_trip(tmp_path):
     assert data["mirrors"][1]["plane"] is None
 
 
+def test_bounces_are_kept_and_written_only_when_set(tmp_path):
+    """The session's `bounces` (extension): 3 unless the file says otherwise, written only when it differs."""
+    session = make_session(tmp_path)
+    save_session(session)
+    assert "bounces" not in json.loads((tmp_path / "session.json").read_text())
+    assert load_session(tmp_path).bounces == 3
+    save_session(dataclasses.replace(session, bounces=1))
+    assert json.loads((tmp_path / "session.json").read_text())["bounces"] == 1
+    assert load_session(tmp_path).bounces == 1
+
+
 def test_save_keeps_the_previous_version(tmp_path):
     session = make_session(tmp_path)
     save_session(session)
@@ -87,6 +99,9 @@ def edit(tmp_path, change):
     (lambda d: d["mirrors"][0].update(name=""), "name: must be a non-empty string"),
     (lambda d: d.update(frames=["../../etc/passwd"]), r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
     (lambda d: d.update(background="/etc/passwd"), "background: path '/etc/passwd' leaves the session folder"),
+    (lambda d: d.update(bounces=4), "bounces: must be a whole number from 1 to 3, got 4"),
+    (lambda d: d.update(bounces=2.0), "bounces: must be a whole number from 1 to 3, got 2.0"),
+    (lambda d: d.update(bounces=True), "bounces: must be a whole number from 1 to 3, got True"),
 ])
 def test_bad_session_files(tmp_path, change, message):
     edit(tmp_path, change)

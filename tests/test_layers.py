@@ -14,7 +14,7 @@ FLOORS = {
     "geometry": 1,
     "noise": 2, "kinect": 2, "depthops": 2, "depthio": 2, "selection": 2,
     "session": 3, "ply": 3, "outputs": 3,
-    "rig": 4, "cloud": 4, "reconstruct": 4,
+    "rig": 4, "paths": 4, "cloud": 4, "reconstruct": 4,
     "calibration": 5, "markers": 5,
     "pipeline": 6,
     "dense": 7,

@@ -1,12 +1,17 @@
 """Algorithm 1: which pixels are reflected, through which mirror, and where their points go."""
+import hashlib
+from pathlib import Path
+
 import numpy as np
 import pytest
 from helpers import sphere_depth
 
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.pipeline import object_cloud
 from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.rig import Mirror, Rig
+from mirrorcore.session import load_session
 
 CAMERA = Intrinsics(8, 6, fx=4.0, fy=4.0, cx=3.5, cy=2.5)
 PLANE = Plane.from_abcd([0, 0, -1, 2.0])               # glass at z = 2, facing the camera
@@ -84,6 +89,8 @@ def test_reflected_sphere_lands_on_the_real_sphere():
 def test_wrong_depth_size_is_refused():
     with pytest.raises(Exception, match="does not match the camera's 8x6"):
         reconstruct_raw(rig(), np.zeros((5, 5)))
+    with pytest.raises(Exception, match="object mask: size 8x5 does not match the camera's 8x6"):
+        reconstruct_raw(rig(), np.ones(CAMERA.shape), np.ones((5, 8), bool))
 
 
 def test_empty_mask_gives_an_empty_cloud():
@@ -100,3 +107,29 @@ def test_a_window_off_the_corner_keeps_pixel_indices():
     cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth, mask)
     assert cloud.pixels.tolist() == [[6, 4]]
     np.testing.assert_allclose(cloud.points[0], [(6 - 3.5) / 4 * 3, (4 - 2.5) / 4 * 3, 3.0], atol=1e-6)
+
+
+# sha256 (first 16 hex digits) of points, sources and pixel indices of the demo session's frames 0-4 (the paper's rig,
+# mirrors at 120 degrees): the whole frame, then the object's cloud. Recorded with Algorithm 1 as it was before rays
+# were followed through several mirrors (commit a4c18a3).
+DEMO_DIGESTS = [("6ab9d7e1fc0bd3dc", "6e7fa7cdf22b9452"), ("ae8ac8717f864730", "922f65323039f19e"),
+                ("e1e801ffe99a75ab", "d23ef81a6b8fb513"), ("e71109e6f2504321", "eb10bbf1458f97aa"),
+                ("38c77736e9dc6e9f", "b192620c66693602")]
+
+
+def _digest(cloud) -> str:
+    h = hashlib.sha256()
+    for a in (cloud.points, cloud.sources, cloud.pixel_index):
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()[:16]
+
+
+def test_where_no_ray_meets_two_mirrors_nothing_changes():
+    """The paper's 120-degree rig: no pixel's ray meets a second mirror, and every cloud is the same, bit for bit."""
+    session = load_session(Path(__file__).resolve().parents[1] / "sessions" / "demo")
+    rig, background = Rig.from_session(session), session.read_background()
+    assert rig.bounces == 3 and len(rig.reflection_table.chains) == 0
+    for i, expected in enumerate(DEMO_DIGESTS):
+        depth = session.read_frame(i)
+        cloud, _ = object_cloud(rig, depth, background, session.selection)
+        assert (_digest(reconstruct_raw(rig, depth)), _digest(cloud)) == expected, f"frame {i}"

@@ -33,3 +33,13 @@ def test_a_folder_that_is_not_a_session_is_refused(tmp_path):
     with pytest.raises(MirrorscanError, match="not a session folder \\(no session.json\\) and not empty"):
         session_and_source(str(tmp_path), None)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_bounces_become_the_session_setting(tmp_path):
+    from app.cli import main
+    assert main(["simulate", str(tmp_path / "s"), "--quiet"]) == 0
+    assert session_and_source(str(tmp_path / "s"), None)[0].bounces == 3
+    assert session_and_source(str(tmp_path / "s"), None, 1)[0].bounces == 1
+    with pytest.raises(MirrorscanError, match="--bounces: the reflections followed must be 1 to 3, got 5"):
+        session_and_source(str(tmp_path / "new"), None, 5)
+    assert not (tmp_path / "new").exists()

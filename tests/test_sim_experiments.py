@@ -1,13 +1,15 @@
-"""`mirrorscan experiment angle|distance` run in-process with one seed: one CSV row per parameter value, errors
-positive and a few millimetres, radii near the truth, a readable PNG; bad input exits 2 with one line and writes
+"""`mirrorscan experiment angle|distance|kaleidoscope` run in-process with one seed: one CSV row per parameter value,
+errors positive and a few millimetres, radii near the truth, a readable PNG; bad input exits 2 with one line and writes
 nothing."""
 import contextlib
 import csv
 import io
 
 import cv2
+import numpy as np
 import pytest
 
+from app import experiment_kaleidoscope
 from app.cli import main
 from app.experiments import ANGLES, COLUMNS, MIRROR_DISTANCES
 from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
@@ -68,3 +70,34 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, monkeypatc
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture(scope="module")
+def kaleidoscope(tmp_path_factory):
+    """(CSV rows as dicts of floats, PNG path) of `experiment kaleidoscope` with one seed."""
+    prefix = tmp_path_factory.mktemp("kaleidoscope") / "exp"
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["experiment", "kaleidoscope", "-o", str(prefix), "--seeds", "1", "--quiet"]) == 0
+    with open(prefix.with_suffix(".csv"), newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        assert reader.fieldnames == list(experiment_kaleidoscope.COLUMNS)
+        rows = [{k: float(v) for k, v in row.items()} for row in reader]
+    return rows, prefix.with_suffix(".png")
+
+
+def test_kaleidoscope_experiment_rows(kaleidoscope):
+    """One row per angle from 45 degrees; below 120 the views through several mirrors add points and their errors
+    are reported; at 120 there are none and following 3 mirrors changes nothing."""
+    rows, png = kaleidoscope
+    assert [r["parameter"] for r in rows] == [float(a) for a in experiment_kaleidoscope.ANGLES]
+    assert min(experiment_kaleidoscope.ANGLES) == 45
+    for r in rows:
+        assert r["radius_mm"] == pytest.approx(1e3 * SPHERE_RADIUS, abs=1.5)
+        assert r["far_share"] < 0.005 and 0.5 < r["direct_rmse_mm"] and r["first_rmse_mm"] < 5.0
+        if r["parameter"] < 120:
+            assert r["multi_share"] > 0.1 and r["growth"] > 1.1
+            assert 0.5 < (r["second_rmse_mm"] if r["parameter"] != 45 else r["third_rmse_mm"]) < 6.0
+        else:
+            assert r["multi_share"] == 0 and r["growth"] == 1.0 and np.isnan(r["second_rmse_mm"])
+    image = cv2.imread(str(png))
+    assert image is not None and image.shape == (480, 1200, 3) and image.std() > 10

@@ -1,13 +1,14 @@
 """Simulated rig against analytic truth: object and marker pixels reflected through the true planes land on the true
-sphere and mirror planes; two-bounce rays follow their switch; the paper scene shows the object in every mirror; the
-per-frame casts limited to the objects' windows lose no pixel."""
+sphere and mirror planes; rays through two and three mirrors follow the bounce budget and carry their full sequence;
+the paper scene shows the object in every mirror; the per-frame casts limited to the objects' windows lose no pixel."""
 import numpy as np
 import pytest
 
+from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
-from mirrorcore.sim.layouts import arc_scene, paper_scene
-from mirrorcore.sim.render import MARKER, Renderer
+from mirrorcore.sim.layouts import arc_scene, kaleidoscope_scene, paper_scene
+from mirrorcore.sim.render import MARKER, MAX_BOUNCES, NONE, Renderer
 
 CAMERA = Intrinsics.kinect_v1().scaled(0.5)
 TOL = 0.5e-3  # metres
@@ -86,8 +87,8 @@ def test_marker_pixels_lie_on_the_true_mirror_planes(paper):
 
 def test_two_bounces_follow_the_switch():
     scene = paper_scene(angle_deg=90, camera=CAMERA)
-    with_two = Renderer(scene, two_bounces=True).render()
-    without = Renderer(scene, two_bounces=False).render()
+    with_two = Renderer(scene, bounces=2).render()
+    without = Renderer(scene, bounces=1).render()
     two = with_two.bounces == 2
     assert two.sum() > 1000
     assert (without.bounces == 2).sum() == 0
@@ -95,6 +96,51 @@ def test_two_bounces_follow_the_switch():
     # a two-bounce pixel names two different mirrors
     first, second = with_two.first_mirror[two], with_two.second_mirror[two]
     assert np.all((first > 0) & (second > 0) & (first != second))
+
+
+@pytest.fixture(scope="module")
+def kaleidoscope():
+    """Two hinged mirrors at 60 degrees: the sphere is seen through one, two and three mirrors in turn."""
+    scene = kaleidoscope_scene(60.0, camera=CAMERA)
+    return scene, Renderer(scene).render()
+
+
+def test_three_bounces_fold_back_onto_the_sphere_with_their_sequence(kaleidoscope):
+    """Each object pixel's virtual point, reflected through its mirrors in the order its ray met them (the truth's
+    full sequence, read back from its source label), lies on the true sphere; every kind of view is there."""
+    scene, truth = kaleidoscope
+    sphere = scene.objects[0]
+    virtual = _virtual_points(truth)
+    for label in np.unique(truth.source[truth.object_mask]):
+        sel = truth.object_mask & (truth.source == label)
+        sequence = tuple(int(j) for j in truth.mirrors[:, sel][:, 0] if j)
+        assert np.all(truth.mirrors[:, sel] == truth.mirrors[:, sel][:, :1])       # one sequence per label
+        p = virtual[sel]
+        for j in sequence:
+            p = scene.mirrors[j - 1].plane.reflect(p)
+        err = np.abs(np.linalg.norm(p - sphere.centre, axis=1) - sphere.radius)
+        assert err.max() < TOL, f"sequence {sequence}: {err.max() * 1e3:.3f} mm"
+    kinds = np.bincount(truth.bounces[truth.object_mask], minlength=4)
+    assert kinds.min() > 100, kinds                              # direct, one, two and three mirrors
+    assert set(np.unique(truth.source[truth.object_mask & (truth.bounces == 2)])) <= {33, 34}
+    assert set(np.unique(truth.source[truth.object_mask & (truth.bounces == 3)])) <= {35, 36}
+
+
+def test_the_bounce_budget_cuts_longer_paths(kaleidoscope):
+    scene, three = kaleidoscope
+    two = Renderer(scene, bounces=2).render()
+    cut = three.bounces == 3
+    assert cut.sum() > 1000 and not (two.bounces == 3).any()
+    assert np.all(two.depth[cut] == 0) and np.all(two.surface[cut] == NONE)
+    same = three.bounces <= 2
+    np.testing.assert_array_equal(two.depth[same], three.depth[same])
+    assert np.all(three.source[three.surface == NONE] == -1)
+
+
+@pytest.mark.parametrize("bounces", [0, MAX_BOUNCES + 1])
+def test_bounce_budget_out_of_range(bounces):
+    with pytest.raises(MirrorscanError, match="--bounces: the simulator renders 1 to 3 reflections"):
+        Renderer(paper_scene(camera=CAMERA), bounces=bounces)
 
 
 def test_object_stays_behind_the_mirror_edge():

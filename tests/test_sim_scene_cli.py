@@ -12,12 +12,13 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
-from mirrorcore.sim.layouts import arc_scene, paper_scene
+from mirrorcore.sim.layouts import HINGE_GAP, HINGED_CLEARANCE, arc_scene, kaleidoscope_scene, paper_scene
 from mirrorcore.sim.scene import load_scene, save_scene
 from mirrorcore.sim.simulator import Simulator
 
 
-@pytest.mark.parametrize("scene", [paper_scene(), arc_scene(4), paper_scene(object="figure", distance=3.0)])
+@pytest.mark.parametrize("scene", [paper_scene(), arc_scene(4), paper_scene(object="figure", distance=3.0),
+                                   kaleidoscope_scene(72)])
 def test_scene_file_round_trip(tmp_path, scene):
     save_scene(scene, tmp_path / "scene.json")
     loaded = load_scene(tmp_path / "scene.json")
@@ -98,3 +99,50 @@ def test_simulate_from_scene_file_with_figure(tmp_path):
                  "--quiet"]) == 0
     session = load_session(out)
     assert not np.array_equal(session.read_frame(0), session.read_frame(1))
+
+
+@pytest.mark.parametrize("angle", [45.0, 60.0, 72.0, 90.0, 120.0])
+def test_kaleidoscope_mirrors_meet_at_the_apex(angle):
+    """A hinged pair: the planes are `angle` apart, their inner edges HINGE_GAP from one common vertical line (the
+    apex), each plane HINGED_CLEARANCE from the sphere's surface when it stands on the bisector. Where an image would
+    lie straight behind the sphere (180 / angle whole), the V is turned by a quarter of the angle below 90 degrees
+    (the apex leaves the optical axis) and the sphere moves 115 mm sideways at 90; otherwise neither."""
+    scene = kaleidoscope_scene(angle)
+    m1, m2 = scene.mirrors
+    between = 180.0 - m1.plane.angle_to(m2.plane)        # normals face into the V: the surfaces are 180 - that apart
+    assert between == pytest.approx(angle, abs=1e-9)
+    # the apex: where both (vertical) planes meet at the mirrors' middle height
+    y = m1.centre[1]
+    n = np.array([[m.plane.n[0], m.plane.n[2]] for m in (m1, m2)])
+    x, z = np.linalg.solve(n, [-m.plane.d - m.plane.n[1] * y for m in (m1, m2)])
+    apex = np.array([x, y, z])
+    for m in (m1, m2):
+        corners = m.corners()
+        edges = (corners[[0, 3]].mean(0), corners[[1, 2]].mean(0))            # the middles of the two side edges
+        assert min(np.linalg.norm(e - apex) for e in edges) == pytest.approx(HINGE_GAP, abs=1e-9)
+    sphere = scene.objects[0]
+    offset = 0.115 if angle == 90.0 else 0.0
+    np.testing.assert_allclose(sphere.centre, [offset, 0.0, 2.0], atol=1e-12)
+    on_bisector = np.array(sphere.centre) - [offset, 0.0, 0.0]
+    for m in (m1, m2):
+        assert m.plane.signed_distance(on_bisector) == pytest.approx(sphere.radius + HINGED_CLEARANCE)
+    turned = np.degrees(np.arctan2(apex[0], apex[2] - 2.0))      # the apex seen from the sphere's place on the axis
+    assert turned == pytest.approx({45.0: 11.25, 60.0: 15.0}.get(angle, 0.0), abs=1e-9)
+
+
+def test_simulate_kaleidoscope_and_bounces(tmp_path, capsys):
+    out = tmp_path / "k"
+    assert main(["simulate", str(out), "--kaleidoscope", "--angle", "72", "--bounces", "2", "--noise", "none",
+                 "--quiet"]) == 0
+    truth = json.loads((out / "truth.json").read_text())
+    expected = kaleidoscope_scene(72.0)
+    assert [m["plane"] for m in truth["mirrors"]] == [m.plane.to_list() for m in expected.mirrors]
+    for argv, message in [(["--bounces", "4"], "--bounces: the simulator renders 1 to 3 reflections, got 4"),
+                          (["--single-bounce", "--bounces", "2"], "--single-bounce means --bounces 1"),
+                          (["--kaleidoscope", "--mirrors", "3"], "--kaleidoscope: a hinged pair has 2 mirrors"),
+                          (["--kaleidoscope", "--scene", str(out / "truth.json")], "drop --kaleidoscope")]:
+        capsys.readouterr()
+        assert main(["simulate", str(tmp_path / "x"), "--quiet", *argv]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1, err
+        assert not (tmp_path / "x").exists()

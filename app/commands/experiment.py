@@ -1,4 +1,5 @@
-"""`mirrorscan experiment {angle,distance}`: the paper's figures 4a and 5a on the simulated rig, as CSV and PNG."""
+"""`mirrorscan experiment {angle,distance,kaleidoscope}`: the paper's figures 4a and 5a on the simulated rig, and the
+error against the angle of two hinged mirrors seen through several mirrors in turn, as CSV and PNG."""
 from __future__ import annotations
 
 import argparse
@@ -6,6 +7,7 @@ import csv
 import io
 from pathlib import Path
 
+from app import experiment_kaleidoscope
 from app.experiments import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
@@ -14,8 +16,8 @@ from mirrorcore.outputs import check_output
 
 def register(sub) -> None:
     p = sub.add_parser("experiment", help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) "
-                                          "experiment on the simulated rig")
-    p.add_argument("name", choices=["angle", "distance"])
+                                          "experiment on the simulated rig, or the kaleidoscope's error-vs-angle")
+    p.add_argument("name", choices=["angle", "distance", "kaleidoscope"])
     p.add_argument("-o", "--out", default=None, help="output prefix: writes PREFIX.csv and PREFIX.png "
                                                      "(default experiment-NAME)")
     p.add_argument("--seeds", type=int, default=3, help="noise seeds per point (default 3)")
@@ -31,12 +33,19 @@ def run(args: argparse.Namespace) -> int:
         raise MirrorscanError(f"{prefix.parent}: no such folder")
     for path in (prefix.with_suffix(".csv"), prefix.with_suffix(".png")):
         check_output(path)                     # before minutes of work: never over a session's files
-    rows = run_experiment(args.name, args.seeds, progress=not args.quiet)
+    if args.name == "kaleidoscope":
+        columns = experiment_kaleidoscope.COLUMNS
+        rows = experiment_kaleidoscope.run_kaleidoscope(args.seeds, progress=not args.quiet)
+    else:
+        columns, rows = COLUMNS, run_experiment(args.name, args.seeds, progress=not args.quiet)
     text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=COLUMNS)
+    writer = csv.DictWriter(text, fieldnames=columns)
     writer.writeheader()
     writer.writerows(rows)
     write_atomic(prefix.with_suffix(".csv"), text.getvalue().encode("utf-8"))
-    plot_experiment(args.name, rows, prefix.with_suffix(".png"))
+    if args.name == "kaleidoscope":
+        experiment_kaleidoscope.plot_kaleidoscope(rows, prefix.with_suffix(".png"))
+    else:
+        plot_experiment(args.name, rows, prefix.with_suffix(".png"))
     print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
     return 0

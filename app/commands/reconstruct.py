@@ -17,6 +17,7 @@ from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.outputs import check_output
+from mirrorcore.palette import MAX_ORDER, source_name
 from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
 from mirrorcore.rig import Rig
@@ -39,11 +40,19 @@ def register(sub) -> None:
     p.add_argument("--threshold", type=float, help="paper, carve: th in metres (default: the voxel size)")
     p.add_argument("--truncation", type=float, help="tsdf: truncation in metres (default: 3 voxels)")
     p.add_argument("--frames", type=int, default=1, help="tsdf: fuse this many frames from --frame on (static object)")
+    add_bounces_option(p)
     p.set_defaults(run=run)
 
 
-def calibrated_rig(session: Session) -> Rig:
-    """The session's rig, refusing mirrors that cannot reconstruct (no plane or no boundary)."""
+def add_bounces_option(p) -> None:
+    """--bounces, for the commands that reconstruct (reconstruct, serve)."""
+    p.add_argument("--bounces", type=int, help=f"follow a camera ray through at most this many mirrors in turn, 1 to "
+                                               f"{MAX_ORDER} (default: the session's setting, {MAX_ORDER} unless set)")
+
+
+def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
+    """The session's rig followed through `bounces` mirrors (default: the session's setting), refusing mirrors that
+    cannot reconstruct (no plane or no boundary)."""
     if not session.mirrors:
         raise MirrorscanError(f"{session.path}: the session has no mirrors")
     for m in session.mirrors:
@@ -51,7 +60,7 @@ def calibrated_rig(session: Session) -> Rig:
             raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
         if not m.boundary:
             raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
-    return Rig.from_session(session)
+    return Rig.from_session(session, bounces)
 
 
 def read_scan_frame(session: Session, index: int) -> np.ndarray:
@@ -62,7 +71,7 @@ def read_scan_frame(session: Session, index: int) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
-    rig = calibrated_rig(session)
+    rig = calibrated_rig(session, args.bounces)
     selection = session.selection
     background = session.read_background()
     out = check_output(args.output, (args.session,))   # never over a session's files or its own input
@@ -75,8 +84,8 @@ def run(args: argparse.Namespace) -> int:
             return run_dense(args, rig, session, index, background, selection, out)
         cloud, _ = object_cloud(rig, read_scan_frame(session, index), background, selection)
         write_ply(out, cloud.points, cloud.sources)
-        print(f"wrote {out}: {len(cloud)} points " + ", ".join(f"{k} {v}" for k, v in
-                                                                  cloud.counts(len(rig.mirrors)).items()))
+        print(f"wrote {out}: {len(cloud)} points " + ", ".join(
+            f"{source_name(k)} {v}" for k, v in cloud.source_counts(len(rig.mirrors)).items()))
         return 0
     if args.method != "raw":
         raise MirrorscanError(f"--frame all: only with --method raw; {args.method} makes one result from one frame "

@@ -2,18 +2,21 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import signal
 import time
 from pathlib import Path
 
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.rig import check_bounces
 from mirrorcore.session import Session, load_session, save_session
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source
 from ..security import install_log_filter, is_loopback
 from ..server import MirrorscanApp
+from .reconstruct import add_bounces_option
 from .record import STOP_SIGNALS
 
 log = logging.getLogger("mirrorscan")
@@ -30,11 +33,21 @@ def register(sub) -> None:
     p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
     p.add_argument("--token", help="a secret the browser must give (default: none on 127.0.0.1; beyond it a new one, "
                                    "printed in the address to open)")
+    add_bounces_option(p)
     p.set_defaults(run=run)
 
 
-def session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
-    """(session, source, autosave) for the command's arguments."""
+def session_and_source(folder: str | None, spec: str | None,
+                       bounces: int | None = None) -> tuple[Session, DepthSource, bool]:
+    """(session, source, autosave) for the command's arguments; `bounces` (--bounces) becomes the session's setting
+    (saved with its next change)."""
+    if bounces is not None:
+        check_bounces(bounces)
+    session, source, autosave = _session_and_source(folder, spec)
+    return (session if bounces is None else dataclasses.replace(session, bounces=bounces)), source, autosave
+
+
+def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
     if folder is None:
         source = demo_source() if spec in (None, "sim") else open_source(spec, None)
         return calibrated_session(source, Path("sessions") / "untitled"), source, False
@@ -54,7 +67,7 @@ def session_and_source(folder: str | None, spec: str | None) -> tuple[Session, D
 def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     install_log_filter()
-    session, source, autosave = session_and_source(args.session, args.source)
+    session, source, autosave = session_and_source(args.session, args.source, args.bounces)
     sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
     app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir, args.token)
     if not is_loopback(args.host):

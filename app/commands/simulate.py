@@ -6,12 +6,13 @@ import argparse
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.outputs import check_output
 from mirrorcore.sim.export import write_session
-from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.scene import load_scene
+from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
+from mirrorcore.sim.render import MAX_BOUNCES
+from mirrorcore.sim.scene import Scene, load_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 
-_LAYOUT_OPTIONS = ("object", "angle", "mirrors", "distance")
+_LAYOUT_OPTIONS = ("object", "angle", "mirrors", "distance", "kaleidoscope")
 
 
 def register(sub) -> None:
@@ -21,12 +22,18 @@ def register(sub) -> None:
     p.add_argument("--angle", type=float, help="angle between the two mirrors, degrees (default 120)")
     p.add_argument("--mirrors", type=int, help="number of mirrors: 2 in a V (default), 3 or more on an arc")
     p.add_argument("--distance", type=float, help="camera to object, metres (default 2.0)")
+    p.add_argument("--kaleidoscope", action="store_true",
+                   help="two mirrors hinged at the apex (1.4 m wide, 15 cm from the object) instead of the paper's V: "
+                        "below about 90 degrees the object is also seen through two and three mirrors in turn")
     p.add_argument("--scene", help="a scene JSON file instead of the options above")
     p.add_argument("--noise", choices=["none", "kinect", "kinect-noiseless"], default="kinect",
                    help="sensor model (default kinect)")
     p.add_argument("--frames", type=int, default=1, help="number of frames at 30 fps (default 1)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
-    p.add_argument("--single-bounce", action="store_true", help="leave out rays that reflect off two mirrors")
+    p.add_argument("--bounces", type=int, help=f"the most reflections a ray may make, 1 to {MAX_BOUNCES} "
+                                               f"(default {MAX_BOUNCES}); a ray meeting one more mirror reads nothing")
+    p.add_argument("--single-bounce", action="store_true", help="leave out rays that reflect off two mirrors "
+                                                                "(--bounces 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -34,17 +41,28 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     mesh = args.object.removeprefix("mesh:") if args.object and args.object.startswith("mesh:") else None
     check_output(args.out, tuple(p for p in (args.scene, mesh) if p))
-    if args.scene is not None:
-        given = [f"--{k}" for k in _LAYOUT_OPTIONS if getattr(args, k) is not None]
-        if given:
-            raise MirrorscanError(f"--scene describes the whole rig; drop {', '.join(given)}")
-        scene = load_scene(args.scene)
-    else:
-        if args.distance is not None and args.distance <= 0.5:
-            raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
-        scene = paper_scene(120.0 if args.angle is None else args.angle, args.mirrors or 2, args.object or "sphere",
-                            2.0 if args.distance is None else args.distance)
-    rig = Simulator(scene, SensorModel.from_name(args.noise), args.seed, two_bounces=not args.single_bounce)
+    scene = _scene(args)
+    if args.single_bounce and args.bounces not in (None, 1):
+        raise MirrorscanError(f"--single-bounce means --bounces 1; drop one of them (got --bounces {args.bounces})")
+    bounces = 1 if args.single_bounce else MAX_BOUNCES if args.bounces is None else args.bounces
+    rig = Simulator(scene, SensorModel.from_name(args.noise), args.seed, bounces)
     out = write_session(rig, args.out, args.frames, args.noise, progress=not args.quiet)
     print(f"wrote {out} ({args.frames} frame{'s' if args.frames != 1 else ''}, {len(scene.mirrors)} mirrors)")
     return 0
+
+
+def _scene(args: argparse.Namespace) -> Scene:
+    """The scene file, or the layout the options describe (the paper's V, a hinged pair, an arc)."""
+    if args.scene is not None:
+        given = [f"--{k}" for k in _LAYOUT_OPTIONS if getattr(args, k) not in (None, False)]
+        if given:
+            raise MirrorscanError(f"--scene describes the whole rig; drop {', '.join(given)}")
+        return load_scene(args.scene)
+    if args.distance is not None and args.distance <= 0.5:
+        raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
+    angle, distance = 120.0 if args.angle is None else args.angle, 2.0 if args.distance is None else args.distance
+    if not args.kaleidoscope:
+        return paper_scene(angle, args.mirrors or 2, args.object or "sphere", distance)
+    if args.mirrors not in (None, 2):
+        raise MirrorscanError(f"--kaleidoscope: a hinged pair has 2 mirrors, got --mirrors {args.mirrors}")
+    return kaleidoscope_scene(angle, args.object or "sphere", distance)

@@ -9,14 +9,18 @@ camera does not see on the surface survives only if EVERY mirror sees it on the 
 `break` change nothing but the work done. The prose ("removed if the deviation condition is not satisfied with at
 least one mirror") says the same. Voxels behind a mirror plane are outside the volume "in front of the mirrors" and
 removed. Note what follows: a surface seen by one mirror only is lost wherever the camera does not see it, and the
-kept set is a shell 2 th thick around the measured surfaces (the paper's "thicker surface").
+kept set is a shell 2 th thick around the measured surfaces (the paper's "thicker surface"). *Extension*: the views
+through several mirrors in turn (mirrorcore.dense.views) are virtual cameras like the mirrors' and join the loop, with
+their outline (the pixels whose ray meets their mirrors in turn) as the mirror's boundary: read as written, a voxel
+the camera does not see must then be seen by every one of them too, so "paper" keeps little beyond the camera's view in
+a kaleidoscope.
 
-Method "carve" (consistent carving): a voxel is removed (FREE) when any view, the camera or a mirror's virtual camera,
-sees through it: its depth in that view is less than the measured depth minus th. It is kept (SURFACE) when no view
-sees through it and at least one view shows the object's surface within th of it. A voxel that no view sees through
-and none sees on the surface (inside the object, or behind it from every view) is HIDDEN: neither carved nor kept as
-surface (SURFACE | HIDDEN is the carved solid). Depth is sampled bilinearly (sub-pixel, as the paper suggests for the
-sparse mirror regions) where the four pixels around a point show the surface with no depth edge.
+Method "carve" (consistent carving): a voxel is removed (FREE) when any view, the camera or a virtual camera (a mirror,
+or a sequence of mirrors), sees through it: its depth in that view is less than the measured depth minus th. It is kept
+(SURFACE) when no view sees through it and at least one view shows the object's surface within th of it. A voxel that no
+view sees through and none sees on the surface (inside the object, or behind it from every view) is HIDDEN: neither
+carved nor kept as surface (SURFACE | HIDDEN is the carved solid). Depth is sampled bilinearly (sub-pixel, as the paper
+suggests for the sparse mirror regions) where the four pixels around a point show the surface with no depth edge.
 """
 from __future__ import annotations
 
@@ -46,7 +50,8 @@ METHODS = ("paper", "carve")
 @dataclass(frozen=True, eq=False)
 class CarveResult:
     """state : (nx, ny, nz) uint8 FREE / SURFACE / HIDDEN; source : (nx, ny, nz) uint8, the view (0 camera, j mirror
-    j) that sees a SURFACE voxel nearest to its centre, NO_SOURCE elsewhere; threshold th in metres."""
+    j, from 33 a sequence of mirrors) that sees a SURFACE voxel nearest to its centre, NO_SOURCE elsewhere; threshold
+    th in metres."""
 
     volume: Volume
     state: np.ndarray
@@ -90,21 +95,17 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
 @dataclass(frozen=True, eq=False)
 class _PaperImages:
     """Flat (H*W + 1,) per-pixel inputs of Algorithm 2 (pad cell last): `object` the object pixels {p}_n, `distance`
-    |P| = Z |ray| the measured distance to the camera, `inside` one bool image per mirror: inside its boundary."""
+    |P| = Z |ray| the measured distance to the camera (each view's outline is View.outline)."""
 
     object: np.ndarray
     distance: np.ndarray
-    inside: tuple[np.ndarray, ...]
 
     @classmethod
     def of(cls, rig: Rig, depth: np.ndarray, mask: np.ndarray) -> "_PaperImages":
         rays = rig.intrinsics.rays
         z = np.asarray(depth, np.float32)
-        bits = rig.inside_bits
-        inside = tuple(padded_flat(((bits >> np.uint32(j)) & 1).astype(bool), False)
-                       for j, m in enumerate(rig.mirrors) if m.plane is not None and m.boundary is not None)
         return cls(padded_flat(np.asarray(mask, bool) & (z > 0), False),
-                   padded_flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan), inside)
+                   padded_flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan))
 
 
 def _carve_slab(rig: Rig, views: tuple[View, ...], volume: Volume, th: float, slab: slice, state: np.ndarray,
@@ -145,12 +146,12 @@ def _paper_slab(rig: Rig, views: tuple[View, ...], images: _PaperImages, volume:
     every_mirror = np.ones(points.shape[1], bool)
     best = np.full(points.shape[1], np.inf, np.float32)
     best_source = np.zeros(points.shape[1], np.uint8)
-    for view, inside in zip(views[1:], images.inside):
+    for view in views[1:]:
         p = transform(view, points)
         at = pixel_index(intr, *project(intr, p))
         with np.errstate(invalid="ignore"):
             gap = np.abs(np.linalg.norm(p, axis=0) - images.distance[at])
-            every_mirror &= images.object[at] & inside[at] & (gap < th)
+            every_mirror &= images.object[at] & view.outline[at] & (gap < th)
         closer = gap < best
         best = np.where(closer, gap, best)
         best_source[closer] = view.source

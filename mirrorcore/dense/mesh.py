@@ -13,7 +13,7 @@ from .volume import NO_SOURCE, Volume
 @dataclass(frozen=True, eq=False)
 class Mesh:
     """vertices : (n, 3) float32 metres, camera frame; faces : (m, 3) int32 vertex indices; sources : (n,) uint8,
-    0 = direct, j = mirror j (the view that saw each vertex best)."""
+    0 = direct, j = mirror j, from 33 a sequence of mirrors (the view that saw each vertex best)."""
 
     vertices: np.ndarray
     faces: np.ndarray

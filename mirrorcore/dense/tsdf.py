@@ -3,8 +3,10 @@ one or more depth frames of a static object, and its surface mesh.
 
 Each mirror is a virtual camera whose extrinsic is the reflection through its plane (det -1): a voxel v is seen by
 mirror j at the reflected point v_j, projected with the camera's intrinsics and compared with the measured (virtual)
-depth there. Open3D's TSDF integration takes a 4x4 extrinsic, but it is not used here: fusing in numpy keeps the
-per-view weights and the per-voxel source of the best view, and needs no assumption on how Open3D treats det -1.
+depth there; a sequence of mirrors the camera sees through in turn is one more, with the composition of their
+reflections as its extrinsic (mirrorcore.dense.views). Open3D's TSDF integration takes a 4x4 extrinsic, but it is not
+used here: fusing in numpy keeps the per-view weights and the per-voxel source of the best view, and needs no assumption
+on how Open3D treats det -1.
 
 Per view, only the object's pixels of that view count (the camera's object pixels that no mirror claims; a mirror's
 object pixels inside its boundary and behind its plane, see mirrorcore.views). A voxel at depth z (in the view's
@@ -30,7 +32,8 @@ from .volume import NO_SOURCE, Progress, Volume, run_slabs
 class TsdfResult:
     """tsdf : (nx, ny, nz) float32 in [-1, 1] (signed distance / truncation, > 0 in front of the surface; 1 where
     weight is 0); weight : (nx, ny, nz) float32 sum of the weights; source : (nx, ny, nz) uint8 the view (0 camera,
-    j mirror j) of the largest single weight, NO_SOURCE where weight is 0; truncation in metres."""
+    j mirror j, from 33 a sequence of mirrors) of the largest single weight, NO_SOURCE where weight is 0; truncation
+    in metres."""
 
     volume: Volume
     tsdf: np.ndarray

@@ -22,7 +22,6 @@ from .scene import Scene, SceneMirror
 from .simulator import Simulator
 
 
-
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
     """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a convex simple
     polygon. Raises MirrorscanError when a corner is behind the camera or the mirror is out of view."""

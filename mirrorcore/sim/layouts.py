@@ -1,6 +1,9 @@
-"""Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`) and three or more mirrors on an
-arc around it (`arc_scene`); `make_object` turns a command-line object name into a SceneObject."""
+"""Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`), a hinged pair that meets at
+the apex (`kaleidoscope_scene`: views through several mirrors in turn), and three or more mirrors on an arc around it
+(`arc_scene`); `make_object` turns a command-line object name into a SceneObject."""
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -14,6 +17,10 @@ FIGURE_HEIGHT = 1.75
 MIRROR_SIZE = (0.6, 1.0)    # width, height, metres
 MARKER_SIZE = 0.04
 APEX_GAP = 0.02             # clearance between a V mirror's inner edge and the apex, metres
+HINGE_GAP = 0.002           # between the inner edges of a hinged pair (kaleidoscope_scene) and their apex, metres
+HINGED_WIDTH = 1.4          # width of each mirror of a hinged pair, metres: past the object's images in it
+HINGED_CLEARANCE = 0.135    # default gap between the object and each mirror of a hinged pair, metres
+HINGED_MARKER_SIZE = 0.08   # a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
 _UP = np.array([0.0, -1.0, 0.0])
 
 
@@ -54,9 +61,31 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
     return ((-s, -t), (0.0, -t), (s, -t), (-s, t), (0.0, t), (s, t))
 
 
-def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float]) -> SceneMirror:
+def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
+            marker_size: float = MARKER_SIZE) -> SceneMirror:
     return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
-                  _markers(*size), MARKER_SIZE)
+                  _markers(*size), marker_size)
+
+
+def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_deg: float = 0.0):
+    """The V of two vertical mirrors behind `target`: its apex (3,) and, per mirror (left, right), the unit normal to
+    its reflective side and the unit direction `along` its glass from the apex towards the camera's side. The V's
+    bisector points from the camera to the target, turned by `turn_deg` about the vertical (positive: apex to +x)."""
+    if not 10.0 <= angle_deg <= 175.0:
+        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
+                              f"got {angle_deg:g}")
+    half, turn = np.radians(angle_deg) / 2, np.radians(turn_deg)
+    toward = target * [1.0, 0.0, 1.0]                  # horizontal: the mirrors stand vertical
+    toward /= np.linalg.norm(toward)
+    across = np.cross(toward, _UP)
+    across /= np.linalg.norm(across)                  # +x for a target on the optical axis
+    forward = np.cos(turn) * toward + np.sin(turn) * across
+    side = np.cos(turn) * across - np.sin(turn) * toward
+    apex = target + forward * mirror_distance / np.sin(half)
+    sides = [(-sign * np.cos(half) * side - np.sin(half) * forward,           # normal
+              sign * np.sin(half) * side - np.cos(half) * forward)            # along
+             for sign in (-1.0, 1.0)]
+    return apex, sides
 
 
 def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
@@ -66,23 +95,24 @@ def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
     Each plane is `mirror_distance` metres from the target; each mirror is centred where the camera's ray to the
     target's virtual image crosses its plane (kept clear of the apex). Mirror 1 is on the left (-x), mirror 2 right.
     """
-    if not 10.0 <= angle_deg <= 175.0:
-        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, got {angle_deg:g}")
-    half = np.radians(angle_deg) / 2
-    forward = target * [1.0, 0.0, 1.0]                 # horizontal: the mirrors stand vertical
-    forward /= np.linalg.norm(forward)
-    side = np.cross(forward, _UP)
-    side /= np.linalg.norm(side)                      # +x for a target on the optical axis
-    apex = target + forward * mirror_distance / np.sin(half)
+    apex, sides = _v_frame(angle_deg, target, mirror_distance)
     mirrors = []
-    for j, sign in enumerate((-1.0, 1.0)):
-        normal = -sign * np.cos(half) * side - np.sin(half) * forward
-        along = sign * np.sin(half) * side - np.cos(half) * forward      # from the apex towards the camera's side
+    for j, (normal, along) in enumerate(sides):
         image = target - 2 * mirror_distance * normal                     # virtual image of the target
         crossing = image * np.dot(normal, apex) / np.dot(normal, image)
         s = max(float(np.dot(crossing - apex, along)), size[0] / 2 + APEX_GAP)
         mirrors.append(_mirror(f"mirror {j + 1}", apex + s * along, normal, size))
     return tuple(mirrors)
+
+
+def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float, size: tuple[float, float],
+                   turn_deg: float) -> tuple[SceneMirror, SceneMirror]:
+    """Two vertical mirrors that meet at the apex of a V behind `target` (a hinged pair: the kaleidoscope), each
+    `size` = (width, height) metres from HINGE_GAP off the apex outwards, `mirror_distance` m from the target, the V
+    turned by `turn_deg` about the vertical (see _v_frame). Mirror 1 is on the left, mirror 2 right."""
+    apex, sides = _v_frame(angle_deg, target, mirror_distance, turn_deg)
+    return tuple(_mirror(f"mirror {j + 1}", apex + (HINGE_GAP + size[0] / 2) * along, normal, size,
+                         HINGED_MARKER_SIZE) for j, (normal, along) in enumerate(sides))
 
 
 def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float, clearance: float,
@@ -133,3 +163,35 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float = 2.0,
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
     mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span, 3 * half, size)
     return Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room)
+
+
+def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, float]:
+    """Where the object stands in a hinged pair by default: (turn_deg, offset metres). When 180 / angle is a whole
+    number, an image of the object through several mirrors lies straight behind it, hidden from the camera; then,
+    from 90 degrees up, the object moves sideways by its half-width (offset), and below, the V is turned by a quarter
+    of the angle (turning a 90-degree V shows one mirror so obliquely that its markers calibrate it poorly, and moving
+    the object at 60 degrees hides its images through two mirrors instead). Otherwise neither."""
+    ratio = 180.0 / angle_deg
+    if abs(ratio - round(ratio)) > 1e-9:
+        return 0.0, 0.0
+    return (0.0, half_width) if angle_deg >= 90.0 else (angle_deg / 4, 0.0)
+
+
+def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float = 2.0,
+                       mirror_distance: float | None = None, turn_deg: float | None = None,
+                       offset: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+                       gait_hz: float = 1.0) -> Scene:
+    """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the mirrors meet at the
+    apex, so that below about 90 degrees the camera sees the object through two and three mirrors in turn (the
+    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width +
+    HINGED_CLEARANCE; turn_deg : the V turned about the vertical; offset : metres the object stands to the side of
+    the V's bisector (+x: towards mirror 2); both default to `kaleidoscope_placement`."""
+    obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
+    target, half, tall = object_extent(obj)
+    md = half + HINGED_CLEARANCE if mirror_distance is None else mirror_distance
+    default_turn, default_offset = kaleidoscope_placement(angle_deg, half)
+    turn = default_turn if turn_deg is None else turn_deg
+    shift = np.array([default_offset if offset is None else offset, 0.0, 0.0])
+    obj = replace(obj, centre=tuple((np.asarray(obj.centre) + shift).tolist()))
+    size = (max(HINGED_WIDTH, 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
+    return Scene(camera or Intrinsics.kinect_v1(), hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)

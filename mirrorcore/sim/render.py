@@ -1,12 +1,13 @@
-"""Ray casting of a simulated scene with Open3D's RaycastingScene: rays reflect off the mirrors (up to two bounces) and
-each pixel gets the depth of the VIRTUAL point along its unfolded ray, plus per-pixel ground truth.
+"""Ray casting of a simulated scene with Open3D's RaycastingScene: rays reflect off the mirrors (up to three bounces)
+and each pixel gets the depth of the VIRTUAL point along its unfolded ray, plus per-pixel ground truth (the full
+sequence of mirrors its ray met).
 
 A structured-light camera sees through a mirror at the depth of the virtual image: the reported depth of a pixel is
 z of (camera origin + ray direction * total path length). Markers are matte squares on the glass; a mirror's back is
 matte too.
 
 The camera's rays and the static geometry (room, glass, markers) never change, so every pixel's path through the static
-geometry (up to three segments) is traced once, when the Renderer is made: that is the background. A frame casts only
+geometry (up to four segments) is traced once, when the Renderer is made: that is the background. A frame casts only
 into a scene of the objects, and only the segments that can reach one: the pixels inside the projected bounding box of
 an object's image through the mirrors the segment has reflected off (a conservative window). A segment that meets an
 object before its static surface ends there; the result is the same as casting every ray into one scene of everything.
@@ -19,8 +20,10 @@ from functools import cached_property
 import numpy as np
 import open3d as o3d
 
+from ..errors import MirrorscanError
 from ..geometry.camera import Intrinsics, project_points
 from ..geometry.plane import Plane
+from ..palette import MAX_ORDER, sequence_label
 from .objects import object_geometry
 from .scene import Scene
 
@@ -30,6 +33,7 @@ SURFACE_NAMES = ("none", "room", "object", "marker", "mirror back")
 _MIRROR = 5                   # geometry kind of a mirror's glass (never a final surface code)
 _REFLECT_OFFSET = 1e-5        # metres: a reflected ray starts this far along its new direction (no self-hit)
 MARKER_LIFT = 1e-4            # metres: markers are modelled this far in front of the glass (0.1 mm)
+MAX_BOUNCES = MAX_ORDER       # the most reflections a rendered ray may make (the source labels name up to this many)
 
 
 @dataclass(frozen=True)
@@ -38,7 +42,8 @@ class GroundTruth:
 
     depth : float32 metres, z of the unfolded (virtual) point, 0 where no surface (surface == NONE)
     surface : uint8 code NONE / ROOM / OBJECT / MARKER / MIRROR_BACK of the real surface hit
-    first_mirror, second_mirror : uint8 the mirror j (1-based) of the first / second reflection, 0 = none
+    mirrors : (MAX_BOUNCES, H, W) uint8, the full sequence of mirrors the pixel's ray met: mirrors[k] is the mirror j
+        (1-based) of its (k+1)-th reflection, 0 once it made no more
     object_index : int16 index into scene.objects of the object hit, -1 elsewhere
     camera, planes : the intrinsics and the true mirror planes (session order), for `points`
     """
@@ -47,14 +52,23 @@ class GroundTruth:
     planes: tuple[Plane, ...]
     depth: np.ndarray
     surface: np.ndarray
-    first_mirror: np.ndarray
-    second_mirror: np.ndarray
+    mirrors: np.ndarray
     object_index: np.ndarray
 
     @property
+    def first_mirror(self) -> np.ndarray:
+        """(H, W) uint8 the mirror of the first reflection, 0 = none."""
+        return self.mirrors[0]
+
+    @property
+    def second_mirror(self) -> np.ndarray:
+        """(H, W) uint8 the mirror of the second reflection, 0 = none."""
+        return self.mirrors[1]
+
+    @property
     def bounces(self) -> np.ndarray:
-        """(H, W) uint8 number of reflections: 0, 1 or 2."""
-        return (self.first_mirror > 0).astype(np.uint8) + (self.second_mirror > 0)
+        """(H, W) uint8 number of reflections, 0 to MAX_BOUNCES."""
+        return np.count_nonzero(self.mirrors, axis=0).astype(np.uint8)
 
     @property
     def object_mask(self) -> np.ndarray:
@@ -63,24 +77,32 @@ class GroundTruth:
 
     @property
     def source(self) -> np.ndarray:
-        """(H, W) int8 source labels (docs/DESIGN.md): 0 = direct, j = through mirror j (one bounce); -1 = two bounces
-        or no surface."""
-        src = self.first_mirror.astype(np.int8)
-        src[(self.second_mirror > 0) | (self.surface == NONE)] = -1
+        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.palette): 0 = direct, j = through mirror j, the
+        label of the sequence for several mirrors; -1 where no surface (or a sequence the labels do not cover)."""
+        keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1, return_inverse=True)
+        labels = np.array([_label(tuple(int(j) for j in key if j)) for key in keys.T], np.int16)
+        src = labels[inverse.reshape(-1)].reshape(self.depth.shape)
+        src[self.surface == NONE] = -1
         return src
 
     @cached_property
     def points(self) -> np.ndarray:
         """(H, W, 3) float32 metres, camera frame: the REAL surface point hit, NaN where no surface. The virtual point
-        depth * ray is folded back through the first mirror's plane, then the second's (X = M2(M1(V)))."""
+        depth * ray is folded back through the first mirror's plane, then the second's... (X = M3(M2(M1(V))))."""
         rays = self.camera.rays
         pts = np.stack([rays[0] * self.depth, rays[1] * self.depth, self.depth], axis=-1)
-        for labels in (self.first_mirror, self.second_mirror):
+        for labels in self.mirrors:
             for j, plane in enumerate(self.planes, start=1):
                 sel = labels == j
                 pts[sel] = plane.reflect(pts[sel])
         pts[self.surface == NONE] = np.nan
         return pts
+
+
+def _label(sequence: tuple[int, ...]) -> int:
+    """The source label of a sequence of mirrors (1-based), -1 when the labels do not cover it."""
+    label = sequence_label(sequence)
+    return -1 if label is None else label
 
 
 def _quads(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -162,13 +184,15 @@ class _Segment:
 class Renderer:
     """Ideal ray-cast rendering of a Scene: `render(t)` -> GroundTruth.
 
-    two_bounces : render rays that reflect off a second mirror (as a real rig shows them); when False such rays
-    (and any ray that would need a third reflection) read no surface.
+    bounces : the most reflections a ray may make, 1 to MAX_BOUNCES (a real rig shows them all); a ray that meets
+    one more mirror reads no surface. Raises MirrorscanError for another number.
     """
 
-    def __init__(self, scene: Scene, two_bounces: bool = True):
+    def __init__(self, scene: Scene, bounces: int = MAX_BOUNCES):
+        if not 1 <= bounces <= MAX_BOUNCES:
+            raise MirrorscanError(f"--bounces: the simulator renders 1 to {MAX_BOUNCES} reflections, got {bounces}")
         self.scene = scene
-        self.max_bounces = 2 if two_bounces else 1
+        self.max_bounces = int(bounces)
         room, glass, markers = _static_meshes(scene)
         m = len(scene.mirrors)
         # static geometry id -> kind and mirror index (0-based); the last entry is for misses
@@ -196,11 +220,11 @@ class Renderer:
         return hit + _REFLECT_OFFSET * new, new
 
     def _trace_static(self, rc: o3d.t.geometry.RaycastingScene) -> tuple[tuple[np.ndarray, ...], list[_Segment]]:
-        """Every pixel's path through the static geometry `rc` -> the background, flat (H*W,) arrays (depth float32
-        metres, surface uint8, first_mirror uint8, second_mirror uint8), and the segments of the paths."""
+        """Every pixel's path through the static geometry `rc` -> the background, flat arrays (depth (H*W,) float32
+        metres, surface (H*W,) uint8, mirrors (MAX_BOUNCES, H*W) uint8), and the segments of the paths."""
         shape, m = self.scene.camera.shape, len(self._planes)
         n = shape[0] * shape[1]
-        length, surface, labels = np.zeros(n, np.float32), np.zeros(n, np.uint8), np.zeros((2, n), np.uint8)
+        length, surface, labels = np.zeros(n, np.float32), np.zeros(n, np.uint8), np.zeros((MAX_BOUNCES, n), np.uint8)
         pixels, start = np.arange(n), np.zeros(n, np.float32)
         origins, dirs = np.zeros_like(self._dirs), self._dirs
         mirror_paths, path = ((),), np.zeros(n, np.int64)
@@ -232,7 +256,7 @@ class Renderer:
             origins, dirs = self._reflected(origins[go], dirs[go], t_hit[go], index[go])
             start, pixels = start[go] + t_hit[go] + np.float32(_REFLECT_OFFSET), pixels[go]
         depth = np.where(surface != NONE, length * self._dirs_z, 0).astype(np.float32)
-        return (depth, surface, labels[0], labels[1]), segments
+        return (depth, surface, labels), segments
 
     def _object_scene(self, t: float) -> tuple[o3d.t.geometry.RaycastingScene, list[np.ndarray]]:
         """The objects at time t in a RaycastingScene of their own (geometry id = object index) and the corners (8, 3)
@@ -262,7 +286,7 @@ class Renderer:
 
     def render(self, t: float = 0.0, with_objects: bool = True) -> GroundTruth:
         """The ideal view at time t seconds (objects left out when `with_objects` is False: the background)."""
-        depth, surface, first, second = (a.copy() for a in self._background)
+        depth, surface, mirrors = (a.copy() for a in self._background)
         obj = np.full(len(depth), -1, np.int16)
         if with_objects and self._objects:
             rc, boxes = self._object_scene(t)
@@ -278,9 +302,8 @@ class Renderer:
                 surface[pix] = OBJECT
                 obj[pix] = ans["geometry_ids"].numpy()[hit]
                 depth[pix] = (segment.start[rows] + t_obj[hit]) * self._dirs_z[pix]
-                for labels in (first, second)[bounce:]:
-                    labels[pix] = 0                   # reflections the static path made after the object
+                mirrors[bounce:, pix] = 0             # reflections the static path made after the object
                 done = np.concatenate([done, pix])
         shape = self.scene.camera.shape
         return GroundTruth(self.scene.camera, self._planes, depth.reshape(shape), surface.reshape(shape),
-                           first.reshape(shape), second.reshape(shape), obj.reshape(shape))
+                           mirrors.reshape(MAX_BOUNCES, *shape), obj.reshape(shape))

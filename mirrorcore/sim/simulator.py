@@ -7,7 +7,7 @@ import numpy as np
 
 from ..geometry.camera import Intrinsics
 from ..geometry.plane import Plane
-from .render import GroundTruth, Renderer
+from .render import MAX_BOUNCES, GroundTruth, Renderer
 from .scene import Scene
 from .sensor import SensorModel
 
@@ -28,17 +28,17 @@ class Simulator:
     """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a sensor model.
 
     scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its noise from
-    np.random.default_rng([seed, i]), so frames are reproducible in any order; two_bounces : render mirror-to-mirror
-    rays; fps : frame rate of `frame(i)` (time i / fps).
+    np.random.default_rng([seed, i]), so frames are reproducible in any order; bounces : the most reflections a
+    rendered ray may make (1 to MAX_BOUNCES, see Renderer); fps : frame rate of `frame(i)` (time i / fps).
     """
 
-    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0, two_bounces: bool = True,
+    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0, bounces: int = MAX_BOUNCES,
                  fps: float = FPS):
         self.scene = scene
         self.sensor = SensorModel.kinect_v1() if sensor is None else sensor
         self.seed = int(seed)
         self.fps = float(fps)
-        self._renderer = Renderer(scene, two_bounces)
+        self._renderer = Renderer(scene, bounces)
 
     @property
     def intrinsics(self) -> Intrinsics:
