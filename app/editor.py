@@ -15,6 +15,7 @@ import numpy as np
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.rig import check_bounces
 from mirrorcore.selection import Selection
 from mirrorcore.session import MAX_MIRRORS, Pixels, Session, SessionMirror, check_limits, check_name, save_session
 
@@ -189,6 +190,12 @@ class SessionEditor:
     def set_selection(self, selection: Selection) -> None:
         self._change("object selection", ("selection", self._session.selection, selection),
                      replace(self._session, selection=selection))
+
+    @_edits
+    def set_bounces(self, bounces: int) -> None:
+        """How many mirrors in turn a camera ray is followed through (1 to 3; mirrorcore.rig)."""
+        self._change("mirrors followed in turn", ("bounces", self._session.bounces, check_bounces(bounces)),
+                     replace(self._session, bounces=check_bounces(bounces)))
 
     @_edits
     def set_background(self, relative_path: str | None) -> None:

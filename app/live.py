@@ -44,9 +44,15 @@ class LiveFrame:
         return tuple(m.id for m in self.snapshot.session.mirrors)
 
     @cached_property
+    def counts(self) -> dict[int, int]:
+        """Points per source label: the direct view and every mirror, then each view through several mirrors that
+        has points (Cloud.source_counts)."""
+        return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
+
+    @cached_property
     def parts(self) -> list[SourcePart]:
         """The cloud as it is streamed (see app.stream)."""
-        return stream_parts(self.cloud, len(self.snapshot.rig.mirrors) + 1)
+        return stream_parts(self.cloud, list(self.counts))
 
     @cached_property
     def depth_range(self) -> tuple[float, float]:

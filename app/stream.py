@@ -38,12 +38,12 @@ def downsample(cloud: Cloud, max_points: int) -> Cloud:
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
-def stream_parts(cloud: Cloud, n_sources: int, max_points: int = MAX_POINTS) -> list[SourcePart]:
-    """The two halves of sources 0..n_sources-1, in that order (empty ones included, so that a source that left the
-    view is cleared); both halves of a source share its centre."""
+def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS) -> list[SourcePart]:
+    """The two halves of the sources `labels` (source labels, in order; empty ones included, so that a source that
+    left the view is cleared); both halves of a source share its centre."""
     cloud = downsample(cloud, max_points)
     parts = []
-    for j in range(n_sources):
+    for j in labels:
         points = cloud.points[cloud.sources == j]
         if not len(points):
             parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in range(HALVES)]

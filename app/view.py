@@ -72,6 +72,8 @@ class TabScene:
         self.clouds_visible = True
         self._labels: list[viser.LabelHandle] = []
         self._dense: list = []                     # the dense result's nodes (result, label)
+        self._virtual: list = []                   # the virtual cameras' frusta
+        self.virtual_visible = True
         self._box = None
         self.labels_visible = True
         self.scene.set_up_direction("-y")
@@ -91,13 +93,30 @@ class TabScene:
             faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)], dtype=np.uint32)
             self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32), faces,
                                        color=colour, opacity=0.2, side="double")
-            pose = mirror.plane.virtual_camera_pose()
-            self.scene.add_camera_frustum(f"/mirrors/{mirror_id}/virtual_camera", fov, aspect, scale=FRUSTUM_SCALE,
-                                          color=colour, wxyz=tf.SO3.from_matrix(pose[:3, :3]).wxyz,
-                                          position=pose[:3, 3])
             self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
                                                      position=outline[np.argmin(outline[:, 1])],
                                                      visible=self.labels_visible))
+        self._show_virtual_cameras(rig, mirror_ids, fov, aspect)
+
+    def _show_virtual_cameras(self, rig: Rig, mirror_ids: tuple[int, ...], fov: float, aspect: float) -> None:
+        """The camera as each mirror, and each sequence of mirrors, shows it (rig.virtual_cameras): the views
+        Algorithm 1 and the dense methods use, in their source's colour, those through several mirrors smaller."""
+        self.scene.remove_by_name("/virtual")
+        self._virtual = []
+        for camera in rig.virtual_cameras():
+            if not camera.sequence:
+                continue
+            colour = tuple(int(c) for c in source_colour(camera.source, mirror_ids))
+            scale = FRUSTUM_SCALE * (1.0 if len(camera.sequence) == 1 else 0.7)
+            self._virtual.append(self.scene.add_camera_frustum(
+                f"/virtual/{camera.source}", fov, aspect, scale=scale, color=colour,
+                wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
+                visible=self.virtual_visible))
+
+    def show_virtual_cameras(self, visible: bool) -> None:
+        self.virtual_visible = visible
+        for handle in self._virtual:
+            handle.visible = visible
 
     def show_labels(self, visible: bool) -> None:
         """Show or hide the mirrors' names (hidden while the depth frame is in view: no label over it)."""

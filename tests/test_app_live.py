@@ -2,6 +2,7 @@
 gets it as float16 offsets within 0.3 mm, one node per source, and the depth frame; a tab looking at the depth frame,
 or hidden, is not sent the cloud; pause and step; the depth screen's pixel mapping and framing."""
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,14 +24,14 @@ def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
     rng = np.random.default_rng(0)
     points = (rng.uniform(-0.95, 0.95, (20_000, 3)) + [0.3, -0.2, 3.0]).astype(np.float32)
     sources = rng.integers(0, 3, len(points)).astype(np.uint8)
-    parts = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), 3)
+    parts = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), range(3))
     assert [p.key for p in parts] == [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]
     for part in parts:
         assert part.offsets.dtype == np.float16
         back = part.offsets.astype(np.float64) + part.centre
         np.testing.assert_array_less(np.abs(back - points[sources == part.source][part.half::2]), 0.3e-3)
     wide = points * [1, 1, 1] + np.where(np.arange(len(points)) % 2, 0, 2.5 * FLOAT16_EXTENT)[:, None]
-    parts = stream_parts(Cloud(wide.astype(np.float32), sources, np.arange(len(points)), 640), 4)
+    parts = stream_parts(Cloud(wide.astype(np.float32), sources, np.arange(len(points)), 640), range(4))
     assert {p.offsets.dtype for p in parts[:6]} == {np.dtype(np.float32)}    # too wide for float16: float32
     assert len(parts[6].offsets) == len(parts[7].offsets) == 0               # an absent source is cleared
 
@@ -125,3 +126,41 @@ def test_the_depth_frame_fills_the_free_area(demo, aspect):
     half_w = half_h * aspect
     assert screen.height / 2 <= half_h and screen.width / 2 <= half_w
     assert max(screen.height / 2 / half_h, screen.width / 2 / half_w) > 0.95     # not lost in the middle
+
+
+def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
+    """On a 72-degree kaleidoscope with its true planes: the views through two mirrors in turn reach the tab as
+    sources of their own, the legend names them with the mirrors' names, their virtual cameras are drawn, and the
+    number of mirrors followed is a session setting that can be undone."""
+    from dataclasses import replace
+
+    from app.editor import SESSION_SCOPE
+    from app.server import MirrorscanApp
+    from bench.tabs import HeadlessTab
+    from mirrorcore.palette import FIRST_MULTI_LABEL
+    from mirrorcore.session import Session
+    from mirrorcore.sim.export import session_mirrors
+    from mirrorcore.sim.layouts import kaleidoscope_scene
+    from mirrorcore.sim.simulator import Simulator
+    from mirrorcore.sources import SimulatedSource
+    rig = Simulator(kaleidoscope_scene(72.0), seed=0)
+    truth = rig.background().truth
+    mirrors = tuple(replace(m, plane=p) for m, p in zip(session_mirrors(rig, truth), rig.planes))
+    app = MirrorscanApp(Session(Path("unused"), rig.intrinsics, mirrors), SimulatedSource(rig), port=0,
+                        autosave=False)
+    try:
+        with HeadlessTab(app) as headless:
+            tab = headless.tab
+            frame = app.loop.run_once()
+            multi = [label for label in frame.counts if label >= FIRST_MULTI_LABEL]
+            assert multi and all(frame.counts[label] > 100 for label in multi)
+            assert {label for label, _ in tab.scene._clouds} >= set(multi)          # streamed as their own nodes
+            assert "mirror 1 then mirror 2" in tab.header.legend.content
+            assert len(tab.scene._virtual) >= 2 + len(multi)                       # first and second order
+            app.editor.set_bounces(1)
+            frame = app.loop.run_once()
+            assert max(frame.counts) <= 2 and app.snapshot.session.bounces == 1
+            assert app.editor.undo(SESSION_SCOPE) == "mirrors followed in turn"
+            assert app.snapshot.session.bounces == 3
+    finally:
+        app.stop()

@@ -4,8 +4,9 @@ point size)."""
 from __future__ import annotations
 
 import time
+from typing import Callable
 
-from mirrorcore.palette import source_colour
+from mirrorcore.palette import source_colour, source_name, source_sequence
 from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
@@ -16,14 +17,31 @@ STATS_HZ = 4.0
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 
 
-def legend_html(counts: list[int], names: list[str], mirror_ids: tuple[int, ...]) -> str:
-    """One line: a swatch in each source's colour (source j = counts[j]), its name and its point count."""
+def source_names(session: Session) -> Callable[[int], str]:
+    """A source label's name with the session's mirror names: 'direct', 'left', 'left then right'."""
+    names = [m.name for m in session.mirrors]
+
+    def name(label: int) -> str:
+        try:
+            sequence = source_sequence(label)
+        except ValueError:
+            return source_name(label)
+        if not sequence:
+            return "direct"
+        if max(sequence) > len(names):
+            return source_name(label)
+        return " then ".join(names[j - 1] for j in sequence)
+    return name
+
+
+def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: tuple[int, ...]) -> str:
+    """One line: a swatch in each source's colour, its name and its point count; counts {label: points}."""
     items = []
-    for j, (name, count) in enumerate(zip(names, counts)):
+    for j, count in counts.items():
         r, g, b = (int(c) for c in source_colour(j, mirror_ids))
         items.append(f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;'
                      f'width:0.8em;height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:2px">'
-                     f'</span>{name} <b>{count:,}</b></span>')
+                     f'</span>{name(j)} <b>{count:,}</b></span>')
     return f'<div style="font-size:0.85em;line-height:1.5">{"".join(items)}</div>'
 
 
@@ -58,17 +76,19 @@ class LivePanel:
         self.hint = gui.add_markdown("")
         self.view = gui.add_button_group("View", tuple(VIEWS))
         self.legend = gui.add_html("")
-        with gui.add_folder("Playback and pixel", expand_by_default=False):
+        with gui.add_folder("Playback and view", expand_by_default=False):
             self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
             self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
+            self.virtual = gui.add_checkbox("Virtual cameras (through 1, 2, 3 mirrors)", initial_value=True)
             self.pixel = gui.add_markdown("Inspect mode: click the depth frame to read a pixel.")
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
         self.step.on_click(lambda _: services.step())
         self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
+        self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
         self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)
@@ -109,9 +129,7 @@ class LivePanel:
         count = self.tab.services.source.frame_count
         if count:
             self.seek.value = frame.index % count
-        names = ["direct"] + [m.name for m in frame.snapshot.session.mirrors]
-        counts = list(frame.cloud.counts(len(names) - 1).values())
-        self.legend.content = legend_html(counts, names, frame.mirror_ids)
+        self.legend.content = legend_html(frame.counts, source_names(frame.snapshot.session), frame.mirror_ids)
         if first:
             self.refresh_hint()
 

@@ -5,18 +5,18 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 import viser.uplot as uplot
 
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.fitting import fit_cylinder, fit_sphere
-from mirrorcore.palette import source_name
 from mirrorcore.shapes import ShapeFit
 
 from ..context import TabContext
 from ..events import FrameReady
+from .live import source_names
 
 if TYPE_CHECKING:
     from ..live import LiveFrame
@@ -27,8 +27,8 @@ HISTORY = 300          # fits kept in the plot
 TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
 
 
-def fit_report(fit: ShapeFit, names: list[str]) -> str:
-    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (names[j] for source j), mm."""
+def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by name(label)), mm."""
     e = fit.errors
     lines = [f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
@@ -36,8 +36,7 @@ def fit_report(fit: ShapeFit, names: list[str]) -> str:
              f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "
              f"{e.mean_abs_error * 1e3:.2f} mm |"]
     for source, s in fit.per_source.items():
-        name = names[source] if source < len(names) else source_name(source)
-        lines.append(f"| {name} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
+        lines.append(f"| {name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
                      f"{s.mean_abs_error * 1e3:.2f} mm |")
     return "\n".join(lines)
 
@@ -85,7 +84,7 @@ class MeasurePanel:
         if frame is None:
             raise MirrorscanError("no frame yet")
         result = self.fit(frame)
-        self.report.content = fit_report(result, _names(frame))
+        self.report.content = fit_report(result, source_names(frame.snapshot.session))
         self._record(result)
         return result
 
@@ -100,7 +99,7 @@ class MeasurePanel:
     def _track(self, frame: "LiveFrame") -> None:
         try:
             result = self.fit(frame)
-            self.report.content = fit_report(result, _names(frame))
+            self.report.content = fit_report(result, source_names(frame.snapshot.session))
             self._record(result)
         except MirrorscanError as exc:
             self.report.content = f"tracking: {exc}"
@@ -114,7 +113,3 @@ class MeasurePanel:
         self.plot.data = (t, rmse, radius)
         self.plot.visible = True
 
-
-def _names(frame: "LiveFrame") -> list[str]:
-    """The sources' names of a frame: 'direct', then the mirrors' names."""
-    return ["direct"] + [m.name for m in frame.snapshot.session.mirrors]

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.palette import MAX_ORDER
 from mirrorcore.sources import SimulatedSource
 
 from ..context import TabContext
@@ -35,6 +36,8 @@ class ObjectPanel:
         self.range = gui.add_multi_slider("Depth range (m)", min=0.0, max=8.0, step=0.05,
                                           initial_value=(selection.depth_min, selection.depth_max))
         self.smooth = gui.add_checkbox("Smooth depth (edge-aware)", initial_value=selection.smooth)
+        self.bounces = gui.add_slider("Views through up to N mirrors", min=1, max=MAX_ORDER, step=1,
+                                      initial_value=self.services.snapshot.session.bounces)
         self.draw = gui.add_button("Draw a region of interest")
         self.close = gui.add_button("Close the region", visible=False)
         self.clear = gui.add_button("Clear the region of interest")
@@ -43,6 +46,8 @@ class ObjectPanel:
         self.cancel.on_click(lambda _: self.services.jobs.cancel(BACKGROUND))
         self.range.on_update(lambda e: e.client is not None and act(self._set_range))
         self.smooth.on_update(lambda e: e.client is not None and act(lambda: self._set(smooth=self.smooth.value)))
+        self.bounces.on_update(lambda e: e.client is not None and act(
+            lambda: self.services.editor.set_bounces(int(self.bounces.value))))
         self.draw.on_click(lambda _: act(self._start_region))
         self.close.on_click(lambda _: act(self._close_region))
         self.clear.on_click(lambda _: act(self._clear_region))
@@ -69,6 +74,7 @@ class ObjectPanel:
         self.status.content = f"Background: {source}. Region of interest: {region}."
         self.range.value = (selection.depth_min, selection.depth_max)
         self.smooth.value = selection.smooth
+        self.bounces.value = snapshot.session.bounces
         drawing = state.mode == "region"
         self.close.visible = drawing
         self.close.disabled = len(state.region_draft) < 3
