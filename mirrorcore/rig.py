@@ -66,6 +66,19 @@ class Rig:
         return ReflectionTable.from_rig(self)
 
 
+def calibrated_rig(session: Session) -> Rig:
+    """The session's rig, refusing (MirrorscanError naming session.json) a session without mirrors or with a mirror
+    that cannot reconstruct (no plane or no boundary)."""
+    if not session.mirrors:
+        raise MirrorscanError(f"{session.path}: the session has no mirrors")
+    for m in session.mirrors:
+        if m.plane is None:
+            raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
+        if not m.boundary:
+            raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
+    return Rig.from_session(session)
+
+
 @dataclass(frozen=True, eq=False)
 class ReflectionTable:
     """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose

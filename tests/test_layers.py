@@ -20,6 +20,7 @@ FLOORS = {
     "dense": 7,
     "shapes": 8, "fitting": 8,
     "sources": 9,
+    "batch": 10,
     "sim": 4.5,
 }
 
