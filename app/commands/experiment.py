@@ -1,4 +1,5 @@
-"""`mirrorscan experiment {angle,distance}`: the paper's figures 4a and 5a on the simulated rig, as CSV and PNG."""
+"""`mirrorscan experiment {angle,distance,temporal}`: the paper's figures 4a and 5a on the simulated rig, and the effect
+of temporal smoothing on the walking figure, as CSV and PNG."""
 from __future__ import annotations
 
 import argparse
@@ -6,6 +7,7 @@ import csv
 import io
 from pathlib import Path
 
+from app import temporal_experiment
 from app.experiments import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
@@ -13,11 +15,14 @@ from mirrorcore.errors import MirrorscanError
 
 def register(sub) -> None:
     p = sub.add_parser("experiment", help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) "
-                                          "experiment on the simulated rig")
-    p.add_argument("name", choices=["angle", "distance"])
+                                          "experiment on the simulated rig, or temporal smoothing on the walking "
+                                          "figure")
+    p.add_argument("name", choices=["angle", "distance", "temporal"])
     p.add_argument("-o", "--out", default=None, help="output prefix: writes PREFIX.csv and PREFIX.png "
                                                      "(default experiment-NAME)")
-    p.add_argument("--seeds", type=int, default=3, help="noise seeds per point (default 3)")
+    p.add_argument("--seeds", type=int, default=3, help="angle, distance: noise seeds per point (default 3)")
+    p.add_argument("--neighbours", type=int, default=2, help="temporal: frames on each side (default 2)")
+    p.add_argument("--frames", type=int, default=30, help="temporal: frames measured (default 30, one stride)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -28,12 +33,31 @@ def run(args: argparse.Namespace) -> int:
     prefix = Path(args.out or f"experiment-{args.name}")
     if not prefix.parent.is_dir():
         raise MirrorscanError(f"{prefix.parent}: no such folder")
+    if args.name == "temporal":
+        return run_temporal(args, prefix)
     rows = run_experiment(args.name, args.seeds, progress=not args.quiet)
-    text = io.StringIO()
-    writer = csv.DictWriter(text, fieldnames=COLUMNS)
-    writer.writeheader()
-    writer.writerows(rows)
-    write_atomic(prefix.with_suffix(".csv"), text.getvalue().encode("utf-8"))
+    write_csv(prefix.with_suffix(".csv"), COLUMNS, rows)
     plot_experiment(args.name, rows, prefix.with_suffix(".png"))
     print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
     return 0
+
+
+def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
+    if args.neighbours < 1 or args.frames < 1:
+        raise MirrorscanError(f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}")
+    rows = temporal_experiment.run_temporal_experiment(args.neighbours, args.frames, progress=not args.quiet)
+    write_csv(prefix.with_suffix(".csv"), temporal_experiment.COLUMNS, rows)
+    temporal_experiment.plot_temporal(rows, args.neighbours, prefix.with_suffix(".png"))
+    for part, figures in temporal_experiment.summary(rows).items():
+        print(f"{part} parts: RMSE {figures['rmse_mm']:.2f} mm as read, {figures['temporal_rmse_mm']:.2f} mm with "
+              f"--temporal {args.neighbours} ({figures['change_pct']:+.0f} %), median over {args.frames} frames")
+    print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
+    return 0
+
+
+def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomic(path, text.getvalue().encode("utf-8"))
