@@ -17,7 +17,7 @@ import pytest
 from batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files, recording_fixture, reference_fixture  # noqa: F401
 
 from app.cli import main
-from mirrorcore.batch import MANIFEST_FILE, BatchJob, BatchRun, OutputFolder, run_batch
+from mirrorcore.batch import MANIFEST_FILE, BatchJob, BatchRun, OutputFolder, exports_folder, run_batch
 from mirrorcore.batch.manifest import LOCK_FILE
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
@@ -42,7 +42,8 @@ def test_the_manifest_lists_every_frame_with_its_counts(recording, reference, tm
     manifest = json.loads((out / MANIFEST_FILE).read_text())
     assert manifest["session"] == str(recording) and manifest["method"] == "raw"
     assert manifest["options"] == {"temporal": 0} and manifest["complete"] and manifest["failed"] == []
-    assert manifest["inputs"]["calibration"]["mirrors"][0]["plane"] == load_session(recording).mirrors[0].plane.to_list()
+    plane = load_session(recording).mirrors[0].plane
+    assert manifest["inputs"]["calibration"]["mirrors"][0]["plane"] == plane.to_list()
     assert [f["index"] for f in manifest["frames"]] == list(range(FRAMES))
     for frame in manifest["frames"]:
         points, sources = read_ply(out / frame["file"])
@@ -259,3 +260,24 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(recording, refe
     monkeypatch.setattr(frames, "_frame_ply", real)
     assert run_batch(BatchJob(recording, tmp_path / "out"), IN_PROCESS).written == 4
     assert ply_files(tmp_path / "out") == reference["raw"]
+
+
+def test_the_browser_tools_folder_is_in_the_sessions_exports(tmp_path):
+    assert exports_folder(tmp_path) == tmp_path / "exports" / "frames-raw"
+    assert exports_folder(tmp_path, "tsdf", 2) == tmp_path / "exports" / "frames-tsdf-temporal2"
+
+
+def test_ply_element_counts_read_the_header_alone(tmp_path):
+    from mirrorcore.errors import FileFormatError
+    from mirrorcore.ply import ply_element_counts, write_ply
+    write_ply(tmp_path / "mesh.ply", np.zeros((4, 3)), np.zeros(4, np.uint8), np.array([[0, 1, 2], [1, 2, 3]]))
+    assert ply_element_counts(tmp_path / "mesh.ply") == {"vertex": 4, "face": 2}
+    write_ply(tmp_path / "cloud.ply", np.zeros((5, 3)), np.ones(5, np.uint8))
+    assert ply_element_counts(tmp_path / "cloud.ply") == {"vertex": 5}
+    for name, data, message in (("a.ply", b"solid x\n", "not a PLY file"), ("b.ply", b"ply\nelement vertex x\n",
+                                "not a number"), ("c.ply", b"ply\nformat ascii 1.0\n", "no end_header")):
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(FileFormatError, match=message):
+            ply_element_counts(tmp_path / name)
+    with pytest.raises(FileFormatError, match="no such file"):
+        ply_element_counts(tmp_path / "missing.ply")

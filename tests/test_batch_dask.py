@@ -14,7 +14,7 @@ import pytest
 from batch_scene import FRAMES, OPTIONS, child_processes, ply_files, recording_fixture, reference_fixture  # noqa: F401
 
 from app.cli import main
-from mirrorcore.batch import BatchJob, Where, run_batch
+from mirrorcore.batch import BatchJob, BatchRun, Where, run_batch
 from mirrorcore.batch.cluster import dask_client
 
 TSDF = OPTIONS["tsdf"]
@@ -94,3 +94,15 @@ def test_the_command_on_two_local_workers_leaves_nothing_behind(recording, refer
     assert list((tmp_path / "tmp").iterdir()) == []                        # the scratch folder is gone
     with socket.socket() as s:
         assert s.connect_ex(("127.0.0.1", port)) != 0                       # and so is the scheduler
+
+
+def test_a_batch_run_in_a_thread_starts_its_own_cluster(recording, reference, tmp_path):
+    """As the browser tool starts one: a BatchRun (a thread of this process) with a local cluster of two workers."""
+    before = set(child_processes())
+    seen = []
+    run = BatchRun(BatchJob(recording, tmp_path / "out"), Where(workers=2, dashboard=False), frames_per_task=2,
+                   on_progress=seen.append).start()
+    report = run.wait(timeout=300)
+    assert report.complete and ply_files(tmp_path / "out") == reference["raw"]
+    assert seen[0].done == 0 and seen[-1].done == FRAMES and seen[-1].dashboard is None
+    assert _gone(set(child_processes()) - before)

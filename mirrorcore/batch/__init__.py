@@ -7,9 +7,9 @@ cancel keeps every finished frame). Above the pipeline and dense reconstruction 
 """
 from .engine import BatchProgress, BatchReport, BatchRun, Where, default_frames_per_task, run_batch
 from .frames import FrameContext, read_depth, reconstruct_frames
-from .job import BATCH_METHODS, BatchJob
+from .job import BATCH_METHODS, BatchJob, exports_folder
 from .manifest import MANIFEST_FILE, FrameRecord, Manifest, OutputFolder
 
 __all__ = ["BATCH_METHODS", "MANIFEST_FILE", "BatchJob", "BatchProgress", "BatchReport", "BatchRun", "FrameContext",
-           "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task", "read_depth",
-           "reconstruct_frames", "run_batch"]
+           "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task", "exports_folder",
+           "read_depth", "reconstruct_frames", "run_batch"]

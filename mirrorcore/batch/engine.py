@@ -44,7 +44,10 @@ class Where:
 
     @property
     def local_workers(self) -> int:
-        return self.workers or len(os.sched_getaffinity(0))
+        """The local worker processes: `workers`, or the cores this process may use."""
+        if self.workers:
+            return self.workers
+        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 @dataclass(frozen=True)

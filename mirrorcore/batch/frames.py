@@ -45,8 +45,9 @@ class FrameContext:
 
 def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int, np.ndarray] | None = None
                ) -> np.ndarray:
-    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its `temporal` neighbours on each side where the scene
-    is static (mirrorcore.temporal; 0: as read). `cache` (frame index -> depth) keeps frames read for the next call."""
+    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its `temporal`
+    neighbours on each side where the scene is static (mirrorcore.temporal; 0: as read). `cache` (frame index ->
+    depth) keeps the frames read for the next call."""
     count = len(session.frames)
     if not -count <= index < count:
         session.read_frame(index)              # refuses it, naming the frames there are

@@ -54,6 +54,12 @@ class BatchJob:
         return {"method": self.method, "options": options}
 
 
+def exports_folder(session_root: str | Path, method: str = "raw", temporal: int = 0) -> Path:
+    """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD (with '-temporalN'
+    when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
+    return Path(session_root) / "exports" / (f"frames-{method}" + (f"-temporal{temporal}" if temporal else ""))
+
+
 def output_names(session: Session) -> tuple[str, ...]:
     """Each frame's PLY file name, its image's stem + '.ply' ('frames/000123.png' -> '000123.ply'); MirrorscanError
     when two frames share a stem (their files would collide)."""
