@@ -191,7 +191,7 @@ def test_bad_batch_requests_exit_2(recording, tmp_path, capsys, argv, message):
 
 
 def test_a_scheduler_that_does_not_answer_is_named(recording, tmp_path, capsys, monkeypatch):
-    import mirrorcore.batch.cluster as cluster
+    from mirrorcore.batch import cluster
     monkeypatch.setattr(cluster, "CONNECT_SECONDS", 1.0)
     capsys.readouterr()
     assert main(["reconstruct", str(recording), "-o", str(tmp_path / "out"), "--frame", "all",
@@ -246,7 +246,7 @@ def test_a_killed_command_loses_only_the_frames_after_the_last_manifest(recordin
 
 
 def test_an_unexpected_error_fails_its_task_and_the_others_go_on(recording, reference, tmp_path, monkeypatch):
-    import mirrorcore.batch.frames as frames
+    from mirrorcore.batch import frames
     real = frames._frame_ply
 
     def broken_on_frame_9(context, depth):

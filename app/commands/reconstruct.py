@@ -143,7 +143,7 @@ class _ProgressBar:
         self.desc = desc
         self.bar: tqdm | None = None
 
-    def __enter__(self) -> "_ProgressBar":
+    def __enter__(self) -> _ProgressBar:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -15,9 +15,9 @@ import signal
 import tempfile
 import threading
 import uuid
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 import cv2
 import dask
@@ -112,7 +112,7 @@ class DaskExecutor:
             client.register_plugin(ContextPlugin(context, ignore_ctrl_c=local), name=self.plugin)
         except MirrorscanError:
             raise
-        except Exception as exc:     # whatever a worker raised while loading the context: one line for the user
+        except Exception as exc:  # noqa: BLE001 (whatever a worker raised loading the context: one line for the user)
             raise MirrorscanError(f"the Dask workers could not load the batch ({type(exc).__name__}: {exc}); is "
                                   "mirrorscan installed on every worker?") from None
         client.subscribe_topic("all", self._events.put)

@@ -6,10 +6,10 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable, Iterator
 
 from ..dense.volume import cancel_requested
 from ..errors import MirrorscanError
@@ -249,7 +249,7 @@ class BatchRun:
         self._cancel = threading.Event()
         self._thread = threading.Thread(target=self._run, name="mirrorscan-batch", daemon=True)
 
-    def start(self) -> "BatchRun":
+    def start(self) -> BatchRun:
         self._thread.start()
         return self
 

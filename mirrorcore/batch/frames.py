@@ -3,9 +3,9 @@ to every worker, and the reconstruction of a run of frames into PLY files, each 
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
 
 import numpy as np
 
@@ -36,7 +36,7 @@ class FrameContext:
     threads: int | None = None
 
     @classmethod
-    def build(cls, session: Session, job: BatchJob, threads: int | None = None) -> "FrameContext":
+    def build(cls, session: Session, job: BatchJob, threads: int | None = None) -> FrameContext:
         """Refuses (MirrorscanError) an uncalibrated session or frames whose output names collide."""
         rig = calibrated_rig(session)
         rig.reflection_table, rig.inside_bits, rig.intrinsics.rays   # noqa: B018 (computed once, here)

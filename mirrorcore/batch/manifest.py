@@ -44,7 +44,7 @@ class FrameRecord:
     seconds: float
 
     @classmethod
-    def from_json(cls, data, where: str) -> "FrameRecord":
+    def from_json(cls, data, where: str) -> FrameRecord:
         try:
             record = cls(**{**data, "sources": tuple(data["sources"])})
         except (TypeError, KeyError) as exc:
@@ -89,7 +89,7 @@ class Manifest:
                 "failed": [{"index": i, "error": self.failed[i]} for i in sorted(self.failed)]}
 
     @classmethod
-    def from_json(cls, data, where: str) -> "Manifest":
+    def from_json(cls, data, where: str) -> Manifest:
         if not isinstance(data, dict) or data.get("kind") != KIND:
             raise FileFormatError(f"{where}: not the manifest of a batch reconstruction")
         if data.get("version") != VERSION:
