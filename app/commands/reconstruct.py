@@ -26,7 +26,8 @@ from mirrorcore.session import Session, load_session
 def register(sub) -> None:
     p = sub.add_parser("reconstruct", help="the object's merged cloud (Algorithm 1) as PLY")
     p.add_argument("session", help="session folder (calibrated: run `mirrorscan calibrate` first)")
-    p.add_argument("-o", "--output", required=True, help="PLY file, or a new folder of PLY files with --frame all")
+    p.add_argument("-o", "--output", required=True, help="PLY file, or with --frame all a folder of PLY files (new, or "
+                                                         "one this command made: it goes on)")
     p.add_argument("--frame", default="0", help="frame index (0-based, negative from the end) or 'all'")
     p.add_argument("--method", choices=["raw", *METHODS], default="raw",
                    help="raw: the paper's Algorithm 1; paper: its Algorithm 2 as written (carved cloud); carve: the "
