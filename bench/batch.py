@@ -6,6 +6,8 @@ alternation; cluster start-up excluded.
 batch_fps_per_core : frames per second with 2 workers, per worker (one core each)
 batch_scaling : the throughput of 2 workers over that of 1 worker (2.0 is perfect)
 batch_fps_in_process : `--workers 1`, without Dask (OpenCV may use several threads there)
+batch_cpu_ms_per_frame : CPU time of every process (this one, with the scheduler, and the 2 workers) per frame: what
+    a frame costs whatever else the machine runs (the wall-clock figures need the cores to themselves)
 """
 from __future__ import annotations
 
@@ -13,6 +15,8 @@ import shutil
 import statistics
 import tempfile
 from pathlib import Path
+
+import psutil
 
 from mirrorcore.batch import BatchJob, Where, run_batch
 from mirrorcore.batch.cluster import dask_client
@@ -30,26 +34,44 @@ def recording(folder: Path, frames: int = FRAMES) -> Path:
     return write_session(sim, folder, frames, progress=False, true_planes=True)
 
 
-def throughput(session: Path, out: Path, workers: int) -> float:
-    """Frames written per second by a fresh run on a new local cluster of `workers` processes (0: in this process),
-    start-up excluded."""
+def cpu_seconds() -> float:
+    """User and system CPU seconds of this process and its living children."""
+    me = psutil.Process()
+    total = 0.0
+    for process in (me, *me.children(recursive=True)):
+        try:
+            times = process.cpu_times()
+        except psutil.NoSuchProcess:
+            continue
+        total += times.user + times.system
+    return total
+
+
+def throughput(session: Path, out: Path, workers: int) -> tuple[float, float]:
+    """(frames written per second, CPU milliseconds per frame) of a fresh run on a new local cluster of `workers`
+    processes (0: in this process), start-up excluded."""
     shutil.rmtree(out, ignore_errors=True)
     if workers == 0:
+        before = cpu_seconds()
         report = run_batch(BatchJob(session, out), Where(workers=1))
+        cpu = cpu_seconds() - before
     else:
         with dask_client(workers, None, dashboard=False) as client:
+            before = cpu_seconds()
             report = run_batch(BatchJob(session, out), Where(scheduler=client.scheduler.address))
+            cpu = cpu_seconds() - before
     assert report.complete and not report.failed, report
-    return report.fps
+    return report.fps, 1e3 * cpu / report.written
 
 
 def run() -> dict[str, float]:
     with tempfile.TemporaryDirectory(prefix="mirrorscan-bench-batch-") as tmp:
         session = recording(Path(tmp) / "walk")
-        fps: dict[int, list[float]] = {0: [], 1: [], 2: []}
+        runs: dict[int, list[tuple[float, float]]] = {0: [], 1: [], 2: []}
         for _ in range(ROUNDS):
-            for workers in fps:
-                fps[workers].append(throughput(session, Path(tmp) / "out", workers))
-    in_process, one, two = (statistics.median(fps[w]) for w in (0, 1, 2))
-    return {"batch_fps_per_core": two / 2, "batch_scaling": two / one, "batch_fps_1_worker": one,
-            "batch_fps_2_workers": two, "batch_fps_in_process": in_process}
+            for workers, results in runs.items():
+                results.append(throughput(session, Path(tmp) / "out", workers))
+    fps = {w: statistics.median(r[0] for r in results) for w, results in runs.items()}
+    return {"batch_fps_per_core": fps[2] / 2, "batch_scaling": fps[2] / fps[1], "batch_fps_1_worker": fps[1],
+            "batch_fps_2_workers": fps[2], "batch_fps_in_process": fps[0],
+            "batch_cpu_ms_per_frame": statistics.median(r[1] for r in runs[2])}
