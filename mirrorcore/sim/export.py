@@ -5,6 +5,7 @@ calibration."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -78,8 +79,9 @@ def truth_json(rig: Simulator, noise: str) -> dict:
 
 
 def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "kinect",
-                  progress: bool = True) -> Path:
-    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with truth.json.
+                  progress: bool = True, true_planes: bool = False) -> Path:
+    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with truth.json; with
+    `true_planes`, the mirrors' planes are the true ones (a perfect calibration), otherwise they are left to calibrate.
 
     `out` must not exist or be an empty folder; nothing is left behind on error (MirrorscanError, OSError).
     Returns the folder's path.
@@ -88,11 +90,11 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
     if n_frames < 1:
         raise MirrorscanError(f"--frames: at least one frame, got {n_frames}")
     with new_folder(out) as work:
-        _write(rig, work, n_frames, noise, progress)
+        _write(rig, work, n_frames, noise, progress, true_planes)
     return out
 
 
-def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool) -> None:
+def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool, true_planes: bool) -> None:
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)
@@ -103,5 +105,8 @@ def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bo
             first_truth = frame.truth
         frames.append(f"frames/{i:06d}.png")
         write_depth_png(folder / frames[-1], frame.depth, scale)
-    save_session(Session(folder, camera, session_mirrors(rig, first_truth), BACKGROUND_FILE, tuple(frames)))
+    mirrors = session_mirrors(rig, first_truth)
+    if true_planes:
+        mirrors = tuple(replace(m, plane=plane) for m, plane in zip(mirrors, rig.planes))
+    save_session(Session(folder, camera, mirrors, BACKGROUND_FILE, tuple(frames)))
     (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")
