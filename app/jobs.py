@@ -1,5 +1,5 @@
 """The long jobs every tab shares, one of each kind at a time: dense reconstruction of the recent frames, background
-capture, and recording. Each runs on a worker thread, reports JobProgress on the bus, can be cancelled, and
+capture, recording, and the batch reconstruction of every frame of a recording. Each runs on a worker thread, reports JobProgress on the bus, can be cancelled, and
 publishes its result (DenseChanged; the background through the app; the recorded session)."""
 from __future__ import annotations
 
@@ -12,12 +12,13 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.session import Session, save_session
+from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from .events import DenseChanged, EventBus, FrameReady, JobProgress
@@ -28,7 +29,7 @@ if TYPE_CHECKING:
     from .state import Snapshot
 
 log = logging.getLogger("mirrorscan")
-DENSE, BACKGROUND, RECORD = "dense", "background", "record"
+DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,6 +47,21 @@ class DenseResult:
     voxel: float
     summary: str
     made: float
+
+
+def batch_status(p: BatchProgress) -> str:
+    """One line: frames done of all, the rate, the time left, failures and retries, the dashboard link."""
+    left = "" if p.seconds_left is None else f", {p.seconds_left:.0f} s left"
+    extra = "".join(f", {n} {what}" for n, what in ((p.failed, "failed"), (len(p.retried), "retried")) if n)
+    link = f" · [Dask dashboard]({p.dashboard})" if p.dashboard else ""
+    return f"{p.done:,} of {p.total:,} frames, {p.fps:.1f} fps{left}{extra}{link}"
+
+
+def batch_summary(report: BatchReport) -> str:
+    """One line: how the batch ended and where its files are."""
+    how = "stopped" if report.cancelled else "done"
+    failed = f"; failed: frames {', '.join(map(str, sorted(report.failed)))}" if report.failed else ""
+    return f"batch {how}: {report.kept + report.written:,} of {report.total:,} frames in `{report.out}`{failed}"
 
 
 class Jobs:
@@ -126,6 +142,31 @@ class Jobs:
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))
         self.bus.publish(JobProgress(DENSE, None, dense.summary))
+
+    # ------------------------------------------------------------------ batch reconstruction
+    def start_batch(self, session: Session, method: str, options: DenseOptions, temporal: int,
+                    workers: int) -> Path:
+        """Reconstruct every frame of a saved recording into SESSION/exports/frames-METHOD[-temporalN] (one PLY per
+        frame and a manifest; mirrorcore.batch), on `workers` local processes (1: in this process); a second start
+        of the same job goes on where it stopped. Returns the output folder."""
+        if not session.frames or not (Path(session.root) / SESSION_FILE).is_file():
+            raise MirrorscanError("a batch reads a saved session with frames: record one (or Save as) first")
+        out = exports_folder(session.root, method, temporal)
+        job = BatchJob(Path(session.root), out, method, options, temporal)
+        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel),
+                    "a batch is already running; cancel it first")
+        return out
+
+    def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> None:
+        self.bus.publish(JobProgress(BATCH, 0.0, f"starting {job.method} on every frame…"))
+        run = BatchRun(job, where, on_progress=lambda p: self.bus.publish(JobProgress(BATCH, p.fraction,
+                                                                                       batch_status(p))))
+        run.start()
+        while run.wait(0.2) is None:
+            if cancel.is_set():
+                run.cancel()
+        report = run.wait()
+        self.bus.publish(JobProgress(BATCH, None, batch_summary(report)))
 
     # ------------------------------------------------------------------ background
     def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], None]) -> threading.Thread:

@@ -3,10 +3,12 @@ capture, both mirrors calibrated by clicking boundaries and markers, a stray mar
 proposal and applied only on confirmation, measuring, exports that never overwrite, save as and open, dense runs
 and cancel, record and replay, and two tabs that keep their own click mode and mirror."""
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.events import JobProgress
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
 from app.panels.mirrors import MirrorsPanel
@@ -210,3 +212,23 @@ def test_record_then_replay_with_the_calibration(sphere):
     wait_for(lambda: app.last_frame.index == 0)
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
     app.pause(False)
+
+
+def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
+    """After the replay, the session being edited is the recording: the Record step's batch writes one PLY per frame
+    and a manifest into its exports/ folder, with progress on the bus, in this process (1 worker)."""
+    app, headless = sphere
+    record = panel(headless.tab, RecordPanel)
+    session = app.editor.session
+    assert session.frames and session.root == record.recorded.root
+    statuses: list[str] = []
+    app.bus.subscribe(JobProgress, lambda e: e.job == "batch" and statuses.append(e.status))
+    record.start_batch()
+    wait_for(lambda: not app.jobs.running("batch") and statuses and statuses[-1].startswith("batch "), 120,
+             "the batch")
+    out = session.root / "exports" / "frames-raw"
+    assert statuses[-1] == f"batch done: {len(session.frames)} of {len(session.frames)} frames in `{out}`"
+    assert sorted(p.name for p in out.glob("*.ply")) == [f"{Path(f).stem}.ply" for f in session.frames]
+    points, sources = read_ply(out / f"{Path(session.frames[0]).stem}.ply")
+    assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
+    assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran
