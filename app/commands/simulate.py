@@ -26,6 +26,12 @@ def register(sub) -> None:
     p.add_argument("--frames", type=int, default=1, help="number of frames at 30 fps (default 1)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     p.add_argument("--single-bounce", action="store_true", help="leave out rays that reflect off two mirrors")
+    p.add_argument("--marker-offset", type=float, metavar="MM",
+                   help="the markers' faces this many millimetres in front of every mirror's reflecting surface, as "
+                        "stickers on the glass of an ordinary mirror (default 0, or the scene file's)")
+    p.add_argument("--click-jitter", type=float, metavar="PX",
+                   help="radial RMS error, pixels, of the session's marker clicks (seeded; default 0, or the scene "
+                        "file's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -41,6 +47,12 @@ def run(args: argparse.Namespace) -> int:
             raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
         scene = paper_scene(120.0 if args.angle is None else args.angle, args.mirrors or 2, args.object or "sphere",
                             2.0 if args.distance is None else args.distance)
+    if args.marker_offset is not None and not 0 <= args.marker_offset <= 50:
+        raise MirrorscanError(f"--marker-offset: must be 0 to 50 mm, got {args.marker_offset:g}")
+    if args.click_jitter is not None and not 0 <= args.click_jitter <= 50:
+        raise MirrorscanError(f"--click-jitter: must be 0 to 50 pixels, got {args.click_jitter:g}")
+    offset = None if args.marker_offset is None else args.marker_offset / 1000
+    scene = scene.with_markers(offset, args.click_jitter)
     rig = Simulator(scene, SensorModel.from_name(args.noise), args.seed, two_bounces=not args.single_bounce)
     out = write_session(rig, args.out, args.frames, args.noise, progress=not args.quiet)
     print(f"wrote {out} ({args.frames} frame{'s' if args.frames != 1 else ''}, {len(scene.mirrors)} mirrors)")
