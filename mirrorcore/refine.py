@@ -221,6 +221,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         labelled = _with_planes(rig, planes)
     shown = (residuals(frames, start, refined, centre, SHOWN_GATE), residuals(frames, planes, refined, centre, SHOWN_GATE))
     reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, max_change) for j in refined)
+    if progress is not None:
+        progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
 
 

@@ -9,6 +9,7 @@ import pytest
 from helpers import plane_depth
 
 from mirrorcore.agreement import AGREE, frame_views, in_view, surface_distances
+from mirrorcore.calibration import calibrate_from_pairs
 from mirrorcore.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
@@ -211,3 +212,20 @@ def test_scene_search_then_refinement_without_markers(sphere):
         assert mirror.plane.angle_to(truth.plane) < 0.05
     with pytest.raises(CalibrationError, match="mirror 2: the object is not seen both directly and in the mirror"):
         search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 2), 1, np.random.default_rng(0))
+
+
+def test_refinement_after_pairs_reaches_the_same_planes(sphere):
+    """--refine works after any first calibration: planes from pairs of a real point and its virtual image (the
+    sphere's centre and its images, 5 mm off) end where the markers' do."""
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    rng = np.random.default_rng(1)
+    real = centre + rng.normal(0, 0.005, (4, 3))
+    paired = [calibrate_from_pairs(real, m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
+              for m in rig.mirrors]
+    assert max(p.angle_to(m.plane) for p, m in zip(paired, rig.mirrors)) > 0.3        # a rough start
+    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, gate=0.01)
+    from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
+                                 depths, masks)
+    for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
+        assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3 and a.after.angle_to(b.after) < 0.01
