@@ -126,7 +126,8 @@ def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tu
     normal_matrix = np.stack([np.stack([window_sum(valid, p * q) for q in basis], -1) for p in basis], -2)
     rhs = np.stack([window_sum(w, p) for p in basis], -1)
     ok = normal_matrix[..., 0, 0] >= MIN_NEIGHBOURS
-    ok[ok] = np.linalg.cond(normal_matrix[ok]) < 1e6
+    spread = np.linalg.eigvalsh(normal_matrix[ok])               # ascending: neighbours on a line have a zero
+    ok[ok] = spread[:, 0] > 1e-6 * spread[:, -1]
     coef = np.zeros_like(rhs)
     coef[ok] = np.linalg.solve(normal_matrix[ok], rhs[ok][..., None])[..., 0]
     ok &= coef[..., 0] > 0

@@ -30,7 +30,7 @@ from .session import MAX_MARKER_OFFSET, Session
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
-SETTLED = 0.05               # the iterations stop when no parameter moves by more than this share of its std
+SETTLED = 0.2                # the iterations stop when no parameter moves by more than this share of its std
 MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree, both ways, over all frames...
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
