@@ -1,4 +1,5 @@
-"""The one palette of source colours (viewer, exports, plots): 0 = direct view, j = through mirror j."""
+"""The one palette of source colours (viewer, exports, plots): 0 = direct view, j = through mirror j; and the heat map
+of a calibration (points coloured by their distance to the direct surface)."""
 from __future__ import annotations
 
 import numpy as np
@@ -31,3 +32,17 @@ def source_colours(sources: np.ndarray) -> np.ndarray:
 def source_name(source: int) -> str:
     """'direct' or 'mirror j'."""
     return "direct" if source == 0 else f"mirror {source}"
+
+
+HEAT_NEGATIVE = np.array([33, 102, 172])    # inside the direct surface: blue
+HEAT_ZERO = np.array([247, 247, 247])       # on it: white
+HEAT_POSITIVE = np.array([178, 24, 43])     # outside it: red
+
+
+def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) -> np.ndarray:
+    """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at 0, blue at
+    -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN (the direct grey)."""
+    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0, 1.0)[:, None]
+    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t, HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
+    rgb[np.isnan(np.asarray(values, dtype=np.float64))] = missing
+    return np.round(rgb).astype(np.uint8)

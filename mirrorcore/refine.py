@@ -318,6 +318,22 @@ def _agreement(found: _Residuals, j: int) -> tuple[float, float]:
     return float(1e3 * np.sqrt(np.mean(signed ** 2))), float(1e3 * np.mean(signed))
 
 
+def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, tuple[float, float, int]]:
+    """How well each calibrated mirror's view agrees with the others now, without changing anything (for the report
+    after a markers fit): {mirror index (0-based): (RMS mm, mean mm as in MirrorRefinement, readings of it and of
+    the camera that agree)}. depths, masks as for refine_planes; RMS and mean are NaN without agreement."""
+    depths, masks = np.asarray(depths), np.asarray(masks, bool)
+    if depths.ndim == 2:
+        depths, masks = depths[None], masks[None]
+    frames = [frame_views(rig, d, m) for d, m in zip(depths, masks)]
+    planes = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
+    centre = np.mean([f.centre for f in frames], axis=0)
+    found = residuals(frames, planes, [], centre, SHOWN_GATE)
+    return {j - 1: (*_agreement(found, j),
+                    int(np.count_nonzero((found.kind == AGREE) & found.involving(j) & found.involving(0))))
+            for j in planes}
+
+
 # --------------------------------------------------------------------------------------------- sessions
 def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
                    progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE

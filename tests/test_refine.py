@@ -16,7 +16,15 @@ from mirrorcore.geometry.plane import Plane
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import moved_plane, offset_at, reflection_jacobian, refine_planes, refine_session
+from mirrorcore.palette import heat_colours
+from mirrorcore.refine import (
+    moved_plane,
+    offset_at,
+    reflection_jacobian,
+    refine_planes,
+    refine_session,
+    view_agreement,
+)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -229,3 +237,18 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
                                  depths, masks)
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
         assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3 and a.after.angle_to(b.after) < 0.01
+
+
+def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    good = view_agreement(rig, depths, masks)
+    tilted = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 0.3), rig.mirrors[1].plane]),
+                            depths, masks)
+    assert set(good) == {0, 1} and min(n for _, _, n in good.values()) > 200
+    assert good[0][0] < 0.5 and tilted[0][0] > 1.0                 # RMS mm: on the surfaces, then off them
+    assert tilted[1][2] > 0
+    colours = heat_colours(np.array([-20.0, -5.0, 0.0, 5.0, 20.0, np.nan]), limit=10.0)
+    assert colours[2].tolist() == [247, 247, 247] and colours[0].tolist() == [33, 102, 172]
+    assert colours[4].tolist() == [178, 24, 43] and colours[5].tolist() == [150, 150, 150]
+    assert colours[1, 0] < 247 and colours[3, 0] > 200 and colours[3, 1] < 247      # halfway to blue, to red
