@@ -15,10 +15,10 @@ import numpy as np
 from tqdm import tqdm
 
 from mirrorcore.calibration import calibrate_session
-from mirrorcore.errors import CalibrationError
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.carve import carve
 from mirrorcore.dense.tsdf import fuse
+from mirrorcore.errors import CalibrationError
 from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.reconstruct import reconstruct_raw

@@ -66,7 +66,8 @@ def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, floa
 
 
 def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np.random.Generator,
-                           name: str = "mirror", window: int = MARKER_WINDOW, marker_offset: float = 0.0) -> Calibration:
+                           name: str = "mirror", window: int = MARKER_WINDOW,
+                           marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
     depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median)

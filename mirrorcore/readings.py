@@ -63,8 +63,9 @@ class ViewPoints:
     def reflected(self, plane: Plane) -> "ViewPoints":
         """Through `plane` (paper eq. 3): a mirror's virtual readings become real points, with normals towards the
         mirror's virtual camera (still out of the object). `surface` stays in the view's own image."""
-        return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors), reflect_directions(plane, self.normals),
-                          reflect_directions(plane, self.rays), self.sigma, self.lateral, self.pixels, self.surface)
+        return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
+                          reflect_directions(plane, self.normals), reflect_directions(plane, self.rays), self.sigma,
+                          self.lateral, self.pixels, self.surface)
 
     def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """(m, 3) metres, in the view's own space: where the rays through pixel positions uv (m, 2) meet the

@@ -219,7 +219,7 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         if all(abs(shift_at(labelled.mirrors[j - 1].plane, planes[j], centre)) < RELABEL for j in refined):
             break
         labelled = _with_planes(rig, planes)
-    shown = (residuals(frames, start, refined, centre, SHOWN_GATE), residuals(frames, planes, refined, centre, SHOWN_GATE))
+    shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
     reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, max_change) for j in refined)
     if progress is not None:
         progress(1.0)

@@ -1,6 +1,7 @@
 """The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
 (camera, mirrors, background, frames, and the extensions selection, timestamps, colour_frames, a mirror's id,
-region and marker_offset), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as they were."""
+region and marker_offset), saved atomically with one backup (session.json.bak). Keys this version does not know are
+kept as they were."""
 from __future__ import annotations
 
 import json

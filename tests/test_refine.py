@@ -13,16 +13,16 @@ from mirrorcore.calibration import calibrate_from_pairs
 from mirrorcore.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.palette import heat_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.palette import heat_colours
 from mirrorcore.refine import (
     moved_plane,
     offset_at,
-    reflection_jacobian,
     refine_planes,
     refine_session,
+    reflection_jacobian,
     view_agreement,
 )
 from mirrorcore.rig import Mirror, Rig
@@ -211,9 +211,9 @@ def test_scene_search_then_refinement_without_markers(sphere):
     # near enough for the refinement (which comes back from a plane too near the camera), not more
     assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[0].plane, centre) < 0.0
     assert found.angle_to(rig.mirrors[0].plane) < 5.0
-    session = Session(Path("."), rig.intrinsics, tuple(
-        replace(m, plane=None, markers=()) for m in session_mirrors(Simulator(scene, SensorModel.ideal()),
-                                                                    Simulator(scene, SensorModel.ideal()).frame(0).truth)))
+    sim = Simulator(scene, SensorModel.ideal())
+    session = Session(Path("."), rig.intrinsics,
+                      tuple(replace(m, markers=()) for m in session_mirrors(sim, sim.frame(0).truth)))
     calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0))
     for mirror, truth in zip(calibrated.mirrors, rig.mirrors):
         assert abs(offset_at(mirror.plane, centre) - offset_at(truth.plane, centre)) < 1e-3
@@ -236,7 +236,8 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
                                  depths, masks)
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
-        assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3 and a.after.angle_to(b.after) < 0.01
+        assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3
+        assert a.after.angle_to(b.after) < 0.01
 
 
 def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
