@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .agreement import AGREE, SHOWN_GATE, FrameViews, frame_views, in_view
+from .agreement import SHOWN_GATE, FrameViews, frame_views, in_view
 from .calibration import MIN_MARKER_PIXELS, marker_points
 from .depthops import median_depth
 from .errors import CalibrationError, Cancelled
@@ -30,7 +30,7 @@ from .session import MAX_MARKER_OFFSET, Session
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
-SETTLED = 0.2                # the iterations stop when no parameter moves by more than this share of its std
+SETTLED = 0.1                # the iterations stop when no parameter moves by more than this share of its std
 MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree, both ways, over all frames...
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
@@ -137,12 +137,11 @@ def shift_at(before: Plane, after: Plane, point) -> float:
 @dataclass(frozen=True)
 class _Residuals:
     """All comparisons of one iteration: jacobian (m, 3k) over the refined mirrors' steps, residual, sigma (m,)
-    metres, kind (m,) uint8, pair (m, 2) int: the views compared (source, target; 0 = the camera)."""
+    metres, pair (m, 2) int: the views compared (source, target; 0 = the camera)."""
 
     jacobian: np.ndarray
     residual: np.ndarray
     sigma: np.ndarray
-    kind: np.ndarray
     pair: np.ndarray
 
     def weights(self) -> np.ndarray:
@@ -151,6 +150,10 @@ class _Residuals:
 
     def involving(self, j: int) -> np.ndarray:
         return (self.pair[:, 0] == j) | (self.pair[:, 1] == j)
+
+    def with_camera(self, j: int) -> int:
+        """How many comparisons are between mirror j's readings and the camera's (both ways)."""
+        return int(np.count_nonzero(self.involving(j) & self.involving(0)))
 
 
 def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[int], centre: np.ndarray,
@@ -176,10 +179,9 @@ def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[
                 if b in columns:
                     rows[:, columns[b]:columns[b] + 3] += reflection_jacobian(
                         planes[b], centre, real[a].points[found.index], found.direction)
-                parts.append((rows, found.residual, found.sigma, found.kind, np.tile((a, b), (len(found), 1))))
+                parts.append((rows, found.residual, found.sigma, np.tile((a, b), (len(found), 1))))
     if not parts:
-        return _Residuals(np.zeros((0, 3 * len(refined))), np.zeros(0), np.ones(0), np.zeros(0, np.uint8),
-                          np.zeros((0, 2), int))
+        return _Residuals(np.zeros((0, 3 * len(refined))), np.zeros(0), np.ones(0), np.zeros((0, 2), int))
     return _Residuals(*(np.concatenate(p) for p in zip(*parts)))
 
 
@@ -267,7 +269,7 @@ def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations
 
 def _check_overlap(found: _Residuals, refined: list[int], names: list[str], frames: int) -> None:
     for j, name in zip(refined, names):
-        direct = np.count_nonzero((found.kind == AGREE) & found.involving(j) & found.involving(0))
+        direct = found.with_camera(j)
         if direct < MIN_AGREEMENTS:
             raise CalibrationError(
                 f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
@@ -303,15 +305,14 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
                                f"and {tilt:.1f} deg); check its boundary and its first calibration")
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
-    agreements = np.count_nonzero((final.kind == AGREE) & final.involving(j) & final.involving(0))
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
-                            tilt, 1e3 * shift_std, tilt_std, int(agreements))
+                            tilt, 1e3 * shift_std, tilt_std, final.with_camera(j))
 
 
 def _agreement(found: _Residuals, j: int) -> tuple[float, float]:
-    """(RMS, mean) mm of the agreeing comparisons involving mirror j, signed so that > 0 means its points lie
-    outside the other views' surfaces."""
-    pick = (found.kind == AGREE) & found.involving(j)
+    """(RMS, mean) mm of the comparisons involving mirror j, signed so that > 0 means its points lie outside the other
+    views' surfaces."""
+    pick = found.involving(j)
     signed = np.where(found.pair[pick, 0] == j, 1.0, -1.0) * found.residual[pick]
     if not len(signed):
         return float("nan"), float("nan")
@@ -329,9 +330,7 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     planes = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     centre = np.mean([f.centre for f in frames], axis=0)
     found = residuals(frames, planes, [], centre, SHOWN_GATE)
-    return {j - 1: (*_agreement(found, j),
-                    int(np.count_nonzero((found.kind == AGREE) & found.involving(j) & found.involving(0))))
-            for j in planes}
+    return {j - 1: (*_agreement(found, j), found.with_camera(j)) for j in planes}
 
 
 # --------------------------------------------------------------------------------------------- sessions

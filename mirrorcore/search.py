@@ -34,9 +34,9 @@ FAR_MARGIN = 0.02                    # metres beyond the direct object's depth w
 AGREE_SIGMAS = 3.0                   # a reflected point agrees within this many standard deviations of depth noise
 CONTRADICTION_WEIGHT = 2.0
 SEARCH_GATE = 0.03                   # metres: the refinement after a search starts with this wide agreement...
-NEARER = 0.02                        # ... from the found plane moved this much towards the camera: from a plane too
-                                     # near, points are seen where the camera saw beyond them and are pushed back; from
-                                     # one too far they hide behind the object, which says nothing
+NEARER = 0.02                        # ... from the found plane moved this much towards the camera: with that gate it
+                                     # came back from planes 4 cm too near and 2 cm too far, not 4 cm too far (the
+                                     # mirror's points then hide behind the object)
 SEARCH_CHANGE = (0.2, 15.0)          # metres, degrees: how far the refinement may move a searched plane
 
 
