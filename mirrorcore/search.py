@@ -32,7 +32,7 @@ KEEP = 5                             # coarse candidates refined finely
 BATCH = 256                          # candidates scored at once
 FAR_MARGIN = 0.02                    # metres beyond the direct object's depth where its mirror image starts
 AGREE_SIGMAS = 3.0                   # a reflected point agrees within this many standard deviations of depth noise
-CONTRADICTION_WEIGHT = 2.0
+CONTRADICTION_WEIGHT = 2.0             # a contradiction counts as much as two agreements
 SEARCH_GATE = 0.03                   # metres: the refinement after a search starts with this wide agreement...
 NEARER = 0.02                        # ... from the found plane moved this much towards the camera: with that gate it
                                      # came back from planes 4 cm too near and 2 cm too far, not 4 cm too far (the
