@@ -11,12 +11,12 @@ import numpy as np
 
 from ..budget import check_memory
 from ..errors import Cancelled, MirrorscanError
+from ..progress import Progress, cancel_requested
 
 VOXEL_BYTES = 20                  # peak bytes per voxel of the costliest method: TSDF with its mesh measured 16.3
 CHUNK_VOXELS = 1 << 18            # voxels per slab: temporaries stay in the CPU caches and memory stays bounded
 
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
-Progress = Callable[[float], None]   # called with the fraction done, 0 < fraction <= 1
 
 
 @dataclass(frozen=True)
@@ -92,13 +92,6 @@ class Volume:
         """Slices along x (axis 0) of at most max(max_voxels, one x-plane) voxels each, covering the grid."""
         step = max(1, max_voxels // (self.shape[1] * self.shape[2]))
         return [slice(i, min(i + step, self.shape[0])) for i in range(0, self.shape[0], step)]
-
-
-def cancel_requested(cancel) -> bool:
-    """True when `cancel` (None, a threading.Event-like object with is_set(), or a callable) asks to stop."""
-    if cancel is None:
-        return False
-    return bool(cancel.is_set() if hasattr(cancel, "is_set") else cancel())
 
 
 def run_slabs(volume: Volume, work: Callable[[slice], None], progress: Progress | None = None,
