@@ -111,6 +111,33 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
 
 
+def test_refine_from_the_object_and_the_heat_map(sphere):
+    """After the markers fit: the views' agreement is reported, 'Refine from the object' refines both planes on a
+    worker and reports each mirror (agreement before and after, the change, how well determined), the glass in
+    front of the silver can be set per mirror, and a tab's heat map shows a frame's points one colour each."""
+    app, headless = sphere
+    tab = headless.tab
+    mirrors = panel(tab, MirrorsPanel)
+    wait_for(lambda: "agrees with the other views within" in mirrors.agreement.content, 60, "the agreement")
+    before = {m.id: m.plane for m in app.editor.session.mirrors}
+    app.jobs.start_refine(app.editor)
+    wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
+    assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
+    for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
+        assert mirror.plane != before[mirror.id]                                    # refined...
+        assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
+    assert app.editor.undo_label(1) == "refined plane of mirror 1"
+    app.editor.set_marker_offset(1, 0.003)
+    assert app.editor.mirror(1).marker_offset == 0.003
+    with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
+        app.editor.set_marker_offset(1, 0.08)
+    tab.look("3d")
+    tab.show_heat(True)
+    wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")
+    tab.show_heat(False)
+    assert "/heat" not in tab.client.scene._handle_from_node_name
+
+
 def test_exports_never_overwrite(sphere):
     app, headless = sphere
     session = panel(headless.tab, SessionPanel)
