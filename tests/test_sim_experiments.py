@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from app import experiment_kaleidoscope
 from app.cli import main
-from app.experiments import ANGLES, COLUMNS, MIRROR_DISTANCES
+from app.experiments import kaleidoscope as experiment_kaleidoscope
+from app.experiments.paper import ANGLES, COLUMNS, MIRROR_DISTANCES
 from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
 
 EXPERIMENTS = {"angle": (ANGLES, SPHERE_RADIUS), "distance": (MIRROR_DISTANCES, CYLINDER_RADIUS)}

@@ -3,7 +3,7 @@ the still parts of the body come closer to the true surface, the moving limbs ar
 import numpy as np
 
 from app.cli import main
-from app.temporal_experiment import run_temporal_experiment, summary
+from app.experiments.temporal import run_temporal_experiment, summary
 
 
 def test_the_still_parts_improve_and_the_moving_ones_do_not_smear():
@@ -17,7 +17,7 @@ def test_the_still_parts_improve_and_the_moving_ones_do_not_smear():
 
 
 def test_the_command_writes_its_csv_and_plot(tmp_path, capsys, monkeypatch):
-    import app.temporal_experiment as experiment
+    import app.experiments.temporal as experiment
     calls = []
 
     def small(neighbours, frames, progress):

@@ -8,8 +8,9 @@ import csv
 import io
 from pathlib import Path
 
-from app import experiment_kaleidoscope, temporal_experiment
-from app.experiments import COLUMNS, plot_experiment, run_experiment
+from app.experiments import kaleidoscope as experiment_kaleidoscope
+from app.experiments import temporal as temporal_experiment
+from app.experiments.paper import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.outputs import check_output
