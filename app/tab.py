@@ -48,6 +48,9 @@ class Tab:
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
         self._stale = True          # the cloud shown is not the last frame's: send both halves next
+        self.dense_visible, self.dense_beside = True, True
+        self.heat, self._last_heat = False, 0.0
+        self._framed = False
         snapshot = services.snapshot
         camera = snapshot.session.camera
         self.scene = TabScene(client)
@@ -65,10 +68,7 @@ class Tab:
                              services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
                              services.bus.subscribe(HeatChanged, self._on_heat)]
         self._on_session(snapshot)
-        self.dense_visible, self.dense_beside = True, True
-        self.heat, self._last_heat = False, 0.0
         self.show_dense(services.jobs.dense_result)
-        self._framed = False
         client.camera.on_update(self._first_view)
         self._watch_visibility()
 
