@@ -193,7 +193,8 @@ class SessionEditor:
             current = self.mirror(mirror_id)
             if (current.markers, current.boundary, current.region, current.plane) != (
                     based_on.markers, based_on.boundary, based_on.region, based_on.plane):
-                raise MirrorscanError(f"{current.name} changed while its {what} was computed; do it again")
+                again = "refine it again" if what.startswith("refined") else "fit it again"
+                raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
         offsets = marker_offsets or {}
         for mirror_id, (plane, _) in planes.items():
             mirror = self.mirror(mirror_id)

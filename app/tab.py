@@ -73,10 +73,14 @@ class Tab:
         self._watch_visibility()
 
     def _first_view(self, _) -> None:
-        """Once the tab has reported its canvas: frame the rig and the cloud for it."""
+        """Once the tab has reported its canvas: frame what the tab is looking at (the rig and the cloud, or the
+        depth frame when the tab was switched to it before the report)."""
         if not self._framed:
             self._framed = True
-            self.look_home()
+            if self.state.view == "depth":
+                self.screen.look_at()
+            else:
+                self.look_home()
 
     # ------------------------------------------------------------------ the TabContext protocol
     @property
