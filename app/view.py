@@ -4,6 +4,8 @@ colours, a label, its box). Every node belongs to the tab's client, so each tab 
 looks at."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import viser
 import viser.transforms as tf
@@ -69,6 +71,7 @@ class TabScene:
         self.client, self.scene = client, client.scene
         self.point_size = point_size
         self._clouds: dict[tuple[int, int], viser.PointCloudHandle] = {}    # (source, half) -> node
+        self._clouds_lock = threading.Lock()    # the stream thread adds nodes while GUI callbacks restyle them
         self.clouds_visible = True
         self._labels: list[viser.LabelHandle] = []
         self._dense: list = []                     # the dense result's nodes (result, label)
@@ -127,7 +130,7 @@ class TabScene:
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
         """Update the live cloud's nodes (one per source and half, placed at the part's centre) from `parts`: only
         the given half, or both (None); nodes of sources beyond the parts are removed."""
-        with self.client.atomic():
+        with self._clouds_lock, self.client.atomic():      # always in this order: never a deadlock
             for part in parts:
                 if half is None or part.half == half:
                     self._show_part(part, mirror_ids)
@@ -159,18 +162,21 @@ class TabScene:
 
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
         """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
-        for (source, _), handle in self._clouds.items():
-            handle.colors = source_colour(source, mirror_ids)
+        with self._clouds_lock:
+            for (source, _), handle in self._clouds.items():
+                handle.colors = source_colour(source, mirror_ids)
 
     def show_clouds(self, visible: bool) -> None:
         self.clouds_visible = visible
-        for handle in self._clouds.values():
-            handle.visible = visible
+        with self._clouds_lock:
+            for handle in self._clouds.values():
+                handle.visible = visible
 
     def set_point_size(self, size: float) -> None:
         self.point_size = size
-        for handle in self._clouds.values():
-            handle.point_size = size
+        with self._clouds_lock:
+            for handle in self._clouds.values():
+                handle.point_size = size
 
     def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
         """The dense result in its own colour, with a label: at its place, or beside the live cloud (towards the

@@ -1,6 +1,8 @@
 """The browser tool without a browser, on the demo: the live loop turns frames into a cloud with every source; a tab
 gets it as float16 offsets within 0.3 mm, one node per source, and the depth frame; a tab looking at the depth frame,
 or hidden, is not sent the cloud; pause and step; the depth screen's pixel mapping and framing."""
+import sys
+import threading
 import time
 from pathlib import Path
 
@@ -82,6 +84,37 @@ def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypa
     tab.hidden = False
     assert in_3d > 80_000 and clouds_3d == 6                # half of ~41k points as float16 offsets: ~125 kB
     assert clouds_depth == clouds_hidden == 0 and hidden < 2_000, (in_3d, hidden)
+
+
+def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
+    """The stream thread adds and replaces cloud nodes while a GUI callback (a mirror renamed, the point size, a tab
+    connecting) restyles them: neither may fail with 'dictionary changed size during iteration'."""
+    app, headless = demo
+    scene, errors, done = headless.tab.scene, [], threading.Event()
+    frame = app.loop.run_once()
+
+    def stream() -> None:
+        try:
+            while not done.is_set():
+                scene.show_cloud([], frame.mirror_ids)              # every node removed...
+                scene.show_cloud(frame.parts, frame.mirror_ids)     # ... and added again
+        except Exception as error:  # noqa: BLE001 - reported below
+            errors.append(error)
+    thread = threading.Thread(target=stream)
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)                                     # switch threads as often as possible
+    thread.start()
+    try:
+        for k in range(300):
+            scene.recolour((1, 2))
+            scene.set_point_size(0.004 + 0.001 * (k % 2))
+            scene.show_clouds(True)
+    finally:
+        done.set()
+        thread.join()
+        sys.setswitchinterval(interval)
+    assert not errors, errors
+    assert scene._clouds                                            # the nodes are there after the storm
 
 
 def test_loop_thread_pause_and_step(demo):
