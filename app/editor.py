@@ -17,7 +17,16 @@ from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.rig import check_bounces
 from mirrorcore.selection import Selection
-from mirrorcore.session import MAX_MIRRORS, Pixels, Session, SessionMirror, check_limits, check_name, save_session
+from mirrorcore.session import (
+    MAX_MARKER_OFFSET,
+    MAX_MIRRORS,
+    Pixels,
+    Session,
+    SessionMirror,
+    check_limits,
+    check_name,
+    save_session,
+)
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
@@ -174,17 +183,32 @@ class SessionEditor:
 
     # ------------------------------------------------------------------ calibration, selection, background
     @_edits
-    def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]]) -> None:
-        """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, all or
-        nothing. Refused when a mirror is gone or its markers, boundary or region changed since: a fit computed on
-        another state is never applied (fit again)."""
+    def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]],
+                   marker_offsets: dict[int, float] | None = None, what: str = "plane") -> None:
+        """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
+        their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
+        is one undo step of its own, named '{what} of NAME'. Refused when a mirror is gone or its markers, boundary,
+        region or plane changed since: a result computed on another state is never applied (compute it again)."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
-            if (current.markers, current.boundary, current.region) != (based_on.markers, based_on.boundary,
-                                                                      based_on.region):
-                raise MirrorscanError(f"{current.name} changed while its plane was computed; fit it again")
+            if (current.markers, current.boundary, current.region, current.plane) != (
+                    based_on.markers, based_on.boundary, based_on.region, based_on.plane):
+                raise MirrorscanError(f"{current.name} changed while its {what} was computed; do it again")
+        offsets = marker_offsets or {}
         for mirror_id, (plane, _) in planes.items():
-            self._set_mirror(mirror_id, f"plane of {self.mirror(mirror_id).name}", plane=plane)
+            mirror = self.mirror(mirror_id)
+            self._set_mirror(mirror_id, f"{what} of {mirror.name}", plane=plane,
+                             marker_offset=offsets.get(mirror_id, mirror.marker_offset))
+
+    @_edits
+    def set_marker_offset(self, mirror_id: int, metres: float) -> None:
+        """How far the mirror's markers stand in front of its reflecting surface (the glass), 0 to
+        MAX_MARKER_OFFSET metres; the plane stays (fit again to use it)."""
+        mirror = self.mirror(mirror_id)
+        if not (np.isfinite(metres) and 0 <= metres <= MAX_MARKER_OFFSET):
+            raise MirrorscanError(f"{mirror.name}: the glass in front of the silver must be 0 to "
+                                  f"{MAX_MARKER_OFFSET * 1e3:g} mm, got {metres * 1e3:g} mm")
+        self._set_mirror(mirror_id, f"glass of {mirror.name}", marker_offset=float(metres))
 
     @_edits
     def set_selection(self, selection: Selection) -> None:

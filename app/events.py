@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, TypeVar
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from mirrorcore.sources import DepthSource
 
     from .jobs import DenseResult
@@ -55,6 +57,15 @@ class DenseChanged:
     """A dense reconstruction finished (or was cleared: result None)."""
 
     result: "DenseResult | None"
+
+
+@dataclass(frozen=True, eq=False)
+class HeatChanged:
+    """The heat map of live frame `index`: its points (n, 3) float32 metres and their colours (n, 3) uint8."""
+
+    index: int
+    points: "np.ndarray"
+    colours: "np.ndarray"
 
 
 class EventBus:

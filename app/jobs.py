@@ -1,6 +1,8 @@
 """The long jobs every tab shares, one of each kind at a time: dense reconstruction of the recent frames, background
-capture, and recording. Each runs on a worker thread, reports JobProgress on the bus, can be cancelled, and
-publishes its result (DenseChanged; the background through the app; the recorded session)."""
+capture, recording, the batch reconstruction of every frame of a recording, the refinement of the planes from the
+object, the views' agreement after a fit, and the heat map of a frame. Each runs on a worker thread, reports
+JobProgress on the bus, can be cancelled, and publishes its result (DenseChanged, HeatChanged; the background through
+the app; the recorded session; the refined planes through the editor)."""
 from __future__ import annotations
 
 import logging
@@ -12,23 +14,30 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from mirrorcore.agreement import surface_distances
+from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.palette import heat_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.session import Session, save_session
+from mirrorcore.refine import refine_session, view_agreement
+from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
-from .events import DenseChanged, EventBus, FrameReady, JobProgress
+from .events import DenseChanged, EventBus, FrameReady, HeatChanged, JobProgress
 from .recording import LiveTap
 
 if TYPE_CHECKING:
-    from .live import LiveLoop
+    from .editor import SessionEditor
+    from .live import LiveFrame, LiveLoop
     from .state import Snapshot
 
 log = logging.getLogger("mirrorscan")
-DENSE, BACKGROUND, RECORD = "dense", "background", "record"
+DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
+REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
+HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,6 +55,21 @@ class DenseResult:
     voxel: float
     summary: str
     made: float
+
+
+def batch_status(p: BatchProgress) -> str:
+    """One line: frames done of all, the rate, the time left, failures and retries, the dashboard link."""
+    left = "" if p.seconds_left is None else f", {p.seconds_left:.0f} s left"
+    extra = "".join(f", {n} {what}" for n, what in ((p.failed, "failed"), (len(p.retried), "retried")) if n)
+    link = f" · [Dask dashboard]({p.dashboard})" if p.dashboard else ""
+    return f"{p.done:,} of {p.total:,} frames, {p.fps:.1f} fps{left}{extra}{link}"
+
+
+def batch_summary(report: BatchReport) -> str:
+    """One line: how the batch ended and where its files are."""
+    how = "stopped" if report.cancelled else "done"
+    failed = f"; failed: frames {', '.join(map(str, sorted(report.failed)))}" if report.failed else ""
+    return f"batch {how}: {report.kept + report.written:,} of {report.total:,} frames in `{report.out}`{failed}"
 
 
 class Jobs:
@@ -126,6 +150,83 @@ class Jobs:
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))
         self.bus.publish(JobProgress(DENSE, None, dense.summary))
+
+    # ------------------------------------------------------------------ calibration from the object
+    def start_refine(self, editor: "SessionEditor") -> threading.Thread:
+        """Refine the planes of the session's calibrated mirrors from the agreement of the views over the recent
+        frames (mirrorcore.refine.refine_session), then apply the planes and marker offsets (one undo step per
+        mirror); the per-mirror report is the job's last status."""
+        depths = self.loop.recent_depths()
+        if depths is None:
+            raise MirrorscanError("no frame yet to refine from")
+        session, snapshot = editor.session, self.snapshot()
+        return self._start(REFINE, lambda cancel: self._refine(editor, session, snapshot, depths, cancel),
+                           "a refinement is already running")
+
+    def _refine(self, editor: "SessionEditor", session: Session, snapshot, depths: np.ndarray,
+                cancel: threading.Event) -> None:
+        self.bus.publish(JobProgress(REFINE, 0.0, f"refining from {len(depths)} frames…"))
+        masks = np.stack([prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1] for d in depths])
+        refined, result = refine_session(session, depths, masks, progress=lambda f: self.bus.publish(
+            JobProgress(REFINE, f, "refining the planes from the agreement of the views…")), cancel=cancel)
+        planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
+        offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
+        editor.set_planes(planes, offsets, what="refined plane")
+        self.bus.publish(JobProgress(REFINE, None, "\n\n".join(f"**{r.name}** refined: {r.summary()}"
+                                                                for r in result.mirrors)))
+
+    def start_agreement(self, session: Session, depth: np.ndarray) -> None:
+        """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), as
+        the job's last status; skipped while one is running."""
+        if self.running(AGREEMENT):
+            return
+        snapshot = self.snapshot()
+
+        def work(cancel: threading.Event) -> None:
+            mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, session.selection)[1]
+            found = view_agreement(snapshot.rig, depth[None], mask[None])
+            lines = [f"{session.mirrors[j - 1].name}: agrees with the other views within {rms:.1f} mm RMS (mean "
+                     f"{mean:+.1f} mm, {n:,} points seen both ways)" for j, (rms, mean, n) in sorted(found.items())
+                     if 1 <= j <= len(session.mirrors)]
+            self.bus.publish(JobProgress(AGREEMENT, None, "\n\n".join(lines) or "no view sees what another sees"))
+        self._start(AGREEMENT, work, "")
+
+    def start_heat(self, frame: "LiveFrame") -> None:
+        """The heat map of one live frame, on a worker (about a third of a second a frame): its points, grey for the
+        direct view and coloured by their distance to the direct surface for the mirrors' (white on it, red
+        outside, blue inside, HEAT_LIMIT_MM and beyond saturated), published as HeatChanged; skipped while one runs."""
+        if self.running(HEAT):
+            return
+
+        def work(cancel: threading.Event) -> None:
+            distances = surface_distances(frame.snapshot.rig, frame.cloud, frame.prepared_depth)
+            self.bus.publish(HeatChanged(frame.index, frame.cloud.points, heat_colours(distances, HEAT_LIMIT_MM)))
+        self._start(HEAT, work, "")
+
+    # ------------------------------------------------------------------ batch reconstruction
+    def start_batch(self, session: Session, method: str, options: DenseOptions, temporal: int,
+                    workers: int) -> Path:
+        """Reconstruct every frame of a saved recording into SESSION/exports/frames-METHOD[-temporalN] (one PLY per
+        frame and a manifest; mirrorcore.batch), on `workers` local processes (1: in this process); a second start
+        of the same job goes on where it stopped. Returns the output folder."""
+        if not session.frames or not (Path(session.root) / SESSION_FILE).is_file():
+            raise MirrorscanError("a batch reads a saved session with frames: record one (or Save as) first")
+        out = exports_folder(session.root, method, temporal)
+        job = BatchJob(Path(session.root), out, method, options, temporal)
+        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel),
+                    "a batch is already running; cancel it first")
+        return out
+
+    def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> None:
+        self.bus.publish(JobProgress(BATCH, 0.0, f"starting {job.method} on every frame…"))
+        run = BatchRun(job, where, on_progress=lambda p: self.bus.publish(JobProgress(BATCH, p.fraction,
+                                                                                       batch_status(p))))
+        run.start()
+        while run.wait(0.2) is None:
+            if cancel.is_set():
+                run.cancel()
+        report = run.wait()
+        self.bus.publish(JobProgress(BATCH, None, batch_summary(report)))
 
     # ------------------------------------------------------------------ background
     def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], None]) -> threading.Thread:

@@ -14,7 +14,8 @@ import numpy as np
 
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.pipeline import object_cloud
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.sources import DepthSource, Frame
 
 from .overlays import depth_layer, depth_range
@@ -26,12 +27,14 @@ RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
 @dataclass(frozen=True, eq=False)
 class LiveFrame:
-    """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres, object mask (H, W)
-    bool, merged cloud, and the snapshot (session, rig) it was processed with; process_ms is the processing time."""
+    """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres as read and as
+    Algorithm 1 used it (prepared_depth: smoothed on the object), object mask (H, W) bool, merged cloud, and the
+    snapshot (session, rig) it was processed with; process_ms is the processing time."""
 
     index: int
     timestamp: float
     depth: np.ndarray
+    prepared_depth: np.ndarray
     mask: np.ndarray
     cloud: Cloud
     snapshot: Snapshot
@@ -67,8 +70,10 @@ class LiveFrame:
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame) -> LiveFrame:
     t0 = time.perf_counter()
-    cloud, mask = object_cloud(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
-    return LiveFrame(index, frame.timestamp, frame.depth, mask, cloud, snapshot, (time.perf_counter() - t0) * 1e3)
+    prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
+    cloud = reconstruct_raw(snapshot.rig, prepared, mask)
+    return LiveFrame(index, frame.timestamp, frame.depth, prepared, mask, cloud, snapshot,
+                     (time.perf_counter() - t0) * 1e3)
 
 
 class RateMeter:

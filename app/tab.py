@@ -15,7 +15,7 @@ from mirrorcore.palette import source_colour
 
 from .context import MODES, Services, TabState
 from .depthscreen import DepthScreen
-from .events import DenseChanged, FrameReady, SessionChanged
+from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .live import LiveFrame
 from .overlays import MarkerMark, MirrorMarks, Overlay, compose
 from .panels import PANELS
@@ -48,6 +48,9 @@ class Tab:
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
         self._stale = True          # the cloud shown is not the last frame's: send both halves next
+        self.dense_visible, self.dense_beside = True, True
+        self.heat, self._last_heat = False, 0.0
+        self._framed = False
         snapshot = services.snapshot
         camera = snapshot.session.camera
         self.scene = TabScene(client)
@@ -62,11 +65,10 @@ class Tab:
                 self.panels.append(panel(self))
         self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
                              services.bus.subscribe(SessionChanged, lambda e: self._on_session(e.snapshot)),
-                             services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result))]
+                             services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
+                             services.bus.subscribe(HeatChanged, self._on_heat)]
         self._on_session(snapshot)
-        self.dense_visible, self.dense_beside = True, True
         self.show_dense(services.jobs.dense_result)
-        self._framed = False
         client.camera.on_update(self._first_view)
         self._watch_visibility()
 
@@ -105,7 +107,7 @@ class Tab:
             self.state.view = view
         depth = view == "depth"
         self._stale = True
-        self.scene.show_clouds(not depth)
+        self.scene.show_clouds(not depth and not self.heat)
         self.scene.show_labels(not depth)
         self.scene.show_dense_layer(self.dense_visible and not depth)
         if depth:
@@ -115,6 +117,17 @@ class Tab:
             self.look_home()
         for listener in list(self._state_listeners):
             listener(self.state)
+
+    def show_heat(self, on: bool) -> None:
+        """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud)."""
+        self.heat, self._stale, self._last_heat = on, True, 0.0
+        self.scene.show_clouds(not on and self.state.view == "3d")
+        if not on:
+            self.scene.show_heat(None, None)
+
+    def _on_heat(self, event: HeatChanged) -> None:
+        if self.heat and not self.closed:
+            self.scene.show_heat(event.points, event.colours)
 
     def show_dense(self, result) -> None:
         """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""
@@ -146,9 +159,14 @@ class Tab:
             return
         frame = event.frame
         if self.state.view == "3d" and not self.hidden:
-            whole = self.services.paused or self._stale
-            self.scene.show_cloud(frame.parts, frame.mirror_ids, None if whole else frame.index % HALVES)
-            self._stale = False
+            if self.heat:
+                if time.perf_counter() - self._last_heat >= 1.0:
+                    self._last_heat = time.perf_counter()
+                    self.services.jobs.start_heat(frame)
+            else:
+                whole = self.services.paused or self._stale
+                self.scene.show_cloud(frame.parts, frame.mirror_ids, None if whole else frame.index % HALVES)
+                self._stale = False
         self._send_screen(frame=frame)
         self.header.show(frame)
 

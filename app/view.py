@@ -149,6 +149,14 @@ class TabScene:
             f"/cloud/{part.source}/{part.half}", part.offsets, colour, point_size=self.point_size,
             precision=precision, point_shape="circle", position=tuple(part.centre), visible=self.clouds_visible)
 
+    def show_heat(self, points: np.ndarray | None, colours: np.ndarray | None) -> None:
+        """A frame's points coloured one by one (the heat map of the calibration), or none."""
+        if points is None:
+            self.scene.remove_by_name("/heat")
+            return
+        self.scene.add_point_cloud("/heat", np.ascontiguousarray(points), colours, point_size=self.point_size,
+                                   precision="float32", point_shape="circle")
+
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
         """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
         for (source, _), handle in self._clouds.items():

@@ -53,12 +53,16 @@ class Calibration:
 
 
 def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np.random.Generator,
-                           name: str = "mirror", window: int = MARKER_WINDOW) -> Calibration:
+                           name: str = "mirror", window: int = MARKER_WINDOW,
+                           marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
     depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median, inside the
     markers' windows only)
     markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
+    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass): the plane
+    fitted to the markers is moved this far away from the camera, along its normal. The residuals stay those of the
+    markers' own plane.
     The inlier threshold is INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the
     mirror and the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
     through the camera.
@@ -81,7 +85,9 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
-    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
+    silver = Plane(fit.plane.normal, fit.plane.d + float(marker_offset))
+    _check_camera_side(silver, name)
+    return Calibration(silver, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
                        marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]))
 
 
@@ -138,9 +144,9 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
 
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
                       method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
-    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers, or with
-    method 'region' from each mirror's region polygon; all or nothing: the first refusal raises
-    CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
+    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers (moved back by
+    each mirror's marker_offset), or with method 'region' from each mirror's region polygon; all or nothing: the first
+    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
     returns the session with the new planes, and (index, Calibration) for each mirror calibrated."""
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
@@ -157,7 +163,8 @@ def _calibrate_mirror(session: Session, mirror: SessionMirror, depth: np.ndarray
         if not mirror.region:
             raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
         return calibrate_from_region(session.camera, depth, mirror.region, rng, mirror.name)
-    return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name)
+    return calibrate_from_markers(session.camera, depth, mirror.markers, rng, mirror.name,
+                                  marker_offset=mirror.marker_offset)
 
 
 def _centre(points: np.ndarray) -> tuple[float, float, float]:

@@ -7,6 +7,8 @@ mirrors (no mirror twice in a row) grouped by their highest mirror, then by leng
 33 = (1, 2), 34 = (2, 1), 35 = (1, 2, 1), 36 = (2, 1, 2), 37 = (1, 3), ... The order does not depend on the rig, so
 a label reads the same in every file; whole groups are numbered while they fit under 255 (NO_SOURCE in dense grids):
 every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6.
+
+The heat map of a calibration (points coloured by their distance to the direct surface) is here too.
 """
 from __future__ import annotations
 
@@ -139,3 +141,17 @@ def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None)
 def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
     """(3,) uint8 RGB of one source (see source_colours)."""
     return source_colours(np.array([source]), mirror_ids)[0]
+
+
+HEAT_NEGATIVE = np.array([33, 102, 172])    # inside the direct surface: blue
+HEAT_ZERO = np.array([247, 247, 247])       # on it: white
+HEAT_POSITIVE = np.array([178, 24, 43])     # outside it: red
+
+
+def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) -> np.ndarray:
+    """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at 0, blue at
+    -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN (the direct grey)."""
+    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0, 1.0)[:, None]
+    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t, HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
+    rgb[np.isnan(np.asarray(values, dtype=np.float64))] = missing
+    return np.round(rgb).astype(np.uint8)

@@ -17,6 +17,7 @@ _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
 READ_COPIES = 4     # trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
 _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
+_HEADER_LINES, _HEADER_LINE = 200, 1024   # a PLY header longer than this (lines, bytes a line) is damage
 
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
@@ -83,3 +84,25 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
     sources = np.asarray(vertex["source"], dtype=np.uint8).reshape(-1) if "source" in names else None
     return points, sources
+
+
+def ply_element_counts(path: str | Path) -> dict[str, int]:
+    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading the data.
+    Raises FileFormatError naming the file when it is missing or its header is not a PLY header."""
+    path = Path(path)
+    counts: dict[str, int] = {}
+    try:
+        with open(path, "rb") as f:
+            if f.readline(_HEADER_LINE) != b"ply\n":
+                raise FileFormatError(f"{path}: not a PLY file (it does not start with 'ply')")
+            for _ in range(_HEADER_LINES):
+                words = f.readline(_HEADER_LINE).split()
+                if words == [b"end_header"]:
+                    return counts
+                if len(words) == 3 and words[0] == b"element":
+                    counts[words[1].decode("ascii", "replace")] = int(words[2])
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: no such file") from None
+    except ValueError:
+        raise FileFormatError(f"{path}: broken PLY header (an element count is not a number)") from None
+    raise FileFormatError(f"{path}: broken PLY header (no end_header)")

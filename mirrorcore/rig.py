@@ -106,6 +106,20 @@ def check_bounces(bounces: int) -> int:
     return int(bounces)
 
 
+def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
+    """The session's rig followed through `bounces` mirrors in turn (default: the session's setting), refusing
+    (MirrorscanError naming session.json) a session without mirrors or with a mirror that cannot reconstruct (no
+    plane or no boundary)."""
+    if not session.mirrors:
+        raise MirrorscanError(f"{session.path}: the session has no mirrors")
+    for m in session.mirrors:
+        if m.plane is None:
+            raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
+        if not m.boundary:
+            raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
+    return Rig.from_session(session, bounces)
+
+
 @dataclass(frozen=True, eq=False)
 class ReflectionTable:
     """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose

@@ -1,7 +1,7 @@
 """The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
 (camera, mirrors, background, frames, and the extensions selection, bounces, timestamps, colour_frames, a mirror's
-id and region), saved atomically with one backup (session.json.bak). Keys this version does not know are kept as
-they were."""
+id, region and marker_offset), saved atomically with one backup (session.json.bak). Keys this version does not know
+are kept as they were."""
 from __future__ import annotations
 
 import json
@@ -37,7 +37,8 @@ MAX_FRAMES = 1_000_000              # frames of a session: 9 hours at 30 fps
 MAX_SESSION_BYTES = 64 << 20        # session.json itself; a million frames listed take about 30 MB
 _TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames",
              "bounces")
-_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region")
+_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset")
+MAX_MARKER_OFFSET = 0.05   # metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake
 
 Pixels = tuple[tuple[float, float], ...]
 
@@ -53,6 +54,9 @@ class SessionMirror:
     id : a stable identity (>= 1, unique in the session), kept when other mirrors are removed or reordered; 0 until
         the session gives it one (Session.__post_init__)
     region : optional (r, 2) pixel polygon on the mirror's frame, for calibration by region
+    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass), along the
+        normal away from the camera; 0 when the markers lie on the reflecting surface. |marker_offset| <=
+        MAX_MARKER_OFFSET.
     extra : keys of the mirror's JSON object that this version does not know, kept as they were
     """
 
@@ -62,6 +66,7 @@ class SessionMirror:
     plane: Plane | None = None
     id: int = 0
     region: Pixels | None = None
+    marker_offset: float = 0.0
     extra: dict = field(default_factory=dict, compare=False)
 
     def to_json(self) -> dict:
@@ -70,6 +75,8 @@ class SessionMirror:
                 "plane": None if self.plane is None else self.plane.to_list()}
         if self.region is not None:
             data["region"] = [list(p) for p in self.region]
+        if self.marker_offset != 0.0:
+            data["marker_offset"] = self.marker_offset
         return {**data, **self.extra}
 
 
@@ -223,8 +230,13 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
             plane = Plane.from_abcd(plane, f"{where}: plane", orient=False)
         except MirrorscanError as exc:
             raise FileFormatError(str(exc)) from None
+    offset = data.get("marker_offset", 0.0)
+    if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
+            or abs(offset) > MAX_MARKER_OFFSET):
+        raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
+                              f"within +-{MAX_MARKER_OFFSET:g}, got {offset!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, extra)
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra)
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:

@@ -83,10 +83,12 @@ def step(page, title: str) -> None:
     time.sleep(0.3)
 
 
-def look_at_the_depth_frame(page, tab) -> None:
-    """Press 'Depth frame' and wait until the browser reports the view back, steadily (a late report of the
-    previous view could otherwise overwrite the server's copy of the camera)."""
-    button(page, "Depth frame")
+def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
+    """Press 'Depth frame' (or not, when the server already switched the tab) and wait until the browser reports the
+    view back, steadily (a late report of the previous view could otherwise overwrite the server's copy of the
+    camera)."""
+    if press:
+        button(page, "Depth frame")
     wait_for(lambda: tab.state.view == "depth", 30, "the depth view")
     for _ in range(10):
         aspect = tab.client.camera.image_width / tab.client.camera.image_height

@@ -3,10 +3,12 @@ capture, both mirrors calibrated by clicking boundaries and markers, a stray mar
 proposal and applied only on confirmation, measuring, exports that never overwrite, save as and open, dense runs
 and cancel, record and replay, and two tabs that keep their own click mode and mirror."""
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.events import JobProgress
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
 from app.panels.mirrors import MirrorsPanel
@@ -107,6 +109,33 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.mirror(2).markers == before.markers
     mirrors.fit_planes([2])
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
+
+
+def test_refine_from_the_object_and_the_heat_map(sphere):
+    """After the markers fit: the views' agreement is reported, 'Refine from the object' refines both planes on a
+    worker and reports each mirror (agreement before and after, the change, how well determined), the glass in
+    front of the silver can be set per mirror, and a tab's heat map shows a frame's points one colour each."""
+    app, headless = sphere
+    tab = headless.tab
+    mirrors = panel(tab, MirrorsPanel)
+    wait_for(lambda: "agrees with the other views within" in mirrors.agreement.content, 60, "the agreement")
+    before = {m.id: m.plane for m in app.editor.session.mirrors}
+    app.jobs.start_refine(app.editor)
+    wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
+    assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
+    for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
+        assert mirror.plane != before[mirror.id]                                    # refined...
+        assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
+    assert app.editor.undo_label(1) == "refined plane of mirror 1"
+    app.editor.set_marker_offset(1, 0.003)
+    assert app.editor.mirror(1).marker_offset == 0.003
+    with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
+        app.editor.set_marker_offset(1, 0.08)
+    tab.look("3d")
+    tab.show_heat(True)
+    wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")
+    tab.show_heat(False)
+    assert "/heat" not in tab.client.scene._handle_from_node_name
 
 
 def test_exports_never_overwrite(sphere):
@@ -210,3 +239,23 @@ def test_record_then_replay_with_the_calibration(sphere):
     wait_for(lambda: app.last_frame.index == 0)
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
     app.pause(False)
+
+
+def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
+    """After the replay, the session being edited is the recording: the Record step's batch writes one PLY per frame
+    and a manifest into its exports/ folder, with progress on the bus, in this process (1 worker)."""
+    app, headless = sphere
+    record = panel(headless.tab, RecordPanel)
+    session = app.editor.session
+    assert session.frames and session.root == record.recorded.root
+    statuses: list[str] = []
+    app.bus.subscribe(JobProgress, lambda e: e.job == "batch" and statuses.append(e.status))
+    record.start_batch()
+    wait_for(lambda: not app.jobs.running("batch") and statuses and statuses[-1].startswith("batch "), 120,
+             "the batch")
+    out = session.root / "exports" / "frames-raw"
+    assert statuses[-1] == f"batch done: {len(session.frames)} of {len(session.frames)} frames in `{out}`"
+    assert sorted(p.name for p in out.glob("*.ply")) == [f"{Path(f).stem}.ply" for f in session.frames]
+    points, sources = read_ply(out / f"{Path(session.frames[0]).stem}.ply")
+    assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
+    assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran

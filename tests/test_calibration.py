@@ -35,6 +35,20 @@ def test_noiseless_markers_give_the_exact_plane():
     assert cal.markers.grades == ("good",) * 8
 
 
+def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
+    """Stickers on 3 mm of glass: their plane is 3 mm nearer the camera than the reflecting surface."""
+    stickers = Plane(GLASS.normal, GLASS.d - 0.003)
+    depth = mirror_frame()
+    for u, v in MARKERS.astype(int):
+        depth[v - 4:v + 5, u - 4:u + 5] = plane_depth(CAMERA, stickers)[v - 4:v + 5, u - 4:u + 5]
+    plain = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1")
+    moved = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1", marker_offset=0.003)
+    np.testing.assert_allclose(plain.plane.abcd, stickers.abcd, atol=1e-5)
+    np.testing.assert_allclose(moved.plane.abcd, GLASS.abcd, atol=1e-5)
+    assert moved.rms_mm == plain.rms_mm and moved.markers == plain.markers      # graded on the stickers' plane
+    assert max(moved.markers.distance_mm) < 0.01
+
+
 def test_noisy_markers_over_a_median_of_frames():
     rng = np.random.default_rng(1)
     one = calibrate_from_markers(CAMERA, mirror_frame(rng), MARKERS, np.random.default_rng(0))

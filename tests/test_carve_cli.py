@@ -40,7 +40,7 @@ def test_cancelled_run_writes_nothing(tmp_path, monkeypatch, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--frame", "all", "--method", "carve"], "only with --method raw"),
+    (["--frame", "all", "--method", "tsdf", "--frames", "2"], "each frame is reconstructed alone"),
     (["--method", "tsdf", "--frames", "99"], "past the end"),
     (["--method", "tsdf", "--frames", "0"], "positive"),
     (["--method", "carve", "--voxel", "-1"], "voxel size"),

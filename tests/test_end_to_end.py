@@ -68,9 +68,10 @@ def test_fitted_radius(scanned, capsys):
     assert fit["rmse_mm"] < (1.0 if noise == "none" else 5.0)
 
 
-def test_all_frames_into_a_folder(scanned, tmp_path):
+def test_all_frames_into_a_folder(scanned, tmp_path, capsys):
     _, session, *_ = scanned
-    run_ok("reconstruct", session, "-o", tmp_path / "clouds", "--frame", "all")
+    run_ok("reconstruct", session, "-o", tmp_path / "clouds", "--frame", "all", "--workers", 1)
     files = sorted(p.name for p in (tmp_path / "clouds").iterdir())
-    assert files == ["000000.ply", "000001.ply"]
-    assert main(["reconstruct", str(session), "-o", str(tmp_path / "clouds"), "--frame", "all"]) == 2
+    assert files == [".mirrorscan-batch.lock", "000000.ply", "000001.ply", "manifest.json"]
+    run_ok("reconstruct", session, "-o", tmp_path / "clouds", "--frame", "all", "--workers", 1)
+    assert "nothing to do: the 2 frames are in" in capsys.readouterr().out

@@ -2,6 +2,7 @@
 import dataclasses
 import json
 import os
+from dataclasses import replace
 
 import numpy as np
 import open3d as o3d
@@ -43,6 +44,15 @@ def test_session_round_trip(tmp_path):
     data = json.loads((tmp_path / "session.json").read_text())
     assert set(data) >= {"version", "camera", "mirrors", "background", "frames"} and data["version"] == 1
     assert data["mirrors"][1]["plane"] is None
+    assert "marker_offset" not in data["mirrors"][1]       # written only when the markers are off the silver
+
+
+def test_marker_offset_round_trip(tmp_path):
+    session = make_session(tmp_path)
+    session = session.with_mirror(0, replace(session.mirrors[0], marker_offset=0.0042))
+    save_session(session)
+    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset"] == 0.0042
+    assert load_session(tmp_path).mirrors[0].marker_offset == 0.0042
 
 
 def test_bounces_are_kept_and_written_only_when_set(tmp_path):
@@ -97,6 +107,9 @@ def edit(tmp_path, change):
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 0, 1]), "normal .* is zero"),
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 1, -2]), "camera behind the mirror"),
     (lambda d: d["mirrors"][0].update(name=""), "name: must be a non-empty string"),
+    (lambda d: d["mirrors"][0].update(marker_offset=0.3), r"mirrors\[0\] \(mirror 1\): 'marker_offset' must be metres"),
+    (lambda d: d["mirrors"][0].update(marker_offset="3 mm"), "'marker_offset' must be metres .* got '3 mm'"),
+    (lambda d: d["mirrors"][0].update(marker_offset=True), "'marker_offset' must be metres"),
     (lambda d: d.update(frames=["../../etc/passwd"]), r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
     (lambda d: d.update(background="/etc/passwd"), "background: path '/etc/passwd' leaves the session folder"),
     (lambda d: d.update(bounces=4), "bounces: must be a whole number from 1 to 3, got 4"),

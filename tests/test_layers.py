@@ -10,16 +10,17 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "mirrorcore"
 FLOORS = {
-    "errors": 0, "atomic": 0, "jsonfile": 0, "palette": 0, "budget": 0,
+    "errors": 0, "atomic": 0, "jsonfile": 0, "palette": 0, "budget": 0, "progress": 0,
     "geometry": 1,
-    "noise": 2, "kinect": 2, "depthops": 2, "depthio": 2, "selection": 2,
+    "noise": 2, "kinect": 2, "depthops": 2, "depthio": 2, "selection": 2, "temporal": 2,
     "session": 3, "ply": 3, "outputs": 3,
     "rig": 4, "paths": 4, "cloud": 4, "reconstruct": 4,
-    "calibration": 5, "markers": 5,
+    "calibration": 5, "markers": 5, "readings": 5, "agreement": 5, "refine": 5, "search": 5,
     "pipeline": 6,
     "dense": 7,
     "shapes": 8, "fitting": 8,
     "sources": 9,
+    "batch": 10,
     "sim": 4.5,
 }
 

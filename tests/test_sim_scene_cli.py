@@ -1,6 +1,7 @@
 """Scene files (round trip, one-line errors naming file and key), the session mirrors of a simulated rig and
 `mirrorscan simulate` writing a session."""
 import json
+import shutil
 
 import cv2
 import numpy as np
@@ -8,7 +9,7 @@ import pytest
 
 from app.cli import main
 from mirrorcore.errors import FileFormatError
-from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.camera import Intrinsics, reproject_pixels
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
@@ -28,12 +29,23 @@ def test_scene_file_round_trip(tmp_path, scene):
         np.testing.assert_allclose(a.corners(), b.corners(), atol=1e-12)
 
 
+def test_scene_file_keeps_the_glass_and_the_clicks(tmp_path):
+    scene = paper_scene().with_markers(0.004, 1.5)
+    save_scene(scene, tmp_path / "scene.json")
+    loaded = load_scene(tmp_path / "scene.json")
+    assert [m.marker_offset for m in loaded.mirrors] == [0.004, 0.004] and loaded.click_jitter_px == 1.5
+    assert load_scene(tmp_path / "scene.json").with_markers(click_jitter_px=0.0).mirrors == loaded.mirrors
+
+
 @pytest.mark.parametrize("edit, key", [
     (lambda d: d["mirrors"][0].pop("normal"), "mirrors[0]: missing key(s) normal"),
     (lambda d: d["mirrors"][1].update(width=-1), "mirrors[1].width"),
     (lambda d: d["objects"][0].update(type="teapot"), "objects[0].type"),
     (lambda d: d["objects"][0].update(centre=[0, 1]), "objects[0].centre"),
     (lambda d: d.pop("camera"), "missing key 'camera'"),
+    (lambda d: d["mirrors"][0].update(marker_offset=-0.001), "mirrors[0].marker_offset: must be 0 to 0.05 metres"),
+    (lambda d: d["mirrors"][1].update(marker_offset="3"), "mirrors[1].marker_offset"),
+    (lambda d: d.update(click_jitter_px=float("nan")), "click_jitter_px: must be 0 to 50 pixels"),
 ])
 def test_broken_scene_file_names_file_and_key(tmp_path, edit, key):
     data = paper_scene().to_json()
@@ -78,6 +90,47 @@ def test_simulate_writes_a_loadable_session_and_truth(tmp_path, capsys):
         assert len(spec.markers) == 6 and len(spec.boundary) >= 4 and spec.plane is None
     frame = session.read_frame(0)
     assert (frame > 0).mean() > 0.5
+
+
+def test_markers_in_front_of_the_glass_and_clicks_off_their_centres(tmp_path):
+    """--marker-offset 3 puts every marker face 3 mm in front of the true (reflecting) plane; --click-jitter 2 moves the
+    clicks by about 2 px (radial RMS), the same for the same seed; truth.json keeps both."""
+    plain, glass = tmp_path / "plain", tmp_path / "glass"
+    assert main(["simulate", str(plain), "--noise", "none", "--seed", "5", "--quiet"]) == 0
+    for _ in range(2):
+        shutil.rmtree(glass, ignore_errors=True)
+        assert main(["simulate", str(glass), "--noise", "none", "--seed", "5", "--marker-offset", "3",
+                     "--click-jitter", "2", "--quiet"]) == 0
+        clicks = np.array([load_session(glass).mirrors[j].markers for j in range(2)])
+        assert main(["simulate", str(tmp_path / "again"), "--noise", "none", "--seed", "5", "--marker-offset", "3",
+                     "--click-jitter", "2", "--quiet"]) == 0
+        np.testing.assert_array_equal(clicks, [m.markers for m in load_session(tmp_path / "again").mirrors])
+        shutil.rmtree(tmp_path / "again")
+    exact = np.array([m.markers for m in load_session(plain).mirrors])
+    moved = np.linalg.norm(clicks - exact, axis=-1)
+    assert 1.0 < np.sqrt(np.mean(moved ** 2)) < 3.5 and moved.min() > 0
+    truth = json.loads((glass / "truth.json").read_text())
+    assert truth["scene"]["click_jitter_px"] == 2.0
+    session = load_session(glass)
+    depth = session.read_frame(0)
+    for mirror, true in zip(truth["mirrors"], truth["planes"]):
+        assert mirror["marker_offset"] == 0.003
+        plane = Plane.from_abcd(true)
+        uv = np.round(exact[truth["mirrors"].index(mirror)]).astype(int)
+        faces = reproject_pixels(session.camera, uv[:, 0], uv[:, 1], depth[uv[:, 1], uv[:, 0]])
+        # noiseless frames keep 1 mm depth units: each face within 0.6 mm of 3 mm in front of the silver
+        np.testing.assert_allclose(plane.signed_distance(faces.astype(np.float64)), 0.003, atol=0.6e-3)
+        np.testing.assert_allclose(plane.signed_distance(np.array(mirror["markers"])), 0.003, atol=1e-12)
+
+
+@pytest.mark.parametrize("option, value, message", [
+    ("--marker-offset", "-1", "--marker-offset: must be 0 to 50 mm, got -1"),
+    ("--marker-offset", "nan", "--marker-offset: must be 0 to 50 mm, got nan"),
+    ("--click-jitter", "99", "--click-jitter: must be 0 to 50 pixels, got 99"),
+])
+def test_bad_glass_and_jitter_options(tmp_path, capsys, option, value, message):
+    assert main(["simulate", str(tmp_path / "s"), option, value, "--quiet"]) == 2
+    assert message in capsys.readouterr().err and not (tmp_path / "s").exists()
 
 
 def test_simulate_cli_errors_leave_nothing(tmp_path, capsys):

@@ -1,28 +1,41 @@
-"""`mirrorscan calibrate SESSION [--frame I]`: fit every mirror's plane and write it into session.json."""
+"""`mirrorscan calibrate SESSION [--frame I] [--method markers|region|scene] [--refine]`: fit every mirror's plane,
+optionally refine it from the agreement of the views, and write it into session.json."""
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import CalibrationError
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.refine import Refinement, refine_session
+from mirrorcore.rig import Rig
+from mirrorcore.search import calibrate_scene
 from mirrorcore.session import Session, load_session, save_session
 
 MAX_MEDIAN_FRAMES = 30
+REFINE_FRAMES = 10
 
 
 def register(sub) -> None:
-    p = sub.add_parser("calibrate", help="fit every mirror's plane from its markers; write it into session.json")
+    p = sub.add_parser("calibrate", help="fit every mirror's plane (from its markers, its frame, or the object) and "
+                                         "optionally refine it from the object; write it into session.json")
     p.add_argument("session", help="session folder")
     p.add_argument("--frame", type=int, default=None,
-                   help="use this frame only (default: per-pixel median of the background and up to "
-                        f"{MAX_MEDIAN_FRAMES} frames)")
-    p.add_argument("--method", choices=["markers", "region"], default="markers",
-                   help="markers: the mirror's 'markers'; region: the mirror's 'region' polygon (its frame)")
-    p.add_argument("--seed", type=int, default=0, help="RANSAC seed")
+                   help="use this frame only (default: markers and region use the per-pixel median of the background "
+                        f"and up to {MAX_MEDIAN_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)")
+    p.add_argument("--method", choices=["markers", "region", "scene"], default=None,
+                   help="markers (default): the mirror's 'markers'; region: its 'region' polygon (its frame); scene: "
+                        "no markers, the object seen directly and in each mirror (search, then refinement)")
+    p.add_argument("--refine", action="store_true",
+                   help="refine the planes so that the object seen in the mirrors agrees with the object seen directly "
+                        "(after --method, or alone on a session whose planes are set)")
+    p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
 
@@ -30,8 +43,7 @@ def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
     """(k, H, W) metres: the frame asked for, or the background and up to MAX_MEDIAN_FRAMES evenly spaced frames."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
-    picks = np.unique(np.linspace(0, len(session.frames) - 1, min(len(session.frames), MAX_MEDIAN_FRAMES)).astype(int))
-    stack = [session.read_frame(int(i)) for i in picks] if session.frames else []
+    stack = [session.read_frame(int(i)) for i in _spread(session, MAX_MEDIAN_FRAMES)]
     background = session.read_background()
     if background is not None:
         stack.append(background)
@@ -40,14 +52,54 @@ def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
     return require_readings(np.stack(stack), f"{session.path}: the frames and the background")
 
 
+def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The frames the object-based steps use (the frame asked for, or up to REFINE_FRAMES evenly spaced) with the
+    object's pixels as Algorithm 1 selects them -> depths (F, H, W) float32 metres as read, masks (F, H, W) bool."""
+    if not session.frames:
+        raise CalibrationError(f"{session.path}: the session has no frames with the object to calibrate from")
+    picks = [frame] if frame is not None else _spread(session, REFINE_FRAMES)
+    rig, background = Rig.from_session(session), session.read_background()
+    depths = np.stack([session.read_frame(int(i)) for i in picks])
+    masks = np.stack([prepare_frame(rig, d, background, session.selection)[1] for d in depths])
+    return depths, masks
+
+
+def _spread(session: Session, most: int) -> np.ndarray:
+    """Up to `most` frame indices, evenly spaced over the session."""
+    if not session.frames:
+        return np.zeros(0, int)
+    return np.unique(np.linspace(0, len(session.frames) - 1, min(len(session.frames), most)).astype(int))
+
+
 def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")
-    depth = calibration_depth(session, args.frame)
-    session, results = calibrate_session(session, depth, np.random.default_rng(args.seed), method=args.method)
-    for i, result in results:
-        print(f"{session.mirrors[i].name}: plane {np.round(result.plane.abcd, 5).tolist()}  {result.summary()}")
+    method = args.method or (None if args.refine else "markers")
+    rng = np.random.default_rng(args.seed)
+    # a bar that clears itself, so that a refusal stays one line
+    with tqdm(total=100, desc="refining", unit="%", leave=False, delay=0.5, bar_format="{l_bar}{bar}| {elapsed}",
+              disable=args.quiet or not (args.refine or method == "scene")) as bar:
+        progress = lambda fraction: bar.update(100 * fraction - bar.n)  # noqa: E731
+        session, result = _calibrate(session, method, args, rng, progress)
+    if result is not None:
+        for report in result.mirrors:
+            print(f"{report.name}: refined plane {np.round(report.after.abcd, 5).tolist()}  {report.summary()}")
     save_session(session)
     print(f"wrote {session.path}")
     return 0
+
+
+def _calibrate(session: Session, method: str | None, args: argparse.Namespace, rng: np.random.Generator,
+               progress) -> tuple[Session, Refinement | None]:
+    """The method's planes (printed as they are fitted), then the refinement when asked (or always, for scene)."""
+    if method == "scene":
+        return calibrate_scene(session, *object_frames(session, args.frame), rng, progress=progress)
+    if method is not None:
+        session, results = calibrate_session(session, calibration_depth(session, args.frame), rng, method=method)
+        for i, fit in results:
+            print(f"{session.mirrors[i].name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary()}")
+    if not args.refine:
+        return session, None
+    return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),
+                          progress=progress)

@@ -1,5 +1,6 @@
-"""`mirrorscan experiment {angle,distance,kaleidoscope}`: the paper's figures 4a and 5a on the simulated rig, and the
-error against the angle of two hinged mirrors seen through several mirrors in turn, as CSV and PNG."""
+"""`mirrorscan experiment {angle,distance,kaleidoscope,temporal}`: the paper's figures 4a and 5a on the simulated rig,
+the error against the angle of two hinged mirrors seen through several mirrors in turn, and the effect of temporal
+smoothing on the walking figure, as CSV and PNG."""
 from __future__ import annotations
 
 import argparse
@@ -7,8 +8,9 @@ import csv
 import io
 from pathlib import Path
 
-from app import experiment_kaleidoscope
-from app.experiments import COLUMNS, plot_experiment, run_experiment
+from app.experiments import kaleidoscope as experiment_kaleidoscope
+from app.experiments import temporal as temporal_experiment
+from app.experiments.paper import COLUMNS, plot_experiment, run_experiment
 from mirrorcore.atomic import write_atomic
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.outputs import check_output
@@ -16,11 +18,14 @@ from mirrorcore.outputs import check_output
 
 def register(sub) -> None:
     p = sub.add_parser("experiment", help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) "
-                                          "experiment on the simulated rig, or the kaleidoscope's error-vs-angle")
-    p.add_argument("name", choices=["angle", "distance", "kaleidoscope"])
+                                          "experiment on the simulated rig, the kaleidoscope's error-vs-angle, or "
+                                          "temporal smoothing on the walking figure")
+    p.add_argument("name", choices=["angle", "distance", "kaleidoscope", "temporal"])
     p.add_argument("-o", "--out", default=None, help="output prefix: writes PREFIX.csv and PREFIX.png "
                                                      "(default experiment-NAME)")
-    p.add_argument("--seeds", type=int, default=3, help="noise seeds per point (default 3)")
+    p.add_argument("--seeds", type=int, default=3, help="angle, distance: noise seeds per point (default 3)")
+    p.add_argument("--neighbours", type=int, default=2, help="temporal: frames on each side (default 2)")
+    p.add_argument("--frames", type=int, default=30, help="temporal: frames measured (default 30, one stride)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -33,19 +38,36 @@ def run(args: argparse.Namespace) -> int:
         raise MirrorscanError(f"{prefix.parent}: no such folder")
     for path in (prefix.with_suffix(".csv"), prefix.with_suffix(".png")):
         check_output(path)                     # before minutes of work: never over a session's files
+    if args.name == "temporal":
+        return run_temporal(args, prefix)
     if args.name == "kaleidoscope":
-        columns = experiment_kaleidoscope.COLUMNS
         rows = experiment_kaleidoscope.run_kaleidoscope(args.seeds, progress=not args.quiet)
+        write_csv(prefix.with_suffix(".csv"), experiment_kaleidoscope.COLUMNS, rows)
+        experiment_kaleidoscope.plot_kaleidoscope(rows, prefix.with_suffix(".png"))
     else:
-        columns, rows = COLUMNS, run_experiment(args.name, args.seeds, progress=not args.quiet)
+        rows = run_experiment(args.name, args.seeds, progress=not args.quiet)
+        write_csv(prefix.with_suffix(".csv"), COLUMNS, rows)
+        plot_experiment(args.name, rows, prefix.with_suffix(".png"))
+    print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
+    return 0
+
+
+def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
+    if args.neighbours < 1 or args.frames < 1:
+        raise MirrorscanError(f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}")
+    rows = temporal_experiment.run_temporal_experiment(args.neighbours, args.frames, progress=not args.quiet)
+    write_csv(prefix.with_suffix(".csv"), temporal_experiment.COLUMNS, rows)
+    temporal_experiment.plot_temporal(rows, args.neighbours, prefix.with_suffix(".png"))
+    for part, figures in temporal_experiment.summary(rows).items():
+        print(f"{part} parts: RMSE {figures['rmse_mm']:.2f} mm as read, {figures['temporal_rmse_mm']:.2f} mm with "
+              f"--temporal {args.neighbours} ({figures['change_pct']:+.0f} %), median over {args.frames} frames")
+    print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
+    return 0
+
+
+def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=columns)
     writer.writeheader()
     writer.writerows(rows)
-    write_atomic(prefix.with_suffix(".csv"), text.getvalue().encode("utf-8"))
-    if args.name == "kaleidoscope":
-        experiment_kaleidoscope.plot_kaleidoscope(rows, prefix.with_suffix(".png"))
-    else:
-        plot_experiment(args.name, rows, prefix.with_suffix(".png"))
-    print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
-    return 0
+    write_atomic(path, text.getvalue().encode("utf-8"))

@@ -1,5 +1,6 @@
 """`mirrorscan reconstruct SESSION -o OUT [--frame I|all] [--method raw|paper|carve|tsdf]`: the merged cloud of frames
-(Algorithm 1), a carved cloud (Algorithm 2 as written, or the consistent carving) or a fused mesh, as PLY."""
+(Algorithm 1), a carved cloud (Algorithm 2 as written, or the consistent carving) or a fused mesh, as PLY; with
+`--frame all`, one PLY per frame and a manifest, on this machine's cores or a Dask cluster (mirrorcore.batch)."""
 from __future__ import annotations
 
 import argparse
@@ -11,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from mirrorcore.atomic import new_folder
+from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, Where, read_depth, run_batch
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
@@ -20,14 +21,15 @@ from mirrorcore.outputs import check_output
 from mirrorcore.palette import MAX_ORDER, source_name
 from mirrorcore.pipeline import object_cloud, prepare_frame
 from mirrorcore.ply import write_ply
-from mirrorcore.rig import Rig
+from mirrorcore.rig import Rig, calibrated_rig
 from mirrorcore.session import Session, load_session
 
 
 def register(sub) -> None:
     p = sub.add_parser("reconstruct", help="the object's merged cloud (Algorithm 1) as PLY")
     p.add_argument("session", help="session folder (calibrated: run `mirrorscan calibrate` first)")
-    p.add_argument("-o", "--output", required=True, help="PLY file, or a new folder of PLY files with --frame all")
+    p.add_argument("-o", "--output", required=True, help="PLY file, or with --frame all a folder of PLY files (new, or "
+                                                         "one this command made: it goes on)")
     p.add_argument("--frame", default="0", help="frame index (0-based, negative from the end) or 'all'")
     p.add_argument("--method", choices=["raw", *METHODS], default="raw",
                    help="raw: the paper's Algorithm 1; paper: its Algorithm 2 as written (carved cloud); carve: the "
@@ -40,33 +42,34 @@ def register(sub) -> None:
     p.add_argument("--threshold", type=float, help="paper, carve: th in metres (default: the voxel size)")
     p.add_argument("--truncation", type=float, help="tsdf: truncation in metres (default: 3 voxels)")
     p.add_argument("--frames", type=int, default=1, help="tsdf: fuse this many frames from --frame on (static object)")
+    p.add_argument("--temporal", type=int, default=0, metavar="N",
+                   help="smooth each frame's depth with its N neighbours on each side where the scene is static "
+                        "(moving people; default 0: off)")
+    batch = p.add_argument_group("--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does "
+                                 "only the frames missing)")
+    batch.add_argument("--workers", type=int, help="local worker processes (default: one per core; 1: in this "
+                                                   "process, without Dask)")
+    batch.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this existing Dask cluster (the session "
+                                                                      "and OUT on a file system all workers share)")
+    batch.add_argument("--frames-per-task", type=int, metavar="N", help="frames in one Dask task (default 8 raw, "
+                                                                       "1 dense)")
+    batch.add_argument("--overwrite", action="store_true",
+                       help="redo every frame when OUT was made with another calibration or options")
     add_bounces_option(p)
     p.set_defaults(run=run)
+
+
+def read_scan_frame(session: Session, index: int, temporal: int = 0) -> np.ndarray:
+    """Frame `index` as (H, W) metres (smoothed with `temporal` neighbours, mirrorcore.batch.read_depth), refused when
+    it has no reading at all (nothing to scan in it). `--frame all` reads frames as they are: a recording may begin
+    with blank frames while the camera starts."""
+    return require_readings(read_depth(session, index, temporal), str(Path(session.root) / session.frames[index]))
 
 
 def add_bounces_option(p) -> None:
     """--bounces, for the commands that reconstruct (reconstruct, serve)."""
     p.add_argument("--bounces", type=int, help=f"follow a camera ray through at most this many mirrors in turn, 1 to "
                                                f"{MAX_ORDER} (default: the session's setting, {MAX_ORDER} unless set)")
-
-
-def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
-    """The session's rig followed through `bounces` mirrors (default: the session's setting), refusing mirrors that
-    cannot reconstruct (no plane or no boundary)."""
-    if not session.mirrors:
-        raise MirrorscanError(f"{session.path}: the session has no mirrors")
-    for m in session.mirrors:
-        if m.plane is None:
-            raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
-        if not m.boundary:
-            raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
-    return Rig.from_session(session, bounces)
-
-
-def read_scan_frame(session: Session, index: int) -> np.ndarray:
-    """Frame `index` as (H, W) metres, refused when it has no reading at all (nothing to scan in it). `--frame all`
-    reads frames as they are: a recording may begin with blank frames while the camera starts."""
-    return require_readings(session.read_frame(index), str(Path(session.root) / session.frames[index]))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,20 +85,12 @@ def run(args: argparse.Namespace) -> int:
             raise MirrorscanError(f"--frame: expected an integer or 'all', got {args.frame!r}") from None
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
-        cloud, _ = object_cloud(rig, read_scan_frame(session, index), background, selection)
+        cloud, _ = object_cloud(rig, read_scan_frame(session, index, args.temporal), background, selection)
         write_ply(out, cloud.points, cloud.sources)
         print(f"wrote {out}: {len(cloud)} points " + ", ".join(
             f"{source_name(k)} {v}" for k, v in cloud.source_counts(len(rig.mirrors)).items()))
         return 0
-    if args.method != "raw":
-        raise MirrorscanError(f"--frame all: only with --method raw; {args.method} makes one result from one frame "
-                              "(tsdf: --frames N fuses N frames)")
-    with new_folder(out) as work:   # a failure or Ctrl-C leaves no half-written folder
-        for i in tqdm(range(len(session.frames)), desc="reconstruct", unit="frame"):
-            cloud, _ = object_cloud(rig, session.read_frame(i), background, selection)
-            write_ply(work / f"{Path(session.frames[i]).stem}.ply", cloud.points, cloud.sources)
-    print(f"wrote {len(session.frames)} PLY files into {out}")
-    return 0
+    return run_all(args, out)
 
 
 def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, background, selection,
@@ -108,11 +103,10 @@ def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, 
     if first + count > len(session.frames):
         raise MirrorscanError(f"--frames: the session has {len(session.frames)} frames, "
                               f"{first} + {count} is past the end")
-    prepared = [prepare_frame(rig, read_scan_frame(session, i), background, selection)
+    prepared = [prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
                 for i in range(first, first + count)]
     depths, masks = (np.stack(a) for a in zip(*prepared))
-    options = DenseOptions(args.voxel, args.margin, None if args.bounds is None else
-                           (tuple(args.bounds[:3]), tuple(args.bounds[3:])), args.threshold, args.truncation)
+    options = _dense_options(args)
     volume = dense_volume(rig, depths[0], masks[0], options)
     with tqdm(total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}") as bar, \
             _ctrl_c_cancels() as cancel:
@@ -132,6 +126,80 @@ def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, 
         print(f"wrote {out}: mesh of {len(mesh.vertices)} vertices, {len(mesh.faces)} faces from {count} frame(s), "
               f"{shape} volume ({volume.voxel * 1e3:g} mm)")
     return 0
+
+
+def run_all(args: argparse.Namespace, out: Path) -> int:
+    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar; Ctrl-C stops cleanly (the
+    frames finished and the manifest are kept; a rerun goes on) and exits with 130."""
+    if args.frames != 1:
+        raise MirrorscanError("--frames: with --frame all each frame is reconstructed alone (people move); "
+                              "--frames fuses several frames into one result")
+    job = BatchJob(Path(args.session), out, args.method, _dense_options(args), args.temporal, args.bounces)
+    where = Where(args.workers, args.scheduler)
+    if where.scheduler:
+        print(f"connecting to the Dask cluster at {where.scheduler}...", flush=True)
+    elif not where.in_process:
+        print(f"starting {where.local_workers} local Dask workers...", flush=True)
+    with _ProgressBar(args.method) as bar, _ctrl_c_cancels() as cancel:
+        report = run_batch(job, where, args.frames_per_task, args.overwrite, bar.show, cancel)
+    return _summary(report)
+
+
+class _ProgressBar:
+    """A tqdm bar of the frames done (with their rate and the time left), made at the first progress report (the
+    frames kept from an earlier run count as done, not in the rate); failures and retries after it."""
+
+    def __init__(self, desc: str):
+        self.desc = desc
+        self.bar: tqdm | None = None
+
+    def __enter__(self) -> _ProgressBar:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+    def show(self, progress: BatchProgress) -> None:
+        if self.bar is None:
+            if progress.dashboard:
+                print(f"Dask dashboard: {progress.dashboard}", flush=True)
+            self.bar = tqdm(total=progress.total, initial=progress.kept, desc=self.desc, unit="frame")
+        self.bar.set_postfix({k: v for k, v in (("failed", progress.failed), ("retried", len(progress.retried)))
+                              if v}, refresh=False)
+        self.bar.update(progress.done - self.bar.n)
+
+
+def _summary(report: BatchReport) -> int:
+    """Print how the batch went; MirrorscanError (exit 2) when frames failed, KeyboardInterrupt (130) when
+    cancelled."""
+    if report.complete and not report.written:
+        print(f"nothing to do: the {report.total} frames are in {report.out} already (see {report.manifest})")
+    else:
+        kept = f" ({report.kept} kept from an earlier run)" if report.kept else ""
+        print(f"wrote {report.written} PLY files into {report.out}{kept} at {report.fps:.1f} frames/s; "
+              f"{report.kept + report.written} of {report.total} frames done, manifest {report.manifest}")
+    for worker in sorted(set(report.retried.values())):
+        frames = [i for i, w in report.retried.items() if w == worker]
+        print(f"worker {worker} left the cluster with frames {_frame_list(frames)}: they were run again")
+    if report.cancelled:
+        raise KeyboardInterrupt
+    if report.failed:
+        first, message = next(iter(report.failed.items()))
+        raise MirrorscanError(f"{len(report.failed)} frame(s) failed ({_frame_list(list(report.failed))}; see "
+                              f"{report.manifest}), frame {first}: {message}")
+    return 0
+
+
+def _frame_list(frames: list[int], most: int = 10) -> str:
+    """'3, 4, 9' (at most `most`, then '... and N more')."""
+    shown = ", ".join(map(str, frames[:most]))
+    return shown + (f" and {len(frames) - most} more" if len(frames) > most else "")
+
+
+def _dense_options(args: argparse.Namespace) -> DenseOptions:
+    return DenseOptions(args.voxel, args.margin, None if args.bounds is None else
+                        (tuple(args.bounds[:3]), tuple(args.bounds[3:])), args.threshold, args.truncation)
 
 
 @contextmanager

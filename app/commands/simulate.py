@@ -34,6 +34,12 @@ def register(sub) -> None:
                                                f"(default {MAX_BOUNCES}); a ray meeting one more mirror reads nothing")
     p.add_argument("--single-bounce", action="store_true", help="leave out rays that reflect off two mirrors "
                                                                 "(--bounces 1)")
+    p.add_argument("--marker-offset", type=float, metavar="MM",
+                   help="the markers' faces this many millimetres in front of every mirror's reflecting surface, as "
+                        "stickers on the glass of an ordinary mirror (default 0, or the scene file's)")
+    p.add_argument("--click-jitter", type=float, metavar="PX",
+                   help="radial RMS error, pixels, of the session's marker clicks (seeded; default 0, or the scene "
+                        "file's)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -42,6 +48,12 @@ def run(args: argparse.Namespace) -> int:
     mesh = args.object.removeprefix("mesh:") if args.object and args.object.startswith("mesh:") else None
     check_output(args.out, tuple(p for p in (args.scene, mesh) if p))
     scene = _scene(args)
+    if args.marker_offset is not None and not 0 <= args.marker_offset <= 50:
+        raise MirrorscanError(f"--marker-offset: must be 0 to 50 mm, got {args.marker_offset:g}")
+    if args.click_jitter is not None and not 0 <= args.click_jitter <= 50:
+        raise MirrorscanError(f"--click-jitter: must be 0 to 50 pixels, got {args.click_jitter:g}")
+    offset = None if args.marker_offset is None else args.marker_offset / 1000
+    scene = scene.with_markers(offset, args.click_jitter)
     if args.single_bounce and args.bounces not in (None, 1):
         raise MirrorscanError(f"--single-bounce means --bounces 1; drop one of them (got --bounces {args.bounces})")
     bounces = 1 if args.single_bounce else MAX_BOUNCES if args.bounces is None else args.bounces

@@ -82,6 +82,10 @@ class LivePanel:
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
             self.virtual = gui.add_checkbox("Virtual cameras (through 1, 2, 3 mirrors)", initial_value=True)
+            self.heat = gui.add_checkbox("Heat map: the mirrors' points by their distance to the direct surface",
+                                         initial_value=False, hint="white on it, red outside, blue inside (10 mm "
+                                         "and more saturated), grey where there is nothing to compare; a frame a "
+                                         "second")
             self.pixel = gui.add_markdown("Inspect mode: click the depth frame to read a pixel.")
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
@@ -89,6 +93,7 @@ class LivePanel:
         self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
+        self.heat.on_update(lambda _: tab.show_heat(bool(self.heat.value)))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
         self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)

@@ -9,10 +9,12 @@ import numpy as np
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.markers import review_fit
-from mirrorcore.session import SessionMirror
+from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE
+from ..events import JobProgress
+from ..jobs import AGREEMENT, REFINE
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -39,6 +41,11 @@ class MirrorsPanel:
         self.help = gui.add_markdown(HELP["inspect"])
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
+        self.refine = gui.add_button("Refine from the object", hint="adjust every calibrated plane so that the "
+                                     "mirrors' views of the object agree with the camera's (markers on glass, "
+                                     "clicks a pixel off)")
+        self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
+        self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.review = gui.add_markdown("", visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
         self.discard = gui.add_button("Keep the current plane(s)", visible=False)
@@ -51,9 +58,13 @@ class MirrorsPanel:
         self.clear_boundary = gui.add_button("Clear boundary", visible=False)
         self.markers = gui.add_html("")
         self.result = gui.add_markdown("")
-        with gui.add_folder("Rename, remove, clear", expand_by_default=False):
+        self.agreement = gui.add_markdown("")
+        with gui.add_folder("Rename, glass, remove, clear", expand_by_default=False):
             self.name = gui.add_text("Name", "")
             self.rename = gui.add_button("Rename")
+            self.glass = gui.add_number("Markers in front of the silver (mm)", initial_value=0.0, min=0.0,
+                                        max=MAX_MARKER_OFFSET * 1e3, step=0.1,
+                                        hint="the glass between the stickers and the reflecting surface; fit again")
             self.clear_markers = gui.add_button("Clear markers")
             self.remove = gui.add_button("Remove this mirror…", color="red")
             self.restore = gui.add_button("Undo", visible=False)
@@ -61,7 +72,24 @@ class MirrorsPanel:
         tab.on_click("markers", self._marker_click)
         tab.on_click("boundary", self._boundary_click)
         tab.on_state(lambda _: self.refresh())
+        self._unsubscribe = self.services.bus.subscribe(JobProgress, self._on_job)
         self.refresh()
+
+    def detach(self) -> None:
+        """Stop listening to the app (the tab closed)."""
+        self._unsubscribe()
+
+    def _on_job(self, event: JobProgress) -> None:
+        """The refinement's progress and report, and the views' agreement after a fit."""
+        if event.job == REFINE:
+            running = event.fraction is not None
+            self.refine.disabled, self.refine_cancel.visible = running, running
+            self.refine_progress.visible = running
+            if running:
+                self.refine_progress.value = 100.0 * event.fraction
+            self.result.content = event.status
+        elif event.job == AGREEMENT:
+            self.agreement.content = event.status
 
     def _wire(self) -> None:
         editor, act = self.services.editor, self.tab.act
@@ -80,6 +108,10 @@ class MirrorsPanel:
         self.delete_corner.on_click(lambda _: act(self._delete_corner))
         self.clear_boundary.on_click(lambda _: act(lambda: self._clear_boundary()))
         self.rename.on_click(lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value)))
+        self.glass.on_update(lambda e: e.client is not None and act(
+            lambda: editor.set_marker_offset(self._id(), self.glass.value / 1e3)))
+        self.refine.on_click(lambda _: act(lambda: self.services.jobs.start_refine(editor)))
+        self.refine_cancel.on_click(lambda _: self.services.jobs.cancel(REFINE))
         self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
         self.remove.on_click(lambda _: act(self._confirm_remove))
         self.restore.on_click(lambda _: act(lambda: editor.undo(SESSION_SCOPE)))
@@ -236,7 +268,15 @@ class MirrorsPanel:
         else:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self.result.content = report
+            self._check_agreement()
         self.tab.changed()
+
+    def _check_agreement(self) -> None:
+        """After new planes: how the views agree on the last frame (a worker fills it in)."""
+        frame = self.services.last_frame
+        if frame is not None:
+            self.agreement.content = "checking how the views agree…"
+            self.services.jobs.start_agreement(self.services.editor.session, frame.depth)
 
     def _apply(self) -> None:
         fits, self.proposal = self.proposal, None
@@ -245,6 +285,7 @@ class MirrorsPanel:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self.result.content = "\n\n".join(f"**{m.name}**: {c.summary()} (applied on confirmation)"
                                               for c, m, _ in fits.values())
+            self._check_agreement()
         self.tab.changed()
 
     def _discard(self) -> None:
@@ -264,6 +305,10 @@ class MirrorsPanel:
         self.mirror.value = selected.name if selected else names[-1]
         if selected and self.name.value != selected.name:
             self.name.value = selected.name
+        if selected:
+            self.glass.value = round(selected.marker_offset * 1e3, 2)
+        self.refine.disabled = (self.services.jobs.running(REFINE)
+                                or not any(m.plane is not None for m in session.mirrors))
         has = selected is not None
         for button in (self.fit, self.rename, self.remove, self.clear_markers):
             button.disabled = not has

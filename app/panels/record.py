@@ -1,15 +1,20 @@
 """Step 5, "Record": record the live frames into a new session folder (with the current calibration and object
-selection), see it count, stop, and replay it with the frame slider (Playback, in the header). One recording at a
-time, shared by every tab."""
+selection), see it count, stop, and replay it with the frame slider (in the header); then reconstruct every frame of
+the session being edited in a batch (mirrorcore.batch), with its progress, time left and a cancel. One recording and
+one batch at a time, shared by every tab."""
 from __future__ import annotations
 
+import os
+
+from mirrorcore.batch import BATCH_METHODS
+from mirrorcore.dense import DenseOptions
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import Session
 from mirrorcore.sources import SessionSource
 
 from ..context import TabContext
 from ..events import JobProgress
-from ..jobs import RECORD
+from ..jobs import BATCH, RECORD
 
 TITLE = "Record"
 
@@ -24,6 +29,18 @@ class RecordPanel:
         self.stop_button = gui.add_button("Stop recording", disabled=True)
         self.status = gui.add_markdown("Records the live frames into a new session folder.")
         self.replay = gui.add_button("Replay the recording", disabled=True)
+        with gui.add_folder("Reconstruct every frame (batch)", expand_by_default=False):
+            self.method = gui.add_dropdown("Method", BATCH_METHODS, initial_value="raw")
+            self.temporal = gui.add_slider("Temporal smoothing (neighbours)", min=0, max=5, step=1, initial_value=0)
+            self.workers = gui.add_slider("Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1,
+                                          initial_value=1)
+            self.batch = gui.add_button("Reconstruct every frame of this session")
+            self.batch_cancel = gui.add_button("Cancel the batch", visible=False)
+            self.batch_progress = gui.add_progress_bar(0.0, visible=False)
+            self.batch_status = gui.add_markdown("One PLY per frame and a manifest in the session's exports/ "
+                                                 "folder; a second run goes on where the first stopped.")
+        self.batch.on_click(lambda _: tab.act(self.start_batch))
+        self.batch_cancel.on_click(lambda _: self.services.jobs.cancel(BATCH))
         self.start_button.on_click(lambda _: tab.act(self.start))
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
@@ -50,7 +67,20 @@ class RecordPanel:
         self.services.open_session(self.recorded)
         self.services.use_source(SessionSource(self.recorded))
 
+    def start_batch(self) -> None:
+        """Every frame of the session being edited (a saved recording, say), with the chosen method, on the
+        chosen number of worker processes (1: in this process; more: a local Dask cluster)."""
+        self.services.jobs.start_batch(self.services.editor.session, self.method.value, DenseOptions(),
+                                       int(self.temporal.value), int(self.workers.value))
+
     def _on_job(self, event: JobProgress) -> None:
+        if event.job == BATCH:
+            running = event.fraction is not None
+            self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = running, running, running
+            if running:
+                self.batch_progress.value = 100.0 * event.fraction
+            self.batch_status.content = event.status
+            return
         if event.job != RECORD:
             return
         running = event.fraction is not None

@@ -39,14 +39,25 @@ def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOp
 
 def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, method: str,
                       options: DenseOptions = DenseOptions(), progress: Progress | None = None,
-                      cancel=None) -> CarveResult | TsdfResult:
+                      cancel=None, workers: int | None = None) -> CarveResult | TsdfResult:
     """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see
     mirrorcore.pipeline.prepare_frame).
 
-    depths, masks : (F, H, W) float metres / bool. Raises MirrorscanError for an unknown method, Cancelled when
-    `cancel` (a threading.Event or a callable returning True) asks to stop."""
+    depths, masks : (F, H, W) float metres / bool; workers : threads for the slabs (default the CPU count). Raises
+    MirrorscanError for an unknown method, Cancelled when `cancel` (a threading.Event or a callable returning True)
+    asks to stop."""
     if method not in METHODS:
         raise MirrorscanError(f"--method: unknown dense method {method!r} (expected one of {', '.join(METHODS)})")
     if method == "tsdf":
-        return fuse(rig, depths, masks, volume, options.truncation, progress, cancel)
-    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel)
+        return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers)
+    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel, workers)
+
+
+def result_geometry(result: CarveResult | TsdfResult) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """What a PLY file holds of a dense result: points (n, 3) float32 metres, camera frame, their sources (n,) uint8
+    and faces (m, 3) int32 or None: the surface voxels' centres of a carving, the mesh of a fusion (MirrorscanError
+    when the volume holds no surface)."""
+    if isinstance(result, CarveResult):
+        return (*result.surface_points(), None)
+    mesh = result.mesh()
+    return mesh.vertices, mesh.sources, mesh.faces

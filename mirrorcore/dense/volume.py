@@ -13,6 +13,7 @@ import numpy as np
 
 from ..budget import check_memory
 from ..errors import Cancelled, MirrorscanError
+from ..progress import Progress, cancel_requested
 
 SMALLEST_BLOCK = 4                # voxels along the edge of the smallest blocks a method uses (fusion)
 CHUNK_VOXELS = 1 << 16            # voxels per chunk of work: temporaries stay in the CPU caches, memory bounded
@@ -20,7 +21,6 @@ QUEUED_PER_WORKER = 2             # chunks submitted at a time per worker thread
 BLOCK_GRID_BYTES = 24             # bytes per smallest block of the whole grid a method may hold (coordinates, marks)
 
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
-Progress = Callable[[float], None]   # called with the fraction done, 0 < fraction <= 1
 Item = TypeVar("Item")
 
 
@@ -117,13 +117,6 @@ class Volume:
     def _what(self) -> str:
         return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of {self.voxel * 1e3:g} mm "
                 "(use larger voxels or a smaller box)")
-
-
-def cancel_requested(cancel) -> bool:
-    """True when `cancel` (None, a threading.Event-like object with is_set(), or a callable) asks to stop."""
-    if cancel is None:
-        return False
-    return bool(cancel.is_set() if hasattr(cancel, "is_set") else cancel())
 
 
 def run_chunks(items: Sequence[Item], work: Callable[[Item], None], progress: Progress | None = None,

@@ -3,8 +3,8 @@ and each pixel gets the depth of the VIRTUAL point along its unfolded ray, plus 
 sequence of mirrors its ray met).
 
 A structured-light camera sees through a mirror at the depth of the virtual image: the reported depth of a pixel is
-z of (camera origin + ray direction * total path length). Markers are matte squares on the glass; a mirror's back is
-matte too.
+z of (camera origin + ray direction * total path length). Markers are matte squares in front of the reflecting surface
+(by each mirror's marker_lift); a mirror's back is matte too.
 
 The camera's rays and the static geometry (room, glass, markers) never change, so every pixel's path through the static
 geometry (up to four segments) is traced once, when the Renderer is made: that is the background. A frame casts only
@@ -32,7 +32,6 @@ NONE, ROOM, OBJECT, MARKER, MIRROR_BACK = 0, 1, 2, 3, 4
 SURFACE_NAMES = ("none", "room", "object", "marker", "mirror back")
 _MIRROR = 5                   # geometry kind of a mirror's glass (never a final surface code)
 _REFLECT_OFFSET = 1e-5        # metres: a reflected ray starts this far along its new direction (no self-hit)
-MARKER_LIFT = 1e-4            # metres: markers are modelled this far in front of the glass (0.1 mm)
 MAX_BOUNCES = MAX_ORDER       # the most reflections a rendered ray may make (the source labels name up to this many)
 
 
@@ -113,8 +112,8 @@ def _quads(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _static_meshes(scene: Scene) -> tuple[list, list, list]:
-    """(vertices, faces) of the room's planes, of each mirror's glass and of each mirror's markers (matte squares
-    MARKER_LIFT in front of the glass)."""
+    """(vertices, faces) of the room's planes, of each mirror's reflecting surface and of each mirror's markers (matte
+    squares marker_lift in front of the reflecting surface)."""
     room = []
     if scene.room is not None:
         r = scene.room
@@ -127,7 +126,7 @@ def _static_meshes(scene: Scene) -> tuple[list, list, list]:
         h = m.marker_size / 2
         square = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
         corners = m.local_to_camera((np.asarray(m.markers).reshape(-1, 1, 2) + square).reshape(-1, 2))
-        markers.append(_quads((corners + MARKER_LIFT * np.asarray(m.normal)).reshape(-1, 4, 3)))
+        markers.append(_quads((corners + m.marker_lift * np.asarray(m.normal)).reshape(-1, 4, 3)))
     return room, glass, markers
 
 

@@ -6,13 +6,17 @@ depth camera. "Up" in the room is -y. A scene file is JSON:
     {"version": 1,
      "camera": {"width": 640, ...} or "kinect_v1" or "primesense",
      "mirrors": [{"name": "mirror 1", "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
-                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04}],
+                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04, "marker_offset": 0.0}],
      "objects": [{"type": "sphere", "centre": [0, 0, 2], "radius": 0.115}, ...],
-     "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null}
+     "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null,
+     "click_jitter_px": 0.0}
 
-A mirror's `normal` points to the reflective side, which must face the camera; `up` is the direction of its height
-(made orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its right
-(up x normal) and up axes; markers are matte squares of side `marker_size` lying on the glass.
+A mirror's `centre` and `normal` give its reflecting surface (the silver), whose `normal` points to the reflective
+side, which must face the camera; `up` is the direction of its height (made orthogonal to the normal); marker (s, t)
+are offsets in metres from the mirror's centre along its right (up x normal) and up axes; markers are matte squares of
+side `marker_size` whose faces are `marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on
+the glass of a back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error of
+each marker click in the session made from the scene (sim/export.py).
 """
 from __future__ import annotations
 
@@ -31,6 +35,8 @@ from ..jsonfile import read_json
 SCENE_VERSION = 1
 OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
 _CAMERA_PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
+MARKER_LIFT = 1e-4            # metres: the least a marker's face stands in front of the glass (no coplanar faces)
+MAX_MARKER_OFFSET = 0.05      # metres
 
 
 def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
@@ -61,7 +67,8 @@ class SceneMirror:
 
     centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
     up : (3,) unit, the direction of `height` (orthogonal to normal); width, height : metres;
-    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a marker, metres.
+    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a marker, metres;
+    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>= 0).
     """
 
     name: str
@@ -72,6 +79,7 @@ class SceneMirror:
     height: float
     markers: tuple[tuple[float, float], ...] = ()
     marker_size: float = 0.04
+    marker_offset: float = 0.0
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal, dtype=np.float64)
@@ -106,14 +114,21 @@ class SceneMirror:
         w, h = self.width / 2, self.height / 2
         return self.local_to_camera([[-w, -h], [w, -h], [w, h], [-w, h]])
 
+    @property
+    def marker_lift(self) -> float:
+        """Metres from the reflecting surface to the markers' faces: marker_offset, at least MARKER_LIFT."""
+        return max(self.marker_offset, MARKER_LIFT)
+
     def marker_centres(self) -> np.ndarray:
-        """(k, 3) float64 marker centres on the glass, camera frame."""
-        return self.local_to_camera(np.asarray(self.markers, dtype=np.float64).reshape(-1, 2))
+        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting surface), camera
+        frame."""
+        st = np.asarray(self.markers, dtype=np.float64).reshape(-1, 2)
+        return self.local_to_camera(st) + self.marker_lift * np.asarray(self.normal)
 
     def to_json(self) -> dict:
         return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal), "up": list(self.up),
                 "width": self.width, "height": self.height, "markers": [list(m) for m in self.markers],
-                "marker_size": self.marker_size}
+                "marker_size": self.marker_size, "marker_offset": self.marker_offset}
 
 
 @dataclass(frozen=True)
@@ -165,17 +180,26 @@ class Room:
 
 @dataclass(frozen=True)
 class Scene:
-    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None)."""
+    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None);
+    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the scene."""
 
     camera: Intrinsics
     mirrors: tuple[SceneMirror, ...]
     objects: tuple[SceneObject, ...] = ()
     room: Room | None = field(default_factory=Room)
+    click_jitter_px: float = 0.0
 
     def to_json(self) -> dict:
         return {"version": SCENE_VERSION, "camera": self.camera.to_dict(),
                 "mirrors": [m.to_json() for m in self.mirrors], "objects": [o.to_json() for o in self.objects],
-                "room": None if self.room is None else self.room.to_json()}
+                "room": None if self.room is None else self.room.to_json(), "click_jitter_px": self.click_jitter_px}
+
+    def with_markers(self, marker_offset: float | None = None, click_jitter_px: float | None = None) -> "Scene":
+        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels) replaced (None keeps)."""
+        mirrors = self.mirrors if marker_offset is None else tuple(
+            replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
+        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px, "click jitter")
+        return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
 # --------------------------------------------------------------------- JSON reading with one-line errors
@@ -206,7 +230,24 @@ def scene_from_json(data, where: str = "scene") -> Scene:
             raise FileFormatError(f"{where}: room: must be an object or null")
         room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k)) for k in ("floor_y", "back_z")},
                     half_width=_positive(room.get("half_width", Room.half_width), f"{where}: room.half_width"))
-    return Scene(camera, mirrors, objects, room)
+    return Scene(camera, mirrors, objects, room,
+                 _jitter(data.get("click_jitter_px", 0.0), f"{where}: click_jitter_px"))
+
+
+def _offset(value, where: str) -> float:
+    """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where` otherwise."""
+    if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
+            or not 0 <= value <= MAX_MARKER_OFFSET):
+        raise FileFormatError(f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
+                              f"reflecting surface), got {value!r}")
+    return float(value)
+
+
+def _jitter(value, where: str) -> float:
+    """A click jitter in pixels, 0 to 50; FileFormatError naming `where` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or not 0 <= value <= 50:
+        raise FileFormatError(f"{where}: must be 0 to 50 pixels, got {value!r}")
+    return float(value)
 
 
 def _number(data: dict, key: str, where: str, default: float) -> float:
@@ -237,7 +278,8 @@ def _mirror(data, where: str) -> SceneMirror:
     return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
                   _vec(data["up"], f"{where}.up", True), _positive(data["width"], f"{where}.width"),
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
-                  _positive(data.get("marker_size", SceneMirror.marker_size), f"{where}.marker_size"))
+                  _positive(data.get("marker_size", SceneMirror.marker_size), f"{where}.marker_size"),
+                  _offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
 
 
 def _object(data, where: str) -> SceneObject:
@@ -268,7 +310,7 @@ def load_scene(path: str | Path) -> Scene:
     scene = scene_from_json(read_json(path, "scene file"), str(path))
     objects = tuple(o if o.path is None or Path(o.path).is_absolute() else
                     replace(o, path=str(path.parent / o.path)) for o in scene.objects)
-    return Scene(scene.camera, scene.mirrors, objects, scene.room)
+    return replace(scene, objects=objects)
 
 
 def save_scene(scene: Scene, path: str | Path) -> None:

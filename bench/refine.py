@@ -1,0 +1,28 @@
+"""Benchmark of the refinement of two mirrors' planes on one 640x480 frame of the simulated rig (the walking figure,
+Kinect noise), from planes fitted to markers 3 mm in front of the silver and clicked 2 px off."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bench import median_ms
+from mirrorcore.calibration import calibrate_session
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.refine import refine_planes
+from mirrorcore.rig import Rig
+from mirrorcore.session import Session
+from mirrorcore.sim.export import session_mirrors
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.simulator import Simulator
+
+
+def run() -> dict[str, float]:
+    sim = Simulator(paper_scene(object="figure", distance=3.0).with_markers(0.003, 2.0), seed=0)
+    frame, background = sim.frame(0), sim.background().depth
+    session = Session(Path("."), sim.intrinsics, session_mirrors(sim, frame.truth))
+    rig = Rig.from_session(calibrate_session(session, np.stack([frame.depth, background]),
+                                             np.random.default_rng(0))[0])
+    mask = prepare_frame(rig, frame.depth, background)[1]
+    return {"refine_ms": median_ms(lambda: refine_planes(rig, frame.depth[None], mask[None]), repeat=5, warmup=1),
+            "refine_points": float(mask.sum())}

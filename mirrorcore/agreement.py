@@ -1,0 +1,160 @@
+"""The agreement of the views of a rig in one frame: how a point of one view compares with what another view saw where
+the point would be; and, for a labelled cloud, each mirror point's distance to the direct surface (the heat map of a
+calibration's quality).
+
+A point P of view a, mapped into view b's space (reflected through mirror b's plane when b is a mirror), falls on a
+pixel of the image. Where b has a reading there whose surface is P's (their normals agree, P faces b, and the two
+surfaces are within a few standard deviations), the residual is P's distance to the surface of that reading's
+neighbours (readings.py), along its normal, evaluated where P falls (no lateral offset, so no bias from the surface's
+curvature): depth noise only when the planes are right. Anything else says nothing: b saw nearer (P is hidden behind
+another part), cannot see there (outside the image or the mirror's boundary, the real object in front of the glass, no
+reading), or saw a different surface (the front of a part and its back).
+
+A point falls where its neighbours' surface (its anchor) falls, so whether it is compared does not depend on its own
+reading's noise. Points are matched by pixel (projective association, as KinectFusion does), never with their nearest
+neighbour in 3D, which prefers the readings that noise moved towards them and matches a point beside the other view's
+silhouette with the silhouette.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .cloud import Cloud
+from .geometry.camera import Intrinsics, project_points
+from .geometry.plane import Plane
+from .readings import MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints, view_points
+from .reconstruct import reconstruct_raw
+from .rig import Rig
+
+MIN_NORMAL_COSINE = 0.7      # a point agrees with a reading when their normals are within 45 degrees...
+AGREE_SIGMAS = 3.0           # ... and their surfaces within this many standard deviations of each other,
+ANCHOR_NOISE = 0.3           # a neighbours' surface having this share of a reading's noise (wider windows let the
+                             # walking figure's limbs compare with the wrong surfaces: 1.5 mm more bias at 0.5)
+SHOWN_GATE = 0.03            # metres: distances shown (heat map, reports) count surfaces this far apart as the same
+
+
+@dataclass(frozen=True, eq=False)
+class Comparison:
+    """Points of one view that agree with readings of another view.
+
+    index : (m,) int64 into the points
+    residual : (m,) float64 metres, each point's signed distance to the other view's surface (> 0 outside it)
+    sigma : (m,) float64 metres, the noise of the residual
+    direction : (m, 3) float64, the residual's gradient with respect to the point, in the other view's space (the
+        normal of its surface)
+    """
+
+    index: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    direction: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+
+def in_view(seen: ViewPoints, plane: Plane | None) -> ViewPoints:
+    """Real points into the space of a view: reflected through the mirror's plane, or as they are for the camera
+    (plane None)."""
+    return seen if plane is None else seen.reflected(plane)
+
+
+class TargetView:
+    """What one view saw in a frame, as points of other views are compared with it, in its own space (the camera
+    frame for the camera, its mirror image for a mirror: `in_view` maps points there): its readings, and per pixel of
+    the image the reading there (-1 for none)."""
+
+    def __init__(self, intrinsics: Intrinsics, view: ViewPoints):
+        self.intrinsics, self.view = intrinsics, view
+        self.index = np.full(intrinsics.width * intrinsics.height, -1, dtype=np.int64)
+        self.index[view.pixels] = np.arange(len(view))
+
+    def compare(self, mapped: ViewPoints, gate: float = 0.0) -> Comparison:
+        """Points in this view's space (`in_view`), normals out of the object, compared with its readings (see the
+        module); `gate` (metres) widens what counts as the same surface while the planes may still be far off."""
+        uv, z = project_points(self.intrinsics, mapped.anchors)
+        u, v = np.round(np.nan_to_num(uv, nan=-1.0)).T.astype(np.int64)
+        inside = np.flatnonzero((z > 0) & (u >= 0) & (u < self.intrinsics.width) & (v >= 0)
+                                & (v < self.intrinsics.height))
+        reading = self.index[v[inside] * self.intrinsics.width + u[inside]]
+        index, reading, uv = inside[reading >= 0], reading[reading >= 0], uv[inside[reading >= 0]]
+        target = self.view
+        normal = target.normals[reading]
+        surface = target.surface_points(self.intrinsics, reading, uv)
+        sigma = np.hypot(_along(target, reading, normal), _along(mapped, index, normal))
+        offset = np.einsum("ij,ij->i", normal, mapped.anchors[index] - surface)   # > 0: in front of the surface
+        agree = ((np.abs(offset) <= AGREE_SIGMAS * ANCHOR_NOISE * sigma + gate)
+                 & (np.einsum("ij,ij->i", normal, mapped.normals[index]) > MIN_NORMAL_COSINE)
+                 & (-np.einsum("ij,ij->i", mapped.normals[index], target.rays[reading])
+                    > np.cos(np.radians(MAX_INCIDENCE_DEG))))
+        index, normal = index[agree], normal[agree]
+        residual = np.einsum("ij,ij->i", normal, mapped.points[index] - surface[agree])
+        return Comparison(index, residual, sigma[agree], normal)
+
+
+def _along(view: ViewPoints, index: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """The noise (metres) along unit `normal` (m, 3) of readings `index` of `view`: their depth noise along their
+    rays and their lateral uncertainty across them."""
+    cosine = np.einsum("ij,ij->i", normal, view.rays[index])
+    return np.sqrt((view.sigma[index] * cosine) ** 2 + view.lateral[index] ** 2 * np.maximum(1 - cosine ** 2, 0))
+
+
+@dataclass(frozen=True, eq=False)
+class FrameViews:
+    """The views of one frame: `targets` {0: the camera, j: mirror j} for every view with readings; `centre` (3,)
+    metres, the median of the direct readings (of all the object's points without any)."""
+
+    targets: dict[int, TargetView]
+    centre: np.ndarray
+
+    def points(self, j: int) -> ViewPoints:
+        return self.targets[j].view
+
+
+def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
+    """A frame's views: depth (H, W) float metres as measured (not smoothed), mask (H, W) bool the object's pixels
+    (mirrorcore.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says which view each of the object's pixels
+    belongs to; mirrors without a plane have no view."""
+    depth = np.asarray(depth, dtype=np.float32)
+    mask = np.asarray(mask, bool) & (depth > 0)
+    cloud = reconstruct_raw(rig, depth, mask)
+    labels = np.full(depth.size, -1, np.int64)
+    labels[cloud.pixel_index] = cloud.sources
+    labels = labels.reshape(depth.shape)
+    rim = cv2.dilate((~mask).view(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    targets = {}
+    for j in range(len(rig.mirrors) + 1):
+        mine = mask & (labels == j)
+        if (j and rig.mirrors[j - 1].plane is None) or mine.sum() < MIN_NEIGHBOURS:
+            continue
+        view = view_points(rig.intrinsics, depth, np.flatnonzero(mine), rim)
+        if len(view):
+            targets[j] = TargetView(rig.intrinsics, view)
+    direct = targets[0].view.points if 0 in targets else cloud.points
+    centre = np.median(direct, axis=0) if len(direct) else np.zeros(3)
+    return FrameViews(targets, np.asarray(centre, dtype=np.float64))
+
+
+def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
+    """For the heat map of a calibration: each point's signed distance (mm) to the surface the camera sees directly.
+
+    rig : the rig whose planes made `cloud` (Algorithm 1) from `depth` (H, W) float metres -> (n,) float32 mm: > 0
+    where a mirror's point lies outside the direct surface (in front of it, along its normal), < 0 inside; NaN for the
+    direct points themselves and for mirror points with nothing to compare with (parts of the object that the camera
+    does not see, readings too oblique or at a depth edge).
+    """
+    out = np.full(len(cloud), np.nan, dtype=np.float32)
+    mask = np.zeros(rig.intrinsics.shape, bool)
+    mask.reshape(-1)[cloud.pixel_index] = True
+    views = frame_views(rig, depth, mask)
+    if 0 not in views.targets:
+        return out
+    for j in views.targets:
+        if j:
+            found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane), SHOWN_GATE)
+            pixels = views.points(j).pixels[found.index]
+            out[np.searchsorted(cloud.pixel_index, pixels)] = 1e3 * found.residual
+    return out

@@ -1,0 +1,283 @@
+"""Running a batch: the frames still to do, split into tasks of a few frames, run in this process or on Dask (a local
+cluster, or an existing one), the manifest kept up to date, progress reported, stopped cleanly on cancel.
+`run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ..dense.volume import cancel_requested
+from ..errors import MirrorscanError
+from ..session import load_session
+from .frames import FrameContext, reconstruct_frames, task_error
+from .job import BatchJob, session_inputs
+from .manifest import MANIFEST_FILE, OutputFolder
+
+POLL_SECONDS = 0.25         # how often a Dask run looks at the cancel request and the cluster's events
+
+
+@dataclass(frozen=True)
+class Where:
+    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this process, without
+    Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786') instead; dashboard : serve the Dask
+    dashboard of a local cluster."""
+
+    workers: int | None = None
+    scheduler: str | None = None
+    dashboard: bool = True
+
+    def __post_init__(self) -> None:
+        if self.workers is not None and self.workers < 1:
+            raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
+        if self.workers is not None and self.scheduler is not None:
+            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own workers; give one or "
+                                  "the other")
+
+    @property
+    def in_process(self) -> bool:
+        return self.scheduler is None and self.local_workers == 1
+
+    @property
+    def local_workers(self) -> int:
+        """The local worker processes: `workers`, or the cores this process may use."""
+        if self.workers:
+            return self.workers
+        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+@dataclass(frozen=True)
+class BatchProgress:
+    """Where a batch stands. total : the session's frames; done : frames done (kept + written); kept : frames an
+    earlier run had done; failed : frames that failed in this run; fps : frames written per second by this run;
+    seconds_left : at that rate (None before the first frame); retried : frames run again after their worker died;
+    dashboard : the Dask dashboard's address (None in process or without one)."""
+
+    total: int
+    done: int
+    kept: int
+    failed: int
+    fps: float
+    seconds_left: float | None
+    retried: tuple[int, ...] = ()
+    dashboard: str | None = None
+
+    @property
+    def fraction(self) -> float:
+        return (self.done + self.failed) / self.total if self.total else 1.0
+
+
+@dataclass(frozen=True)
+class BatchReport:
+    """How a batch ended. out : the output folder; kept, written : frames an earlier run had done / this run wrote;
+    failed : {frame: one-line error}; retried : {frame: address of the worker that died with it}; seconds : this
+    run's wall time from the first task to the last result (cluster start-up excluded, in `startup_seconds`);
+    fps : frames written per second; cancelled : stopped by a cancel request."""
+
+    out: Path
+    total: int
+    kept: int
+    written: int
+    failed: dict[int, str] = field(default_factory=dict)
+    retried: dict[int, str] = field(default_factory=dict)
+    seconds: float = 0.0
+    startup_seconds: float = 0.0
+    cancelled: bool = False
+    dashboard: str | None = None
+
+    @property
+    def complete(self) -> bool:
+        """Every frame of the session is done."""
+        return self.kept + self.written == self.total
+
+    @property
+    def fps(self) -> float:
+        return self.written / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def manifest(self) -> Path:
+        return self.out / MANIFEST_FILE
+
+
+def default_frames_per_task(method: str) -> int:
+    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense frame."""
+    return 8 if method == "raw" else 1
+
+
+def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None, overwrite: bool = False,
+              progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
+    """Reconstruct every frame of job.session not yet done in job.out (see mirrorcore.batch.manifest) and return how
+    it went. Frames that cannot be read or reconstructed are reported in the report and the manifest, the others go
+    on; a rerun does only the frames still missing.
+
+    progress(BatchProgress) is called after each task and when a worker dies; cancel (a threading.Event or a
+    callable returning True) stops the run: frames finished are kept and the manifest is written. Raises
+    MirrorscanError (one line) for a bad session, output folder or cluster.
+    """
+    session = load_session(Path(job.session).resolve())
+    job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
+    per_task = default_frames_per_task(job.method) if frames_per_task is None else frames_per_task
+    if per_task < 1:
+        raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
+    context = FrameContext.build(session, job, threads=None if where.in_process else 1)
+    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session), context.names,
+                          overwrite)
+    try:
+        todo = [i for i in range(len(context.names)) if i not in folder.kept]
+        chunks = [tuple(todo[i:i + per_task]) for i in range(0, len(todo), per_task)]
+        run = _Run(folder, len(context.names), progress)
+        if chunks and not cancel_requested(cancel):
+            with _executor(where, context, cancel) as executor:
+                run.drive(executor, chunks, cancel)
+        return run.report(job.out, cancelled=cancel_requested(cancel))
+    finally:
+        folder.flush()
+        folder.close()
+
+
+@contextmanager
+def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
+    if where.in_process:
+        yield _InProcess(context, cancel)
+        return
+    from .cluster import DaskExecutor, dask_client  # distributed is imported only when used
+    with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
+        local = where.scheduler is None
+        executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
+        try:
+            yield executor
+        finally:
+            executor.close()
+
+
+class _InProcess:
+    """Runs the chunks one by one in this process (same interface as cluster.DaskExecutor)."""
+
+    dashboard = None
+
+    def __init__(self, context: FrameContext, cancel):
+        self.context = context
+        self.cancel = cancel
+        self.chunks: list[tuple[int, ...]] = []
+
+    @property
+    def pending(self) -> int:
+        return len(self.chunks)
+
+    def submit(self, chunks: list[tuple[int, ...]]) -> None:
+        self.chunks.extend(chunks)
+
+    def wait(self, timeout: float) -> list:
+        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the others go on)."""
+        chunk = self.chunks.pop(0)
+        try:
+            records, failures = reconstruct_frames(self.context, chunk, lambda: cancel_requested(self.cancel))
+        except Exception as exc:         # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
+            records, failures = [], {i: task_error(exc) for i in chunk}
+        return [(chunk, records, failures)]
+
+    def deaths(self) -> dict[int, str]:
+        return {}
+
+
+class _Run:
+    """The client's side of one run: results into the manifest, progress, the figures of the report."""
+
+    def __init__(self, folder: OutputFolder, total: int, progress: Callable[[BatchProgress], None] | None):
+        self.folder, self.total, self.progress = folder, total, progress
+        self.kept = len(folder.kept)
+        self.written = 0
+        self.failed: dict[int, str] = {}
+        self.retried: dict[int, str] = {}
+        self.dashboard: str | None = None
+        self.created = time.perf_counter()
+        self.started = self.finished = None
+
+    def drive(self, executor, chunks: list[tuple[int, ...]], cancel) -> None:
+        """Submit every chunk, then take results until none is pending or a cancel request comes."""
+        self.dashboard = executor.dashboard
+        self.started = time.perf_counter()
+        executor.submit(chunks)
+        self._report()
+        while executor.pending and not cancel_requested(cancel):
+            results = executor.wait(POLL_SECONDS)
+            deaths = executor.deaths()
+            self.retried.update(deaths)
+            for chunk, records, failures in results:
+                self.folder.add(records, failures)
+                self.written += len(records)
+                self.failed.update(failures)
+                self.finished = time.perf_counter()
+            if results or deaths:
+                self._report()
+
+    def _report(self) -> None:
+        if self.progress is None:
+            return
+        fps = self._fps()
+        left = self.total - self.kept - self.written - len(self.failed)
+        self.progress(BatchProgress(self.total, self.kept + self.written, self.kept, len(self.failed), fps,
+                                    left / fps if fps > 0 else None, tuple(sorted(self.retried)), self.dashboard))
+
+    def _fps(self) -> float:
+        seconds = (self.finished or 0.0) - (self.started or 0.0)
+        return self.written / seconds if self.started and seconds > 0 else 0.0
+
+    def report(self, out: Path, cancelled: bool) -> BatchReport:
+        seconds = (self.finished - self.started) if self.started and self.finished else 0.0
+        startup = (self.started - self.created) if self.started else 0.0
+        return BatchReport(out, self.total, self.kept, self.written, dict(sorted(self.failed.items())),
+                           dict(sorted(self.retried.items())), seconds, startup, cancelled, self.dashboard)
+
+
+class BatchRun:
+    """A batch in a background thread, for a UI: start() it, read `progress` (the latest BatchProgress, None before
+    the first) or pass `on_progress`, cancel() it, wait() for its BatchReport. `error` holds the exception that
+    ended it (a MirrorscanError: show its one line) and wait() re-raises it."""
+
+    def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
+                 overwrite: bool = False, on_progress: Callable[[BatchProgress], None] | None = None):
+        self.job, self.where, self.frames_per_task, self.overwrite = job, where, frames_per_task, overwrite
+        self.on_progress = on_progress
+        self.progress: BatchProgress | None = None
+        self.report: BatchReport | None = None
+        self.error: BaseException | None = None
+        self._cancel = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="mirrorscan-batch", daemon=True)
+
+    def start(self) -> BatchRun:
+        self._thread.start()
+        return self
+
+    def cancel(self) -> None:
+        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait() returns."""
+        self._cancel.set()
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def wait(self, timeout: float | None = None) -> BatchReport | None:
+        """The report once the run has ended (None if it is still running after `timeout` seconds)."""
+        self._thread.join(timeout)
+        if self._thread.is_alive():
+            return None
+        if self.error is not None:
+            raise self.error
+        return self.report
+
+    def _progress(self, progress: BatchProgress) -> None:
+        self.progress = progress
+        if self.on_progress is not None:
+            self.on_progress(progress)
+
+    def _run(self) -> None:
+        try:
+            self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite, self._progress,
+                                    self._cancel)
+        except BaseException as exc:       # noqa: BLE001 (kept for wait() and the UI)
+            self.error = exc

@@ -1,0 +1,122 @@
+"""The worker's side of a batch: the context built once (rig with its per-pixel tables, background, job) and shipped
+to every worker, and the reconstruction of a run of frames into PLY files, each written atomically."""
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_atomic
+from ..dense import dense_volume, reconstruct_dense, result_geometry
+from ..errors import MirrorscanError
+from ..pipeline import prepare_frame
+from ..ply import encode_ply
+from ..reconstruct import reconstruct_raw
+from ..rig import Rig, calibrated_rig
+from ..session import Session
+from ..temporal import frame_window, temporal_smooth
+from .job import BatchJob, output_names
+from .manifest import FrameRecord
+
+
+@dataclass(frozen=True, eq=False)
+class FrameContext:
+    """What every frame of a batch shares, built once by the client: the session (root an absolute path), its
+    calibrated rig with the per-pixel tables already computed (they travel with it), the background (H, W) float32
+    metres or None, the job, each frame's output file name, and the threads a dense frame may use (None: all)."""
+
+    session: Session
+    rig: Rig
+    background: np.ndarray | None
+    job: BatchJob
+    names: tuple[str, ...]
+    threads: int | None = None
+
+    @classmethod
+    def build(cls, session: Session, job: BatchJob, threads: int | None = None) -> FrameContext:
+        """Refuses (MirrorscanError) an uncalibrated session or frames whose output names collide."""
+        rig = calibrated_rig(session, job.bounces)
+        rig.reflection_table, rig.inside_bits, rig.intrinsics.rays   # noqa: B018 (computed once, here)
+        return cls(session, rig, session.read_background(), job, output_names(session), threads)
+
+
+def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int, np.ndarray] | None = None
+               ) -> np.ndarray:
+    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its `temporal`
+    neighbours on each side where the scene is static (mirrorcore.temporal; 0: as read). `cache` (frame index ->
+    depth) keeps the frames read for the next call."""
+    count = len(session.frames)
+    if not -count <= index < count:
+        session.read_frame(index)              # refuses it, naming the frames there are
+    index %= count
+    cache = {} if cache is None else cache
+    window = frame_window(index, temporal, count)
+    for i in window:
+        if i not in cache:
+            cache[i] = session.read_frame(i)
+    if temporal == 0:
+        return cache[index]
+    return temporal_smooth(np.stack([cache[i] for i in window]), window.index(index))
+
+
+def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=None
+                       ) -> tuple[list[FrameRecord], dict[int, str]]:
+    """Reconstruct frames `indices` (in order) into context.job.out, one PLY file each, written atomically.
+
+    Returns the records of the frames written and {index: one-line error} of the frames that could not be read or
+    reconstructed (MirrorscanError, OSError: the others go on). `cancel` (None or a callable returning True) is
+    asked before each frame: the frames done so far are returned.
+    """
+    records, failures, cache = [], {}, {}
+    for index in indices:
+        if cancel is not None and cancel():
+            break
+        start = time.perf_counter()
+        for old in [i for i in cache if i < index - context.job.temporal]:
+            del cache[old]                                   # keep only the frames still needed
+        try:
+            data, sources, faces = _frame_ply(context, read_depth(context.session, index, context.job.temporal,
+                                                                   cache))
+            path = Path(context.job.out) / context.names[index]
+            write_atomic(path, data)
+        except (MirrorscanError, OSError) as exc:
+            failures[index] = _one_line(exc)
+            continue
+        counts = np.bincount(sources, minlength=len(context.rig.mirrors) + 1)
+        records.append(FrameRecord(index, context.names[index], len(sources), faces, tuple(int(c) for c in counts),
+                                   len(data), round(time.perf_counter() - start, 4)))
+    return records, failures
+
+
+def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndarray, int | None]:
+    """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds). A dense frame
+    with no object pixels (and no fixed box) gives an empty file rather than an error: the person left the view."""
+    rig, job = context.rig, context.job
+    depth, mask = prepare_frame(rig, depth, context.background, context.session.selection)
+    if job.method == "raw":
+        cloud = reconstruct_raw(rig, depth, mask)
+        return encode_ply(cloud.points, cloud.sources), cloud.sources, None
+    if job.options.bounds is None and len(reconstruct_raw(rig, depth, mask)) == 0:
+        points, sources = np.zeros((0, 3), np.float32), np.zeros(0, np.uint8)
+        faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
+    else:
+        volume = dense_volume(rig, depth, mask, job.options)
+        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[None], volume, job.method,
+                                                                   job.options, workers=context.threads))
+    return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
+
+
+def _one_line(exc: BaseException) -> str:
+    """An error as one line: our own errors as they are, OS errors with the file they name."""
+    if isinstance(exc, OSError) and exc.filename:
+        return f"{exc.filename}: {exc.strerror or exc}"
+    return " ".join(str(exc).split())
+
+
+def task_error(exc: BaseException) -> str:
+    """An unexpected error of a whole task (a bug, KilledWorker after its workers died) as one line with its type."""
+    return f"{type(exc).__name__}: {_one_line(exc)}"
+

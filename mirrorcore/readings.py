@@ -1,0 +1,153 @@
+"""The readings of one view of a frame (the camera's real points, or a mirror's virtual points), ready to be compared
+with another view: each reading as measured, the surface that its neighbours' readings give around it, its normal and
+its noise.
+
+The surface around a reading comes from its neighbours only (leave-one-out: a least-squares quadratic in the pixel
+offsets, fitted to the disparity 1/z of the view's readings within NEIGHBOURS_RADIUS pixels, which is exactly linear
+on a plane). It is where the reading is looked up in another view and what the other views' points are compared
+with, so that which comparison applies never depends on the reading's own noise (a Kinect's, 6 to 10 mm here, is
+larger than the 3 to 5 mm between readings); the comparison itself uses the reading as measured (smoothing moves the
+points on an object's steep sides by millimetres).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .depthops import bounding_window
+from .geometry.camera import Intrinsics
+from .geometry.plane import Plane
+from .noise import axial_sigma
+
+NEIGHBOURS_RADIUS = 3        # pixels: a reading's surface is fitted to its (2 r + 1)^2 - 1 neighbours...
+MIN_NEIGHBOURS = 16          # ... of which at least this many must be the same view's readings
+DEPTH_JUMP = 0.03            # readings near two neighbours whose depths differ by more than this share of the depth
+                             # (a depth edge within a view: an arm in front of the body) are left out
+MAX_INCIDENCE_DEG = 80.0     # readings seen more obliquely than this (ray to surface normal) are left out
+LATERAL_PX = 0.5             # pixels: the lateral uncertainty of a reading (the Kinect v1's lateral jitter)...
+RIM_LATERAL_PX = 1.5         # ... and of a reading on the rim of the object (next to a pixel of no object), which
+                             # may be a neighbour's depth seen one pixel beside it: with the usual uncertainty, the
+                             # rims moved the planes of the simulated sphere by +1 mm; excluded, by -0.5 to -5 mm on
+                             # the walking figure, whose views overlap mostly near their rims
+
+
+@dataclass(frozen=True, eq=False)
+class ViewPoints:
+    """Readings of one view of one frame; (n, 3) float64 metres in the camera frame unless said otherwise.
+
+    points : as measured (a mirror's are virtual, behind its glass, until `reflected`)
+    anchors : on the surface of each reading's neighbours, on the reading's ray
+    normals : unit normals of that surface, towards the camera that measured the reading
+    rays : unit directions of the readings' rays (from that camera)
+    sigma : (n,) float64 metres, each reading's depth noise (noise.axial_sigma of the anchor's depth)
+    lateral : (n,) float64 metres, each reading's lateral uncertainty (LATERAL_PX or RIM_LATERAL_PX at its depth)
+    pixels : (n,) int64 flat index v * width + u of each reading's pixel
+    surface : (n, 6) float64, the neighbours' surface: its disparity (1/metres) as the quadratic
+        [1, du, dv, du^2, du dv, dv^2] . surface in the pixel offsets (du, dv) from the reading's pixel
+    """
+
+    points: np.ndarray
+    anchors: np.ndarray
+    normals: np.ndarray
+    rays: np.ndarray
+    sigma: np.ndarray
+    lateral: np.ndarray
+    pixels: np.ndarray
+    surface: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    def reflected(self, plane: Plane) -> "ViewPoints":
+        """Through `plane` (paper eq. 3): a mirror's virtual readings become real points, with normals towards the
+        mirror's virtual camera (still out of the object). `surface` stays in the view's own image."""
+        return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
+                          reflect_directions(plane, self.normals), reflect_directions(plane, self.rays), self.sigma,
+                          self.lateral, self.pixels, self.surface)
+
+    def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
+        """(m, 3) metres, in the view's own space: where the rays through pixel positions uv (m, 2) meet the
+        neighbours' surface of readings `index` (m,) (uv within a pixel or so of those readings' pixels)."""
+        v0, u0 = np.divmod(self.pixels[index], intr.width)
+        du, dv = uv[:, 0] - u0, uv[:, 1] - v0
+        c = self.surface[index]
+        w = c[:, 0] + c[:, 1] * du + c[:, 2] * dv + c[:, 3] * du * du + c[:, 4] * du * dv + c[:, 5] * dv * dv
+        z = 1.0 / np.maximum(w, 1e-6)
+        return np.column_stack([(uv[:, 0] - intr.cx) / intr.fx * z, (uv[:, 1] - intr.cy) / intr.fy * z, z])
+
+
+def reflect_directions(plane: Plane, vectors: np.ndarray) -> np.ndarray:
+    """Directions (n, 3) reflected through the plane's normal (the linear part of the reflection)."""
+    return vectors - 2 * (vectors @ plane.n)[:, None] * plane.n
+
+
+def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np.ndarray) -> ViewPoints:
+    """The readings of one view.
+
+    depth : (H, W) float metres as measured (a mirror's pixels hold virtual depths); pixels : (n,) int64 flat indices
+    of the view's pixels; rim : (H, W) bool, pixels next to no object (their readings are less sure laterally)
+    -> ViewPoints of the readings whose neighbours give a surface (enough of them, no depth edge near) seen at most
+    MAX_INCIDENCE_DEG from the view, in row-major pixel order.
+    """
+    mine = np.zeros(intr.shape, bool)
+    mine.reshape(-1)[pixels] = True
+    win = bounding_window(mine, NEIGHBOURS_RADIUS)
+    z = np.where(mine[win], depth[win], 0).astype(np.float64)
+    rays = np.stack([intr.rays[0][win], intr.rays[1][win], np.ones(z.shape, np.float32)]).astype(np.float64)
+    coef, normals, ok = _neighbour_surfaces(z, rays, intr)
+    unit = rays / np.linalg.norm(rays, axis=0)
+    ok &= mine[win] & _no_depth_edge(z.astype(np.float32))
+    ok &= -np.einsum("khw,khw->hw", normals, unit) > np.cos(np.radians(MAX_INCIDENCE_DEG))
+    v, u = np.nonzero(ok)
+    ray, anchor, measured = rays[:, v, u].T, 1.0 / coef[v, u, 0], z[v, u]
+    lateral = np.where(rim[win][v, u], RIM_LATERAL_PX, LATERAL_PX) * anchor / intr.fx
+    return ViewPoints(ray * measured[:, None], ray * anchor[:, None], normals[:, v, u].T, unit[:, v, u].T,
+                      axial_sigma(anchor), lateral, (v + win[0].start) * intr.width + u + win[1].start, coef[v, u])
+
+
+def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, ...]:
+    """The surface through each pixel's neighbours (see the module docstring), for every pixel at once.
+
+    z : (h, w) float64 metres, 0 = not the view's; rays : (3, h, w) (x/z, y/z, 1) of the pixels -> coefficients
+    (h, w, 6) (ViewPoints.surface), the surface's unit normal at the pixel (3, h, w) towards the camera, and (h, w)
+    bool where at least MIN_NEIGHBOURS neighbours determine the fit.
+    """
+    size = 2 * NEIGHBOURS_RADIUS + 1
+    du, dv = np.meshgrid(np.arange(size) - NEIGHBOURS_RADIUS, np.arange(size) - NEIGHBOURS_RADIUS)
+    basis = [np.ones(du.shape), du, dv, du * du, du * dv, dv * dv]
+    centre = (du == 0) & (dv == 0)
+    valid = (z > 0).astype(np.float64)
+    w = np.divide(1.0, z, out=np.zeros_like(z), where=z > 0)
+
+    def window_sum(image: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Sum over each pixel's neighbours (not itself) of image * weights(offset) (filter2D correlates)."""
+        return cv2.filter2D(image, cv2.CV_64F, np.where(centre, 0.0, weights), borderType=cv2.BORDER_CONSTANT)
+    normal_matrix = np.stack([np.stack([window_sum(valid, p * q) for q in basis], -1) for p in basis], -2)
+    rhs = np.stack([window_sum(w, p) for p in basis], -1)
+    ok = normal_matrix[..., 0, 0] >= MIN_NEIGHBOURS
+    spread = np.linalg.eigvalsh(normal_matrix[ok])               # ascending: neighbours on a line have a zero
+    ok[ok] = spread[:, 0] > 1e-6 * spread[:, -1]
+    coef = np.zeros_like(rhs)
+    coef[ok] = np.linalg.solve(normal_matrix[ok], rhs[ok][..., None])[..., 0]
+    ok &= coef[..., 0] > 0
+    # w = a + b du + c dv on the plane n.P + d = 0 gives n ~ (b fx, c fy, a - b fx x' - c fy y') with x' = x/z
+    a, b, c = coef[..., 0], coef[..., 1] * intr.fx, coef[..., 2] * intr.fy
+    normals = np.stack([b, c, a - b * rays[0] - c * rays[1]])
+    normals *= -np.sign(normals[2])[None]                # towards the camera: the surface is in front of it
+    normals /= np.maximum(np.linalg.norm(normals, axis=0), 1e-12)
+    return coef, normals, ok
+
+
+def _no_depth_edge(z: np.ndarray) -> np.ndarray:
+    """(h, w) bool: no two neighbouring readings (z > 0, metres) within NEIGHBOURS_RADIUS pixels differ by more than
+    DEPTH_JUMP of their depth."""
+    edge = np.zeros(z.shape, bool)
+    for axis in (0, 1):
+        a, b = np.swapaxes(z, 0, axis)[:-1], np.swapaxes(z, 0, axis)[1:]
+        jump = (a > 0) & (b > 0) & (np.abs(a - b) > DEPTH_JUMP * np.minimum(a, b))
+        np.swapaxes(edge, 0, axis)[:-1] |= jump
+        np.swapaxes(edge, 0, axis)[1:] |= jump
+    size = 2 * NEIGHBOURS_RADIUS + 1
+    return ~cv2.dilate(edge.view(np.uint8), np.ones((size, size), np.uint8)).astype(bool)

@@ -1,0 +1,369 @@
+"""Refinement of the mirror planes from the agreement of the views, the calibration's last step: from any planes
+(markers, a region, pairs, a search), adjust each mirror's tilt and offset so that its reflected points lie on the
+surface the camera sees directly and on the other mirrors' surfaces where they see the same part of the object, over
+one or more frames of any object.
+
+This is multi-view ICP with three parameters per mirror (a reflection is fixed by its plane): in each frame, every
+view's points are compared with every other view (agreement.py), residuals normalised by their noise, Cauchy weights,
+Gauss-Newton on all mirrors at once, comparisons found again at every iteration. The normal equations also say how
+well the data determine each plane; a mirror whose views overlap too little is refused by name and nothing changes.
+
+A plane's step is (tilt about two axes in the plane, radians; offset along its normal at the object's centre,
+metres): tilt and offset stay apart at the object, where they matter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .agreement import SHOWN_GATE, FrameViews, frame_views, in_view
+from .calibration import MIN_MARKER_PIXELS, marker_points
+from .depthops import median_depth
+from .errors import CalibrationError, Cancelled
+from .geometry.camera import Intrinsics
+from .geometry.plane import Plane
+from .progress import Progress, cancel_requested
+from .readings import reflect_directions
+from .rig import Mirror, Rig
+from .session import MAX_MARKER_OFFSET, Session
+
+CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
+MAX_ITERATIONS = 30
+SETTLED = 0.1                # the iterations stop when no parameter moves by more than this share of its std
+MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree, both ways, over all frames...
+MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
+MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
+MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
+RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
+
+
+@dataclass(frozen=True)
+class MirrorRefinement:
+    """What the refinement did to one mirror (the report the command line and the browser tool show).
+
+    index : the mirror's position in the session (0-based); name : its name
+    before, after : its plane before and after
+    agreement_before_mm, agreement_after_mm : RMS distance (mm) of its points to the other views' surfaces where they
+        see the same surface (and of theirs to its), before and after
+    offset_before_mm, offset_after_mm : the mean signed distance (mm) of its points to those surfaces, > 0 when its
+        points lie outside them
+    shift_mm : how far the plane moved at the object, along its normal (mm, > 0 away from the camera)
+    tilt_deg : the angle between the planes before and after (degrees)
+    shift_std_mm, tilt_std_deg : how well the data determined the plane (1 sigma)
+    agreements : comparisons of its readings with the camera's that agree (both ways, all frames)
+    marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
+    """
+
+    index: int
+    name: str
+    before: Plane
+    after: Plane
+    agreement_before_mm: float
+    agreement_after_mm: float
+    offset_before_mm: float
+    offset_after_mm: float
+    shift_mm: float
+    tilt_deg: float
+    shift_std_mm: float
+    tilt_std_deg: float
+    agreements: int
+    marker_offset: float | None = None
+
+    def summary(self) -> str:
+        text = (f"agreement {self.agreement_before_mm:.2f} -> {self.agreement_after_mm:.2f} mm (mean "
+                f"{self.offset_before_mm:+.2f} -> {self.offset_after_mm:+.2f} mm), plane moved {self.shift_mm:+.2f} mm "
+                f"and {self.tilt_deg:.3f} deg (known to +-{self.shift_std_mm:.2f} mm, +-{self.tilt_std_deg:.3f} deg, "
+                f"{self.agreements} points seen both ways)")
+        if self.marker_offset is not None:
+            text += f", markers {1e3 * self.marker_offset:.1f} mm in front of the glass"
+        return text
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """The refined mirrors (in session order), the frames used, the Gauss-Newton iterations and the point (3,)
+    metres, camera frame, where offsets are measured (the object's centre)."""
+
+    mirrors: tuple[MirrorRefinement, ...]
+    frames: int
+    iterations: int
+    centre: tuple[float, float, float]
+
+    @property
+    def planes(self) -> dict[int, Plane]:
+        """{session index (0-based): refined plane}."""
+        return {m.index: m.after for m in self.mirrors}
+
+
+# --------------------------------------------------------------------------------------------- one plane's step
+def tangent_basis(n: np.ndarray) -> np.ndarray:
+    """(2, 3) float64: two unit vectors orthogonal to the unit vector n (3,) and to each other."""
+    e1 = np.cross(n, np.eye(3)[int(np.argmin(np.abs(n)))])
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(n, e1)])
+
+
+def offset_at(plane: Plane, point) -> float:
+    """The signed distance (metres) of `point` (3,) from the plane, > 0 on the camera's side."""
+    return float(plane.signed_distance(np.asarray(point, dtype=np.float64)))
+
+
+def moved_plane(plane: Plane, centre: np.ndarray, step: np.ndarray) -> Plane:
+    """The plane tilted by step[0], step[1] radians about its tangent_basis and moved by step[2] metres along its
+    normal at `centre` (3,)."""
+    basis = tangent_basis(plane.n)
+    n = plane.n + step[0] * basis[0] + step[1] * basis[1]
+    n /= np.linalg.norm(n)
+    return Plane.from_abcd([*n, offset_at(plane, centre) + step[2] - float(n @ centre)])
+
+
+def reflection_jacobian(plane: Plane, centre: np.ndarray, points: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """d(direction . reflect(points)) / d(step) of moved_plane at step 0, direction held fixed: points (m, 3) metres,
+    direction (m, 3) -> (m, 3) float64 (reflect(P) = P - 2 s n with s = n . P + d)."""
+    basis = tangent_basis(plane.n)
+    s = plane.signed_distance(points)
+    along_n = direction @ plane.n
+    tilt = -2.0 * (((points - centre) @ basis.T) * along_n[:, None] + s[:, None] * (direction @ basis.T))
+    return np.column_stack([tilt, -2.0 * along_n])
+
+
+def shift_at(before: Plane, after: Plane, point) -> float:
+    """How far (metres) the plane moved at `point`, along its normal, > 0 away from the camera."""
+    return offset_at(after, point) - offset_at(before, point)
+
+
+# --------------------------------------------------------------------------------------------- residuals
+@dataclass(frozen=True)
+class _Residuals:
+    """All comparisons of one iteration: jacobian (m, 3k) over the refined mirrors' steps, residual, sigma (m,)
+    metres, pair (m, 2) int: the views compared (source, target; 0 = the camera)."""
+
+    jacobian: np.ndarray
+    residual: np.ndarray
+    sigma: np.ndarray
+    pair: np.ndarray
+
+    def weights(self) -> np.ndarray:
+        """Cauchy weights over each residual's variance."""
+        return 1.0 / (1.0 + (self.residual / self.sigma / CAUCHY) ** 2) / self.sigma ** 2
+
+    def involving(self, j: int) -> np.ndarray:
+        return (self.pair[:, 0] == j) | (self.pair[:, 1] == j)
+
+    def with_camera(self, j: int) -> int:
+        """How many comparisons are between mirror j's readings and the camera's (both ways)."""
+        return int(np.count_nonzero(self.involving(j) & self.involving(0)))
+
+
+def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[int], centre: np.ndarray,
+              gate: float = 0.0) -> _Residuals:
+    """Compare, in each frame, every view's points (a mirror's reflected through its plane) with every other view.
+    planes : {mirror j (1-based): plane} of every mirror with a view; refined : the mirrors whose steps are the
+    jacobian's columns (three each, in this order)."""
+    columns = {j: 3 * i for i, j in enumerate(refined)}
+    parts = []
+    for frame in frames:
+        views = [j for j in frame.targets if j == 0 or j in planes]
+        real = {j: in_view(frame.points(j), planes.get(j)) for j in views}     # mirrors' points reflected
+        for b in views:
+            for a in views:
+                if a == b:
+                    continue
+                found = frame.targets[b].compare(in_view(real[a], planes.get(b)), gate)
+                rows = np.zeros((len(found), 3 * len(refined)))
+                if a in columns:                          # the gradient pulled back to the real space first
+                    pulled = reflect_directions(planes[b], found.direction) if b else found.direction
+                    rows[:, columns[a]:columns[a] + 3] = reflection_jacobian(
+                        planes[a], centre, frame.points(a).points[found.index], pulled)
+                if b in columns:
+                    rows[:, columns[b]:columns[b] + 3] += reflection_jacobian(
+                        planes[b], centre, real[a].points[found.index], found.direction)
+                parts.append((rows, found.residual, found.sigma, np.tile((a, b), (len(found), 1))))
+    if not parts:
+        return _Residuals(np.zeros((0, 3 * len(refined))), np.zeros(0), np.ones(0), np.zeros((0, 2), int))
+    return _Residuals(*(np.concatenate(p) for p in zip(*parts)))
+
+
+# --------------------------------------------------------------------------------------------- the refinement
+def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
+                  progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE) -> Refinement:
+    """Refine the planes of the rig's mirrors at `indices` (0-based; default every mirror with a plane) from frames.
+
+    depths : (F, H, W) float metres as measured; masks : (F, H, W) bool, each frame's object (prepare_frame's)
+    gate : metres added to what counts as the same surface at the start (for planes found by a search, a few cm),
+    halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE).
+    Mirrors not refined keep their planes and still take part.
+    Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
+    determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG) or when it does not settle (MAX_CHANGE);
+    Cancelled when `cancel` asks; progress(fraction) after each frame and iteration.
+    """
+    indices = [i for i, m in enumerate(rig.mirrors) if m.plane is not None] if indices is None else list(indices)
+    for i in indices:
+        if rig.mirrors[i].plane is None or rig.mirrors[i].boundary is None:
+            missing = "plane (calibrate it first)" if rig.mirrors[i].plane is None else "boundary (draw its outline)"
+            raise CalibrationError(f"{rig.mirrors[i].name}: no {missing}; the refinement starts from a plane and "
+                                   "needs the mirror's boundary")
+    if not indices:
+        raise CalibrationError("no mirror to refine: calibrate at least one first")
+    depths, masks = np.asarray(depths), np.asarray(masks, bool)
+    if depths.ndim == 2:
+        depths, masks = depths[None], masks[None]
+    refined = [i + 1 for i in indices]
+    start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
+    planes, iterations, labelled = dict(start), 0, rig
+    for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
+        frames = _views(labelled, depths, masks, progress, cancel, iterations)
+        centre = np.mean([f.centre for f in frames], axis=0)
+        planes, iterations, final = _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations,
+                                             [rig.mirrors[j - 1].name for j in refined])
+        gate = 0.0
+        if all(abs(shift_at(labelled.mirrors[j - 1].plane, planes[j], centre)) < RELABEL for j in refined):
+            break
+        labelled = _with_planes(rig, planes)
+    shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
+    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, max_change) for j in refined)
+    if progress is not None:
+        progress(1.0)
+    return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
+
+
+def _views(rig: Rig, depths: np.ndarray, masks: np.ndarray, progress, cancel, done: int) -> list[FrameViews]:
+    frames = []
+    for k, (depth, mask) in enumerate(zip(depths, masks)):
+        if cancel_requested(cancel):
+            raise Cancelled("refinement cancelled")
+        frames.append(frame_views(rig, depth, mask))
+        if progress is not None:
+            progress(_fraction(done, (k + 1) / len(depths)))
+    return frames
+
+
+def _fraction(iterations: int, within: float = 1.0) -> float:
+    """Progress: the frames' views take about a quarter, the iterations the rest (most settle in under 15)."""
+    return min(0.25 * within if iterations == 0 else 0.25 + 0.75 * min(iterations / 15, 1.0), 0.99)
+
+
+def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names):
+    """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals)."""
+    planes = dict(planes)
+    for _ in range(MAX_ITERATIONS):
+        if cancel_requested(cancel):
+            raise Cancelled("refinement cancelled")
+        found = residuals(frames, planes, refined, centre, gate)
+        weights = found.weights()
+        hessian = found.jacobian.T @ (weights[:, None] * found.jacobian)
+        hessian += np.eye(len(hessian)) * 1e-9 * max(np.trace(hessian), 1.0)     # no view may see a mirror yet
+        step = -np.linalg.solve(hessian, found.jacobian.T @ (weights * found.residual))
+        for i, j in enumerate(refined):
+            planes[j] = moved_plane(planes[j], centre, step[3 * i:3 * i + 3])
+        iterations, gate = iterations + 1, gate / 2
+        if progress is not None:
+            progress(_fraction(iterations))
+        if np.all(np.abs(step) <= SETTLED * np.sqrt(np.diag(np.linalg.inv(hessian)))):
+            break
+    final = residuals(frames, planes, refined, centre)
+    _check_overlap(final, refined, names, len(frames))
+    return planes, iterations, final
+
+
+def _check_overlap(found: _Residuals, refined: list[int], names: list[str], frames: int) -> None:
+    for j, name in zip(refined, names):
+        direct = found.with_camera(j)
+        if direct < MIN_AGREEMENTS:
+            raise CalibrationError(
+                f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
+                f"({direct} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed); use more "
+                "frames, or an object that both see from the side (a person, a sphere), not a flat face")
+
+
+def _with_planes(rig: Rig, planes: dict[int, Plane]) -> Rig:
+    return Rig(rig.intrinsics, tuple(Mirror(m.name, planes.get(j, m.plane), m.boundary)
+                                     for j, m in enumerate(rig.mirrors, start=1)))
+
+
+def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
+            final: _Residuals, refined: list[int], max_change: tuple) -> MirrorRefinement:
+    """One mirror's report, or CalibrationError when the data did not determine its plane or it did not settle.
+    shown : the comparisons before and after with SHOWN_GATE (the agreement reported); final : those that settled
+    the planes (the determination)."""
+    name = rig.mirrors[j - 1].name
+    weights = final.weights()
+    hessian = final.jacobian.T @ (weights[:, None] * final.jacobian)
+    scale = np.sum(weights * final.residual ** 2) / max(len(final.residual) - hessian.shape[0], 1)
+    cov = scale * np.linalg.inv(hessian)
+    i = 3 * refined.index(j)
+    shift_std = float(np.sqrt(cov[i + 2, i + 2]))
+    tilt_std = float(np.degrees(np.sqrt(np.linalg.eigvalsh(cov[i:i + 2, i:i + 2]).max())))
+    shift, tilt = shift_at(before, after, centre), before.angle_to(after)
+    if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:
+        raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
+                               f"+-{1e3 * shift_std:.1f} mm and +-{tilt_std:.2f} deg); use more frames, or move the "
+                               "object so that both the camera and the mirror see its sides")
+    if abs(shift) > max_change[0] or tilt > max_change[1]:
+        raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
+                               f"and {tilt:.1f} deg); check its boundary and its first calibration")
+    rms_before, mean_before = _agreement(shown[0], j)
+    rms_after, mean_after = _agreement(shown[1], j)
+    return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
+                            tilt, 1e3 * shift_std, tilt_std, final.with_camera(j))
+
+
+def _agreement(found: _Residuals, j: int) -> tuple[float, float]:
+    """(RMS, mean) mm of the comparisons involving mirror j, signed so that > 0 means its points lie outside the other
+    views' surfaces."""
+    pick = found.involving(j)
+    signed = np.where(found.pair[pick, 0] == j, 1.0, -1.0) * found.residual[pick]
+    if not len(signed):
+        return float("nan"), float("nan")
+    return float(1e3 * np.sqrt(np.mean(signed ** 2))), float(1e3 * np.mean(signed))
+
+
+def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, tuple[float, float, int]]:
+    """How well each calibrated mirror's view agrees with the others now, without changing anything (for the report
+    after a markers fit): {mirror index (0-based): (RMS mm, mean mm as in MirrorRefinement, readings of it and of
+    the camera that agree)}. depths, masks as for refine_planes; RMS and mean are NaN without agreement."""
+    depths, masks = np.asarray(depths), np.asarray(masks, bool)
+    if depths.ndim == 2:
+        depths, masks = depths[None], masks[None]
+    frames = [frame_views(rig, d, m) for d, m in zip(depths, masks)]
+    planes = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
+    centre = np.mean([f.centre for f in frames], axis=0)
+    found = residuals(frames, planes, [], centre, SHOWN_GATE)
+    return {j - 1: (*_agreement(found, j), found.with_camera(j)) for j in planes}
+
+
+# --------------------------------------------------------------------------------------------- sessions
+def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
+                   progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE
+                   ) -> tuple[Session, Refinement]:
+    """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
+    (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate
+    and max_change as there);
+    all or nothing. Each refined mirror with usable markers also gets its marker_offset: how far its markers' faces
+    stand in front of the refined plane (median over the frames of their readings).
+    Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
+    rig = Rig.from_session(session)
+    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change)
+    depth = median_depth(np.asarray(depths))
+    reports = []
+    for report in result.mirrors:
+        mirror = session.mirrors[report.index]
+        offset = marker_offset(session.camera, depth, mirror.markers, report.after)
+        report = replace(report, marker_offset=offset)
+        session = session.with_mirror(report.index, replace(
+            mirror, plane=report.after, marker_offset=mirror.marker_offset if offset is None else offset))
+        reports.append(report)
+    return session, replace(result, mirrors=tuple(reports))
+
+
+def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> float | None:
+    """How far (metres) markers' faces stand in front of `plane` (towards the camera): the median signed distance of
+    their readings (calibration.marker_points) in depth (H, W) float metres; None with fewer than 3 usable markers
+    or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
+    groups = [marker_points(intr, depth, m) for m in markers]
+    usable = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
+    if len(usable) < 3:
+        return None
+    offset = float(np.median(plane.signed_distance(np.concatenate(usable).astype(np.float64))))
+    return offset if abs(offset) <= MAX_MARKER_OFFSET else None

@@ -1,0 +1,248 @@
+"""The refinement of mirror planes from the agreement of the views (readings, agreement, refine, search): exact on
+analytic surfaces, signs that a wrong plane shows, planes recovered on the simulated rig, refusals by name."""
+import threading
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import plane_depth
+
+from mirrorcore.agreement import frame_views, in_view, surface_distances
+from mirrorcore.calibration import calibrate_from_pairs
+from mirrorcore.errors import CalibrationError, Cancelled
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.palette import heat_colours
+from mirrorcore.pipeline import prepare_frame
+from mirrorcore.readings import NEIGHBOURS_RADIUS, view_points
+from mirrorcore.reconstruct import reconstruct_raw
+from mirrorcore.refine import moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian, view_agreement
+from mirrorcore.rig import Mirror, Rig
+from mirrorcore.search import calibrate_scene, search_plane
+from mirrorcore.session import Session
+from mirrorcore.sim.export import session_mirrors, true_rig
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.sensor import SensorModel
+from mirrorcore.sim.simulator import Simulator
+
+CAMERA = Intrinsics.kinect_v1()
+
+
+def test_reflection_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(0)
+    plane = Plane.from_point_normal([0.4, 0.1, 2.6], [-0.5, 0.05, -1.0])
+    centre = np.array([0.0, 0.0, 2.0])
+    points = rng.uniform([-0.5, -0.5, 2.5], [0.5, 0.5, 3.0], (20, 3))
+    direction = rng.normal(size=(20, 3))
+    jac = reflection_jacobian(plane, centre, points, direction)
+    for k in range(3):
+        step = np.zeros(3)
+        step[k] = 1e-6
+        after = np.einsum("ij,ij->i", direction, moved_plane(plane, centre, step).reflect(points))
+        before = np.einsum("ij,ij->i", direction, plane.reflect(points))
+        np.testing.assert_allclose((after - before) / 1e-6, jac[:, k], rtol=1e-4, atol=1e-6)
+    # the offset step moves the plane along its normal at the centre, the tilts keep it there
+    moved = moved_plane(plane, centre, np.array([0.01, -0.02, 0.003]))
+    assert offset_at(moved, centre) - offset_at(plane, centre) == pytest.approx(0.003, abs=1e-12)
+    assert moved.angle_to(plane) == pytest.approx(np.degrees(np.hypot(0.01, 0.02)), rel=1e-3)
+
+
+def test_neighbour_surface_is_exact_on_a_plane_and_leaves_the_reading_out():
+    wall = Plane.from_point_normal([0.0, 0.0, 2.5], [0.3, -0.2, -1.0])
+    depth = plane_depth(CAMERA, wall).astype(np.float64)
+    square = np.zeros(CAMERA.shape, bool)
+    square[200:260, 300:360] = True
+    rim = np.zeros(CAMERA.shape, bool)
+    view = view_points(CAMERA, depth, np.flatnonzero(square), rim)
+    assert 40 * 40 < len(view) <= 60 * 60
+    np.testing.assert_allclose(wall.signed_distance(view.anchors), 0, atol=1e-6)
+    np.testing.assert_allclose(view.normals, np.tile(wall.n, (len(view), 1)), atol=1e-4)   # towards the camera
+    np.testing.assert_allclose(view.points, view.anchors, atol=1e-6)
+    # a reading 4 cm off: its own anchor stays on the plane (its neighbours give it), its neighbours' move
+    depth[230, 330] += 0.04
+    moved = view_points(CAMERA, depth, np.flatnonzero(square), rim)
+    where = np.searchsorted(moved.pixels, [230 * CAMERA.width + 330, 230 * CAMERA.width + 331])
+    assert wall.signed_distance(moved.anchors[where[0]]) == pytest.approx(0, abs=1e-6)
+    assert abs(wall.signed_distance(moved.points[where[0]])) > 0.01
+    assert abs(wall.signed_distance(moved.anchors[where[1]])) > 1e-4
+
+
+def test_readings_beside_a_depth_edge_are_left_out():
+    depth = np.full(CAMERA.shape, 2.0)
+    depth[:, 320:] = 2.3                                  # a step of 30 cm within one view
+    square = np.zeros(CAMERA.shape, bool)
+    square[200:260, 290:350] = True
+    view = view_points(CAMERA, depth, np.flatnonzero(square), np.zeros(CAMERA.shape, bool))
+    columns = view.pixels % CAMERA.width
+    assert len(view) and not np.any((columns >= 320 - NEIGHBOURS_RADIUS) & (columns < 320 + NEIGHBOURS_RADIUS))
+    assert columns.min() < 300 and columns.max() > 340
+
+
+# --------------------------------------------------------------------------------------------- the simulated rig
+@pytest.fixture(scope="module")
+def sphere():
+    """(scene, rig of the true planes, depths (2, H, W), masks (2, H, W)) of the paper's sphere, ideal sensor."""
+    scene = paper_scene(object="sphere")
+    sim = Simulator(scene, SensorModel.ideal(), seed=0)
+    rig = true_rig(scene)
+    background = sim.background().depth
+    depths = np.stack([sim.frame(i).depth for i in range(2)])
+    masks = np.stack([prepare_frame(rig, d, background)[1] for d in depths])
+    return scene, rig, depths, masks
+
+
+def with_planes(rig: Rig, planes) -> Rig:
+    return Rig(rig.intrinsics, tuple(replace(m, plane=p) for m, p in zip(rig.mirrors, planes)))
+
+
+def nearer(plane: Plane, point, metres: float, tilt_deg: float = 0.0) -> Plane:
+    return moved_plane(plane, np.asarray(point), np.array([np.radians(tilt_deg), 0.0, -metres]))
+
+
+def test_true_planes_agree_and_a_plane_too_near_puts_its_points_outside(sphere):
+    scene, rig, depths, masks = sphere
+    views = frame_views(rig, depths[0], masks[0])
+    assert set(views.targets) == {0, 1, 2}
+    for a, b in ((1, 0), (0, 1), (1, 2)):   # every pair of views agrees to a few tenths of a millimetre (the facets)
+        seen = in_view(views.points(a), rig.mirrors[a - 1].plane if a else None)
+        found = views.targets[b].compare(in_view(seen, rig.mirrors[b - 1].plane if b else None))
+        agree = found.residual
+        assert len(agree) > 100 and abs(np.median(agree)) < 0.5e-3 and np.sqrt(np.mean(agree ** 2)) < 0.8e-3
+    centre = np.asarray(scene.objects[0].centre)
+    # mirror 1 tilted by 0.3 degrees: its points, 0.37 m from the glass, move about 4 mm, across the direct surface
+    # where both see it; an offset moves them along the mirror's normal, almost along that surface (barely seen here)
+    wrong = with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 0.3), rig.mirrors[1].plane])
+    heat = {}
+    for name, test_rig in (("true", rig), ("wrong", wrong)):
+        cloud = reconstruct_raw(test_rig, depths[0], masks[0])
+        found = surface_distances(test_rig, cloud, depths[0])
+        assert np.all(np.isnan(found[cloud.sources == 0]))
+        heat[name] = [found[(cloud.sources == j) & np.isfinite(found)] for j in (1, 2)]
+        assert min(len(h) for h in heat[name]) > 100
+    assert abs(np.median(heat["true"][0])) < 0.5 and abs(np.median(heat["true"][1])) < 0.5
+    assert np.median(heat["wrong"][0]) < -2.0                            # mirror 1's points inside, by millimetres
+    np.testing.assert_array_equal(heat["wrong"][1], heat["true"][1])     # mirror 2 as it was
+
+
+def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    start = with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors])
+    fractions = []
+    result = refine_planes(start, depths, masks, progress=fractions.append)
+    assert fractions == sorted(fractions) and 0 < fractions[0] and fractions[-1] <= 1
+    assert result.frames == 2 and [m.index for m in result.mirrors] == [0, 1]
+    again = refine_planes(with_planes(rig, [nearer(m.plane, centre, -0.002) for m in rig.mirrors]), depths, masks)
+    for report, other, truth in zip(result.mirrors, again.mirrors, rig.mirrors):
+        # from 3 mm too near and from 2 mm too far: the same planes, within the neighbours' surfaces' model error of
+        # the truth (its facets and the quadratic: 0.7 mm on these noiseless frames)
+        assert abs(offset_at(report.after, centre) - offset_at(other.after, centre)) < 0.05e-3
+        assert abs(offset_at(report.after, centre) - offset_at(truth.plane, centre)) < 1e-3
+        assert report.after.angle_to(truth.plane) < 0.05
+        assert 1.5 < report.shift_mm < 3.5 and report.tilt_deg == pytest.approx(0.2, abs=0.05)
+        assert report.agreement_before_mm > 1.0 and report.agreement_after_mm < 0.5     # off the surfaces, then on
+        assert abs(report.offset_after_mm) < 0.2
+        assert report.shift_std_mm < 0.5 and report.tilt_std_deg < 0.05 and report.agreements > 200
+        assert "moved +" in report.summary() and report.name in ("mirror 1", "mirror 2")
+
+
+def test_refusals_name_the_mirror(sphere, tmp_path):
+    scene, rig, depths, masks = sphere
+    blind = with_planes(rig, [None, rig.mirrors[1].plane])
+    with pytest.raises(CalibrationError, match="mirror 1: no plane"):
+        refine_planes(blind, depths, masks, indices=[0])
+    outline_less = Rig(rig.intrinsics, (Mirror("left", rig.mirrors[0].plane, None), rig.mirrors[1]))
+    with pytest.raises(CalibrationError, match="left: no boundary"):
+        refine_planes(outline_less, depths, masks)
+    # the object is only in the camera's view: nothing to compare with
+    direct_only = masks & (rig.inside_bits == 0)
+    with pytest.raises(CalibrationError, match="mirror 1: the camera and the mirror see too little of the same "
+                                               r"surface .* \(0 readings agree over 2 frame\(s\)"):
+        refine_planes(rig, depths, direct_only)
+    stop = threading.Event()
+    stop.set()
+    with pytest.raises(Cancelled):
+        refine_planes(rig, depths, masks, cancel=stop)
+
+
+def test_a_box_facing_the_camera_shares_no_surface_with_the_mirrors():
+    """The camera sees the box's front, the mirrors its sides and back: the planes are not determined, and the
+    refusal says so by name."""
+    scene = paper_scene(object="box")
+    sim = Simulator(scene, SensorModel.ideal(), seed=0)
+    rig = true_rig(scene)
+    depth = sim.frame(0).depth
+    mask = prepare_frame(rig, depth, sim.background().depth)[1]
+    with pytest.raises(CalibrationError, match="mirror [12]: .* too little"):
+        refine_planes(rig, depth[None], mask[None])
+
+
+def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
+    scene = paper_scene(object="sphere").with_markers(0.004)
+    sim = Simulator(scene, SensorModel.ideal(), seed=0)
+    frame = sim.frame(0)
+    session = Session(tmp_path, sim.intrinsics, session_mirrors(sim, frame.truth))
+    centre = np.asarray(scene.objects[0].centre)
+    session = Session(tmp_path, sim.intrinsics, tuple(replace(m, plane=nearer(p, centre, 0.004))
+                                                      for m, p in zip(session.mirrors, sim.planes)))
+    rig = Rig.from_session(session)
+    mask = prepare_frame(rig, frame.depth, sim.background().depth)[1]
+    refined, result = refine_session(session, frame.depth[None], mask[None])
+    for mirror, report, truth in zip(refined.mirrors, result.mirrors, sim.planes):
+        assert mirror.plane == report.after and abs(offset_at(mirror.plane, centre) - offset_at(truth, centre)) < 1e-3
+        assert mirror.marker_offset == pytest.approx(0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
+        assert f"markers {1e3 * report.marker_offset:.1f} mm in front of the glass" in report.summary()
+    assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
+
+
+def test_scene_search_then_refinement_without_markers(sphere):
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    blind = with_planes(rig, [None, None])
+    found = search_plane(blind, depths[0], masks[0], 0, np.random.default_rng(0))
+    # near enough for the refinement (which comes back from a plane too near the camera), not more
+    assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[0].plane, centre) < 0.0
+    assert found.angle_to(rig.mirrors[0].plane) < 5.0
+    sim = Simulator(scene, SensorModel.ideal())
+    session = Session(Path("."), rig.intrinsics,
+                      tuple(replace(m, markers=()) for m in session_mirrors(sim, sim.frame(0).truth)))
+    calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0))
+    for mirror, truth in zip(calibrated.mirrors, rig.mirrors):
+        assert abs(offset_at(mirror.plane, centre) - offset_at(truth.plane, centre)) < 1e-3
+        assert mirror.plane.angle_to(truth.plane) < 0.05
+    with pytest.raises(CalibrationError, match="mirror 2: the object is not seen both directly and in the mirror"):
+        search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 2), 1, np.random.default_rng(0))
+
+
+def test_refinement_after_pairs_reaches_the_same_planes(sphere):
+    """--refine works after any first calibration: planes from pairs of a real point and its virtual image (the
+    sphere's centre and its images, 5 mm off) end where the markers' do."""
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    rng = np.random.default_rng(1)
+    real = centre + rng.normal(0, 0.005, (4, 3))
+    paired = [calibrate_from_pairs(real, m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
+              for m in rig.mirrors]
+    assert max(p.angle_to(m.plane) for p, m in zip(paired, rig.mirrors)) > 0.3        # a rough start
+    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, gate=0.01)
+    from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
+                                 depths, masks)
+    for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
+        assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3
+        assert a.after.angle_to(b.after) < 0.01
+
+
+def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
+    scene, rig, depths, masks = sphere
+    centre = np.asarray(scene.objects[0].centre)
+    good = view_agreement(rig, depths, masks)
+    tilted = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 0.3), rig.mirrors[1].plane]),
+                            depths, masks)
+    assert set(good) == {0, 1} and min(n for _, _, n in good.values()) > 200
+    assert good[0][0] < 0.5 and tilted[0][0] > 1.0                 # RMS mm: on the surfaces, then off them
+    assert tilted[1][2] > 0
+    colours = heat_colours(np.array([-20.0, -5.0, 0.0, 5.0, 20.0, np.nan]), limit=10.0)
+    assert colours[2].tolist() == [247, 247, 247] and colours[0].tolist() == [33, 102, 172]
+    assert colours[4].tolist() == [178, 24, 43] and colours[5].tolist() == [150, 150, 150]
+    assert colours[1, 0] < 247 and colours[3, 0] > 200 and colours[3, 1] < 247      # halfway to blue, to red
