@@ -72,7 +72,7 @@ def test_block_values_land_on_their_voxels(volume):
     coarse, regrouped = blocks.regroup(values, -1)                          # into blocks of 8
     assert coarse.size == 8 and coarse.ijk.tolist() == [[0, 0, 0], [1, 0, 1]]
     np.testing.assert_array_equal(regrouped[0, :4, :4, :4], values[0])
-    np.testing.assert_array_equal(regrouped[1, :4, 4:, :4], values[1])      # block (2, 1, 2) = (1, 0, 1) * 2 + (0, 1, 0)
+    np.testing.assert_array_equal(regrouped[1, :4, 4:, :4], values[1])  # block (2, 1, 2) = (1, 0, 1) * 2 + (0, 1, 0)
     assert (regrouped[1, 4:] == -1).all() and (regrouped[0, 4:] == -1).all()
 
 

@@ -99,7 +99,8 @@ def _tile(extended: np.ndarray, columns: int, fill) -> np.ndarray:
 
 def _grid_coordinates(blocks: Blocks, verts: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (n, 3) in the tiled grid's index coordinates -> their (n, 3) float64 coordinates in the volume grid,
-    and (n,) int64 keys of the grid edge (or grid point) each lies on: equal for the copies two blocks make."""
+    and (n,) int64 keys of the grid edge (or grid point) each lies on: equal for the copies two blocks make; a
+    negative key of its own for a vertex inside a cube (the Lewiner method adds some in ambiguous cubes)."""
     b = blocks.size
     tile = np.floor(verts[:, :2] / (b + 2)).astype(np.int64)                         # x, y tile of each vertex
     row = tile[:, 1] * columns + tile[:, 0]
@@ -111,7 +112,10 @@ def _grid_coordinates(blocks: Blocks, verts: np.ndarray, columns: int) -> tuple[
     first = b * blocks.ijk[row]
     corner = first + low.astype(np.int64)
     shape = tuple(b * n + 1 for n in blocks.volume.block_shape(b))
-    return first + local, np.ravel_multi_index(tuple(corner.T), shape) * 4 + axis
+    key = np.ravel_multi_index(tuple(corner.T), shape) * 4 + axis
+    inside = fractional.sum(axis=1) > 1              # Lewiner's vertices inside a cube: one block makes each
+    key[inside] = -1 - np.arange(np.count_nonzero(inside))
+    return first + local, key
 
 
 def _merge_copies(edge: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
