@@ -69,7 +69,7 @@ def test_block_values_land_on_their_voxels(volume):
     assert grid[1, 2, 3] == values[0, 1, 2, 3] and grid[9, 5, 8] == values[1, 1, 1, 0]
     assert (grid == -1).sum() == grid.size - 128
     assert cropped(volume, grid).shape == (10, 6, 9)
-    coarse, regrouped = blocks.regroup(values, -1)                          # into blocks of 8
+    coarse, (regrouped,) = blocks.regroup([(values, -1)])                   # into blocks of 8
     assert coarse.size == 8 and coarse.ijk.tolist() == [[0, 0, 0], [1, 0, 1]]
     np.testing.assert_array_equal(regrouped[0, :4, :4, :4], values[0])
     np.testing.assert_array_equal(regrouped[1, :4, 4:, :4], values[1])  # block (2, 1, 2) = (1, 0, 1) * 2 + (0, 1, 0)

@@ -81,15 +81,24 @@ class Blocks:
         grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[a, :, b, :, c, :] = \
             np.moveaxis(values, -1, 0) if np.ndim(values) else values
 
-    def regroup(self, values: np.ndarray, fill) -> tuple["Blocks", np.ndarray]:
-        """The blocks of twice the size holding these, in C order, and values (m, B, B, B) (one per block) laid out
-        in them: (M, 2B, 2B, 2B), `fill` where no block of these lies."""
+    def regroup(self, arrays: list[tuple[np.ndarray, object]]) -> tuple["Blocks", list[np.ndarray]]:
+        """The blocks of twice the size holding these, in C order, and each array of `arrays` ((m, B, B, B) values,
+        one per block, with its `fill`) laid out in them: (M, 2B, 2B, 2B), `fill` where no block of these lies."""
         s = self.size
-        coarse, inverse = np.unique(self.ijk // 2, axis=0, return_inverse=True)
-        out = np.full((len(coarse), 2, s, 2, s, 2, s), fill, values.dtype)
+        parents = self.ijk // 2
+        keys = np.ravel_multi_index(tuple(parents.T), self.volume.block_shape(2 * s))
+        order = np.argsort(keys, kind="stable")
+        first = np.flatnonzero(np.diff(keys[order], prepend=-1))
+        inverse = np.empty(len(keys), np.int64)
+        inverse[order] = np.cumsum(np.diff(keys[order], prepend=-1) != 0) - 1
+        coarse = Blocks(self.volume, parents[order[first]], 2 * s)
         a, b, c = (self.ijk % 2).T
-        out[inverse.reshape(-1), a, :, b, :, c, :] = values
-        return Blocks(self.volume, coarse, 2 * s), out.reshape(len(coarse), 2 * s, 2 * s, 2 * s)
+        out = []
+        for values, fill in arrays:
+            grouped = np.full((len(coarse), 2, s, 2, s, 2, s), fill, values.dtype)
+            grouped[inverse, a, :, b, :, c, :] = values
+            out.append(grouped.reshape(len(coarse), 2 * s, 2 * s, 2 * s))
+        return coarse, out
 
 
 def padded_grid(volume: Volume, fill, dtype, block: int) -> np.ndarray:

@@ -45,15 +45,15 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, s
         raise MirrorscanError("mesh: the volume holds no surface (is the object inside the box?)")
     check_memory(blocks.voxels / MESH_BLOCK ** 3 * 8 * MESH_BLOCK_BYTES,
                  f"mesh: {len(blocks):,} blocks of {blocks.size}^3 voxels")
-    grouped = blocks
-    arrays = [(values.astype(np.float32), 1.0), (mask, False), (source, NO_SOURCE)]
-    while grouped.size < MESH_BLOCK:
-        regrouped = [grouped.regroup(a, fill) for a, fill in arrays]
-        grouped, arrays = regrouped[0][0], [(r[1], fill) for r, (_, fill) in zip(regrouped, arrays)]
-    blocks, tile = grouped, grouped.size + 2
+    fills = (1.0, False, NO_SOURCE)
+    arrays = [values.astype(np.float32), mask, source]
+    while blocks.size < MESH_BLOCK:
+        blocks, arrays = blocks.regroup(list(zip(arrays, fills)))
+    arrays = list(zip(arrays, fills))
+    tile = blocks.size + 2
     columns = int(np.ceil(np.sqrt(len(blocks))))
     tiled = [_tile(_extended(blocks, a, fill), columns, fill) for a, fill in arrays]
-    cubes = tiled[1].copy()
+    cubes = tiled[1] & _crossing_cubes(tiled[0])
     cubes[::tile] = False
     cubes[:, ::tile] = False
     verts, faces, _, _ = _skimage_marching_cubes(tiled[0], 0.0, mask=cubes, allow_degenerate=False)
@@ -63,6 +63,20 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, s
     volume = blocks.volume
     return Mesh((np.asarray(volume.origin) + volume.voxel * grid[keep]).astype(np.float32), faces.astype(np.int32),
                 _corner_labels(verts[keep], tiled[2]))
+
+
+def _crossing_cubes(values: np.ndarray) -> np.ndarray:
+    """(X, Y, Z) bool, at each cube's upper corner (where scikit-image reads its mask): the cubes of `values` (X, Y, Z)
+    float whose 8 corners are not all above 0 nor all below (the others make no face); False on the first layers.
+    The 2x2x2 test is separable: along x, then y, then z."""
+    out = np.zeros(values.shape, bool)
+    same = []
+    for side in (values > 0, values < 0):
+        side = side[:-1] & side[1:]
+        side = side[:, :-1] & side[:, 1:]
+        same.append(side[:, :, :-1] & side[:, :, 1:])
+    np.logical_not(same[0] | same[1], out=out[1:, 1:, 1:])
+    return out
 
 
 def _extended(blocks: Blocks, values: np.ndarray, fill) -> np.ndarray:
@@ -132,6 +146,18 @@ def _corner_labels(verts: np.ndarray, source: np.ndarray) -> np.ndarray:
     corner in i, j, k order on ties). verts : (n, 3) float grid index coordinates; source : (nx, ny, nz) uint8
     -> (n,) uint8 (NO_SOURCE when no corner has a label)."""
     top = np.array(source.shape) - 1
+    nearest = np.clip(np.ceil(verts - 0.5), 0, top).astype(np.int64)        # the nearest corner (the lower on ties)
+    labels = source[tuple(nearest.T)]
+    missing = np.flatnonzero(labels == NO_SOURCE)                            # rare: a vertex on an edge has both ends
+    if len(missing):                                                         # labelled (observed)
+        labels[missing] = _labelled_corner(verts[missing], source)
+    return labels
+
+
+def _labelled_corner(verts: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """_corner_labels for vertices whose nearest corner has no label: the nearest of the 8 corners of the cube that
+    has one."""
+    top = np.array(source.shape) - 1
     base = np.clip(np.floor(verts), 0, top).astype(np.int64)
     best = np.full(len(verts), np.inf)
     labels = np.full(len(verts), NO_SOURCE, np.uint8)
@@ -155,5 +181,7 @@ def _observed_edges(verts: np.ndarray, faces: np.ndarray, mask: np.ndarray) -> t
     hi = np.clip(np.where(on_grid, near, np.ceil(verts)), 0, top).astype(np.int64)
     observed = mask[tuple(lo.T)] & mask[tuple(hi.T)]
     faces = faces[observed[faces].all(axis=1)]
-    used, faces = np.unique(faces, return_inverse=True)
-    return verts[used], faces.reshape(-1, 3)
+    used = np.zeros(len(verts), bool)
+    used[faces] = True
+    number = np.cumsum(used) - 1                                     # the new index of each used vertex
+    return verts[used], number[faces]
