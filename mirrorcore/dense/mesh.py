@@ -188,12 +188,12 @@ def _observed_edges(verts: np.ndarray, faces: np.ndarray, mask: np.ndarray) -> t
     """Keep the faces whose 3 vertices lie on grid edges with both ends in `mask` (a vertex interpolated towards an
     unobserved voxel is false; scikit-image reads its mask at one corner of each cube only), and the vertices they use.
     verts : (n, 3) float, grid index coordinates; faces : (m, 3) int -> the kept (n', 3), (m', 3), faces renumbered."""
-    near = np.rint(verts)
-    on_grid = np.abs(verts - near) < ON_GRID
     top = np.array(mask.shape) - 1
-    lo = np.clip(np.where(on_grid, near, np.floor(verts)), 0, top).astype(np.int64)
-    hi = np.clip(np.where(on_grid, near, np.ceil(verts)), 0, top).astype(np.int64)
-    observed = mask[tuple(lo.T)] & mask[tuple(hi.T)]
+    strides = np.array([mask.shape[1] * mask.shape[2], mask.shape[2], 1])
+    ends = [np.clip(np.floor(verts + ON_GRID), 0, top).astype(np.int64) @ strides,     # on the grid (within ON_GRID):
+            np.clip(np.ceil(verts - ON_GRID), 0, top).astype(np.int64) @ strides]      # both ends at that grid point
+    flat = mask.reshape(-1)
+    observed = flat[ends[0]] & flat[ends[1]]
     faces = faces[observed[faces].all(axis=1)]
     used = np.zeros(len(verts), bool)
     used[faces] = True
