@@ -57,14 +57,16 @@ def test_a_volume_that_does_not_fit_in_the_budget_is_refused_before_any_grid(bud
     rig = Rig.from_session(load_session(DEMO))
     box = ((-0.2, -0.3, 1.7), (0.2, 0.3, 2.3))                    # a person-sized box
     t0 = time.perf_counter()
-    with pytest.raises(MemoryBudgetError, match=r"volume: 1334x2000x2000 voxels of 0.3 mm .* memory budget"):
+    # The volume holds only its grid of 4^3-voxel blocks (24 bytes each; the fusion allocates the blocks near the
+    # surface, carving its two grids, each checked before allocating): 0.3 mm (1334x2000x2000) now fits in 4 GiB.
+    with pytest.raises(MemoryBudgetError, match=r"volume: 4000x6000x6000 voxels of 0.1 mm .* memory budget"):
         dense_volume(rig, np.zeros(rig.intrinsics.shape), np.zeros(rig.intrinsics.shape, bool),
-                     DenseOptions(voxel=0.0003, bounds=box))      # the 0.3 mm a browser client asked for
+                     DenseOptions(voxel=0.0001, bounds=box))      # a browser client asking for 0.1 mm
     assert time.perf_counter() - t0 < 1.0
     assert Volume.from_bounds(*box, 0.004).size == 100 * 150 * 150  # 4 mm: fine
-    budget(64 << 20)
+    budget(4 << 20)
     with pytest.raises(MemoryBudgetError):
-        Volume.from_bounds(*box, 0.002)                             # 22.5 M voxels x 20 bytes > 64 MiB
+        Volume.from_bounds(*box, 0.002)                             # 352 k blocks x 24 bytes > 4 MiB
 
 
 # --------------------------------------------------------------------- images, frames, .npz

@@ -1,8 +1,12 @@
-"""The voxel grid (mirrorcore.volume): box to shape, centres, slabs, refusals, the slab runner."""
+"""The voxel grid (mirrorcore.dense.volume) and its blocks (mirrorcore.dense.blocks): box to shape, centres, blocks
+and their layout, bounds, writing and regrouping, refusals, the chunk runner."""
+import threading
+
 import numpy as np
 import pytest
 
-from mirrorcore.dense.volume import Volume, run_slabs
+from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
+from mirrorcore.dense.volume import Volume, run_chunks
 from mirrorcore.errors import Cancelled, MirrorscanError
 
 
@@ -13,6 +17,7 @@ def test_box_to_grid_and_back():
     corners = v.centres(np.array([0, v.size - 1]))
     assert np.allclose(corners, [[0.005, 0.005, 1.005], [0.095, 0.045, 1.195]])
     assert v.nearest_index(corners).tolist() == [0, v.size - 1]
+    assert np.allclose(v.corners()[[0, -1]], corners)
 
 
 def test_around_a_cloud_with_margin():
@@ -22,24 +27,72 @@ def test_around_a_cloud_with_margin():
         Volume.around(np.empty((0, 3)), 0.002, 0.02)
 
 
-def test_slabs_cover_the_grid_once():
-    v = Volume((0, 0, 1), 0.01, (37, 20, 30))
-    covered = np.concatenate([np.arange(37)[s] for s in v.slabs(max_voxels=1000)])
-    assert covered.tolist() == list(range(37))
-
-
 @pytest.mark.parametrize("args, match", [(((0, 0, 0), 0.0, (1, 1, 1)), "voxel size"),
                                          (((0, 0, 0), 0.01, (0, 1, 1)), "at least one voxel"),
-                                         (((0, 0, 0), 0.01, (2000, 1000, 1000)), "more than")])
+                                         (((0, 0, 0), 0.01, (100_000, 100_000, 10_000)), "more than")])
 def test_refusals(args, match):
     with pytest.raises(MirrorscanError, match=match):
         Volume(*args)
 
 
-def test_runner_calls_every_slab_then_cancels():
-    v = Volume((0, 0, 1), 0.01, (300, 30, 30))
-    seen = []
-    run_slabs(v, seen.append, workers=2)
-    assert sorted(s.start for s in seen) == [s.start for s in v.slabs()]
-    with pytest.raises(Cancelled):
-        run_slabs(v, lambda s: None, cancel=lambda: True)
+@pytest.fixture
+def volume():
+    """10 x 6 x 9 voxels: blocks of 4 reach past the grid on every axis."""
+    return Volume((0.0, 0.0, 1.0), 0.01, (10, 6, 9))
+
+
+def test_blocks_cover_the_grid_and_lay_out_their_voxels(volume):
+    blocks = Blocks.all(volume, 4)
+    assert volume.block_shape(4) == (3, 2, 3) and volume.padded_shape(4) == (12, 8, 12) and len(blocks) == 18
+    assert blocks.voxels == 18 * 64 and blocks.keys.tolist() == list(range(18))
+    x, y, z = blocks.axes()
+    assert x.shape == (4, 1, 1, 18) and y.shape == (1, 4, 1, 18) and z.shape == (1, 1, 4, 18)
+    r = 17                                                           # block (2, 1, 2): voxels 8..11, 4..7, 8..11
+    assert blocks.ijk[r].tolist() == [2, 1, 2]
+    xs, ys, zs = (np.asarray(volume.axes()[a], np.float32) for a in range(3))
+    np.testing.assert_array_equal(x[:2, 0, 0, r], xs[8:10])
+    np.testing.assert_array_equal(y[0, :2, 0, r], ys[4:6])
+    np.testing.assert_array_equal(z[0, 0, :1, r], zs[8:9])
+    assert np.isnan(x[2:, 0, 0, r]).all() and np.isnan(y[0, 2:, 0, r]).all() and np.isnan(z[0, 0, 1:, r]).all()
+    centre, half = blocks.bounds()                                   # the box of its voxel centres inside the grid
+    np.testing.assert_allclose(centre[:, r] - half[:, r], [0.08, 0.04, 1.08])
+    np.testing.assert_allclose(centre[:, r] + half[:, r], [0.09, 0.05, 1.08])
+    chunks = blocks.chunks(max_voxels=64 * 5)
+    assert [len(range(18)[c]) for c in chunks] == [5, 5, 5, 3]
+
+
+def test_block_values_land_on_their_voxels(volume):
+    blocks = Blocks.all(volume, 4).take(np.array([0, 17]))
+    values = np.arange(2 * 64, dtype=np.int32).reshape(2, 4, 4, 4)            # block-major
+    grid = padded_grid(volume, -1, np.int32, 4)
+    blocks.write(grid, np.moveaxis(values, 0, -1))                         # the block layout (B, B, B, m)
+    assert grid[1, 2, 3] == values[0, 1, 2, 3] and grid[9, 5, 8] == values[1, 1, 1, 0]
+    assert (grid == -1).sum() == grid.size - 128
+    assert cropped(volume, grid).shape == (10, 6, 9)
+    coarse, (regrouped,) = blocks.regroup([(values, -1)])                   # into blocks of 8
+    assert coarse.size == 8 and coarse.ijk.tolist() == [[0, 0, 0], [1, 0, 1]]
+    np.testing.assert_array_equal(regrouped[0, :4, :4, :4], values[0])
+    np.testing.assert_array_equal(regrouped[1, :4, 4:, :4], values[1])  # block (2, 1, 2) = (1, 0, 1) * 2 + (0, 1, 0)
+    assert (regrouped[1, 4:] == -1).all() and (regrouped[0, 4:] == -1).all()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_runner_calls_every_chunk_once_then_cancels(workers):
+    seen, lock, fractions = [], threading.Lock(), []
+
+    def work(item):
+        with lock:
+            seen.append(item)
+    run_chunks(list(range(7)), work, fractions.append, workers=workers)
+    assert sorted(seen) == list(range(7))
+    assert fractions == [k / 7 for k in range(1, 8)]
+    stop = threading.Event()
+    with pytest.raises(Cancelled, match="stopped after"):
+        run_chunks(list(range(50)), lambda item: stop.set(), cancel=stop, workers=workers)
+
+
+def test_runner_passes_errors_on():
+    def work(item):
+        raise ValueError(f"bad {item}")
+    with pytest.raises(ValueError, match="bad"):
+        run_chunks([1, 2, 3], work, workers=2)

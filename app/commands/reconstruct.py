@@ -204,7 +204,7 @@ def _dense_options(args: argparse.Namespace) -> DenseOptions:
 
 @contextmanager
 def _ctrl_c_cancels():
-    """While inside, Ctrl-C sets the yielded threading.Event (the computation stops at its next slab) instead of
+    """While inside, Ctrl-C sets the yielded threading.Event (the computation stops at its next chunk) instead of
     interrupting at an arbitrary point; the previous handler is restored on the way out."""
     event = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: event.set())

@@ -43,7 +43,7 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
     """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see
     mirrorcore.pipeline.prepare_frame).
 
-    depths, masks : (F, H, W) float metres / bool; workers : threads for the slabs (default the CPU count). Raises
+    depths, masks : (F, H, W) float metres / bool; workers : threads for the chunks (default the CPU count). Raises
     MirrorscanError for an unknown method, Cancelled when `cancel` (a threading.Event or a callable returning True)
     asks to stop."""
     if method not in METHODS:

@@ -21,6 +21,11 @@ or a sequence of mirrors), sees through it: its depth in that view is less than 
 view sees through and none sees on the surface (inside the object, or behind it from every view) is HIDDEN: neither
 carved nor kept as surface (SURFACE | HIDDEN is the carved solid). Depth is sampled bilinearly (sub-pixel, as the paper
 suggests for the sparse mirror regions) where the four pixels around a point show the surface with no depth edge.
+
+Both methods work on chunks of blocks of BLOCK^3 voxels (mirrorcore.dense.blocks). Method "carve" first decides whole
+blocks (mirrorcore.dense.windows): a block that some view sees through, or that lies behind a mirror, is FREE; a block
+in front of every mirror that every view sees behind its surface by more than th (or not at all) is HIDDEN; only the
+other blocks, those near a measured surface or a silhouette, are carved voxel by voxel, with the same result.
 """
 from __future__ import annotations
 
@@ -30,28 +35,25 @@ import numpy as np
 
 from ..errors import MirrorscanError
 from ..rig import Rig
-from .views import (
-    View,
-    direct_pixels,
-    in_front_of_mirrors,
-    padded_flat,
-    pixel_index,
-    project,
-    rig_views,
-    sample,
-    transform,
-)
-from .volume import NO_SOURCE, Progress, Volume, run_slabs
+from .blocks import Blocks, cropped, padded_grid
+from .sampling import QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index, project, project_blocks, transform
+from .views import View, padded_flat, rig_views
+from .volume import NO_SOURCE, Progress, Volume, run_chunks
+from .windows import Window, box_ranges, window_half
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states
 METHODS = ("paper", "carve")
+BLOCK = 8                                # voxels along a block's edge (larger blocks decide more of the volume at once)
+CARVE_VOXEL_BYTES = 2                    # the state and source grids
+DECIDE_BLOCKS = 1 << 16                  # blocks decided whole in one go
+PLANE_MARGIN = 1e-5                      # metres: the float32 rounding of voxel centres against a mirror plane
 
 
 @dataclass(frozen=True, eq=False)
 class CarveResult:
     """state : (nx, ny, nz) uint8 FREE / SURFACE / HIDDEN; source : (nx, ny, nz) uint8, the view (0 camera, j mirror
     j, from 33 a sequence of mirrors) that sees a SURFACE voxel nearest to its centre, NO_SOURCE elsewhere; threshold
-    th in metres."""
+    th in metres. The grids are views of grids over the volume padded to whole blocks."""
 
     volume: Volume
     state: np.ndarray
@@ -71,25 +73,42 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
     """Carve `volume` with one depth frame (see the module docstring for the methods).
 
     depth : (H, W) float metres, 0 = no reading; mask : (H, W) bool, the object's pixels (direct and in mirrors);
-    threshold : th in metres (default: the voxel size); progress(fraction) after each slab; cancel : a
+    threshold : th in metres (default: the voxel size); progress(fraction) after each chunk of blocks; cancel : a
     threading.Event or a callable returning True to stop. Raises Cancelled when stopped (nothing is returned),
-    MirrorscanError for an unknown method or a non-positive threshold.
+    MirrorscanError for an unknown method or a non-positive threshold, MemoryBudgetError when the grids would not
+    fit in the memory budget.
     """
     if method not in METHODS:
         raise MirrorscanError(f"carve: unknown method {method!r} (expected one of {', '.join(METHODS)})")
     th = volume.voxel if threshold is None else float(threshold)
     if not th > 0:
         raise MirrorscanError(f"carve: the threshold must be positive, got {threshold}")
+    volume.check_grids(CARVE_VOXEL_BYTES, "the carving's state and source grids", BLOCK)
     views = rig_views(rig, depth, mask)
-    state = np.full(volume.shape, FREE, np.uint8)
-    source = np.full(volume.shape, NO_SOURCE, np.uint8)
+    state = padded_grid(volume, FREE, np.uint8, BLOCK)
+    source = padded_grid(volume, NO_SOURCE, np.uint8, BLOCK)
+    blocks = Blocks.all(volume, BLOCK)
     if method == "paper":
         images = _PaperImages.of(rig, depth, mask)
-        work = lambda slab: _paper_slab(rig, views, images, volume, th, slab, state, source)  # noqa: E731
+
+        def voxels(chunk: Blocks) -> tuple[np.ndarray, np.ndarray]:
+            return _paper_voxels(rig, views, images, th, chunk)
     else:
-        work = lambda slab: _carve_slab(rig, views, volume, th, slab, state, source)  # noqa: E731
-    run_slabs(volume, work, progress, cancel, workers)
-    return CarveResult(volume, state, source, method, th)
+        blocks = _undecided_blocks(rig, views, th, blocks, state)
+        tables = [QuadTable.of([view.quads]) for view in views]
+        lows = [view.quads.low for view in views]           # made here once, not by each worker thread
+
+        def voxels(chunk: Blocks) -> tuple[np.ndarray, np.ndarray]:
+            return _carve_voxels(rig, views, tables, lows, th, chunk)
+
+    def work(rows: slice) -> None:
+        chunk = blocks.take(rows)
+        states, sources = voxels(chunk)
+        chunk.write(state, states)
+        chunk.write(source, sources)
+
+    run_chunks(blocks.chunks(), work, progress, cancel, workers)
+    return CarveResult(volume, cropped(volume, state), cropped(volume, source), method, th)
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,46 +127,81 @@ class _PaperImages:
                    padded_flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan))
 
 
-def _carve_slab(rig: Rig, views: tuple[View, ...], volume: Volume, th: float, slab: slice, state: np.ndarray,
-                source: np.ndarray) -> None:
-    """Method 'carve' on one slab, in place. The camera's 3x3-minimum depth first removes, by broadcasting, the voxels
-    it sees through even with sub-pixel lookup; the remaining ones are checked against every view."""
-    z = volume.axes()[2].astype(np.float32)
-    direct = views[0]
-    local = np.flatnonzero(z >= direct.cull_depth[direct_pixels(rig.intrinsics, volume, slab)] - np.float32(th))
-    index, points = volume.slab_points(slab, local)
-    free = ~in_front_of_mirrors(rig, points)
-    best = np.full(points.shape[1], np.inf, np.float32)
-    best_source = np.full(points.shape[1], NO_SOURCE, np.uint8)
-    for view in views:
-        p = transform(view, points)
-        d, surface = sample(rig.intrinsics, view, p)
-        with np.errstate(invalid="ignore"):
-            free |= p[2] < d - th
-            gap = np.where(surface, np.abs(p[2] - d), np.inf)
-        closer = gap < np.minimum(best, th + np.float32(1e-9))
-        best = np.where(closer, gap, best)
-        best_source[closer] = view.source
-    seen = best_source != NO_SOURCE
-    state.reshape(-1)[index] = np.where(free, FREE, np.where(seen, SURFACE, HIDDEN))
-    source.reshape(-1)[index] = np.where(free, NO_SOURCE, best_source)
+def _undecided_blocks(rig: Rig, views: tuple[View, ...], th: float, blocks: Blocks, state: np.ndarray) -> Blocks:
+    """Method 'carve' on whole blocks (mirrorcore.dense.windows), in batches of DECIDE_BLOCKS: FREE where some view
+    sees through the block or it lies behind a mirror (as the grid starts), HIDDEN (written into `state`) where it
+    lies in front of every mirror and every view sees it behind its surface by more than th -> the other blocks."""
+    intr, volume = rig.intrinsics, blocks.volume
+    extent = (BLOCK - 1) * volume.voxel
+    windows = [Window.for_carving(v, window_half(intr, v.to_view, volume.corners(), extent)) for v in views]
+    undecided = []
+    for start in range(0, len(blocks), DECIDE_BLOCKS):
+        batch = blocks.take(slice(start, start + DECIDE_BLOCKS))
+        box = batch.bounds()
+        free, behind = np.zeros(len(batch), bool), np.ones(len(batch), bool)
+        for window in windows:
+            sees_through, sees_behind = window.test(intr, box, th)
+            free |= sees_through
+            behind &= sees_behind
+        for mirror in rig.mirrors:
+            if mirror.plane is not None:
+                (near, far), = box_ranges(np.append(mirror.plane.n, mirror.plane.d)[None], box)
+                free |= far < -PLANE_MARGIN
+                behind &= near > PLANE_MARGIN
+        batch.take(~free & behind).write(state, HIDDEN)
+        undecided.append(batch.ijk[~free & ~behind])
+    return Blocks(volume, np.concatenate(undecided), BLOCK)
 
 
-def _paper_slab(rig: Rig, views: tuple[View, ...], images: _PaperImages, volume: Volume, th: float, slab: slice,
-                state: np.ndarray, source: np.ndarray) -> None:
-    """Algorithm 2 as written on one slab, in place (see the module docstring); voxels start removed (FREE)."""
+def _carve_voxels(rig: Rig, views: tuple[View, ...], tables: list[QuadTable], lows: list[np.ndarray], th: float,
+                  blocks: Blocks) -> tuple[np.ndarray, np.ndarray]:
+    """Method 'carve' voxel by voxel on blocks -> their state, source (B, B, B, m) uint8 (the block layout); tables
+    and lows : each view's QuadTable and Quads.low. The
+    camera's 3x3-minimum depth at each voxel's nearest pixel carves what it sees through even with sub-pixel lookup,
+    and voxels behind a mirror are FREE; then every view's test, on its depth d: bilinear where the voxel's quad shows
+    the surface (NaN elsewhere), else the quad's least depth, which is never more than the bilinear one (so testing
+    both against the voxel carves the same)."""
     intr = rig.intrinsics
-    pixel = direct_pixels(rig.intrinsics, volume, slab).reshape(-1)
+    x, y, z = blocks.axes()
+    free = ~(z >= views[0].cull_depth[nearest_pixels(intr, x, y, z)] - np.float32(th))
+    free = (free | ~in_front_of_mirrors(rig, x, y, z)).reshape(-1)
+    best = np.full(free.size, np.inf, np.float32)
+    best_source = np.full(free.size, NO_SOURCE, np.uint8)
+    for view, table, low in zip(views, tables, lows):
+        projection = project_blocks(intr, view.to_view, x, y, z)
+        with np.errstate(invalid="ignore"):
+            bilinear = table.surface_depth(0, table.slots(projection), projection)
+            free |= projection.z < np.take(low, projection.index) - th
+            free |= projection.z < bilinear - th
+            gap = np.abs(projection.z - bilinear)               # NaN off the surface: never closer
+        closer = gap < np.minimum(best, th + np.float32(1e-9))
+        np.fmin(best, gap, out=best)                            # only compared through min(best, th): the same
+        best_source += closer * (np.uint8(view.source) - best_source)         # uint8: the view's label where closer
+    seen = best_source != NO_SOURCE
+    state = ~free * (np.uint8(HIDDEN) - seen)                                  # FREE 0, SURFACE 1, HIDDEN 2
+    best_source += free * (np.uint8(NO_SOURCE) - best_source)
+    shape = (BLOCK, BLOCK, BLOCK, len(blocks))
+    return state.astype(np.uint8).reshape(shape), best_source.reshape(shape)
+
+
+def _paper_voxels(rig: Rig, views: tuple[View, ...], images: _PaperImages, th: float,
+                  blocks: Blocks) -> tuple[np.ndarray, np.ndarray]:
+    """Algorithm 2 as written on a chunk of blocks (see the module docstring); voxels start removed (FREE)
+    -> their state, source (B, B, B, m) uint8 (the block layout)."""
+    intr = rig.intrinsics
+    x, y, z = blocks.axes()
+    shape = (BLOCK, BLOCK, BLOCK, len(blocks))
+    pixel = nearest_pixels(intr, x, y, z).reshape(-1)
     local = np.flatnonzero(images.object[pixel])          # Project(v) in {p}_n, else removed
-    index, points = volume.slab_points(slab, local)
-    front = in_front_of_mirrors(rig, points)
+    points = np.stack([np.broadcast_to(a, shape).reshape(-1)[local] for a in (x, y, z)])
+    front = in_front_of_mirrors(rig, *points)
     with np.errstate(invalid="ignore"):
         direct = np.abs(np.linalg.norm(points, axis=0) - images.distance[pixel[local]]) < th
     every_mirror = np.ones(points.shape[1], bool)
     best = np.full(points.shape[1], np.inf, np.float32)
     best_source = np.zeros(points.shape[1], np.uint8)
     for view in views[1:]:
-        p = transform(view, points)
+        p = transform(view.to_view, points)
         at = pixel_index(intr, *project(intr, p))
         with np.errstate(invalid="ignore"):
             gap = np.abs(np.linalg.norm(p, axis=0) - images.distance[at])
@@ -156,5 +210,8 @@ def _paper_slab(rig: Rig, views: tuple[View, ...], images: _PaperImages, volume:
         best = np.where(closer, gap, best)
         best_source[closer] = view.source
     kept = front & (direct | every_mirror)
-    state.reshape(-1)[index] = np.where(kept, SURFACE, FREE)
-    source.reshape(-1)[index] = np.where(kept, np.where(direct, 0, best_source), NO_SOURCE)
+    state = np.full(pixel.size, FREE, np.uint8)
+    source = np.full(pixel.size, NO_SOURCE, np.uint8)
+    state[local] = np.where(kept, SURFACE, FREE)
+    source[local] = np.where(kept, np.where(direct, 0, best_source), NO_SOURCE)
+    return state.reshape(shape), source.reshape(shape)

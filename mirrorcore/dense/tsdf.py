@@ -5,8 +5,8 @@ Each mirror is a virtual camera whose extrinsic is the reflection through its pl
 mirror j at the reflected point v_j, projected with the camera's intrinsics and compared with the measured (virtual)
 depth there; a sequence of mirrors the camera sees through in turn is one more, with the composition of their
 reflections as its extrinsic (mirrorcore.dense.views). Open3D's TSDF integration takes a 4x4 extrinsic, but it is not
-used here: fusing in numpy keeps the per-view weights and the per-voxel source of the best view, and needs no assumption
-on how Open3D treats det -1.
+used here: fusing in numpy keeps the bilinear depth, the per-view weights and the per-voxel source of the best view
+(`mirrorscan bench` times Open3D's VoxelBlockGrid on the same views beside it).
 
 Per view, only the object's pixels of that view count (the camera's object pixels that no mirror claims; a mirror's
 object pixels inside its boundary and behind its plane, see mirrorcore.views). A voxel at depth z (in the view's
@@ -14,6 +14,12 @@ frame) on a pixel with depth d gets sdf = d - z, used when sdf > -truncation and
 weight (1 m / z)^4: the inverse variance of a structured-light camera, whose noise grows with z^2 (mirror views are
 farther, hence noisier). Voxels the camera sees empty by more than the truncation even in its 3x3 neighbourhood, and
 voxels behind a mirror, are not computed (weight 0).
+
+The fusion is sparse: only the blocks of BLOCK^3 voxels (mirrorcore.dense.blocks) that hold a voxel within the
+truncation of some view's measurement are allocated and computed (`surface_blocks`): per quad of pixels that shows the
+surface (mirrorcore.dense.sampling), the box around the part of its frustum between its least depth minus the
+truncation and its greatest plus the truncation. Every voxel whose value some view sets below 1 is in them, with the
+value a fusion of the whole grid gives it; the voxels left out are those every view sees empty (or not at all).
 """
 from __future__ import annotations
 
@@ -21,39 +27,67 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..budget import check_memory
 from ..errors import MirrorscanError
+from ..geometry.camera import Intrinsics
 from ..rig import Rig
-from .mesh import Mesh, marching_cubes
-from .views import View, direct_pixels, in_front_of_mirrors, rig_views, sample, transform
-from .volume import NO_SOURCE, Progress, Volume, run_slabs
+from .blocks import Blocks, cropped, padded_grid
+from .mesh import Mesh, block_marching_cubes
+from .sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
+from .views import View, cull_depth, rig_views
+from .volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
+from .windows import Window, box_ranges, window_half
+
+BLOCK = SMALLEST_BLOCK     # voxels along a block's edge: small blocks follow the surface's band closely
+TSDF_VOXEL_BYTES = 12      # bytes per allocated voxel: tsdf, weight, source, and their copy when empty blocks go
+PIXEL_MARGIN = 0.01        # pixels, and voxels: the float32 rounding of a voxel's projection and centre
+PLANE_MARGIN = 1e-5        # metres: the float32 rounding of voxel centres against a mirror plane
+Z_TINY = 1e-6              # metres: the least depth a weight is computed at (the voxels that near are not seen)
 
 
 @dataclass(frozen=True, eq=False)
 class TsdfResult:
-    """tsdf : (nx, ny, nz) float32 in [-1, 1] (signed distance / truncation, > 0 in front of the surface; 1 where
-    weight is 0); weight : (nx, ny, nz) float32 sum of the weights; source : (nx, ny, nz) uint8 the view (0 camera,
-    j mirror j, from 33 a sequence of mirrors) of the largest single weight, NO_SOURCE where weight is 0; truncation
-    in metres."""
+    """The fused blocks of `volume`. tsdf : (m, B, B, B) float32 in [-1, 1] (signed distance / truncation, > 0 in
+    front of the surface; 1 where weight is 0); weight : (m, B, B, B) float32 sum of the weights; source : (m, B, B, B)
+    uint8 the view (0 camera, j mirror j, from 33 a sequence of mirrors) of the largest single weight, NO_SOURCE where
+    weight is 0; truncation in metres. Block r holds the voxels of blocks.ijk[r] in the block layout
+    (mirrorcore.dense.blocks); every block has a voxel of weight > 0."""
 
     volume: Volume
+    blocks: Blocks
     tsdf: np.ndarray
     weight: np.ndarray
     source: np.ndarray
     truncation: float
 
     def mesh(self) -> Mesh:
-        """The zero level set by marching cubes over the voxels with weight > 0; each vertex takes the source of its
-        nearest voxel. Raises MirrorscanError when there is no surface in the volume."""
-        return marching_cubes(self.volume, self.tsdf, self.weight > 0, self.source)
+        """The zero level set by marching cubes over the voxels with weight > 0; each vertex takes the source of the
+        nearest labelled corner of its cube. Raises MirrorscanError when there is no surface in the volume."""
+        return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
+
+    def grids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The whole grids (nx, ny, nz): tsdf float32 (1 outside the blocks), weight float32 (0 outside), source
+        uint8 (NO_SOURCE outside). 9 bytes a voxel of the volume: for small volumes and checks.
+        Raises MemoryBudgetError when they would not fit in the memory budget."""
+        self.volume.check_grids(9, "the fused grids, whole", BLOCK)
+        grids = []
+        for values, fill in ((self.tsdf, 1.0), (self.weight, 0.0), (self.source, NO_SOURCE)):
+            grid = padded_grid(self.volume, fill, values.dtype, BLOCK)
+            self.blocks.write(grid, np.moveaxis(values, 0, -1))
+            grids.append(np.ascontiguousarray(cropped(self.volume, grid)))
+        return tuple(grids)
 
 
 def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, truncation: float | None = None,
-         progress: Progress | None = None, cancel=None, workers: int | None = None) -> TsdfResult:
+         progress: Progress | None = None, cancel=None, workers: int | None = None,
+         blocks: Blocks | None = None) -> TsdfResult:
     """Fuse the views of one or more frames of a static object into a TSDF volume (see the module docstring).
 
     depths : (H, W) or (F, H, W) float metres, 0 = no reading; masks : the same shape, bool, the object's pixels;
-    truncation : metres (default 3 voxels); progress(fraction) after each slab; cancel : a threading.Event or a
-    callable returning True to stop. Raises Cancelled when stopped, MirrorscanError on mismatched inputs.
+    truncation : metres (default 3 voxels); progress(fraction) after each chunk of blocks; cancel : a threading.Event or
+    a callable returning True to stop; blocks : the blocks of BLOCK^3 voxels to compute (default `surface_blocks`;
+    Blocks.all(volume, BLOCK) computes every voxel). Raises Cancelled when stopped, MirrorscanError on mismatched
+    inputs, MemoryBudgetError when the blocks would not fit in the memory budget.
     """
     depths = np.asarray(depths, np.float32)
     depths = depths[None] if depths.ndim == 2 else depths
@@ -64,43 +98,194 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, trunca
     if not trunc > 0:
         raise MirrorscanError(f"fuse: the truncation must be positive, got {truncation}")
     frames = [rig_views(rig, d, m) for d, m in zip(depths, masks)]
-    cull = np.minimum.reduce([views[0].cull_depth for views in frames])
-    tsdf = np.ones(volume.shape, np.float32)
-    weight = np.zeros(volume.shape, np.float32)
-    source = np.full(volume.shape, NO_SOURCE, np.uint8)
+    tables = [QuadTable.of([views[k].quads for views in frames]) for k in range(len(frames[0]))]
+    to_views = [view.to_view for view in frames[0]]
+    if blocks is None:
+        blocks = surface_blocks(rig.intrinsics, tables, to_views, volume, trunc)
+    check_memory(blocks.voxels * TSDF_VOXEL_BYTES,
+                 f"tsdf: {len(blocks):,} blocks of {BLOCK}^3 voxels of {volume.voxel * 1e3:g} mm "
+                 "(use larger voxels or a smaller truncation)")
+    cull = cull_depth(np.minimum.reduce([views[0].depth for views in frames]), frames[0][0].shape)
+    plan = _Plan.of(rig, frames, cull, blocks, trunc)
+    blocks = blocks.take(plan.rows)
+    tsdf = np.ones((len(blocks), BLOCK, BLOCK, BLOCK), np.float32)
+    weight = np.zeros_like(tsdf)
+    source = np.full(tsdf.shape, NO_SOURCE, np.uint8)
 
-    def work(slab: slice) -> None:
-        _fuse_slab(rig, frames, cull, volume, trunc, slab, tsdf, weight, source)
+    def work(item: tuple[slice, int]) -> None:
+        rows, code = item
+        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code, tsdf[rows],
+                     weight[rows], source[rows])
 
-    run_slabs(volume, work, progress, cancel, workers)
-    return TsdfResult(volume, tsdf, weight, source, trunc)
+    run_chunks(plan.items(), work, progress, cancel, workers)
+    kept = np.flatnonzero(weight.reshape(len(blocks), BLOCK ** 3).max(axis=1, initial=0) > 0)
+    kept = kept[np.argsort(blocks.take(kept).keys)]                                                  # C order
+    return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc)
 
 
-def _fuse_slab(rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, volume: Volume, trunc: float, slab: slice,
-               tsdf: np.ndarray, weight: np.ndarray, source: np.ndarray) -> None:
-    """Fuse every view of every frame into one slab of the grids, in place."""
-    z = volume.axes()[2].astype(np.float32)
-    local = np.flatnonzero(z >= cull[direct_pixels(rig.intrinsics, volume, slab)] - np.float32(trunc))
-    index, points = volume.slab_points(slab, local)
-    keep = in_front_of_mirrors(rig, points)
-    index, points = index[keep], points[:, keep]
-    total = np.zeros(points.shape[1], np.float32)
-    sum_w = np.zeros(points.shape[1], np.float32)
-    best_w = np.zeros(points.shape[1], np.float32)
-    best_source = np.full(points.shape[1], NO_SOURCE, np.uint8)
-    for views in frames:
-        for view in views:
-            p = transform(view, points)
-            d, surface = sample(rig.intrinsics, view, p)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                sdf = d - p[2]
-                w = np.where(surface & (sdf > -trunc), np.float32(1) / np.square(np.square(p[2])), 0)
-                total += w * np.minimum(np.where(w > 0, sdf, 0) / np.float32(trunc), 1)
-            sum_w += w
-            better = w > best_w
-            best_w = np.where(better, w, best_w)
-            best_source[better] = view.source
-    seen = sum_w > 0
-    tsdf.reshape(-1)[index[seen]] = total[seen] / sum_w[seen]
-    weight.reshape(-1)[index[seen]] = sum_w[seen]
-    source.reshape(-1)[index[seen]] = best_source[seen]
+def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray], volume: Volume,
+                   truncation: float) -> Blocks:
+    """The blocks of `volume` holding a voxel that some view (its QuadTable over the frames and its extrinsic) may
+    see within `truncation` metres of its measured surface: for each quad of pixels that shows the surface
+    (sampling.Quads), the axis-aligned box (camera frame) of the part of its pixels' frustum between its least depth
+    - truncation and its greatest + truncation over the frames."""
+    boxes = [_quad_boxes(intr, table, to_view, truncation) for table, to_view in zip(tables, to_views)]
+    return Blocks.marked(volume, _covered(volume, np.concatenate([b[0] for b in boxes]),
+                                          np.concatenate([b[1] for b in boxes])), BLOCK)
+
+
+def _quad_boxes(intr: Intrinsics, table: QuadTable, to_view: np.ndarray,
+                truncation: float) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 3) float64 lower and upper corners, camera frame, of the boxes of `surface_blocks` for the quads of a
+    view's table (seen through extrinsic to_view (3, 4)).
+
+    A corner of the frustum piece is z (a, b, 1) in the view's frame, a and b the pixel edges' (x/z, y/z), z the
+    near or the far depth; in the camera frame its coordinate i is z (R_i0 a + R_i1 b + R_i2) + t_i, (R | t) the
+    inverse of the view's extrinsic: least and greatest over the four (a, b) and the two depths (z > 0)."""
+    near, far = np.maximum(table.near - truncation, 1e-6), table.far + np.float64(truncation)
+    row, col = np.divmod(table.index, intr.width + 2 * BORDER)
+    a = [(col - BORDER + du - intr.cx) / intr.fx for du in (-PIXEL_MARGIN, 1 + PIXEL_MARGIN)]
+    b = [(row - BORDER + dv - intr.cy) / intr.fy for dv in (-PIXEL_MARGIN, 1 + PIXEL_MARGIN)]
+    back = np.linalg.inv(np.vstack([to_view, [0.0, 0.0, 0.0, 1.0]]))
+    lo, hi = np.full((len(near), 3), np.inf), np.full((len(near), 3), -np.inf)
+    for i in range(3):
+        for ai in a:
+            for bi in b:
+                line = back[i, 0] * ai + back[i, 1] * bi + back[i, 2]
+                lo[:, i] = np.minimum(lo[:, i], np.minimum(near * line, far * line))
+                hi[:, i] = np.maximum(hi[:, i], np.maximum(near * line, far * line))
+    return lo + back[:3, 3], hi + back[:3, 3]
+
+
+def _covered(volume: Volume, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(volume.block_shape(BLOCK)) bool: the blocks holding a voxel centre inside some box lo..hi (n, 3) metres. Each
+    box covers a range of blocks; their union is counted on a grid of differences (+1 and -1 at the corners of each
+    range, inclusion-exclusion) summed along the three axes."""
+    origin, top = np.asarray(volume.origin), np.asarray(volume.shape) - 1
+    first = np.ceil((lo - origin) / volume.voxel - PIXEL_MARGIN).astype(np.int64)
+    last = np.floor((hi - origin) / volume.voxel + PIXEL_MARGIN).astype(np.int64)
+    first, last = np.maximum(first, 0), np.minimum(last, top)
+    inside = (first <= last).all(axis=1)
+    ends = (first[inside] // BLOCK, last[inside] // BLOCK + 1)                          # [start, stop) per axis
+    shape = tuple(b + 1 for b in volume.block_shape(BLOCK))
+    corners = [[], []]                                                                  # + and - corners
+    for a, b, c in np.ndindex(2, 2, 2):
+        corners[(a + b + c) % 2].append((ends[a][:, 0] * shape[1] + ends[b][:, 1]) * shape[2] + ends[c][:, 2])
+    size = int(np.prod(shape))
+    count = np.bincount(np.concatenate(corners[0]), minlength=size).astype(np.int32) - \
+        np.bincount(np.concatenate(corners[1]), minlength=size).astype(np.int32)
+    count = count.reshape(shape).cumsum(axis=0, dtype=np.int32).cumsum(axis=1).cumsum(axis=2)
+    return count[:-1, :-1, :-1] > 0
+
+
+CUT, STRADDLE, SEEN = 1, 2, 4      # _Plan codes: cull voxel by voxel; test the mirror planes; view k sees: SEEN << k
+
+
+@dataclass(frozen=True, eq=False)
+class _Plan:
+    """What fusion computes in some blocks, decided for whole blocks first (mirrorcore.dense.windows): rows (k,) int,
+    the blocks that hold a voxel the camera does not see empty beyond the truncation and that are not behind a mirror,
+    ordered by their code (k,) int: CUT when some voxel may be culled by the camera (tested voxel by voxel),
+    STRADDLE when some voxel may be behind a mirror, and SEEN << v when view v may see some voxel within the
+    truncation of its surface or in front of it. Blocks of one code are fused together, all alike."""
+
+    rows: np.ndarray
+    codes: np.ndarray
+
+    @classmethod
+    def of(cls, rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, blocks: Blocks,
+           trunc: float) -> "_Plan":
+        """The plan for `blocks` of the views of `frames`, cull the camera's cull depth over the frames."""
+        intr, volume = rig.intrinsics, blocks.volume
+        extent = (BLOCK - 1) * volume.voxel
+        halves = [window_half(intr, view.to_view, volume.corners(), extent) for view in frames[0]]
+        box = blocks.bounds()
+        camera = Window.for_cull(cull, frames[0][0].shape, halves[0])
+        culled, _ = camera.test(intr, box, trunc)
+        _, uncut = camera.test(intr, box, -trunc)             # every voxel at or beyond the camera's depth - trunc
+        front = np.ones(len(blocks), bool)
+        for mirror in rig.mirrors:
+            if mirror.plane is not None:
+                (near, far), = box_ranges(np.append(mirror.plane.n, mirror.plane.d)[None], box)
+                culled |= far < -PLANE_MARGIN
+                front &= near > PLANE_MARGIN
+        rows = np.flatnonzero(~culled)
+        box = (box[0][:, rows], box[1][:, rows])
+        codes = np.where(uncut[rows], 0, CUT) + np.where(front[rows], 0, STRADDLE)
+        for k, half in enumerate(halves):
+            window = Window.for_fusion([views[k] for views in frames], half)
+            codes += np.where(window.test(intr, box, trunc)[1], 0, SEEN << k)
+        order = np.argsort(codes, kind="stable")
+        return cls(rows[order], codes[order])
+
+    def items(self, max_voxels: int = CHUNK_VOXELS) -> list[tuple[slice, int]]:
+        """The work: (rows of self.rows, their code) for runs of one code, at most max_voxels voxels each."""
+        step = max(1, max_voxels // BLOCK ** 3)
+        starts = np.flatnonzero(np.diff(self.codes, prepend=-1))
+        ends = np.append(starts[1:], len(self.codes))
+        return [(slice(i, min(i + step, end)), int(self.codes[start])) for start, end in zip(starts, ends)
+                for i in range(start, end, step)]
+
+
+def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], views: tuple[View, ...],
+                 cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray, weight: np.ndarray,
+                 source: np.ndarray) -> None:
+    """Fuse the views that `code` (_Plan) names (their tables over the frames, extrinsics, and the views of one frame
+    for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B) float32 and source uint8 (as they start:
+    1, 0, NO_SOURCE). A view is projected once for every frame (they share the rig)."""
+    intr = rig.intrinsics
+    x, y, z = blocks.axes()
+    keep = None
+    if code & CUT:
+        keep = z >= cull[nearest_pixels(intr, x, y, z)] - np.float32(trunc)
+    if code & STRADDLE:
+        front = in_front_of_mirrors(rig, x, y, z)
+        keep = front if keep is None else keep & front
+    size = BLOCK ** 3 * len(blocks)
+    total, sum_w, best_w = (np.zeros(size, np.float32) for _ in range(3))
+    best_source = np.full(size, NO_SOURCE, np.uint8)
+    for k, view in enumerate(views):
+        if not code & SEEN << k:
+            continue
+        projection = project_blocks(intr, to_views[k], x, y, z)
+        clipped, count = _sampled_sdf(tables[k], projection, trunc)
+        w = np.fmax(projection.z, np.float32(Z_TINY))              # finite weights: voxels past the volume are NaN
+        np.square(w, out=w)
+        np.square(w, out=w)
+        np.divide(np.float32(1), w, out=w)                         # (1 m / z)^4
+        if keep is not None:
+            w *= keep.reshape(-1)
+        clipped *= w
+        total += clipped
+        count *= w
+        sum_w += count
+        w *= count > 0                                             # the weight of a view counts where it is used
+        better = w > best_w
+        best_source += better * (np.uint8(view.source) - best_source)     # uint8: the view's label where better
+        np.maximum(best_w, w, out=best_w)
+    unseen = sum_w == 0
+    values = (total + unseen) / (sum_w + unseen)                   # 1 where no view weighs in
+    for out, a in ((tsdf, values), (weight, sum_w), (source, best_source)):
+        out[:] = np.moveaxis(a.reshape(BLOCK, BLOCK, BLOCK, -1), -1, 0)
+
+
+def _sampled_sdf(table: QuadTable, projection, trunc: float) -> tuple[np.ndarray, np.ndarray]:
+    """One view of every frame (its QuadTable) sampled at the projected voxels -> (n,) float32 each: the sum over the
+    frames of the sdf / truncation clipped to 1, where the voxel's quad shows the surface and sdf > -truncation, and
+    how many frames that is."""
+    slots = table.slots(projection)
+    clipped = count = None
+    with np.errstate(invalid="ignore"):
+        for frame in range(len(table.rows)):
+            sdf = table.surface_depth(frame, slots, projection)
+            sdf -= projection.z
+            used = sdf > -trunc
+            sdf /= np.float32(trunc)
+            np.fmin(sdf, 1, out=sdf)
+            sdf *= used
+            if clipped is None:
+                clipped, count = sdf, used.astype(np.float32)
+            else:
+                clipped += sdf
+                count += used
+    return clipped, count

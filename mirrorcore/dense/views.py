@@ -1,6 +1,6 @@
 """The views of a rig for dense reconstruction: the camera, each mirror's virtual camera and those of the sequences of
 mirrors the camera sees through in turn, each with the depth it measures and which of its pixels show the object's
-surface; sampling a view's depth at points (nearest or bilinear).
+surface (what is sampled where points fall in a view: mirrorcore.dense.sampling).
 
 A mirror's view is the camera seen through the mirror: a point P is seen by mirror j where its reflection
 P_j = reflect(P, plane j) projects into mirror j's boundary, at the measured (virtual, unfolded) depth of that pixel.
@@ -17,18 +17,17 @@ Per view and per pixel, `depth` (float32 metres, z of the unfolded point) reads:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import cv2
 import numpy as np
 
-from ..geometry.camera import Intrinsics, check_depth_shape
+from ..geometry.camera import check_depth_shape
 from ..geometry.polygon import polygon_mask
 from ..palette import source_sequence
 from ..paths import Chains, sequence_reflection
 from ..rig import ReflectionTable, Rig
-from .volume import Volume
-
-BILINEAR_GAP = 0.03   # metres: four neighbours spread wider than this are a depth edge (nearest pixel used there)
+from .sampling import Quads
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,17 +37,27 @@ class View:
     reflection through mirror j's plane, or the composition M_1 M_2 ... of a sequence's: mirrorcore.paths).
     depth : (H*W + 1,) float32 flat depth per pixel as in the module docstring, its last cell NaN (off-image reads).
     surface : (H*W + 1,) bool, the pixel shows the object in this view (False in the last cell).
-    cull_depth : (H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf): a point nearer than
-    cull_depth - th is empty in this view even with bilinear sampling.
     outline : (H*W + 1,) bool, the pixels this view sees through (a mirror's boundary; for a sequence, the pixels
-    whose ray meets its mirrors in turn; every pixel for the camera), False in the last cell."""
+    whose ray meets its mirrors in turn; every pixel for the camera), False in the last cell.
+    shape : (H, W). The tables derived from these (`cull_depth`, `quads`) are made on first use."""
 
     source: int
     to_view: np.ndarray
     depth: np.ndarray
     surface: np.ndarray
-    cull_depth: np.ndarray
     outline: np.ndarray
+    shape: tuple[int, int]
+
+    @cached_property
+    def cull_depth(self) -> np.ndarray:
+        """(H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf; +inf in the last cell): a point nearer
+        than cull_depth - th is empty in this view even with bilinear sampling."""
+        return cull_depth(self.depth, self.shape)
+
+    @cached_property
+    def quads(self) -> Quads:
+        """The depth read by quads of pixels, for sampling at points (mirrorcore.dense.sampling.Quads)."""
+        return Quads.of(self.depth[:-1].reshape(self.shape), self.surface[:-1].reshape(self.shape))
 
 
 def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]:
@@ -64,27 +73,81 @@ def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]
     intr = rig.intrinsics
     z = check_depth_shape(intr, depth).astype(np.float32)
     mask = np.asarray(mask, bool) & (z > 0)
-    empty = np.where(z > 0, z, np.float32(np.inf))           # off-mask pixels with no reading: empty rays
+    empty, empty_image = _padded(intr.shape, np.nan, np.float32)
+    empty_image[:] = z
+    np.copyto(empty_image, np.float32(np.inf), where=~(z > 0))     # off-mask pixels with no reading: empty rays
     segments = _Segments.of(rig.reflection_table, z)
     views, claimed = [], np.zeros(intr.shape, bool)
-    for j, mirror in enumerate(rig.mirrors, start=1):
-        if mirror.plane is None or mirror.boundary is None:
+    for j, (mirror, tables) in enumerate(zip(rig.mirrors, _mirror_tables(rig)), start=1):
+        if tables is None:
             continue
-        n, d = mirror.plane.n, mirror.plane.d
-        ray_dot = n[0] * intr.rays[0] + n[1] * intr.rays[1] + n[2]
-        inside = polygon_mask(mirror.boundary, intr.shape)
-        through = inside & ((z == 0) | (z * ray_dot + d < 0))  # the reflected ray exists: no reading, or behind
-        seen = np.where(through, empty, np.float32(np.nan))
-        surface = through & mask
-        segments.end_first(j, seen, surface)
-        claimed |= surface
-        views.append(_view(j, mirror.plane.reflection_matrix()[:3], seen, surface, inside))
+        inside, behind, outline = tables
+        through = (z > behind) | ((z == 0) & inside)               # the reflected ray exists: behind, or no reading
+        seen, seen_image = _padded(intr.shape, np.nan, np.float32)
+        np.copyto(seen_image, empty_image, where=through)
+        surface, surface_image = _padded(intr.shape, False, bool)
+        np.logical_and(through, mask, out=surface_image)
+        segments.end_first(j, seen_image, surface_image)
+        claimed |= surface_image
+        views.append(View(j, mirror.plane.reflection_matrix()[:3], seen, surface, outline, intr.shape))
     for label, sequence in segments.sequences():
         seen, surface, outline = segments.view_of(label, empty, mask)
-        claimed |= surface
-        views.append(_view(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface, outline))
-    direct = _view(0, np.eye(4)[:3], empty, mask & ~claimed, np.ones(intr.shape, bool))
+        claimed |= surface[:-1].reshape(intr.shape)
+        views.append(View(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface, outline, intr.shape))
+    surface, surface_image = _padded(intr.shape, False, bool)
+    np.logical_and(mask, ~claimed, out=surface_image)
+    direct = View(0, np.eye(3, 4), empty, surface, _everywhere(intr.shape), intr.shape)
     return (direct, *views)
+
+
+def cull_depth(depth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """View.cull_depth of a flat depth (H*W + 1,) float32 (View.depth) of shape (H, W). The least of several views'
+    cull depths is the cull depth of their least depth (erosion and the minimum commute)."""
+    image = depth[:-1].reshape(shape)
+    cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image), np.ones((3, 3), np.uint8))
+    return padded_flat(cull, np.inf)
+
+
+def _padded(shape: tuple[int, int], fill, dtype) -> tuple[np.ndarray, np.ndarray]:
+    """A flat (H*W + 1,) array filled with `fill` (View's layout: the last cell is the pad), and its (H, W) view."""
+    flat = np.full(shape[0] * shape[1] + 1, fill, dtype)
+    return flat, flat[:-1].reshape(shape)
+
+
+@lru_cache(maxsize=8)
+def _everywhere(shape: tuple[int, int]) -> np.ndarray:
+    """(H*W + 1,) bool, True but in the pad cell: the camera's outline."""
+    flat, image = _padded(shape, False, bool)
+    image[:] = True
+    flat.flags.writeable = False
+    return flat
+
+
+@lru_cache(maxsize=8)
+def _mirror_tables(rig: Rig) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]:
+    """Per mirror of the rig (made once per rig), None when it has no plane or no boundary, else: inside (H, W) bool,
+    the pixels of its boundary; behind (H, W) float32, the depth beyond which a pixel's point is behind its plane
+    (+inf outside the boundary or where the ray never gets behind it); outline (H*W + 1,) bool, inside padded as
+    View.outline. A float32 depth z is behind exactly when z > behind: z (n . ray) + d < 0 in float64 for
+    ray = (x/z, y/z, 1), with the float64 threshold -d / (n . ray) rounded down to float32."""
+    rays = rig.intrinsics.rays
+    tables = []
+    for m in rig.mirrors:
+        if m.plane is None or m.boundary is None:
+            tables.append(None)
+            continue
+        inside = polygon_mask(m.boundary, rig.intrinsics.shape)
+        ray_dot = m.plane.n[0] * rays[0] + m.plane.n[1] * rays[1] + m.plane.n[2]
+        with np.errstate(divide="ignore"):
+            exact = np.where(inside & (ray_dot < 0), -m.plane.d / ray_dot, np.inf)
+        behind = exact.astype(np.float32)
+        behind = np.where(behind > exact, np.nextafter(behind, np.float32(-np.inf)), behind)
+        outline, image = _padded(rig.intrinsics.shape, False, bool)
+        image[:] = inside
+        for a in (inside, behind, outline):
+            a.flags.writeable = False
+        tables.append((inside, behind, outline))
+    return tuple(tables)
 
 
 @dataclass(frozen=True, eq=False)
@@ -121,102 +184,23 @@ class _Segments:
         return [(int(s), source_sequence(int(s))) for s in np.unique(self.chains.label[self.chains.label > 0])]
 
     def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The depth (H, W) float32, surface (H, W) bool and outline (H, W) bool of the sequence `label`'s view: its
-        pixels see the ray's segment after that sequence (empty up to the measured depth, or up to the next mirror);
-        elsewhere, and where the measured point lies before the segment, the view knows nothing (NaN)."""
+        """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the sequence `label`'s view:
+        its pixels see the ray's segment after that sequence (empty up to the measured depth (empty (H*W + 1,)), or up
+        to the next mirror); elsewhere, and where the measured point lies before the segment, the view knows nothing
+        (NaN). mask : (H, W) bool, the object's pixels."""
         level, rows = np.nonzero(self.chains.label == label)
         pixel, start, end, z = self.chains.pixel[rows], self.start[rows, level + 1], self.end[rows, level + 1], \
             self.z[rows]
         after = (z == 0) | (z > start)
-        seen = np.full(self.shape, np.nan, np.float32)
-        surface, outline = np.zeros(self.shape, bool), np.zeros(self.shape, bool)
-        seen.reshape(-1)[pixel[after]] = np.minimum(empty.reshape(-1)[pixel[after]], end[after])
-        surface.reshape(-1)[pixel] = mask.reshape(-1)[pixel] & after & (z < end)
-        outline.reshape(-1)[pixel] = True
+        seen, _ = _padded(self.shape, np.nan, np.float32)
+        surface, _ = _padded(self.shape, False, bool)
+        outline, _ = _padded(self.shape, False, bool)
+        seen[pixel[after]] = np.minimum(empty[pixel[after]], end[after])
+        surface[pixel] = mask.reshape(-1)[pixel] & after & (z < end)
+        outline[pixel] = True
         return seen, surface, outline
-
-
-def _view(source: int, to_view: np.ndarray, depth: np.ndarray, surface: np.ndarray, outline: np.ndarray) -> View:
-    cull = cv2.erode(np.where(np.isnan(depth), np.inf, depth).astype(np.float32), np.ones((3, 3), np.uint8))
-    return View(source, np.asarray(to_view, np.float64), padded_flat(depth, np.nan), padded_flat(surface, False),
-                padded_flat(cull, np.inf), padded_flat(outline, False))
 
 
 def padded_flat(image: np.ndarray, pad) -> np.ndarray:
     """(H, W) image -> (H*W + 1,) of its dtype with `pad` in the last cell: index H*W (see pixel_index) reads `pad`."""
     return np.append(image.ravel(), np.array(pad, image.dtype))
-
-
-def transform(view: View, points: np.ndarray) -> np.ndarray:
-    """points (3, n) float32 rows x, y, z, camera frame -> (3, n) float32 in the frame this view projects
-    (see View.to_view); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is several times slower)."""
-    m = view.to_view.astype(np.float32)
-    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3] for r in range(3)])
-
-
-def pixel_index(intr: Intrinsics, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Nearest pixel of real coordinates u, v (any broadcastable shapes; NaN allowed) -> int64 flat index v*W + u,
-    H*W (the pad cell) off the image."""
-    iu, iv = np.rint(u), np.rint(v)
-    ok = (iu >= 0) & (iu < intr.width) & (iv >= 0) & (iv < intr.height)
-    with np.errstate(invalid="ignore"):
-        return np.where(ok, iv * intr.width + iu, intr.width * intr.height).astype(np.int64)
-
-
-def project(intr: Intrinsics, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(3, n) float32 points in a view's frame -> u, v (n,) float32 pixel coordinates, NaN where z <= 0."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(p[2] > 0, np.float32(1) / p[2], np.float32(np.nan))
-    return (np.float32(intr.fx) * p[0] * inv + np.float32(intr.cx),
-            np.float32(intr.fy) * p[1] * inv + np.float32(intr.cy))
-
-
-def sample(intr: Intrinsics, view: View, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The view's depth at points p (3, n) float32 in the view's frame (see `transform`), with sub-pixel lookup.
-
-    Where the four pixels around a point all show the surface within BILINEAR_GAP of each other, the depth is their
-    bilinear interpolation and the point counts as on the surface's ray. Elsewhere (a depth edge, the silhouette, no
-    surface) the depth is the least of the four (NaN ones ignored): the ray is empty up to there whichever of the four
-    the point's own ray is closest to, and the point does not count as on the surface.
-    returns depth (n,) float32 metres (as in the module docstring; NaN off the image, behind the camera, or where
-    the view knows nothing) and surface (n,) bool.
-    """
-    u, v = project(intr, p)
-    with np.errstate(invalid="ignore"):
-        u0 = np.clip(np.floor(u), 0, intr.width - 2)
-        v0 = np.clip(np.floor(v), 0, intr.height - 2)
-    fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
-    i00 = pixel_index(intr, u0, v0)
-    pad = i00 == intr.width * intr.height
-    corners = [i00, np.where(pad, i00, i00 + 1), np.where(pad, i00, i00 + intr.width),
-               np.where(pad, i00, i00 + intr.width + 1)]
-    d = [view.depth[i] for i in corners]
-    surface = view.surface[corners[0]] & view.surface[corners[1]] & view.surface[corners[2]] \
-        & view.surface[corners[3]]
-    low = np.fmin(np.fmin(d[0], d[1]), np.fmin(d[2], d[3]))
-    with np.errstate(invalid="ignore"):
-        surface &= np.fmax(np.fmax(d[0], d[1]), np.fmax(d[2], d[3])) - low < BILINEAR_GAP
-        top = d[0] + fu * (d[1] - d[0])
-        bottom = d[2] + fu * (d[3] - d[2])
-        return np.where(surface, top + fv * (bottom - top), low), surface
-
-
-def direct_pixels(intr: Intrinsics, volume: Volume, slab: slice) -> np.ndarray:
-    """(ni, ny, nz) int64 nearest pixel (flat index, H*W off the image or behind the camera) of every voxel of the
-    slab (see Volume.slabs), by broadcasting: u depends on (x, z) only and v on (y, z) only."""
-    x, y, z = (a.astype(np.float32) for a in volume.axes())
-    inv_z = np.where(z > 0, np.float32(1) / np.maximum(z, np.float32(1e-9)), np.float32(np.nan))  # behind: off image
-    u = np.float32(intr.fx) * x[slab, None, None] * inv_z + np.float32(intr.cx)
-    v = np.float32(intr.fy) * y[None, :, None] * inv_z + np.float32(intr.cy)
-    return pixel_index(intr, u, v)
-
-
-def in_front_of_mirrors(rig: Rig, points: np.ndarray) -> np.ndarray:
-    """points (3, n) float32 camera frame -> (n,) bool: in front of every calibrated mirror plane (the volume the
-    algorithms carve)."""
-    ok = np.ones(points.shape[1], bool)
-    for m in rig.mirrors:
-        if m.plane is not None:
-            n = m.plane.n.astype(np.float32)
-            ok &= n[0] * points[0] + n[1] * points[1] + n[2] * points[2] + np.float32(m.plane.d) > 0
-    return ok

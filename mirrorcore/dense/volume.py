@@ -1,11 +1,13 @@
 """The voxel grid of dense reconstruction: an axis-aligned volume in the camera frame, its bounding box from a cloud,
-its slabs (chunks) processed in parallel with a progress callback and cancellation."""
+its blocks (cubes of b^3 voxels, the unit of sparse work; each method picks b), and the runner that processes chunks
+of work in parallel with a progress callback and cancellation."""
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
-from typing import Callable
+from typing import TypeVar
 
 import numpy as np
 
@@ -13,20 +15,26 @@ from ..budget import check_memory
 from ..errors import Cancelled, MirrorscanError
 from ..progress import Progress, cancel_requested
 
-VOXEL_BYTES = 20                  # peak bytes per voxel of the costliest method: TSDF with its mesh measured 16.3
-CHUNK_VOXELS = 1 << 18            # voxels per slab: temporaries stay in the CPU caches and memory stays bounded
+SMALLEST_BLOCK = 4                # voxels along the edge of the smallest blocks a method uses (fusion)
+CHUNK_VOXELS = 1 << 16            # voxels per chunk of work: temporaries stay in the CPU caches, memory bounded
+QUEUED_PER_WORKER = 2             # chunks submitted at a time per worker thread
+BLOCK_GRID_BYTES = 24             # bytes per smallest block of the whole grid a method may hold (coordinates, marks)
 
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
+Item = TypeVar("Item")
 
 
 @dataclass(frozen=True)
 class Volume:
     """Voxel (i, j, k) has its centre at origin + voxel * (i, j, k): x along i, y along j, z along k (camera frame,
-    metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k].
+    metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k]. With blocks of b^3 voxels, block (p, q, r)
+    holds the voxels [p b, (p + 1) b) x [q b, (q + 1) b) x [r b, (r + 1) b); the blocks on the far faces reach past
+    the grid.
 
     origin : (3,) metres, centre of voxel (0, 0, 0); voxel : edge in metres; shape : (nx, ny, nz).
-    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when the grids of a
-    reconstruction (VOXEL_BYTES a voxel) would not fit in the memory budget (mirrorcore.budget).
+    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when the grid's smallest
+    blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget (mirrorcore.budget). Each method checks what
+    it allocates besides (`check_grids`, the TSDF's blocks), before allocating it.
     """
 
     origin: tuple[float, float, float]
@@ -38,11 +46,10 @@ class Volume:
             raise MirrorscanError(f"volume: the voxel size must be positive, got {self.voxel}")
         if len(self.shape) != 3 or min(self.shape) < 1:
             raise MirrorscanError(f"volume: the grid needs at least one voxel per axis, got {self.shape}")
-        check_memory(float(np.prod(np.asarray(self.shape, float))) * VOXEL_BYTES,
-                     f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of {self.voxel * 1e3:g} mm "
-                     "(use larger voxels or a smaller box)")
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "shape", tuple(int(s) for s in self.shape))
+        check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK), float))) * BLOCK_GRID_BYTES,
+                     self._what())
 
     @classmethod
     def from_bounds(cls, lo, hi, voxel: float) -> "Volume":
@@ -67,9 +74,35 @@ class Volume:
         """Number of voxels."""
         return int(np.prod(self.shape, dtype=np.int64))
 
+    def block_shape(self, block: int) -> tuple[int, int, int]:
+        """Blocks of block^3 voxels along x, y, z: ceil(shape / block)."""
+        return tuple(-(-int(s) // block) for s in self.shape)
+
+    def padded_shape(self, block: int) -> tuple[int, int, int]:
+        """The grid grown to whole blocks of block^3 voxels."""
+        return tuple(block * b for b in self.block_shape(block))
+
+    def check_grids(self, voxel_bytes: float, what: str, block: int) -> None:
+        """Refuse (MemoryBudgetError naming the volume and `what`) grids of `voxel_bytes` a voxel of the grid padded
+        to whole blocks of block^3 voxels that would not fit in the memory budget."""
+        check_memory(float(np.prod(np.asarray(self.padded_shape(block), float))) * voxel_bytes,
+                     f"{self._what()}: {what}")
+
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The voxel centres along x, y, z: three 1-D float64 arrays (nx,), (ny,), (nz,), metres."""
         return tuple(o + self.voxel * np.arange(n) for o, n in zip(self.origin, self.shape))
+
+    def padded_axes(self, block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The voxel centres along x, y, z of the grid padded to whole blocks of block^3 voxels: float32 metres, NaN
+        past the volume."""
+        return tuple(np.concatenate([a.astype(np.float32), np.full(p - len(a), np.nan, np.float32)])
+                     for a, p in zip(self.axes(), self.padded_shape(block)))
+
+    def corners(self) -> np.ndarray:
+        """(8, 3) float64 metres: the corners of the box of the voxel centres."""
+        lo = np.asarray(self.origin)
+        hi = lo + self.voxel * (np.asarray(self.shape) - 1)
+        return np.stack(np.meshgrid(*np.stack([lo, hi]).T, indexing="ij"), axis=-1).reshape(-1, 3)
 
     def centres(self, flat_index: np.ndarray) -> np.ndarray:
         """flat_index : (n,) int, C-order indices into the (nx, ny, nz) grid -> (n, 3) float32 centres, metres."""
@@ -81,49 +114,55 @@ class Volume:
         ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(np.int64)
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
-    def slab_points(self, slab: slice, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """C-order indices (n,) int64 into the grid and centres (3, n) float32 (rows x, y, z, metres) of the voxels of
-        slab `slab` (see `slabs`) at flat indices `local` (n,) within the slab."""
-        index = local + slab.start * self.shape[1] * self.shape[2]
-        ijk = np.unravel_index(index, self.shape)
-        return index, np.stack([(o + self.voxel * i).astype(np.float32) for o, i in zip(self.origin, ijk)])
-
-    def slabs(self, max_voxels: int = CHUNK_VOXELS) -> list[slice]:
-        """Slices along x (axis 0) of at most max(max_voxels, one x-plane) voxels each, covering the grid."""
-        step = max(1, max_voxels // (self.shape[1] * self.shape[2]))
-        return [slice(i, min(i + step, self.shape[0])) for i in range(0, self.shape[0], step)]
+    def _what(self) -> str:
+        return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of {self.voxel * 1e3:g} mm "
+                "(use larger voxels or a smaller box)")
 
 
-def run_slabs(volume: Volume, work: Callable[[slice], None], progress: Progress | None = None,
-              cancel=None, workers: int | None = None) -> None:
-    """Call work(slab) for every slab of the volume on `workers` threads (default: the CPU count; numpy releases the
-    GIL in its array operations), at most `workers` slabs at a time so that memory stays bounded.
+def run_chunks(items: Sequence[Item], work: Callable[[Item], None], progress: Progress | None = None,
+               cancel=None, workers: int | None = None) -> None:
+    """Call work(item) for every item, in this thread for one worker, else on `workers` threads (default: the CPU
+    count; numpy releases the GIL in its array operations) with at most QUEUED_PER_WORKER items per thread submitted
+    at a time, so that memory stays bounded and no thread waits for the next item.
 
-    progress(fraction) is called in this thread after each slab (0 < fraction <= 1). cancel is polled before each
-    slab starts: the running slabs finish, then Cancelled is raised. Exceptions of `work` propagate.
+    progress(fraction) is called in this thread after each item (0 < fraction <= 1). cancel is polled before each
+    item starts (is submitted): the running items finish, then Cancelled is raised. Exceptions of `work` propagate.
     """
-    slabs = volume.slabs()
     workers = max(1, workers or os.cpu_count() or 1)
     done = 0
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        pending: set[Future] = set()
-        todo = iter(slabs)
-        try:
-            while True:
-                while len(pending) < workers and not cancel_requested(cancel):
-                    slab = next(todo, None)
-                    if slab is None:
+
+    def finished_one() -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done / len(items))
+
+    if workers == 1:
+        for item in items:
+            if cancel_requested(cancel):
+                break
+            work(item)
+            finished_one()
+    else:
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            pending: set[Future] = set()
+            todo = iter(items)
+            try:
+                while True:
+                    while len(pending) < QUEUED_PER_WORKER * workers and not cancel_requested(cancel):
+                        item = next(todo, None)
+                        if item is None:
+                            break
+                        pending.add(pool.submit(work, item))
+                    if not pending:
                         break
-                    pending.add(pool.submit(work, slab))
-                if not pending:
-                    break
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in finished:
-                    future.result()
-                    done += 1
-                    if progress is not None:
-                        progress(done / len(slabs))
-        finally:
-            wait(pending)
-    if done < len(slabs):
-        raise Cancelled(f"stopped after {done} of {len(slabs)} slabs")
+                    finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in finished:
+                        future.result()
+                        finished_one()
+            finally:
+                for future in pending:
+                    future.cancel()
+                wait(pending)
+    if done < len(items):
+        raise Cancelled(f"stopped after {done} of {len(items)} chunks")
