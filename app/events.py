@@ -44,8 +44,8 @@ class LoopChanged:
 
 @dataclass(frozen=True, eq=False)
 class JobProgress:
-    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT, HEAT) moved on: fraction done in [0, 1] or None
-    when it is not running, and a one-line status."""
+    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT, HEAT) moved on:
+    fraction done in [0, 1] or None when it is not running, and a one-line status."""
 
     job: str
     fraction: float | None

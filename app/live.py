@@ -97,13 +97,17 @@ class LiveLoop:
     """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate, with the
     snapshot that snapshot() gives at each frame.
 
+    The thread runs at the source's frame rate, or at fps_wanted() frames per second when that is given and lower
+    (the app asks for fewer while no tab shows the cloud: see MirrorscanApp.fps_wanted).
     on_frame(LiveFrame) is called on the loop's thread; an exception there or in the source is passed to on_error and
     the loop goes on with the next frame after a short pause (a camera may come back).
     """
 
     def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot], on_frame: Callable[[LiveFrame], None],
-                 on_error: Callable[[Exception], None] = lambda exc: None):
+                 on_error: Callable[[Exception], None] = lambda exc: None,
+                 fps_wanted: Callable[[], float | None] = lambda: None):
         self.source, self.snapshot, self.on_frame, self.on_error = source, snapshot, on_frame, on_error
+        self.fps_wanted = fps_wanted
         self.rate = RateMeter()
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
@@ -235,4 +239,12 @@ class LiveLoop:
             except Exception as exc:  # noqa: BLE001 - a bad frame or a lost camera must not end the loop
                 self.on_error(exc)
                 self._stop.wait(0.5)
-            self._stop.wait(max(0.0, 1.0 / self.source.fps - (time.perf_counter() - started)))
+            self._stop.wait(max(0.0, 1.0 / self.pace() - (time.perf_counter() - started)))
+
+    def pace(self) -> float:
+        """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks for fewer and no
+        collect() is waiting for frames."""
+        with self._recent_lock:
+            collecting = bool(self._collectors)
+        wanted = None if collecting else self.fps_wanted()
+        return min(self.source.fps, wanted) if wanted else self.source.fps

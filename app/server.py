@@ -29,6 +29,7 @@ from .tab import Tab
 
 log = logging.getLogger("mirrorscan")
 VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden
+IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
 
 
@@ -52,6 +53,10 @@ class MirrorscanApp:
             raise
         self.server.gui.configure_theme(show_share_button=False, brand_color=(0, 114, 178))
         self.server.gui.main_panel.dock_right()
+        # Nothing in the scene is glossy: no environment map and no shadows, which cost a laptop without a GPU (and
+        # headless Chromium) half its frame rate.
+        self.server.scene.configure_environment_map(hdri=None)
+        self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.server.gui.main_panel.set_width(PANEL_WIDTH)
         self.bus = EventBus()
         self.editor = SessionEditor(session, autosave)
@@ -60,7 +65,7 @@ class MirrorscanApp:
         self._snapshot = Snapshot.build(session, self._background[1])
         self.last_frame: LiveFrame | None = None
         self._last_error = ""
-        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error)
+        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error, self.fps_wanted)
         self.jobs = Jobs(self.loop, lambda: self._snapshot, self.bus)
         self.tabs: dict[int, Tab] = {}
         self._tabs_lock = threading.Lock()
@@ -142,6 +147,16 @@ class MirrorscanApp:
     def fps(self) -> float:
         return self.loop.rate.fps
 
+    def fps_wanted(self) -> float | None:
+        """None (the source's rate) while some tab shows the cloud or a recording runs; else IDLE_FPS: every tab looks
+        at the depth frame (sent at most 8 times a second) or is hidden, so processing 30 frames a second would only
+        take the cores from the browser on the same laptop."""
+        with self._tabs_lock:
+            tabs = list(self.tabs.values())
+        if self.jobs.running(RECORD) or any(tab.state.view == "3d" and not tab.hidden for tab in tabs):
+            return None
+        return IDLE_FPS
+
     def recent_depths(self) -> np.ndarray | None:
         return self.loop.recent_depths()
 
@@ -194,7 +209,7 @@ class MirrorscanApp:
                     self._background = (session.background, session.read_background())
                 elif not session.background and self._background[0] is not None:
                     self._background = (None, self._source.background())
-                snapshot = Snapshot.build(session, self._background[1], self.loop.recent_depths())
+                snapshot = Snapshot.build(session, self._background[1], self.loop.recent_depths(), self._snapshot)
             except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state
                 self.notify(None, "Session not applied", str(exc))
                 return

@@ -38,13 +38,27 @@ class Snapshot:
         return {mirror_id: r.grades for mirror_id, r in self.marker_residuals.items()}
 
     @classmethod
-    def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None) -> "Snapshot":
-        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers (none without)."""
+    def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None,
+              previous: "Snapshot | None" = None) -> "Snapshot":
+        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers (none without).
+        What `previous` already holds for the same inputs is reused (a marker added keeps the rig's tables: a click
+        must not wait ~70 ms for them)."""
         rig = Rig.from_session(session)
+        if previous is not None and same_geometry(rig, previous.rig):
+            rig = previous.rig
         rig.reflection_table  # built here, once, not in the first live frame
         residuals = {}
         if depths is not None:
             residuals = {m.id: marker_residuals(session.camera, depths, m.markers, sticker_plane(m))
                          for m in session.mirrors if m.plane is not None and m.markers}
-        backdrop = None if background is None else Backdrop.of(background, session.selection)
+        if previous is not None and previous.background is background and \
+                previous.session.selection == session.selection:
+            backdrop = previous.backdrop
+        else:
+            backdrop = None if background is None else Backdrop.of(background, session.selection)
         return cls(session, rig, background, backdrop, residuals)
+
+
+def same_geometry(a: Rig, b: Rig) -> bool:
+    """Whether two rigs trace the same rays: same camera, mirrors (names, planes, boundaries) and bounces."""
+    return (a.intrinsics, a.mirrors, a.bounces) == (b.intrinsics, b.mirrors, b.bounces)

@@ -8,9 +8,13 @@ live_cpu_ms        the loop thread's CPU time per frame at the demo's 30 fps, th
                    the depth frame (eight times a second, no cloud)
 live_kb_per_frame  kilobytes the tab receives per frame over the websocket at 30 fps, looking at the 3D scene
 live_points        points a frame carries to the tab (all of the cloud: none are dropped to save bandwidth)
+click_ms           from a click on the depth frame (a marker added) until the depth frame that shows it is sent to
+                   the tab, the demo running at 30 fps meanwhile (median of 10 clicks; the page's part, decoding and
+                   drawing, is measured in Chromium by tests/test_browser.py)
 """
 from __future__ import annotations
 
+import threading
 import time
 from pathlib import Path
 
@@ -18,7 +22,7 @@ import numpy as np
 
 from app.demo import calibrated_session, demo_source
 from app.server import MirrorscanApp
-from bench.tabs import HeadlessTab
+from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.sources import StackSource
 
 FRAMES = 60
@@ -34,14 +38,17 @@ def demo_frames(n: int) -> StackSource:
     return replay
 
 
-def paced(app: MirrorscanApp, tab: HeadlessTab, frames: int) -> tuple[float, float]:
-    """Run `frames` frames at FPS; (mean CPU ms of the loop's thread per frame, kB the tab received per frame)."""
-    cpu, received = 0.0, tab.bytes
+def paced(app: MirrorscanApp, tab: HeadlessTab | None, frames: int) -> tuple[float, float]:
+    """Run `frames` frames at FPS; (mean CPU ms of the loop's thread per frame, kB the tab received per frame, 0
+    without a tab)."""
+    cpu, received = 0.0, tab.bytes if tab else 0
     for _ in range(frames):
         start, used = time.perf_counter(), time.thread_time()
         app.loop.run_once()
         cpu += time.thread_time() - used
         time.sleep(max(0.0, 1 / FPS - (time.perf_counter() - start)))
+    if tab is None:
+        return cpu / frames * 1e3, 0.0
     time.sleep(0.5)                                        # what is on its way reaches the tab
     return cpu / frames * 1e3, (tab.bytes - received) / frames / 1e3
 
@@ -63,8 +70,40 @@ def run() -> dict[str, float]:
             cpu_3d, kb_3d = paced(app, tab, FRAMES)
             tab.tab.look("depth")
             cpu_depth, _ = paced(app, tab, FRAMES)
+            click = click_ms(app, tab.tab)
             points = sum(len(p.offsets) for p in app.last_frame.parts)
     finally:
         app.stop()
     return {"serve_loop_fps": fps, "live_cpu_ms": max(cpu_3d, cpu_depth), "live_cpu_3d_view_ms": cpu_3d,
-            "live_cpu_depth_view_ms": cpu_depth, "live_kb_per_frame": kb_3d, "live_points": float(points)}
+            "live_cpu_depth_view_ms": cpu_depth, "live_kb_per_frame": kb_3d, "live_points": float(points),
+            "click_ms": click}
+
+
+def click_ms(app: MirrorscanApp, tab, clicks: int = 10) -> float:
+    """Median ms from a click adding a marker on mirror 1 (the tab in its markers mode, looking at the depth frame)
+    until the tab sends the depth frame that shows it, while another thread runs the live loop at FPS."""
+    sent: list[float] = []
+    show = tab.screen.show
+    tab.screen.show = lambda rgb: (sent.append(time.perf_counter()), show(rgb))
+    tab.state.mirror_id, tab.state.mode = app.editor.session.mirrors[0].id, "markers"
+    u, v = np.mean(np.array(app.editor.session.mirrors[0].boundary), axis=0)
+    stop = threading.Event()
+
+    def run_live() -> None:
+        while not stop.is_set():
+            paced(app, None, 1)
+    live = threading.Thread(target=run_live)
+    live.start()
+    delays = []
+    try:
+        for k in range(clicks):
+            time.sleep(0.3)
+            clicked = time.perf_counter()
+            tab._clicked(u + 4 * k - 20, v - 60)
+            drawn = wait_for(lambda: [t for t in sent if t > clicked], 5, "the depth frame after a click")
+            delays.append((drawn[0] - clicked) * 1e3)
+    finally:
+        stop.set()
+        live.join()
+        tab.screen.show = show
+    return float(np.median(delays))

@@ -17,11 +17,16 @@ ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-
         "--no-first-run"]
 CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
 
-# Every depth-frame image the page receives: [arrival ms, ms when the next animation frame ran, the RGBA of the
-# 21x21 pixels around window.__probe (u, v) in the image] (the image is decoded in the page).
+# Every depth-frame image the page receives, decoded, in window.__depth: [arrival ms, ms when the next animation frame
+# ran, the image as an ImageBitmap] (the last 64); window.__patch(bitmap, u, v) reads the RGBA of its 21x21 pixels
+# around (u, v), flat.
 DEPTH_HOOK = """
 window.__depth = [];
-window.__probe = null;
+window.__patch = (bitmap, u, v) => {
+  const context = new OffscreenCanvas(21, 21).getContext("2d");
+  context.drawImage(bitmap, u - 10, v - 10, 21, 21, 0, 0, 21, 21);
+  return Array.from(context.getImageData(0, 0, 21, 21).data);
+};
 const Base = window.Worker;
 window.Worker = class extends Base {
   constructor(...args) {
@@ -32,17 +37,11 @@ window.Worker = class extends Base {
       for (const m of data.messages) {
         if (m.type !== "SceneNodeUpdateMessage" || m.name !== "/depth_frame" || !m.updates._data) continue;
         const arrived = performance.now();
-        const bytes = new Uint8Array(m.updates._data);
-        const probe = window.__probe;
-        createImageBitmap(new Blob([bytes], {type: "image/jpeg"})).then((bitmap) => {
-          let patch = null;
-          if (probe) {
-            const canvas = new OffscreenCanvas(21, 21);
-            const context = canvas.getContext("2d");
-            context.drawImage(bitmap, probe[0] - 10, probe[1] - 10, 21, 21, 0, 0, 21, 21);
-            patch = Array.from(context.getImageData(0, 0, 21, 21).data);
-          }
-          requestAnimationFrame(() => window.__depth.push([arrived, performance.now(), patch]));
+        createImageBitmap(new Blob([new Uint8Array(m.updates._data)], {type: "image/jpeg"})).then((bitmap) => {
+          requestAnimationFrame(() => {
+            window.__depth.push([arrived, performance.now(), bitmap]);
+            if (window.__depth.length > 64) window.__depth.shift().close();
+          });
         });
       }
     });
@@ -102,12 +101,23 @@ def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
     raise AssertionError(f"the tab's camera stays at {tab.client.camera.position}, not {position}")
 
 
+# The 3D scene's canvas: the largest one of the page (a plot of the side panel has its own, maybe earlier).
+SCENE_CANVAS = ("[...document.querySelectorAll('canvas')]"
+                ".reduce((a, b) => a.clientWidth * a.clientHeight >= b.clientWidth * b.clientHeight ? a : b)")
+
+
+def scene_canvas_box(page) -> dict:
+    """The scene canvas's box on the page (CSS px): x, y, width, height."""
+    return page.evaluate(f"(() => {{ const r = ({SCENE_CANVAS}).getBoundingClientRect(); "
+                         "return {x: r.x, y: r.y, width: r.width, height: r.height}; })()")
+
+
 def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
     """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes, vertical fov)."""
     camera = client.camera
     R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
     p = R.T @ (np.asarray(world) - np.asarray(camera.position))
-    box = page.locator("canvas").first.bounding_box()
+    box = scene_canvas_box(page)
     f = (box["height"] / 2) / np.tan(camera.fov / 2)
     return box["x"] + box["width"] / 2 + f * p[0] / p[2], box["y"] + box["height"] / 2 + f * p[1] / p[2]
 

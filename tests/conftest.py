@@ -1,6 +1,6 @@
 """Shared fixtures: the browser tool on the simulated sphere rig (an empty session in a temporary folder, frames at
 15 fps) and on the built-in demo (calibrated, kept in memory), each with a headless tab connected; the
-notifications a test's actions raise."""
+notifications a test's actions raise; a headless Chromium per test module (skipped without Playwright or Chromium)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -54,3 +54,16 @@ def notes(monkeypatch):
         monkeypatch.setattr(app, "notify", lambda client, title, message, error=True: said.append(message))
         return said
     return record
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """Debian's Chromium, headless, through Playwright, for one test module."""
+    playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    from tests.browser import ARGS, CHROMIUM
+    if CHROMIUM is None:
+        pytest.skip("Debian's chromium is not installed")
+    with playwright.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        yield browser
+        browser.close()

@@ -1,17 +1,22 @@
 """The browser tool without a browser, on the demo: the live loop turns frames into a cloud with every source; a tab
 gets it as float16 offsets within 0.3 mm, one node per source, and the depth frame; a tab looking at the depth frame,
-or hidden, is not sent the cloud; pause and step; the depth screen's pixel mapping and framing."""
+or hidden, is not sent the cloud, and the loop slows down; pause and step; the depth screen's pixel mapping and
+framing; a snapshot keeps the rig's tables while the geometry stays."""
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.server import IDLE_FPS
+from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
+from mirrorcore.geometry.plane import Plane
 
 
 def test_demo_planes_are_calibrated_close_to_the_truth(demo):
@@ -115,6 +120,55 @@ def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
         sys.setswitchinterval(interval)
     assert not errors, errors
     assert scene._clouds                                            # the nodes are there after the storm
+
+
+def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path):
+    """The source's 30 fps while a tab looks at the 3D scene, records, or collects frames; IDLE_FPS while every tab
+    looks at the depth frame (sent 8 times a second) or is hidden, the header saying so."""
+    app, headless = demo
+    tab, loop = headless.tab, app.loop
+    assert app.fps_wanted() is None and loop.pace() == app.source.fps == 30.0
+    tab.look("depth")
+    try:
+        assert app.fps_wanted() == IDLE_FPS and loop.pace() == IDLE_FPS
+        tab.header.show(loop.run_once())
+        assert f"at most {IDLE_FPS:.0f} fps" in tab.header.rate.content
+        loop._collectors.append(lambda frame: None)                   # a background capture waits for frames
+        assert loop.pace() == 30.0
+        loop._collectors.clear()
+        app.jobs.start_recording(tmp_path)
+        assert app.fps_wanted() is None
+        app.jobs.stop_recording(app.editor.session)
+        tab.look("3d")
+        tab.hidden = True
+        assert app.fps_wanted() == IDLE_FPS
+    finally:
+        tab.hidden = False
+        tab.look("3d")
+    assert app.fps_wanted() is None
+
+
+def test_a_new_snapshot_keeps_the_rig_tables_while_the_geometry_stays(demo):
+    """A marker added reuses the rig (its tables took ~70 ms) and the backdrop; a moved plane or outline, a new
+    selection or another background builds them again."""
+    app, _ = demo
+    before = app._snapshot
+    session = before.session
+    mirror = session.mirrors[0]
+    marked = replace(session, mirrors=(replace(mirror, markers=mirror.markers + ((300.0, 200.0),)),
+                                       *session.mirrors[1:]))
+    after = Snapshot.build(marked, before.background, previous=before)
+    assert after.rig is before.rig and after.backdrop is before.backdrop and after.session is marked
+    moved = replace(mirror, plane=Plane(mirror.plane.normal, mirror.plane.d + 0.001))
+    rebuilt = Snapshot.build(replace(session, mirrors=(moved, *session.mirrors[1:])), before.background,
+                             previous=before)
+    assert rebuilt.rig is not before.rig and rebuilt.rig.mirrors[0].plane == moved.plane
+    outlined = replace(mirror, boundary=mirror.boundary[:-1])
+    assert Snapshot.build(replace(session, mirrors=(outlined, *session.mirrors[1:])), before.background,
+                          previous=before).rig is not before.rig
+    selected = replace(session, selection=replace(session.selection, min_gap=0.05))
+    assert Snapshot.build(selected, before.background, previous=before).backdrop is not before.backdrop
+    assert Snapshot.build(session, before.background.copy(), previous=before).backdrop is not before.backdrop
 
 
 def test_loop_thread_pause_and_step(demo):

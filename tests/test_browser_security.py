@@ -6,7 +6,6 @@ from __future__ import annotations
 import http.server
 import threading
 import time
-from pathlib import Path
 
 import pytest
 import viser
@@ -17,10 +16,6 @@ from mirrorcore.session import Session, SessionMirror, load_session, save_sessio
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
-
-playwright = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed")
 
 EVIL_PAGE = """<html><body><script>
 const ws = new WebSocket("ws://127.0.0.1:%d/", ["viser-v%s"]);
@@ -40,16 +35,6 @@ def app(tmp_path_factory):
     app.start()
     yield app
     app.stop()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    with playwright.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=[
-            "--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
-            "--no-first-run"])
-        yield browser
-        browser.close()
 
 
 def wait_for(condition, seconds: float = 60.0):

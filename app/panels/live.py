@@ -129,8 +129,10 @@ class LivePanel:
             return
         first = self._last_stats == 0.0
         self._last_stats = now
+        paced = self.tab.services.fps_wanted()
         self.rate.content = (f"frame {frame.index} · **{self.tab.services.fps():.1f} fps** · "
-                             f"processing {frame.process_ms:.1f} ms")
+                             f"processing {frame.process_ms:.1f} ms"
+                             + (f" · at most {paced:.0f} fps while no tab shows the 3D scene" if paced else ""))
         count = self.tab.services.source.frame_count
         if count:
             self.seek.value = frame.index % count
