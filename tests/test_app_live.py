@@ -110,7 +110,7 @@ def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
     sys.setswitchinterval(1e-6)                                     # switch threads as often as possible
     thread.start()
     try:
-        for k in range(300):
+        for k in range(150):
             scene.recolour((1, 2))
             scene.set_point_size(0.004 + 0.001 * (k % 2))
             scene.show_clouds(True)
