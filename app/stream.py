@@ -48,7 +48,8 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS) -> list[Sou
         if not len(points):
             parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in range(HALVES)]
             continue
-        low, high = points.min(axis=0), points.max(axis=0)
+        columns = np.ascontiguousarray(points.T)       # numpy reduces (n, 3) along axis 0 ~30x slower than rows
+        low, high = columns.min(axis=1), columns.max(axis=1)
         centre = (low + high) / np.float32(2)
         dtype = np.float16 if float((high - low).max()) / 2 < FLOAT16_EXTENT else np.float32
         parts += [SourcePart(j, half, centre.astype(np.float64), (points[half::HALVES] - centre).astype(dtype))
