@@ -17,7 +17,7 @@ from tests.browser import click_pixel, look_at_the_depth_frame, open_tab
 ARTIFACTS = Path(__file__).parent / "artifacts"
 
 # Headless Chromium draws with SwiftShader on the machine's two cores, which the demo's simulator and live loop share:
-# here a click is drawn 0.5 to 0.8 s after it at 1024x600 (before the loop slowed down in the depth view and a marker
+# here a click is drawn 0.4 to 0.8 s after it at 1024x600 (before the loop slowed down in the depth view and a marker
 # kept the rig's tables: 1.4 to 2.2 s, the page falling behind). The server's part is `click_ms` in `mirrorscan bench`.
 PAGE_CLICK_MS = 1500
 RING_DRAWN = 30          # mean |RGB difference| to the marker's ring under which the page shows it (JPEG blurs it a little)
