@@ -81,10 +81,16 @@ def run() -> dict[str, float]:
 
 def click_ms(app: MirrorscanApp, tab, clicks: int = 10) -> float:
     """Median ms from a click adding a marker on mirror 1 (the tab in its markers mode, looking at the depth frame)
-    until the tab sends the depth frame that shows it, while another thread runs the live loop at FPS."""
-    sent: list[float] = []
+    until the tab sends a depth frame whose overlay has the marker, while another thread runs the live loop at FPS."""
+    target: list[tuple[int, int]] = []             # the pixel clicked last
+    sent: list[float] = []                         # when a depth frame showing it was sent
     show = tab.screen.show
-    tab.screen.show = lambda rgb: (sent.append(time.perf_counter()), show(rgb))
+
+    def show_and_note(rgb: np.ndarray) -> None:
+        if target and tab.overlay.image[target[-1][1], target[-1][0], 3] > 0:
+            sent.append(time.perf_counter())
+        show(rgb)
+    tab.screen.show = show_and_note
     tab.state.mirror_id, tab.state.mode = app.editor.session.mirrors[0].id, "markers"
     u, v = np.mean(np.array(app.editor.session.mirrors[0].boundary), axis=0)
     stop = threading.Event()
@@ -98,9 +104,12 @@ def click_ms(app: MirrorscanApp, tab, clicks: int = 10) -> float:
     try:
         for k in range(clicks):
             time.sleep(0.3)
+            pixel = (int(u) + 30 * (k % 5) - 60, int(v) - 60 + 45 * (k // 5))    # on mirror 1's glass, apart
+            assert tab.overlay.image[pixel[1], pixel[0], 3] == 0, f"pixel {pixel} is drawn on already"
+            target.append(pixel)
             clicked = time.perf_counter()
-            tab._clicked(u + 4 * k - 20, v - 60)
-            drawn = wait_for(lambda: [t for t in sent if t > clicked], 5, "the depth frame after a click")
+            tab._clicked(*pixel)
+            drawn = wait_for(lambda: [t for t in sent if t > clicked], 5, "the depth frame showing the marker")
             delays.append((drawn[0] - clicked) * 1e3)
     finally:
         stop.set()

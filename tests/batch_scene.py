@@ -17,7 +17,7 @@ from mirrorcore.sim.simulator import Simulator
 
 FRAMES = 20
 IN_PROCESS = Where(workers=1)
-OPTIONS = {"raw": DenseOptions(), "tsdf": DenseOptions(voxel=0.015)}   # TSDF: 0.1 to 0.4 s a frame here
+OPTIONS = {"raw": DenseOptions(), "tsdf": DenseOptions(voxel=0.015)}   # TSDF: ~0.06 s a frame here
 
 
 def walking_recording(folder: Path, frames: int = FRAMES, scale: float = 0.25) -> Path:

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from app.events import JobProgress
+from app.jobs import DENSE
 from app.server import MirrorscanApp
 from bench.soak import listen
 from bench.soak import run as soak
@@ -96,11 +97,17 @@ def test_a_tab_closing_during_carving_does_not_stop_the_server(sphere):
     connected: list[int] = []
     already = set(app.server.get_clients())               # viser also calls a new callback for the tabs already in
     app.server.on_client_connect(lambda client: client.client_id in already or connected.append(client.client_id))
+    checked = threading.Event()                   # the carving waits at its first report until the tab is gone
+    hold = app.bus.subscribe(JobProgress, lambda e: e.job == DENSE and e.fraction is not None and checked.wait(60))
     dropped = threading.Thread(target=tab, args=(app.port, 0.5))
     dropped.start()
     worker = carve_around_the_sphere(app, 0.0015)
-    dropped.join()                                # the tab is gone while the carving runs
-    assert worker.is_alive() and len(connected) == 1
+    try:
+        dropped.join()                            # the tab is gone while the carving runs
+        assert worker.is_alive() and len(connected) == 1
+    finally:
+        checked.set()
+        hold()
     worker.join(timeout=120)
     assert "surface voxels" in app.jobs.dense_result.summary
     assert tab(app.port, 1.0) > 0 and len(connected) == 2   # a new tab connects and gets the scene
