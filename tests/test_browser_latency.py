@@ -20,7 +20,7 @@ ARTIFACTS = Path(__file__).parent / "artifacts"
 # here a click is drawn 0.4 to 0.8 s after it at 1024x600 (before the loop slowed down in the depth view and a marker
 # kept the rig's tables: 1.4 to 2.2 s, the page falling behind). The server's part is `click_ms` in `mirrorscan bench`.
 PAGE_CLICK_MS = 1500
-RING_DRAWN = 30          # mean |RGB difference| to the marker's ring under which the page shows it (JPEG blurs it a little)
+RING_DRAWN = 30          # mean |RGB difference| to the marker's ring under which the page shows it (JPEG blurs it)
 
 
 def marker_ring(overlay: np.ndarray, uv: tuple[int, int]) -> list[list[int]]:
