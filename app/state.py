@@ -7,17 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mirrorcore.geometry.plane import Plane
 from mirrorcore.markers import MarkerResiduals, marker_residuals
 from mirrorcore.rig import Rig
 from mirrorcore.selection import Backdrop
-from mirrorcore.session import Session, SessionMirror
-
-
-def sticker_plane(mirror: SessionMirror) -> Plane:
-    """The plane of a calibrated mirror's markers: its reflecting surface moved towards the camera by its
-    marker_offset (the stickers sit on the glass)."""
-    return Plane(mirror.plane.normal, mirror.plane.d - mirror.marker_offset)
+from mirrorcore.session import Session
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,7 +42,7 @@ class Snapshot:
         rig.reflection_table  # built here, once, not in the first live frame
         residuals = {}
         if depths is not None:
-            residuals = {m.id: marker_residuals(session.camera, depths, m.markers, sticker_plane(m))
+            residuals = {m.id: marker_residuals(session.camera, depths, m.markers, m.marker_plane)
                          for m in session.mirrors if m.plane is not None and m.markers}
         if previous is not None and previous.background is background and \
                 previous.session.selection == session.selection:

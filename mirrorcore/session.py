@@ -69,6 +69,14 @@ class SessionMirror:
     marker_offset: float = 0.0
     extra: dict = field(default_factory=dict, compare=False)
 
+    @property
+    def marker_plane(self) -> Plane | None:
+        """The plane of the markers' faces: the calibrated reflecting surface moved towards the camera by
+        marker_offset (the stickers sit on the glass), or None while uncalibrated."""
+        if self.plane is None:
+            return None
+        return Plane(self.plane.normal, self.plane.d - self.marker_offset)
+
     def to_json(self) -> dict:
         data = {"id": self.id, "name": self.name, "markers": [list(m) for m in self.markers],
                 "boundary": [list(b) for b in self.boundary],

@@ -8,6 +8,7 @@ from mirrorcore.errors import CalibrationError
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.noise import axial_sigma
+from mirrorcore.session import SessionMirror
 
 CAMERA = Intrinsics.kinect_v1()
 GLASS = Plane.from_point_normal([0.4, 0.0, 2.6], [-0.5, 0.05, -1.0])
@@ -47,6 +48,9 @@ def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
     np.testing.assert_allclose(moved.plane.abcd, GLASS.abcd, atol=1e-5)
     assert moved.rms_mm == plain.rms_mm and moved.markers == plain.markers      # graded on the stickers' plane
     assert max(moved.markers.distance_mm) < 0.01
+    glass = SessionMirror("mirror 1", plane=moved.plane, marker_offset=0.003)     # what the browser grades against
+    np.testing.assert_allclose(glass.marker_plane.abcd, stickers.abcd, atol=1e-5)
+    assert SessionMirror("mirror 2").marker_plane is None
 
 
 def test_noisy_markers_over_a_median_of_frames():
