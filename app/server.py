@@ -155,7 +155,7 @@ class MirrorscanApp:
         take the cores from the browser on the same laptop."""
         with self._tabs_lock:
             tabs = list(self.tabs.values())
-        if self.jobs.running(RECORD) or any(tab.state.view == "3d" and not tab.hidden for tab in tabs):
+        if self.jobs.running(RECORD) or any(tab.shows_cloud for tab in tabs):
             return None
         return IDLE_FPS
 

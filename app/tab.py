@@ -122,6 +122,11 @@ class Tab:
         for listener in list(self._state_listeners):
             listener(self.state)
 
+    @property
+    def shows_cloud(self) -> bool:
+        """Whether this tab is sent the live cloud: it looks at the 3D scene and is not hidden."""
+        return self.state.view == "3d" and not self.hidden
+
     def show_heat(self, on: bool) -> None:
         """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud)."""
         self.heat, self._stale, self._last_heat = on, True, 0.0
@@ -162,7 +167,7 @@ class Tab:
         if self.closed:                        # a frame in flight while the tab went away
             return
         frame = event.frame
-        if self.state.view == "3d" and not self.hidden:
+        if self.shows_cloud:
             if self.heat:
                 if time.perf_counter() - self._last_heat >= 1.0:
                     self._last_heat = time.perf_counter()
