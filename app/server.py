@@ -150,12 +150,12 @@ class MirrorscanApp:
         return self.loop.rate.fps
 
     def fps_wanted(self) -> float | None:
-        """None (the source's rate) while some tab shows the cloud or a recording runs; else IDLE_FPS: every tab looks
-        at the depth frame (sent at most 8 times a second) or is hidden, so processing 30 frames a second would only
-        take the cores from the browser on the same laptop."""
+        """None (the source's rate) while some tab shows the cloud, a recording runs, or the source is no faster than
+        IDLE_FPS; else IDLE_FPS: every tab looks at the depth frame (sent at most 8 times a second) or is hidden, so
+        processing 30 frames a second would only take the cores from the browser on the same laptop."""
         with self._tabs_lock:
             tabs = list(self.tabs.values())
-        if self.jobs.running(RECORD) or any(tab.shows_cloud for tab in tabs):
+        if self.jobs.running(RECORD) or any(tab.shows_cloud for tab in tabs) or self.loop.source.fps <= IDLE_FPS:
             return None
         return IDLE_FPS
 

@@ -122,7 +122,7 @@ def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
     assert scene._clouds                                            # the nodes are there after the storm
 
 
-def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path):
+def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
     """The source's 30 fps while a tab looks at the 3D scene, records, or collects frames; IDLE_FPS while every tab
     looks at the depth frame (sent 8 times a second) or is hidden, the header saying so."""
     app, headless = demo
@@ -142,6 +142,8 @@ def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path):
         tab.look("3d")
         tab.hidden = True
         assert app.fps_wanted() == IDLE_FPS
+        monkeypatch.setattr(app.loop.source, "fps", IDLE_FPS)          # a source no faster: nothing to say
+        assert app.fps_wanted() is None
     finally:
         tab.hidden = False
         tab.look("3d")
