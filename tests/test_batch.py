@@ -18,7 +18,7 @@ from batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files, recording_fixtur
 
 from app.cli import main
 from mirrorcore.batch import MANIFEST_FILE, BatchJob, BatchRun, OutputFolder, exports_folder, run_batch
-from mirrorcore.batch.manifest import LOCK_FILE
+from mirrorcore.batch.manifest import LOCK_FILE, MAX_FLUSH_SECONDS, MIN_FLUSH_SECONDS, FrameRecord
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.ply import read_ply
@@ -26,7 +26,7 @@ from mirrorcore.session import load_session, save_session
 
 ROOT = Path(__file__).resolve().parents[1]
 TSDF = OPTIONS["tsdf"]
-KILLED_VOXEL = 0.006     # metres: the killed run's voxels, finer than TSDF's so that each frame takes longer
+KILLED_VOXEL = 0.004     # metres: the killed run's voxels, finer than TSDF's so that each frame takes longer
 
 
 def test_each_frame_is_the_single_frame_commands_file(recording, reference, tmp_path):
@@ -176,6 +176,25 @@ def test_one_run_at_a_time_writes_into_a_folder(recording, tmp_path):
     assert (tmp_path / "out" / LOCK_FILE).exists()
 
 
+def test_the_manifest_is_written_often_but_not_too_often(recording, tmp_path):
+    """At most every MIN_FLUSH_SECONDS, no more than FLUSH_SHARE of the time, and at least every MAX_FLUSH_SECONDS
+    even after a write that took long (a busy disk)."""
+    names = tuple(f"{i:06d}.ply" for i in range(4))
+    folder = OutputFolder(tmp_path / "out", str(recording), BatchJob(recording, tmp_path / "out").settings(), {}, names)
+
+    def listed_after_add(index: int, since_last: float, last_took: float) -> bool:
+        folder._flushed, folder._flush_seconds = time.monotonic() - since_last, last_took
+        folder.add([FrameRecord(index, names[index], 1, None, (1,), 100, 0.1)], {})
+        return len(json.loads((tmp_path / "out" / MANIFEST_FILE).read_text())["frames"]) == index + 1
+    try:
+        assert not listed_after_add(0, MIN_FLUSH_SECONDS / 2, 0.001)
+        assert listed_after_add(1, MIN_FLUSH_SECONDS * 1.5, 0.001)
+        assert not listed_after_add(2, MIN_FLUSH_SECONDS * 1.5, 0.02)              # 0.02 s / 5 % = 0.4 s
+        assert listed_after_add(3, MAX_FLUSH_SECONDS + 0.1, 30.0)
+    finally:
+        folder.close()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--frames", "3"], "--frames: with --frame all each frame is reconstructed alone"),
     (["--workers", "0"], "--workers: at least 1"),
@@ -221,27 +240,31 @@ def test_a_batch_run_in_a_thread_reports_progress_and_can_be_cancelled(recording
 
 
 def test_a_killed_command_loses_only_the_frames_after_the_last_manifest(recording, tmp_path):
-    """SIGKILL the command while it writes TSDF meshes (of KILLED_VOXEL: ~0.15 s a frame here, so that it is caught
-    between its second frame and its last even on a loaded machine); the rerun keeps what the manifest lists, redoes
-    the rest, and every file is the one an uninterrupted run writes."""
+    """SIGKILL the command while it writes TSDF meshes (of KILLED_VOXEL: ~0.2 s a frame here, a run of 4 s or more,
+    so that the manifest, written at least every MAX_FLUSH_SECONDS, lists some frames and not all before the end). The
+    command is frozen (SIGSTOP) while its manifest is read, so the manifest read is the one the kill leaves. The rerun
+    keeps what the manifest lists, redoes the rest, and every file is the one an uninterrupted run writes."""
     out, options = tmp_path / "out", replace(TSDF, voxel=KILLED_VOXEL)
     argv = [sys.executable, "-m", "app.cli", "reconstruct", str(recording), "-o", str(out), "--frame", "all",
             "--workers", "1", "--method", "tsdf", "--voxel", str(KILLED_VOXEL)]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.Popen(argv, env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and process.poll() is None:
-            manifest = out / MANIFEST_FILE
-            if manifest.exists() and len(json.loads(manifest.read_text())["frames"]) >= 2:
-                break
+        deadline, listed = time.monotonic() + 120, {"frames": [], "complete": False}
+        while time.monotonic() < deadline and process.poll() is None and len(listed["frames"]) < 2:
             time.sleep(0.02)
-        assert process.poll() is None, "the run ended before it could be killed"
+            process.send_signal(signal.SIGSTOP)
+            if (out / MANIFEST_FILE).exists():
+                listed = json.loads((out / MANIFEST_FILE).read_text())
+            if len(listed["frames"]) < 2:
+                process.send_signal(signal.SIGCONT)
+        assert process.poll() is None and not listed["complete"], "the run ended before it could be killed"
         process.send_signal(signal.SIGKILL)
     finally:
+        process.kill()
         process.wait()
     kept = len(json.loads((out / MANIFEST_FILE).read_text())["frames"])
-    assert 2 <= kept < FRAMES
+    assert kept == len(listed["frames"]) and 2 <= kept < FRAMES
     report = run_batch(BatchJob(recording, out, "tsdf", options), IN_PROCESS)
     assert report.kept == kept and report.complete
     assert run_batch(BatchJob(recording, tmp_path / "whole", "tsdf", options), IN_PROCESS).complete

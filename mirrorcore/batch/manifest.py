@@ -25,6 +25,7 @@ MANIFEST_FILE = "manifest.json"
 LOCK_FILE = ".mirrorscan-batch.lock"
 FLUSH_SHARE = 0.05          # the manifest is rewritten at most this share of the time (it grows with the frames)
 MIN_FLUSH_SECONDS = 0.1
+MAX_FLUSH_SECONDS = 2.0     # ...but never further apart than this, however long one write took (a busy disk)
 VERSION = 1
 KIND = "mirrorscan batch reconstruction"
 
@@ -165,13 +166,15 @@ class OutputFolder:
 
     def add(self, records: list[FrameRecord], failures: dict[int, str]) -> None:
         """Record frames done and frames failed. The manifest is written when the time since the last write is at
-        least MIN_FLUSH_SECONDS and 1 / FLUSH_SHARE times what that write took: often for a short recording, every
-        0.6 s or so for 18,000 frames (a 2.6 MB manifest written in 30 ms), never a large share of the run."""
+        least MIN_FLUSH_SECONDS and 1 / FLUSH_SHARE times what that write took, and at most MAX_FLUSH_SECONDS: often
+        for a short recording, every 0.6 s or so for 18,000 frames (a 2.6 MB manifest written in 30 ms), never a large
+        share of the run; a write slowed by a busy disk does not leave the next one far behind the frames."""
         for r in records:
             self.manifest.done[r.index] = r
             self.manifest.failed.pop(r.index, None)
         self.manifest.failed.update(failures)
-        if time.monotonic() - self._flushed >= max(MIN_FLUSH_SECONDS, self._flush_seconds / FLUSH_SHARE):
+        interval = min(max(MIN_FLUSH_SECONDS, self._flush_seconds / FLUSH_SHARE), MAX_FLUSH_SECONDS)
+        if time.monotonic() - self._flushed >= interval:
             self.flush()
 
     def flush(self) -> None:
