@@ -18,6 +18,7 @@ from batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files, recording_fixtur
 
 from app.cli import main
 from mirrorcore.batch import MANIFEST_FILE, BatchJob, BatchRun, OutputFolder, exports_folder, run_batch
+from mirrorcore.batch.engine import task_chunks
 from mirrorcore.batch.manifest import LOCK_FILE, MAX_FLUSH_SECONDS, MIN_FLUSH_SECONDS, FrameRecord
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
@@ -174,6 +175,17 @@ def test_one_run_at_a_time_writes_into_a_folder(recording, tmp_path):
     finally:
         held.close()
     assert (tmp_path / "out" / LOCK_FILE).exists()
+
+
+def test_tasks_shrink_towards_the_end_so_that_the_workers_finish_together():
+    todo = list(range(3, 123))
+    assert task_chunks(todo, 8, 1) == [tuple(todo[i:i + 8]) for i in range(0, 120, 8)]
+    chunks = task_chunks(todo, 8, 2)
+    sizes = [len(c) for c in chunks]
+    assert [i for c in chunks for i in c] == todo                      # every frame once, in order
+    assert sizes[0] == 8 and sizes == sorted(sizes, reverse=True) and sizes[-4:] == [1, 1, 1, 1]
+    assert sum(s for s in sizes if s < 8) <= 2 * 2 * 8                 # only the last few tasks are smaller
+    assert task_chunks([7], 8, 4) == [(7,)] and task_chunks([], 8, 2) == []
 
 
 def test_the_manifest_is_written_often_but_not_too_often(recording, tmp_path):

@@ -52,7 +52,7 @@ def register(sub) -> None:
     batch.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this existing Dask cluster (the session "
                                                                       "and OUT on a file system all workers share)")
     batch.add_argument("--frames-per-task", type=int, metavar="N", help="frames in one Dask task (default 8 raw, "
-                                                                       "1 dense)")
+                                                                       "1 dense; the last tasks are smaller)")
     batch.add_argument("--overwrite", action="store_true",
                        help="redo every frame when OUT was made with another calibration or options")
     add_bounces_option(p)

@@ -108,6 +108,19 @@ def default_frames_per_task(method: str) -> int:
     return 8 if method == "raw" else 1
 
 
+def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int, ...]]:
+    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most a 2 * `workers`-th
+    of the frames left (and at least one), so that the tasks shrink towards the end and the workers finish together
+    instead of one running a whole last task alone (guided self-scheduling). One worker: tasks of `per_task`."""
+    chunks, start = [], 0
+    while start < len(todo):
+        left = len(todo) - start
+        size = per_task if workers <= 1 else min(per_task, max(1, -(-left // (2 * workers))))
+        chunks.append(tuple(todo[start:start + size]))
+        start += size
+    return chunks
+
+
 def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None, overwrite: bool = False,
               progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
     """Reconstruct every frame of job.session not yet done in job.out (see mirrorcore.batch.manifest) and return how
@@ -128,11 +141,10 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
                           overwrite)
     try:
         todo = [i for i in range(len(context.names)) if i not in folder.kept]
-        chunks = [tuple(todo[i:i + per_task]) for i in range(0, len(todo), per_task)]
         run = _Run(folder, len(context.names), progress)
-        if chunks and not cancel_requested(cancel):
+        if todo and not cancel_requested(cancel):
             with _executor(where, context, cancel) as executor:
-                run.drive(executor, chunks, cancel)
+                run.drive(executor, task_chunks(todo, per_task, executor.workers), cancel)
         return run.report(job.out, cancelled=cancel_requested(cancel))
     finally:
         folder.flush()
@@ -158,6 +170,7 @@ class _InProcess:
     """Runs the chunks one by one in this process (same interface as cluster.DaskExecutor)."""
 
     dashboard = None
+    workers = 1
 
     def __init__(self, context: FrameContext, cancel):
         self.context = context
