@@ -20,7 +20,7 @@ from mirrorcore.sources import DepthSource, Frame
 
 from .overlays import depth_layer, depth_range
 from .state import Snapshot
-from .stream import SourcePart, stream_parts
+from .stream import HALVES, SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
@@ -52,10 +52,18 @@ class LiveFrame:
         has points (Cloud.source_counts)."""
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
+    def parts(self, half: int | None = None) -> list[SourcePart]:
+        """The cloud as it is streamed (see app.stream): one half's parts, or both halves' (None); each half made
+        once, by the first tab that asks for it."""
+        if half is None:
+            return [part for h in range(HALVES) for part in self.parts(h)]
+        if half not in self._parts:
+            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,))
+        return self._parts[half]
+
     @cached_property
-    def parts(self) -> list[SourcePart]:
-        """The cloud as it is streamed (see app.stream)."""
-        return stream_parts(self.cloud, list(self.counts))
+    def _parts(self) -> dict[int, list[SourcePart]]:
+        return {}
 
     @cached_property
     def depth_range(self) -> tuple[float, float]:

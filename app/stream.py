@@ -38,20 +38,30 @@ def downsample(cloud: Cloud, max_points: int) -> Cloud:
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
-def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS) -> list[SourcePart]:
-    """The two halves of the sources `labels` (source labels, in order; empty ones included, so that a source that
-    left the view is cleared); both halves of a source share its centre."""
+def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES)) -> list[SourcePart]:
+    """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones included, so that
+    a source that left the view is cleared); the halves of a source share its centre. A live frame asks for the one
+    half it sends: half the conversion work."""
     cloud = downsample(cloud, max_points)
+    order = np.argsort(cloud.sources, kind="stable")      # each source's points together, in their order: one gather
+    rows = np.take(cloud.points.T, order, axis=1)          # (3, n): Algorithm 1's cloud is rows of x, y, z already,
+    ends = np.cumsum(np.bincount(cloud.sources, minlength=256))     # and numpy reduces rows ~30x faster than columns
     parts = []
     for j in labels:
-        points = cloud.points[cloud.sources == j]
-        if not len(points):
-            parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in range(HALVES)]
+        columns = rows[:, ends[j - 1] if j else 0:ends[j]]
+        if not columns.shape[1]:
+            parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in halves]
             continue
-        columns = np.ascontiguousarray(points.T)       # numpy reduces (n, 3) along axis 0 ~30x slower than rows
         low, high = columns.min(axis=1), columns.max(axis=1)
         centre = (low + high) / np.float32(2)
         dtype = np.float16 if float((high - low).max()) / 2 < FLOAT16_EXTENT else np.float32
-        parts += [SourcePart(j, half, centre.astype(np.float64), (points[half::HALVES] - centre).astype(dtype))
-                  for half in range(HALVES)]
+        parts += [SourcePart(j, half, centre.astype(np.float64), _offsets(columns[:, half::HALVES], centre, dtype))
+                  for half in halves]
     return parts
+
+
+def _offsets(columns: np.ndarray, centre: np.ndarray, dtype) -> np.ndarray:
+    """(3, k) float32 rows of points, their (3,) centre -> (k, 3) C-ordered offsets in dtype."""
+    out = np.empty((columns.shape[1], 3), dtype)
+    np.subtract(columns.T, centre, out=out, casting="same_kind")
+    return out

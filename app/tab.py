@@ -173,8 +173,8 @@ class Tab:
                     self._last_heat = time.perf_counter()
                     self.services.jobs.start_heat(frame)
             else:
-                whole = self.services.paused or self._stale
-                self.scene.show_cloud(frame.parts, frame.mirror_ids, None if whole else frame.index % HALVES)
+                half = None if self.services.paused or self._stale else frame.index % HALVES
+                self.scene.show_cloud(frame.parts(half), frame.mirror_ids, half)
                 self._stale = False
         self._send_screen(frame=frame)
         self.header.show(frame)

@@ -71,7 +71,7 @@ def run() -> dict[str, float]:
             tab.tab.look("depth")
             cpu_depth, _ = paced(app, tab, FRAMES)
             click = click_ms(app, tab.tab)
-            points = sum(len(p.offsets) for p in app.last_frame.parts)
+            points = sum(len(p.offsets) for p in app.last_frame.parts())
     finally:
         app.stop()
     return {"serve_loop_fps": fps, "live_cpu_ms": max(cpu_3d, cpu_depth), "live_cpu_3d_view_ms": cpu_3d,

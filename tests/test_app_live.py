@@ -33,6 +33,11 @@ def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
     sources = rng.integers(0, 3, len(points)).astype(np.uint8)
     parts = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), range(3))
     assert [p.key for p in parts] == [(0, 0), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)]
+    second = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), range(3), halves=(1,))
+    assert [p.key for p in second] == [(0, 1), (1, 1), (2, 1)]               # a live frame's half alone
+    for part, whole in zip(second, parts[1::2]):
+        np.testing.assert_array_equal(part.offsets, whole.offsets)
+        np.testing.assert_array_equal(part.centre, whole.centre)
     for part in parts:
         assert part.offsets.dtype == np.float16
         back = part.offsets.astype(np.float64) + part.centre
@@ -102,7 +107,7 @@ def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
         try:
             while not done.is_set():
                 scene.show_cloud([], frame.mirror_ids)              # every node removed...
-                scene.show_cloud(frame.parts, frame.mirror_ids)     # ... and added again
+                scene.show_cloud(frame.parts(), frame.mirror_ids)     # ... and added again
         except Exception as error:  # noqa: BLE001 - reported below
             errors.append(error)
     thread = threading.Thread(target=stream)
