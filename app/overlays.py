@@ -27,24 +27,21 @@ def depth_range(depth: np.ndarray) -> tuple[float, float]:
     return float(near), float(max(far, near + 0.01))
 
 
+# The object's tint of each grey level: 45 % grey, 55 % OBJECT_TINT (cv2.addWeighted's rounding).
+TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0, 255).astype(np.uint8)
+
+
 def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
     """(H, W) metres and the object mask (H, W) bool -> (H, W, 3) uint8 RGB: grey from white (near) to dark (far),
-    the object's pixels tinted, no reading dark blue-black."""
+    the object's pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black."""
     scale = 215.0 / max(far - near, 1e-6)
     grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)   # near -> 235, far -> 20
     rgb = cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB)
-    if mask.any():
-        tinted = cv2.addWeighted(rgb, 0.45, np.broadcast_to(OBJECT_TINT.astype(np.uint8), rgb.shape), 0.55, 0)
-        np.copyto(rgb, tinted, where=mask[..., None])
-    rgb[depth <= 0] = NO_READING
+    pixels = rgb.reshape(-1, 3)
+    tinted = np.flatnonzero(mask)
+    pixels[tinted] = TINTED[grey.reshape(-1)[tinted]]
+    pixels[np.flatnonzero(depth.reshape(-1) <= 0)] = NO_READING
     return rgb
-
-
-def compose(base: np.ndarray, overlay: np.ndarray) -> np.ndarray:
-    """The overlay (H, W, 4) uint8 RGBA, alpha 0 or 255, over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8."""
-    out = base.copy()
-    np.copyto(out, overlay[..., :3], where=overlay[..., 3:] > 0)
-    return out
 
 
 @dataclass(frozen=True)
@@ -78,6 +75,15 @@ class Overlay:
     def __init__(self, shape: tuple[int, int]):
         self.image = np.zeros((*shape, 4), np.uint8)
         self._labels: list[tuple[int, int, int, int]] = []
+        self._drawn = np.zeros(0, np.int64)                 # flat indices of the drawn pixels (alpha 255)
+        self._colours = np.zeros((0, 3), np.uint8)         # and their RGB
+
+    def over(self, base: np.ndarray) -> np.ndarray:
+        """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (only the drawn pixels are copied:
+        an outline and a few markers are a few thousand of the 307,200)."""
+        out = base.copy()
+        out.reshape(-1, 3)[self._drawn] = self._colours
+        return out
 
     def draw(self, mirrors: list[MirrorMarks], region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
         """Redraw everything: the mirrors (selected last, on top) and the region of interest (vertices, closed)."""
@@ -95,6 +101,8 @@ class Overlay:
         for mirror in ordered:
             for marker in mirror.markers:
                 self._label(marker.uv, marker.label)
+        self._drawn = np.flatnonzero(self.image[..., 3])
+        self._colours = self.image.reshape(-1, 4)[self._drawn, :3]
 
     def _rgba(self, colour) -> tuple[int, int, int, int]:
         return (int(colour[0]), int(colour[1]), int(colour[2]), 255)

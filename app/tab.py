@@ -17,7 +17,7 @@ from .context import MODES, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .live import LiveFrame
-from .overlays import MarkerMark, MirrorMarks, Overlay, compose
+from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
 from .state import Snapshot
@@ -228,7 +228,7 @@ class Tab:
             return
         self._last_screen = now
         with self._lock:
-            rgb = compose(frame.depth_rgb, self.overlay.image)
+            rgb = self.overlay.over(frame.depth_rgb)
         self.screen.show(rgb)
 
     # ------------------------------------------------------------------ visibility
