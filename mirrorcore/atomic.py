@@ -12,27 +12,44 @@ from typing import Iterator
 from .errors import MirrorscanError
 
 
-def write_atomic(path: str | Path, data: bytes, backup: bool = False) -> None:
+def write_atomic(path: str | Path, data: bytes, backup: bool = False, durable: bool = True) -> None:
     """Replace `path` with `data` so that a reader sees either the old file or the new one, never a partial one.
 
     backup : keep the previous version as `path` + '.bak' (itself replaced atomically, before the rename).
+    durable : flush the data to the disk (fsync) before the rename, so that a power cut cannot leave a partial file
+    under the name. False leaves that to the caller (make_durable), who then may only rely on the file, after a power
+    cut, once that returned: atomic for every process that reads it, durable later (a batch syncs a task's files
+    together).
     Raises OSError (full disk, read-only folder...) naming `path`, with the target left untouched.
     """
     path = Path(path)
     try:
-        _write_beside(path, data, backup)
+        _write_beside(path, data, backup, durable)
     except OSError as exc:
         raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
 
 
-def _write_beside(path: Path, data: bytes, backup: bool) -> None:
+def make_durable(path: str | Path) -> None:
+    """Flush a file written with write_atomic(durable=False) to the disk. Raises OSError naming `path`."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
+
+
+def _write_beside(path: Path, data: bytes, backup: bool, durable: bool) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
             os.fchmod(f.fileno(), path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~current_umask())
             f.write(data)
             f.flush()
-            os.fsync(f.fileno())
+            if durable:
+                os.fsync(f.fileno())
         if backup and path.exists():
             _link_or_copy(path, tmp + ".bak")
             os.replace(tmp + ".bak", path.with_name(path.name + ".bak"))

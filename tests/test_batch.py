@@ -195,6 +195,7 @@ def test_the_manifest_is_written_often_but_not_too_often(recording, tmp_path):
     folder = OutputFolder(tmp_path / "out", str(recording), BatchJob(recording, tmp_path / "out").settings(), {}, names)
 
     def listed_after_add(index: int, since_last: float, last_took: float) -> bool:
+        (tmp_path / "out" / names[index]).write_bytes(b"ply")
         folder._flushed, folder._flush_seconds = time.monotonic() - since_last, last_took
         folder.add([FrameRecord(index, names[index], 1, None, (1,), 100, 0.1)], {})
         return len(json.loads((tmp_path / "out" / MANIFEST_FILE).read_text())["frames"]) == index + 1
@@ -298,6 +299,33 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(recording, refe
     monkeypatch.setattr(frames, "_frame_ply", real)
     assert run_batch(BatchJob(recording, tmp_path / "out"), IN_PROCESS).written == 4
     assert ply_files(tmp_path / "out") == reference["raw"]
+
+
+def test_the_manifest_lists_a_frame_only_once_its_file_is_on_the_disk(recording, reference, tmp_path, monkeypatch):
+    """The workers write the frames without flushing them (no worker waits for the disk); the manifest's writer
+    flushes them (fsync) before it writes the manifest that lists them, and stops on a frame it cannot flush."""
+    from mirrorcore import atomic
+    expected, synced, real_fsync = reference["raw"], [], os.fsync
+
+    def fsync(fd):
+        synced.append(Path(os.readlink(f"/proc/self/fd/{fd}")).name)
+        real_fsync(fd)
+    monkeypatch.setattr(atomic.os, "fsync", fsync)
+    out = tmp_path / "out"
+    run_batch(BatchJob(recording, out), IN_PROCESS, frames_per_task=4)
+    assert ply_files(out) == expected
+    frames = [n for n in synced if n.endswith(".ply")]
+    assert sorted(frames) == sorted(expected)                            # each frame once, by name
+    manifests = [k for k, n in enumerate(synced) if n.startswith(f".{MANIFEST_FILE}.")]
+    for k, name in enumerate(synced):
+        if name.endswith(".ply"):                                        # flushed before the next manifest
+            assert any(m > k for m in manifests), name
+    monkeypatch.setattr(atomic.os, "fsync", lambda fd: (_ for _ in ()).throw(OSError(5, "Input/output error")))
+    with pytest.raises(OSError, match="Input/output error"):
+        run_batch(BatchJob(recording, out), IN_PROCESS, overwrite=True)
+    monkeypatch.setattr(atomic.os, "fsync", real_fsync)
+    with pytest.raises(OSError, match="nowhere.ply"):
+        atomic.make_durable(tmp_path / "nowhere.ply")
 
 
 def test_the_browser_tools_folder_is_in_the_sessions_exports(tmp_path):

@@ -15,7 +15,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ..atomic import write_atomic
+from ..atomic import make_durable, write_atomic
 from ..errors import FileFormatError, MirrorscanError
 from ..jsonfile import read_json
 from ..ply import ply_element_counts
@@ -126,6 +126,7 @@ class OutputFolder:
                  overwrite: bool = False):
         self.path = Path(path)
         self._flushed = self._flush_seconds = 0.0
+        self._unflushed: list[FrameRecord] = []        # frames added since the last write of the manifest
         self._lock = _lock(self.path)
         try:
             _remove_stale_temporaries(self.path)
@@ -172,14 +173,20 @@ class OutputFolder:
         for r in records:
             self.manifest.done[r.index] = r
             self.manifest.failed.pop(r.index, None)
+        self._unflushed += records
         self.manifest.failed.update(failures)
         interval = min(max(MIN_FLUSH_SECONDS, self._flush_seconds / FLUSH_SHARE), MAX_FLUSH_SECONDS)
         if time.monotonic() - self._flushed >= interval:
             self.flush()
 
     def flush(self) -> None:
-        """Write the manifest now (atomically)."""
+        """Flush the frames' files added since the last write to the disk (the workers write them without), then
+        write the manifest (atomically): it lists a frame only once its file is on the disk. Raises OSError naming
+        the file that could not be flushed or written (the manifest on the disk is then the last one written)."""
         start = time.monotonic()
+        for record in self._unflushed:
+            make_durable(self.path / record.file)
+        self._unflushed = []
         write_atomic(self.path / MANIFEST_FILE, self.manifest.text().encode("utf-8"))
         self._flushed = time.monotonic()
         self._flush_seconds = self._flushed - start
