@@ -135,13 +135,13 @@ def _grid_coordinates(blocks: Blocks, verts: np.ndarray, columns: int) -> tuple[
     local = verts.astype(np.float64)
     local[:, :2] -= (b + 2) * tile                                                  # exact: 0 <= local <= b
     low = np.floor(local)
-    fractional = local != low
-    axis = np.where(fractional.any(axis=1), np.argmax(fractional, axis=1), 3)       # 3: on a grid point
+    off = [local[:, k] != low[:, k] for k in range(3)]     # off the grid along x, y, z (per column: numpy reduces
+    axis = np.where(off[0], 0, np.where(off[1], 1, np.where(off[2], 2, 3)))     # rows of 3 slowly); 3: a grid point
     first = b * blocks.ijk[row]
     corner = first + low.astype(np.int64)
     shape = tuple(b * n + 1 for n in blocks.volume.block_shape(b))
     key = np.ravel_multi_index(tuple(corner.T), shape) * 4 + axis
-    inside = fractional.sum(axis=1) > 1              # Lewiner's vertices inside a cube: one block makes each
+    inside = (off[0] & off[1]) | (off[0] & off[2]) | (off[1] & off[2])   # Lewiner's, in a cube: one block's
     key[inside] = -1 - np.arange(np.count_nonzero(inside))
     return first + local, key
 
@@ -188,14 +188,15 @@ def _observed_edges(verts: np.ndarray, faces: np.ndarray, mask: np.ndarray) -> t
     """Keep the faces whose 3 vertices lie on grid edges with both ends in `mask` (a vertex interpolated towards an
     unobserved voxel is false; scikit-image reads its mask at one corner of each cube only), and the vertices they use.
     verts : (n, 3) float, grid index coordinates; faces : (m, 3) int -> the kept (n', 3), (m', 3), faces renumbered."""
-    top = np.array(mask.shape) - 1
-    strides = np.array([mask.shape[1] * mask.shape[2], mask.shape[2], 1])
-    ends = [np.clip(np.floor(verts + ON_GRID), 0, top).astype(np.int64) @ strides,     # on the grid (within ON_GRID):
-            np.clip(np.ceil(verts - ON_GRID), 0, top).astype(np.int64) @ strides]      # both ends at that grid point
-    flat = mask.reshape(-1)
-    observed = flat[ends[0]] & flat[ends[1]]
-    faces = faces[observed[faces].all(axis=1)]
+    top = np.array(mask.shape, verts.dtype) - 1
+    columns, flat = np.ascontiguousarray(verts.T), mask.reshape(-1)
+    observed = np.ones(len(verts), bool)
+    for shift, rounding in ((ON_GRID, np.floor), (-ON_GRID, np.ceil)):          # on the grid (within ON_GRID):
+        ends = [np.clip(rounding(c + c.dtype.type(shift)), 0, t).astype(np.intp) for c, t in zip(columns, top)]
+        observed &= np.take(flat, np.ravel_multi_index(ends, mask.shape))       # both ends at that grid point
+    ends = np.take(observed, faces)                  # per column, not .all(axis=1): numpy reduces rows of 3 slowly
+    faces = np.compress(ends[:, 0] & ends[:, 1] & ends[:, 2], faces, axis=0)
     used = np.zeros(len(verts), bool)
-    used[faces] = True
+    used[faces.reshape(-1)] = True
     number = np.cumsum(used) - 1                                     # the new index of each used vertex
-    return verts[used], number[faces]
+    return np.compress(used, verts, axis=0), np.take(number, faces)
