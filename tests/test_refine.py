@@ -246,3 +246,17 @@ def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
     assert colours[2].tolist() == [247, 247, 247] and colours[0].tolist() == [33, 102, 172]
     assert colours[4].tolist() == [178, 24, 43] and colours[5].tolist() == [150, 150, 150]
     assert colours[1, 0] < 247 and colours[3, 0] > 200 and colours[3, 1] < 247      # halfway to blue, to red
+
+
+def test_the_error_budget_experiment_on_noiseless_frames():
+    """app.experiments.refine_bias (README, "Where the plane error comes from"): refined from the true planes on
+    noiseless frames, the sphere's planes end 0.76 mm too near the camera (the neighbours' quadratic surfaces at the
+    grazing incidence where the camera and the mirrors see the same surface), the same in every frame."""
+    from app.experiments.refine_bias import bias_row, errors_from_truth
+    found = errors_from_truth("sphere", "ideal", 0, range(1))
+    assert found.shape == (1, 2, 2)
+    np.testing.assert_allclose(found[0, :, 0], -0.76, atol=0.1)          # mm
+    assert np.all(found[0, :, 1] < 0.1)                                  # the reported 1-sigma, mm
+    row = bias_row("sphere", "ideal", 0, 2)
+    assert row.frames == 2 and row.spread_mm == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert row.mean_mm == pytest.approx(tuple(found[0, :, 0]), abs=1e-9) and np.isnan(row.correlation)
