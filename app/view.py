@@ -75,6 +75,7 @@ class TabScene:
         self.clouds_visible = True
         self._labels: list[viser.LabelHandle] = []
         self._dense: list = []                     # the dense result's nodes (result, label)
+        self._dense_lock = threading.Lock()
         self._virtual: list = []                   # the virtual cameras' frusta
         self.virtual_visible = True
         self._box = None
@@ -181,6 +182,10 @@ class TabScene:
     def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
         """The dense result in its own colour, with a label: at its place, or beside the live cloud (towards the
         camera and to the left, clear of the mirrors); or nothing."""
+        with self._dense_lock:                         # a DenseChanged event and a GUI callback may both call it
+            self._replace_dense(result, visible, beside)
+
+    def _replace_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
         if self._dense:
             self._dense[0].remove()                  # the frame, and the result and label under it
         self._dense = []
@@ -199,8 +204,9 @@ class TabScene:
 
     def show_dense_layer(self, visible: bool) -> None:
         """Show or hide the dense result (and its label)."""
-        if self._dense:
-            self._dense[0].visible = visible
+        with self._dense_lock:
+            if self._dense:
+                self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
         """The dense reconstruction's box as a wireframe (or none)."""

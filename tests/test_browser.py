@@ -164,7 +164,7 @@ def test_dense_result_has_its_own_layer(app, tab):
     wait_for(lambda: server_tab.scene._dense, what="the dense layer")
     assert server_tab.scene._box is not None
     page.get_by_label("Show the dense result").click()
-    wait_for(lambda: not server_tab.scene._dense[0].visible, what="the layer hidden")
+    wait_for(lambda: (nodes := server_tab.scene._dense) and not nodes[0].visible, what="the layer hidden")
     page.get_by_label("Show the dense result").click()
     page.screenshot(path=ARTIFACTS / "browser-dense.png")
 
