@@ -47,9 +47,9 @@ def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength:
     win = bounding_window(mask, radius)          # the filter only needs the masked pixels and their neighbours
     use = mask[win] & (depth[win] > 0)
     # Pixels outside the mask get w = -1: a range difference of > 1 m^-1 gives them zero weight.
-    w = np.where(use, 1.0 / np.where(use, depth[win], 1.0), -1.0).astype(np.float32)
+    w = np.full(use.shape, -1.0, np.float32)
+    np.divide(np.float32(1), depth[win], out=w, where=use)
     if w.size:
         filtered = cv2.bilateralFilter(w, 2 * radius + 1, strength * KINECT_AXIAL_COEF, radius)
-        good = use & (filtered > 0)
-        out[win][good] = 1.0 / filtered[good]
+        np.divide(np.float32(1), filtered, out=out[win], where=use & (filtered > 0))
     return out
