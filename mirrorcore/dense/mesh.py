@@ -58,7 +58,9 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, s
     cubes = tiled[1] & _crossing_cubes(tiled[0])
     cubes[::tile] = False
     cubes[:, ::tile] = False
-    verts, faces, _, _ = _skimage_marching_cubes(tiled[0], 0.0, mask=cubes, allow_degenerate=False)
+    # Degenerate faces (two vertices at one grid point) are dropped by the merge below, which keys such vertices by
+    # that point: scikit-image's own removal is not needed (15-25 ms of the 200^3 sphere's 130 ms mesh).
+    verts, faces, _, _ = _skimage_marching_cubes(tiled[0], 0.0, mask=cubes, allow_degenerate=True)
     verts, faces = _observed_edges(verts, faces, tiled[1])
     grid, edge = _grid_coordinates(blocks, verts, columns)
     keep, faces = _merge_copies(edge, faces)
@@ -147,12 +149,17 @@ def _grid_coordinates(blocks: Blocks, verts: np.ndarray, columns: int) -> tuple[
 
 
 def _merge_copies(edge: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices with the same edge key (n,) int64 are one vertex, made by two neighbouring blocks -> the index (k,) of
-    the one kept of each, and faces (m', 3) renumbered to 0..k-1 (any left degenerate by the merge dropped)."""
+    """Vertices with the same edge key (n,) int64 are one vertex, made by two neighbouring blocks (or by two faces
+    meeting at a grid point) -> the index (k,) of the one kept of each, and faces (m', 3) renumbered to 0..k-1: those
+    left degenerate by the merge dropped, and the vertices only they used."""
     _, keep, inverse = np.unique(edge, return_index=True, return_inverse=True)
     faces = inverse.reshape(-1)[faces]
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
-    return keep, faces
+    used = np.zeros(len(keep), bool)
+    used[faces.reshape(-1)] = True
+    if used.all():
+        return keep, faces
+    return keep[used], np.take(np.cumsum(used) - 1, faces)
 
 
 def _corner_labels(verts: np.ndarray, source: np.ndarray) -> np.ndarray:
