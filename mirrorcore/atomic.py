@@ -17,9 +17,9 @@ def write_atomic(path: str | Path, data: bytes, backup: bool = False, durable: b
 
     backup : keep the previous version as `path` + '.bak' (itself replaced atomically, before the rename).
     durable : flush the data to the disk (fsync) before the rename, so that a power cut cannot leave a partial file
-    under the name. False leaves that to the caller (make_durable), who then may only rely on the file, after a power
-    cut, once that returned: atomic for every process that reads it, durable later (a batch syncs a task's files
-    together).
+    under the name. False leaves that to the caller (make_durable), who may rely on the file surviving a power cut
+    only once that returned; it is atomic for every process that reads it either way (a batch's frames are flushed
+    by the manifest's writer, just before the manifest lists them).
     Raises OSError (full disk, read-only folder...) naming `path`, with the target left untouched.
     """
     path = Path(path)
