@@ -12,7 +12,7 @@ from skimage.measure import marching_cubes
 from mirrorcore.budget import MemoryBudgetError, set_memory_budget
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.blocks import Blocks
-from mirrorcore.dense.mesh import _observed_edges
+from mirrorcore.dense.mesh import _merge_copies, _observed_edges
 from mirrorcore.dense.tsdf import BLOCK, fuse
 from mirrorcore.dense.volume import NO_SOURCE, Volume
 from mirrorcore.errors import Cancelled, MirrorscanError
@@ -156,3 +156,12 @@ def test_mesh_vertices_take_the_nearest_labelled_corner():
     source[1, 1, 1], source[2, 1, 1] = 2, 1
     verts = np.array([[1.2, 1.0, 1.0], [1.6, 1.0, 1.0], [0.4, 1.0, 1.0]])
     np.testing.assert_array_equal(_corner_labels(verts, source), [2, 1, 2])
+
+
+def test_merging_copies_drops_the_faces_it_makes_degenerate_and_the_vertices_only_they_used():
+    """Vertices 0 and 1 share a key (one edge, two blocks); vertex 4 is used only by the face (0, 1, 4), which the
+    merge makes degenerate: it goes, and the other faces are renumbered to the vertices kept (0, 2, 3, 5)."""
+    edge = np.array([7, 7, 9, 11, 13, 15])
+    faces = np.array([[0, 2, 3], [0, 1, 4], [1, 3, 5]])
+    keep, merged = _merge_copies(edge, faces)
+    assert keep.tolist() == [0, 2, 3, 5] and merged.tolist() == [[0, 1, 2], [0, 2, 3]]
