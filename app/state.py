@@ -37,7 +37,7 @@ class Snapshot:
         What `previous` already holds for the same inputs is reused (a marker added keeps the rig's tables: a click
         must not wait ~70 ms for them)."""
         rig = Rig.from_session(session)
-        if previous is not None and same_geometry(rig, previous.rig):
+        if previous is not None and rig.same_rays(previous.rig):
             rig = previous.rig
         rig.reflection_table  # built here, once, not in the first live frame
         residuals = {}
@@ -51,7 +51,3 @@ class Snapshot:
             backdrop = None if background is None else Backdrop.of(background, session.selection)
         return cls(session, rig, background, backdrop, residuals)
 
-
-def same_geometry(a: Rig, b: Rig) -> bool:
-    """Whether two rigs trace the same rays: same camera, mirrors (names, planes, boundaries) and bounces."""
-    return (a.intrinsics, a.mirrors, a.bounces) == (b.intrinsics, b.mirrors, b.bounces)

@@ -56,6 +56,11 @@ class Rig:
         check_memory(w * h * PIXEL_BYTES, f"rig: the per-pixel tables of a {w}x{h} camera")
         check_bounces(self.bounces)
 
+    def same_rays(self, other: "Rig") -> bool:
+        """Whether `other` traces the same rays (same camera, mirrors with their names, planes and boundaries, and
+        bounces): then its per-pixel tables serve this rig too (rigs compare by identity, as they hold caches)."""
+        return (self.intrinsics, self.mirrors, self.bounces) == (other.intrinsics, other.mirrors, other.bounces)
+
     @classmethod
     def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
         """The session's rig, followed through `bounces` reflections (default: the session's setting)."""

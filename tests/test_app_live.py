@@ -173,6 +173,8 @@ def test_a_new_snapshot_keeps_the_rig_tables_while_the_geometry_stays(demo):
     outlined = replace(mirror, boundary=mirror.boundary[:-1])
     assert Snapshot.build(replace(session, mirrors=(outlined, *session.mirrors[1:])), before.background,
                           previous=before).rig is not before.rig
+    assert Snapshot.build(replace(session, bounces=1), before.background,
+                          previous=before).rig is not before.rig
     selected = replace(session, selection=replace(session.selection, min_gap=0.05))
     assert Snapshot.build(selected, before.background, previous=before).backdrop is not before.backdrop
     assert Snapshot.build(session, before.background.copy(), previous=before).backdrop is not before.backdrop
