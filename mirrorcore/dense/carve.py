@@ -39,14 +39,13 @@ from .blocks import Blocks, cropped, padded_grid
 from .sampling import QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index, project, project_blocks, transform
 from .views import View, padded_flat, rig_views
 from .volume import NO_SOURCE, Progress, Volume, run_chunks
-from .windows import Window, box_ranges, window_half
+from .windows import Window, mirror_sides, window_half
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states
 METHODS = ("paper", "carve")
 BLOCK = 8                                # voxels along a block's edge (larger blocks decide more of the volume at once)
 CARVE_VOXEL_BYTES = 2                    # the state and source grids
 DECIDE_BLOCKS = 1 << 16                  # blocks decided whole in one go
-PLANE_MARGIN = 1e-5                      # metres: the float32 rounding of voxel centres against a mirror plane
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,11 +142,9 @@ def _undecided_blocks(rig: Rig, views: tuple[View, ...], th: float, blocks: Bloc
             sees_through, sees_behind = window.test(intr, box, th)
             free |= sees_through
             behind &= sees_behind
-        for mirror in rig.mirrors:
-            if mirror.plane is not None:
-                (near, far), = box_ranges(np.append(mirror.plane.n, mirror.plane.d)[None], box)
-                free |= far < -PLANE_MARGIN
-                behind &= near > PLANE_MARGIN
+        behind_a_mirror, in_front = mirror_sides(rig, box)
+        free |= behind_a_mirror
+        behind &= in_front
         batch.take(~free & behind).write(state, HIDDEN)
         undecided.append(batch.ijk[~free & ~behind])
     return Blocks(volume, np.concatenate(undecided), BLOCK)

@@ -36,12 +36,11 @@ from .mesh import Mesh, block_marching_cubes
 from .sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
 from .views import View, cull_depth, rig_views
 from .volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
-from .windows import Window, box_ranges, window_half
+from .windows import Window, mirror_sides, window_half
 
 BLOCK = SMALLEST_BLOCK     # voxels along a block's edge: small blocks follow the surface's band closely
 TSDF_VOXEL_BYTES = 12      # bytes per allocated voxel: tsdf, weight, source, and their copy when empty blocks go
 PIXEL_MARGIN = 0.01        # pixels, and voxels: the float32 rounding of a voxel's projection and centre
-PLANE_MARGIN = 1e-5        # metres: the float32 rounding of voxel centres against a mirror plane
 Z_TINY = 1e-6              # metres: the least depth a weight is computed at (the voxels that near are not seen)
 
 
@@ -203,12 +202,8 @@ class _Plan:
         camera = Window.for_cull(cull, frames[0][0].shape, halves[0])
         culled, _ = camera.test(intr, box, trunc)
         _, uncut = camera.test(intr, box, -trunc)             # every voxel at or beyond the camera's depth - trunc
-        front = np.ones(len(blocks), bool)
-        for mirror in rig.mirrors:
-            if mirror.plane is not None:
-                (near, far), = box_ranges(np.append(mirror.plane.n, mirror.plane.d)[None], box)
-                culled |= far < -PLANE_MARGIN
-                front &= near > PLANE_MARGIN
+        behind_a_mirror, front = mirror_sides(rig, box)
+        culled |= behind_a_mirror
         rows = np.flatnonzero(~culled)
         box = (box[0][:, rows], box[1][:, rows])
         codes = np.where(uncut[rows], 0, CUT) + np.where(front[rows], 0, STRADDLE)

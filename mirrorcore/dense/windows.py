@@ -13,7 +13,8 @@ The window holds every pixel whose depth a voxel of the block can read (the quad
 pixel more each side for rounding), so each test holds for every voxel when it holds for the block: only the blocks
 that neither test decides are carved voxel by voxel. A block whose window would need more than MAX_HALF pixels each
 side of its centre, that comes within Z_MIN of a view's plane, or (for the tests that need it) whose window leaves
-the image is left undecided by that view."""
+the image is left undecided by that view. mirror_sides tells the blocks wholly behind a mirror's plane and those
+wholly in front of every one."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,11 +23,13 @@ import cv2
 import numpy as np
 
 from ..geometry.camera import Intrinsics
+from ..rig import Rig
 from .views import View
 
 MAX_HALF = 16          # pixels: the largest window is 33 x 33
 Z_MIN = 1e-3           # metres: blocks nearer a view's plane than this are left to the voxel tests
 DEPTH_MARGIN = 1e-5    # metres: the float32 rounding of voxel centres and of depths minus th
+PLANE_MARGIN = 1e-5    # metres: the float32 rounding of voxel centres against a mirror plane
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,6 +97,19 @@ class Window:
         if self.most is not None:
             behind = fits & (z0 - DEPTH_MARGIN > self.most[pixel] + th)
         return free, behind
+
+
+def mirror_sides(rig: Rig, box: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """For m blocks (box: Blocks.bounds()) -> (m,) bool each: the block lies wholly behind some calibrated mirror's
+    plane, and it lies wholly in front of every one (by more than PLANE_MARGIN: the float32 rounding of voxel
+    centres)."""
+    behind_one, in_front = np.zeros(box[0].shape[1], bool), np.ones(box[0].shape[1], bool)
+    for mirror in rig.mirrors:
+        if mirror.plane is not None:
+            (near, far), = box_ranges(np.append(mirror.plane.n, mirror.plane.d)[None], box)
+            behind_one |= far < -PLANE_MARGIN
+            in_front &= near > PLANE_MARGIN
+    return behind_one, in_front
 
 
 def box_ranges(transform: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
