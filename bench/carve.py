@@ -14,6 +14,7 @@ from mirrorcore.dense.carve import carve
 from mirrorcore.dense.volume import Volume
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.rig import Rig
+from mirrorcore.shapes import FitErrors, Sphere
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
@@ -38,8 +39,7 @@ class SphereFrames:
 
     def rmse_mm(self, points: np.ndarray) -> float:
         """RMS distance of points (n, 3) metres to the true sphere, mm."""
-        error = np.linalg.norm(np.asarray(points, float) - self.centre, axis=1) - self.radius
-        return float(np.sqrt(np.mean(error ** 2)) * 1e3)
+        return 1e3 * FitErrors.from_deviations(Sphere(tuple(self.centre), self.radius).deviations(points)).rmse
 
 
 def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
