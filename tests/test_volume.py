@@ -1,5 +1,5 @@
 """The voxel grid (mirrorcore.dense.volume) and its blocks (mirrorcore.dense.blocks): box to shape, centres, blocks
-and their layout, bounds, writing and regrouping, refusals, the chunk runner."""
+and their layout, bounds, writing, refusals, the chunk runner."""
 import threading
 
 import numpy as np
@@ -69,11 +69,6 @@ def test_block_values_land_on_their_voxels(volume):
     assert grid[1, 2, 3] == values[0, 1, 2, 3] and grid[9, 5, 8] == values[1, 1, 1, 0]
     assert (grid == -1).sum() == grid.size - 128
     assert cropped(volume, grid).shape == (10, 6, 9)
-    coarse, (regrouped,) = blocks.regroup([(values, -1)])                   # into blocks of 8
-    assert coarse.size == 8 and coarse.ijk.tolist() == [[0, 0, 0], [1, 0, 1]]
-    np.testing.assert_array_equal(regrouped[0, :4, :4, :4], values[0])
-    np.testing.assert_array_equal(regrouped[1, :4, 4:, :4], values[1])  # block (2, 1, 2) = (1, 0, 1) * 2 + (0, 1, 0)
-    assert (regrouped[1, 4:] == -1).all() and (regrouped[0, 4:] == -1).all()
 
 
 @pytest.mark.parametrize("workers", [1, 2])

@@ -1,6 +1,6 @@
 """Sets of blocks of a volume (cubes of B^3 voxels, mirrorcore.dense.volume): the centres of their voxels in the
-block layout (B, B, B, m), their bounds, chunks of them for the runner, writing their voxels in grids over the padded
-volume, and regrouping them into larger blocks.
+block layout (B, B, B, m), their bounds, chunks of them for the runner, and writing their voxels in grids over the
+padded volume.
 
 In the block layout the voxel [i, j, k] of block r (x along i, y along j, z along k, as in the grid) is at [i, j, k, r],
 and the voxel centres come as three arrays that broadcast to (B, B, B, m): x (B, 1, 1, m), y (1, B, 1, m),
@@ -80,25 +80,6 @@ class Blocks:
         s = self.size
         grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[a, :, b, :, c, :] = \
             np.moveaxis(values, -1, 0) if np.ndim(values) else values
-
-    def regroup(self, arrays: list[tuple[np.ndarray, object]]) -> tuple["Blocks", list[np.ndarray]]:
-        """The blocks of twice the size holding these, in C order, and each array of `arrays` ((m, B, B, B) values,
-        one per block, with its `fill`) laid out in them: (M, 2B, 2B, 2B), `fill` where no block of these lies."""
-        s = self.size
-        parents = self.ijk // 2
-        keys = np.ravel_multi_index(tuple(parents.T), self.volume.block_shape(2 * s))
-        order = np.argsort(keys, kind="stable")
-        first = np.flatnonzero(np.diff(keys[order], prepend=-1))
-        inverse = np.empty(len(keys), np.int64)
-        inverse[order] = np.cumsum(np.diff(keys[order], prepend=-1) != 0) - 1
-        coarse = Blocks(self.volume, parents[order[first]], 2 * s)
-        a, b, c = (self.ijk % 2).T
-        out = []
-        for values, fill in arrays:
-            grouped = np.full((len(coarse), 2, s, 2, s, 2, s), fill, values.dtype)
-            grouped[inverse, a, :, b, :, c, :] = values
-            out.append(grouped.reshape(len(coarse), 2 * s, 2 * s, 2 * s))
-        return coarse, out
 
 
 def padded_grid(volume: Volume, fill, dtype, block: int) -> np.ndarray:

@@ -1,17 +1,30 @@
 """Source-labelled triangle meshes: the zero level set of voxel values held in blocks (mirrorcore.dense.blocks), by
-marching cubes (scikit-image) in one call over the blocks laid side by side.
+classic (Lorensen) marching cubes in numpy, over the blocks as they are.
 
-The blocks are first regrouped into blocks of MESH_BLOCK^3 voxels (fewer, larger tiles). Each block is extended by the
-first layer of voxels of its neighbours on its +x, +y and +z sides (where they are blocks too), so that every cube of
-the grid lies in exactly one extended block: the one holding its lowest corner. The extended blocks are tiled in a
-plane, each followed by a layer of unobserved voxels, and cut in one call. scikit-image computes a cube when its mask
-holds at the cube's upper corner (+1 on each axis), so the mask it is given is cleared on each tile's first layers
-along x and y, which only the cubes spanning two tiles read, and on the cubes whose corners are all above or all
-below zero (a separable 2x2x2 test in numpy: scikit-image then only visits the cubes that make faces; 1.5x faster on
-the bench's sphere). The vertices that neighbouring blocks both make (on the faces between them) are merged."""
+Every cube of the grid belongs to the block holding its lowest corner, and every grid edge to the voxel at its lower
+end. Each block is extended by the first layer of voxels of its neighbours on its +x, +y and +z sides (the block index
+last, so that numpy's loops run along it), so that its B^3 cubes have their 8 corners in it; a cube's key (which
+corners are at or below zero, which are observed) gives its triangles in a table, and each triangle corner's edge is
+looked up, in the block of the voxel that owns it, in one array of vertex ids per voxel and axis: the vertices that
+neighbouring blocks share are one by construction, with no sort. The blocks that are not there but have one on their
++x, +y or +z side are added as unobserved "ghosts" (a cube whose lowest corner is unobserved may still have faces on
+the edges between its other corners).
+
+The table is built once from scikit-image's own Lorensen marching cubes, run on one cube for each of the 254 cases,
+so the triangulation and its winding are scikit-image's: the mesh is `skimage.measure.marching_cubes(method=
+'lorensen')` on the whole grids with the rules below. On the bench's sphere (6367 blocks, 120,000 faces) the whole mesh
+takes 40-60 ms, against 105-135 ms for scikit-image's marching cubes (Lewiner's method) on the same blocks tiled side
+by side with the numpy around it, and ~50 ms for scikit-image's call alone (alternated runs; README, *Figures*).
+
+Rules: a face is kept when each of its 3 corners lies on a grid edge with both ends observed (in the mask), a corner
+on a grid point too; a vertex is interpolated linearly along its edge, t = v0 / (v0 - v1); a vertex that falls exactly
+on a grid point (t is 0 or 1 in float32: a value exactly 0 there, or one negligible beside the other end's) is one
+vertex for that point, whatever edges it was found on, and the faces that this makes degenerate are dropped; vertices
+used by no face are dropped."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from skimage.measure import marching_cubes as _skimage_marching_cubes
@@ -21,9 +34,11 @@ from ..errors import MirrorscanError
 from .blocks import Blocks
 from .volume import NO_SOURCE
 
-MESH_BLOCK = 8                  # voxels along the edge of the blocks cut together
-MESH_BLOCK_BYTES = 8_000        # bytes per MESH_BLOCK^3 block: the tiles' values, mask, labels (5.4 KB), the cut
-ON_GRID = 1e-3                  # voxels: a vertex this close to a grid point lies on it
+MESH_BLOCK_BYTES = 5_500    # bytes per 64 voxels of blocks at the peak, ghosts included: traced (tracemalloc) on the
+#                             bench's sphere in blocks of 4^3 voxels, 5.0 KB at 100^3, 4.9 KB at 200^3, 4.7 KB at 300^3
+CORNERS = tuple((k & 1, k >> 1 & 1, k >> 2) for k in range(8))       # a cube's corner k: offset (x, y, z)
+EDGES = tuple((d, a) for a in range(3) for d in CORNERS if d[a] == 0)  # a cube's edges: (lower corner, axis)
+MAX_TRIANGLES = 5                                                       # per cube (classic marching cubes)
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,173 +52,216 @@ class Mesh:
 
 
 def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, source: np.ndarray) -> Mesh:
-    """The surface values == 0 of the blocks' voxels ((m, B, B, B) float, one block after another), computed only
-    where mask (m, B, B, B) bool holds: the mesh that marching cubes gives on the whole grid with the voxels outside
-    the blocks unobserved. Each vertex takes the label in `source` (m, B, B, B) uint8 of the nearest labelled corner
-    of its cube. Blocks (C order) smaller than MESH_BLOCK are regrouped first. Raises MirrorscanError when the masked
-    voxels have no zero crossing, MemoryBudgetError when the tiles would not fit in the memory budget."""
-    if not (mask.any() and values[mask].min() < 0 < values[mask].max()):
+    """The surface values == 0 of the blocks' voxels ((m, B, B, B) float, one block after another, in the order of
+    `blocks`), on the edges with both ends where mask (m, B, B, B) bool holds: the mesh of classic marching cubes on
+    the whole grid with the voxels outside the blocks unobserved, by the rules of the module docstring. Each vertex
+    takes the label in `source` (m, B, B, B) uint8 of the nearer end of its edge (the lower end on ties), or of the
+    other end when that one has none (NO_SOURCE); NO_SOURCE when neither has one (a fusion labels every voxel it
+    observes, so not there); a vertex on a grid point takes that point's. Raises MirrorscanError when the masked
+    voxels have no zero crossing, MemoryBudgetError when the work would not fit in the memory budget."""
+    seen = values[mask]
+    if not (len(seen) and seen.min() < 0 < seen.max()):
         raise MirrorscanError("mesh: the volume holds no surface (is the object inside the box?)")
-    check_memory(blocks.voxels / MESH_BLOCK ** 3 * 8 * MESH_BLOCK_BYTES,
+    check_memory(blocks.voxels / 64 * MESH_BLOCK_BYTES,
                  f"mesh: {len(blocks):,} blocks of {blocks.size}^3 voxels")
-    fills = (1.0, False, NO_SOURCE)
-    arrays = [values.astype(np.float32), mask, source]
-    while blocks.size < MESH_BLOCK:
-        blocks, arrays = blocks.regroup(list(zip(arrays, fills)))
-    arrays = list(zip(arrays, fills))
-    tile = blocks.size + 2
-    columns = int(np.ceil(np.sqrt(len(blocks))))
-    neighbours = _neighbours(blocks)
-    tiled = [_tile(_extended(neighbours, a, fill), columns, fill) for a, fill in arrays]
-    cubes = tiled[1] & _crossing_cubes(tiled[0])
-    cubes[::tile] = False
-    cubes[:, ::tile] = False
-    # Degenerate faces (two vertices at one grid point) are dropped by the merge below, which keys such vertices by
-    # that point: scikit-image's own removal is not needed (5-15 % of the 200^3 sphere's mesh, alternated runs).
-    verts, faces, _, _ = _skimage_marching_cubes(tiled[0], 0.0, mask=cubes, allow_degenerate=True)
-    verts, faces = _observed_edges(verts, faces, tiled[1])
-    grid, edge = _grid_coordinates(blocks, verts, columns)
-    keep, faces = _merge_copies(edge, faces)
+    rows = _neighbour_rows(blocks)
+    ext = [_extended(rows, a, fill) for a, fill in ((values.astype(np.float32, copy=False), 1.0), (mask, False),
+                                                   (source, NO_SOURCE))]
+    ids, grid, labels, points = _edge_vertices(blocks, rows, *ext)
+    faces = _faces(rows, _cases(ext[0] <= 0, ext[1]), ids, points, blocks.size)
+    used = np.zeros(len(grid), bool)
+    used[faces.reshape(-1)] = True
     volume = blocks.volume
-    return Mesh((np.asarray(volume.origin) + volume.voxel * grid[keep]).astype(np.float32), faces.astype(np.int32),
-                _corner_labels(verts[keep], tiled[2]))
+    vertices = (np.asarray(volume.origin) + volume.voxel * grid[used]).astype(np.float32)
+    return Mesh(vertices, np.take(np.cumsum(used, dtype=np.int32) - 1, faces), labels[used])
 
 
-def _crossing_cubes(values: np.ndarray) -> np.ndarray:
-    """(X, Y, Z) bool, at each cube's upper corner (where scikit-image reads its mask): the cubes of `values` (X, Y, Z)
-    float whose 8 corners are not all above 0 nor all below (the others make no face); False on the first layers.
-    The 2x2x2 test is separable: along x, then y, then z."""
-    out = np.zeros(values.shape, bool)
-    same = []
-    for side in (values > 0, values < 0):
-        side = side[:-1] & side[1:]
-        side = side[:, :-1] & side[:, 1:]
-        same.append(side[:, :, :-1] & side[:, :, 1:])
-    np.logical_not(same[0] | same[1], out=out[1:, 1:, 1:])
+@cache
+def case_table() -> tuple[np.ndarray, np.ndarray]:
+    """Classic marching cubes' triangles per case, from scikit-image's Lorensen method: counts (256,) int64, the
+    triangles of each case, and edges (256, MAX_TRIANGLES, 3) int64, the EDGES index of each triangle's corners, in
+    scikit-image's order and winding (its default gradient_direction, 'descent'). Bit k of a case: CORNERS[k] is at or
+    below the level (scikit-image's side for a value equal to it)."""
+    counts, edges = np.zeros(256, np.int64), np.zeros((256, MAX_TRIANGLES, 3), np.int64)
+    number = {(d, a): e for e, (d, a) in enumerate(EDGES)}
+    for case in range(1, 255):
+        cube = np.ones((2, 2, 2), np.float32)
+        for k, corner in enumerate(CORNERS):
+            if case >> k & 1:
+                cube[corner] = -1.0
+        verts, faces, _, _ = _skimage_marching_cubes(cube, 0.0, method="lorensen", allow_degenerate=True)
+        lower = np.floor(verts).astype(int)                                 # vertices at the edges' midpoints
+        axis = np.argmax(verts != lower, axis=1)
+        on_edge = [number[tuple(d), a] for d, a in zip(lower.tolist(), axis.tolist())]
+        counts[case] = len(faces)
+        edges[case, :len(faces)] = np.asarray(on_edge)[faces]
+    return counts, edges
+
+
+@cache
+def _cube_table() -> tuple[np.ndarray, np.ndarray]:
+    """case_table by cube key (`_cases`: bit 2k, CORNERS[k] at or below zero; bit 2k + 1, observed), keeping the
+    triangles whose 3 edges have both ends observed: counts (65536,) uint8 and edges (65536 * MAX_TRIANGLES, 3) int8
+    (row key * MAX_TRIANGLES + n: the key's n-th kept triangle)."""
+    counts, edges = case_table()
+    key = np.arange(1 << 16)
+    case, seen = (sum((key >> 2 * k + bit & 1) << k for k in range(8)) for bit in (0, 1))
+    ends = [1 << CORNERS.index(d) | 1 << CORNERS.index(tuple(np.add(d, np.eye(3, dtype=int)[a]))) for d, a in EDGES]
+    needs = np.bitwise_or.reduce(np.array(ends)[edges], axis=2)                  # (256, 5): the corners to observe
+    keep = (np.arange(MAX_TRIANGLES) < counts[case][:, None]) & (seen[:, None] & needs[case] == needs[case])
+    order = np.argsort(~keep, axis=1, kind="stable")                                # the kept ones first, in order
+    kept = edges.astype(np.int8).reshape(-1, 3)[(case[:, None] * MAX_TRIANGLES + order).reshape(-1)]
+    return keep.sum(axis=1).astype(np.uint8), kept
+
+
+def _neighbour_rows(blocks: Blocks) -> np.ndarray:
+    """The m blocks, then (in C order) the g blocks not among them that have one of them on their +x, +y, +z sides
+    (ghosts: all their voxels are unobserved, but the cubes whose lowest corner is in them may have faces on the edges
+    between their other corners, in the blocks) -> (M + 1, 8) int64, M = m + g: the row of the block at
+    ijk + CORNERS[c] of each of them (c = 0 is the block itself), M where there is none; row M (no block) is all M."""
+    marks = np.zeros(np.add(blocks.volume.block_shape(blocks.size), 2), bool)     # a layer on each side
+    own = blocks.ijk + 1
+    for step in CORNERS[1:]:
+        marks[tuple((own - step).T)] = True
+    marks[tuple(own.T)] = False
+    every = np.concatenate([own, np.argwhere(marks[1:, 1:, 1:]) + 1])
+    lookup = np.full(marks.shape, len(every), np.int32)
+    lookup[tuple(every.T)] = np.arange(len(every))
+    out = np.full((len(every) + 1, 8), len(every), np.int64)
+    for c, step in enumerate(CORNERS):
+        out[:-1, c] = lookup[tuple((every + step).T)]
     return out
 
 
-NEIGHBOURS = ((1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (1, 0, 1), (0, 1, 1), (1, 1, 1))   # on the +x, +y, +z sides
-
-
-def _neighbours(blocks: Blocks) -> list[tuple[np.ndarray, np.ndarray]]:
-    """For each step of NEIGHBOURS: found (m,) bool, the block at ijk + step is one of `blocks` (C order), and row
-    (m,) int64, its row there (0 where not found)."""
-    grid, keys = blocks.volume.block_shape(blocks.size), blocks.keys                    # keys sorted: C order
-    out = []
-    for step in NEIGHBOURS:
-        neighbour = blocks.ijk + step
-        inside = (neighbour < grid).all(axis=1)
-        found = np.zeros(len(blocks), bool)
-        row = np.zeros(len(blocks), np.int64)
-        wanted = np.ravel_multi_index(tuple(neighbour[inside].T), grid)
-        at = np.minimum(np.searchsorted(keys, wanted), len(keys) - 1)
-        found[inside], row[inside] = keys[at] == wanted, at
-        out.append((found, row))
-    return out
-
-
-def _extended(neighbours: list[tuple[np.ndarray, np.ndarray]], values: np.ndarray, fill) -> np.ndarray:
-    """(m, B, B, B) values of some blocks, their `_neighbours` -> (m, B + 1, B + 1, B + 1): each block with the first
-    voxels of its neighbours on the +x, +y, +z sides (`fill` where there is no such block)."""
+def _extended(rows: np.ndarray, values: np.ndarray, fill) -> np.ndarray:
+    """(m, B, B, B) values of the first m of M blocks (the others: `fill`), the blocks' `_neighbour_rows` ->
+    (B + 1, B + 1, B + 1, M + 1), the block index last (numpy's loops then run along it): each block with the first
+    voxels of its neighbours on the +x, +y, +z sides (`fill` where there is no such block), then a block of `fill`
+    (row M, no block)."""
     m, b = len(values), values.shape[1]
-    out = np.full((m, b + 1, b + 1, b + 1), fill, values.dtype)
-    out[:, :b, :b, :b] = values
-    for step, (found, row) in zip(NEIGHBOURS, neighbours):
+    out = np.empty((b + 1, b + 1, b + 1, len(rows)), values.dtype)
+    out[:b, :b, :b, :m] = values.transpose(1, 2, 3, 0)
+    out[:b, :b, :b, m:] = fill
+    for c, step in enumerate(CORNERS[1:], 1):
         target = tuple(slice(b, b + 1) if s else slice(0, b) for s in step)
         origin = tuple(slice(0, 1) if s else slice(0, b) for s in step)
-        out[(found, *target)] = values[(row[found], *origin)]
+        out[target] = np.take(out[origin], rows[:, c], axis=3)
     return out
 
 
-def _tile(extended: np.ndarray, columns: int, fill) -> np.ndarray:
-    """(m, E, E, E) extended blocks -> one (columns T, rows T, E) grid, T = E + 1: block r at x tile r % columns,
-    y tile r // columns, each followed along x and y by a layer of `fill`."""
-    m, e = len(extended), extended.shape[1]
-    rows = -(-m // columns)
-    tiles = np.full((rows * columns, e + 1, e + 1, e), fill, extended.dtype)
-    tiles[:m, :e, :e] = extended
-    tiles = tiles.reshape(rows, columns, e + 1, e + 1, e).transpose(1, 2, 0, 3, 4)
-    return np.ascontiguousarray(tiles).reshape(columns * (e + 1), rows * (e + 1), e)
+def _cases(below: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """(B + 1, B + 1, B + 1, M + 1) bool, the extended blocks' voxels at or below zero and observed -> (B^3 * (M + 1),)
+    uint16 the key of each cube ([voxel in C order, row]): bit 2k, CORNERS[k] below; bit 2k + 1, observed. Built
+    along x, then y, then z."""
+    packed = below.view(np.uint8) | observed.view(np.uint8) << 1
+    x = packed[:-1] | packed[1:] << 2
+    y = x[:, :-1] | x[:, 1:] << 4
+    z = y[:, :, :-1].astype(np.uint16) | y[:, :, 1:].astype(np.uint16) << 8
+    return z.reshape(-1)
 
 
-def _grid_coordinates(blocks: Blocks, verts: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices (n, 3) in the tiled grid's index coordinates -> their (n, 3) float64 coordinates in the volume grid,
-    and (n,) int64 keys of the grid edge (or grid point) each lies on: equal for the copies two blocks make; a
-    negative key of its own for a vertex inside a cube (the Lewiner method adds some in ambiguous cubes)."""
-    b = blocks.size
-    tile = np.floor(verts[:, :2] / (b + 2)).astype(np.int64)                         # x, y tile of each vertex
-    row = tile[:, 1] * columns + tile[:, 0]
-    local = verts.astype(np.float64)
-    local[:, :2] -= (b + 2) * tile                                                  # exact: 0 <= local <= b
-    low = np.floor(local)
-    off = [local[:, k] != low[:, k] for k in range(3)]     # off the grid along x, y, z (per column: numpy reduces
-    axis = np.where(off[0], 0, np.where(off[1], 1, np.where(off[2], 2, 3)))     # rows of 3 slowly); 3: a grid point
-    first = b * blocks.ijk[row]
-    corner = first + low.astype(np.int64)
-    shape = tuple(b * n + 1 for n in blocks.volume.block_shape(b))
-    key = np.ravel_multi_index(tuple(corner.T), shape) * 4 + axis
-    inside = (off[0] & off[1]) | (off[0] & off[2]) | (off[1] & off[2])   # Lewiner's, in a cube: one block's
-    key[inside] = -1 - np.arange(np.count_nonzero(inside))
-    return first + local, key
+def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: np.ndarray,
+                   source: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The vertices on the crossing, observed edges of the m `blocks`, the first of the extended blocks (values
+    float32, mask bool, source uint8, (B + 1, B + 1, B + 1, M + 1); the others, unobserved ghosts, own none) -> ids
+    (B^3 * 3 * m,) int32, the vertex on the edge of each voxel along each axis (index [voxel in C order, axis, row]),
+    -1 where there is none; grid (n, 3) float64 the vertices' voxel index coordinates in the volume; labels (n,)
+    uint8; and how many of them lie on grid points (the last ones, one per point)."""
+    b, span, m = values.shape[0] - 1, values.shape[3], len(blocks)
+    edge = _crossing_edges(values[..., :m], mask[..., :m])              # [voxel, axis, row]
+    voxel, axis, row = edge // (3 * m), edge // m % 3, edge % m
+    low = _ext_voxel(b)[voxel]                                          # the ends' voxels in the extended blocks
+    high = low + np.array([(b + 1) ** 2, b + 1, 1])[axis]
+    v0, v1 = np.take(values, low * span + row), np.take(values, high * span + row)
+    t = v0 / (v0 - v1)                                                  # float32 in [0, 1]: the signs differ
+    s0, s1 = np.take(source, low * span + row), np.take(source, high * span + row)
+    near, far = np.where(t <= 0.5, s0, s1), np.where(t <= 0.5, s1, s0)
+    labels = np.where(near == NO_SOURCE, far, near)
+    on = (t == 0) | (t == 1)
+    off, on = np.flatnonzero(~on), np.flatnonzero(on)
+    point = np.where(t[on] == 1, high[on], low[on])                     # on a grid point: which one
+    one, which = _grid_points(rows, row[on], point, b)
+    ids = np.full(b ** 3 * 3 * m, -1, np.int32)
+    ids[edge[off]] = np.arange(len(off))
+    ids[edge[on]] = len(off) + which
+    row, at = np.concatenate([row[off], row[on][one]]), np.concatenate([low[off], point[one]])
+    grid = (np.take(blocks.size * blocks.ijk, row, axis=0) + np.take(np.argwhere(np.ones((b + 1,) * 3, bool)), at,
+                                                                     axis=0)).astype(np.float64)
+    grid[np.arange(len(off)), axis[off]] += t[off]
+    return ids, grid, np.concatenate([labels[off], np.take(source, point[one] * span + row[len(off):])]), len(one)
 
 
-def _merge_copies(edge: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertices with the same edge key (n,) int64 are one vertex, made by two neighbouring blocks (or by two faces
-    meeting at a grid point) -> the index (k,) of the one kept of each, and faces (m', 3) renumbered to 0..k-1: those
-    left degenerate by the merge dropped, and the vertices only they used."""
-    _, keep, inverse = np.unique(edge, return_index=True, return_inverse=True)
-    faces = inverse.reshape(-1)[faces]
-    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
-    used = np.zeros(len(keep), bool)
-    used[faces.reshape(-1)] = True
-    if used.all():
-        return keep, faces
-    return keep[used], np.take(np.cumsum(used) - 1, faces)
+def _grid_points(rows: np.ndarray, row: np.ndarray, point: np.ndarray, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices on grid points: the rows (n,) of their blocks and their points (n,), voxels of the extended blocks
+    ((B + 1)^3, C order), observed -> the index (k,) of the first vertex on each distinct grid point and which one
+    (n,) each is on, 0..k-1. The only sort of the mesh, on these few vertices."""
+    owner, local = _ext_owner(b)
+    _, one, which = np.unique(local[point] * len(rows) + rows[row, owner[point]], return_index=True,
+                              return_inverse=True)
+    return one, which.reshape(-1)
 
 
-def _corner_labels(verts: np.ndarray, source: np.ndarray) -> np.ndarray:
-    """The label of the nearest of the 8 corners of each vertex's cube that has one (not NO_SOURCE; the first such
-    corner in i, j, k order on ties). verts : (n, 3) float grid index coordinates; source : (nx, ny, nz) uint8
-    -> (n,) uint8 (NO_SOURCE when no corner has a label)."""
-    top = np.array(source.shape) - 1
-    nearest = np.clip(np.ceil(verts - 0.5), 0, top).astype(np.int64)        # the nearest corner (the lower on ties)
-    labels = source[tuple(nearest.T)]
-    missing = np.flatnonzero(labels == NO_SOURCE)                            # rare: a vertex on an edge has both ends
-    if len(missing):                                                         # labelled (observed)
-        labels[missing] = _labelled_corner(verts[missing], source)
-    return labels
+def _crossing_edges(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(B + 1, B + 1, B + 1, m) values and mask of extended blocks -> the edges from each block's voxels to their
+    +x, +y, +z neighbours whose ends are on both sides of zero (above it; at or below it) and both observed: sorted
+    indices [voxel in C order, axis, row] into (B^3, 3, m)."""
+    b = values.shape[0] - 1
+    above = values > 0
+    own = (slice(0, b),) * 3
+    crossing = np.empty((b, b, b, 3, values.shape[3]), bool)
+    for axis in range(3):
+        upper = tuple(slice(1, b + 1) if k == axis else slice(0, b) for k in range(3))
+        out = crossing[:, :, :, axis]
+        np.not_equal(above[own], above[upper], out=out)
+        out &= mask[own]
+        out &= mask[upper]
+    return np.flatnonzero(crossing)
 
 
-def _labelled_corner(verts: np.ndarray, source: np.ndarray) -> np.ndarray:
-    """_corner_labels for vertices whose nearest corner has no label: the nearest of the 8 corners of the cube that
-    has one."""
-    top = np.array(source.shape) - 1
-    base = np.clip(np.floor(verts), 0, top).astype(np.int64)
-    best = np.full(len(verts), np.inf)
-    labels = np.full(len(verts), NO_SOURCE, np.uint8)
-    for offset in np.ndindex(2, 2, 2):                       # one corner at a time: memory stays O(n)
-        corner = np.minimum(base + offset, top)
-        label = source[corner[:, 0], corner[:, 1], corner[:, 2]]
-        distance = np.where(label == NO_SOURCE, np.inf, np.square(corner - verts).sum(axis=1))
-        nearer = distance < best
-        best[nearer], labels[nearer] = distance[nearer], label[nearer]
-    return labels
+@cache
+def _ext_voxel(b: int) -> np.ndarray:
+    """(B^3,) int64: the index of each voxel of a block (C order) in its extended block ((B + 1)^3, C order)."""
+    return np.ravel_multi_index(tuple(np.argwhere(np.ones((b, b, b), bool)).T), (b + 1,) * 3)
 
 
-def _observed_edges(verts: np.ndarray, faces: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Keep the faces whose 3 vertices lie on grid edges with both ends in `mask` (a vertex interpolated towards an
-    unobserved voxel is false; scikit-image reads its mask at one corner of each cube only), and the vertices they use.
-    verts : (n, 3) float, grid index coordinates; faces : (m, 3) int -> the kept (n', 3), (m', 3), faces renumbered."""
-    top = np.array(mask.shape, verts.dtype) - 1
-    columns, flat = np.ascontiguousarray(verts.T), mask.reshape(-1)
-    observed = np.ones(len(verts), bool)
-    for shift, rounding in ((ON_GRID, np.floor), (-ON_GRID, np.ceil)):          # on the grid (within ON_GRID):
-        ends = [np.clip(rounding(c + c.dtype.type(shift)), 0, t).astype(np.intp) for c, t in zip(columns, top)]
-        observed &= np.take(flat, np.ravel_multi_index(ends, mask.shape))       # both ends at that grid point
-    ends = np.take(observed, faces)                  # per column, not .all(axis=1): numpy reduces rows of 3 slowly
-    faces = np.compress(ends[:, 0] & ends[:, 1] & ends[:, 2], faces, axis=0)
-    used = np.zeros(len(verts), bool)
-    used[faces.reshape(-1)] = True
-    number = np.cumsum(used) - 1                                     # the new index of each used vertex
-    return np.compress(used, verts, axis=0), np.take(number, faces)
+@cache
+def _ext_owner(b: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each voxel of an extended block ((B + 1)^3, C order): which block holds it (CORNERS index, 0 the block
+    itself) and its voxel there (C order): two ((B + 1)^3,) int64."""
+    ext = np.argwhere(np.ones((b + 1,) * 3, bool))
+    beyond = ext >= b
+    return beyond[:, 0] + 2 * beyond[:, 1] + 4 * beyond[:, 2], np.ravel_multi_index(tuple((ext % b).T), (b,) * 3)
+
+
+@cache
+def _corner_edges(b: int) -> tuple[np.ndarray, np.ndarray]:
+    """For the cube of each voxel of a block and each of its EDGES ([voxel in C order, edge], flat): which block
+    (CORNERS index, 0 the block itself) holds the voxel that owns the edge (its lower end), and the index [voxel in C
+    order, axis] of the edge there: two (B^3 * 12,) int64."""
+    owner, local = _ext_owner(b)
+    ext = _ext_voxel(b)[:, None] + np.array([np.ravel_multi_index(d, (b + 1,) * 3) for d, _ in EDGES])
+    axes = np.array([a for _, a in EDGES])
+    return owner[ext].reshape(-1), (local[ext] * 3 + axes).reshape(-1)
+
+
+def _faces(rows: np.ndarray, keys: np.ndarray, ids: np.ndarray, points: int, b: int) -> np.ndarray:
+    """The triangles of the M blocks' cubes (keys (B^3 * (M + 1),) uint16, `_cases`) on observed edges, their
+    corners' vertices looked up in ids (`_edge_vertices`, the first m blocks: those edges are all theirs) -> (f, 3)
+    int32 vertex indices; when some vertices lie on grid `points`, the triangles with two corners on one of them
+    are dropped."""
+    counts, table = _cube_table()
+    span, m = len(rows), len(ids) // (3 * b ** 3)
+    n = counts[keys]
+    cubes = np.flatnonzero(n)
+    count = n[cubes].astype(np.int64)
+    first = keys[cubes].astype(np.int64) * MAX_TRIANGLES - np.cumsum(count) + count   # + nth triangle: table row
+    edges = np.take(table, np.arange(count.sum()) + np.repeat(first, count), axis=0)
+    voxel, row = np.divmod(cubes, span)
+    at = np.repeat(voxel * 12, count)[:, None] + edges                      # [voxel, edge] of each corner
+    codes, slots = _corner_edges(b)
+    owner = np.take(rows, np.repeat(row * 8, count)[:, None] + np.take(codes, at))
+    faces = np.take(ids, np.take(slots, at) * m + owner)
+    if not points:
+        return faces
+    first, second, third = faces.T                     # per column: numpy reduces rows of 3 slowly
+    return faces[(first != second) & (second != third) & (first != third)]

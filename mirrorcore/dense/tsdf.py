@@ -60,8 +60,9 @@ class TsdfResult:
     truncation: float
 
     def mesh(self) -> Mesh:
-        """The zero level set by marching cubes over the voxels with weight > 0; each vertex takes the source of the
-        nearest labelled corner of its cube. Raises MirrorscanError when there is no surface in the volume."""
+        """The zero level set by marching cubes (mirrorcore.dense.mesh) on the edges between voxels with weight > 0;
+        each vertex takes the source of the nearer end of its edge. Raises MirrorscanError when there is no surface in
+        the volume."""
         return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
 
     def grids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
