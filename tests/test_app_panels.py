@@ -1,7 +1,9 @@
 """The browser tool's steps without a browser, on the simulated sphere rig, through a headless tab: background
 capture, both mirrors calibrated by clicking boundaries and markers, a stray marker refused, a bad fit shown as a
 proposal and applied only on confirmation, measuring, exports that never overwrite, save as and open, dense runs
-and cancel, record and replay, and two tabs that keep their own click mode and mirror."""
+and cancel, record and replay, and two tabs that keep their own click mode and mirror. The tests are the steps of one
+technician's session on one app (the module's `sphere`), in order: each starts where the one before left the session
+(a dense run needs the background and the mirrors of the steps before), so run the module, not a test alone."""
 import time
 from pathlib import Path
 
