@@ -38,8 +38,8 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     rows = np.flatnonzero(behind)
     pixel = np.take(index, rows)
     sources = np.zeros(len(index), np.uint8)
-    sources[rows] = np.take(table.label.reshape(-1), pixel)
-    xyz = _first_mirror(rig.intrinsics, table, index, z, rows, pixel)
+    sources[rows] = label = np.take(table.label.reshape(-1), pixel)
+    xyz = _first_mirror(rig.intrinsics, table, index, z, rows, pixel, label)
     if table.any_overlap:
         _later_mirrors(rig, index, xyz, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
     drop = np.zeros(len(index), bool) if len(table.chains) or table.any_uncalibrated else None
@@ -54,19 +54,19 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
 
 
 def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
-                  pixel: np.ndarray) -> np.ndarray:
+                  pixel: np.ndarray, label: np.ndarray) -> np.ndarray:
     """The points (3, n) float32, rows x, y, z, of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the
-    columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,)) reflected through it (paper eq. 3 as
-    P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
+    columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,), mirrors `label` (k,)) reflected through
+    it (paper eq. 3 as P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
     rays = intr.rays
     xyz = np.empty((3, len(index)), np.float32)
     np.multiply(z, np.take(rays[0].reshape(-1), index), out=xyz[0])
     np.multiply(z, np.take(rays[1].reshape(-1), index), out=xyz[1])
     xyz[2] = z
-    mirror = table.first_mirror_of(pixel)                       # ray_dot, offset, nx, ny, nz
-    step = np.float32(-2) * (np.take(z, rows) * mirror[:, 0] + mirror[:, 1])
+    plane = np.take(table.planes, label, axis=0)                # d, nx, ny, nz
+    step = np.float32(-2) * (np.take(z, rows) * np.take(table.ray_dot.reshape(-1), pixel) + plane[:, 0])
     for axis in range(3):
-        xyz[axis][rows] = np.take(xyz[axis], rows) + step * mirror[:, 2 + axis]
+        xyz[axis][rows] = np.take(xyz[axis], rows) + step * plane[:, 1 + axis]
     return xyz
 
 
