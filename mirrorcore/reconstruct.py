@@ -39,7 +39,7 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     pixel = np.take(index, rows)
     sources = np.zeros(len(index), np.uint8)
     sources[rows] = label = np.take(table.label.reshape(-1), pixel)
-    xyz = _first_mirror(rig.intrinsics, table, index, z, rows, pixel, label)
+    xyz = _first_mirror(_rays(intr, index, whole=mask is None), table, z, rows, pixel, label)
     if table.any_overlap:
         _later_mirrors(rig, index, xyz, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
     drop = np.zeros(len(index), bool) if len(table.chains) or table.any_uncalibrated else None
@@ -53,15 +53,26 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     return Cloud(xyz.T, sources, index, intr.width)      # (n, 3) as a view of the (3, n) rows: no interleaving pass
 
 
-def _first_mirror(intr: Intrinsics, table: ReflectionTable, index: np.ndarray, z: np.ndarray, rows: np.ndarray,
+def _rays(intr: Intrinsics, index: np.ndarray, whole: bool) -> tuple[np.ndarray, np.ndarray]:
+    """x/z and y/z (n,) float32 of the pixels at flat indices `index` (n,): for a whole frame's pixels from
+    intr.rays by flat index (the reads stream), for an object's from the per-column and per-row tables by column and
+    row (they stay in cache: 10 % faster on the bench's object, where a division by the width for every pixel of a
+    whole frame would cost more than it saves)."""
+    if whole:
+        return np.take(intr.rays[0].reshape(-1), index), np.take(intr.rays[1].reshape(-1), index)
+    x, y = intr.axis_rays
+    row = index // intr.width
+    return np.take(x, index - row * intr.width), np.take(y, row)
+
+
+def _first_mirror(rays: tuple[np.ndarray, np.ndarray], table: ReflectionTable, z: np.ndarray, rows: np.ndarray,
                   pixel: np.ndarray, label: np.ndarray) -> np.ndarray:
-    """The points (3, n) float32, rows x, y, z, of pixels `index` (n,) at depth z (n,) float32 (paper eq. 1), the
-    columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,), mirrors `label` (k,)) reflected through
-    it (paper eq. 3 as P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
-    rays = intr.rays
-    xyz = np.empty((3, len(index)), np.float32)
-    np.multiply(z, np.take(rays[0].reshape(-1), index), out=xyz[0])
-    np.multiply(z, np.take(rays[1].reshape(-1), index), out=xyz[1])
+    """The points (3, n) float32, rows x, y, z, of pixels with rays (x/z, y/z, each (n,)) at depth z (n,) float32
+    (paper eq. 1), the columns `rows` (k,) behind their pixel's first mirror (pixels `pixel` (k,), mirrors `label`
+    (k,)) reflected through it (paper eq. 3 as P_r = P + step * n with step = -2 (n.P + d) = -2 (z (n . ray) + d))."""
+    xyz = np.empty((3, len(z)), np.float32)
+    np.multiply(z, rays[0], out=xyz[0])
+    np.multiply(z, rays[1], out=xyz[1])
     xyz[2] = z
     plane = np.take(table.planes, label, axis=0)                # d, nx, ny, nz
     step = np.float32(-2) * (np.take(z, rows) * np.take(table.ray_dot.reshape(-1), pixel) + plane[:, 0])

@@ -114,6 +114,14 @@ class Intrinsics:
         table.flags.writeable = False
         return table
 
+    @cached_property
+    def axis_rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables small enough to
+        stay in cache)."""
+        x, y = np.array(self.rays[0, 0]), np.array(self.rays[1, :, 0])
+        x.flags.writeable = y.flags.writeable = False
+        return x, y
+
 
 def reproject_pixels(intr: Intrinsics, u: np.ndarray, v: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Paper eq. 1: pixels with depth to points in the camera frame.
