@@ -129,24 +129,22 @@ def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
 class ReflectionTable:
     """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose
     boundary holds it (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
-    z (n . ray) + d < 0. All arrays are (H, W) (normal: (3, H, W)), read-only; `chains` holds the few pixels whose
-    ray then meets further mirrors (mirrorcore.paths), followed up to the rig's `bounces`.
+    z (n . ray) + d < 0. The per-pixel arrays are (H, W); all are read-only. `chains` holds the few pixels whose ray
+    then meets further mirrors (mirrorcore.paths), followed up to the rig's `bounces`.
 
     label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
     threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray leaves the glass)
-    normal, offset, ray_dot : float32, that mirror's n and d, and n . (x/z, y/z, 1) of the pixel's ray
+    ray_dot : float32, n . (x/z, y/z, 1) of the pixel's ray, n that mirror's normal (0 for label 0)
     overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are tried there too)
     uncalibrated : bool, inside the boundary of a mirror that has no plane yet
-    planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (the same values as `offset`
-    and `normal`; row 0 and uncalibrated mirrors zeros): a frame reads a reflected pixel's plane from this small table
-    by its label, and only ray_dot per pixel (a fifth of the bytes that per-pixel rows of all five took: the object's
-    2.7 -> 2.35 ms in the bench, where the tables come from memory each call; the same values bit for bit)
+    planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (row 0 and uncalibrated mirrors
+    zeros): a frame reads a reflected pixel's plane from this small table by its label, and only ray_dot per pixel (a
+    fifth of the bytes that per-pixel rows of all five took: the object's 2.7 -> 2.35 ms in the bench, where the
+    tables come from memory each call; the same values bit for bit)
     """
 
     label: np.ndarray
     threshold: np.ndarray
-    normal: np.ndarray
-    offset: np.ndarray
     ray_dot: np.ndarray
     overlap: np.ndarray
     uncalibrated: np.ndarray
@@ -174,8 +172,6 @@ class ReflectionTable:
         shape, rays = rig.intrinsics.shape, rig.intrinsics.rays
         label = np.zeros(shape, np.uint8)
         count = np.zeros(shape, np.uint8)
-        normal = np.zeros((3, *shape), np.float32)
-        offset = np.zeros(shape, np.float32)
         uncalibrated = np.zeros(shape, bool)
         planes = np.zeros((len(rig.mirrors) + 1, 4), np.float32)
         for j, mirror in enumerate(rig.mirrors, start=1):
@@ -188,14 +184,13 @@ class ReflectionTable:
             first = inside & (label == 0)
             label[first] = j
             planes[j] = mirror.plane.d, *mirror.plane.n
-            normal[:, first] = planes[j, 1:, None]
-            offset[first] = planes[j, 0]
             count += inside
-        ray_dot = normal[0] * rays[0] + normal[1] * rays[1] + normal[2]
+        offset, nx, ny, nz = (np.take(planes[:, k], label) for k in range(4))      # (H, W) each
+        ray_dot = nx * rays[0] + ny * rays[1] + nz
         with np.errstate(divide="ignore", invalid="ignore"):
             threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
-        arrays = dict(label=label, threshold=threshold, normal=normal, offset=offset, ray_dot=ray_dot,
-                      overlap=count > 1, uncalibrated=uncalibrated, planes=planes)
+        arrays = dict(label=label, threshold=threshold, ray_dot=ray_dot, overlap=count > 1,
+                      uncalibrated=uncalibrated, planes=planes)
         chains = trace_chains(rig.intrinsics, tuple(m.plane if m.boundary is not None else None for m in rig.mirrors),
                               rig.inside_bits, label, threshold, rig.bounces)
         for a in (*arrays.values(), *vars(chains).values()):
