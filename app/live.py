@@ -20,7 +20,7 @@ from mirrorcore.sources import DepthSource, Frame
 
 from .overlays import depth_layer, depth_range
 from .state import Snapshot
-from .stream import HALVES, SourcePart, stream_parts
+from .stream import HALVES, Anchors, SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 
@@ -29,7 +29,8 @@ RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
 class LiveFrame:
     """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres as read and as
     Algorithm 1 used it (prepared_depth: smoothed on the object), object mask (H, W) bool, merged cloud, and the
-    snapshot (session, rig) it was processed with; process_ms is the processing time."""
+    snapshot (session, rig) it was processed with; process_ms is the processing time; anchors, the stream's centres
+    kept from the frames before (app.stream.Anchors)."""
 
     index: int
     timestamp: float
@@ -39,6 +40,7 @@ class LiveFrame:
     cloud: Cloud
     snapshot: Snapshot
     process_ms: float
+    anchors: Anchors
 
     # What the tabs show of it, made once by the first tab that asks (a frozen dataclass keeps cached properties).
     @cached_property
@@ -58,7 +60,7 @@ class LiveFrame:
         if half is None:
             return [part for h in range(HALVES) for part in self.parts(h)]
         if half not in self._parts:
-            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,))
+            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,), anchors=self.anchors)
         return self._parts[half]
 
     @cached_property
@@ -76,12 +78,12 @@ class LiveFrame:
         return depth_layer(self.depth, self.mask, *self.depth_range)
 
 
-def process_frame(snapshot: Snapshot, index: int, frame: Frame) -> LiveFrame:
+def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors) -> LiveFrame:
     t0 = time.perf_counter()
     prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
     cloud = reconstruct_raw(snapshot.rig, prepared, mask)
     return LiveFrame(index, frame.timestamp, frame.depth, prepared, mask, cloud, snapshot,
-                     (time.perf_counter() - t0) * 1e3)
+                     (time.perf_counter() - t0) * 1e3, anchors)
 
 
 class RateMeter:
@@ -117,6 +119,7 @@ class LiveLoop:
         self.source, self.snapshot, self.on_frame, self.on_error = source, snapshot, on_frame, on_error
         self.fps_wanted = fps_wanted
         self.rate = RateMeter()
+        self.anchors = Anchors()          # the stream's centres, kept from frame to frame
         self.index = 0
         self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
         self._recent_lock = threading.Lock()   # appended on the loop's thread, copied on the browser's
@@ -169,7 +172,7 @@ class LiveLoop:
         with self._turn:
             source_frame = self._read(self.index)
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
-            frame = process_frame(self.snapshot(), self.index, source_frame)
+            frame = process_frame(self.snapshot(), self.index, source_frame, self.anchors)
             self.index += 1
         with self._recent_lock:
             self._recent.append(frame.depth)

@@ -3,7 +3,8 @@
 that keeps every point within 0.3 mm, float32 where a part is too large for it. Each source's points are split into
 two interleaved halves (every other point); a live frame refreshes one half (even frames the first, odd frames the
 second), so a tab always shows every point while receiving half of them per frame; a paused or single frame sends
-both."""
+both. A source keeps its centre from frame to frame while its points stay within reach of it (Anchors), so that a
+tab moves no node: viser's pose update took about a third of a node's update time."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -32,32 +33,54 @@ class SourcePart:
         return self.source, self.half
 
 
+class Anchors:
+    """Each source's centre (3,) float32 metres, kept from one frame to the next while every point of the part at hand
+    lies within FLOAT16_EXTENT of it along each axis (the walking person's box moves, but rarely out of reach): the
+    halves of a source then share it too."""
+
+    def __init__(self) -> None:
+        self._centres: dict[int, np.ndarray] = {}
+
+    def centre(self, source: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """The centre for a source's part whose points span the box [low, high] ((3,) float32 each): the kept one while
+        it reaches the whole box, else the box's middle (kept from now on)."""
+        kept = self._centres.get(source)
+        if kept is not None and float(np.maximum(high - kept, kept - low).max()) < FLOAT16_EXTENT:
+            return kept
+        self._centres[source] = centre = (low + high) / np.float32(2)
+        return centre
+
+
 def downsample(cloud: Cloud, max_points: int) -> Cloud:
     """Every k-th point so that at most max_points remain (the order is row-major, so this thins evenly)."""
     step = max(1, int(np.ceil(len(cloud) / max_points)))
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
-def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES)) -> list[SourcePart]:
+def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES),
+                 anchors: Anchors | None = None) -> list[SourcePart]:
     """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones included, so that
-    a source that left the view is cleared); the halves of a source share its centre. A live frame asks for the one
-    half it sends: half the conversion work."""
+    a source that left the view is cleared). A part's centre is the middle of its points' box, or the one `anchors`
+    kept for its source. A live frame asks for the one half it sends: half the gathering and conversion."""
     cloud = downsample(cloud, max_points)
-    order = np.argsort(cloud.sources, kind="stable")      # each source's points together, in their order: one gather
-    rows = np.take(cloud.points.T, order, axis=1)          # (3, n): Algorithm 1's cloud is rows of x, y, z already,
-    ends = np.cumsum(np.bincount(cloud.sources, minlength=256))     # and numpy reduces rows ~30x faster than columns
-    parts = []
+    rows = cloud.points.T         # (3, n): Algorithm 1's cloud is rows of x, y, z already, and numpy gathers and
+    parts = []                    # reduces rows ~30x faster than columns
     for j in labels:
-        columns = rows[:, ends[j - 1] if j else 0:ends[j]]
-        if not columns.shape[1]:
-            parts += [SourcePart(j, half, np.zeros(3), np.zeros((0, 3), np.float16)) for half in halves]
-            continue
-        low, high = columns.min(axis=1), columns.max(axis=1)
-        centre = (low + high) / np.float32(2)
-        dtype = np.float16 if float((high - low).max()) / 2 < FLOAT16_EXTENT else np.float32
-        parts += [SourcePart(j, half, centre.astype(np.float64), _offsets(columns[:, half::HALVES], centre, dtype))
-                  for half in halves]
+        mine = np.flatnonzero(cloud.sources == j)
+        for half in halves:
+            parts.append(_part(j, half, np.take(rows, mine[half::HALVES], axis=1), anchors))
     return parts
+
+
+def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:
+    """The part of (3, k) float32 rows of points: float16 offsets where they reach every point, else float32."""
+    if not columns.shape[1]:
+        return SourcePart(source, half, np.zeros(3), np.zeros((0, 3), np.float16))
+    low, high = columns.min(axis=1), columns.max(axis=1)
+    centre = (low + high) / np.float32(2) if anchors is None else anchors.centre(source, low, high)
+    reach = float(np.maximum(high - centre, centre - low).max())
+    dtype = np.float16 if reach < FLOAT16_EXTENT else np.float32
+    return SourcePart(source, half, centre.astype(np.float64), _offsets(columns, centre, dtype))
 
 
 def _offsets(columns: np.ndarray, centre: np.ndarray, dtype) -> np.ndarray:

@@ -144,7 +144,8 @@ class TabScene:
         precision = "float16" if part.offsets.dtype == np.float16 else "float32"
         if handle is not None and handle.precision == precision:
             handle.points = part.offsets
-            handle.position = tuple(part.centre)
+            if not np.array_equal(handle.position, part.centre):    # a kept centre (app.stream.Anchors): no update
+                handle.position = tuple(part.centre)
             return
         if handle is not None:
             handle.remove()

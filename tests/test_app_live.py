@@ -13,7 +13,7 @@ import pytest
 
 from app.server import IDLE_FPS
 from app.state import Snapshot
-from app.stream import FLOAT16_EXTENT, stream_parts
+from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
 from mirrorcore.geometry.plane import Plane
@@ -46,6 +46,26 @@ def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
     parts = stream_parts(Cloud(wide.astype(np.float32), sources, np.arange(len(points)), 640), range(4))
     assert {p.offsets.dtype for p in parts[:6]} == {np.dtype(np.float32)}    # too wide for float16: float32
     assert len(parts[6].offsets) == len(parts[7].offsets) == 0               # an absent source is cleared
+
+
+def test_a_source_keeps_its_centre_while_its_points_stay_within_reach():
+    """The walking person moves: the node keeps its centre (no pose update) until a point would leave float16's
+    reach of it, and every point stays within 0.3 mm meanwhile."""
+    rng = np.random.default_rng(1)
+    body = rng.uniform(-0.3, 0.3, (4_000, 3)).astype(np.float32) + np.float32([0, 0, 3])
+    sources = np.zeros(len(body), np.uint8)
+    anchors, centres = Anchors(), []
+    for step in np.arange(0, 1.2, 0.1, dtype=np.float32):             # 1.2 m to the side, 0.1 m a frame
+        points = body + np.float32([step, 0, 0])
+        part = stream_parts(Cloud(points, sources, np.arange(len(points)), 640), [0], halves=(0,),
+                            anchors=anchors)[0]
+        assert part.offsets.dtype == np.float16
+        np.testing.assert_array_less(np.abs(part.offsets.astype(np.float64) + part.centre - points[0::2]), 0.3e-3)
+        centres.append(part.centre[0])
+    moved = np.flatnonzero(np.diff(centres)) + 1                     # the frames whose centre is new
+    assert centres[0] == pytest.approx(0, abs=0.01)                  # the middle of the first frame's box, kept
+    assert len(moved) == 1 and moved[0] in (7, 8), centres          # until its far side (0.3 m + step) reaches 1 m
+    assert centres[moved[0]] == pytest.approx(0.1 * moved[0], abs=0.01)   # then the middle of the box again
 
 
 def test_live_frames_reach_the_tab_every_point_within_a_third_of_a_millimetre(demo):
