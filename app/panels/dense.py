@@ -4,6 +4,8 @@ a cancel button. The result is shared by every tab, drawn in its own colour and 
 under a new name each time."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from mirrorcore.dense import DenseOptions
@@ -25,6 +27,7 @@ class DensePanel:
 
     def __init__(self, tab: TabContext):
         gui, self.tab, self.services = tab.gui, tab, tab.services
+        self._box_lock = threading.Lock()    # the fields' callbacks run on viser's threads, two at once when both move
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
@@ -91,8 +94,10 @@ class DensePanel:
         return volume
 
     def _show_box(self) -> None:
-        low, high = self._box()
-        self.tab.scene.show_box(low, high)
+        """Draw the box the fields hold now (one callback at a time: the last one draws both fields' last values)."""
+        with self._box_lock:
+            low, high = self._box()
+            self.tab.scene.show_box(low, high)
 
     def start(self) -> None:
         """Run the chosen method on the shared worker (one run at a time); the box is the one shown (set around the
