@@ -104,6 +104,14 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     mirrors._discard()
     assert app.editor.mirror(2).plane == plane and not mirrors.review.visible
     mirrors.fit_planes([2])
+    assert mirrors.fit.disabled                                                           # one proposal at a time
+    tab.state.picked_marker = len(before.markers)       # the flagged marker deleted while the proposal is up: the
+    mirrors._delete_marker()                            # proposal, fitted with it, goes, and Fit plane comes back
+    assert mirrors.proposal is None and not mirrors.review.visible and not mirrors.fit.disabled
+    assert tab.state.flagged_markers == () and "dropped: mirror 2 changed" in mirrors.result.content
+    assert app.editor.mirror(2).plane == plane
+    mirrors._travel(app.editor.undo)                                                      # the marker back
+    mirrors.fit_planes([2])
     mirrors._apply()                                                                      # on confirmation
     assert app.editor.mirror(2).plane != plane
     tab.state.picked_marker = len(before.markers)                                         # delete just that one
@@ -180,10 +188,15 @@ def test_save_as_and_open(sphere):
     assert app.editor.session.root == copy and (copy / "background.png").is_file()
     assert load_session(copy).mirrors == app.editor.session.mirrors
     files.refresh()
-    assert set(files.open_choice.options) == {"scan", "copy 1"}
+    assert files.open_choice.options == ("", "copy 1", "scan") and files.open_choice.value == ""
+    with pytest.raises(MirrorscanError, match="choose a session"):                # nothing chosen: nothing opens
+        files._open()
     files.open_choice.value = "scan"
+    app.editor.autosave = False                              # as the demo's: not saved, so opening asks first
     files._open()
-    assert app.editor.session.root.name == "scan"
+    assert app.editor.session.root == copy and files.confirm_open is not None
+    files.open_confirmed(load_session(app.sessions_dir / "scan"))
+    assert app.editor.session.root.name == "scan" and app.editor.autosave
 
 
 @pytest.mark.parametrize("method", ["carve (consistent)", "TSDF fusion (mesh)"])

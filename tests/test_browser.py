@@ -96,7 +96,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_waits_for_confirmation(app, tab
     wait_for(lambda: "Proposal, not applied" in text(page), what="the proposal")
     assert app.editor.mirror(2).plane == before.plane                                  # not applied
     assert page.get_by_role("button", name="Apply the new plane(s)").is_visible()
-    button(page, "Keep the current plane(s)")
+    button(page, "Discard the proposal")
     wait_for(lambda: "discarded" in text(page))
     assert app.editor.mirror(2).plane == before.plane
     # the stray marker is still picked: delete just that one

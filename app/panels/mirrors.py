@@ -48,7 +48,7 @@ class MirrorsPanel:
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.review = gui.add_markdown("", visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
-        self.discard = gui.add_button("Keep the current plane(s)", visible=False)
+        self.discard = gui.add_button("Discard the proposal", visible=False)
         self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
@@ -318,9 +318,8 @@ class MirrorsPanel:
         picked = state.picked_marker is not None and has
         self.move.visible = self.delete.visible = markers
         self.move.disabled = self.delete.disabled = not picked
-        if picked:
-            self.move.label = f"Move marker {selected.id}.{state.picked_marker + 1}"
-            self.delete.label = f"Delete marker {selected.id}.{state.picked_marker + 1}"
+        which = f"marker {selected.id}.{state.picked_marker + 1}" if picked else "the picked marker"
+        self.move.label, self.delete.label = f"Move {which}", f"Delete {which}"
         self.close.visible = self.delete_corner.visible = self.clear_boundary.visible = boundary
         self.close.disabled = not (has and len(state.drafts.get(selected.id, ())) >= 3)
         self.delete_corner.disabled = state.picked_corner is None
@@ -331,6 +330,7 @@ class MirrorsPanel:
         self.restore.visible = bool(restore and restore.startswith("remove"))
         if self.restore.visible:
             self.restore.label = f"Undo: {restore}"
+        self._drop_stale_proposal()
         self._show_proposal()
         self.markers.content = self._marker_list(selected)
 
@@ -338,6 +338,20 @@ class MirrorsPanel:
     def _label(button, verb: str, what: str | None) -> None:
         button.disabled = what is None
         button.label = f"{verb}: {what}" if what else verb
+
+    def _drop_stale_proposal(self) -> None:
+        """A proposal for a mirror whose markers, boundary, glass or plane changed since the fit (a marker the
+        proposal flagged deleted, say) could no longer be applied: drop it, so that Fit plane is offered again."""
+        if self.proposal is None:
+            return
+        current = {m.id: m for m in self.services.editor.session.mirrors}
+        stale = [fitted.name for _, fitted, _ in self.proposal.values() if _fit_state(current.get(fitted.id))
+                 != _fit_state(fitted)]
+        if stale:
+            self.proposal, self.tab.state.flagged_markers = None, ()
+            self.result.content = (f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. "
+                                   "Fit plane again.")
+            self.tab.changed()                        # its crossed-out markers leave the depth frame
 
     def _show_proposal(self) -> None:
         fits = self.proposal
@@ -377,6 +391,12 @@ class MirrorsPanel:
                                                f"{_dot('poor')}beyond (σ: the depth noise at the marker)")
         return (f'<div style="font-size:0.8em;line-height:1.45">{legend}<br>'
                 + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
+
+
+def _fit_state(mirror: SessionMirror | None) -> tuple | None:
+    """What a fit of the mirror was computed from (None: the mirror is gone)."""
+    return None if mirror is None else (mirror.markers, mirror.boundary, mirror.region, mirror.plane,
+                                        mirror.marker_offset)
 
 
 def _dot(grade: str) -> str:

@@ -15,6 +15,7 @@ from ..events import SessionChanged
 from ..exports import export_ply
 
 TITLE = "Session"
+CHOOSE = ""          # the Open list's first entry: nothing is opened by a stray click on the button
 MAX_UPLOAD_MB = 20   # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
 
 
@@ -26,10 +27,11 @@ class SessionPanel:
         self.where = gui.add_markdown("")
         self.export = gui.add_button("Export the cloud as PLY", color="blue")
         self.exported = gui.add_markdown("")
-        self.open_choice = gui.add_dropdown("Open", ("",))
+        self.open_choice = gui.add_dropdown("Open", (CHOOSE,))
         self.open = gui.add_button("Open session")
         self.new_name = gui.add_text("Save as", "")
         self.save_as = gui.add_button("Save as new session")
+        self.confirm_open = None                  # the question asked before an unsaved session goes
         self.upload = gui.add_upload_button("Upload background (16-bit depth PNG)", mime_type="image/png",
                                             hint=f"the scene without the object; at most {MAX_UPLOAD_MB} MB")
         act = tab.act
@@ -50,14 +52,35 @@ class SessionPanel:
         state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
         error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
         self.where.content = f"`{editor.session.root}` ({state}){error}"
-        names = tuple(sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}"))) or ("",)
+        names = (CHOOSE, *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")))
         if self.open_choice.options != names:
             self.open_choice.options = names
 
     def _open(self) -> None:
-        if not self.open_choice.value:
-            raise MirrorscanError(f"no saved session in {self.services.sessions_dir}")
-        self.services.open_session(load_session(session_folder(self.services.sessions_dir, self.open_choice.value)))
+        """Open the chosen session; while the current one is not saved (the built-in demo), only once the user has
+        confirmed that its calibration goes."""
+        name = self.open_choice.value
+        if name == CHOOSE:
+            raise MirrorscanError(f"choose a session in the Open list first (saved sessions are in "
+                                  f"{self.services.sessions_dir})")
+        session = load_session(session_folder(self.services.sessions_dir, name))
+        if self.services.editor.autosave:
+            self.services.open_session(session)
+            return
+        gui = self.tab.client.gui
+        self.confirm_open = gui.add_modal(f"Open {name}?")
+        with self.confirm_open:
+            gui.add_markdown("This session is not saved: its mirrors and calibration go when another one opens. "
+                             "*Save as* first to keep them.")
+            yes = gui.add_button(f"Open {name}, discard this one", color="red")
+            no = gui.add_button("Keep this session")
+        yes.on_click(lambda _: self.tab.act(lambda: self.open_confirmed(session)))
+        no.on_click(lambda _: self.confirm_open.close())
+
+    def open_confirmed(self, session) -> None:
+        """The user confirmed: open `session` (a Session), the unsaved one goes."""
+        self.confirm_open.close()
+        self.services.open_session(session)
 
     def _save_as(self) -> None:
         folder = session_folder(self.services.sessions_dir, self.new_name.value)
