@@ -1,10 +1,12 @@
 """Editing the session from the browser: mirrors, markers, boundaries, planes, the object selection and the
 background, every edit naming its mirror by its stable id. Undo and redo are kept per mirror (and for the session's
-own changes: adding or removing a mirror, the selection, the background), each step named for the button. Pure logic
+own changes: adding or removing a mirror, the selection, the background), each step named for the button; the planes set by one fit or refinement of several mirrors are undone
+and redone together, from any of them. Pure logic
 over mirrorcore.session; thread-safe; autosaved after every change."""
 from __future__ import annotations
 
 import functools
+import itertools
 import threading
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -38,11 +40,13 @@ SESSION_SCOPE = 0        # the undo scope of changes that are not one mirror's (
 class Step:
     """One undoable change: its label for the button ('marker 2.3', 'remove mirror 1'), and what undo and redo put
     back: in a mirror's scope, its SessionMirror before and after; in the session's scope, the change that undoes it
-    and the change itself, (kind, a, b) as _restore reads them."""
+    and the change itself, (kind, a, b) as _restore reads them. `group` (0: none) ties the steps of several mirrors
+    made by one action: undo and redo take every one of them that is still the last of its mirror."""
 
     label: str
     before: object
     after: object
+    group: int = 0
 
 
 def _edits(method):
@@ -81,6 +85,7 @@ class SessionEditor:
         self.listeners: list[Callable[[Session], None]] = []
         self.last_save_error: str | None = None
         self._changed = False
+        self._groups = itertools.count(1)
 
     @property
     def session(self) -> Session:
@@ -187,7 +192,8 @@ class SessionEditor:
                    marker_offsets: dict[int, float] | None = None, what: str = "plane") -> None:
         """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
         their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
-        is one undo step of its own, named '{what} of NAME'. Refused when a mirror is gone or its markers, boundary,
+        is an undo step in its own scope, and the steps of several mirrors are undone together ('{what}s of NAME and
+        NAME'). Refused when a mirror is gone or its markers, boundary,
         region or plane changed since: a result computed on another state is never applied (compute it again)."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
@@ -196,10 +202,12 @@ class SessionEditor:
                 again = "refine it again" if what.startswith("refined") else "fit it again"
                 raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
         offsets = marker_offsets or {}
+        names = [self.mirror(mirror_id).name for mirror_id in planes]
+        label = f"{what} of {names[0]}" if len(names) == 1 else f"{what}s of {', '.join(names[:-1])} and {names[-1]}"
+        group = next(self._groups) if len(names) > 1 else 0
         for mirror_id, (plane, _) in planes.items():
-            mirror = self.mirror(mirror_id)
-            self._set_mirror(mirror_id, f"{what} of {mirror.name}", plane=plane,
-                             marker_offset=offsets.get(mirror_id, mirror.marker_offset))
+            self._set_mirror(mirror_id, label, group, plane=plane,
+                             marker_offset=offsets.get(mirror_id, self.mirror(mirror_id).marker_offset))
 
     @_edits
     def set_marker_offset(self, mirror_id: int, metres: float) -> None:
@@ -255,13 +263,19 @@ class SessionEditor:
         return self._travel(scope, self._redo, self._undo, "after", "redo")
 
     def _travel(self, scope: int, source: dict, target: dict, side: str, verb: str) -> str:
+        """Move the last step of `scope` (and of its group, in every scope where it is still the last) from the
+        `source` history to `target`, putting back its `side`."""
         steps = source.get(scope)
         if not steps:
             raise MirrorscanError(f"nothing to {verb}")
         step = steps[-1]
-        self._session = self._restore(scope, getattr(step, side))
-        steps.pop()
-        target.setdefault(scope, []).append(step)
+        present = {m.id for m in self._session.mirrors}
+        scopes = [scope] if not step.group else [s for s, st in source.items()
+                                                  if st and st[-1].group == step.group and s in present]
+        for s in scopes:
+            moved = source[s].pop()
+            self._session = self._restore(s, getattr(moved, side))
+            target.setdefault(s, []).append(moved)
         self._save_and_notify()
         return step.label
 
@@ -327,11 +341,11 @@ class SessionEditor:
             raise MirrorscanError(f"{mirror.name}: no {field} to clear")
         self._set_mirror(mirror_id, f"clear the {field} of {mirror.name}", **{field: ()})
 
-    def _set_mirror(self, mirror_id: int, label: str, **changes) -> None:
+    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, **changes) -> None:
         index = self._index(mirror_id)
         before = self._session.mirrors[index]
         after = replace(before, **changes)
-        self._commit(mirror_id, Step(label, before, after), self._session.with_mirror(index, after))
+        self._commit(mirror_id, Step(label, before, after, group), self._session.with_mirror(index, after))
 
     def _change(self, label: str, change: tuple, session: Session) -> None:
         """A change of the session's own (SESSION_SCOPE): change = (kind, a, b), see _restore and _inverse."""

@@ -137,13 +137,28 @@ def test_a_fit_computed_on_another_state_is_never_applied(editor):
     assert all(m.plane is None for m in editor.session.mirrors)      # mirror 2 did not receive it
 
 
-def test_planes_of_several_mirrors_are_set_together_and_undone_per_mirror(editor):
+def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
+    """A fit or refinement of several mirrors is one action: undone and redone from any of its mirrors, for every
+    mirror whose last change it still is."""
     editor.add_mirror()
     other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
-    editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))})
+    editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))}, what="refined plane")
     assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
-    assert editor.undo(2) == "plane of mirror 2"
-    assert editor.mirror(2).plane is None and editor.mirror(1).plane == PLANE
+    assert editor.undo_label(1) == editor.undo_label(2) == "refined planes of mirror 1 and mirror 2"
+    assert editor.undo(2) == "refined planes of mirror 1 and mirror 2"
+    assert editor.mirror(2).plane is None and editor.mirror(1).plane is None
+    assert editor.redo(1) == "refined planes of mirror 1 and mirror 2"
+    assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
+    editor.add_marker(2, (7, 7))                                # mirror 2 edited since: its plane stays
+    editor.undo(1)
+    assert editor.mirror(1).plane is None and editor.mirror(2).plane == other
+    assert editor.undo(2) == "marker 2.1" and editor.undo(2) == "refined planes of mirror 1 and mirror 2"
+    assert editor.mirror(2).plane is None
+    editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))})
+    editor.remove_mirror(2)                                     # a mirror of the group gone: the other's undone
+    assert editor.undo(1) == "planes of mirror 1 and mirror 2" and editor.mirror(1).plane is None
+    editor.set_planes({1: (PLANE, editor.mirror(1))})
+    assert editor.undo_label(1) == "plane of mirror 1"          # one mirror: named alone
 
 
 def test_session_round_trip_through_the_editor(editor, tmp_path):

@@ -76,7 +76,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
     assert "markers: 6 good" in mirrors.result.content and mirrors.proposal is None
     wait_for(lambda: set(app.snapshot.marker_grades) == {1, 2})
     assert set(app.snapshot.marker_grades[1]) == {"good"}
-    assert mirrors.undo.label == "Undo: plane of mirror 2"            # named, for the selected mirror
+    assert mirrors.undo.label == "Undo: planes of mirror 1 and mirror 2"     # named; one fit of both, undone together
     time.sleep(0.5)                                                   # frames with the new rig
     measure = panel(tab, MeasurePanel)
     fit = measure.fit_current()
@@ -136,7 +136,12 @@ def test_refine_from_the_object_and_the_heat_map(sphere):
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
-    assert app.editor.undo_label(1) == "refined plane of mirror 1"
+    assert app.editor.undo_label(1) == "refined planes of mirror 1 and mirror 2"       # one step, from either
+    refined = {m.id: m.plane for m in app.editor.session.mirrors}
+    panel(tab, MirrorsPanel)._travel(app.editor.undo)
+    assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
+    panel(tab, MirrorsPanel)._travel(app.editor.redo)
+    assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone
     app.editor.set_marker_offset(1, 0.003)
     assert app.editor.mirror(1).marker_offset == 0.003
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
