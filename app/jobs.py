@@ -229,14 +229,15 @@ class Jobs:
         self.bus.publish(JobProgress(BATCH, None, batch_summary(report)))
 
     # ------------------------------------------------------------------ background
-    def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], None]) -> threading.Thread:
-        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres)."""
+    def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], str | None]) -> threading.Thread:
+        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres), which may
+        return the status to show instead of 'captured from N frames'."""
         def work(cancel: threading.Event) -> None:
             progress = lambda k: self.bus.publish(JobProgress(BACKGROUND, k / n_frames,  # noqa: E731
                                                               f"{k} of {n_frames} frames"))
             frames = self.loop.collect(n_frames, progress, cancel=cancel)
-            on_done(median_depth(np.stack(frames)))
-            self.bus.publish(JobProgress(BACKGROUND, None, f"captured from {n_frames} frames"))
+            status = on_done(median_depth(np.stack(frames)))
+            self.bus.publish(JobProgress(BACKGROUND, None, status or f"captured from {n_frames} frames"))
         return self._start(BACKGROUND, work, "a background capture is already running")
 
     # ------------------------------------------------------------------ recording

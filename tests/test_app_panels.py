@@ -50,20 +50,39 @@ def calibrate_by_clicking(app, tab) -> None:
     mirrors.fit_planes([m.id for m in app.editor.session.mirrors])
 
 
-def test_background_capture_with_the_object_out_of_view(sphere):
-    app, headless = sphere
-    app.source.objects_in_view = False
+def capture_background(app, headless, objects_in_view: bool) -> None:
+    """Capture the background from the Object step, the simulated objects in view or not."""
+    app.source.objects_in_view = objects_in_view
     try:
         panel(headless.tab, ObjectPanel)._capture()
         wait_for(lambda: not app.jobs.running("background"), what="the capture")
-        wait_for(lambda: app.snapshot.background is not None and app.snapshot.session.background)
     finally:
         app.source.objects_in_view = True
+
+
+def test_background_capture_with_the_object_out_of_view(sphere):
+    app, headless = sphere
+    capture_background(app, headless, objects_in_view=False)
+    wait_for(lambda: app.snapshot.background is not None and app.snapshot.session.background)
     saved = load_session(app.editor.session.root).read_background()
     np.testing.assert_allclose(saved, app.snapshot.background, atol=0.0006)   # 1 mm units on disk
     object_panel = panel(headless.tab, ObjectPanel)
     wait_for(lambda: "captured" in object_panel.status.content)
     assert not object_panel.progress.visible
+
+
+def test_a_background_captured_with_the_object_in_view_is_used_only_on_confirmation(sphere):
+    app, headless = sphere
+    object_panel = panel(headless.tab, ObjectPanel)
+    wait_for(lambda: app.last_frame.mask.sum() > 5000, what="the sphere selected")
+    good = app.snapshot.background
+    capture_background(app, headless, objects_in_view=True)
+    assert object_panel.confirm is not None and "answer the question" in object_panel.status.content
+    assert app.snapshot.background is good                                  # not used until confirmed
+    object_panel.use_captured()                                            # 'Use it anyway'
+    wait_for(lambda: app.last_frame.mask.sum() < 2000, what="the sphere taken for background")
+    capture_background(app, headless, objects_in_view=False)               # the right way: nothing asked
+    wait_for(lambda: app.last_frame.mask.sum() > 5000, what="the sphere selected again")
 
 
 def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):

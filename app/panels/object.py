@@ -5,9 +5,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.palette import MAX_ORDER
+from mirrorcore.selection import object_mask
 from mirrorcore.sources import SimulatedSource
 
 from ..context import TabContext
@@ -16,6 +19,8 @@ from ..jobs import BACKGROUND
 from .mirrors import _nearest
 
 TITLE = "Object"
+SEEN_OBJECT = 500      # pixels: an object this large in the last frame is checked against a new background...
+HIDDEN_SHARE = 0.5     # ...which is used only on confirmation when it would hide more than this share of it
 
 
 class ObjectPanel:
@@ -25,6 +30,8 @@ class ObjectPanel:
         gui, self.tab, self.services = tab.gui, tab, tab.services
         selection = self.services.snapshot.session.selection
         self.status = gui.add_markdown("")
+        self.confirm = None               # the question asked before a background that hides the object is used,
+        self.pending_background = None    # and that background
         if isinstance(self.services.source, SimulatedSource):
             self.object_in_scene = gui.add_checkbox("Simulated object in the scene", initial_value=True)
             self.object_in_scene.on_update(
@@ -121,7 +128,44 @@ class ObjectPanel:
 
     # ------------------------------------------------------------------ background
     def _capture(self) -> None:
-        self.services.jobs.capture_background(int(self.frames.value), self.services.set_background)
+        self.services.jobs.capture_background(int(self.frames.value), self._captured)
+
+    def _captured(self, depth: np.ndarray) -> str | None:
+        """Use a captured background (H, W) metres; but when it would hide most of the object seen in the last frame
+        (the object was in view while it was captured), only once the user confirms. Returns the status then."""
+        frame, snapshot = self.services.last_frame, self.services.snapshot
+        seen = 0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))
+        if seen < SEEN_OBJECT:
+            self.services.set_background(depth)
+            return None
+        left = int(np.count_nonzero(object_mask(snapshot.rig.intrinsics, frame.depth, depth,
+                                                snapshot.session.selection)))
+        if left >= (1 - HIDDEN_SHARE) * seen:
+            self.services.set_background(depth)
+            return None
+        gui, self.pending_background = self.tab.client.gui, depth
+        self.confirm = gui.add_modal("Use this background?")
+        with self.confirm:
+            gui.add_markdown(f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> {left:,} "
+                             "pixels): was the object in view while it was captured? Take it out and capture "
+                             "again. (If the scene itself changed, the camera moved say, use it.)")
+            use = gui.add_button("Use it anyway", color="red")
+            keep = gui.add_button("Keep the background as it was")
+        use.on_click(lambda _: self.tab.act(self.use_captured))
+        keep.on_click(lambda _: self.tab.act(self._keep_background))
+        return "captured; it would hide most of the object: answer the question first"
+
+    def use_captured(self) -> None:
+        """The user confirmed: use the pending captured background."""
+        self.confirm.close()
+        depth, self.pending_background = self.pending_background, None
+        self.services.set_background(depth)
+        self.status.content = "Background: captured, used on confirmation."
+
+    def _keep_background(self) -> None:
+        self.confirm.close()
+        self.pending_background = None
+        self.status.content = "Background: kept as it was (the capture was not used)."
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job != BACKGROUND:
