@@ -280,3 +280,16 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
             assert app.snapshot.session.bounces == 3
     finally:
         app.stop()
+
+
+def test_reading_pixels_shows_one_note_at_a_time(demo):
+    """Inspect clicks each show the pixel's reading; the previous note goes (at 1024x600 they stacked over the
+    depth frame)."""
+    app, headless = demo
+    app.loop.run_once()
+    header = headless.tab.header
+    header.show_pixel(320, 240)
+    first = header._pixel_note
+    header.show_pixel(10.4, 3.6)
+    assert first._impl.removed and not header._pixel_note._impl.removed
+    assert header.pixel.content.startswith("pixel (10.4, 3.6): ")

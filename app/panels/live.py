@@ -87,6 +87,7 @@ class LivePanel:
                                          "and more saturated), grey where there is nothing to compare; a frame a "
                                          "second")
             self.pixel = gui.add_markdown("Inspect mode: click the depth frame to read a pixel.")
+        self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
         self.step.on_click(lambda _: services.step())
@@ -148,5 +149,8 @@ class LivePanel:
         depth = float(frame.depth[min(int(round(v)), rows - 1), min(int(round(u)), cols - 1)])
         reading = f"{depth:.3f} m" if depth > 0 else "no reading"
         self.pixel.content = f"pixel ({u:.1f}, {v:.1f}): {reading}"
-        self.tab.services.notify(self.tab.client, "Pixel", self.pixel.content, error=False)
+        if self._pixel_note is not None:             # one reading shown at a time: the clicks' notes do not stack
+            self._pixel_note.remove()
+        self._pixel_note = self.tab.client.add_notification("Pixel", self.pixel.content, color="blue",
+                                                             auto_close_seconds=6.0)
 
