@@ -11,12 +11,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.context import TabState
+from app.panels.live import start_hint
 from app.server import IDLE_FPS
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
+from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.session import Session, SessionMirror
 
 
 def test_demo_planes_are_calibrated_close_to_the_truth(demo):
@@ -293,3 +297,16 @@ def test_reading_pixels_shows_one_note_at_a_time(demo):
     header.show_pixel(10.4, 3.6)
     assert first._impl.removed and not header._pixel_note._impl.removed
     assert header.pixel.content.startswith("pixel (10.4, 3.6): ")
+
+
+def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
+    session = Session(tmp_path, Intrinsics.kinect_v1(),
+                      mirrors=(SessionMirror("left", id=1),))
+    assert "Add a mirror" in start_hint(Session(tmp_path, session.camera), TabState(), True, False)
+    hint = start_hint(session, TabState(mirror_id=1, view="depth"), True, False)
+    assert hint == "left: choose **Boundary** and click its corners; click the first corner to close."
+    hint = start_hint(session, TabState(mirror_id=1, view="depth", mode="boundary"), True, False)
+    assert hint == "left: click its corners; click the first corner to close."
+    edged = Session(tmp_path, session.camera, mirrors=(SessionMirror("left", id=1, boundary=((0, 0), (9, 0), (0, 9))),))
+    assert "choose **Markers** and click a marker" in start_hint(edged, TabState(mirror_id=1), True, False)
+    assert "left: click a marker" in start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False)

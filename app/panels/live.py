@@ -54,10 +54,12 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     look = "" if state.view == "depth" else "Look at the **Depth frame** (above); "
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
     if not mirror.boundary:
-        return f"{look}{mirror.name}: choose **Boundary** and click its corners; click the first corner to close."
+        choose = "" if state.mode == "boundary" else "choose **Boundary** and "
+        return f"{look}{mirror.name}: {choose}click its corners; click the first corner to close."
     if len(mirror.markers) < 3:
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
-        return f"{look}{mirror.name}: choose **Markers** and click {what} on the mirror."
+        choose = "" if state.mode == "markers" else "choose **Markers** and "
+        return f"{look}{mirror.name}: {choose}click {what} on the mirror."
     if mirror.plane is None:
         return f"{mirror.name}: **Fit plane**."
     todo = [m.name for m in session.mirrors if m.plane is None or not m.boundary]

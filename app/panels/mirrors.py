@@ -20,11 +20,11 @@ from ..overlays import QUALITY_COLOURS
 TITLE = "Mirrors"
 NO_MIRROR = "(no mirror yet)"
 CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary"}
-HELP = {
-    "inspect": "A click on the depth frame reads the pixel.",
-    "markers": "Click a marker's centre to add it; click an existing one to pick it.",
-    "boundary": "Click the corners in order; click the first again to close.",
-    "region": "Drawing the region of interest (Object step).",
+HELP = {                                         # the click mode in force, named (the buttons do not show it)
+    "inspect": "**Inspect** mode: a click on the depth frame reads the pixel.",
+    "markers": "**Markers** mode: click a marker's centre to add it; click an existing one to pick it.",
+    "boundary": "**Boundary** mode: click the corners in order; click the first again to close.",
+    "region": "**Region** mode: drawing the region of interest (Object step).",
 }
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
