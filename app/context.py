@@ -68,7 +68,8 @@ class Services(Protocol):
 @dataclass
 class TabState:
     """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts being drawn (a
-    boundary per mirror id, the region of interest), the picked corner or marker, and the view ('3d' or 'depth')."""
+    boundary per mirror id, the region of interest), the picked corner or marker, the markers a proposal flags and the
+    mirrors it is for, and the view ('3d' or 'depth')."""
 
     mode: str = "inspect"
     mirror_id: int | None = None
@@ -78,6 +79,7 @@ class TabState:
     picked_marker: int | None = None
     moving_marker: bool = False
     flagged_markers: tuple[int, ...] = ()
+    proposal_for: tuple[str, ...] = ()     # the mirrors whose fitted plane waits for Apply or Discard
     view: str = "3d"
 
 

@@ -310,3 +310,5 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     edged = Session(tmp_path, session.camera, mirrors=(SessionMirror("left", id=1, boundary=((0, 0), (9, 0), (0, 9))),))
     assert "choose **Markers** and click a marker" in start_hint(edged, TabState(mirror_id=1), True, False)
     assert "left: click a marker" in start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False)
+    waiting = start_hint(edged, TabState(mirror_id=1, proposal_for=("left",)), True, False)
+    assert waiting == "A new plane for left waits: **Mirrors › Apply** it or **Discard** it."

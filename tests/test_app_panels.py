@@ -118,6 +118,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
     assert mirrors.proposal is not None and app.editor.mirror(2).plane == plane            # not applied
+    assert "A new plane for mirror 2 waits" in tab.header.hint.content                     # the next step says so
     assert mirrors.review.visible and "⚠" in mirrors.review.content
     assert tab.state.flagged_markers == (len(before.markers),)                             # shown on the image
     mirrors._discard()

@@ -51,6 +51,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return "Waiting for the first frame from the source…"
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
+    if state.proposal_for:
+        return (f"A new plane for {' and '.join(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
+                "it.")
     look = "" if state.view == "depth" else "Look at the **Depth frame** (above); "
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
     if not mirror.boundary:

@@ -26,6 +26,7 @@ HELP = {                                         # the click mode in force, name
     "boundary": "**Boundary** mode: click the corners in order; click the first again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
+PROPOSAL_HEAD = "**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it."
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
@@ -34,7 +35,7 @@ class MirrorsPanel:
 
     def __init__(self, tab: TabContext):
         gui, self.tab, self.services = tab.gui, tab, tab.services
-        self.proposal: dict[int, tuple] | None = None    # mirror id -> (plane, mirror as fitted, review)
+        self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.add = gui.add_button("Add a mirror")
         self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
@@ -46,9 +47,10 @@ class MirrorsPanel:
                                      "clicks a pixel off)")
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
-        self.review = gui.add_markdown("", visible=False)
+        self.proposal_head = gui.add_markdown(PROPOSAL_HEAD, visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
         self.discard = gui.add_button("Discard the proposal", visible=False)
+        self.review = gui.add_markdown("", visible=False)   # below its buttons: they stay in view at 1024x600
         self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
@@ -74,6 +76,16 @@ class MirrorsPanel:
         tab.on_state(lambda _: self.refresh())
         self._unsubscribe = self.services.bus.subscribe(JobProgress, self._on_job)
         self.refresh()
+
+    @property
+    def proposal(self) -> dict[int, tuple] | None:
+        """The fit waiting for Apply or Discard: {mirror id: (calibration, the mirror as fitted, review)}."""
+        return self._proposal
+
+    @proposal.setter
+    def proposal(self, fits: dict[int, tuple] | None) -> None:
+        self._proposal = fits
+        self.tab.state.proposal_for = tuple(mirror.name for _, mirror, _ in fits.values()) if fits else ()
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
@@ -355,12 +367,12 @@ class MirrorsPanel:
 
     def _show_proposal(self) -> None:
         fits = self.proposal
-        for handle in (self.review, self.apply, self.discard):
+        for handle in (self.proposal_head, self.review, self.apply, self.discard):
             handle.visible = fits is not None
         self.fit.disabled = self.fit.disabled or fits is not None
         if fits is None:
             return
-        lines = ["**Proposal, not applied**: look before applying."]
+        lines = []
         for calibration, mirror, review in fits.values():
             old = "uncalibrated" if mirror.plane is None else (f"turned {review.tilt_deg:.2f}°, moved "
                                                                f"{review.shift_mm:.1f} mm")
