@@ -229,6 +229,8 @@ def test_dense_runs_shows_and_exports(sphere, method):
     app, headless = sphere
     dense = panel(headless.tab, DensePanel)
     dense.method.value, dense.voxel.value = method, 4.0
+    fuse = method.startswith("TSDF")                     # only what the method uses is offered
+    wait_for(lambda: (dense.frames.disabled, dense.threshold.disabled) == (not fuse, fuse), 5, "the method's options")
     dense.box_around_cloud()
     low, high = np.array(dense.low.value), np.array(dense.high.value)
     assert np.all(high - low > 0.2) and np.all(high - low < 0.6)        # the sphere (23 cm) and its margin

@@ -31,7 +31,7 @@ class DensePanel:
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
-        self.frames = gui.add_slider("Frames to fuse", min=1, max=5, step=1, initial_value=1)
+        self.frames = gui.add_slider("Frames to fuse", min=1, max=5, step=1, initial_value=1, disabled=True)
         self.run = gui.add_button("Run", color="blue")
         self.cancel = gui.add_button("Cancel", disabled=True, color="red")
         self.progress = gui.add_progress_bar(0.0, visible=False)
@@ -46,6 +46,7 @@ class DensePanel:
             self.low = gui.add_vector3("Box min", (0.0, 0.0, 0.0), step=0.01)
             self.high = gui.add_vector3("Box max", (0.0, 0.0, 0.0), step=0.01)
         act = tab.act
+        self.method.on_update(lambda _: self._method_options())
         self.auto.on_click(lambda _: act(self.box_around_cloud))
         self.low.on_update(lambda _: self._show_box())
         self.high.on_update(lambda _: self._show_box())
@@ -70,6 +71,11 @@ class DensePanel:
         low, high = self._box()
         if not np.all(high > low) and len(event.frame.cloud):
             self.box_around_cloud()
+
+    def _method_options(self) -> None:
+        """Offer what the chosen method uses: the carving threshold to carving, several frames to the fusion."""
+        fuse = METHODS[self.method.value] == "tsdf"
+        self.threshold.disabled, self.frames.disabled = fuse, not fuse
 
     def _layer(self) -> None:
         self.tab.dense_visible, self.tab.dense_beside = bool(self.show.value), bool(self.beside.value)
