@@ -4,7 +4,7 @@ that keeps every point within 0.3 mm, float32 where a part is too large for it. 
 two interleaved halves (every other point); a live frame refreshes one half (even frames the first, odd frames the
 second), so a tab always shows every point while receiving half of them per frame; a paused or single frame sends
 both. A source keeps its centre from frame to frame while its points stay within reach of it (Anchors), so that a
-tab moves no node: viser's pose update took about a third of a node's update time."""
+tab moves no node: viser's pose update took about half of a node's update time."""
 from __future__ import annotations
 
 from dataclasses import dataclass
