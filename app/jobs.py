@@ -185,9 +185,8 @@ class Jobs:
         def work(cancel: threading.Event) -> None:
             mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, session.selection)[1]
             found = view_agreement(snapshot.rig, depth[None], mask[None])
-            lines = [f"{session.mirrors[j - 1].name}: agrees with the other views within {rms:.1f} mm RMS (mean "
-                     f"{mean:+.1f} mm, {n:,} points seen both ways)" for j, (rms, mean, n) in sorted(found.items())
-                     if 1 <= j <= len(session.mirrors)]
+            lines = [agreement_line(session.mirrors[j - 1].name, *found[j])
+                     for j in sorted(found) if 1 <= j <= len(session.mirrors)]
             self.bus.publish(JobProgress(AGREEMENT, None, "\n\n".join(lines) or "no view sees what another sees"))
         self._start(AGREEMENT, work, "")
 
@@ -291,3 +290,12 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def agreement_line(name: str, rms: float, mean: float, points: int) -> str:
+    """One mirror's agreement with the other views (RMS and mean mm over `points` seen both ways; NaN without)."""
+    if not points or not np.isfinite(rms):
+        return (f"{name}: nothing of the object is seen both in it and by another view, so its agreement cannot be "
+                "checked (put the object in view)")
+    return f"{name}: agrees with the other views within {rms:.1f} mm RMS (mean {mean:+.1f} mm, {points:,} points " \
+           "seen both ways)"

@@ -32,6 +32,7 @@ VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
+IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
 
 
 class MirrorscanApp:
@@ -191,7 +192,8 @@ class MirrorscanApp:
         self.bus.publish(LoopChanged(self.loop.paused, source))
 
     def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth` (H, W metres) as the background; saved beside a saved session as background.png."""
+        """Use `depth` (H, W metres) as the background; saved beside a saved session as background.png, held in
+        memory for one that is not saved (Save as writes it)."""
         if self.editor.autosave:
             root = Path(self.editor.session.root)
             root.mkdir(parents=True, exist_ok=True)
@@ -199,8 +201,13 @@ class MirrorscanApp:
             self._background = (BACKGROUND_FILE, depth)
             self.editor.set_background(BACKGROUND_FILE)
         else:
-            self._background = (None, depth)
+            self._background = (IN_MEMORY, depth)
             self._on_session_change()
+
+    @property
+    def background_captured(self) -> bool:
+        """Whether the background in use was captured (or read from the session's file), not the source's own."""
+        return self._background[0] is not None
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:
@@ -209,7 +216,7 @@ class MirrorscanApp:
             try:
                 if session.background and session.background != self._background[0]:
                     self._background = (session.background, session.read_background())
-                elif not session.background and self._background[0] is not None:
+                elif not session.background and self._background[0] not in (None, IN_MEMORY):
                     self._background = (None, self._source.background())
                 snapshot = Snapshot.build(session, self._background[1], self.loop.recent_depths(), self._snapshot)
             except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state

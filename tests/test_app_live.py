@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from app.context import TabState
+from app.jobs import agreement_line
 from app.panels.live import start_hint
 from app.server import IDLE_FPS
 from app.state import Snapshot
@@ -312,3 +313,9 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert "left: click a marker" in start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False)
     waiting = start_hint(edged, TabState(mirror_id=1, proposal_for=("left",)), True, False)
     assert waiting == "A new plane for left waits: **Mirrors › Apply** it or **Discard** it."
+
+
+def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
+    assert agreement_line("left", 1.234, -0.56, 1200) == ("left: agrees with the other views within 1.2 mm RMS "
+                                                          "(mean -0.6 mm, 1,200 points seen both ways)")
+    assert "cannot be checked (put the object in view)" in agreement_line("left", float("nan"), float("nan"), 0)

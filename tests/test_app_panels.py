@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
@@ -17,6 +18,7 @@ from app.panels.mirrors import MirrorsPanel
 from app.panels.object import ObjectPanel
 from app.panels.record import RecordPanel
 from app.panels.session import SessionPanel
+from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import read_ply
@@ -300,3 +302,28 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     points, sources = read_ply(out / f"{Path(session.frames[0]).stem}.ply")
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
     assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran
+
+
+def test_a_background_captured_before_saving_is_saved_with_the_session(tmp_path):
+    """The demo is not saved: a background captured there is held in memory (the Object step says captured, and an
+    edit keeps it), and Save as writes it into the new session."""
+    source = demo_source()
+    app = MirrorscanApp(calibrated_session(source, Path("unused")), source, port=0, autosave=False,
+                        sessions_dir=tmp_path)
+    try:
+        with HeadlessTab(app) as headless:
+            captured = source.background() + np.float32(0.01)            # a capture a centimetre off the source's
+            captured[source.background() == 0] = 0
+            app.set_background(captured)
+            object_panel = panel(headless.tab, ObjectPanel)
+            object_panel.refresh()
+            assert object_panel.status.content.startswith("Background: captured.")
+            app.editor.rename_mirror(app.editor.session.mirrors[0].id, "left")     # an edit keeps it
+            assert app.snapshot.background is captured
+            files = panel(headless.tab, SessionPanel)
+            files.new_name.value = "kept"
+            files._save_as()
+            saved = load_session(tmp_path / "kept").read_background()
+            np.testing.assert_allclose(saved, captured, atol=0.0006)       # 1 mm units on disk
+    finally:
+        app.stop()

@@ -40,6 +40,11 @@ class MirrorsPanel:
         self.add = gui.add_button("Add a mirror")
         self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
         self.help = gui.add_markdown(HELP["inspect"])
+        # a proposal comes above the fit buttons and its details below its own buttons: at 1024x600 they stay in view
+        self.proposal_head = gui.add_markdown(PROPOSAL_HEAD, visible=False)
+        self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
+        self.discard = gui.add_button("Discard the proposal", visible=False)
+        self.review = gui.add_markdown("", visible=False)
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
         self.refine = gui.add_button("Refine from the object", hint="adjust every calibrated plane so that the "
@@ -47,10 +52,6 @@ class MirrorsPanel:
                                      "clicks a pixel off)")
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
-        self.proposal_head = gui.add_markdown(PROPOSAL_HEAD, visible=False)
-        self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
-        self.discard = gui.add_button("Discard the proposal", visible=False)
-        self.review = gui.add_markdown("", visible=False)   # below its buttons: they stay in view at 1024x600
         self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
@@ -370,6 +371,7 @@ class MirrorsPanel:
         for handle in (self.proposal_head, self.review, self.apply, self.discard):
             handle.visible = fits is not None
         self.fit.disabled = self.fit.disabled or fits is not None
+        self.fit_all.disabled = self.fit_all.disabled or fits is not None
         if fits is None:
             return
         lines = []

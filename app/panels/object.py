@@ -72,7 +72,7 @@ class ObjectPanel:
     def refresh(self) -> None:
         snapshot, state = self.services.snapshot, self.tab.state
         selection = snapshot.session.selection
-        source = ("captured" if snapshot.session.background else "from the source") \
+        source = ("captured" if self.services.background_captured else "from the source") \
             if snapshot.background is not None else "none: the object is every pixel in the depth range"
         roi = selection.roi
         region = f"{len(roi)} corners" if roi else "the whole image"

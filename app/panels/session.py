@@ -83,8 +83,15 @@ class SessionPanel:
         self.services.open_session(session)
 
     def _save_as(self) -> None:
+        """Save the session as a new one in the sessions folder and go on editing that one; a background captured
+        while the session was not saved (held in memory) is written with it."""
         folder = session_folder(self.services.sessions_dir, self.new_name.value)
-        self.services.open_session(copy_session(self.services.editor.session, folder))
+        services = self.services
+        held = services.snapshot.background if services.background_captured and not services.editor.autosave \
+            else None
+        services.open_session(copy_session(services.editor.session, folder))
+        if held is not None:
+            services.set_background(held)
         self.new_name.value = ""
 
     def upload_background(self, name: str, data: bytes) -> None:
