@@ -68,6 +68,15 @@ class Services(Protocol):
     def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None: ...
 
 
+@dataclass(frozen=True)
+class Question:
+    """A question on a tab (TabContext.ask): its modal, and its two answers as the buttons give them."""
+
+    modal: object
+    yes: Callable[[], None]
+    no: Callable[[], None]
+
+
 @dataclass
 class TabState:
     """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts being drawn (a
@@ -110,3 +119,8 @@ class TabContext(Protocol):
 
     def act(self, action: Callable[[], object]) -> None:
         """Run a user's action of this tab; a refusal becomes a notification on this tab."""
+
+    def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
+            on_no: Callable[[], object] = lambda: None) -> "Question":
+        """Ask before an action that loses something: a modal with `text` (markdown) and two buttons; `yes` runs
+        on_yes as a user's action (act), `no` on_no; either closes it."""

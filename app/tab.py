@@ -13,7 +13,7 @@ from viser import _messages
 
 from mirrorcore.palette import source_colour
 
-from .context import MODES, Services, TabState
+from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .live import LiveFrame
@@ -103,6 +103,23 @@ class Tab:
 
     def act(self, action: Callable[[], object]) -> None:
         self.services.act(self.client, action)
+
+    def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
+            on_no: Callable[[], object] = lambda: None) -> Question:
+        gui = self.client.gui
+        modal = gui.add_modal(title)
+        with modal:
+            gui.add_markdown(text)
+            yes_button = gui.add_button(yes, color="red")
+            no_button = gui.add_button(no)
+
+        def answer(action: Callable[[], object]) -> None:
+            modal.close()
+            self.act(action)
+        question = Question(modal, lambda: answer(on_yes), lambda: answer(on_no))
+        yes_button.on_click(lambda _: question.yes())
+        no_button.on_click(lambda _: question.no())
+        return question
 
     def look(self, view: str) -> None:
         """Show the 3D scene or the depth frame; clouds and labels are hidden (and not sent) while the depth frame

@@ -81,7 +81,7 @@ def test_a_background_captured_with_the_object_in_view_is_used_only_on_confirmat
     capture_background(app, headless, objects_in_view=True)
     assert object_panel.confirm is not None and "answer the question" in object_panel.status.content
     assert app.snapshot.background is good                                  # not used until confirmed
-    object_panel.use_captured()                                            # 'Use it anyway'
+    object_panel.confirm.yes()                                             # 'Use it anyway'
     wait_for(lambda: app.last_frame.mask.sum() < 2000, what="the sphere taken for background")
     capture_background(app, headless, objects_in_view=False)               # the right way: nothing asked
     wait_for(lambda: app.last_frame.mask.sum() > 5000, what="the sphere selected again")
@@ -222,7 +222,11 @@ def test_save_as_and_open(sphere):
     app.editor.autosave = False                              # as the demo's: not saved, so opening asks first
     files._open()
     assert app.editor.session.root == copy and files.confirm_open is not None
-    files.open_confirmed(load_session(app.sessions_dir / "scan"))
+    files.confirm_open.no()                                  # 'Keep this session'
+    assert app.editor.session.root == copy
+    files._open()
+    files.confirm_open.yes()                                 # 'Open scan, discard this one'
+    wait_for(lambda: app.editor.session.root.name == "scan")
     assert app.editor.session.root.name == "scan" and app.editor.autosave
 
 

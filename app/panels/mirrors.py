@@ -247,15 +247,9 @@ class MirrorsPanel:
 
     def _confirm_remove(self) -> None:
         mirror = self._mirror()
-        modal = self.tab.client.gui.add_modal(f"Remove {mirror.name}?")
-        with modal:
-            self.tab.client.gui.add_markdown(f"{mirror.name} and its {len(mirror.markers)} markers, boundary and "
-                                             "plane leave the session. *Undo* below the Remove button brings it "
-                                             "back.")
-            yes = self.tab.client.gui.add_button(f"Remove {mirror.name}", color="red")
-            no = self.tab.client.gui.add_button("Keep it")
-        yes.on_click(lambda _: (modal.close(), self.tab.act(lambda: self.services.editor.remove_mirror(mirror.id))))
-        no.on_click(lambda _: modal.close())
+        self.tab.ask(f"Remove {mirror.name}?", f"{mirror.name} and its {len(mirror.markers)} markers, boundary and "
+                     "plane leave the session. *Undo* below the Remove button brings it back.",
+                     f"Remove {mirror.name}", lambda: self.services.editor.remove_mirror(mirror.id), "Keep it")
 
     # ------------------------------------------------------------------ plane fitting
     def fit_planes(self, mirror_ids: list[int]) -> None:

@@ -143,27 +143,21 @@ class ObjectPanel:
         if left >= (1 - HIDDEN_SHARE) * seen:
             self.services.set_background(depth)
             return None
-        gui, self.pending_background = self.tab.client.gui, depth
-        self.confirm = gui.add_modal("Use this background?")
-        with self.confirm:
-            gui.add_markdown(f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> {left:,} "
-                             "pixels): was the object in view while it was captured? Take it out and capture "
-                             "again. (If the scene itself changed, the camera moved say, use it.)")
-            use = gui.add_button("Use it anyway", color="red")
-            keep = gui.add_button("Keep the background as it was")
-        use.on_click(lambda _: self.tab.act(self.use_captured))
-        keep.on_click(lambda _: self.tab.act(self._keep_background))
+        self.pending_background = depth
+        self.confirm = self.tab.ask(
+            "Use this background?", f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> "
+            f"{left:,} pixels): was the object in view while it was captured? Take it out and capture again. (If the "
+            "scene itself changed, the camera moved say, use it.)", "Use it anyway", self._use_captured,
+            "Keep the background as it was", self._keep_background)
         return "captured; it would hide most of the object: answer the question first"
 
-    def use_captured(self) -> None:
+    def _use_captured(self) -> None:
         """The user confirmed: use the pending captured background."""
-        self.confirm.close()
         depth, self.pending_background = self.pending_background, None
         self.services.set_background(depth)
         self.status.content = "Background: captured, used on confirmation."
 
     def _keep_background(self) -> None:
-        self.confirm.close()
         self.pending_background = None
         self.status.content = "Background: kept as it was (the capture was not used)."
 

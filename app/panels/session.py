@@ -67,20 +67,10 @@ class SessionPanel:
         if self.services.editor.autosave:
             self.services.open_session(session)
             return
-        gui = self.tab.client.gui
-        self.confirm_open = gui.add_modal(f"Open {name}?")
-        with self.confirm_open:
-            gui.add_markdown("This session is not saved: its mirrors and calibration go when another one opens. "
-                             "*Save as* first to keep them.")
-            yes = gui.add_button(f"Open {name}, discard this one", color="red")
-            no = gui.add_button("Keep this session")
-        yes.on_click(lambda _: self.tab.act(lambda: self.open_confirmed(session)))
-        no.on_click(lambda _: self.confirm_open.close())
-
-    def open_confirmed(self, session) -> None:
-        """The user confirmed: open `session` (a Session), the unsaved one goes."""
-        self.confirm_open.close()
-        self.services.open_session(session)
+        self.confirm_open = self.tab.ask(
+            f"Open {name}?", "This session is not saved: its mirrors and calibration go when another one opens. "
+            "*Save as* first to keep them.", f"Open {name}, discard this one",
+            lambda: self.services.open_session(session), "Keep this session")
 
     def _save_as(self) -> None:
         """Save the session as a new one in the sessions folder and go on editing that one; a background captured
