@@ -16,7 +16,7 @@ import viser
 from mirrorcore.depthio import write_depth_png
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import BACKGROUND_FILE, Session
-from mirrorcore.sources import DepthSource
+from mirrorcore.sources import DepthSource, SessionSource
 
 from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
@@ -177,7 +177,10 @@ class MirrorscanApp:
             target.add_notification(title, message, color="red" if error else "blue", auto_close_seconds=8.0)
 
     def open_session(self, session: Session) -> None:
-        """Edit another session (autosaved in its folder from now on)."""
+        """Edit another session (autosaved in its folder from now on); one with recorded frames plays them, as
+        `mirrorscan serve SESSION` does (its mirrors belong to them, not to the source playing before)."""
+        if session.frames:
+            self.use_source(SessionSource(session))      # refused, nothing changed, when its camera differs
         self.editor.autosave = True
         self._background = (None, self._source.background())   # the session's own, if any, is read on the change
         self.editor.replace_session(session)

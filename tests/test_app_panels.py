@@ -225,8 +225,10 @@ def test_save_as_and_open(sphere):
     files.confirm_open.no()                                  # 'Keep this session'
     assert app.editor.session.root == copy
     files._open()
+    playing = app.source
     files.confirm_open.yes()                                 # 'Open scan, discard this one'
     wait_for(lambda: app.editor.session.root.name == "scan")
+    assert app.source is playing                             # no recorded frames: the source plays on
     assert app.editor.session.root.name == "scan" and app.editor.autosave
 
 

@@ -10,7 +10,6 @@ from mirrorcore.batch import BATCH_METHODS
 from mirrorcore.dense import DenseOptions
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import Session
-from mirrorcore.sources import SessionSource
 
 from ..context import TabContext
 from ..events import JobProgress
@@ -65,7 +64,6 @@ class RecordPanel:
         if self.recorded is None:
             raise MirrorscanError("nothing recorded yet")
         self.services.open_session(self.recorded)
-        self.services.use_source(SessionSource(self.recorded))
 
     def start_batch(self) -> None:
         """Every frame of the session being edited (a saved recording, say), with the chosen method, on the
