@@ -79,6 +79,7 @@ class TabScene:
         self._virtual: list = []                   # the virtual cameras' frusta
         self.virtual_visible = True
         self._box = None
+        self._box_label = None
         self.labels_visible = True
         self.scene.set_up_direction("-y")
 
@@ -123,9 +124,10 @@ class TabScene:
             handle.visible = visible
 
     def show_labels(self, visible: bool) -> None:
-        """Show or hide the mirrors' names (hidden while the depth frame is in view: no label over it)."""
+        """Show or hide the mirrors' names and the dense box's (hidden while the depth frame is in view: no label
+        over it)."""
         self.labels_visible = visible
-        for label in self._labels:
+        for label in self._labels + ([self._box_label] if self._box_label is not None else []):
             label.visible = visible
 
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
@@ -210,12 +212,14 @@ class TabScene:
                 self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
-        """The dense reconstruction's box as a wireframe (or none)."""
+        """The dense reconstruction's box as a wireframe, named at its top (or none)."""
         if self._box is not None:
-            self._box.remove()
-            self._box = None
+            self._box.remove()                      # and its label under it
+            self._box = self._box_label = None
         if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
             return
         low, high = np.asarray(low, float), np.asarray(high, float)
         self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
                                        position=tuple((low + high) / 2), wireframe=True)
+        self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
+                                               position=(0.0, (low[1] - high[1]) / 2, 0.0))   # up is -y

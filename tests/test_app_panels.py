@@ -250,7 +250,7 @@ def test_dense_runs_shows_and_exports(sphere, method):
     assert (result.faces is not None) == (method.startswith("TSDF"))
     assert np.median(np.abs(np.linalg.norm(result.vertices - [0.0, 0.0, 2.0], axis=1) - 0.115)) < 0.004
     wait_for(lambda: headless.tab.scene._dense, what="the result drawn")
-    assert headless.tab.scene._box is not None                                        # with its box
+    assert headless.tab.scene._box is not None and headless.tab.scene._box_label is not None   # with its box, named
     dense.export_result()
     saved = sorted((app.editor.session.root / "exports").glob(f"dense-{result.method}-*.ply"))[-1]
     points, _ = read_ply(saved)
