@@ -1,7 +1,7 @@
 """Editing the session from the browser: mirrors, markers, boundaries, planes, the object selection and the
 background, every edit naming its mirror by its stable id. Undo and redo are kept per mirror (and for the session's
-own changes: adding or removing a mirror, the selection, the background), each step named for the button; the planes set by one fit or refinement of several mirrors are undone
-and redone together, from any of them. Pure logic
+own changes: adding or removing a mirror, the selection, the background), each step named for the button; the
+planes set by one fit or refinement of several mirrors are undone and redone together, from any of them. Pure logic
 over mirrorcore.session; thread-safe; autosaved after every change."""
 from __future__ import annotations
 
@@ -193,8 +193,8 @@ class SessionEditor:
         """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
         their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
         is an undo step in its own scope, and the steps of several mirrors are undone together ('{what}s of NAME and
-        NAME'). Refused when a mirror is gone or its markers, boundary,
-        region or plane changed since: a result computed on another state is never applied (compute it again)."""
+        NAME'). Refused when a mirror is gone or its markers, boundary, region or plane changed since: a result
+        computed on another state is never applied (compute it again)."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
             if (current.markers, current.boundary, current.region, current.plane) != (
