@@ -13,12 +13,14 @@ import pytest
 
 from app.context import TabState
 from app.jobs import agreement_line
+from app.panels.measure import fit_report
 from app.panels.live import start_hint
 from app.server import IDLE_FPS
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
+from mirrorcore.fitting import fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import Session, SessionMirror
@@ -319,3 +321,16 @@ def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
     assert agreement_line("left", 1.234, -0.56, 1200) == ("left: agrees with the other views within 1.2 mm RMS "
                                                           "(mean -0.6 mm, 1,200 points seen both ways)")
     assert "cannot be checked (put the object in view)" in agreement_line("left", float("nan"), float("nan"), 0)
+
+
+def test_a_fit_that_most_points_miss_is_flagged():
+    """Measure fits a sphere to whatever is selected: on a walking person most points miss it, and the report says so
+    above the numbers; on a sphere it does not."""
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(3000, 3))
+    sphere = 0.115 * directions / np.linalg.norm(directions, axis=1, keepdims=True) + [0, 0, 2]
+    good = fit_sphere(sphere, rng, threshold=0.02)
+    assert not fit_report(good, str).startswith("⚠")
+    clutter = rng.uniform(-1, 1, (6000, 3)) + [0, 0, 2]
+    poor = fit_sphere(np.vstack([sphere, clutter]), rng, threshold=0.02)
+    assert fit_report(poor, str).startswith("⚠ only ") and "the object may not be a sphere" in fit_report(poor, str)

@@ -323,7 +323,7 @@ def test_a_background_captured_before_saving_is_saved_with_the_session(tmp_path)
             app.set_background(captured)
             object_panel = panel(headless.tab, ObjectPanel)
             object_panel.refresh()
-            assert object_panel.status.content.startswith("Background: captured.")
+            assert object_panel.status.content.startswith("Background: captured. Depth range: 0.40 to 6.00 m.")
             app.editor.rename_mirror(app.editor.session.mirrors[0].id, "left")     # an edit keeps it
             assert app.snapshot.background is captured
             files = panel(headless.tab, SessionPanel)

@@ -25,12 +25,18 @@ TITLE = "Measure"
 
 HISTORY = 300          # fits kept in the plot
 TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
+MIN_FITTING = 0.5      # a fit with fewer of the points within its threshold says the shape may be wrong
 
 
 def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
-    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by name(label)), mm."""
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by name(label)), mm; a
+    warning first when fewer than MIN_FITTING of the points lie within the threshold of the shape."""
     e = fit.errors
-    lines = [f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
+    share = float(np.mean(fit.inliers)) if len(fit.inliers) else 0.0
+    warning = ([f"⚠ only {share:.0%} of the points lie within {fit.threshold * 1e3:.0f} mm of the {fit.shape.kind}: "
+                f"the object may not be a {fit.shape.kind}, or the selection holds more than the object.", ""]
+               if share < MIN_FITTING else [])
+    lines = [*warning, f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
              "", "| | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
              f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "

@@ -78,7 +78,8 @@ class ObjectPanel:
         region = f"{len(roi)} corners" if roi else "the whole image"
         if state.region_draft:
             region += f" (drawing: {len(state.region_draft)} corners)"
-        self.status.content = f"Background: {source}. Region of interest: {region}."
+        self.status.content = (f"Background: {source}. Depth range: {selection.depth_min:.2f} to "
+                               f"{selection.depth_max:.2f} m. Region of interest: {region}.")   # (the slider shows none)
         self.range.value = (selection.depth_min, selection.depth_max)
         self.smooth.value = selection.smooth
         self.bounces.value = snapshot.session.bounces
