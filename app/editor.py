@@ -193,12 +193,12 @@ class SessionEditor:
         """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
         their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
         is an undo step in its own scope, and the steps of several mirrors are undone together ('{what}s of NAME and
-        NAME'). Refused when a mirror is gone or its markers, boundary, region or plane changed since: a result
-        computed on another state is never applied (compute it again)."""
+        NAME'). Refused when a mirror is gone or its markers, boundary, region, plane or glass changed since: a
+        result computed on another state is never applied (compute it again)."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
-            if (current.markers, current.boundary, current.region, current.plane) != (
-                    based_on.markers, based_on.boundary, based_on.region, based_on.plane):
+            if (current.markers, current.boundary, current.region, current.plane, current.marker_offset) != (
+                    based_on.markers, based_on.boundary, based_on.region, based_on.plane, based_on.marker_offset):
                 again = "refine it again" if what.startswith("refined") else "fit it again"
                 raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
         offsets = marker_offsets or {}

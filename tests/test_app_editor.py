@@ -131,6 +131,10 @@ def test_a_fit_computed_on_another_state_is_never_applied(editor):
     with pytest.raises(MirrorscanError, match="mirror 1 changed while its plane was computed; fit it again"):
         editor.set_planes({1: (PLANE, fitted_on)})
     fitted_on = editor.mirror(1)
+    editor.set_marker_offset(1, 0.004)                               # the glass set meanwhile: the fit used none
+    with pytest.raises(MirrorscanError, match="mirror 1 changed while its plane was computed; fit it again"):
+        editor.set_planes({1: (PLANE, fitted_on)})
+    fitted_on = editor.mirror(1)
     editor.remove_mirror(1)                                           # the mirror is gone meanwhile
     with pytest.raises(MirrorscanError, match="mirror 1 is no longer in the session"):
         editor.set_planes({1: (PLANE, fitted_on)})
