@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 from app.context import TabState
+from app.demo import calibrated_session, demo_source
 from app.jobs import agreement_line
 from app.panels.measure import fit_report
 from app.panels.live import start_hint
-from app.server import IDLE_FPS
+from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
@@ -23,7 +24,8 @@ from mirrorcore.cloud import Cloud
 from mirrorcore.fitting import fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.session import Session, SessionMirror
+from mirrorcore.session import Session, SessionMirror, load_session
+from mirrorcore.sources import StackSource
 
 
 def test_demo_planes_are_calibrated_close_to_the_truth(demo):
@@ -334,3 +336,24 @@ def test_a_fit_that_most_points_miss_is_flagged():
     clutter = rng.uniform(-1, 1, (6000, 3)) + [0, 0, 2]
     poor = fit_sphere(np.vstack([sphere, clutter]), rng, threshold=0.02)
     assert fit_report(poor, str).startswith("⚠ only ") and "the object may not be a sphere" in fit_report(poor, str)
+
+
+def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
+    """Over the simulator the recording's frames play (its mirrors belong to them); a live camera stays, to be used
+    with the opened session's calibration; the Record step's replay plays them anyway."""
+    recorded = load_session(Path(__file__).resolve().parents[1] / "sessions" / "demo")
+    simulator = demo_source()
+    app = MirrorscanApp(calibrated_session(simulator, Path("unused")), simulator, port=0, autosave=False)
+    try:
+        app.open_session(recorded)
+        assert app.source.frame_count == len(recorded.frames)
+        camera = StackSource("camera", simulator.intrinsics, np.ones((2, *simulator.intrinsics.shape)), 1.0,
+                             np.arange(2.0))
+        camera.frame_count = None                            # live: no frame count, no seeking
+        app.use_source(camera)
+        app.open_session(recorded)
+        assert app.source is camera
+        app.open_session(recorded, play=True)
+        assert app.source.frame_count == len(recorded.frames)
+    finally:
+        app.stop()

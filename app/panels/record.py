@@ -63,7 +63,7 @@ class RecordPanel:
         """Edit the recorded session and play its frames (header › Playback: pause and the frame slider)."""
         if self.recorded is None:
             raise MirrorscanError("nothing recorded yet")
-        self.services.open_session(self.recorded)
+        self.services.open_session(self.recorded, play=True)
 
     def start_batch(self) -> None:
         """Every frame of the session being edited (a saved recording, say), with the chosen method, on the
