@@ -16,7 +16,7 @@ import viser
 from mirrorcore.depthio import write_depth_png
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import BACKGROUND_FILE, Session
-from mirrorcore.sources import DepthSource, SessionSource, SimulatedSource
+from mirrorcore.sources import DepthSource, SessionSource
 
 from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
@@ -180,8 +180,7 @@ class MirrorscanApp:
         """Edit another session (autosaved in its folder from now on). Its recorded frames play when `play`, or when
         it has some and no camera is live, as `mirrorscan serve SESSION` does (its mirrors belong to them, not to the
         simulator or recording playing before); a live camera stays, to be used with the session's calibration."""
-        camera = self._source.live and not isinstance(self._source, SimulatedSource)
-        if session.frames and (play or not camera):
+        if session.frames and (play or not self._source.camera):
             self.use_source(SessionSource(session))      # refused, nothing changed, when its camera differs
         self.editor.autosave = True
         self._background = (None, self._source.background())   # the session's own, if any, is read on the change

@@ -350,6 +350,7 @@ def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
         camera = StackSource("camera", simulator.intrinsics, np.ones((2, *simulator.intrinsics.shape)), 1.0,
                              np.arange(2.0))
         camera.frame_count = None                            # live: no frame count, no seeking
+        assert camera.camera and simulator.live and not simulator.camera
         app.use_source(camera)
         app.open_session(recorded)
         assert app.source is camera

@@ -51,6 +51,11 @@ class DepthSource(ABC):
         """True for a live camera (no frame count, no seeking)."""
         return self.frame_count is None
 
+    @property
+    def camera(self) -> bool:
+        """True for a physical camera: live, and not a rendering of a simulated rig."""
+        return self.live
+
     @abstractmethod
     def read(self, i: int) -> Frame:
         """Frame i (see the class docstring); raises MirrorscanError or FileFormatError with a one-line message."""

@@ -24,6 +24,10 @@ class SimulatedSource(DepthSource):
         self.intrinsics, self.fps, self.frame_count = rig.intrinsics, rig.fps, None
         self.objects_in_view = True
 
+    @property
+    def camera(self) -> bool:
+        return False
+
     def read(self, i: int) -> Frame:
         if not self.objects_in_view:
             return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]), False).depth,
