@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, fields
 import cv2
 import numpy as np
 
-from .depthops import bounding_window
+from .depthops import bounding_window, masked_copy
 from .errors import FileFormatError, MirrorscanError
 from .geometry.camera import Intrinsics, check_depth_shape
 from .geometry.polygon import polygon_mask, validate_polygon
@@ -126,22 +126,31 @@ def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Ba
 
 
 def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
-    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings at depth edges).
-    (In place on two buffers: 20 % faster than the expression on the live loop's windows, with the same bits.)"""
+    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings at depth edges),
+    by more than max(flying_sigmas * sigma(z), flying_gap * z). The depth-dependent gap is computed only where the
+    pixel is behind by more than its part flying_gap * z (a few hundred pixels of a frame): twice as fast on the live
+    loop's windows, with the same bits."""
     depth = np.asarray(depth, dtype=np.float32)
     nearest = np.full(depth.shape, np.inf, np.float32)
-    np.copyto(nearest, depth, where=mask)
+    masked_copy(depth, mask, nearest)
     nearest = cv2.erode(nearest, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_REPLICATE)
-    gap = axial_sigma(depth)
-    gap *= np.float32(selection.flying_sigmas)
-    np.maximum(gap, np.float32(selection.flying_gap) * depth, out=gap)
-    behind = np.subtract(depth, nearest, out=nearest)
-    return np.greater(behind, gap) & mask
+    behind = np.subtract(depth, nearest, out=nearest).reshape(-1)
+    beyond = np.float32(selection.flying_gap) * depth.reshape(-1)
+    candidates = np.flatnonzero(np.greater(behind, beyond) & mask.reshape(-1))
+    z = np.take(depth.reshape(-1), candidates)
+    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(z), np.take(beyond, candidates))
+    flying = np.zeros(depth.shape, bool)
+    flying.reshape(-1)[candidates[np.take(behind, candidates) > gap]] = True
+    return flying
 
 
 def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
     """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool -> (H, W) bool."""
-    count, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
-    keep = np.bincount(labels.reshape(-1), minlength=count) >= min_blob   # (its ...WithStats is 10x slower here)
+    count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
+    keep = np.bincount(labels[mask], minlength=count) >= min_blob   # (its ...WithStats is 4x slower here)
     keep[0] = False
-    return np.take(keep, labels)                                            # (2x faster than keep[labels])
+    if count > 256:
+        return np.take(keep, labels)
+    table = np.zeros(256, np.uint8)          # few pieces (the usual case): OpenCV's 8-bit lookup, 2x faster
+    table[:count] = keep
+    return cv2.LUT(labels.astype(np.uint8), table).view(bool)
