@@ -5,7 +5,7 @@ from helpers import sphere_depth
 from mirrorcore.depthops import median_depth, smooth_depth
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.noise import axial_sigma
-from mirrorcore.selection import Selection, object_mask
+from mirrorcore.selection import Selection, flying_pixels, object_mask, remove_specks
 
 CAMERA = Intrinsics.primesense()
 
@@ -43,6 +43,38 @@ def test_flying_pixels_and_specks_are_removed():
     assert not mask[v, u - 1].any()
     assert not mask[10:12, 10:12].any()
     assert (mask & truth).sum() > 0.97 * truth.sum()
+
+
+def test_specks_are_dropped_by_size_however_many_pieces():
+    """Pieces of 1-4 pixels on a grid (few, then more than 255: the 8-bit lookup and the general path) and pieces of
+    exactly min_blob - 1 and min_blob pixels: only the last and the large blob stay."""
+    for step in (40, 12):                                       # 143 and 1,400 specks
+        mask = np.zeros((480, 640), bool)
+        mask[step // 2::step, step // 2::step] = True
+        mask[1::step, 1::step] = mask[1::step, 2::step] = True
+        mask[90:340, 90:270] = False                             # room for the pieces below
+        mask[100:110, 200:260] = True                            # a blob
+        mask[300, 100:119] = True                                # 19 pixels
+        mask[320, 100:120] = True                                # 20 pixels
+        kept = remove_specks(mask, 20)
+        expected = np.zeros_like(mask)
+        expected[100:110, 200:260] = expected[320, 100:120] = True
+        assert remove_specks(mask, 1).sum() == mask.sum()
+        assert np.array_equal(kept, expected), step
+
+
+def test_flying_pixels_follow_their_definition():
+    """A pixel is flying when it lies behind its nearest masked 8-neighbour by more than max(6 sigma(z), 0.03 z)."""
+    rng = np.random.default_rng(4)
+    depth = rng.uniform(0.5, 5.0, (60, 80)).astype(np.float32)
+    mask = rng.random((60, 80)) < 0.8
+    sel = Selection()
+    padded = np.pad(np.where(mask, depth, np.inf), 1, mode="edge")
+    nearest = np.min([padded[1 + dv:61 + dv, 1 + du:81 + du] for dv in (-1, 0, 1) for du in (-1, 0, 1)], axis=0)
+    gap = np.maximum(sel.flying_sigmas * axial_sigma(depth), sel.flying_gap * depth)
+    expected = mask & (depth - nearest > gap)
+    assert 100 < expected.sum() < mask.sum()
+    assert np.array_equal(flying_pixels(depth, mask, sel), expected)
 
 
 def test_roi_and_depth_range():
