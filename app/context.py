@@ -29,6 +29,7 @@ class Services(Protocol):
     bus: "EventBus"
     jobs: "Jobs"
     sessions_dir: Path
+    start_source: DepthSource
 
     @property
     def snapshot(self) -> "Snapshot": ...
@@ -57,6 +58,8 @@ class Services(Protocol):
     def open_session(self, session, play: bool = False) -> None: ...
 
     def use_source(self, source: DepthSource) -> None: ...
+
+    def back_to_start_source(self) -> None: ...
 
     def set_background(self, depth: np.ndarray) -> None: ...
 

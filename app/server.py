@@ -46,6 +46,7 @@ class MirrorscanApp:
     def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1", port: int = 8080,
                  autosave: bool = True, sessions_dir: str | Path = "sessions", token: str | None = None):
         self._source, self.sessions_dir = source, Path(sessions_dir)
+        self.start_source = source          # the camera or simulator served from the start: replays come back to it
         with contextlib.redirect_stdout(io.StringIO()):   # viser prints a banner; stdout may be JSON (bench --json)
             self.server = viser.ViserServer(host=host, port=port, label="mirrorscan", verbose=False)
         try:       # before any page can connect: Host, Origin and token checks, upload limits (app/security.py)
@@ -194,6 +195,11 @@ class MirrorscanApp:
         self._source = source
         self.loop.use_source(source)
         self.bus.publish(LoopChanged(self.loop.paused, source))
+
+    def back_to_start_source(self) -> None:
+        """After a recording played (Record's replay, or a session opened over the simulator), take frames from the
+        source served from the start again, keeping the session being edited (its calibration is this rig's)."""
+        self.use_source(self.start_source)
 
     def set_background(self, depth: np.ndarray) -> None:
         """Use `depth` (H, W metres) as the background; saved beside a saved session as background.png, held in

@@ -347,6 +347,8 @@ def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
     try:
         app.open_session(recorded)
         assert app.source.frame_count == len(recorded.frames)
+        app.back_to_start_source()                           # the header's "Back to ..." button
+        assert app.source is simulator and app.editor.session is recorded
         camera = StackSource("camera", simulator.intrinsics, np.ones((2, *simulator.intrinsics.shape)), 1.0,
                              np.arange(2.0))
         camera.frame_count = None                            # live: no frame count, no seeking

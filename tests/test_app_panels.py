@@ -271,6 +271,7 @@ def test_dense_cancel(sphere):
 def test_record_then_replay_with_the_calibration(sphere):
     app, headless = sphere
     record = panel(headless.tab, RecordPanel)
+    assert not headless.tab.header.back.visible                  # the source served from the start is playing
     record.start()
     wait_for(lambda: app.jobs.recorder.frames >= 4, 60, "4 frames on disk")     # however loaded the machine is
     recorded = record.stop()
@@ -280,6 +281,7 @@ def test_record_then_replay_with_the_calibration(sphere):
     first = saved.read_frame(0)
     record.play_recording()
     assert app.source.frame_count == len(recorded.frames) and headless.tab.header.seek.visible
+    assert headless.tab.header.back.visible and headless.tab.header.back.label.startswith("Back to ")
     assert app.editor.session.root == recorded.root
     app.pause(True)
     time.sleep(0.3)

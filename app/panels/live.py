@@ -77,6 +77,8 @@ class LivePanel:
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
         self.title = gui.add_markdown("")
+        self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False,
+                                   hint="the recording stops playing; the session being edited stays")
         self.rate = gui.add_markdown("starting…")
         self.hint = gui.add_markdown("")
         self.view = gui.add_button_group("View", tuple(VIEWS))
@@ -96,6 +98,7 @@ class LivePanel:
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
         self.step.on_click(lambda _: services.step())
+        self.back.on_click(lambda _: tab.act(services.back_to_start_source))
         self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
@@ -116,8 +119,10 @@ class LivePanel:
         self._follow(event.source)
 
     def _follow(self, source) -> None:
-        """Name the source; show the frame slider for a recording (seekable), hide it for a live camera."""
+        """Name the source; show the frame slider for a recording (seekable), hide it for a live camera; offer the
+        way back to the source served from the start while another plays."""
         self.title.content = f"**{source.name}**"
+        self.back.visible = source is not self.tab.services.start_source
         if source.frame_count:
             self.seek.max = max(source.frame_count - 1, 1)
         self.seek.visible = bool(source.frame_count)
