@@ -20,6 +20,19 @@ def test_box_to_grid_and_back():
     assert np.allclose(v.corners()[[0, -1]], corners)
 
 
+def test_the_box_of_a_grid_gives_the_grid_back():
+    """The box a grid covers, made into a grid again (the browser's Dense fields after a run), keeps its shape: a
+    box a whole number of voxels wide, up to rounding, does not gain a voxel (it did, by rounding up 26.000000000004)."""
+    for lo, voxel in (([1.9179862439359936, 1.1744999658616915, 2.740289695151073], 0.004), ([0, 0, 1], 0.01)):
+        grid = Volume.from_bounds(lo, np.add(lo, [0.836, 0.104, 0.872]), voxel)
+        for _ in range(3):
+            low = np.asarray(grid.origin) - voxel / 2
+            again = Volume.from_bounds(low, low + voxel * np.asarray(grid.shape), voxel)
+            assert again.shape == grid.shape and np.allclose(again.origin, grid.origin)
+            grid = again
+    assert Volume.from_bounds([0, 0, 0], [0.0401, 0.04, 0.04], 0.004).shape == (11, 10, 10)   # over by 0.025 voxel
+
+
 def test_around_a_cloud_with_margin():
     v = Volume.around(np.array([[0, 0, 2], [0.2, 0.1, 2.3]]), 0.002, 0.02)
     assert v.shape == (120, 70, 170)

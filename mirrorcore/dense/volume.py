@@ -20,6 +20,7 @@ CHUNK_VOXELS = 1 << 16            # voxels per chunk of work: temporaries stay i
 QUEUED_PER_WORKER = 2             # chunks submitted at a time per worker thread
 BLOCK_GRID_BYTES = 24             # bytes per smallest block of the whole grid a method may hold (coordinates, marks)
 
+WHOLE_VOXELS = 1e-6               # a box this little (in voxels) over a whole number of voxels is that number of voxels
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
 Item = TypeVar("Item")
 
@@ -53,11 +54,12 @@ class Volume:
 
     @classmethod
     def from_bounds(cls, lo, hi, voxel: float) -> "Volume":
-        """The grid of `voxel`-sized cells covering the box lo..hi ((3,) metres, camera frame)."""
+        """The grid of `voxel`-sized cells covering the box lo..hi ((3,) metres, camera frame). A box a whole number
+        of voxels wide, up to rounding, keeps that number: the box of a grid gives the same grid back."""
         lo, hi = np.asarray(lo, float).reshape(3), np.asarray(hi, float).reshape(3)
         if not np.all(hi > lo):
             raise MirrorscanError(f"volume: the box's upper corner {hi.tolist()} must exceed its lower {lo.tolist()}")
-        shape = np.maximum(np.ceil((hi - lo) / voxel).astype(int), 1)
+        shape = np.maximum(np.ceil((hi - lo) / voxel - WHOLE_VOXELS).astype(int), 1)
         return cls(tuple(lo + voxel / 2), voxel, tuple(shape))
 
     @classmethod
