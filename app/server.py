@@ -165,11 +165,15 @@ class MirrorscanApp:
         return self.loop.recent_depths()
 
     def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
-        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification on that tab."""
+        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification on that tab, and so
+        does a bug (logged with its traceback): a click never fails in silence."""
         try:
             action()
         except (MirrorscanError, OSError) as exc:
             self.notify(client, "Not done", str(exc))
+        except Exception as exc:  # noqa: BLE001 - a bug must still be told on the tab that clicked
+            log.exception("an action failed")
+            self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
 
     def notify(self, client: viser.ClientHandle | None, title: str, message: str, error: bool = True) -> None:
         log.info("%s: %s", title, message)

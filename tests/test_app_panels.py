@@ -189,8 +189,9 @@ def test_refusals_become_notifications(sphere, notes):
     said = notes(app)
     headless.tab.act(lambda: app.editor.add_marker(1, (9999, 1)))
     headless.tab.act(lambda: app.editor.set_boundary(1, [(1, 1), (2, 2)]))
+    headless.tab.act(lambda: {}["a bug"])                     # a bug is told too, never a silent click
     assert said == ["pixel (9999, 1) is outside the 640x480 image",
-                    "mirror 1: boundary: a polygon needs at least 3 vertices, got 2"]
+                    "mirror 1: boundary: a polygon needs at least 3 vertices, got 2", "KeyError: 'a bug'"]
 
 
 def test_two_tabs_keep_their_own_mode_and_mirror(sphere):
@@ -266,6 +267,33 @@ def test_dense_cancel(sphere):
     app.jobs.cancel("dense")                               # the Cancel button
     wait_for(lambda: dense.status.content == "cancelled", 120)
     assert not dense.progress.visible and not dense.run.disabled
+
+
+def test_the_dense_box_follows_the_cloud_until_a_corner_is_typed(sphere):
+    """The box is put around the cloud again after the session changes (the mirrors' points come into place) and at
+    Run; once the technician types a corner it stays where it is put, and runs do not grow it."""
+    app, headless = sphere
+    dense = panel(headless.tab, DensePanel)
+    dense.method.value, dense.voxel.value = "carve (consistent)", 4.0
+    dense.follow_cloud()
+    around = np.array(dense.low.value), np.array(dense.high.value)
+    dense.low.value = (-1.0, -1.0, 0.5)                                   # the app's own change: still following
+    mirror = app.editor.session.mirrors[0]
+    app.editor.rename_mirror(mirror.id, mirror.name)                      # the session changed
+    wait_for(lambda: np.allclose(dense.low.value, around[0], atol=0.01), 10, "the box around the cloud again")
+    typed = (around[0] - 0.05, around[1] + 0.05)
+    dense._box_edited(type("Typed", (), {"client": headless.tab.client})())   # as a corner typed in the page
+    dense.low.value, dense.high.value = tuple(typed[0]), tuple(typed[1])
+    app.editor.rename_mirror(mirror.id, mirror.name)
+    for _ in range(2):
+        wait_for(lambda: not app.jobs.running("dense"), 60, "the dense job's end")
+        made = app.jobs.dense_result.made if app.jobs.dense_result else 0
+        dense.start()
+        wait_for(lambda: app.jobs.dense_result and app.jobs.dense_result.made > made, 180, "the carving")
+        wait_for(lambda: np.allclose(dense.low.value, app.jobs.dense_result.low), 10, "the fields")
+        np.testing.assert_allclose(dense.low.value, typed[0], atol=1e-9)   # where it was typed ...
+        assert np.all(np.array(dense.high.value) - typed[1] < 0.004 + 1e-9)   # ... to the whole voxel, no more
+    dense.follow_cloud()
 
 
 def test_record_then_replay_with_the_calibration(sphere):

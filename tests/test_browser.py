@@ -159,8 +159,15 @@ def test_measure_the_sphere(app, tab):
 def test_dense_result_has_its_own_layer(app, tab):
     page, server_tab = tab
     step(page, "Dense")
+    dense = next(p for p in server_tab.panels if p.TITLE == "Dense")
     button(page, "Run")
-    wait_for(lambda: "surface voxels" in text(page), 180, "the carving")
+    try:                                  # any end of the job: a refusal or a bug says so at once, with the state
+        ended = wait_for(lambda: re.search(r"surface voxels|not done|failed|cancelled", text(page)), 180, "the end")
+    except AssertionError:
+        page.screenshot(path=ARTIFACTS / "browser-dense-timeout.png")
+        raise AssertionError(f"the carving never ended: status {dense.status.content!r}, running "
+                             f"{app.jobs.running('dense')}, run disabled {dense.run.disabled}") from None
+    assert ended.group(0) == "surface voxels", dense.status.content
     wait_for(lambda: server_tab.scene._dense, what="the dense layer")
     assert server_tab.scene._box is not None
     page.get_by_label("Show the dense result").click()

@@ -1,7 +1,7 @@
 """Step 4, "Dense": carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the recent frames of a
-static object inside a box (around the live cloud, shown in 3D and in the fields, editable), with a progress bar and
-a cancel button. The result is shared by every tab, drawn in its own colour and layer with a label, and exported
-under a new name each time."""
+static object inside a box (around the live cloud and following it until a corner is typed in, shown in 3D and in
+the fields), with a progress bar and a cancel button. The result is shared by every tab, drawn in its own colour and
+layer with a label, and exported under a new name each time."""
 from __future__ import annotations
 
 import threading
@@ -14,7 +14,7 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
 
 from ..context import TabContext
-from ..events import DenseChanged, FrameReady, JobProgress
+from ..events import DenseChanged, FrameReady, JobProgress, SessionChanged
 from ..exports import export_ply
 from ..jobs import DENSE
 
@@ -28,6 +28,8 @@ class DensePanel:
     def __init__(self, tab: TabContext):
         gui, self.tab, self.services = tab.gui, tab, tab.services
         self._box_lock = threading.Lock()    # the fields' callbacks run on viser's threads, two at once when both move
+        self._follow = True                  # the box follows the cloud until the technician edits its corners
+        self._refit = True                   # ... and is put around the next frame's cloud (its calibration changed)
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
@@ -47,9 +49,9 @@ class DensePanel:
             self.high = gui.add_vector3("Box max", (0.0, 0.0, 0.0), step=0.01)
         act = tab.act
         self.method.on_update(lambda _: self._method_options())
-        self.auto.on_click(lambda _: act(self.box_around_cloud))
-        self.low.on_update(lambda _: self._show_box())
-        self.high.on_update(lambda _: self._show_box())
+        self.auto.on_click(lambda _: act(self.follow_cloud))
+        self.low.on_update(self._box_edited)
+        self.high.on_update(self._box_edited)
         self.run.on_click(lambda _: act(self.start))
         self.cancel.on_click(lambda _: self.services.jobs.cancel(DENSE))
         self.show.on_update(lambda _: self._layer())
@@ -57,7 +59,8 @@ class DensePanel:
         self.export.on_click(lambda _: act(self.export_result))
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
                              self.services.bus.subscribe(DenseChanged, self._on_result),
-                             self.services.bus.subscribe(FrameReady, self._first_box)]
+                             self.services.bus.subscribe(FrameReady, self._around_frame),
+                             self.services.bus.subscribe(SessionChanged, self._session_changed)]
         if self.services.jobs.dense_result is not None:
             self._on_result(DenseChanged(self.services.jobs.dense_result))
 
@@ -66,11 +69,26 @@ class DensePanel:
         for unsubscribe in self._unsubscribe:
             unsubscribe()
 
-    def _first_box(self, event: FrameReady) -> None:
-        """Until a box is set, put it around the live cloud (the fields then show the real box)."""
-        low, high = self._box()
-        if not np.all(high > low) and len(event.frame.cloud):
+    def _around_frame(self, event: FrameReady) -> None:
+        """While the box follows the cloud, put it around the first frame's cloud, and around the next one after the
+        calibration changed (the mirrors' points come into place: the box shrinks to the object)."""
+        if self._follow and self._refit and len(event.frame.cloud):
+            self._refit = False
             self.box_around_cloud()
+
+    def _session_changed(self, event: SessionChanged) -> None:
+        self._refit = self._follow
+
+    def _box_edited(self, event) -> None:
+        """A corner typed in by the technician: the box stays where it is put from now on."""
+        if event.client is not None:
+            self._follow = False
+        self._show_box()
+
+    def follow_cloud(self) -> Volume:
+        """'Box around the current cloud': the box is put around the live cloud, and follows it again."""
+        self._follow = True
+        return self.box_around_cloud()
 
     def _method_options(self) -> None:
         """Offer what the chosen method uses: the carving threshold to carving, several frames to the fusion."""
@@ -106,9 +124,9 @@ class DensePanel:
             self.tab.scene.show_box(low, high)
 
     def start(self) -> None:
-        """Run the chosen method on the shared worker (one run at a time); the box is the one shown (set around the
-        cloud first when it is empty)."""
-        if not np.all(self._box()[1] > self._box()[0]):
+        """Run the chosen method on the shared worker (one run at a time) in the box shown: around the current cloud
+        while it follows the cloud (or is empty), as the technician put it otherwise."""
+        if self._follow or not np.all(self._box()[1] > self._box()[0]):
             self.box_around_cloud()
         method = METHODS[self.method.value]
         self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
