@@ -93,25 +93,30 @@ class Jobs:
         if event is not None:
             event.set()
 
-    def _start(self, kind: str, work: Callable[[threading.Event], None], busy: str) -> threading.Thread:
+    def _start(self, kind: str, work: Callable[[threading.Event], str | None], busy: str) -> threading.Thread:
+        """Run work(cancel) on a thread of its own; its returned text (or how it failed) is the job's last status,
+        published once the job is over, so that a button enabled by it can start the next one at once."""
         with self._lock:
             if kind in self._running:
                 raise MirrorscanError(busy)
             cancel = self._running[kind] = threading.Event()
 
         def run() -> None:
+            status = None
             try:
-                work(cancel)
+                status = work(cancel)
             except Cancelled:
-                self.bus.publish(JobProgress(kind, None, "cancelled"))
+                status = "cancelled"
             except (MirrorscanError, OSError) as exc:
-                self.bus.publish(JobProgress(kind, None, f"not done: {exc}"))
+                status = f"not done: {exc}"
             except Exception as exc:  # noqa: BLE001 - a bug must still end the job with a status, never a blank one
                 log.exception("%s failed", kind)
-                self.bus.publish(JobProgress(kind, None, f"failed: {type(exc).__name__}: {exc}"))
+                status = f"failed: {type(exc).__name__}: {exc}"
             finally:
                 with self._lock:
                     self._running.pop(kind, None)
+            if status is not None:
+                self.bus.publish(JobProgress(kind, None, status))
         thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
         thread.start()
         return thread
@@ -127,7 +132,7 @@ class Jobs:
                            "a dense reconstruction is already running; cancel it first")
 
     def _dense(self, snapshot, depths: np.ndarray, method: str, options: DenseOptions,
-               cancel: threading.Event) -> None:
+               cancel: threading.Event) -> str:
         self.bus.publish(JobProgress(DENSE, 0.0, f"{method}: preparing {len(depths)} frame(s)"))
         prepared = [prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection) for d in depths]
         volume = dense_volume(snapshot.rig, *prepared[-1], options)   # refuses boxes of too many voxels
@@ -149,7 +154,7 @@ class Jobs:
                                 time.time())
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))
-        self.bus.publish(JobProgress(DENSE, None, dense.summary))
+        return dense.summary
 
     # ------------------------------------------------------------------ calibration from the object
     def start_refine(self, editor: "SessionEditor") -> threading.Thread:
@@ -164,7 +169,7 @@ class Jobs:
                            "a refinement is already running")
 
     def _refine(self, editor: "SessionEditor", session: Session, snapshot, depths: np.ndarray,
-                cancel: threading.Event) -> None:
+                cancel: threading.Event) -> str:
         self.bus.publish(JobProgress(REFINE, 0.0, f"refining from {len(depths)} frames…"))
         masks = np.stack([prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1] for d in depths])
         refined, result = refine_session(session, depths, masks, progress=lambda f: self.bus.publish(
@@ -172,8 +177,7 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane")
-        self.bus.publish(JobProgress(REFINE, None, "\n\n".join(f"**{r.name}** refined: {r.summary()}"
-                                                                for r in result.mirrors)))
+        return "\n\n".join(f"**{r.name}** refined: {r.summary()}" for r in result.mirrors)
 
     def start_agreement(self, session: Session, depth: np.ndarray) -> None:
         """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), as
@@ -182,12 +186,12 @@ class Jobs:
             return
         snapshot = self.snapshot()
 
-        def work(cancel: threading.Event) -> None:
+        def work(cancel: threading.Event) -> str:
             mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, session.selection)[1]
             found = view_agreement(snapshot.rig, depth[None], mask[None])
             lines = [agreement_line(session.mirrors[j - 1].name, *found[j])
                      for j in sorted(found) if 1 <= j <= len(session.mirrors)]
-            self.bus.publish(JobProgress(AGREEMENT, None, "\n\n".join(lines) or "no view sees what another sees"))
+            return "\n\n".join(lines) or "no view sees what another sees"
         self._start(AGREEMENT, work, "")
 
     def start_heat(self, frame: "LiveFrame") -> None:
@@ -216,7 +220,7 @@ class Jobs:
                     "a batch is already running; cancel it first")
         return out
 
-    def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> None:
+    def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> str:
         self.bus.publish(JobProgress(BATCH, 0.0, f"starting {job.method} on every frame…"))
         run = BatchRun(job, where, on_progress=lambda p: self.bus.publish(JobProgress(BATCH, p.fraction,
                                                                                        batch_status(p))))
@@ -224,19 +228,18 @@ class Jobs:
         while run.wait(0.2) is None:
             if cancel.is_set():
                 run.cancel()
-        report = run.wait()
-        self.bus.publish(JobProgress(BATCH, None, batch_summary(report)))
+        return batch_summary(run.wait())
 
     # ------------------------------------------------------------------ background
     def capture_background(self, n_frames: int, on_done: Callable[[np.ndarray], str | None]) -> threading.Thread:
         """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres), which may
         return the status to show instead of 'captured from N frames'."""
-        def work(cancel: threading.Event) -> None:
+        def work(cancel: threading.Event) -> str:
             progress = lambda k: self.bus.publish(JobProgress(BACKGROUND, k / n_frames,  # noqa: E731
                                                               f"{k} of {n_frames} frames"))
             frames = self.loop.collect(n_frames, progress, cancel=cancel)
             status = on_done(median_depth(np.stack(frames)))
-            self.bus.publish(JobProgress(BACKGROUND, None, status or f"captured from {n_frames} frames"))
+            return status or f"captured from {n_frames} frames"
         return self._start(BACKGROUND, work, "a background capture is already running")
 
     # ------------------------------------------------------------------ recording

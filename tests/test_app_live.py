@@ -360,3 +360,25 @@ def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
         assert app.source.frame_count == len(recorded.frames)
     finally:
         app.stop()
+
+
+def test_a_job_says_its_last_word_once_it_is_over():
+    """The last status of a job (done, cancelled, refused) arrives once the job is no longer running: the button it
+    enables starts the next one at once, never 'already running'."""
+    from app.events import EventBus, JobProgress
+    from app.jobs import Jobs
+    from mirrorcore.errors import Cancelled, MirrorscanError
+
+    bus = EventBus()
+    jobs = Jobs(None, lambda: None, bus)
+    ended: list[tuple[str, bool]] = []
+    bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.status, jobs.running("x"))))
+
+    def cancelled(cancel):
+        raise Cancelled("x")
+
+    def refused(cancel):
+        raise MirrorscanError("no frame yet")
+    for work in (lambda cancel: "done", cancelled, refused):
+        jobs._start("x", work, "busy").join(10)
+    assert ended == [("done", False), ("cancelled", False), ("not done: no frame yet", False)]
