@@ -189,9 +189,13 @@ class LiveLoop:
             self.source, self.index, self._ahead = source, 0, None
 
     def seek(self, index: int) -> None:
-        """Play on from frame `index` (a seekable source)."""
+        """Play on from frame `index` (a seekable source); while paused, that frame is processed at once (shown)."""
         with self._turn:
             self.index, self._ahead = int(index), None
+        if self.paused:
+            with self._step_lock:
+                self._steps = 1         # the frame sought, once: a slider dragged over many frames ends on its own
+            self._wake.set()
 
     def _read(self, index: int) -> Frame:
         ahead, self._ahead = self._ahead, None

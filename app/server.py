@@ -202,8 +202,10 @@ class MirrorscanApp:
 
     def back_to_start_source(self) -> None:
         """After a recording played (Record's replay, or a session opened over the simulator), take frames from the
-        source served from the start again, keeping the session being edited (its calibration is this rig's)."""
+        source served from the start again, playing (not paused), keeping the session being edited (its
+        calibration is this rig's)."""
         self.use_source(self.start_source)
+        self.pause(False)
 
     def set_background(self, depth: np.ndarray) -> None:
         """Use `depth` (H, W metres) as the background; saved beside a saved session as background.png, held in

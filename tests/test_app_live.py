@@ -223,6 +223,11 @@ def test_loop_thread_pause_and_step(demo):
     wait_for(lambda: app.loop.index == held + 1)
     time.sleep(0.3)
     assert app.loop.index == held + 1                          # exactly one
+    for k in (5, 6, 7, 40):                                    # the frame slider dragged while paused
+        app.seek(k)
+    wait_for(lambda: app.last_frame.index == 40)
+    time.sleep(0.3)
+    assert app.loop.index == 41                                # the frame sought is shown, once
     app.pause(False)
     wait_for(lambda: app.loop.index >= held + 3)
     assert app.fps() > 0
@@ -317,6 +322,11 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert "left: click a marker" in start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False)
     waiting = start_hint(edged, TabState(mirror_id=1, proposal_for=("left",)), True, False)
     assert waiting == "A new plane for left waits: **Mirrors › Apply** it or **Discard** it."
+    done = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], plane=Plane.from_point_normal(
+        [0, 0, 2], [0, 0, -1]), markers=((1, 1), (5, 1), (1, 5))),))
+    assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
+    assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
+    assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
@@ -347,8 +357,9 @@ def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
     try:
         app.open_session(recorded)
         assert app.source.frame_count == len(recorded.frames)
-        app.back_to_start_source()                           # the header's "Back to ..." button
-        assert app.source is simulator and app.editor.session is recorded
+        app.pause(True)                                      # the replay paused on a frame ...
+        app.back_to_start_source()                           # ... then the header's "Back to ..." button
+        assert app.source is simulator and app.editor.session is recorded and not app.paused   # live plays
         camera = StackSource("camera", simulator.intrinsics, np.ones((2, *simulator.intrinsics.shape)), 1.0,
                              np.arange(2.0))
         camera.frame_count = None                            # live: no frame count, no seeking

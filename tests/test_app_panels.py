@@ -55,10 +55,14 @@ def calibrate_by_clicking(app, tab) -> None:
 def capture_background(app, headless, objects_in_view: bool) -> None:
     """Capture the background from the Object step, the simulated objects in view or not."""
     app.source.objects_in_view = objects_in_view
+    ended: list[str] = []                   # the capture's last status, told once the job is over
+    unsubscribe = app.bus.subscribe(JobProgress, lambda e: e.job == "background" and e.fraction is None
+                                    and ended.append(e.status))
     try:
         panel(headless.tab, ObjectPanel)._capture()
-        wait_for(lambda: not app.jobs.running("background"), what="the capture")
+        wait_for(lambda: ended, what="the capture")
     finally:
+        unsubscribe()
         app.source.objects_in_view = True
 
 

@@ -45,8 +45,10 @@ def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: 
     return f'<div style="font-size:0.85em;line-height:1.5">{"".join(items)}</div>'
 
 
-def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool) -> str:
-    """What to do next, in one line, from where the session and this tab stand."""
+def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
+               playback: str = "live") -> str:
+    """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
+    from the start plays), 'recording' (another plays: a replay) or 'paused'."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if not session.mirrors:
@@ -70,6 +72,12 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return f"Now {todo[0]}: select it and do the same."
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
+    if playback == "paused":
+        return ("Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, under *Playback "
+                "and view*); untick **Pause** to play on.")
+    if playback == "recording":
+        return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to** the "
+                "live source (above) when done.")
     return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
 
 
@@ -117,6 +125,7 @@ class LivePanel:
         self.pause.value = event.paused
         self.step.disabled = not event.paused
         self._follow(event.source)
+        self.refresh_hint()
 
     def _follow(self, source) -> None:
         """Name the source; show the frame slider for a recording (seekable), hide it for a live camera; offer the
@@ -130,8 +139,10 @@ class LivePanel:
     def refresh_hint(self) -> None:
         services = self.tab.services
         snapshot = services.snapshot
+        playback = ("paused" if services.paused else "live" if services.source is services.start_source
+                    else "recording")
         self.hint.content = "➜ " + start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                                              snapshot.background is not None)
+                                              snapshot.background is not None, playback)
 
     def show(self, frame: LiveFrame) -> None:
         """Refresh the figures at STATS_HZ (every frame while paused)."""
@@ -140,11 +151,14 @@ class LivePanel:
             return
         first = self._last_stats == 0.0
         self._last_stats = now
-        paced = self.tab.services.fps_wanted()
-        self.rate.content = (f"frame {frame.index} · **{self.tab.services.fps():.1f} fps** · "
-                             f"processing {frame.process_ms:.1f} ms"
-                             + (f" · at most {paced:.0f} fps while no tab shows the 3D scene" if paced else ""))
-        count = self.tab.services.source.frame_count
+        services = self.tab.services
+        paced = services.fps_wanted()
+        count = services.source.frame_count
+        which = f"frame {frame.index % count} of {count}" if count else f"frame {frame.index}"
+        rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
+        self.rate.content = (f"{which} · {rate} · processing {frame.process_ms:.1f} ms"
+                             + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
+                                if paced and not services.paused else ""))
         if count:
             self.seek.value = frame.index % count
         self.legend.content = legend_html(frame.counts, source_names(frame.snapshot.session), frame.mirror_ids)

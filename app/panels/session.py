@@ -27,6 +27,7 @@ class SessionPanel:
         self.where = gui.add_markdown("")
         self.export = gui.add_button("Export the cloud as PLY", color="blue")
         self.exported = gui.add_markdown("")
+        self._root = self.services.editor.session.root     # the session the export line speaks of
         self.open_choice = gui.add_dropdown("Open", (CHOOSE,))
         self.open = gui.add_button("Open session")
         self.new_name = gui.add_text("Save as", "")
@@ -52,6 +53,8 @@ class SessionPanel:
         state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
         error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
         self.where.content = f"`{editor.session.root}` ({state}){error}"
+        if editor.session.root != self._root:           # another session: the last export was another's
+            self._root, self.exported.content = editor.session.root, ""
         names = (CHOOSE, *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")))
         if self.open_choice.options != names:
             self.open_choice.options = names
