@@ -231,8 +231,11 @@ def test_save_as_and_open(sphere):
     assert app.editor.session.root == copy
     files._open()
     playing = app.source
+    files.export_cloud()
+    assert files.exported.content.endswith("points, downloaded")          # (not saved: downloaded only)
     files.confirm_open.yes()                                 # 'Open scan, discard this one'
     wait_for(lambda: app.editor.session.root.name == "scan")
+    wait_for(lambda: files.exported.content == "", what="the other session's export line gone")
     assert app.source is playing                             # no recorded frames: the source plays on
     assert app.editor.session.root.name == "scan" and app.editor.autosave
 
