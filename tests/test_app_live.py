@@ -21,7 +21,7 @@ from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
-from mirrorcore.fitting import fit_sphere
+from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.session import Session, SessionMirror, load_session
@@ -346,6 +346,11 @@ def test_a_fit_that_most_points_miss_is_flagged():
     clutter = rng.uniform(-1, 1, (6000, 3)) + [0, 0, 2]
     poor = fit_sphere(np.vstack([sphere, clutter]), rng, threshold=0.02)
     assert fit_report(poor, str).startswith("⚠ only ") and "the object may not be a sphere" in fit_report(poor, str)
+    seen = sphere[sphere[:, 2] < 2.0] + rng.normal(scale=0.003, size=(int((sphere[:, 2] < 2.0).sum()), 3))
+    tight = fit_sphere(seen, rng, threshold=0.005)          # Kinect-like noise, a tight band: still no warning
+    assert not fit_report(tight, str).startswith("⚠"), fit_report(tight, str)
+    wrong = fit_cylinder(seen, rng, threshold=0.02)          # a cylinder on a sphere: most points in the band, spread
+    assert fit_report(wrong, str).startswith("⚠ the points scatter"), fit_report(wrong, str)
 
 
 def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():

@@ -26,16 +26,24 @@ TITLE = "Measure"
 HISTORY = 300          # fits kept in the plot
 TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
 MIN_FITTING = 0.5      # a fit with fewer of the points within its threshold says the shape may be wrong
+MAX_SPREAD = 0.75      # ... and so does one whose RMSE over every point reaches this share of the threshold
 
 
 def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
     """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by name(label)), mm; a
-    warning first when fewer than MIN_FITTING of the points lie within the threshold of the shape."""
+    warning first when fewer than MIN_FITTING of the points lie within the threshold of the shape, or when their
+    RMSE reaches MAX_SPREAD of it (the points fill the band instead of lying on the shape: a cylinder fitted to a
+    sphere)."""
     e = fit.errors
     share = float(np.mean(fit.inliers)) if len(fit.inliers) else 0.0
-    warning = ([f"⚠ only {share:.0%} of the points lie within {fit.threshold * 1e3:.0f} mm of the {fit.shape.kind}: "
-                f"the object may not be a {fit.shape.kind}, or the selection holds more than the object.", ""]
-               if share < MIN_FITTING else [])
+    shape, band = fit.shape.kind, f"{fit.threshold * 1e3:.0f} mm"
+    warning = []
+    if share < MIN_FITTING:
+        warning = [f"⚠ only {share:.0%} of the points lie within {band} of the {shape}: the object may not be a "
+                   f"{shape}, or the selection holds more than the object.", ""]
+    elif e.rmse >= MAX_SPREAD * fit.threshold:
+        warning = [f"⚠ the points scatter {e.rmse * 1e3:.0f} mm RMS about the {shape}, as far as the {band} band "
+                   f"allows: the object may not be a {shape}.", ""]
     lines = [*warning, f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
              "", "| | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
