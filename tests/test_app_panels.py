@@ -107,6 +107,12 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
     fit = measure.fit_current()
     assert abs(fit.shape.radius - 0.115) < 0.003
     assert "mirror 2" in measure.report.content and measure.plot.visible
+    measure.fit_current()
+    assert len(measure.history) == 2 and measure.history[0][0] == 0.0       # seconds since the plot's first fit
+    measure.shape.value = "cylinder"
+    measure.fit_current()
+    assert len(measure.history) == 1 and measure.history[0][0] == 0.0       # another shape: a plot of its own
+    measure.shape.value = "sphere"
 
 
 def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes):

@@ -63,7 +63,7 @@ class MeasurePanel:
         self.history: deque[tuple[float, float, float]] = deque(maxlen=HISTORY)   # (seconds, rmse mm, radius mm)
         self._busy = threading.Lock()
         self._history_lock = threading.Lock()   # fits are recorded from the tracking thread and from button clicks
-        self._started = time.monotonic()
+        self._started, self._kind = time.monotonic(), ""     # when the plot's first fit came, and of which shape
         self._last_track = 0.0
         self.shape = gui.add_dropdown("Shape", ("sphere", "cylinder"), initial_value="sphere")
         self.threshold = gui.add_number("Inlier threshold (mm)", initial_value=20.0, min=1.0, max=200.0)
@@ -121,8 +121,15 @@ class MeasurePanel:
             self._busy.release()
 
     def _record(self, result: ShapeFit) -> None:
+        """Add a fit to the plot: seconds since the plot's first fit, RMSE and radius; a fit of another shape starts
+        a new plot (a cylinder's radius is not a sphere's)."""
+        now = time.monotonic()
         with self._history_lock:
-            self.history.append((time.monotonic() - self._started, result.errors.rmse * 1e3, result.shape.radius * 1e3))
+            if self.history and self._kind != result.shape.kind:
+                self.history.clear()
+            if not self.history:
+                self._started, self._kind = now, result.shape.kind
+            self.history.append((now - self._started, result.errors.rmse * 1e3, result.shape.radius * 1e3))
             t, rmse, radius = (np.array(c) for c in zip(*self.history))
         self.plot.data = (t, rmse, radius)
         self.plot.visible = True
