@@ -353,6 +353,23 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran
 
 
+def test_a_batch_being_cancelled_says_so(sphere):
+    """Cancel says at once that the batch is stopping (the frame under way finishes) and is not offered twice; the
+    batch's last word replaces it, and Cancel is offered again to the next batch."""
+    app, headless = sphere
+    record = panel(headless.tab, RecordPanel)
+    ended: list[str] = []
+    app.bus.subscribe(JobProgress, lambda e: e.job == "batch" and e.fraction is None and ended.append(e.status))
+    record.method.value = "carve"                        # a frame at a time: slow enough to stop on the way
+    record.start_batch()
+    record.cancel_batch()
+    assert record.batch_status.content.endswith("· **cancelling…**") and record.batch_cancel.disabled
+    wait_for(lambda: ended, 120, "the batch's end")
+    wait_for(lambda: "cancelling" not in record.batch_status.content, 10, "the last word")
+    assert ended[0].startswith("batch ") and not record.batch_cancel.disabled
+    record.method.value = "raw"
+
+
 def test_a_background_captured_before_saving_is_saved_with_the_session(tmp_path):
     """The demo is not saved: a background captured there is held in memory (the Object step says captured, and an
     edit keeps it), and Save as writes it into the new session."""

@@ -39,7 +39,7 @@ class RecordPanel:
             self.batch_status = gui.add_markdown("One PLY per frame and a manifest in the session's exports/ "
                                                  "folder; a second run goes on where the first stopped.")
         self.batch.on_click(lambda _: tab.act(self.start_batch))
-        self.batch_cancel.on_click(lambda _: self.services.jobs.cancel(BATCH))
+        self.batch_cancel.on_click(lambda _: self.cancel_batch())
         self.start_button.on_click(lambda _: tab.act(self.start))
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
@@ -71,13 +71,22 @@ class RecordPanel:
         self.services.jobs.start_batch(self.services.editor.session, self.method.value, DenseOptions(),
                                        int(self.temporal.value), int(self.workers.value))
 
+    def cancel_batch(self) -> None:
+        """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
+        self.services.jobs.cancel(BATCH)
+        self.batch_cancel.disabled = True
+        self.batch_status.content = f"{self.batch_status.content} · **cancelling…**"
+
     def _on_job(self, event: JobProgress) -> None:
         if event.job == BATCH:
             running = event.fraction is not None
             self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = running, running, running
             if running:
                 self.batch_progress.value = 100.0 * event.fraction
-            self.batch_status.content = event.status
+            cancelling = running and self.batch_cancel.disabled
+            self.batch_status.content = event.status + (" · **cancelling…**" if cancelling else "")
+            if not running:
+                self.batch_cancel.disabled = False
             return
         if event.job != RECORD:
             return
