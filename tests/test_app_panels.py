@@ -330,7 +330,11 @@ def test_record_then_replay_with_the_calibration(sphere):
     app.step()
     wait_for(lambda: app.last_frame.index == 0)
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
-    app.pause(False)
+    assert record.replay.disabled                                      # it plays: not offered again
+    playing = app.source
+    app.back_to_start_source()
+    assert not app.paused and not record.replay.disabled and not headless.tab.header.back.visible
+    app.use_source(playing)                                            # (the steps below use the recording)
 
 
 def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):

@@ -10,9 +10,10 @@ from mirrorcore.batch import BATCH_METHODS
 from mirrorcore.dense import DenseOptions
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.session import Session
+from mirrorcore.sources import DepthSource, SessionSource
 
 from ..context import TabContext
-from ..events import JobProgress
+from ..events import JobProgress, LoopChanged
 from ..jobs import BATCH, RECORD
 
 TITLE = "Record"
@@ -43,12 +44,14 @@ class RecordPanel:
         self.start_button.on_click(lambda _: tab.act(self.start))
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
-        self._unsubscribe = self.services.bus.subscribe(JobProgress, self._on_job)
+        self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
+                             self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source))]
         self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, ""))
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
-        self._unsubscribe()
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
 
     def start(self) -> None:
         self.services.jobs.start_recording(self.services.sessions_dir)
@@ -56,8 +59,14 @@ class RecordPanel:
     def stop(self) -> Session:
         """End the recording; it is saved with the current mirrors and object selection."""
         self.recorded = self.services.jobs.stop_recording(self.services.editor.session)
-        self.replay.disabled = False
+        self._offer_replay(self.services.source)
         return self.recorded
+
+    def _offer_replay(self, source: DepthSource) -> None:
+        """Offer the replay once something is recorded, but not while that recording plays."""
+        playing = (isinstance(source, SessionSource) and self.recorded is not None
+                   and source.session.root == self.recorded.root)
+        self.replay.disabled = self.recorded is None or playing
 
     def play_recording(self) -> None:
         """Edit the recorded session and play its frames (header › Playback: pause and the frame slider)."""
