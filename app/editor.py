@@ -49,6 +49,13 @@ class Step:
     group: int = 0
 
 
+def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
+    """What a plane computed for a mirror depends on: its markers, boundary, region, plane and glass (None: the
+    mirror is gone). A plane computed on other inputs is never applied."""
+    return None if mirror is None else (mirror.markers, mirror.boundary, mirror.region, mirror.plane,
+                                        mirror.marker_offset)
+
+
 def _edits(method):
     """Run an editing method under the editor's lock, then tell the listeners (outside the lock, so that a listener
     may take its own locks in any order) when it changed something."""
@@ -197,8 +204,7 @@ class SessionEditor:
         result computed on another state is never applied (compute it again)."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
-            if (current.markers, current.boundary, current.region, current.plane, current.marker_offset) != (
-                    based_on.markers, based_on.boundary, based_on.region, based_on.plane, based_on.marker_offset):
+            if fit_inputs(current) != fit_inputs(based_on):
                 again = "refine it again" if what.startswith("refined") else "fit it again"
                 raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
         offsets = marker_offsets or {}

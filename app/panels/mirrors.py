@@ -12,7 +12,7 @@ from mirrorcore.markers import review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 
 from ..context import TabContext
-from ..editor import PICK_RADIUS, SESSION_SCOPE
+from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
 from ..jobs import AGREEMENT, REFINE
 from ..overlays import QUALITY_COLOURS
@@ -352,8 +352,8 @@ class MirrorsPanel:
         if self.proposal is None:
             return
         current = {m.id: m for m in self.services.editor.session.mirrors}
-        stale = [fitted.name for _, fitted, _ in self.proposal.values() if _fit_state(current.get(fitted.id))
-                 != _fit_state(fitted)]
+        stale = [fitted.name for _, fitted, _ in self.proposal.values()
+                 if fit_inputs(current.get(fitted.id)) != fit_inputs(fitted)]
         if stale:
             self.proposal, self.tab.state.flagged_markers = None, ()
             self.result.content = (f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. "
@@ -399,12 +399,6 @@ class MirrorsPanel:
                                                f"{_dot('poor')}beyond (σ: the depth noise at the marker)")
         return (f'<div style="font-size:0.8em;line-height:1.45">{legend}<br>'
                 + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
-
-
-def _fit_state(mirror: SessionMirror | None) -> tuple | None:
-    """What a fit of the mirror was computed from (None: the mirror is gone)."""
-    return None if mirror is None else (mirror.markers, mirror.boundary, mirror.region, mirror.plane,
-                                        mirror.marker_offset)
 
 
 def _dot(grade: str) -> str:
