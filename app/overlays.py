@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from mirrorcore.depthops import masked_copy
+
 OBJECT_TINT = np.array([255, 214, 120], np.float32)   # the object's pixels, a warm light yellow over the grey depth
 NO_READING = (24, 24, 32)                             # pixels with no depth reading
 HALO = (16, 16, 16)                                   # dark edge under every line and mark
@@ -37,11 +39,11 @@ def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) ->
     (Channel by channel with OpenCV's look-up and masked copy: 3x faster than numpy's assignment of RGB rows.)"""
     scale = 215.0 / max(far - near, 1e-6)
     grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)   # near -> 235, far -> 20
-    tint, none = mask.view(np.uint8), depth <= 0
+    none = depth <= 0
     channels = []
     for c in range(3):
         channel = grey.copy()
-        cv2.copyTo(cv2.LUT(grey, TINTED[:, c]), tint, channel)
+        masked_copy(cv2.LUT(grey, TINTED[:, c]), mask, channel)
         channel[none] = NO_READING[c]
         channels.append(channel)
     return cv2.merge(channels)
