@@ -13,7 +13,8 @@ import pytest
 
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
-from app.jobs import agreement_line
+from app.events import EventBus, JobProgress
+from app.jobs import Jobs, agreement_line
 from app.panels.measure import fit_report
 from app.panels.live import start_hint
 from app.server import IDLE_FPS, MirrorscanApp
@@ -21,6 +22,7 @@ from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from bench.tabs import wait_for
 from mirrorcore.cloud import Cloud
+from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
@@ -381,10 +383,6 @@ def test_opening_a_recorded_session_plays_it_unless_a_camera_is_live():
 def test_a_job_says_its_last_word_once_it_is_over():
     """The last status of a job (done, cancelled, refused) arrives once the job is no longer running: the button it
     enables starts the next one at once, never 'already running'."""
-    from app.events import EventBus, JobProgress
-    from app.jobs import Jobs
-    from mirrorcore.errors import Cancelled, MirrorscanError
-
     bus = EventBus()
     jobs = Jobs(None, lambda: None, bus)
     ended: list[tuple[str, bool]] = []
