@@ -74,6 +74,8 @@ class TabScene:
         self._clouds_lock = threading.Lock()    # the stream thread adds nodes while GUI callbacks restyle them
         self.clouds_visible = True
         self._labels: list[viser.LabelHandle] = []
+        self._marks_lock = threading.RLock()    # labels, virtual cameras and box: redrawn by the frames' and the
+                                                # session's threads while GUI callbacks show or hide them
         self._dense: list = []                     # the dense result's nodes (result, label)
         self._dense_lock = threading.Lock()
         self._virtual: list = []                   # the virtual cameras' frusta
@@ -88,20 +90,21 @@ class TabScene:
         intr = rig.intrinsics
         fov, aspect = frustum_angles(intr)
         self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
-        self.scene.remove_by_name("/mirrors")
-        self._labels = []
-        for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
-            outline = mirror_outline(intr, mirror)
-            if outline is None:
-                continue
-            colour = tuple(int(c) for c in source_colour(1, (mirror_id,)))
-            faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)], dtype=np.uint32)
-            self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32), faces,
-                                       color=colour, opacity=0.2, side="double")
-            self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
-                                                     position=outline[np.argmin(outline[:, 1])],
-                                                     visible=self.labels_visible))
-        self._show_virtual_cameras(rig, mirror_ids, fov, aspect)
+        with self._marks_lock:
+            self.scene.remove_by_name("/mirrors")
+            self._labels = []
+            for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
+                outline = mirror_outline(intr, mirror)
+                if outline is None:
+                    continue
+                colour = tuple(int(c) for c in source_colour(1, (mirror_id,)))
+                faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)], dtype=np.uint32)
+                self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32), faces,
+                                           color=colour, opacity=0.2, side="double")
+                self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
+                                                         position=outline[np.argmin(outline[:, 1])],
+                                                         visible=self.labels_visible))
+            self._show_virtual_cameras(rig, mirror_ids, fov, aspect)
 
     def _show_virtual_cameras(self, rig: Rig, mirror_ids: tuple[int, ...], fov: float, aspect: float) -> None:
         """The camera as each mirror, and each sequence of mirrors, shows it (rig.virtual_cameras): the views
@@ -119,16 +122,18 @@ class TabScene:
                 visible=self.virtual_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:
-        self.virtual_visible = visible
-        for handle in self._virtual:
-            handle.visible = visible
+        with self._marks_lock:
+            self.virtual_visible = visible
+            for handle in self._virtual:
+                handle.visible = visible
 
     def show_labels(self, visible: bool) -> None:
         """Show or hide the mirrors' names and the dense box's (hidden while the depth frame is in view: no label
         over it)."""
-        self.labels_visible = visible
-        for label in self._labels + ([self._box_label] if self._box_label is not None else []):
-            label.visible = visible
+        with self._marks_lock:
+            self.labels_visible = visible
+            for label in self._labels + ([self._box_label] if self._box_label is not None else []):
+                label.visible = visible
 
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
         """Update the live cloud's nodes (one per source and half, placed at the part's centre) from `parts`: only
@@ -213,13 +218,14 @@ class TabScene:
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
         """The dense reconstruction's box as a wireframe, named at its top (or none)."""
-        if self._box is not None:
-            self._box.remove()                      # and its label under it
-            self._box = self._box_label = None
-        if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
-            return
-        low, high = np.asarray(low, float), np.asarray(high, float)
-        self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
-                                       position=tuple((low + high) / 2), wireframe=True)
-        self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
-                                               position=(0.0, (low[1] - high[1]) / 2, 0.0))   # up is -y
+        with self._marks_lock:
+            if self._box is not None:
+                self._box.remove()                      # and its label under it
+                self._box = self._box_label = None
+            if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
+                return
+            low, high = np.asarray(low, float), np.asarray(high, float)
+            self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
+                                           position=tuple((low + high) / 2), wireframe=True)
+            self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
+                                                   position=(0.0, (low[1] - high[1]) / 2, 0.0))   # up is -y

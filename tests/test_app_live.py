@@ -127,35 +127,71 @@ def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypa
     assert clouds_depth == clouds_hidden == 0 and hidden < 2_000, (in_3d, hidden)
 
 
-def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
-    """The stream thread adds and replaces cloud nodes while a GUI callback (a mirror renamed, the point size, a tab
-    connecting) restyles them: neither may fail with 'dictionary changed size during iteration'."""
-    app, headless = demo
-    scene, errors, done = headless.tab.scene, [], threading.Event()
-    frame = app.loop.run_once()
+def storm(redraw, restyle, rounds: int = 150) -> list[Exception]:
+    """Call redraw() over and over on a thread while restyle(k) runs `rounds` times here, threads switching as often
+    as possible; the errors either raised."""
+    errors, done = [], threading.Event()
 
-    def stream() -> None:
+    def redraw_until_done() -> None:
         try:
             while not done.is_set():
-                scene.show_cloud([], frame.mirror_ids)              # every node removed...
-                scene.show_cloud(frame.parts(), frame.mirror_ids)     # ... and added again
-        except Exception as error:  # noqa: BLE001 - reported below
+                redraw()
+        except Exception as error:  # noqa: BLE001 - reported to the test
             errors.append(error)
-    thread = threading.Thread(target=stream)
+    thread = threading.Thread(target=redraw_until_done)
     interval = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)                                     # switch threads as often as possible
+    sys.setswitchinterval(1e-6)
     thread.start()
     try:
-        for k in range(150):
-            scene.recolour((1, 2))
-            scene.set_point_size(0.004 + 0.001 * (k % 2))
-            scene.show_clouds(True)
+        for k in range(rounds):
+            restyle(k)
+    except Exception as error:  # noqa: BLE001 - reported to the test
+        errors.append(error)
     finally:
         done.set()
         thread.join()
         sys.setswitchinterval(interval)
+    return errors
+
+
+def test_restyling_the_cloud_while_frames_stream_is_safe(demo):
+    """The stream thread adds and replaces cloud nodes while a GUI callback (a mirror renamed, the point size, a tab
+    connecting) restyles them: neither may fail with 'dictionary changed size during iteration'."""
+    app, headless = demo
+    scene = headless.tab.scene
+    frame = app.loop.run_once()
+
+    def stream() -> None:
+        scene.show_cloud([], frame.mirror_ids)              # every node removed...
+        scene.show_cloud(frame.parts(), frame.mirror_ids)     # ... and added again
+
+    def restyle(k: int) -> None:
+        scene.recolour((1, 2))
+        scene.set_point_size(0.004 + 0.001 * (k % 2))
+        scene.show_clouds(True)
+    errors = storm(stream, restyle)
     assert not errors, errors
     assert scene._clouds                                            # the nodes are there after the storm
+
+
+def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
+    """The frames' thread redraws the dense box (it follows the cloud) and the session's redraws the mirrors while a
+    GUI callback (the depth view, the virtual cameras' checkbox) shows or hides their labels and frusta: no write
+    may reach a node just removed ('Cannot assign to visible on a removed LabelHandle', seen in CI)."""
+    app, headless = demo
+    scene, snapshot = headless.tab.scene, app.snapshot
+    ids = tuple(m.id for m in snapshot.session.mirrors)
+
+    def redraw() -> None:
+        scene.show_box(np.array([-0.2, -0.2, 1.8]), np.array([0.2, 0.2, 2.2]))
+        scene.show_rig(snapshot.rig, ids)
+
+    def restyle(k: int) -> None:
+        scene.show_labels(k % 2 == 0)
+        scene.show_virtual_cameras(k % 2 == 0)
+    errors = storm(redraw, restyle, rounds=300)
+    assert not errors, errors
+    assert scene._box_label is not None and scene._labels and scene._virtual
 
 
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
