@@ -1,6 +1,9 @@
 """Shared fixtures: the browser tool on the simulated sphere rig (an empty session in a temporary folder, frames at
 15 fps) and on the built-in demo (calibrated, kept in memory), each with a headless tab connected; the
-notifications a test's actions raise; a headless Chromium per test module (skipped without Playwright or Chromium)."""
+notifications a test's actions raise; a headless Chromium per test module (skipped without Playwright or Chromium);
+and the `steps(fixture)` mark of a module whose tests on that module-scoped fixture are the steps of one session, in
+order: after a step fails, the later steps are reported as not run because of it (xfail naming it), not as failures
+of their own."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -23,6 +26,31 @@ def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
     session = Session(root, rig.intrinsics)
     save_session(session)
     return MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent)
+
+
+def pytest_configure(config) -> None:
+    config.addinivalue_line("markers", "steps(fixture): the module's tests on this module-scoped fixture are the "
+                                       "steps of one session, each needing those before it")
+
+
+def is_step(item) -> bool:
+    """Whether a test is a step of its module's session (it uses the fixture its module's `steps` mark names)."""
+    mark = item.get_closest_marker("steps")
+    return mark is not None and mark.args[0] in item.fixturenames
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Remember the first step of a session that failed (in its setup or its test)."""
+    report = (yield).get_result()
+    if report.failed and is_step(item) and not hasattr(item.module, "failed_step"):
+        item.module.failed_step = item.name
+
+
+def pytest_runtest_setup(item) -> None:
+    failed = getattr(item.module, "failed_step", None)
+    if failed is not None and is_step(item):
+        pytest.xfail(f"not run: the step before failed ({failed})")
 
 
 @pytest.fixture(scope="module")

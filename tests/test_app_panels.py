@@ -25,6 +25,8 @@ from mirrorcore.ply import read_ply
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
 
+pytestmark = pytest.mark.steps("sphere")
+
 
 def panel(tab, kind):
     return next(p for p in tab.panels if isinstance(p, kind))

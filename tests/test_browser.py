@@ -29,6 +29,8 @@ from tests.conftest import sphere_app
 ARTIFACTS = Path(__file__).parent / "artifacts"
 LIVE_FPS = 8.0           # software WebGL on 2 cores: keep the stream light while the test drives the page
 
+pytestmark = pytest.mark.steps("app")
+
 
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
