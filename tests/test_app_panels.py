@@ -328,10 +328,11 @@ def test_record_then_replay_with_the_calibration(sphere):
     assert app.editor.session.root == recorded.root
     app.pause(True)
     time.sleep(0.3)
-    app.seek(0)
-    app.step()
+    app.seek(0)                                    # paused: the frame sought is shown at once (no step needed)
     wait_for(lambda: app.last_frame.index == 0)
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
+    app.step()                                     # exactly one more frame
+    wait_for(lambda: app.last_frame.index == 1)
     assert record.replay.disabled                                      # it plays: not offered again
     playing = app.source
     app.back_to_start_source()
