@@ -104,7 +104,13 @@ class MirrorscanApp:
     def _connect(self, client: viser.ClientHandle) -> None:
         tab = Tab(client, self)
         with self._tabs_lock:
-            self.tabs[client.client_id] = tab
+            # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or reloaded) while its
+            # Tab was built has had its _disconnect already, which found nothing to close. viser drops the client
+            # from get_clients() before it calls _disconnect, so checked under the lock one of the two closes it.
+            if client.client_id in self.server.get_clients():
+                self.tabs[client.client_id] = tab
+                return
+        tab.close()
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
         with self._tabs_lock:

@@ -20,7 +20,6 @@ from .live import LiveFrame
 from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
-from .state import Snapshot
 from .stream import HALVES
 from .view import TabScene, home_pose, scene_points
 
@@ -50,9 +49,9 @@ class Tab:
         self._stale = True          # the cloud shown is not the last frame's: send both halves next
         self.dense_visible, self.dense_beside = True, True
         self.heat, self._last_heat = False, 0.0
+        self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
         self._framed = False
-        snapshot = services.snapshot
-        camera = snapshot.session.camera
+        camera = services.snapshot.session.camera
         self.scene = TabScene(client)
         self.screen = DepthScreen(client, camera, self._clicked)
         self.overlay = Overlay(camera.shape)
@@ -64,10 +63,10 @@ class Tab:
             with group.add_tab(panel.TITLE):
                 self.panels.append(panel(self))
         self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
-                             services.bus.subscribe(SessionChanged, lambda e: self._on_session(e.snapshot)),
+                             services.bus.subscribe(SessionChanged, lambda e: self._on_session()),
                              services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
                              services.bus.subscribe(HeatChanged, self._on_heat)]
-        self._on_session(snapshot)
+        self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
         self._watch_visibility()
@@ -146,14 +145,16 @@ class Tab:
 
     def show_heat(self, on: bool) -> None:
         """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud)."""
-        self.heat, self._stale, self._last_heat = on, True, 0.0
+        with self._heat_lock:
+            self.heat, self._stale, self._last_heat = on, True, 0.0
+            if not on:
+                self.scene.show_heat(None, None)
         self.scene.show_clouds(not on and self.state.view == "3d")
-        if not on:
-            self.scene.show_heat(None, None)
 
     def _on_heat(self, event: HeatChanged) -> None:
-        if self.heat and not self.closed:
-            self.scene.show_heat(event.points, event.colours)
+        with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
+            if self.heat and not self.closed:
+                self.scene.show_heat(event.points, event.colours)
 
     def show_dense(self, result) -> None:
         """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""
@@ -196,18 +197,23 @@ class Tab:
         self._send_screen(frame=frame)
         self.header.show(frame)
 
-    def _on_session(self, snapshot: Snapshot) -> None:
-        ids = tuple(m.id for m in snapshot.session.mirrors)
+    def _on_session(self) -> None:
+        """Bring the tab to the app's current session. Its latest snapshot is read under the tab's lock, so that of
+        two changes handled at once (SessionChanged is published outside the session's lock) the later is drawn last,
+        whatever order their events arrive in."""
         with self._lock:
-            self.state.drafts = {k: v for k, v in self.state.drafts.items() if k in ids}
+            snapshot = self.services.snapshot
+            ids = tuple(m.id for m in snapshot.session.mirrors)
+            for gone in [k for k in list(self.state.drafts) if k not in ids]:   # in place: a boundary click on
+                self.state.drafts.pop(gone, None)                                # a GUI thread adds to it meanwhile
             if self.state.mirror_id not in ids:
                 self.state.mirror_id = ids[-1] if ids else None
                 self.state.picked_marker = self.state.picked_corner = None
-        key = tuple((m.id, m.name, m.plane, m.boundary) for m in snapshot.session.mirrors)
-        if key != self._session_key:
-            self._session_key = key
-            self.scene.show_rig(snapshot.rig, ids)
-            self.scene.recolour(ids)
+            key = tuple((m.id, m.name, m.plane, m.boundary) for m in snapshot.session.mirrors)
+            if key != self._session_key:
+                self._session_key = key
+                self.scene.show_rig(snapshot.rig, ids)
+                self.scene.recolour(ids)
         self.changed()
 
     def _clicked(self, u: float, v: float) -> None:

@@ -89,8 +89,9 @@ class TabScene:
         """(Re)draw the camera and the calibrated mirrors, each in the colour of its id; the clouds are kept."""
         intr = rig.intrinsics
         fov, aspect = frustum_angles(intr)
-        self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
-        with self._marks_lock:
+        with self._marks_lock:     # and the camera: viser's add_* writes a node's pose after registering it, so
+                                   # two threads re-adding /camera at once failed ('on a removed CameraFrustumHandle')
+            self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
             self.scene.remove_by_name("/mirrors")
             self._labels = []
             for mirror, mirror_id in zip(rig.mirrors, mirror_ids):

@@ -10,17 +10,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import viser
+import websockets.sync.client
 
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
-from app.events import EventBus, JobProgress
+from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import Jobs, agreement_line
 from app.panels.measure import fit_report
 from app.panels.live import start_hint
 from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
-from bench.tabs import wait_for
+from app.tab import Tab
+from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.fitting import fit_cylinder, fit_sphere
@@ -192,6 +195,61 @@ def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
     errors = storm(redraw, restyle, rounds=300)
     assert not errors, errors
     assert scene._box_label is not None and scene._labels and scene._virtual
+
+
+def test_two_threads_redrawing_the_rig_at_once_is_safe(demo):
+    """Two SessionChanged events published at once (a tab's edit, the frames' grading thread, a tab being built) each
+    redraw the rig: viser's add_* writes a new node's pose after registering it, so a second add of the same name in
+    between (the depth camera's frustum) made the first fail ('Cannot assign to wxyz on a removed
+    CameraFrustumHandle'), and the tab skipped the rest of the change."""
+    app, headless = demo
+    scene, snapshot = headless.tab.scene, app.snapshot
+    ids = tuple(m.id for m in snapshot.session.mirrors)
+    errors = storm(lambda: scene.show_rig(snapshot.rig, ids), lambda k: scene.show_rig(snapshot.rig, ids), rounds=100)
+    assert not errors, errors
+
+
+def test_switching_the_heat_map_off_while_one_is_drawn_leaves_none(demo):
+    """The heat worker's event draws a frame's map while the checkbox switches it off: once it is off, no map may be
+    left in the scene (a map whose 'on' check passed before the switch-off was drawn after the removal)."""
+    app, headless = demo
+    tab = headless.tab
+    frame = app.loop.run_once()
+    points = np.ascontiguousarray(frame.cloud.points, dtype=np.float32)
+    event = HeatChanged(frame.index, points, np.full((len(points), 3), 200, np.uint8))
+    left = 0
+    try:
+        for _ in range(40):
+            errors = storm(lambda: tab._on_heat(event), lambda k: tab.show_heat(k % 2 == 1), rounds=5)
+            assert not errors, errors
+            left += "/heat" in tab.client.scene._handle_from_node_name      # the 5th round switched it off
+    finally:
+        tab.show_heat(False)
+    assert left == 0, f"a heat map left after {left} of 40 switch-offs"
+
+
+def test_a_tab_gone_while_it_was_built_is_not_kept(demo, monkeypatch):
+    """viser calls the connect and the disconnect callbacks on its thread pool, side by side: a tab closed (a page
+    reloaded) while its Tab was still being built must not stay in app.tabs, streaming to nobody for ever."""
+    app, headless = demo
+    building, go_on, built = threading.Event(), threading.Event(), []
+
+    def slow_tab(client, services):
+        building.set()
+        go_on.wait(10)
+        built.append(Tab(client, services))
+        return built[-1]
+    monkeypatch.setattr("app.server.Tab", slow_tab)
+    ws = websockets.sync.client.connect(f"ws://127.0.0.1:{app.port}", subprotocols=[f"viser-v{viser.__version__}"])
+    ws.send(CAMERA_MESSAGE)
+    assert building.wait(10)
+    ws.close()
+    wait_for(lambda: len(app.server.get_clients()) == 1, 10, "viser to drop the client")
+    time.sleep(0.2)                                   # its disconnect callback has run meanwhile
+    go_on.set()
+    wait_for(lambda: built and (built[0].closed or built[0].client.client_id in app.tabs), 10, "the tab built")
+    time.sleep(0.1)
+    assert set(app.tabs) == {headless.tab.client.client_id} and built[0].closed
 
 
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
