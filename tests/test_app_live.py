@@ -53,9 +53,11 @@ def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
         np.testing.assert_array_equal(part.offsets, whole.offsets)
         np.testing.assert_array_equal(part.centre, whole.centre)
     for part in parts:
-        assert part.offsets.dtype == np.float16
+        assert part.offsets.dtype == np.float16 and part.offsets.flags.c_contiguous
+        mine = points[sources == part.source][part.half::2]
+        np.testing.assert_array_equal(part.offsets, (mine - part.centre.astype(np.float32)).astype(np.float16))
         back = part.offsets.astype(np.float64) + part.centre
-        np.testing.assert_array_less(np.abs(back - points[sources == part.source][part.half::2]), 0.3e-3)
+        np.testing.assert_array_less(np.abs(back - mine), 0.3e-3)
     wide = points * [1, 1, 1] + np.where(np.arange(len(points)) % 2, 0, 2.5 * FLOAT16_EXTENT)[:, None]
     parts = stream_parts(Cloud(wide.astype(np.float32), sources, np.arange(len(points)), 640), range(4))
     assert {p.offsets.dtype for p in parts[:6]} == {np.dtype(np.float32)}    # too wide for float16: float32
