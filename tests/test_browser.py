@@ -178,7 +178,7 @@ def test_dense_result_has_its_own_layer(app, tab):
     page.screenshot(path=ARTIFACTS / "browser-dense.png")
 
 
-def test_exports_never_overwrite(app, tab):
+def test_exports_never_overwrite(app, tab, tmp_path):
     page, _ = tab
     step(page, "Session")
     names = []
@@ -186,10 +186,9 @@ def test_exports_never_overwrite(app, tab):
         with page.expect_download() as download:
             button(page, "Export the cloud as PLY")
         names.append(download.value.suggested_filename)
-        target = ARTIFACTS / names[-1]
-        download.value.save_as(target)
+        download.value.save_as(tmp_path / names[-1])      # as the browser saves it (not kept: every run has two)
     assert names[0] != names[1]
-    points, sources = read_ply(ARTIFACTS / names[0])
+    points, sources = read_ply(tmp_path / names[0])
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
     assert len(list((Path(app.editor.session.root) / "exports").glob("frame-*.ply"))) == 2
 
