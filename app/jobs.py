@@ -179,18 +179,17 @@ class Jobs:
         editor.set_planes(planes, offsets, what="refined plane")
         return "\n\n".join(f"**{r.name}** refined: {r.summary()}" for r in result.mirrors)
 
-    def start_agreement(self, session: Session, depth: np.ndarray) -> None:
-        """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), as
-        the job's last status; skipped while one is running."""
+    def start_agreement(self, depth: np.ndarray) -> None:
+        """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
+        the current session's planes and selection, as the job's last status; skipped while one is running."""
         if self.running(AGREEMENT):
             return
         snapshot = self.snapshot()
 
         def work(cancel: threading.Event) -> str:
-            mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, session.selection)[1]
-            found = view_agreement(snapshot.rig, depth[None], mask[None])
-            lines = [agreement_line(session.mirrors[j - 1].name, *found[j])
-                     for j in sorted(found) if 1 <= j <= len(session.mirrors)]
+            mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1]
+            found = view_agreement(snapshot.rig, depth[None], mask[None])        # by the rig's mirror index
+            lines = [agreement_line(snapshot.rig.mirrors[j].name, *found[j]) for j in sorted(found)]
             return "\n\n".join(lines) or "no view sees what another sees"
         self._start(AGREEMENT, work, "")
 

@@ -12,6 +12,7 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
+from app.jobs import agreement_line
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
 from app.panels.mirrors import MirrorsPanel
@@ -21,7 +22,9 @@ from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
+from mirrorcore.refine import view_agreement
 from mirrorcore.session import load_session
 from mirrorcore.sim.export import session_mirrors
 
@@ -163,6 +166,13 @@ def test_refine_from_the_object_and_the_heat_map(sphere):
     tab = headless.tab
     mirrors = panel(tab, MirrorsPanel)
     wait_for(lambda: "agrees with the other views within" in mirrors.agreement.content, 60, "the agreement")
+    snapshot, depth = app.snapshot, app.last_frame.depth                     # each mirror under its own name,
+    found = view_agreement(snapshot.rig, depth[None],                          # with its own figures
+                           prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1][None])
+    expected = "\n\n".join(agreement_line(m.name, *found[j]) for j, m in enumerate(snapshot.rig.mirrors))
+    app.jobs.start_agreement(depth)
+    wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
+    assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
     app.jobs.start_refine(app.editor)
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")

@@ -283,7 +283,7 @@ class MirrorsPanel:
         frame = self.services.last_frame
         if frame is not None:
             self.agreement.content = "checking how the views agree…"
-            self.services.jobs.start_agreement(self.services.editor.session, frame.depth)
+            self.services.jobs.start_agreement(frame.depth)
 
     def _apply(self) -> None:
         fits, self.proposal = self.proposal, None
