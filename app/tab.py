@@ -209,7 +209,8 @@ class Tab:
             if self.state.mirror_id not in ids:
                 self.state.mirror_id = ids[-1] if ids else None
                 self.state.picked_marker = self.state.picked_corner = None
-            key = tuple((m.id, m.name, m.plane, m.boundary) for m in snapshot.session.mirrors)
+            session = snapshot.session           # what the scene draws: mirrors, and virtual cameras to `bounces`
+            key = (session.bounces, *((m.id, m.name, m.plane, m.boundary) for m in session.mirrors))
             if key != self._session_key:
                 self._session_key = key
                 self.scene.show_rig(snapshot.rig, ids)

@@ -388,8 +388,10 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
             app.editor.set_bounces(1)
             frame = app.loop.run_once()
             assert max(frame.counts) <= 2 and app.snapshot.session.bounces == 1
+            assert len(tab.scene._virtual) == 2                                   # the tab's own cameras too
             assert app.editor.undo(SESSION_SCOPE) == "mirrors followed in turn"
             assert app.snapshot.session.bounces == 3
+            assert len(tab.scene._virtual) >= 2 + len(multi)
     finally:
         app.stop()
 
