@@ -76,7 +76,7 @@ class MirrorRefinement:
                 f"and {self.tilt_deg:.3f} deg (known to +-{self.shift_std_mm:.2f} mm, +-{self.tilt_std_deg:.3f} deg, "
                 f"{self.agreements} points seen both ways)")
         if self.marker_offset is not None:
-            text += f", markers {1e3 * self.marker_offset:.1f} mm in front of the glass"
+            text += f", markers {1e3 * self.marker_offset:.1f} mm in front of the silver (saved as its glass)"
         return text
 
 

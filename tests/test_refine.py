@@ -192,7 +192,7 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
     for mirror, report, truth in zip(refined.mirrors, result.mirrors, sim.planes):
         assert mirror.plane == report.after and abs(offset_at(mirror.plane, centre) - offset_at(truth, centre)) < 1e-3
         assert mirror.marker_offset == pytest.approx(0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
-        assert f"markers {1e3 * report.marker_offset:.1f} mm in front of the glass" in report.summary()
+        assert f"markers {1e3 * report.marker_offset:.1f} mm in front of the silver (saved as its glass)" in report.summary()
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
 
 
