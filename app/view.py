@@ -36,6 +36,12 @@ def mirror_outline(intr: Intrinsics, mirror) -> np.ndarray | None:
     return outline if np.all(np.isfinite(outline)) else None
 
 
+def label_anchor(outline: np.ndarray) -> np.ndarray:
+    """(3,) metres: where a mirror's name goes, the middle of its outline's two highest corners (up is -y): the top
+    edge's middle for a pane, and apart for two mirrors hinged at a shared top corner. outline : (b, 3) metres."""
+    return outline[np.argsort(outline[:, 1], kind="stable")[:2]].mean(axis=0)
+
+
 def scene_points(rig: Rig) -> np.ndarray:
     """(k, 3) metres: the points the first view must show, the camera, the mirrors' corners and where the object is
     expected (in front of the mirrors, on the optical axis at 2 m without them)."""
@@ -103,7 +109,7 @@ class TabScene:
                 self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32), faces,
                                            color=colour, opacity=0.2, side="double")
                 self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
-                                                         position=outline[np.argmin(outline[:, 1])],
+                                                         position=label_anchor(outline),
                                                          visible=self.labels_visible))
             self._show_virtual_cameras(rig, mirror_ids, fov, aspect)
 

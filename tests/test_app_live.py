@@ -23,6 +23,7 @@ from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from app.tab import Tab
+from app.view import label_anchor
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import Cancelled, MirrorscanError
@@ -385,6 +386,8 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
             assert {label for label, _ in tab.scene._clouds} >= set(multi)          # streamed as their own nodes
             assert "mirror 1 then mirror 2" in tab.header.legend.content
             assert len(tab.scene._virtual) >= 2 + len(multi)                       # first and second order
+            first, second = (np.array(label.position) for label in tab.scene._labels)
+            assert np.linalg.norm(first - second) > 0.2           # the names apart, not both at the hinge's top
             app.editor.set_bounces(1)
             frame = app.loop.run_once()
             assert max(frame.counts) <= 2 and app.snapshot.session.bounces == 1
@@ -394,6 +397,11 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
             assert len(tab.scene._virtual) >= 2 + len(multi)
     finally:
         app.stop()
+
+
+def test_a_mirrors_name_is_at_the_middle_of_its_top_edge():
+    pane = np.array([[-0.5, 0.4, 2.0], [0.5, 0.4, 2.0], [0.5, -0.6, 2.2], [-0.5, -0.6, 2.2]])   # up is -y
+    np.testing.assert_allclose(label_anchor(pane), [0.0, -0.6, 2.2])
 
 
 def test_reading_pixels_shows_one_note_at_a_time(demo):
