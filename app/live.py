@@ -78,6 +78,12 @@ class LiveFrame:
         return depth_layer(self.depth, self.mask, *self.depth_range)
 
 
+def frame_number(index: int, frame_count: int | None) -> int:
+    """A live frame's number as the technician sees it: its place in the recording that plays (which loops; from 0,
+    as the frame slider and the recording's files count), or its running index for a live source."""
+    return index % frame_count if frame_count else index
+
+
 def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors) -> LiveFrame:
     t0 = time.perf_counter()
     prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)

@@ -343,6 +343,11 @@ def test_record_then_replay_with_the_calibration(sphere):
     np.testing.assert_array_equal(app.last_frame.depth, first)        # the replay gives the recorded frame back
     app.step()                                     # exactly one more frame
     wait_for(lambda: app.last_frame.index == 1)
+    count = len(recorded.frames)
+    app.seek(count + 1)                                                # the recording looped: its frame 1 again
+    wait_for(lambda: app.last_frame.index == count + 1)
+    wait_for(lambda: headless.tab.header.rate.content.startswith(f"frame 1 of {count} "), what="the header")
+    assert panel(headless.tab, SessionPanel).export_cloud().name.startswith("frame-000001-")   # named alike
     assert record.replay.disabled                                      # it plays: not offered again
     playing = app.source
     app.back_to_start_source()

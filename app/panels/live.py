@@ -11,7 +11,7 @@ from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import LoopChanged
-from ..live import LiveFrame
+from ..live import LiveFrame, frame_number
 
 STATS_HZ = 4.0
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
@@ -154,13 +154,14 @@ class LivePanel:
         services = self.tab.services
         paced = services.fps_wanted()
         count = services.source.frame_count
-        which = f"frame {frame.index % count} of {count}" if count else f"frame {frame.index}"
+        number = frame_number(frame.index, count)
+        which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
         self.rate.content = (f"{which} · {rate} · processing {frame.process_ms:.1f} ms"
                              + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
                                 if paced and not services.paused else ""))
         if count:
-            self.seek.value = frame.index % count
+            self.seek.value = number
         self.legend.content = legend_html(frame.counts, source_names(frame.snapshot.session), frame.mirror_ids)
         if first:
             self.refresh_hint()

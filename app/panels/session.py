@@ -13,6 +13,7 @@ from mirrorcore.session import SESSION_FILE, copy_session, load_session, session
 from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
+from ..live import frame_number
 
 TITLE = "Session"
 CHOOSE = ""          # the Open list's first entry: nothing is opened by a stray click on the button
@@ -107,6 +108,7 @@ class SessionPanel:
             raise MirrorscanError("no cloud yet to export")
         data = encode_ply(frame.cloud.points, frame.cloud.sources)
         root = self.services.editor.session.root if self.services.editor.autosave else None
-        saved = export_ply(root, f"frame-{frame.index:06d}", data, self.tab.client)
+        number = frame_number(frame.index, self.services.source.frame_count)     # as the header names it
+        saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
         self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
         return saved
