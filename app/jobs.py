@@ -37,6 +37,8 @@ if TYPE_CHECKING:
 log = logging.getLogger("mirrorscan")
 DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
+NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
+REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
 
 
@@ -108,10 +110,10 @@ class Jobs:
             except Cancelled:
                 status = "cancelled"
             except (MirrorscanError, OSError) as exc:
-                status = f"not done: {exc}"
+                status = f"{NOT_DONE}: {exc}"
             except Exception as exc:  # noqa: BLE001 - a bug must still end the job with a status, never a blank one
                 log.exception("%s failed", kind)
-                status = f"failed: {type(exc).__name__}: {exc}"
+                status = f"{FAILED}: {type(exc).__name__}: {exc}"
             finally:
                 with self._lock:
                     self._running.pop(kind, None)
@@ -177,7 +179,8 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane")
-        return "\n\n".join(f"**{r.name}** refined: {r.summary()}" for r in result.mirrors)
+        return "\n\n".join([refined_headline(result.mirrors)]
+                             + [f"**{r.name}** refined: {r.summary()}" for r in result.mirrors])
 
     def start_agreement(self, depth: np.ndarray) -> None:
         """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
@@ -292,6 +295,13 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def refined_headline(mirrors) -> str:
+    """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
+    moved = [f"{r.name} moved {r.shift_mm:+.1f} mm and {r.tilt_deg:.2f} deg"
+             + (f", glass {1e3 * r.marker_offset:.1f} mm" if r.marker_offset is not None else "") for r in mirrors]
+    return f"{REFINED}: {'; '.join(moved)}. Undo puts the planes before back."
 
 
 def agreement_line(name: str, rms: float, mean: float, points: int) -> str:

@@ -359,11 +359,12 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
 
 def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> float | None:
     """How far (metres) markers' faces stand in front of `plane` (towards the camera): the median signed distance of
-    their readings (calibration.marker_points) in depth (H, W) float metres; None with fewer than 3 usable markers
-    or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
+    their readings (calibration.marker_points) in depth (H, W) float metres, 0 when that median is negative (markers
+    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); None with
+    fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
     groups = [marker_points(intr, depth, m) for m in markers]
     usable = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
     if len(usable) < 3:
         return None
     offset = float(np.median(plane.signed_distance(np.concatenate(usable).astype(np.float64))))
-    return offset if abs(offset) <= MAX_MARKER_OFFSET else None
+    return max(offset, 0.0) if abs(offset) <= MAX_MARKER_OFFSET else None

@@ -4,6 +4,7 @@ proposal and applied only on confirmation, measuring, exports that never overwri
 and cancel, record and replay, and two tabs that keep their own click mode and mirror. The tests are the steps of one
 technician's session on one app (the module's `sphere`), in order: each starts where the one before left the session
 (a dense run needs the background and the mirrors of the steps before), so run the module, not a test alone."""
+import re
 import time
 from pathlib import Path
 
@@ -158,7 +159,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
 
 
-def test_refine_from_the_object_and_the_heat_map(sphere):
+def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     """After the markers fit: the views' agreement is reported, 'Refine from the object' refines both planes on a
     worker and reports each mirror (agreement before and after, the change, how well determined), the glass in
     front of the silver can be set per mirror, and a tab's heat map shows a frame's points one colour each."""
@@ -174,9 +175,14 @@ def test_refine_from_the_object_and_the_heat_map(sphere):
     wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
     assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
+    said = notes(app)
     app.jobs.start_refine(app.editor)
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
     assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
+    headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
+    assert re.fullmatch(r"Planes refined: mirror 1 moved [+-]\d+\.\d mm and \d+\.\d\d deg(, glass \d+\.\d mm)?; "
+                        r"mirror 2 moved .*\. Undo puts the planes before back\.", headline), headline
+    assert said == [headline]
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right

@@ -17,7 +17,8 @@ from mirrorcore.palette import heat_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian, view_agreement
+from mirrorcore.refine import (marker_offset, moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian,
+                              view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -260,3 +261,13 @@ def test_the_error_budget_experiment_on_noiseless_frames():
     row = bias_row("sphere", "ideal", 0, 2)
     assert row.frames == 2 and row.spread_mm == pytest.approx((0.0, 0.0), abs=1e-9)
     assert row.mean_mm == pytest.approx(tuple(found[0, :, 0]), abs=1e-9) and np.isnan(row.correlation)
+
+
+def test_markers_read_behind_the_silver_give_no_glass():
+    """The glass estimated from markers read on a wall at 2 m: 1 mm in front of a plane 1 mm behind them, and 0 (not
+    -1 mm: markers cannot stand behind the silver, it is the readings' noise) for a plane 1 mm in front of them."""
+    wall = Plane((0.0, 0.0, -1.0), 2.0)
+    depth = plane_depth(CAMERA, wall).astype(np.float64)
+    markers = [(200.0, 200.0), (320.0, 240.0), (440.0, 300.0)]
+    assert marker_offset(CAMERA, depth, markers, Plane((0.0, 0.0, -1.0), 2.001)) == pytest.approx(0.001, abs=1e-6)
+    assert marker_offset(CAMERA, depth, markers, Plane((0.0, 0.0, -1.0), 1.999)) == 0.0

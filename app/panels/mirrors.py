@@ -14,7 +14,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, REFINE
+from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -52,6 +52,8 @@ class MirrorsPanel:
                                      "clicks a pixel off)")
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
+        self.result = gui.add_markdown("")           # a fit's or refinement's report, under the buttons that made it
+        self.agreement = gui.add_markdown("")
         self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
@@ -60,8 +62,6 @@ class MirrorsPanel:
         self.delete_corner = gui.add_button("Delete the picked corner", visible=False)
         self.clear_boundary = gui.add_button("Clear boundary", visible=False)
         self.markers = gui.add_html("")
-        self.result = gui.add_markdown("")
-        self.agreement = gui.add_markdown("")
         with gui.add_folder("Rename, glass, remove, clear", expand_by_default=False):
             self.name = gui.add_text("Name", "")
             self.rename = gui.add_button("Rename")
@@ -100,6 +100,9 @@ class MirrorsPanel:
             self.refine_progress.visible = running
             if running:
                 self.refine_progress.value = 100.0 * event.fraction
+            else:                                   # its end, in view whatever the panel's scroll
+                self.services.notify(self.tab.client, "Refinement", event.status.split("\n\n")[0],
+                                     error=event.status.startswith((NOT_DONE, FAILED)))
             self.result.content = event.status
         elif event.job == AGREEMENT:
             self.agreement.content = event.status
