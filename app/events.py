@@ -61,11 +61,14 @@ class DenseChanged:
 
 @dataclass(frozen=True, eq=False)
 class HeatChanged:
-    """The heat map of live frame `index`: its points (n, 3) float32 metres and their colours (n, 3) uint8."""
+    """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3) uint8, and per view
+    seen in a mirror (source label) the median distance (mm) and the share of its points compared
+    (mirrorcore.agreement.heat_figures)."""
 
     index: int
     points: "np.ndarray"
     colours: "np.ndarray"
+    figures: dict
 
 
 class EventBus:

@@ -14,13 +14,13 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mirrorcore.agreement import surface_distances
+from mirrorcore.agreement import heat_figures, surface_distances
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.palette import heat_colours
+from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import refine_session, view_agreement
 from mirrorcore.session import SESSION_FILE, Session, save_session
@@ -199,13 +199,16 @@ class Jobs:
     def start_heat(self, frame: "LiveFrame") -> None:
         """The heat map of one live frame, on a worker (about a third of a second a frame): its points, grey for the
         direct view and coloured by their distance to the direct surface for the mirrors' (white on it, red
-        outside, blue inside, HEAT_LIMIT_MM and beyond saturated), published as HeatChanged; skipped while one runs."""
+        outside, blue inside, HEAT_LIMIT_MM and beyond saturated; dark grey where the camera does not see them), and
+        each mirror view's figures, published as HeatChanged; skipped while one runs."""
         if self.running(HEAT):
             return
 
         def work(cancel: threading.Event) -> None:
             distances = surface_distances(frame.snapshot.rig, frame.cloud, frame.prepared_depth)
-            self.bus.publish(HeatChanged(frame.index, frame.cloud.points, heat_colours(distances, HEAT_LIMIT_MM)))
+            sources = frame.cloud.sources
+            colours = heat_map_colours(distances, sources, HEAT_LIMIT_MM)
+            self.bus.publish(HeatChanged(frame.index, frame.cloud.points, colours, heat_figures(distances, sources)))
         self._start(HEAT, work, "")
 
     # ------------------------------------------------------------------ batch reconstruction

@@ -49,6 +49,7 @@ class Tab:
         self._stale = True          # the cloud shown is not the last frame's: send both halves next
         self.dense_visible, self.dense_beside = True, True
         self.heat, self._last_heat = False, 0.0
+        self.heat_figures: dict[int, tuple[float, float]] = {}   # the last heat map's, per mirror view (HeatChanged)
         self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
         self._framed = False
         camera = services.snapshot.session.camera
@@ -149,12 +150,14 @@ class Tab:
             self.heat, self._stale, self._last_heat = on, True, 0.0
             if not on:
                 self.scene.show_heat(None, None)
+                self.heat_figures = {}
         self.scene.show_clouds(not on and self.state.view == "3d")
 
     def _on_heat(self, event: HeatChanged) -> None:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
             if self.heat and not self.closed:
                 self.scene.show_heat(event.points, event.colours)
+                self.heat_figures = event.figures
 
     def show_dense(self, result) -> None:
         """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""

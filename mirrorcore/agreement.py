@@ -158,3 +158,16 @@ def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
             pixels = views.points(j).pixels[found.index]
             out[np.searchsorted(cloud.pixel_index, pixels)] = 1e3 * found.residual
     return out
+
+
+def heat_figures(distances: np.ndarray, sources: np.ndarray) -> dict[int, tuple[float, float]]:
+    """Per view seen in a mirror, what the heat map shows: {source label: (median distance mm to the direct surface,
+    NaN when none is compared; the share of its points compared, 0 to 1)}. distances (n,) float mm as
+    surface_distances gives them, sources (n,) their labels."""
+    distances, sources = np.asarray(distances, dtype=np.float64), np.asarray(sources)
+    figures = {}
+    for label in np.unique(sources[sources != 0]):
+        mine = distances[sources == label]
+        compared = mine[np.isfinite(mine)]
+        figures[int(label)] = (float(np.median(compared)) if len(compared) else float("nan"), len(compared) / len(mine))
+    return figures

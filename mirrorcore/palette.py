@@ -146,6 +146,7 @@ def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.nd
 HEAT_NEGATIVE = np.array([33, 102, 172])    # inside the direct surface: blue
 HEAT_ZERO = np.array([247, 247, 247])       # on it: white
 HEAT_POSITIVE = np.array([178, 24, 43])     # outside it: red
+HEAT_UNCOMPARED = np.array([70, 70, 70])    # a mirror's point with nothing to compare with: dark grey
 
 
 def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) -> np.ndarray:
@@ -155,3 +156,12 @@ def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) ->
     rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t, HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
     rgb[np.isnan(np.asarray(values, dtype=np.float64))] = missing
     return np.round(rgb).astype(np.uint8)
+
+
+def heat_map_colours(distances: np.ndarray, sources: np.ndarray, limit: float) -> np.ndarray:
+    """The heat map of a cloud: distances (n,) float mm to the direct surface (NaN for none), sources (n,) labels ->
+    (n, 3) uint8 RGB: heat_colours for the mirrors' points compared, the direct grey for the camera's own points,
+    HEAT_UNCOMPARED (dark grey) for the mirrors' points the camera does not see."""
+    colours = heat_colours(distances, limit)
+    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(distances, dtype=np.float64))] = HEAT_UNCOMPARED
+    return colours

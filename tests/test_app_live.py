@@ -219,7 +219,7 @@ def test_switching_the_heat_map_off_while_one_is_drawn_leaves_none(demo):
     tab = headless.tab
     frame = app.loop.run_once()
     points = np.ascontiguousarray(frame.cloud.points, dtype=np.float32)
-    event = HeatChanged(frame.index, points, np.full((len(points), 3), 200, np.uint8))
+    event = HeatChanged(frame.index, points, np.full((len(points), 3), 200, np.uint8), {})
     left = 0
     try:
         for _ in range(40):

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from helpers import plane_depth
 
-from mirrorcore.agreement import frame_views, in_view, surface_distances
+from mirrorcore.agreement import frame_views, heat_figures, in_view, surface_distances
 from mirrorcore.calibration import calibrate_from_pairs
 from mirrorcore.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.palette import heat_colours
+from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, view_points
 from mirrorcore.reconstruct import reconstruct_raw
@@ -247,6 +247,13 @@ def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
     assert colours[2].tolist() == [247, 247, 247] and colours[0].tolist() == [33, 102, 172]
     assert colours[4].tolist() == [178, 24, 43] and colours[5].tolist() == [150, 150, 150]
     assert colours[1, 0] < 247 and colours[3, 0] > 200 and colours[3, 1] < 247      # halfway to blue, to red
+    distances = np.array([np.nan, np.nan, 2.0, np.nan, -1.0, 3.0, np.nan])             # the camera's, mirror 1's,
+    sources = np.array([0, 0, 1, 1, 2, 2, 2], np.uint8)                                # mirror 2's
+    colours = heat_map_colours(distances, sources, limit=10.0)
+    assert colours[:2].tolist() == [[150, 150, 150]] * 2                               # the camera's own: grey
+    assert colours[3].tolist() == colours[6].tolist() == [70, 70, 70]                  # not compared: dark grey
+    np.testing.assert_array_equal(colours[[2, 4, 5]], heat_colours(distances[[2, 4, 5]], 10.0))
+    assert heat_figures(distances, sources) == {1: (2.0, 0.5), 2: (1.0, pytest.approx(2 / 3))}
 
 
 def test_the_error_budget_experiment_on_noiseless_frames():

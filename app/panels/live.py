@@ -1,16 +1,20 @@
 """The status header above the steps: the source and frame rate, one 'Start here' line that says what to do next,
-the view (3D scene or depth frame), the legend with the points per source, and playback (pause, step, frame,
-point size)."""
+the view (3D scene or depth frame), the legend with the points per source (or, while the heat map shows, its key and
+each mirror's figures), and playback (pause, step, frame, point size)."""
 from __future__ import annotations
 
 import time
 from typing import Callable
 
-from mirrorcore.palette import source_colour, source_name, source_sequence
+import numpy as np
+
+from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO, SOURCE_COLOURS, source_colour,
+                                source_name, source_sequence)
 from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import LoopChanged
+from ..jobs import HEAT_LIMIT_MM
 from ..live import LiveFrame, frame_number
 
 STATS_HZ = 4.0
@@ -36,13 +40,30 @@ def source_names(session: Session) -> Callable[[int], str]:
 
 def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: tuple[int, ...]) -> str:
     """One line: a swatch in each source's colour, its name and its point count; counts {label: points}."""
-    items = []
-    for j, count in counts.items():
-        r, g, b = (int(c) for c in source_colour(j, mirror_ids))
-        items.append(f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;'
-                     f'width:0.8em;height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:2px">'
-                     f'</span>{name(j)} <b>{count:,}</b></span>')
-    return f'<div style="font-size:0.85em;line-height:1.5">{"".join(items)}</div>'
+    items = "".join(_swatch(source_colour(j, mirror_ids), f"{name(j)} <b>{count:,}</b>") for j, count in counts.items())
+    return f'<div style="font-size:0.85em;line-height:1.5">{items}</div>'
+
+
+HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_MM:g} mm outside"),
+            (HEAT_NEGATIVE, f"{HEAT_LIMIT_MM:g} mm inside"), (SOURCE_COLOURS[0], "the camera's points"),
+            (HEAT_UNCOMPARED, "not seen by the camera"))
+
+
+def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[int], str]) -> str:
+    """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
+    and the share of its points compared (figures as in HeatChanged; empty until the first map arrives)."""
+    key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
+    lines = [f"{name(j)}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
+             else f"{name(j)}: none of its points seen by the camera" for j, (median, share) in figures.items()]
+    body = "<br>".join(lines) if figures else "computing the heat map…"
+    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}</div>'
+
+
+def _swatch(colour, text: str) -> str:
+    r, g, b = (int(c) for c in colour)
+    return (f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;width:0.8em;'
+            f'height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:2px;'
+            f'border:1px solid #999"></span>{text}</span>')
 
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
@@ -162,7 +183,9 @@ class LivePanel:
                                 if paced and not services.paused else ""))
         if count:
             self.seek.value = number
-        self.legend.content = legend_html(frame.counts, source_names(frame.snapshot.session), frame.mirror_ids)
+        names = source_names(frame.snapshot.session)
+        self.legend.content = (heat_legend_html(self.tab.heat_figures, names) if self.tab.heat
+                               else legend_html(frame.counts, names, frame.mirror_ids))
         if first:
             self.refresh_hint()
 
