@@ -29,8 +29,13 @@ class DepthScreen:
         self.centre = np.array([0.0, 0.0, -SCREEN_DISTANCE])
         self.handle = client.scene.add_image("/depth_frame", np.zeros((intr.height, intr.width, 3), np.uint8),
                                              self.width, self.height, format="jpeg", jpeg_quality=85,
-                                             position=tuple(self.centre))
+                                             position=tuple(self.centre), visible=False)
         self.handle.on_click(self._clicked)
+
+    def set_visible(self, visible: bool) -> None:
+        """Shown while the tab looks at it; hidden in the 3D view, where it stood behind the camera when zoomed out
+        (its image is still refreshed, so that it is current when looked at)."""
+        self.handle.visible = visible
 
     def show(self, rgb: np.ndarray) -> None:
         """rgb : (H, W, 3) uint8."""

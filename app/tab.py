@@ -131,6 +131,7 @@ class Tab:
         self.scene.show_clouds(not depth and not self.heat)
         self.scene.show_labels(not depth)
         self.scene.show_dense_layer(self.dense_visible and not depth)
+        self.screen.set_visible(depth)
         if depth:
             self.screen.look_at()
             self._send_screen(force=True)

@@ -123,9 +123,12 @@ def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypa
         time.sleep(0.5)                                     # let the messages reach the tab
         return (headless.bytes - start) / n, len(sent) - calls
     in_3d, clouds_3d = bytes_per_frame()
+    assert not tab.screen.handle.visible                   # the depth frame does not stand in the 3D scene
     tab.look("depth")
+    assert tab.screen.handle.visible
     _, clouds_depth = bytes_per_frame()
     tab.look("3d")
+    assert not tab.screen.handle.visible
     tab.hidden = True
     hidden, clouds_hidden = bytes_per_frame()
     tab.hidden = False
