@@ -287,4 +287,5 @@ def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(t
             process.kill()
     log = "".join(lines) + rest
     assert process.returncode == 130 and "Traceback" not in log and "handshake failed" not in log, log
+    assert f"mirrorscan serve: stopped; every edit is saved in {tmp_path / 'new'}" in rest and "cancelled" not in rest
     assert load_session(tmp_path / "new").mirrors == ()

@@ -5,6 +5,7 @@ import argparse
 import dataclasses
 import logging
 import signal
+import sys
 import time
 from pathlib import Path
 
@@ -79,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         while True:
             time.sleep(3600)
+    except KeyboardInterrupt:       # the way to stop it: not a cancelled command
+        print("mirrorscan serve: stopped" + (f"; every edit is saved in {session.root}" if autosave else
+                                             "; the demo's session was kept in memory only"), file=sys.stderr)
+        return 130
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
