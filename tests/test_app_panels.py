@@ -113,6 +113,9 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
     fit = measure.fit_current()
     assert abs(fit.shape.radius - 0.115) < 0.003
     assert "mirror 2" in measure.report.content and measure.plot.visible
+    mine = fit.per_source[2]                                              # a row per source, mm in the corner
+    row = f"| mirror 2 | {mine.points:,} | {mine.rmse * 1e3:.2f} | {mine.mean_error * 1e3:+.2f} |"
+    assert row in measure.report.content
     measure.fit_current()
     assert len(measure.history) == 2 and measure.history[0][0] == 0.0       # seconds since the plot's first fit
     measure.shape.value = "cylinder"

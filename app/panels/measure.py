@@ -46,12 +46,11 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
                    f"allows: the object may not be a {shape}.", ""]
     lines = [*warning, f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
-             "", "| | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
-             f"| all | {e.points:,} | {e.rmse * 1e3:.2f} mm | {e.mean_error * 1e3:+.2f} mm | "
-             f"{e.mean_abs_error * 1e3:.2f} mm |"]
-    for source, s in fit.per_source.items():
-        lines.append(f"| {name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} mm | {s.mean_error * 1e3:+.2f} mm | "
-                     f"{s.mean_abs_error * 1e3:.2f} mm |")
+             "", "| mm | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
+             f"| all | {e.points:,} | {e.rmse * 1e3:.2f} | {e.mean_error * 1e3:+.2f} | {e.mean_abs_error * 1e3:.2f} |"]
+    for source, s in fit.per_source.items():     # the unit in the corner: narrow columns keep a number on one line
+        lines.append(f"| {name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} | {s.mean_error * 1e3:+.2f} | "
+                     f"{s.mean_abs_error * 1e3:.2f} |")
     return "\n".join(lines)
 
 
