@@ -80,6 +80,7 @@ class Jobs:
     def __init__(self, loop: "LiveLoop", snapshot: Callable[[], "Snapshot"], bus: EventBus):
         self.loop, self.snapshot, self.bus = loop, snapshot, bus
         self.dense_result: DenseResult | None = None
+        self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
@@ -193,7 +194,8 @@ class Jobs:
             mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1]
             found = view_agreement(snapshot.rig, depth[None], mask[None])        # by the rig's mirror index
             lines = [agreement_line(snapshot.rig.mirrors[j].name, *found[j]) for j in sorted(found)]
-            return "\n\n".join(lines) or "no view sees what another sees"
+            self.agreement = "\n\n".join(lines) or "no view sees what another sees"
+            return self.agreement
         self._start(AGREEMENT, work, "")
 
     def start_heat(self, frame: "LiveFrame") -> None:

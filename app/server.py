@@ -252,6 +252,8 @@ class MirrorscanApp:
         self._last_error = ""
         if frame.index + 1 == RECENT_FRAMES:     # enough frames to grade the markers of the session as opened
             threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True).start()
+            if any(m.plane is not None for m in frame.snapshot.session.mirrors):
+                self.jobs.start_agreement(frame.depth)    # and to tell how its planes agree, before any fit
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:

@@ -411,6 +411,18 @@ def test_a_mirrors_name_is_at_the_middle_of_its_top_edge():
     np.testing.assert_allclose(label_anchor(right), [0.35, -0.5, 2.0])
 
 
+def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
+    """No fit needed: once the frames of the session as opened are in, the views' agreement is reported."""
+    source = demo_source()
+    app = MirrorscanApp(calibrated_session(source, Path("unused")), source, port=0, autosave=False)
+    app.start()
+    try:
+        report = wait_for(lambda: app.jobs.agreement, 60, "the agreement")
+        assert report.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in report
+    finally:
+        app.stop()
+
+
 def test_reading_pixels_shows_one_note_at_a_time(demo):
     """Inspect clicks each show the pixel's reading; the previous note goes (at 1024x600 they stacked over the
     depth frame)."""

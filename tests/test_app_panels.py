@@ -177,6 +177,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     app.jobs.start_agreement(depth)
     wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
     assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
+    with HeadlessTab(app) as later:                                            # a tab opening now shows it too
+        assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
     said = notes(app)
     app.jobs.start_refine(app.editor)

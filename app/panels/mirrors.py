@@ -53,7 +53,7 @@ class MirrorsPanel:
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.result = gui.add_markdown("")           # a fit's or refinement's report, under the buttons that made it
-        self.agreement = gui.add_markdown("")
+        self.agreement = gui.add_markdown(self.services.jobs.agreement)
         self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
@@ -246,6 +246,7 @@ class MirrorsPanel:
         move(scope if label is not None else SESSION_SCOPE)
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
         self.result.content = ""                   # the last fit's report no longer describes the mirror
+        self._check_agreement()                    # nor the views' agreement
         self.tab.changed()
 
     def _confirm_remove(self) -> None:
