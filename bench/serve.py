@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from app.demo import calibrated_session, demo_source
+from app.jobs import AGREEMENT
 from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.sources import StackSource
@@ -60,7 +61,8 @@ def run() -> dict[str, float]:
     try:
         with HeadlessTab(app) as tab:
             for _ in range(10):                              # warm up: first frames build caches, grade markers
-                app.loop.run_once()
+                app.loop.run_once()                          # and check the views' agreement (on a worker)
+            wait_for(lambda: not app.jobs.running(AGREEMENT), 60, "the agreement")
             time.sleep(1.0)
             start = time.perf_counter()
             for _ in range(FRAMES):
