@@ -224,7 +224,8 @@ class TabScene:
                 self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
-        """The dense reconstruction's box as a wireframe, named at its top (or none)."""
+        """The dense reconstruction's box as a wireframe, named at its top corner nearest the camera on the left (the
+        result's own label stands at the middle of its top: in place, the two did not overlap), or none."""
         with self._marks_lock:
             if self._box is not None:
                 self._box.remove()                      # and its label under it
@@ -235,4 +236,4 @@ class TabScene:
             self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
                                            position=tuple((low + high) / 2), wireframe=True)
             self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
-                                                   position=(0.0, (low[1] - high[1]) / 2, 0.0))   # up is -y
+                                                   position=tuple((low - high) / 2))   # -x, up (-y), -z

@@ -291,7 +291,11 @@ def test_dense_runs_shows_and_exports(sphere, method):
     assert (result.faces is not None) == (method.startswith("TSDF"))
     assert np.median(np.abs(np.linalg.norm(result.vertices - [0.0, 0.0, 2.0], axis=1) - 0.115)) < 0.004
     wait_for(lambda: headless.tab.scene._dense, what="the result drawn")
-    assert headless.tab.scene._box is not None and headless.tab.scene._box_label is not None   # with its box, named
+    scene = headless.tab.scene
+    assert scene._box is not None and scene._box_label is not None   # with its box, named
+    box_name = np.add(scene._box.position, scene._box_label.position)   # at its corner: a result drawn in place
+    top = np.array([(low[0] + high[0]) / 2, low[1], (low[2] + high[2]) / 2])  # has its own name at the top's middle
+    assert np.linalg.norm(box_name - top) > 0.1
     dense.export_result()
     saved = sorted((app.editor.session.root / "exports").glob(f"dense-{result.method}-*.ply"))[-1]
     points, _ = read_ply(saved)
