@@ -304,7 +304,7 @@ class Jobs:
 
 def refined_headline(mirrors) -> str:
     """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
-    moved = [f"{r.name} moved {r.shift_mm:+.1f} mm and {r.tilt_deg:.2f} deg"
+    moved = [f"{r.name} moved {round(r.shift_mm, 1) + 0.0:+.1f} mm and {r.tilt_deg:.2f} deg"   # no "-0.0"
              + (f", glass {1e3 * r.marker_offset:.1f} mm" if r.marker_offset is not None else "") for r in mirrors]
     return f"{REFINED}: {'; '.join(moved)}. Undo puts the planes before back."
 
