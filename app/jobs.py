@@ -81,6 +81,7 @@ class Jobs:
         self.loop, self.snapshot, self.bus = loop, snapshot, bus
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
+        self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
@@ -180,8 +181,10 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane")
-        return "\n\n".join([refined_headline(result.mirrors)]
-                             + [f"**{r.name}** refined: {r.summary()}" for r in result.mirrors])
+        report = "\n\n".join([refined_headline(result.mirrors)]
+                               + [f"**{r.name}** refined: {r.summary()}" for r in result.mirrors])
+        self.refinements[planes_key(editor.session)] = report
+        return report
 
     def start_agreement(self, depth: np.ndarray) -> None:
         """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
@@ -300,6 +303,11 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def planes_key(session: Session) -> tuple:
+    """What a refinement leaves: each mirror's id and plane (undo and redo find its report by it)."""
+    return tuple((m.id, m.plane) for m in session.mirrors)
 
 
 def refined_headline(mirrors) -> str:

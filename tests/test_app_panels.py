@@ -192,11 +192,13 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
     assert app.editor.undo_label(1) == "refined planes of mirror 1 and mirror 2"       # one step, from either
-    refined = {m.id: m.plane for m in app.editor.session.mirrors}
+    refined, report = {m.id: m.plane for m in app.editor.session.mirrors}, mirrors.result.content
     panel(tab, MirrorsPanel)._travel(app.editor.undo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
+    assert mirrors.result.content == f"Undone: {headline}"                            # said so
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
-    assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone
+    assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
+    assert mirrors.result.content == report                                           # its report back
     app.editor.set_marker_offset(1, 0.003)
     assert app.editor.mirror(1).marker_offset == 0.003
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):

@@ -14,7 +14,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE
+from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, planes_key
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -243,11 +243,22 @@ class MirrorsPanel:
         editor = self.services.editor
         scope = self.tab.state.mirror_id or SESSION_SCOPE
         label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
+        before = planes_key(editor.session)
         move(scope if label is not None else SESSION_SCOPE)
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
-        self.result.content = ""                   # the last fit's report no longer describes the mirror
-        self._check_agreement()                    # nor the views' agreement
+        self.result.content = self._report_after_travel(before, planes_key(editor.session))
+        self._check_agreement()                    # the views' agreement with the planes now
         self.tab.changed()
+
+    def _report_after_travel(self, before: tuple, after: tuple) -> str:
+        """After an undo or redo: the report of the refinement whose planes are back, or a line saying which one was
+        undone; else nothing (the last fit's report no longer describes the mirrors)."""
+        refinements = self.services.jobs.refinements
+        if after in refinements:
+            return refinements[after]
+        if before in refinements and before != after:
+            return "Undone: " + refinements[before].split("\n\n")[0]
+        return ""
 
     def _confirm_remove(self) -> None:
         mirror = self._mirror()
