@@ -188,15 +188,19 @@ class Jobs:
 
     def start_agreement(self, depth: np.ndarray) -> None:
         """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
-        the current session's planes and selection, as the job's last status; skipped while one is running."""
+        the current session's planes and selection, as the job's last status. While one runs, none is started: the
+        running one checks again when the rig or the background changed meanwhile (an undo, a fit), so that its
+        report is always the current planes'."""
         if self.running(AGREEMENT):
             return
-        snapshot = self.snapshot()
 
         def work(cancel: threading.Event) -> str:
-            mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1]
-            found = view_agreement(snapshot.rig, depth[None], mask[None])        # by the rig's mirror index
-            lines = [agreement_line(snapshot.rig.mirrors[j].name, *found[j]) for j in sorted(found)]
+            snapshot = None
+            while snapshot is None or not _same_views(snapshot, self.snapshot()):
+                snapshot = self.snapshot()
+                mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1]
+                found = view_agreement(snapshot.rig, depth[None], mask[None])        # by the rig's mirror index
+                lines = [agreement_line(snapshot.rig.mirrors[j].name, *found[j]) for j in sorted(found)]
             self.agreement = "\n\n".join(lines) or "no view sees what another sees"
             return self.agreement
         self._start(AGREEMENT, work, "")
@@ -303,6 +307,12 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def _same_views(a: "Snapshot", b: "Snapshot") -> bool:
+    """Whether two snapshots give the same clouds: the same rig (a Snapshot keeps the one before when the camera and
+    the mirrors are unchanged), background and selection."""
+    return a.rig is b.rig and a.backdrop is b.backdrop and a.session.selection == b.session.selection
 
 
 def planes_key(session: Session) -> tuple:

@@ -423,6 +423,34 @@ def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
         app.stop()
 
 
+def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch):
+    """A change of the mirrors while the agreement is computed (an undo, a fit: here a rename) is not left out: the
+    check asked for meanwhile is not started beside the running one, which checks again before it reports."""
+    import app.jobs
+    app_, _ = demo
+    frame, calls = app_.loop.run_once(), []
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
+    real = app.jobs.view_agreement
+
+    def renamed_meanwhile(rig, depths, masks):
+        calls.append(rig)
+        if len(calls) == 1:
+            app_.editor.rename_mirror(1, "left")
+            app_.jobs.start_agreement(frame.depth)                 # asked again while it runs: not started
+        return real(rig, depths, masks)
+    monkeypatch.setattr(app.jobs, "view_agreement", renamed_meanwhile)
+    done = []
+    unsubscribe = app_.bus.subscribe(JobProgress, lambda e: e.job == "agreement" and e.fraction is None
+                                     and done.append(e.status))
+    try:
+        app_.jobs.start_agreement(frame.depth)
+        report = wait_for(lambda: done, 60, "the agreement")[0]
+        assert report.startswith("left: agrees") and len(calls) == 2 and app_.jobs.agreement == report
+    finally:
+        unsubscribe()
+        app_.editor.rename_mirror(1, "mirror 1")
+
+
 def test_reading_pixels_shows_one_note_at_a_time(demo):
     """Inspect clicks each show the pixel's reading; the previous note goes (at 1024x600 they stacked over the
     depth frame)."""
