@@ -17,6 +17,7 @@ from ..events import JobProgress, LoopChanged
 from ..jobs import BATCH, RECORD
 
 TITLE = "Record"
+CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
 
 
 class RecordPanel:
@@ -84,7 +85,7 @@ class RecordPanel:
         """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
         self.services.jobs.cancel(BATCH)
         self.batch_cancel.disabled = True
-        self.batch_status.content = f"{self.batch_status.content} · **cancelling…**"
+        self.batch_status.content += CANCELLING
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job == BATCH:
@@ -93,7 +94,7 @@ class RecordPanel:
             if running:
                 self.batch_progress.value = 100.0 * event.fraction
             cancelling = running and self.batch_cancel.disabled
-            self.batch_status.content = event.status + (" · **cancelling…**" if cancelling else "")
+            self.batch_status.content = event.status + (CANCELLING if cancelling else "")
             if not running:
                 self.batch_cancel.disabled = False
             return
