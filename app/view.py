@@ -11,7 +11,7 @@ import viser
 import viser.transforms as tf
 
 from mirrorcore.geometry.camera import Intrinsics, pixels_on_plane
-from mirrorcore.palette import source_colour
+from mirrorcore.palette import source_colour, source_name
 from mirrorcore.rig import Rig
 
 from .jobs import DenseResult
@@ -85,6 +85,7 @@ class TabScene:
         self._dense: list = []                     # the dense result's nodes (result, label)
         self._dense_lock = threading.Lock()
         self._virtual: list = []                   # the virtual cameras' frusta
+        self._virtual_labels: list[viser.LabelHandle] = []    # and their names
         self.virtual_visible = True
         self._box = None
         self._box_label = None
@@ -115,9 +116,12 @@ class TabScene:
 
     def _show_virtual_cameras(self, rig: Rig, mirror_ids: tuple[int, ...], fov: float, aspect: float) -> None:
         """The camera as each mirror, and each sequence of mirrors, shows it (rig.virtual_cameras): the views
-        Algorithm 1 and the dense methods use, in their source's colour, those through several mirrors smaller."""
+        Algorithm 1 and the dense methods use, in their source's colour, those through several mirrors smaller, each
+        named after its view ('camera in left', 'camera in left then right')."""
         self.scene.remove_by_name("/virtual")
-        self._virtual = []
+        self.scene.remove_by_name("/virtual_labels")
+        self._virtual, self._virtual_labels = [], []
+        names = [m.name for m in rig.mirrors]
         for camera in rig.virtual_cameras():
             if not camera.sequence:
                 continue
@@ -127,12 +131,17 @@ class TabScene:
                 f"/virtual/{camera.source}", fov, aspect, scale=scale, color=colour,
                 wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
                 visible=self.virtual_visible))
+            self._virtual_labels.append(self.scene.add_label(
+                f"/virtual_labels/{camera.source}", f"camera in {source_name(camera.source, names)}",
+                position=camera.pose[:3, 3], visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:
         with self._marks_lock:
             self.virtual_visible = visible
             for handle in self._virtual:
                 handle.visible = visible
+            for label in self._virtual_labels:
+                label.visible = visible and self.labels_visible
 
     def show_labels(self, visible: bool) -> None:
         """Show or hide the mirrors' names and the dense box's (hidden while the depth frame is in view: no label
@@ -141,6 +150,8 @@ class TabScene:
             self.labels_visible = visible
             for label in self._labels + ([self._box_label] if self._box_label is not None else []):
                 label.visible = visible
+            for label in self._virtual_labels:
+                label.visible = visible and self.virtual_visible
 
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
         """Update the live cloud's nodes (one per source and half, placed at the part's centre) from `parts`: only

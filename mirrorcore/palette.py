@@ -91,14 +91,19 @@ def source_orders(sources: np.ndarray) -> np.ndarray:
     return _ORDERS[np.asarray(sources, dtype=np.int64)]
 
 
-def source_name(source: int) -> str:
+def source_name(source: int, names=None) -> str:
     """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b (...); 'source N' for a
-    label that names no view."""
+    label that names no view. names : optional, the mirrors' names in label order (a session's): 'left', 'left then
+    right' (a label beyond them keeps its number)."""
     try:
         sequence = source_sequence(source)
     except ValueError:
         return f"source {int(source)}"
-    return "direct" if not sequence else "mirror " + " then ".join(map(str, sequence))
+    if not sequence:
+        return "direct"
+    if names is not None and max(sequence) <= len(names):
+        return " then ".join(names[j - 1] for j in sequence)
+    return "mirror " + " then ".join(map(str, sequence))
 
 
 def _mirror_colour(j: int) -> np.ndarray:

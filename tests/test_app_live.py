@@ -200,7 +200,14 @@ def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
         scene.show_virtual_cameras(k % 2 == 0)
     errors = storm(redraw, restyle, rounds=300)
     assert not errors, errors
-    assert scene._box_label is not None and scene._labels and scene._virtual
+    assert scene._box_label is not None and scene._labels and scene._virtual and scene._virtual_labels
+    scene.show_virtual_cameras(True)
+    scene.show_labels(False)                                     # the depth view: no name over it
+    assert not any(label.visible for label in scene._virtual_labels)
+    scene.show_labels(True)
+    assert all(label.visible for label in scene._virtual_labels)
+    scene.show_virtual_cameras(False)                            # a camera's name goes with its frustum
+    assert not any(label.visible for label in scene._virtual_labels + scene._virtual)
 
 
 def test_two_threads_redrawing_the_rig_at_once_is_safe(demo):
@@ -389,10 +396,13 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
             assert {label for label, _ in tab.scene._clouds} >= set(multi)          # streamed as their own nodes
             assert "mirror 1 then mirror 2" in tab.header.legend.content
             assert len(tab.scene._virtual) >= 2 + len(multi)                       # first and second order
+            named = {label.text for label in tab.scene._virtual_labels}
+            assert {"camera in mirror 1", "camera in mirror 1 then mirror 2"} <= named
             app.editor.set_bounces(1)
             frame = app.loop.run_once()
             assert max(frame.counts) <= 2 and app.snapshot.session.bounces == 1
             assert len(tab.scene._virtual) == 2                                   # the tab's own cameras too
+            assert len(tab.scene._virtual_labels) == 2
             assert app.editor.undo(SESSION_SCOPE) == "mirrors followed in turn"
             assert app.snapshot.session.bounces == 3
             assert len(tab.scene._virtual) >= 2 + len(multi)

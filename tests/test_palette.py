@@ -32,6 +32,13 @@ def test_the_first_multi_bounce_labels_by_hand():
     assert sequence_label((2, 1)) == 34 and sequence_label((1, 3)) == 37
 
 
+def test_views_are_named_with_the_mirrors_names_when_given():
+    names = ["left", "right"]
+    assert [source_name(s, names) for s in (0, 1, 2, 33, 36)] == [
+        "direct", "left", "right", "left then right", "right then left then right"]
+    assert source_name(37, names) == "mirror 1 then 3" and source_name(250, names) == "source 250"   # beyond them
+
+
 def test_labels_and_sequences_are_inverse_and_fit_a_uchar():
     assert FIRST_MULTI_LABEL + len(MULTI_SEQUENCES) - 1 <= 254           # 255 is the dense grids' NO_SOURCE
     for i, sequence in enumerate(MULTI_SEQUENCES):

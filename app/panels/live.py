@@ -9,7 +9,7 @@ from typing import Callable
 import numpy as np
 
 from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO, SOURCE_COLOURS, source_colour,
-                                source_name, source_sequence)
+                                source_name)
 from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
@@ -24,18 +24,7 @@ VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 def source_names(session: Session) -> Callable[[int], str]:
     """A source label's name with the session's mirror names: 'direct', 'left', 'left then right'."""
     names = [m.name for m in session.mirrors]
-
-    def name(label: int) -> str:
-        try:
-            sequence = source_sequence(label)
-        except ValueError:
-            return source_name(label)
-        if not sequence:
-            return "direct"
-        if max(sequence) > len(names):
-            return source_name(label)
-        return " then ".join(names[j - 1] for j in sequence)
-    return name
+    return lambda label: source_name(label, names)
 
 
 def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: tuple[int, ...]) -> str:
