@@ -119,14 +119,19 @@ def test_cancelled_carving_gives_its_memory_back(sphere):
     app, _ = sphere
     statuses: list[str] = []
     app.bus.subscribe(JobProgress, lambda e: statuses.append(e.status) if e.fraction is None else None)
+    working, cancelled = threading.Event(), threading.Event()   # the carving waits at a report past its start until
+    hold = app.bus.subscribe(JobProgress, lambda e: (   # it is cancelled (a fast machine carved it all in 0.5 s)
+        e.job == DENSE and e.fraction and not cancelled.is_set() and (working.set(), cancelled.wait(60))))
     app.pause(True)                               # the live loop's own allocations are not the carving's
     time.sleep(0.5)
     tracemalloc.start()
     before = tracemalloc.get_traced_memory()[0]
     worker = carve_around_the_sphere(app, 0.001)  # 27 million voxels: hundreds of MB if it ran to the end
-    time.sleep(0.5)
+    assert working.wait(60)
     app.jobs.cancel("dense")                      # the Cancel button
+    cancelled.set()
     worker.join(timeout=120)
+    hold()
     after, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
     app.pause(False)
