@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("mirrorscan")
 DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
+CHECKING = "checking how the views agree…"
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
@@ -181,6 +182,7 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane")
+        self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
         report = "\n\n".join([refined_headline(result.mirrors)]
                                + [f"**{r.name}** refined: {r.summary()}" for r in result.mirrors])
         self.refinements[planes_key(editor.session)] = report
@@ -193,6 +195,7 @@ class Jobs:
         report is always the current planes'."""
         if self.running(AGREEMENT):
             return
+        self.bus.publish(JobProgress(AGREEMENT, 0.0, CHECKING))     # every tab: the lines there are the old planes'
 
         def work(cancel: threading.Event) -> str:
             snapshot = None
@@ -324,7 +327,7 @@ def refined_headline(mirrors) -> str:
     """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
     moved = [f"{r.name} moved {round(r.shift_mm, 1) + 0.0:+.1f} mm and {r.tilt_deg:.2f} deg"   # no "-0.0"
              + (f", glass {1e3 * r.marker_offset:.1f} mm" if r.marker_offset is not None else "") for r in mirrors]
-    return f"{REFINED}: {'; '.join(moved)}. Undo puts the planes before back."
+    return f"{REFINED}: {'; '.join(moved)}. Undo restores the previous planes."
 
 
 def agreement_line(name: str, rms: float, mean: float, points: int) -> str:

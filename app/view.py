@@ -1,7 +1,7 @@
-"""One tab's 3D scene: the depth camera, each mirror (a translucent pane, its name, its virtual camera), the live
-cloud (one node per source, float16 offsets from a centre), and the dense result in a layer of its own (its own
-colours, a label, its box). Every node belongs to the tab's client, so each tab shows and streams only what it
-looks at."""
+"""One tab's 3D scene: the depth camera, each mirror (a translucent pane) and the virtual cameras of the mirrors and
+of their sequences, each named; the live cloud (one node per source, float16 offsets from a centre), and the dense
+result in a layer of its own (its own colours, a label, its box). Every node belongs to the tab's client, so each
+tab shows and streams only what it looks at."""
 from __future__ import annotations
 
 import threading
@@ -100,7 +100,8 @@ class TabScene:
                                    # two threads re-adding /camera at once failed ('on a removed CameraFrustumHandle')
             self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
             self.scene.remove_by_name("/mirrors")
-            self._labels = []
+            self._labels = [self.scene.add_label("/mirrors/camera", "depth camera", position=(0.0, FRUSTUM_SCALE, 0.0),
+                                                 visible=self.labels_visible)]   # under it (y down); with the names
             for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
                 outline = mirror_outline(intr, mirror)
                 if outline is None:
@@ -131,9 +132,10 @@ class TabScene:
                 f"/virtual/{camera.source}", fov, aspect, scale=scale, color=colour,
                 wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
                 visible=self.virtual_visible))
-            self._virtual_labels.append(self.scene.add_label(
+            self._virtual_labels.append(self.scene.add_label(      # under it: clear of the mirror's name
                 f"/virtual_labels/{camera.source}", f"camera in {source_name(camera.source, names)}",
-                position=camera.pose[:3, 3], visible=self.virtual_visible and self.labels_visible))
+                position=camera.pose[:3, 3] + scale * camera.pose[:3, 1],
+                visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:
         with self._marks_lock:
@@ -144,8 +146,8 @@ class TabScene:
                 label.visible = visible and self.labels_visible
 
     def show_labels(self, visible: bool) -> None:
-        """Show or hide the mirrors' names and the dense box's (hidden while the depth frame is in view: no label
-        over it)."""
+        """Show or hide the names of the camera, the mirrors, the virtual cameras (those shown) and the dense box
+        (hidden while the depth frame is in view: no label over it)."""
         with self._marks_lock:
             self.labels_visible = visible
             for label in self._labels + ([self._box_label] if self._box_label is not None else []):
@@ -235,8 +237,9 @@ class TabScene:
                 self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
-        """The dense reconstruction's box as a wireframe, named at its top corner nearest the camera on the left (the
-        result's own label stands at the middle of its top: in place, the two did not overlap), or none."""
+        """The dense reconstruction's box as a wireframe, named at its bottom corner nearest the camera on the left
+        (the mirrors' and virtual cameras' names stand above the cloud, the result's own label at the middle of its
+        top), or none."""
         with self._marks_lock:
             if self._box is not None:
                 self._box.remove()                      # and its label under it
@@ -246,5 +249,6 @@ class TabScene:
             low, high = np.asarray(low, float), np.asarray(high, float)
             self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
                                            position=tuple((low + high) / 2), wireframe=True)
+            corner = (low - high) / 2 * (1.0, -1.0, 1.0)                       # -x, down (+y), -z
             self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
-                                                   position=tuple((low - high) / 2))   # -x, up (-y), -z
+                                                   position=tuple(corner))

@@ -181,12 +181,18 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
         assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
     said = notes(app)
+    ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
+    app.bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.job, e.status)))
     app.jobs.start_refine(app.editor)
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
+    # the agreement lines under the report are checked again, with the refined planes
+    wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
+    checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
+    assert mirrors.agreement.content == checked and "agrees with the other views" in checked
     assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
     assert re.fullmatch(r"Planes refined: mirror 1 moved [+-]\d+\.\d mm and \d+\.\d\d deg(, glass \d+\.\d mm)?; "
-                        r"mirror 2 moved .*\. Undo puts the planes before back\.", headline), headline
+                        r"mirror 2 moved .*\. Undo restores the previous planes\.", headline), headline
     assert said == [headline]
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...

@@ -38,9 +38,10 @@ class DensePanel:
         self.cancel = gui.add_button("Cancel", disabled=True, color="red")
         self.progress = gui.add_progress_bar(0.0, visible=False)
         self.status = gui.add_markdown("")
+        self.export = gui.add_button("Export the dense result as PLY", disabled=True)   # in view at 1024x600
         self.show = gui.add_checkbox("Show the dense result", initial_value=True)
-        self.beside = gui.add_checkbox("Beside the live cloud (else in place)", initial_value=True)
-        self.export = gui.add_button("Export the dense result as PLY", disabled=True)
+        self.beside = gui.add_checkbox("Beside the live cloud", initial_value=True,
+                                       hint="unticked: in place, over the live cloud")
         with gui.add_folder("Box (m, camera frame)", expand_by_default=False):
             self.margin = gui.add_slider("Margin around the cloud (mm)", min=0.0, max=200.0, step=5.0,
                                          initial_value=20.0)

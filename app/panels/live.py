@@ -106,12 +106,13 @@ class LivePanel:
             self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
-            self.virtual = gui.add_checkbox("Virtual cameras (through 1, 2, 3 mirrors)", initial_value=True)
-            self.heat = gui.add_checkbox("Heat map: the mirrors' points by their distance to the direct surface",
-                                         initial_value=False, hint="white on it, red outside, blue inside (10 mm "
-                                         "and more saturated), grey where there is nothing to compare; a frame a "
-                                         "second")
-            self.pixel = gui.add_markdown("Inspect mode: click the depth frame to read a pixel.")
+            self.virtual = gui.add_checkbox("Virtual cameras", initial_value=True,
+                                            hint="the camera as each mirror, and each sequence of mirrors, shows it")
+            self.heat = gui.add_checkbox("Heat map", initial_value=False,
+                                         hint="the mirrors' points by their distance to the surface the camera sees "
+                                         "directly: white on it, red outside, blue inside (10 mm and more "
+                                         "saturated), grey where there is nothing to compare; a frame a second")
+            self.pixel = gui.add_markdown("Last pixel read: none yet")
         self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))

@@ -52,10 +52,10 @@ class MirrorsPanel:
                                      "clicks a pixel off)")
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
+        self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
+        self.redo = gui.add_button("Redo", disabled=True)
         self.result = gui.add_markdown("")           # a fit's or refinement's report, under the buttons that made it
         self.agreement = gui.add_markdown(self.services.jobs.agreement)
-        self.undo = gui.add_button("Undo", disabled=True)
-        self.redo = gui.add_button("Redo", disabled=True)
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
         self.close = gui.add_button("Close boundary", visible=False)
@@ -297,7 +297,6 @@ class MirrorsPanel:
         """After new planes: how the views agree on the last frame (a worker fills it in)."""
         frame = self.services.last_frame
         if frame is not None:
-            self.agreement.content = "checking how the views agree…"
             self.services.jobs.start_agreement(frame.depth)
 
     def _apply(self) -> None:
