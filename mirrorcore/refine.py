@@ -14,6 +14,7 @@ metres): tilt and offset stay apart at the object, where they matter.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -319,10 +320,20 @@ def _agreement(found: _Residuals, j: int) -> tuple[float, float]:
     return float(1e3 * np.sqrt(np.mean(signed ** 2))), float(1e3 * np.mean(signed))
 
 
-def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, tuple[float, float, int]]:
+class ViewAgreement(NamedTuple):
+    """How one mirror's view agrees with the others: RMS and mean (mm, as in MirrorRefinement) over `points` readings
+    of it and of the camera that agree, and `noise_mm`, the RMS that the depth noise of the readings compared would
+    give alone (their sigma along the surface's normal). RMS, mean and noise are NaN without agreement."""
+
+    rms_mm: float
+    mean_mm: float
+    points: int
+    noise_mm: float
+
+
+def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, ViewAgreement]:
     """How well each calibrated mirror's view agrees with the others now, without changing anything (for the report
-    after a markers fit): {mirror index (0-based): (RMS mm, mean mm as in MirrorRefinement, readings of it and of
-    the camera that agree)}. depths, masks as for refine_planes; RMS and mean are NaN without agreement."""
+    after a markers fit): {mirror index (0-based): ViewAgreement}. depths, masks as for refine_planes."""
     depths, masks = np.asarray(depths), np.asarray(masks, bool)
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
@@ -330,7 +341,12 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     planes = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     centre = np.mean([f.centre for f in frames], axis=0)
     found = residuals(frames, planes, [], centre, SHOWN_GATE)
-    return {j - 1: (*_agreement(found, j), found.with_camera(j)) for j in planes}
+    out = {}
+    for j in planes:
+        sigma = found.sigma[found.involving(j)]
+        noise = float(1e3 * np.sqrt(np.mean(sigma ** 2))) if len(sigma) else float("nan")
+        out[j - 1] = ViewAgreement(*_agreement(found, j), found.with_camera(j), noise)
+    return out
 
 
 # --------------------------------------------------------------------------------------------- sessions

@@ -173,10 +173,11 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     snapshot, depth = app.snapshot, app.last_frame.depth                     # each mirror under its own name,
     found = view_agreement(snapshot.rig, depth[None],                          # with its own figures
                            prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1][None])
-    expected = "\n\n".join(agreement_line(m.name, *found[j]) for j, m in enumerate(snapshot.rig.mirrors))
+    expected = "\n\n".join(agreement_line(m.name, found[j]) for j, m in enumerate(snapshot.rig.mirrors))
     app.jobs.start_agreement(depth)
     wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
     assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
+    assert expected.count("as the depth noise there explains") == 2                    # a good calibration
     with HeadlessTab(app) as later:                                            # a tab opening now shows it too
         assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
