@@ -211,7 +211,7 @@ class Tab:
             for gone in [k for k in list(self.state.drafts) if k not in ids]:   # in place: a boundary click on
                 self.state.drafts.pop(gone, None)                                # a GUI thread adds to it meanwhile
             if self.state.mirror_id not in ids:
-                self.state.mirror_id = ids[-1] if ids else None
+                self.state.mirror_id = ids[0] if ids else None        # a new tab starts at the first
                 self.state.picked_marker = self.state.picked_corner = None
             session = snapshot.session           # what the scene draws: mirrors, and virtual cameras to `bounces`
             key = (session.bounces, *((m.id, m.name, m.plane, m.boundary) for m in session.mirrors))

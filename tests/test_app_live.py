@@ -18,6 +18,7 @@ from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import Jobs, agreement_line
 from app.panels.measure import fit_report
+from app.panels.mirrors import MirrorsPanel
 from app.panels.live import start_hint
 from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
@@ -41,6 +42,13 @@ def test_demo_planes_are_calibrated_close_to_the_truth(demo):
     for mirror, true in zip(app.snapshot.session.mirrors, truth):
         assert mirror.plane.angle_to(true) < 1.0
         assert abs(mirror.plane.d - true.d) < 0.01
+
+
+def test_a_new_tab_starts_at_the_first_mirror(demo):
+    app, headless = demo
+    first = app.snapshot.session.mirrors[0]
+    assert headless.tab.state.mirror_id == first.id
+    assert next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel)).mirror.value == first.name
 
 
 def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():

@@ -323,7 +323,7 @@ class MirrorsPanel:
         selected = next((m for m in session.mirrors if m.id == state.mirror_id), None)
         if self.mirror.options != names:
             self.mirror.options = names
-        self.mirror.value = selected.name if selected else names[-1]
+        self.mirror.value = selected.name if selected else names[0]
         if selected and self.name.value != selected.name:
             self.name.value = selected.name
         if selected:
