@@ -72,8 +72,8 @@ class MirrorRefinement:
     marker_offset: float | None = None
 
     def summary(self) -> str:
-        text = (f"agreement {self.agreement_before_mm:.2f} -> {self.agreement_after_mm:.2f} mm (mean "
-                f"{self.offset_before_mm:+.2f} -> {self.offset_after_mm:+.2f} mm), plane moved {self.shift_mm:+.2f} mm "
+        text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm (mean "
+                f"{self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved {self.shift_mm:+.2f} mm "
                 f"and {self.tilt_deg:.3f} deg (known to +-{self.shift_std_mm:.2f} mm, +-{self.tilt_std_deg:.3f} deg, "
                 f"{self.agreements} points seen both ways)")
         if self.marker_offset is not None:
