@@ -197,9 +197,7 @@ class Jobs:
         """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
         the current session's planes and selection, as the job's last status. While one runs, none is started: the
         running one checks again when the rig or the background changed meanwhile (an undo, a fit), so that its
-        report is always the current planes'."""
-        if self.running(AGREEMENT):
-            return
+        report is always the current planes'. Safe from any thread (the refinement's worker asks for one too)."""
         self.bus.publish(JobProgress(AGREEMENT, 0.0, CHECKING))     # every tab: the lines there are the old planes'
 
         def work(cancel: threading.Event) -> str:
@@ -211,7 +209,10 @@ class Jobs:
                 lines = [agreement_line(snapshot.rig.mirrors[j].name, found[j]) for j in sorted(found)]
             self.agreement = "\n\n".join(lines) or "no view sees what another sees"
             return self.agreement
-        self._start(AGREEMENT, work, "")
+        try:
+            self._start(AGREEMENT, work, "an agreement check is running")
+        except MirrorscanError:
+            pass                  # one runs (the check and the start are one step under the jobs' lock): it reports
 
     def start_heat(self, frame: "LiveFrame") -> None:
         """The heat map of one live frame, on a worker (about a third of a second a frame): its points, grey for the
