@@ -12,6 +12,7 @@ The heat map of a calibration (points coloured by their distance to the direct s
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import lru_cache
 from itertools import pairwise, product
 from typing import Sequence
@@ -91,7 +92,7 @@ def source_orders(sources: np.ndarray) -> np.ndarray:
     return _ORDERS[np.asarray(sources, dtype=np.int64)]
 
 
-def source_name(source: int, names=None) -> str:
+def source_name(source: int, names: Sequence[str] | None = None) -> str:
     """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b (...); 'source N' for a
     label that names no view. names : optional, the mirrors' names in label order (a session's): 'left', 'left then
     right' (a label beyond them keeps its number)."""
