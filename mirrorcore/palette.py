@@ -12,7 +12,6 @@ The heat map of a calibration (points coloured by their distance to the direct s
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
 from functools import lru_cache
 from itertools import pairwise, product
 from typing import Sequence

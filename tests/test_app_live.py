@@ -17,9 +17,9 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import Jobs, agreement_line
+from app.panels.live import start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import MirrorsPanel
-from app.panels.live import start_hint
 from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
