@@ -1,12 +1,14 @@
 """Benchmark of Algorithm 1 on a 640x480 two-mirror frame of the simulated rig (the walking figure, Kinect noise),
 beside Open3D's plain reprojection of the same frame (the three measured in turn), and on a frame of two hinged
-mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to trace them."""
+mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to trace them and
+to prepare that frame (select the object, smooth it, fit the views through two mirrors)."""
 from __future__ import annotations
 
 import numpy as np
 import open3d as o3d
 
 from bench import interleaved_ms, median_ms
+from mirrorcore.pipeline import prepare_frame
 from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.rig import Rig
 from mirrorcore.selection import Selection, object_mask
@@ -38,16 +40,18 @@ def run() -> dict[str, float]:
 
 
 def _kaleidoscope() -> dict[str, float]:
-    """Algorithm 1 through up to 3 mirrors on the walking figure between two hinged mirrors at 72 degrees, and the
-    time to build the rig's per-pixel tables (tracing every ray through the mirrors' outlines)."""
+    """Algorithm 1 through up to 3 mirrors on the walking figure between two hinged mirrors at 72 degrees, the time
+    to build the rig's per-pixel tables (tracing every ray through the mirrors' outlines), and prepare_frame on that
+    frame (selection, smoothing, and the local quadratic fits of the pixels seen through two mirrors)."""
     sim = Simulator(kaleidoscope_scene(72.0, object="figure", distance=3.0), seed=0)
     rig = true_rig(sim.scene)
-    depth = sim.frame(0).depth
-    mask = object_mask(sim.intrinsics, depth, sim.background().depth, Selection())
+    depth, background = sim.frame(0).depth, sim.background().depth
+    mask = object_mask(sim.intrinsics, depth, background, Selection())
 
     rig.reflection_table
     cloud = reconstruct_raw(rig, depth, mask)
     return {"alg1_kaleidoscope_object_ms": median_ms(lambda: reconstruct_raw(rig, depth, mask), repeat=100),
             "alg1_kaleidoscope_multi_points": float(np.count_nonzero(cloud.sources > 2)),
+            "prepare_kaleidoscope_ms": median_ms(lambda: prepare_frame(rig, depth, background), repeat=30),
             "alg1_tables_ms": median_ms(lambda: Rig(rig.intrinsics, rig.mirrors, rig.bounces).reflection_table,
                                         repeat=5, warmup=1)}

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from .cloud import Cloud
-from .depthops import smooth_depth
+from .depthops import local_quadratic_depth, smooth_depth
+from .palette import source_orders
 from .reconstruct import reconstruct_raw
 from .rig import Rig
 from .selection import Backdrop, Selection, object_mask
@@ -17,8 +18,26 @@ def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop
     metres or its Backdrop or None -> (depth (H, W) float32 metres, smoothed on the object when selection.smooth;
     mask (H, W) bool)."""
     mask = object_mask(rig.intrinsics, depth, background, selection)
-    depth = smooth_depth(depth, mask) if selection.smooth else depth
+    if selection.smooth:
+        smoothed = smooth_depth(depth, mask)
+        depth = _smooth_through_mirrors(rig, depth, smoothed, mask) if len(rig.reflection_table.chains) else smoothed
     return np.asarray(depth, np.float32), mask
+
+
+def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over the pixels of
+    their own view (depthops.local_quadratic_depth), the others as smoothed: their (virtual) depths are longer, so a
+    structured-light camera's noise is larger there (1.3 to 1.6 times at 60 to 90 degrees between two mirrors), and a
+    fit over 9 x 9 pixels brings them to the error of the views through one mirror where an average over as many
+    would sag on curved surfaces. depth, smoothed : (H, W) float metres, raw and smooth_depth's; mask : (H, W) bool
+    -> (H, W) float32 metres."""
+    cloud = reconstruct_raw(rig, smoothed, mask)
+    through = source_orders(cloud.sources) >= 2
+    if not through.any():
+        return smoothed
+    labels = np.full(mask.shape, -1, np.int32)
+    labels.reshape(-1)[cloud.pixel_index] = cloud.sources
+    return local_quadratic_depth(depth, smoothed, cloud.pixel_index[through], labels)
 
 
 def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,

@@ -27,7 +27,7 @@ class Selection:
         max(flying_sigmas * sigma(z), flying_gap * z) is a flying pixel at a depth edge and is dropped
     min_blob : connected pieces of the object with fewer pixels than this are specks and are dropped
     roi : optional polygon (u, v) pixels; only pixels inside it (or on its edge) can be the object
-    smooth : smooth the object's depth (edge-aware, in disparity) before reconstruction
+    smooth : smooth the object's depth (edge-aware, in disparity; pipeline.prepare_frame) before reconstruction
     """
 
     depth_min: float = 0.4

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from mirrorcore.noise import KINECT_AXIAL_COEF
+from mirrorcore.depthops import smooth_depth
 from mirrorcore.palette import source_orders, source_sequence
-from mirrorcore.pipeline import object_cloud
+from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
+from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.rig import Rig
 from mirrorcore.session import load_session
 
@@ -69,28 +70,29 @@ def test_the_views_through_two_mirrors_are_used(scanned):
     assert (angle == 60) == any(len(source_sequence(s)) == 3 for s in multi)   # the image through 3 mirrors
 
 
-def test_the_views_through_two_mirrors_are_as_good_as_the_sensor_allows(scanned):
+def test_the_views_through_two_mirrors_are_as_good_as_those_through_one(scanned):
     """The RMSE (to the fitted sphere, as the fit reports per source) of the views through two mirrors is at most
-    1.5 times that of the views through one, or, where the sensor's own noise at their longer (virtual) depths grows
-    by more than that (Kinect v1: sigma = 1.425e-3 z^2, at 60 degrees 1.62 times), at most 10 % above that growth:
-    the composition of reflections adds nothing the sensor does not."""
-    noise, _, session, *_, fit = scanned
+    1.5 times that of the views through one, though the sensor's own noise at their longer (virtual) depths grows
+    more (Kinect v1: sigma = 1.425e-3 z^2, 1.62 times at 60 degrees): their depth is fitted by local quadratic
+    surfaces over 9 x 9 pixels (pipeline.prepare_frame), which the measured 1.25 to 1.38 times at 60 degrees owe to."""
+    *_, fit = scanned
     per_order = {}
     for name, errors in fit["per_source"].items():
         order = 0 if name == "direct" else len(name.split(" then "))
         per_order.setdefault(order, []).append((errors["points"], errors["rmse_mm"]))
     rmse = {k: np.sqrt(sum(n * e ** 2 for n, e in v) / sum(n for n, _ in v)) for k, v in per_order.items()}
-    ratio = rmse[2] / rmse[1]
-    sensor = _sensor_ratio(session) if noise == "kinect" else 1.0
-    assert ratio <= max(1.5, 1.1 * sensor), (ratio, sensor)
+    assert rmse[2] <= 1.5 * rmse[1], rmse
 
 
-def _sensor_ratio(session_folder) -> float:
-    """RMS of the sensor's depth noise at the virtual depths of the object's points seen through two mirrors, over
-    that of those seen through one (frame 1, as reconstructed)."""
-    session = load_session(session_folder)
-    depth = session.read_frame(1)
-    cloud, _ = object_cloud(Rig.from_session(session), depth, session.read_background(), session.selection)
-    z, order = depth.reshape(-1)[cloud.pixel_index], source_orders(cloud.sources)
-    sigma = [np.sqrt(np.mean((KINECT_AXIAL_COEF * z[order == k] ** 2) ** 2)) for k in (1, 2)]
-    return sigma[1] / sigma[0]
+def test_only_the_views_through_several_mirrors_are_fitted(scanned):
+    """prepare_frame smooths the direct view and the views through one mirror as before (smooth_depth, bit for bit)
+    and fits the others by local quadratic surfaces."""
+    session = load_session(scanned[2])
+    rig, depth = Rig.from_session(session), session.read_frame(1)
+    prepared, mask = prepare_frame(rig, depth, session.read_background(), session.selection)
+    averaged = smooth_depth(depth, mask)
+    cloud = reconstruct_raw(rig, averaged, mask)
+    several = np.zeros(mask.shape, bool)
+    several.reshape(-1)[cloud.pixel_index[source_orders(cloud.sources) >= 2]] = True
+    np.testing.assert_array_equal(prepared[~several], averaged[~several])
+    assert np.mean(prepared[several] != averaged[several]) > 0.95
