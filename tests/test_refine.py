@@ -260,7 +260,7 @@ def test_the_agreement_is_measured_against_the_depth_noise():
     """On a Kinect frame of the walking figure the true planes agree within what the noise of the readings compared
     explains (0.86 times it when measured), and a mirror tilted by 2 degrees beyond it (1.7 times): the browser's
     warning (app.jobs.agreement_line) rests on this ratio."""
-    scene = paper_scene(object="figure")
+    scene = paper_scene(object="figure", distance=2.0)
     sim = Simulator(scene, seed=0)
     rig = true_rig(scene)
     depth = sim.frame(0).depth

@@ -199,3 +199,17 @@ def test_simulate_kaleidoscope_and_bounces(tmp_path, capsys):
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1, err
         assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("layout", [[], ["--kaleidoscope"]], ids=["V", "hinged"])
+def test_the_figure_stands_where_the_camera_sees_it_whole_and_the_rig_calibrates(tmp_path, capsys, layout):
+    """Without --distance the figure stands 3 m from the camera (at 2 m, the sphere's distance, a Kinect cut off its
+    head or feet and with them the mirrors' top or bottom markers: calibration refused two or collinear markers)."""
+    session = tmp_path / "figure"
+    assert main(["simulate", str(session), "--object", "figure", *layout, "--frames", "2", "--seed", "0",
+                 "--quiet"]) == 0
+    truth = json.loads((session / "truth.json").read_text())
+    assert truth["object"]["centre"][2] == pytest.approx(3.0)
+    assert main(["calibrate", str(session)]) == 0
+    assert "good" in capsys.readouterr().out
+    assert all(m.plane is not None for m in load_session(session).mirrors)

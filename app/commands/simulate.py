@@ -21,7 +21,8 @@ def register(sub) -> None:
     p.add_argument("--object", help="sphere (default), cylinder, box, figure or mesh:PATH")
     p.add_argument("--angle", type=float, help="angle between the two mirrors, degrees (default 120)")
     p.add_argument("--mirrors", type=int, help="number of mirrors: 2 in a V (default), 3 or more on an arc")
-    p.add_argument("--distance", type=float, help="camera to object, metres (default 2.0)")
+    p.add_argument("--distance", type=float, help="camera to object, metres (default 2.0; 3.0 for the figure, which "
+                   "the camera sees whole only from there)")
     p.add_argument("--kaleidoscope", action="store_true",
                    help="two mirrors hinged at the apex (1.4 m wide, 15 cm from the object) instead of the paper's V: "
                         "below about 90 degrees the object is also seen through two and three mirrors in turn")
@@ -72,7 +73,7 @@ def _scene(args: argparse.Namespace) -> Scene:
         return load_scene(args.scene)
     if args.distance is not None and args.distance <= 0.5:
         raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
-    angle, distance = 120.0 if args.angle is None else args.angle, 2.0 if args.distance is None else args.distance
+    angle, distance = 120.0 if args.angle is None else args.angle, args.distance
     if not args.kaleidoscope:
         return paper_scene(angle, args.mirrors or 2, args.object or "sphere", distance)
     if args.mirrors not in (None, 2):

@@ -21,16 +21,26 @@ HINGE_GAP = 0.002           # between the inner edges of a hinged pair (kaleidos
 HINGED_WIDTH = 1.4          # width of each mirror of a hinged pair, metres: past the object's images in it
 HINGED_CLEARANCE = 0.135    # default gap between the object and each mirror of a hinged pair, metres
 HINGED_MARKER_SIZE = 0.08   # a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
+OBJECT_DISTANCE = 2.0       # metres from the camera to the object by default: the paper's...
+FIGURE_DISTANCE = 3.0       # ... and to the figure, which a Kinect sees whole, feet to head, only from about 3 m
 _UP = np.array([0.0, -1.0, 0.0])
 
 
-def make_object(spec: str, distance: float = 2.0, floor_y: float = 1.0, gait_hz: float = 1.0) -> SceneObject:
-    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis at `distance` m.
+def default_distance(spec: str) -> float:
+    """Metres from the camera to an object of that name when none is given: FIGURE_DISTANCE for the figure (nearer, its
+    head or feet leave the image and the mirrors' markers with them), else OBJECT_DISTANCE."""
+    return FIGURE_DISTANCE if spec == "figure" else OBJECT_DISTANCE
+
+
+def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0, gait_hz: float = 1.0) -> SceneObject:
+    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis at `distance` m
+    (default_distance when None).
 
     The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box is a 0.3 m cube;
     the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at y = floor_y.
     Raises MirrorscanError for an unknown name.
     """
+    distance = default_distance(spec) if distance is None else distance
     centre = (0.0, 0.0, float(distance))
     if spec == "sphere":
         return SceneObject("sphere", centre, radius=SPHERE_RADIUS)
@@ -132,12 +142,13 @@ def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: flo
     return tuple(mirrors)
 
 
-def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere", distance: float = 2.0,
+def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere", distance: float | None = None,
                 mirror_distance: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
                 gait_hz: float = 1.0) -> Scene:
-    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis `distance` m away, two
-    mirrors in a V at `angle_deg` behind it, `mirror_distance` m from the object's middle (default: its half-width
-    + 0.25 m), a floor 1 m below the camera and a back wall. n_mirrors > 2 gives `arc_scene` instead.
+    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis `distance` m away
+    (default_distance when None), two mirrors in a V at `angle_deg` behind it, `mirror_distance` m from the object's
+    middle (default: its half-width + 0.25 m), a floor 1 m below the camera and a back wall. n_mirrors > 2 gives
+    `arc_scene` instead.
     """
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
@@ -150,7 +161,7 @@ def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sph
     return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,), room)
 
 
-def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float = 2.0, radius: float | None = None,
+def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None = None, radius: float | None = None,
               span_deg: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
               gait_hz: float = 1.0) -> Scene:
     """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the object's
@@ -177,7 +188,7 @@ def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, 
     return (0.0, half_width) if angle_deg >= 90.0 else (angle_deg / 4, 0.0)
 
 
-def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float = 2.0,
+def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float | None = None,
                        mirror_distance: float | None = None, turn_deg: float | None = None,
                        offset: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
                        gait_hz: float = 1.0) -> Scene:
