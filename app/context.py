@@ -104,6 +104,7 @@ class TabContext(Protocol):
     client: viser.ClientHandle
     services: Services
     state: TabState
+    lagging: bool           # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)
 
     @property
     def gui(self): ...

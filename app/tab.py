@@ -1,6 +1,7 @@
 """One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene and depth frame,
 its GUI (a status header over one tab per step of the work), and what it streams: the live cloud only while it looks
-at the 3D scene and is not hidden, the depth frame at most DEPTH_HZ times a second and at once after an edit."""
+at the 3D scene, is not hidden and keeps up (MAX_LAG_S), the depth frame at most DEPTH_HZ times a second and at once after an
+edit."""
 from __future__ import annotations
 
 import threading
@@ -25,6 +26,9 @@ from .view import TabScene, home_pose, scene_points
 
 DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view...
 DEPTH_HZ_BEHIND = 1.0   # ... and this often while the tab looks at the 3D scene
+MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll lags: frames wait in the browser
+                        # to be drawn, so it is sent no live cloud and no depth frame until it answers in time (one
+                        # that draws slower than the loop sends would otherwise queue frames and show them minutes late)
 HIDDEN_KEY = "mirrorscan-hidden"
 VISIBILITY_JS = """(() => {{
   const key = "viser-user:{key}";
@@ -41,6 +45,7 @@ class Tab:
         self.client, self.services = client, services
         self.state = TabState()
         self.hidden = False
+        self.lagging = False        # see MAX_LAG_S
         self.closed = False
         self._lock = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
@@ -189,7 +194,7 @@ class Tab:
         if self.closed:                        # a frame in flight while the tab went away
             return
         frame = event.frame
-        if self.shows_cloud:
+        if self.shows_cloud and not self.lagging:
             if self.heat:
                 if time.perf_counter() - self._last_heat >= 1.0:
                     self._last_heat = time.perf_counter()
@@ -248,11 +253,12 @@ class Tab:
 
     def _send_screen(self, frame: LiveFrame | None = None, force: bool = False) -> None:
         """Compose the shared depth layer of the latest frame with this tab's overlay and send it, when forced (an
-        edit) or when DEPTH_HZ (DEPTH_HZ_BEHIND in the 3D view) allows; never to a hidden tab."""
+        edit) or when DEPTH_HZ (DEPTH_HZ_BEHIND in the 3D view) allows and the tab keeps up; never to a hidden
+        tab."""
         frame = frame or self.services.last_frame
         now = time.perf_counter()
         rate = DEPTH_HZ if self.state.view == "depth" else DEPTH_HZ_BEHIND
-        if frame is None or self.hidden or (not force and now - self._last_screen < 1 / rate):
+        if frame is None or self.hidden or (not force and (self.lagging or now - self._last_screen < 1 / rate)):
             return
         self._last_screen = now
         with self._lock:
@@ -267,15 +273,28 @@ class Tab:
             _messages.RunJavascriptMessage(source=VISIBILITY_JS.format(key=key)))
 
     def poll_visibility(self, timeout: float = 2.0) -> None:
-        """Read whether the tab is hidden (see _watch_visibility); a tab that comes back gets the current state."""
+        """Read whether the tab is hidden (see _watch_visibility), and whether it lags: its answer took longer
+        than MAX_LAG_S, or did not come within `timeout` seconds. A tab that comes back, or catches up, gets the
+        current state."""
+        start = time.perf_counter()
         try:
             value = self.client.local_storage.get_item(f"{HIDDEN_KEY}-{self.client.client_id}", timeout=timeout)
-        except (RuntimeError, TimeoutError):
+        except TimeoutError:
+            self._keeps_up(False)
             return
+        except RuntimeError:             # the tab is going away
+            return
+        self._keeps_up(time.perf_counter() - start <= MAX_LAG_S)
         hidden = value == "1"
         if hidden != self.hidden:
             self.hidden, self._stale = hidden, True
             if not hidden:
+                self._send_screen(force=True)
+
+    def _keeps_up(self, keeps_up: bool) -> None:
+        if keeps_up == self.lagging:
+            self.lagging, self._stale = not keeps_up, True
+            if keeps_up:
                 self._send_screen(force=True)
 
     def close(self) -> None:

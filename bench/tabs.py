@@ -1,6 +1,8 @@
 """A browser tab as the server sees it, without a browser: a websocket client speaking viser's protocol (its
 subprotocol, then a camera report, after which viser counts the tab as connected), reading every message on a
-thread and counting the bytes. The app then builds a Tab for it, which benchmarks measure and tests drive."""
+thread, counting the bytes and answering the server's localStorage reads as a browser does (the app polls every tab
+that way, and takes a late answer for a tab that lags). The app then builds a Tab for it, which benchmarks measure
+and tests drive."""
 from __future__ import annotations
 
 import threading
@@ -9,6 +11,7 @@ import time
 import msgspec
 import viser
 import websockets.sync.client
+import zstandard
 
 CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
     "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,
@@ -28,7 +31,9 @@ def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
 
 
 class HeadlessTab:
-    """Connect to `app` as a tab; .tab is the app's Tab for it; .bytes and .messages count what it received."""
+    """Connect to `app` as a tab; .tab is the app's Tab for it; .bytes and .messages count what it received. Set
+    .answer_delay (seconds) to answer the server's localStorage reads that much later, as a browser that draws more
+    slowly than frames come (the messages before a read wait to be drawn)."""
 
     def __init__(self, app):
         before = set(app.tabs)
@@ -36,6 +41,8 @@ class HeadlessTab:
                                                  subprotocols=[f"viser-v{viser.__version__}"], max_size=None)
         self.ws.send(CAMERA_MESSAGE)
         self.bytes = self.messages = 0
+        self.answer_delay = 0.0
+        self._unzip = zstandard.ZstdDecompressor()
         self._closed = threading.Event()
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -48,8 +55,20 @@ class HeadlessTab:
                 message = self.ws.recv()
                 self.bytes += len(message)
                 self.messages += 1
+                self._answer(message)
         except (websockets.ConnectionClosed, OSError):
             pass
+
+    def _answer(self, window: bytes) -> None:
+        """Answer each localStorage read in a window of messages (viser's wire format: the sizes of the msgpack
+        metadata, raw and zstd-compressed, then the metadata, then binary buffers) with "0": a tab in view."""
+        size, packed = int.from_bytes(window[:8], "little"), int.from_bytes(window[8:16], "little")
+        metadata = msgspec.msgpack.decode(self._unzip.decompress(window[16:16 + packed], max_output_size=size))
+        for message in metadata["messages"]:
+            if message.get("type") == "LocalStorageGetItemRequestMessage":
+                time.sleep(self.answer_delay)
+                self.ws.send(msgspec.msgpack.encode({"type": "LocalStorageGetItemResponseMessage", "value": "0",
+                                                     "error": None, "request_uuid": message["request_uuid"]}))
 
     def close(self) -> None:
         self._closed.set()

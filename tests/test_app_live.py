@@ -23,7 +23,7 @@ from app.panels.mirrors import MirrorsPanel
 from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
-from app.tab import Tab
+from app.tab import MAX_LAG_S, Tab
 from app.view import label_anchor
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
@@ -143,6 +143,38 @@ def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypa
     tab.hidden = False
     assert in_3d > 80_000 and clouds_3d == 6                # half of ~41k points as float16 offsets: ~125 kB
     assert clouds_depth == clouds_hidden == 0 and hidden < 2_000, (in_3d, hidden)
+
+
+def test_a_tab_that_lags_gets_no_frames_until_it_keeps_up(demo, monkeypatch):
+    """A browser that draws more slowly than frames come (its answer to the visibility poll comes late: messages wait
+    in it to be drawn) is sent no cloud and no depth frame, so it never shows frames minutes late; its header says
+    so; once it answers in time it gets the current frame whole."""
+    app, headless = demo
+    tab = headless.tab
+    sent = []
+    show_cloud = tab.scene.show_cloud
+    monkeypatch.setattr(tab.scene, "show_cloud", lambda *args: (sent.append(args[2]), show_cloud(*args)))
+    monkeypatch.setattr("app.panels.live.STATS_HZ", 1000.0)          # the header refreshed with every frame
+    headless.answer_delay = 1.2 * MAX_LAG_S
+    try:
+        tab.poll_visibility()
+        assert tab.lagging
+        start, screens = len(sent), tab._last_screen
+        for _ in range(4):
+            app.loop.run_once()
+        assert len(sent) == start and tab._last_screen == screens
+        assert "draws slower than frames come" in tab.header.rate.content
+        headless.answer_delay = 0.0
+        time.sleep(0.5)                                                  # the late answer arrives
+        tab.poll_visibility()
+        assert not tab.lagging and tab._last_screen > screens            # the depth frame at once
+        app.loop.run_once()
+        assert sent[start:] == [None]                                    # both halves: the whole frame
+        app.loop.run_once()
+        assert sent[start + 1] in (0, 1) and "slower" not in tab.header.rate.content
+    finally:
+        headless.answer_delay = 0.0
+        tab.poll_visibility()
 
 
 def storm(redraw, restyle, rounds: int = 150) -> list[Exception]:

@@ -170,7 +170,9 @@ class LivePanel:
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
         self.rate.content = (f"{which} · {rate} · processing {frame.process_ms:.1f} ms"
                              + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
-                                if paced and not services.paused else ""))
+                                if paced and not services.paused else "")
+                             + (" · ⚠ this browser draws slower than frames come: it is sent fewer"
+                                if self.tab.lagging else ""))
         if count:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
