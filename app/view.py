@@ -18,6 +18,8 @@ from .jobs import DenseResult
 from .stream import SourcePart
 
 FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small
+SAME_PLACE = 0.05          # metres: virtual cameras closer than this share one label (hinged mirrors at 360 / n
+                           # degrees put images through two and three mirrors in one place)
 DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
 BOX_COLOUR = (90, 90, 90)
 HOME_DIRECTION = np.array([1.0, -0.55, -0.75])   # from the scene's centre towards the first view (right, up, front)
@@ -26,6 +28,25 @@ HOME_DIRECTION = np.array([1.0, -0.55, -0.75])   # from the scene's centre towar
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
     """(vertical field of view in radians, aspect ratio) of a camera."""
     return 2 * np.arctan2(intr.height / 2, intr.fy), intr.width / intr.height
+
+
+def same_place(cameras: list) -> list[list]:
+    """Virtual cameras (rig.virtual_cameras' items) grouped by place: each group those within SAME_PLACE of its
+    first, in the given order."""
+    groups: list[list] = []
+    for camera in cameras:
+        for group in groups:
+            if np.linalg.norm(group[0].pose[:3, 3] - camera.pose[:3, 3]) < SAME_PLACE:
+                group.append(camera)
+                break
+        else:
+            groups.append([camera])
+    return groups
+
+
+def _frustum_scale(camera) -> float:
+    """Metres: a virtual camera through one mirror drawn as large as the depth camera, through several smaller."""
+    return FRUSTUM_SCALE * (1.0 if len(camera.sequence) == 1 else 0.7)
 
 
 def mirror_outline(intr: Intrinsics, mirror) -> np.ndarray | None:
@@ -123,18 +144,19 @@ class TabScene:
         self.scene.remove_by_name("/virtual_labels")
         self._virtual, self._virtual_labels = [], []
         names = [m.name for m in rig.mirrors]
-        for camera in rig.virtual_cameras():
-            if not camera.sequence:
-                continue
+        cameras = [camera for camera in rig.virtual_cameras() if camera.sequence]
+        for camera in cameras:
             colour = tuple(int(c) for c in source_colour(camera.source, mirror_ids))
-            scale = FRUSTUM_SCALE * (1.0 if len(camera.sequence) == 1 else 0.7)
             self._virtual.append(self.scene.add_camera_frustum(
-                f"/virtual/{camera.source}", fov, aspect, scale=scale, color=colour,
+                f"/virtual/{camera.source}", fov, aspect, scale=_frustum_scale(camera), color=colour,
                 wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
                 visible=self.virtual_visible))
+        for group in same_place(cameras):
+            first = group[0]
             self._virtual_labels.append(self.scene.add_label(      # under it: clear of the mirror's name
-                f"/virtual_labels/{camera.source}", f"camera in {source_name(camera.source, names)}",
-                position=camera.pose[:3, 3] + scale * camera.pose[:3, 1],
+                f"/virtual_labels/{first.source}",
+                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
+                position=first.pose[:3, 3] + _frustum_scale(first) * first.pose[:3, 1],
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:

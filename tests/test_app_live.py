@@ -7,6 +7,7 @@ import threading
 import time
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from app.tab import MAX_LAG_S, Tab
-from app.view import label_anchor
+from app.view import label_anchor, same_place
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import Cancelled, MirrorscanError
@@ -460,6 +461,22 @@ def test_a_mirrors_name_is_at_the_middle_of_its_top_edge():
     right = left * [-1, 1, 1]
     np.testing.assert_allclose(label_anchor(left), [-0.35, -0.5, 2.0])
     np.testing.assert_allclose(label_anchor(right), [0.35, -0.5, 2.0])
+
+
+def test_virtual_cameras_in_one_place_share_one_label():
+    """Between mirrors hinged at 72 degrees, calibrated from their markers, the camera seen through two mirrors and
+    through three stand 1.3 cm apart (where they were, from a helper's session): one label names both, where their
+    two labels were written over each other; cameras 6 cm apart keep their own."""
+    def camera(sequence, x, z):
+        pose = np.eye(4)
+        pose[:3, 3] = (x, 0.0, z)
+        return SimpleNamespace(sequence=sequence, pose=pose)
+    cameras = [camera((1,), -2.307, 1.677), camera((2,), 2.305, 1.669), camera((1, 2), 1.432, 4.384),
+               camera((2, 1), -1.430, 4.385), camera((1, 2, 1), 1.422, 4.391), camera((2, 1, 2), -1.414, 4.397),
+               camera((1, 2, 1, 2), 1.492, 4.384)]
+    groups = same_place(cameras)
+    assert [[c.sequence for c in g] for g in groups] == [[(1,)], [(2,)], [(1, 2), (1, 2, 1)], [(2, 1), (2, 1, 2)],
+                                                         [(1, 2, 1, 2)]]
 
 
 def test_a_session_opened_with_its_planes_tells_how_its_views_agree():

@@ -46,9 +46,10 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
                    f"allows: the object may not be a {shape}.", ""]
     lines = [*warning, f"**{fit.shape.kind}**: radius **{fit.shape.radius * 1e3:.1f} mm** · "
              f"{int(fit.inliers.sum()):,} of {e.points:,} points within {fit.threshold * 1e3:.0f} mm",
-             "", "| mm | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
+             "", "| view (errors in mm) | points | RMSE | mean error | mean \\|error\\| |", "|---|---|---|---|---|",
              f"| all | {e.points:,} | {e.rmse * 1e3:.2f} | {e.mean_error * 1e3:+.2f} | {e.mean_abs_error * 1e3:.2f} |"]
-    for source, s in fit.per_source.items():     # the unit in the corner: narrow columns keep a number on one line
+    for source, s in fit.per_source.items():     # the unit in the corner: narrow columns keep a number on one line;
+                                                 # the views' names are wider than it
         lines.append(f"| {name(source)} | {s.points:,} | {s.rmse * 1e3:.2f} | {s.mean_error * 1e3:+.2f} | "
                      f"{s.mean_abs_error * 1e3:.2f} |")
     return "\n".join(lines)
