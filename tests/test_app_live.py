@@ -550,6 +550,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
     assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
+    unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
+    assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

@@ -71,7 +71,7 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if not mirror.boundary:
         choose = "" if state.mode == "boundary" else "choose **Boundary** and "
         return f"{look}{mirror.name}: {choose}click its corners; click the first corner to close."
-    if len(mirror.markers) < 3:
+    if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
         choose = "" if state.mode == "markers" else "choose **Markers** and "
         return f"{look}{mirror.name}: {choose}click {what} on the mirror."
