@@ -37,6 +37,9 @@ MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
+MAX_DISAGREEMENT = 1.5       # a refined view that still disagrees this many times more than the depth noise explains
+                             # is refused: its plane was not found (true planes read 0.7 to 0.9 times the noise; a
+                             # search that locked on a wrong plane, 50 degrees off, refined to 2 times)
 
 
 @dataclass(frozen=True)
@@ -306,6 +309,11 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
                                f"and {tilt:.1f} deg); check its boundary and its first calibration")
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
+    noise = _noise_mm(shown[1], j)
+    if rms_after > MAX_DISAGREEMENT * noise:
+        raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
+                               f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
+                               "boundary, or click markers on it and fit it first")
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
                             tilt, 1e3 * shift_std, tilt_std, final.with_camera(j))
 
@@ -343,10 +351,15 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     found = residuals(frames, planes, [], centre, SHOWN_GATE)
     out = {}
     for j in planes:
-        sigma = found.sigma[found.involving(j)]
-        noise = float(1e3 * np.sqrt(np.mean(sigma ** 2))) if len(sigma) else float("nan")
-        out[j - 1] = ViewAgreement(*_agreement(found, j), found.with_camera(j), noise)
+        out[j - 1] = ViewAgreement(*_agreement(found, j), found.with_camera(j), _noise_mm(found, j))
     return out
+
+
+def _noise_mm(found: _Residuals, j: int) -> float:
+    """The RMS (mm) that the depth noise of the readings compared would give alone, over the comparisons involving
+    mirror j (NaN without any)."""
+    sigma = found.sigma[found.involving(j)]
+    return float(1e3 * np.sqrt(np.mean(sigma ** 2))) if len(sigma) else float("nan")
 
 
 # --------------------------------------------------------------------------------------------- sessions
