@@ -4,6 +4,7 @@ each mirror's figures), and playback (pause, step, frame, point size)."""
 from __future__ import annotations
 
 import time
+from collections import deque
 from typing import Callable
 
 import numpy as np
@@ -18,6 +19,8 @@ from ..jobs import HEAT_LIMIT_MM
 from ..live import LiveFrame, frame_number
 
 STATS_HZ = 4.0
+PROCESS_WINDOW = 30        # frames: the header gives the median of their processing times (one frame's jumps
+                           # with whatever else the machine does)
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 
 
@@ -126,6 +129,7 @@ class LivePanel:
         tab.on_state(lambda _: self.refresh_hint())
         self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)
         self._last_stats = 0.0
+        self._process_ms: deque[float] = deque(maxlen=PROCESS_WINDOW)   # the last frames' processing times
         self._follow(services.source)
 
     def detach(self) -> None:
@@ -158,6 +162,7 @@ class LivePanel:
     def show(self, frame: LiveFrame) -> None:
         """Refresh the figures at STATS_HZ (every frame while paused)."""
         now = time.perf_counter()
+        self._process_ms.append(frame.process_ms)
         if now - self._last_stats < 1 / STATS_HZ and not self.tab.services.paused:
             return
         first = self._last_stats == 0.0
@@ -168,7 +173,7 @@ class LivePanel:
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
-        self.rate.content = (f"{which} · {rate} · processing {frame.process_ms:.1f} ms"
+        self.rate.content = (f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
                              + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
                                 if paced and not services.paused else "")
                              + (" · ⚠ this browser draws slower than frames come: it is sent fewer"
