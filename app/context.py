@@ -104,7 +104,8 @@ class TabContext(Protocol):
     client: viser.ClientHandle
     services: Services
     state: TabState
-    lagging: bool           # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)
+    lagging: bool           # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)...
+    lagged_at: float        # ... and when it last did (time.perf_counter())
 
     @property
     def gui(self): ...

@@ -46,6 +46,7 @@ class Tab:
         self.state = TabState()
         self.hidden = False
         self.lagging = False        # see MAX_LAG_S
+        self.lagged_at = -np.inf    # time.perf_counter() when it last lagged
         self.closed = False
         self._lock = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
@@ -292,6 +293,8 @@ class Tab:
                 self._send_screen(force=True)
 
     def _keeps_up(self, keeps_up: bool) -> None:
+        if not keeps_up:
+            self.lagged_at = time.perf_counter()
         if keeps_up == self.lagging:
             self.lagging, self._stale = not keeps_up, True
             if keeps_up:

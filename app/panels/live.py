@@ -19,6 +19,7 @@ from ..jobs import HEAT_LIMIT_MM
 from ..live import LiveFrame, frame_number
 
 STATS_HZ = 4.0
+LAG_NOTE_S = 5.0           # seconds the header says a tab lagged after it last did (it catches up and lags again)
 PROCESS_WINDOW = 30        # frames: the header gives the median of their processing times (one frame's jumps
                            # with whatever else the machine does)
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
@@ -177,7 +178,7 @@ class LivePanel:
                              + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
                                 if paced and not services.paused else "")
                              + (" · ⚠ this browser draws slower than frames come: it is sent fewer"
-                                if self.tab.lagging else ""))
+                                if now - self.tab.lagged_at < LAG_NOTE_S else ""))
         if count:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
