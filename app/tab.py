@@ -1,7 +1,7 @@
 """One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene and depth frame,
 its GUI (a status header over one tab per step of the work), and what it streams: the live cloud only while it looks
-at the 3D scene, is not hidden and keeps up (MAX_LAG_S), the depth frame at most DEPTH_HZ times a second and at once after an
-edit."""
+at the 3D scene, is not hidden and keeps up (MAX_LAG_S), the depth frame at most DEPTH_HZ times a second and at once
+after an edit."""
 from __future__ import annotations
 
 import threading

@@ -9,6 +9,13 @@ import numpy as np
 
 from .noise import KINECT_AXIAL_COEF
 
+QUADRATIC_RADIUS = 4        # pixels: local_quadratic_depth fits the 9 x 9 pixels around each pixel
+QUADRATIC_SIGMA = 3.0       # pixels: the spatial Gaussian's sigma
+QUADRATIC_STRENGTH = 2.0    # the range Gaussian's sigma, in units of the sensor's disparity noise (1.425e-3 / m)
+QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, about 5 MB an array
+RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
+NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
+
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
     """Per-pixel median of the readings of several frames, ignoring frames with no reading there.
@@ -57,14 +64,6 @@ def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength:
     filtered = cv2.bilateralFilter(w, 2 * radius + 1, strength * KINECT_AXIAL_COEF, radius)
     masked_copy(inverse(filtered), use & (filtered > 0), out[win])
     return out
-
-
-QUADRATIC_RADIUS = 4        # pixels: local_quadratic_depth fits the 9 x 9 pixels around each pixel
-QUADRATIC_SIGMA = 3.0       # pixels: the spatial Gaussian's sigma
-QUADRATIC_STRENGTH = 2.0    # the range Gaussian's sigma, in units of the sensor's disparity noise (1.425e-3 / m)
-QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, about 5 MB an array
-RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
-NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
 
 
 def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.ndarray, labels: np.ndarray,

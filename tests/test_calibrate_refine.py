@@ -151,8 +151,9 @@ def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
 def test_a_plane_the_search_got_wrong_is_refused_not_written(tmp_path, capsys):
     """Two mirrors hinged at 72 degrees, the figure 2 m away, calibrated from the object alone: the search locked on
     planes about 50 degrees off the truth, which the refinement moved a few centimetres and wrote, "known to
-    +-0.12 mm" (a helper driving the browser met it). Their views still disagree with the camera's twice as much as the depth noise
-    explains (the true planes: 0.7 to 0.9 times), and the calibration is now refused by name, writing nothing."""
+    +-0.12 mm" (a helper driving the browser met it). Their views still disagree with the camera's twice as much as
+    the depth noise explains (the true planes: 0.7 to 0.9 times), and the calibration is now refused by name, writing
+    nothing."""
     session = tmp_path / "hinged"
     run_ok("simulate", session, "--kaleidoscope", "--angle", 72, "--object", "figure", "--distance", 2.0,
            "--frames", 3, "--seed", 0, "--quiet")
