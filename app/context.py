@@ -105,7 +105,7 @@ class TabContext(Protocol):
     services: Services
     state: TabState
     lagging: bool           # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)...
-    lagged_at: float        # ... and when it last did (time.perf_counter())
+    lagged_at: float        # ... and when it last did, once its page was built (time.perf_counter())
 
     @property
     def gui(self): ...

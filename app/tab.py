@@ -29,6 +29,7 @@ DEPTH_HZ_BEHIND = 1.0   # ... and this often while the tab looks at the 3D scene
 MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll lags: frames wait in the browser
                         # to be drawn, so it is sent no live cloud and no depth frame until it answers in time (one
                         # that draws slower than the loop sends would otherwise queue frames and show them minutes late)
+SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, and is not said to
 HIDDEN_KEY = "mirrorscan-hidden"
 VISIBILITY_JS = """(() => {{
   const key = "viser-user:{key}";
@@ -46,7 +47,8 @@ class Tab:
         self.state = TabState()
         self.hidden = False
         self.lagging = False        # see MAX_LAG_S
-        self.lagged_at = -np.inf    # time.perf_counter() when it last lagged
+        self.lagged_at = -np.inf    # time.perf_counter() when it last lagged, once settled (SETTLING_S)
+        self._opened = time.perf_counter()
         self.closed = False
         self._lock = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
@@ -293,7 +295,7 @@ class Tab:
                 self._send_screen(force=True)
 
     def _keeps_up(self, keeps_up: bool) -> None:
-        if not keeps_up:
+        if not keeps_up and time.perf_counter() - self._opened > SETTLING_S:     # not the page's first build
             self.lagged_at = time.perf_counter()
         if keeps_up == self.lagging:
             self.lagging, self._stale = not keeps_up, True

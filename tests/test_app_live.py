@@ -24,7 +24,7 @@ from app.panels.mirrors import MirrorsPanel
 from app.server import IDLE_FPS, MirrorscanApp
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
-from app.tab import MAX_LAG_S, Tab
+from app.tab import MAX_LAG_S, SETTLING_S, Tab
 from app.view import label_anchor, same_place
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
@@ -157,7 +157,11 @@ def test_a_tab_that_lags_gets_no_frames_until_it_keeps_up(demo, monkeypatch):
     monkeypatch.setattr(tab.scene, "show_cloud", lambda *args: (sent.append(args[2]), show_cloud(*args)))
     monkeypatch.setattr("app.panels.live.STATS_HZ", 1000.0)          # the header refreshed with every frame
     headless.answer_delay = 1.2 * MAX_LAG_S
+    monkeypatch.setattr(tab, "_opened", time.perf_counter())              # a page being built lags unsaid
     try:
+        tab.poll_visibility()
+        assert tab.lagging and tab.lagged_at == -np.inf
+        monkeypatch.setattr(tab, "_opened", tab._opened - SETTLING_S)  # built long ago
         tab.poll_visibility()
         assert tab.lagging
         start, screens = len(sent), tab._last_screen
