@@ -331,9 +331,15 @@ def planes_key(session: Session) -> tuple:
 
 def refined_headline(mirrors) -> str:
     """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
-    moved = [f"{r.name} moved {round(r.shift_mm, 1) + 0.0:+.1f} mm and {r.tilt_deg:.2f} deg"   # no "-0.0"
+    moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f} deg"
              + (f", glass {1e3 * r.marker_offset:.1f} mm" if r.marker_offset is not None else "") for r in mirrors]
     return f"{REFINED}: {'; '.join(moved)}. Undo restores the previous planes."
+
+
+def _signed(mm: float) -> str:
+    """mm to 0.1 with its sign, '0.0' when it rounds to nothing (beside a detail line's '-0.02', '+0.0' read as
+    a contradiction)."""
+    return f"{mm:+.1f}" if round(mm, 1) != 0 else "0.0"
 
 
 def agreement_line(name: str, found: ViewAgreement) -> str:

@@ -279,6 +279,8 @@ class Tab:
         """Read whether the tab is hidden (see _watch_visibility), and whether it lags: its answer took longer
         than MAX_LAG_S, or did not come within `timeout` seconds. A tab that comes back, or catches up, gets the
         current state."""
+        if self.closed:                   # polled from a list of the tabs taken before it went away
+            return
         start = time.perf_counter()
         try:
             value = self.client.local_storage.get_item(f"{HIDDEN_KEY}-{self.client.client_id}", timeout=timeout)

@@ -17,7 +17,7 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import Jobs, agreement_line
+from app.jobs import Jobs, agreement_line, refined_headline
 from app.panels.live import LAG_NOTE_S, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import MirrorsPanel
@@ -472,15 +472,15 @@ def test_a_mirrors_name_is_at_the_middle_of_its_top_edge():
 
 def test_virtual_cameras_in_one_place_share_one_label():
     """Between mirrors hinged at 72 degrees, calibrated from their markers, the camera seen through two mirrors and
-    through three stand 1.3 cm apart (where they were, from a helper's session): one label names both, where their
-    two labels were written over each other; cameras 6 cm apart keep their own."""
+    through three stand 1.3 to 5.4 cm apart (where they were in helpers' sessions): one label names both, where their
+    two labels were written over each other; cameras 12 cm apart keep their own."""
     def camera(sequence, x, z):
         pose = np.eye(4)
         pose[:3, 3] = (x, 0.0, z)
         return SimpleNamespace(sequence=sequence, pose=pose)
     cameras = [camera((1,), -2.307, 1.677), camera((2,), 2.305, 1.669), camera((1, 2), 1.432, 4.384),
-               camera((2, 1), -1.430, 4.385), camera((1, 2, 1), 1.422, 4.391), camera((2, 1, 2), -1.414, 4.397),
-               camera((1, 2, 1, 2), 1.492, 4.384)]
+               camera((2, 1), -1.430, 4.385), camera((1, 2, 1), 1.422, 4.391), camera((2, 1, 2), -1.376, 4.385),
+               camera((1, 2, 1, 2), 1.552, 4.384)]
     groups = same_place(cameras)
     assert [[c.sequence for c in g] for g in groups] == [[(1,)], [(2,)], [(1, 2), (1, 2, 1)], [(2, 1), (2, 1, 2)],
                                                          [(1, 2, 1, 2)]]
@@ -559,6 +559,13 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
+
+
+def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing():
+    """Beside the detail line's "-0.02 mm", the headline said "moved +0.0 mm" (a helper read it as a contradiction)."""
+    moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None)
+             for n, mm in (("left", -0.02), ("right", -1.47))]
+    assert refined_headline(moved).startswith("Planes refined: left moved 0.0 mm and 0.05 deg; right moved -1.5 mm")
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

@@ -192,7 +192,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
     assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
-    assert re.fullmatch(r"Planes refined: mirror 1 moved [+-]\d+\.\d mm and \d+\.\d\d deg(, glass \d+\.\d mm)?; "
+    assert re.fullmatch(r"Planes refined: mirror 1 moved [+-]?\d+\.\d mm and \d+\.\d\d deg(, glass \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Undo restores the previous planes\.", headline), headline
     assert said == [headline]
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):

@@ -177,7 +177,7 @@ class LivePanel:
         self.rate.content = (f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
                              + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
                                 if paced and not services.paused else "")
-                             + (" · ⚠ this browser draws slower than frames come: it is sent fewer"
+                             + (" · ⚠ this browser draws slower than frames come: it is sent fewer of them"
                                 if now - self.tab.lagged_at < LAG_NOTE_S else ""))
         if count:
             self.seek.value = number
