@@ -37,9 +37,11 @@ MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
-MAX_DISAGREEMENT = 1.5       # a refined view that still disagrees this many times more than the depth noise explains
-                             # is refused: its plane was not found (true planes read 0.7 to 0.9 times the noise; a
-                             # search that locked on a wrong plane, 50 degrees off, refined to 2 times)
+MAX_DISAGREEMENT = 1.5       # a plane found by a search whose view, refined, still disagrees this many times more
+                             # than the depth noise explains is refused: the search locked on a wrong plane (true
+                             # planes read 0.7 to 0.9 times with Kinect v1 noise; one 50 degrees off, 2 times). Only
+                             # searched planes: markers tie a plane down, and a sensor noisier than noise.py's model
+                             # would read above it with its planes right
 
 
 @dataclass(frozen=True)
@@ -191,12 +193,15 @@ def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[
 
 # --------------------------------------------------------------------------------------------- the refinement
 def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
-                  progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE) -> Refinement:
+                  progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
+                  max_disagreement: float = np.inf) -> Refinement:
     """Refine the planes of the rig's mirrors at `indices` (0-based; default every mirror with a plane) from frames.
 
     depths : (F, H, W) float metres as measured; masks : (F, H, W) bool, each frame's object (prepare_frame's)
     gate : metres added to what counts as the same surface at the start (for planes found by a search, a few cm),
-    halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE).
+    halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE);
+    max_disagreement : the most a refined view may disagree with the others, in units of what the depth noise
+    explains (MAX_DISAGREEMENT for searched planes; by default no limit).
     Mirrors not refined keep their planes and still take part.
     Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
     determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG) or when it does not settle (MAX_CHANGE);
@@ -226,7 +231,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
             break
         labelled = _with_planes(rig, planes)
     shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
-    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, max_change) for j in refined)
+    limits = (*max_change, max_disagreement)
+    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, limits) for j in refined)
     if progress is not None:
         progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
@@ -287,8 +293,9 @@ def _with_planes(rig: Rig, planes: dict[int, Plane]) -> Rig:
 
 
 def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
-            final: _Residuals, refined: list[int], max_change: tuple) -> MirrorRefinement:
-    """One mirror's report, or CalibrationError when the data did not determine its plane or it did not settle.
+            final: _Residuals, refined: list[int], limits: tuple) -> MirrorRefinement:
+    """One mirror's report, or CalibrationError when the data did not determine its plane, it did not settle or it
+    disagrees (limits: max_change's metres and degrees, then max_disagreement).
     shown : the comparisons before and after with SHOWN_GATE (the agreement reported); final : those that settled
     the planes (the determination)."""
     name = rig.mirrors[j - 1].name
@@ -304,13 +311,13 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
         raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
                                f"+-{1e3 * shift_std:.1f} mm and +-{tilt_std:.2f} deg); use more frames, or move the "
                                "object so that both the camera and the mirror see its sides")
-    if abs(shift) > max_change[0] or tilt > max_change[1]:
+    if abs(shift) > limits[0] or tilt > limits[1]:
         raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
                                f"and {tilt:.1f} deg); check its boundary and its first calibration")
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
     noise = _noise_mm(shown[1], j)
-    if rms_after > MAX_DISAGREEMENT * noise:
+    if rms_after > limits[2] * noise:
         raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
                                "boundary, or click markers on it and fit it first")
@@ -364,16 +371,16 @@ def _noise_mm(found: _Residuals, j: int) -> float:
 
 # --------------------------------------------------------------------------------------------- sessions
 def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
-                   progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE
+                   progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
+                   max_disagreement: float = np.inf
                    ) -> tuple[Session, Refinement]:
     """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
-    (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate
-    and max_change as there);
-    all or nothing. Each refined mirror with usable markers also gets its marker_offset: how far its markers' faces
+    (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
+    max_change and max_disagreement as there); all or nothing. Each refined mirror with usable markers also gets its marker_offset: how far its markers' faces
     stand in front of the refined plane (median over the frames of their readings).
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
-    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change)
+    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement)
     depth = median_depth(np.asarray(depths))
     reports = []
     for report in result.mirrors:

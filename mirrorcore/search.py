@@ -18,7 +18,7 @@ from .geometry.camera import reproject_depth
 from .geometry.plane import Plane
 from .noise import axial_sigma
 from .progress import Progress, cancel_requested
-from .refine import Refinement, refine_session
+from .refine import MAX_DISAGREEMENT, Refinement, refine_session
 from .rig import Mirror, Rig
 from .session import Session
 
@@ -167,4 +167,5 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
         if progress is not None:
             progress(0.5 * (k + 1) / len(indices))
     later = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
-    return refine_session(session, depths, masks, indices, SEARCH_GATE, later, cancel, SEARCH_CHANGE)
+    return refine_session(session, depths, masks, indices, SEARCH_GATE, later, cancel, SEARCH_CHANGE,
+                          MAX_DISAGREEMENT)

@@ -161,6 +161,11 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
     with pytest.raises(CalibrationError, match="mirror 1: the camera and the mirror see too little of the same "
                                                r"surface .* \(0 readings agree over 2 frame\(s\)"):
         refine_planes(rig, depths, direct_only)
+    # a view that disagrees more than max_disagreement times what the depth noise explains (a searched plane's limit)
+    with pytest.raises(CalibrationError, match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
+                                               r"RMS where the depth noise explains .* mm\): its plane was not found"):
+        refine_planes(rig, depths, masks, max_disagreement=0.01)
+    assert len(refine_planes(rig, depths, masks).mirrors) == 2            # no such limit by default
     stop = threading.Event()
     stop.set()
     with pytest.raises(Cancelled):
