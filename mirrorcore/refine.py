@@ -376,8 +376,9 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
                    ) -> tuple[Session, Refinement]:
     """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
     (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
-    max_change and max_disagreement as there); all or nothing. Each refined mirror with usable markers also gets its marker_offset: how far its markers' faces
-    stand in front of the refined plane (median over the frames of their readings).
+    max_change and max_disagreement as there); all or nothing. Each refined mirror with usable markers also gets its
+    marker_offset: how far its markers' faces stand in front of the refined plane (median over the frames of their
+    readings).
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
     result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement)
