@@ -204,7 +204,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     explains (MAX_DISAGREEMENT for searched planes; by default no limit).
     Mirrors not refined keep their planes and still take part.
     Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
-    determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG) or when it does not settle (MAX_CHANGE);
+    determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG), when it does not settle (max_change) or
+    when its refined view disagrees more than max_disagreement allows;
     Cancelled when `cancel` asks; progress(fraction) after each frame and iteration.
     """
     indices = [i for i, m in enumerate(rig.mirrors) if m.plane is not None] if indices is None else list(indices)
