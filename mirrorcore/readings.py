@@ -42,6 +42,8 @@ class ViewPoints:
     normals : unit normals of that surface, towards the camera that measured the reading
     rays : unit directions of the readings' rays (from that camera)
     sigma : (n,) float64 metres, each reading's depth noise (noise.axial_sigma of the anchor's depth)
+    anchor_var : (n,) float64 square metres, the variance of each anchor's error along its ray (from the scatter of
+        its neighbours about their surface: agreement.py removes the bias it brings through the surface's curvature)
     lateral : (n,) float64 metres, each reading's lateral uncertainty (LATERAL_PX or RIM_LATERAL_PX at its depth)
     pixels : (n,) int64 flat index v * width + u of each reading's pixel
     surface : (n, 6) float64, the neighbours' surface: its disparity (1/metres) as the quadratic
@@ -53,6 +55,7 @@ class ViewPoints:
     normals: np.ndarray
     rays: np.ndarray
     sigma: np.ndarray
+    anchor_var: np.ndarray
     lateral: np.ndarray
     pixels: np.ndarray
     surface: np.ndarray
@@ -65,7 +68,7 @@ class ViewPoints:
         mirror's virtual camera (still out of the object). `surface` stays in the view's own image."""
         return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
                           reflect_directions(plane, self.normals), reflect_directions(plane, self.rays), self.sigma,
-                          self.lateral, self.pixels, self.surface)
+                          self.anchor_var, self.lateral, self.pixels, self.surface)
 
     def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """(m, 3) metres, in the view's own space: where the rays through pixel positions uv (m, 2) meet the
@@ -96,23 +99,26 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np
     win = bounding_window(mine, NEIGHBOURS_RADIUS)
     z = np.where(mine[win], depth[win], 0).astype(np.float64)
     rays = np.stack([intr.rays[0][win], intr.rays[1][win], np.ones(z.shape, np.float32)]).astype(np.float64)
-    coef, normals, ok = _neighbour_surfaces(z, rays, intr)
+    coef, variance, normals, ok = _neighbour_surfaces(z, rays, intr)
     unit = rays / np.linalg.norm(rays, axis=0)
     ok &= mine[win] & _no_depth_edge(z.astype(np.float32))
     ok &= -np.einsum("khw,khw->hw", normals, unit) > np.cos(np.radians(MAX_INCIDENCE_DEG))
     v, u = np.nonzero(ok)
     ray, anchor, measured = rays[:, v, u].T, 1.0 / coef[v, u, 0], z[v, u]
     lateral = np.where(rim[win][v, u], RIM_LATERAL_PX, LATERAL_PX) * anchor / intr.fx
+    anchor_var = variance[v, u] * anchor ** 4 * np.einsum("ij,ij->i", ray, ray)     # (dz/dw)^2 |ray|^2 var(w)
     return ViewPoints(ray * measured[:, None], ray * anchor[:, None], normals[:, v, u].T, unit[:, v, u].T,
-                      axial_sigma(anchor), lateral, (v + win[0].start) * intr.width + u + win[1].start, coef[v, u])
+                      axial_sigma(anchor), anchor_var, lateral, (v + win[0].start) * intr.width + u + win[1].start,
+                      coef[v, u])
 
 
 def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, ...]:
     """The surface through each pixel's neighbours (see the module docstring), for every pixel at once.
 
     z : (h, w) float64 metres, 0 = not the view's; rays : (3, h, w) (x/z, y/z, 1) of the pixels -> coefficients
-    (h, w, 6) (ViewPoints.surface), the surface's unit normal at the pixel (3, h, w) towards the camera, and (h, w)
-    bool where at least MIN_NEIGHBOURS neighbours determine the fit.
+    (h, w, 6) (ViewPoints.surface), the variance (h, w) (1/m^2) of the surface's disparity at the pixel (the
+    neighbours' scatter about it, so whatever the sensor), the surface's unit normal at the pixel (3, h, w) towards
+    the camera, and (h, w) bool where at least MIN_NEIGHBOURS neighbours determine the fit.
     """
     size = 2 * NEIGHBOURS_RADIUS + 1
     du, dv = np.meshgrid(np.arange(size) - NEIGHBOURS_RADIUS, np.arange(size) - NEIGHBOURS_RADIUS)
@@ -129,15 +135,20 @@ def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tu
     ok = normal_matrix[..., 0, 0] >= MIN_NEIGHBOURS
     spread = np.linalg.eigvalsh(normal_matrix[ok])               # ascending: neighbours on a line have a zero
     ok[ok] = spread[:, 0] > 1e-6 * spread[:, -1]
-    coef = np.zeros_like(rhs)
-    coef[ok] = np.linalg.solve(normal_matrix[ok], rhs[ok][..., None])[..., 0]
+    coef, variance = np.zeros_like(rhs), np.zeros(z.shape)
+    unit = np.broadcast_to(np.eye(len(basis))[:, :1], (int(ok.sum()), len(basis), 1))
+    solved = np.linalg.solve(normal_matrix[ok], np.concatenate([rhs[ok][..., None], unit], axis=-1))
+    coef[ok] = solved[..., 0]
+    count = normal_matrix[ok][:, 0, 0]
+    squares = window_sum(w * w, np.ones(du.shape))[ok] - np.einsum("ij,ij->i", coef[ok], rhs[ok])  # residual sum
+    variance[ok] = np.maximum(squares, 0.0) / np.maximum(count - len(basis), 1.0) * solved[:, 0, 1]
     ok &= coef[..., 0] > 0
     # w = a + b du + c dv on the plane n.P + d = 0 gives n ~ (b fx, c fy, a - b fx x' - c fy y') with x' = x/z
     a, b, c = coef[..., 0], coef[..., 1] * intr.fx, coef[..., 2] * intr.fy
     normals = np.stack([b, c, a - b * rays[0] - c * rays[1]])
     normals *= -np.sign(normals[2])[None]                # towards the camera: the surface is in front of it
     normals /= np.maximum(np.linalg.norm(normals, axis=0), 1e-12)
-    return coef, normals, ok
+    return coef, variance, normals, ok
 
 
 def _no_depth_edge(z: np.ndarray) -> np.ndarray:
