@@ -7,6 +7,7 @@ import contextlib
 import io
 import logging
 import threading
+import warnings
 from pathlib import Path
 from typing import Callable
 
@@ -33,6 +34,18 @@ IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud an
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
+
+
+def quiet_closed_connections() -> None:
+    """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a closed
+    connection"): a tab can close at any moment, also between the server's check and its send, and viser then drops
+    the message, which is what is wanted (the Tab is closed when viser reports the disconnection). The technician's
+    terminal showed it every time a tab closed while it was updated or built."""
+    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning,
+                            module=r"viser(\.|$)")
+
+
+quiet_closed_connections()      # once, on import: for the whole process, whichever thread viser warns on
 
 
 class MirrorscanApp:

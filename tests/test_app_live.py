@@ -5,6 +5,7 @@ framing; a snapshot keeps the rig's tables while the geometry stays."""
 import sys
 import threading
 import time
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -21,7 +22,7 @@ from app.jobs import Jobs, agreement_line, refined_headline
 from app.panels.live import LAG_NOTE_S, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import MirrorsPanel
-from app.server import IDLE_FPS, MirrorscanApp
+from app.server import IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from app.tab import MAX_LAG_S, SETTLING_S, Tab
@@ -312,6 +313,20 @@ def test_a_tab_gone_while_it_was_built_is_not_kept(demo, monkeypatch):
     wait_for(lambda: built and (built[0].closed or built[0].client.client_id in app.tabs), 10, "the tab built")
     time.sleep(0.1)
     assert set(app.tabs) == {headless.tab.client.client_id} and built[0].closed
+
+
+def test_what_viser_drops_for_a_closed_tab_is_not_shown_as_a_warning():
+    """A tab closing while it is updated or built made viser warn in the technician's terminal; only that warning of
+    viser's is silenced, not the same words from elsewhere nor viser's other warnings."""
+    text = "Queued a GuiUpdateMessage on a closed connection (e.g. via a handle owned by a disconnected client)"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        quiet_closed_connections()
+        warnings.warn_explicit(text, UserWarning, "buffer.py", 1, module="viser.infra._async_message_buffer")
+        warnings.warn_explicit(text.replace("Gui", "SceneNode"), UserWarning, "buffer.py", 1, module="viser")
+        warnings.warn_explicit(text, UserWarning, "tab.py", 1, module="app.tab")
+        warnings.warn_explicit("Something else", UserWarning, "buffer.py", 1, module="viser.infra")
+    assert [(str(w.message), w.filename) for w in caught] == [(text, "tab.py"), ("Something else", "buffer.py")]
 
 
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
