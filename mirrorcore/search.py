@@ -59,10 +59,16 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
     far = np.percentile(direct[:, 2], 99) + FAR_MARGIN if len(direct) else np.inf
     here = mask & ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool) & (depth > far)
     virtual = reproject_depth(rig.intrinsics, depth, here)[0].astype(np.float64)
-    if min(len(virtual), len(direct)) < MIN_POINTS:
-        raise CalibrationError(f"{mirror.name}: the object is not seen both directly and in the mirror in this frame "
-                               f"({len(direct)} readings directly, {len(virtual)} in the mirror; {MIN_POINTS} each "
-                               "needed)")
+    if len(direct) < MIN_POINTS:
+        within = int(np.count_nonzero(mask & (rig.inside_bits != 0) & (depth > 0)))
+        raise CalibrationError(f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
+                               f"frame ({len(direct)} readings there, {MIN_POINTS} needed; {within} more inside the "
+                               "outlines, where the search cannot tell the object from its images): move the object "
+                               "so that the camera sees part of it beside the mirrors, or click markers on this mirror")
+    if len(virtual) < MIN_POINTS:
+        raise CalibrationError(f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
+                               f"readings inside its outline beyond what the camera sees directly, {MIN_POINTS} "
+                               "needed): move the object so that the mirror shows it, or check the mirror's outline")
     scorer = _Scorer(rig, depth, outside, here, index, _subset(direct, rng), _subset(virtual, rng))
     real, image = np.median(direct, axis=0), np.median(virtual, axis=0)
     axis = (real - image) / np.linalg.norm(real - image)
