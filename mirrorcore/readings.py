@@ -45,6 +45,7 @@ class ViewPoints:
     anchor_var : (n,) float64 square metres, the variance of each anchor's error along its ray (from the scatter of
         its neighbours about their surface: agreement.py removes the bias it brings through the surface's curvature)
     lateral : (n,) float64 metres, each reading's lateral uncertainty (LATERAL_PX or RIM_LATERAL_PX at its depth)
+    rim : (n,) bool, the readings on the rim of the object (next to a pixel of no object)
     pixels : (n,) int64 flat index v * width + u of each reading's pixel
     surface : (n, 6) float64, the neighbours' surface: its disparity (1/metres) as the quadratic
         [1, du, dv, du^2, du dv, dv^2] . surface in the pixel offsets (du, dv) from the reading's pixel
@@ -57,6 +58,7 @@ class ViewPoints:
     sigma: np.ndarray
     anchor_var: np.ndarray
     lateral: np.ndarray
+    rim: np.ndarray
     pixels: np.ndarray
     surface: np.ndarray
 
@@ -68,7 +70,7 @@ class ViewPoints:
         mirror's virtual camera (still out of the object). `surface` stays in the view's own image."""
         return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
                           reflect_directions(plane, self.normals), reflect_directions(plane, self.rays), self.sigma,
-                          self.anchor_var, self.lateral, self.pixels, self.surface)
+                          self.anchor_var, self.lateral, self.rim, self.pixels, self.surface)
 
     def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """(m, 3) metres, in the view's own space: where the rays through pixel positions uv (m, 2) meet the
@@ -104,12 +106,12 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np
     ok &= mine[win] & _no_depth_edge(z.astype(np.float32))
     ok &= -np.einsum("khw,khw->hw", normals, unit) > np.cos(np.radians(MAX_INCIDENCE_DEG))
     v, u = np.nonzero(ok)
-    ray, anchor, measured = rays[:, v, u].T, 1.0 / coef[v, u, 0], z[v, u]
-    lateral = np.where(rim[win][v, u], RIM_LATERAL_PX, LATERAL_PX) * anchor / intr.fx
+    ray, anchor, measured, on_rim = rays[:, v, u].T, 1.0 / coef[v, u, 0], z[v, u], rim[win][v, u]
+    lateral = np.where(on_rim, RIM_LATERAL_PX, LATERAL_PX) * anchor / intr.fx
     anchor_var = variance[v, u] * anchor ** 4 * np.einsum("ij,ij->i", ray, ray)     # (dz/dw)^2 |ray|^2 var(w)
     return ViewPoints(ray * measured[:, None], ray * anchor[:, None], normals[:, v, u].T, unit[:, v, u].T,
-                      axial_sigma(anchor), anchor_var, lateral, (v + win[0].start) * intr.width + u + win[1].start,
-                      coef[v, u])
+                      axial_sigma(anchor), anchor_var, lateral, on_rim,
+                      (v + win[0].start) * intr.width + u + win[1].start, coef[v, u])
 
 
 def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, ...]:

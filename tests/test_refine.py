@@ -4,6 +4,7 @@ import threading
 from dataclasses import replace
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from helpers import plane_depth, sphere_depth
@@ -11,7 +12,7 @@ from helpers import plane_depth, sphere_depth
 from mirrorcore.agreement import TargetView, frame_views, heat_figures, in_view, surface_distances
 from mirrorcore.calibration import calibrate_from_pairs
 from mirrorcore.errors import CalibrationError, Cancelled
-from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
@@ -116,12 +117,36 @@ def test_the_anchors_error_does_not_bias_the_residual_on_a_curved_surface():
     points, normals, rays = points[seen], normals[seen], rays[seen]
     anchors = points + spread * rng.standard_normal(n)[:, None] * rays
     mapped = ViewPoints(points, anchors, normals, rays, np.full(n, 0.05), np.full(n, spread ** 2), np.zeros(n),
-                        np.zeros(n, np.int64), np.zeros((n, 6)))
+                        np.zeros(n, bool), np.zeros(n, np.int64), np.zeros((n, 6)))
     blind = replace(mapped, anchor_var=np.zeros(n))
     found, uncorrected = target.compare(mapped), target.compare(blind)
     assert len(found) > 1000 and np.array_equal(found.index, uncorrected.index)
     assert np.mean(uncorrected.residual) < -8e-4                 # -1.07 mm
     assert abs(np.mean(found.residual)) < 0.1 * abs(np.mean(uncorrected.residual))     # +0.07 mm (+-0.03)
+
+
+def test_a_point_is_compared_with_the_other_views_rim_only_when_it_surely_falls_there():
+    """Exact points of the ball seen from the side that fall on the rim of the camera's view: compared when their
+    anchors are known to 1 mm (0.3 pixel there), not when known to 8 mm (2.4 pixels: the anchor's error
+    could be all that puts them on the object); comparisons inside the rim are the same either way."""
+    centre, radius = np.array([0.0, 0.0, 2.0]), 0.05
+    depth = sphere_depth(CAMERA, centre, radius).astype(np.float64)
+    rim = cv2.dilate((depth == 0).view(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    target = TargetView(CAMERA, view_points(CAMERA, depth, np.flatnonzero(depth > 0), rim))
+    angle = np.radians(np.linspace(20, 88, 4000))
+    normals = np.column_stack([np.sin(angle), np.zeros_like(angle), -np.cos(angle)])    # the ball's right side
+    points = centre + radius * normals
+    side = np.array([1.5, 0.0, 2.0])
+    rays = (points - side) / np.linalg.norm(points - side, axis=1)[:, None]
+    n = len(points)
+    exact = ViewPoints(points, points, normals, rays, np.full(n, 0.01), np.zeros(n), np.zeros(n), np.zeros(n, bool),
+                       np.zeros(n, np.int64), np.zeros((n, 6)))
+    sure, unsure = (target.compare(replace(exact, anchor_var=np.full(n, s ** 2))) for s in (1e-3, 8e-3))
+    uv, _ = project_points(CAMERA, points)
+    falls = target.index[np.round(uv[:, 1]).astype(int) * CAMERA.width + np.round(uv[:, 0]).astype(int)]
+    on_rim = target.view.rim[falls[sure.index]]
+    assert on_rim.sum() > 20 and not target.view.rim[falls[unsure.index]].any()
+    np.testing.assert_array_equal(sure.index[~on_rim], unsure.index)
 
 
 # --------------------------------------------------------------------------------------------- the simulated rig
