@@ -3,7 +3,7 @@
 notifications a test's actions raise; a headless Chromium per test module (skipped without Playwright or Chromium);
 and the `steps(fixture)` mark of a module whose tests on that module-scoped fixture are the steps of one session, in
 order: after a step fails, the later steps are reported as not run because of it (xfail naming it), not as failures
-of their own."""
+of their own; and the server's own warning filter in every test."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from app.demo import calibrated_session, demo_source
-from app.server import MirrorscanApp
+from app.server import MirrorscanApp, quiet_closed_connections
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.session import Session, save_session
 from mirrorcore.sim.layouts import paper_scene
@@ -26,6 +26,13 @@ def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
     session = Session(root, rig.intrinsics)
     save_session(session)
     return MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent)
+
+
+@pytest.fixture(autouse=True)
+def servers_warning_filter():
+    """app.server silences viser's warning for messages to a tab that has gone, once on import; pytest restores the
+    warning filters around every test, so each test gets it again (a module's server outlives the test that made it)."""
+    quiet_closed_connections()
 
 
 def pytest_configure(config) -> None:
