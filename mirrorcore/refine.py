@@ -36,6 +36,9 @@ MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
+SCATTER_FRAMES = 3           # from this many frames on, how well a plane is known, as reported, also comes from the
+                             # spread of the planes each frame alone gives (the fit's own estimate is 2.5 to 3 times
+                             # too small); the refusals above keep to the fit's own (the overlap's geometry)
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
 MAX_DISAGREEMENT = 1.5       # a plane found by a search whose view, refined, still disagrees this many times more
                              # than the depth noise explains is refused: the search locked on a wrong plane (true
@@ -56,7 +59,10 @@ class MirrorRefinement:
         points lie outside them
     shift_mm : how far the plane moved at the object, along its normal (mm, > 0 away from the camera)
     tilt_deg : the angle between the planes before and after (degrees)
-    shift_std_mm, tilt_std_deg : how well the data determined the plane (1 sigma)
+    shift_std_mm, tilt_std_deg : how well the data determined the plane (1 sigma): the fit's own estimate, or with
+        SCATTER_FRAMES frames or more the spread of the planes each frame alone gives over the square root of their
+        number, whichever is larger (on the simulator the fit's own is 2.5 to 3 times smaller than the planes' actual
+        scatter from frame to frame: the comparisons themselves change with the noise)
     agreements : comparisons of its readings with the camera's that agree (both ways, all frames)
     marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
     """
@@ -232,8 +238,10 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
             break
         labelled = _with_planes(rig, planes)
     shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
+    scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations))
     limits = (*max_change, max_disagreement)
-    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, limits) for j in refined)
+    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, limits, scatter.get(j))
+                    for j in refined)
     if progress is not None:
         progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
@@ -256,7 +264,17 @@ def _fraction(iterations: int, within: float = 1.0) -> float:
 
 
 def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names):
-    """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals)."""
+    """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals);
+    CalibrationError when a mirror's views overlap too little (_check_overlap)."""
+    planes, iterations = _solve(frames, planes, refined, centre, gate, progress, cancel, iterations)
+    final = residuals(frames, planes, refined, centre)
+    _check_overlap(final, refined, names, len(frames))
+    return planes, iterations, final
+
+
+def _solve(frames, planes, refined, centre, gate, progress, cancel, iterations) -> tuple[dict[int, Plane], int]:
+    """Gauss-Newton until no step exceeds SETTLED of its std (at most MAX_ITERATIONS) -> (planes, iterations so
+    far); `progress` (or None) after each iteration."""
     planes = dict(planes)
     for _ in range(MAX_ITERATIONS):
         if cancel_requested(cancel):
@@ -273,9 +291,33 @@ def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations
             progress(_fraction(iterations))
         if np.all(np.abs(step) <= SETTLED * np.sqrt(np.diag(np.linalg.inv(hessian)))):
             break
-    final = residuals(frames, planes, refined, centre)
-    _check_overlap(final, refined, names, len(frames))
-    return planes, iterations, final
+    return planes, iterations
+
+
+def _frames_scatter(frames, planes, refined, centre, progress, cancel, done: float) -> dict[int, tuple[float, float]]:
+    """With SCATTER_FRAMES frames or more: {mirror j: (metres, degrees)}, the spread of the planes that each frame
+    alone gives, refined from `planes`, over the square root of the number of frames: along the normal at `centre`
+    and in tilt (the larger of its two axes), each a robust standard deviation (_spread: a frame that sees too little
+    to give a plane of its own does not count). Fewer frames: {}. `done`: the progress so far."""
+    if len(frames) < SCATTER_FRAMES:
+        return {}
+    shifts, tilts = [], []
+    for k, frame in enumerate(frames):
+        alone = _solve([frame], planes, refined, centre, 0.0, None, cancel, 0)[0]
+        shifts.append([shift_at(planes[j], alone[j], centre) for j in refined])
+        tilts.append([tangent_basis(planes[j].n) @ alone[j].n for j in refined])
+        if progress is not None:
+            progress(done + (0.99 - done) * (k + 1) / len(frames))
+    shifts, tilts, root = np.asarray(shifts), np.asarray(tilts), np.sqrt(len(frames))
+    return {j: (float(_spread(shifts[:, i]) / root),
+                float(np.degrees(max(_spread(tilts[:, i, 0]), _spread(tilts[:, i, 1]))) / root))
+            for i, j in enumerate(refined)}
+
+
+def _spread(values: np.ndarray) -> float:
+    """A standard deviation of `values` (n,) robust to a few wild ones: 1.4826 times their median absolute
+    deviation (the standard deviation itself for Gaussian values)."""
+    return float(1.4826 * np.median(np.abs(values - np.median(values))))
 
 
 def _check_overlap(found: _Residuals, refined: list[int], names: list[str], frames: int) -> None:
@@ -294,11 +336,12 @@ def _with_planes(rig: Rig, planes: dict[int, Plane]) -> Rig:
 
 
 def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
-            final: _Residuals, refined: list[int], limits: tuple) -> MirrorRefinement:
+            final: _Residuals, refined: list[int], limits: tuple, scatter: tuple[float, float] | None
+            ) -> MirrorRefinement:
     """One mirror's report, or CalibrationError when the data did not determine its plane, it did not settle or it
     disagrees (limits: max_change's metres and degrees, then max_disagreement).
     shown : the comparisons before and after with SHOWN_GATE (the agreement reported); final : those that settled
-    the planes (the determination)."""
+    the planes (the determination); scatter : (metres, degrees) from _frames_scatter, or None."""
     name = rig.mirrors[j - 1].name
     weights = final.weights()
     hessian = final.jacobian.T @ (weights[:, None] * final.jacobian)
@@ -308,7 +351,7 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
     shift_std = float(np.sqrt(cov[i + 2, i + 2]))
     tilt_std = float(np.degrees(np.sqrt(np.linalg.eigvalsh(cov[i:i + 2, i:i + 2]).max())))
     shift, tilt = shift_at(before, after, centre), before.angle_to(after)
-    if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:
+    if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:       # the overlap's geometry, not the frames' noise
         raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
                                f"+-{1e3 * shift_std:.1f} mm and +-{tilt_std:.2f} deg); use more frames, or move the "
                                "object so that both the camera and the mirror see its sides")
@@ -322,6 +365,8 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
         raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
                                "boundary, or click markers on it and fit it first")
+    if scatter is not None:
+        shift_std, tilt_std = max(shift_std, scatter[0]), max(tilt_std, scatter[1])
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
                             tilt, 1e3 * shift_std, tilt_std, final.with_camera(j))
 
