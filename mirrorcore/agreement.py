@@ -15,11 +15,13 @@ reading's noise. The anchor's error along P's ray moves that place along the sur
 there the tangent of a curved surface passes beside P: on average by -k sin^2(t) var / 2 (k the surface's curvature
 along the way, t the ray's incidence, var the anchor's variance along its ray), inside a convex surface. That part is
 removed (CURVATURE_STEP): it was 0.2 to 0.9 mm for each pair of views of the walking figure, whose limbs are 4 to 6 cm
-across, and is within +-0.2 mm after. Where the reading P falls on is on the rim of the other view's silhouette, the
-anchor's error may also be all that puts P there, beside a surface the other view does not see: such a comparison is
-kept only when the anchor falls within RIM_LANDING_PX (its standard deviation along the ray, in pixels of the image). Points are matched by pixel (projective association, as KinectFusion does), never with their nearest
-neighbour in 3D, which prefers the readings that noise moved towards them and matches a point beside the other view's
-silhouette with the silhouette.
+across, and is within +-0.2 mm after. Where P falls on a reading on the rim of the other view's silhouette, the
+anchor's error may be all that puts it there, beside a surface the other view does not see: such a comparison counts
+only when the anchor falls there within RIM_LANDING_PX (its standard deviation along the ray, in pixels of the image).
+
+Points are matched by pixel (projective association, as KinectFusion does), never with their nearest neighbour in 3D,
+which prefers the readings that noise moved towards them and matches a point beside the other view's silhouette with
+the silhouette.
 """
 from __future__ import annotations
 
