@@ -332,8 +332,9 @@ def planes_key(session: Session) -> tuple:
 def refined_headline(mirrors) -> str:
     """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
     moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f} deg"
-             + (f", glass {1e3 * r.marker_offset:.1f} mm" if r.marker_offset is not None else "") for r in mirrors]
-    return f"{REFINED}: {'; '.join(moved)}. Undo restores the previous planes."
+             + (f", glass {1e3 * r.marker_offset:.1f} +- {1e3 * r.marker_offset_std:.1f} mm"
+                if r.marker_offset is not None else "") for r in mirrors]
+    return f"{REFINED} (moved > 0: away from the camera): {'; '.join(moved)}. Undo restores the previous planes."
 
 
 def _signed(mm: float) -> str:

@@ -65,6 +65,8 @@ class MirrorRefinement:
         scatter from frame to frame: the comparisons themselves change with the noise)
     agreements : comparisons of its readings with the camera's that agree (both ways, all frames)
     marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
+    marker_offset_std : metres, how well that is known (1 sigma: the spread of its markers and the plane's own
+        uncertainty where they are), or None
     """
 
     index: int
@@ -81,14 +83,17 @@ class MirrorRefinement:
     tilt_std_deg: float
     agreements: int
     marker_offset: float | None = None
+    marker_offset_std: float | None = None
 
     def summary(self) -> str:
-        text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm (mean "
-                f"{self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved {self.shift_mm:+.2f} mm "
-                f"and {self.tilt_deg:.3f} deg (known to +-{self.shift_std_mm:.2f} mm, +-{self.tilt_std_deg:.3f} deg, "
-                f"{self.agreements} points seen both ways)")
+        text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the frames "
+                f"used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
+                f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f} deg; the data fix it to "
+                f"+-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma, beside the method's own "
+                f"bias of up to 1 to 2 mm, most on thin parts such as limbs; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
-            text += f", markers {1e3 * self.marker_offset:.1f} mm in front of the silver (saved as its glass)"
+            text += (f", markers {1e3 * self.marker_offset:.1f} mm (+-{1e3 * self.marker_offset_std:.1f}) in front of "
+                     "the silver (saved as its glass)")
         return text
 
 
@@ -424,7 +429,7 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
     max_change and max_disagreement as there); all or nothing. Each refined mirror with usable markers also gets its
     marker_offset: how far its markers' faces stand in front of the refined plane (median over the frames of their
-    readings).
+    readings), with how well that is known.
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
     result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement)
@@ -432,22 +437,40 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     reports = []
     for report in result.mirrors:
         mirror = session.mirrors[report.index]
-        offset = marker_offset(session.camera, depth, mirror.markers, report.after)
-        report = replace(report, marker_offset=offset)
+        found = marker_offset(session.camera, depth, mirror.markers, report.after)
+        offset = None if found is None else found[0]
+        if found is not None:
+            report = replace(report, marker_offset=offset, marker_offset_std=_glass_std(report, found, result.centre))
         session = session.with_mirror(report.index, replace(
             mirror, plane=report.after, marker_offset=mirror.marker_offset if offset is None else offset))
         reports.append(report)
     return session, replace(result, mirrors=tuple(reports))
 
 
-def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> float | None:
+def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane
+                  ) -> tuple[float, float, np.ndarray] | None:
     """How far (metres) markers' faces stand in front of `plane` (towards the camera): the median signed distance of
     their readings (calibration.marker_points) in depth (H, W) float metres, 0 when that median is negative (markers
-    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); None with
-    fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
+    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); with the
+    spread of the markers' own medians over the square root of their number (metres) and their readings' centroid
+    (3,) metres. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this
+    mirror's glass)."""
     groups = [marker_points(intr, depth, m) for m in markers]
-    usable = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
+    usable = [g.astype(np.float64) for g in groups if len(g) >= MIN_MARKER_PIXELS]
     if len(usable) < 3:
         return None
-    offset = float(np.median(plane.signed_distance(np.concatenate(usable).astype(np.float64))))
-    return max(offset, 0.0) if abs(offset) <= MAX_MARKER_OFFSET else None
+    readings = np.concatenate(usable)
+    offset = float(np.median(plane.signed_distance(readings)))
+    each = [float(np.median(plane.signed_distance(g))) for g in usable]
+    if abs(offset) > MAX_MARKER_OFFSET:
+        return None
+    return max(offset, 0.0), float(np.std(each, ddof=1) / np.sqrt(len(each))), readings.mean(axis=0)
+
+
+def _glass_std(report: MirrorRefinement, found: tuple[float, float, np.ndarray], centre) -> float:
+    """Metres, 1 sigma of a mirror's glass (marker_offset's `found`): its markers' spread and the refined plane's own
+    uncertainty where they are (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there)."""
+    along = found[2] - np.asarray(centre)
+    away = np.linalg.norm(along - (along @ report.after.n) * report.after.n)
+    plane = np.hypot(1e-3 * report.shift_std_mm, np.radians(report.tilt_std_deg) * away)
+    return float(np.hypot(found[1], plane))

@@ -580,7 +580,8 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     """Beside the detail line's "-0.02 mm", the headline said "moved +0.0 mm" (a helper read it as a contradiction)."""
     moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None)
              for n, mm in (("left", -0.02), ("right", -1.47))]
-    assert refined_headline(moved).startswith("Planes refined: left moved 0.0 mm and 0.05 deg; right moved -1.5 mm")
+    assert refined_headline(moved).startswith("Planes refined (moved > 0: away from the camera): left moved 0.0 mm and "
+                                              "0.05 deg; right moved -1.5 mm")
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

@@ -190,9 +190,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
-    assert "agreement" in mirrors.result.content and "known to +-" in mirrors.result.content
+    assert "agreement" in mirrors.result.content and "the data fix it to +-" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
-    assert re.fullmatch(r"Planes refined: mirror 1 moved [+-]?\d+\.\d mm and \d+\.\d\d deg(, glass \d+\.\d mm)?; "
+    assert re.fullmatch(r"Planes refined \(moved > 0: away from the camera\): mirror 1 moved [+-]?\d+\.\d mm and "
+                        r"\d+\.\d\d deg(, glass \d+\.\d \+- \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Undo restores the previous planes\.", headline), headline
     assert said == [headline]
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):

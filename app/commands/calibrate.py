@@ -29,8 +29,9 @@ def register(sub) -> None:
                    help="use this frame only (default: markers and region use the per-pixel median of the background "
                         f"and up to {MAX_MEDIAN_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)")
     p.add_argument("--method", choices=["markers", "region", "scene"], default=None,
-                   help="markers (default): the mirror's 'markers'; region: its 'region' polygon (its frame); scene: "
-                        "no markers, the object seen directly and in each mirror (search, then refinement)")
+                   help="markers (the default without --refine): the mirror's 'markers'; region: its 'region' "
+                        "polygon (its frame); scene: no markers, the object seen directly and in each mirror (search, "
+                        "then refinement)")
     p.add_argument("--refine", action="store_true",
                    help="refine the planes so that the object seen in the mirrors agrees with the object seen directly "
                         "(after --method, or alone on a session whose planes are set)")
@@ -101,5 +102,9 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
             print(f"{session.mirrors[i].name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary()}")
     if not args.refine:
         return session, None
+    unset = [m.name for m in session.mirrors if m.plane is None]
+    if method is None and unset:
+        raise CalibrationError(f"{unset[0]}: no plane to refine yet; fit the planes first and then refine them: "
+                               f"mirrorscan calibrate {session.root} --method markers --refine")
     return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),
                           progress=progress)
