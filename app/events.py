@@ -51,6 +51,11 @@ class JobProgress:
     fraction: float | None
     status: str
 
+    @property
+    def percent(self) -> float:
+        """The fraction done as a progress bar's value, to 0.1 % (a screen reader read out "55.00000000000001")."""
+        return round(100.0 * (self.fraction or 0.0), 1)
+
 
 @dataclass(frozen=True, eq=False)
 class DenseChanged:

@@ -576,6 +576,11 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
 
 
+def test_a_progress_bar_is_given_tenths_of_a_percent():
+    assert JobProgress("refine", 0.55, "").percent == 55.0 and JobProgress("refine", 0.12345, "").percent == 12.3
+    assert JobProgress("refine", None, "done").percent == 0.0
+
+
 def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing():
     """Beside the detail line's "-0.02 mm", the headline said "moved +0.0 mm" (a helper read it as a contradiction)."""
     moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None)

@@ -139,7 +139,7 @@ class DensePanel:
         self.run.disabled, self.cancel.disabled = running, not running
         self.progress.visible = running
         if running:
-            self.progress.value = 100.0 * event.fraction
+            self.progress.value = event.percent
         self.status.content = event.status
 
     def _on_result(self, event: DenseChanged) -> None:

@@ -99,7 +99,7 @@ class MirrorsPanel:
             self.refine.disabled, self.refine_cancel.visible = running, running
             self.refine_progress.visible = running
             if running:
-                self.refine_progress.value = 100.0 * event.fraction
+                self.refine_progress.value = event.percent
             else:                                   # its end, in view whatever the panel's scroll
                 self.services.notify(self.tab.client, "Refinement", event.status.split("\n\n")[0],
                                      error=event.status.startswith((NOT_DONE, FAILED)))

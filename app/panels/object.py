@@ -169,6 +169,6 @@ class ObjectPanel:
         self.progress.visible = self.cancel.visible = running
         self.capture.disabled = running
         if running:
-            self.progress.value = 100.0 * event.fraction
+            self.progress.value = event.percent
         else:
             self.status.content = f"Background: {event.status}."

@@ -92,7 +92,7 @@ class RecordPanel:
             running = event.fraction is not None
             self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = running, running, running
             if running:
-                self.batch_progress.value = 100.0 * event.fraction
+                self.batch_progress.value = event.percent
             cancelling = running and self.batch_cancel.disabled
             self.batch_status.content = event.status + (CANCELLING if cancelling else "")
             if not running:
