@@ -207,6 +207,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
     assert mirrors.result.content == report                                           # its report back
+    with HeadlessTab(app) as reloaded:                                     # a page opened (or reloaded) now shows it
+        assert panel(reloaded.tab, MirrorsPanel).result.content == report
     app.editor.set_marker_offset(1, 0.003)
     assert app.editor.mirror(1).marker_offset == 0.003
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):

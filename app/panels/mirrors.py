@@ -54,7 +54,9 @@ class MirrorsPanel:
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
         self.redo = gui.add_button("Redo", disabled=True)
-        self.result = gui.add_markdown("")           # a fit's or refinement's report, under the buttons that made it
+        # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
+        # report of the refinement that left the planes as they are
+        self.result = gui.add_markdown(self.services.jobs.refinements.get(planes_key(self.services.editor.session), ""))
         self.agreement = gui.add_markdown(self.services.jobs.agreement)
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
