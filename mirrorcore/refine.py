@@ -89,8 +89,8 @@ class MirrorRefinement:
         text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the frames "
                 f"used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
                 f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f} deg; the data fix it to "
-                f"+-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma, beside the method's own "
-                f"bias of up to 1 to 2 mm, most on thin parts such as limbs; {self.agreements} points seen both ways)")
+                f"+-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma; the method may add 1 to 2 "
+                f"mm; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} mm (+-{1e3 * self.marker_offset_std:.1f}) in front of "
                      "the silver (saved as its glass)")

@@ -218,7 +218,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")
     legend = wait_for(lambda: "mirror 2: median" in tab.header.legend.content and tab.header.legend.content, 10,
                       "the heat map's legend")
-    assert "not seen by the camera" in legend and re.search(r"mirror 1: median [+-]\d+\.\d mm over \d+% of", legend)
+    assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface:<br>mirror 1: "
+                                                            r"median [+-]\d+\.\d mm over \d+% of", legend)
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")

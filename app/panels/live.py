@@ -44,11 +44,12 @@ HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_
 
 def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[int], str]) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
-    and the share of its points compared (figures as in HeatChanged; empty until the first map arrives)."""
+    and the share of its points compared (figures as in HeatChanged; empty until the first map arrives), said to be
+    this frame's and the camera's: the agreement lines beside it are over the recent frames and every view."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{name(j)}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{name(j)}: none of its points seen by the camera" for j, (median, share) in figures.items()]
-    body = "<br>".join(lines) if figures else "computing the heat map…"
+    body = "<br>".join(["this frame, against the camera's surface:", *lines]) if figures else "computing the heat map…"
     return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}</div>'
 
 
