@@ -437,24 +437,32 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     reports = []
     for report in result.mirrors:
         mirror = session.mirrors[report.index]
-        found = marker_offset(session.camera, depth, mirror.markers, report.after)
-        offset = None if found is None else found[0]
-        if found is not None:
-            report = replace(report, marker_offset=offset, marker_offset_std=_glass_std(report, found, result.centre))
+        glass = marker_offset(session.camera, depth, mirror.markers, report.after)
+        offset = None if glass is None else glass.offset
+        if glass is not None:
+            report = replace(report, marker_offset=offset, marker_offset_std=_glass_std(report, glass, result.centre))
         session = session.with_mirror(report.index, replace(
             mirror, plane=report.after, marker_offset=mirror.marker_offset if offset is None else offset))
         reports.append(report)
     return session, replace(result, mirrors=tuple(reports))
 
 
-def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane
-                  ) -> tuple[float, float, np.ndarray] | None:
+class Glass(NamedTuple):
+    """How far markers' faces stand in front of a plane (marker_offset): `offset` metres, `spread` metres (the
+    spread of the markers' own medians over the square root of their number) and the `centroid` (3,) metres of
+    their readings."""
+
+    offset: float
+    spread: float
+    centroid: np.ndarray
+
+
+def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> Glass | None:
     """How far (metres) markers' faces stand in front of `plane` (towards the camera): the median signed distance of
     their readings (calibration.marker_points) in depth (H, W) float metres, 0 when that median is negative (markers
-    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); with the
-    spread of the markers' own medians over the square root of their number (metres) and their readings' centroid
-    (3,) metres. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this
-    mirror's glass)."""
+    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); see
+    Glass. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's
+    glass)."""
     groups = [marker_points(intr, depth, m) for m in markers]
     usable = [g.astype(np.float64) for g in groups if len(g) >= MIN_MARKER_PIXELS]
     if len(usable) < 3:
@@ -464,13 +472,13 @@ def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane
     each = [float(np.median(plane.signed_distance(g))) for g in usable]
     if abs(offset) > MAX_MARKER_OFFSET:
         return None
-    return max(offset, 0.0), float(np.std(each, ddof=1) / np.sqrt(len(each))), readings.mean(axis=0)
+    return Glass(max(offset, 0.0), float(np.std(each, ddof=1) / np.sqrt(len(each))), readings.mean(axis=0))
 
 
-def _glass_std(report: MirrorRefinement, found: tuple[float, float, np.ndarray], centre) -> float:
-    """Metres, 1 sigma of a mirror's glass (marker_offset's `found`): its markers' spread and the refined plane's own
-    uncertainty where they are (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there)."""
-    along = found[2] - np.asarray(centre)
+def _glass_std(report: MirrorRefinement, glass: Glass, centre) -> float:
+    """Metres, 1 sigma of a mirror's glass: its markers' spread and the refined plane's own uncertainty where they are
+    (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there)."""
+    along = glass.centroid - np.asarray(centre)
     away = np.linalg.norm(along - (along @ report.after.n) * report.after.n)
     plane = np.hypot(1e-3 * report.shift_std_mm, np.radians(report.tilt_std_deg) * away)
-    return float(np.hypot(found[1], plane))
+    return float(np.hypot(glass.spread, plane))
