@@ -2,11 +2,16 @@
 background, every edit naming its mirror by its stable id. Undo and redo are kept per mirror (and for the session's
 own changes: adding or removing a mirror, the selection, the background), each step named for the button; the
 planes set by one fit or refinement of several mirrors are undone and redone together, from any of them. Pure logic
-over mirrorcore.session; thread-safe; autosaved after every change."""
+over mirrorcore.session; thread-safe; autosaved after every change.
+
+session.json may also be written by another program while the tool edits it (`mirrorscan calibrate SESSION` in a
+terminal): the editor never saves over such a change. It reloads the file (`reload_if_changed`, which the server
+calls twice a second) and refuses an edit that would have been saved over it, naming what happened."""
 from __future__ import annotations
 
 import functools
 import itertools
+import os
 import threading
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -14,7 +19,7 @@ from typing import Callable
 import cv2
 import numpy as np
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.rig import check_bounces
@@ -27,6 +32,7 @@ from mirrorcore.session import (
     SessionMirror,
     check_limits,
     check_name,
+    load_session,
     save_session,
 )
 
@@ -58,19 +64,24 @@ def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
 
 def _edits(method):
     """Run an editing method under the editor's lock, then tell the listeners (outside the lock, so that a listener
-    may take its own locks in any order) when it changed something."""
+    may take its own locks in any order) when it changed something. Refused (MirrorscanError), the session reloaded,
+    when another program changed session.json since the editor read or wrote it."""
 
     @functools.wraps(method)
     def wrapper(self: "SessionEditor", *args, **kwargs):
-        with self._lock:
-            try:
-                result = method(self, *args, **kwargs)
-            finally:
-                session, changed, self._changed = self._session, self._changed, False
-        if changed:
-            for listener in list(self.listeners):
-                listener(session)
-        return result
+        changed = False
+        try:
+            with self._lock:
+                try:
+                    message, reloaded = self._reload_external()
+                    if reloaded:
+                        raise MirrorscanError(f"{message}; this change was not made: make it again")
+                    return method(self, *args, **kwargs)
+                finally:
+                    session, changed, self._changed = self._session, self._changed, False
+        finally:
+            if changed:
+                self._tell(session)
     return wrapper
 
 
@@ -93,6 +104,7 @@ class SessionEditor:
         self.last_save_error: str | None = None
         self._changed = False
         self._groups = itertools.count(1)
+        self._disk = _stamp(session.path)          # session.json as the editor last read or wrote it
 
     @property
     def session(self) -> Session:
@@ -241,11 +253,51 @@ class SessionEditor:
         self._change("background", ("background", self._session.background, relative_path),
                      replace(self._session, background=relative_path))
 
-    @_edits
     def replace_session(self, session: Session) -> None:
         """Open another session (the undo history is dropped)."""
+        with self._lock:
+            self._open(session)
+            self._changed = False
+        self._tell(session)
+
+    def reload_if_changed(self) -> str:
+        """Reload session.json when another program changed it since the editor read or wrote it; returns what
+        happened in one line ('' when nothing did). See _reload_external."""
+        with self._lock:
+            message, reloaded = self._reload_external()
+            session, self._changed = self._session, False
+        if reloaded:
+            self._tell(session)
+        return message
+
+    def _tell(self, session: Session) -> None:
+        for listener in list(self.listeners):
+            listener(session)
+
+    def _open(self, session: Session) -> None:
         self._session, self._undo, self._redo = session, {}, {}
+        self._disk = _stamp(session.path)
+
+    def _reload_external(self) -> tuple[str, bool]:
+        """When an autosaved session's session.json is not as the editor left it, read it again, dropping the undo
+        history (which describes the file before). Returns what happened in one line ('' when the file is unchanged)
+        and whether the session was reloaded. An unreadable or removed file is not read: the editor keeps its own
+        session and writes it at the next change (save_session keeps what was there as session.json.bak)."""
+        stamp = _stamp(self._session.path)
+        if not self.autosave or stamp == self._disk:
+            return "", False
+        self._disk = stamp
+        where = self._session.path
+        if stamp is None:
+            return f"{where} was removed by another program; the tool writes it again at the next change", False
+        try:
+            session = load_session(self._session.root)
+        except FileFormatError as exc:
+            return (f"{where} was changed by another program and cannot be read ({exc}); the tool keeps its own "
+                    "session and writes it at the next change, keeping that file as session.json.bak"), False
+        self._open(session)
         self._changed = True
+        return f"{where} was changed by another program (mirrorscan calibrate?): reloaded, undo history cleared", True
 
     # ------------------------------------------------------------------ undo and redo
     def undo_label(self, scope: int) -> str | None:
@@ -371,7 +423,18 @@ class SessionEditor:
                 save_session(self._session)
             except OSError as exc:   # the previous file is intact (atomic write); say so and go on
                 self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
+            self._disk = _stamp(self._session.path)
         self._changed = True
+
+
+def _stamp(path) -> tuple[int, int, int] | None:
+    """What tells a file's versions apart: (inode, modification time ns, size), None when it does not exist (an
+    atomic write replaces the inode, so two versions written within one tick of the clock still differ)."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return None
+    return st.st_ino, st.st_mtime_ns, st.st_size
 
 
 def _inverse(change: tuple) -> tuple:

@@ -29,7 +29,8 @@ from .state import Snapshot
 from .tab import Tab
 
 log = logging.getLogger("mirrorscan")
-VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden
+VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden, and session.json whether another
+                          # program changed it (the editor then reloads it)
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
@@ -102,7 +103,7 @@ class MirrorscanApp:
         self._poller.start()
 
     def stop(self) -> None:
-        """End a recording (its frames are kept), then the loop and the server."""
+        """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the server."""
         self._stop.set()
         if self.jobs.running(RECORD):
             try:
@@ -110,6 +111,7 @@ class MirrorscanApp:
             except MirrorscanError as exc:
                 log.warning("recording not finished cleanly: %s", exc)
         self.loop.stop()
+        self.jobs.stop()
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
 
@@ -142,6 +144,12 @@ class MirrorscanApp:
                 tabs = list(self.tabs.values())
             for tab in tabs:
                 tab.poll_visibility()
+            self.act(None, self._reload_if_changed)
+
+    def _reload_if_changed(self) -> None:
+        message = self.editor.reload_if_changed()
+        if message:
+            self.notify(None, "Session file changed", message, error=False)
 
     # ------------------------------------------------------------------ the Services protocol
     @property
@@ -205,7 +213,10 @@ class MirrorscanApp:
         it has some and no camera is live, as `mirrorscan serve SESSION` does (its mirrors belong to them, not to the
         simulator or recording playing before); a live camera stays, to be used with the session's calibration."""
         if session.frames and (play or not self._source.camera):
-            self.use_source(SessionSource(session))      # refused, nothing changed, when its camera differs
+            start = self.start_source                    # the session served from the start is not a replay
+            served = isinstance(start, SessionSource) and Path(start.session.root).resolve() == \
+                Path(session.root).resolve()
+            self.use_source(start if served else SessionSource(session))  # refused when its camera differs
         self.editor.autosave = True
         self._background = (None, self._source.background())   # the session's own, if any, is read on the change
         self.editor.replace_session(session)

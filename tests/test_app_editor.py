@@ -3,6 +3,7 @@ the image and the mirror's boundary, boundaries, undo and redo per mirror with n
 undone, fits computed on a state that changed meanwhile refused, autosave and round trip."""
 import json
 import os
+from dataclasses import replace
 
 import pytest
 
@@ -11,7 +12,7 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.selection import Selection
-from mirrorcore.session import Session, load_session
+from mirrorcore.session import Session, load_session, save_session
 
 SQUARE = [(10, 10), (100, 10), (100, 100), (10, 100)]
 PLANE = Plane.from_abcd([0.5, 0, -0.8, 2.4])
@@ -200,3 +201,53 @@ def test_listeners_hear_every_change_and_refusals_are_silent(editor):
         editor.add_marker(1, (9999, 1))
     editor.undo(1)
     assert heard == [1, 0]
+
+
+def written_elsewhere(tmp_path, **changes) -> None:
+    """session.json changed by another program (as `mirrorscan calibrate SESSION` in a terminal writes it): the
+    first mirror's fields replaced."""
+    other = load_session(tmp_path)
+    save_session(replace(other, mirrors=(replace(other.mirrors[0], **changes),) + other.mirrors[1:]))
+
+
+def test_a_change_written_by_another_program_is_reloaded_never_saved_over(editor, tmp_path):
+    editor.add_marker(1, (10, 20))
+    heard = []
+    editor.listeners.append(lambda s: heard.append(s.mirrors[0].plane is not None))
+    written_elsewhere(tmp_path, plane=PLANE)
+    with pytest.raises(MirrorscanError, match=r"session.json was changed by another program .*reloaded, undo "
+                                              r"history cleared; this change was not made: make it again"):
+        editor.rename_mirror(1, "left")
+    assert saved(tmp_path)["mirrors"][0]["plane"] == pytest.approx(list(PLANE.abcd))   # not saved over
+    assert saved(tmp_path)["mirrors"][0]["name"] == "mirror 1"
+    assert editor.mirror(1).plane.abcd == pytest.approx(PLANE.abcd) and heard == [True]     # the tabs are told
+    assert editor.undo_label(1) is None           # undo would have put back the file as it was before
+    editor.rename_mirror(1, "left")               # made again, on the file as it now is
+    assert saved(tmp_path)["mirrors"][0]["name"] == "left" and editor.mirror(1).plane is not None
+    assert editor.reload_if_changed() == ""       # its own writes are not another program's
+
+
+def test_the_server_s_poll_reloads_a_changed_file_and_keeps_its_own_over_an_unreadable_one(editor, tmp_path):
+    editor.add_marker(1, (10, 20))
+    written_elsewhere(tmp_path, name="left")
+    assert editor.reload_if_changed().endswith("was changed by another program (mirrorscan calibrate?): reloaded, "
+                                               "undo history cleared")
+    assert editor.mirror(1).name == "left" and editor.reload_if_changed() == ""
+    (tmp_path / "session.json").write_text("{ half a file")
+    assert "cannot be read" in editor.reload_if_changed()
+    assert editor.mirror(1).name == "left"                     # its own session kept
+    editor.add_marker(1, (30, 40))                             # not refused: there was nothing to reload
+    assert len(saved(tmp_path)["mirrors"][0]["markers"]) == 2
+    assert (tmp_path / "session.json.bak").read_text() == "{ half a file"     # what was there is kept
+    (tmp_path / "session.json").unlink()
+    assert "was removed by another program" in editor.reload_if_changed()
+    editor.add_marker(1, (50, 60))
+    assert len(saved(tmp_path)["mirrors"][0]["markers"]) == 3
+
+
+def test_a_session_that_is_not_saved_is_never_reloaded(tmp_path):
+    editor = SessionEditor(Session(tmp_path, Intrinsics.kinect_v1()), autosave=False)
+    editor.add_mirror()
+    save_session(Session(tmp_path, Intrinsics.kinect_v1()))   # a file there is not this session's
+    assert editor.reload_if_changed() == "" and len(editor.session.mirrors) == 1
+    editor.add_mirror()
