@@ -22,8 +22,10 @@ from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import ViewAgreement, refine_session, view_agreement
+from mirrorcore.refine import REFINE_FRAMES, ViewAgreement, refine_session, view_agreement
+from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
+from mirrorcore.sources import SessionSource
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from .events import DenseChanged, EventBus, FrameReady, HeatChanged, JobProgress
@@ -44,7 +46,9 @@ CHECKING = "checking how the views agree…"
 # the surface where the views overlap: only the refinement finds them).
 NOISE_EXPLAINS = 1.0
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
-REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes
+REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
+FOUND = "Planes found from the object"     # ... and of a calibration without markers
+UNDO_NOTE = "Undo restores the previous planes."
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
 
 
@@ -88,9 +92,11 @@ class Jobs:
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
+        self.from_object: dict[int, object] = {}     # mirror id -> the last plane a refinement or search gave it
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
+        self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
         self._lock = threading.Lock()
 
     def running(self, kind: str) -> bool:
@@ -128,8 +134,20 @@ class Jobs:
             if status is not None:
                 self.bus.publish(JobProgress(kind, None, status))
         thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
+        self._threads[kind] = thread
         thread.start()
         return thread
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Cancel every running job and wait up to `timeout` seconds in all for them to end (the server stops: a
+        job left in native code when the process exits aborts it)."""
+        with self._lock:
+            events, threads = list(self._running.values()), list(self._threads.values())
+        for event in events:
+            event.set()
+        end = time.monotonic() + timeout
+        for thread in threads:
+            thread.join(max(0.0, end - time.monotonic()))
 
     # ------------------------------------------------------------------ dense reconstruction
     def start_dense(self, method: str, options: DenseOptions, frames: int) -> threading.Thread:
@@ -168,28 +186,64 @@ class Jobs:
 
     # ------------------------------------------------------------------ calibration from the object
     def start_refine(self, editor: "SessionEditor") -> threading.Thread:
-        """Refine the planes of the session's calibrated mirrors from the agreement of the views over the recent
-        frames (mirrorcore.refine.refine_session), then apply the planes and marker offsets (one undo step per
-        mirror); the per-mirror report is the job's last status."""
+        """Refine the planes of the session's calibrated mirrors from the agreement of the views (mirrorcore.refine.
+        refine_session) over object_frames, then apply the planes and marker offsets (one undo step per mirror); the
+        per-mirror report is the job's last status."""
+        depths, used = self.object_frames()
+        session, snapshot = editor.session, self.snapshot()
+        return self._start(REFINE, lambda cancel: self._calibrate(
+            editor, session, snapshot, depths, used, cancel, None), "a refinement is already running")
+
+    def start_scene(self, editor: "SessionEditor") -> threading.Thread:
+        """Find the planes of the mirrors that have a boundary and no plane from the object, without markers
+        (mirrorcore.search.calibrate_scene: a search in the first of object_frames, then the refinement over all of
+        them, the other calibrated mirrors taking part as they are), and apply them as start_refine does."""
+        session = editor.session
+        todo = [i for i, m in enumerate(session.mirrors) if m.boundary and m.plane is None]
+        if not todo:
+            raise MirrorscanError("no mirror has a boundary and no plane: draw a mirror's boundary first (a mirror "
+                                  "with a plane is refined with Refine from the object)")
+        depths, used = self.object_frames()
+        snapshot = self.snapshot()
+        return self._start(REFINE, lambda cancel: self._calibrate(
+            editor, session, snapshot, depths, used, cancel, todo), "a refinement is already running")
+
+    def object_frames(self) -> tuple[np.ndarray, str]:
+        """The frames a calibration from the object uses, and which they are in words: REFINE_FRAMES spread over
+        the recording that plays (the same whenever it is clicked, as `mirrorscan calibrate` picks them), else the
+        last live frames (RECENT_FRAMES). (k, H, W) float32 metres."""
+        source = self.loop.source
+        if isinstance(source, SessionSource) and source.session.frames:
+            picks = source.session.spread_frames(REFINE_FRAMES)
+            depths = np.stack([source.session.read_frame(int(i)) for i in picks])
+            return depths, f"{len(picks)} of the recording's {len(source.session.frames)} frames"
         depths = self.loop.recent_depths()
         if depths is None:
-            raise MirrorscanError("no frame yet to refine from")
-        session, snapshot = editor.session, self.snapshot()
-        return self._start(REFINE, lambda cancel: self._refine(editor, session, snapshot, depths, cancel),
-                           "a refinement is already running")
+            raise MirrorscanError("no frame yet to calibrate from")
+        return depths, f"the last {len(depths)} live frames"
 
-    def _refine(self, editor: "SessionEditor", session: Session, snapshot, depths: np.ndarray,
-                cancel: threading.Event) -> str:
-        self.bus.publish(JobProgress(REFINE, 0.0, f"refining from {len(depths)} frames…"))
+    def _calibrate(self, editor: "SessionEditor", session: Session, snapshot, depths: np.ndarray, used: str,
+                   cancel: threading.Event, search: list[int] | None) -> str:
+        """Refine the calibrated planes (search None), or find those of the mirrors at `search` (0-based) first."""
+        doing = "refining the planes" if search is None else "finding the planes"
+        self.bus.publish(JobProgress(REFINE, 0.0, f"{doing} from {used}…"))
         masks = np.stack([prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1] for d in depths])
-        refined, result = refine_session(session, depths, masks, progress=lambda f: self.bus.publish(
-            JobProgress(REFINE, f, "refining the planes from the agreement of the views…")), cancel=cancel)
+        progress = lambda f: self.bus.publish(JobProgress(  # noqa: E731
+            REFINE, f, f"{doing} from the agreement of the views, over {used}…"))
+        if search is None:
+            refined, result = refine_session(session, depths, masks, progress=progress, cancel=cancel)
+        else:
+            refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
+                                              cancel)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
-        editor.set_planes(planes, offsets, what="refined plane")
+        editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
+        self.from_object.update({mirror_id: plane for mirror_id, (plane, _) in planes.items()})
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
-        report = "\n\n".join([refined_headline(result.mirrors)]
-                               + [f"**{r.name}** refined: {r.summary()}" for r in result.mirrors])
+        headline = refined_headline(result.mirrors) if search is None else found_headline(result.mirrors)
+        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}"]
+                               + [f"**{r.name}** {'refined' if search is None else 'found'}: {r.summary()}"
+                                  for r in result.mirrors])
         self.refinements[planes_key(editor.session)] = report
         return report
 
@@ -330,11 +384,18 @@ def planes_key(session: Session) -> tuple:
 
 
 def refined_headline(mirrors) -> str:
-    """One line for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
+    """One sentence for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
     moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f} deg"
              + (f", glass {1e3 * r.marker_offset:.1f} +- {1e3 * r.marker_offset_std:.1f} mm"
                 if r.marker_offset is not None else "") for r in mirrors]
-    return f"{REFINED} (moved > 0: away from the camera): {'; '.join(moved)}. Undo restores the previous planes."
+    return f"{REFINED} (moved > 0: away from the camera): {'; '.join(moved)}."
+
+
+def found_headline(mirrors) -> str:
+    """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each."""
+    fixed = [f"{r.name} to +-{r.shift_std_mm:.1f} mm and +-{r.tilt_std_deg:.2f} deg" for r in mirrors]
+    return (f"{FOUND} (no markers), fixed by the data {'; '.join(fixed)} (1 sigma; the method may add 1 to 2 mm): "
+            "check the heat map and the agreement below.")
 
 
 def _signed(mm: float) -> str:

@@ -161,6 +161,8 @@ class Tab:
                 self.scene.show_heat(None, None)
                 self.heat_figures = {}
         self.scene.show_clouds(not on and self.state.view == "3d")
+        if on and self.state.view == "3d":      # its colours are on the object's rims: a few pixels from home
+            self.look_at_object()
 
     def _on_heat(self, event: HeatChanged) -> None:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
@@ -175,16 +177,32 @@ class Tab:
     # ------------------------------------------------------------------ views
     def look_home(self) -> None:
         """The first view: the rig (camera, mirrors) and where the object is, framed for this tab's canvas."""
+        self._frame(np.concatenate([scene_points(self.services.snapshot.rig), self._object_points()]))
+
+    def look_at_object(self) -> None:
+        """The object's cloud (the last frame's, all its views) filling this tab's canvas, seen as from home; the
+        whole rig when there is no object in view."""
+        points = self._object_points()
+        if len(points) < 2:
+            self.look_home()
+        else:
+            self._frame(points)
+
+    def _object_points(self) -> np.ndarray:
+        """(k, 3) metres: about 500 of the last frame's object points (none before the first frame)."""
+        frame = self.services.last_frame
+        if frame is None or not len(frame.cloud):
+            return np.zeros((0, 3))
+        return frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
+
+    def _frame(self, points: np.ndarray) -> None:
+        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose) for its canvas."""
         camera = self.client.camera
         try:
             aspect = camera.image_width / max(camera.image_height, 1)
         except AssertionError:            # the tab has not reported its canvas yet
             aspect = 16 / 9
         fov = np.radians(50.0)
-        frame = self.services.last_frame
-        points = scene_points(self.services.snapshot.rig)
-        if frame is not None and len(frame.cloud):
-            points = np.concatenate([points, frame.cloud.points[:: max(1, len(frame.cloud) // 500)]])
         position, target = home_pose(points, fov, aspect)
         with self.client.atomic():
             camera.fov = fov

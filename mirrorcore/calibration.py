@@ -28,7 +28,7 @@ class Calibration:
     rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC;
     markers : for a markers fit, how far each marker's centre lies from the plane against the noise there (None for
     region and pair calibrations); centre : (3,) metres, the middle of the points used (where a change of the plane
-    is measured).
+    is measured); marker_offset : metres, the glass the markers fit put between its markers and the plane.
     """
 
     plane: Plane
@@ -37,9 +37,11 @@ class Calibration:
     n_inliers: int
     markers: MarkerResiduals | None = None
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    marker_offset: float = 0.0
 
-    def summary(self) -> str:
-        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor, and the farthest."""
+    def summary(self, marker_names: list[str] | None = None) -> str:
+        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor, the farthest (by
+        its name in `marker_names`, else its number from 1) and the glass taken between the markers and the plane."""
         text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
         if self.markers is not None:
             grades = self.markers.grades
@@ -47,8 +49,11 @@ class Calibration:
             ratio = np.asarray(self.markers.distance_mm) / np.asarray(self.markers.sigma_mm)
             if np.any(np.isfinite(ratio)):
                 worst = int(np.nanargmax(ratio))
-                text += (f" (farthest: marker {worst + 1}, {self.markers.distance_mm[worst]:.1f} mm, "
+                name = marker_names[worst] if marker_names else str(worst + 1)
+                text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
                          f"{ratio[worst]:.1f} sigma)")
+            if self.marker_offset:
+                text += f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
         return text
 
 
@@ -88,7 +93,8 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     silver = Plane(fit.plane.normal, fit.plane.d + float(marker_offset))
     _check_camera_side(silver, name)
     return Calibration(silver, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
-                       marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]))
+                       marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]),
+                       float(marker_offset))
 
 
 def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,

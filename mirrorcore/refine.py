@@ -39,6 +39,7 @@ MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving mor
 SCATTER_FRAMES = 3           # from this many frames on, how well a plane is known, as reported, also comes from the
                              # spread of the planes each frame alone gives (the fit's own estimate is 2.5 to 3 times
                              # too small); the refusals above keep to the fit's own (the overlap's geometry)
+REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
 MAX_DISAGREEMENT = 1.5       # a plane found by a search whose view, refined, still disagrees this many times more
                              # than the depth noise explains is refused: the search locked on a wrong plane (true

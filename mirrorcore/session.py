@@ -156,6 +156,12 @@ class Session:
                                   f"(0 to {len(self.frames) - 1})")
         return self._read(self.frames[index])
 
+    def spread_frames(self, most: int) -> np.ndarray:
+        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none without frames)."""
+        if not self.frames:
+            return np.zeros(0, int)
+        return np.unique(np.linspace(0, len(self.frames) - 1, min(len(self.frames), most)).astype(int))
+
     def read_background(self) -> np.ndarray | None:
         """The background frame as (H, W) float32 metres, or None when the session has none."""
         return None if self.background is None else self._read(self.background)

@@ -564,7 +564,11 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert hint == "left: click its corners; click the first corner to close."
     edged = Session(tmp_path, session.camera, mirrors=(SessionMirror("left", id=1, boundary=((0, 0), (9, 0), (0, 9))),))
     assert "choose **Markers** and click a marker" in start_hint(edged, TabState(mirror_id=1), True, False)
-    assert "left: click a marker" in start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False)
+    assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
+        "left: click a marker on the mirror, or **Find the planes from the object** (no markers).")
+    one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))
+    assert start_hint(one, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
+        "left: click more markers (3 or more, spread out) on the mirror.")        # markers begun: no second way
     waiting = start_hint(edged, TabState(mirror_id=1, proposal_for=("left",)), True, False)
     assert waiting == "A new plane for left waits: **Mirrors › Apply** it or **Discard** it."
     done = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], plane=Plane.from_point_normal(

@@ -6,6 +6,7 @@ technician's session on one app (the module's `sphere`), in order: each starts w
 (a dense run needs the background and the mirrors of the steps before), so run the module, not a test alone."""
 import re
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,8 +27,12 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
 from mirrorcore.refine import view_agreement
-from mirrorcore.session import load_session
-from mirrorcore.sim.export import session_mirrors
+from mirrorcore.session import load_session, save_session
+from mirrorcore.sim.export import session_mirrors, write_session
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.simulator import Simulator
+from mirrorcore.sources import SessionSource
+from tests.conftest import sphere_app
 
 pytestmark = pytest.mark.steps("sphere")
 
@@ -136,6 +141,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
     bottom = max(before.boundary, key=lambda p: p[1])
     click(tab, (bottom[0] - 10, bottom[1] - 6))
+    assert re.fullmatch(r"\d+ mm \(\d+ sigma\) from mirror 2's plane: off the glass \(on the object seen in it\?\)\. "
+                        r"Undo takes it back; a fit would leave it out and ask first\.", said[-1]), said[-1]
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
     assert mirrors.proposal is not None and app.editor.mirror(2).plane == plane            # not applied
@@ -194,7 +201,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
     assert re.fullmatch(r"Planes refined \(moved > 0: away from the camera\): mirror 1 moved [+-]?\d+\.\d mm and "
                         r"\d+\.\d\d deg(, glass \d+\.\d \+- \d+\.\d mm)?; "
-                        r"mirror 2 moved .*\. Undo restores the previous planes\.", headline), headline
+                        r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
+                        headline), headline
     assert said == [headline]
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
@@ -203,10 +211,15 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     refined, report = {m.id: m.plane for m in app.editor.session.mirrors}, mirrors.result.content
     panel(tab, MirrorsPanel)._travel(app.editor.undo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
-    assert mirrors.result.content == f"Undone: {headline}"                            # said so
+    assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
     assert mirrors.result.content == report                                           # its report back
+    mirrors.fit_planes([m.id for m in app.editor.session.mirrors])         # the markers again: shown, not applied
+    concerns = [c for _, _, review in mirrors.proposal.values() for c in review.concerns]
+    assert sum("it replaces the plane found from the object" in c for c in concerns) == 2, concerns
+    assert {m.id: m.plane for m in app.editor.session.mirrors} == refined
+    mirrors._discard()
     with HeadlessTab(app) as reloaded:                                     # a page opened (or reloaded) now shows it
         assert panel(reloaded.tab, MirrorsPanel).result.content == report
     app.editor.set_marker_offset(1, 0.003)
@@ -445,5 +458,67 @@ def test_a_background_captured_before_saving_is_saved_with_the_session(tmp_path)
             files._save_as()
             saved = load_session(tmp_path / "kept").read_background()
             np.testing.assert_allclose(saved, captured, atol=0.0006)       # 1 mm units on disk
+    finally:
+        app.stop()
+
+
+def test_a_session_file_written_by_calibrate_reaches_the_open_tabs(tmp_path, notes):
+    """`mirrorscan calibrate SESSION` run in a terminal while the tool serves SESSION: the tool reloads the file
+    (within a second), tells every tab, and its next edit goes on from the file as calibrate left it."""
+    app = sphere_app(tmp_path / "scan")
+    said = notes(app)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            app.editor.add_mirror()
+            session = load_session(tmp_path / "scan")
+            save_session(replace(session, mirrors=(replace(session.mirrors[0], name="left"),)))
+            mirrors = panel(headless.tab, MirrorsPanel)
+            wait_for(lambda: mirrors.mirror.options == ("left",), 10, "the tab showing the reloaded session")
+            assert any("was changed by another program (mirrorscan calibrate?): reloaded" in s for s in said)
+            app.editor.add_marker(app.editor.session.mirrors[0].id, (100, 100))
+            assert load_session(tmp_path / "scan").mirrors[0].name == "left"
+    finally:
+        app.stop()
+
+
+def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(tmp_path):
+    """The technician only drew the boundaries: the Mirrors step offers to find the planes from the object, over the
+    recording's frames spread as `mirrorscan calibrate --method scene` picks them (the same result whenever it is
+    clicked), and applies them as one undo step."""
+    sim = Simulator(paper_scene(object="sphere"), seed=3)
+    write_session(sim, tmp_path / "drawn", 4, progress=False)
+    session = load_session(tmp_path / "drawn")
+    session = replace(session, mirrors=tuple(replace(m, markers=()) for m in session.mirrors))
+    save_session(session)
+    app = MirrorscanApp(session, SessionSource(session), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            mirrors = panel(headless.tab, MirrorsPanel)
+            wait_for(lambda: app.last_frame is not None, 30, "the first frame")
+            headless.tab.changed()
+            assert mirrors.scene.visible and not mirrors.scene.disabled and mirrors.refine.disabled
+            assert "**Find the planes from the object** (no markers)" in headless.tab.header.hint.content
+            app.jobs.start_scene(app.editor)
+            wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240,
+                     "the planes found")
+            headline = mirrors.result.content.split("\n\n")[0]
+            assert re.fullmatch(r"Planes found from the object \(no markers\), fixed by the data mirror 1 to "
+                                r"\+-\d\.\d mm and \+-\d\.\d\d deg; mirror 2 to .* Over 4 of the recording's 4 "
+                                r"frames\. Undo restores the previous planes\.", headline), headline
+            found = [m.plane for m in app.editor.session.mirrors]
+            for plane, truth in zip(found, sim.planes):
+                assert plane.angle_to(truth) < 0.3 and abs(plane.d - truth.d) < 0.003
+            assert not mirrors.scene.visible and not mirrors.refine.disabled
+            assert app.editor.undo_label(1) == "found planes of mirror 1 and mirror 2"
+            app.editor.undo(1)
+            app.jobs.start_scene(app.editor)                        # again: the same frames, the same planes
+            wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240, "again")
+            assert [m.plane for m in app.editor.session.mirrors] == found
+            app.open_session(load_session(tmp_path / "drawn"))     # Session › Open of the session being served:
+            assert app.source is app.start_source                  # not a replay of it
+            wait_for(lambda: "recording plays" not in headless.tab.header.hint.content, 10, "the hint")
+            assert not headless.tab.header.back.visible
     finally:
         app.stop()

@@ -12,13 +12,12 @@ from mirrorcore.calibration import calibrate_session
 from mirrorcore.depthio import require_readings
 from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import Refinement, refine_session
+from mirrorcore.refine import REFINE_FRAMES, Refinement, refine_session
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import Session, load_session, save_session
 
 MAX_MEDIAN_FRAMES = 30
-REFINE_FRAMES = 10
 
 
 def register(sub) -> None:
@@ -44,7 +43,7 @@ def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
     """(k, H, W) metres: the frame asked for, or the background and up to MAX_MEDIAN_FRAMES evenly spaced frames."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
-    stack = [session.read_frame(int(i)) for i in _spread(session, MAX_MEDIAN_FRAMES)]
+    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MEDIAN_FRAMES)]
     background = session.read_background()
     if background is not None:
         stack.append(background)
@@ -58,18 +57,11 @@ def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.n
     object's pixels as Algorithm 1 selects them -> depths (F, H, W) float32 metres as read, masks (F, H, W) bool."""
     if not session.frames:
         raise CalibrationError(f"{session.path}: the session has no frames with the object to calibrate from")
-    picks = [frame] if frame is not None else _spread(session, REFINE_FRAMES)
+    picks = [frame] if frame is not None else session.spread_frames(REFINE_FRAMES)
     rig, background = Rig.from_session(session), session.read_background()
     depths = np.stack([session.read_frame(int(i)) for i in picks])
     masks = np.stack([prepare_frame(rig, d, background, session.selection)[1] for d in depths])
     return depths, masks
-
-
-def _spread(session: Session, most: int) -> np.ndarray:
-    """Up to `most` frame indices, evenly spaced over the session."""
-    if not session.frames:
-        return np.zeros(0, int)
-    return np.unique(np.linspace(0, len(session.frames) - 1, min(len(session.frames), most)).astype(int))
 
 
 def run(args: argparse.Namespace) -> int:

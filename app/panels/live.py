@@ -56,7 +56,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[in
 def _swatch(colour, text: str) -> str:
     r, g, b = (int(c) for c in colour)
     return (f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;width:0.8em;'
-            f'height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:2px;'
+            f'height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:50%;'
             f'border:1px solid #999"></span>{text}</span>')
 
 
@@ -79,7 +79,8 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
         choose = "" if state.mode == "markers" else "choose **Markers** and "
-        return f"{look}{mirror.name}: {choose}click {what} on the mirror."
+        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
+        return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
         return f"{mirror.name}: **Fit plane**."
     todo = [m.name for m in session.mirrors if m.plane is None or not m.boundary]
@@ -111,6 +112,8 @@ class LivePanel:
             self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
+            self.frame_object = gui.add_button("Look at the object", hint="the object fills the 3D view; "
+                                               "Home (the rig) comes back with the 3D scene button")
             self.virtual = gui.add_checkbox("Virtual cameras", initial_value=True,
                                             hint="the camera as each mirror, and each sequence of mirrors, shows it")
             self.heat = gui.add_checkbox("Heat map", initial_value=False,
@@ -127,6 +130,7 @@ class LivePanel:
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
         self.heat.on_update(lambda _: tab.show_heat(bool(self.heat.value)))
+        self.frame_object.on_click(lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object())))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
         self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)
@@ -183,7 +187,8 @@ class LivePanel:
         if count:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
-        self.legend.content = (heat_legend_html(self.tab.heat_figures, names) if self.tab.heat
+        heat = self.tab.heat and self.tab.state.view == "3d"     # its key only where it shows
+        self.legend.content = (heat_legend_html(self.tab.heat_figures, names) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids))
         if first:
             self.refresh_hint()

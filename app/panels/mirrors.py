@@ -1,8 +1,11 @@
 """Step 1, "Mirrors": add and select mirrors, click their boundaries and markers on the depth frame, fit their planes.
 Every marker is listed and coloured by its distance to the plane against the depth noise; a single marker can be
 picked, moved or deleted; a fit that would move a calibrated plane a lot, or that markers disagree with, is a
-proposal shown beside the plane it would replace and applied only on confirmation. Undo and redo are per mirror."""
+proposal shown beside the plane it would replace and applied only on confirmation, and so is a markers fit that
+would replace a plane found from the object (by a refinement or a search). Undo and redo are per mirror."""
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -14,7 +17,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, planes_key
+from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_NOTE, planes_key
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -50,6 +53,9 @@ class MirrorsPanel:
         self.refine = gui.add_button("Refine from the object", hint="adjust every calibrated plane so that the "
                                      "mirrors' views of the object agree with the camera's (markers on glass, "
                                      "clicks a pixel off)")
+        self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False,
+                                    hint="for the mirrors with a boundary and no plane: a search, then the "
+                                    "refinement; the object must be seen directly and in each mirror")
         self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
@@ -99,6 +105,7 @@ class MirrorsPanel:
         if event.job == REFINE:
             running = event.fraction is not None
             self.refine.disabled, self.refine_cancel.visible = running, running
+            self.scene.disabled = self.undo.disabled = self.redo.disabled = running
             self.refine_progress.visible = running
             if running:
                 self.refine_progress.value = event.percent
@@ -106,6 +113,8 @@ class MirrorsPanel:
                 self.services.notify(self.tab.client, "Refinement", event.status.split("\n\n")[0],
                                      error=event.status.startswith((NOT_DONE, FAILED)))
             self.result.content = event.status
+            if not running:
+                self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
             self.agreement.content = event.status
 
@@ -129,6 +138,7 @@ class MirrorsPanel:
         self.glass.on_update(lambda e: e.client is not None and act(
             lambda: editor.set_marker_offset(self._id(), self.glass.value / 1e3)))
         self.refine.on_click(lambda _: act(lambda: self.services.jobs.start_refine(editor)))
+        self.scene.on_click(lambda _: act(lambda: self.services.jobs.start_scene(editor)))
         self.refine_cancel.on_click(lambda _: self.services.jobs.cancel(REFINE))
         self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
         self.remove.on_click(lambda _: act(self._confirm_remove))
@@ -178,7 +188,20 @@ class MirrorsPanel:
                 state.picked_marker = None if near == state.picked_marker else near
             else:
                 state.picked_marker = editor.add_marker(mirror.id, (u, v))
+                self._warn_if_off(mirror.id, state.picked_marker)
         self.tab.changed()
+
+    def _warn_if_off(self, mirror_id: int, k: int) -> None:
+        """A marker just added far off its mirror's plane (a click on the object seen in the mirror, or beside the
+        sticker) is told at once, where the click was made; the next fit would show it crossed, as a proposal."""
+        residuals = self.services.snapshot.marker_residuals.get(mirror_id)
+        if residuals is None or k >= len(residuals.grades) or residuals.grades[k] != "poor":
+            return
+        mirror, d, s = self.services.editor.mirror(mirror_id), residuals.signed_mm[k], residuals.sigma_mm[k]
+        where = "behind something in front of the mirror" if d > 0 else "off the glass (on the object seen in it?)"
+        self.services.notify(self.tab.client, f"Marker {mirror.id}.{k + 1} is off the plane",
+                             f"{abs(d):.0f} mm ({abs(d) / s:.0f} sigma) from {mirror.name}'s plane: {where}. Undo "
+                             "takes it back; a fit would leave it out and ask first.")
 
     def _boundary_click(self, u: float, v: float) -> None:
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
@@ -259,7 +282,7 @@ class MirrorsPanel:
         if after in refinements:
             return refinements[after]
         if before in refinements and before != after:
-            return "Undone: " + refinements[before].split("\n\n")[0]
+            return "Undone: " + refinements[before].split("\n\n")[0].removesuffix(f" {UNDO_NOTE}")
         return ""
 
     def _confirm_remove(self) -> None:
@@ -281,10 +304,15 @@ class MirrorsPanel:
         fits = {}
         for i, calibration in results:
             mirror = session.mirrors[i]
-            names = [f"{mirror.id}.{k + 1}" for k in range(len(mirror.markers))]
-            fits[mirror.id] = (calibration, mirror, review_fit(mirror.plane, calibration.plane, calibration.markers,
-                                                                np.asarray(calibration.centre), names))
-        report = "\n\n".join(f"**{m.name}**: {c.summary()}" for c, m, _ in fits.values())
+            review = review_fit(mirror.plane, calibration.plane, calibration.markers, np.asarray(calibration.centre),
+                                self._marker_names(mirror))
+            if mirror.plane is not None and self.services.jobs.from_object.get(mirror.id) == mirror.plane:
+                review = replace(review, concerns=review.concerns + (
+                    "it replaces the plane found from the object: the markers alone are less accurate (the "
+                    "refinement moved it, and set the glass the markers fit now uses); refine again after "
+                    "applying",))
+            fits[mirror.id] = (calibration, mirror, review)
+        report = "\n\n".join(f"**{m.name}**: {c.summary(self._marker_names(m))}" for c, m, _ in fits.values())
         if any(review.needs_confirmation for _, _, review in fits.values()):
             self.proposal = fits
             self.result.content = ""
@@ -306,8 +334,8 @@ class MirrorsPanel:
         self.tab.state.flagged_markers = ()
         if fits:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self.result.content = "\n\n".join(f"**{m.name}**: {c.summary()} (applied on confirmation)"
-                                              for c, m, _ in fits.values())
+            self.result.content = "\n\n".join(f"**{m.name}**: {c.summary(self._marker_names(m))} (applied on "
+                                              "confirmation)" for c, m, _ in fits.values())
             self._check_agreement()
         self.tab.changed()
 
@@ -330,8 +358,10 @@ class MirrorsPanel:
             self.name.value = selected.name
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
-        self.refine.disabled = (self.services.jobs.running(REFINE)
-                                or not any(m.plane is not None for m in session.mirrors))
+        refining = self.services.jobs.running(REFINE)
+        self.refine.disabled = refining or not any(m.plane is not None for m in session.mirrors)
+        self.scene.visible = any(m.boundary and m.plane is None for m in session.mirrors)
+        self.scene.disabled = refining
         has = selected is not None
         for button in (self.fit, self.rename, self.remove, self.clear_markers):
             button.disabled = not has
@@ -349,6 +379,8 @@ class MirrorsPanel:
         scope = state.mirror_id or SESSION_SCOPE
         self._label(self.undo, "Undo", editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
         self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
+        if refining:                  # what a refinement applies is computed on the planes as they were
+            self.undo.disabled = self.redo.disabled = True
         restore = editor.undo_label(SESSION_SCOPE)
         self.restore.visible = bool(restore and restore.startswith("remove"))
         if self.restore.visible:
@@ -356,6 +388,11 @@ class MirrorsPanel:
         self._drop_stale_proposal()
         self._show_proposal()
         self.markers.content = self._marker_list(selected)
+
+    @staticmethod
+    def _marker_names(mirror) -> list[str]:
+        """The markers' names as the depth frame labels them: '2.3' is mirror 2's third."""
+        return [f"{mirror.id}.{k + 1}" for k in range(len(mirror.markers))]
 
     @staticmethod
     def _label(button, verb: str, what: str | None) -> None:
