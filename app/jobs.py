@@ -242,7 +242,8 @@ class Jobs:
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
         headline = refined_headline(result.mirrors) if search is None else found_headline(result.mirrors)
         report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}"]
-                               + [f"**{r.name}** {'refined' if search is None else 'found'}: {r.summary()}"
+                               + [f"**{r.name}** {'refined' if search is None else 'found'}: "
+                                  f"{r.summary(searched=search is not None and r.index in search)}"
                                   for r in result.mirrors])
         self.refinements[planes_key(editor.session)] = report
         return report

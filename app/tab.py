@@ -30,6 +30,8 @@ MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll 
                         # to be drawn, so it is sent no live cloud and no depth frame until it answers in time (one
                         # that draws slower than the loop sends would otherwise queue frames and show them minutes late)
 SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, and is not said to
+OBJECT_MARGIN = 1.6     # Look at the object: its bounding sphere fills this share less of the view (its points are
+                        # drawn as discs of several pixels, which the sphere of their centres leaves out)
 HIDDEN_KEY = "mirrorscan-hidden"
 VISIBILITY_JS = """(() => {{
   const key = "viser-user:{key}";
@@ -186,7 +188,7 @@ class Tab:
         if len(points) < 2:
             self.look_home()
         else:
-            self._frame(points)
+            self._frame(points, OBJECT_MARGIN)
 
     def _object_points(self) -> np.ndarray:
         """(k, 3) metres: about 500 of the last frame's object points (none before the first frame)."""
@@ -195,15 +197,15 @@ class Tab:
             return np.zeros((0, 3))
         return frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
 
-    def _frame(self, points: np.ndarray) -> None:
-        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose) for its canvas."""
+    def _frame(self, points: np.ndarray, margin: float = 1.1) -> None:
+        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose, with `margin`) for its canvas."""
         camera = self.client.camera
         try:
             aspect = camera.image_width / max(camera.image_height, 1)
         except AssertionError:            # the tab has not reported its canvas yet
             aspect = 16 / 9
         fov = np.radians(50.0)
-        position, target = home_pose(points, fov, aspect)
+        position, target = home_pose(points, fov, aspect, margin)
         with self.client.atomic():
             camera.fov = fov
             camera.up_direction = (0.0, -1.0, 0.0)

@@ -80,13 +80,14 @@ def beside_offset(result: DenseResult) -> np.ndarray:
     return np.array([-(size[0] + 0.1), 0.0, -(size[2] + 0.1)])
 
 
-def home_pose(points: np.ndarray, fov: float, aspect: float) -> tuple[np.ndarray, np.ndarray]:
+def home_pose(points: np.ndarray, fov: float, aspect: float, margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
     """(camera position, look-at point) in metres that frame `points` (k, 3) for a view of vertical field of view
-    `fov` (radians) and `aspect` (width / height), looking from HOME_DIRECTION."""
+    `fov` (radians) and `aspect` (width / height), looking from HOME_DIRECTION, their bounding sphere's radius times
+    `margin` from the middle of the view to its nearer edge."""
     centre = (points.min(axis=0) + points.max(axis=0)) / 2
     radius = float(np.linalg.norm(points - centre, axis=1).max())
     half = min(fov / 2, np.arctan(np.tan(fov / 2) * aspect))
-    distance = 1.1 * radius / np.sin(half)
+    distance = margin * radius / np.sin(half)
     direction = HOME_DIRECTION / np.linalg.norm(HOME_DIRECTION)
     return centre + distance * direction, centre
 

@@ -86,12 +86,18 @@ class MirrorRefinement:
     marker_offset: float | None = None
     marker_offset_std: float | None = None
 
-    def summary(self) -> str:
-        text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the frames "
-                f"used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
-                f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f} deg; the data fix it to "
-                f"+-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma; the method may add 1 to 2 "
-                f"mm; {self.agreements} points seen both ways)")
+    def summary(self, searched: bool = False) -> str:
+        """One line; for a plane a search found (`searched`), without its start (the search's guess): the agreement
+        after, and how well the data fix it."""
+        if searched:
+            text = (f"agreement {self.agreement_after_mm:.2f} mm RMS over the frames used (mean "
+                    f"{self.offset_after_mm:+.2f} mm)")
+        else:
+            text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the "
+                    f"frames used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
+                    f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f} deg")
+        text += (f"; the data fix it to +-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma; "
+                 f"the method may add 1 to 2 mm; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} mm (+-{1e3 * self.marker_offset_std:.1f}) in front of "
                      "the silver (saved as its glass)")

@@ -192,7 +192,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
     app.bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.job, e.status)))
     app.jobs.start_refine(app.editor)
+    mirrors.refresh()                                    # while it runs, Undo would take back what it refines from
+    assert mirrors.undo.disabled and mirrors.redo.disabled and mirrors.refine.disabled
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
+    wait_for(lambda: not mirrors.undo.disabled, 10, "Undo back")
     # the agreement lines under the report are checked again, with the refined planes
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
@@ -236,6 +239,20 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")
+
+
+def test_look_at_the_object_frames_the_object_not_the_rig(sphere):
+    app, headless = sphere
+    tab = headless.tab
+    tab.look("3d")
+    home = np.linalg.norm(np.subtract(tab.client.camera.position, tab.client.camera.look_at))
+    tab.look_at_object()
+    points = app.last_frame.cloud.points
+    target = np.asarray(tab.client.camera.look_at)
+    assert np.all(target > points.min(axis=0)) and np.all(target < points.max(axis=0))       # at the object...
+    near = np.linalg.norm(np.asarray(tab.client.camera.position) - target)
+    radius = np.linalg.norm(points - target, axis=1).max()
+    assert 2 * radius < near < 5 * radius and near < home / 2                                # ...and it fills it
 
 
 def test_exports_never_overwrite(sphere):

@@ -77,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
         session, result = _calibrate(session, method, args, rng, progress)
     if result is not None:
         for report in result.mirrors:
-            print(f"{report.name}: refined plane {np.round(report.after.abcd, 5).tolist()}  {report.summary()}")
+            found = "found" if method == "scene" else "refined"
+            print(f"{report.name}: {found} plane {np.round(report.after.abcd, 5).tolist()}  "
+                  f"{report.summary(searched=method == 'scene')}")
     save_session(session)
     print(f"wrote {session.path}")
     return 0
