@@ -516,6 +516,9 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             wait_for(lambda: app.last_frame is not None, 30, "the first frame")
             headless.tab.changed()
             assert mirrors.scene.visible and not mirrors.scene.disabled and mirrors.refine.disabled
+            with pytest.raises(MirrorscanError, match="mirror 1 has no markers: click 3 or more in Markers mode, or "
+                                                      "use Find the planes from the object"):
+                mirrors.fit_planes([m.id for m in app.editor.session.mirrors])
             assert "**Find the planes from the object** (no markers)" in headless.tab.header.hint.content
             app.jobs.start_scene(app.editor)
             wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240,

@@ -300,6 +300,10 @@ class MirrorsPanel:
             raise MirrorscanError("no frame yet to calibrate from")
         session = self.services.editor.session
         indices = [session.mirror_index(i) for i in mirror_ids]
+        bare = next((session.mirrors[i] for i in indices if not session.mirrors[i].markers), None)
+        if bare is not None and bare.boundary and bare.plane is None:
+            raise MirrorscanError(f"{bare.name} has no markers: click 3 or more in Markers mode, or use Find the "
+                                  "planes from the object (no markers)")
         _, results = calibrate_session(session, depth, np.random.default_rng(0), indices)
         fits = {}
         for i, calibration in results:
