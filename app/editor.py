@@ -153,7 +153,7 @@ class SessionEditor:
         under the panel or on another mirror must not reach the fit). Returns its index (0-based)."""
         mirror = self.mirror(mirror_id)
         uv = self._on_mirror(mirror, uv)
-        self._set_mirror(mirror_id, f"marker {self._marker_name(mirror, len(mirror.markers))}",
+        self._set_mirror(mirror_id, f"marker {mirror.marker_name(len(mirror.markers))}",
                          markers=mirror.markers + (uv,))
         return len(mirror.markers)
 
@@ -162,14 +162,14 @@ class SessionEditor:
         mirror = self.mirror(mirror_id)
         self._marker(mirror, k)
         uv = self._on_mirror(mirror, uv)
-        self._set_mirror(mirror_id, f"move marker {self._marker_name(mirror, k)}",
+        self._set_mirror(mirror_id, f"move marker {mirror.marker_name(k)}",
                          markers=mirror.markers[:k] + (uv,) + mirror.markers[k + 1:])
 
     @_edits
     def delete_marker(self, mirror_id: int, k: int) -> None:
         mirror = self.mirror(mirror_id)
         self._marker(mirror, k)
-        self._set_mirror(mirror_id, f"delete marker {self._marker_name(mirror, k)}",
+        self._set_mirror(mirror_id, f"delete marker {mirror.marker_name(k)}",
                          markers=mirror.markers[:k] + mirror.markers[k + 1:])
 
     @_edits
@@ -379,13 +379,9 @@ class SessionEditor:
         return uv
 
     @staticmethod
-    def _marker_name(mirror: SessionMirror, k: int) -> str:
-        return f"{mirror.id}.{k + 1}"
-
-    @staticmethod
     def _marker(mirror: SessionMirror, k: int) -> None:
         if not 0 <= k < len(mirror.markers):
-            raise MirrorscanError(f"{mirror.name}: no marker {mirror.id}.{k + 1}")
+            raise MirrorscanError(f"{mirror.name}: no marker {mirror.marker_name(k)}")
 
     @staticmethod
     def _vertex(mirror: SessionMirror, vertex: int) -> None:

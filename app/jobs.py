@@ -216,7 +216,8 @@ class Jobs:
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)
             depths = np.stack([source.session.read_frame(int(i)) for i in picks])
-            return depths, f"{len(picks)} of the recording's {len(source.session.frames)} frames"
+            return depths, (f"frames {', '.join(map(str, picks))} of the recording's {len(source.session.frames)}"
+                            " (0-based)")
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet to calibrate from")

@@ -41,9 +41,9 @@ def quiet_closed_connections() -> None:
     """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a closed
     connection"): a tab can close at any moment, also between the server's check and its send, and viser then drops
     the message, which is what is wanted (the Tab is closed when viser reports the disconnection). The technician's
-    terminal showed it every time a tab closed while it was updated or built."""
-    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning,
-                            module=r"viser(\.|$)")
+    terminal showed it every time a tab closed while it was updated or built; viser attributes it to the caller's
+    line (app/tab.py), so the filter goes by its words alone."""
+    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning)
 
 
 quiet_closed_connections()      # once, on import: for the whole process, whichever thread viser warns on
@@ -150,6 +150,8 @@ class MirrorscanApp:
         message = self.editor.reload_if_changed()
         if message:
             self.notify(None, "Session file changed", message, error=False)
+            if self.last_frame is not None:       # the agreement lines, for the planes as the file now has them
+                self.jobs.start_agreement(self.last_frame.depth)
 
     # ------------------------------------------------------------------ the Services protocol
     @property

@@ -262,7 +262,7 @@ class Tab:
             selected = mirror.id == state.mirror_id
             draft = state.drafts.get(mirror.id)
             grades = snapshot.marker_grades.get(mirror.id, ("unknown",) * len(mirror.markers))
-            markers = tuple(MarkerMark(uv, f"{mirror.id}.{k + 1}", grades[k],
+            markers = tuple(MarkerMark(uv, mirror.marker_name(k), grades[k],
                                        picked=selected and state.picked_marker == k,
                                        flagged=selected and k in state.flagged_markers)
                             for k, uv in enumerate(mirror.markers))

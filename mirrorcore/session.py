@@ -69,6 +69,14 @@ class SessionMirror:
     marker_offset: float = 0.0
     extra: dict = field(default_factory=dict, compare=False)
 
+    def marker_name(self, k: int) -> str:
+        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the mirror's id)."""
+        return f"{self.id}.{k + 1}"
+
+    @property
+    def marker_names(self) -> list[str]:
+        return [self.marker_name(k) for k in range(len(self.markers))]
+
     @property
     def marker_plane(self) -> Plane | None:
         """The plane of the markers' faces: the calibrated reflecting surface moved towards the camera by

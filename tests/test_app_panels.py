@@ -24,6 +24,8 @@ from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.markers import MarkerResiduals
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
 from mirrorcore.refine import view_agreement
@@ -167,6 +169,20 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.mirror(2).markers == before.markers
     mirrors.fit_planes([2])
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
+
+
+def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypatch):
+    app, headless = sphere
+    said, mirrors = notes(app), panel(headless.tab, MirrorsPanel)
+    residuals = app.snapshot.marker_residuals[1]
+    k = len(residuals.signed_mm) - 1                                     # as if the camera read nothing there
+    blind = MarkerResiduals(residuals.signed_mm[:k] + (float("nan"),), residuals.sigma_mm[:k] + (float("nan"),))
+    monkeypatch.setattr(app, "_snapshot", replace(app.snapshot, marker_residuals={1: blind}))
+    mirrors._warn_if_off(1, k)
+    assert said == ["the camera reads nothing there in the recent frames: a fit cannot use it (click the sticker's "
+                    "centre; Undo takes it back)"]
+    mirrors._warn_if_off(1, 0)                                           # a good one: nothing said
+    assert len(said) == 1
 
 
 def test_refine_from_the_object_and_the_heat_map(sphere, notes):
@@ -488,11 +504,14 @@ def test_a_session_file_written_by_calibrate_reaches_the_open_tabs(tmp_path, not
     try:
         with HeadlessTab(app) as headless:
             app.editor.add_mirror()
-            session = load_session(tmp_path / "scan")
-            save_session(replace(session, mirrors=(replace(session.mirrors[0], name="left"),)))
             mirrors = panel(headless.tab, MirrorsPanel)
+            mirrors._report("Planes refined: a report of the planes before")
+            session = load_session(tmp_path / "scan")
+            plane = Plane.from_point_normal([0, 0, 2.5], [0, 0, -1])
+            save_session(replace(session, mirrors=(replace(session.mirrors[0], name="left", plane=plane),)))
             wait_for(lambda: mirrors.mirror.options == ("left",), 10, "the tab showing the reloaded session")
             assert any("was changed by another program (mirrorscan calibrate?): reloaded" in s for s in said)
+            wait_for(lambda: mirrors.result.content == "", 10, "the report of other planes gone")
             app.editor.add_marker(app.editor.session.mirrors[0].id, (100, 100))
             assert load_session(tmp_path / "scan").mirrors[0].name == "left"
     finally:
@@ -525,8 +544,8 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
                      "the planes found")
             headline = mirrors.result.content.split("\n\n")[0]
             assert re.fullmatch(r"Planes found from the object \(no markers\), fixed by the data mirror 1 to "
-                                r"\+-\d\.\d mm and \+-\d\.\d\d deg; mirror 2 to .* Over 4 of the recording's 4 "
-                                r"frames\. Undo restores the previous planes\.", headline), headline
+                                r"\+-\d\.\d mm and \+-\d\.\d\d deg; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
+                                r"recording's 4 \(0-based\)\. Undo restores the previous planes\.", headline), headline
             found = [m.plane for m in app.editor.session.mirrors]
             for plane, truth in zip(found, sim.planes):
                 assert plane.angle_to(truth) < 0.3 and abs(plane.d - truth.d) < 0.003

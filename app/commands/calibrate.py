@@ -93,7 +93,7 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
     if method is not None:
         session, results = calibrate_session(session, calibration_depth(session, args.frame), rng, method=method)
         for i, fit in results:
-            print(f"{session.mirrors[i].name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary()}")
+            print(f"{session.mirrors[i].name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary(session.mirrors[i].marker_names)}")
     if not args.refine:
         return session, None
     unset = [m.name for m in session.mirrors if m.plane is None]

@@ -56,13 +56,14 @@ class MirrorsPanel:
         self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False,
                                     hint="for the mirrors with a boundary and no plane: a search, then the "
                                     "refinement; the object must be seen directly and in each mirror")
-        self.refine_cancel = gui.add_button("Cancel the refinement", visible=False)
+        self.refine_cancel = gui.add_button("Cancel", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
         self.redo = gui.add_button("Redo", disabled=True)
         # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
         # report of the refinement that left the planes as they are
-        self.result = gui.add_markdown(self.services.jobs.refinements.get(planes_key(self.services.editor.session), ""))
+        self._result_planes = planes_key(self.services.editor.session)     # the planes `result` describes
+        self.result = gui.add_markdown(self.services.jobs.refinements.get(self._result_planes, ""))
         self.agreement = gui.add_markdown(self.services.jobs.agreement)
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
@@ -110,9 +111,9 @@ class MirrorsPanel:
             if running:
                 self.refine_progress.value = event.percent
             else:                                   # its end, in view whatever the panel's scroll
-                self.services.notify(self.tab.client, "Refinement", event.status.split("\n\n")[0],
+                self.services.notify(self.tab.client, "Calibration from the object", event.status.split("\n\n")[0],
                                      error=event.status.startswith((NOT_DONE, FAILED)))
-            self.result.content = event.status
+            self._report(event.status)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
@@ -195,11 +196,18 @@ class MirrorsPanel:
         """A marker just added far off its mirror's plane (a click on the object seen in the mirror, or beside the
         sticker) is told at once, where the click was made; the next fit would show it crossed, as a proposal."""
         residuals = self.services.snapshot.marker_residuals.get(mirror_id)
-        if residuals is None or k >= len(residuals.grades) or residuals.grades[k] != "poor":
+        if residuals is None or k >= len(residuals.grades):
             return
         mirror, d, s = self.services.editor.mirror(mirror_id), residuals.signed_mm[k], residuals.sigma_mm[k]
+        if not np.isfinite(d):
+            self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} has no depth",
+                                 "the camera reads nothing there in the recent frames: a fit cannot use it (click "
+                                 "the sticker's centre; Undo takes it back)")
+            return
+        if residuals.grades[k] != "poor":
+            return
         where = "behind something in front of the mirror" if d > 0 else "off the glass (on the object seen in it?)"
-        self.services.notify(self.tab.client, f"Marker {mirror.id}.{k + 1} is off the plane",
+        self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} is off the plane",
                              f"{abs(d):.0f} mm ({abs(d) / s:.0f} sigma) from {mirror.name}'s plane: {where}. Undo "
                              "takes it back; a fit would leave it out and ask first.")
 
@@ -271,9 +279,14 @@ class MirrorsPanel:
         before = planes_key(editor.session)
         move(scope if label is not None else SESSION_SCOPE)
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
-        self.result.content = self._report_after_travel(before, planes_key(editor.session))
+        self._report(self._report_after_travel(before, planes_key(editor.session)))
         self._check_agreement()                    # the views' agreement with the planes now
         self.tab.changed()
+
+    def _report(self, text: str) -> None:
+        """Show a fit's or refinement's report, for the planes as they are now."""
+        self._result_planes = planes_key(self.services.editor.session)
+        self.result.content = text
 
     def _report_after_travel(self, before: tuple, after: tuple) -> str:
         """After an undo or redo: the report of the refinement whose planes are back, or a line saying which one was
@@ -309,21 +322,21 @@ class MirrorsPanel:
         for i, calibration in results:
             mirror = session.mirrors[i]
             review = review_fit(mirror.plane, calibration.plane, calibration.markers, np.asarray(calibration.centre),
-                                self._marker_names(mirror))
+                                mirror.marker_names)
             if mirror.plane is not None and self.services.jobs.from_object.get(mirror.id) == mirror.plane:
                 review = replace(review, concerns=review.concerns + (
                     "it replaces the plane found from the object: the markers alone are less accurate (the "
                     "refinement moved it, and set the glass the markers fit now uses); refine again after "
                     "applying",))
             fits[mirror.id] = (calibration, mirror, review)
-        report = "\n\n".join(f"**{m.name}**: {c.summary(self._marker_names(m))}" for c, m, _ in fits.values())
+        report = "\n\n".join(f"**{m.name}**: {c.summary(m.marker_names)}" for c, m, _ in fits.values())
         if any(review.needs_confirmation for _, _, review in fits.values()):
             self.proposal = fits
-            self.result.content = ""
+            self._report("")
             self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
         else:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self.result.content = report
+            self._report(report)
             self._check_agreement()
         self.tab.changed()
 
@@ -338,15 +351,15 @@ class MirrorsPanel:
         self.tab.state.flagged_markers = ()
         if fits:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self.result.content = "\n\n".join(f"**{m.name}**: {c.summary(self._marker_names(m))} (applied on "
-                                              "confirmation)" for c, m, _ in fits.values())
+            self._report("\n\n".join(f"**{m.name}**: {c.summary(m.marker_names)} (applied on "
+                                       "confirmation)" for c, m, _ in fits.values()))
             self._check_agreement()
         self.tab.changed()
 
     def _discard(self) -> None:
         self.proposal = None
         self.tab.state.flagged_markers = ()
-        self.result.content = "The proposed plane(s) were discarded; nothing changed."
+        self._report("The proposed plane(s) were discarded; nothing changed.")
         self.tab.changed()
 
     # ------------------------------------------------------------------ what the panel shows
@@ -362,6 +375,8 @@ class MirrorsPanel:
             self.name.value = selected.name
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
+        if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
+            self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
         refining = self.services.jobs.running(REFINE)
         self.refine.disabled = refining or not any(m.plane is not None for m in session.mirrors)
         self.scene.visible = any(m.boundary and m.plane is None for m in session.mirrors)
@@ -394,11 +409,6 @@ class MirrorsPanel:
         self.markers.content = self._marker_list(selected)
 
     @staticmethod
-    def _marker_names(mirror) -> list[str]:
-        """The markers' names as the depth frame labels them: '2.3' is mirror 2's third."""
-        return [f"{mirror.id}.{k + 1}" for k in range(len(mirror.markers))]
-
-    @staticmethod
     def _label(button, verb: str, what: str | None) -> None:
         button.disabled = what is None
         button.label = f"{verb}: {what}" if what else verb
@@ -413,8 +423,8 @@ class MirrorsPanel:
                  if fit_inputs(current.get(fitted.id)) != fit_inputs(fitted)]
         if stale:
             self.proposal, self.tab.state.flagged_markers = None, ()
-            self.result.content = (f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. "
-                                   "Fit plane again.")
+            self._report(f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. Fit plane "
+                         "again.")
             self.tab.changed()                        # its crossed-out markers leave the depth frame
 
     def _show_proposal(self) -> None:
@@ -429,7 +439,7 @@ class MirrorsPanel:
         for calibration, mirror, review in fits.values():
             old = "uncalibrated" if mirror.plane is None else (f"turned {review.tilt_deg:.2f}°, moved "
                                                                f"{review.shift_mm:.1f} mm")
-            lines.append(f"- **{mirror.name}**: {old}; {calibration.summary()}")
+            lines.append(f"- **{mirror.name}**: {old}; {calibration.summary(mirror.marker_names)}")
             lines += [f"  - ⚠ {concern}" for concern in review.concerns]
         self.review.content = "\n".join(lines)
 
@@ -441,7 +451,7 @@ class MirrorsPanel:
         residuals = self.services.snapshot.marker_residuals.get(mirror.id)
         rows = []
         for k, (u, v) in enumerate(mirror.markers):
-            name = f"{mirror.id}.{k + 1}"
+            name = mirror.marker_name(k)
             if k == self.tab.state.picked_marker:
                 name = f"<b>{name}</b>"
             if residuals is None:
