@@ -20,6 +20,7 @@ from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
 from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import REFINE_FRAMES, ViewAgreement, refine_session, view_agreement
@@ -92,7 +93,7 @@ class Jobs:
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
-        self.from_object: dict[int, object] = {}     # mirror id -> the last plane a refinement or search gave it
+        self.from_object: dict[int, Plane] = {}      # mirror id -> the last plane a refinement or search gave it
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
@@ -134,7 +135,8 @@ class Jobs:
             if status is not None:
                 self.bus.publish(JobProgress(kind, None, status))
         thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
-        self._threads[kind] = thread
+        with self._lock:
+            self._threads[kind] = thread
         thread.start()
         return thread
 

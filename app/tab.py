@@ -30,8 +30,8 @@ MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll 
                         # to be drawn, so it is sent no live cloud and no depth frame until it answers in time (one
                         # that draws slower than the loop sends would otherwise queue frames and show them minutes late)
 SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, and is not said to
-OBJECT_MARGIN = 1.6     # Look at the object: its bounding sphere fills this share less of the view (its points are
-                        # drawn as discs of several pixels, which the sphere of their centres leaves out)
+OBJECT_MARGIN = 1.6     # Look at the object: the view's nearer edge is this many radii of the object's bounding
+                        # sphere from its middle (its points are drawn as discs of many pixels at that distance)
 HIDDEN_KEY = "mirrorscan-hidden"
 VISIBILITY_JS = """(() => {{
   const key = "viser-user:{key}";
