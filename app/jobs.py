@@ -93,12 +93,15 @@ class Jobs:
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
-        self.from_object: dict[int, Plane] = {}      # mirror id -> the last plane a refinement or search gave it
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
         self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
         self._lock = threading.Lock()
+
+    def from_object(self, mirror_id: int, plane: Plane | None) -> bool:
+        """Whether a refinement or search (of this app) gave mirror `mirror_id` this plane."""
+        return plane is not None and any((mirror_id, plane) in key for key in self.refinements)
 
     def running(self, kind: str) -> bool:
         with self._lock:
@@ -217,7 +220,7 @@ class Jobs:
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)
-            depths = np.stack([source.session.read_frame(int(i)) for i in picks])
+            depths = source.session.read_frames(picks)
             return depths, (f"frames {', '.join(map(str, picks))} of the recording's {len(source.session.frames)}"
                             " (0-based)")
         depths = self.loop.recent_depths()
@@ -241,12 +244,11 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
-        self.from_object.update({mirror_id: plane for mirror_id, (plane, _) in planes.items()})
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
         headline = refined_headline(result.mirrors) if search is None else found_headline(result.mirrors)
         report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}"]
                                + [f"**{r.name}** {'refined' if search is None else 'found'}: "
-                                  f"{r.summary(searched=search is not None and r.index in search)}"
+                                  f"{r.summary(searched=search is not None)}"
                                   for r in result.mirrors])
         self.refinements[planes_key(editor.session)] = report
         return report

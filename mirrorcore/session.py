@@ -170,6 +170,10 @@ class Session:
             return np.zeros(0, int)
         return np.unique(np.linspace(0, len(self.frames) - 1, min(len(self.frames), most)).astype(int))
 
+    def read_frames(self, indices) -> np.ndarray:
+        """Frames `indices` (k,) as (k, H, W) float32 metres (read_frame each)."""
+        return np.stack([self.read_frame(int(i)) for i in indices])
+
     def read_background(self) -> np.ndarray | None:
         """The background frame as (H, W) float32 metres, or None when the session has none."""
         return None if self.background is None else self._read(self.background)

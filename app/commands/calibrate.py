@@ -59,7 +59,7 @@ def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.n
         raise CalibrationError(f"{session.path}: the session has no frames with the object to calibrate from")
     picks = [frame] if frame is not None else session.spread_frames(REFINE_FRAMES)
     rig, background = Rig.from_session(session), session.read_background()
-    depths = np.stack([session.read_frame(int(i)) for i in picks])
+    depths = session.read_frames(picks)
     masks = np.stack([prepare_frame(rig, d, background, session.selection)[1] for d in depths])
     return depths, masks
 
@@ -77,9 +77,9 @@ def run(args: argparse.Namespace) -> int:
         session, result = _calibrate(session, method, args, rng, progress)
     if result is not None:
         for report in result.mirrors:
-            found = "found" if method == "scene" else "refined"
-            print(f"{report.name}: {found} plane {np.round(report.after.abcd, 5).tolist()}  "
-                  f"{report.summary(searched=method == 'scene')}")
+            searched = method == "scene"
+            print(f"{report.name}: {'found' if searched else 'refined'} plane "
+                  f"{np.round(report.after.abcd, 5).tolist()}  {report.summary(searched)}")
     save_session(session)
     print(f"wrote {session.path}")
     return 0
@@ -93,7 +93,8 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
     if method is not None:
         session, results = calibrate_session(session, calibration_depth(session, args.frame), rng, method=method)
         for i, fit in results:
-            print(f"{session.mirrors[i].name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary(session.mirrors[i].marker_names)}")
+            mirror = session.mirrors[i]
+            print(f"{mirror.name}: plane {np.round(fit.plane.abcd, 5).tolist()}  {fit.summary(mirror.marker_names)}")
     if not args.refine:
         return session, None
     unset = [m.name for m in session.mirrors if m.plane is None]

@@ -49,7 +49,8 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[in
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{name(j)}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{name(j)}: none of its points seen by the camera" for j, (median, share) in figures.items()]
-    body = "<br>".join(["this frame, against the camera's surface:", *lines]) if figures else "computing the heat map…"
+    body = ("<br>".join(["this frame, against the camera's surface:", *lines]) if figures
+            else "computing the heat map…")
     return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}</div>'
 
 

@@ -323,7 +323,7 @@ class MirrorsPanel:
             mirror = session.mirrors[i]
             review = review_fit(mirror.plane, calibration.plane, calibration.markers, np.asarray(calibration.centre),
                                 mirror.marker_names)
-            if mirror.plane is not None and self.services.jobs.from_object.get(mirror.id) == mirror.plane:
+            if self.services.jobs.from_object(mirror.id, mirror.plane):
                 review = replace(review, concerns=review.concerns + (
                     "it replaces the plane found from the object: the markers alone are less accurate (the "
                     "refinement moved it, and set the glass the markers fit now uses); refine again after "
