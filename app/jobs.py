@@ -391,16 +391,16 @@ def planes_key(session: Session) -> tuple:
 
 def refined_headline(mirrors) -> str:
     """One sentence for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
-    moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f} deg"
-             + (f", glass {1e3 * r.marker_offset:.1f} +- {1e3 * r.marker_offset_std:.1f} mm"
+    moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°"
+             + (f", glass {1e3 * r.marker_offset:.1f} ± {1e3 * r.marker_offset_std:.1f} mm"
                 if r.marker_offset is not None else "") for r in mirrors]
     return f"{REFINED} (moved > 0: away from the camera): {'; '.join(moved)}."
 
 
 def found_headline(mirrors) -> str:
     """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each."""
-    fixed = [f"{r.name} to +-{r.shift_std_mm:.1f} mm and +-{r.tilt_std_deg:.2f} deg" for r in mirrors]
-    return (f"{FOUND} (no markers), fixed by the data {'; '.join(fixed)} (1 sigma; the method may add 1 to 2 mm): "
+    fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
+    return (f"{FOUND} (no markers), fixed by the data {'; '.join(fixed)} (1σ; the method may add 1 to 2 mm): "
             "check the heat map and the agreement below.")
 
 

@@ -51,7 +51,7 @@ class Calibration:
                 worst = int(np.nanargmax(ratio))
                 name = marker_names[worst] if marker_names else str(worst + 1)
                 text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
-                         f"{ratio[worst]:.1f} sigma)")
+                         f"{ratio[worst]:.1f}σ)")
             text += (f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
                      if self.marker_offset else "; plane on the markers' faces (no glass set)")
         return text

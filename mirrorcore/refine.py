@@ -95,11 +95,11 @@ class MirrorRefinement:
         else:
             text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the "
                     f"frames used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
-                    f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f} deg")
-        text += (f"; the data fix it to +-{self.shift_std_mm:.2f} mm and +-{self.tilt_std_deg:.3f} deg (1 sigma; "
+                    f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°")
+        text += (f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; "
                  f"the method may add 1 to 2 mm; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
-            text += (f", markers {1e3 * self.marker_offset:.1f} mm (+-{1e3 * self.marker_offset_std:.1f}) in front of "
+            text += (f", markers {1e3 * self.marker_offset:.1f} mm (±{1e3 * self.marker_offset_std:.1f}) in front of "
                      "the silver (saved as its glass)")
         return text
 
@@ -365,11 +365,11 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
     shift, tilt = shift_at(before, after, centre), before.angle_to(after)
     if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:       # the overlap's geometry, not the frames' noise
         raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
-                               f"+-{1e3 * shift_std:.1f} mm and +-{tilt_std:.2f} deg); use more frames, or move the "
+                               f"±{1e3 * shift_std:.1f} mm and ±{tilt_std:.2f}°); use more frames, or move the "
                                "object so that both the camera and the mirror see its sides")
     if abs(shift) > limits[0] or tilt > limits[1]:
         raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
-                               f"and {tilt:.1f} deg); check its boundary and its first calibration")
+                               f"and {tilt:.1f}°); check its boundary and its first calibration")
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
     noise = _noise_mm(shown[1], j)

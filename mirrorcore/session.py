@@ -260,7 +260,7 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
             or abs(offset) > MAX_MARKER_OFFSET):
         raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
-                              f"within +-{MAX_MARKER_OFFSET:g}, got {offset!r}")
+                              f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
     return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra)
 

@@ -592,7 +592,7 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None)
              for n, mm in (("left", -0.02), ("right", -1.47))]
     assert refined_headline(moved).startswith("Planes refined (moved > 0: away from the camera): left moved 0.0 mm and "
-                                              "0.05 deg; right moved -1.5 mm")
+                                              "0.05°; right moved -1.5 mm")
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

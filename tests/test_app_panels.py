@@ -143,7 +143,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
     bottom = max(before.boundary, key=lambda p: p[1])
     click(tab, (bottom[0] - 10, bottom[1] - 6))
-    assert re.fullmatch(r"\d+ mm \(\d+ sigma\) from mirror 2's plane: off the glass \(on the object seen in it\?\)\. "
+    assert re.fullmatch(r"\d+ mm \(\d+σ\) from mirror 2's plane: off the glass \(on the object seen in it\?\)\. "
                         r"Undo takes it back; a fit would leave it out and ask first\.", said[-1]), said[-1]
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
@@ -216,10 +216,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
-    assert "agreement" in mirrors.result.content and "the data fix it to +-" in mirrors.result.content
+    assert "agreement" in mirrors.result.content and "the data fix it to ±" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
     assert re.fullmatch(r"Planes refined \(moved > 0: away from the camera\): mirror 1 moved [+-]?\d+\.\d mm and "
-                        r"\d+\.\d\d deg(, glass \d+\.\d \+- \d+\.\d mm)?; "
+                        r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
                         headline), headline
     assert said == [headline]
@@ -544,7 +544,7 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
                      "the planes found")
             headline = mirrors.result.content.split("\n\n")[0]
             assert re.fullmatch(r"Planes found from the object \(no markers\), fixed by the data mirror 1 to "
-                                r"\+-\d\.\d mm and \+-\d\.\d\d deg; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
+                                r"±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
                                 r"recording's 4 \(0-based\)\. Undo restores the previous planes\.", headline), headline
             found = [m.plane for m in app.editor.session.mirrors]
             for plane, truth in zip(found, sim.planes):

@@ -73,7 +73,7 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     assert cal.n_inliers == 7 * 25
     assert cal.markers.poor() == (2,) and cal.markers.distance_mm[2] > 250     # ...and the report points at it
     assert cal.markers.grades.count("good") == 7
-    assert "markers: 7 good, 1 poor (farthest: marker 3, 285.4 mm, 23.3 sigma)" in cal.summary()
+    assert "markers: 7 good, 1 poor (farthest: marker 3, 285.4 mm, 23.3σ)" in cal.summary()
     names = [f"2.{k + 1}" for k in range(len(MARKERS))]                 # as the depth frame labels mirror 2's
     assert "(farthest: marker 2.3, 285.4 mm" in cal.summary(names)
     assert cal.summary().endswith("; plane on the markers' faces (no glass set)")

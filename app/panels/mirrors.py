@@ -208,7 +208,7 @@ class MirrorsPanel:
             return
         where = "behind something in front of the mirror" if d > 0 else "off the glass (on the object seen in it?)"
         self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} is off the plane",
-                             f"{abs(d):.0f} mm ({abs(d) / s:.0f} sigma) from {mirror.name}'s plane: {where}. Undo "
+                             f"{abs(d):.0f} mm ({abs(d) / s:.0f}σ) from {mirror.name}'s plane: {where}. Undo "
                              "takes it back; a fit would leave it out and ask first.")
 
     def _boundary_click(self, u: float, v: float) -> None:
