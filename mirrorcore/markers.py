@@ -82,7 +82,7 @@ def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
 
 @dataclass(frozen=True)
 class FitReview:
-    """A new plane against the one it would replace: tilt_deg between them, shift_mm along the normal at the
+    """A new plane against the one it would replace: tilt_deg between them, shift_mm between them along the normal at the
     markers' centre (NaN without a previous plane), the poor markers (0-based) and, in words, why the user should
     look before applying it (empty: apply at once)."""
 
@@ -98,13 +98,14 @@ class FitReview:
 
 def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, at: np.ndarray,
                marker_names: list[str]) -> FitReview:
-    """Review a fit: at (3,) metres, where the shift is measured (the markers' centre); marker_names label the
-    markers in the concerns ('2.3')."""
+    """Review a fit: at (3,) metres, where the shift between the two planes is measured (the markers' centre, on
+    their faces: in front of the new plane by its glass); marker_names label the markers in the concerns ('2.3')."""
     tilt = shift = float("nan")
     concerns = []
     if previous is not None:
         tilt = previous.angle_to(new)
-        shift = abs(float(previous.signed_distance(np.asarray(at, float)))) * 1e3
+        at = np.asarray(at, float)
+        shift = abs(float(previous.signed_distance(at) - new.signed_distance(at))) * 1e3
         if tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM:
             concerns.append(f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
                             f"{MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)")

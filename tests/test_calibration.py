@@ -5,6 +5,7 @@ from helpers import plane_depth
 
 from mirrorcore.calibration import calibrate_from_markers, calibrate_from_pairs, calibrate_from_region
 from mirrorcore.errors import CalibrationError
+from mirrorcore.markers import review_fit
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.noise import axial_sigma
@@ -51,6 +52,22 @@ def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
     glass = SessionMirror("mirror 1", plane=moved.plane, marker_offset=0.003)     # what the browser grades against
     np.testing.assert_allclose(glass.marker_plane.abcd, stickers.abcd, atol=1e-5)
     assert SessionMirror("mirror 2").marker_plane is None
+
+
+def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
+    """The review measured the old plane's distance to the markers' faces: refitting markers on 3 mm of glass over the
+    plane a refinement left said 'moved 3.0 mm' (a helper saw 4.1 mm for a plane that moved 0.6)."""
+    stickers = Plane(GLASS.normal, GLASS.d - 0.003)
+    depth = mirror_frame()
+    for u, v in MARKERS.astype(int):
+        depth[v - 4:v + 5, u - 4:u + 5] = plane_depth(CAMERA, stickers)[v - 4:v + 5, u - 4:u + 5]
+    cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1", marker_offset=0.003)
+    names = [f"1.{k + 1}" for k in range(len(MARKERS))]
+    same = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
+    assert same.shift_mm < 0.01 and same.tilt_deg < 1e-3 and not same.needs_confirmation
+    farther = review_fit(Plane(GLASS.normal, GLASS.d + 0.025), cal.plane, cal.markers, np.asarray(cal.centre), names)
+    assert farther.shift_mm == pytest.approx(25.0, abs=0.01) and farther.needs_confirmation
+    assert "moves it 25 mm" in farther.concerns[0]
 
 
 def test_noisy_markers_over_a_median_of_frames():
