@@ -82,8 +82,8 @@ def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
 
 @dataclass(frozen=True)
 class FitReview:
-    """A new plane against the one it would replace: tilt_deg between them, shift_mm between them along the normal at the
-    markers' centre (NaN without a previous plane), the poor markers (0-based) and, in words, why the user should
+    """A new plane against the one it would replace: tilt_deg and shift_mm between them (along the normal, at the
+    markers' centre; NaN without a previous plane), the poor markers (0-based) and, in words, why the user should
     look before applying it (empty: apply at once)."""
 
     tilt_deg: float
