@@ -195,6 +195,20 @@ def test_true_planes_agree_and_a_plane_too_near_puts_its_points_outside(sphere):
     np.testing.assert_array_equal(heat["wrong"][1], heat["true"][1])     # mirror 2 as it was
 
 
+def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
+    """A helper saw the bar of Find the planes stand at 99.5 % for 5 to 25 s: the last iterations and the spread of
+    each frame's own planes all reported 99 %."""
+    _, rig, depths, masks = sphere
+    fractions = []
+    refine_planes(rig, np.concatenate([depths, depths[:1]]), np.concatenate([masks, masks[:1]]),
+                  progress=fractions.append)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    settled = len(fractions) - 1 - 3                              # the three frames' own planes, then the end
+    assert fractions[settled - 1] <= 0.75 and np.all(np.diff(fractions[settled - 1:-1]) > 0.05)
+    from mirrorcore.refine import MAX_ITERATIONS, _fraction                 # however many iterations it takes
+    assert all(_fraction(k) < _fraction(k + 1) <= 0.75 for k in range(1, 2 * MAX_ITERATIONS))
+
+
 def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
     scene, rig, depths, masks = sphere
     centre = np.asarray(scene.objects[0].centre)
