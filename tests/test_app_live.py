@@ -565,7 +565,11 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     hint = start_hint(session, TabState(mirror_id=1, view="depth", mode="boundary"), True, False)
     assert hint == "left: click its corners; click the first corner to close."
     edged = Session(tmp_path, session.camera, mirrors=(SessionMirror("left", id=1, boundary=((0, 0), (9, 0), (0, 9))),))
-    assert "choose **Markers** and click a marker" in start_hint(edged, TabState(mirror_id=1), True, False)
+    assert start_hint(edged, TabState(mirror_id=1), True, False) == (
+        "Look at the **Depth frame** (View, below); left: choose **Markers** and click a marker on the mirror, or "
+        "**Find the planes from the object** (no markers).")
+    assert start_hint(edged, TabState(mirror_id=1), True, False, calibrating=True).startswith(
+        "A calibration from the object runs: ")
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click a marker on the mirror, or **Find the planes from the object** (no markers).")
     one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))

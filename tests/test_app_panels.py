@@ -207,11 +207,16 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     said = notes(app)
     ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
     app.bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.job, e.status)))
+    hints: list[str] = []                                                      # the hint while it runs
+    app.bus.subscribe(JobProgress, lambda e: e.job == "refine" and e.fraction is not None
+                      and hints.append(tab.header.hint.content))
     app.jobs.start_refine(app.editor)
     mirrors.refresh()                                    # while it runs, Undo would take back what it refines from
     assert mirrors.undo.disabled and mirrors.redo.disabled and mirrors.refine.disabled
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
     wait_for(lambda: not mirrors.undo.disabled, 10, "Undo back")
+    assert hints and all(h.startswith("➜ A calibration from the object runs: ") for h in hints)
+    assert "calibration from the object runs" not in tab.header.hint.content          # and says what next after it
     # the agreement lines under the report are checked again, with the refined planes
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)

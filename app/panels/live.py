@@ -14,8 +14,8 @@ from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, H
 from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
-from ..events import LoopChanged
-from ..jobs import HEAT_LIMIT_MM
+from ..events import JobProgress, LoopChanged
+from ..jobs import HEAT_LIMIT_MM, REFINE
 from ..live import LiveFrame, frame_number
 
 STATS_HZ = 4.0
@@ -62,17 +62,21 @@ def _swatch(colour, text: str) -> str:
 
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
-               playback: str = "live") -> str:
+               playback: str = "live", calibrating: bool = False) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
-    from the start plays), 'recording' (another plays: a replay) or 'paused'."""
+    from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: a calibration from the
+    object runs."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
+    if calibrating:
+        return ("A calibration from the object runs: its progress, **Cancel** and then its report are under "
+                "*Mirrors*.")
     if state.proposal_for:
         return (f"A new plane for {' and '.join(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
                 "it.")
-    look = "" if state.view == "depth" else "Look at the **Depth frame** (above); "
+    look = "" if state.view == "depth" else "Look at the **Depth frame** (View, below); "
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
     if not mirror.boundary:
         choose = "" if state.mode == "boundary" else "choose **Boundary** and "
@@ -134,14 +138,23 @@ class LivePanel:
         self.frame_object.on_click(lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object())))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
-        self._unsubscribe = services.bus.subscribe(LoopChanged, self._on_loop)
+        self._calibrating = services.jobs.running(REFINE)
+        self._unsubscribe = [services.bus.subscribe(LoopChanged, self._on_loop),
+                             services.bus.subscribe(JobProgress, self._on_job)]
         self._last_stats = 0.0
         self._process_ms: deque[float] = deque(maxlen=PROCESS_WINDOW)   # the last frames' processing times
         self._follow(services.source)
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
-        self._unsubscribe()
+        for unsubscribe in self._unsubscribe:
+            unsubscribe()
+
+    def _on_job(self, event: JobProgress) -> None:
+        """A calibration from the object began or ended: the hint says so, then what comes next."""
+        if event.job == REFINE and (event.fraction is not None) != self._calibrating:
+            self._calibrating = event.fraction is not None
+            self.refresh_hint()
 
     def _on_loop(self, event: LoopChanged) -> None:
         self.pause.value = event.paused
@@ -164,7 +177,7 @@ class LivePanel:
         playback = ("paused" if services.paused else "live" if services.source is services.start_source
                     else "recording")
         self.hint.content = "➜ " + start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                                              snapshot.background is not None, playback)
+                                              snapshot.background is not None, playback, self._calibrating)
 
     def show(self, frame: LiveFrame) -> None:
         """Refresh the figures at STATS_HZ (every frame while paused)."""
