@@ -400,7 +400,7 @@ def refined_headline(mirrors) -> str:
 def found_headline(mirrors) -> str:
     """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
-    return (f"{FOUND} (no markers), fixed by the data {'; '.join(fixed)} (1σ; the method may add 1 to 2 mm): "
+    return (f"{FOUND} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; the method may add 1 to 2 mm): "
             "check the heat map and the agreement below.")
 
 
@@ -418,8 +418,8 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
                 "checked (put the object in view)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if found.rms_mm > NOISE_EXPLAINS * found.noise_mm:
-        return (f"{name}: ⚠ agrees with the other views only within {found.rms_mm:.1f} mm RMS, more than the depth "
-                f"noise there explains ({found.noise_mm:.1f} mm): its plane may be tilted or its boundary off; "
-                f"Refine from the object, or check its markers ({figures})")
-    return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS, as the depth noise there "
-            f"explains ({found.noise_mm:.1f} mm; {figures})")
+        return (f"{name}: ⚠ agrees with the other views only within {found.rms_mm:.1f} mm RMS on one frame, more "
+                f"than the depth noise there explains ({found.noise_mm:.1f} mm): its plane may be tilted or its "
+                f"boundary off; Refine from the object, or check its markers ({figures})")
+    return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS on one frame, as the depth noise "
+            f"there explains ({found.noise_mm:.1f} mm; {figures})")

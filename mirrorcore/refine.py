@@ -99,7 +99,7 @@ class MirrorRefinement:
         text += (f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; "
                  f"the method may add 1 to 2 mm; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
-            text += (f", markers {1e3 * self.marker_offset:.1f} mm (±{1e3 * self.marker_offset_std:.1f}) in front of "
+            text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
                      "the silver (saved as its glass)")
         return text
 

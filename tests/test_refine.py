@@ -282,7 +282,7 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
         assert mirror.plane == report.after and abs(offset_at(mirror.plane, centre) - offset_at(truth, centre)) < 1e-3
         assert mirror.marker_offset == pytest.approx(0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
         assert 0 < report.marker_offset_std < 1e-3                     # ideal readings: the plane's own uncertainty
-        assert (f"markers {1e3 * report.marker_offset:.1f} mm (±{1e3 * report.marker_offset_std:.1f}) in front of the "
+        assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm in front of the "
                 "silver (saved as its glass)") in report.summary()
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
 
