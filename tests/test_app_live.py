@@ -21,7 +21,7 @@ from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import Jobs, agreement_line, refined_headline
 from app.panels.live import LAG_NOTE_S, start_hint
 from app.panels.measure import fit_report
-from app.panels.mirrors import MirrorsPanel
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
 from app.server import IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
@@ -673,3 +673,13 @@ def test_a_job_says_its_last_word_once_it_is_over():
     for work in (lambda cancel: "done", cancelled, refused):
         jobs._start("x", work, "busy").join(10)
     assert ended == [("done", False), ("cancelled", False), ("not done: no frame yet", False)]
+
+
+def test_a_markers_fit_without_glass_says_how_to_measure_it():
+    """Markers on 3 mm of glass gave a quiet all-clear (a helper): the planes were 2.4 and 4.3 mm too near."""
+    def fit(name: str, glass: float):
+        return (SimpleNamespace(marker_offset=glass, summary=lambda names: f"{len(names)} markers"),
+                SimpleNamespace(name=name, marker_names=["1.1", "1.2", "1.3"]), None)
+    bare = _fit_report([fit("left", 0.0), fit("right", 0.004)], " (applied)")
+    assert bare == f"**left**: 3 markers (applied)\n\n**right**: 3 markers (applied)\n\n{NO_GLASS_NOTE}"
+    assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add

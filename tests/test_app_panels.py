@@ -17,7 +17,7 @@ from app.events import JobProgress
 from app.jobs import agreement_line
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
-from app.panels.mirrors import MirrorsPanel
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel
 from app.panels.object import ObjectPanel
 from app.panels.record import RecordPanel
 from app.panels.session import SessionPanel
@@ -112,6 +112,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
     mirrors = panel(tab, MirrorsPanel)
     assert "markers: 6 good" in mirrors.result.content and mirrors.proposal is None
+    assert mirrors.result.content.endswith(NO_GLASS_NOTE)                 # where a real rig's glass is measured
     wait_for(lambda: set(app.snapshot.marker_grades) == {1, 2})
     assert set(app.snapshot.marker_grades[1]) == {"good"}
     assert mirrors.undo.label == "Undo: planes of mirror 1 and mirror 2"     # named; one fit of both, undone together

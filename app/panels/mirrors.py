@@ -29,6 +29,9 @@ HELP = {                                         # the click mode in force, name
     "boundary": "**Boundary** mode: click the corners in order; click the first again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
+NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and a plane on "
+                 "their faces is that much too near: **Refine from the object** measures the glass and moves the "
+                 "plane behind it.")
 PROPOSAL_HEAD = "**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it."
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
@@ -329,7 +332,7 @@ class MirrorsPanel:
                     "refinement moved it, and set the glass the markers fit now uses); refine again after "
                     "applying",))
             fits[mirror.id] = (calibration, mirror, review)
-        report = "\n\n".join(f"**{m.name}**: {c.summary(m.marker_names)}" for c, m, _ in fits.values())
+        report = _fit_report(fits.values())
         if any(review.needs_confirmation for _, _, review in fits.values()):
             self.proposal = fits
             self._report("")
@@ -351,8 +354,7 @@ class MirrorsPanel:
         self.tab.state.flagged_markers = ()
         if fits:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self._report("\n\n".join(f"**{m.name}**: {c.summary(m.marker_names)} (applied on "
-                                       "confirmation)" for c, m, _ in fits.values()))
+            self._report(_fit_report(fits.values(), " (applied on confirmation)"))
             self._check_agreement()
         self.tab.changed()
 
@@ -481,3 +483,12 @@ def _nearest(points, uv) -> int | None:
     dist = np.hypot(*(points - np.asarray(uv, dtype=float)).T)
     k = int(np.argmin(dist))
     return k if dist[k] <= PICK_RADIUS else None
+
+
+def _fit_report(fits, applied: str = "") -> str:
+    """The report of markers fits ((Calibration, SessionMirror, FitReview) each): a line per mirror, then, when a
+    mirror has no glass set, how to get it."""
+    lines = [f"**{m.name}**: {c.summary(m.marker_names)}{applied}" for c, m, _ in fits]
+    if any(not c.marker_offset for c, _, _ in fits):
+        lines.append(NO_GLASS_NOTE)
+    return "\n\n".join(lines)
