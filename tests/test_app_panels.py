@@ -281,6 +281,8 @@ def test_exports_never_overwrite(sphere):
     app, headless = sphere
     session = panel(headless.tab, SessionPanel)
     first, second = session.export_cloud(), session.export_cloud()
+    assert re.fullmatch(r"Live frame \d+: [\d,]+ points, saved as `.*frame-\d{6}.*\.ply`", session.exported.content), \
+        session.exported.content                                                     # which frame went out
     assert first != second and first.parent.name == second.parent.name == "exports"
     points, sources = read_ply(first)
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
@@ -431,7 +433,9 @@ def test_record_then_replay_with_the_calibration(sphere):
     app.seek(count + 1)                                                # the recording looped: its frame 1 again
     wait_for(lambda: app.last_frame.index == count + 1)
     wait_for(lambda: headless.tab.header.rate.content.startswith(f"frame 1 of {count} "), what="the header")
-    assert panel(headless.tab, SessionPanel).export_cloud().name.startswith("frame-000001-")   # named alike
+    files = panel(headless.tab, SessionPanel)
+    assert files.export_cloud().name.startswith("frame-000001-")                        # named alike, and said
+    assert files.exported.content.startswith(f"Frame 1 of {count}: ")
     assert record.replay.disabled                                      # it plays: not offered again
     playing = app.source
     app.back_to_start_source()

@@ -108,7 +108,10 @@ class SessionPanel:
             raise MirrorscanError("no cloud yet to export")
         data = encode_ply(frame.cloud.points, frame.cloud.sources)
         root = self.services.editor.session.root if self.services.editor.autosave else None
-        number = frame_number(frame.index, self.services.source.frame_count)     # as the header names it
+        count = self.services.source.frame_count
+        number = frame_number(frame.index, count)                              # as the header names it
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
-        self.exported.content = f"{len(frame.cloud):,} points" + (f", saved as `{saved}`" if saved else ", downloaded")
+        which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
+        self.exported.content = (f"{which}: {len(frame.cloud):,} points"
+                                 + (f", saved as `{saved}`" if saved else ", downloaded"))
         return saved
