@@ -18,6 +18,7 @@ from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .live import LiveFrame
+from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
@@ -119,7 +120,7 @@ class Tab:
         gui = self.client.gui
         modal = gui.add_modal(title)
         with modal:
-            gui.add_markdown(text)
+            gui.add_markdown(markdown(text))
             yes_button = gui.add_button(yes, color="red")
             no_button = gui.add_button(no)
 

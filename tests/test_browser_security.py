@@ -87,3 +87,33 @@ def test_another_sites_page_cannot_open_the_tools_websocket(app, browser, tmp_pa
     finally:
         site.shutdown()
     assert [m.name for m in load_session(app.editor.session.root).mirrors] == ["mirror 1", "mirror 2"]
+
+
+EVIL_NAME = '<img src=x onerror="window.__pwned=(window.__pwned||0)+1">'
+
+
+def test_a_name_from_a_session_file_is_shown_as_text_never_run(browser, tmp_path):
+    """viser renders Markdown and HTML unsanitised: a mirror so named in a shared session file ran its script in the
+    technician's browser (in the next-step line, the legend, the Remove question)."""
+    rig = Simulator(paper_scene(object="sphere"), seed=0, fps=5.0)
+    session = Session(tmp_path / "scan", rig.intrinsics, (SessionMirror(EVIL_NAME), SessionMirror("mirror 2")))
+    save_session(session)
+    app = MirrorscanApp(load_session(session.root), SimulatedSource(rig), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.goto(f"http://127.0.0.1:{app.port}/")
+        page.get_by_role("button", name="Add a mirror").wait_for(timeout=60_000)
+        page.get_by_text("direct").first.wait_for(timeout=30_000)                # the legend names the sources
+        page.get_by_text("Rename, glass, remove, clear").click()
+        page.get_by_role("button", name="Remove this mirror…").click()
+        page.get_by_role("button", name="Keep it").wait_for(timeout=10_000)      # the question is up
+        time.sleep(1.0)
+        assert page.evaluate("window.__pwned || 0") == 0
+        hint = EVIL_NAME + ": choose Boundary and click its corners; click the first corner to close."
+        assert page.get_by_text(hint).count() == 1                               # shown as text: the next step,
+        assert page.get_by_text(f"{EVIL_NAME} and mirror 2: no plane yet").count() == 1   # the legend,
+        assert page.get_by_text(f"{EVIL_NAME} and its 0 markers").count() == 1   # the question
+        page.close()
+    finally:
+        app.stop()

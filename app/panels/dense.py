@@ -17,6 +17,7 @@ from ..context import TabContext
 from ..events import DenseChanged, FrameReady, JobProgress, SessionChanged
 from ..exports import export_ply
 from ..jobs import DENSE
+from ..markup import markdown
 
 TITLE = "Dense"
 METHODS = {"carve (consistent)": "carve", "TSDF fusion (mesh)": "tsdf", "Algorithm 2 as in the paper": "paper"}
@@ -140,14 +141,14 @@ class DensePanel:
         self.progress.visible = running
         if running:
             self.progress.value = event.percent
-        self.status.content = event.status
+        self.status.content = markdown(event.status)
 
     def _on_result(self, event: DenseChanged) -> None:
         result = event.result
         self.export.disabled = result is None
         if result is not None:
             self.low.value, self.high.value = tuple(result.low), tuple(result.high)
-            self.status.content = result.summary
+            self.status.content = markdown(result.summary)
 
     def export_result(self) -> None:
         """The last dense result (carved voxels, or the fused mesh with its faces) as PLY, under a new name."""
@@ -157,4 +158,4 @@ class DensePanel:
         data = encode_ply(result.vertices, result.sources, result.faces)
         root = self.services.editor.session.root if self.services.editor.autosave else None
         saved = export_ply(root, f"dense-{result.method}", data, self.tab.client)
-        self.status.content = f"{result.summary}; " + (f"saved as `{saved}`" if saved else "downloaded")
+        self.status.content = markdown(f"{result.summary}; " + (f"saved as `{saved}`" if saved else "downloaded"))

@@ -17,6 +17,7 @@ from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged
 from ..jobs import HEAT_LIMIT_MM, REFINE
 from ..live import LiveFrame, frame_number
+from ..markup import escape, markdown
 
 STATS_HZ = 4.0
 LAG_NOTE_S = 5.0           # seconds the header says a tab lagged after it last did (it catches up and lags again)
@@ -31,9 +32,15 @@ def source_names(session: Session) -> Callable[[int], str]:
     return lambda label: source_name(label, names)
 
 
-def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: tuple[int, ...]) -> str:
-    """One line: a swatch in each source's colour, its name and its point count; counts {label: points}."""
-    items = "".join(_swatch(source_colour(j, mirror_ids), f"{name(j)} <b>{count:,}</b>") for j, count in counts.items())
+def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: tuple[int, ...],
+                unplaned: tuple[str, ...] = ()) -> str:
+    """One line: a swatch in each source's colour, its name and its point count; counts {label: points}; then the
+    mirrors with no plane yet (unplaned: their names), whose part of the frame is left out."""
+    items = "".join(_swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
+                    for j, count in counts.items())
+    if unplaned:
+        items += (f"<br>{escape(' and '.join(unplaned))}: no plane yet, so what is seen in "
+                  f"{'it' if len(unplaned) == 1 else 'them'} (the object too) is left out")
     return f'<div style="font-size:0.85em;line-height:1.5">{items}</div>'
 
 
@@ -47,8 +54,8 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[in
     and the share of its points compared (figures as in HeatChanged; empty until the first map arrives), said to be
     this frame's and the camera's: the agreement lines beside it are over the recent frames and every view."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
-    lines = [f"{name(j)}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
-             else f"{name(j)}: none of its points seen by the camera" for j, (median, share) in figures.items()]
+    lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
+             else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
     body = ("<br>".join(["this frame, against the camera's surface:", *lines]) if figures
             else "computing the heat map…")
     return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}</div>'
@@ -165,7 +172,7 @@ class LivePanel:
     def _follow(self, source) -> None:
         """Name the source; show the frame slider for a recording (seekable), hide it for a live camera; offer the
         way back to the source served from the start while another plays."""
-        self.title.content = f"**{source.name}**"
+        self.title.content = markdown(f"**{source.name}**")
         self.back.visible = source is not self.tab.services.start_source
         if source.frame_count:
             self.seek.max = max(source.frame_count - 1, 1)
@@ -176,8 +183,9 @@ class LivePanel:
         snapshot = services.snapshot
         playback = ("paused" if services.paused else "live" if services.source is services.start_source
                     else "recording")
-        self.hint.content = "➜ " + start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                                              snapshot.background is not None, playback, self._calibrating)
+        hint = start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
+                          snapshot.background is not None, playback, self._calibrating)
+        self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
         """Refresh the figures at STATS_HZ (every frame while paused)."""
@@ -203,7 +211,8 @@ class LivePanel:
         names = source_names(frame.snapshot.session)
         heat = self.tab.heat and self.tab.state.view == "3d"     # its key only where it shows
         self.legend.content = (heat_legend_html(self.tab.heat_figures, names) if heat
-                               else legend_html(frame.counts, names, frame.mirror_ids))
+                               else legend_html(frame.counts, names, frame.mirror_ids, tuple(
+                                   m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
         if first:
             self.refresh_hint()
 
@@ -214,7 +223,7 @@ class LivePanel:
         rows, cols = frame.depth.shape
         depth = float(frame.depth[min(int(round(v)), rows - 1), min(int(round(u)), cols - 1)])
         reading = f"{depth:.3f} m" if depth > 0 else "no reading"
-        self.pixel.content = f"pixel ({u:.1f}, {v:.1f}): {reading}"
+        self.pixel.content = markdown(f"pixel ({u:.1f}, {v:.1f}): {reading}")
         if self._pixel_note is not None:             # one reading shown at a time: the clicks' notes do not stack
             self._pixel_note.remove()
         self._pixel_note = self.tab.client.add_notification("Pixel", self.pixel.content, color="blue",

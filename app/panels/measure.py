@@ -16,6 +16,7 @@ from mirrorcore.shapes import ShapeFit
 
 from ..context import TabContext
 from ..events import FrameReady
+from ..markup import markdown
 from .live import source_names
 
 if TYPE_CHECKING:
@@ -98,7 +99,7 @@ class MeasurePanel:
         if frame is None:
             raise MirrorscanError("no frame yet")
         result = self.fit(frame)
-        self.report.content = fit_report(result, source_names(frame.snapshot.session))
+        self.report.content = markdown(fit_report(result, source_names(frame.snapshot.session)))
         self._record(result)
         return result
 
@@ -113,10 +114,10 @@ class MeasurePanel:
     def _track(self, frame: "LiveFrame") -> None:
         try:
             result = self.fit(frame)
-            self.report.content = fit_report(result, source_names(frame.snapshot.session))
+            self.report.content = markdown(fit_report(result, source_names(frame.snapshot.session)))
             self._record(result)
         except MirrorscanError as exc:
-            self.report.content = f"tracking: {exc}"
+            self.report.content = markdown(f"tracking: {exc}")
         finally:
             self._busy.release()
 

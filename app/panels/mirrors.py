@@ -18,6 +18,7 @@ from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
 from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_NOTE, planes_key
+from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -66,8 +67,8 @@ class MirrorsPanel:
         # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
         # report of the refinement that left the planes as they are
         self._result_planes = planes_key(self.services.editor.session)     # the planes `result` describes
-        self.result = gui.add_markdown(self.services.jobs.refinements.get(self._result_planes, ""))
-        self.agreement = gui.add_markdown(self.services.jobs.agreement)
+        self.result = gui.add_markdown(markdown(self.services.jobs.refinements.get(self._result_planes, "")))
+        self.agreement = gui.add_markdown(markdown(self.services.jobs.agreement))
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
         self.close = gui.add_button("Close boundary", visible=False)
@@ -120,7 +121,7 @@ class MirrorsPanel:
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
-            self.agreement.content = event.status
+            self.agreement.content = markdown(event.status)
 
     def _wire(self) -> None:
         editor, act = self.services.editor, self.tab.act
@@ -289,7 +290,7 @@ class MirrorsPanel:
     def _report(self, text: str) -> None:
         """Show a fit's or refinement's report, for the planes as they are now."""
         self._result_planes = planes_key(self.services.editor.session)
-        self.result.content = text
+        self.result.content = markdown(text)
 
     def _report_after_travel(self, before: tuple, after: tuple) -> str:
         """After an undo or redo: the report of the refinement whose planes are back, or a line saying which one was
@@ -443,7 +444,7 @@ class MirrorsPanel:
                                                                f"{review.shift_mm:.1f} mm")
             lines.append(f"- **{mirror.name}**: {old}; {calibration.summary(mirror.marker_names)}")
             lines += [f"  - ⚠ {concern}" for concern in review.concerns]
-        self.review.content = "\n".join(lines)
+        self.review.content = markdown("\n".join(lines))
 
     def _marker_list(self, mirror: SessionMirror | None) -> str:
         """Every marker of the mirror with its distance to the plane and the noise there, in its grade's colour (the

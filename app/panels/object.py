@@ -16,6 +16,7 @@ from mirrorcore.sources import SimulatedSource
 from ..context import TabContext
 from ..events import JobProgress, SessionChanged
 from ..jobs import BACKGROUND
+from ..markup import markdown
 from .mirrors import _nearest
 
 TITLE = "Object"
@@ -78,8 +79,9 @@ class ObjectPanel:
         region = f"{len(roi)} corners" if roi else "the whole image"
         if state.region_draft:
             region += f" (drawing: {len(state.region_draft)} corners)"
-        self.status.content = (f"Background: {source}. Depth range: {selection.depth_min:.2f} to "
-                               f"{selection.depth_max:.2f} m. Region of interest: {region}.")   # (the slider shows none)
+        # the numbers, which the slider does not show
+        self.status.content = markdown(f"Background: {source}. Depth range: {selection.depth_min:.2f} to "
+                                       f"{selection.depth_max:.2f} m. Region of interest: {region}.")
         self.range.value = (selection.depth_min, selection.depth_max)
         self.smooth.value = selection.smooth
         self.bounces.value = snapshot.session.bounces
@@ -171,4 +173,4 @@ class ObjectPanel:
         if running:
             self.progress.value = event.percent
         else:
-            self.status.content = f"Background: {event.status}."
+            self.status.content = markdown(f"Background: {event.status}.")

@@ -15,6 +15,7 @@ from mirrorcore.sources import DepthSource, SessionSource
 from ..context import TabContext
 from ..events import JobProgress, LoopChanged
 from ..jobs import BATCH, RECORD
+from ..markup import markdown
 
 TITLE = "Record"
 CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
@@ -94,7 +95,7 @@ class RecordPanel:
             if running:
                 self.batch_progress.value = event.percent
             cancelling = running and self.batch_cancel.disabled
-            self.batch_status.content = event.status + (CANCELLING if cancelling else "")
+            self.batch_status.content = markdown(event.status + (CANCELLING if cancelling else ""))
             if not running:
                 self.batch_cancel.disabled = False
             return
@@ -103,4 +104,4 @@ class RecordPanel:
         running = event.fraction is not None
         self.start_button.disabled, self.stop_button.disabled = running, not running
         if event.status:
-            self.status.content = event.status
+            self.status.content = markdown(event.status)

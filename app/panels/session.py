@@ -14,6 +14,7 @@ from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
 from ..live import frame_number
+from ..markup import markdown
 
 TITLE = "Session"
 CHOOSE = ""          # the Open list's first entry: nothing is opened by a stray click on the button
@@ -53,7 +54,7 @@ class SessionPanel:
         editor = self.services.editor
         state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
         error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
-        self.where.content = f"`{editor.session.root}` ({state}){error}"
+        self.where.content = markdown(f"`{editor.session.root}` ({state}){error}")
         if editor.session.root != self._root:           # another session: the last export was another's
             self._root, self.exported.content = editor.session.root, ""
         names = (CHOOSE, *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")))
@@ -112,6 +113,6 @@ class SessionPanel:
         number = frame_number(frame.index, count)                              # as the header names it
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
         which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
-        self.exported.content = (f"{which}: {len(frame.cloud):,} points"
-                                 + (f", saved as `{saved}`" if saved else ", downloaded"))
+        self.exported.content = markdown(f"{which}: {len(frame.cloud):,} points"
+                                          + (f", saved as `{saved}`" if saved else ", downloaded"))
         return saved
