@@ -222,7 +222,7 @@ class Jobs:
             picks = source.session.spread_frames(REFINE_FRAMES)
             depths = source.session.read_frames(picks)
             return depths, (f"frames {', '.join(map(str, picks))} of the recording's {len(source.session.frames)}"
-                            " (0-based)")
+                            " (numbered as in the header)")
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet to calibrate from")

@@ -21,7 +21,7 @@ from mirrorcore.sources import DepthSource, SessionSource
 
 from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
-from .jobs import RECORD, Jobs
+from .jobs import BATCH, DENSE, RECORD, REFINE, Jobs
 from .live import RECENT_FRAMES, LiveFrame, LiveLoop
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
@@ -32,6 +32,9 @@ log = logging.getLogger("mirrorscan")
 VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden, and session.json whether another
                           # program changed it (the editor then reloads it)
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
+BUSY_FPS = 5.0            # ... and while a job that needs the cores runs (on 2 cores, Find the planes took 23 to 70 s
+                          # with the recording playing at 30 fps, 12.6 s paused)
+BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
@@ -181,14 +184,27 @@ class MirrorscanApp:
         return self.loop.rate.fps
 
     def fps_wanted(self) -> float | None:
-        """None (the source's rate) while some tab shows the cloud, a recording runs, or the source is no faster than
-        IDLE_FPS; else IDLE_FPS: every tab looks at the depth frame (sent at most 8 times a second) or is hidden, so
-        processing 30 frames a second would only take the cores from the browser on the same laptop."""
+        """The live loop's rate when it should be lower than the source's (pacing), else None."""
+        paced = self.pacing()
+        return None if paced is None else paced[0]
+
+    def pacing(self) -> tuple[float, str] | None:
+        """(frames per second, why) when the live loop runs slower than its source, else None (the source's rate):
+        never while a recording runs; BUSY_FPS while a job of BUSY_JOBS runs (it needs the cores more than the live
+        cloud does); IDLE_FPS while every tab looks at the depth frame (sent at most 8 times a second) or is hidden,
+        as processing 30 frames a second would only take the cores from the browser on the same laptop."""
+        if self.jobs.running(RECORD):
+            return None
+        busy = next((what for job, what in BUSY_JOBS.items() if self.jobs.running(job)), None)
         with self._tabs_lock:
             tabs = list(self.tabs.values())
-        if self.jobs.running(RECORD) or any(tab.shows_cloud for tab in tabs) or self.loop.source.fps <= IDLE_FPS:
+        if busy is not None:
+            fps, why = BUSY_FPS, f"while {busy} runs"
+        elif any(tab.shows_cloud for tab in tabs):
             return None
-        return IDLE_FPS
+        else:
+            fps, why = IDLE_FPS, "while no tab shows the 3D scene"
+        return (fps, why) if self.loop.source.fps > fps else None
 
     def recent_depths(self) -> np.ndarray | None:
         return self.loop.recent_depths()

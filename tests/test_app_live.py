@@ -22,7 +22,7 @@ from app.jobs import Jobs, agreement_line, refined_headline
 from app.panels.live import LAG_NOTE_S, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
-from app.server import IDLE_FPS, MirrorscanApp, quiet_closed_connections
+from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from app.tab import MAX_LAG_S, SETTLING_S, Tab
@@ -329,6 +329,22 @@ def test_what_viser_drops_for_a_closed_tab_is_not_shown_as_a_warning():
         warnings.warn_explicit(text, UserWarning, "tab.py", 1, module="app.tab")
         warnings.warn_explicit("Something else", UserWarning, "buffer.py", 1, module="viser.infra")
     assert [(str(w.message), w.filename) for w in caught] == [("Something else", "buffer.py")]
+
+
+def test_the_loop_gives_the_cores_to_a_calibration_from_the_object(demo):
+    """Find the planes took 23 to 70 s on 2 cores with the recording playing at 30 fps, 12.6 s paused (a helper):
+    while it runs (or a dense reconstruction, or a batch) the loop runs at BUSY_FPS, the header saying why."""
+    app, headless = demo
+    tab, loop = headless.tab, app.loop
+    assert tab.shows_cloud and app.fps_wanted() is None
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(app.jobs, "running", lambda job: job == "refine")
+        assert app.fps_wanted() == BUSY_FPS and loop.pace() == BUSY_FPS
+        wait_for(lambda: loop.run_once() and f"at most {BUSY_FPS:.0f} fps while the calibration from the object "
+                 "runs" in tab.header.rate.content, 5, "the header saying so")
+        patch.setattr(app.jobs, "running", lambda job: job in ("refine", "record"))   # a recording keeps its rate
+        assert app.fps_wanted() is None
+    assert app.fps_wanted() is None and loop.pace() == 30.0
 
 
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):

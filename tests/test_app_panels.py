@@ -555,7 +555,8 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             headline = mirrors.result.content.split("\n\n")[0]
             assert re.fullmatch(r"Planes found from the object \(no markers\), fixed by the data: mirror 1 to "
                                 r"±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
-                                r"recording's 4 \(0-based\)\. Undo restores the previous planes\.", headline), headline
+                                r"recording's 4 \(numbered as in the header\)\. Undo restores the previous planes\.",
+                                headline), headline
             found = [m.plane for m in app.editor.session.mirrors]
             for plane, truth in zip(found, sim.planes):
                 assert plane.angle_to(truth) < 0.3 and abs(plane.d - truth.d) < 0.003

@@ -196,14 +196,13 @@ class LivePanel:
         first = self._last_stats == 0.0
         self._last_stats = now
         services = self.tab.services
-        paced = services.fps_wanted()
+        paced = services.pacing()
         count = services.source.frame_count
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
         self.rate.content = (f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
-                             + (f" · at most {paced:.0f} fps while no tab shows the 3D scene"
-                                if paced and not services.paused else "")
+                             + (f" · at most {paced[0]:.0f} fps {paced[1]}" if paced and not services.paused else "")
                              + (" · ⚠ this browser draws slower than frames come: it is sent fewer of them"
                                 if now - self.tab.lagged_at < LAG_NOTE_S else ""))
         if count:
