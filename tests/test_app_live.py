@@ -19,7 +19,7 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import Jobs, agreement_line, refined_headline
-from app.panels.live import LAG_NOTE_S, start_hint
+from app.panels.live import LAG_NOTE_S, legend_html, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
 from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
@@ -699,3 +699,13 @@ def test_a_markers_fit_without_glass_says_how_to_measure_it():
     bare = _fit_report([fit("left", 0.0), fit("right", 0.004)], " (applied)")
     assert bare == f"**left**: 3 markers (applied)\n\n**right**: 3 markers (applied)\n\n{NO_GLASS_NOTE}"
     assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add
+
+
+def test_the_legend_says_which_mirrors_leave_their_part_out():
+    """Before its plane a mirror's part of the frame is left out: the figure looked cut to a sliver (a helper)."""
+    name = {0: "direct", 1: "left", 2: "right"}.get
+    assert "no plane yet" not in legend_html({0: 1350, 1: 0}, name, (1, 2))
+    one = legend_html({0: 1350, 1: 0}, name, (1, 2), ("left",))
+    assert one.endswith("<br>left: no plane yet, so the object seen in it is left out</div>")
+    assert "left and right: no plane yet, so the object seen in them is left out" in legend_html(
+        {0: 1350}, name, (1, 2), ("left", "right"))

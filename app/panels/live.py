@@ -39,8 +39,8 @@ def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: 
     items = "".join(_swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
                     for j, count in counts.items())
     if unplaned:
-        items += (f"<br>{escape(' and '.join(unplaned))}: no plane yet, so what is seen in "
-                  f"{'it' if len(unplaned) == 1 else 'them'} (the object too) is left out")
+        items += (f"<br>{escape(' and '.join(unplaned))}: no plane yet, so the object seen in "
+                  f"{'it' if len(unplaned) == 1 else 'them'} is left out")
     return f'<div style="font-size:0.85em;line-height:1.5">{items}</div>'
 
 
