@@ -122,8 +122,8 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
     real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a calibration
     object seen directly and behind the mirror. The normal is the mean of the unit directions virtual -> real
     (towards the camera's side); d makes the plane pass through the pairs' midpoints on average.
-    rms_mm reports the RMS of |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where the
-    plane puts it. Raises CalibrationError for no pairs, coincident pairs, or a camera behind the resulting plane.
+    rms_mm reports the RMS of |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where
+    the plane puts it. Raises CalibrationError for no pairs, coincident pairs, or a camera behind the resulting plane.
     """
     real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
     virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)

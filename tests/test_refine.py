@@ -18,8 +18,8 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (marker_offset, moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian,
-                              view_agreement)
+from mirrorcore.refine import (marker_offset, moved_plane, offset_at, refine_planes, refine_session,
+                              reflection_jacobian, view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
