@@ -32,8 +32,8 @@ log = logging.getLogger("mirrorscan")
 VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden, and session.json whether another
                           # program changed it (the editor then reloads it)
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
-BUSY_FPS = 5.0            # ... and while a job that needs the cores runs (on 2 cores, Find the planes took 23 to 70 s
-                          # with the recording playing at 30 fps, 12.6 s paused)
+BUSY_FPS = 5.0            # ... and while a job that needs the cores runs (on 2 cores with Chromium drawing the cloud,
+                          # Find the planes on the walking figure: 16.7-18.8 s at 30 fps, 14.5-14.7 s at this rate)
 BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
