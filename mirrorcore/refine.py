@@ -65,6 +65,7 @@ class MirrorRefinement:
         number, whichever is larger (on the simulator the fit's own is 2.5 to 3 times smaller than the planes' actual
         scatter from frame to frame: the comparisons themselves change with the noise)
     agreements : comparisons of its readings with the camera's that agree (both ways, all frames)
+    noise_mm : the RMS (mm) that the depth noise of the readings compared after would give alone
     marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
     marker_offset_std : metres, how well that is known (1 sigma: the spread of its markers and the plane's own
         uncertainty where they are), or None
@@ -83,19 +84,23 @@ class MirrorRefinement:
     shift_std_mm: float
     tilt_std_deg: float
     agreements: int
+    noise_mm: float = float("nan")
     marker_offset: float | None = None
     marker_offset_std: float | None = None
 
     def summary(self, searched: bool = False) -> str:
-        """One line; for a plane a search found (`searched`), without its start (the search's guess): the agreement
-        after, and how well the data fix it."""
+        """One line: how far the plane moved (not for a plane a search found, `searched`: its start was a guess),
+        where its points lie against the other views' surfaces on average before and after (what a plane's error
+        shifts; their RMS is mostly the depth noise, said beside it), and how well the data fix the plane."""
+        spread = (f"over the frames used; RMS {self.agreement_after_mm:.2f} mm where the depth noise alone would give "
+                  f"{self.noise_mm:.2f} mm")
         if searched:
-            text = (f"agreement {self.agreement_after_mm:.2f} mm RMS over the frames used (mean "
-                    f"{self.offset_after_mm:+.2f} mm)")
+            text = (f"its points lie {self.offset_after_mm:+.2f} mm from the other views' surfaces on average "
+                    f"({spread})")
         else:
-            text = (f"agreement {self.agreement_before_mm:.2f} to {self.agreement_after_mm:.2f} mm RMS over the "
-                    f"frames used (mean {self.offset_before_mm:+.2f} to {self.offset_after_mm:+.2f} mm), plane moved "
-                    f"{self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°")
+            text = (f"plane moved {self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°; its "
+                    f"points lay {self.offset_before_mm:+.2f} mm from the other views' surfaces on average, now "
+                    f"{self.offset_after_mm:+.2f} mm ({spread})")
         text += (f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; "
                  f"the method may add 1 to 2 mm; {self.agreements} points seen both ways)")
         if self.marker_offset is not None:
@@ -382,7 +387,7 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
     if scatter is not None:
         shift_std, tilt_std = max(shift_std, scatter[0]), max(tilt_std, scatter[1])
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
-                            tilt, 1e3 * shift_std, tilt_std, final.with_camera(j))
+                            tilt, 1e3 * shift_std, tilt_std, final.with_camera(j), noise)
 
 
 def _agreement(found: _Residuals, j: int) -> tuple[float, float]:

@@ -149,6 +149,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
     assert mirrors.proposal is not None and app.editor.mirror(2).plane == plane            # not applied
+    assert said[-1].startswith("A new plane for mirror 2 waits, not applied")      # in view at 1024x600 too
     assert "A new plane for mirror 2 waits" in tab.header.hint.content                     # the next step says so
     assert mirrors.review.visible and "⚠" in mirrors.review.content
     assert tab.state.flagged_markers == (len(before.markers),)                             # shown on the image
@@ -170,6 +171,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.mirror(2).markers == before.markers
     mirrors.fit_planes([2])
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
+    assert re.fullmatch(r"Applied: mirror 2 \d\.\d mm RMS; no glass set: Refine from the object measures it\. "
+                        r"The report is under Mirrors\.", said[-1]), said[-1]
 
 
 def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypatch):
@@ -222,7 +225,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
-    assert "agreement" in mirrors.result.content and "the data fix it to ±" in mirrors.result.content
+    assert "from the other views' surfaces on average" in mirrors.result.content and "the data fix it to ±" in \
+        mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
     assert re.fullmatch(r"Planes refined \(moved > 0: away from the camera\): mirror 1 moved [+-]?\d+\.\d mm and "
                         r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "

@@ -18,7 +18,7 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (marker_offset, moved_plane, offset_at, refine_planes, refine_session,
+from mirrorcore.refine import (MirrorRefinement, marker_offset, moved_plane, offset_at, refine_planes, refine_session,
                               reflection_jacobian, view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
@@ -412,3 +412,17 @@ def test_markers_read_behind_the_silver_give_no_glass():
     assert marker_offset(CAMERA, depth, markers, Plane((0.0, 0.0, -1.0), 1.999)).offset == 0.0
     tilted = Plane.from_point_normal([0.0, 0.0, 2.0], [0.02, 0.0, -1.0])             # the markers read off it unevenly
     assert marker_offset(CAMERA, depth, markers, tilted).spread > 1e-3
+
+
+def test_the_report_says_where_the_points_lay_before_and_after_against_the_noise():
+    """'agreement 5.43 to 5.44 mm RMS' read as no better after a 3.4 mm move (a helper): the RMS is the depth noise's,
+    and the mean is what the plane's error shifted."""
+    plane = Plane.from_abcd([0.0, 0.0, 1.0, -2.0])
+    report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -1.12, 0.03, 3.41, 0.02, 0.5, 0.01, 900, 5.31)
+    assert report.summary() == (
+        "plane moved +3.41 mm (> 0: away from the camera) and 0.020°; its points lay -1.12 mm from the other views' "
+        "surfaces on average, now +0.03 mm (over the frames used; RMS 5.44 mm where the depth noise alone would give "
+        "5.31 mm); the data fix it to ±0.50 mm and ±0.010° (1σ; the method may add 1 to 2 mm; 900 points seen both "
+        "ways)")
+    assert report.summary(searched=True).startswith(
+        "its points lie +0.03 mm from the other views' surfaces on average (over the frames used; RMS 5.44 mm")

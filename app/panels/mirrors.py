@@ -334,7 +334,8 @@ class MirrorsPanel:
                     "applying",))
             fits[mirror.id] = (calibration, mirror, review)
         report = _fit_report(fits.values())
-        if any(review.needs_confirmation for _, _, review in fits.values()):
+        waits = any(review.needs_confirmation for _, _, review in fits.values())
+        if waits:
             self.proposal = fits
             self._report("")
             self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
@@ -342,6 +343,7 @@ class MirrorsPanel:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
             self._check_agreement()
+        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits), error=waits)
         self.tab.changed()
 
     def _check_agreement(self) -> None:
@@ -484,6 +486,20 @@ def _nearest(points, uv) -> int | None:
     dist = np.hypot(*(points - np.asarray(uv, dtype=float)).T)
     k = int(np.argmin(dist))
     return k if dist[k] <= PICK_RADIUS else None
+
+
+def fit_note(fits, waits: bool) -> str:
+    """A markers fit in a notification's plain words (it is in view whatever the panel's scroll, where the report may
+    be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set.
+    fits : (Calibration, SessionMirror, FitReview) each."""
+    names = " and ".join(m.name for _, m, _ in fits)
+    if waits:
+        return (f"A new plane for {names} waits, not applied: look at it under Mirrors (the crossed markers), then "
+                "Apply or Discard it.")
+    rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
+    glass = ("; no glass set: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
+             else "")
+    return f"Applied: {rms}{glass}. The report is under Mirrors."
 
 
 def _fit_report(fits, applied: str = "") -> str:
