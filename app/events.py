@@ -68,12 +68,13 @@ class DenseChanged:
 class HeatChanged:
     """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3) uint8, and per view
     seen in a mirror (source label) the median distance (mm) and the share of its points compared
-    (mirrorcore.agreement.heat_figures)."""
+    (mirrorcore.agreement.heat_figures) over the last `frames` heat maps with the same planes, this one's included."""
 
     index: int
     points: "np.ndarray"
     colours: "np.ndarray"
     figures: dict
+    frames: int = 1
 
 
 class EventBus:

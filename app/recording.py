@@ -31,6 +31,10 @@ class LiveTap(DepthSource):
     """The live frames of `source` from now on, in order, as a live source; iteration ends at close().
 
     subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the function that stops it.
+    A recording that plays (a finite source, which loops) is taken up to its last frame: from the first frame that
+    starts it over (or goes back, after a seek) the tap takes nothing more and `replay_ended` is True, so that no
+    frame is recorded twice and the recording's time never runs backwards. The same frame again (processed again
+    while paused) is taken once.
     Raises MirrorscanError when the source already has an open tap (one recording at a time).
     """
 
@@ -41,6 +45,8 @@ class LiveTap(DepthSource):
         self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog_frames(source.intrinsics.shape))
         self._closed = threading.Event()
         self.dropped = 0
+        self.replay_ended = False
+        self._loop_length, self._last_number = source.frame_count, -1
         self._key = id(source)
         with _taps_lock:
             if self._key in _tapped:
@@ -49,12 +55,25 @@ class LiveTap(DepthSource):
         self._unsubscribe: Callable[[], None] | None = subscribe(self._take)
 
     def _take(self, frame: LiveFrame) -> None:
-        if self._closed.is_set():
+        if self._closed.is_set() or self.replay_ended or not self._in_order(frame.index):
             return
         try:
             self._frames.put_nowait(Frame(frame.depth, frame.timestamp))
         except queue.Full:
             self.dropped += 1
+
+    def _in_order(self, index: int) -> bool:
+        """Whether the frame of live index `index` is the next of a replay (always, for a live source); a replay
+        that starts over ends the tap's intake (replay_ended)."""
+        if not self._loop_length:
+            return True
+        number = index % self._loop_length
+        if number < self._last_number:
+            self.replay_ended = True
+        elif number > self._last_number:
+            self._last_number = number
+            return True
+        return False
 
     def _next(self) -> Frame | None:
         """The next frame, waiting for it; None once the tap is closed and every frame taken before was delivered."""

@@ -61,6 +61,7 @@ class Tab:
         self.dense_visible, self.dense_beside = True, True
         self.heat, self._last_heat = False, 0.0
         self.heat_figures: dict[int, tuple[float, float]] = {}   # the last heat map's, per mirror view (HeatChanged)
+        self.heat_frames = 0                                      # ... over this many heat maps
         self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
         self._framed = False
         camera = services.snapshot.session.camera
@@ -171,7 +172,7 @@ class Tab:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
             if self.heat and not self.closed:
                 self.scene.show_heat(event.points, event.colours)
-                self.heat_figures = event.figures
+                self.heat_figures, self.heat_frames = event.figures, event.frames
 
     def show_dense(self, result) -> None:
         """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""

@@ -18,10 +18,11 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import Jobs, agreement_line, refined_headline
-from app.panels.live import LAG_NOTE_S, legend_html, start_hint
+from app.jobs import HEAT_POOL, Jobs, agreement_line, refined_headline
+from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
+import app.server as server_module
 from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
@@ -598,6 +599,12 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
     assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
+    marked = replace(done.mirrors[0], plane=None)
+    assert start_hint(Session(tmp_path, session.camera, mirrors=(marked,)), TabState(mirror_id=1), True, True) == (
+        "left: **Fit plane**.")
+    two = Session(tmp_path, session.camera, mirrors=(marked, replace(marked, name="right", id=2)))
+    assert start_hint(two, TabState(mirror_id=1), True, True) == "left and right: **Fit all planes**."
+    assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("A recording runs")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
 
@@ -709,3 +716,17 @@ def test_the_legend_says_which_mirrors_leave_their_part_out():
     assert one.endswith("<br>left: no plane yet, so the object seen in it is left out</div>")
     assert "left and right: no plane yet, so the object seen in them is left out" in legend_html(
         {0: 1350}, name, (1, 2), ("left", "right"))
+
+
+def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
+    """One frame's median jumped by 1 to 2 mm (a helper): the legend pools the last HEAT_POOL maps, and a new
+    calibration starts afresh."""
+    jobs, first, second = Jobs(None, lambda: None, EventBus()), object(), object()
+    for k in range(HEAT_POOL + 3):
+        pooled = jobs._pool_heat(first, np.full(2, float(k)), np.ones(2, int))
+    assert len(pooled) == HEAT_POOL and pooled[-1][0][0] == HEAT_POOL + 2 and pooled[0][0][0] == 3
+    assert len(jobs._pool_heat(second, np.zeros(2), np.ones(2, int))) == 1           # other planes: a new pool
+    text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
+    assert f"the last {HEAT_POOL} frames, against the camera's surface:<br>left: median -0.4 mm over 7% of" in text
+    assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
+    assert "hardly the glass (3 mm reads 0.2 mm)" in text

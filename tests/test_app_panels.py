@@ -262,6 +262,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                       "the heat map's legend")
     assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface:<br>mirror 1: "
                                                             r"median [+-]\d+\.\d mm over \d+% of", legend)
+    wait_for(lambda: "the last 2 frames, against" in tab.header.legend.content, 20, "the next map pooled")
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")
@@ -417,7 +418,12 @@ def test_record_then_replay_with_the_calibration(sphere):
     assert not headless.tab.header.back.visible                  # the source served from the start is playing
     record.start()
     wait_for(lambda: app.jobs.recorder.frames >= 4, 60, "4 frames on disk")     # however loaded the machine is
+    header = headless.tab.header                          # in view from every step: it records (a helper missed it)
+    wait_for(lambda: header.rate.content.startswith("● **recording** "), 10, "the header's recording")
+    assert "A recording runs (its count is above): **Record › Stop recording** saves it" in header.hint.content
     recorded = record.stop()
+    wait_for(lambda: "recording" not in header.rate.content, 10, "the header without it")
+    assert "Stop recording" not in header.hint.content
     assert len(recorded.frames) >= 4 and len(recorded.timestamps) == len(recorded.frames)
     saved = load_session(recorded.root)
     assert saved.mirrors == app.editor.session.mirrors and saved.background == "background.png"
@@ -482,6 +488,19 @@ def test_a_batch_being_cancelled_says_so(sphere):
     wait_for(lambda: "cancelling" not in record.batch_status.content, 10, "the last word")
     assert ended[0].startswith("batch ") and not record.batch_cancel.disabled
     record.method.value = "raw"
+
+
+def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
+    app, headless = sphere
+    assert app.source.frame_count                                     # the recording of the test above plays
+    record = panel(headless.tab, RecordPanel)
+    record.start()
+    wait_for(lambda: app.jobs._tap.replay_ended, 60, "the replay's last frame")
+    wait_for(lambda: "came to its last frame" in record.status.content, 10, "the Record step saying so")
+    assert headless.tab.header.rate.content.startswith("● **recording ended** at ")
+    again = record.stop()
+    assert 1 <= len(again.frames) <= app.source.frame_count
+    assert list(again.timestamps) == sorted(again.timestamps)         # its time never runs back
 
 
 def test_a_background_captured_before_saving_is_saved_with_the_session(tmp_path):

@@ -136,12 +136,26 @@ def _loop() -> SimpleNamespace:
     def subscribe(take):
         listeners.append(take)
         return lambda: listeners.remove(take)
-    source = SimpleNamespace(name="sim", intrinsics=CAMERA, fps=30.0, background=lambda: None)
+    source = SimpleNamespace(name="sim", intrinsics=CAMERA, fps=30.0, background=lambda: None, frame_count=None)
     return SimpleNamespace(source=source, listeners=listeners, tap=lambda: LiveTap(source, subscribe))
 
 
 def _live_frame(i: int) -> SimpleNamespace:
-    return SimpleNamespace(depth=np.full(CAMERA.shape, 1.0 + i, np.float32), timestamp=i / 30)
+    return SimpleNamespace(depth=np.full(CAMERA.shape, 1.0 + i, np.float32), timestamp=i / 30, index=i)
+
+
+def test_a_recording_that_plays_is_recorded_up_to_its_last_frame_and_none_twice():
+    """Recording while a 10-frame session played gave 106 frames, the 10 over and over, and times that ran back (a
+    helper): the tap ends where the replay starts over, and a frame processed again (paused) is taken once."""
+    loop = _loop()
+    loop.source.frame_count = 5
+    tap = loop.tap()
+    for i in (3, 4, 4, 5, 6, 7):                                    # live indices: frames 3, 4, 4, then 0, 1, 2
+        for listener in list(loop.listeners):
+            listener(_live_frame(i))
+    assert tap.replay_ended
+    tap.close()
+    assert [frame.timestamp for frame in tap] == [3 / 30, 4 / 30]
 
 
 def test_closing_a_full_tap_never_blocks_and_delivers_what_it_took():

@@ -15,7 +15,7 @@ from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged
-from ..jobs import HEAT_LIMIT_MM, REFINE
+from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -49,16 +49,22 @@ HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_
             (HEAT_UNCOMPARED, "not seen by the camera"))
 
 
-def heat_legend_html(figures: dict[int, tuple[float, float]], name: Callable[[int], str]) -> str:
+HEAT_READS = ("it shows a tilt (0.5° reads about 6 mm) or a wrong boundary, hardly the glass (3 mm reads 0.2 mm): "
+              "<b>Refine from the object</b> measures that")   # the glass sphere, seed 1, ten frames (README)
+
+
+def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str]) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
-    and the share of its points compared (figures as in HeatChanged; empty until the first map arrives), said to be
-    this frame's and the camera's: the agreement lines beside it are over the recent frames and every view."""
+    and the share of its points compared over the last `frames` heat maps (figures as in HeatChanged; empty until the
+    first map arrives), against the camera's surface (the agreement lines beside it compare every view); then what
+    the map can show (HEAT_READS)."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
-    body = ("<br>".join(["this frame, against the camera's surface:", *lines]) if figures
+    over = "this frame" if frames == 1 else f"the last {frames} frames"
+    body = ("<br>".join([f"{over}, against the camera's surface:", *lines]) if figures
             else "computing the heat map…")
-    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}</div>'
+    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}<br><i>{HEAT_READS}</i></div>'
 
 
 def _swatch(colour, text: str) -> str:
@@ -69,12 +75,15 @@ def _swatch(colour, text: str) -> str:
 
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
-               playback: str = "live", calibrating: bool = False) -> str:
+               playback: str = "live", calibrating: bool = False, recording: bool = False) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: a calibration from the
-    object runs."""
+    object runs; recording: the live frames are being recorded."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
+    if recording:
+        return ("A recording runs (its count is above): **Record › Stop recording** saves it, with the calibration "
+                "as it then stands.")
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
     if calibrating:
@@ -94,6 +103,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
         return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
+        ready = [m.name for m in session.mirrors if m.plane is None and m.boundary and len(m.markers) >= 3]
+        if len(ready) > 1:
+            return f"{' and '.join(ready)}: **Fit all planes**."
         return f"{mirror.name}: **Fit plane**."
     todo = [m.name for m in session.mirrors if m.plane is None or not m.boundary]
     if todo:
@@ -131,7 +143,9 @@ class LivePanel:
             self.heat = gui.add_checkbox("Heat map", initial_value=False,
                                          hint="the mirrors' points by their distance to the surface the camera sees "
                                          "directly: white on it, red outside, blue inside (10 mm and more "
-                                         "saturated), grey where there is nothing to compare; a frame a second")
+                                         "saturated), grey where there is nothing to compare; a frame a "
+                                         "second. It shows a tilt, hardly the glass: Refine from the object "
+                                         "measures that")
             self.pixel = gui.add_markdown("Last pixel read: none yet")
         self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
@@ -145,7 +159,7 @@ class LivePanel:
         self.frame_object.on_click(lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object())))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
-        self._calibrating = services.jobs.running(REFINE)
+        self._calibrating, self._recording = services.jobs.running(REFINE), services.jobs.running(RECORD)
         self._unsubscribe = [services.bus.subscribe(LoopChanged, self._on_loop),
                              services.bus.subscribe(JobProgress, self._on_job)]
         self._last_stats = 0.0
@@ -158,9 +172,13 @@ class LivePanel:
             unsubscribe()
 
     def _on_job(self, event: JobProgress) -> None:
-        """A calibration from the object began or ended: the hint says so, then what comes next."""
-        if event.job == REFINE and (event.fraction is not None) != self._calibrating:
-            self._calibrating = event.fraction is not None
+        """A calibration from the object or a recording began or ended: the hint says so, then what comes next."""
+        running = event.fraction is not None
+        if event.job == REFINE and running != self._calibrating:
+            self._calibrating = running
+            self.refresh_hint()
+        elif event.job == RECORD and running != self._recording:
+            self._recording = running
             self.refresh_hint()
 
     def _on_loop(self, event: LoopChanged) -> None:
@@ -184,7 +202,7 @@ class LivePanel:
         playback = ("paused" if services.paused else "live" if services.source is services.start_source
                     else "recording")
         hint = start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                          snapshot.background is not None, playback, self._calibrating)
+                          snapshot.background is not None, playback, self._calibrating, self._recording)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
@@ -201,7 +219,9 @@ class LivePanel:
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
-        self.rate.content = (f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
+        recording = services.jobs.recording_headline()
+        self.rate.content = ((f"{recording} · " if recording else "")
+                             + f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
                              + (f" · at most {paced[0]:.0f} fps {paced[1]}" if paced and not services.paused else "")
                              + (" · ⚠ this browser draws slower than frames come: it is sent fewer of them"
                                 if now - self.tab.lagged_at < LAG_NOTE_S else ""))
@@ -209,7 +229,7 @@ class LivePanel:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
         heat = self.tab.heat and self.tab.state.view == "3d"     # its key only where it shows
-        self.legend.content = (heat_legend_html(self.tab.heat_figures, names) if heat
+        self.legend.content = (heat_legend_html(self.tab.heat_figures, self.tab.heat_frames, names) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids, tuple(
                                    m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
         if first:

@@ -19,6 +19,8 @@ from ..markup import markdown
 
 TITLE = "Record"
 CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
+IDLE = ("Records the frames as they come into a new session folder (from a recording that plays: up to its last "
+        "frame, none twice).")
 
 
 class RecordPanel:
@@ -29,7 +31,7 @@ class RecordPanel:
         self.recorded: Session | None = None
         self.start_button = gui.add_button("Record", color="red")
         self.stop_button = gui.add_button("Stop recording", disabled=True)
-        self.status = gui.add_markdown("Records the live frames into a new session folder.")
+        self.status = gui.add_markdown(markdown(self.services.jobs.recording_status() or IDLE))
         self.replay = gui.add_button("Replay the recording", disabled=True)
         with gui.add_folder("Reconstruct every frame (batch)", expand_by_default=False):
             self.method = gui.add_dropdown("Method", BATCH_METHODS, initial_value="raw")
