@@ -7,6 +7,7 @@ import contextlib
 import io
 import logging
 import threading
+import time
 import warnings
 from pathlib import Path
 from typing import Callable
@@ -26,7 +27,7 @@ from .live import RECENT_FRAMES, LiveFrame, LiveLoop
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
 from .state import Snapshot
-from .tab import Tab
+from .tab import Resume, Tab
 
 log = logging.getLogger("mirrorscan")
 VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden, and session.json whether another
@@ -37,6 +38,7 @@ BUSY_FPS = 5.0            # ... and while a job that needs the cores runs (on 2 
 BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
+RESUME_S = 600.0          # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
 
 
@@ -89,6 +91,7 @@ class MirrorscanApp:
         self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error, self.fps_wanted)
         self.jobs = Jobs(self.loop, lambda: self._snapshot, self.bus)
         self.tabs: dict[int, Tab] = {}
+        self._left: dict[str, tuple[float, Resume]] = {}   # page -> (time.monotonic(), work) of its closed tab
         self._tabs_lock = threading.Lock()
         self._session_lock = threading.Lock()      # snapshots are rebuilt one at a time, in order
         self._stop = threading.Event()
@@ -127,12 +130,25 @@ class MirrorscanApp:
             # from get_clients() before it calls _disconnect, so checked under the lock one of the two closes it.
             if client.client_id in self.server.get_clients():
                 self.tabs[client.client_id] = tab
+                threading.Thread(target=self._resume, args=(tab,), name="mirrorscan-resume", daemon=True).start()
                 return
         tab.close()
+
+    def _resume(self, tab: Tab) -> None:
+        """Which page the tab is (tab.identify); a reload of a page closed within RESUME_S takes up its work."""
+        page = tab.identify()
+        with self._tabs_lock:
+            now = time.monotonic()
+            self._left = {p: left for p, left in self._left.items() if now - left[0] <= RESUME_S}
+            left = self._left.pop(page, None) if page else None
+        if left is not None:
+            tab.take_up(left[1])
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
         with self._tabs_lock:
             tab = self.tabs.pop(client.client_id, None)
+            if tab is not None and tab.page is not None:
+                self._left[tab.page] = (time.monotonic(), tab.resume())
         if tab is not None:
             tab.close()
 

@@ -1,11 +1,12 @@
 """One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene and depth frame,
 its GUI (a status header over one tab per step of the work), and what it streams: the live cloud only while it looks
 at the 3D scene, is not hidden and keeps up (MAX_LAG_S), the depth frame at most DEPTH_HZ times a second and at once
-after an edit."""
+after an edit. A page reloaded takes up the work of its tab before (Resume): the page tells which it is (identify)."""
 from __future__ import annotations
 
 import threading
 import time
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -34,6 +35,16 @@ SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it ma
 OBJECT_MARGIN = 1.6     # Look at the object: the view's nearer edge is this many radii of the object's bounding
                         # sphere from its middle (its points are drawn as discs of many pixels at that distance)
 HIDDEN_KEY = "mirrorscan-hidden"
+PAGE_KEY = "mirrorscan-page"
+# A browser tab keeps its sessionStorage through reloads and no other tab shares it: the page's name, made once.
+PAGE_JS = """(() => {{
+  let page = sessionStorage.getItem("{key}");
+  if (!page) {{
+    page = Date.now().toString(36) + Math.random().toString(36).slice(2);
+    sessionStorage.setItem("{key}", page);
+  }}
+  localStorage.setItem("viser-user:{key}-{client}", page);
+}})();"""
 VISIBILITY_JS = """(() => {{
   const key = "viser-user:{key}";
   const put = () => localStorage.setItem(key, document.hidden ? "1" : "0");
@@ -42,12 +53,24 @@ VISIBILITY_JS = """(() => {{
 }})();"""
 
 
+@dataclass(frozen=True)
+class Resume:
+    """What a closed tab leaves to the next one (a reload): its state as the technician left it (the click mode, the
+    selected mirror, the boundaries and region being drawn, the view; not a pick, nor a proposal, which was that
+    tab's) and whether its heat map was on."""
+
+    state: TabState
+    heat: bool
+
+
 class Tab:
-    """Everything of one connected browser tab (see the module docstring)."""
+    """Everything of one connected browser tab (see the module docstring); `resume`: the work of a tab closed just
+    before (a reload), or None for a fresh start."""
 
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
         self.state = TabState()
+        self.page: str | None = None      # which browser page this is, once identify() has asked it
         self.hidden = False
         self.lagging = False        # see MAX_LAG_S
         self.lagged_at = -np.inf    # time.perf_counter() when it last lagged, once settled (SETTLING_S)
@@ -84,6 +107,36 @@ class Tab:
         client.camera.on_update(self._first_view)
         self._watch_visibility()
 
+    def identify(self, timeout: float = 10.0) -> str | None:
+        """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs); the answer is kept in
+        `page`. None when it does not answer in time or went away."""
+        key = f"{PAGE_KEY}-{self.client.client_id}"
+        self.client._websock_connection.queue_message(
+            _messages.RunJavascriptMessage(source=PAGE_JS.format(key=PAGE_KEY, client=self.client.client_id)))
+        try:
+            self.page = self.client.local_storage.get_item(key, timeout=timeout) or None
+        except (TimeoutError, RuntimeError):
+            return None
+        return self.page
+
+    def take_up(self, resume: Resume) -> None:
+        """Go on with the work the page's tab before it left (a reload): its state, view and heat map."""
+        with self._lock:
+            self.state = resume.state
+        self._on_session()                       # drafts of mirrors gone since are dropped; the panels follow
+        if resume.state.view == "depth":
+            self.look("depth")
+        if resume.heat:
+            self.header.heat.value = True
+            self.show_heat(True)
+
+    def resume(self) -> Resume:
+        """This tab's work, for the next tab to take up (see Resume)."""
+        with self._lock:
+            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None, picked_marker=None,
+                            moving_marker=False, flagged_markers=(), proposal_for=())
+        return Resume(state, self.heat)
+
     def _first_view(self, _) -> None:
         """Once the tab has reported its canvas: frame what the tab is looking at (the rig and the cloud, or the
         depth frame when the tab was switched to it before the report)."""
@@ -91,6 +144,8 @@ class Tab:
             self._framed = True
             if self.state.view == "depth":
                 self.screen.look_at()
+            elif self.heat:                    # a reload with the heat map on: its colours are on the object
+                self.look_at_object()
             else:
                 self.look_home()
 

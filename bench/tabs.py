@@ -7,11 +7,14 @@ from __future__ import annotations
 
 import threading
 import time
+import uuid
 
 import msgspec
 import viser
 import websockets.sync.client
 import zstandard
+
+from app.tab import PAGE_KEY
 
 CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
     "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,
@@ -33,9 +36,11 @@ def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
 class HeadlessTab:
     """Connect to `app` as a tab; .tab is the app's Tab for it; .bytes and .messages count what it received. Set
     .answer_delay (seconds) to answer the server's localStorage reads that much later, as a browser that draws more
-    slowly than frames come (the messages before a read wait to be drawn)."""
+    slowly than frames come (the messages before a read wait to be drawn). `page`: the name the page gives when
+    asked which it is (the same for a reload of it; by default a new page's own)."""
 
-    def __init__(self, app):
+    def __init__(self, app, page: str | None = None):
+        self.page = page or uuid.uuid4().hex
         before = set(app.tabs)
         self.ws = websockets.sync.client.connect(f"ws://127.0.0.1:{app.port}",
                                                  subprotocols=[f"viser-v{viser.__version__}"], max_size=None)
@@ -61,13 +66,15 @@ class HeadlessTab:
 
     def _answer(self, window: bytes) -> None:
         """Answer each localStorage read in a window of messages (viser's wire format: the sizes of the msgpack
-        metadata, raw and zstd-compressed, then the metadata, then binary buffers) with "0": a tab in view."""
+        metadata, raw and zstd-compressed, then the metadata, then binary buffers): the page's name when asked which
+        page it is, else "0" (a tab in view)."""
         size, packed = int.from_bytes(window[:8], "little"), int.from_bytes(window[8:16], "little")
         metadata = msgspec.msgpack.decode(self._unzip.decompress(window[16:16 + packed], max_output_size=size))
         for message in metadata["messages"]:
             if message.get("type") == "LocalStorageGetItemRequestMessage":
                 time.sleep(self.answer_delay)
-                self.ws.send(msgspec.msgpack.encode({"type": "LocalStorageGetItemResponseMessage", "value": "0",
+                value = self.page if message["key"].startswith(PAGE_KEY) else "0"
+                self.ws.send(msgspec.msgpack.encode({"type": "LocalStorageGetItemResponseMessage", "value": value,
                                                      "error": None, "request_uuid": message["request_uuid"]}))
 
     def close(self) -> None:

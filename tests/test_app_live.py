@@ -54,6 +54,37 @@ def test_a_new_tab_starts_at_the_first_mirror(demo):
     assert next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel)).mirror.value == first.name
 
 
+def test_a_reloaded_page_takes_up_the_work_of_the_page_before(demo, monkeypatch):
+    """A reload lost the corners of a boundary being drawn, the mirror, the mode, the view and the heat map (a
+    helper): the page says which it is (the same through its reloads), and a reload within RESUME_S takes up the work
+    of its tab before; another page, or a reload later, starts afresh."""
+    from bench.tabs import HeadlessTab
+    app, _ = demo
+    second = app.snapshot.session.mirrors[1].id
+    with HeadlessTab(app, page="bench") as before:
+        tab = wait_for(lambda: before.tab.page == "bench" and before.tab, 10, "the page's name")
+        tab.state.mirror_id, tab.state.mode = second, "boundary"
+        tab.state.drafts[second] = ((10.0, 20.0), (30.0, 20.0))
+        tab.state.picked_corner = 1                                    # a pick is that page's: not taken up
+        tab.look("depth")
+        tab.show_heat(True)
+    with HeadlessTab(app) as other:                                    # another page meanwhile: its own start
+        wait_for(lambda: other.tab.page, 10, "its name")
+        assert other.tab.state.view == "3d" and not other.tab.state.drafts
+    with HeadlessTab(app, page="bench") as after:                      # the page reloaded
+        state = wait_for(lambda: after.tab.state.drafts and after.tab.state, 10, "the work taken up")
+        assert (state.mirror_id, state.mode, state.view) == (second, "boundary", "depth")
+        assert state.drafts == {second: ((10.0, 20.0), (30.0, 20.0))} and state.picked_corner is None
+        assert after.tab.heat and after.tab.header.heat.value
+        mirrors = next(p for p in after.tab.panels if isinstance(p, MirrorsPanel))
+        assert mirrors.mirror.value == app.snapshot.session.mirrors[1].name
+        after.tab.show_heat(False)
+    monkeypatch.setattr(server_module, "RESUME_S", 0.0)
+    with HeadlessTab(app, page="bench") as later:                      # reloaded after RESUME_S: a new start
+        wait_for(lambda: later.tab.page, 10, "its name")
+        time.sleep(0.2)
+        assert later.tab.state.view == "3d" and not later.tab.state.drafts and not later.tab.heat
+
 def test_float16_offsets_keep_every_point_within_a_third_of_a_millimetre():
     rng = np.random.default_rng(0)
     points = (rng.uniform(-0.95, 0.95, (20_000, 3)) + [0.3, -0.2, 3.0]).astype(np.float32)
