@@ -36,6 +36,7 @@ OBJECT_MARGIN = 1.6     # Look at the object: the view's nearer edge is this man
                         # sphere from its middle (its points are drawn as discs of many pixels at that distance)
 HIDDEN_KEY = "mirrorscan-hidden"
 PAGE_KEY = "mirrorscan-page"
+PAGE_NAME_CHARS = 64
 # A browser tab keeps its sessionStorage through reloads and no other tab shares it: the page's name, made once.
 PAGE_JS = """(() => {{
   let page = sessionStorage.getItem("{key}");
@@ -55,17 +56,16 @@ VISIBILITY_JS = """(() => {{
 
 @dataclass(frozen=True)
 class Resume:
-    """What a closed tab leaves to the next one (a reload): its state as the technician left it (the click mode, the
-    selected mirror, the boundaries and region being drawn, the view; not a pick, nor a proposal, which was that
-    tab's) and whether its heat map was on."""
+    """What a closed tab leaves to the next tab of its page (a reload): its state as the technician left it (the
+    click mode, the selected mirror, the boundaries and region being drawn, the view; not a pick, nor a proposal,
+    which was that tab's) and whether its heat map was on."""
 
     state: TabState
     heat: bool
 
 
 class Tab:
-    """Everything of one connected browser tab (see the module docstring); `resume`: the work of a tab closed just
-    before (a reload), or None for a fresh start."""
+    """Everything of one connected browser tab (see the module docstring)."""
 
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
@@ -114,14 +114,17 @@ class Tab:
         self.client._websock_connection.queue_message(
             _messages.RunJavascriptMessage(source=PAGE_JS.format(key=PAGE_KEY, client=self.client.client_id)))
         try:
-            self.page = self.client.local_storage.get_item(key, timeout=timeout) or None
+            answer = self.client.local_storage.get_item(key, timeout=timeout)
         except (TimeoutError, RuntimeError):
             return None
+        self.page = answer[:PAGE_NAME_CHARS] if answer else None     # a name, not a store: PAGE_JS makes ~20
         return self.page
 
     def take_up(self, resume: Resume) -> None:
         """Go on with the work the page's tab before it left (a reload): its state, view and heat map."""
         with self._lock:
+            if self.closed:                      # closed meanwhile (reloaded again at once): too late
+                return
             self.state = resume.state
         self._on_session()                       # drafts of mirrors gone since are dropped; the panels follow
         if resume.state.view == "depth":
