@@ -17,6 +17,7 @@ import numpy as np
 
 from mirrorcore.agreement import heat_figures, surface_distances
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
+from mirrorcore.calibration import calibration_depth
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
@@ -217,6 +218,18 @@ class Jobs:
         snapshot = self.snapshot()
         return self._start(REFINE, lambda cancel: self._calibrate(
             editor, session, snapshot, depths, used, cancel, todo), "a refinement is already running")
+
+    def marker_frames(self) -> np.ndarray:
+        """The frames a fit from the markers reads, per-pixel median: the background and MAX_MEDIAN_FRAMES frames
+        spread over the recording that plays (the same whenever it is clicked, and as `mirrorscan calibrate` reads
+        them), else the last live frames (RECENT_FRAMES). (k, H, W) float32 metres."""
+        source = self.loop.source
+        if isinstance(source, SessionSource) and source.session.frames:
+            return calibration_depth(source.session)
+        depths = self.loop.recent_depths()
+        if depths is None:
+            raise MirrorscanError("no frame yet to calibrate from")
+        return depths
 
     def object_frames(self) -> tuple[np.ndarray, str]:
         """The frames a calibration from the object uses, and which they are in words: REFINE_FRAMES spread over

@@ -222,9 +222,6 @@ class MirrorscanApp:
             fps, why = IDLE_FPS, "while no tab shows the 3D scene"
         return (fps, why) if self.loop.source.fps > fps else None
 
-    def recent_depths(self) -> np.ndarray | None:
-        return self.loop.recent_depths()
-
     def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
         """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification on that tab, and so
         does a bug (logged with its traceback): a click never fails in silence."""

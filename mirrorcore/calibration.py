@@ -3,9 +3,11 @@ region), and from pairs of real and virtual points of a calibration object."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
+from .depthio import require_readings
 from .depthops import median_depth
 from .errors import CalibrationError
 from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
@@ -19,6 +21,8 @@ MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
 INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
 MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
+MAX_MEDIAN_FRAMES = 30     # a session's markers and regions are read on the per-pixel median of its background and
+                           # of up to this many of its frames, evenly spaced
 
 
 @dataclass(frozen=True)
@@ -191,3 +195,18 @@ def _check_camera_side(plane: Plane, name: str) -> None:
     if plane.d < MIN_CAMERA_DISTANCE:
         raise CalibrationError(f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
                                "must face the mirror, not lie in its plane")
+
+
+def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
+    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
+    background and up to MAX_MEDIAN_FRAMES evenly spaced frames. Raises CalibrationError without any, and
+    MirrorscanError naming them when no pixel of theirs has a reading."""
+    if frame is not None:
+        return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
+    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MEDIAN_FRAMES)]
+    background = session.read_background()
+    if background is not None:
+        stack.append(background)
+    if not stack:
+        raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
+    return require_readings(np.stack(stack), f"{session.path}: the frames and the background")

@@ -23,6 +23,7 @@ from app.panels.record import RecordPanel
 from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
+from mirrorcore.calibration import calibration_depth
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.markers import MarkerResiduals
 from mirrorcore.geometry.plane import Plane
@@ -430,6 +431,9 @@ def test_record_then_replay_with_the_calibration(sphere):
     first = saved.read_frame(0)
     record.play_recording()
     assert app.source.frame_count == len(recorded.frames) and headless.tab.header.seek.visible
+    # a fit from the markers reads what `mirrorscan calibrate` reads, whenever it is clicked (it read the last
+    # frames played, and two clicks on one session gave two reports: a helper)
+    np.testing.assert_array_equal(app.jobs.marker_frames(), calibration_depth(recorded))
     assert headless.tab.header.back.visible and headless.tab.header.back.label.startswith("Back to ")
     assert app.editor.session.root == recorded.root
     app.pause(True)

@@ -3,21 +3,17 @@ optionally refine it from the agreement of the views, and write it into session.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from mirrorcore.calibration import calibrate_session
-from mirrorcore.depthio import require_readings
+from mirrorcore.calibration import MAX_MEDIAN_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import REFINE_FRAMES, Refinement, refine_session
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import Session, load_session, save_session
-
-MAX_MEDIAN_FRAMES = 30
 
 
 def register(sub) -> None:
@@ -37,19 +33,6 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
-
-
-def calibration_depth(session: Session, frame: int | None) -> np.ndarray:
-    """(k, H, W) metres: the frame asked for, or the background and up to MAX_MEDIAN_FRAMES evenly spaced frames."""
-    if frame is not None:
-        return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
-    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MEDIAN_FRAMES)]
-    background = session.read_background()
-    if background is not None:
-        stack.append(background)
-    if not stack:
-        raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
-    return require_readings(np.stack(stack), f"{session.path}: the frames and the background")
 
 
 def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.ndarray]:

@@ -310,11 +310,9 @@ class MirrorsPanel:
 
     # ------------------------------------------------------------------ plane fitting
     def fit_planes(self, mirror_ids: list[int]) -> None:
-        """Calibrate the given mirrors from their markers on the median of the recent frames, all or nothing. A fit
+        """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A fit
         that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once."""
-        depth = self.services.recent_depths()
-        if depth is None:
-            raise MirrorscanError("no frame yet to calibrate from")
+        depth = self.services.jobs.marker_frames()
         session = self.services.editor.session
         indices = [session.mirror_index(i) for i in mirror_ids]
         bare = next((session.mirrors[i] for i in indices if not session.mirrors[i].markers), None)
