@@ -25,7 +25,7 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import REFINE_FRAMES, ViewAgreement, refine_session, view_agreement
+from mirrorcore.refine import NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement, refine_session, view_agreement
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
@@ -43,11 +43,6 @@ log = logging.getLogger("mirrorscan")
 DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
 CHECKING = "checking how the views agree…"
-# A mirror's agreement RMS beyond this multiple of what the depth noise explains is flagged. On the simulator (Kinect
-# noise; the sphere at 2 m, the walking figure at 2 and 3 m) the true planes give 0.66 to 0.87 times; a plane tilted
-# by 1 degree 0.75 to 1.3 times, by 2 degrees 0.9 to 1.7; moved by 10 mm, 0.75 to 1.1 (offsets move the points along
-# the surface where the views overlap: only the refinement finds them).
-NOISE_EXPLAINS = 1.0
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
@@ -104,6 +99,7 @@ class Jobs:
         self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
         self._lock = threading.Lock()
         self._heat_rig, self._heat_pool = None, deque(maxlen=HEAT_POOL)   # the heat maps the legend pools (one job)
+        self._marker_frames: tuple[tuple, np.ndarray] | None = None     # (recording, its frames): marker_frames
 
     def from_object(self, mirror_id: int, plane: Plane | None) -> bool:
         """Whether a refinement or search (of this app) gave mirror `mirror_id` this plane."""
@@ -219,17 +215,24 @@ class Jobs:
         return self._start(REFINE, lambda cancel: self._calibrate(
             editor, session, snapshot, depths, used, cancel, todo), "a refinement is already running")
 
-    def marker_frames(self) -> np.ndarray:
-        """The frames a fit from the markers reads, per-pixel median: the background and MAX_MEDIAN_FRAMES frames
-        spread over the recording that plays (the same whenever it is clicked, and as `mirrorscan calibrate` reads
-        them), else the last live frames (RECENT_FRAMES). (k, H, W) float32 metres."""
+    def marker_frames(self) -> np.ndarray | None:
+        """The frames the markers are read on (a fit, and each marker's grade), per-pixel median: the background
+        and MAX_MEDIAN_FRAMES frames spread over the recording that plays (the same whenever it is clicked, as
+        `mirrorscan calibrate` reads them; read once per recording), else the last live frames (RECENT_FRAMES), or
+        None before the first. (k, H, W) float32 metres."""
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
-            return calibration_depth(source.session)
-        depths = self.loop.recent_depths()
-        if depths is None:
-            raise MirrorscanError("no frame yet to calibrate from")
-        return depths
+            session = source.session
+            key = (session.root, session.frames, session.background)
+            cached = self._marker_frames
+            if cached is None or cached[0] != key:
+                try:
+                    cached = self._marker_frames = (key, calibration_depth(session))
+                except MirrorscanError as exc:        # its files went bad: the frames as they play still serve
+                    log.warning("the markers are read on the last frames: %s", exc)
+                    return self.loop.recent_depths()
+            return cached[1]
+        return self.loop.recent_depths()
 
     def object_frames(self) -> tuple[np.ndarray, str]:
         """The frames a calibration from the object uses, and which they are in words: REFINE_FRAMES spread over

@@ -295,7 +295,7 @@ class MirrorscanApp:
                     self._background = (session.background, session.read_background())
                 elif not session.background and self._background[0] not in (None, IN_MEMORY):
                     self._background = (None, self._source.background())
-                snapshot = Snapshot.build(session, self._background[1], self.loop.recent_depths(), self._snapshot)
+                snapshot = Snapshot.build(session, self._background[1], self.jobs.marker_frames(), self._snapshot)
             except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state
                 self.notify(None, "Session not applied", str(exc))
                 return

@@ -164,6 +164,11 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
     assert editor.undo(1) == "planes of mirror 1 and mirror 2" and editor.mirror(1).plane is None
     editor.set_planes({1: (PLANE, editor.mirror(1))})
     assert editor.undo_label(1) == "plane of mirror 1"          # one mirror: named alone
+    editor.set_marker_offset(1, 0.003)
+    editor.set_planes({1: (PLANE, editor.mirror(1))})           # the same plane and glass again (a fit of the same
+    assert editor.undo(1) == "glass of mirror 1"                # frames): no undo step that changes nothing
+    editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: 0.004})            # the glass alone: a step
+    assert editor.undo_label(1) == "plane of mirror 1" and editor.mirror(1).marker_offset == 0.004
 
 
 def test_session_round_trip_through_the_editor(editor, tmp_path):

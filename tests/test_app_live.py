@@ -635,7 +635,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "left: **Fit plane**.")
     two = Session(tmp_path, session.camera, mirrors=(marked, replace(marked, name="right", id=2)))
     assert start_hint(two, TabState(mirror_id=1), True, True) == "left and right: **Fit all planes**."
-    assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("A recording runs")
+    assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
 

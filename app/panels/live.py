@@ -82,8 +82,8 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
-        return ("A recording runs (its count is above): **Record › Stop recording** saves it, with the calibration "
-                "as it then stands.")
+        return ("Recording (see above): **Record › Stop recording** saves it, with the calibration as it then "
+                "stands.")
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
     if calibrating:

@@ -30,6 +30,8 @@ HELP = {                                         # the click mode in force, name
     "boundary": "**Boundary** mode: click the corners in order; click the first again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
+CLOSED_HELP = ("**Boundary** mode: the outline is closed: click a corner to pick it, click again to move it, or "
+               "*Clear boundary* to draw it again.")
 NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and a plane on "
                  "their faces is that much too near: **Refine from the object** measures the glass and moves the "
                  "plane behind it.")
@@ -313,6 +315,8 @@ class MirrorsPanel:
         """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A fit
         that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once."""
         depth = self.services.jobs.marker_frames()
+        if depth is None:
+            raise MirrorscanError("no frame yet to calibrate from")
         session = self.services.editor.session
         indices = [session.mirror_index(i) for i in mirror_ids]
         bare = next((session.mirrors[i] for i in indices if not session.mirrors[i].markers), None)
@@ -388,7 +392,9 @@ class MirrorsPanel:
         for button in (self.fit, self.rename, self.remove, self.clear_markers):
             button.disabled = not has
         self.fit_all.disabled = not session.mirrors
-        self.help.content = HELP[state.mode] + (" Now click where it goes." if state.moving_marker else "")
+        closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
+        self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
+            " Now click where it goes." if state.moving_marker else "")
         markers, boundary = state.mode == "markers", state.mode == "boundary"
         picked = state.picked_marker is not None and has
         self.move.visible = self.delete.visible = markers
