@@ -8,7 +8,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import deque
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
@@ -32,6 +31,7 @@ from mirrorcore.sources import SessionSource
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from .events import DenseChanged, EventBus, FrameReady, HeatChanged, JobProgress
+from .live import frame_number
 from .recording import LiveTap
 
 if TYPE_CHECKING:
@@ -98,7 +98,8 @@ class Jobs:
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
         self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
         self._lock = threading.Lock()
-        self._heat_rig, self._heat_pool = None, deque(maxlen=HEAT_POOL)   # the heat maps the legend pools (one job)
+        self._heat_rig = None                # the planes of the heat maps the legend pools (one job at a time)...
+        self._heat_pool: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # ... by frame number, oldest first
         self._marker_frames: tuple[tuple, np.ndarray] | None = None     # (recording, its frames): marker_frames
 
     def from_object(self, mirror_id: int, plane: Plane | None) -> bool:
@@ -307,18 +308,25 @@ class Jobs:
             distances = surface_distances(frame.snapshot.rig, frame.cloud, frame.prepared_depth)
             sources = frame.cloud.sources
             colours = heat_map_colours(distances, sources, HEAT_LIMIT_MM)
-            pooled = self._pool_heat(frame.snapshot.rig, distances, sources)
+            pooled = self._pool_heat(frame.snapshot.rig, frame_number(frame.index, self.loop.source.frame_count),
+                                     distances, sources)
             figures = heat_figures(*(np.concatenate(parts) for parts in zip(*pooled)))
             self.bus.publish(HeatChanged(frame.index, frame.cloud.points, colours, figures, len(pooled)))
         self._start(HEAT, work, "")
 
-    def _pool_heat(self, rig, distances: np.ndarray, sources: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The last HEAT_POOL heat maps' (distances, sources) with the same planes, this one's last: the legend's
-        figures over them (a new calibration starts a new pool)."""
+    def _pool_heat(self, rig, number: int, distances: np.ndarray,
+                   sources: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The (distances, sources) of the heat maps of the last HEAT_POOL frames with the same planes, this one
+        (frame `number`, as the header counts it) last: the legend's figures over them. A frame met again (a replay
+        loops three times a second, and a map is made once a second) takes its place anew; a new calibration
+        starts a new pool."""
         if self._heat_rig is not rig:
-            self._heat_rig, self._heat_pool = rig, deque(maxlen=HEAT_POOL)
-        self._heat_pool.append((distances, sources))
-        return list(self._heat_pool)
+            self._heat_rig, self._heat_pool = rig, {}
+        self._heat_pool.pop(number, None)
+        self._heat_pool[number] = (distances, sources)
+        while len(self._heat_pool) > HEAT_POOL:
+            del self._heat_pool[next(iter(self._heat_pool))]
+        return list(self._heat_pool.values())
 
     # ------------------------------------------------------------------ batch reconstruction
     def start_batch(self, session: Session, method: str, options: DenseOptions, temporal: int,

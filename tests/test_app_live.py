@@ -754,9 +754,12 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     calibration starts afresh."""
     jobs, first, second = Jobs(None, lambda: None, EventBus()), object(), object()
     for k in range(HEAT_POOL + 3):
-        pooled = jobs._pool_heat(first, np.full(2, float(k)), np.ones(2, int))
+        pooled = jobs._pool_heat(first, k, np.full(2, float(k)), np.ones(2, int))
     assert len(pooled) == HEAT_POOL and pooled[-1][0][0] == HEAT_POOL + 2 and pooled[0][0][0] == 3
-    assert len(jobs._pool_heat(second, np.zeros(2), np.ones(2, int))) == 1           # other planes: a new pool
+    pooled = jobs._pool_heat(first, 5, np.full(2, 50.0), np.ones(2, int))   # a replay's frame 5 again: in its
+    assert len(pooled) == HEAT_POOL and pooled[-1][0][0] == 50.0              # place anew, not twice (it pooled
+    assert sum(p[0][0] in (5.0, 50.0) for p in pooled) == 1                   # 3 to 5 frames as 10: a helper)
+    assert len(jobs._pool_heat(second, 0, np.zeros(2), np.ones(2, int))) == 1        # other planes: a new pool
     text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
     assert f"the last {HEAT_POOL} frames, against the camera's surface:<br>left: median -0.4 mm over 7% of" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
