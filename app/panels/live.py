@@ -56,8 +56,8 @@ HEAT_READS = ("it shows a tilt (0.5° reads about 6 mm) or a wrong boundary, har
 def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str]) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
     and the share of its points compared over the heat maps of the last `frames` frames (figures as in HeatChanged;
-    empty until the first map arrives), against the camera's surface (the agreement lines beside it compare every view); then what
-    the map can show (HEAT_READS)."""
+    empty until the first map arrives), against the camera's surface (the agreement lines beside it compare every
+    view); then what the map can show (HEAT_READS)."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
