@@ -21,8 +21,9 @@ MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
 INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
 MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
-MAX_MEDIAN_FRAMES = 30     # a session's markers and regions are read on the per-pixel median of its background and
-                           # of up to this many of its frames, evenly spaced
+MAX_MEDIAN_FRAMES = 30     # a session's markers and regions are read on its background and up to this many of its
+                           # frames, evenly spaced (per pixel, the regions on their median, the markers on their
+                           # robust mean: markers.marker_points)
 
 
 @dataclass(frozen=True)
@@ -66,8 +67,8 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
                            marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
-    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel median, inside the
-    markers' windows only)
+    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel robust mean, inside the
+    markers' windows only: markers.marker_points)
     markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
     marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass): the plane
     fitted to the markers is moved this far away from the camera, along its normal. The residuals stay those of the

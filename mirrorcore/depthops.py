@@ -1,5 +1,5 @@
-"""Operations on depth images (metres, 0 = no reading): median of several frames, edge-aware smoothing, and local
-quadratic fits of chosen pixels."""
+"""Operations on depth images (metres, 0 = no reading): median and robust mean of several frames, edge-aware
+smoothing, and local quadratic fits of chosen pixels."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from .noise import KINECT_AXIAL_COEF
+from .noise import KINECT_AXIAL_COEF, axial_sigma
 
 QUADRATIC_RADIUS = 4        # pixels: local_quadratic_depth fits the 9 x 9 pixels around each pixel
 QUADRATIC_SIGMA = 3.0       # pixels: the spatial Gaussian's sigma
@@ -17,6 +17,7 @@ QUADRATIC_STRENGTH = 2.0    # the range Gaussian's sigma, in units of the sensor
 QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, about 5 MB an array
 RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
 NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
+MEAN_SIGMAS = 3.0           # robust_mean_depth averages the readings within this many depth-noise sigmas of the median
 
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
@@ -32,6 +33,21 @@ def median_depth(frames: np.ndarray) -> np.ndarray:
     out = np.zeros(frames.shape[1:], dtype=np.float32)
     out[valid] = np.nanmedian(stack[:, valid], axis=0)
     return out
+
+
+def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
+    """Per-pixel mean of the readings of several frames within MEAN_SIGMAS of the depth noise (noise.axial_sigma) of
+    their median: what passed in front in a few frames is left out as by the median, and the mean of the rest averages
+    the camera's disparity steps, where the median snaps to one of them (11 mm apart at 2 m: markers read on the
+    median of 10 frames of a static mirror came out up to 1 mm off the glass).
+    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame has a reading."""
+    frames = np.asarray(frames, dtype=np.float32)
+    if frames.ndim == 2:
+        return frames
+    median = median_depth(frames)
+    keep = (frames > 0) & (np.abs(frames - median) <= np.float32(MEAN_SIGMAS) * axial_sigma(median))
+    count = keep.sum(axis=0)
+    return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1), 0).astype(np.float32)
 
 
 def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .depthops import median_depth
+from .depthops import robust_mean_depth
 from .geometry.camera import Intrinsics, reproject_pixels
 from .geometry.plane import Plane
 from .noise import axial_sigma
@@ -24,11 +24,13 @@ GRADES = ("good", "fair", "poor", "unknown")
 def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
                   window: int = MARKER_WINDOW) -> np.ndarray:
     """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker pixel (u, v).
-    depth : (H, W), or (k, H, W) frames reduced to their per-pixel median inside the window only."""
+    depth : (H, W), or (k, H, W) frames reduced inside the window only to their per-pixel robust mean
+    (depthops.robust_mean_depth: a median snaps to the camera's disparity steps; exact markers read on it gave planes
+    up to 1.1 mm and 0.14 degrees off, 0.6 mm and 0.07 degrees on the robust mean, seeds 0 to 3)."""
     u0, v0 = int(round(marker[0])), int(round(marker[1]))
     u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
     v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
-    patch = median_depth(np.asarray(depth)[..., v1:v2, u1:u2])
+    patch = robust_mean_depth(np.asarray(depth)[..., v1:v2, u1:u2])
     vv, uu = np.nonzero(patch > 0)
     return reproject_pixels(intr, uu + u1, vv + v1, patch[vv, uu])
 
