@@ -267,7 +267,7 @@ class Jobs:
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
-        headline = refined_headline(result.mirrors) if search is None else found_headline(result.mirrors)
+        headline = (refined_headline if search is None else found_headline)(result.mirrors, result.compared)
         report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}"]
                                + [f"**{r.name}** {'refined' if search is None else 'found'}: "
                                   f"{r.summary(searched=search is not None)}"
@@ -445,19 +445,26 @@ def planes_key(session: Session) -> tuple:
     return tuple((m.id, m.plane) for m in session.mirrors)
 
 
-def refined_headline(mirrors) -> str:
-    """One sentence for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass."""
+def refined_headline(mirrors, compared: str = "surfaces") -> str:
+    """One sentence for a refinement's new planes (MirrorRefinement each): how far each moved, and its glass;
+    `compared` (Refinement.compared): "sphere" says they came from the sphere's centres."""
     moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°"
              + (f", glass {1e3 * r.marker_offset:.1f} ± {1e3 * r.marker_offset_std:.1f} mm"
                 if r.marker_offset is not None else "") for r in mirrors]
-    return f"{REFINED} (moved > 0: away from the camera): {'; '.join(moved)}."
+    how = " from the sphere's centres" if compared == "sphere" else ""
+    return f"{REFINED}{how} (moved > 0: away from the camera): {'; '.join(moved)}."
 
 
-def found_headline(mirrors) -> str:
-    """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each."""
+def found_headline(mirrors, compared: str = "surfaces") -> str:
+    """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each, and
+    (compared, as for refined_headline) what they came from."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
-    return (f"{FOUND} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; the method may add 1 to 2 mm): "
-            "check the heat map and the agreement below.")
+    if compared == "sphere":
+        head, method = "Planes found from the sphere's centres", ""
+    else:
+        head, method = FOUND, "; the method may add 1 to 2 mm"
+    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ{method}): check the heat map and the "
+            "agreement below.")
 
 
 def _signed(mm: float) -> str:

@@ -10,6 +10,11 @@ well the data determine each plane; a mirror whose views overlap too little is r
 
 A plane's step is (tilt about two axes in the plane, radians; offset along its normal at the object's centre,
 metres): tilt and offset stay apart at the object, where they matter.
+
+When the object is a sphere that every view sees (a calibration ball), its centres say more than the surfaces do
+(spheretarget.py: each plane from the sphere's centre seen directly and in the mirror, within 0.2 mm of the truth
+where the surfaces leave 0.3 to 1.1 mm); `with_` chooses: "auto" (the sphere when there is one), "sphere" or
+"surfaces".
 """
 from __future__ import annotations
 
@@ -20,14 +25,16 @@ import numpy as np
 
 from .agreement import SHOWN_GATE, FrameViews, frame_views, in_view
 from .calibration import MIN_MARKER_PIXELS, marker_points
-from .depthops import median_depth
+from .depthops import MEAN_SIGMAS, robust_mean_depth
 from .errors import CalibrationError, Cancelled
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
+from .noise import axial_sigma
 from .progress import Progress, cancel_requested
 from .readings import reflect_directions
 from .rig import Mirror, Rig
 from .session import MAX_MARKER_OFFSET, Session
+from .spheretarget import NotASphere, SpherePlanes, sphere_planes
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
@@ -39,6 +46,7 @@ MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving mor
 SCATTER_FRAMES = 3           # from this many frames on, how well a plane is known, as reported, also comes from the
                              # spread of the planes each frame alone gives (the fit's own estimate is 2.5 to 3 times
                              # too small); the refusals above keep to the fit's own (the overlap's geometry)
+REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
 NOISE_EXPLAINS = 1.0         # a view's agreement RMS up to this multiple of what the depth noise explains is as good
@@ -75,6 +83,7 @@ class MirrorRefinement:
     marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
     marker_offset_std : metres, how well that is known (1 sigma: the spread of its markers and the plane's own
         uncertainty where they are), or None
+    sphere_radius_mm : the sphere's radius (mm) when the plane came from its centres (spheretarget.py), else None
     """
 
     index: int
@@ -93,6 +102,7 @@ class MirrorRefinement:
     noise_mm: float = float("nan")
     marker_offset: float | None = None
     marker_offset_std: float | None = None
+    sphere_radius_mm: float | None = None
 
     def summary(self, searched: bool = False) -> str:
         """One line: how far the plane moved (not for a plane a search found, `searched`: its start was a guess),
@@ -113,8 +123,11 @@ class MirrorRefinement:
                     "check its boundary")
         if not searched:
             text = f"plane moved {self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°; {text}"
-        text += (f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; "
-                 f"the method may add 1 to 2 mm; {self.agreements} points seen both ways)")
+        if self.sphere_radius_mm is None:
+            how = f"the method may add 1 to 2 mm; {self.agreements} points seen both ways"
+        else:
+            how = f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it"
+        text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
                      "the silver (saved as its glass)")
@@ -123,13 +136,15 @@ class MirrorRefinement:
 
 @dataclass(frozen=True)
 class Refinement:
-    """The refined mirrors (in session order), the frames used, the Gauss-Newton iterations and the point (3,)
-    metres, camera frame, where offsets are measured (the object's centre)."""
+    """The refined mirrors (in session order), the frames used, the Gauss-Newton iterations (0 from a sphere), the
+    point (3,) metres, camera frame, where offsets are measured (the object's centre) and what was compared:
+    "surfaces" or "sphere" (REFINE_WITH)."""
 
     mirrors: tuple[MirrorRefinement, ...]
     frames: int
     iterations: int
     centre: tuple[float, float, float]
+    compared: str = "surfaces"
 
     @property
     def planes(self) -> dict[int, Plane]:
@@ -229,19 +244,20 @@ def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[
 # --------------------------------------------------------------------------------------------- the refinement
 def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
                   progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
-                  max_disagreement: float = np.inf) -> Refinement:
+                  max_disagreement: float = np.inf, with_: str = "auto") -> Refinement:
     """Refine the planes of the rig's mirrors at `indices` (0-based; default every mirror with a plane) from frames.
 
     depths : (F, H, W) float metres as measured; masks : (F, H, W) bool, each frame's object (prepare_frame's)
     gate : metres added to what counts as the same surface at the start (for planes found by a search, a few cm),
     halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE);
     max_disagreement : the most a refined view may disagree with the others, in units of what the depth noise
-    explains (MAX_DISAGREEMENT for searched planes; by default no limit).
+    explains (MAX_DISAGREEMENT for searched planes; by default no limit); with_ : what is compared (REFINE_WITH):
+    "auto" the sphere's centres when the object is a sphere every view sees in every frame, else the surfaces.
     Mirrors not refined keep their planes and still take part.
     Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
     determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG), when it does not settle (max_change) or
-    when its refined view disagrees more than max_disagreement allows;
-    Cancelled when `cancel` asks; progress(fraction) after each frame and iteration.
+    when its refined view disagrees more than max_disagreement allows; NotASphere (naming the frame and the view)
+    with "sphere" when the object is not one; Cancelled when `cancel` asks; progress(fraction) as it goes.
     """
     indices = [i for i, m in enumerate(rig.mirrors) if m.plane is not None] if indices is None else list(indices)
     for i in indices:
@@ -251,10 +267,16 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
                                    "needs the mirror's boundary")
     if not indices:
         raise CalibrationError("no mirror to refine: calibrate at least one first")
+    if with_ not in REFINE_WITH:
+        raise CalibrationError(f"refine with {with_!r}: one of {', '.join(REFINE_WITH)}")
     depths, masks = np.asarray(depths), np.asarray(masks, bool)
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
     refined = [i + 1 for i in indices]
+    limits = (*max_change, max_disagreement)
+    sphere = _sphere(rig, depths, masks, refined, with_, progress, cancel)
+    if sphere is not None:
+        return _from_sphere(rig, depths, masks, refined, sphere, limits, progress, cancel)
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes, iterations, labelled = dict(start), 0, rig
     for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
@@ -268,12 +290,43 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         labelled = _with_planes(rig, planes)
     shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
     scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations))
-    limits = (*max_change, max_disagreement)
-    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown, final, refined, limits, scatter.get(j))
-                    for j in refined)
+    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown,
+                            _determined(final, refined, j, rig.mirrors[j - 1].name, scatter.get(j)),
+                            final.with_camera(j), limits) for j in refined)
     if progress is not None:
         progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
+
+
+def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], with_: str, progress, cancel
+            ) -> SpherePlanes | None:
+    """The planes from the sphere's centres (spheretarget.sphere_planes, over the first 80 % of the progress), or
+    None: with "surfaces", and with "auto" when the object is not a sphere."""
+    if with_ == "surfaces":
+        return None
+    part = None if progress is None else (lambda f: progress(0.8 * f))
+    try:
+        return sphere_planes(rig, depths, masks, refined, np.random.default_rng(0), part, cancel)
+    except NotASphere:
+        if with_ == "sphere":
+            raise
+        return None
+
+
+def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], sphere: SpherePlanes,
+                 limits: tuple, progress, cancel) -> Refinement:
+    """The Refinement of the planes the sphere gave: the views' agreement before and after as the surfaces'
+    refinement reports it, how well the centres fix each plane, the same refusals (limits: _report's)."""
+    start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
+    planes = {**start, **sphere.planes}
+    frames = _views(_with_planes(rig, planes), depths, masks, None, cancel, 0)
+    shown = tuple(residuals(frames, p, refined, sphere.centre, SHOWN_GATE) for p in (start, planes))
+    reports = tuple(replace(_report(rig, j, start[j], planes[j], sphere.centre, shown,
+                                    (sphere.shift_std[j], sphere.tilt_std[j]), shown[1].with_camera(j), limits),
+                            sphere_radius_mm=1e3 * sphere.radius) for j in refined)
+    if progress is not None:
+        progress(1.0)
+    return Refinement(reports, len(depths), 0, tuple(float(x) for x in sphere.centre), "sphere")
 
 
 def _views(rig: Rig, depths: np.ndarray, masks: np.ndarray, progress, cancel, done: int) -> list[FrameViews]:
@@ -366,14 +419,11 @@ def _with_planes(rig: Rig, planes: dict[int, Plane]) -> Rig:
                                      for j, m in enumerate(rig.mirrors, start=1)))
 
 
-def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
-            final: _Residuals, refined: list[int], limits: tuple, scatter: tuple[float, float] | None
-            ) -> MirrorRefinement:
-    """One mirror's report, or CalibrationError when the data did not determine its plane, it did not settle or it
-    disagrees (limits: max_change's metres and degrees, then max_disagreement).
-    shown : the comparisons before and after with SHOWN_GATE (the agreement reported); final : those that settled
-    the planes (the determination); scatter : (metres, degrees) from _frames_scatter, or None."""
-    name = rig.mirrors[j - 1].name
+def _determined(final: _Residuals, refined: list[int], j: int, name: str, scatter: tuple[float, float] | None
+                ) -> tuple[float, float]:
+    """How well the comparisons that settled the planes (`final`) determine mirror j's: (metres along its normal at
+    the object, degrees), 1 sigma, the larger of the fit's own and the frames' `scatter` (_frames_scatter, or None).
+    CalibrationError when the fit's own says the views overlap too little (MAX_SHIFT_STD, MAX_TILT_STD_DEG)."""
     weights = final.weights()
     hessian = final.jacobian.T @ (weights[:, None] * final.jacobian)
     scale = np.sum(weights * final.residual ** 2) / max(len(final.residual) - hessian.shape[0], 1)
@@ -381,11 +431,23 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
     i = 3 * refined.index(j)
     shift_std = float(np.sqrt(cov[i + 2, i + 2]))
     tilt_std = float(np.degrees(np.sqrt(np.linalg.eigvalsh(cov[i:i + 2, i:i + 2]).max())))
-    shift, tilt = shift_at(before, after, centre), before.angle_to(after)
     if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:       # the overlap's geometry, not the frames' noise
         raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
                                f"±{1e3 * shift_std:.1f} mm and ±{tilt_std:.2f}°); use more frames, or move the "
                                "object so that both the camera and the mirror see its sides")
+    if scatter is not None:
+        shift_std, tilt_std = max(shift_std, scatter[0]), max(tilt_std, scatter[1])
+    return shift_std, tilt_std
+
+
+def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
+            determined: tuple[float, float], agreements: int, limits: tuple) -> MirrorRefinement:
+    """One mirror's report, or CalibrationError when it did not settle or it disagrees (limits: max_change's metres
+    and degrees, then max_disagreement).
+    shown : the comparisons before and after with SHOWN_GATE (the agreement reported); determined : (metres,
+    degrees), how well the plane is known (1 sigma); agreements : its readings compared with the camera's."""
+    name = rig.mirrors[j - 1].name
+    shift, tilt = shift_at(before, after, centre), before.angle_to(after)
     if abs(shift) > limits[0] or tilt > limits[1]:
         raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
                                f"and {tilt:.1f}°); check its boundary and its first calibration")
@@ -396,10 +458,8 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
         raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
                                "boundary, or click markers on it and fit it first")
-    if scatter is not None:
-        shift_std, tilt_std = max(shift_std, scatter[0]), max(tilt_std, scatter[1])
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
-                            tilt, 1e3 * shift_std, tilt_std, final.with_camera(j), noise)
+                            tilt, 1e3 * determined[0], determined[1], agreements, noise)
 
 
 def _agreement(found: _Residuals, j: int) -> tuple[float, float]:
@@ -449,17 +509,16 @@ def _noise_mm(found: _Residuals, j: int) -> float:
 # --------------------------------------------------------------------------------------------- sessions
 def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
                    progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
-                   max_disagreement: float = np.inf
-                   ) -> tuple[Session, Refinement]:
+                   max_disagreement: float = np.inf, with_: str = "auto") -> tuple[Session, Refinement]:
     """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
     (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
-    max_change and max_disagreement as there); all or nothing. Each refined mirror with usable markers also gets its
-    marker_offset: how far its markers' faces stand in front of the refined plane (median over the frames of their
-    readings), with how well that is known.
+    max_change, max_disagreement and with_ as there); all or nothing. Each refined mirror with usable markers also
+    gets its marker_offset: how far its markers' faces stand in front of the refined plane (median over the frames of
+    their readings), with how well that is known.
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
-    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement)
-    depth = median_depth(np.asarray(depths))
+    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement, with_)
+    depth = robust_mean_depth(np.asarray(depths))
     reports = []
     for report in result.mirrors:
         mirror = session.mirrors[report.index]
@@ -484,21 +543,28 @@ class Glass(NamedTuple):
 
 
 def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> Glass | None:
-    """How far (metres) markers' faces stand in front of `plane` (towards the camera): the median signed distance of
-    their readings (calibration.marker_points) in depth (H, W) float metres, 0 when that median is negative (markers
-    cannot stand behind the silver: that is the readings' noise, and the browser's glass takes 0 to 50 mm); see
-    Glass. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's
-    glass)."""
+    """How far (metres) markers' faces stand in front of `plane` (towards the camera): the mean signed distance of
+    their readings (calibration.marker_points) in depth (H, W) float metres (depthops.robust_mean_depth of frames:
+    a median snaps to the camera's disparity steps) within MEAN_SIGMAS of the depth noise of their median, 0 when
+    that is negative (markers cannot stand behind the silver: that is the readings' noise, and the browser's glass
+    takes 0 to 50 mm); see Glass. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not
+    markers on this mirror's glass)."""
     groups = [marker_points(intr, depth, m) for m in markers]
     usable = [g.astype(np.float64) for g in groups if len(g) >= MIN_MARKER_PIXELS]
     if len(usable) < 3:
         return None
+    each = [_trimmed_mean(plane.signed_distance(g), g[:, 2]) for g in usable]
     readings = np.concatenate(usable)
-    offset = float(np.median(plane.signed_distance(readings)))
-    each = [float(np.median(plane.signed_distance(g))) for g in usable]
+    offset = _trimmed_mean(plane.signed_distance(readings), readings[:, 2])
     if abs(offset) > MAX_MARKER_OFFSET:
         return None
     return Glass(max(offset, 0.0), float(np.std(each, ddof=1) / np.sqrt(len(each))), readings.mean(axis=0))
+
+
+def _trimmed_mean(distances: np.ndarray, z: np.ndarray) -> float:
+    """The mean of `distances` (n,) metres within MEAN_SIGMAS of the depth noise at depths z (n,) of their median."""
+    keep = np.abs(distances - np.median(distances)) <= MEAN_SIGMAS * axial_sigma(z)
+    return float(np.mean(distances[keep]))
 
 
 def _glass_std(report: MirrorRefinement, glass: Glass, centre) -> float:

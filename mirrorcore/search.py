@@ -153,10 +153,12 @@ class _Scorer:
 
 
 def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng: np.random.Generator,
-                    indices=None, progress: Progress | None = None, cancel=None) -> tuple[Session, Refinement]:
+                    indices=None, progress: Progress | None = None, cancel=None, with_: str = "auto"
+                    ) -> tuple[Session, Refinement]:
     """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers: search each plane in the
     first frame (search_plane, ignoring any plane they had), then refine them all over every frame
-    (refine.refine_session). depths (F, H, W) float metres as measured; masks (F, H, W) bool, the object's pixels.
+    (refine.refine_session, comparing `with_`). depths (F, H, W) float metres as measured; masks (F, H, W) bool, the
+    object's pixels.
     All or nothing: CalibrationError naming the first mirror that cannot be calibrated."""
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
@@ -174,4 +176,4 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
             progress(0.5 * (k + 1) / len(indices))
     later = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
     return refine_session(session, depths, masks, indices, SEARCH_GATE, later, cancel, SEARCH_CHANGE,
-                          MAX_DISAGREEMENT)
+                          MAX_DISAGREEMENT, with_)

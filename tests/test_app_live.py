@@ -18,7 +18,7 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import HEAT_POOL, Jobs, agreement_line, refined_headline
+from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
 from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
@@ -651,6 +651,13 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
              for n, mm in (("left", -0.02), ("right", -1.47))]
     assert refined_headline(moved).startswith("Planes refined (moved > 0: away from the camera): left moved 0.0 mm and "
                                               "0.05°; right moved -1.5 mm")
+    # from a sphere's centres the report says so, and not that the method may add 1 to 2 mm (the surfaces' bias)
+    assert refined_headline(moved, "sphere").startswith("Planes refined from the sphere's centres (moved > 0")
+    fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
+    assert found_headline(fixed, "sphere") == ("Planes found from the sphere's centres (no markers), fixed by the "
+                                               "data: left to ±0.1 mm and ±0.01° (1σ): check the heat map and the "
+                                               "agreement below.")
+    assert "(1σ; the method may add 1 to 2 mm)" in found_headline(fixed)
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

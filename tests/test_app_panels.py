@@ -228,8 +228,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
     assert "agree with the other views as well as the depth noise allows" in mirrors.result.content
     assert "the data fix it to ±" in mirrors.result.content
+    assert "from the centres of the sphere" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
-    assert re.fullmatch(r"Planes refined \(moved > 0: away from the camera\): mirror 1 moved [+-]?\d+\.\d mm and "
+    assert re.fullmatch(r"Planes refined from the sphere's centres \(moved > 0: away from the camera\): mirror 1 moved "
+                        r"[+-]?\d+\.\d mm and "
                         r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
                         headline), headline
@@ -584,8 +586,8 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240,
                      "the planes found")
             headline = mirrors.result.content.split("\n\n")[0]
-            assert re.fullmatch(r"Planes found from the object \(no markers\), fixed by the data: mirror 1 to "
-                                r"±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
+            assert re.fullmatch(r"Planes found from the sphere's centres \(no markers\), fixed by the data: mirror 1 "
+                                r"to ±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
                                 r"recording's 4 \(numbered as in the header\)\. Undo restores the previous planes\.",
                                 headline), headline
             found = [m.plane for m in app.editor.session.mirrors]

@@ -66,22 +66,26 @@ def test_markers_on_glass_are_off_and_the_refinement_brings_them_back(rigs, caps
     out = capsys.readouterr().out
     assert out.count("refined plane") == 2 and "the data fix it to ±" in out
     assert out.count("agree with the other views as well as the depth noise allows") == 2
-    # issue 11 asks 0.5 mm and 0.1 deg; seeds 0 to 3 gave 0.3 to 1.1 mm and at most 0.03 deg (README)
+    assert out.count("from the centres of the sphere (radius 115.") == 2          # the object is a sphere
+    # issue 11 asks 0.5 mm and 0.1 deg; seeds 0 to 3 gave +0.12 to +0.32 mm and at most 0.037 deg (README)
     for offset, angle in plane_errors(session, truth):
-        assert abs(offset) < 1.2 and angle < 0.1
-    for mirror in load_session(session).mirrors:                   # the glass, estimated: 3 mm
-        assert mirror.marker_offset == pytest.approx(0.003, abs=1.5e-3)
+        assert abs(offset) < 0.5 and angle < 0.1
+    for mirror in load_session(session).mirrors:                   # the glass, estimated: 3 mm (2.8 to 3.7)
+        assert mirror.marker_offset == pytest.approx(0.003, abs=1e-3)
     radius, rmse = sphere_figures(session, tmp_path, truth, capsys)
     perfect = tmp_path / "perfect"
     shutil.copytree(root / "perfect", perfect)
     run_ok("calibrate", perfect)
     _, perfect_rmse = sphere_figures(perfect, tmp_path, truth, capsys)
-    assert abs(radius - 115.0) < 0.7
+    assert abs(radius - 115.0) < 0.5
     assert rmse <= 1.05 * perfect_rmse                              # no worse than perfect markers
     # the estimated glass goes into the next markers fit: the planes come back near the refined ones
     capsys.readouterr()
     run_ok("calibrate", session)
-    assert all(abs(offset) < 2.0 for offset, _ in plane_errors(session, truth))
+    assert all(abs(offset) < 1.5 for offset, _ in plane_errors(session, truth))
+    capsys.readouterr()                                             # and the surfaces, asked for, are still there
+    run_ok("calibrate", session, "--refine", "--refine-with", "surfaces", "--quiet")
+    assert capsys.readouterr().out.count("points seen both ways") == 2
 
 
 def test_refining_a_good_calibration_keeps_it_good(rigs, tmp_path):
@@ -90,7 +94,9 @@ def test_refining_a_good_calibration_keeps_it_good(rigs, tmp_path):
     shutil.copytree(root / "perfect", session)
     run_ok("calibrate", session, "--method", "markers", "--refine", "--quiet")   # markers, then the refinement
     refined = plane_errors(session, truth)
-    assert all(abs(offset) < 1.2 and angle < 0.1 for offset, angle in refined)
+    # exact markers are themselves up to 0.6 mm off (their readings' noise; seeds 0 to 3): the refinement moves them
+    # by that, towards the truth (README)
+    assert all(abs(offset) < 0.5 and angle < 0.1 for offset, angle in refined)
     run_ok("calibrate", session, "--refine", "--quiet")             # alone, on the planes that are set
     again = plane_errors(session, truth)
     for (a, b), (c, d) in zip(refined, again):
@@ -127,7 +133,7 @@ def test_scene_method_on_the_walking_person(tmp_path):
         mirror["markers"] = []
     (session / "session.json").write_text(json.dumps(data))
     run_ok("calibrate", session, "--method", "scene", "--quiet")
-    # issue 11 asks 1 mm and 0.2 deg; the person's planes come out 1 to 4 mm too near the camera (README)
+    # issue 11 asks 1 mm and 0.2 deg; the person's planes come out 1.6 to 2.5 mm too near the camera (README)
     for offset, angle in plane_errors(session, truth):
         assert abs(offset) < 5.0 and angle < 0.2
 
@@ -150,6 +156,12 @@ def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
     assert main(["calibrate", str(box), "--refine", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "see too little of the same surface" in err
+    assert (box / "session.json").read_bytes() == before
+    assert main(["calibrate", str(box), "--refine", "--refine-with", "sphere", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "frame 0: the object is not a sphere in the view of" in err, err
+    assert main(["calibrate", str(box), "--refine-with", "sphere"]) == 2
+    assert "--refine-with sphere applies to --refine or --method scene" in capsys.readouterr().err
     assert (box / "session.json").read_bytes() == before
 
 

@@ -201,7 +201,7 @@ def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
     _, rig, depths, masks = sphere
     fractions = []
     refine_planes(rig, np.concatenate([depths, depths[:1]]), np.concatenate([masks, masks[:1]]),
-                  progress=fractions.append)
+                  progress=fractions.append, with_="surfaces")
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     settled = len(fractions) - 1 - 3                              # the three frames' own planes, then the end
     assert fractions[settled - 1] <= 0.75 and np.all(np.diff(fractions[settled - 1:-1]) > 0.05)
@@ -214,10 +214,11 @@ def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
     centre = np.asarray(scene.objects[0].centre)
     start = with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors])
     fractions = []
-    result = refine_planes(start, depths, masks, progress=fractions.append)
+    result = refine_planes(start, depths, masks, progress=fractions.append, with_="surfaces")
     assert fractions == sorted(fractions) and 0 < fractions[0] and fractions[-1] <= 1
     assert result.frames == 2 and [m.index for m in result.mirrors] == [0, 1]
-    again = refine_planes(with_planes(rig, [nearer(m.plane, centre, -0.002) for m in rig.mirrors]), depths, masks)
+    again = refine_planes(with_planes(rig, [nearer(m.plane, centre, -0.002) for m in rig.mirrors]), depths, masks,
+                          with_="surfaces")
     for report, other, truth in zip(result.mirrors, again.mirrors, rig.mirrors):
         # from 3 mm too near and from 2 mm too far: the same planes, within the neighbours' surfaces' model error of
         # the truth (its facets and the quadratic: 0.7 mm on these noiseless frames)
@@ -247,8 +248,8 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
     # a view that disagrees more than max_disagreement times what the depth noise explains (a searched plane's limit)
     with pytest.raises(CalibrationError, match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
                                                r"RMS where the depth noise explains .* mm\): its plane was not found"):
-        refine_planes(rig, depths, masks, max_disagreement=0.01)
-    assert len(refine_planes(rig, depths, masks).mirrors) == 2            # no such limit by default
+        refine_planes(rig, depths, masks, max_disagreement=0.01, with_="surfaces")
+    assert len(refine_planes(rig, depths, masks, with_="surfaces").mirrors) == 2     # no such limit by default
     stop = threading.Event()
     stop.set()
     with pytest.raises(Cancelled):
@@ -319,9 +320,9 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     paired = [calibrate_from_pairs(real, m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
               for m in rig.mirrors]
     assert max(p.angle_to(m.plane) for p, m in zip(paired, rig.mirrors)) > 0.3        # a rough start
-    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, gate=0.01)
+    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, gate=0.01, with_="surfaces")
     from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
-                                 depths, masks)
+                                 depths, masks, with_="surfaces")
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
         assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3
         assert a.after.angle_to(b.after) < 0.01
@@ -376,9 +377,9 @@ def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
     background = sim.background().depth
     depths = np.stack([sim.frame(i).depth for i in range(6)])
     masks = np.stack([prepare_frame(rig, d, background)[1] for d in depths])
-    reported = refine_planes(rig, depths, masks)
+    reported = refine_planes(rig, depths, masks, with_="surfaces")
     monkeypatch.setattr("mirrorcore.refine.SCATTER_FRAMES", 7)
-    own = refine_planes(rig, depths, masks)
+    own = refine_planes(rig, depths, masks, with_="surfaces")
     centre = np.asarray(reported.centre)
     for mine, fits, truth in zip(reported.mirrors, own.mirrors, rig.mirrors):
         assert mine.after == fits.after

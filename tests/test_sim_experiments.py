@@ -50,12 +50,11 @@ def test_errors_are_positive_and_millimetres_and_radii_near_the_truth(experiment
         assert r["radius_mm"] == pytest.approx(true_radius_mm, abs=2.0)
         assert r["radius_error_mm"] == pytest.approx(r["radius_mm"] - true_radius_mm, abs=1e-9)
         assert 1000 < r["points"] and 0.2 * r["points"] < r["mirror_points"] < 0.8 * r["points"]
-        # markers 3 mm in front of the silver: worse from them alone, as good as exact markers once refined
+        # markers 3 mm in front of the silver: worse from them alone, as good as exact markers once refined (the
+        # sphere from its centres at every angle; from the surfaces it was refused at 140 and 160 degrees, where the
+        # sphere hides what the mirrors and the camera both see)
         assert r["glass_true_rmse_mm"] > r["true_rmse_mm"] + 0.5
-        if name == "angle" and r["parameter"] >= 140:   # the sphere hides what the mirrors and the camera both see
-            assert np.isnan(r["glass_refined_true_rmse_mm"])
-        else:
-            assert r["glass_refined_true_rmse_mm"] < 1.1 * r["true_rmse_mm"]
+        assert r["glass_refined_true_rmse_mm"] < 1.1 * r["true_rmse_mm"]
 
 
 def test_png_is_a_plot(experiment):

@@ -1,5 +1,5 @@
-"""`mirrorscan calibrate SESSION [--frame I] [--method markers|region|scene] [--refine]`: fit every mirror's plane,
-optionally refine it from the agreement of the views, and write it into session.json."""
+"""`mirrorscan calibrate SESSION [--frame I] [--method markers|region|scene] [--refine] [--refine-with W]`: fit every
+mirror's plane, optionally refine it from the agreement of the views, and write it into session.json."""
 from __future__ import annotations
 
 import argparse
@@ -10,7 +10,7 @@ from tqdm import tqdm
 from mirrorcore.calibration import MAX_MEDIAN_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import REFINE_FRAMES, Refinement, refine_session
+from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import Session, load_session, save_session
@@ -30,6 +30,11 @@ def register(sub) -> None:
     p.add_argument("--refine", action="store_true",
                    help="refine the planes so that the object seen in the mirrors agrees with the object seen directly "
                         "(after --method, or alone on a session whose planes are set)")
+    p.add_argument("--refine-with", choices=REFINE_WITH, default="auto",
+                   help="what the refinement (and scene) compares: auto (default) the centres of the sphere seen "
+                        "directly and in each mirror when the object is a sphere every view sees (a calibration "
+                        "ball), else the surfaces where the views see the same part; sphere: the sphere or a refusal; "
+                        "surfaces: the surfaces of any object")
     p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
@@ -52,6 +57,8 @@ def run(args: argparse.Namespace) -> int:
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")
     method = args.method or (None if args.refine else "markers")
+    if args.refine_with != "auto" and not (args.refine or method == "scene"):
+        raise CalibrationError(f"--refine-with {args.refine_with} applies to --refine or --method scene; add one")
     rng = np.random.default_rng(args.seed)
     # a bar that clears itself, so that a refusal stays one line
     with tqdm(total=100, desc="refining", unit="%", leave=False, delay=0.5, bar_format="{l_bar}{bar}| {elapsed}",
@@ -72,7 +79,8 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
                progress) -> tuple[Session, Refinement | None]:
     """The method's planes (printed as they are fitted), then the refinement when asked (or always, for scene)."""
     if method == "scene":
-        return calibrate_scene(session, *object_frames(session, args.frame), rng, progress=progress)
+        return calibrate_scene(session, *object_frames(session, args.frame), rng, progress=progress,
+                               with_=args.refine_with)
     if method is not None:
         session, results = calibrate_session(session, calibration_depth(session, args.frame), rng, method=method)
         for i, fit in results:
@@ -85,4 +93,4 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
         raise CalibrationError(f"{unset[0]}: no plane to refine yet; fit the planes first and then refine them: "
                                f"mirrorscan calibrate {session.root} --method markers --refine")
     return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),
-                          progress=progress)
+                          progress=progress, with_=args.refine_with)

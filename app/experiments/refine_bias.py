@@ -56,7 +56,7 @@ def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.nda
     out = []
     for i in frames:
         depth = sim.frame(i).depth
-        result = refine_planes(rig, depth[None], prepare_frame(rig, depth, background)[1][None])
+        result = refine_planes(rig, depth[None], prepare_frame(rig, depth, background)[1][None], with_="surfaces")
         out.append([(1e3 * (offset_at(m.after, centre) - offset_at(t.plane, centre)), m.shift_std_mm)
                     for m, t in zip(result.mirrors, rig.mirrors)])
     return np.asarray(out)
