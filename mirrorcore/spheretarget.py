@@ -138,20 +138,20 @@ def _on_sphere(points: np.ndarray, z: np.ndarray, refusal: str) -> tuple[np.ndar
 
 
 def _joint_fit(groups: list[np.ndarray], start: np.ndarray) -> np.ndarray:
-    """One sphere per view with a common radius, least squares on the distances: groups [(n_k, 3) float64 metres]
-    -> (3 k + 1,) float64 [centre of each view..., radius], from `start` (the same layout)."""
+    """One sphere per view with a common radius, least squares on the distances (Gauss-Newton on the normal
+    equations, a 4 x 4 block per view): groups [(n_k, 3) float64 metres] -> (3 k + 1,) float64 [centre of each
+    view..., radius], from `start` (the same layout)."""
     x = start.copy()
     for _ in range(FIT_ITERATIONS):
-        rows, residual = [], []
+        normal, gradient = np.zeros((len(x), len(x))), np.zeros(len(x))
         for k, points in enumerate(groups):
             offsets = points - x[3 * k:3 * k + 3]
             distance = np.linalg.norm(offsets, axis=1)
-            block = np.zeros((len(points), len(x)))
-            block[:, 3 * k:3 * k + 3] = -offsets / distance[:, None]
-            block[:, -1] = -1.0
-            rows.append(block)
-            residual.append(distance - x[-1])
-        step = np.linalg.lstsq(np.vstack(rows), -np.concatenate(residual), rcond=None)[0]
+            block = np.column_stack([-offsets / distance[:, None], -np.ones(len(points))])
+            columns = [3 * k, 3 * k + 1, 3 * k + 2, len(x) - 1]
+            normal[np.ix_(columns, columns)] += block.T @ block
+            gradient[columns] += block.T @ (distance - x[-1])
+        step = -np.linalg.solve(normal, gradient)
         x += step
         if np.abs(step).max() < FIT_SETTLED:
             break
