@@ -34,7 +34,7 @@ from .progress import Progress, cancel_requested
 from .readings import reflect_directions
 from .rig import Mirror, Rig
 from .session import MAX_MARKER_OFFSET, Session
-from .spheretarget import NotASphere, SpherePlanes, sphere_planes
+from .spheretarget import SCATTER_AUTO, NotASphere, SpherePlanes, sphere_planes
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
@@ -301,12 +301,13 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
 def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], with_: str, progress, cancel
             ) -> SpherePlanes | None:
     """The planes from the sphere's centres (spheretarget.sphere_planes, over the first 80 % of the progress), or
-    None: with "surfaces", and with "auto" when the object is not a sphere."""
+    None: with "surfaces", and with "auto" when the object is not a sphere, or not a round one (SCATTER_AUTO)."""
     if with_ == "surfaces":
         return None
     part = None if progress is None else (lambda f: progress(0.8 * f))
+    scatter = SCATTER_AUTO if with_ == "auto" else np.inf
     try:
-        return sphere_planes(rig, depths, masks, refined, np.random.default_rng(0), part, cancel)
+        return sphere_planes(rig, depths, masks, refined, np.random.default_rng(0), part, cancel, scatter)
     except NotASphere:
         if with_ == "sphere":
             raise

@@ -2,19 +2,16 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-import cv2
 import numpy as np
 import open3d as o3d
 import pytest
+from helpers import GLOBE_DEPTH, globe_points
 
 from app.cli import main
 from mirrorcore.fitting import fit_sphere
-from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.ply import write_ply
 
-GLOBE_DEPTH = Path("/work/shared/data/real/tum_globe_depth.png")
 
 
 def _sphere_cloud(n: int = 3000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -105,25 +102,9 @@ def test_no_model_found(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------------------------------------ real data
-def _globe_points() -> np.ndarray:
-    """The TUM RGB-D globe (README: ~21-23 cm radius, top left, ~2.1-2.3 m) as camera-frame points (n, 3) float32.
-
-    Selection, found by looking at the depth image: pixels u 50-179, v 5-99 (above the cabinet the globe stands on)
-    with depth 2.0-2.36 m (the wall behind is at 2.4-2.5 m), their largest 4-connected region, eroded by 3 pixels
-    to drop the mixed foreground/background depths of structured light at the silhouette."""
-    intr = Intrinsics(640, 480, 525.0, 525.0, 319.5, 239.5, depth_scale=1 / 5000)   # TUM's recommended default
-    depth = cv2.imread(str(GLOBE_DEPTH), cv2.IMREAD_UNCHANGED).astype(np.float32) * np.float32(intr.depth_scale)
-    band = np.zeros(depth.shape, np.uint8)
-    band[5:100, 50:180] = (depth[5:100, 50:180] > 2.0) & (depth[5:100, 50:180] < 2.36)
-    _, labels = cv2.connectedComponents(band, connectivity=4)
-    globe = (labels == np.argmax(np.bincount(labels[labels > 0]))).astype(np.uint8)
-    points, _ = reproject_depth(intr, depth, cv2.erode(globe, np.ones((7, 7), np.uint8)).astype(bool))
-    return points
-
-
 @pytest.mark.skipif(not GLOBE_DEPTH.is_file(), reason="real data not available")
 def test_real_globe_sphere_fit_and_cli(tmp_path, capsys):
-    points = _globe_points()
+    points = globe_points()
     assert 5000 < len(points) < 8000
     fit = fit_sphere(points, np.random.default_rng(0))
     # measured: radius 220.6 mm, centre (-0.925, -0.784, 2.314) m, RMSE 8.1 mm (all points), 7.8 mm (98.8 % inliers)
