@@ -11,10 +11,10 @@ well the data determine each plane; a mirror whose views overlap too little is r
 A plane's step is (tilt about two axes in the plane, radians; offset along its normal at the object's centre,
 metres): tilt and offset stay apart at the object, where they matter.
 
-When the object is a sphere that every view sees (a calibration ball), its centres say more than the surfaces do
-(spheretarget.py: each plane from the sphere's centre seen directly and in the mirror, within 0.2 mm of the truth
-where the surfaces leave 0.3 to 1.1 mm); `with_` chooses: "auto" (the sphere when there is one), "sphere" or
-"surfaces".
+When the object is a round sphere that every view sees (a calibration ball), its centres say more than the surfaces
+do (spheretarget.py: each plane from the sphere's centre seen directly and in the mirror, within 0.35 mm of the truth
+on the simulator where the surfaces leave up to 1.1 mm); `with_` chooses: "auto" (the sphere when there is one),
+"sphere" or "surfaces".
 """
 from __future__ import annotations
 
@@ -252,7 +252,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE);
     max_disagreement : the most a refined view may disagree with the others, in units of what the depth noise
     explains (MAX_DISAGREEMENT for searched planes; by default no limit); with_ : what is compared (REFINE_WITH):
-    "auto" the sphere's centres when the object is a sphere every view sees in every frame, else the surfaces.
+    "auto" the sphere's centres when the object is a round sphere (SCATTER_AUTO) every view sees in every frame, else
+    the surfaces.
     Mirrors not refined keep their planes and still take part.
     Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
     determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG), when it does not settle (max_change) or
@@ -514,8 +515,8 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
     (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
     max_change, max_disagreement and with_ as there); all or nothing. Each refined mirror with usable markers also
-    gets its marker_offset: how far its markers' faces stand in front of the refined plane (median over the frames of
-    their readings), with how well that is known.
+    gets its marker_offset: how far its markers' faces stand in front of the refined plane (their readings' robust
+    mean over the frames, marker_offset), with how well that is known.
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
     result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement, with_)
