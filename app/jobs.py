@@ -47,6 +47,8 @@ NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last stat
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."
+UNCHANGED = ("Nothing changed: the planes and the glass are already where this object puts them (no undo step; Undo "
+             "still takes back the step before).")
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
 HEAT_POOL = 10            # heat maps whose distances the legend's figures pool: on the sphere at the true planes
                           # one frame's median spreads by 0.5 mm (-1.8 to +0.5 mm over 40 frames), ten frames' by
@@ -265,13 +267,17 @@ class Jobs:
                                               cancel)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
+        before = _planes_and_glass(editor.session)
         editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
+        details = [f"**{r.name}** {'refined' if search is None else 'found'}: {r.summary(searched=search is not None)}"
+                   for r in result.mirrors]
+        if _planes_and_glass(editor.session) == before:  # no undo step: Undo and Redo keep the report that set them
+            report = "\n\n".join([f"{UNCHANGED} Over {used}.", *details])
+            self.refinements.setdefault(planes_key(editor.session), report)
+            return report
         headline = (refined_headline if search is None else found_headline)(result.mirrors, result.compared)
-        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}"]
-                               + [f"**{r.name}** {'refined' if search is None else 'found'}: "
-                                  f"{r.summary(searched=search is not None)}"
-                                  for r in result.mirrors])
+        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}", *details])
         self.refinements[planes_key(editor.session)] = report
         return report
 
@@ -440,6 +446,11 @@ def _same_views(a: "Snapshot", b: "Snapshot") -> bool:
     return a.rig is b.rig and a.backdrop is b.backdrop and a.session.selection == b.session.selection
 
 
+def _planes_and_glass(session: Session) -> tuple:
+    """What a refinement may change: each mirror's id, plane and glass."""
+    return tuple((m.id, m.plane, m.marker_offset) for m in session.mirrors)
+
+
 def planes_key(session: Session) -> tuple:
     """What a refinement leaves: each mirror's id and plane (undo and redo find its report by it)."""
     return tuple((m.id, m.plane) for m in session.mirrors)
@@ -460,7 +471,7 @@ def found_headline(mirrors, compared: str = "surfaces") -> str:
     (compared, as for refined_headline) what they came from."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
     if compared == "sphere":
-        head, method = "Planes found from the sphere's centres", ""
+        head, method = "Planes found from the sphere's centres", "; the method may add 0.3 mm and 0.04°"
     else:
         head, method = FOUND, "; the method may add 1 to 2 mm"
     return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ{method}): check the heat map and the "

@@ -126,7 +126,8 @@ class MirrorRefinement:
         if self.sphere_radius_mm is None:
             how = f"the method may add 1 to 2 mm; {self.agreements} points seen both ways"
         else:
-            how = f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it"
+            how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it; "
+                   "the method may add 0.3 mm and 0.04°")
         text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
@@ -549,13 +550,16 @@ def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) ->
     their readings (calibration.marker_points) in depth (H, W) float metres (depthops.robust_mean_depth of frames:
     a median snaps to the camera's disparity steps) within MEAN_SIGMAS of the depth noise of their median, 0 when
     that is negative (markers cannot stand behind the silver: that is the readings' noise, and the browser's glass
-    takes 0 to 50 mm); see Glass. None with fewer than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not
-    markers on this mirror's glass)."""
-    groups = [marker_points(intr, depth, m) for m in markers]
-    usable = [g.astype(np.float64) for g in groups if len(g) >= MIN_MARKER_PIXELS]
+    takes 0 to 50 mm); see Glass. A marker that reads more than MAX_MARKER_OFFSET off the plane (something in front of
+    it: the person walking past) is left out. None with fewer than 3 usable markers or an answer beyond
+    MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
+    groups = [marker_points(intr, depth, m).astype(np.float64) for m in markers]
+    groups = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
+    each = [_trimmed_mean(plane.signed_distance(g), g[:, 2]) for g in groups]
+    usable = [g for g, offset in zip(groups, each) if abs(offset) <= MAX_MARKER_OFFSET]   # not hidden behind the object
     if len(usable) < 3:
         return None
-    each = [_trimmed_mean(plane.signed_distance(g), g[:, 2]) for g in usable]
+    each = [offset for offset in each if abs(offset) <= MAX_MARKER_OFFSET]
     readings = np.concatenate(usable)
     offset = _trimmed_mean(plane.signed_distance(readings), readings[:, 2])
     if abs(offset) > MAX_MARKER_OFFSET:

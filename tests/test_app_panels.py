@@ -599,6 +599,20 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             app.jobs.start_scene(app.editor)                        # again: the same frames, the same planes
             wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240, "again")
             assert [m.plane for m in app.editor.session.mirrors] == found
+            report = mirrors.result.content
+            # refined from there, the sphere's centres give them again: said so, no undo step, and Undo still takes
+            # back the planes found (with their report: a helper read "Undone: ... moved 0.0 mm" for a 3 mm move)
+            app.jobs.start_refine(app.editor)
+            wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 240, "refined")
+            assert mirrors.result.content.startswith("Nothing changed: the planes and the glass are already where this "
+                                                     "object puts them (no undo step; Undo still takes back the step "
+                                                     "before). Over frames 0, 1, 2, 3")
+            assert [m.plane for m in app.editor.session.mirrors] == found
+            assert app.editor.undo_label(1) == "found planes of mirror 1 and mirror 2"
+            panel(headless.tab, MirrorsPanel)._travel(app.editor.undo)
+            assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
+            panel(headless.tab, MirrorsPanel)._travel(app.editor.redo)
+            assert mirrors.result.content == report
             app.open_session(load_session(tmp_path / "drawn"))     # Session › Open of the session being served:
             assert app.source is app.start_source                  # not a replay of it
             wait_for(lambda: "recording plays" not in headless.tab.header.hint.content, 10, "the hint")

@@ -413,6 +413,12 @@ def test_markers_read_behind_the_silver_give_no_glass():
     assert marker_offset(CAMERA, depth, markers, Plane((0.0, 0.0, -1.0), 1.999)).offset == 0.0
     tilted = Plane.from_point_normal([0.0, 0.0, 2.0], [0.02, 0.0, -1.0])             # the markers read off it unevenly
     assert marker_offset(CAMERA, depth, markers, tilted).spread > 1e-3
+    # a person in front of a fourth marker (0.6 m nearer): that marker is left out, not read as 600 mm of glass
+    # (a helper saw "glass 1.0 ± 109.8 mm (saved as its glass)" on the walking figure)
+    hidden = depth.copy()
+    hidden[290:311, 90:111] = 1.4
+    glass = marker_offset(CAMERA, hidden, [*markers, (100.0, 300.0)], Plane((0.0, 0.0, -1.0), 2.001))
+    assert glass.offset == pytest.approx(0.001, abs=1e-6) and glass.spread < 1e-6
 
 
 def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
