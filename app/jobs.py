@@ -46,7 +46,8 @@ CHECKING = "checking how the views agree…"
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
-UNDO_NOTE = "Undo restores the previous planes."
+UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
+UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
 UNCHANGED = ("Nothing changed: the planes and the glass are already where this object puts them (no undo step; Undo "
              "still takes back the step before).")
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
@@ -277,7 +278,7 @@ class Jobs:
             self.refinements.setdefault(planes_key(editor.session), report)
             return report
         headline = (refined_headline if search is None else found_headline)(result.mirrors, result.compared)
-        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE}", *details])
+        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE if search is None else UNDO_FOUND}", *details])
         self.refinements[planes_key(editor.session)] = report
         return report
 

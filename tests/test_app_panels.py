@@ -588,7 +588,7 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             headline = mirrors.result.content.split("\n\n")[0]
             assert re.fullmatch(r"Planes found from the sphere's centres \(no markers\), fixed by the data: mirror 1 "
                                 r"to ±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
-                                r"recording's 4 \(numbered as in the header\)\. Undo restores the previous planes\.",
+                                r"recording's 4 \(numbered as in the header\)\. Undo takes the planes found back\.",
                                 headline), headline
             found = [m.plane for m in app.editor.session.mirrors]
             for plane, truth in zip(found, sim.planes):
@@ -610,7 +610,7 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             assert [m.plane for m in app.editor.session.mirrors] == found
             assert app.editor.undo_label(1) == "found planes of mirror 1 and mirror 2"
             panel(headless.tab, MirrorsPanel)._travel(app.editor.undo)
-            assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
+            assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo takes the planes found back.')}"
             panel(headless.tab, MirrorsPanel)._travel(app.editor.redo)
             assert mirrors.result.content == report
             app.open_session(load_session(tmp_path / "drawn"))     # Session › Open of the session being served:

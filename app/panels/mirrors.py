@@ -17,7 +17,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_NOTE, planes_key
+from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -301,7 +301,8 @@ class MirrorsPanel:
         if after in refinements:
             return refinements[after]
         if before in refinements and before != after:
-            return "Undone: " + refinements[before].split("\n\n")[0].removesuffix(f" {UNDO_NOTE}")
+            headline = refinements[before].split("\n\n")[0]
+            return "Undone: " + headline.removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
         return ""
 
     def _confirm_remove(self) -> None:
