@@ -208,13 +208,13 @@ class SessionEditor:
     # ------------------------------------------------------------------ calibration, selection, background
     @_edits
     def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]],
-                   marker_offsets: dict[int, float] | None = None, what: str = "plane") -> None:
+                   marker_offsets: dict[int, float] | None = None, what: str = "plane") -> bool:
         """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
         their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
         is an undo step in its own scope, and the steps of several mirrors are undone together ('{what}s of NAME and
         NAME'). A mirror whose plane and glass stay as they are is left out (a fit of the same frames again is no
         undo step). Refused when a mirror is gone or its markers, boundary, region, plane or glass changed since: a
-        result computed on another state is never applied (compute it again)."""
+        result computed on another state is never applied (compute it again). Returns whether anything changed."""
         for mirror_id, (_, based_on) in planes.items():
             current = self.mirror(mirror_id)
             if fit_inputs(current) != fit_inputs(based_on):
@@ -224,12 +224,13 @@ class SessionEditor:
         planes = {i: given for i, given in planes.items()
                   if (given[0], glass[i]) != (self.mirror(i).plane, self.mirror(i).marker_offset)}
         if not planes:
-            return
+            return False
         names = [self.mirror(mirror_id).name for mirror_id in planes]
         label = f"{what} of {names[0]}" if len(names) == 1 else f"{what}s of {', '.join(names[:-1])} and {names[-1]}"
         group = next(self._groups) if len(names) > 1 else 0
         for mirror_id, (plane, _) in planes.items():
             self._set_mirror(mirror_id, label, group, plane=plane, marker_offset=glass[mirror_id])
+        return True
 
     @_edits
     def set_marker_offset(self, mirror_id: int, metres: float) -> None:

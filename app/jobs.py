@@ -268,12 +268,11 @@ class Jobs:
                                               cancel)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
-        before = _planes_and_glass(editor.session)
-        editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
+        changed = editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: {r.summary(searched=search is not None)}"
                    for r in result.mirrors]
-        if _planes_and_glass(editor.session) == before:  # no undo step: Undo and Redo keep the report that set them
+        if not changed:                              # no undo step: Undo and Redo keep the report that set them
             report = "\n\n".join([f"{UNCHANGED} Over {used}.", *details])
             self.refinements.setdefault(planes_key(editor.session), report)
             return report
@@ -445,11 +444,6 @@ def _same_views(a: "Snapshot", b: "Snapshot") -> bool:
     """Whether two snapshots give the same clouds: the same rig (a Snapshot keeps the one before when the camera and
     the mirrors are unchanged), background and selection."""
     return a.rig is b.rig and a.backdrop is b.backdrop and a.session.selection == b.session.selection
-
-
-def _planes_and_glass(session: Session) -> tuple:
-    """What a refinement may change: each mirror's id, plane and glass."""
-    return tuple((m.id, m.plane, m.marker_offset) for m in session.mirrors)
 
 
 def planes_key(session: Session) -> tuple:

@@ -165,9 +165,9 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
     editor.set_planes({1: (PLANE, editor.mirror(1))})
     assert editor.undo_label(1) == "plane of mirror 1"          # one mirror: named alone
     editor.set_marker_offset(1, 0.003)
-    editor.set_planes({1: (PLANE, editor.mirror(1))})           # the same plane and glass again (a fit of the same
-    assert editor.undo(1) == "glass of mirror 1"                # frames): no undo step that changes nothing
-    editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: 0.004})            # the glass alone: a step
+    assert not editor.set_planes({1: (PLANE, editor.mirror(1))})   # the same plane and glass again (a fit of the
+    assert editor.undo(1) == "glass of mirror 1"                # same frames): no undo step that changes nothing
+    assert editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: 0.004})     # the glass alone: a step
     assert editor.undo_label(1) == "plane of mirror 1" and editor.mirror(1).marker_offset == 0.004
 
 
