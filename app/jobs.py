@@ -220,10 +220,10 @@ class Jobs:
             editor, session, snapshot, depths, used, cancel, todo), "a refinement is already running")
 
     def marker_frames(self) -> np.ndarray | None:
-        """The frames the markers are read on (a fit, and each marker's grade), per-pixel median: the background
-        and MAX_MEDIAN_FRAMES frames spread over the recording that plays (the same whenever it is clicked, as
-        `mirrorscan calibrate` reads them; read once per recording), else the last live frames (RECENT_FRAMES), or
-        None before the first. (k, H, W) float32 metres."""
+        """The frames the markers are read on (a fit, and each marker's grade; per pixel, markers.marker_points):
+        the background and MAX_MARKER_FRAMES frames spread over the recording that plays (the same whenever it is
+        clicked, as `mirrorscan calibrate` reads them; read once per recording), else the last live frames
+        (RECENT_FRAMES), or None before the first. (k, H, W) float32 metres."""
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             session = source.session

@@ -22,7 +22,7 @@ from .overlays import depth_layer, depth_range
 from .state import Snapshot
 from .stream import HALVES, Anchors, SourcePart, stream_parts
 
-RECENT_FRAMES = 5   # depth frames kept for calibrating over their median
+RECENT_FRAMES = 5   # the last depth frames kept for calibrating on (markers.marker_points)
 
 
 @dataclass(frozen=True, eq=False)

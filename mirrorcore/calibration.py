@@ -21,7 +21,7 @@ MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
 INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
 MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
-MAX_MEDIAN_FRAMES = 30     # a session's markers and regions are read on its background and up to this many of its
+MAX_MARKER_FRAMES = 30     # a session's markers and regions are read on its background and up to this many of its
                            # frames, evenly spaced (per pixel, the regions on their median, the markers on their
                            # robust mean: markers.marker_points)
 
@@ -200,11 +200,11 @@ def _check_camera_side(plane: Plane, name: str) -> None:
 
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
     """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
-    background and up to MAX_MEDIAN_FRAMES evenly spaced frames. Raises CalibrationError without any, and
+    background and up to MAX_MARKER_FRAMES evenly spaced frames. Raises CalibrationError without any, and
     MirrorscanError naming them when no pixel of theirs has a reading."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
-    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MEDIAN_FRAMES)]
+    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
     background = session.read_background()
     if background is not None:
         stack.append(background)

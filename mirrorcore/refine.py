@@ -34,7 +34,7 @@ from .progress import Progress, cancel_requested
 from .readings import reflect_directions
 from .rig import Mirror, Rig
 from .session import MAX_MARKER_OFFSET, Session
-from .spheretarget import SCATTER_AUTO, NotASphere, SpherePlanes, sphere_planes
+from .spheretarget import SCATTER_AUTO, SCATTER_FRAMES, NotASphere, SpherePlanes, sphere_planes
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
@@ -43,9 +43,6 @@ MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
-SCATTER_FRAMES = 3           # from this many frames on, how well a plane is known, as reported, also comes from the
-                             # spread of the planes each frame alone gives (the fit's own estimate is 2.5 to 3 times
-                             # too small); the refusals above keep to the fit's own (the overlap's geometry)
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again

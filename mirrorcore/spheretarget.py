@@ -44,6 +44,10 @@ SCATTER_AUTO = 1.25          # the most a view's readings may scatter about the 
                              # depth noise explains) for the refinement to take the sphere unasked: 1.0 to 1.03 on the
                              # simulator; a real inflatable globe (TUM RGB-D, Kinect-class) 1.45, and the correction,
                              # which takes the scatter for the camera's noise, would put its radius 5 mm larger
+SCATTER_FRAMES = 3           # from this many frames on, how well a plane is known, as reported (here and by the
+                             # refinement of the surfaces), also comes from the spread of the planes each frame alone
+                             # gives (the fits' own estimates are 2.5 to 3 times too small); the refinement's refusals
+                             # keep to the fit's own (the overlap's geometry)
 FIT_ITERATIONS = 20
 FIT_SETTLED = 1e-8           # metres
 
@@ -268,11 +272,11 @@ def _mean_plane(planes: list[Plane], centre: np.ndarray) -> Plane:
 
 def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[float, float]:
     """How well the mean plane is known: (metres along its normal at `centre`, degrees), the larger of the frames'
-    own noise (their SIMEX repeats' spread) and, from 3 frames on, the spread of their planes, over the square root
+    own noise (their SIMEX repeats' spread) and, from SCATTER_FRAMES frames on, the spread of their planes, over the square root
     of the number of frames."""
     root = np.sqrt(len(planes))
     shift, tilt = np.sqrt(np.mean(np.square(spreads), axis=0))
-    if len(planes) >= 3:
+    if len(planes) >= SCATTER_FRAMES:
         shift = max(shift, float(np.std([p.signed_distance(centre) for p in planes], ddof=1)))
         tilt = max(tilt, _normal_spread(planes))
     return float(shift / root), float(np.degrees(tilt) / root)

@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 from tqdm import tqdm
 
-from mirrorcore.calibration import MAX_MEDIAN_FRAMES, calibrate_session, calibration_depth
+from mirrorcore.calibration import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
@@ -22,7 +22,7 @@ def register(sub) -> None:
     p.add_argument("session", help="session folder")
     p.add_argument("--frame", type=int, default=None,
                    help="use this frame only (default: markers and region use the per-pixel median of the background "
-                        f"and up to {MAX_MEDIAN_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)")
+                        f"and up to {MAX_MARKER_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)")
     p.add_argument("--method", choices=["markers", "region", "scene"], default=None,
                    help="markers (the default without --refine): the mirror's 'markers'; region: its 'region' "
                         "polygon (its frame); scene: no markers, the object seen directly and in each mirror (search, "
