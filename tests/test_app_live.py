@@ -770,4 +770,6 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
     assert f"the last {HEAT_POOL} frames, against the camera's surface:<br>left: median -0.4 mm over 7% of" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
-    assert "hardly the glass (3 mm reads 0.2 mm)" in text
+    assert "hardly the glass (3 mm reads 0.2 mm): <b>Refine from the object</b> measures that" in text
+    refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)
+    assert "Refine from the object" not in refined and "these planes come from the object" in refined

@@ -265,6 +265,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                       "the heat map's legend")
     assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface:<br>mirror 1: "
                                                             r"median [+-]\d+\.\d mm over \d+% of", legend)
+    assert "these planes come from the object" in legend and "Refine from the object" not in legend   # refined
     wait_for(lambda: "the last 2 frames, against" in tab.header.legend.content, 20, "the next map pooled")
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name

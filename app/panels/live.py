@@ -15,7 +15,7 @@ from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged
-from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE
+from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -49,22 +49,33 @@ HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_
             (HEAT_UNCOMPARED, "not seen by the camera"))
 
 
-HEAT_READS = ("it shows a tilt (0.5° reads about 6 mm) or a wrong boundary, hardly the glass (3 mm reads 0.2 mm): "
-              "<b>Refine from the object</b> measures that")   # the glass sphere, seed 1, ten frames (README)
+# what the map can show, as measured on the glass sphere (seed 1, ten frames: README), and what measures the glass
+HEAT_READS = "it shows a tilt (0.5° reads about 6 mm) or a wrong boundary, hardly the glass (3 mm reads 0.2 mm)"
+HEAT_GLASS = ": <b>Refine from the object</b> measures that"
+HEAT_REFINED = ": these planes come from the object, where the glass plays no part"
 
 
-def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str]) -> str:
+def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str],
+                     refined: bool = False) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
     and the share of its points compared over the heat maps of the last `frames` frames (figures as in HeatChanged;
     empty until the first map arrives), against the camera's surface (the agreement lines beside it compare every
-    view); then what the map can show (HEAT_READS)."""
+    view); then what the map can show (HEAT_READS) and what measures the glass: the refinement, or (`refined`: every
+    plane came from it) that it did."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
     over = "this frame" if frames == 1 else f"the last {frames} frames"
     body = ("<br>".join([f"{over}, against the camera's surface:", *lines]) if figures
             else "computing the heat map…")
-    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}<br><i>{HEAT_READS}</i></div>'
+    reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS)
+    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}<br><i>{reads}</i></div>'
+
+
+def _from_object(jobs: Jobs, session: Session) -> bool:
+    """Whether every plane of the session came from a refinement or search of this app (and there is one)."""
+    planes = [(m.id, m.plane) for m in session.mirrors if m.plane is not None]
+    return bool(planes) and all(jobs.from_object(*plane) for plane in planes)
 
 
 def _swatch(colour, text: str) -> str:
@@ -229,7 +240,8 @@ class LivePanel:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
         heat = self.tab.heat and self.tab.state.view == "3d"     # its key only where it shows
-        self.legend.content = (heat_legend_html(self.tab.heat_figures, self.tab.heat_frames, names) if heat
+        self.legend.content = (heat_legend_html(self.tab.heat_figures, self.tab.heat_frames, names,
+                                                _from_object(services.jobs, frame.snapshot.session)) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids, tuple(
                                    m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
         if first:
