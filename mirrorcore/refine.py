@@ -44,6 +44,7 @@ MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
+SPHERE_PART = 0.8            # of the progress: the sphere's centres, then the views' agreement for the report
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
 NOISE_EXPLAINS = 1.0         # a view's agreement RMS up to this multiple of what the depth noise explains is as good
@@ -279,7 +280,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes, iterations, labelled = dict(start), 0, rig
     for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
-        frames = _views(labelled, depths, masks, progress, cancel, iterations)
+        frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0),
+                                                               _fraction(iterations)))
         centre = np.mean([f.centre for f in frames], axis=0)
         planes, iterations, final = _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations,
                                              [rig.mirrors[j - 1].name for j in refined])
@@ -299,11 +301,11 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
 
 def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], with_: str, progress, cancel
             ) -> SpherePlanes | None:
-    """The planes from the sphere's centres (spheretarget.sphere_planes, over the first 80 % of the progress), or
+    """The planes from the sphere's centres (spheretarget.sphere_planes, over the first SPHERE_PART of the progress), or
     None: with "surfaces", and with "auto" when the object is not a sphere, or not a round one (SCATTER_AUTO)."""
     if with_ == "surfaces":
         return None
-    part = None if progress is None else (lambda f: progress(0.8 * f))
+    part = _part(progress, 0.0, SPHERE_PART)
     scatter = SCATTER_AUTO if with_ == "auto" else np.inf
     try:
         return sphere_planes(rig, depths, masks, refined, np.random.default_rng(0), part, cancel, scatter)
@@ -319,7 +321,7 @@ def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[
     refinement reports it, how well the centres fix each plane, the same refusals (limits: _report's)."""
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes = {**start, **sphere.planes}
-    frames = _views(_with_planes(rig, planes), depths, masks, None, cancel, 0)
+    frames = _views(_with_planes(rig, planes), depths, masks, cancel, _part(progress, SPHERE_PART, 0.97))
     shown = tuple(residuals(frames, p, refined, sphere.centre, SHOWN_GATE) for p in (start, planes))
     reports = tuple(replace(_report(rig, j, start[j], planes[j], sphere.centre, shown,
                                     (sphere.shift_std[j], sphere.tilt_std[j]), shown[1].with_camera(j), limits),
@@ -329,15 +331,21 @@ def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[
     return Refinement(reports, len(depths), 0, tuple(float(x) for x in sphere.centre), "sphere")
 
 
-def _views(rig: Rig, depths: np.ndarray, masks: np.ndarray, progress, cancel, done: int) -> list[FrameViews]:
+def _views(rig: Rig, depths: np.ndarray, masks: np.ndarray, cancel, progress: Progress | None) -> list[FrameViews]:
+    """Each frame's views (agreement.frame_views); progress(share of the frames done) after each."""
     frames = []
     for k, (depth, mask) in enumerate(zip(depths, masks)):
         if cancel_requested(cancel):
             raise Cancelled("refinement cancelled")
         frames.append(frame_views(rig, depth, mask))
         if progress is not None:
-            progress(_fraction(done, (k + 1) / len(depths)))
+            progress((k + 1) / len(depths))
     return frames
+
+
+def _part(progress: Progress | None, start: float, end: float) -> Progress | None:
+    """`progress` of a part of the work that runs from `start` to `end` of the whole: its own 0 to 1 mapped there."""
+    return None if progress is None else (lambda f: progress(start + (end - start) * f))
 
 
 def _fraction(iterations: int, within: float = 1.0) -> float:

@@ -74,6 +74,7 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
     result = refine_planes(start, depths, masks, progress=fractions.append)
     assert result.compared == "sphere" and result.iterations == 0 and fractions[-1] == 1.0
     assert fractions == sorted(fractions)
+    assert sum(0.8 < f < 1 for f in fractions) == len(depths)       # the report's part moves too, a step a frame
     refined = {i + 1: plane for i, plane in result.planes.items()}
     for (offset, angle), report in zip(errors_mm(refined, rig, centre), result.mirrors):
         assert abs(offset) < 0.4 and angle < 0.05
