@@ -260,7 +260,7 @@ class Jobs:
         self.bus.publish(JobProgress(REFINE, 0.0, f"{doing} from {used}…"))
         masks = np.stack([prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1] for d in depths])
         progress = lambda f: self.bus.publish(JobProgress(  # noqa: E731
-            REFINE, f, f"{doing} from the agreement of the views, over {used}…"))
+            REFINE, f, f"{doing} from the object seen directly and in the mirrors, over {used}…"))
         if search is None:
             refined, result = refine_session(session, depths, masks, progress=progress, cancel=cancel)
         else:

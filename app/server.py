@@ -40,6 +40,8 @@ AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the 
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
 RESUME_S = 600.0          # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
+NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}   # a notification's colour by its kind
+NOTE_SECONDS = 8.0        # a notification closes after this, unless it stays (the result of long work)
 
 
 def quiet_closed_connections() -> None:
@@ -168,7 +170,7 @@ class MirrorscanApp:
     def _reload_if_changed(self) -> None:
         message = self.editor.reload_if_changed()
         if message:
-            self.notify(None, "Session file changed", message, error=False)
+            self.notify(None, "Session file changed", message, "info")
             if self.last_frame is not None:       # the agreement lines, for the planes as the file now has them
                 self.jobs.start_agreement(self.last_frame.depth)
 
@@ -233,11 +235,16 @@ class MirrorscanApp:
             log.exception("an action failed")
             self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
 
-    def notify(self, client: viser.ClientHandle | None, title: str, message: str, error: bool = True) -> None:
+    def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
+               stay: bool = False) -> None:
+        """A notification on one tab (or on every tab: client None) in its kind's colour (NOTE_COLOURS), closing
+        after NOTE_SECONDS, or staying until closed (`stay`: the result of long work, whose report may be out of
+        view)."""
         log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
         for target in targets:
-            target.add_notification(title, message, color="red" if error else "blue", auto_close_seconds=8.0)
+            target.add_notification(title, message, color=NOTE_COLOURS[kind],
+                                    auto_close_seconds=None if stay else NOTE_SECONDS)
 
     def open_session(self, session: Session, play: bool = False) -> None:
         """Edit another session (autosaved in its folder from now on). Its recorded frames play when `play`, or when

@@ -83,10 +83,16 @@ def demo():
 
 @pytest.fixture
 def notes(monkeypatch):
-    """A function that starts recording the notifications of an app: notes(app) -> the list they land in."""
-    def record(app) -> list[str]:
+    """A function that starts recording the notifications of an app: notes(app) -> the list their messages land
+    in, notes(app, kinds) also each one's (kind, stay) in `kinds`."""
+    def record(app, kinds: list | None = None) -> list[str]:
         said: list[str] = []
-        monkeypatch.setattr(app, "notify", lambda client, title, message, error=True: said.append(message))
+
+        def notify(client, title, message, kind="error", stay=False):
+            said.append(message)
+            if kinds is not None:
+                kinds.append((kind, stay))
+        monkeypatch.setattr(app, "notify", notify)
         return said
     return record
 

@@ -17,7 +17,7 @@ from app.events import JobProgress
 from app.jobs import agreement_line
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, mirror_status
 from app.panels.object import ObjectPanel
 from app.panels.record import RecordPanel
 from app.panels.session import SessionPanel
@@ -30,7 +30,7 @@ from mirrorcore.geometry.plane import Plane
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
 from mirrorcore.refine import view_agreement
-from mirrorcore.session import load_session, save_session
+from mirrorcore.session import SessionMirror, load_session, save_session
 from mirrorcore.sim.export import session_mirrors, write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
@@ -135,22 +135,30 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere):
 
 def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes):
     app, headless = sphere
-    tab, said = headless.tab, notes(app)
+    kinds: list[tuple[str, bool]] = []
+    tab, said = headless.tab, notes(app, kinds)
     mirrors = panel(tab, MirrorsPanel)
     tab.state.mirror_id, tab.state.mode = 2, "markers"
     before = app.editor.mirror(2)
     click(tab, (630, 470))                                    # beside the panel, off mirror 2
     assert said and "outside its boundary" in said[-1] and app.editor.mirror(2) == before
+    assert kinds[-1] == ("error", False)                                                  # refused: red
     # a marker inside the outline but clicked on the floor seen through the glass: the fit moves little, but the
     # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
     bottom = max(before.boundary, key=lambda p: p[1])
     click(tab, (bottom[0] - 10, bottom[1] - 6))
     assert re.fullmatch(r"\d+ mm \(\d+σ\) from mirror 2's plane: off the glass \(on the object seen in it\?\)\. "
                         r"Undo takes it back; a fit would leave it out and ask first\.", said[-1]), said[-1]
+    assert kinds[-1] == ("warning", False)                                                # taken, but look: orange
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
     assert mirrors.proposal is not None and app.editor.mirror(2).plane == plane            # not applied
     assert said[-1].startswith("A new plane for mirror 2 waits, not applied")      # in view at 1024x600 too
+    assert kinds[-1] == ("warning", False)
+    assert mirrors.refine.disabled                       # a refinement would refine the planes it replaces
+    with pytest.raises(MirrorscanError, match="a fit from the markers waits: apply or discard it first"):
+        mirrors._from_object(app.jobs.start_refine)
+    assert not app.jobs.running("refine") and mirrors.proposal is not None
     assert "A new plane for mirror 2 waits" in tab.header.hint.content                     # the next step says so
     assert mirrors.review.visible and "⚠" in mirrors.review.content
     assert tab.state.flagged_markers == (len(before.markers),)                             # shown on the image
@@ -174,6 +182,17 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
     assert re.fullmatch(r"Applied: mirror 2 \d\.\d mm RMS; no glass set: Refine from the object measures it\. "
                         r"The report is under Mirrors\.", said[-1]), said[-1]
+    assert kinds[-1] == ("info", False) and not mirrors.refine.disabled
+
+
+def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():
+    mirror = SessionMirror("left", ((10.0, 10.0),), id=3)
+    assert mirror_status(None, False) == ""
+    assert mirror_status(mirror, False) == "no plane yet · no glass set · 1 marker"
+    placed = replace(mirror, plane=Plane.from_abcd([0.0, 0.0, -1.0, 2.0]), marker_offset=0.0042)
+    assert mirror_status(placed, False) == ("plane calibrated · glass 4.2 mm (markers in front of the silver) · "
+                                            "1 marker")
+    assert mirror_status(placed, True).startswith("plane from the object · ")
 
 
 def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypatch):
@@ -209,7 +228,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     with HeadlessTab(app) as later:                                            # a tab opening now shows it too
         assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
-    said = notes(app)
+    kinds: list[tuple[str, bool]] = []
+    said = notes(app, kinds)
     ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
     app.bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.job, e.status)))
     hints: list[str] = []                                                      # the hint while it runs
@@ -218,6 +238,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     app.jobs.start_refine(app.editor)
     mirrors.refresh()                                    # while it runs, Undo would take back what it refines from
     assert mirrors.undo.disabled and mirrors.redo.disabled and mirrors.refine.disabled
+    assert mirrors.fit.disabled and mirrors.fit_all.disabled             # it applies what it computed on the planes
+    with pytest.raises(MirrorscanError, match="a calibration from the object runs: wait for it, or cancel it"):
+        mirrors.fit_planes([1])                                          # as they were: no fit meanwhile
     wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 120, "the refinement")
     wait_for(lambda: not mirrors.undo.disabled, 10, "Undo back")
     assert hints and all(h.startswith("➜ A calibration from the object runs: ") for h in hints)
@@ -235,7 +258,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                         r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
                         headline), headline
-    assert said == [headline]
+    assert said == [headline] and kinds == [("info", True)]         # it stays: the report may be out of view
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
@@ -256,6 +279,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
         assert panel(reloaded.tab, MirrorsPanel).result.content == report
     app.editor.set_marker_offset(1, 0.003)
     assert app.editor.mirror(1).marker_offset == 0.003
+    tab.state.mirror_id = 1
+    mirrors.refresh()                                    # the selected mirror's line: its plane, glass and markers
+    assert mirrors.status.content == ("plane from the object · glass 3.0 mm (markers in front of the silver) · "
+                                      f"{len(app.editor.mirror(1).markers)} markers")
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
         app.editor.set_marker_offset(1, 0.08)
     tab.look("3d")
@@ -508,7 +535,8 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     record.start()
     wait_for(lambda: app.jobs._tap.replay_ended, 60, "the replay's last frame")
     wait_for(lambda: "came to its last frame" in record.status.content, 10, "the Record step saying so")
-    assert headless.tab.header.rate.content.startswith("● **recording ended** at ")
+    wait_for(lambda: headless.tab.header.rate.content.startswith("● **recording ended** at "), 10,
+             "the header saying so (it is written at most once a second)")
     again = record.stop()
     assert 1 <= len(again.frames) <= app.source.frame_count
     assert list(again.timestamps) == sorted(again.timestamps)         # its time never runs back

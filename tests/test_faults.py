@@ -161,7 +161,7 @@ def test_an_unplugged_camera_is_reported_once_and_the_loop_recovers(monkeypatch)
     source = FlakySource(SimulatedSource(rig), first=5, down=4)
     app = MirrorscanApp(Session(Path("unused"), rig.intrinsics), source, port=0, autosave=False)
     said = []
-    monkeypatch.setattr(app, "notify", lambda client, title, message, error=True: said.append((title, message)))
+    monkeypatch.setattr(app, "notify", lambda client, title, message, *_, **__: said.append((title, message)))
     app.start()
     try:
         deadline = time.monotonic() + 60

@@ -6,6 +6,7 @@ would replace a plane found from the object (by a refinement or a search). Undo 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Callable
 
 import numpy as np
 
@@ -15,7 +16,7 @@ from mirrorcore.markers import review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 
 from ..context import TabContext
-from ..editor import PICK_RADIUS, SESSION_SCOPE, fit_inputs
+from ..editor import PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
 from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
 from ..markup import markdown
@@ -35,7 +36,8 @@ CLOSED_HELP = ("**Boundary** mode: the outline is closed: click a corner to pick
 NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and a plane on "
                  "their faces is that much too near: **Refine from the object** measures the glass and moves the "
                  "plane behind it.")
-PROPOSAL_HEAD = "**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it."
+PROPOSAL_HEAD = ("**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it "
+                 "(the calibration from the object waits for that).")
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
@@ -46,6 +48,7 @@ class MirrorsPanel:
         gui, self.tab, self.services = tab.gui, tab, tab.services
         self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
+        self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
         self.add = gui.add_button("Add a mirror")
         self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
         self.help = gui.add_markdown(HELP["inspect"])
@@ -113,12 +116,14 @@ class MirrorsPanel:
             running = event.fraction is not None
             self.refine.disabled, self.refine_cancel.visible = running, running
             self.scene.disabled = self.undo.disabled = self.redo.disabled = running
+            if running:                                         # after it, refresh() says what is offered
+                self.fit.disabled = self.fit_all.disabled = True
             self.refine_progress.visible = running
             if running:
                 self.refine_progress.value = event.percent
             else:                                   # its end, in view whatever the panel's scroll
                 self.services.notify(self.tab.client, "Calibration from the object", event.status.split("\n\n")[0],
-                                     error=event.status.startswith((NOT_DONE, FAILED)))
+                                     "error" if event.status.startswith((NOT_DONE, FAILED)) else "info", stay=True)
             self._report(event.status)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
@@ -144,8 +149,8 @@ class MirrorsPanel:
         self.rename.on_click(lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value)))
         self.glass.on_update(lambda e: e.client is not None and act(
             lambda: editor.set_marker_offset(self._id(), self.glass.value / 1e3)))
-        self.refine.on_click(lambda _: act(lambda: self.services.jobs.start_refine(editor)))
-        self.scene.on_click(lambda _: act(lambda: self.services.jobs.start_scene(editor)))
+        self.refine.on_click(lambda _: act(lambda: self._from_object(self.services.jobs.start_refine)))
+        self.scene.on_click(lambda _: act(lambda: self._from_object(self.services.jobs.start_scene)))
         self.refine_cancel.on_click(lambda _: self.services.jobs.cancel(REFINE))
         self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
         self.remove.on_click(lambda _: act(self._confirm_remove))
@@ -208,14 +213,14 @@ class MirrorsPanel:
         if not np.isfinite(d):
             self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} has no depth",
                                  "the camera reads nothing there in the recent frames: a fit cannot use it (click "
-                                 "the sticker's centre; Undo takes it back)")
+                                 "the sticker's centre; Undo takes it back)", "warning")
             return
         if residuals.grades[k] != "poor":
             return
         where = "behind something in front of the mirror" if d > 0 else "off the glass (on the object seen in it?)"
         self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} is off the plane",
                              f"{abs(d):.0f} mm ({abs(d) / s:.0f}σ) from {mirror.name}'s plane: {where}. Undo "
-                             "takes it back; a fit would leave it out and ask first.")
+                             "takes it back; a fit would leave it out and ask first.", "warning")
 
     def _boundary_click(self, u: float, v: float) -> None:
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
@@ -312,9 +317,19 @@ class MirrorsPanel:
                      f"Remove {mirror.name}", lambda: self.services.editor.remove_mirror(mirror.id), "Keep it")
 
     # ------------------------------------------------------------------ plane fitting
+    def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
+        """Start a calibration from the object (Jobs.start_refine or start_scene), but not over a proposal: it would
+        refine the planes the proposal replaces, and the proposal would go unsaid (a helper)."""
+        if self.proposal is not None:
+            raise MirrorscanError("a fit from the markers waits: apply or discard it first")
+        start(self.services.editor)
+
     def fit_planes(self, mirror_ids: list[int]) -> None:
         """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A fit
-        that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once."""
+        that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once.
+        Refused while a calibration from the object runs: it applies what it computed on the planes as they were."""
+        if self.services.jobs.running(REFINE):
+            raise MirrorscanError("a calibration from the object runs: wait for it, or cancel it, then fit")
         depth = self.services.jobs.marker_frames()
         if depth is None:
             raise MirrorscanError("no frame yet to calibrate from")
@@ -346,7 +361,8 @@ class MirrorsPanel:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
             self._check_agreement()
-        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits), error=waits)
+        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits),
+                             "warning" if waits else "info")
         self.tab.changed()
 
     def _check_agreement(self) -> None:
@@ -383,6 +399,8 @@ class MirrorsPanel:
             self.name.value = selected.name
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
+        self.status.content = mirror_status(selected, selected is not None and self.services.jobs.from_object(
+            selected.id, selected.plane))
         if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
             self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
         refining = self.services.jobs.running(REFINE)
@@ -392,7 +410,8 @@ class MirrorsPanel:
         has = selected is not None
         for button in (self.fit, self.rename, self.remove, self.clear_markers):
             button.disabled = not has
-        self.fit_all.disabled = not session.mirrors
+        self.fit.disabled = self.fit.disabled or refining      # a refinement applies what it computed on the planes
+        self.fit_all.disabled = not session.mirrors or refining                             # it started from
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
             " Now click where it goes." if state.moving_marker else "")
@@ -443,6 +462,8 @@ class MirrorsPanel:
             handle.visible = fits is not None
         self.fit.disabled = self.fit.disabled or fits is not None
         self.fit_all.disabled = self.fit_all.disabled or fits is not None
+        self.refine.disabled = self.refine.disabled or fits is not None   # it would refine the planes the proposal
+        self.scene.disabled = self.scene.disabled or fits is not None     # replaces, and drop it unsaid
         if fits is None:
             return
         lines = []
@@ -514,3 +535,16 @@ def _fit_report(fits, applied: str = "") -> str:
     if any(not c.marker_offset for c, _, _ in fits):
         lines.append(NO_GLASS_NOTE)
     return "\n\n".join(lines)
+
+
+def mirror_status(mirror: SessionMirror | None, from_object: bool) -> str:
+    """One line on a mirror: where its plane stands (none yet, calibrated, or from the object: a refinement or
+    search of this app), its glass (markers in front of the silver, mm) and how many markers it has."""
+    if mirror is None:
+        return ""
+    plane = "no plane yet" if mirror.plane is None else (
+        "plane from the object" if from_object else "plane calibrated")
+    glass = (f"glass {mirror.marker_offset * 1e3:.1f} mm (markers in front of the silver)" if mirror.marker_offset
+             else "no glass set")
+    markers = f"{len(mirror.markers)} marker{'s' if len(mirror.markers) != 1 else ''}"
+    return markdown(f"{plane} · {glass} · {markers}")
