@@ -24,7 +24,8 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement, refine_session, view_agreement
+from mirrorcore.refine import (MEAN_EXPLAINS, NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement, refine_session,
+                               view_agreement)
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
@@ -481,14 +482,19 @@ def _signed(mm: float) -> str:
 
 def agreement_line(name: str, found: ViewAgreement) -> str:
     """One mirror's agreement with the other views, against what the depth noise of the readings compared explains
-    (mirrorcore.refine.view_agreement): beyond it, a warning that the plane may be tilted or its boundary off."""
+    (mirrorcore.refine.view_agreement): beyond it (the RMS beyond NOISE_EXPLAINS times it, or the mean beyond
+    MEAN_EXPLAINS times), a warning that the plane may be tilted or its boundary off."""
     if not found.points or not np.isfinite(found.rms_mm):
         return (f"{name}: nothing of the object is seen both in it and by another view, so its agreement cannot be "
                 "checked (put the object in view)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
+    advice = "its plane may be tilted or its boundary off; Refine from the object, or check its markers"
     if found.rms_mm > NOISE_EXPLAINS * found.noise_mm:
         return (f"{name}: ⚠ agrees with the other views only within {found.rms_mm:.1f} mm RMS on one frame, more "
-                f"than the depth noise there explains ({found.noise_mm:.1f} mm): its plane may be tilted or its "
-                f"boundary off; Refine from the object, or check its markers ({figures})")
+                f"than the depth noise there explains ({found.noise_mm:.1f} mm): {advice} ({figures})")
+    if abs(found.mean_mm) > MEAN_EXPLAINS * found.noise_mm:
+        return (f"{name}: ⚠ its points lie {found.mean_mm:+.1f} mm from the other views' on average on one frame, "
+                f"more than good planes give there (within {MEAN_EXPLAINS * found.noise_mm:.1f} mm): {advice} "
+                f"(RMS {found.rms_mm:.1f} mm over {found.points:,} points seen both ways)")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS on one frame, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")

@@ -673,6 +673,10 @@ def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged():
     assert line.startswith("left: ⚠ agrees with the other views only within 15.2 mm RMS on one frame, more than the "
                            "depth noise there explains (11.7 mm): its plane may be tilted")
     assert "Refine from the object" in line
+    line = agreement_line("left", ViewAgreement(10.1, -3.0, 900, 11.7))      # within the noise, the mean off
+    assert line == ("left: ⚠ its points lie -3.0 mm from the other views' on average on one frame, more than good "
+                    "planes give there (within 2.3 mm): its plane may be tilted or its boundary off; Refine from the "
+                    "object, or check its markers (RMS 10.1 mm over 900 points seen both ways)")
 
 
 def test_a_fit_that_most_points_miss_is_flagged():
