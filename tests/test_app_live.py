@@ -661,9 +661,9 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
-    assert agreement_line("left", ViewAgreement(1.234, -0.56, 1200, 1.3)) == (
+    assert agreement_line("left", ViewAgreement(1.234, -0.16, 1200, 1.3)) == (
         "left: agrees with the other views within 1.2 mm RMS on one frame, as the depth noise there explains (1.3 mm; "
-        "mean -0.6 mm over 1,200 points seen both ways)")
+        "mean -0.2 mm over 1,200 points seen both ways)")
     nan = float("nan")
     assert "cannot be checked (put the object in view)" in agreement_line("left", ViewAgreement(nan, nan, 0, nan))
 
@@ -772,7 +772,8 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert sum(p[0][0] in (5.0, 50.0) for p in pooled) == 1                   # 3 to 5 frames as 10: a helper)
     assert len(jobs._pool_heat(second, 0, np.zeros(2), np.ones(2, int))) == 1        # other planes: a new pool
     text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
-    assert f"the last {HEAT_POOL} frames, against the camera's surface:<br>left: median -0.4 mm over 7% of" in text
+    assert f"the last {HEAT_POOL} frames, against the camera's surface (> 0: outside it):<br>left: median -0.4 mm " \
+           "over 7% of" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
     assert "hardly the glass (3 mm reads 0.2 mm): <b>Refine from the object</b> measures that" in text
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)

@@ -290,8 +290,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")
     legend = wait_for(lambda: "mirror 2: median" in tab.header.legend.content and tab.header.legend.content, 10,
                       "the heat map's legend")
-    assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface:<br>mirror 1: "
-                                                            r"median [+-]\d+\.\d mm over \d+% of", legend)
+    assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface \(> 0: "
+                                                            r"outside it\):<br>mirror 1: median [+-]\d+\.\d mm over "
+                                                            r"\d+% of", legend)
     assert "these planes come from the object" in legend and "Refine from the object" not in legend   # refined
     wait_for(lambda: "the last 2 frames, against" in tab.header.legend.content, 20, "the next map pooled")
     tab.show_heat(False)

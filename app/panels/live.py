@@ -66,7 +66,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
     lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
              else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
     over = "this frame" if frames == 1 else f"the last {frames} frames"
-    body = ("<br>".join([f"{over}, against the camera's surface:", *lines]) if figures
+    body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures
             else "computing the heat map…")
     reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS)
     return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}<br><i>{reads}</i></div>'
@@ -155,8 +155,8 @@ class LivePanel:
                                          hint="the mirrors' points by their distance to the surface the camera sees "
                                          "directly: white on it, red outside, blue inside (10 mm and more "
                                          "saturated), grey where there is nothing to compare; a frame a "
-                                         "second. It shows a tilt, hardly the glass: Refine from the object "
-                                         "measures that")
+                                         "second, the view on the object (the colours are on its rims). It "
+                                         "shows a tilt, hardly the glass: Refine from the object measures that")
             self.pixel = gui.add_markdown("Last pixel read: none yet")
         self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
