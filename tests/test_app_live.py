@@ -628,6 +628,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     done = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], plane=Plane.from_point_normal(
         [0, 0, 2], [0, 0, -1]), markers=((1, 1), (5, 1), (1, 5))),))
     assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
+    assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
+        "Ready: the merged cloud is live. No glass set on left: **Mirrors › Refine from the object** measures it.")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
     assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
     marked = replace(done.mirrors[0], plane=None)

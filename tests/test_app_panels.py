@@ -228,6 +228,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     with HeadlessTab(app) as later:                                            # a tab opening now shows it too
         assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
+    tab.header.refresh_hint()                                   # markers with no glass: the next step says so
+    assert tab.header.hint.content.endswith("No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the "
+                                            "object** measures it.")
     kinds: list[tuple[str, bool]] = []
     said = notes(app, kinds)
     ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
@@ -245,6 +248,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: not mirrors.undo.disabled, 10, "Undo back")
     assert hints and all(h.startswith("➜ A calibration from the object runs: ") for h in hints)
     assert "calibration from the object runs" not in tab.header.hint.content          # and says what next after it
+    assert tab.header.hint.content.startswith("➜ Ready: ") and "No glass set" not in tab.header.hint.content
     # the agreement lines under the report are checked again, with the refined planes
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)

@@ -86,10 +86,12 @@ def _swatch(colour, text: str) -> str:
 
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
-               playback: str = "live", calibrating: bool = False, recording: bool = False) -> str:
+               playback: str = "live", calibrating: bool = False, recording: bool = False,
+               no_glass: tuple[str, ...] = ()) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: a calibration from the
-    object runs; recording: the live frames are being recorded."""
+    object runs; recording: the live frames are being recorded; no_glass: the mirrors whose planes come from markers
+    with no glass set (_no_glass)."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
@@ -129,7 +131,17 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if playback == "recording":
         return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to** the "
                 "live source (above) when done.")
+    if no_glass:
+        return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}: **Mirrors › Refine from "
+                "the object** measures it.")
     return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
+
+
+def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
+    """The names of the mirrors whose planes come from their markers (not from the object) with no glass set: on an
+    ordinary mirror the markers stand 3 to 6 mm in front of the silver."""
+    return tuple(m.name for m in session.mirrors if m.markers and m.plane is not None and not m.marker_offset
+                 and not jobs.from_object(m.id, m.plane))
 
 
 class LivePanel:
@@ -213,7 +225,8 @@ class LivePanel:
         playback = ("paused" if services.paused else "live" if services.source is services.start_source
                     else "recording")
         hint = start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                          snapshot.background is not None, playback, self._calibrating, self._recording)
+                          snapshot.background is not None, playback, self._calibrating, self._recording,
+                          _no_glass(services.jobs, snapshot.session))
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
