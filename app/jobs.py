@@ -321,6 +321,16 @@ class Jobs:
             self.bus.publish(HeatChanged(frame.index, frame.cloud.points, colours, figures, len(pooled)))
         self._start(HEAT, work, "")
 
+    def heat_wanted(self, frame: "LiveFrame") -> bool:
+        """Whether a heat map of `frame` adds to the legend's pool: not when the pool, not yet full, has this frame
+        of a replay with these planes (sampled once a second, a replay of 10 frames at 9 to 10 a second gave the
+        same few frames again: 8 frames took 82 s, a helper). A live camera's frames are all new."""
+        count = self.loop.source.frame_count
+        if not count or frame.snapshot.rig is not self._heat_rig:
+            return True
+        return (frame_number(frame.index, count) not in self._heat_pool
+                or len(self._heat_pool) >= min(HEAT_POOL, count))
+
     def _pool_heat(self, rig, number: int, distances: np.ndarray,
                    sources: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """The (distances, sources) of the heat maps of the last HEAT_POOL frames with the same planes, this one

@@ -279,7 +279,7 @@ class Tab:
         frame = event.frame
         if self.shows_cloud and not self.lagging:
             if self.heat:
-                if time.perf_counter() - self._last_heat >= 1.0:
+                if time.perf_counter() - self._last_heat >= 1.0 and self.services.jobs.heat_wanted(frame):
                     self._last_heat = time.perf_counter()
                     self.services.jobs.start_heat(frame)
             else:

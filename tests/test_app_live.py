@@ -656,9 +656,9 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     # from a sphere's centres the report says so, and what that method may add (0.3 mm, not the surfaces' 1 to 2 mm)
     assert refined_headline(moved, "sphere").startswith("Planes refined from the sphere's centres (moved > 0")
     fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
-    assert found_headline(fixed, "sphere") == ("Planes found from the sphere's centres (no markers), fixed by the "
-                                               "data: left to ±0.1 mm and ±0.01° (1σ; the method may add 0.3 mm and "
-                                               "0.04°): check the heat map and the agreement below.")
+    assert found_headline(fixed, "sphere") == (
+        "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; the "
+        "method may add 0.3 mm and 0.04°): check the heat map and the agreement below.")
     assert "(1σ; the method may add 1 to 2 mm)" in found_headline(fixed)
 
 
@@ -774,6 +774,18 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert sum(p[0][0] in (5.0, 50.0) for p in pooled) == 1                   # 3 to 5 frames as 10: a helper)
     assert len(jobs._pool_heat(second, 0, np.zeros(2), np.ones(2, int))) == 1        # other planes: a new pool
     text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
+    replay = Jobs(SimpleNamespace(source=SimpleNamespace(frame_count=12)), lambda: None, EventBus())
+    frame = lambda index, rig=first: SimpleNamespace(index=index, snapshot=SimpleNamespace(rig=rig))  # noqa: E731
+    assert replay.heat_wanted(frame(3))                           # nothing pooled yet
+    replay._pool_heat(first, 3, np.zeros(2), np.ones(2, int))
+    assert not replay.heat_wanted(frame(3)) and not replay.heat_wanted(frame(15))   # frame 3 again (the loop's 2nd
+    assert replay.heat_wanted(frame(4)) and replay.heat_wanted(frame(3, second))    # round), not other planes
+    for k in range(HEAT_POOL):
+        replay._pool_heat(first, k, np.zeros(2), np.ones(2, int))
+    assert replay.heat_wanted(frame(3))                           # the pool full: any frame refreshes it
+    live = Jobs(SimpleNamespace(source=SimpleNamespace(frame_count=0)), lambda: None, EventBus())
+    live._pool_heat(first, 3, np.zeros(2), np.ones(2, int))
+    assert live.heat_wanted(frame(3))                             # a camera's frames are all new
     assert f"the last {HEAT_POOL} frames, against the camera's surface (> 0: outside it):<br>left: median -0.4 mm " \
            "over 7% of" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
