@@ -657,8 +657,8 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     assert refined_headline(moved, "sphere").startswith("Planes refined from the sphere's centres (moved > 0")
     fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
     assert found_headline(fixed, "sphere") == (
-        "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; the "
-        "method may add 0.3 mm and 0.04°): check the heat map and the agreement below.")
+        "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; "
+        "the method may add 0.3 mm and 0.04°): check the heat map and the agreement below.")
     assert "(1σ; the method may add 1 to 2 mm)" in found_headline(fixed)
 
 
