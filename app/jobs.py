@@ -24,8 +24,8 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import (MEAN_EXPLAINS, NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement, refine_session,
-                               view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement,
+                               refine_session, view_agreement)
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
@@ -492,19 +492,46 @@ def _signed(mm: float) -> str:
 
 def agreement_line(name: str, found: ViewAgreement) -> str:
     """One mirror's agreement with the other views, against what the depth noise of the readings compared explains
-    (mirrorcore.refine.view_agreement): beyond it (the RMS beyond NOISE_EXPLAINS times it, or the mean beyond
-    MEAN_EXPLAINS times), a warning that the plane may be tilted or its boundary off."""
+    (mirrorcore.refine.view_agreement; beyond it: agreement_doubt). A mirror that disagrees with the camera gets a
+    warning that its plane may be tilted or its boundary off; one that agrees with the camera but not with another
+    mirror, that a plane is off (this one's along its normal, or another's), so that a mirror whose neighbour was
+    fitted wrong is not told to fix itself (a helper)."""
     if not found.points or not np.isfinite(found.rms_mm):
         return (f"{name}: nothing of the object is seen both in it and by another view, so its agreement cannot be "
                 "checked (put the object in view)")
+    doubt = agreement_doubt(found)
+    if doubt == "camera":
+        rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
+        return (f"{name}: ⚠ its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on average "
+                f"(RMS {rms} mm, the depth noise {noise} mm; good planes within "
+                f"{CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm) on one frame: its plane may be tilted or its "
+                f"boundary off; Refine from the object, or check its markers ({found.points:,} points seen both ways)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
-    advice = "its plane may be tilted or its boundary off; Refine from the object, or check its markers"
-    if found.rms_mm > NOISE_EXPLAINS * found.noise_mm:
-        return (f"{name}: ⚠ agrees with the other views only within {found.rms_mm:.1f} mm RMS on one frame, more "
-                f"than the depth noise there explains ({found.noise_mm:.1f} mm): {advice} ({figures})")
-    if abs(found.mean_mm) > MEAN_EXPLAINS * found.noise_mm:
-        return (f"{name}: ⚠ its points lie {found.mean_mm:+.1f} mm from the other views' on average on one frame, "
-                f"more than good planes give there (within {MEAN_EXPLAINS * found.noise_mm:.1f} mm): {advice} "
-                f"(RMS {found.rms_mm:.1f} mm over {found.points:,} points seen both ways)")
+    if doubt == "mirrors":
+        rms, noise = _apart(found.rms_mm, found.noise_mm)
+        return (f"{name}: ⚠ agrees with the camera (mean {found.camera_mean_mm:+.1f} mm) but not with the other "
+                f"mirrors: RMS {rms} mm against {noise} mm of depth noise, {figures}, on one frame. Another mirror "
+                "flagged against the camera is off; if none is, a plane is off along its normal: Refine from the "
+                "object")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS on one frame, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
+
+
+def agreement_doubt(found: ViewAgreement) -> str:
+    """'camera' when a mirror's comparisons with the camera go beyond the noise (their RMS beyond NOISE_EXPLAINS
+    times it, or their mean beyond CAMERA_MEAN_EXPLAINS times), 'mirrors' when only all its comparisons together do
+    (MEAN_EXPLAINS for their mean), else ''. The camera's alone single out a tilted plane: the comparisons between
+    two mirrors put a tilt or an offset of one on both (mirrorcore.refine)."""
+    def beyond(rms: float, mean: float, noise: float, share: float) -> bool:
+        return rms > NOISE_EXPLAINS * noise or abs(mean) > share * noise
+    if np.isfinite(found.camera_rms_mm) and beyond(found.camera_rms_mm, found.camera_mean_mm, found.camera_noise_mm,
+                                                   CAMERA_MEAN_EXPLAINS):
+        return "camera"
+    return "mirrors" if beyond(found.rms_mm, found.mean_mm, found.noise_mm, MEAN_EXPLAINS) else ""
+
+
+def _apart(value: float, limit: float) -> tuple[str, str]:
+    """Two figures (mm) to 0.1, or to 0.01 where they would read the same: '17.8 mm, more than 17.8 mm' read as a
+    contradiction (a helper)."""
+    places = 2 if f"{value:.1f}" == f"{limit:.1f}" else 1
+    return f"{value:.{places}f}", f"{limit:.{places}f}"

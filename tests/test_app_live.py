@@ -670,15 +670,27 @@ def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
     assert "cannot be checked (put the object in view)" in agreement_line("left", ViewAgreement(nan, nan, 0, nan))
 
 
-def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged():
-    line = agreement_line("left", ViewAgreement(15.2, 0.4, 900, 11.7))
-    assert line.startswith("left: ⚠ agrees with the other views only within 15.2 mm RMS on one frame, more than the "
-                           "depth noise there explains (11.7 mm): its plane may be tilted")
-    assert "Refine from the object" in line
-    line = agreement_line("left", ViewAgreement(10.1, -3.0, 900, 11.7))      # within the noise, the mean off
-    assert line == ("left: ⚠ its points lie -3.0 mm from the other views' on average on one frame, more than good "
-                    "planes give there (within 2.3 mm): its plane may be tilted or its boundary off; Refine from the "
-                    "object, or check its markers (RMS 10.1 mm over 900 points seen both ways)")
+def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_one_at_fault_singled_out():
+    """The comparisons with the camera single out the mirror at fault; one that agrees with the camera but not with
+    another mirror says so instead of being told to fix itself (a helper: the neighbour had been fitted wrong)."""
+    good_camera = dict(camera_rms_mm=5.0, camera_mean_mm=0.5, camera_noise_mm=9.0)
+    tilted = agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0))         # 0.44 x 9 mm
+    assert tilted == ("left: ⚠ its points lie -4.0 mm from the camera's surface on average (RMS 8.0 mm, the depth "
+                      "noise 9.0 mm; good planes within 3.6 mm) on one frame: its plane may be tilted or its boundary "
+                      "off; Refine from the object, or check its markers (900 points seen both ways)")
+    assert agreement_line("left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0)).startswith(
+        "left: ⚠ its points lie +0.5 mm from the camera's surface on average (RMS 9.04 mm, the depth noise 9.00 mm")
+    neighbour = agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera))   # the mean: 0.34 x
+    assert neighbour == ("right: ⚠ agrees with the camera (mean +0.5 mm) but not with the other mirrors: RMS 10.1 mm "
+                         "against 11.7 mm of depth noise, mean -4.0 mm over 900 points seen both ways, on one frame. "
+                         "Another mirror flagged against the camera is off; if none is, a plane is off along its "
+                         "normal: Refine from the object")
+    assert "but not with the other mirrors: RMS 15.2 mm against" in agreement_line(
+        "right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera))
+    assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(
+        "right: agrees with the other views within 10.1 mm RMS")
+    # without figures against the camera alone, all the comparisons are judged together
+    assert "but not with the other mirrors" in agreement_line("right", ViewAgreement(15.2, 0.4, 900, 11.7))
 
 
 def test_a_fit_that_most_points_miss_is_flagged():

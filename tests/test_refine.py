@@ -18,8 +18,9 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (MEAN_EXPLAINS, NOISE_EXPLAINS, MirrorRefinement, marker_offset, moved_plane, offset_at,
-                              refine_planes, refine_session, reflection_jacobian, view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, MirrorRefinement, marker_offset,
+                              moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian,
+                              view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -365,12 +366,20 @@ def test_the_agreement_is_measured_against_the_depth_noise():
                             depth, mask)
     for found in good.values():
         assert 8.0 < found.noise_mm < 15.0 and found.rms_mm < 0.95 * found.noise_mm     # sigma_z at 2 to 3 m
-        assert abs(found.mean_mm) < 0.5 * MEAN_EXPLAINS * found.noise_mm
     assert tilted[0].rms_mm > 1.3 * tilted[0].noise_mm
     slightly = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 0.5),
                                                 rig.mirrors[1].plane]), depth, mask)
     assert slightly[0].rms_mm < 1.1 * NOISE_EXPLAINS * slightly[0].noise_mm     # half a degree: the RMS hardly
-    assert abs(slightly[0].mean_mm) > 1.25 * MEAN_EXPLAINS * slightly[0].noise_mm   # shows it, the mean does
+    assert abs(slightly[0].camera_mean_mm) > 2 * CAMERA_MEAN_EXPLAINS * slightly[0].camera_noise_mm   # shows it; the
+    assert abs(slightly[1].camera_mean_mm) < 0.5 * CAMERA_MEAN_EXPLAINS * slightly[1].camera_noise_mm  # camera's
+    for found in good.values():                                                # mean singles it out, the other
+        assert abs(found.camera_mean_mm) < 0.5 * CAMERA_MEAN_EXPLAINS * found.camera_noise_mm        # mirror as good
+        assert found.camera_rms_mm < 0.8 * NOISE_EXPLAINS * found.camera_noise_mm                    # planes are
+        assert abs(found.mean_mm) < 0.5 * MEAN_EXPLAINS * found.noise_mm
+    moved = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.01), rig.mirrors[1].plane]),
+                           depth, mask)
+    for j in (0, 1):                                       # 10 mm: both mirrors' means, through their comparisons
+        assert abs(moved[j].mean_mm) > 1.5 * MEAN_EXPLAINS * moved[j].noise_mm      # with each other
 
 
 def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
