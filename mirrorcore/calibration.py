@@ -58,7 +58,7 @@ class Calibration:
                 text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
                          f"{ratio[worst]:.1f}σ)")
             text += (f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
-                     if self.marker_offset else "; plane on the markers' faces (no glass set)")
+                     if self.marker_offset else "; plane on the markers' faces (glass 0 mm)")
         return text
 
 

@@ -180,7 +180,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.mirror(2).markers == before.markers
     mirrors.fit_planes([2])
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
-    assert re.fullmatch(r"Applied: mirror 2 \d\.\d mm RMS; no glass set: Refine from the object measures it\. "
+    assert re.fullmatch(r"Applied: mirror 2 \d\.\d mm RMS; glass 0 mm: Refine from the object measures it\. "
                         r"The report is under Mirrors\.", said[-1]), said[-1]
     assert kinds[-1] == ("info", False) and not mirrors.refine.disabled
 
@@ -193,6 +193,10 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     assert mirror_status(placed, False) == ("plane calibrated · glass 4.2 mm (markers in front of the silver) · "
                                             "1 marker")
     assert mirror_status(placed, True).startswith("plane from the object · ")
+    measured = replace(placed, marker_offset=0.0)              # the refinement measured no glass: not "none set"
+    assert mirror_status(measured, True).startswith("plane from the object · glass 0.0 mm (markers in front of")
+    assert mirror_status(measured, False).startswith("plane calibrated · no glass set")
+    assert mirror_status(replace(measured, markers=()), True) == "plane from the object · 0 markers"
 
 
 def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypatch):

@@ -93,7 +93,7 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     assert "markers: 7 good, 1 poor (farthest: marker 3, 285.4 mm, 23.3σ)" in cal.summary()
     names = [f"2.{k + 1}" for k in range(len(MARKERS))]                 # as the depth frame labels mirror 2's
     assert "(farthest: marker 2.3, 285.4 mm" in cal.summary(names)
-    assert cal.summary().endswith("; plane on the markers' faces (no glass set)")
+    assert cal.summary().endswith("; plane on the markers' faces (glass 0 mm)")
     glass = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), marker_offset=0.0054)
     assert glass.summary().endswith("; plane 5.4 mm behind the markers (the mirror's glass)")
 

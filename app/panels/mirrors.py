@@ -523,7 +523,7 @@ def fit_note(fits, waits: bool) -> str:
         return (f"A new plane for {names} waits, not applied: look at it under Mirrors (the crossed markers), then "
                 "Apply or Discard it.")
     rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
-    glass = ("; no glass set: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
+    glass = ("; glass 0 mm: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
              else "")
     return f"Applied: {rms}{glass}. The report is under Mirrors."
 
@@ -539,12 +539,13 @@ def _fit_report(fits, applied: str = "") -> str:
 
 def mirror_status(mirror: SessionMirror | None, from_object: bool) -> str:
     """One line on a mirror: where its plane stands (none yet, calibrated, or from the object: a refinement or
-    search of this app), its glass (markers in front of the silver, mm) and how many markers it has."""
+    search of this app), its markers' glass (mm in front of the silver: set, or measured by the refinement, 0
+    included; none without markers) and how many markers it has."""
     if mirror is None:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
-    glass = (f"glass {mirror.marker_offset * 1e3:.1f} mm (markers in front of the silver)" if mirror.marker_offset
-             else "no glass set")
-    markers = f"{len(mirror.markers)} marker{'s' if len(mirror.markers) != 1 else ''}"
-    return markdown(f"{plane} · {glass} · {markers}")
+    glass = (f"glass {mirror.marker_offset * 1e3:.1f} mm (markers in front of the silver)"
+             if mirror.marker_offset or from_object else "no glass set")
+    count = len(mirror.markers)
+    return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
