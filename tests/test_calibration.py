@@ -94,6 +94,13 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     names = [f"2.{k + 1}" for k in range(len(MARKERS))]                 # as the depth frame labels mirror 2's
     assert "(farthest: marker 2.3, 285.4 mm" in cal.summary(names)
     assert cal.summary().endswith("; plane on the markers' faces (glass 0 mm)")
+    review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)     # which side, and so why
+    assert review.concerns == ("marker(s) 2.3 (285 mm, 23σ, behind: off the glass?) lie off the plane beyond the "
+                               "depth noise",)
+    depth[v - 4:v + 5, u - 4:u + 5] -= 0.6                      # something in front of it
+    hidden = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
+    assert "in front: hidden by something?" in review_fit(GLASS, hidden.plane, hidden.markers,
+                                                          np.asarray(hidden.centre), names).concerns[0]
     glass = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), marker_offset=0.0054)
     assert glass.summary().endswith("; plane 5.4 mm behind the markers (the mirror's glass)")
 
