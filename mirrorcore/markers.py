@@ -114,8 +114,8 @@ def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, a
     poor = residuals.poor()
     if poor:
         worst = ", ".join(f"{marker_names[i]} ({residuals.distance_mm[i]:.0f} mm, "
-                          f"{residuals.distance_mm[i] / residuals.sigma_mm[i]:.0f}σ, {_why_off(residuals.signed_mm[i])})"
-                          for i in poor)
+                          f"{residuals.distance_mm[i] / residuals.sigma_mm[i]:.0f}σ, "
+                          f"{_why_off(residuals.signed_mm[i])})" for i in poor)
         concerns.append(f"marker(s) {worst} lie off the plane beyond the depth noise")
     return FitReview(tilt, shift, poor, tuple(concerns))
 
