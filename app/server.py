@@ -236,15 +236,15 @@ class MirrorscanApp:
             self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
 
     def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
-               stay: bool = False) -> None:
+               stay: bool = False) -> viser.NotificationHandle | None:
         """A notification on one tab (or on every tab: client None) in its kind's colour (NOTE_COLOURS), closing
         after NOTE_SECONDS, or staying until closed (`stay`: the result of long work, whose report may be out of
-        view)."""
+        view). Returns the one tab's notification (to take it away when it no longer holds), else None."""
         log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
-        for target in targets:
-            target.add_notification(title, message, color=NOTE_COLOURS[kind],
-                                    auto_close_seconds=None if stay else NOTE_SECONDS)
+        notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
+                                         auto_close_seconds=None if stay else NOTE_SECONDS) for target in targets]
+        return notes[0] if client is not None else None
 
     def open_session(self, session: Session, play: bool = False) -> None:
         """Edit another session (autosaved in its folder from now on). Its recorded frames play when `play`, or when

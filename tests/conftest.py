@@ -7,6 +7,7 @@ of their own; and the server's own warning filter in every test."""
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -84,14 +85,20 @@ def demo():
 @pytest.fixture
 def notes(monkeypatch):
     """A function that starts recording the notifications of an app: notes(app) -> the list their messages land
-    in, notes(app, kinds) also each one's (kind, stay) in `kinds`."""
-    def record(app, kinds: list | None = None) -> list[str]:
+    in, notes(app, kinds) also each one's (kind, stay) in `kinds`, notes(app, kinds, shown) each one (a
+    SimpleNamespace whose `removed` says whether the app took it away) in `shown`."""
+    def record(app, kinds: list | None = None, shown: list | None = None) -> list[str]:
         said: list[str] = []
 
         def notify(client, title, message, kind="error", stay=False):
             said.append(message)
             if kinds is not None:
                 kinds.append((kind, stay))
+            note = SimpleNamespace(removed=False)
+            note.remove = lambda: setattr(note, "removed", True)
+            if shown is not None:
+                shown.append(note)
+            return note
         monkeypatch.setattr(app, "notify", notify)
         return said
     return record

@@ -236,7 +236,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     assert tab.header.hint.content.endswith("No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the "
                                             "object** measures it.")
     kinds: list[tuple[str, bool]] = []
-    said = notes(app, kinds)
+    shown: list = []
+    said = notes(app, kinds, shown)
     ended: list[tuple[str, str]] = []                                          # (job, status) as each job ended
     app.bus.subscribe(JobProgress, lambda e: e.fraction is None and ended.append((e.job, e.status)))
     hints: list[str] = []                                                      # the hint while it runs
@@ -272,8 +273,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
     assert app.editor.undo_label(1) == "refined planes of mirror 1 and mirror 2"       # one step, from either
     refined, report = {m.id: m.plane for m in app.editor.session.mirrors}, mirrors.result.content
+    assert not shown[-1].removed
     panel(tab, MirrorsPanel)._travel(app.editor.undo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
+    assert shown[-1].removed                                          # and its notification, which had stayed
     assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,

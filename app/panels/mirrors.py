@@ -47,6 +47,7 @@ class MirrorsPanel:
     def __init__(self, tab: TabContext):
         gui, self.tab, self.services = tab.gui, tab, tab.services
         self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
+        self._result_note = None            # the notification of the last calibration from the object, while it holds
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
         self.add = gui.add_button("Add a mirror")
@@ -118,14 +119,13 @@ class MirrorsPanel:
             self.scene.disabled = self.undo.disabled = self.redo.disabled = running
             if running:                                         # after it, refresh() says what is offered
                 self.fit.disabled = self.fit_all.disabled = True
-            self.refine_progress.visible = running
-            if running:
                 self.refine_progress.value = event.percent
-            else:                                   # its end, in view whatever the panel's scroll
-                self.services.notify(self.tab.client, "Calibration from the object", event.status.split("\n\n")[0],
-                                     "error" if event.status.startswith((NOT_DONE, FAILED)) else "info", stay=True)
+            self.refine_progress.visible = running
             self._report(event.status)
-            if not running:
+            if not running:                         # its end, in view whatever the panel's scroll, until the
+                self._result_note = self.services.notify(          # planes change again (_report)
+                    self.tab.client, "Calibration from the object", event.status.split("\n\n")[0],
+                    "error" if event.status.startswith((NOT_DONE, FAILED)) else "info", stay=True)
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
             self.agreement.content = markdown(event.status)
@@ -295,9 +295,13 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _report(self, text: str) -> None:
-        """Show a fit's or refinement's report, for the planes as they are now."""
+        """Show a fit's or refinement's report, for the planes as they are now; the notification of the last
+        calibration from the object goes (it stayed until closed: one told after it would stack under it)."""
         self._result_planes = planes_key(self.services.editor.session)
         self.result.content = markdown(text)
+        if self._result_note is not None:
+            self._result_note.remove()
+            self._result_note = None
 
     def _report_after_travel(self, before: tuple, after: tuple) -> str:
         """After an undo or redo: the report of the refinement whose planes are back, or a line saying which one was
