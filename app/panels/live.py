@@ -24,6 +24,7 @@ LAG_NOTE_S = 5.0           # seconds the header says a tab lagged after it last 
 PROCESS_WINDOW = 30        # frames: the header gives the median of their processing times (one frame's jumps
                            # with whatever else the machine does)
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
+LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"   # the panel's text is inset so; raw HTML is not
 
 
 def source_names(session: Session) -> Callable[[int], str]:
@@ -41,7 +42,7 @@ def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: 
     if unplaned:
         items += (f"<br>{escape(' and '.join(unplaned))}: no plane yet, so the object seen in "
                   f"{'it' if len(unplaned) == 1 else 'them'} is left out")
-    return f'<div style="font-size:0.85em;line-height:1.5">{items}</div>'
+    return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
 HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_MM:g} mm outside"),
@@ -69,7 +70,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
     body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures
             else "computing the heat map…")
     reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS)
-    return f'<div style="font-size:0.85em;line-height:1.5">{key}<br>{body}<br><i>{reads}</i></div>'
+    return f'<div style="{LEGEND_STYLE}">{key}<br>{body}<br><i>{reads}</i></div>'
 
 
 def _from_object(jobs: Jobs, session: Session) -> bool:
