@@ -72,7 +72,8 @@ def test_a_reloaded_page_takes_up_the_work_of_the_page_before(demo, monkeypatch)
         wait_for(lambda: other.tab.page, 10, "its name")
         assert other.tab.state.view == "3d" and not other.tab.state.drafts
     with HeadlessTab(app, page="bench") as after:                      # the page reloaded
-        state = wait_for(lambda: after.tab.state.drafts and after.tab.state, 10, "the work taken up")
+        state = wait_for(lambda: after.tab.heat and after.tab.state.drafts and after.tab.state, 10,
+                         "the work taken up (the state first, the heat map last)")
         assert (state.mirror_id, state.mode, state.view) == (second, "boundary", "depth")
         assert state.drafts == {second: ((10.0, 20.0), (30.0, 20.0))} and state.picked_corner is None
         assert after.tab.heat and after.tab.header.heat.value
