@@ -549,7 +549,6 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool) -> str:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
-    glass = (f"glass {mirror.marker_offset * 1e3:.1f} mm (markers in front of the silver)"
-             if mirror.marker_offset or from_object else "no glass set")
+    glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if mirror.marker_offset or from_object else "no glass set"
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
