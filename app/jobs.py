@@ -509,10 +509,10 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if doubt == "mirrors":
         rms, noise = _apart(found.rms_mm, found.noise_mm)
-        return (f"{name}: ⚠ agrees with the camera (mean {found.camera_mean_mm:+.1f} mm) but not with the other "
-                f"mirrors: RMS {rms} mm against {noise} mm of depth noise, {figures}, on one frame. Another mirror "
-                "flagged against the camera is off; if none is, a plane is off along its normal: Refine from the "
-                "object")
+        camera = f" (mean {found.camera_mean_mm:+.1f} mm)" if np.isfinite(found.camera_mean_mm) else ""
+        return (f"{name}: ⚠ agrees with the camera{camera} but not with the other mirrors: RMS {rms} mm against "
+                f"{noise} mm of depth noise, {figures}, on one frame. Another mirror flagged against the camera is "
+                "off; if none is, a plane is off along its normal: Refine from the object")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS on one frame, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
 

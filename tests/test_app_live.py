@@ -691,7 +691,8 @@ def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_o
     assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(
         "right: agrees with the other views within 10.1 mm RMS")
     # without figures against the camera alone, all the comparisons are judged together
-    assert "but not with the other mirrors" in agreement_line("right", ViewAgreement(15.2, 0.4, 900, 11.7))
+    assert "agrees with the camera but not with the other mirrors" in agreement_line(
+        "right", ViewAgreement(15.2, 0.4, 900, 11.7))
 
 
 def test_a_fit_that_most_points_miss_is_flagged():
