@@ -271,8 +271,8 @@ class Jobs:
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         changed = editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
-        details = [f"**{r.name}** {'refined' if search is None else 'found'}: {r.summary(searched=search is not None)}"
-                   for r in result.mirrors]
+        details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
+                   f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
         if not changed:                              # no undo step: Undo and Redo keep the report that set them
             report = "\n\n".join([f"{UNCHANGED} Over {used}.", *details])
             self.refinements.setdefault(planes_key(editor.session), report)

@@ -111,12 +111,13 @@ class MirrorRefinement:
     marker_offset_std: float | None = None
     sphere_radius_mm: float | None = None
 
-    def summary(self, searched: bool = False) -> str:
+    def summary(self, searched: bool = False, saved: bool = True) -> str:
         """One line: how far the plane moved (not for a plane a search found, `searched`: its start was a guess),
         whether its points now agree with the other views as well as the depth noise allows (NOISE_EXPLAINS), their
         RMS and mean distance before and after against the noise's RMS, and how well the data fix the plane. A
         plane's offset hardly shows in the agreement (it moves the points along the surface where the views
-        overlap: 3 mm of glass moved the mean by 0.6 to 0.7 mm), so the verdict leads."""
+        overlap: 3 mm of glass moved the mean by 0.6 to 0.7 mm), so the verdict leads. The glass is said to be saved
+        unless `saved` is False (the session had it already)."""
         if searched:                 # its start was the search's guess: nothing before worth saying
             figures = f"RMS {self.agreement_after_mm:.2f} mm, mean {self.offset_after_mm:+.2f} mm"
         else:
@@ -138,7 +139,7 @@ class MirrorRefinement:
         text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
-                     "the silver (saved as its glass)")
+                     f"the silver ({'saved as its glass' if saved else 'its glass already'})")
         return text
 
 

@@ -448,6 +448,9 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
         "(1σ; the method may add 1 to 2 mm; 900 points seen both ways)")
     assert report.summary(searched=True).startswith(
         "its points agree with the other views as well as the depth noise allows (RMS 5.44 mm, mean +0.04 mm over")
+    glass = replace(report, marker_offset=0.0032, marker_offset_std=0.0002)
+    assert glass.summary().endswith(", markers 3.2 ± 0.2 mm in front of the silver (saved as its glass)")
+    assert glass.summary(saved=False).endswith("the silver (its glass already)")   # a refinement that changed nothing
     worse = replace(report, noise_mm=4.0)
     assert "⚠ its points agree with the other views less well than the depth noise explains (RMS" in worse.summary()
     assert worse.summary().split("; the data fix")[0].endswith("4.00 mm RMS): check its boundary")
