@@ -51,8 +51,8 @@ NOISE_EXPLAINS = 1.0         # a view's agreement RMS up to this multiple of wha
                              # as the noise allows, beyond it flagged. On the simulator (Kinect noise; the sphere at
                              # 2 m, the walking figure at 2 and 3 m) the true planes give 0.66 to 0.87 times; a plane
                              # tilted by 1 degree 0.75 to 1.3 times, by 2 degrees 0.9 to 1.7; moved by 10 mm, 0.75 to
-                             # 1.1 (an offset moves the points along the surface where the views overlap: only the
-                             # refinement finds it)
+                             # 1.1 (an offset moves the points along the surface where the views overlap: the mean
+                             # below shows it, the refinement measures it)
 MEAN_EXPLAINS = 0.3          # ... and its mean up to this multiple of it. True planes: at most 0.1 times (the sphere
                              # at 2 m, the walking figure at 2 and 3 m, Kinect noise, one frame at a time; the demo's
                              # planes from markers 0.08 to 0.21); a plane moved by 10 mm 0.7 to 1.4 times, and the
