@@ -28,6 +28,7 @@ from .progress import Progress, cancel_requested
 from .readings import LATERAL_PX
 from .reconstruct import reconstruct_raw
 from .rig import Rig
+from .shapes import Sphere
 
 MIN_POINTS = 300             # readings of the sphere each view needs in every frame
 INLIER_SIGMAS = 3.0          # a reading within this many of its view's depth noise of its view's sphere is on it...
@@ -86,8 +87,8 @@ def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list
     for k, (depth, mask) in enumerate(zip(depths, masks)):
         if cancel_requested(cancel):
             raise Cancelled("refinement cancelled")
-        readings = _view_readings(rig, depth, mask, views, k)
-        x0, scales = _plain_fit(readings, rig.intrinsics.fx)
+        readings, start = _view_readings(rig, depth, mask, views, k)
+        x0, scales = _plain_fit(readings, start, rig.intrinsics.fx)
         for j, scale in zip(views, scales):
             if scale > max_scatter ** 2:
                 name = "the camera" if j == 0 else rig.mirrors[j - 1].name
@@ -110,34 +111,38 @@ def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list
 
 
 def _view_readings(rig: Rig, depth: np.ndarray, mask: np.ndarray, views: list[int], frame: int
-                   ) -> list[tuple[np.ndarray, np.ndarray]]:
+                   ) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray]:
     """Each view's readings on the sphere as measured (a mirror's virtual, behind its glass): [(rays (n, 3) float64,
-    unit-depth directions (x/z, y/z, 1); depths (n,) float64 metres)] in the order of `views`. NotASphere when a view
-    sees fewer than MIN_POINTS readings, fewer than ON_SPHERE of them on its own sphere, or when the radii differ."""
+    unit-depth directions (x/z, y/z, 1); depths (n,) float64 metres)] in the order of `views`, and a start for their
+    joint fit ((3 k + 1,) float64 metres: each view's own sphere's centre, their median radius). NotASphere when a
+    view sees fewer than MIN_POINTS readings, fewer than ON_SPHERE of them on its own sphere, or when the radii
+    differ."""
     cloud = reconstruct_raw(rig, depth, mask)
     flat = np.asarray(depth, np.float64).reshape(-1)
-    out, radii = [], []
+    out, spheres = [], []
     for j in views:
         pixels = cloud.pixel_index[cloud.sources == j]
         name = "the camera" if j == 0 else rig.mirrors[j - 1].name
         if len(pixels) < MIN_POINTS:
             raise NotASphere(f"frame {frame}: {name} sees {len(pixels)} readings of the object, {MIN_POINTS} are "
                              "needed to find a sphere's centre")
-        rays = np.column_stack([rig.intrinsics.rays[0].reshape(-1)[pixels], rig.intrinsics.rays[1].reshape(-1)[pixels],
-                                np.ones(len(pixels))]).astype(np.float64)
+        x_rays, y_rays = (r.reshape(-1)[pixels] for r in rig.intrinsics.rays)
+        rays = np.column_stack([x_rays, y_rays, np.ones(len(pixels))]).astype(np.float64)
         z = flat[pixels]
-        on, radius = _on_sphere(rays * z[:, None], z, f"frame {frame}: the object is not a sphere in the view of {name}")
+        on, sphere = _on_sphere(rays * z[:, None], z,
+                                f"frame {frame}: the object is not a sphere in the view of {name}")
         out.append((rays[on], z[on]))
-        radii.append(radius)
+        spheres.append(sphere)
+    radii = [s.radius for s in spheres]
     if max(radii) > (1 + RADII_AGREE) * min(radii):
         raise NotASphere(f"frame {frame}: the views see spheres of different radii ({1e3 * min(radii):.0f} to "
                          f"{1e3 * max(radii):.0f} mm): not one sphere")
-    return out
+    return out, np.concatenate([*(s.centre for s in spheres), [np.median(radii)]])
 
 
-def _on_sphere(points: np.ndarray, z: np.ndarray, refusal: str) -> tuple[np.ndarray, float]:
+def _on_sphere(points: np.ndarray, z: np.ndarray, refusal: str) -> tuple[np.ndarray, Sphere]:
     """A view's own sphere (RANSAC, fitting.fit_sphere, on at most DETECT_POINTS of its points, evenly spread) ->
-    (the points within INLIER_SIGMAS of the depth noise of it: (n,) bool; its radius, metres). points (n, 3), z (n,)
+    (the points within INLIER_SIGMAS of the depth noise of it: (n,) bool; the sphere). points (n, 3), z (n,)
     metres. NotASphere (`refusal` and why) without one of RADIUS_RANGE, or with fewer than ON_SPHERE on it."""
     threshold = max(INLIER_SIGMAS * float(axial_sigma(np.median(z))), MIN_THRESHOLD)
     sample = points[::max(len(points) // DETECT_POINTS, 1)]
@@ -151,7 +156,7 @@ def _on_sphere(points: np.ndarray, z: np.ndarray, refusal: str) -> tuple[np.ndar
     if on.mean() < ON_SPHERE:
         raise NotASphere(f"{refusal} (only {100 * on.mean():.0f} % of its readings lie on the best sphere, "
                          f"{100 * ON_SPHERE:.0f} % are needed)")
-    return on, sphere.radius
+    return on, sphere
 
 
 def _joint_fit(groups: list[np.ndarray], start: np.ndarray) -> np.ndarray:
@@ -175,11 +180,10 @@ def _joint_fit(groups: list[np.ndarray], start: np.ndarray) -> np.ndarray:
     return x
 
 
-def _plain_fit(readings: list[tuple[np.ndarray, np.ndarray]], fx: float) -> tuple[np.ndarray, list[float]]:
-    """The joint fit of one frame's views as measured -> (x (3 k + 1,) float64 metres, [centres..., radius]; each
-    view's noise scale, _noise_scale; fx pixels)."""
-    start = np.concatenate([*(_rough_centre(r, z) for r, z in readings), [np.median([_rough_radius(r, z)
-                                                                                      for r, z in readings])]])
+def _plain_fit(readings: list[tuple[np.ndarray, np.ndarray]], start: np.ndarray, fx: float
+               ) -> tuple[np.ndarray, list[float]]:
+    """The joint fit of one frame's views as measured, from `start` (_view_readings) -> (x (3 k + 1,) float64
+    metres, [centres..., radius]; each view's noise scale, _noise_scale; fx pixels)."""
     x0 = _joint_fit([r * z[:, None] for r, z in readings], start)
     return x0, [_noise_scale(r, z, x0[3 * k:3 * k + 3], x0[-1], fx) for k, (r, z) in enumerate(readings)]
 
@@ -217,17 +221,6 @@ def _noise_scale(rays: np.ndarray, z: np.ndarray, centre: np.ndarray, radius: fl
     lateral = LATERAL_PX * z[near] / fx * np.sqrt(1.0 - cos[near] ** 2)
     depth = axial_sigma(z[near]) * cos[near]
     return max(float(np.sum((distance[near] - radius) ** 2 - lateral ** 2) / np.sum(depth ** 2)), 0.0)
-
-
-def _rough_centre(rays: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """A start for a view's centre: its readings' centroid (the least-squares fit settles from there)."""
-    return (rays * z[:, None]).mean(axis=0)
-
-
-def _rough_radius(rays: np.ndarray, z: np.ndarray) -> float:
-    """A start for the radius: the readings' RMS distance from their centroid times sqrt(2) (a hemisphere's)."""
-    points = rays * z[:, None]
-    return float(np.sqrt(2.0 * np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
 def _noisier(z: np.ndarray, level: float, rng: np.random.Generator) -> np.ndarray:
@@ -272,8 +265,8 @@ def _mean_plane(planes: list[Plane], centre: np.ndarray) -> Plane:
 
 def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[float, float]:
     """How well the mean plane is known: (metres along its normal at `centre`, degrees), the larger of the frames'
-    own noise (their SIMEX repeats' spread) and, from SCATTER_FRAMES frames on, the spread of their planes, over the square root
-    of the number of frames."""
+    own noise (their SIMEX repeats' spread) and, from SCATTER_FRAMES frames on, the spread of their planes, over the
+    square root of the number of frames."""
     root = np.sqrt(len(planes))
     shift, tilt = np.sqrt(np.mean(np.square(spreads), axis=0))
     if len(planes) >= SCATTER_FRAMES:

@@ -15,7 +15,7 @@ from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit, _on_sphere, _plain_fit, _rough_centre,
+from mirrorcore.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit, _on_sphere, _plain_fit,
                                      _view_readings, sphere_planes)
 
 
@@ -50,8 +50,7 @@ def test_the_centres_give_the_planes_once_the_noise_bias_is_taken_off(kinect_sph
         assert 0.05e-3 < found.shift_std[j] < 0.3e-3 and 0.002 < found.tilt_std[j] < 0.05
     # the plain least-squares fit of the same readings: the depth noise along the rays pulls every centre towards the
     # camera and the planes 2 mm nearer (what the simulation-extrapolation takes off)
-    readings = _view_readings(rig, depths[0], masks[0], [0, 1, 2], 0)
-    start = np.concatenate([*(_rough_centre(r, z) for r, z in readings), [0.1]])
+    readings, start = _view_readings(rig, depths[0], masks[0], [0, 1, 2], 0)
     plain = _joint_fit([r * z[:, None] for r, z in readings], start)
     assert plain[-1] < 0.1140
     plain_planes = {j: _bisector(plain[:3], plain[3 * j:3 * j + 3], rig.mirrors[j - 1].plane) for j in (1, 2)}
@@ -123,8 +122,8 @@ def test_a_real_inflatable_globe_is_not_round_enough_for_auto():
     """The TUM RGB-D globe (a Kinect-class camera, one view): its readings scatter about the best sphere 1.45 times
     what the depth noise explains, beyond SCATTER_AUTO; corrected as noise, its radius would grow by 5 mm."""
     points = globe_points().astype(np.float64)
-    on, _ = _on_sphere(points, points[:, 2], "globe")
+    on, sphere = _on_sphere(points, points[:, 2], "globe")
     rays, z = points[on] / points[on, 2:], points[on, 2]
-    x0, scales = _plain_fit([(rays, z)], 525.0)
+    x0, scales = _plain_fit([(rays, z)], np.array([*sphere.centre, sphere.radius]), 525.0)
     assert 1.35 < np.sqrt(scales[0]) < 1.55 and np.sqrt(scales[0]) > SCATTER_AUTO
     assert 0.215 < x0[-1] < 0.225
