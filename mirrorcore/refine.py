@@ -213,12 +213,15 @@ class _Residuals:
         """Cauchy weights over each residual's variance."""
         return 1.0 / (1.0 + (self.residual / self.sigma / CAUCHY) ** 2) / self.sigma ** 2
 
-    def involving(self, j: int) -> np.ndarray:
-        return (self.pair[:, 0] == j) | (self.pair[:, 1] == j)
+    def involving(self, j: int, camera_only: bool = False) -> np.ndarray:
+        """(m,) bool: the comparisons of view j's readings with another view's, both ways (with the camera's only,
+        `camera_only`)."""
+        pick = (self.pair[:, 0] == j) | (self.pair[:, 1] == j)
+        return pick & ((self.pair[:, 0] == 0) | (self.pair[:, 1] == 0)) if camera_only else pick
 
     def with_camera(self, j: int) -> int:
         """How many comparisons are between mirror j's readings and the camera's (both ways)."""
-        return int(np.count_nonzero(self.involving(j) & self.involving(0)))
+        return int(np.count_nonzero(self.involving(j, camera_only=True)))
 
 
 def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[int], centre: np.ndarray,
@@ -483,7 +486,7 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
 def _agreement(found: _Residuals, j: int, camera_only: bool = False) -> tuple[float, float]:
     """(RMS, mean) mm of the comparisons involving mirror j (and the camera, with `camera_only`), signed so that > 0
     means its points lie outside the other views' surfaces."""
-    pick = found.involving(j) & (found.involving(0) if camera_only else True)
+    pick = found.involving(j, camera_only)
     signed = np.where(found.pair[pick, 0] == j, 1.0, -1.0) * found.residual[pick]
     if not len(signed):
         return float("nan"), float("nan")
@@ -526,7 +529,7 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
 def _noise_mm(found: _Residuals, j: int, camera_only: bool = False) -> float:
     """The RMS (mm) that the depth noise of the readings compared would give alone, over the comparisons involving
     mirror j (and the camera, with `camera_only`; NaN without any)."""
-    sigma = found.sigma[found.involving(j) & (found.involving(0) if camera_only else True)]
+    sigma = found.sigma[found.involving(j, camera_only)]
     return float(1e3 * np.sqrt(np.mean(sigma ** 2))) if len(sigma) else float("nan")
 
 
@@ -576,11 +579,11 @@ def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) ->
     MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
     groups = [marker_points(intr, depth, m).astype(np.float64) for m in markers]
     groups = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
-    each = [_trimmed_mean(plane.signed_distance(g), g[:, 2]) for g in groups]
-    usable = [g for g, offset in zip(groups, each) if abs(offset) <= MAX_MARKER_OFFSET]   # not hidden behind the object
-    if len(usable) < 3:
+    pairs = [(g, _trimmed_mean(plane.signed_distance(g), g[:, 2])) for g in groups]
+    pairs = [(g, offset) for g, offset in pairs if abs(offset) <= MAX_MARKER_OFFSET]    # not hidden behind the object
+    if len(pairs) < 3:
         return None
-    each = [offset for offset in each if abs(offset) <= MAX_MARKER_OFFSET]
+    usable, each = [g for g, _ in pairs], [offset for _, offset in pairs]
     readings = np.concatenate(usable)
     offset = _trimmed_mean(plane.signed_distance(readings), readings[:, 2])
     if abs(offset) > MAX_MARKER_OFFSET:
