@@ -25,7 +25,7 @@ import numpy as np
 
 from .agreement import SHOWN_GATE, FrameViews, frame_views, in_view
 from .calibration import MIN_MARKER_PIXELS, marker_points
-from .depthops import MEAN_SIGMAS, robust_mean_depth
+from .depthops import MEAN_SIGMAS
 from .errors import CalibrationError, Cancelled
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
@@ -545,11 +545,10 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
     result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement, with_)
-    depth = robust_mean_depth(np.asarray(depths))
     reports = []
     for report in result.mirrors:
         mirror = session.mirrors[report.index]
-        glass = marker_offset(session.camera, depth, mirror.markers, report.after)
+        glass = marker_offset(session.camera, np.asarray(depths), mirror.markers, report.after)
         offset = None if glass is None else glass.offset
         if glass is not None:
             report = replace(report, marker_offset=offset, marker_offset_std=_glass_std(report, glass, result.centre))
@@ -571,12 +570,12 @@ class Glass(NamedTuple):
 
 def marker_offset(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane) -> Glass | None:
     """How far (metres) markers' faces stand in front of `plane` (towards the camera): the mean signed distance of
-    their readings (calibration.marker_points) in depth (H, W) float metres (depthops.robust_mean_depth of frames:
-    a median snaps to the camera's disparity steps) within MEAN_SIGMAS of the depth noise of their median, 0 when
-    that is negative (markers cannot stand behind the silver: that is the readings' noise, and the browser's glass
-    takes 0 to 50 mm); see Glass. A marker that reads more than MAX_MARKER_OFFSET off the plane (something in front of
-    it: the person walking past) is left out. None with fewer than 3 usable markers or an answer beyond
-    MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
+    their readings (calibration.marker_points) in depth (H, W) or frames (k, H, W) float metres (reduced inside the
+    markers' windows to their robust mean: a median snaps to the camera's disparity steps) within MEAN_SIGMAS of the
+    depth noise of their median, 0 when that is negative (markers cannot stand behind the silver: that is the
+    readings' noise, and the browser's glass takes 0 to 50 mm); see Glass. A marker that reads more than
+    MAX_MARKER_OFFSET off the plane (something in front of it: the person walking past) is left out. None with fewer
+    than 3 usable markers or an answer beyond MAX_MARKER_OFFSET (not markers on this mirror's glass)."""
     groups = [marker_points(intr, depth, m).astype(np.float64) for m in markers]
     groups = [g for g in groups if len(g) >= MIN_MARKER_PIXELS]
     pairs = [(g, _trimmed_mean(plane.signed_distance(g), g[:, 2])) for g in groups]
