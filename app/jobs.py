@@ -24,8 +24,8 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, REFINE_FRAMES, ViewAgreement,
-                               refine_session, view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, NOISE_EXPLAINS, REFINE_FRAMES,
+                               ViewAgreement, refine_session, view_agreement)
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
@@ -476,12 +476,9 @@ def found_headline(mirrors, compared: str = "surfaces") -> str:
     """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each, and
     (compared, as for refined_headline) what they came from."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
-    if compared == "sphere":
-        head, method = "Planes found from the sphere's centres", "; the method may add 0.3 mm and 0.04°"
-    else:
-        head, method = FOUND, "; the method may add 1 to 2 mm"
-    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ{method}): check the heat map and the "
-            "agreement below.")
+    head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
+    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]}): check the "
+            "heat map and the agreement below.")
 
 
 def _signed(mm: float) -> str:

@@ -44,6 +44,9 @@ MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
+METHOD_BIAS = {"surfaces": "the method may add 1 to 2 mm",           # what each may leave on the planes beyond the
+               "sphere": "the method may add 0.3 mm and 0.04°"}      # 1 sigma it reports (README: the walking
+                                                                     # figure, and the sphere at 1.2 to 3 m)
 SPHERE_PART = 0.8            # of the progress: the sphere's centres, then the views' agreement for the report
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
@@ -132,10 +135,10 @@ class MirrorRefinement:
         if not searched:
             text = f"plane moved {self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°; {text}"
         if self.sphere_radius_mm is None:
-            how = f"the method may add 1 to 2 mm; {self.agreements} points seen both ways"
+            how = f"{METHOD_BIAS['surfaces']}; {self.agreements} points seen both ways"
         else:
             how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it; "
-                   "the method may add 0.3 mm and 0.04°")
+                   f"{METHOD_BIAS['sphere']}")
         text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
         if self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
