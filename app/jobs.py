@@ -55,6 +55,9 @@ HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to 
 HEAT_POOL = 10            # heat maps whose distances the legend's figures pool: on the sphere at the true planes
                           # one frame's median spreads by 0.5 mm (-1.8 to +0.5 mm over 40 frames), ten frames' by
                           # 0.1 to 0.2 mm
+AGREEMENT_FRAMES = 5      # frames the agreement lines pool: one frame's figures of the walking figure spread by 0.4
+                          # mm (RMS) and 0.5 mm (mean) from click to click, five frames' by 0.2 and 0.2 to 0.3 mm
+                          # (0.2 s a frame)
 
 
 @dataclass(frozen=True, eq=False)
@@ -270,7 +273,7 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         changed = editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
-        self.start_agreement(depths[-1])             # the lines under the report: the new planes' agreement
+        self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
         if not changed:                              # no undo step: Undo and Redo keep the report that set them
@@ -282,19 +285,25 @@ class Jobs:
         self.refinements[planes_key(editor.session)] = report
         return report
 
-    def start_agreement(self, depth: np.ndarray) -> None:
-        """How well each mirror's view agrees with the others on one frame (mirrorcore.refine.view_agreement), with
-        the current session's planes and selection, as the job's last status. While one runs, none is started: the
-        running one checks again when the rig or the background changed meanwhile (an undo, a fit), so that its
-        report is always the current planes'. Safe from any thread (the refinement's worker asks for one too)."""
+    def start_agreement(self, depths: np.ndarray | None = None) -> None:
+        """How well each mirror's view agrees with the others over frames (mirrorcore.refine.view_agreement; depths
+        (k, H, W) or (H, W) metres, the last AGREEMENT_FRAMES of them; None: the last live frames), with the current
+        session's planes and selection, as the job's last status. While one runs, none is started: the running one
+        checks again when the rig or the background changed meanwhile (an undo, a fit), so that its report is
+        always the current planes'. Safe from any thread (the refinement's worker asks for one too)."""
+        depths = self.loop.recent_depths() if depths is None else np.asarray(depths)
+        if depths is None:
+            return
+        depths = depths.reshape(-1, *depths.shape[-2:])[-AGREEMENT_FRAMES:]
         self.bus.publish(JobProgress(AGREEMENT, 0.0, CHECKING))     # every tab: the lines there are the old planes'
 
         def work(cancel: threading.Event) -> str:
             snapshot = None
             while snapshot is None or not _same_views(snapshot, self.snapshot()):
                 snapshot = self.snapshot()
-                mask = prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1]
-                found = view_agreement(snapshot.rig, depth[None], mask[None])        # by the rig's mirror index
+                masks = np.stack([prepare_frame(snapshot.rig, depth, snapshot.backdrop,
+                                                snapshot.session.selection)[1] for depth in depths])
+                found = view_agreement(snapshot.rig, depths, masks)                  # by the rig's mirror index
                 lines = [agreement_line(snapshot.rig.mirrors[j].name, found[j]) for j in sorted(found)]
             self.agreement = "\n\n".join(lines) or "no view sees what another sees"
             return self.agreement
@@ -501,16 +510,17 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
         rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
         return (f"{name}: ⚠ its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on average "
                 f"(RMS {rms} mm, the depth noise {noise} mm; good planes within "
-                f"{CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm) on one frame: its plane may be tilted or its "
-                f"boundary off; Refine from the object, or check its markers ({found.points:,} points seen both ways)")
+                f"{CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm) {_over(found)}: its plane may be tilted or "
+                "its boundary off; Refine from the object, or check its markers "
+                f"({found.points:,} points seen both ways)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if doubt == "mirrors":
         rms, noise = _apart(found.rms_mm, found.noise_mm)
         camera = f" (mean {found.camera_mean_mm:+.1f} mm)" if np.isfinite(found.camera_mean_mm) else ""
         return (f"{name}: ⚠ agrees with the camera{camera} but not with the other mirrors: RMS {rms} mm against "
-                f"{noise} mm of depth noise, {figures}, on one frame. Another mirror flagged against the camera is "
+                f"{noise} mm of depth noise, {figures}, {_over(found)}. Another mirror flagged against the camera is "
                 "off; if none is, a plane is off along its normal: Refine from the object")
-    return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS on one frame, as the depth noise "
+    return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS {_over(found)}, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
 
 
@@ -525,6 +535,11 @@ def agreement_doubt(found: ViewAgreement) -> str:
                                                    CAMERA_MEAN_EXPLAINS):
         return "camera"
     return "mirrors" if beyond(found.rms_mm, found.mean_mm, found.noise_mm, MEAN_EXPLAINS) else ""
+
+
+def _over(found: ViewAgreement) -> str:
+    """'on one frame' or 'over 5 frames': what the agreement's figures pool."""
+    return "on one frame" if found.frames == 1 else f"over {found.frames} frames"
 
 
 def _apart(value: float, limit: float) -> tuple[str, str]:

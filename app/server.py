@@ -171,8 +171,7 @@ class MirrorscanApp:
         message = self.editor.reload_if_changed()
         if message:
             self.notify(None, "Session file changed", message, "info")
-            if self.last_frame is not None:       # the agreement lines, for the planes as the file now has them
-                self.jobs.start_agreement(self.last_frame.depth)
+            self.jobs.start_agreement()           # the agreement lines, for the planes as the file now has them
 
     # ------------------------------------------------------------------ the Services protocol
     @property
@@ -315,7 +314,7 @@ class MirrorscanApp:
         if frame.index + 1 == RECENT_FRAMES:     # enough frames to grade the markers of the session as opened
             threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True).start()
             if any(m.plane is not None for m in frame.snapshot.session.mirrors):
-                self.jobs.start_agreement(frame.depth)    # and to tell how its planes agree, before any fit
+                self.jobs.start_agreement()    # and to tell how its planes agree, before any fit
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:

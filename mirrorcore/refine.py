@@ -501,7 +501,7 @@ class ViewAgreement(NamedTuple):
     of it and of the camera that agree, and `noise_mm`, the RMS that the depth noise of the readings compared would
     give alone (their sigma along the surface's normal); `camera_rms_mm`, `camera_mean_mm` and `camera_noise_mm` of
     its comparisons with the camera alone (a mirror that agrees with the camera but not with another mirror puts
-    the other one in doubt). All NaN without agreement."""
+    the other one in doubt); `frames`, over how many frames. All NaN without agreement."""
 
     rms_mm: float
     mean_mm: float
@@ -510,6 +510,7 @@ class ViewAgreement(NamedTuple):
     camera_rms_mm: float = float("nan")
     camera_mean_mm: float = float("nan")
     camera_noise_mm: float = float("nan")
+    frames: int = 1
 
 
 def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, ViewAgreement]:
@@ -525,7 +526,8 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     out = {}
     for j in planes:
         out[j - 1] = ViewAgreement(*_agreement(found, j), found.with_camera(j), _noise_mm(found, j),
-                                   *_agreement(found, j, camera_only=True), _noise_mm(found, j, camera_only=True))
+                                   *_agreement(found, j, camera_only=True), _noise_mm(found, j, camera_only=True),
+                                   len(frames))
     return out
 
 

@@ -667,6 +667,8 @@ def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
     assert agreement_line("left", ViewAgreement(1.234, -0.16, 1200, 1.3)) == (
         "left: agrees with the other views within 1.2 mm RMS on one frame, as the depth noise there explains (1.3 mm; "
         "mean -0.2 mm over 1,200 points seen both ways)")
+    assert "within 1.2 mm RMS over 5 frames, as" in agreement_line("left", ViewAgreement(1.234, -0.16, 1200, 1.3,
+                                                                                          frames=5))
     nan = float("nan")
     assert "cannot be checked (put the object in view)" in agreement_line("left", ViewAgreement(nan, nan, 0, nan))
 

@@ -220,13 +220,14 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     tab = headless.tab
     mirrors = panel(tab, MirrorsPanel)
     wait_for(lambda: "agrees with the other views within" in mirrors.agreement.content, 60, "the agreement")
-    snapshot, depth = app.snapshot, app.last_frame.depth                     # each mirror under its own name,
-    found = view_agreement(snapshot.rig, depth[None],                          # with its own figures
-                           prepare_frame(snapshot.rig, depth, snapshot.backdrop, snapshot.session.selection)[1][None])
+    snapshot, depths = app.snapshot, app.loop.recent_depths()                # each mirror under its own name,
+    masks = [prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection)[1] for d in depths]
+    found = view_agreement(snapshot.rig, depths, np.stack(masks))              # with its own figures, over frames
     expected = "\n\n".join(agreement_line(m.name, found[j]) for j, m in enumerate(snapshot.rig.mirrors))
-    app.jobs.start_agreement(depth)
+    app.jobs.start_agreement(depths)
     wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
     assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
+    assert len(depths) == 5 and expected.count("RMS over 5 frames") == 2
     assert expected.count("as the depth noise there explains") == 2                    # a good calibration
     with HeadlessTab(app) as later:                                            # a tab opening now shows it too
         assert panel(later.tab, MirrorsPanel).agreement.content == expected

@@ -370,10 +370,8 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _check_agreement(self) -> None:
-        """After new planes: how the views agree on the last frame (a worker fills it in)."""
-        frame = self.services.last_frame
-        if frame is not None:
-            self.services.jobs.start_agreement(frame.depth)
+        """After new planes: how the views agree on the last frames (a worker fills it in)."""
+        self.services.jobs.start_agreement()
 
     def _apply(self) -> None:
         fits, self.proposal = self.proposal, None
