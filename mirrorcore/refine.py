@@ -88,7 +88,9 @@ class MirrorRefinement:
         SCATTER_FRAMES frames or more the spread of the planes each frame alone gives over the square root of their
         number, whichever is larger (on the simulator the fit's own is 2.5 to 3 times smaller than the planes' actual
         scatter from frame to frame: the comparisons themselves change with the noise)
-    agreements : comparisons of its readings with the camera's that agree (both ways, all frames)
+    agreements : comparisons of its readings that agree with those of the views that fix it (both ways, all frames:
+        the camera's, or on an arc the mirrors' beside it; _fixed_by)
+    camera_agreements : those with the camera's
     noise_mm : the RMS (mm) that the depth noise of the readings compared after would give alone
     marker_offset : metres from its markers' faces to the refined plane (the glass), or None (no usable markers)
     marker_offset_std : metres, how well that is known (1 sigma: the spread of its markers and the plane's own
@@ -109,6 +111,7 @@ class MirrorRefinement:
     shift_std_mm: float
     tilt_std_deg: float
     agreements: int
+    camera_agreements: int
     noise_mm: float = float("nan")
     marker_offset: float | None = None
     marker_offset_std: float | None = None
@@ -299,8 +302,8 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0),
                                                                _fraction(iterations)))
         centre = np.mean([f.centre for f in frames], axis=0)
-        planes, iterations, final = _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations,
-                                             [rig.mirrors[j - 1].name for j in refined])
+        planes, iterations, final, fixing = _iterate(frames, planes, refined, centre, gate, progress, cancel,
+                                                     iterations, [rig.mirrors[j - 1].name for j in refined])
         gate = 0.0
         if all(abs(shift_at(labelled.mirrors[j - 1].plane, planes[j], centre)) < RELABEL for j in refined):
             break
@@ -309,7 +312,7 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations))
     reports = tuple(_report(rig, j, start[j], planes[j], centre, shown,
                             _determined(final, refined, j, rig.mirrors[j - 1].name, scatter.get(j)),
-                            final.with_camera(j), limits) for j in refined)
+                            (fixing[j], final.with_camera(j)), limits) for j in refined)
     if progress is not None:
         progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
@@ -340,7 +343,7 @@ def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[
     frames = _views(_with_planes(rig, planes), depths, masks, cancel, _part(progress, SPHERE_PART, 0.97))
     shown = tuple(residuals(frames, p, refined, sphere.centre, SHOWN_GATE) for p in (start, planes))
     reports = tuple(replace(_report(rig, j, start[j], planes[j], sphere.centre, shown,
-                                    (sphere.shift_std[j], sphere.tilt_std[j]), shown[1].with_camera(j), limits),
+                                    (sphere.shift_std[j], sphere.tilt_std[j]), (shown[1].with_camera(j),) * 2, limits),
                             sphere_radius_mm=1e3 * sphere.radius) for j in refined)
     if progress is not None:
         progress(1.0)
@@ -372,12 +375,11 @@ def _fraction(iterations: int, within: float = 1.0) -> float:
 
 
 def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names):
-    """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals);
-    CalibrationError when a mirror's views overlap too little (_check_overlap)."""
+    """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals, the
+    agreements that fix each mirror); CalibrationError when a mirror's views overlap too little (_fixed_by)."""
     planes, iterations = _solve(frames, planes, refined, centre, gate, progress, cancel, iterations)
     final = residuals(frames, planes, refined, centre)
-    _check_overlap(final, refined, names, len(frames))
-    return planes, iterations, final
+    return planes, iterations, final, _fixed_by(final, refined, names, len(frames))
 
 
 def _solve(frames, planes, refined, centre, gate, progress, cancel, iterations) -> tuple[dict[int, Plane], int]:
@@ -428,14 +430,35 @@ def _spread(values: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(values - np.median(values))))
 
 
-def _check_overlap(found: _Residuals, refined: list[int], names: list[str], frames: int) -> None:
+def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: int) -> dict[int, int]:
+    """{mirror j: how many of its readings agree with those of the views that fix it} (both ways, all frames): the
+    camera's and the mirrors' not refined, then, in turn, those of the mirrors these fixed: at least MIN_AGREEMENTS
+    fix a mirror (on an arc of three, the middle mirror faces the camera and sees a person's back, the camera the
+    front: the mirrors beside it see the sides it shares). CalibrationError naming the first mirror nothing fixes:
+    its plane would be left free (a box facing the camera: the mirrors see only its sides and back)."""
+    fixing, counts = {0} | (set(np.unique(found.pair)) - set(refined)), {}
+    while True:
+        more = {j: _shared(found, j, fixing) for j in refined if j not in counts}
+        more = {j: n for j, n in more.items() if n >= MIN_AGREEMENTS}
+        if not more:
+            break
+        counts.update(more)
+        fixing |= set(more)
     for j, name in zip(refined, names):
-        direct = found.with_camera(j)
-        if direct < MIN_AGREEMENTS:
+        if j not in counts:
+            others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
             raise CalibrationError(
                 f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
-                f"({direct} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed); use more "
+                f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed, "
+                f"or as many with a mirror whose plane is fixed: {others} with the other mirrors); use more "
                 "frames, or an object that both see from the side (a person, a sphere), not a flat face")
+    return counts
+
+
+def _shared(found: _Residuals, j: int, views: set[int]) -> int:
+    """How many comparisons are between mirror j's readings and those of `views` (both ways)."""
+    other = np.where(found.pair[:, 0] == j, found.pair[:, 1], np.where(found.pair[:, 1] == j, found.pair[:, 0], j))
+    return int(np.count_nonzero(np.isin(other, list(views - {j}))))
 
 
 def _with_planes(rig: Rig, planes: dict[int, Plane]) -> Rig:
@@ -465,11 +488,12 @@ def _determined(final: _Residuals, refined: list[int], j: int, name: str, scatte
 
 
 def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
-            determined: tuple[float, float], agreements: int, limits: tuple) -> MirrorRefinement:
+            determined: tuple[float, float], agreements: tuple[int, int], limits: tuple) -> MirrorRefinement:
     """One mirror's report, or CalibrationError when it did not settle or it disagrees (limits: max_change's metres
     and degrees, then max_disagreement).
     shown : the comparisons before and after with SHOWN_GATE (the agreement reported); determined : (metres,
-    degrees), how well the plane is known (1 sigma); agreements : its readings compared with the camera's."""
+    degrees), how well the plane is known (1 sigma); agreements : its readings compared with those of the views that
+    fix it, and with the camera's."""
     name = rig.mirrors[j - 1].name
     shift, tilt = shift_at(before, after, centre), before.angle_to(after)
     if abs(shift) > limits[0] or tilt > limits[1]:
@@ -483,7 +507,7 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
                                "boundary, or click markers on it and fit it first")
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
-                            tilt, 1e3 * determined[0], determined[1], agreements, noise)
+                            tilt, 1e3 * determined[0], determined[1], *agreements, noise)
 
 
 def _agreement(found: _Residuals, j: int, camera_only: bool = False) -> tuple[float, float]:

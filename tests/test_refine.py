@@ -440,7 +440,7 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     show that it helped (helpers): the RMS is mostly the depth noise's, so the report says first whether it is within
     what the noise explains (NOISE_EXPLAINS), then the figures before and after."""
     plane = Plane.from_abcd([0.0, 0.0, 1.0, -2.0])
-    report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -0.73, 0.04, 3.41, 0.02, 0.5, 0.01, 900, 7.94)
+    report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -0.73, 0.04, 3.41, 0.02, 0.5, 0.01, 900, 900, 7.94)
     assert report.summary() == (
         "plane moved +3.41 mm (> 0: away from the camera) and 0.020°; its points agree with the other views as well "
         "as the depth noise allows (RMS 5.43 mm before, 5.44 mm after, mean -0.73 mm before, +0.04 mm after over the "
