@@ -24,8 +24,8 @@ from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, NOISE_EXPLAINS, REFINE_FRAMES,
-                               ViewAgreement, refine_session, view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, MIN_AGREEMENTS, NOISE_EXPLAINS,
+                               REFINE_FRAMES, ViewAgreement, refine_session, view_agreement)
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
@@ -501,10 +501,16 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
     (mirrorcore.refine.view_agreement; beyond it: agreement_doubt). A mirror that disagrees with the camera gets a
     warning that its plane may be tilted or its boundary off; one that agrees with the camera but not with another
     mirror, that a plane is off (this one's along its normal, or another's), so that a mirror whose neighbour was
-    fitted wrong is not told to fix itself (a helper)."""
+    fitted wrong is not told to fix itself (a helper). Fewer than MIN_AGREEMENTS comparisons judge nothing, as they
+    fix no plane in the refinement: 26 of them with the camera flagged a mirror one way and then the other, the
+    planes unchanged (a helper, a box on an arc of three mirrors)."""
     if not found.points or not np.isfinite(found.rms_mm):
         return (f"{name}: nothing of the object is seen both in it and by another view, so its agreement cannot be "
                 "checked (put the object in view)")
+    if found.points < MIN_AGREEMENTS:
+        return (f"{name}: too little of what it shows is seen by another view to judge its plane ({found.points:,} "
+                f"points seen both ways {_over(found)}, {MIN_AGREEMENTS} needed): put the object where the camera and "
+                "the mirror both see its sides (a person, a sphere), or check its markers' grades")
     doubt = agreement_doubt(found)
     if doubt == "camera":
         rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
@@ -512,27 +518,29 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
                 f"(RMS {rms} mm, the depth noise {noise} mm; good planes within "
                 f"{CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm) {_over(found)}: its plane may be tilted or "
                 "its boundary off; Refine from the object, or check its markers "
-                f"({found.points:,} points seen both ways)")
+                f"({found.camera_points:,} points seen both ways)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if doubt == "mirrors":
         rms, noise = _apart(found.rms_mm, found.noise_mm)
-        camera = f" (mean {found.camera_mean_mm:+.1f} mm)" if np.isfinite(found.camera_mean_mm) else ""
-        return (f"{name}: ⚠ agrees with the camera{camera} but not with the other mirrors: RMS {rms} mm against "
-                f"{noise} mm of depth noise, {figures}, {_over(found)}. Another mirror flagged against the camera is "
-                "off; if none is, a plane is off along its normal: Refine from the object")
+        camera = (f"agrees with the camera (mean {found.camera_mean_mm:+.1f} mm) but not with the other mirrors"
+                  if found.camera_points >= MIN_AGREEMENTS else
+                  "disagrees with the other mirrors (the camera sees too little of what it shows to say which is off)")
+        return (f"{name}: ⚠ {camera}: RMS {rms} mm against {noise} mm of depth noise, {figures}, {_over(found)}. "
+                "Another mirror flagged against the camera is off; if none is, a plane is off along its normal: "
+                "Refine from the object")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS {_over(found)}, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
 
 
 def agreement_doubt(found: ViewAgreement) -> str:
-    """'camera' when a mirror's comparisons with the camera go beyond the noise (their RMS beyond NOISE_EXPLAINS
-    times it, or their mean beyond CAMERA_MEAN_EXPLAINS times), 'mirrors' when only all its comparisons together do
-    (MEAN_EXPLAINS for their mean), else ''. The camera's alone single out a tilted plane: the comparisons between
-    two mirrors put a tilt or an offset of one on both (mirrorcore.refine)."""
+    """'camera' when a mirror's comparisons with the camera (MIN_AGREEMENTS or more) go beyond the noise (their RMS
+    beyond NOISE_EXPLAINS times it, or their mean beyond CAMERA_MEAN_EXPLAINS times), 'mirrors' when only all its
+    comparisons together do (MEAN_EXPLAINS for their mean), else ''. The camera's alone single out a tilted plane:
+    the comparisons between two mirrors put a tilt or an offset of one on both (mirrorcore.refine)."""
     def beyond(rms: float, mean: float, noise: float, share: float) -> bool:
         return rms > NOISE_EXPLAINS * noise or abs(mean) > share * noise
-    if np.isfinite(found.camera_rms_mm) and beyond(found.camera_rms_mm, found.camera_mean_mm, found.camera_noise_mm,
-                                                   CAMERA_MEAN_EXPLAINS):
+    if found.camera_points >= MIN_AGREEMENTS and beyond(found.camera_rms_mm, found.camera_mean_mm,
+                                                        found.camera_noise_mm, CAMERA_MEAN_EXPLAINS):
         return "camera"
     return "mirrors" if beyond(found.rms_mm, found.mean_mm, found.noise_mm, MEAN_EXPLAINS) else ""
 

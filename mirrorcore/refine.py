@@ -521,11 +521,12 @@ def _agreement(found: _Residuals, j: int, camera_only: bool = False) -> tuple[fl
 
 
 class ViewAgreement(NamedTuple):
-    """How one mirror's view agrees with the others: RMS and mean (mm, as in MirrorRefinement) over `points` readings
-    of it and of the camera that agree, and `noise_mm`, the RMS that the depth noise of the readings compared would
-    give alone (their sigma along the surface's normal); `camera_rms_mm`, `camera_mean_mm` and `camera_noise_mm` of
-    its comparisons with the camera alone (a mirror that agrees with the camera but not with another mirror puts
-    the other one in doubt); `frames`, over how many frames. All NaN without agreement."""
+    """How one mirror's view agrees with the others: RMS and mean (mm, as in MirrorRefinement) over `points`
+    comparisons of its readings with the other views' that agree (both ways), and `noise_mm`, the RMS that the depth
+    noise of the readings compared would give alone (their sigma along the surface's normal); `camera_rms_mm`,
+    `camera_mean_mm`, `camera_noise_mm` and `camera_points` of its comparisons with the camera alone (a mirror that
+    agrees with the camera but not with another mirror puts the other one in doubt); `frames`, over how many frames.
+    All NaN without agreement."""
 
     rms_mm: float
     mean_mm: float
@@ -534,6 +535,7 @@ class ViewAgreement(NamedTuple):
     camera_rms_mm: float = float("nan")
     camera_mean_mm: float = float("nan")
     camera_noise_mm: float = float("nan")
+    camera_points: int = 0
     frames: int = 1
 
 
@@ -549,9 +551,9 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     found = residuals(frames, planes, [], centre, SHOWN_GATE)
     out = {}
     for j in planes:
-        out[j - 1] = ViewAgreement(*_agreement(found, j), found.with_camera(j), _noise_mm(found, j),
-                                   *_agreement(found, j, camera_only=True), _noise_mm(found, j, camera_only=True),
-                                   len(frames))
+        out[j - 1] = ViewAgreement(*_agreement(found, j), int(np.count_nonzero(found.involving(j))),
+                                   _noise_mm(found, j), *_agreement(found, j, camera_only=True),
+                                   _noise_mm(found, j, camera_only=True), found.with_camera(j), len(frames))
     return out
 
 

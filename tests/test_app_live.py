@@ -673,15 +673,29 @@ def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
     assert "cannot be checked (put the object in view)" in agreement_line("left", ViewAgreement(nan, nan, 0, nan))
 
 
+def test_a_mirror_seen_too_little_by_the_others_is_not_judged():
+    """Fewer comparisons than fix a plane in the refinement judge nothing (26 with the camera flagged a box's mirror
+    one way, then the other, a helper); few with the camera leave the judgement to those with the mirrors."""
+    few = agreement_line("left", ViewAgreement(30.0, -9.0, 150, 11.7, 30.0, -9.0, 9.0, 26, frames=5))
+    assert few == ("left: too little of what it shows is seen by another view to judge its plane (150 points seen "
+                   "both ways over 5 frames, 200 needed): put the object where the camera and the mirror both see "
+                   "its sides (a person, a sphere), or check its markers' grades")
+    arc = ViewAgreement(10.0, 0.5, 7565, 11.7, 30.0, -9.0, 9.0, 42, frames=5)      # the middle mirror of an arc
+    assert agreement_line("middle", arc).startswith("middle: agrees with the other views within 10.0 mm RMS")
+    assert agreement_line("middle", arc._replace(mean_mm=-4.0)).startswith(
+        "middle: ⚠ disagrees with the other mirrors (the camera sees too little of what it shows to say which is "
+        "off): RMS 10.0 mm against 11.7 mm of depth noise, mean -4.0 mm over 7,565 points")
+
+
 def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_one_at_fault_singled_out():
     """The comparisons with the camera single out the mirror at fault; one that agrees with the camera but not with
     another mirror says so instead of being told to fix itself (a helper: the neighbour had been fitted wrong)."""
-    good_camera = dict(camera_rms_mm=5.0, camera_mean_mm=0.5, camera_noise_mm=9.0)
-    tilted = agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0))         # 0.44 x 9 mm
+    good_camera = dict(camera_rms_mm=5.0, camera_mean_mm=0.5, camera_noise_mm=9.0, camera_points=800)
+    tilted = agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800))    # 0.44 x 9 mm
     assert tilted == ("left: ⚠ its points lie -4.0 mm from the camera's surface on average (RMS 8.0 mm, the depth "
                       "noise 9.0 mm; good planes within 3.6 mm) on one frame: its plane may be tilted or its boundary "
-                      "off; Refine from the object, or check its markers (900 points seen both ways)")
-    assert agreement_line("left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0)).startswith(
+                      "off; Refine from the object, or check its markers (800 points seen both ways)")
+    assert agreement_line("left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0, 800)).startswith(
         "left: ⚠ its points lie +0.5 mm from the camera's surface on average (RMS 9.04 mm, the depth noise 9.00 mm")
     neighbour = agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera))   # the mean: 0.34 x
     assert neighbour == ("right: ⚠ agrees with the camera (mean +0.5 mm) but not with the other mirrors: RMS 10.1 mm "
@@ -693,7 +707,7 @@ def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_o
     assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(
         "right: agrees with the other views within 10.1 mm RMS")
     # without figures against the camera alone, all the comparisons are judged together
-    assert "agrees with the camera but not with the other mirrors" in agreement_line(
+    assert "⚠ disagrees with the other mirrors (the camera sees too little" in agreement_line(
         "right", ViewAgreement(15.2, 0.4, 900, 11.7))
 
 
