@@ -235,7 +235,7 @@ class SessionEditor:
     @_edits
     def set_marker_offset(self, mirror_id: int, metres: float) -> None:
         """How far the mirror's markers stand in front of its reflecting surface (the glass), 0 to
-        MAX_MARKER_OFFSET metres; the plane stays (fit again to use it)."""
+        MAX_MARKER_OFFSET metres; the plane stays (fit again to use it: glass_unused)."""
         mirror = self.mirror(mirror_id)
         if not (np.isfinite(metres) and 0 <= metres <= MAX_MARKER_OFFSET):
             raise MirrorscanError(f"{mirror.name}: the glass in front of the silver must be 0 to "
@@ -310,6 +310,18 @@ class SessionEditor:
         with self._lock:
             steps = self._undo.get(scope)
             return steps[-1].label if steps else None
+
+    def glass_unused(self, mirror_id: int) -> bool:
+        """Whether the mirror's glass was typed in after its plane was set (its undo steps, newest first, change the
+        glass before they change the plane): the plane stands where the last fit put it until the next fit (a
+        helper typed 4 mm and took the plane for moved)."""
+        with self._lock:
+            for step in reversed(self._undo.get(mirror_id, [])):
+                if step.before.plane != step.after.plane:
+                    return False
+                if step.before.marker_offset != step.after.marker_offset:
+                    return step.after.plane is not None
+            return False
 
     def redo_label(self, scope: int) -> str | None:
         with self._lock:

@@ -20,7 +20,7 @@ from mirrorcore.calibration import calibration_depth
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
-from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.errors import CalibrationError, Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.palette import heat_map_colours
 from mirrorcore.pipeline import prepare_frame
@@ -100,6 +100,7 @@ class Jobs:
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
+        self.refused: set[tuple] = set()           # the planes (planes_key) a refinement was refused on
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
@@ -266,7 +267,11 @@ class Jobs:
         progress = lambda f: self.bus.publish(JobProgress(  # noqa: E731
             REFINE, f, f"{doing} from the object seen directly and in the mirrors, over {used}…"))
         if search is None:
-            refined, result = refine_session(session, depths, masks, progress=progress, cancel=cancel)
+            try:
+                refined, result = refine_session(session, depths, masks, progress=progress, cancel=cancel)
+            except CalibrationError:
+                self.refused.add(planes_key(session))
+                raise
         else:
             refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
                                               cancel)

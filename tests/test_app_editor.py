@@ -171,6 +171,23 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
     assert editor.undo_label(1) == "plane of mirror 1" and editor.mirror(1).marker_offset == 0.004
 
 
+def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(editor):
+    """The glass typed in moves no plane (the next fit uses it): the editor tells from its undo steps (a helper typed
+    4 mm and took the plane for moved)."""
+    assert not editor.glass_unused(1)
+    editor.set_marker_offset(1, 0.004)                          # no plane yet: nothing to say
+    assert not editor.glass_unused(1)
+    editor.set_planes({1: (PLANE, editor.mirror(1))})
+    assert not editor.glass_unused(1)
+    editor.set_marker_offset(1, 0.003)
+    editor.add_marker(1, (5, 5))                                # a later marker does not hide it
+    assert editor.glass_unused(1)
+    editor.set_planes({1: (replace(PLANE, d=PLANE.d + 0.003), editor.mirror(1))})   # fitted again
+    assert not editor.glass_unused(1)
+    editor.undo(1)
+    assert editor.glass_unused(1)
+
+
 def test_session_round_trip_through_the_editor(editor, tmp_path):
     editor.add_marker(1, (10, 20))
     editor.set_boundary(1, [(0, 0), (200, 0), (200, 200), (0, 200)])

@@ -18,7 +18,7 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
+from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, planes_key, refined_headline
 from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
@@ -30,7 +30,7 @@ from app.tab import MAX_LAG_S, SETTLING_S, Tab
 from app.view import label_anchor, same_place
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
-from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.errors import CalibrationError, Cancelled, MirrorscanError
 from mirrorcore.fitting import fit_cylinder, fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
@@ -592,6 +592,26 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
         app_.editor.rename_mirror(1, "mirror 1")
 
 
+def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypatch):
+    """After a refinement was refused on these planes, the next step no longer sends the technician back to it for
+    the glass (a helper, a box on three mirrors: refused every time), but to typing the glass in."""
+    import app.jobs
+    app_, headless = demo
+    app_.loop.run_once()
+
+    def refused(*args, **kwargs):
+        raise CalibrationError("mirror 1: the camera and the mirror see too little of the same surface")
+    monkeypatch.setattr(app.jobs, "refine_session", refused)
+    headless.tab.header.refresh_hint()
+    assert "No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the object** measures it." in (
+        headless.tab.header.hint.content)
+    app_.jobs.start_refine(app_.editor).join(60)
+    assert planes_key(app_.editor.session) in app_.jobs.refused
+    headless.tab.header.refresh_hint()
+    assert "the refinement could not measure it on this object" in headless.tab.header.hint.content
+    app_.jobs.refused.clear()
+
+
 def test_reading_pixels_shows_one_note_at_a_time(demo):
     """Inspect clicks each show the pixel's reading; the previous note goes (at 1024x600 they stacked over the
     depth frame)."""
@@ -631,6 +651,14 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
     assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
         "Ready: the merged cloud is live. No glass set on left: **Mirrors › Refine from the object** measures it.")
+    assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",), refused=True) == (
+        "Ready: the merged cloud is live. No glass set on left, and the refinement could not measure it on this "
+        "object (its reason is under *Mirrors*): type it under **Mirrors › Rename, glass, remove, clear** if you "
+        "know it, then fit again; or refine on an object that the camera and the mirrors see from the side (a "
+        "person, a sphere).")
+    assert start_hint(done, TabState(mirror_id=1), True, True, glass_unused=("left",)) == (
+        "The glass typed in for left is not in its plane yet: select it and **Mirrors › Fit plane** moves the plane "
+        "behind the glass.")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
     assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
     marked = replace(done.mirrors[0], plane=None)
@@ -638,6 +666,9 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "left: **Fit plane**.")
     two = Session(tmp_path, session.camera, mirrors=(marked, replace(marked, name="right", id=2)))
     assert start_hint(two, TabState(mirror_id=1), True, True) == "left and right: **Fit all planes**."
+    bare = Session(tmp_path, session.camera, mirrors=(done.mirrors[0], replace(marked, name="top", id=2, markers=())))
+    assert start_hint(bare, TabState(mirror_id=1), True, True) == (
+        "Now top: select it and do the same (no markers: click 3 or more, or **Find the planes from the object**).")
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers

@@ -192,6 +192,9 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     placed = replace(mirror, plane=Plane.from_abcd([0.0, 0.0, -1.0, 2.0]), marker_offset=0.0042)
     assert mirror_status(placed, False) == "plane calibrated · glass 4.2 mm · 1 marker"
     assert mirror_status(placed, True).startswith("plane from the object · ")
+    assert mirror_status(placed, False, glass_unused=True) == (
+        "plane calibrated · glass 4.2 mm, not in the plane yet: **Fit plane** moves it behind the "
+        "glass · 1 marker")
     measured = replace(placed, marker_offset=0.0)              # the refinement measured no glass: not "none set"
     assert mirror_status(measured, True) == "plane from the object · glass 0.0 mm · 1 marker"
     assert mirror_status(measured, False).startswith("plane calibrated · no glass set")
@@ -603,6 +606,31 @@ def test_a_session_file_written_by_calibrate_reaches_the_open_tabs(tmp_path, not
         app.stop()
 
 
+def test_fit_all_fits_the_mirrors_with_markers_and_names_the_others(tmp_path, notes):
+    """A mirror without markers (the figure hid them) no longer stops Fit all from fitting the others (it had refused
+    the lot, while the start hint offered it: a helper, three mirrors around a person); the note names it."""
+    sim = Simulator(paper_scene(object="sphere"), seed=3)
+    write_session(sim, tmp_path / "half", 2, progress=False)
+    session = load_session(tmp_path / "half")
+    session = replace(session, mirrors=(session.mirrors[0], replace(session.mirrors[1], markers=())))
+    save_session(session)
+    app = MirrorscanApp(session, SessionSource(session), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            kinds: list = []
+            said = notes(app, kinds)
+            wait_for(lambda: app.last_frame is not None, 30, "the first frame")
+            panel(headless.tab, MirrorsPanel).fit_all_planes()
+            first, second = app.editor.session.mirrors
+            assert first.plane is not None and first.plane.angle_to(sim.planes[0]) < 0.5 and second.plane is None
+            assert said[-1].startswith("Applied: mirror 1 ") and kinds[-1][0] == "warning"
+            assert said[-1].endswith("mirror 2: no markers, left as it is (click 3 or more, or Find the planes from "
+                                     "the object).")
+    finally:
+        app.stop()
+
+
 def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(tmp_path):
     """The technician only drew the boundaries: the Mirrors step offers to find the planes from the object, over the
     recording's frames spread as `mirrorscan calibrate --method scene` picks them (the same result whenever it is
@@ -623,6 +651,9 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             with pytest.raises(MirrorscanError, match="mirror 1 has no markers: click 3 or more in Markers mode, or "
                                                       "use Find the planes from the object"):
                 mirrors.fit_planes([m.id for m in app.editor.session.mirrors])
+            with pytest.raises(MirrorscanError, match="no mirror has markers: click 3 or more on each in Markers "
+                                                      "mode, or use Find the planes from the object"):
+                mirrors.fit_all_planes()
             assert "**Find the planes from the object** (no markers)" in headless.tab.header.hint.content
             app.jobs.start_scene(app.editor)
             wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240,

@@ -15,7 +15,7 @@ from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged
-from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs
+from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs, planes_key
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -88,11 +88,13 @@ def _swatch(colour, text: str) -> str:
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
                playback: str = "live", calibrating: bool = False, recording: bool = False,
-               no_glass: tuple[str, ...] = ()) -> str:
+               no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (), refused: bool = False) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: a calibration from the
     object runs; recording: the live frames are being recorded; no_glass: the mirrors whose planes come from markers
-    with no glass set (_no_glass)."""
+    with no glass set (_no_glass); glass_unused: those whose glass was typed in after their plane was fitted
+    (SessionEditor.glass_unused); refused: a refinement was refused on these planes (it cannot measure the glass
+    here: a helper was sent back to it after every refusal)."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
@@ -121,9 +123,15 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         if len(ready) > 1:
             return f"{' and '.join(ready)}: **Fit all planes**."
         return f"{mirror.name}: **Fit plane**."
-    todo = [m.name for m in session.mirrors if m.plane is None or not m.boundary]
+    todo = [m for m in session.mirrors if m.plane is None or not m.boundary]
     if todo:
-        return f"Now {todo[0]}: select it and do the same."
+        how = (" (no markers: click 3 or more, or **Find the planes from the object**)"
+               if todo[0].boundary and not todo[0].markers else "")
+        return f"Now {todo[0].name}: select it and do the same{how}."
+    if glass_unused:
+        planes = "its plane" if len(glass_unused) == 1 else "their planes"
+        return (f"The glass typed in for {' and '.join(glass_unused)} is not in {planes} yet: select it and "
+                "**Mirrors › Fit plane** moves the plane behind the glass.")
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
     if playback == "paused":
@@ -132,6 +140,11 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if playback == "recording":
         return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to** the "
                 "live source (above) when done.")
+    if no_glass and refused:
+        return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}, and the refinement could "
+                "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
+                "glass, remove, clear** if you know it, then fit again; or refine on an object that the camera and "
+                "the mirrors see from the side (a person, a sphere).")
     if no_glass:
         return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}: **Mirrors › Refine from "
                 "the object** measures it.")
@@ -225,9 +238,12 @@ class LivePanel:
         snapshot = services.snapshot
         playback = ("paused" if services.paused else "live" if services.source is services.start_source
                     else "recording")
-        hint = start_hint(snapshot.session, self.tab.state, services.last_frame is not None,
-                          snapshot.background is not None, playback, self._calibrating, self._recording,
-                          _no_glass(services.jobs, snapshot.session))
+        session, jobs = snapshot.session, services.jobs
+        unused = tuple(m.name for m in session.mirrors if services.editor.glass_unused(m.id)
+                       and not jobs.from_object(m.id, m.plane))
+        hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
+                          playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
+                          planes_key(session) in jobs.refused)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:

@@ -136,7 +136,7 @@ class MirrorsPanel:
         self.mode.on_click(lambda e: self._set_mode(CLICK_MODES[e.target.value]))
         self.add.on_click(lambda _: act(self._add))
         self.fit.on_click(lambda _: act(lambda: self.fit_planes([self._id()])))
-        self.fit_all.on_click(lambda _: act(lambda: self.fit_planes([m.id for m in editor.session.mirrors])))
+        self.fit_all.on_click(lambda _: act(self.fit_all_planes))
         self.apply.on_click(lambda _: act(self._apply))
         self.discard.on_click(lambda _: act(self._discard))
         self.undo.on_click(lambda _: act(lambda: self._travel(editor.undo)))
@@ -328,10 +328,21 @@ class MirrorsPanel:
             raise MirrorscanError("a fit from the markers waits: apply or discard it first")
         start(self.services.editor)
 
-    def fit_planes(self, mirror_ids: list[int]) -> None:
+    def fit_all_planes(self) -> None:
+        """Fit every mirror that has markers (fit_planes); those without are left as they are and named in the note
+        (Fit all had refused the lot for one mirror without markers, which the start hint had not counted: a
+        helper, three mirrors around a person)."""
+        mirrors = self.services.editor.session.mirrors
+        if not any(m.markers for m in mirrors):
+            raise MirrorscanError("no mirror has markers: click 3 or more on each in Markers mode, or use Find the "
+                                  "planes from the object (no markers)")
+        self.fit_planes([m.id for m in mirrors if m.markers], tuple(m.name for m in mirrors if not m.markers))
+
+    def fit_planes(self, mirror_ids: list[int], without_markers: tuple[str, ...] = ()) -> None:
         """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A fit
         that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once.
-        Refused while a calibration from the object runs: it applies what it computed on the planes as they were."""
+        Refused while a calibration from the object runs: it applies what it computed on the planes as they were.
+        without_markers : the names of the mirrors Fit all left out, for the note."""
         if self.services.jobs.running(REFINE):
             raise MirrorscanError("a calibration from the object runs: wait for it, or cancel it, then fit")
         depth = self.services.jobs.marker_frames()
@@ -365,8 +376,8 @@ class MirrorsPanel:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
             self._check_agreement()
-        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits),
-                             "warning" if waits else "info")
+        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
+                             "warning" if waits or without_markers else "info")
         self.tab.changed()
 
     def _check_agreement(self) -> None:
@@ -401,8 +412,9 @@ class MirrorsPanel:
             self.name.value = selected.name
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
-        self.status.content = mirror_status(selected, selected is not None and self.services.jobs.from_object(
-            selected.id, selected.plane))
+        from_object = selected is not None and self.services.jobs.from_object(selected.id, selected.plane)
+        unused = selected is not None and not from_object and editor.glass_unused(selected.id)
+        self.status.content = mirror_status(selected, from_object, unused)
         if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
             self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
         refining = self.services.jobs.running(REFINE)
@@ -516,18 +528,21 @@ def _nearest(points, uv) -> int | None:
     return k if dist[k] <= PICK_RADIUS else None
 
 
-def fit_note(fits, waits: bool) -> str:
+def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     """A markers fit in a notification's plain words (it is in view whatever the panel's scroll, where the report may
-    be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set.
-    fits : (Calibration, SessionMirror, FitReview) each."""
+    be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set;
+    then the mirrors left out for want of markers. fits : (Calibration, SessionMirror, FitReview) each."""
     names = " and ".join(m.name for _, m, _ in fits)
+    them = "it is" if len(without_markers) == 1 else "they are"
+    left = (f" {' and '.join(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
+            "from the object)." if without_markers else "")
     if waits:
         return (f"A new plane for {names} waits, not applied: look at it under Mirrors (the crossed markers), then "
-                "Apply or Discard it.")
+                f"Apply or Discard it.{left}")
     rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
     glass = ("; glass 0 mm: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
              else "")
-    return f"Applied: {rms}{glass}. The report is under Mirrors."
+    return f"Applied: {rms}{glass}. The report is under Mirrors.{left}"
 
 
 def _fit_report(fits, applied: str = "") -> str:
@@ -539,14 +554,17 @@ def _fit_report(fits, applied: str = "") -> str:
     return "\n\n".join(lines)
 
 
-def mirror_status(mirror: SessionMirror | None, from_object: bool) -> str:
+def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused: bool = False) -> str:
     """One line on a mirror: where its plane stands (none yet, calibrated, or from the object: a refinement or
     search of this app), its markers' glass (mm in front of the silver: set, or measured by the refinement, 0
-    included; none without markers) and how many markers it has."""
+    included; none without markers; glass_unused: typed in after the plane was fitted, which it does not move yet)
+    and how many markers it has."""
     if mirror is None:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
     glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if mirror.marker_offset or from_object else "no glass set"
+    if glass_unused:
+        glass += ", not in the plane yet: **Fit plane** moves it behind the glass"
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
