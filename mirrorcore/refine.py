@@ -450,8 +450,9 @@ def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: i
             raise CalibrationError(
                 f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
                 f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed, "
-                f"or as many with a mirror whose plane is fixed: {others} with the other mirrors); use more "
-                "frames, or an object that both see from the side (a person, a sphere), not a flat face")
+                f"or as many with a mirror whose plane is fixed: {others} with the other mirrors); refine on an "
+                "object that both see from the side (a person, a sphere), not a flat face, or on more frames of one "
+                "that moves")
     return counts
 
 

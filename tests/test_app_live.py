@@ -847,9 +847,11 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     live = Jobs(SimpleNamespace(source=SimpleNamespace(frame_count=0)), lambda: None, EventBus())
     live._pool_heat(first, 3, np.zeros(2), np.ones(2, int))
     assert live.heat_wanted(frame(3))                             # a camera's frames are all new
-    assert f"the last {HEAT_POOL} frames, against the camera's surface (> 0: outside it):<br>left: median -0.4 mm " \
-           "over 7% of" in text
+    assert f"the last {HEAT_POOL} frames, against the camera's surface (> 0: outside it):<br>left: median -0.4 mm, " \
+           "7% of its points compared" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
+    assert "left: median -1.4 mm, under 1% of its points compared" in heat_legend_html({1: (-1.44, 0.004)}, 1,
+                                                                                       {1: "left"}.get)
     assert "hardly the glass (3 mm reads 0.2 mm): <b>Refine from the object</b> measures that" in text
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)
     assert "Refine from the object" not in refined and "these planes come from the object" in refined

@@ -157,6 +157,10 @@ def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "see too little of the same surface" in err
     assert (box / "session.json").read_bytes() == before
+    assert main(["calibrate", str(box), "--method", "markers", "--refine", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()                         # the markers fit printed, then refused: said so
+    assert err.endswith("(nothing written: without --refine, the markers fit alone is written)")
+    assert (box / "session.json").read_bytes() == before
     assert main(["calibrate", str(box), "--refine", "--refine-with", "sphere", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "frame 0: the object is not a sphere in the view of" in err, err

@@ -92,5 +92,10 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
     if method is None and unset:
         raise CalibrationError(f"{unset[0]}: no plane to refine yet; fit the planes first and then refine them: "
                                f"mirrorscan calibrate {session.root} --method markers --refine")
-    return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),
-                          progress=progress, with_=args.refine_with)
+    try:
+        return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),
+                              progress=progress, with_=args.refine_with)
+    except CalibrationError as exc:
+        if method is None:
+            raise
+        raise CalibrationError(f"{exc} (nothing written: without --refine, the {method} fit alone is written)") from exc

@@ -64,13 +64,20 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
     view); then what the map can show (HEAT_READS) and what measures the glass: the refinement, or (`refined`: every
     plane came from it) that it did."""
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
-    lines = [f"{escape(name(j))}: median {median:+.1f} mm over {share:.0%} of its points" if np.isfinite(median)
-             else f"{escape(name(j))}: none of its points seen by the camera" for j, (median, share) in figures.items()]
+    lines = [f"{escape(name(j))}: median {median:+.1f} mm, {_share(share)} of its points compared"
+             if np.isfinite(median) else f"{escape(name(j))}: none of its points seen by the camera"
+             for j, (median, share) in figures.items()]
     over = "this frame" if frames == 1 else f"the last {frames} frames"
     body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures
             else "computing the heat map…")
     reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS)
     return f'<div style="{LEGEND_STYLE}">{key}<br>{body}<br><i>{reads}</i></div>'
+
+
+def _share(share: float) -> str:
+    """A share of a view's points, as a percentage: 'under 1%' for a few ('over 0% of its points' read as nothing
+    behind the median: a helper)."""
+    return f"{share:.0%}" if share >= 0.005 else "under 1%"
 
 
 def _from_object(jobs: Jobs, session: Session) -> bool:
