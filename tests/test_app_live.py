@@ -637,8 +637,9 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(edged, TabState(mirror_id=1), True, False) == (
         "Look at the **Depth frame** (View, below); left: choose **Markers** and click a marker on the mirror, or "
         "**Find the planes from the object** (no markers).")
-    assert start_hint(edged, TabState(mirror_id=1), True, False, calibrating=True).startswith(
-        "A calibration from the object runs: ")
+    assert start_hint(edged, TabState(mirror_id=1), True, False, calibrating=0.45) == (
+        "A calibration from the object runs (45% done): its progress, **Cancel** and then its report are under "
+        "*Mirrors*.")
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click a marker on the mirror, or **Find the planes from the object** (no markers).")
     one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))

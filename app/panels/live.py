@@ -24,6 +24,7 @@ LAG_NOTE_S = 5.0           # seconds the header says a tab lagged after it last 
 PROCESS_WINDOW = 30        # frames: the header gives the median of their processing times (one frame's jumps
                            # with whatever else the machine does)
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
+PROGRESS_STEP = 0.05       # the start hint gives a calibration's progress in steps of this
 LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"   # the panel's text is inset so; raw HTML is not
 
 
@@ -94,11 +95,11 @@ def _swatch(colour, text: str) -> str:
 
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
-               playback: str = "live", calibrating: bool = False, recording: bool = False,
+               playback: str = "live", calibrating: float | None = None, recording: bool = False,
                no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (), refused: bool = False) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
-    from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: a calibration from the
-    object runs; recording: the live frames are being recorded; no_glass: the mirrors whose planes come from markers
+    from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
+    the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors whose planes come from markers
     with no glass set (_no_glass); glass_unused: those whose glass was typed in after their plane was fitted
     (SessionEditor.glass_unused); refused: a refinement was refused on these planes (it cannot measure the glass
     here: a helper was sent back to it after every refusal)."""
@@ -109,9 +110,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
                 "stands.")
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
-    if calibrating:
-        return ("A calibration from the object runs: its progress, **Cancel** and then its report are under "
-                "*Mirrors*.")
+    if calibrating is not None:
+        return (f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then its "
+                "report are under *Mirrors*.")
     if state.proposal_for:
         return (f"A new plane for {' and '.join(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
                 "it.")
@@ -203,7 +204,8 @@ class LivePanel:
         self.frame_object.on_click(lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object())))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
-        self._calibrating, self._recording = services.jobs.running(REFINE), services.jobs.running(RECORD)
+        self._calibrating = 0.0 if services.jobs.running(REFINE) else None      # how far, while one runs
+        self._recording = services.jobs.running(RECORD)
         self._unsubscribe = [services.bus.subscribe(LoopChanged, self._on_loop),
                              services.bus.subscribe(JobProgress, self._on_job)]
         self._last_stats = 0.0
@@ -216,13 +218,15 @@ class LivePanel:
             unsubscribe()
 
     def _on_job(self, event: JobProgress) -> None:
-        """A calibration from the object or a recording began or ended: the hint says so, then what comes next."""
-        running = event.fraction is not None
-        if event.job == REFINE and running != self._calibrating:
-            self._calibrating = running
-            self.refresh_hint()
-        elif event.job == RECORD and running != self._recording:
-            self._recording = running
+        """A calibration from the object or a recording began or ended: the hint says so (for the calibration, how far
+        it is, by 5 %: at 1024x600 its progress bar is below the fold), then what comes next."""
+        if event.job == REFINE:
+            done = None if event.fraction is None else PROGRESS_STEP * np.floor(event.fraction / PROGRESS_STEP)
+            if done != self._calibrating:
+                self._calibrating = done
+                self.refresh_hint()
+        elif event.job == RECORD and (event.fraction is not None) != self._recording:
+            self._recording = event.fraction is not None
             self.refresh_hint()
 
     def _on_loop(self, event: LoopChanged) -> None:
