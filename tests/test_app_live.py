@@ -612,6 +612,26 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     app_.jobs.refused.clear()
 
 
+def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes):
+    """The agreement lines may be out of view (at 1024x600 two screens down): a mirror they flag is also named in a
+    notification, once per verdict (a helper read only the fit's "Applied")."""
+    app_, headless = demo
+    kinds: list = []
+    said = notes(app_, kinds)
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    good = "mirror 1: agrees with the other views within 13.4 mm RMS over 5 frames"
+    bad = "mirror 2: ⚠ its points lie -4.2 mm from the camera's surface on average"
+    ended = lambda status: JobProgress("agreement", None, status)                  # noqa: E731
+    mirrors._on_job(ended(good))
+    assert said == []
+    mirrors._on_job(ended(f"{good}\n\n{bad}"))
+    assert said == ["mirror 2: ⚠ its view disagrees with the others beyond the depth noise; why and what to do are "
+                    "under Mirrors, below the buttons."] and kinds == [("warning", False)]
+    mirrors._on_job(ended(f"{good}\n\n{bad}"))                                   # the same verdict again: once
+    mirrors._on_job(ended(f"{bad.replace('2', '1')}\n\n{bad}"))
+    assert len(said) == 2 and said[-1].startswith("mirror 1 and mirror 2: ⚠ their views disagree")
+
+
 def test_reading_pixels_shows_one_note_at_a_time(demo):
     """Inspect clicks each show the pixel's reading; the previous note goes (at 1024x600 they stacked over the
     depth frame)."""

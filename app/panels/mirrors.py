@@ -48,6 +48,7 @@ class MirrorsPanel:
         gui, self.tab, self.services = tab.gui, tab, tab.services
         self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
         self._result_note = None            # the notification of the last calibration from the object, while it holds
+        self._flagged = ""                  # the agreement lines last warned of in a notification
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
         self.add = gui.add_button("Add a mirror")
@@ -129,6 +130,19 @@ class MirrorsPanel:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
             self.agreement.content = markdown(event.status)
+            if event.fraction is None:
+                self._warn_disagreement(event.status)
+
+    def _warn_disagreement(self, lines: str) -> None:
+        """A notification naming the mirrors the agreement lines flag (⚠), once per verdict: the lines may be out of
+        view (at 1024x600 two screens down, and the fit's note had said only "Applied": a helper)."""
+        flagged = [line.split(":")[0] for line in lines.split("\n\n") if "⚠" in line]
+        if flagged and lines != self._flagged:
+            views = "its view disagrees" if len(flagged) == 1 else "their views disagree"
+            self.services.notify(self.tab.client, "The views disagree",
+                                 f"{' and '.join(flagged)}: ⚠ {views} with the others beyond the depth noise; why and "
+                                 "what to do are under Mirrors, below the buttons.", "warning")
+        self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
         editor, act = self.services.editor, self.tab.act
