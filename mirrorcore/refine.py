@@ -447,12 +447,13 @@ def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: i
     for j, name in zip(refined, names):
         if j not in counts:
             others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
+            mirrors = (f"; the {others:,} it shares with the other mirrors fix nothing, as the camera fixes none of "
+                       "them" if others >= MIN_AGREEMENTS else "")
             raise CalibrationError(
                 f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
-                f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed, "
-                f"or as many with a mirror whose plane is fixed: {others} with the other mirrors); refine on an "
-                "object that both see from the side (a person, a sphere), not a flat face, or on more frames of one "
-                "that moves")
+                f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed"
+                f"{mirrors}); refine on an object that both see from the side (a person, a sphere), not a flat "
+                "face, or on more frames of one that moves")
     return counts
 
 

@@ -18,9 +18,9 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, MirrorRefinement, marker_offset,
-                              moved_plane, offset_at, refine_planes, refine_session, reflection_jacobian,
-                              view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, MirrorRefinement, _fixed_by,
+                              _Residuals, marker_offset, moved_plane, offset_at, refine_planes, refine_session,
+                              reflection_jacobian, view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -454,3 +454,26 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     worse = replace(report, noise_mm=4.0)
     assert "⚠ its points agree with the other views less well than the depth noise explains (RMS" in worse.summary()
     assert worse.summary().split("; the data fix")[0].endswith("4.00 mm RMS): check its boundary")
+
+
+def _comparisons(*pairs: tuple[int, int, int]) -> _Residuals:
+    """Residuals with `count` comparisons of view a's readings against view b's, for each (a, b, count)."""
+    pair = np.array([(a, b) for a, b, count in pairs for _ in range(count)]).reshape(-1, 2)
+    zeros = np.zeros(len(pair))
+    return _Residuals(np.zeros((len(pair), 3)), zeros, zeros + 1.0, pair)
+
+
+def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
+    """The middle mirror of an arc shares little with the camera and much with the mirrors beside it, which the camera
+    fixes; a cluster of mirrors that the camera fixes none of is refused, whatever they share (a box)."""
+    arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100), (2, 3, 100))
+    assert _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
+    assert _fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
+    box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
+    with pytest.raises(CalibrationError, match=r"^left: the camera and the mirror see too little of the same "
+                                               r"surface to determine its plane \(18 readings agree over 10 frame\(s\), "
+                                               r"200 are needed; the 5,000 it shares with the other mirrors fix "
+                                               r"nothing, as the camera fixes none of them\); refine on an object"):
+        _fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)
+    with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
+        _fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)
