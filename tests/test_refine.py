@@ -471,9 +471,9 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     assert _fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
     with pytest.raises(CalibrationError, match=r"^left: the camera and the mirror see too little of the same "
-                                               r"surface to determine its plane \(18 readings agree over 10 frame\(s\), "
-                                               r"200 are needed; the 5,000 it shares with the other mirrors fix "
-                                               r"nothing, as the camera fixes none of them\); refine on an object"):
+                                               r"surface to determine its plane \(18 readings agree over 10 "
+                                               r"frame\(s\), 200 are needed; the 5,000 it shares with the other "
+                                               r"mirrors fix nothing, as the camera fixes none of them\); refine on"):
         _fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)
     with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
         _fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)

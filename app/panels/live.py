@@ -99,10 +99,10 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
                no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (), refused: bool = False) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
-    the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors whose planes come from markers
-    with no glass set (_no_glass); glass_unused: those whose glass was typed in after their plane was fitted
-    (SessionEditor.glass_unused); refused: a refinement was refused on these planes (it cannot measure the glass
-    here: a helper was sent back to it after every refusal)."""
+    the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
+    whose planes come from markers with no glass set (_no_glass); glass_unused: those whose glass was typed in after
+    their plane was fitted (SessionEditor.glass_unused); refused: a refinement was refused on these planes (it
+    cannot measure the glass here: a helper was sent back to it after every refusal)."""
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
