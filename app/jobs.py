@@ -100,7 +100,7 @@ class Jobs:
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
-        self.refused: set[tuple] = set()           # the planes (planes_key) a refinement was refused on
+        self.refused: dict[int, str] = {}  # mirror id -> "refine" or "scene": refused on it, until one succeeds
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
@@ -266,15 +266,19 @@ class Jobs:
         masks = np.stack([prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1] for d in depths])
         progress = lambda f: self.bus.publish(JobProgress(  # noqa: E731
             REFINE, f, f"{doing} from the object seen directly and in the mirrors, over {used}…"))
-        if search is None:
-            try:
+        kind, ids = ("refine", [m.id for m in session.mirrors if m.plane is not None]) if search is None else (
+            "scene", [session.mirrors[i].id for i in search])
+        try:
+            if search is None:
                 refined, result = refine_session(session, depths, masks, progress=progress, cancel=cancel)
-            except CalibrationError:
-                self.refused.add(planes_key(session))
-                raise
-        else:
-            refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
-                                              cancel)
+            else:
+                refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
+                                                  cancel)
+        except CalibrationError:
+            self.refused.update(dict.fromkeys(ids, kind))
+            raise
+        for mirror_id in ids:
+            self.refused.pop(mirror_id, None)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
         changed = editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
@@ -526,13 +530,19 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
                 f"({found.camera_points:,} points seen both ways)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if doubt == "mirrors":
-        rms, noise = _apart(found.rms_mm, found.noise_mm)
         camera = (f"agrees with the camera (mean {found.camera_mean_mm:+.1f} mm) but not with the other mirrors"
                   if found.camera_points >= MIN_AGREEMENTS else
                   "disagrees with the other mirrors (the camera sees too little of what it shows to say which is off)")
-        return (f"{name}: ⚠ {camera}: RMS {rms} mm against {noise} mm of depth noise, {figures}, {_over(found)}. "
-                "Another mirror flagged against the camera is off; if none is, a plane is off along its normal: "
-                "Refine from the object")
+        limit = MEAN_EXPLAINS * found.noise_mm
+        if abs(found.mean_mm) > limit:         # what flags it, first: 'RMS 9.6 mm against 11.2' read as fine (a helper)
+            why = (f"its points lie {found.mean_mm:+.1f} mm from theirs on average, good planes within {limit:.1f} mm "
+                   f"(RMS {found.rms_mm:.1f} mm, the depth noise {found.noise_mm:.1f} mm")
+        else:
+            rms, noise = _apart(found.rms_mm, found.noise_mm)
+            why = f"RMS {rms} mm against {noise} mm of depth noise (mean {found.mean_mm:+.1f} mm"
+        return (f"{name}: ⚠ {camera}: {why}; {found.points:,} points seen both ways {_over(found)}). Another "
+                "mirror flagged against the camera is off; if none is, a plane is off along its normal: markers on "
+                "glass put it that much too near (set each mirror's glass and fit again), or Refine from the object")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS {_over(found)}, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
 

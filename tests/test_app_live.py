@@ -18,7 +18,7 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, planes_key, refined_headline
+from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
 from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
@@ -593,23 +593,33 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
 
 
 def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypatch):
-    """After a refinement was refused on these planes, the next step no longer sends the technician back to it for
-    the glass (a helper, a box on three mirrors: refused every time), but to typing the glass in."""
+    """After a refinement was refused, the next step no longer sends the technician back to it for the glass (a
+    helper, a box on three mirrors: refused every time), but to typing the glass in, also after the next fit (it had
+    gone back to the refinement then: a helper), until a refinement succeeds."""
     import app.jobs
     app_, headless = demo
     app_.loop.run_once()
+    real = app.jobs.refine_session
 
     def refused(*args, **kwargs):
         raise CalibrationError("mirror 1: the camera and the mirror see too little of the same surface")
     monkeypatch.setattr(app.jobs, "refine_session", refused)
+    hint = headless.tab.header.hint
     headless.tab.header.refresh_hint()
-    assert "No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the object** measures it." in (
-        headless.tab.header.hint.content)
+    assert "No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the object** measures it." in hint.content
     app_.jobs.start_refine(app_.editor).join(60)
-    assert planes_key(app_.editor.session) in app_.jobs.refused
+    ids = [m.id for m in app_.editor.session.mirrors]
+    assert app_.jobs.refused == dict.fromkeys(ids, "refine")
     headless.tab.header.refresh_hint()
-    assert "the refinement could not measure it on this object" in headless.tab.header.hint.content
-    app_.jobs.refused.clear()
+    assert "the refinement could not measure it on this object" in hint.content
+    mirror = app_.editor.mirror(ids[0])                                   # a fit moves a plane: still so
+    app_.editor.set_planes({ids[0]: (replace(mirror.plane, d=mirror.plane.d + 0.001), mirror)})
+    headless.tab.header.refresh_hint()
+    assert "the refinement could not measure it on this object" in hint.content
+    monkeypatch.setattr(app.jobs, "refine_session", real)                  # one that succeeds clears it
+    app_.jobs.start_refine(app_.editor).join(120)
+    assert app_.jobs.refused == {}
+    assert app_.editor.undo(ids[0]).startswith("refined planes") and app_.editor.undo(ids[0]).startswith("plane")
 
 
 def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes):
@@ -662,6 +672,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "*Mirrors*.")
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click a marker on the mirror, or **Find the planes from the object** (no markers).")
+    assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False,
+                      refused={1: "scene"}) == "left: click a marker on the mirror."      # not offered again
     one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))
     assert start_hint(one, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click more markers (3 or more, spread out) on the mirror.")        # markers begun: no second way
@@ -672,7 +684,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True).startswith("Ready: the merged cloud is live")
     assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
         "Ready: the merged cloud is live. No glass set on left: **Mirrors › Refine from the object** measures it.")
-    assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",), refused=True) == (
+    assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",), refused={1: "refine"}) == (
         "Ready: the merged cloud is live. No glass set on left, and the refinement could not measure it on this "
         "object (its reason is under *Mirrors*): type it under **Mirrors › Rename, glass, remove, clear** if you "
         "know it, then fit again; or refine on an object that the camera and the mirrors see from the side (a "
@@ -690,6 +702,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     bare = Session(tmp_path, session.camera, mirrors=(done.mirrors[0], replace(marked, name="top", id=2, markers=())))
     assert start_hint(bare, TabState(mirror_id=1), True, True) == (
         "Now top: select it and do the same (no markers: click 3 or more, or **Find the planes from the object**).")
+    assert start_hint(bare, TabState(mirror_id=1), True, True, refused={2: "scene"}) == (
+        "Now top: select it and do the same (no markers: click 3 or more).")
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
@@ -736,7 +750,8 @@ def test_a_mirror_seen_too_little_by_the_others_is_not_judged():
     assert agreement_line("middle", arc).startswith("middle: agrees with the other views within 10.0 mm RMS")
     assert agreement_line("middle", arc._replace(mean_mm=-4.0)).startswith(
         "middle: ⚠ disagrees with the other mirrors (the camera sees too little of what it shows to say which is "
-        "off): RMS 10.0 mm against 11.7 mm of depth noise, mean -4.0 mm over 7,565 points")
+        "off): its points lie -4.0 mm from theirs on average, good planes within 3.5 mm (RMS 10.0 mm, the depth "
+        "noise 11.7 mm; 7,565 points seen both ways over 5 frames)")
 
 
 def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_one_at_fault_singled_out():
@@ -750,12 +765,13 @@ def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_o
     assert agreement_line("left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0, 800)).startswith(
         "left: ⚠ its points lie +0.5 mm from the camera's surface on average (RMS 9.04 mm, the depth noise 9.00 mm")
     neighbour = agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera))   # the mean: 0.34 x
-    assert neighbour == ("right: ⚠ agrees with the camera (mean +0.5 mm) but not with the other mirrors: RMS 10.1 mm "
-                         "against 11.7 mm of depth noise, mean -4.0 mm over 900 points seen both ways, on one frame. "
-                         "Another mirror flagged against the camera is off; if none is, a plane is off along its "
-                         "normal: Refine from the object")
-    assert "but not with the other mirrors: RMS 15.2 mm against" in agreement_line(
-        "right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera))
+    assert neighbour == ("right: ⚠ agrees with the camera (mean +0.5 mm) but not with the other mirrors: its points "
+                         "lie -4.0 mm from theirs on average, good planes within 3.5 mm (RMS 10.1 mm, the depth noise "
+                         "11.7 mm; 900 points seen both ways on one frame). Another mirror flagged against the camera "
+                         "is off; if none is, a plane is off along its normal: markers on glass put it that much too "
+                         "near (set each mirror's glass and fit again), or Refine from the object")
+    assert "but not with the other mirrors: RMS 15.2 mm against 11.7 mm of depth noise (mean +0.4 mm; 900" in (
+        agreement_line("right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera)))
     assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(
         "right: agrees with the other views within 10.1 mm RMS")
     # without figures against the camera alone, all the comparisons are judged together
@@ -873,6 +889,7 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
     assert "left: median -1.4 mm, under 1% of its points compared" in heat_legend_html({1: (-1.44, 0.004)}, 1,
                                                                                        {1: "left"}.get)
-    assert "hardly the glass (3 mm reads 0.2 mm): <b>Refine from the object</b> measures that" in text
+    assert "(the sphere: 3 mm read 0.2 mm; a box: 4 mm read 2.8 mm): <b>Refine from the object</b> measures that" \
+        in text
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)
     assert "Refine from the object" not in refined and "these planes come from the object" in refined

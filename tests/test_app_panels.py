@@ -17,7 +17,7 @@ from app.events import JobProgress
 from app.jobs import agreement_line
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, mirror_status
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, mirror_status
 from app.panels.object import ObjectPanel
 from app.panels.record import RecordPanel
 from app.panels.session import SessionPanel
@@ -185,6 +185,15 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert kinds[-1] == ("info", False) and not mirrors.refine.disabled
 
 
+def test_a_long_refusal_is_shortened_in_its_notification():
+    long = ("not done: mirror 1: the camera and the mirror see too little of the same surface to determine its plane "
+            "(18 readings agree over 10 frame(s), 200 are needed; the 72,126 it shares with the other mirrors fix "
+            "nothing, as the camera fixes none of them); refine on an object that both see from the side")
+    assert _refusal_note(long) == ("not done: mirror 1: the camera and the mirror see too little of the same surface "
+                                   "to determine its plane; why and what to do are under Mirrors.")
+    assert _refusal_note("not done: a short one (here)") == "not done: a short one (here)"
+
+
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():
     mirror = SessionMirror("left", ((10.0, 10.0),), id=3)
     assert mirror_status(None, False) == ""
@@ -195,6 +204,9 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     assert mirror_status(placed, False, glass_unused=True) == (
         "plane calibrated · glass 4.2 mm, not in the plane yet: **Fit plane** moves it behind the "
         "glass · 1 marker")
+    assert mirror_status(placed, True, glass_unused=True) == (          # a helper typed 4 mm over a refined 2.8
+        "plane from the object · glass 4.2 mm typed in: the next markers fit uses it, this plane does not depend on "
+        "it · 1 marker")
     measured = replace(placed, marker_offset=0.0)              # the refinement measured no glass: not "none set"
     assert mirror_status(measured, True) == "plane from the object · glass 0.0 mm · 1 marker"
     assert mirror_status(measured, False).startswith("plane calibrated · no glass set")
@@ -297,7 +309,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     tab.state.mirror_id = 1
     mirrors.refresh()                                    # the selected mirror's line: its plane, glass and markers
     markers = len(app.editor.mirror(1).markers)
-    assert mirrors.status.content == f"plane from the object · glass 3.0 mm · {markers} markers"
+    assert mirrors.status.content == (f"plane from the object · glass 3.0 mm typed in: the next markers fit uses it, "
+                                      f"this plane does not depend on it · {markers} markers")
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
         app.editor.set_marker_offset(1, 0.08)
     tab.look("3d")

@@ -15,7 +15,7 @@ from mirrorcore.session import Session
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged
-from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs, planes_key
+from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -51,8 +51,10 @@ HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_
             (HEAT_UNCOMPARED, "not seen by the camera"))
 
 
-# what the map can show, as measured on the glass sphere (seed 1, ten frames: README), and what measures the glass
-HEAT_READS = "it shows a tilt (0.5° reads about 6 mm) or a wrong boundary, hardly the glass (3 mm reads 0.2 mm)"
+# what the map can show, as measured on the glass sphere (seed 1, ten frames: README) and on a box between three
+# mirrors (seed 2, a helper), and what measures the glass
+HEAT_READS = ("it shows a tilt (the sphere: 0.5° read 6 mm) or a wrong boundary; the glass only where the views see "
+              "the same face (the sphere: 3 mm read 0.2 mm; a box: 4 mm read 2.8 mm)")
 HEAT_GLASS = ": <b>Refine from the object</b> measures that"
 HEAT_REFINED = ": these planes come from the object, where the glass plays no part"
 
@@ -96,13 +98,15 @@ def _swatch(colour, text: str) -> str:
 
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
                playback: str = "live", calibrating: float | None = None, recording: bool = False,
-               no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (), refused: bool = False) -> str:
+               no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (),
+               refused: dict[int, str] | None = None) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
     the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
     whose planes come from markers with no glass set (_no_glass); glass_unused: those whose glass was typed in after
-    their plane was fitted (SessionEditor.glass_unused); refused: a refinement was refused on these planes (it
-    cannot measure the glass here: a helper was sent back to it after every refusal)."""
+    their plane was fitted (SessionEditor.glass_unused); refused: {mirror id: "refine" or "scene"}, what was refused
+    on it lately (Jobs.refused: a helper was sent back to it after every refusal)."""
+    refused = refused or {}
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
@@ -124,7 +128,8 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
         choose = "" if state.mode == "markers" else "choose **Markers** and "
-        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
+        scene = "" if mirror.markers or refused.get(mirror.id) == "scene" else (
+            ", or **Find the planes from the object** (no markers)")
         return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
         ready = [m.name for m in session.mirrors if m.plane is None and m.boundary and len(m.markers) >= 3]
@@ -133,13 +138,14 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return f"{mirror.name}: **Fit plane**."
     todo = [m for m in session.mirrors if m.plane is None or not m.boundary]
     if todo:
-        how = (" (no markers: click 3 or more, or **Find the planes from the object**)"
-               if todo[0].boundary and not todo[0].markers else "")
+        scene = "" if refused.get(todo[0].id) == "scene" else ", or **Find the planes from the object**"
+        how = f" (no markers: click 3 or more{scene})" if todo[0].boundary and not todo[0].markers else ""
         return f"Now {todo[0].name}: select it and do the same{how}."
     if glass_unused:
-        planes = "its plane" if len(glass_unused) == 1 else "their planes"
-        return (f"The glass typed in for {' and '.join(glass_unused)} is not in {planes} yet: select it and "
-                "**Mirrors › Fit plane** moves the plane behind the glass.")
+        return (f"The glass typed in for {' and '.join(glass_unused)} is not in its plane yet: select it and "
+                "**Mirrors › Fit plane** moves the plane behind the glass." if len(glass_unused) == 1 else
+                f"The glass typed in for {' and '.join(glass_unused)} is not in their planes yet: **Mirrors › Fit "
+                "all planes** moves them behind the glass.")
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
     if playback == "paused":
@@ -148,7 +154,7 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if playback == "recording":
         return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to** the "
                 "live source (above) when done.")
-    if no_glass and refused:
+    if no_glass and "refine" in refused.values():
         return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}, and the refinement could "
                 "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
                 "glass, remove, clear** if you know it, then fit again; or refine on an object that the camera and "
@@ -254,7 +260,7 @@ class LivePanel:
                        and not jobs.from_object(m.id, m.plane))
         hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
                           playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
-                          planes_key(session) in jobs.refused)
+                          jobs.refused)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:

@@ -39,6 +39,7 @@ NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in
 PROPOSAL_HEAD = ("**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it "
                  "(the calibration from the object waits for that).")
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
+NOTE_CHARS = 200           # a refusal longer than this is shortened in its notification (_refusal_note)
 
 
 class MirrorsPanel:
@@ -124,9 +125,11 @@ class MirrorsPanel:
             self.refine_progress.visible = running
             self._report(event.status)
             if not running:                         # its end, in view whatever the panel's scroll, until the
+                refused = event.status.startswith((NOT_DONE, FAILED))
+                headline = event.status.split("\n\n")[0]
                 self._result_note = self.services.notify(          # planes change again (_report)
-                    self.tab.client, "Calibration from the object", event.status.split("\n\n")[0],
-                    "error" if event.status.startswith((NOT_DONE, FAILED)) else "info", stay=True)
+                    self.tab.client, "Calibration from the object", _refusal_note(headline) if refused else headline,
+                    "error" if refused else "info", stay=True)
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
             self.agreement.content = markdown(event.status)
@@ -427,8 +430,8 @@ class MirrorsPanel:
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
         from_object = selected is not None and self.services.jobs.from_object(selected.id, selected.plane)
-        unused = selected is not None and not from_object and editor.glass_unused(selected.id)
-        self.status.content = mirror_status(selected, from_object, unused)
+        self.status.content = mirror_status(selected, from_object,
+                                            selected is not None and editor.glass_unused(selected.id))
         if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
             self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
         refining = self.services.jobs.running(REFINE)
@@ -542,6 +545,14 @@ def _nearest(points, uv) -> int | None:
     return k if dist[k] <= PICK_RADIUS else None
 
 
+def _refusal_note(refusal: str) -> str:
+    """A refusal for a notification: up to NOTE_CHARS whole, beyond that the words before its first parenthesis and
+    where the rest is (one of 400 characters had the notification's title cut off: a helper)."""
+    if len(refusal) <= NOTE_CHARS or " (" not in refusal:
+        return refusal
+    return f"{refusal[:refusal.index(' (')]}; why and what to do are under Mirrors."
+
+
 def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     """A markers fit in a notification's plain words (it is in view whatever the panel's scroll, where the report may
     be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set;
@@ -571,14 +582,15 @@ def _fit_report(fits, applied: str = "") -> str:
 def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused: bool = False) -> str:
     """One line on a mirror: where its plane stands (none yet, calibrated, or from the object: a refinement or
     search of this app), its markers' glass (mm in front of the silver: set, or measured by the refinement, 0
-    included; none without markers; glass_unused: typed in after the plane was fitted, which it does not move yet)
-    and how many markers it has."""
+    included; none without markers; glass_unused: typed in after the plane was set, which it does not move: a plane
+    from the markers until the next fit, one from the object not at all) and how many markers it has."""
     if mirror is None:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
     glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if mirror.marker_offset or from_object else "no glass set"
     if glass_unused:
-        glass += ", not in the plane yet: **Fit plane** moves it behind the glass"
+        glass += (" typed in: the next markers fit uses it, this plane does not depend on it" if from_object else
+                  ", not in the plane yet: **Fit plane** moves it behind the glass")
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
