@@ -138,7 +138,9 @@ class MirrorRefinement:
         if not searched:
             text = f"plane moved {self.shift_mm:+.2f} mm (> 0: away from the camera) and {self.tilt_deg:.3f}°; {text}"
         if self.sphere_radius_mm is None:
-            how = f"{METHOD_BIAS['surfaces']}; {self.agreements} points seen both ways"
+            whom = ("the camera" if self.agreements == self.camera_agreements else
+                    f"the camera and the mirrors that fix it, {self.camera_agreements:,} with the camera")
+            how = f"{METHOD_BIAS['surfaces']}; {self.agreements:,} points seen both ways with {whom}"
         else:
             how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it; "
                    f"{METHOD_BIAS['sphere']}")
