@@ -262,23 +262,34 @@ def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[
 
 
 # --------------------------------------------------------------------------------------------- the refinement
-def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
-                  progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
-                  max_disagreement: float = np.inf, with_: str = "auto") -> Refinement:
+@dataclass(frozen=True)
+class Leash:
+    """How far a refinement trusts the planes it starts from: `gate`, metres added at the start to what counts as
+    the same surface (halved at every iteration); `max_change` (metres at the object, degrees), the most a plane may
+    move, beyond which it has not settled; `max_disagreement`, the most a refined view may disagree with the others,
+    in units of what the depth noise explains; `camera_only`: each mirror must be fixed by the camera's readings
+    alone, not through other mirrors (_fixed_by). The default suits planes from markers; a search's guesses are held
+    tighter (search.FROM_SEARCH)."""
+
+    gate: float = 0.0
+    max_change: tuple[float, float] = MAX_CHANGE
+    max_disagreement: float = np.inf
+    camera_only: bool = False
+
+
+def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, progress: Progress | None = None,
+                  cancel=None, with_: str = "auto", leash: Leash = Leash()) -> Refinement:
     """Refine the planes of the rig's mirrors at `indices` (0-based; default every mirror with a plane) from frames.
 
     depths : (F, H, W) float metres as measured; masks : (F, H, W) bool, each frame's object (prepare_frame's)
-    gate : metres added to what counts as the same surface at the start (for planes found by a search, a few cm),
-    halved at every iteration; max_change : (metres at the object, degrees), the most a plane may move (MAX_CHANGE);
-    max_disagreement : the most a refined view may disagree with the others, in units of what the depth noise
-    explains (MAX_DISAGREEMENT for searched planes; by default no limit); with_ : what is compared (REFINE_WITH):
-    "auto" the sphere's centres when the object is a round sphere (SCATTER_AUTO) every view sees in every frame, else
-    the surfaces.
+    with_ : what is compared (REFINE_WITH): "auto" the sphere's centres when the object is a round sphere
+    (SCATTER_AUTO) every view sees in every frame, else the surfaces; leash : how far the start is trusted (Leash).
     Mirrors not refined keep their planes and still take part.
     Raises CalibrationError naming the mirror when it has no plane or boundary, when its views overlap too little to
-    determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG), when it does not settle (max_change) or
-    when its refined view disagrees more than max_disagreement allows; NotASphere (naming the frame and the view)
-    with "sphere" when the object is not one; Cancelled when `cancel` asks; progress(fraction) as it goes.
+    determine its plane (MIN_AGREEMENTS, MAX_SHIFT_STD, MAX_TILT_STD_DEG), when it does not settle (the leash's
+    max_change) or when its refined view disagrees more than the leash's max_disagreement allows; NotASphere (naming
+    the frame and the view) with "sphere" when the object is not one; Cancelled when `cancel` asks; progress(fraction)
+    as it goes.
     """
     indices = [i for i, m in enumerate(rig.mirrors) if m.plane is not None] if indices is None else list(indices)
     for i in indices:
@@ -294,18 +305,18 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
     refined = [i + 1 for i in indices]
-    limits = (*max_change, max_disagreement)
     sphere = _sphere(rig, depths, masks, refined, with_, progress, cancel)
     if sphere is not None:
-        return _from_sphere(rig, depths, masks, refined, sphere, limits, progress, cancel)
+        return _from_sphere(rig, depths, masks, refined, sphere, leash, progress, cancel)
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
-    planes, iterations, labelled = dict(start), 0, rig
+    planes, iterations, labelled, gate = dict(start), 0, rig, leash.gate
     for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
         frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0),
                                                                _fraction(iterations)))
         centre = np.mean([f.centre for f in frames], axis=0)
         planes, iterations, final, fixing = _iterate(frames, planes, refined, centre, gate, progress, cancel,
-                                                     iterations, [rig.mirrors[j - 1].name for j in refined])
+                                                     iterations, [rig.mirrors[j - 1].name for j in refined],
+                                                     leash.camera_only)
         gate = 0.0
         if all(abs(shift_at(labelled.mirrors[j - 1].plane, planes[j], centre)) < RELABEL for j in refined):
             break
@@ -314,7 +325,7 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations))
     reports = tuple(_report(rig, j, start[j], planes[j], centre, shown,
                             _determined(final, refined, j, rig.mirrors[j - 1].name, scatter.get(j)),
-                            (fixing[j], final.with_camera(j)), limits) for j in refined)
+                            (fixing[j], final.with_camera(j)), leash) for j in refined)
     if progress is not None:
         progress(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
@@ -337,15 +348,16 @@ def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int],
 
 
 def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], sphere: SpherePlanes,
-                 limits: tuple, progress, cancel) -> Refinement:
+                 leash: Leash, progress, cancel) -> Refinement:
     """The Refinement of the planes the sphere gave: the views' agreement before and after as the surfaces'
-    refinement reports it, how well the centres fix each plane, the same refusals (limits: _report's)."""
+    refinement reports it, how well the centres fix each plane, the same refusals (the leash's limits; its
+    camera_only plays no part: the centres fix each plane alone)."""
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes = {**start, **sphere.planes}
     frames = _views(_with_planes(rig, planes), depths, masks, cancel, _part(progress, SPHERE_PART, 0.97))
     shown = tuple(residuals(frames, p, refined, sphere.centre, SHOWN_GATE) for p in (start, planes))
     reports = tuple(replace(_report(rig, j, start[j], planes[j], sphere.centre, shown,
-                                    (sphere.shift_std[j], sphere.tilt_std[j]), (shown[1].with_camera(j),) * 2, limits),
+                                    (sphere.shift_std[j], sphere.tilt_std[j]), (shown[1].with_camera(j),) * 2, leash),
                             sphere_radius_mm=1e3 * sphere.radius) for j in refined)
     if progress is not None:
         progress(1.0)
@@ -376,12 +388,12 @@ def _fraction(iterations: int, within: float = 1.0) -> float:
     return 0.2 * within if iterations == 0 else 0.2 + 0.55 * (1.0 - float(np.exp(-iterations / 8.0)))
 
 
-def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names):
+def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names, camera_only):
     """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals, the
     agreements that fix each mirror); CalibrationError when a mirror's views overlap too little (_fixed_by)."""
     planes, iterations = _solve(frames, planes, refined, centre, gate, progress, cancel, iterations)
     final = residuals(frames, planes, refined, centre)
-    return planes, iterations, final, _fixed_by(final, refined, names, len(frames))
+    return planes, iterations, final, _fixed_by(final, refined, names, len(frames), camera_only)
 
 
 def _solve(frames, planes, refined, centre, gate, progress, cancel, iterations) -> tuple[dict[int, Plane], int]:
@@ -432,30 +444,39 @@ def _spread(values: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(values - np.median(values))))
 
 
-def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: int) -> dict[int, int]:
+def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: int,
+              camera_only: bool = False) -> dict[int, int]:
     """{mirror j: how many of its readings agree with those of the views that fix it} (both ways, all frames): the
     camera's and the mirrors' not refined, then, in turn, those of the mirrors these fixed: at least MIN_AGREEMENTS
     fix a mirror (on an arc of three, the middle mirror faces the camera and sees a person's back, the camera the
-    front: the mirrors beside it see the sides it shares). CalibrationError naming the first mirror nothing fixes:
-    its plane would be left free (a box facing the camera: the mirrors see only its sides and back)."""
-    fixing, counts = {0} | (set(np.unique(found.pair)) - set(refined)), {}
+    front: the mirrors beside it see the sides it shares). With `camera_only`, the camera's alone: a search's guess,
+    which is scored against the camera alone, had put that mirror 22 degrees off, where the mirrors beside it still
+    agreed with it within 1.3 times the noise. CalibrationError naming the first mirror nothing fixes: its plane
+    would be left free (a box facing the camera: the mirrors see only its sides and back)."""
+    fixing, counts = {0} if camera_only else {0} | (set(np.unique(found.pair)) - set(refined)), {}
     while True:
         more = {j: _shared(found, j, fixing) for j in refined if j not in counts}
         more = {j: n for j, n in more.items() if n >= MIN_AGREEMENTS}
         if not more:
             break
         counts.update(more)
-        fixing |= set(more)
+        if not camera_only:
+            fixing |= set(more)
     for j, name in zip(refined, names):
         if j not in counts:
             others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
-            mirrors = (f"; the {others:,} it shares with the other mirrors fix nothing, as the camera fixes none of "
-                       "them" if others >= MIN_AGREEMENTS else "")
+            if camera_only:
+                mirrors, advice = ("; a plane found without markers must be fixed by the camera itself",
+                                   "click markers on it and fit it, then refine from the object")
+            else:
+                mirrors = (f"; the {others:,} it shares with the other mirrors fix nothing, as the camera fixes none "
+                           "of them" if others >= MIN_AGREEMENTS else "")
+                advice = ("refine on an object that both see from the side (a person, a sphere), not a flat face, or "
+                          "on more frames of one that moves")
             raise CalibrationError(
                 f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
                 f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed"
-                f"{mirrors}); refine on an object that both see from the side (a person, a sphere), not a flat "
-                "face, or on more frames of one that moves")
+                f"{mirrors}); {advice}")
     return counts
 
 
@@ -492,21 +513,21 @@ def _determined(final: _Residuals, refined: list[int], j: int, name: str, scatte
 
 
 def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, shown: tuple[_Residuals, _Residuals],
-            determined: tuple[float, float], agreements: tuple[int, int], limits: tuple) -> MirrorRefinement:
-    """One mirror's report, or CalibrationError when it did not settle or it disagrees (limits: max_change's metres
-    and degrees, then max_disagreement).
+            determined: tuple[float, float], agreements: tuple[int, int], leash: Leash) -> MirrorRefinement:
+    """One mirror's report, or CalibrationError when it did not settle or it disagrees (the leash's max_change and
+    max_disagreement).
     shown : the comparisons before and after with SHOWN_GATE (the agreement reported); determined : (metres,
     degrees), how well the plane is known (1 sigma); agreements : its readings compared with those of the views that
     fix it, and with the camera's."""
     name = rig.mirrors[j - 1].name
     shift, tilt = shift_at(before, after, centre), before.angle_to(after)
-    if abs(shift) > limits[0] or tilt > limits[1]:
+    if abs(shift) > leash.max_change[0] or tilt > leash.max_change[1]:
         raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
                                f"and {tilt:.1f}°); check its boundary and its first calibration")
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
     noise = _noise_mm(shown[1], j)
-    if rms_after > limits[2] * noise:
+    if rms_after > leash.max_disagreement * noise:
         raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
                                "boundary, or click markers on it and fit it first")
@@ -569,17 +590,17 @@ def _noise_mm(found: _Residuals, j: int, camera_only: bool = False) -> float:
 
 
 # --------------------------------------------------------------------------------------------- sessions
-def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None, gate: float = 0.0,
-                   progress: Progress | None = None, cancel=None, max_change: tuple = MAX_CHANGE,
-                   max_disagreement: float = np.inf, with_: str = "auto") -> tuple[Session, Refinement]:
+def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indices=None,
+                   progress: Progress | None = None, cancel=None, with_: str = "auto",
+                   leash: Leash = Leash()) -> tuple[Session, Refinement]:
     """Refine the planes of a session's mirrors (all with a plane, or those at `indices`, 0-based) from frames
-    (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each; gate,
-    max_change, max_disagreement and with_ as there); all or nothing. Each refined mirror with usable markers also
+    (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each;
+    with_ and leash as there); all or nothing. Each refined mirror with usable markers also
     gets its marker_offset: how far its markers' faces stand in front of the refined plane (their readings' robust
     mean over the frames, marker_offset), with how well that is known.
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
-    result = refine_planes(rig, depths, masks, indices, gate, progress, cancel, max_change, max_disagreement, with_)
+    result = refine_planes(rig, depths, masks, indices, progress, cancel, with_, leash)
     reports = []
     for report in result.mirrors:
         mirror = session.mirrors[report.index]

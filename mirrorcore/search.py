@@ -18,7 +18,7 @@ from .geometry.camera import reproject_depth
 from .geometry.plane import Plane
 from .noise import axial_sigma
 from .progress import Progress, cancel_requested
-from .refine import MAX_DISAGREEMENT, MIN_AGREEMENTS, Refinement, refine_session
+from .refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
 from .rig import Mirror, Rig
 from .session import Session
 
@@ -38,6 +38,7 @@ NEARER = 0.02                        # ... from the found plane moved this much 
                                      # came back from planes 4 cm too near and 2 cm too far, not 4 cm too far (the
                                      # mirror's points then hide behind the object)
 SEARCH_CHANGE = (0.2, 15.0)          # metres, degrees: how far the refinement may move a searched plane
+FROM_SEARCH = Leash(SEARCH_GATE, SEARCH_CHANGE, MAX_DISAGREEMENT, camera_only=True)   # the refinement after it
 
 
 def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng: np.random.Generator,
@@ -175,20 +176,4 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
         if progress is not None:
             progress(0.5 * (k + 1) / len(indices))
     later = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
-    found = refine_session(session, depths, masks, indices, SEARCH_GATE, later, cancel, SEARCH_CHANGE,
-                           MAX_DISAGREEMENT, with_)
-    _require_camera(found[1])
-    return found
-
-
-def _require_camera(result: Refinement) -> None:
-    """CalibrationError naming a mirror found from the surfaces that the camera fixes too little: the search scores a
-    plane against the camera alone. (The refinement also takes a mirror that only other mirrors fix: on an arc of
-    three, the search put the middle mirror 22 degrees off, where the mirrors beside it still agreed with it within
-    1.3 times the noise.) A sphere's centres fix each plane whatever the search gave."""
-    for report in result.mirrors if result.compared == "surfaces" else ():
-        if report.camera_agreements < MIN_AGREEMENTS:
-            raise CalibrationError(
-                f"{report.name}: the camera sees too little of what the mirror sees to find its plane without markers "
-                f"({report.camera_agreements} readings agree over {result.frames} frame(s), {MIN_AGREEMENTS} are "
-                "needed); click markers on it and fit it, then refine from the object")
+    return refine_session(session, depths, masks, indices, later, cancel, with_, FROM_SEARCH)

@@ -214,6 +214,7 @@ def test_on_an_arc_of_three_the_middle_mirror_is_fixed_by_the_mirrors_beside_it(
     assert main(["calibrate", str(session), "--method", "scene", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.endswith("click markers on it and fit it, then refine from the object")
-    assert "mirror 2: the camera sees too little of what the mirror sees to find its plane without markers" in err
+    assert "mirror 2: the camera and the mirror see too little of the same surface to determine its plane" in err
+    assert "a plane found without markers must be fixed by the camera itself" in err
     assert (session / "session.json").read_bytes() == before
     assert refined.mirrors[1].plane is not None

@@ -18,9 +18,9 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, MirrorRefinement, _fixed_by,
-                              _Residuals, marker_offset, moved_plane, offset_at, refine_planes, refine_session,
-                              reflection_jacobian, view_agreement)
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement,
+                              _fixed_by, _Residuals, marker_offset, moved_plane, offset_at, refine_planes,
+                              refine_session, reflection_jacobian, view_agreement)
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -249,7 +249,7 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
     # a view that disagrees more than max_disagreement times what the depth noise explains (a searched plane's limit)
     with pytest.raises(CalibrationError, match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
                                                r"RMS where the depth noise explains .* mm\): its plane was not found"):
-        refine_planes(rig, depths, masks, max_disagreement=0.01, with_="surfaces")
+        refine_planes(rig, depths, masks, with_="surfaces", leash=Leash(max_disagreement=0.01))
     assert len(refine_planes(rig, depths, masks, with_="surfaces").mirrors) == 2     # no such limit by default
     stop = threading.Event()
     stop.set()
@@ -321,7 +321,7 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     paired = [calibrate_from_pairs(real, m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
               for m in rig.mirrors]
     assert max(p.angle_to(m.plane) for p, m in zip(paired, rig.mirrors)) > 0.3        # a rough start
-    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, gate=0.01, with_="surfaces")
+    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, with_="surfaces", leash=Leash(gate=0.01))
     from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
                                  depths, masks, with_="surfaces")
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
@@ -472,6 +472,10 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100), (2, 3, 100))
     assert _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
     assert _fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
+    with pytest.raises(CalibrationError, match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
+                                               r"plane found without markers must be fixed by the camera itself\); "
+                                               r"click markers on it and fit it, then refine from the object$"):
+        _fixed_by(arc, [2], ["middle"], 3, camera_only=True)                    # a search's guess: the camera alone
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
     with pytest.raises(CalibrationError, match=r"^left: the camera and the mirror see too little of the same "
                                                r"surface to determine its plane \(18 readings agree over 10 "
