@@ -39,7 +39,8 @@ from .spheretarget import SCATTER_AUTO, SCATTER_FRAMES, NotASphere, SpherePlanes
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
 SETTLED = 0.1                # the iterations stop when no parameter moves by more than this share of its std
-MIN_AGREEMENTS = 200         # readings of a mirror and of the camera that agree, both ways, over all frames...
+MIN_AGREEMENTS = 200         # readings of a mirror and of the camera (or of mirrors fixed so) that agree, both ways,
+                             # over all frames (_fixed_by)...
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
@@ -464,11 +465,11 @@ def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: i
             fixing |= set(more)
     for j, name in zip(refined, names):
         if j not in counts:
-            others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
             if camera_only:
                 mirrors, advice = ("; a plane found without markers must be fixed by the camera itself",
                                    "click markers on it and fit it, then refine from the object")
             else:
+                others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
                 mirrors = (f"; the {others:,} it shares with the other mirrors fix nothing, as the camera fixes none "
                            "of them" if others >= MIN_AGREEMENTS else "")
                 advice = ("refine on an object that both see from the side (a person, a sphere), not a flat face, or "
