@@ -624,7 +624,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
 
 def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes):
     """The agreement lines may be out of view (at 1024x600 two screens down): a mirror they flag is also named in a
-    notification, once per verdict (a helper read only the fit's "Applied")."""
+    notification, not again for the same lines (a helper read only the fit's "Applied")."""
     app_, headless = demo
     kinds: list = []
     said = notes(app_, kinds)
@@ -637,7 +637,7 @@ def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes
     mirrors._on_job(ended(f"{good}\n\n{bad}"))
     assert said == ["mirror 2: ⚠ its view disagrees with the others beyond the depth noise; why and what to do are "
                     "under Mirrors, below the buttons."] and kinds == [("warning", False)]
-    mirrors._on_job(ended(f"{good}\n\n{bad}"))                                   # the same verdict again: once
+    mirrors._on_job(ended(f"{good}\n\n{bad}"))                                   # the same lines again: once
     mirrors._on_job(ended(f"{bad.replace('2', '1')}\n\n{bad}"))
     assert len(said) == 2 and said[-1].startswith("mirror 1 and mirror 2: ⚠ their views disagree")
 

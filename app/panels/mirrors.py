@@ -137,8 +137,8 @@ class MirrorsPanel:
                 self._warn_disagreement(event.status)
 
     def _warn_disagreement(self, lines: str) -> None:
-        """A notification naming the mirrors the agreement lines flag (⚠), once per verdict: the lines may be out of
-        view (at 1024x600 two screens down, and the fit's note had said only "Applied": a helper)."""
+        """A notification naming the mirrors the agreement lines flag (⚠), not again for the same lines: they may be
+        out of view (at 1024x600 two screens down, and the fit's note had said only "Applied": a helper)."""
         flagged = [line.split(":")[0] for line in lines.split("\n\n") if "⚠" in line]
         if flagged and lines != self._flagged:
             views = "its view disagrees" if len(flagged) == 1 else "their views disagree"
