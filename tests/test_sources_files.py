@@ -81,10 +81,13 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
     np.savez(tmp_path / "nok.npz", depth=np.zeros((1, 2, 2), np.uint16), depth_scale=0.001)
     np.savez(tmp_path / "noscale.npz", depth=np.zeros((1, 2, 2), np.uint16), K=K)
     np.savez(tmp_path / "badk.npz", depth=np.zeros((1, 2, 2), np.float32), K=np.eye(2))
+    np.savez(tmp_path / "complex.npz", depth=np.zeros((1, 2, 2), np.uint8), K=K, depth_scale=np.complex64(1j))
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     cases = {"pickled": "holds pickled \\(object\\) arrays, which mirrorscan never loads", "nok": "missing array 'K'",
-             "noscale": "an integer depth stack needs 'depth_scale'", "badk": "'K' must be number of shape \\(3, 3\\)",
-             "junk": "not a .npz archive"}
+             "noscale": "an integer depth stack needs 'depth_scale'",
+             "badk": "'K' must be integer or floating of shape \\(3, 3\\)", "junk": "not a .npz archive",
+             "complex": "'depth_scale' must be integer or floating of shape \\(\\), got complex64"}   # a TypeError,
+    # found by the fuzzing (tests/test_fuzz_loaders.py)
     for name, message in cases.items():
         with pytest.raises(FileFormatError, match=rf"{name}.npz: {message}"):
             open_source(f"npz:{tmp_path / name}.npz")

@@ -21,6 +21,7 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
+REAL = (np.integer, np.floating)           # the dtypes of a .npz's numbers (np.number also takes complex ones)
 _NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
@@ -210,29 +211,29 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
                               f"{depth.shape}")
     if integer and "depth_scale" not in arrays:
         raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per unit)")
-    scale = float(_optional(path, arrays, "depth_scale", (), np.number, 1.0))
+    scale = float(_optional(path, arrays, "depth_scale", (), REAL, 1.0))
     if not (np.isfinite(scale) and scale > 0):
         raise FileFormatError(f"{path}: 'depth_scale' must be positive, got {scale:g}")
-    K = _optional(path, arrays, "K", (3, 3), np.number, None).astype(float)
+    K = _optional(path, arrays, "K", (3, 3), REAL, None).astype(float)
     try:
         camera = Intrinsics(depth.shape[2], depth.shape[1], K[0, 0], K[1, 1], K[0, 2], K[1, 2],
                             scale if integer else 0.001)
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
-    stamps = _optional(path, arrays, "timestamps", (len(depth),), np.number,
+    stamps = _optional(path, arrays, "timestamps", (len(depth),), REAL,
                        np.arange(len(depth)) / fps)
-    colour = _optional(path, arrays, "colour", (*depth.shape, 3), np.uint8, None)
+    colour = _optional(path, arrays, "colour", (*depth.shape, 3), (np.uint8,), None)
     return StackSource(f"npz {path.name}", camera, depth, scale, stamps, colour, fps)
 
 
-def _optional(path: Path, arrays: dict, key: str, shape: tuple, kind: type, default):
-    """arrays[key] checked for shape and dtype kind (np.floating, np.uint8...), or `default` when absent."""
+def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[type, ...], default):
+    """arrays[key] checked for shape and dtype, one of `kinds` (REAL, (np.uint8,)...), or `default` when absent."""
     if key not in arrays:
         return default
     value = arrays[key]
-    if value.shape != shape or not np.issubdtype(value.dtype, kind):
-        raise FileFormatError(f"{path}: '{key}' must be {kind.__name__} of shape {shape}, got {value.dtype} "
-                              f"{value.shape}")
+    if value.shape != shape or not any(np.issubdtype(value.dtype, kind) for kind in kinds):
+        raise FileFormatError(f"{path}: '{key}' must be {' or '.join(k.__name__ for k in kinds)} of shape {shape}, "
+                              f"got {value.dtype} {value.shape}")
     return value
 
 
