@@ -323,6 +323,16 @@ class SessionEditor:
                     return step.after.plane is not None
             return False
 
+    def fitted_on_its_markers(self, mirror_id: int) -> bool:
+        """Whether the mirror's plane was set by a markers fit of this editor on the markers, boundary, region and
+        glass it has now (its newest undo step that set a plane, read against the mirror as it is): a fit of them
+        again only refits them on other frames."""
+        with self._lock:
+            step = next((s for s in reversed(self._undo.get(mirror_id, [])) if s.before.plane != s.after.plane), None)
+            now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
+            return (step is not None and step.label.startswith("plane") and now is not None
+                    and fit_inputs(step.after) == fit_inputs(now))
+
     def redo_label(self, scope: int) -> str | None:
         with self._lock:
             steps = self._redo.get(scope)

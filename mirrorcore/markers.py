@@ -18,6 +18,8 @@ GOOD_SIGMAS = 2.0          # a marker's centre within this many noise sigmas of 
 FAIR_SIGMAS = 3.0          # within this many fair (the fit's inlier threshold), beyond it poor
 MAX_TILT_DEG = 3.0         # a fit that turns a calibrated plane by more than this...
 MAX_SHIFT_MM = 20.0        # ... or moves it by more than this at the markers asks for confirmation
+REFIT_TILT_DEG = 0.25      # the same markers fitted again on other frames turn their plane by less than this...
+REFIT_SHIFT_MM = 2.0       # ... and move it by less than this (the demo's live frames: up to 0.07° and 0.2 mm)
 GRADES = ("good", "fair", "poor", "unknown")
 
 
@@ -92,16 +94,20 @@ class FitReview:
     shift_mm: float
     poor: tuple[int, ...]
     concerns: tuple[str, ...]
+    refit: bool = False
 
     @property
     def needs_confirmation(self) -> bool:
-        return bool(self.concerns)
+        """A concern about a plane the user has not taken yet: `refit` (the same markers, fitted before and applied,
+        fitted again within a refit's noise) has none to confirm, its poor markers still named."""
+        return bool(self.concerns) and not self.refit
 
 
 def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, at: np.ndarray,
-               marker_names: list[str]) -> FitReview:
+               marker_names: list[str], same_markers: bool = False) -> FitReview:
     """Review a fit: at (3,) metres, where the shift between the two planes is measured (the markers' centre, on
-    their faces: in front of the new plane by its glass); marker_names label the markers in the concerns ('2.3')."""
+    their faces: in front of the new plane by its glass); marker_names label the markers in the concerns ('2.3');
+    same_markers: `previous` was fitted on these markers and applied (a proposal asked about them then)."""
     tilt = shift = float("nan")
     concerns = []
     if previous is not None:
@@ -117,7 +123,8 @@ def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, a
                           f"{residuals.distance_mm[i] / residuals.sigma_mm[i]:.0f}σ, "
                           f"{_why_off(residuals.signed_mm[i])})" for i in poor)
         concerns.append(f"marker(s) {worst} lie off the plane beyond the depth noise")
-    return FitReview(tilt, shift, poor, tuple(concerns))
+    refit = same_markers and tilt < REFIT_TILT_DEG and shift < REFIT_SHIFT_MM
+    return FitReview(tilt, shift, poor, tuple(concerns), bool(refit))
 
 
 def _why_off(signed_mm: float) -> str:

@@ -188,6 +188,25 @@ def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(edit
     assert editor.glass_unused(1)
 
 
+def test_a_plane_fitted_on_the_markers_a_mirror_has_is_known_as_such(editor):
+    """A markers fit of the same markers again only refits them on other frames: the editor tells from its undo steps,
+    so that a marker the user applied a plane with is not asked about again (a helper was asked to apply 'turned
+    0.00°, moved 0.0 mm')."""
+    assert not editor.fitted_on_its_markers(1)                          # no plane yet
+    for uv in SQUARE[:3]:
+        editor.add_marker(1, uv)
+    editor.set_planes({1: (PLANE, editor.mirror(1))})
+    assert editor.fitted_on_its_markers(1)
+    editor.add_marker(1, SQUARE[3])                                     # a marker since: its plane is not theirs
+    assert not editor.fitted_on_its_markers(1)
+    editor.undo(1)
+    assert editor.fitted_on_its_markers(1)
+    editor.set_marker_offset(1, 0.003)                                  # the glass too is an input of the fit
+    assert not editor.fitted_on_its_markers(1)
+    editor.set_planes({1: (replace(PLANE, d=PLANE.d + 0.003), editor.mirror(1))}, what="refined plane")
+    assert not editor.fitted_on_its_markers(1)                          # from the object, not from the markers
+
+
 def test_session_round_trip_through_the_editor(editor, tmp_path):
     editor.add_marker(1, (10, 20))
     editor.set_boundary(1, [(0, 0), (200, 0), (200, 200), (0, 200)])

@@ -175,6 +175,14 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     mirrors.fit_planes([2])
     mirrors._apply()                                                                      # on confirmation
     assert app.editor.mirror(2).plane != plane
+    applied, step = app.editor.mirror(2).plane, app.editor.undo_label(2)
+    mirrors.fit_planes([2])                     # the same markers again, refitted on the frames of now: applied
+    assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(applied) < 0.25  # the marker named,
+    assert app.editor.undo_label(2) == step                                                # not asked again
+    assert re.search(r"⚠ mirror 2: the same markers as before, and marker\(s\) 2\.\d+ lie off it beyond the depth "
+                     r"noise: delete them \(crossed on the depth frame\) and fit again\.", said[-1]), said[-1]
+    assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == (len(before.markers),)
+    assert "⚠ marker(s) 2." in mirrors.result.content
     tab.state.picked_marker = len(before.markers)                                         # delete just that one
     mirrors._delete_marker()
     assert app.editor.mirror(2).markers == before.markers

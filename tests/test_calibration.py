@@ -70,6 +70,23 @@ def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
     assert "moves it 25 mm" in farther.concerns[0]
 
 
+def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothing():
+    """A poor marker makes a fit a proposal, once: the same markers fitted again, within a refit's noise, are applied
+    with the marker named (a helper was asked to apply 'turned 0.00°, moved 0.0 mm'); a larger change still asks."""
+    depth = mirror_frame()
+    u, v = MARKERS[2].astype(int)
+    depth[v - 4:v + 5, u - 4:u + 5] += 0.3
+    cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
+    names = [f"2.{k + 1}" for k in range(len(MARKERS))]
+    first = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
+    assert first.needs_confirmation and not first.refit                 # not fitted on these markers before
+    again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names, same_markers=True)
+    assert again.refit and not again.needs_confirmation and again.poor == (2,) and again.concerns == first.concerns
+    moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers, np.asarray(cal.centre), names,
+                       same_markers=True)                               # 2.5 mm: more than other frames move it
+    assert moved.needs_confirmation and not moved.refit
+
+
 def test_noisy_markers_over_a_median_of_frames():
     rng = np.random.default_rng(1)
     one = calibrate_from_markers(CAMERA, mirror_frame(rng), MARKERS, np.random.default_rng(0))

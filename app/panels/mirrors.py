@@ -376,7 +376,7 @@ class MirrorsPanel:
         for i, calibration in results:
             mirror = session.mirrors[i]
             review = review_fit(mirror.plane, calibration.plane, calibration.markers, np.asarray(calibration.centre),
-                                mirror.marker_names)
+                                mirror.marker_names, self.services.editor.fitted_on_its_markers(mirror.id))
             if self.services.jobs.from_object(mirror.id, mirror.plane):
                 review = replace(review, concerns=review.concerns + (
                     "it replaces the plane found from the object: the markers alone are less accurate (the "
@@ -392,9 +392,11 @@ class MirrorsPanel:
         else:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
+            self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
             self._check_agreement()
+        look = waits or without_markers or any(r.poor for _, _, r in fits.values())
         self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
-                             "warning" if waits or without_markers else "info")
+                             "warning" if look else "info")
         self.tab.changed()
 
     def _check_agreement(self) -> None:
@@ -556,7 +558,8 @@ def _refusal_note(refusal: str) -> str:
 def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     """A markers fit in a notification's plain words (it is in view whatever the panel's scroll, where the report may
     be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set;
-    then the mirrors left out for want of markers. fits : (Calibration, SessionMirror, FitReview) each."""
+    the poor markers of a plane applied anyway (a refit of markers taken before: FitReview.refit); then the mirrors
+    left out for want of markers. fits : (Calibration, SessionMirror, FitReview) each."""
     names = " and ".join(m.name for _, m, _ in fits)
     them = "it is" if len(without_markers) == 1 else "they are"
     left = (f" {' and '.join(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
@@ -567,13 +570,17 @@ def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
     glass = ("; glass 0 mm: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
              else "")
-    return f"Applied: {rms}{glass}. The report is under Mirrors.{left}"
+    poor = " ".join(f"⚠ {m.name}: the same markers as before, and marker(s) "
+                    f"{', '.join(m.marker_names[i] for i in r.poor)} lie off it beyond the depth noise: delete them "
+                    "(crossed on the depth frame) and fit again." for _, m, r in fits if r.poor)
+    return f"Applied: {rms}{glass}. {poor + ' ' if poor else ''}The report is under Mirrors.{left}"
 
 
 def _fit_report(fits, applied: str = "") -> str:
     """The report of markers fits ((Calibration, SessionMirror, FitReview) each): a line per mirror, then, when a
     mirror has no glass set, how to get it."""
-    lines = [f"**{m.name}**: {c.summary(m.marker_names)}{applied}" for c, m, _ in fits]
+    lines = [f"**{m.name}**: {c.summary(m.marker_names)}{applied}"
+             + "".join(f"\n  - ⚠ {concern}" for concern in (r.concerns if r else ())) for c, m, r in fits]
     if any(not c.marker_offset for c, _, _ in fits):
         lines.append(NO_GLASS_NOTE)
     return "\n\n".join(lines)
