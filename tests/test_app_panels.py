@@ -413,6 +413,22 @@ def test_save_as_and_open(sphere):
     assert app.editor.session.root.name == "scan" and app.editor.autosave
 
 
+def test_the_dense_box_is_drawn_once_dense_is_used(sphere):
+    """A technician who scans people had a 'dense box' around every frame without having opened Dense (a helper):
+    the box is drawn once Dense is used (Box around the current cloud, a corner typed, Run), and can be hidden."""
+    app, headless = sphere
+    dense, scene = panel(headless.tab, DensePanel), headless.tab.scene
+    wait_for(lambda: np.all(np.array(dense.high.value) > np.array(dense.low.value)), 10, "the box around the cloud")
+    assert not dense.show_box.value and scene._box is None and scene._box_label is None
+    dense.follow_cloud()
+    wait_for(lambda: scene._box is not None, 5, "the box drawn")
+    assert dense.show_box.value and scene._box_label is not None
+    dense.show_box.value = False
+    wait_for(lambda: scene._box is None, 5, "the box hidden")
+    dense.show_box.value = True
+    wait_for(lambda: scene._box is not None, 5, "the box shown again")
+
+
 @pytest.mark.parametrize("method", ["carve (consistent)", "TSDF fusion (mesh)"])
 def test_dense_runs_shows_and_exports(sphere, method):
     app, headless = sphere

@@ -43,6 +43,8 @@ class DensePanel:
         self.show = gui.add_checkbox("Show the dense result", initial_value=True)
         self.beside = gui.add_checkbox("Beside the live cloud", initial_value=True,
                                        hint="unticked: in place, over the live cloud")
+        self.show_box = gui.add_checkbox("Show the box in 3D", initial_value=False,   # not over the scene of a
+                                         hint="ticked by Run, a corner typed or Box around the current cloud")
         with gui.add_folder("Box (m, camera frame)", expand_by_default=False):
             self.margin = gui.add_slider("Margin around the cloud (mm)", min=0.0, max=200.0, step=5.0,
                                          initial_value=20.0)
@@ -58,6 +60,7 @@ class DensePanel:
         self.cancel.on_click(lambda _: self.services.jobs.cancel(DENSE))
         self.show.on_update(lambda _: self._layer())
         self.beside.on_update(lambda _: self._layer())
+        self.show_box.on_update(lambda _: self._show_box())
         self.export.on_click(lambda _: act(self.export_result))
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
                              self.services.bus.subscribe(DenseChanged, self._on_result),
@@ -82,14 +85,16 @@ class DensePanel:
         self._refit = self._follow
 
     def _box_edited(self, event) -> None:
-        """A corner typed in by the technician: the box stays where it is put from now on."""
+        """A corner typed in by the technician: the box stays where it is put from now on, and is shown."""
         if event.client is not None:
             self._follow = False
+            self.show_box.value = True
         self._show_box()
 
     def follow_cloud(self) -> Volume:
-        """'Box around the current cloud': the box is put around the live cloud, and follows it again."""
+        """'Box around the current cloud': the box is put around the live cloud, follows it again, and is shown."""
         self._follow = True
+        self.show_box.value = True
         return self.box_around_cloud()
 
     def _method_options(self) -> None:
@@ -120,16 +125,19 @@ class DensePanel:
         return volume
 
     def _show_box(self) -> None:
-        """Draw the box the fields hold now (one callback at a time: the last one draws both fields' last values)."""
+        """Draw the box the fields hold now (one callback at a time: the last one draws both fields' last values),
+        once Dense is used (show_box): a technician who scans people only had a 'dense box' around every frame."""
         with self._box_lock:
-            low, high = self._box()
+            low, high = self._box() if self.show_box.value else (None, None)
             self.tab.scene.show_box(low, high)
 
     def start(self) -> None:
         """Run the chosen method on the shared worker (one run at a time) in the box shown: around the current cloud
-        while it follows the cloud (or is empty), as the technician put it otherwise."""
+        while it follows the cloud (or is empty), as the technician put it otherwise; the box is shown from now on."""
+        self.show_box.value = True
         if self._follow or not np.all(self._box()[1] > self._box()[0]):
             self.box_around_cloud()
+        self._show_box()
         method = METHODS[self.method.value]
         self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
 
