@@ -19,7 +19,7 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
-from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, start_hint
+from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
 import app.server as server_module
@@ -693,7 +693,9 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "The glass typed in for left is not in its plane yet: select it and **Mirrors › Fit plane** moves the plane "
         "behind the glass.")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
-    assert "**Back to** the live source" in start_hint(done, TabState(mirror_id=1), True, True, "recording")
+    assert start_hint(done, TabState(mirror_id=1), True, True, "recording", start="session gait").endswith(
+        "**Back to session gait** (above) when done.")               # as the button reads (a helper looked for
+                                                                        # 'the live source' while a session played)
     marked = replace(done.mirrors[0], plane=None)
     assert start_hint(Session(tmp_path, session.camera, mirrors=(marked,)), TabState(mirror_id=1), True, True) == (
         "left: **Fit plane**.")
@@ -848,6 +850,17 @@ def test_a_markers_fit_without_glass_says_how_to_measure_it():
     bare = _fit_report([fit("left", 0.0), fit("right", 0.004)], " (applied)")
     assert bare == f"**left**: 3 markers (applied)\n\n**right**: 3 markers (applied)\n\n{NO_GLASS_NOTE}"
     assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add
+
+
+def test_the_header_names_the_session_edited_where_another_plays(tmp_path):
+    """After Record's replay and Back to, a helper took the edits saved in the recording's session for edits of the
+    session served, which the header named."""
+    gait, recording = tmp_path / "gait", tmp_path / "recording-1"
+    assert source_title("session gait", gait, gait) == "**session gait**"
+    assert source_title("session gait", gait, None) == "**session gait**"                 # the demo: not saved
+    assert source_title("session gait", gait, recording) == (
+        "**session gait** · edits saved in session **recording-1**")
+    assert source_title("Kinect v1", None, gait) == "**Kinect v1** · edits saved in session **gait**"
 
 
 def test_the_legend_says_which_mirrors_leave_their_part_out():

@@ -541,6 +541,9 @@ def test_record_then_replay_with_the_calibration(sphere):
     playing = app.source
     app.back_to_start_source()
     assert not app.paused and not record.replay.disabled and not headless.tab.header.back.visible
+    assert app.editor.session.root == recorded.root            # the edits still go to the recording's session, and
+    wait_for(lambda: header.title.content.endswith(f" · edits saved in session **{recorded.root.name}**"), 5,
+             "the header naming it")                           # the header says so beside the source (a helper)
     app.use_source(playing)                                            # (the steps below use the recording)
 
 

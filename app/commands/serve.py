@@ -81,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
         while True:
             time.sleep(3600)
     except KeyboardInterrupt:       # the way to stop it: not a cancelled command
-        print("mirrorscan serve: stopped" + (f"; every edit is saved in {session.root}" if autosave else
+        edited = app.editor       # the session being edited now: another may have been opened or saved as
+        print("mirrorscan serve: stopped" + (f"; every edit is saved in {edited.session.root}" if edited.autosave else
                                              "; the demo's session was kept in memory only"), file=sys.stderr)
         return 130
     finally:

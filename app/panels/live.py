@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -12,9 +13,10 @@ import numpy as np
 from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO, SOURCE_COLOURS, source_colour,
                                 source_name)
 from mirrorcore.session import Session
+from mirrorcore.sources import SessionSource
 
 from ..context import TabContext, TabState
-from ..events import JobProgress, LoopChanged
+from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
@@ -99,13 +101,14 @@ def _swatch(colour, text: str) -> str:
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
                playback: str = "live", calibrating: float | None = None, recording: bool = False,
                no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (),
-               refused: dict[int, str] | None = None) -> str:
+               refused: dict[int, str] | None = None, start: str = "the live source") -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
     the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
     whose planes come from markers with no glass set (_no_glass); glass_unused: those whose glass was typed in after
     their plane was fitted (SessionEditor.glass_unused); refused: {mirror id: "refine" or "scene"}, what was refused
-    on it lately (Jobs.refused: a helper was sent back to it after every refusal)."""
+    on it lately (Jobs.refused: a helper was sent back to it after every refusal); start: the name of the source
+    served from the start, as the header's Back to button gives it."""
     refused = refused or {}
     if not has_frame:
         return "Waiting for the first frame from the source…"
@@ -152,8 +155,8 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return ("Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, under *Playback "
                 "and view*); untick **Pause** to play on.")
     if playback == "recording":
-        return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to** the "
-                "live source (above) when done.")
+        return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to "
+                f"{start}** (above) when done.")
     if no_glass and "refine" in refused.values():
         return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}, and the refinement could "
                 "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
@@ -163,6 +166,19 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}: **Mirrors › Refine from "
                 "the object** measures it.")
     return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
+
+
+def source_root(source) -> Path | None:
+    """The folder of the session a source plays (a SessionSource), else None."""
+    return Path(source.session.root) if isinstance(source, SessionSource) else None
+
+
+def source_title(source: str, played: Path | None, edited: Path | None) -> str:
+    """The header's title: the source's name, then the folder of the session being edited (saved: `edited`) when
+    it is not the one the source plays (`played`)."""
+    if edited is None or (played is not None and played.resolve() == Path(edited).resolve()):
+        return f"**{source}**"
+    return f"**{source}** · edits saved in session **{Path(edited).name}**"
 
 
 def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
@@ -213,7 +229,8 @@ class LivePanel:
         self._calibrating = 0.0 if services.jobs.running(REFINE) else None      # how far, while one runs
         self._recording = services.jobs.running(RECORD)
         self._unsubscribe = [services.bus.subscribe(LoopChanged, self._on_loop),
-                             services.bus.subscribe(JobProgress, self._on_job)]
+                             services.bus.subscribe(JobProgress, self._on_job),
+                             services.bus.subscribe(SessionChanged, self._name)]
         self._last_stats = 0.0
         self._process_ms: deque[float] = deque(maxlen=PROCESS_WINDOW)   # the last frames' processing times
         self._follow(services.source)
@@ -244,11 +261,19 @@ class LivePanel:
     def _follow(self, source) -> None:
         """Name the source; show the frame slider for a recording (seekable), hide it for a live camera; offer the
         way back to the source served from the start while another plays."""
-        self.title.content = markdown(f"**{source.name}**")
+        self._name()
         self.back.visible = source is not self.tab.services.start_source
         if source.frame_count:
             self.seek.max = max(source.frame_count - 1, 1)
         self.seek.visible = bool(source.frame_count)
+
+    def _name(self, event: SessionChanged | None = None) -> None:
+        """The header's title: the source, and the session being edited where it is saved and is not the one that
+        plays (after Record's replay and Back to, a helper took the edits of the recording's session for those of the
+        session served, which the header named)."""
+        services = self.tab.services
+        self.title.content = markdown(source_title(services.source.name, source_root(services.source),
+                                                   services.editor.session.root if services.editor.autosave else None))
 
     def refresh_hint(self) -> None:
         services = self.tab.services
@@ -260,7 +285,7 @@ class LivePanel:
                        and not jobs.from_object(m.id, m.plane))
         hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
                           playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
-                          jobs.refused)
+                          jobs.refused, services.start_source.name)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
