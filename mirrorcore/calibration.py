@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .depthio import require_readings
-from .depthops import median_depth
+from .depthops import median_depth, without_occluders
 from .errors import CalibrationError
 from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from .geometry.plane import Plane, fit_plane_ransac
@@ -200,14 +200,15 @@ def _check_camera_side(plane: Plane, name: str) -> None:
 
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
     """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
-    background and up to MAX_MARKER_FRAMES evenly spaced frames. Raises CalibrationError without any, and
-    MirrorscanError naming them when no pixel of theirs has a reading."""
+    background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in front of the background in
+    them (depthops.without_occluders). Raises CalibrationError without any, and MirrorscanError naming them when no
+    pixel of theirs has a reading."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
     stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
     background = session.read_background()
     if background is not None:
-        stack.append(background)
+        stack = [*without_occluders(stack, background), background] if stack else [background]
     if not stack:
         raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
     return require_readings(np.stack(stack), f"{session.path}: the frames and the background")

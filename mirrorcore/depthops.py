@@ -18,6 +18,7 @@ QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, abou
 RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
 NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
 MEAN_SIGMAS = 3.0           # robust_mean_depth averages the readings within this many depth-noise sigmas of the median
+OCCLUDER_SIGMAS = 5.0       # without_occluders leaves out readings this many depth-noise sigmas in front of the background
 
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
@@ -48,6 +49,17 @@ def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
     keep = (frames > 0) & (np.abs(frames - median) <= np.float32(MEAN_SIGMAS) * axial_sigma(median))
     count = keep.sum(axis=0)
     return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1), 0).astype(np.float32)
+
+
+def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """The frames with no reading (0) where they read more than OCCLUDER_SIGMAS depth-noise sigmas in front of the
+    background's reading: what passes in front of a static surface (a person walking past a mirror's markers in
+    most frames, whose median then read the person, 0.4 to 0.55 m off the glass) is left out of it; pixels where
+    the background has no reading keep theirs. frames : (k, H, W) float metres; background : (H, W) -> (k, H, W)
+    float32."""
+    frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background, dtype=np.float32)
+    front = (background > 0) & (frames < background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background))
+    return np.where(front, np.float32(0), frames)
 
 
 def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:

@@ -6,7 +6,7 @@ import pytest
 from helpers import plane_depth, sphere_depth
 
 from mirrorcore import depthops
-from mirrorcore.depthops import local_quadratic_depth, robust_mean_depth, smooth_depth
+from mirrorcore.depthops import local_quadratic_depth, robust_mean_depth, smooth_depth, without_occluders
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.noise import axial_sigma
@@ -105,3 +105,27 @@ def test_the_robust_mean_of_frames_averages_the_disparity_steps_and_leaves_out_w
     mean = robust_mean_depth(stack)
     assert abs(np.mean(mean[100:, 100:]) - 2.004) < 0.3e-3 < abs(np.mean(median[100:, 100:]) - 2.004)
     assert abs(np.mean(mean[:100, :100]) - 2.004) < 0.5e-3
+
+
+def test_what_passes_in_front_of_the_background_in_most_frames_is_left_out():
+    """A person in front of a wall in 8 frames of 10: the median reads the person; without the readings in front of
+    the background (one noisy frame of the wall), the robust mean reads the wall. Readings behind the background
+    (a mirror's glass beside a marker) and pixels the background has no reading of keep theirs."""
+    sensor, rng = SensorModel.kinect_v1(), np.random.default_rng(1)
+    camera = Intrinsics.kinect_v1()
+    truth = np.full(camera.shape, 3.5, np.float32)
+    stack = np.stack([sensor.apply(camera, truth, rng) for _ in range(10)])
+    background = sensor.apply(camera, truth, rng)
+    stack[:8, :100, :100] = 3.0                                   # the person, 0.5 m in front
+    stack[:, 100:110, :10] = 4.5                                  # behind the background: kept
+    background[200:210, :10] = 0                                  # no background reading: kept
+    stack[:8, 200:210, :10] = 3.0
+    kept = without_occluders(stack, background)
+    seen = background[:100, :100] > 0                              # (the sensor drops a few readings)
+    assert seen.mean() > 0.95 and np.all(kept[:8, :100, :100][:, seen] == 0)
+    assert np.all(kept[:, 100:110, :10] == 4.5)
+    assert np.all(kept[:8, 200:210, :10] == 3.0)
+    dropped = np.mean(kept[:, 300:, 300:] != stack[:, 300:, 300:])   # the wall's noise is hardly ever taken for
+    assert dropped < 1e-4                                             # one (4 disparity steps apart: 5e-5)
+    assert abs(np.median(np.stack([*stack, background])[:, :100, :100]) - 3.0) < 0.02      # the median: the person
+    assert abs(np.mean(robust_mean_depth(np.stack([*kept, background])[:, :100, :100])) - 3.5) < 0.01
