@@ -16,7 +16,7 @@ import numpy as np
 
 from mirrorcore.agreement import heat_figures, surface_distances
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
-from mirrorcore.calibration import calibration_depth
+from mirrorcore.calibration import calibration_depth, static_frames
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthops import median_depth
@@ -228,7 +228,8 @@ class Jobs:
         """The frames the markers are read on (a fit, and each marker's grade; per pixel, markers.marker_points):
         the background and MAX_MARKER_FRAMES frames spread over the recording that plays (the same whenever it is
         clicked, as `mirrorscan calibrate` reads them; read once per recording), else the last live frames
-        (RECENT_FRAMES), or None before the first. (k, H, W) float32 metres."""
+        (RECENT_FRAMES) with the background in use, both without what passes in front of it (static_frames), or
+        None before the first. (k, H, W) float32 metres."""
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             session = source.session
@@ -239,9 +240,13 @@ class Jobs:
                     cached = self._marker_frames = (key, calibration_depth(session))
                 except MirrorscanError as exc:        # its files went bad: the frames as they play still serve
                     log.warning("the markers are read on the last frames: %s", exc)
-                    return self.loop.recent_depths()
+                    return self._live_marker_frames()
             return cached[1]
-        return self.loop.recent_depths()
+        return self._live_marker_frames()
+
+    def _live_marker_frames(self) -> np.ndarray | None:
+        recent = self.loop.recent_depths()
+        return None if recent is None else static_frames(recent, self.snapshot().background)
 
     def object_frames(self) -> tuple[np.ndarray, str]:
         """The frames a calibration from the object uses, and which they are in words: REFINE_FRAMES spread over

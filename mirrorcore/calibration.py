@@ -201,14 +201,22 @@ def _check_camera_side(plane: Plane, name: str) -> None:
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
     """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
     background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in front of the background in
-    them (depthops.without_occluders). Raises CalibrationError without any, and MirrorscanError naming them when no
+    them (static_frames). Raises CalibrationError without any, and MirrorscanError naming them when no
     pixel of theirs has a reading."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
-    stack = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
-    background = session.read_background()
-    if background is not None:
-        stack = [*without_occluders(stack, background), background] if stack else [background]
-    if not stack:
+    frames = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
+    stack = static_frames(np.stack(frames) if frames else None, session.read_background())
+    if stack is None:
         raise CalibrationError(f"{session.path}: no frames and no background to calibrate from")
-    return require_readings(np.stack(stack), f"{session.path}: the frames and the background")
+    return require_readings(stack, f"{session.path}: the frames and the background")
+
+
+def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> np.ndarray | None:
+    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front of the
+    background in them (depthops.without_occluders), then the background (H, W) itself; either alone when the other
+    is None; None without both. -> (k + 1, H, W) float32."""
+    if background is None:
+        return None if frames is None else np.asarray(frames, dtype=np.float32)
+    background = np.asarray(background, dtype=np.float32)[None]
+    return background if frames is None else np.concatenate([without_occluders(frames, background[0]), background])
