@@ -321,6 +321,10 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                                       f"this plane does not depend on it · {markers} markers")
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):
         app.editor.set_marker_offset(1, 0.08)
+    mirrors.glass.value = -5.0                                   # typed in the page: refused, and the field shows
+    with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got -5 mm"):     # the glass again (it had kept
+        mirrors._set_glass()                                                          # -5: a helper)
+    assert mirrors.glass.value == 3.0 and app.editor.mirror(1).marker_offset == 0.003
     tab.look("3d")
     tab.show_heat(True)
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")

@@ -164,8 +164,7 @@ class MirrorsPanel:
         self.delete_corner.on_click(lambda _: act(self._delete_corner))
         self.clear_boundary.on_click(lambda _: act(lambda: self._clear_boundary()))
         self.rename.on_click(lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value)))
-        self.glass.on_update(lambda e: e.client is not None and act(
-            lambda: editor.set_marker_offset(self._id(), self.glass.value / 1e3)))
+        self.glass.on_update(lambda e: e.client is not None and act(self._set_glass))
         self.refine.on_click(lambda _: act(lambda: self._from_object(self.services.jobs.start_refine)))
         self.scene.on_click(lambda _: act(lambda: self._from_object(self.services.jobs.start_scene)))
         self.refine_cancel.on_click(lambda _: self.services.jobs.cancel(REFINE))
@@ -398,6 +397,16 @@ class MirrorsPanel:
         self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
                              "warning" if look else "info")
         self.tab.changed()
+
+    def _set_glass(self) -> None:
+        """The glass typed in for the selected mirror; refused (not 0 to 50 mm), the field shows the mirror's glass
+        again (it had kept '-5' beside a line that said 1.7 mm: a helper)."""
+        editor = self.services.editor
+        try:
+            editor.set_marker_offset(self._id(), self.glass.value / 1e3)
+        except MirrorscanError:
+            self.glass.value = round(editor.mirror(self._id()).marker_offset * 1e3, 2)
+            raise
 
     def _check_agreement(self) -> None:
         """After new planes: how the views agree on the last frames (a worker fills it in)."""
