@@ -113,6 +113,13 @@ class SessionPanel:
         number = frame_number(frame.index, count)                              # as the header names it
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
         which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
+        bare = [m.name for m in frame.snapshot.session.mirrors if m.boundary and m.plane is None]
+        missing = (f"{' and '.join(bare)} {'has' if len(bare) == 1 else 'have'} no plane yet: what is seen inside "
+                   f"{'its outline' if len(bare) == 1 else 'their outlines'} is not in it" if bare else "")
         self.exported.content = markdown(f"{which}: {len(frame.cloud):,} points"
-                                          + (f", saved as `{saved}`" if saved else ", downloaded"))
+                                          + (f", saved as `{saved}`" if saved else ", downloaded")
+                                          + (f". ⚠ {missing}" if missing else ""))
+        if missing:                          # 1,946 points of a person mostly inside the outlines, said as done
+            self.services.notify(self.tab.client, "Exported, not all of the object",
+                                 f"{which}: {len(frame.cloud):,} points; {missing}.", "warning")
         return saved
