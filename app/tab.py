@@ -207,6 +207,8 @@ class Tab:
             self._send_screen(force=True)
         else:
             self.look_home()
+            if self.heat:
+                self._heat_now()
         for listener in list(self._state_listeners):
             listener(self.state)
 
@@ -216,15 +218,25 @@ class Tab:
         return self.state.view == "3d" and not self.hidden
 
     def show_heat(self, on: bool) -> None:
-        """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud)."""
+        """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud), the first
+        of the last frame at once: paused, no frame comes (the view had stayed empty until Step: a helper)."""
         with self._heat_lock:
             self.heat, self._stale, self._last_heat = on, True, 0.0
             if not on:
                 self.scene.show_heat(None, None)
                 self.heat_figures = {}
+        if on:
+            self._heat_now()
         self.scene.show_clouds(not on and self.state.view == "3d")
         if on and self.state.view == "3d":      # its colours are on the object's rims: a few pixels from home
             self.look_at_object()
+
+    def _heat_now(self) -> None:
+        """The heat map of the last frame, now (when the tab looks at the 3D scene)."""
+        frame = self.services.last_frame
+        if frame is not None and self.shows_cloud:
+            self._last_heat = time.perf_counter()
+            self.services.jobs.start_heat(frame)
 
     def _on_heat(self, event: HeatChanged) -> None:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it

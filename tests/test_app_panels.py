@@ -347,6 +347,12 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")
+    app.pause(True)                               # paused, no frame comes: the map of the frame shown, at once (the
+    time.sleep(0.3)                               # view had stayed empty until Step: a helper)
+    tab.show_heat(True)
+    wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 10, "the heat map while paused")
+    tab.show_heat(False)
+    app.pause(False)
 
 
 def test_look_at_the_object_frames_the_object_not_the_rig(sphere):
