@@ -94,7 +94,7 @@ class TabState:
     picked_corner: int | None = None
     picked_marker: int | None = None
     moving_marker: bool = False
-    flagged_markers: tuple[int, ...] = ()
+    flagged_markers: tuple[tuple[int, int], ...] = ()   # (mirror id, marker index) crossed on the depth frame
     proposal_for: tuple[str, ...] = ()     # the mirrors whose fitted plane waits for Apply or Discard
     view: str = "3d"
 

@@ -142,7 +142,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes):
     measure.shape.value = "sphere"
 
 
-def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes):
+def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes, monkeypatch):
     app, headless = sphere
     kinds: list[tuple[str, bool]] = []
     tab, said = headless.tab, notes(app, kinds)
@@ -170,7 +170,14 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert not app.jobs.running("refine") and mirrors.proposal is not None
     assert "A new plane for mirror 2 waits" in tab.header.hint.content                     # the next step says so
     assert mirrors.review.visible and "⚠" in mirrors.review.content
-    assert tab.state.flagged_markers == (len(before.markers),)                             # shown on the image
+    assert tab.state.flagged_markers == ((2, len(before.markers)),)                     # crossed on the image,
+    drawn: list = []                                                             # whichever mirror is selected
+    tab.state.mirror_id = 1                                                      # (a helper saw mirror 2's only
+    with monkeypatch.context() as patch:                                         # once it was selected)
+        patch.setattr(tab.overlay, "draw", lambda marks, region: drawn.append(marks))
+        tab._redraw_overlay()
+    tab.state.mirror_id = 2
+    assert [k for k, mark in enumerate(drawn[-1][1].markers) if mark.flagged] == [len(before.markers)]
     mirrors._discard()
     assert app.editor.mirror(2).plane == plane and not mirrors.review.visible
     mirrors.fit_planes([2])
@@ -190,7 +197,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.undo_label(2) == step                                                # not asked again
     assert re.search(r"⚠ mirror 2: the same markers as before, and marker\(s\) 2\.\d+ lie off it beyond the depth "
                      r"noise: delete them \(crossed on the depth frame\) and fit again\.", said[-1]), said[-1]
-    assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == (len(before.markers),)
+    assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == ((2, len(before.markers)),)
     assert "⚠ marker(s) 2." in mirrors.result.content
     tab.state.picked_marker = len(before.markers)                                         # delete just that one
     mirrors._delete_marker()

@@ -387,11 +387,11 @@ class MirrorsPanel:
         if waits:
             self.proposal = fits
             self._report("")
-            self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
+            self.tab.state.flagged_markers = _flags(fits)
         else:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
-            self.tab.state.flagged_markers = sum((r.poor for c, m, r in fits.values() if m.id == self._id()), ())
+            self.tab.state.flagged_markers = _flags(fits)
             self._check_agreement()
         look = waits or without_markers or any(r.poor for _, _, r in fits.values())
         self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
@@ -539,6 +539,13 @@ class MirrorsPanel:
                                                f"{_dot('poor')}beyond (σ: the depth noise at the marker)")
         return (f'<div style="font-size:0.8em;line-height:1.45">{legend}<br>'
                 + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
+
+
+def _flags(fits: dict[int, tuple]) -> tuple[tuple[int, int], ...]:
+    """(mirror id, marker index) of every poor marker of the fits ({id: (Calibration, SessionMirror, FitReview)}):
+    crossed on the depth frame whichever mirror is selected (the note names them all; a helper saw mirror 2's
+    crossed only once it was selected)."""
+    return tuple((mirror.id, k) for _, mirror, review in fits.values() for k in review.poor)
 
 
 def _dot(grade: str) -> str:
