@@ -724,6 +724,12 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
                                               "0.05°; right moved -1.5 mm")
     # from a sphere's centres the report says so, and what that method may add (0.3 mm, not the surfaces' 1 to 2 mm)
     assert refined_headline(moved, "sphere").startswith("Planes refined from the sphere's centres (moved > 0")
+    glass = [SimpleNamespace(**{**vars(moved[0]), "marker_offset": 5e-4, "marker_offset_std": 8e-4})]  # 3 mm: 0.5
+    assert refined_headline(glass).endswith(                                         # said as no surer than the
+        "left moved 0.0 mm and 0.05°, glass 0.5 ± 0.8 mm. The glass is measured on these planes, which may add 1 to "
+        "2 mm: if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, "
+        "clear.")                                                                    # surfaces' planes (a helper)
+    assert refined_headline(glass, "sphere").endswith("glass 0.5 ± 0.8 mm.")
     fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
     assert found_headline(fixed, "sphere") == (
         "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; "
