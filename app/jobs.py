@@ -45,6 +45,7 @@ DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
 CHECKING = "checking how the views agree…"
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
+CANCELLED = "cancelled"      # the last status of a job cancelled
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
@@ -137,7 +138,7 @@ class Jobs:
             try:
                 status = work(cancel)
             except Cancelled:
-                status = "cancelled"
+                status = CANCELLED
             except (MirrorscanError, OSError) as exc:
                 status = f"{NOT_DONE}: {exc}"
             except Exception as exc:  # noqa: BLE001 - a bug must still end the job with a status, never a blank one

@@ -18,7 +18,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
+from ..jobs import AGREEMENT, CANCELLED, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -123,18 +123,25 @@ class MirrorsPanel:
                 self.fit.disabled = self.fit_all.disabled = True
                 self.refine_progress.value = event.percent
             self.refine_progress.visible = running
-            self._report(event.status)
-            if not running:                         # its end, in view whatever the panel's scroll, until the
+            self._report(self._cancelled() if event.status == CANCELLED else event.status)
+            if not running and event.status != CANCELLED:       # its end, in view whatever the panel's scroll,
                 refused = event.status.startswith((NOT_DONE, FAILED))
                 headline = event.status.split("\n\n")[0]
-                self._result_note = self.services.notify(          # planes change again (_report)
+                self._result_note = self.services.notify(          # until the planes change again (_report)
                     self.tab.client, "Calibration from the object", _refusal_note(headline) if refused else headline,
                     "error" if refused else "info", stay=True)
+            if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
             self.agreement.content = markdown(event.status)
             if event.fraction is None:
                 self._warn_disagreement(event.status)
+
+    def _cancelled(self) -> str:
+        """A calibration from the object cancelled: the planes are as they were, and so is their report (a bare
+        'cancelled' had replaced it: a helper)."""
+        before = self.services.jobs.refinements.get(planes_key(self.services.editor.session), "")
+        return "Cancelled: the planes are as they were." + (f"\n\n{before}" if before else "")
 
     def _warn_disagreement(self, lines: str) -> None:
         """A notification naming the mirrors the agreement lines flag (⚠), not again for the same lines: they may be
