@@ -107,6 +107,7 @@ class Jobs:
         self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
         self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
         self._lock = threading.Lock()
+        self.batch_settings: tuple[str, int, int] | None = None   # the last batch's method, temporal, workers
         self._heat_rig = None                # the planes of the heat maps the legend pools (one job at a time)...
         self._heat_pool: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # ... by frame number, oldest first
         self._marker_frames: tuple[tuple, np.ndarray] | None = None     # (recording, its frames): marker_frames
@@ -379,8 +380,11 @@ class Jobs:
             raise MirrorscanError("a batch reads a saved session with frames: record one (or Save as) first")
         out = exports_folder(session.root, method, temporal)
         job = BatchJob(Path(session.root), out, method, options, temporal)
-        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel),
-                    "a batch is already running; cancel it first")
+        busy = "a batch is already running; cancel it first"
+        if self.running(BATCH):
+            raise MirrorscanError(busy)
+        self.batch_settings = (method, temporal, workers)          # before it runs: a tab opening shows them
+        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel), busy)
         return out
 
     def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> str:

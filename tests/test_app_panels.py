@@ -616,6 +616,22 @@ def test_a_batch_being_cancelled_says_so(sphere):
     record.method.value = "raw"
 
 
+def test_a_tab_opened_while_a_batch_runs_shows_it(sphere, monkeypatch):
+    """A tab reopened during a TSDF batch read 'Method raw' and 'Ready: the merged cloud is live' (a helper): it shows
+    the batch's settings and that it runs, and the next step says where."""
+    app, _ = sphere
+    running = app.jobs.running
+    monkeypatch.setattr(app.jobs, "running", lambda kind: kind == "batch" or running(kind))
+    monkeypatch.setattr(app.jobs, "batch_settings", ("tsdf", 2, 1))
+    with HeadlessTab(app) as opened:
+        record = panel(opened.tab, RecordPanel)
+        assert (record.method.value, record.temporal.value, record.workers.value) == ("tsdf", 2, 1)
+        assert record.batch_cancel.visible and record.batch.disabled and "a batch of tsdf runs" in \
+            record.batch_status.content
+        opened.tab.header.refresh_hint()
+        assert "A batch reconstructs every frame (0% done)" in opened.tab.header.hint.content
+
+
 def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     app, headless = sphere
     assert app.source.frame_count                                     # the recording of the test above plays

@@ -17,7 +17,7 @@ from mirrorcore.sources import SessionSource
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged, SessionChanged
-from ..jobs import HEAT_LIMIT_MM, RECORD, REFINE, Jobs
+from ..jobs import BATCH, HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -101,14 +101,16 @@ def _swatch(colour, text: str) -> str:
 def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
                playback: str = "live", calibrating: float | None = None, recording: bool = False,
                no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (),
-               refused: dict[int, str] | None = None, start: str = "the live source") -> str:
+               refused: dict[int, str] | None = None, start: str = "the live source",
+               batch: float | None = None) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
     the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
     whose planes come from markers with no glass set (_no_glass); glass_unused: those whose glass was typed in after
     their plane was fitted (SessionEditor.glass_unused); refused: {mirror id: "refine" or "scene"}, what was refused
     on it lately (Jobs.refused: a helper was sent back to it after every refusal); start: the name of the source
-    served from the start, as the header's Back to button gives it."""
+    served from the start, as the header's Back to button gives it; batch: how far a batch that runs is (0 to 1),
+    or None."""
     refused = refused or {}
     if not has_frame:
         return "Waiting for the first frame from the source…"
@@ -120,6 +122,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if calibrating is not None:
         return (f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then its "
                 "report are under *Mirrors*.")
+    if batch is not None:
+        return (f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are under "
+                "*Record › Reconstruct every frame (batch)*.")
     if state.proposal_for:
         return (f"A new plane for {' and '.join(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
                 "it.")
@@ -228,6 +233,7 @@ class LivePanel:
         tab.on_state(lambda _: self.refresh_hint())
         self._calibrating = 0.0 if services.jobs.running(REFINE) else None      # how far, while one runs
         self._recording = services.jobs.running(RECORD)
+        self._batch = 0.0 if services.jobs.running(BATCH) else None              # how far, while one runs
         self._unsubscribe = [services.bus.subscribe(LoopChanged, self._on_loop),
                              services.bus.subscribe(JobProgress, self._on_job),
                              services.bus.subscribe(SessionChanged, self._name)]
@@ -241,13 +247,16 @@ class LivePanel:
             unsubscribe()
 
     def _on_job(self, event: JobProgress) -> None:
-        """A calibration from the object or a recording began or ended: the hint says so (for the calibration, how far
-        it is, by 5 %: at 1024x600 its progress bar is below the fold), then what comes next."""
-        if event.job == REFINE:
-            done = None if event.fraction is None else PROGRESS_STEP * np.floor(event.fraction / PROGRESS_STEP)
-            if done != self._calibrating:
-                self._calibrating = done
-                self.refresh_hint()
+        """A calibration from the object, a batch or a recording began or ended: the hint says so (for the first
+        two, how far they are, by 5 %: at 1024x600 the calibration's progress bar is below the fold, the batch's in a
+        folder of another step), then what comes next."""
+        done = None if event.fraction is None else PROGRESS_STEP * np.floor(event.fraction / PROGRESS_STEP)
+        if event.job == REFINE and done != self._calibrating:
+            self._calibrating = done
+            self.refresh_hint()
+        elif event.job == BATCH and done != self._batch:
+            self._batch = done
+            self.refresh_hint()
         elif event.job == RECORD and (event.fraction is not None) != self._recording:
             self._recording = event.fraction is not None
             self.refresh_hint()
@@ -285,7 +294,7 @@ class LivePanel:
                        and not jobs.from_object(m.id, m.plane))
         hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
                           playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
-                          jobs.refused, services.start_source.name)
+                          jobs.refused, services.start_source.name, self._batch)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:

@@ -51,6 +51,8 @@ class RecordPanel:
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
                              self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source))]
         self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, ""))
+        if self.services.jobs.running(BATCH):      # a tab opened while one runs shows it and its settings (a
+            self._show_batch()                      # helper's read 'Method raw' under a TSDF batch)
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
@@ -83,6 +85,12 @@ class RecordPanel:
         chosen number of worker processes (1: in this process; more: a local Dask cluster)."""
         self.services.jobs.start_batch(self.services.editor.session, self.method.value, DenseOptions(),
                                        int(self.temporal.value), int(self.workers.value))
+
+    def _show_batch(self) -> None:
+        """The batch that runs, as its tab started it: its settings and a running status until its next progress."""
+        method, temporal, workers = self.services.jobs.batch_settings
+        self.method.value, self.temporal.value, self.workers.value = method, temporal, workers
+        self._on_job(JobProgress(BATCH, 0.0, f"a batch of {method} runs on every frame…"))
 
     def cancel_batch(self) -> None:
         """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
