@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.panels.mirrors import MirrorsPanel
 from bench.tabs import wait_for
 from mirrorcore.ply import read_ply
 from mirrorcore.sim.export import session_mirrors
@@ -205,6 +206,18 @@ def test_the_layout_fits_1024x600(app, browser):
         left, top = canvas_point(page, server_tab.client, server_tab.screen.world_of_pixel(-0.5, -0.5))
         assert canvas["x"] - 1 <= left and right <= panel_left and bottom <= 600 and top >= 0   # never under it
         page.screenshot(path=ARTIFACTS / "browser-1024x600.png")
+        mirrors = next(p for p in server_tab.panels if isinstance(p, MirrorsPanel))     # a proposal: its Apply in
+        server_tab.state.mirror_id = 2                                                  # view (a helper saw a
+        floor = max(app.editor.mirror(2).boundary, key=lambda p: p[1])                  # sliver at the bottom)
+        app.editor.add_marker(2, (floor[0] - 10, floor[1] - 6))
+        mirrors.fit_planes([2])
+        apply = page.get_by_role("button", name="Apply the new plane(s)")
+        wait_for(lambda: apply.is_visible(), what="the proposal")
+        box = apply.bounding_box()
+        assert box["y"] + box["height"] <= 600, box
+        page.screenshot(path=ARTIFACTS / "browser-1024x600-proposal.png")
+        mirrors._discard()
+        app.editor.undo(2)
     finally:
         page.close()
 

@@ -52,14 +52,15 @@ class MirrorsPanel:
         self._flagged = ""                  # the agreement lines last warned of in a notification
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
-        self.add = gui.add_button("Add a mirror")
-        self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
-        self.help = gui.add_markdown(HELP["inspect"])
-        # a proposal comes above the fit buttons and its details below its own buttons: at 1024x600 they stay in view
+        # a proposal comes first and its details below its own buttons: at 1024x600 Apply stays in view (under the
+        # click modes, it showed as a sliver at the window's bottom edge: a helper)
         self.proposal_head = gui.add_markdown(PROPOSAL_HEAD, visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
         self.discard = gui.add_button("Discard the proposal", visible=False)
         self.review = gui.add_markdown("", visible=False)
+        self.add = gui.add_button("Add a mirror")
+        self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
+        self.help = gui.add_markdown(HELP["inspect"])
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
         self.refine = gui.add_button("Refine from the object", hint="adjust every calibrated plane so that the "
