@@ -8,6 +8,7 @@ import re
 import time
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, mirror_status
 from app.panels.object import ObjectPanel
-from app.panels.record import RecordPanel
+from app.panels.record import BATCH_IDLE, RecordPanel
 from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
@@ -597,6 +598,10 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     points, sources = read_ply(out / f"{Path(session.frames[0]).stem}.ply")
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
     assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran
+    wait_for(lambda: record.batch_status.content.startswith("batch done"), 5, "the batch's line")
+    elsewhere = SimpleNamespace(snapshot=SimpleNamespace(session=SimpleNamespace(root=Path("/elsewhere"))))
+    record._session_changed(elsewhere)              # another session edited: the line of this one's batch goes
+    assert record.batch_status.content == BATCH_IDLE
 
 
 def test_a_batch_being_cancelled_says_so(sphere):

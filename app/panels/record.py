@@ -13,12 +13,14 @@ from mirrorcore.session import Session
 from mirrorcore.sources import DepthSource, SessionSource
 
 from ..context import TabContext
-from ..events import JobProgress, LoopChanged
+from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import BATCH, RECORD
 from ..markup import markdown
 
 TITLE = "Record"
 CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
+BATCH_IDLE = "One PLY per frame and a manifest in the session's exports/ folder; a second run goes on where the first \
+stopped."
 IDLE = ("Records the frames as they come into a new session folder (from a recording that plays: up to its last "
         "frame, none twice).")
 
@@ -41,15 +43,16 @@ class RecordPanel:
             self.batch = gui.add_button("Reconstruct every frame of this session")
             self.batch_cancel = gui.add_button("Cancel the batch", visible=False)
             self.batch_progress = gui.add_progress_bar(0.0, visible=False)
-            self.batch_status = gui.add_markdown("One PLY per frame and a manifest in the session's exports/ "
-                                                 "folder; a second run goes on where the first stopped.")
+            self.batch_status = gui.add_markdown(BATCH_IDLE)
         self.batch.on_click(lambda _: tab.act(self.start_batch))
         self.batch_cancel.on_click(lambda _: self.cancel_batch())
         self.start_button.on_click(lambda _: tab.act(self.start))
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
+        self._batch_root = self.services.editor.session.root      # the session the batch line speaks of
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
-                             self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source))]
+                             self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source)),
+                             self.services.bus.subscribe(SessionChanged, self._session_changed)]
         self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, ""))
         if self.services.jobs.running(BATCH):      # a tab opened while one runs shows it and its settings (a
             self._show_batch()                      # helper's read 'Method raw' under a TSDF batch)
@@ -85,6 +88,14 @@ class RecordPanel:
         chosen number of worker processes (1: in this process; more: a local Dask cluster)."""
         self.services.jobs.start_batch(self.services.editor.session, self.method.value, DenseOptions(),
                                        int(self.temporal.value), int(self.workers.value))
+
+    def _session_changed(self, event: SessionChanged) -> None:
+        """Another session edited: the last batch's line, which named the other's exports, goes (a helper read
+        'batch done … gait/exports' beside another session)."""
+        root = event.snapshot.session.root
+        if root != self._batch_root and not self.services.jobs.running(BATCH):
+            self.batch_status.content = BATCH_IDLE
+        self._batch_root = root
 
     def _show_batch(self) -> None:
         """The batch that runs, as its tab started it: its settings and a running status until its next progress."""
