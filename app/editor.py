@@ -208,9 +208,10 @@ class SessionEditor:
     # ------------------------------------------------------------------ calibration, selection, background
     @_edits
     def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]],
-                   marker_offsets: dict[int, float] | None = None, what: str = "plane") -> bool:
+                   glass: dict[int, tuple[float, float | None]] | None = None, what: str = "plane") -> bool:
         """Set the planes of several mirrors {id: (plane, the mirror as it was when the plane was computed)}, and
-        their marker_offset when given {id: metres} (a refinement estimates it), all or nothing; each mirror's change
+        their glass when given {id: (marker_offset, marker_offset_std) metres} (a refinement measures it), all or
+        nothing; each mirror's change
         is an undo step in its own scope, and the steps of several mirrors are undone together ('{what}s of NAME and
         NAME'). A mirror whose plane and glass stay as they are is left out (a fit of the same frames again is no
         undo step). Refused when a mirror is gone or its markers, boundary, region, plane or glass changed since: a
@@ -220,27 +221,30 @@ class SessionEditor:
             if fit_inputs(current) != fit_inputs(based_on):
                 again = "refine it again" if what.startswith("refined") else "fit it again"
                 raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
-        glass = {i: (marker_offsets or {}).get(i, self.mirror(i).marker_offset) for i in planes}
-        planes = {i: given for i, given in planes.items()
-                  if (given[0], glass[i]) != (self.mirror(i).plane, self.mirror(i).marker_offset)}
+        glass = {i: (glass or {}).get(i, (self.mirror(i).marker_offset, self.mirror(i).marker_offset_std))
+                 for i in planes}
+        planes = {i: given for i, given in planes.items() if (given[0], *glass[i]) != (
+            self.mirror(i).plane, self.mirror(i).marker_offset, self.mirror(i).marker_offset_std)}
         if not planes:
             return False
         names = [self.mirror(mirror_id).name for mirror_id in planes]
         label = f"{what} of {names[0]}" if len(names) == 1 else f"{what}s of {', '.join(names[:-1])} and {names[-1]}"
         group = next(self._groups) if len(names) > 1 else 0
         for mirror_id, (plane, _) in planes.items():
-            self._set_mirror(mirror_id, label, group, plane=plane, marker_offset=glass[mirror_id])
+            offset, std = glass[mirror_id]
+            self._set_mirror(mirror_id, label, group, plane=plane, marker_offset=offset, marker_offset_std=std)
         return True
 
     @_edits
     def set_marker_offset(self, mirror_id: int, metres: float) -> None:
         """How far the mirror's markers stand in front of its reflecting surface (the glass), 0 to
-        MAX_MARKER_OFFSET metres; the plane stays (fit again to use it: glass_unused)."""
+        MAX_MARKER_OFFSET metres, typed in (a refinement keeps it); the plane stays (fit again to use it:
+        glass_unused)."""
         mirror = self.mirror(mirror_id)
         if not (np.isfinite(metres) and 0 <= metres <= MAX_MARKER_OFFSET):
             raise MirrorscanError(f"{mirror.name}: the glass in front of the silver must be 0 to "
                                   f"{MAX_MARKER_OFFSET * 1e3:g} mm, got {metres * 1e3:g} mm")
-        self._set_mirror(mirror_id, f"glass of {mirror.name}", marker_offset=float(metres))
+        self._set_mirror(mirror_id, f"glass of {mirror.name}", marker_offset=float(metres), marker_offset_std=None)
 
     @_edits
     def set_selection(self, selection: Selection) -> None:

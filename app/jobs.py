@@ -287,8 +287,9 @@ class Jobs:
         for mirror_id in ids:
             self.refused.pop(mirror_id, None)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
-        offsets = {session.mirrors[r.index].id: refined.mirrors[r.index].marker_offset for r in result.mirrors}
-        changed = editor.set_planes(planes, offsets, what="refined plane" if search is None else "found plane")
+        glass = {session.mirrors[r.index].id: (refined.mirrors[r.index].marker_offset,
+                                                refined.mirrors[r.index].marker_offset_std) for r in result.mirrors}
+        changed = editor.set_planes(planes, glass, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
@@ -495,14 +496,23 @@ def refined_headline(mirrors, compared: str = "surfaces") -> str:
     `compared` (Refinement.compared): "sphere" says they came from the sphere's centres; from the surfaces, a glass
     measured is said to be no surer than their planes (a walking figure's 3 mm read 0.5 and 1.7 mm, saved without a
     word: a helper)."""
-    moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°"
-             + (f", glass {1e3 * r.marker_offset:.1f} ± {1e3 * r.marker_offset_std:.1f} mm"
-                if r.marker_offset is not None else "") for r in mirrors]
+    moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°" + _glass(r) for r in mirrors]
     how = " from the sphere's centres" if compared == "sphere" else ""
+    measured = any(r.marker_offset is not None and r.glass_typed is None for r in mirrors)
     glass = (f" The glass is measured on these planes, which {METHOD_BIAS['surfaces'].removeprefix('the method ')}: "
-             "if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, clear."
-             if compared == "surfaces" and any(r.marker_offset is not None for r in mirrors) else "")
+             "if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, clear "
+             "(a refinement keeps a glass typed in)." if compared == "surfaces" and measured else "")
     return f"{REFINED}{how} (moved > 0: away from the camera): {'; '.join(moved)}.{glass}"
+
+
+def _glass(r) -> str:
+    """A refined mirror's glass for the headline (MirrorRefinement): measured, kept as typed in, or nothing."""
+    if r.marker_offset is None:
+        return ""
+    read = f"{1e3 * r.marker_offset:.1f} ± {1e3 * r.marker_offset_std:.1f} mm"
+    if r.glass_typed is None:
+        return f", glass {read}"
+    return f", glass {1e3 * r.glass_typed:.1f} mm as typed in (read {read})"
 
 
 def found_headline(mirrors, compared: str = "surfaces") -> str:

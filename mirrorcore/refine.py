@@ -97,6 +97,7 @@ class MirrorRefinement:
     marker_offset_std : metres, how well that is known (1 sigma: the spread of its markers and the plane's own
         uncertainty where they are), or None
     sphere_radius_mm : the sphere's radius (mm) when the plane came from its centres (spheretarget.py), else None
+    glass_typed : metres, the glass typed in for the mirror, which the refinement kept (refine_session), else None
     """
 
     index: int
@@ -117,6 +118,7 @@ class MirrorRefinement:
     marker_offset: float | None = None
     marker_offset_std: float | None = None
     sphere_radius_mm: float | None = None
+    glass_typed: float | None = None
 
     def summary(self, searched: bool = False, saved: bool = True) -> str:
         """One line: how far the plane moved (not for a plane a search found, `searched`: its start was a guess),
@@ -146,7 +148,10 @@ class MirrorRefinement:
             how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it; "
                    f"{METHOD_BIAS['sphere']}")
         text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
-        if self.marker_offset is not None:
+        if self.glass_typed is not None:
+            text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
+                     f"the refined plane (its glass stays {1e3 * self.glass_typed:.1f} mm, as typed in)")
+        elif self.marker_offset is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
                      f"the silver ({'saved as its glass' if saved else 'its glass already'})")
         return text
@@ -598,19 +603,22 @@ def refine_session(session: Session, depths: np.ndarray, masks: np.ndarray, indi
     (refine_planes: depths (F, H, W) float metres as measured, masks (F, H, W) bool, the object's pixels of each;
     with_ and leash as there); all or nothing. Each refined mirror with usable markers also
     gets its marker_offset: how far its markers' faces stand in front of the refined plane (their readings' robust
-    mean over the frames, marker_offset), with how well that is known.
+    mean over the frames, marker_offset), with how well that is known, unless its glass was typed in
+    (SessionMirror.glass_typed: it stays, and the report gives the reading beside it).
     Returns the session with the new planes and marker offsets, and the Refinement (its reports carry the offsets)."""
     rig = Rig.from_session(session)
     result = refine_planes(rig, depths, masks, indices, progress, cancel, with_, leash)
     reports = []
     for report in result.mirrors:
-        mirror = session.mirrors[report.index]
+        mirror = replace(session.mirrors[report.index], plane=report.after)
         glass = marker_offset(session.camera, np.asarray(depths), mirror.markers, report.after)
-        offset = None if glass is None else glass.offset
         if glass is not None:
-            report = replace(report, marker_offset=offset, marker_offset_std=_glass_std(report, glass, result.centre))
-        session = session.with_mirror(report.index, replace(
-            mirror, plane=report.after, marker_offset=mirror.marker_offset if offset is None else offset))
+            report = replace(report, marker_offset=glass.offset,
+                             marker_offset_std=_glass_std(report, glass, result.centre),
+                             glass_typed=mirror.marker_offset if mirror.glass_typed else None)
+            if not mirror.glass_typed:
+                mirror = replace(mirror, marker_offset=glass.offset, marker_offset_std=report.marker_offset_std)
+        session = session.with_mirror(report.index, mirror)
         reports.append(report)
     return session, replace(result, mirrors=tuple(reports))
 

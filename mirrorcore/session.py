@@ -37,7 +37,7 @@ MAX_FRAMES = 1_000_000              # frames of a session: 9 hours at 30 fps
 MAX_SESSION_BYTES = 64 << 20        # session.json itself; a million frames listed take about 30 MB
 _TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames",
              "bounces")
-_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset")
+_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset", "marker_offset_std")
 MAX_MARKER_OFFSET = 0.05   # metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake
 
 Pixels = tuple[tuple[float, float], ...]
@@ -57,6 +57,9 @@ class SessionMirror:
     marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass), along the
         normal away from the camera; 0 when the markers lie on the reflecting surface. |marker_offset| <=
         MAX_MARKER_OFFSET.
+    marker_offset_std : metres, 1 sigma of a marker_offset that a refinement measured; None when it was typed in
+        (or is unset: 0). A refinement measures and replaces an unset or measured glass, never one typed in
+        (glass_typed: a helper followed the advice to type 3 mm, and the next refinement put back 0.5).
     extra : keys of the mirror's JSON object that this version does not know, kept as they were
     """
 
@@ -68,6 +71,12 @@ class SessionMirror:
     region: Pixels | None = None
     marker_offset: float = 0.0
     extra: dict = field(default_factory=dict, compare=False)
+    marker_offset_std: float | None = None
+
+    @property
+    def glass_typed(self) -> bool:
+        """Whether the glass was typed in (set, and not measured by a refinement)."""
+        return self.marker_offset != 0.0 and self.marker_offset_std is None
 
     def marker_name(self, k: int) -> str:
         """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the mirror's id)."""
@@ -93,6 +102,8 @@ class SessionMirror:
             data["region"] = [list(p) for p in self.region]
         if self.marker_offset != 0.0:
             data["marker_offset"] = self.marker_offset
+        if self.marker_offset_std is not None:
+            data["marker_offset_std"] = self.marker_offset_std
         return {**data, **self.extra}
 
 
@@ -261,8 +272,14 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
             or abs(offset) > MAX_MARKER_OFFSET):
         raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
                               f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
+    std = data.get("marker_offset_std")
+    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float)) or not 0 <= std
+                            <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
+        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to {MAX_MARKER_OFFSET:g}) to which "
+                              f"a refinement measured the glass, got {std!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra)
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra,
+                         None if std is None else float(std))
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:

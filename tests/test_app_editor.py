@@ -167,8 +167,11 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
     editor.set_marker_offset(1, 0.003)
     assert not editor.set_planes({1: (PLANE, editor.mirror(1))})   # the same plane and glass again (a fit of the
     assert editor.undo(1) == "glass of mirror 1"                # same frames): no undo step that changes nothing
-    assert editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: 0.004})     # the glass alone: a step
+    assert editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: (0.004, 0.0005)})   # the glass alone: a step
     assert editor.undo_label(1) == "plane of mirror 1" and editor.mirror(1).marker_offset == 0.004
+    assert editor.mirror(1).marker_offset_std == 0.0005 and not editor.mirror(1).glass_typed      # measured
+    editor.set_marker_offset(1, 0.003)
+    assert editor.mirror(1).marker_offset_std is None and editor.mirror(1).glass_typed            # typed in
 
 
 def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(editor):

@@ -718,7 +718,7 @@ def test_a_progress_bar_is_given_tenths_of_a_percent():
 
 def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing():
     """Beside the detail line's "-0.02 mm", the headline said "moved +0.0 mm" (a helper read it as a contradiction)."""
-    moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None)
+    moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None, glass_typed=None)
              for n, mm in (("left", -0.02), ("right", -1.47))]
     assert refined_headline(moved).startswith("Planes refined (moved > 0: away from the camera): left moved 0.0 mm and "
                                               "0.05°; right moved -1.5 mm")
@@ -728,8 +728,11 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     assert refined_headline(glass).endswith(                                         # said as no surer than the
         "left moved 0.0 mm and 0.05°, glass 0.5 ± 0.8 mm. The glass is measured on these planes, which may add 1 to "
         "2 mm: if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, "
-        "clear.")                                                                    # surfaces' planes (a helper)
+        "clear (a refinement keeps a glass typed in).")                              # surfaces' planes (a helper)
     assert refined_headline(glass, "sphere").endswith("glass 0.5 ± 0.8 mm.")
+    typed = [SimpleNamespace(**{**vars(glass[0]), "glass_typed": 0.003})]          # typed in: kept, and said so
+    assert refined_headline(typed).endswith("left moved 0.0 mm and 0.05°, glass 3.0 mm as typed in (read 0.5 ± 0.8 "
+                                            "mm).")
     fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
     assert found_headline(fixed, "sphere") == (
         "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; "

@@ -224,11 +224,14 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     assert mirror_status(None, False) == ""
     assert mirror_status(mirror, False) == "no plane yet · no glass set · 1 marker"
     placed = replace(mirror, plane=Plane.from_abcd([0.0, 0.0, -1.0, 2.0]), marker_offset=0.0042)
-    assert mirror_status(placed, False) == "plane calibrated · glass 4.2 mm · 1 marker"
+    assert mirror_status(placed, False) == "plane calibrated · glass 4.2 mm typed in · 1 marker"
     assert mirror_status(placed, True).startswith("plane from the object · ")
     assert mirror_status(placed, False, glass_unused=True) == (
-        "plane calibrated · glass 4.2 mm, not in the plane yet: **Fit plane** moves it behind the "
+        "plane calibrated · glass 4.2 mm typed in, not in the plane yet: **Fit plane** moves it behind the "
         "glass · 1 marker")
+    read = replace(placed, marker_offset_std=0.0008)           # measured by a refinement: with its 1 sigma
+    assert mirror_status(read, True) == ("plane from the object · glass 4.2 ± 0.8 mm measured (type it in if you "
+                                         "know it) · 1 marker")
     assert mirror_status(placed, True, glass_unused=True) == (          # a helper typed 4 mm over a refined 2.8
         "plane from the object · glass 4.2 mm typed in: the next markers fit uses it, this plane does not depend on "
         "it · 1 marker")

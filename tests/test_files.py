@@ -53,6 +53,23 @@ def test_marker_offset_round_trip(tmp_path):
     save_session(session)
     assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset"] == 0.0042
     assert load_session(tmp_path).mirrors[0].marker_offset == 0.0042
+    assert "marker_offset_std" not in json.loads((tmp_path / "session.json").read_text())["mirrors"][0]   # typed
+    assert load_session(tmp_path).mirrors[0].glass_typed
+    save_session(session.with_mirror(0, replace(session.mirrors[0], marker_offset_std=0.0008)))      # measured
+    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset_std"] == 0.0008
+    loaded = load_session(tmp_path).mirrors[0]
+    assert loaded.marker_offset_std == 0.0008 and not loaded.glass_typed
+
+
+@pytest.mark.parametrize("bad", [-0.001, 0.2, "1", True, float("nan")])
+def test_a_glass_uncertainty_that_is_not_metres_is_refused_by_name(tmp_path, bad):
+    session = make_session(tmp_path)
+    save_session(session)
+    data = json.loads((tmp_path / "session.json").read_text())
+    data["mirrors"][0]["marker_offset_std"] = bad
+    (tmp_path / "session.json").write_text(json.dumps(data))
+    with pytest.raises(FileFormatError, match=r"mirrors\[0\].*'marker_offset_std' must be the metres"):
+        load_session(tmp_path)
 
 
 def test_bounces_are_kept_and_written_only_when_set(tmp_path):

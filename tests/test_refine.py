@@ -286,7 +286,18 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
         assert 0 < report.marker_offset_std < 1e-3                     # ideal readings: the plane's own uncertainty
         assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm in front of the "
                 "silver (saved as its glass)") in report.summary()
+        assert mirror.marker_offset_std == report.marker_offset_std and report.glass_typed is None
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
+    # a glass typed in stays, the reading beside it (a helper typed 3 mm as advised, and the next refinement put
+    # back its 0.5); a glass measured before is measured again
+    typed = session.with_mirror(0, replace(session.mirrors[0], marker_offset=0.003))
+    typed = typed.with_mirror(1, replace(typed.mirrors[1], marker_offset=0.002, marker_offset_std=0.0009))
+    again, result = refine_session(typed, frame.depth[None], mask[None])
+    assert again.mirrors[0].marker_offset == 0.003 and again.mirrors[0].marker_offset_std is None
+    assert result.mirrors[0].glass_typed == 0.003 and result.mirrors[0].marker_offset == pytest.approx(0.004, abs=1e-3)
+    assert "in front of the refined plane (its glass stays 3.0 mm, as typed in)" in result.mirrors[0].summary()
+    assert again.mirrors[1].marker_offset == pytest.approx(0.004, abs=1e-3) and result.mirrors[1].glass_typed is None
+    assert again.mirrors[1].marker_offset_std == result.mirrors[1].marker_offset_std
 
 
 def test_scene_search_then_refinement_without_markers(sphere):

@@ -612,16 +612,22 @@ def _fit_report(fits, applied: str = "") -> str:
 
 def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused: bool = False) -> str:
     """One line on a mirror: where its plane stands (none yet, calibrated, or from the object: a refinement or
-    search of this app), its markers' glass (mm in front of the silver: set, or measured by the refinement, 0
-    included; none without markers; glass_unused: typed in after the plane was set, which it does not move: a plane
-    from the markers until the next fit, one from the object not at all) and how many markers it has."""
+    search of this app), its markers' glass (mm in front of the silver: typed in, or measured by a refinement with
+    its 1 sigma, 0 included; none without markers; glass_unused: typed in after the plane was set, which it does not
+    move: a plane from the markers until the next fit, one from the object not at all) and how many markers it
+    has."""
     if mirror is None:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
     glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if mirror.marker_offset or from_object else "no glass set"
+    if mirror.marker_offset_std is not None:
+        glass = (f"glass {mirror.marker_offset * 1e3:.1f} ± {mirror.marker_offset_std * 1e3:.1f} mm measured (type it "
+                 "in if you know it)")
+    elif mirror.glass_typed:
+        glass += " typed in"
     if glass_unused:
-        glass += (" typed in: the next markers fit uses it, this plane does not depend on it" if from_object else
+        glass += (": the next markers fit uses it, this plane does not depend on it" if from_object else
                   ", not in the plane yet: **Fit plane** moves it behind the glass")
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
