@@ -53,6 +53,10 @@ class Step:
     before: object
     after: object
     group: int = 0
+    what: str = ""          # of a group's step: what each mirror's change is ('refined plane'), to name a part
+
+
+PARTIAL = " only: "     # in the label of a group's step that moves part of its mirrors (the others changed since)
 
 
 def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
@@ -232,7 +236,7 @@ class SessionEditor:
         group = next(self._groups) if len(names) > 1 else 0
         for mirror_id, (plane, _) in planes.items():
             offset, std = glass[mirror_id]
-            self._set_mirror(mirror_id, label, group, plane=plane, marker_offset=offset, marker_offset_std=std)
+            self._set_mirror(mirror_id, label, group, what, plane=plane, marker_offset=offset, marker_offset_std=std)
         return True
 
     @_edits
@@ -312,8 +316,31 @@ class SessionEditor:
     def undo_label(self, scope: int) -> str | None:
         """What undo in this scope (a mirror id, or SESSION_SCOPE) would take back, or None."""
         with self._lock:
-            steps = self._undo.get(scope)
-            return steps[-1].label if steps else None
+            return self._label(scope, self._undo)
+
+    def _label(self, scope: int, source: dict) -> str | None:
+        """The label of the last step of `scope` in `source`; of a group's step of which some mirrors changed since
+        (their own steps come first), only the mirrors it would move, and which changed ('refined plane of mirror 2
+        only: mirror 1 changed since'; the group's label had promised both: a helper)."""
+        steps = source.get(scope)
+        if not steps:
+            return None
+        step = steps[-1]
+        if not step.group:
+            return step.label
+        moving, left = self._group_split(step, source)
+        name = lambda ids: " and ".join(self.mirror(i).name for i in ids)     # noqa: E731
+        label = f"{step.what}{'s' if len(moving) > 1 else ''} of {name(moving)}"
+        return f"{label}{PARTIAL}{name(left)} changed since" if left else label
+
+    def _group_split(self, step: Step, source: dict) -> tuple[list[int], list[int]]:
+        """The mirrors of `step`'s group (present, in session order) whose last step in `source` it is (they move
+        together), and those that hold it under later steps (they stay). ([], []) for a step of no group."""
+        if not step.group:
+            return [], []
+        holding = [m.id for m in self._session.mirrors if any(x.group == step.group for x in source.get(m.id, ()))]
+        moving = [s for s in holding if source[s][-1].group == step.group]
+        return moving, [s for s in holding if s not in moving]
 
     def glass_unused(self, mirror_id: int) -> bool:
         """Whether the mirror's glass was typed in after its plane was set (its undo steps, newest first, change the
@@ -339,8 +366,7 @@ class SessionEditor:
 
     def redo_label(self, scope: int) -> str | None:
         with self._lock:
-            steps = self._redo.get(scope)
-            return steps[-1].label if steps else None
+            return self._label(scope, self._redo)
 
     @_edits
     def undo(self, scope: int) -> str:
@@ -357,16 +383,14 @@ class SessionEditor:
         steps = source.get(scope)
         if not steps:
             raise MirrorscanError(f"nothing to {verb}")
-        step = steps[-1]
-        present = {m.id for m in self._session.mirrors}
-        scopes = [scope] if not step.group else [s for s, st in source.items()
-                                                  if st and st[-1].group == step.group and s in present]
+        label = self._label(scope, source)
+        scopes = self._group_split(steps[-1], source)[0] or [scope]
         for s in scopes:
             moved = source[s].pop()
             self._session = self._restore(s, getattr(moved, side))
             target.setdefault(s, []).append(moved)
         self._save_and_notify()
-        return step.label
+        return label
 
     def _restore(self, scope: int, state) -> Session:
         """The session with one side of a step put back: a mirror's record (mirror scope) or a session change."""
@@ -426,11 +450,11 @@ class SessionEditor:
             raise MirrorscanError(f"{mirror.name}: no {field} to clear")
         self._set_mirror(mirror_id, f"clear the {field} of {mirror.name}", **{field: ()})
 
-    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, **changes) -> None:
+    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "", **changes) -> None:
         index = self._index(mirror_id)
         before = self._session.mirrors[index]
         after = replace(before, **changes)
-        self._commit(mirror_id, Step(label, before, after, group), self._session.with_mirror(index, after))
+        self._commit(mirror_id, Step(label, before, after, group, what), self._session.with_mirror(index, after))
 
     def _change(self, label: str, change: tuple, session: Session) -> None:
         """A change of the session's own (SESSION_SCOPE): change = (kind, a, b), see _restore and _inverse."""

@@ -154,14 +154,16 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
     assert editor.mirror(2).plane is None and editor.mirror(1).plane is None
     assert editor.redo(1) == "refined planes of mirror 1 and mirror 2"
     assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
-    editor.add_marker(2, (7, 7))                                # mirror 2 edited since: its plane stays
-    editor.undo(1)
+    editor.add_marker(2, (7, 7))                                # mirror 2 edited since: its plane stays, and the
+    label = "refined plane of mirror 1 only: mirror 2 changed since"    # label says so (it promised both: a helper)
+    assert editor.undo_label(1) == label and editor.undo(1) == label
     assert editor.mirror(1).plane is None and editor.mirror(2).plane == other
-    assert editor.undo(2) == "marker 2.1" and editor.undo(2) == "refined planes of mirror 1 and mirror 2"
+    assert editor.redo_label(1) == "refined plane of mirror 1"
+    assert editor.undo(2) == "marker 2.1" and editor.undo(2) == "refined plane of mirror 2"
     assert editor.mirror(2).plane is None
     editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))})
     editor.remove_mirror(2)                                     # a mirror of the group gone: the other's undone
-    assert editor.undo(1) == "planes of mirror 1 and mirror 2" and editor.mirror(1).plane is None
+    assert editor.undo(1) == "plane of mirror 1" and editor.mirror(1).plane is None
     editor.set_planes({1: (PLANE, editor.mirror(1))})
     assert editor.undo_label(1) == "plane of mirror 1"          # one mirror: named alone
     editor.set_marker_offset(1, 0.003)

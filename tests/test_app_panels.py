@@ -351,6 +351,15 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got -5 mm"):     # the glass again (it had kept
         mirrors._set_glass()                                                          # -5: a helper)
     assert mirrors.glass.value == 3.0 and app.editor.mirror(1).marker_offset == 0.003
+    tab.state.mirror_id = 2                 # mirror 1 changed since the refinement of both: undo from mirror 2 takes
+    mirrors.refresh()                       # back its part only, and says so (it promised both: a helper)
+    assert mirrors.undo.label == "Undo: refined plane of mirror 2 only: mirror 1 changed since"
+    mirrors._travel(app.editor.undo)
+    assert mirrors.result.content == "Undone: refined plane of mirror 2 only: mirror 1 changed since."
+    assert app.editor.mirror(1).plane == refined[1] and app.editor.mirror(2).plane == before[2]
+    mirrors._travel(app.editor.redo)
+    assert {m.id: m.plane for m in app.editor.session.mirrors} == refined
+    tab.state.mirror_id = 1
     tab.look("3d")
     tab.show_heat(True)
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")

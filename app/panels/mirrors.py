@@ -16,7 +16,7 @@ from mirrorcore.markers import review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 
 from ..context import TabContext
-from ..editor import PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
+from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
 from ..jobs import AGREEMENT, CANCELLED, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
 from ..markup import markdown
@@ -312,9 +312,9 @@ class MirrorsPanel:
         scope = self.tab.state.mirror_id or SESSION_SCOPE
         label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
         before = planes_key(editor.session)
-        move(scope if label is not None else SESSION_SCOPE)
+        label = move(scope if label is not None else SESSION_SCOPE)
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
-        self._report(self._report_after_travel(before, planes_key(editor.session)))
+        self._report(self._report_after_travel(before, planes_key(editor.session), label, move == editor.undo))
         self._check_agreement()                    # the views' agreement with the planes now
         self.tab.changed()
 
@@ -327,12 +327,15 @@ class MirrorsPanel:
             self._result_note.remove()
             self._result_note = None
 
-    def _report_after_travel(self, before: tuple, after: tuple) -> str:
-        """After an undo or redo: the report of the refinement whose planes are back, or a line saying which one was
-        undone; else nothing (the last fit's report no longer describes the mirrors)."""
+    def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
+        """After an undo or redo (of the step `label`): the report of the refinement whose planes are back, or a
+        line saying which one was undone, or which part of it (the others changed since); else nothing (the last
+        fit's report no longer describes the mirrors)."""
         refinements = self.services.jobs.refinements
         if after in refinements:
             return refinements[after]
+        if PARTIAL in label:
+            return f"{'Undone' if undone else 'Redone'}: {label}."
         if before in refinements and before != after:
             headline = refinements[before].split("\n\n")[0]
             return "Undone: " + headline.removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
