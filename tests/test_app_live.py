@@ -21,7 +21,7 @@ from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
 from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note
 import app.server as server_module
 from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
@@ -870,6 +870,15 @@ def test_the_header_names_the_session_edited_where_another_plays(tmp_path):
     assert source_title("session gait", gait, recording) == (
         "**session gait** · edits saved in session **recording-1**")
     assert source_title("Kinect v1", None, gait) == "**Kinect v1** · edits saved in session **gait**"
+
+
+def test_a_proposal_points_at_crossed_markers_only_when_a_marker_is_crossed():
+    """A proposal for a plane turned 4 degrees (no poor marker) sent a helper to look for crosses in vain."""
+    def fit(poor):
+        return (SimpleNamespace(marker_offset=0.003), SimpleNamespace(name="left"), SimpleNamespace(poor=poor))
+    assert fit_note([fit(())], True) == "A new plane for left waits, not applied: look at it under Mirrors, then " \
+        "Apply or Discard it."
+    assert "under Mirrors (the crossed markers), then" in fit_note([fit((2,))], True)
 
 
 def test_the_legend_says_which_mirrors_leave_their_part_out():

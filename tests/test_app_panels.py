@@ -599,6 +599,9 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     record = panel(headless.tab, RecordPanel)
     session = app.editor.session
     assert session.frames and session.root == record.recorded.root
+    named = f"Reconstruct every frame of session {session.root.name} ({len(session.frames)} frames)"
+    assert record.batch.label == named                       # the session it reads (after Back to: not the one
+                                                             # that plays, a helper)
     statuses: list[str] = []
     app.bus.subscribe(JobProgress, lambda e: e.job == "batch" and statuses.append(e.status))
     record.start_batch()
@@ -611,9 +614,9 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     assert len(points) > 1000 and set(np.unique(sources)) == {0, 1, 2}
     assert any(" of " in s and "fps" in s for s in statuses)                 # progress while it ran
     wait_for(lambda: record.batch_status.content.startswith("batch done"), 5, "the batch's line")
-    elsewhere = SimpleNamespace(snapshot=SimpleNamespace(session=SimpleNamespace(root=Path("/elsewhere"))))
+    elsewhere = SimpleNamespace(snapshot=SimpleNamespace(session=SimpleNamespace(root=Path("/x"), frames=())))
     record._session_changed(elsewhere)              # another session edited: the line of this one's batch goes
-    assert record.batch_status.content == BATCH_IDLE
+    assert record.batch_status.content == BATCH_IDLE and record.batch.label.endswith("session x (0 frames)")
 
 
 def test_a_batch_being_cancelled_says_so(sphere):

@@ -36,8 +36,9 @@ CLOSED_HELP = ("**Boundary** mode: the outline is closed: click a corner to pick
 NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and a plane on "
                  "their faces is that much too near: **Refine from the object** measures the glass and moves the "
                  "plane behind it.")
-PROPOSAL_HEAD = ("**Proposal, not applied**: look at it below and at the crossed markers, then apply or discard it "
-                 "(the calibration from the object waits for that).")
+PROPOSAL_HEAD = ("**Proposal, not applied**: look at it below{crossed}, then apply or discard it (the calibration "
+                 "from the object waits for that).")
+CROSSED = " and at the crossed markers"   # said only when a marker is crossed (a helper looked for crosses in vain)
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 NOTE_CHARS = 200           # a refusal longer than this is shortened in its notification (_refusal_note)
 
@@ -54,7 +55,7 @@ class MirrorsPanel:
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
         # a proposal comes first and its details below its own buttons: at 1024x600 Apply stays in view (under the
         # click modes, it showed as a sliver at the window's bottom edge: a helper)
-        self.proposal_head = gui.add_markdown(PROPOSAL_HEAD, visible=False)
+        self.proposal_head = gui.add_markdown("", visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
         self.discard = gui.add_button("Discard the proposal", visible=False)
         self.review = gui.add_markdown("", visible=False)
@@ -519,6 +520,7 @@ class MirrorsPanel:
         self.scene.disabled = self.scene.disabled or fits is not None     # replaces, and drop it unsaid
         if fits is None:
             return
+        self.proposal_head.content = PROPOSAL_HEAD.format(crossed=CROSSED if _flags(fits) else "")
         lines = []
         for calibration, mirror, review in fits.values():
             old = "uncalibrated" if mirror.plane is None else (f"turned {review.tilt_deg:.2f}°, moved "
@@ -592,7 +594,8 @@ def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     left = (f" {' and '.join(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
             "from the object)." if without_markers else "")
     if waits:
-        return (f"A new plane for {names} waits, not applied: look at it under Mirrors (the crossed markers), then "
+        crossed = " (the crossed markers)" if any(r.poor for _, _, r in fits) else ""
+        return (f"A new plane for {names} waits, not applied: look at it under Mirrors{crossed}, then "
                 f"Apply or Discard it.{left}")
     rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
     glass = ("; glass 0 mm: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)

@@ -5,6 +5,7 @@ one batch at a time, shared by every tab."""
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 from mirrorcore.batch import BATCH_METHODS
 from mirrorcore.dense import DenseOptions
@@ -25,6 +26,13 @@ IDLE = ("Records the frames as they come into a new session folder (from a recor
         "frame, none twice).")
 
 
+def batch_label(session: Session) -> str:
+    """The batch button names the session whose frames it reconstructs (after a replay and Back to, that is the
+    recording's, not the session that plays: a helper expected the other's 30 frames)."""
+    count = len(session.frames)
+    return f"Reconstruct every frame of session {Path(session.root).name} ({count} frame{'s' if count != 1 else ''})"
+
+
 class RecordPanel:
     TITLE = TITLE
 
@@ -40,7 +48,7 @@ class RecordPanel:
             self.temporal = gui.add_slider("Temporal smoothing (neighbours)", min=0, max=5, step=1, initial_value=0)
             self.workers = gui.add_slider("Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1,
                                           initial_value=1)
-            self.batch = gui.add_button("Reconstruct every frame of this session")
+            self.batch = gui.add_button(batch_label(self.services.editor.session))
             self.batch_cancel = gui.add_button("Cancel the batch", visible=False)
             self.batch_progress = gui.add_progress_bar(0.0, visible=False)
             self.batch_status = gui.add_markdown(BATCH_IDLE)
@@ -96,6 +104,7 @@ class RecordPanel:
         if root != self._batch_root and not self.services.jobs.running(BATCH):
             self.batch_status.content = BATCH_IDLE
         self._batch_root = root
+        self.batch.label = batch_label(event.snapshot.session)
 
     def _show_batch(self) -> None:
         """The batch that runs, as its tab started it: its settings and a running status until its next progress."""
