@@ -46,6 +46,7 @@ REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
 CHECKING = "checking how the views agree…"
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
 CANCELLED = "cancelled"      # the last status of a job cancelled
+GLASS_ADVICE = "The glass is measured on"    # the first words of a refinement's advice to type the glass in
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
@@ -499,7 +500,7 @@ def refined_headline(mirrors, compared: str = "surfaces") -> str:
     moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°" + _glass(r) for r in mirrors]
     how = " from the sphere's centres" if compared == "sphere" else ""
     measured = any(r.marker_offset is not None and r.glass_typed is None for r in mirrors)
-    glass = (f" The glass is measured on these planes, which {METHOD_BIAS['surfaces'].removeprefix('the method ')}: "
+    glass = (f" {GLASS_ADVICE} these planes, which {METHOD_BIAS['surfaces'].removeprefix('the method ')}: "
              "if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, clear "
              "(a refinement keeps a glass typed in)." if compared == "surfaces" and measured else "")
     return f"{REFINED}{how} (moved > 0: away from the camera): {'; '.join(moved)}.{glass}"

@@ -15,10 +15,10 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
-from app.jobs import agreement_line
+from app.jobs import agreement_line, refined_headline
 from app.panels.dense import DensePanel
 from app.panels.measure import MeasurePanel
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, mirror_status
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
 from app.panels.object import ObjectPanel
 from app.panels.record import BATCH_IDLE, RecordPanel
 from app.panels.session import SessionPanel
@@ -219,6 +219,15 @@ def test_a_long_refusal_is_shortened_in_its_notification():
     assert _refusal_note("not done: a short one (here)") == "not done: a short one (here)"
 
 
+def test_a_calibrations_notification_is_its_first_sentence_and_where_the_rest_is():
+    moved = [SimpleNamespace(name="left", shift_mm=-2.7, tilt_deg=0.18, marker_offset=5e-4, marker_offset_std=1.2e-3,
+                             glass_typed=None)]
+    headline = f"{refined_headline(moved)} Over the last 5 live frames. Undo restores the previous planes."
+    assert _result_note(headline) == ("Planes refined (moved > 0: away from the camera): left moved -2.7 mm and "
+                                      "0.18°, glass 0.5 ± 1.2 mm. Under Mirrors: the report; the glass: type it in "
+                                      "if you know it.")
+
+
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():
     mirror = SessionMirror("left", ((10.0, 10.0),), id=3)
     assert mirror_status(None, False) == ""
@@ -317,7 +326,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                         r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "
                         r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
                         headline), headline
-    assert said == [headline] and kinds == [("info", True)]         # it stays: the report may be out of view
+    told = headline.split(". Over the last")[0] + ". Under Mirrors: the report."    # short (a longer one ran past
+    assert said == [told] and kinds == [("info", True)]   # the notification's height); it stays: the report may be
+                                                          # out of view
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right

@@ -18,7 +18,8 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
-from ..jobs import AGREEMENT, CANCELLED, FAILED, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE, planes_key
+from ..jobs import (AGREEMENT, CANCELLED, FAILED, GLASS_ADVICE, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE,
+                   planes_key)
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -130,7 +131,8 @@ class MirrorsPanel:
                 refused = event.status.startswith((NOT_DONE, FAILED))
                 headline = event.status.split("\n\n")[0]
                 self._result_note = self.services.notify(          # until the planes change again (_report)
-                    self.tab.client, "Calibration from the object", _refusal_note(headline) if refused else headline,
+                    self.tab.client, "Calibration from the object",
+                    _refusal_note(headline) if refused else _result_note(headline),
                     "error" if refused else "info", stay=True)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
@@ -582,6 +584,14 @@ def _refusal_note(refusal: str) -> str:
     if len(refusal) <= NOTE_CHARS or " (" not in refusal:
         return refusal
     return f"{refusal[:refusal.index(' (')]}; why and what to do are under Mirrors."
+
+
+def _result_note(headline: str) -> str:
+    """A calibration's headline for its notification: its first sentence (the planes' changes and glass) and where
+    the rest is (with the advice on the glass, it had run past the notification's height: a helper)."""
+    first = headline.split(". ")[0].removesuffix(".")
+    glass = "; the glass: type it in if you know it" if GLASS_ADVICE in headline else ""
+    return f"{first}. Under Mirrors: the report{glass}."
 
 
 def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
