@@ -429,9 +429,19 @@ class Jobs:
                 self._running.pop(RECORD, None)
             raise
         self.recorder = Recorder(self._tap, folder).start()
-        self.bus.publish(JobProgress(RECORD, 0.0, f"recording into `{folder}`…"))
+        self.bus.publish(JobProgress(RECORD, 0.0, f"recording into `{folder}`…{self._replay_left()}"))
         self._unsubscribe_count = self.bus.subscribe(FrameReady, lambda e: self._count(e.frame.index))
         return folder
+
+    def _replay_left(self) -> str:
+        """For a recording that plays: how many of its frames are left to record (it is taken up to its last frame;
+        a helper's take from near its end held 3 frames), and how to take all of it."""
+        count = self.loop.source.frame_count
+        if not count:
+            return ""
+        at = frame_number(max(self.loop.index - 1, 0), count)      # the frame shown
+        return (f" (the recording that plays is at frame {at} of {count}: it is taken up to its last one"
+                + ("; to take all of it, stop, set the Frame slider to 0, and record again)" if at > 0 else ")"))
 
     def _count(self, index: int) -> None:
         """Say how many frames the recording holds, every 10th live frame."""
@@ -449,7 +459,10 @@ class Jobs:
         if tap.replay_ended:
             return (f"the recording that plays came to its last frame: {recorder.frames} frames recorded into "
                     f"`{recorder.folder}`, none twice; **Stop recording** saves them")
-        return f"recording: {recorder.frames} frames into `{recorder.folder}`"
+        count = self.loop.source.frame_count
+        more = (f" (up to the last frame of the recording that plays: "
+                f"{count - 1 - frame_number(max(self.loop.index - 1, 0), count)} more)" if count else "")
+        return f"recording: {recorder.frames} frames into `{recorder.folder}`{more}"
 
     def recording_headline(self) -> str | None:
         """The header's word on the recording (Markdown, short: it is in view from every step), or None."""

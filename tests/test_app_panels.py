@@ -667,7 +667,15 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     app, headless = sphere
     assert app.source.frame_count                                     # the recording of the test above plays
     record = panel(headless.tab, RecordPanel)
+    count = app.source.frame_count
+    app.pause(True)
+    time.sleep(0.3)
+    app.seek(count - 2)                           # near its end: the Record step says how to take all of it (a
+    wait_for(lambda: app.last_frame.index == count - 2)       # helper's take from near the end held 3 frames)
     record.start()
+    assert (f"(the recording that plays is at frame {count - 2} of {count}: it is taken up to its last one; to take "
+            "all of it, stop, set the Frame slider to 0, and record again)") in record.status.content
+    app.pause(False)
     wait_for(lambda: app.jobs._tap.replay_ended, 60, "the replay's last frame")
     wait_for(lambda: "came to its last frame" in record.status.content, 10, "the Record step saying so")
     wait_for(lambda: headless.tab.header.rate.content.startswith("● **recording ended** at "), 10,
