@@ -18,7 +18,8 @@ QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, abou
 RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
 NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
 MEAN_SIGMAS = 3.0           # robust_mean_depth averages the readings within this many depth-noise sigmas of the median
-OCCLUDER_SIGMAS = 5.0       # without_occluders leaves out readings this many depth-noise sigmas in front of the background
+OCCLUDER_SIGMAS = 5.0       # without_occluders leaves out readings this many depth-noise sigmas in front of the
+                            # background's
 
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
