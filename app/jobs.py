@@ -382,11 +382,9 @@ class Jobs:
             raise MirrorscanError("a batch reads a saved session with frames: record one (or Save as) first")
         out = exports_folder(session.root, method, temporal)
         job = BatchJob(Path(session.root), out, method, options, temporal)
-        busy = "a batch is already running; cancel it first"
-        if self.running(BATCH):
-            raise MirrorscanError(busy)
-        self.batch_settings = (method, temporal, workers)          # before it runs: a tab opening shows them
-        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel), busy)
+        self._start(BATCH, lambda cancel: self._batch(job, Where(workers=workers), cancel),
+                    "a batch is already running; cancel it first")
+        self.batch_settings = (method, temporal, workers)          # a tab opening while it runs shows them
         return out
 
     def _batch(self, job: BatchJob, where: Where, cancel: threading.Event) -> str:
@@ -433,13 +431,17 @@ class Jobs:
         self._unsubscribe_count = self.bus.subscribe(FrameReady, lambda e: self._count(e.frame.index))
         return folder
 
-    def _replay_left(self) -> str:
-        """For a recording that plays: how many of its frames are left to record (it is taken up to its last frame;
-        a helper's take from near its end held 3 frames), and how to take all of it."""
+    def _replay_at(self) -> tuple[int, int] | None:
+        """(the frame shown, the frame count) of the recording that plays, or None for a live source."""
         count = self.loop.source.frame_count
-        if not count:
+        return (frame_number(max(self.loop.index - 1, 0), count), count) if count else None
+
+    def _replay_left(self) -> str:
+        """For a recording that plays: where it is (it is taken up to its last frame; a helper's take from near its
+        end held 3 frames), and how to take all of it."""
+        if (playing := self._replay_at()) is None:
             return ""
-        at = frame_number(max(self.loop.index - 1, 0), count)      # the frame shown
+        at, count = playing
         return (f" (the recording that plays is at frame {at} of {count}: it is taken up to its last one"
                 + ("; to take all of it, stop, set the Frame slider to 0, and record again)" if at > 0 else ")"))
 
@@ -459,9 +461,9 @@ class Jobs:
         if tap.replay_ended:
             return (f"the recording that plays came to its last frame: {recorder.frames} frames recorded into "
                     f"`{recorder.folder}`, none twice; **Stop recording** saves them")
-        count = self.loop.source.frame_count
-        more = (f" (up to the last frame of the recording that plays: "
-                f"{count - 1 - frame_number(max(self.loop.index - 1, 0), count)} more)" if count else "")
+        playing = self._replay_at()
+        more = (f" (up to the last frame of the recording that plays: {playing[1] - 1 - playing[0]} more)"
+                if playing else "")
         return f"recording: {recorder.frames} frames into `{recorder.folder}`{more}"
 
     def recording_headline(self) -> str | None:

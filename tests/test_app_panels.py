@@ -295,7 +295,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     hints: list[str] = []                                                      # the hint while it runs
     app.bus.subscribe(JobProgress, lambda e: e.job == "refine" and e.fraction is not None
                       and hints.append(tab.header.hint.content))
-    app.jobs.start_refine(app.editor).join(0.2)          # cancelled: the planes and their report as they were
+    app.jobs.start_refine(app.editor)                    # cancelled: the planes and their report as they were
     app.jobs.cancel("refine")                            # (a bare 'cancelled' had replaced it: a helper)
     wait_for(lambda: ("refine", "cancelled") in ended, 30, "the cancel")
     wait_for(lambda: mirrors.result.content.startswith("Cancelled: the planes are as they were."), 5, "its report")

@@ -401,12 +401,11 @@ class MirrorsPanel:
         if waits:
             self.proposal = fits
             self._report("")
-            self.tab.state.flagged_markers = _flags(fits)
         else:
             self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
             self._report(report)
-            self.tab.state.flagged_markers = _flags(fits)
             self._check_agreement()
+        self.tab.state.flagged_markers = _flags(fits)
         look = waits or without_markers or any(r.poor for _, _, r in fits.values())
         self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
                              "warning" if look else "info")
@@ -636,12 +635,13 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
         return ""
     plane = "no plane yet" if mirror.plane is None else (
         "plane from the object" if from_object else "plane calibrated")
-    glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if mirror.marker_offset or from_object else "no glass set"
     if mirror.marker_offset_std is not None:
         glass = (f"glass {mirror.marker_offset * 1e3:.1f} ± {mirror.marker_offset_std * 1e3:.1f} mm measured (type it "
                  "in if you know it)")
     elif mirror.glass_typed:
-        glass += " typed in"
+        glass = f"glass {mirror.marker_offset * 1e3:.1f} mm typed in"
+    else:
+        glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if from_object else "no glass set"
     if glass_unused:
         glass += (": the next markers fit uses it, this plane does not depend on it" if from_object else
                   ", not in the plane yet: **Fit plane** moves it behind the glass")

@@ -107,10 +107,12 @@ class RecordPanel:
         self.batch.label = batch_label(event.snapshot.session)
 
     def _show_batch(self) -> None:
-        """The batch that runs, as its tab started it: its settings and a running status until its next progress."""
-        method, temporal, workers = self.services.jobs.batch_settings
-        self.method.value, self.temporal.value, self.workers.value = method, temporal, workers
-        self._on_job(JobProgress(BATCH, 0.0, f"a batch of {method} runs on every frame…"))
+        """The batch that runs, as its tab started it: its settings (once they are set, just after it starts) and a
+        running status until its next progress."""
+        settings = self.services.jobs.batch_settings
+        if settings is not None:
+            self.method.value, self.temporal.value, self.workers.value = settings
+        self._on_job(JobProgress(BATCH, 0.0, f"a batch of {self.method.value} runs on every frame…"))
 
     def cancel_batch(self) -> None:
         """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
