@@ -53,7 +53,8 @@ class Step:
     before: object
     after: object
     group: int = 0
-    what: str = ""          # of a group's step: what each mirror's change is ('refined plane'), to name a part
+    what: str = ""          # of set_planes' steps: what each mirror's change is ('plane' from the markers, 'refined
+                            # plane'): names a part of a group, and tells a markers fit
 
 
 PARTIAL = " only: "     # in the label of a group's step that moves part of its mirrors (the others changed since)
@@ -361,7 +362,7 @@ class SessionEditor:
         with self._lock:
             step = next((s for s in reversed(self._undo.get(mirror_id, [])) if s.before.plane != s.after.plane), None)
             now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
-            return (step is not None and step.label.startswith("plane") and now is not None
+            return (step is not None and step.what == "plane" and now is not None
                     and fit_inputs(step.after) == fit_inputs(now))
 
     def redo_label(self, scope: int) -> str | None:
