@@ -74,6 +74,11 @@ class SessionMirror:
     marker_offset_std: float | None = None
 
     @property
+    def glass_set(self) -> bool:
+        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is not)."""
+        return self.marker_offset != 0.0 or self.marker_offset_std is not None
+
+    @property
     def glass_typed(self) -> bool:
         """Whether the glass was typed in (set, and not measured by a refinement)."""
         return self.marker_offset != 0.0 and self.marker_offset_std is None

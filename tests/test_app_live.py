@@ -19,7 +19,7 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import HEAT_POOL, Jobs, agreement_line, found_headline, refined_headline
-from app.panels.live import LAG_NOTE_S, heat_legend_html, legend_html, source_title, start_hint
+from app.panels.live import LAG_NOTE_S, _no_glass, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note
 import app.server as server_module
@@ -851,14 +851,26 @@ def test_a_job_says_its_last_word_once_it_is_over():
     assert ended == [("done", False), ("cancelled", False), ("not done: no frame yet", False)]
 
 
+def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
+    """After a refinement measured 0.0 ± 0.8 mm, the mirror's line said 'measured' and the next step 'No glass set'
+    (the demo at 1024x600)."""
+    plane = Plane.from_abcd([0.5, 0.0, -0.8, 2.4])
+    mirrors = (SessionMirror("left", ((1.0, 1.0),) * 3, plane=plane, id=1),
+               SessionMirror("right", ((1.0, 1.0),) * 3, plane=plane, id=2, marker_offset_std=8e-4))
+    jobs = SimpleNamespace(from_object=lambda mirror_id, plane: False)
+    assert _no_glass(jobs, Session(tmp_path, Intrinsics.kinect_v1(), mirrors)) == ("left",)
+
+
 def test_a_markers_fit_without_glass_says_how_to_measure_it():
     """Markers on 3 mm of glass gave a quiet all-clear (a helper): the planes were 2.4 and 4.3 mm too near."""
-    def fit(name: str, glass: float):
-        return (SimpleNamespace(marker_offset=glass, summary=lambda names: f"{len(names)} markers"),
-                SimpleNamespace(name=name, marker_names=["1.1", "1.2", "1.3"]), None)
+    def fit(name: str, glass: float, std: float | None = None):
+        mirror = SessionMirror(name, ((1.0, 1.0),) * 3, id=1, marker_offset=glass, marker_offset_std=std)
+        return SimpleNamespace(marker_offset=glass, summary=lambda names: f"{len(names)} markers"), mirror, None
     bare = _fit_report([fit("left", 0.0), fit("right", 0.004)], " (applied)")
     assert bare == f"**left**: 3 markers (applied)\n\n**right**: 3 markers (applied)\n\n{NO_GLASS_NOTE}"
     assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add
+    assert _fit_report([fit("left", 0.0, 8e-4)]) == "**left**: 3 markers"     # 0 measured is set too (the demo's
+                                                                               # line said measured, the note 'none')
 
 
 def test_the_header_names_the_session_edited_where_another_plays(tmp_path):

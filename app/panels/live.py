@@ -189,7 +189,7 @@ def source_title(source: str, played: Path | None, edited: Path | None) -> str:
 def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
     """The names of the mirrors whose planes come from their markers (not from the object) with no glass set: on an
     ordinary mirror the markers stand 3 to 6 mm in front of the silver."""
-    return tuple(m.name for m in session.mirrors if m.markers and m.plane is not None and not m.marker_offset
+    return tuple(m.name for m in session.mirrors if m.markers and m.plane is not None and not m.glass_set
                  and not jobs.from_object(m.id, m.plane))
 
 

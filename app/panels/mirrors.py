@@ -607,7 +607,7 @@ def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
         return (f"A new plane for {names} waits, not applied: look at it under Mirrors{crossed}, then "
                 f"Apply or Discard it.{left}")
     rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
-    glass = ("; glass 0 mm: Refine from the object measures it" if any(not c.marker_offset for c, _, _ in fits)
+    glass = ("; glass 0 mm: Refine from the object measures it" if any(not m.glass_set for _, m, _ in fits)
              else "")
     poor = " ".join(f"⚠ {m.name}: the same markers as before, and marker(s) "
                     f"{', '.join(m.marker_names[i] for i in r.poor)} lie off it beyond the depth noise: delete them "
@@ -620,7 +620,7 @@ def _fit_report(fits, applied: str = "") -> str:
     mirror has no glass set, how to get it."""
     lines = [f"**{m.name}**: {c.summary(m.marker_names)}{applied}"
              + "".join(f"\n  - ⚠ {concern}" for concern in (r.concerns if r else ())) for c, m, r in fits]
-    if any(not c.marker_offset for c, _, _ in fits):
+    if any(not m.glass_set for _, m, _ in fits):
         lines.append(NO_GLASS_NOTE)
     return "\n\n".join(lines)
 
