@@ -107,7 +107,7 @@ def test_a_background_captured_with_the_object_in_view_is_used_only_on_confirmat
     wait_for(lambda: app.last_frame.mask.sum() > 5000, what="the sphere selected again")
 
 
-def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes):
+def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypatch):
     app, headless = sphere
     tab = headless.tab
     calibrate_by_clicking(app, tab, fit=False)
@@ -141,6 +141,24 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes):
     measure.fit_current()
     assert len(measure.history) == 1 and measure.history[0][0] == 0.0       # another shape: a plot of its own
     measure.shape.value = "sphere"
+    fitted = measure.report.content
+    ran = measure.start_fit()                           # the button: on a thread, with a progress bar and Cancel
+    assert measure.run.disabled and measure.cancel.visible and measure.progress.visible
+    with pytest.raises(MirrorscanError, match="a fit runs: wait for it, or cancel it"):
+        measure.start_fit()
+    ran.join(10)
+    assert not measure.run.disabled and not measure.cancel.visible and not measure.progress.visible
+    assert len(measure.history) == 1 and "**sphere**: radius **11" in measure.report.content   # a new plot
+    fit_now = measure.fit
+
+    def waits_for_cancel(frame, progress=None, cancel=None):
+        assert cancel.wait(10)
+        return fit_now(frame, progress, cancel)
+    monkeypatch.setattr(measure, "fit", waits_for_cancel)
+    fitted, ran = measure.report.content, measure.start_fit()
+    measure.cancel_fit()
+    ran.join(10)
+    assert measure.report.content == fitted and len(measure.history) == 1 and not measure.run.disabled
 
 
 def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes, monkeypatch):

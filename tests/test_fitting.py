@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.errors import Cancelled, MirrorscanError
 from mirrorcore.fitting import estimate_normals, fit_cylinder, fit_sphere
 from mirrorcore.shapes import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
 
@@ -257,6 +257,28 @@ def test_estimate_normals_of_a_plane():
     normals = estimate_normals(np.column_stack([xy, np.full(500, 2.0)]))
     assert normals.shape == (500, 3)
     np.testing.assert_allclose(np.abs(normals[:, 2]), 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("fit_shape, scan", [(fit_sphere, _sphere_scan), (fit_cylinder, _cylinder_scan)])
+def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
+    """The fraction rises to 1 by the samples RANSAC will draw (batches of them, with 90 % outliers); the same fit is
+    the one without progress; a cancel request stops it at the next batch, naming where."""
+    rng = np.random.default_rng(4)
+    _, points, sources = scan(rng, mirrors=1, n=1500)
+    cloud = _corrupt(rng, points, sources, SIGMA, 0.9)[0]
+    fractions: list[float] = []
+    fit = fit_shape(cloud, np.random.default_rng(0), threshold=THRESHOLD, progress=fractions.append)
+    assert len(fractions) > 5 and fractions[-1] == 1.0 and all(0 < f <= 1 for f in fractions)
+    assert np.all(np.diff(fractions) > 0)
+    assert fit.shape == fit_shape(cloud, np.random.default_rng(0), threshold=THRESHOLD).shape
+    calls: list[float] = []
+
+    def cancel_after_three() -> bool:
+        calls.append(0.0)
+        return len(calls) > 3
+    with pytest.raises(Cancelled, match=r"^scan\.ply: the fit was cancelled$"):
+        fit_shape(cloud, np.random.default_rng(0), threshold=THRESHOLD, where="scan.ply", cancel=cancel_after_three)
+    assert len(calls) == 4
 
 
 # ------------------------------------------------------------------------------------------------ bad input
