@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from tqdm import tqdm
 
 from mirrorcore.calibration import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.errors import CalibrationError
@@ -14,6 +13,8 @@ from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_ses
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene
 from mirrorcore.session import Session, load_session, save_session
+
+from . import percent_bar
 
 
 def register(sub) -> None:
@@ -60,10 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if args.refine_with != "auto" and not (args.refine or method == "scene"):
         raise CalibrationError(f"--refine-with {args.refine_with} applies to --refine or --method scene; add one")
     rng = np.random.default_rng(args.seed)
-    # a bar that clears itself, so that a refusal stays one line
-    with tqdm(total=100, desc="refining", unit="%", leave=False, delay=0.5, bar_format="{l_bar}{bar}| {elapsed}",
-              disable=args.quiet or not (args.refine or method == "scene")) as bar:
-        progress = lambda fraction: bar.update(100 * fraction - bar.n)  # noqa: E731
+    with percent_bar("refining", disable=args.quiet or not (args.refine or method == "scene")) as progress:
         session, result = _calibrate(session, method, args, rng, progress)
     if result is not None:
         for report in result.mirrors:
