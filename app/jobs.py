@@ -150,6 +150,7 @@ class Jobs:
                 with self._lock:
                     self._running.pop(kind, None)
             if status is not None:
+                log.info("%s: %s", kind, status.split("\n\n")[0])    # once, however many tabs tell it
                 self.bus.publish(JobProgress(kind, None, status))
         thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
         with self._lock:

@@ -235,11 +235,14 @@ class MirrorscanApp:
             self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
 
     def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
-               stay: bool = False) -> viser.NotificationHandle | None:
+               stay: bool = False, logged: bool = True) -> viser.NotificationHandle | None:
         """A notification on one tab (or on every tab: client None) in its kind's colour (NOTE_COLOURS), closing
         after NOTE_SECONDS, or staying until closed (`stay`: the result of long work, whose report may be out of
-        view). Returns the one tab's notification (to take it away when it no longer holds), else None."""
-        log.info("%s: %s", title, message)
+        view), and a line of the server's log unless `logged` is False (each tab's note of a shared job's end, which
+        the job logs once). Returns the one tab's notification (to take it away when it no longer holds), else
+        None."""
+        if logged:
+            log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
         notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
                                          auto_close_seconds=None if stay else NOTE_SECONDS) for target in targets]

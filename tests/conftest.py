@@ -6,6 +6,7 @@ order: after a step fails, the later steps are reported as not run because of it
 of their own; and the server's own warning filter in every test."""
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -90,8 +91,10 @@ def notes(monkeypatch):
     def record(app, kinds: list | None = None, shown: list | None = None) -> list[str]:
         said: list[str] = []
 
-        def notify(client, title, message, kind="error", stay=False):
+        def notify(client, title, message, kind="error", stay=False, logged=True):
             said.append(message)
+            if logged:                                             # as the app's does
+                logging.getLogger("mirrorscan").info("%s: %s", title, message)
             if kinds is not None:
                 kinds.append((kind, stay))
             note = SimpleNamespace(removed=False)

@@ -4,6 +4,7 @@ proposal and applied only on confirmation, measuring, exports that never overwri
 and cancel, record and replay, and two tabs that keep their own click mode and mirror. The tests are the steps of one
 technician's session on one app (the module's `sphere`), in order: each starts where the one before left the session
 (a dense run needs the background and the mirrors of the steps before), so run the module, not a test alone."""
+import logging
 import re
 import time
 from dataclasses import replace
@@ -282,7 +283,7 @@ def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypa
     assert len(said) == 1
 
 
-def test_refine_from_the_object_and_the_heat_map(sphere, notes):
+def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     """After the markers fit: the views' agreement is reported, 'Refine from the object' refines both planes on a
     worker and reports each mirror (agreement before and after, the change, how well determined), the glass in
     front of the silver can be set per mirror, and a tab's heat map shows a frame's points one colour each."""
@@ -319,6 +320,8 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
     wait_for(lambda: mirrors.result.content.startswith("Cancelled: the planes are as they were."), 5, "its report")
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before and not said     # no note: it was asked
     ended.clear()
+    other = HeadlessTab(app).__enter__()                 # a second tab: told too, the server's log says it once
+    caplog.set_level(logging.INFO, "mirrorscan")
     app.jobs.start_refine(app.editor)
     mirrors.refresh()                                    # while it runs, Undo would take back what it refines from
     assert mirrors.undo.disabled and mirrors.redo.disabled and mirrors.refine.disabled
@@ -345,17 +348,20 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes):
                         r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
                         headline), headline
     told = headline.split(". Over the last")[0] + ". Under Mirrors: the report."    # short (a longer one ran past
-    assert said == [told] and kinds == [("info", True)]   # the notification's height); it stays: the report may be
-                                                          # out of view
+    assert said == [told] * 2 and kinds == [("info", True)] * 2   # the notification's height); it stays: the report
+                                                                  # may be out of view; a note on each tab
+    other.__exit__(None, None, None)
+    logged = [r.getMessage() for r in caplog.records if "Planes refined" in r.getMessage()]
+    assert len(logged) == 1 and logged[0].startswith("refine: Planes refined from the sphere's centres"), logged
     for truth, mirror in zip(app.source.rig.planes, app.editor.session.mirrors):
         assert mirror.plane != before[mirror.id]                                    # refined...
         assert mirror.plane.angle_to(truth) < 0.5 and abs(mirror.plane.d - truth.d) < 0.005   # ...and still right
     assert app.editor.undo_label(1) == "refined planes of mirror 1 and mirror 2"       # one step, from either
     refined, report = {m.id: m.plane for m in app.editor.session.mirrors}, mirrors.result.content
-    assert not shown[-1].removed
+    assert not shown[0].removed                                      # the first tab's (the other tab is closed)
     panel(tab, MirrorsPanel)._travel(app.editor.undo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
-    assert shown[-1].removed                                          # and its notification, which had stayed
+    assert shown[0].removed                                           # and its notification, which had stayed
     assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
@@ -689,7 +695,8 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     app.pause(True)
     time.sleep(0.3)
     app.seek(count - 2)                           # near its end: the Record step says how to take all of it (a
-    wait_for(lambda: app.last_frame.index == count - 2)       # helper's take from near the end held 3 frames)
+    wait_for(lambda: app.last_frame.index == count - 2 and app.loop.index == count - 1)   # helper's take from near
+    # the end held 3 frames); the sought frame processed: paused on it before, the last frame had its index already
     record.start()
     assert (f"(the recording that plays is at frame {count - 2} of {count}: it is taken up to its last one; to take "
             "all of it, stop, set the Frame slider to 0, and record again)") in record.status.content

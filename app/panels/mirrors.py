@@ -133,7 +133,7 @@ class MirrorsPanel:
                 self._result_note = self.services.notify(          # until the planes change again (_report)
                     self.tab.client, "Calibration from the object",
                     _refusal_note(headline) if refused else _result_note(headline),
-                    "error" if refused else "info", stay=True)
+                    "error" if refused else "info", stay=True, logged=False)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
@@ -155,7 +155,7 @@ class MirrorsPanel:
             views = "its view disagrees" if len(flagged) == 1 else "their views disagree"
             self.services.notify(self.tab.client, "The views disagree",
                                  f"{' and '.join(flagged)}: ⚠ {views} with the others beyond the depth noise; why and "
-                                 "what to do are under Mirrors, below the buttons.", "warning")
+                                 "what to do are under Mirrors, below the buttons.", "warning", logged=False)
         self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
