@@ -66,7 +66,7 @@ AGREEMENT_FRAMES = 5      # frames the agreement lines pool: one frame's figures
 class DenseResult:
     """A dense reconstruction: vertices (n, 3) float32 metres, camera frame; sources (n,) uint8; faces (m, 3) int32
     or None (a carved cloud); the method; the box's corners low, high (3,) metres; voxel in metres; a one-line
-    description; when it was made (time.time())."""
+    description; when it was made (time.time()); the name of the source whose frames it was made of."""
 
     vertices: np.ndarray
     sources: np.ndarray
@@ -77,6 +77,7 @@ class DenseResult:
     voxel: float
     summary: str
     made: float
+    source: str
 
 
 def batch_status(p: BatchProgress) -> str:
@@ -175,11 +176,12 @@ class Jobs:
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet")
-        snapshot = self.snapshot()
-        return self._start(DENSE, lambda cancel: self._dense(snapshot, depths[-frames:], method, options, cancel),
+        snapshot, source = self.snapshot(), self.loop.source.name
+        return self._start(DENSE, lambda cancel: self._dense(snapshot, source, depths[-frames:], method, options,
+                                                             cancel),
                            "a dense reconstruction is already running; cancel it first")
 
-    def _dense(self, snapshot, depths: np.ndarray, method: str, options: DenseOptions,
+    def _dense(self, snapshot, source: str, depths: np.ndarray, method: str, options: DenseOptions,
                cancel: threading.Event) -> str:
         self.bus.publish(JobProgress(DENSE, 0.0, f"{method}: preparing {len(depths)} frame(s)"))
         prepared = [prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection) for d in depths]
@@ -194,12 +196,13 @@ class Jobs:
         if isinstance(result, CarveResult):
             points, sources = result.surface_points()
             dense = DenseResult(points, sources, None, method, low, high, volume.voxel,
-                                f"{method}: {len(points):,} surface voxels of {volume.voxel * 1e3:.1f} mm", time.time())
+                                f"{method}: {len(points):,} surface voxels of {volume.voxel * 1e3:.1f} mm", time.time(),
+                                source)
         else:
             mesh = result.mesh()
             dense = DenseResult(mesh.vertices, mesh.sources, mesh.faces, method, low, high, volume.voxel,
                                 f"tsdf: mesh of {len(mesh.vertices):,} vertices, {len(mesh.faces):,} faces",
-                                time.time())
+                                time.time(), source)
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))
         return dense.summary

@@ -251,7 +251,7 @@ class TabScene:
             node = self.scene.add_mesh_simple("/dense/result", result.vertices.astype(np.float32),
                                               result.faces.astype(np.uint32), color=DENSE_COLOUR)
         top = np.array([(result.low[0] + result.high[0]) / 2, result.low[1], (result.low[2] + result.high[2]) / 2])
-        self._dense = [frame, node, self.scene.add_label("/dense/label", f"dense: {result.summary}", position=top)]
+        self._dense = [frame, node, self.scene.add_label("/dense/label", f"dense: {result.method}", position=top)]
 
     def show_dense_layer(self, visible: bool) -> None:
         """Show or hide the dense result (and its label)."""

@@ -592,8 +592,13 @@ def test_record_then_replay_with_the_calibration(sphere):
     saved = load_session(recorded.root)
     assert saved.mirrors == app.editor.session.mirrors and saved.background == "background.png"
     first = saved.read_frame(0)
+    dense, result = panel(headless.tab, DensePanel), app.jobs.dense_result        # of the simulator's frames
+    assert result is not None and dense.show.value and headless.tab.scene._dense[0].visible
     record.play_recording()
     assert app.source.frame_count == len(recorded.frames) and headless.tab.header.seek.visible
+    assert not dense.show.value and not headless.tab.scene._dense[0].visible   # not over the replay (a helper)
+    assert dense.status.content == (f"{result.summary}, of the frames of {result.source}: hidden while "
+                                    f"{app.source.name} plays (Show the dense result shows it)")
     # a fit from the markers reads what `mirrorscan calibrate` reads, whenever it is clicked (it read the last
     # frames played, and two clicks on one session gave two reports: a helper)
     np.testing.assert_array_equal(app.jobs.marker_frames(), calibration_depth(recorded))
@@ -620,11 +625,15 @@ def test_record_then_replay_with_the_calibration(sphere):
     assert record.replay.disabled                                      # it plays: not offered again
     playing = app.source
     app.back_to_start_source()
+    assert dense.show.value and dense.status.content == result.summary            # its frames' source again
     assert not app.paused and not record.replay.disabled and not headless.tab.header.back.visible
     assert app.editor.session.root == recorded.root            # the edits still go to the recording's session, and
     wait_for(lambda: header.title.content.endswith(f" · edits saved in session **{recorded.root.name}**"), 5,
              "the header naming it")                           # the header says so beside the source (a helper)
     app.use_source(playing)                                            # (the steps below use the recording)
+    assert not dense.show.value
+    dense.show.value = True                                  # shown by hand over the replay: it is
+    assert headless.tab.scene._dense[0].visible
 
 
 def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):

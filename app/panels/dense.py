@@ -1,7 +1,7 @@
 """Step 4, "Dense": carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the recent frames of a
 static object inside a box (around the live cloud and following it until a corner is typed in, shown in 3D and in
 the fields), with a progress bar and a cancel button. The result is shared by every tab, drawn in its own colour and
-layer with a label, and exported under a new name each time."""
+layer with a label (hidden while another source plays), and exported under a new name each time."""
 from __future__ import annotations
 
 import threading
@@ -14,7 +14,7 @@ from mirrorcore.errors import MirrorscanError
 from mirrorcore.ply import encode_ply
 
 from ..context import TabContext
-from ..events import DenseChanged, FrameReady, JobProgress, SessionChanged
+from ..events import DenseChanged, FrameReady, JobProgress, LoopChanged, SessionChanged
 from ..exports import export_ply
 from ..jobs import DENSE
 from ..markup import markdown
@@ -31,6 +31,7 @@ class DensePanel:
         self._box_lock = threading.Lock()    # the fields' callbacks run on viser's threads, two at once when both move
         self._follow = True                  # the box follows the cloud until the technician edits its corners
         self._refit = True                   # ... and is put around the next frame's cloud (its calibration changed)
+        self._hidden_elsewhere = False       # the result hidden by this tab while another source plays
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
@@ -65,7 +66,8 @@ class DensePanel:
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
                              self.services.bus.subscribe(DenseChanged, self._on_result),
                              self.services.bus.subscribe(FrameReady, self._around_frame),
-                             self.services.bus.subscribe(SessionChanged, self._session_changed)]
+                             self.services.bus.subscribe(SessionChanged, self._session_changed),
+                             self.services.bus.subscribe(LoopChanged, self._source_changed)]
         if self.services.jobs.dense_result is not None:
             self._on_result(DenseChanged(self.services.jobs.dense_result))
 
@@ -83,6 +85,21 @@ class DensePanel:
 
     def _session_changed(self, event: SessionChanged) -> None:
         self._refit = self._follow
+
+    def _source_changed(self, event: LoopChanged) -> None:
+        """A dense result is hidden while another source than the one whose frames it was made of plays (a helper saw
+        one session's result over another's replay), said under Run, and shown again when its source plays again."""
+        result = self.services.jobs.dense_result
+        if result is None:
+            return
+        elsewhere = event.source.name != result.source
+        if elsewhere and self.show.value:
+            self._hidden_elsewhere, self.show.value = True, False
+            self.status.content = markdown(f"{result.summary}, of the frames of {result.source}: hidden while "
+                                           f"{event.source.name} plays (Show the dense result shows it)")
+        elif not elsewhere and self._hidden_elsewhere:
+            self._hidden_elsewhere, self.show.value = False, True
+            self.status.content = markdown(result.summary)
 
     def _box_edited(self, event) -> None:
         """A corner typed in by the technician: the box stays where it is put from now on, and is shown."""
@@ -103,6 +120,8 @@ class DensePanel:
         self.threshold.disabled, self.frames.disabled = fuse, not fuse
 
     def _layer(self) -> None:
+        if self.show.value:
+            self._hidden_elsewhere = False
         self.tab.dense_visible, self.tab.dense_beside = bool(self.show.value), bool(self.beside.value)
         self.tab.show_dense(self.services.jobs.dense_result)
 
