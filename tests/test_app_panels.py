@@ -651,7 +651,7 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(sphere):
     record.start_batch()
     wait_for(lambda: not app.jobs.running("batch") and statuses and statuses[-1].startswith("batch "), 120,
              "the batch")
-    out = session.root / "exports" / "frames-raw"
+    out = session.root / "exports" / "frames-raw-temporal2"              # smoothed in time unless asked not to
     assert statuses[-1] == f"batch done: {len(session.frames)} of {len(session.frames)} frames in `{out}`"
     assert sorted(p.name for p in out.glob("*.ply")) == [f"{Path(f).stem}.ply" for f in session.frames]
     points, sources = read_ply(out / f"{Path(session.frames[0]).stem}.ply")
@@ -686,10 +686,10 @@ def test_a_tab_opened_while_a_batch_runs_shows_it(sphere, monkeypatch):
     app, _ = sphere
     running = app.jobs.running
     monkeypatch.setattr(app.jobs, "running", lambda kind: kind == "batch" or running(kind))
-    monkeypatch.setattr(app.jobs, "batch_settings", ("tsdf", 2, 1))
+    monkeypatch.setattr(app.jobs, "batch_settings", ("tsdf", 3, 1))
     with HeadlessTab(app) as opened:
         record = panel(opened.tab, RecordPanel)
-        assert (record.method.value, record.temporal.value, record.workers.value) == ("tsdf", 2, 1)
+        assert (record.method.value, record.temporal.value, record.workers.value) == ("tsdf", 3, 1)
         assert record.batch_cancel.visible and record.batch.disabled and "a batch of tsdf runs" in \
             record.batch_status.content
         opened.tab.header.refresh_hint()
