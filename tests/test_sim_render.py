@@ -7,7 +7,9 @@ import pytest
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
-from mirrorcore.sim.layouts import arc_scene, kaleidoscope_scene, paper_scene
+from mirrorcore.sim.export import visible_markers
+from mirrorcore.sim.layouts import arc_mirrors, arc_scene, kaleidoscope_scene, object_extent, paper_scene
+from mirrorcore.sim.placement import SPACING as MARKER_SPACING
 from mirrorcore.sim.render import MARKER, MAX_BOUNCES, NONE, Renderer
 
 CAMERA = Intrinsics.kinect_v1().scaled(0.5)
@@ -161,6 +163,31 @@ def test_arc_scenes_show_the_object_in_every_mirror(n):
     truth = Renderer(arc_scene(n, camera=CAMERA)).render()
     counts = [int((truth.object_mask & (truth.source == j)).sum()) for j in range(n + 1)]
     assert min(counts) > 200, counts
+
+
+def test_an_arc_around_the_figure_has_its_markers_where_the_camera_sees_them():
+    """Three mirrors on an arc around the walking figure: the middle one, raised above the figure, showed none of its
+    six markers (out of the image, behind the mirrors beside it and the figure) and could not be fitted from them.
+    The hidden ones move to places the camera sees at every moment of the stride, apart; mirrors that showed 3 or
+    more (every mirror of the paper's rig, the arc's sphere) keep theirs."""
+    scene = arc_scene(3, object="figure")
+    layout = arc_mirrors(3, *object_extent(scene.objects[0])[:1], 0.75, 120.0, 0.9,
+                         (scene.mirrors[0].width, scene.mirrors[0].height))
+    assert scene.mirrors[0].markers == layout[0].markers and scene.mirrors[2].markers == layout[2].markers
+    middle = scene.mirrors[1]
+    assert middle.markers != layout[1].markers and len(middle.markers) == 6
+    r = Renderer(scene)
+    for t in (0.0, 0.2, 0.45, 0.7):
+        seen = visible_markers(scene.camera, middle, 2, r.render(t))
+        assert len(seen) >= 5, (t, len(seen))
+    st = np.asarray(middle.markers)
+    apart = np.linalg.norm(st[:, None] - st[None], axis=-1) + np.eye(len(st))
+    assert apart.min() >= MARKER_SPACING * min(middle.width, middle.height) - 1e-9
+    assert np.linalg.matrix_rank(np.column_stack([st, np.ones(len(st))])) == 3         # not on one line
+    sphere = arc_scene(3)
+    assert [m.markers for m in sphere.mirrors] == [m.markers for m in arc_mirrors(
+        3, *object_extent(sphere.objects[0])[:1], 0.115 + 0.45, 120.0, 3 * 0.115,
+        (sphere.mirrors[0].width, sphere.mirrors[0].height))]
 
 
 def test_walking_figure_moves_and_background_has_no_object():

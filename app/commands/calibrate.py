@@ -73,12 +73,20 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _unset(session: Session) -> list[int] | None:
+    """The mirrors `--method scene` searches: those without a plane, the others taking part as they are (a mirror the
+    camera sees too little of, fitted from its markers first: the middle one of an arc of three); all (None) when
+    every mirror has a plane."""
+    unset = [i for i, m in enumerate(session.mirrors) if m.plane is None]
+    return unset or None
+
+
 def _calibrate(session: Session, method: str | None, args: argparse.Namespace, rng: np.random.Generator,
                progress) -> tuple[Session, Refinement | None]:
     """The method's planes (printed as they are fitted), then the refinement when asked (or always, for scene)."""
     if method == "scene":
-        return calibrate_scene(session, *object_frames(session, args.frame), rng, progress=progress,
-                               with_=args.refine_with)
+        return calibrate_scene(session, *object_frames(session, args.frame), rng, _unset(session),
+                               progress=progress, with_=args.refine_with)
     if method is not None:
         session, results = calibrate_session(session, calibration_depth(session, args.frame), rng, method=method)
         for i, fit in results:

@@ -9,7 +9,9 @@ import numpy as np
 
 from ..errors import MirrorscanError
 from ..geometry.camera import Intrinsics
+from .placement import markers_in_view
 from .scene import Room, Scene, SceneMirror, SceneObject
+from .sensor import SensorModel
 
 SPHERE_RADIUS = 0.115       # the paper's sphere (figure 4)
 CYLINDER_RADIUS = 0.150     # the paper's cylinder (figure 5)
@@ -165,7 +167,8 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None
               span_deg: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
               gait_hz: float = 1.0) -> Scene:
     """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the object's
-    half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg)."""
+    half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg). A mirror of which the camera
+    sees fewer than 3 markers has the hidden ones moved to where it sees them (placement.markers_in_view)."""
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
@@ -173,7 +176,8 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None
     span = min(60.0 * (n_mirrors - 1), 200.0) if span_deg is None else span_deg
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
     mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span, 3 * half, size)
-    return Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room)
+    return markers_in_view(Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room),
+                           SensorModel.kinect_v1().max_range)
 
 
 def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, float]:
