@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 
 from .errors import CalibrationError, Cancelled
@@ -31,6 +32,11 @@ FINE = (0.5, 0.005, 0.01)
 KEEP = 5                             # coarse candidates refined finely
 BATCH = 256                          # candidates scored at once
 FAR_MARGIN = 0.02                    # metres beyond the direct object's depth where its mirror image starts
+SPILL_PX = 15                        # pixels around a mirror's outline where readings beyond the direct object are
+                                     # its image spilling over the outline
+IMAGE_GAP = 0.1                      # metres: a gap in the depths seen outside the outlines beyond which an image
+                                     # lies (an outline drawn too narrow leaves part of it outside; the Kinect's
+                                     # depth steps are 25 to 35 mm at 3 to 3.5 m)
 AGREE_SIGMAS = 3.0                   # a reflected point agrees within this many standard deviations of depth noise
 CONTRADICTION_WEIGHT = 2.0             # a contradiction counts as much as two agreements
 SEARCH_GATE = 0.03                   # metres: the refinement after a search starts with this wide agreement...
@@ -53,12 +59,14 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
     if mirror.boundary is None:
         raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first")
     depth = np.asarray(depth, np.float32)
-    outside = mask & (rig.inside_bits == 0)
+    far = _direct_far(depth[mask & (rig.inside_bits == 0)])
+    outside = mask & (rig.inside_bits == 0) & (depth <= far)
+    inside = ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool)
+    _check_outline(mirror.name, inside, mask & (rig.inside_bits == 0) & (depth > far))
     direct = reproject_depth(rig.intrinsics, depth, outside)[0].astype(np.float64)
     # in the mirror's outline, the object's readings beyond everything seen directly are its image (the real object
     # in front of the glass is as near as the rest of it)
-    far = np.percentile(direct[:, 2], 99) + FAR_MARGIN if len(direct) else np.inf
-    here = mask & ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool) & (depth > far)
+    here = mask & inside & (depth > far)
     virtual = reproject_depth(rig.intrinsics, depth, here)[0].astype(np.float64)
     if len(direct) < MIN_POINTS:
         within = int(np.count_nonzero(mask & (rig.inside_bits != 0) & (depth > 0)))
@@ -87,6 +95,31 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
         return Plane.from_abcd(abcd - [0, 0, 0, NEARER], mirror.name)
     except CalibrationError:
         raise CalibrationError(f"{mirror.name}: no plane found that puts the camera in front of the mirror") from None
+
+
+def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
+    """Refuse, naming the mirror, when MIN_POINTS of the object's readings beyond the direct object (beyond: (H, W)
+    bool, outside every outline) lie within SPILL_PX of the mirror's outline (inside: (H, W) bool): its image spills
+    over an outline drawn too narrow, and those readings would be taken for the object seen directly (a helper's
+    outline a third too narrow: the search said the mirror did not show the object)."""
+    kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
+    spilled = int(np.count_nonzero(beyond & cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)))
+    if spilled >= MIN_POINTS:
+        raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the object seen "
+                               "directly: its image spills over the outline; draw the outline along the glass's edge")
+
+
+def _direct_far(z: np.ndarray) -> float:
+    """Metres: the depth beyond which the object's readings outside every outline (z (n,) metres) are an image, not
+    the object seen directly: FAR_MARGIN beyond the 99th percentile of those up to the first gap of IMAGE_GAP above
+    their median (an outline drawn too narrow leaves part of the mirror's image outside: it had raised the cut above
+    the whole image, and the search said the mirror did not show the object: a helper); inf without readings."""
+    z = np.sort(z[z > 0])
+    if not len(z):
+        return np.inf
+    middle = len(z) // 2
+    gaps = np.flatnonzero(np.diff(z[middle:]) > IMAGE_GAP)
+    return float(np.percentile(z[:middle + gaps[0] + 1] if len(gaps) else z, 99)) + FAR_MARGIN
 
 
 def _subset(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -119,6 +119,18 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypat
     assert said[-1].endswith("; mirror 1 and mirror 2 have no plane yet: what is seen inside their outlines is not "
                              "in it.") and kinds[-1] == ("warning", False)
     assert "⚠ mirror 1 and mirror 2 have no plane yet" in files.exported.content
+    measure, dense = panel(tab, MeasurePanel), panel(tab, DensePanel)     # and so do a fit and a dense result (a
+    measure.fit_current()                                 # helper's read a sphere of 166 points without a word)
+    assert measure.report.content.startswith("⚠ mirror 1 and mirror 2 have no plane yet: what is seen inside their "
+                                             "outlines is not in it.\n\n**sphere**")
+    measure.history.clear()
+    dense.method.value, dense.voxel.value = "carve (consistent)", 6.0
+    dense.start()
+    wait_for(lambda: app.jobs.dense_result is not None, 120, "the dense result")
+    assert app.jobs.dense_result.summary.endswith("; ⚠ mirror 1 and mirror 2 have no plane yet: what is seen inside "
+                                                  "their outlines is not in it")
+    wait_for(lambda: dense.status.content.endswith("is not in it"), 5, "said under Run")
+    dense.show_box.value = False                                   # (a step below starts without the box)
     panel(tab, MirrorsPanel).fit_planes([m.id for m in app.editor.session.mirrors])
     for fitted, true in zip(app.editor.session.mirrors, app.source.rig.planes):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01

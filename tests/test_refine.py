@@ -322,6 +322,27 @@ def test_scene_search_then_refinement_without_markers(sphere):
         search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 0), 1, np.random.default_rng(0))
 
 
+def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_found(sphere):
+    """Mirror 1's outline 80 px narrower on its left: part of its image of the sphere lies outside every outline,
+    where it was taken for the object seen directly, and the cut beyond which a mirror's readings are its image rose
+    above all of them ('the object is not seen in the mirror', for either mirror: a helper). Its search now says
+    that its image spills over its outline; mirror 2's is found as with the right outline."""
+    scene, rig, depths, masks = sphere
+    boundary = np.array(rig.mirrors[0].boundary, float)
+    boundary[boundary[:, 0] < boundary[:, 0].mean(), 0] += 80.0
+    narrow = Rig(rig.intrinsics, (replace(rig.mirrors[0], plane=None, boundary=tuple(map(tuple, boundary))),
+                                  replace(rig.mirrors[1], plane=None)))
+    spilled = masks[0] & (narrow.inside_bits == 0) & (rig.inside_bits != 0) & (depths[0] > 2.3)
+    assert np.count_nonzero(spilled) > 500                                  # its image, outside every outline
+    with pytest.raises(CalibrationError, match=r"^mirror 1: \d+ readings just outside its outline lie beyond the "
+                                               r"object seen directly: its image spills over the outline; draw"):
+        search_plane(narrow, depths[0], masks[0], 0, np.random.default_rng(0))
+    found = search_plane(narrow, depths[0], masks[0], 1, np.random.default_rng(0))
+    centre = np.asarray(scene.objects[0].centre)
+    assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[1].plane, centre) < 0.0
+    assert found.angle_to(rig.mirrors[1].plane) < 5.0
+
+
 def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     """--refine works after any first calibration: planes from pairs of a real point and its virtual image (the
     sphere's centre and its images, 5 mm off) end where the markers' do."""

@@ -17,6 +17,7 @@ from mirrorcore.shapes import ShapeFit
 
 from ..context import TabContext
 from ..events import FrameReady
+from ..jobs import left_out
 from ..markup import markdown
 from .live import source_names
 
@@ -108,8 +109,7 @@ class MeasurePanel:
         if frame is None:
             raise MirrorscanError("no frame yet")
         result = self.fit(frame, progress, cancel)
-        self.report.content = markdown(fit_report(result, source_names(frame.snapshot.session)))
-        self._record(result)
+        self._show(frame, result)
         return result
 
     def start_fit(self) -> threading.Thread:
@@ -160,13 +160,19 @@ class MeasurePanel:
 
     def _track(self, frame: "LiveFrame") -> None:
         try:
-            result = self.fit(frame)
-            self.report.content = markdown(fit_report(result, source_names(frame.snapshot.session)))
-            self._record(result)
+            self._show(frame, self.fit(frame))
         except MirrorscanError as exc:
             self.report.content = markdown(f"tracking: {exc}")
         finally:
             self._busy.release()
+
+    def _show(self, frame: "LiveFrame", result: ShapeFit) -> None:
+        """The report of a fit of the frame's cloud, first what the cloud leaves out (a helper's fit before any plane
+        read a sphere of 166 points, radius 124.7 mm, without a word), and the fit in the plot."""
+        missing = left_out(frame.snapshot.session)
+        self.report.content = markdown((f"⚠ {missing}.\n\n" if missing else "")
+                                       + fit_report(result, source_names(frame.snapshot.session)))
+        self._record(result)
 
     def _record(self, result: ShapeFit) -> None:
         """Add a fit to the plot: seconds since the plot's first fit, RMSE and radius; a fit of another shape starts

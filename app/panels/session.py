@@ -13,6 +13,7 @@ from mirrorcore.session import SESSION_FILE, copy_session, load_session, session
 from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
+from ..jobs import left_out
 from ..live import frame_number
 from ..markup import markdown
 
@@ -113,9 +114,7 @@ class SessionPanel:
         number = frame_number(frame.index, count)                              # as the header names it
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
         which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
-        bare = [m.name for m in frame.snapshot.session.mirrors if m.boundary and m.plane is None]
-        missing = (f"{' and '.join(bare)} {'has' if len(bare) == 1 else 'have'} no plane yet: what is seen inside "
-                   f"{'its outline' if len(bare) == 1 else 'their outlines'} is not in it" if bare else "")
+        missing = left_out(frame.snapshot.session)
         self.exported.content = markdown(f"{which}: {len(frame.cloud):,} points"
                                           + (f", saved as `{saved}`" if saved else ", downloaded")
                                           + (f". ⚠ {missing}" if missing else ""))
