@@ -102,6 +102,7 @@ class Jobs:
         self.loop, self.snapshot, self.bus = loop, snapshot, bus
         self.dense_result: DenseResult | None = None
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
+        self.disagreeing: tuple[str, ...] = ()     # ... and the mirrors it flags (their names)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
         self.refused: dict[int, str] = {}  # mirror id -> "refine" or "scene": refused on it, until one succeeds
         self.recorder: Recorder | None = None
@@ -328,13 +329,21 @@ class Jobs:
                 masks = np.stack([prepare_frame(snapshot.rig, depth, snapshot.backdrop,
                                                 snapshot.session.selection)[1] for depth in depths])
                 found = view_agreement(snapshot.rig, depths, masks)                  # by the rig's mirror index
-                lines = [agreement_line(snapshot.rig.mirrors[j].name, found[j]) for j in sorted(found)]
+                mirrors = snapshot.session.mirrors
+                lines = [agreement_line(mirrors[j].name, found[j], self._by_markers(mirrors[j])) for j in sorted(found)]
+            self.disagreeing = tuple(mirrors[j].name for j in sorted(found) if found[j].points >= MIN_AGREEMENTS
+                                     and agreement_doubt(found[j]))
             self.agreement = "\n\n".join(lines) or "no view sees what another sees"
             return self.agreement
         try:
             self._start(AGREEMENT, work, "an agreement check is running")
         except MirrorscanError:
             pass                  # one runs (the check and the start are one step under the jobs' lock): it reports
+
+    def _by_markers(self, mirror) -> bool:
+        """Whether a mirror's plane comes from its markers (3 or more, and not a plane this app found or refined
+        from the object): what the agreement's advice may send the technician back to."""
+        return len(mirror.markers) >= 3 and not self.from_object(mirror.id, mirror.plane)
 
     def start_heat(self, frame: "LiveFrame") -> None:
         """The heat map of one live frame, on a worker (about a third of a second a frame): its points, grey for the
@@ -560,14 +569,15 @@ def _signed(mm: float) -> str:
     return f"{mm:+.1f}" if round(mm, 1) != 0 else "0.0"
 
 
-def agreement_line(name: str, found: ViewAgreement) -> str:
+def agreement_line(name: str, found: ViewAgreement, by_markers: bool = True) -> str:
     """One mirror's agreement with the other views, against what the depth noise of the readings compared explains
     (mirrorcore.refine.view_agreement; beyond it: agreement_doubt). A mirror that disagrees with the camera gets a
     warning that its plane may be tilted or its boundary off; one that agrees with the camera but not with another
     mirror, that a plane is off (this one's along its normal, or another's), so that a mirror whose neighbour was
     fitted wrong is not told to fix itself (a helper). Fewer than MIN_AGREEMENTS comparisons judge nothing, as they
     fix no plane in the refinement: 26 of them with the camera flagged a mirror one way and then the other, the
-    planes unchanged (a helper, a box on an arc of three mirrors)."""
+    planes unchanged (a helper, a box on an arc of three mirrors). The advice names the markers and the glass only
+    `by_markers` (the plane comes from them: a plane found from the object had been sent to its markers)."""
     if not found.points or not np.isfinite(found.rms_mm):
         return (f"{name}: nothing of the object is seen both in it and by another view, so its agreement cannot be "
                 "checked (put the object in view)")
@@ -581,7 +591,7 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
         return (f"{name}: ⚠ its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on average "
                 f"(RMS {rms} mm, the depth noise {noise} mm; good planes within "
                 f"{CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm) {_over(found)}: its plane may be tilted or "
-                "its boundary off; Refine from the object, or check its markers "
+                f"its boundary off; Refine from the object, or check its {'markers' if by_markers else 'boundary'} "
                 f"({found.camera_points:,} points seen both ways)")
     figures = f"mean {found.mean_mm:+.1f} mm over {found.points:,} points seen both ways"
     if doubt == "mirrors":
@@ -595,9 +605,10 @@ def agreement_line(name: str, found: ViewAgreement) -> str:
         else:
             rms, noise = _apart(found.rms_mm, found.noise_mm)
             why = f"RMS {rms} mm against {noise} mm of depth noise (mean {found.mean_mm:+.1f} mm"
+        glass = (": markers on glass put it that much too near (set each mirror's glass and fit again), or Refine "
+                 "from the object" if by_markers else ": Refine from the object")
         return (f"{name}: ⚠ {camera}: {why}; {found.points:,} points seen both ways {_over(found)}). Another "
-                "mirror flagged against the camera is off; if none is, a plane is off along its normal: markers on "
-                "glass put it that much too near (set each mirror's glass and fit again), or Refine from the object")
+                f"mirror flagged against the camera is off; if none is, a plane is off along its normal{glass}")
     return (f"{name}: agrees with the other views within {found.rms_mm:.1f} mm RMS {_over(found)}, as the depth noise "
             f"there explains ({found.noise_mm:.1f} mm; {figures})")
 

@@ -709,6 +709,12 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers
+    # flagged mirrors before "Ready" (it read so under three flagged mirrors, their note closed: a helper)
+    assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left", "right")) == (
+        "⚠ left and right: their views disagree with the others beyond the depth noise (why, under *Mirrors*): "
+        "**Mirrors › Refine from the object**, or fit again.")
+    assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left",)).startswith(
+        "⚠ left: its view disagrees with the others")
 
 
 def test_a_progress_bar_is_given_tenths_of_a_percent():
@@ -781,6 +787,12 @@ def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_o
                          "11.7 mm; 900 points seen both ways on one frame). Another mirror flagged against the camera "
                          "is off; if none is, a plane is off along its normal: markers on glass put it that much too "
                          "near (set each mirror's glass and fit again), or Refine from the object")
+    # a plane found from the object is not sent to its markers or its glass (a helper)
+    assert agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800), False).endswith(
+        "its plane may be tilted or its boundary off; Refine from the object, or check its boundary (800 points seen "
+        "both ways)")
+    assert agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera), False).endswith(
+        "if none is, a plane is off along its normal: Refine from the object")
     assert "but not with the other mirrors: RMS 15.2 mm against 11.7 mm of depth noise (mean +0.4 mm; 900" in (
         agreement_line("right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera)))
     assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(

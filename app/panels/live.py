@@ -17,7 +17,7 @@ from mirrorcore.sources import SessionSource
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged, SessionChanged
-from ..jobs import BATCH, HEAT_LIMIT_MM, RECORD, REFINE, Jobs
+from ..jobs import AGREEMENT, BATCH, HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
 
@@ -102,7 +102,7 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
                playback: str = "live", calibrating: float | None = None, recording: bool = False,
                no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (),
                refused: dict[int, str] | None = None, start: str = "the live source",
-               batch: float | None = None) -> str:
+               batch: float | None = None, disagreeing: tuple[str, ...] = ()) -> str:
     """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
     from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
     the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
@@ -110,7 +110,8 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     their plane was fitted (SessionEditor.glass_unused); refused: {mirror id: "refine" or "scene"}, what was refused
     on it lately (Jobs.refused: a helper was sent back to it after every refusal); start: the name of the source
     served from the start, as the header's Back to button gives it; batch: how far a batch that runs is (0 to 1),
-    or None."""
+    or None; disagreeing: the mirrors whose views the last agreement check flags (Jobs.disagreeing: the line read
+    "Ready" under three flagged mirrors, and their notification had closed: a helper)."""
     refused = refused or {}
     if not has_frame:
         return "Waiting for the first frame from the source…"
@@ -162,6 +163,10 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if playback == "recording":
         return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to "
                 f"{start}** (above) when done.")
+    if disagreeing:
+        views = "its view disagrees" if len(disagreeing) == 1 else "their views disagree"
+        return (f"⚠ {' and '.join(disagreeing)}: {views} with the others beyond the depth noise (why, under "
+                "*Mirrors*): **Mirrors › Refine from the object**, or fit again.")
     if no_glass and "refine" in refused.values():
         return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}, and the refinement could "
                 "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
@@ -260,6 +265,8 @@ class LivePanel:
         elif event.job == RECORD and (event.fraction is not None) != self._recording:
             self._recording = event.fraction is not None
             self.refresh_hint()
+        elif event.job == AGREEMENT and event.fraction is None:
+            self.refresh_hint()                                          # the mirrors it flags, or none now
 
     def _on_loop(self, event: LoopChanged) -> None:
         self.pause.value = event.paused
@@ -294,7 +301,7 @@ class LivePanel:
                        and not jobs.from_object(m.id, m.plane))
         hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
                           playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
-                          jobs.refused, services.start_source.name, self._batch)
+                          jobs.refused, services.start_source.name, self._batch, jobs.disagreeing)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
