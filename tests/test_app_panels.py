@@ -27,7 +27,7 @@ from app.server import MirrorscanApp
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.calibration import calibration_depth
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.markers import MarkerResiduals, marker_residuals
+from mirrorcore.markers import marker_residuals
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
@@ -284,11 +284,14 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
 def test_a_marker_with_no_depth_under_it_is_told_at_once(sphere, notes, monkeypatch):
     app, headless = sphere
     said, mirrors = notes(app), panel(headless.tab, MirrorsPanel)
-    residuals = app.snapshot.marker_residuals[1]
-    k = len(residuals.signed_mm) - 1                                     # as if the camera read nothing there
-    blind = MarkerResiduals(residuals.signed_mm[:k] + (float("nan"),), residuals.sigma_mm[:k] + (float("nan"),))
-    monkeypatch.setattr(app, "_snapshot", replace(app.snapshot, marker_residuals={1: blind}))
-    mirrors._warn_if_off(1, k)
+    markers = app.editor.mirror(1).markers
+    k = len(markers) - 1                                                 # as if the camera read nothing there
+    frames = app.jobs.marker_frames().copy()
+    u, v = (int(round(x)) for x in markers[k])
+    frames[:, v - 4:v + 5, u - 4:u + 5] = 0
+    monkeypatch.setattr(app.jobs, "marker_frames", lambda: frames)
+    monkeypatch.setattr(app, "_snapshot", replace(app.snapshot, marker_residuals={}))    # and no plane to grade on:
+    mirrors._warn_if_off(1, k)                               # told all the same (a helper's four clicks were not)
     assert said == ["the camera reads nothing there in the recent frames: a fit cannot use it (click the sticker's "
                     "centre; Undo takes it back)"]
     mirrors._warn_if_off(1, 0)                                           # a good one: nothing said

@@ -12,7 +12,7 @@ import numpy as np
 
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.markers import review_fit
+from mirrorcore.markers import MIN_MARKER_PIXELS, marker_points, review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 
 from ..context import TabContext
@@ -231,19 +231,22 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _warn_if_off(self, mirror_id: int, k: int) -> None:
-        """A marker just added far off its mirror's plane (a click on the object seen in the mirror, or beside the
-        sticker) is told at once, where the click was made; the next fit would show it crossed, as a proposal."""
-        residuals = self.services.snapshot.marker_residuals.get(mirror_id)
-        if residuals is None or k >= len(residuals.grades):
-            return
-        mirror, d, s = self.services.editor.mirror(mirror_id), residuals.signed_mm[k], residuals.sigma_mm[k]
-        if not np.isfinite(d):
+        """A marker just added with no depth under it, or far off its mirror's plane (a click on the object seen in
+        the mirror, or beside the sticker), is told at once, where the click was made; the next fit would refuse it,
+        or show it crossed, as a proposal. The depth is looked for on the frames a fit reads, with or without a plane
+        (on a mirror with none, four clicks on glass that read nothing were told only by the fit: a helper)."""
+        mirror = self.services.editor.mirror(mirror_id)
+        frames = self.services.jobs.marker_frames()
+        if frames is not None and k < len(mirror.markers) and len(marker_points(
+                self.services.snapshot.rig.intrinsics, frames, mirror.markers[k])) < MIN_MARKER_PIXELS:
             self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} has no depth",
                                  "the camera reads nothing there in the recent frames: a fit cannot use it (click "
                                  "the sticker's centre; Undo takes it back)", "warning")
             return
-        if residuals.grades[k] != "poor":
+        residuals = self.services.snapshot.marker_residuals.get(mirror_id)
+        if residuals is None or k >= len(residuals.grades) or residuals.grades[k] != "poor":
             return
+        d, s = residuals.signed_mm[k], residuals.sigma_mm[k]
         where = "behind something in front of the mirror" if d > 0 else "off the glass (on the object seen in it?)"
         self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} is off the plane",
                              f"{abs(d):.0f} mm ({abs(d) / s:.0f}σ) from {mirror.name}'s plane: {where}. Undo "
