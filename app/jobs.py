@@ -51,6 +51,8 @@ REFINED = "Planes refined"   # the first words of a refinement's report when it 
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
 UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
+SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
+SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (UNCHANGED)
 UNCHANGED = ("Nothing changed: the planes and the glass are already where this object puts them (no undo step; Undo "
              "still takes back the step before).")
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
@@ -297,7 +299,8 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         glass = {session.mirrors[r.index].id: (refined.mirrors[r.index].marker_offset,
                                                 refined.mirrors[r.index].marker_offset_std) for r in result.mirrors}
-        changed = editor.set_planes(planes, glass, what="refined plane" if search is None else "found plane")
+        changed = (search is not None or _moved(result, session, refined)) and editor.set_planes(
+            planes, glass, what="refined plane" if search is None else "found plane")
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
@@ -509,6 +512,15 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def _moved(result, before: Session, after: Session) -> bool:
+    """Whether a refinement moved a plane (SAME_PLANE) or a glass (SAME_GLASS_MM) by more than nothing: one right
+    after the search's own refinement, on the same frames, made an undo step of 'moved 0.0 mm and 0.00°' (a
+    helper)."""
+    return any(abs(r.shift_mm) >= SAME_PLANE[0] or r.tilt_deg >= SAME_PLANE[1]
+               or abs(after.mirrors[r.index].marker_offset - before.mirrors[r.index].marker_offset) * 1e3
+               >= SAME_GLASS_MM for r in result.mirrors)
 
 
 def _same_views(a: "Snapshot", b: "Snapshot") -> bool:

@@ -466,9 +466,11 @@ class MirrorsPanel:
         self.scene.visible = any(m.boundary and m.plane is None for m in session.mirrors)
         self.scene.disabled = refining
         has = selected is not None
-        for button in (self.fit, self.rename, self.remove, self.clear_markers):
+        for button in (self.rename, self.remove):
             button.disabled = not has
-        self.fit.disabled = self.fit.disabled or refining      # a refinement applies what it computed on the planes
+        few = not has or len(selected.markers) < 3            # offered only when it can fit ("0 usable marker(s) of
+        self.fit.disabled = few or refining                    # 0": a helper); a refinement applies what it computed
+        self.clear_markers.disabled = not has or not selected.markers                      # on the planes
         self.fit_all.disabled = not session.mirrors or refining                             # it started from
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
@@ -482,6 +484,7 @@ class MirrorsPanel:
         self.close.visible = self.delete_corner.visible = self.clear_boundary.visible = boundary
         self.close.disabled = not (has and len(state.drafts.get(selected.id, ())) >= 3)
         self.delete_corner.disabled = state.picked_corner is None
+        self.clear_boundary.disabled = not has or not (selected.boundary or state.drafts.get(selected.id))
         scope = state.mirror_id or SESSION_SCOPE
         self._label(self.undo, "Undo", editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
         self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
