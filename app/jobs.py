@@ -291,8 +291,9 @@ class Jobs:
             else:
                 refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
                                                   cancel)
-        except CalibrationError:
-            self.refused.update(dict.fromkeys(ids, kind))
+        except CalibrationError as exc:            # the mirror it names (a search refused on one had withdrawn
+            named = [m.id for m in session.mirrors if m.id in ids and str(exc).startswith(f"{m.name}:")]
+            self.refused.update(dict.fromkeys(named or ids, kind))          # the others' offer too: a helper)
             raise
         for mirror_id in ids:
             self.refused.pop(mirror_id, None)
