@@ -18,6 +18,8 @@ from .jobs import DenseResult
 from .stream import SourcePart
 
 FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small
+VIRTUAL_LABEL_DROP = 2.5   # a virtual camera's name this many of its frustum's sizes under it (at one, the name of
+                           # the walking figure's mirror, seen beside it, ran over it: a helper)
 SAME_PLACE = 0.10          # metres: virtual cameras closer than this share one label (hinged mirrors at 360 / n
                            # degrees put images through two and three mirrors within a few cm: 1.3 to 5.4 measured)
 DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
@@ -154,10 +156,10 @@ class TabScene:
                 visible=self.virtual_visible))
         for group in same_place(cameras):
             first = group[0]
-            self._virtual_labels.append(self.scene.add_label(      # under it: clear of the mirror's name
-                f"/virtual_labels/{first.source}",
-                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
-                position=first.pose[:3, 3] + _frustum_scale(first) * first.pose[:3, 1],
+            self._virtual_labels.append(self.scene.add_label(      # well under it: clear of the mirror's name
+                f"/virtual_labels/{first.source}",                 # (seen past the mirror's top, a frustum's own
+                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),   # height
+                position=first.pose[:3, 3] + VIRTUAL_LABEL_DROP * _frustum_scale(first) * first.pose[:3, 1],
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:

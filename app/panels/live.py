@@ -55,10 +55,10 @@ HEAT_KEY = ((HEAT_ZERO, "on the direct surface"), (HEAT_POSITIVE, f"{HEAT_LIMIT_
 
 # what the map can show, as measured on the glass sphere (seed 1, ten frames: README) and on a box between three
 # mirrors (seed 2, a helper), and what measures the glass
-HEAT_READS = ("it shows a tilt (the sphere: 0.5° read 6 mm) or a wrong boundary; the glass only where the views see "
-              "the same face (the sphere: 3 mm read 0.2 mm; a box: 4 mm read 2.8 mm)")
-HEAT_GLASS = ": <b>Refine from the object</b> measures that"
-HEAT_REFINED = ": these planes come from the object, where the glass plays no part"
+HEAT_READS = ("A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm read 0.2 mm "
+              "on the sphere)")            # a helper found "(the sphere: 0.5° read 6 mm)" hard to read, and a scale:
+HEAT_GLASS = ": <b>Refine from the object</b> measures it."                    # its figure's 1.6° read 4 mm
+HEAT_REFINED = "; these planes come from the object, where the glass plays no part."
 
 
 def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str],
