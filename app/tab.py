@@ -24,7 +24,7 @@ from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
 from .stream import HALVES
-from .view import TabScene, home_pose, scene_points
+from .view import TabScene, beside_offset, home_pose, scene_points
 
 DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view...
 DEPTH_HZ_BEHIND = 1.0   # ... and this often while the tab looks at the 3D scene
@@ -261,6 +261,12 @@ class Tab:
             self.look_home()
         else:
             self._frame(points, OBJECT_MARGIN)
+
+    def look_at_dense(self, result) -> None:
+        """The object's cloud and a dense result (where this tab draws it: beside the cloud or in place) filling this
+        tab's canvas, seen as from home (a Run had shown only the box, its result out of view: a helper)."""
+        corners = np.array([result.low, result.high], float) + (beside_offset(result) if self.dense_beside else 0.0)
+        self._frame(np.concatenate([self._object_points(), corners]), OBJECT_MARGIN)
 
     def _object_points(self) -> np.ndarray:
         """(k, 3) metres: about 500 of the last frame's object points (none before the first frame)."""

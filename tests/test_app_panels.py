@@ -24,6 +24,7 @@ from app.panels.object import ObjectPanel
 from app.panels.record import BATCH_IDLE, RecordPanel
 from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
+from app.view import beside_offset
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.calibration import calibration_depth
 from mirrorcore.errors import MirrorscanError
@@ -542,6 +543,9 @@ def test_dense_runs_shows_and_exports(sphere, method):
     assert (result.faces is not None) == (method.startswith("TSDF"))
     assert np.median(np.abs(np.linalg.norm(result.vertices - [0.0, 0.0, 2.0], axis=1) - 0.115)) < 0.004
     wait_for(lambda: headless.tab.scene._dense, what="the result drawn")
+    target = np.asarray(headless.tab.client.camera.look_at)      # the view framed on the cloud and the result beside
+    beside = np.asarray(result.low) + beside_offset(result)       # it (a Run had shown only the box: a helper)
+    assert beside[0] < target[0] < np.median(app.last_frame.cloud.points[:, 0])
     scene = headless.tab.scene
     assert scene._box is not None and scene._box_label is not None   # with its box, named
     box_name = np.add(scene._box.position, scene._box_label.position)   # at its corner: a result drawn in place

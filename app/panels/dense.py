@@ -32,6 +32,7 @@ class DensePanel:
         self._follow = True                  # the box follows the cloud until the technician edits its corners
         self._refit = True                   # ... and is put around the next frame's cloud (its calibration changed)
         self._hidden_elsewhere = False       # the result hidden by this tab while another source plays
+        self._look = False                   # this tab ran the job: its result is framed when it comes
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider("Carving threshold (mm)", min=1.0, max=50.0, step=0.5, initial_value=4.0)
@@ -159,6 +160,7 @@ class DensePanel:
         self._show_box()
         method = METHODS[self.method.value]
         self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
+        self._look = True
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job != DENSE:
@@ -176,6 +178,9 @@ class DensePanel:
         if result is not None:
             self.low.value, self.high.value = tuple(result.low), tuple(result.high)
             self.status.content = markdown(result.summary)
+            if self._look and self.show.value and self.tab.state.view == "3d":     # the tab that ran it sees it
+                self.tab.look_at_dense(result)
+            self._look = False
 
     def export_result(self) -> None:
         """The last dense result (carved voxels, or the fused mesh with its faces) as PLY, under a new name."""
