@@ -116,10 +116,21 @@ class Jobs:
         self._heat_rig = None                # the planes of the heat maps the legend pools (one job at a time)...
         self._heat_pool: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # ... by frame number, oldest first
         self._marker_frames: tuple[tuple, np.ndarray] | None = None     # (recording, its frames): marker_frames
+        self._object_planes: set[tuple[int, Plane]] = set()    # (mirror id, plane) a refinement or search gave
+        self._refused_on: dict[int, tuple] = {}     # mirror id -> its boundary and markers when it was refused
 
     def from_object(self, mirror_id: int, plane: Plane | None) -> bool:
-        """Whether a refinement or search (of this app) gave mirror `mirror_id` this plane."""
-        return plane is not None and any((mirror_id, plane) in key for key in self.refinements)
+        """Whether a refinement or search (of this app) gave mirror `mirror_id` this plane, or left it as it was
+        (a mirror held while the others were found keeps its own: its markers' plane had been taken for one found
+        from the object, and the glass it lacked was not asked for: a helper)."""
+        return plane is not None and (mirror_id, plane) in self._object_planes
+
+    def refusals(self, session: Session) -> dict[int, str]:
+        """{mirror id: 'refine' or 'scene'}: what was refused lately on a mirror whose boundary and markers are still
+        as they were then (a search refused for an outline drawn too narrow was no longer offered once it was
+        drawn again: a helper)."""
+        now = {m.id: (m.boundary, m.markers) for m in session.mirrors}
+        return {i: kind for i, kind in self.refused.items() if now.get(i) == self._refused_on.get(i)}
 
     def running(self, kind: str) -> bool:
         with self._lock:
@@ -294,6 +305,7 @@ class Jobs:
         except CalibrationError as exc:            # the mirror it names (a search refused on one had withdrawn
             named = [m.id for m in session.mirrors if m.id in ids and str(exc).startswith(f"{m.name}:")]
             self.refused.update(dict.fromkeys(named or ids, kind))          # the others' offer too: a helper)
+            self._refused_on.update({m.id: (m.boundary, m.markers) for m in session.mirrors if m.id in self.refused})
             raise
         for mirror_id in ids:
             self.refused.pop(mirror_id, None)
@@ -302,6 +314,7 @@ class Jobs:
                                                 refined.mirrors[r.index].marker_offset_std) for r in result.mirrors}
         changed = (search is not None or _moved(result, session, refined)) and editor.set_planes(
             planes, glass, what="refined plane" if search is None else "found plane")
+        self._object_planes.update((i, editor.mirror(i).plane) for i in planes)
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]

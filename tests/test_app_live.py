@@ -613,6 +613,12 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
                                                                       # one had withdrawn the others' offer: a helper)
     headless.tab.header.refresh_hint()
     assert "the refinement could not measure it on this object" in hint.content
+    assert app_.jobs.refusals(app_.editor.session) == {ids[0]: "refine"}
+    corner = app_.editor.mirror(ids[0]).boundary[0]                       # its outline drawn again: refused no more
+    app_.editor.move_vertex(ids[0], 0, (corner[0] + 3.0, corner[1]))      # (a search refused for an outline too
+    assert app_.jobs.refusals(app_.editor.session) == {}                  # narrow was not offered once it was
+    app_.editor.undo(ids[0])                                              # drawn again: a helper)
+    assert app_.jobs.refusals(app_.editor.session) == {ids[0]: "refine"}
     mirror = app_.editor.mirror(ids[0])                                   # a fit moves a plane: still so
     app_.editor.set_planes({ids[0]: (replace(mirror.plane, d=mirror.plane.d + 0.001), mirror)})
     headless.tab.header.refresh_hint()
@@ -621,6 +627,30 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     app_.jobs.start_refine(app_.editor).join(120)
     assert app_.jobs.refused == {}
     assert app_.editor.undo(ids[0]).startswith("refined planes") and app_.editor.undo(ids[0]).startswith("plane")
+
+
+def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_markers(demo, monkeypatch):
+    """Find the planes from the object with mirror 1 fitted from its markers and held: only mirror 2's plane comes
+    from the object (mirror 1's had been taken for one too, and the glass it lacked was not asked for: a helper)."""
+    import app.jobs
+    app_, headless = demo
+    app_.loop.run_once()
+    held, found = app_.editor.session.mirrors
+    app_.editor.set_planes({found.id: (None, found)})
+    truth = found.plane
+
+    def search(session, depths, masks, rng, indices, progress=None, cancel=None, with_="auto"):
+        assert list(indices) == [1]
+        report = SimpleNamespace(index=1, name=found.name, after=truth, shift_std_mm=0.1, tilt_std_deg=0.01,
+                                 summary=lambda **_: "found")
+        return session.with_mirror(1, replace(session.mirrors[1], plane=truth)), SimpleNamespace(
+            mirrors=[report], compared="surfaces")
+    monkeypatch.setattr(app.jobs, "calibrate_scene", search)
+    app_.jobs.start_scene(app_.editor).join(60)
+    assert app_.editor.mirror(found.id).plane == truth
+    assert app_.jobs.from_object(found.id, truth) and not app_.jobs.from_object(held.id, held.plane)
+    headless.tab.header.refresh_hint()
+    assert f"No glass set on {held.name}:" in headless.tab.header.hint.content
 
 
 def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes):

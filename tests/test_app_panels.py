@@ -18,7 +18,7 @@ from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
 from app.jobs import agreement_line, refined_headline
 from app.panels.dense import DensePanel
-from app.panels.measure import MeasurePanel
+from app.panels.measure import CANCELLED_NOTE, MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
 from app.panels.object import ObjectPanel
 from app.panels.record import BATCH_IDLE, RecordPanel
@@ -172,7 +172,20 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypat
     fitted, ran = measure.report.content, measure.start_fit()
     measure.cancel_fit()
     ran.join(10)
-    assert measure.report.content == fitted and len(measure.history) == 1 and not measure.run.disabled
+    assert measure.report.content == f"{CANCELLED_NOTE}\n\n{fitted}"        # said to be the fit before (it had
+    assert len(measure.history) == 1 and not measure.run.disabled           # stayed as if new: a helper)
+    ran = measure.start_fit()
+    measure.cancel_fit()
+    ran.join(10)
+    assert measure.report.content == f"{CANCELLED_NOTE}\n\n{fitted}"                         # not said twice
+
+    def fails(frame, progress=None, cancel=None):
+        raise MirrorscanError("cloud: no sphere found")
+    monkeypatch.setattr(measure, "fit", fails)
+    kinds: list = []
+    said = notes(app, kinds)
+    measure.start_fit().join(10)
+    assert measure.report.content == "Not done: cloud: no sphere found" and said == ["cloud: no sphere found"]
 
 
 def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes, monkeypatch):

@@ -301,7 +301,7 @@ class LivePanel:
                        and not jobs.from_object(m.id, m.plane))
         hint = start_hint(session, self.tab.state, services.last_frame is not None, snapshot.background is not None,
                           playback, self._calibrating, self._recording, _no_glass(jobs, session), unused,
-                          jobs.refused, services.start_source.name, self._batch, jobs.disagreeing)
+                          jobs.refusals(session), services.start_source.name, self._batch, jobs.disagreeing)
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:

@@ -30,6 +30,7 @@ HISTORY = 300          # fits kept in the plot
 TRACK_HZ = 2.0         # fits per second while tracking (on a worker thread: the live loop never waits)
 MIN_FITTING = 0.5      # a fit with fewer of the points within its threshold says the shape may be wrong
 MAX_SPREAD = 0.75      # ... and so does one whose RMSE over every point reaches this share of the threshold
+CANCELLED_NOTE = "Cancelled: the report below is the fit before."    # (it had stayed as if new: a helper)
 
 
 def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
@@ -140,10 +141,17 @@ class MeasurePanel:
                 shown[0] = self.progress.value = round(100 * fraction, 1)
 
         def work() -> None:
+            before = self.report.content             # the last fit's report is said to be that, not left as if new
             try:
                 self.fit_current(progress, cancel)
             except Cancelled:
-                pass
+                earlier = before.removeprefix(f"{CANCELLED_NOTE}\n\n")
+                self.report.content = CANCELLED_NOTE + (f"\n\n{earlier}" if earlier else "")
+            except MirrorscanError as exc:
+                frame = self.services.last_frame
+                missing = "" if frame is None else left_out(frame.snapshot.session)
+                self.report.content = markdown((f"⚠ {missing}.\n\n" if missing else "") + f"Not done: {exc}")
+                raise
         try:
             self.tab.act(work)
         finally:
