@@ -75,6 +75,13 @@ def scene_points(rig: Rig) -> np.ndarray:
     return np.concatenate(points)
 
 
+def box_edges(half: np.ndarray) -> np.ndarray:
+    """(12, 2, 3) float32: the edges of a box centred at the origin with half-sizes `half` (3,) metres."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    pairs = [(i, j) for i in range(8) for j in range(i + 1, 8) if np.count_nonzero(corners[i] != corners[j]) == 1]
+    return (corners[np.array(pairs)] * np.asarray(half, float)).astype(np.float32)
+
+
 def beside_offset(result: DenseResult) -> np.ndarray:
     """(3,) metres: where the dense result is drawn beside the live cloud, one box width to the left (-x) and one box
     depth towards the camera (-z), with 10 cm between."""
@@ -272,8 +279,9 @@ class TabScene:
             if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
                 return
             low, high = np.asarray(low, float), np.asarray(high, float)
-            self._box = self.scene.add_box("/dense_box", color=BOX_COLOUR, dimensions=tuple(high - low),
-                                           position=tuple((low + high) / 2), wireframe=True)
+            self._box = self.scene.add_line_segments(        # its 12 edges (a wireframe box also draws its faces'
+                "/dense_box", box_edges((high - low) / 2), BOX_COLOUR,      # diagonals: it looked broken, a helper)
+                thickness=2.0, thickness_units="screen", position=tuple((low + high) / 2))
             corner = (low - high) / 2 * (1.0, -1.0, 1.0)                       # -x, down (+y), -z
             self._box_label = self.scene.add_label("/dense_box/label", "dense box", visible=self.labels_visible,
                                                    position=tuple(corner))

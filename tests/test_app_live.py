@@ -283,6 +283,11 @@ def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
         scene.show_virtual_cameras(k % 2 == 0)
     errors = storm(redraw, restyle, rounds=300)
     assert not errors, errors
+    np.testing.assert_allclose(scene._box.position, (0.0, 0.0, 2.0), atol=1e-9)       # drawn by its 12 edges (a
+    edges = np.asarray(scene._box.points)                             # wireframe box drew its faces' diagonals too,
+    along = np.abs(edges[:, 1] - edges[:, 0])                         # which looked broken: a helper)
+    assert edges.shape == (12, 2, 3) and np.all(np.count_nonzero(along > 1e-6, axis=1) == 1)
+    np.testing.assert_allclose(np.sort(along.max(axis=1)), [0.4] * 12, atol=1e-6)
     assert scene._box_label is not None and scene._labels and scene._virtual and scene._virtual_labels
     scene.show_virtual_cameras(True)
     scene.show_labels(False)                                     # the depth view: no name over it

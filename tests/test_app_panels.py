@@ -415,6 +415,15 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got -5 mm"):     # the glass again (it had kept
         mirrors._set_glass()                                                          # -5: a helper)
     assert mirrors.glass.value == 3.0 and app.editor.mirror(1).marker_offset == 0.003
+    mirrors.fit_planes([m.id for m in app.editor.session.mirrors])      # the glass typed in is said as typed (the
+    concerns = {i: " ".join(review.concerns) for i, (_, _, review) in mirrors.proposal.items()}   # refinement's had
+    assert "(the refinement moved it; the markers fit uses the glass typed in)" in concerns[1]    # been said: a
+    assert "(the refinement moved it, and set the glass the markers fit now uses)" in concerns[2]     # helper)
+    app.editor.set_marker_offset(2, 0.004)          # one of them changed: dropped, and fitted again as it was fitted
+    mirrors._drop_stale_proposal()
+    assert mirrors.proposal is None and mirrors.result.content == (
+        "The proposal was dropped: mirror 2 changed since it was fitted. **Fit all planes** again.")
+    app.editor.undo(2)
     tab.state.mirror_id = 2                 # mirror 1 changed since the refinement of both: undo from mirror 2 takes
     mirrors.refresh()                       # back its part only, and says so (it promised both: a helper)
     assert mirrors.undo.label == "Undo: refined plane of mirror 2 only: mirror 1 changed since"

@@ -396,8 +396,7 @@ class MirrorsPanel:
             if self.services.jobs.from_object(mirror.id, mirror.plane):
                 review = replace(review, concerns=review.concerns + (
                     "it replaces the plane found from the object: the markers alone are less accurate (the "
-                    "refinement moved it, and set the glass the markers fit now uses); refine again after "
-                    "applying",))
+                    f"refinement moved it{_glass_source(mirror)}); refine again after applying",))
             fits[mirror.id] = (calibration, mirror, review)
         report = _fit_report(fits.values())
         waits = any(review.needs_confirmation for _, _, review in fits.values())
@@ -512,9 +511,10 @@ class MirrorsPanel:
         stale = [fitted.name for _, fitted, _ in self.proposal.values()
                  if fit_inputs(current.get(fitted.id)) != fit_inputs(fitted)]
         if stale:
-            self.proposal, self.tab.state.flagged_markers = None, ()
-            self._report(f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. Fit plane "
-                         "again.")
+            again = "**Fit all planes**" if len(self.proposal) > 1 else "**Fit plane**"    # as it was fitted (a
+            self.proposal, self.tab.state.flagged_markers = None, ()                   # helper, told to Fit plane
+            self._report(f"The proposal was dropped: {', '.join(stale)} changed since it was fitted. {again} "
+                         "again.")                                                    # after Fit all planes)
             self.tab.changed()                        # its crossed-out markers leave the depth frame
 
     def _show_proposal(self) -> None:
@@ -653,3 +653,11 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
                   ", not in the plane yet: **Fit plane** moves it behind the glass")
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
+
+
+def _glass_source(mirror: SessionMirror) -> str:
+    """What the refinement did to the glass a markers fit uses, for the proposal that replaces its plane: ', and set
+    the glass the markers fit now uses' only when it measured it (a helper had typed it in)."""
+    if mirror.glass_typed:
+        return "; the markers fit uses the glass typed in"
+    return ", and set the glass the markers fit now uses" if mirror.glass_set else ""
