@@ -491,12 +491,12 @@ class Jobs:
         if recorder.done and recorder.error is not None:
             return f"the recording stopped: {recorder.error}"
         if tap.replay_ended:
-            return (f"the recording that plays came to its last frame: {recorder.frames} frames recorded into "
-                    f"`{recorder.folder}`, none twice; **Stop recording** saves them")
+            return (f"the recording that plays came to its last frame: {tap.taken} frames taken into "
+                    f"`{recorder.folder}`, none twice{_behind(recorder, tap)}; **Stop recording** saves them")
         playing = self._replay_at()
         more = (f" (up to the last frame of the recording that plays: {playing[1] - 1 - playing[0]} more)"
                 if playing else "")
-        return f"recording: {recorder.frames} frames into `{recorder.folder}`{more}"
+        return f"recording: {tap.taken} frames into `{recorder.folder}`{_behind(recorder, tap)}{more}"
 
     def recording_headline(self) -> str | None:
         """The header's word on the recording (Markdown, short: it is in view from every step), or None."""
@@ -504,8 +504,8 @@ class Jobs:
         if recorder is None or tap is None:
             return None
         if tap.replay_ended or recorder.done:
-            return f"● **recording ended** at {recorder.frames} frames: *Record › Stop recording* saves it"
-        return f"● **recording** {recorder.frames} frames"
+            return f"● **recording ended** at {tap.taken} frames: *Record › Stop recording* saves it"
+        return f"● **recording** {tap.taken} frames"
 
     def stop_recording(self, current: Session) -> Session:
         with self._lock:
@@ -526,6 +526,12 @@ class Jobs:
         self.bus.publish(JobProgress(RECORD, None, f"recorded {len(recorded.frames)} frames into "
                                                    f"`{recorded.root}`{dropped}"))
         return recorded
+
+
+def _behind(recorder: Recorder, tap: LiveTap) -> str:
+    """' (N written so far)' while the recorder writes behind the frames taken, else '': the header, the Record
+    step and the end had said 25, 21 and 28 frames of one take (a helper)."""
+    return f" ({recorder.frames} written so far)" if recorder.frames < tap.taken else ""
 
 
 def _moved(result, before: Session, after: Session) -> bool:

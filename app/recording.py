@@ -45,6 +45,7 @@ class LiveTap(DepthSource):
         self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog_frames(source.intrinsics.shape))
         self._closed = threading.Event()
         self.dropped = 0
+        self.taken = 0          # frames taken for the recording (the recorder writes them behind: Recorder.frames)
         self.replay_ended = False
         self._loop_length, self._last_number = source.frame_count, -1
         self._key = id(source)
@@ -59,6 +60,7 @@ class LiveTap(DepthSource):
             return
         try:
             self._frames.put_nowait(Frame(frame.depth, frame.timestamp))
+            self.taken += 1
         except queue.Full:
             self.dropped += 1
 

@@ -755,8 +755,11 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     wait_for(lambda: "came to its last frame" in record.status.content, 10, "the Record step saying so")
     wait_for(lambda: headless.tab.header.rate.content.startswith("● **recording ended** at "), 10,
              "the header saying so (it is written at most once a second)")
-    again = record.stop()
-    assert 1 <= len(again.frames) <= app.source.frame_count
+    taken = app.jobs._tap.taken                      # one count of the take everywhere (the header, the Record
+    assert headless.tab.header.rate.content.startswith(f"● **recording ended** at {taken} frames")   # step and the
+    assert f"came to its last frame: {taken} frames taken into " in record.status.content   # end had said 25, 21
+    again = record.stop()                                                                    # and 28: a helper)
+    assert len(again.frames) == taken and 1 <= taken <= app.source.frame_count
     assert list(again.timestamps) == sorted(again.timestamps)         # its time never runs back
 
 
