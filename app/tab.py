@@ -205,10 +205,11 @@ class Tab:
         if depth:
             self.screen.look_at()
             self._send_screen(force=True)
+        elif self.heat:                     # its colours are on the object's rims (turned on in the depth view,
+            self.look_at_object()           # it had shown the whole rig: a helper)
+            self._heat_now()
         else:
             self.look_home()
-            if self.heat:
-                self._heat_now()
         for listener in list(self._state_listeners):
             listener(self.state)
 

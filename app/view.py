@@ -160,7 +160,7 @@ class TabScene:
             self._virtual.append(self.scene.add_camera_frustum(
                 f"/virtual/{camera.source}", fov, aspect, scale=_frustum_scale(camera), color=colour,
                 wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
-                visible=self.virtual_visible))
+                visible=self.virtual_visible and self.labels_visible))
         for group in same_place(cameras):
             first = group[0]
             self._virtual_labels.append(self.scene.add_label(      # well under it: clear of the mirror's name
@@ -172,20 +172,19 @@ class TabScene:
     def show_virtual_cameras(self, visible: bool) -> None:
         with self._marks_lock:
             self.virtual_visible = visible
-            for handle in self._virtual:
-                handle.visible = visible
-            for label in self._virtual_labels:
-                label.visible = visible and self.labels_visible
+            for handle in self._virtual + self._virtual_labels:
+                handle.visible = visible and self.labels_visible
 
     def show_labels(self, visible: bool) -> None:
-        """Show or hide the names of the camera, the mirrors, the virtual cameras (those shown) and the dense box
-        (hidden while the depth frame is in view: no label over it)."""
+        """Show or hide the names of the camera, the mirrors, the virtual cameras (those shown, and their frusta) and
+        the dense box (hidden while the depth frame is in view: no label over it, and no frustum above it: a
+        helper)."""
         with self._marks_lock:
             self.labels_visible = visible
             for label in self._labels + ([self._box_label] if self._box_label is not None else []):
                 label.visible = visible
-            for label in self._virtual_labels:
-                label.visible = visible and self.virtual_visible
+            for handle in self._virtual_labels + self._virtual:
+                handle.visible = visible and self.virtual_visible
 
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...], half: int | None = None) -> None:
         """Update the live cloud's nodes (one per source and half, placed at the part's centre) from `parts`: only

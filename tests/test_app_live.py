@@ -290,10 +290,10 @@ def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
     np.testing.assert_allclose(np.sort(along.max(axis=1)), [0.4] * 12, atol=1e-6)
     assert scene._box_label is not None and scene._labels and scene._virtual and scene._virtual_labels
     scene.show_virtual_cameras(True)
-    scene.show_labels(False)                                     # the depth view: no name over it
-    assert not any(label.visible for label in scene._virtual_labels)
+    scene.show_labels(False)                      # the depth view: no name over it, no frustum above it (a helper)
+    assert not any(handle.visible for handle in scene._virtual_labels + scene._virtual)
     scene.show_labels(True)
-    assert all(label.visible for label in scene._virtual_labels)
+    assert all(handle.visible for handle in scene._virtual_labels + scene._virtual)
     scene.show_virtual_cameras(False)                            # a camera's name goes with its frustum
     assert not any(label.visible for label in scene._virtual_labels + scene._virtual)
 

@@ -452,6 +452,12 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 10, "the heat map while paused")
     tab.show_heat(False)
     app.pause(False)
+    tab.look("depth")                         # turned on in the depth view: the 3D view then frames the object, as
+    tab.show_heat(True)                       # turning it on there does (it showed the whole rig: a helper)
+    tab.look("3d")
+    points, target = app.last_frame.cloud.points, np.asarray(tab.client.camera.look_at)
+    assert np.all(target > points.min(axis=0)) and np.all(target < points.max(axis=0))
+    tab.show_heat(False)
 
 
 def test_look_at_the_object_frames_the_object_not_the_rig(sphere):
