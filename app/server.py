@@ -42,6 +42,7 @@ RESUME_S = 600.0          # seconds: a page reloaded within this takes up its wo
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
 NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}   # a notification's colour by its kind
 NOTE_SECONDS = 8.0        # a notification closes after this, unless it stays (the result of long work)
+GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
 
 
 def quiet_closed_connections() -> None:
@@ -97,6 +98,7 @@ class MirrorscanApp:
         self._tabs_lock = threading.Lock()
         self._session_lock = threading.Lock()      # snapshots are rebuilt one at a time, in order
         self._stop = threading.Event()
+        self._grading: threading.Thread | None = None   # the first frames' grading of the markers (_on_frame)
         self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs", daemon=True)
         self.editor.listeners.append(lambda _: self._on_session_change())
         self.server.on_client_connect(self._connect)
@@ -120,6 +122,8 @@ class MirrorscanApp:
                 log.warning("recording not finished cleanly: %s", exc)
         self.loop.stop()
         self.jobs.stop()
+        if self._grading is not None:          # a process that exits while it runs ended with status 1, not 130
+            self._grading.join(GRADING_WAIT_S)   # (1 SIGTERM in 4 soon after the start)
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
 
@@ -315,7 +319,8 @@ class MirrorscanApp:
         self.last_frame = frame
         self._last_error = ""
         if frame.index + 1 == RECENT_FRAMES:     # enough frames to grade the markers of the session as opened
-            threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True).start()
+            self._grading = threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True)
+            self._grading.start()
             if any(m.plane is not None for m in frame.snapshot.session.mirrors):
                 self.jobs.start_agreement()    # and to tell how its planes agree, before any fit
         self.bus.publish(FrameReady(frame))
