@@ -159,8 +159,12 @@ class DensePanel:
             self.box_around_cloud()
         self._show_box()
         method = METHODS[self.method.value]
-        self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
-        self._look = True
+        self._look = True                             # before the start: a quick result may come before it returns
+        try:
+            self.services.jobs.start_dense(method, self.options(), int(self.frames.value) if method == "tsdf" else 1)
+        except MirrorscanError:
+            self._look = False
+            raise
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job != DENSE:

@@ -116,7 +116,8 @@ class MeasurePanel:
     def start_fit(self) -> threading.Thread:
         """The button: fit_current on a thread, the button disabled, a progress bar and Cancel shown until it ends (a
         sphere fitted to a walking person's cloud draws RANSAC's 20,000 samples: 1.8 s, 17 s on a helper's busy
-        laptop, with the tab's panel frozen and no progress before). Cancelled, the last fit's report stays."""
+        laptop, with the tab's panel frozen and no progress before). Cancelled, the last fit's report stays under
+        CANCELLED_NOTE; failed, the report says so."""
         if self._cancel is not None:
             raise MirrorscanError("a fit runs: wait for it, or cancel it")
         cancel = self._cancel = threading.Event()
@@ -148,9 +149,7 @@ class MeasurePanel:
                 earlier = before.removeprefix(f"{CANCELLED_NOTE}\n\n")
                 self.report.content = CANCELLED_NOTE + (f"\n\n{earlier}" if earlier else "")
             except MirrorscanError as exc:
-                frame = self.services.last_frame
-                missing = "" if frame is None else left_out(frame.snapshot.session)
-                self.report.content = markdown((f"⚠ {missing}.\n\n" if missing else "") + f"Not done: {exc}")
+                self.report.content = markdown(_left_out(self.services.last_frame) + f"Not done: {exc}")
                 raise
         try:
             self.tab.act(work)
@@ -177,9 +176,7 @@ class MeasurePanel:
     def _show(self, frame: "LiveFrame", result: ShapeFit) -> None:
         """The report of a fit of the frame's cloud, first what the cloud leaves out (a helper's fit before any plane
         read a sphere of 166 points, radius 124.7 mm, without a word), and the fit in the plot."""
-        missing = left_out(frame.snapshot.session)
-        self.report.content = markdown((f"⚠ {missing}.\n\n" if missing else "")
-                                       + fit_report(result, source_names(frame.snapshot.session)))
+        self.report.content = markdown(_left_out(frame) + fit_report(result, source_names(frame.snapshot.session)))
         self._record(result)
 
     def _record(self, result: ShapeFit) -> None:
@@ -196,3 +193,8 @@ class MeasurePanel:
         self.plot.data = (t, rmse, radius)
         self.plot.visible = True
 
+
+def _left_out(frame: "LiveFrame | None") -> str:
+    """A report's first paragraph: what the frame's cloud leaves out (jobs.left_out), or ''."""
+    missing = "" if frame is None else left_out(frame.snapshot.session)
+    return f"⚠ {missing}.\n\n" if missing else ""
