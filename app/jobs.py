@@ -286,6 +286,11 @@ class Jobs:
             raise MirrorscanError("no frame yet to calibrate from")
         return depths, f"the last {len(depths)} live frames"
 
+    def _refuse(self, session: Session, ids: list[int], kind: str) -> None:
+        """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are (refusals)."""
+        self.refused.update(dict.fromkeys(ids, kind))
+        self._refused_on.update({m.id: (m.boundary, m.markers) for m in session.mirrors if m.id in ids})
+
     def _calibrate(self, editor: "SessionEditor", session: Session, snapshot, depths: np.ndarray, used: str,
                    cancel: threading.Event, search: list[int] | None) -> str:
         """Refine the calibrated planes (search None), or find those of the mirrors at `search` (0-based) first."""
@@ -302,13 +307,14 @@ class Jobs:
             else:
                 refined, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), search, progress,
                                                   cancel)
-        except CalibrationError as exc:            # the mirror it names (a search refused on one had withdrawn
-            named = [m.id for m in session.mirrors if m.id in ids and str(exc).startswith(f"{m.name}:")]
-            self.refused.update(dict.fromkeys(named or ids, kind))          # the others' offer too: a helper)
-            self._refused_on.update({m.id: (m.boundary, m.markers) for m in session.mirrors if m.id in self.refused})
+        except CalibrationError as exc:            # the mirrors it names (a search refused on one had withdrawn
+            named = [m.id for m in session.mirrors if m.id in ids and m.name in exc.mirrors]
+            self._refuse(session, named or ids, kind)                       # the others' offer too: a helper)
             raise
+        missing = [session.mirrors[i].id for i, _ in result.refused]       # a search: those it could not do
         for mirror_id in ids:
             self.refused.pop(mirror_id, None)
+        self._refuse(session, missing, kind)
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         glass = {session.mirrors[r.index].id: (refined.mirrors[r.index].marker_offset,
                                                 refined.mirrors[r.index].marker_offset_std) for r in result.mirrors}
@@ -318,11 +324,14 @@ class Jobs:
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
+        details += [f"**{session.mirrors[i].name}** ⚠ not found: {why}" for i, why in result.refused]
         if not changed:                              # no undo step: Undo and Redo keep the report that set them
             report = "\n\n".join([f"{UNCHANGED} Over {used}.", *details])
             self.refinements.setdefault(planes_key(editor.session), report)
             return report
-        headline = (refined_headline if search is None else found_headline)(result.mirrors, result.compared)
+        not_found = [session.mirrors[i].name for i, _ in result.refused]
+        headline = (refined_headline(result.mirrors, result.compared) if search is None else
+                    found_headline(result.mirrors, result.compared, not_found))
         report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE if search is None else UNDO_FOUND}", *details])
         self.refinements[planes_key(editor.session)] = report
         return report
@@ -586,13 +595,15 @@ def _glass(r) -> str:
     return f", glass {1e3 * r.glass_typed:.1f} mm as typed in (read {read})"
 
 
-def found_headline(mirrors, compared: str = "surfaces") -> str:
+def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = ()) -> str:
     """One sentence for planes found without markers (MirrorRefinement each): how well the data fix each, and
-    (compared, as for refined_headline) what they came from."""
+    (compared, as for refined_headline) what they came from; then the mirrors `not_found` (names), if any."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
+    missing = (f" ⚠ {' and '.join(not_found)} not found (why below): {'its' if len(not_found) == 1 else 'their'} "
+               "plane is as it was." if not_found else "")
     return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]}): check the "
-            "heat map and the agreement below.")
+            f"heat map and the agreement below.{missing}")
 
 
 def _signed(mm: float) -> str:

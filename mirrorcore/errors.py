@@ -6,7 +6,12 @@ class MirrorscanError(Exception):
 
 
 class CalibrationError(MirrorscanError):
-    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid markers...)."""
+    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid markers...). `mirrors`: the
+    names of the mirrors it refuses, when it is about some (its message then starts with them)."""
+
+    def __init__(self, message: str, mirrors: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.mirrors = tuple(mirrors)
 
 
 class FileFormatError(MirrorscanError):

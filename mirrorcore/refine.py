@@ -30,7 +30,7 @@ from .errors import CalibrationError, Cancelled
 from .geometry.camera import Intrinsics
 from .geometry.plane import Plane
 from .noise import axial_sigma
-from .progress import Progress, cancel_requested
+from .progress import Progress, Ratchet, cancel_requested
 from .readings import reflect_directions
 from .rig import Mirror, Rig
 from .session import MAX_MARKER_OFFSET, Session
@@ -51,6 +51,9 @@ METHOD_BIAS = {"surfaces": "the method may add 1 to 2 mm",           # what each
 SPHERE_PART = 0.8            # of the progress: the sphere's centres, then the views' agreement for the report
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
+RELABEL_ITERATIONS = 2       # ... and those views move the bar as far as this many iterations (they had held it
+                             # for 12 s on the arc's three mirrors: a helper); it then holds until the iterations
+                             # catch up (progress.Ratchet)
 NOISE_EXPLAINS = 1.0         # a view's agreement RMS up to this multiple of what the depth noise explains is as good
                              # as the noise allows, beyond it flagged. On the simulator (Kinect noise; the sphere at
                              # 2 m, the walking figure at 2 and 3 m) the true planes give 0.66 to 0.87 times; a plane
@@ -160,14 +163,16 @@ class MirrorRefinement:
 @dataclass(frozen=True)
 class Refinement:
     """The refined mirrors (in session order), the frames used, the Gauss-Newton iterations (0 from a sphere), the
-    point (3,) metres, camera frame, where offsets are measured (the object's centre) and what was compared:
-    "surfaces" or "sphere" (REFINE_WITH)."""
+    point (3,) metres, camera frame, where offsets are measured (the object's centre), what was compared:
+    "surfaces" or "sphere" (REFINE_WITH), and the mirrors a calibration without markers could not calibrate while
+    it did the others (search.calibrate_scene): (session index, the one-line refusal) each, in session order."""
 
     mirrors: tuple[MirrorRefinement, ...]
     frames: int
     iterations: int
     centre: tuple[float, float, float]
     compared: str = "surfaces"
+    refused: tuple[tuple[int, str], ...] = ()
 
     @property
     def planes(self) -> dict[int, Plane]:
@@ -273,14 +278,15 @@ class Leash:
     """How far a refinement trusts the planes it starts from: `gate`, metres added at the start to what counts as
     the same surface (halved at every iteration); `max_change` (metres at the object, degrees), the most a plane may
     move, beyond which it has not settled; `max_disagreement`, the most a refined view may disagree with the others,
-    in units of what the depth noise explains; `camera_only`: each mirror must be fixed by the camera's readings
-    alone, not through other mirrors (_fixed_by). The default suits planes from markers; a search's guesses are held
-    tighter (search.FROM_SEARCH)."""
+    in units of what the depth noise explains; `held_only`: each mirror must be fixed by the views not refined (the
+    camera's, and those of the mirrors held as they are), not through other refined mirrors (_fixed_by). The default
+    suits planes from markers; a search's guesses, which it scored against those views, are held tighter
+    (search.FROM_SEARCH)."""
 
     gate: float = 0.0
     max_change: tuple[float, float] = MAX_CHANGE
     max_disagreement: float = np.inf
-    camera_only: bool = False
+    held_only: bool = False
 
 
 def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None, progress: Progress | None = None,
@@ -302,7 +308,7 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         if rig.mirrors[i].plane is None or rig.mirrors[i].boundary is None:
             missing = "plane (calibrate it first)" if rig.mirrors[i].plane is None else "boundary (draw its outline)"
             raise CalibrationError(f"{rig.mirrors[i].name}: no {missing}; the refinement starts from a plane and "
-                                   "needs the mirror's boundary")
+                                   "needs the mirror's boundary", (rig.mirrors[i].name,))
     if not indices:
         raise CalibrationError("no mirror to refine: calibrate at least one first")
     if with_ not in REFINE_WITH:
@@ -316,20 +322,25 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
         return _from_sphere(rig, depths, masks, refined, sphere, leash, progress, cancel)
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes, iterations, labelled, gate = dict(start), 0, rig, leash.gate
+    progress = None if progress is None else Ratchet(progress)
     for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
-        frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0),
-                                                               _fraction(iterations)))
+        views_end = _fraction(iterations + RELABEL_ITERATIONS) if iterations else _fraction(0)
+        frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0), views_end))
         centre = np.mean([f.centre for f in frames], axis=0)
         planes, iterations, final, fixing = _iterate(frames, planes, refined, centre, gate, progress, cancel,
                                                      iterations, [rig.mirrors[j - 1].name for j in refined],
-                                                     leash.camera_only)
+                                                     leash.held_only)
         gate = 0.0
         if all(abs(shift_at(labelled.mirrors[j - 1].plane, planes[j], centre)) < RELABEL for j in refined):
             break
         labelled = _with_planes(rig, planes)
-    shown = tuple(residuals(frames, p, refined, centre, SHOWN_GATE) for p in (start, planes))
-    scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations))
-    reports = tuple(_report(rig, j, start[j], planes[j], centre, shown,
+    shown = []
+    for k, p in enumerate((start, planes)):              # the agreement before and after: each as an iteration
+        shown.append(residuals(frames, p, refined, centre, SHOWN_GATE))
+        if progress is not None:                         # (the bar had held through them, and the first frame's
+            progress(_fraction(iterations + k + 1))      # own planes: 1.7 of 8.6 s on the arc, 8 s loaded)
+    scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations + 2))
+    reports = tuple(_report(rig, j, start[j], planes[j], centre, tuple(shown),
                             _determined(final, refined, j, rig.mirrors[j - 1].name, scatter.get(j)),
                             (fixing[j], final.with_camera(j)), leash) for j in refined)
     if progress is not None:
@@ -357,7 +368,7 @@ def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[
                  leash: Leash, progress, cancel) -> Refinement:
     """The Refinement of the planes the sphere gave: the views' agreement before and after as the surfaces'
     refinement reports it, how well the centres fix each plane, the same refusals (the leash's limits; its
-    camera_only plays no part: the centres fix each plane alone)."""
+    held_only plays no part: the centres fix each plane alone)."""
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes = {**start, **sphere.planes}
     frames = _views(_with_planes(rig, planes), depths, masks, cancel, _part(progress, SPHERE_PART, 0.97))
@@ -394,12 +405,12 @@ def _fraction(iterations: int, within: float = 1.0) -> float:
     return 0.2 * within if iterations == 0 else 0.2 + 0.55 * (1.0 - float(np.exp(-iterations / 8.0)))
 
 
-def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names, camera_only):
+def _iterate(frames, planes, refined, centre, gate, progress, cancel, iterations, names, held_only):
     """Gauss-Newton until no step exceeds SETTLED of its std -> (planes, iterations so far, final _Residuals, the
     agreements that fix each mirror); CalibrationError when a mirror's views overlap too little (_fixed_by)."""
     planes, iterations = _solve(frames, planes, refined, centre, gate, progress, cancel, iterations)
     final = residuals(frames, planes, refined, centre)
-    return planes, iterations, final, _fixed_by(final, refined, names, len(frames), camera_only)
+    return planes, iterations, final, _fixed_by(final, refined, names, len(frames), held_only)
 
 
 def _solve(frames, planes, refined, centre, gate, progress, cancel, iterations) -> tuple[dict[int, Plane], int]:
@@ -451,39 +462,60 @@ def _spread(values: np.ndarray) -> float:
 
 
 def _fixed_by(found: _Residuals, refined: list[int], names: list[str], frames: int,
-              camera_only: bool = False) -> dict[int, int]:
+              held_only: bool = False) -> dict[int, int]:
     """{mirror j: how many of its readings agree with those of the views that fix it} (both ways, all frames): the
     camera's and the mirrors' not refined, then, in turn, those of the mirrors these fixed: at least MIN_AGREEMENTS
     fix a mirror (on an arc of three, the middle mirror faces the camera and sees a person's back, the camera the
-    front: the mirrors beside it see the sides it shares). With `camera_only`, the camera's alone: a search's guess,
-    which is scored against the camera alone, had put that mirror 22 degrees off, where the mirrors beside it still
-    agreed with it within 1.3 times the noise. CalibrationError naming the first mirror nothing fixes: its plane
-    would be left free (a box facing the camera: the mirrors see only its sides and back)."""
-    fixing, counts = {0} if camera_only else {0} | (set(np.unique(found.pair)) - set(refined)), {}
+    front: the mirrors beside it see the sides it shares). With `held_only`, the views not refined alone: a search's
+    guess is scored against those (search.search_plane); scored against the camera alone, it had put an arc's middle
+    mirror 22 degrees off, where the mirrors beside it, refined with it, still agreed with it within 1.3 times the
+    noise. CalibrationError naming every mirror nothing fixes: its plane would be left free (a box facing the camera:
+    the mirrors see only its sides and back)."""
+    held = {0} | (set(np.unique(found.pair)) - set(refined))
+    fixing, counts = set(held), {}
     while True:
         more = {j: _shared(found, j, fixing) for j in refined if j not in counts}
         more = {j: n for j, n in more.items() if n >= MIN_AGREEMENTS}
         if not more:
             break
         counts.update(more)
-        if not camera_only:
+        if not held_only:
             fixing |= set(more)
-    for j, name in zip(refined, names):
-        if j not in counts:
-            if camera_only:
-                mirrors, advice = ("; a plane found without markers must be fixed by the camera itself",
-                                   "click markers on it and fit it, then refine from the object")
-            else:
-                others = _shared(found, j, set(np.unique(found.pair)) - {0, j})
-                mirrors = (f"; the {others:,} it shares with the other mirrors fix nothing, as the camera fixes none "
-                           "of them" if others >= MIN_AGREEMENTS else "")
-                advice = ("refine on an object that both see from the side (a person, a sphere), not a flat face, or "
-                          "on more frames of one that moves")
-            raise CalibrationError(
-                f"{name}: the camera and the mirror see too little of the same surface to determine its plane "
-                f"({found.with_camera(j)} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are needed"
-                f"{mirrors}); {advice}")
+    free = [(j, name) for j, name in zip(refined, names) if j not in counts]
+    if free:
+        raise CalibrationError(_free_refusal(found, free, held, frames, held_only), tuple(name for _, name in free))
     return counts
+
+
+def _free_refusal(found: _Residuals, free: list[tuple[int, str]], held: set[int], frames: int,
+                  held_only: bool) -> str:
+    """The refusal of the mirrors nothing fixes (free: (j, name) pairs, in session order), one line naming each."""
+    one = len(free) == 1
+    names = _listed([name for _, name in free])
+    agree = _listed([f"{_shared(found, j, held):,}" if one else f"{name}: {_shared(found, j, held):,}"
+                     for j, name in free])
+    what = ("the mirror see too little of the same surface to determine its plane" if one else
+            "the mirrors see too little of the same surface to determine their planes")
+    if held_only:
+        mirrors = "; a plane found without markers must be fixed by the camera or by mirrors calibrated before it"
+        advice = f"click markers on {'it' if one else 'them'} and fit {'it' if one else 'them'}, then refine from " \
+                 "the object"
+    else:
+        shared = [(name, _shared(found, j, set(np.unique(found.pair)) - {0, j})) for j, name in free]
+        mirrors = ""                            # (one mirror sharing that many with the others would be fixed)
+        if any(n >= MIN_AGREEMENTS for _, n in shared):
+            counts = _listed([f"{name}: {n:,}" for name, n in shared])
+            mirrors = (f"; the readings they share with one another ({counts}) fix nothing, as the camera fixes "
+                       "none of them")
+        advice = ("refine on an object that both see from the side (a person, a sphere), not a flat face, or "
+                  "on more frames of one that moves")
+    return (f"{names}: the camera and {what} ({agree} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are "
+            f"needed{mirrors}); {advice}")
+
+
+def _listed(words: list[str]) -> str:
+    """'a', 'a and b', 'a, b and c'."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
 
 
 def _shared(found: _Residuals, j: int, views: set[int]) -> int:
@@ -512,7 +544,7 @@ def _determined(final: _Residuals, refined: list[int], j: int, name: str, scatte
     if shift_std > MAX_SHIFT_STD or tilt_std > MAX_TILT_STD_DEG:       # the overlap's geometry, not the frames' noise
         raise CalibrationError(f"{name}: the views overlap too little to determine its plane (known only to "
                                f"±{1e3 * shift_std:.1f} mm and ±{tilt_std:.2f}°); use more frames, or move the "
-                               "object so that both the camera and the mirror see its sides")
+                               "object so that both the camera and the mirror see its sides", (name,))
     if scatter is not None:
         shift_std, tilt_std = max(shift_std, scatter[0]), max(tilt_std, scatter[1])
     return shift_std, tilt_std
@@ -529,14 +561,14 @@ def _report(rig: Rig, j: int, before: Plane, after: Plane, centre: np.ndarray, s
     shift, tilt = shift_at(before, after, centre), before.angle_to(after)
     if abs(shift) > leash.max_change[0] or tilt > leash.max_change[1]:
         raise CalibrationError(f"{name}: the refinement did not settle (the plane would move {1e3 * shift:+.0f} mm "
-                               f"and {tilt:.1f}°); check its boundary and its first calibration")
+                               f"and {tilt:.1f}°); check its boundary and its first calibration", (name,))
     rms_before, mean_before = _agreement(shown[0], j)
     rms_after, mean_after = _agreement(shown[1], j)
     noise = _noise_mm(shown[1], j)
     if rms_after > leash.max_disagreement * noise:
         raise CalibrationError(f"{name}: even refined, its view disagrees with the others ({rms_after:.1f} mm RMS "
                                f"where the depth noise explains {noise:.1f} mm): its plane was not found; check its "
-                               "boundary, or click markers on it and fit it first")
+                               "boundary, or click markers on it and fit it first", (name,))
     return MirrorRefinement(j - 1, name, before, after, rms_before, rms_after, mean_before, mean_after, 1e3 * shift,
                             tilt, 1e3 * determined[0], determined[1], *agreements, noise)
 

@@ -5,11 +5,14 @@ A candidate plane reflects the mirror's view of the object (its virtual points) 
 into the mirror's: a reflected point agrees when the other view measured about its depth where it falls, and
 contradicts it when that view saw farther (it would have seen the point). The score is agreements minus
 contradictions; the search tries a cone of normals around the direction from the virtual object to the real one
-(their medians: the plane is about their perpendicular bisector) and a range of offsets, coarse then fine.
+(their medians: the plane is about their perpendicular bisector) and a range of offsets, coarse then fine. Mirrors
+calibrated already are views like the camera's; calibrate_scene finds the mirrors in rounds, the best supported
+first, so that a mirror the camera hardly shares anything with is found against those beside it.
 """
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -18,7 +21,7 @@ from .errors import CalibrationError, Cancelled
 from .geometry.camera import reproject_depth
 from .geometry.plane import Plane
 from .noise import axial_sigma
-from .progress import Progress, cancel_requested
+from .progress import Progress, Ratchet, cancel_requested
 from .refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
 from .rig import Mirror, Rig
 from .session import Session
@@ -27,6 +30,11 @@ SEARCH_POINTS = 800                  # points of each view scored (a random subs
 MIN_POINTS = 100                     # the object's readings needed in each view
 CONE_DEG = 20.0                      # normals tried, around the bisector's
 OFFSETS = 0.15                       # metres tried either side of the bisector
+WIDE = (35.0, 0.5, 300)              # a wide search (a mirror searched again, against the mirrors found before it):
+                                     # degrees and metres tried, and its coarse candidates scored on this many points
+                                     # of each view (the first of SEARCH_POINTS). An arc's middle mirror sees the upper
+                                     # back of the walking figure, the camera all of its front: the bisector of their
+                                     # medians is 18 to 20 degrees and 0.2 to 0.27 m off its plane
 COARSE = (2.0, 0.02, 0.03)           # degrees between normals, metres between offsets, tolerance of agreement (m)
 FINE = (0.5, 0.005, 0.01)
 KEEP = 5                             # coarse candidates refined finely
@@ -44,24 +52,39 @@ NEARER = 0.02                        # ... from the found plane moved this much 
                                      # came back from planes 4 cm too near and 2 cm too far, not 4 cm too far (the
                                      # mirror's points then hide behind the object)
 SEARCH_CHANGE = (0.2, 15.0)          # metres, degrees: how far the refinement may move a searched plane
-FROM_SEARCH = Leash(SEARCH_GATE, SEARCH_CHANGE, MAX_DISAGREEMENT, camera_only=True)   # the refinement after it
+LEAD_SHARE = 0.5                     # a round of calibrate_scene refines the mirrors whose search scores at least
+                                     # this share of the best's; the others are searched again once these are
+                                     # calibrated, against them too (an arc's middle mirror, against the camera alone:
+                                     # 0.2 where the mirrors beside it scored 0.76 and 0.91; its plane came out 17
+                                     # degrees off, and was written)
+FROM_SEARCH = Leash(SEARCH_GATE, SEARCH_CHANGE, MAX_DISAGREEMENT, held_only=True)   # the refinement after it
+
+
+class Found(NamedTuple):
+    """A searched plane, and how well it explains the frame: `support`, the best candidate's score (_Scorer.scores:
+    the share of the points scored that agree, less twice the share contradicted, summed over the ways compared)."""
+
+    plane: Plane
+    support: float
 
 
 def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng: np.random.Generator,
-                 cancel=None) -> Plane:
+                 cancel=None, wide: bool = False) -> Found:
     """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best explains one frame.
 
-    depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The camera's view is the
-    object's pixels outside every mirror's boundary. Raises CalibrationError naming the mirror when it has no
-    boundary or the object is not seen both directly and in it.
+    depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The candidates are scored
+    against the camera's view (the object's pixels outside every mirror's boundary) and the views of the rig's other
+    mirrors that have a plane (an arc's middle mirror sees the person's back, which the camera does not see, and the
+    sides that the mirrors beside it see); `wide`: over a wider range of planes (WIDE). Raises CalibrationError
+    naming the mirror when it has no boundary or the object is not seen both directly and in it.
     """
     mirror = rig.mirrors[index]
     if mirror.boundary is None:
-        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first")
+        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first", (mirror.name,))
     depth = np.asarray(depth, np.float32)
     far = _direct_far(depth[mask & (rig.inside_bits == 0)])
     outside = mask & (rig.inside_bits == 0) & (depth <= far)
-    inside = ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool)
+    inside = _inside(rig, index)
     _check_outline(mirror.name, inside, mask & (rig.inside_bits == 0) & (depth > far))
     direct = reproject_depth(rig.intrinsics, depth, outside)[0].astype(np.float64)
     # in the mirror's outline, the object's readings beyond everything seen directly are its image (the real object
@@ -73,28 +96,56 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
         raise CalibrationError(f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
                                f"frame ({len(direct)} readings there, {MIN_POINTS} needed; {within} more inside the "
                                "outlines, where the search cannot tell the object from its images): move the object "
-                               "so that the camera sees part of it beside the mirrors, or click markers on this mirror")
+                               "so that the camera sees part of it beside the mirrors, or click markers on this mirror",
+                               (mirror.name,))
     if len(virtual) < MIN_POINTS:
         raise CalibrationError(f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
                                f"readings inside its outline beyond what the camera sees directly, {MIN_POINTS} "
-                               "needed): move the object so that the mirror shows it, or check the mirror's outline")
-    scorer = _Scorer(rig, depth, outside, here, index, _subset(direct, rng), _subset(virtual, rng))
+                               "needed): move the object so that the mirror shows it, or check the mirror's outline",
+                               (mirror.name,))
+    views = [_View(None, None, outside.reshape(-1), _subset(direct, rng))]
+    views += _mirror_views(rig, depth, mask & (depth > far), index, rng)
+    scorer = _Scorer(rig.intrinsics, depth, inside, here, _subset(virtual, rng), views)
     real, image = np.median(direct, axis=0), np.median(virtual, axis=0)
     axis = (real - image) / np.linalg.norm(real - image)
     middle = (real + image) / 2
-    coarse = _candidates(axis, middle, CONE_DEG, OFFSETS, COARSE)
-    scores = scorer.scores(coarse, COARSE[2], cancel)
+    cone, offsets, points = WIDE if wide else (CONE_DEG, OFFSETS, SEARCH_POINTS)
+    coarse = _candidates(axis, middle, cone, offsets, COARSE)
+    scores = scorer.scores(coarse, COARSE[2], cancel, points)
     best = []
     for k in np.argsort(scores)[::-1][:KEEP]:
         n, d = coarse[k, :3], coarse[k, 3]
         fine = _candidates(n, -d * n, COARSE[0], COARSE[1], FINE)
         fine_scores = scorer.scores(fine, FINE[2], cancel)
         best.append((fine_scores.max(), fine[np.argmax(fine_scores)]))
-    _, abcd = max(best, key=lambda b: b[0])
+    support, abcd = max(best, key=lambda b: b[0])
     try:
-        return Plane.from_abcd(abcd - [0, 0, 0, NEARER], mirror.name)
+        return Found(Plane.from_abcd(abcd - [0, 0, 0, NEARER], mirror.name), float(support))
     except CalibrationError:
-        raise CalibrationError(f"{mirror.name}: no plane found that puts the camera in front of the mirror") from None
+        raise CalibrationError(f"{mirror.name}: no plane found that puts the camera in front of the mirror",
+                               (mirror.name,)) from None
+
+
+def _inside(rig: Rig, index: int) -> np.ndarray:
+    """(H, W) bool: the pixels inside mirror `index`'s boundary (0-based)."""
+    return ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool)
+
+
+def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int, rng: np.random.Generator
+                  ) -> list["_View"]:
+    """The views of the rig's mirrors other than `index` that have a plane and a boundary, each with at least
+    MIN_POINTS of the object's readings `beyond` (H, W) bool (beyond what the camera sees directly) inside it."""
+    views = []
+    for k, other in enumerate(rig.mirrors):
+        if k == index or other.plane is None or other.boundary is None:
+            continue
+        field = _inside(rig, k)
+        seen = beyond & field
+        points = reproject_depth(rig.intrinsics, depth, seen)[0].astype(np.float64)
+        if len(points) >= MIN_POINTS:
+            views.append(_View(other.plane.abcd, field.reshape(-1), seen.reshape(-1),
+                               other.plane.reflect(_subset(points, rng))))
+    return views
 
 
 def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
@@ -106,7 +157,8 @@ def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
     spilled = int(np.count_nonzero(beyond & cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)))
     if spilled >= MIN_POINTS:
         raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the object seen "
-                               "directly: its image spills over the outline; draw the outline along the glass's edge")
+                               "directly: its image spills over the outline; draw the outline along the glass's edge",
+                               (name,))
 
 
 def _direct_far(z: np.ndarray) -> float:
@@ -142,36 +194,49 @@ def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: f
     return np.column_stack([np.repeat(normals, len(shifts), axis=0), d.reshape(-1)])
 
 
+class _View(NamedTuple):
+    """A calibrated view a candidate plane is scored against: `plane` (4,) [n, d], the mirror that shows it (None:
+    the camera itself); `field` (H * W,) bool, its pixels (None: the whole image); `objects` (H * W,) bool, the
+    object's pixels in it; `points` (m, 3) metres, a subset of its readings of the object, in the room."""
+
+    plane: np.ndarray | None
+    field: np.ndarray | None
+    objects: np.ndarray
+    points: np.ndarray
+
+
 class _Scorer:
-    """Scores candidate planes of one mirror against one frame (see the module docstring)."""
+    """Scores candidate planes of one mirror against one frame (see the module docstring): its points (the object's
+    images in the mirror) against each calibrated view, and each view's points against the mirror's readings."""
 
-    def __init__(self, rig: Rig, depth: np.ndarray, direct: np.ndarray, virtual: np.ndarray, index: int,
-                 direct_points: np.ndarray, virtual_points: np.ndarray):
-        self.intr = rig.intrinsics
+    def __init__(self, intr, depth: np.ndarray, inside: np.ndarray, virtual: np.ndarray,
+                 virtual_points: np.ndarray, views: list[_View]):
+        self.intr = intr
         self.depth = depth.reshape(-1)
-        self.direct_object = direct.reshape(-1)
-        self.mirror = ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool).reshape(-1)
-        self.mirror_object = virtual.reshape(-1)
-        self.points = (direct_points, virtual_points)
+        self.mirror = _View(None, inside.reshape(-1), virtual.reshape(-1), virtual_points)
+        self.views = views
 
-    def scores(self, planes: np.ndarray, tolerance: float, cancel) -> np.ndarray:
-        """(k,) agreements minus twice the contradictions, both ways, as a share of the points scored."""
-        out = np.empty(len(planes))
+    def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS) -> np.ndarray:
+        """(k,) agreements minus twice the contradictions, both ways with each view, as a share of the points
+        scored: the first `points` of each view's."""
+        out = np.zeros(len(planes))
         for start in range(0, len(planes), BATCH):
             if cancel_requested(cancel):
                 raise Cancelled("search cancelled")
             batch = planes[start:start + BATCH]
-            direct, virtual = self.points
-            out[start:start + BATCH] = (self._one_way(virtual, batch, tolerance, self.direct_object, None)
-                                        + self._one_way(direct, batch, tolerance, self.mirror_object, self.mirror))
+            for view in self.views:
+                out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch, tolerance, view)
+                                             + self._one_way(view.points[:points], batch, tolerance, self.mirror))
         return out
 
-    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float, objects: np.ndarray,
-                 field: np.ndarray | None) -> np.ndarray:
-        """points (m, 3) reflected through each plane (k, 4), compared with the depth where they fall: agreeing on
-        `objects` pixels, contradicted where the view (its `field` of pixels; None: anywhere) saw farther."""
+    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float, view: _View) -> np.ndarray:
+        """points (m, 3) reflected through each plane (k, 4) and seen in `view` (through its mirror, if any), compared
+        with the depth where they fall: agreeing on its object's pixels, contradicted where it (its field of pixels)
+        saw farther."""
         n, d = planes[:, None, :3], planes[:, None, 3]
         reflected = points[None] - 2 * (points[None] @ n.transpose(0, 2, 1) + d[..., None]) * n   # (k, m, 3)
+        if view.plane is not None:
+            reflected = reflected - 2 * (reflected @ view.plane[:3] + view.plane[3])[..., None] * view.plane[:3]
         z = reflected[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.round(self.intr.fx * reflected[..., 0] / z + self.intr.cx)
@@ -179,9 +244,9 @@ class _Scorer:
         inside = (z > 0) & (u >= 0) & (u < self.intr.width) & (v >= 0) & (v < self.intr.height)
         pixel = np.where(inside, v * self.intr.width + u, 0).astype(np.int64)
         measured = self.depth[pixel]
-        seen = inside & (measured > 0) & (True if field is None else field[pixel])
+        seen = inside & (measured > 0) & (True if view.field is None else view.field[pixel])
         margin = tolerance + AGREE_SIGMAS * axial_sigma(np.where(seen, measured, 1.0))
-        agree = seen & objects[pixel] & (np.abs(measured - z) < margin)
+        agree = seen & view.objects[pixel] & (np.abs(measured - z) < margin)
         contradict = seen & (measured > z + margin)
         return (agree.sum(axis=1) - CONTRADICTION_WEIGHT * contradict.sum(axis=1)) / points.shape[0]
 
@@ -189,24 +254,92 @@ class _Scorer:
 def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng: np.random.Generator,
                     indices=None, progress: Progress | None = None, cancel=None, with_: str = "auto"
                     ) -> tuple[Session, Refinement]:
-    """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers: search each plane in the
-    first frame (search_plane, ignoring any plane they had), then refine them all over every frame
-    (refine.refine_session, comparing `with_`). depths (F, H, W) float metres as measured; masks (F, H, W) bool, the
+    """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers, in rounds. Each round
+    searches the planes still to find in the first frame (search_plane, against the camera and the mirrors calibrated
+    so far; a mirror's own plane is ignored), then refines those the search supports best (at least LEAD_SHARE of the
+    best's support) over every frame (refine.refine_session, comparing `with_`, each fixed by the views calibrated
+    before: FROM_SEARCH); a mirror the refinement refuses waits with the others for the next round, which searches
+    them against these too (an arc's middle mirror, which the camera sees from the front and it from the back, is
+    found through the mirrors beside it). depths (F, H, W) float metres as measured; masks (F, H, W) bool, the
     object's pixels.
-    All or nothing: CalibrationError naming the first mirror that cannot be calibrated."""
-    indices = range(len(session.mirrors)) if indices is None else list(indices)
-    if not len(indices):
+    Returns the session with the planes found and one Refinement of them all; a mirror no round could calibrate keeps
+    its plane and is named, with why, in the Refinement's `refused`. CalibrationError (naming them) when none can
+    be."""
+    indices = list(range(len(session.mirrors)) if indices is None else indices)
+    if not indices:
         raise CalibrationError(f"{session.path}: the session has no mirrors")
     depths, masks = np.asarray(depths), np.asarray(masks, bool)
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
+    bar = Ratchet(progress)
+    calibrated, todo, rounds, refused = session, list(indices), [], {}
+    while todo:
+        done = 1.0 - len(todo) / len(indices)
+        found, failed = _search_round(calibrated, depths[0], masks[0], todo, rng, cancel,
+                                      bar.part(done, done + (1.0 - done) / 3), wide=bool(rounds))
+        refused.update(failed)
+        todo = [i for i in todo if i in found]
+        result = _refine_round(calibrated, found, depths, masks, with_, cancel, bar, done, len(indices), refused)
+        if result is None:
+            break
+        calibrated, round_result = result
+        rounds.append(round_result)
+        todo = [i for i in todo if i not in round_result.planes]
+    if not rounds:
+        names = tuple(session.mirrors[i].name for i in sorted(refused))
+        raise CalibrationError(" ".join(dict.fromkeys(refused[i] for i in sorted(refused))), names)
+    for i in refused:                                       # a mirror not found keeps the plane it had
+        calibrated = calibrated.with_mirror(i, replace(calibrated.mirrors[i], plane=session.mirrors[i].plane))
+    bar(1.0)
+    first = rounds[0]
+    return calibrated, replace(first, mirrors=tuple(sorted((m for r in rounds for m in r.mirrors),
+                                                           key=lambda m: m.index)),
+                               iterations=sum(r.iterations for r in rounds),
+                               refused=tuple(sorted(refused.items())))
+
+
+def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int], rng: np.random.Generator,
+                  cancel, progress: Progress, wide: bool) -> tuple[dict[int, Found], dict[int, str]]:
+    """Search the planes of the mirrors at `todo` (0-based) in one frame, against the camera and the mirrors with a
+    plane that are not searched (`wide`: search_plane's) -> ({index: Found}, {index: why it was not found})."""
     rig = Rig.from_session(session)
-    blind = Rig(rig.intrinsics, tuple(Mirror(m.name, None if i in indices else m.plane, m.boundary)
+    blind = Rig(rig.intrinsics, tuple(Mirror(m.name, None if i in todo else m.plane, m.boundary)
                                       for i, m in enumerate(rig.mirrors)))
-    for k, i in enumerate(indices):
-        plane = search_plane(blind, depths[0], masks[0], i, rng, cancel)
-        session = session.with_mirror(i, replace(session.mirrors[i], plane=plane))
-        if progress is not None:
-            progress(0.5 * (k + 1) / len(indices))
-    later = None if progress is None else (lambda f: progress(0.5 + 0.5 * f))
-    return refine_session(session, depths, masks, indices, later, cancel, with_, FROM_SEARCH)
+    found, failed = {}, {}
+    for k, i in enumerate(todo):
+        try:
+            found[i] = search_plane(blind, depth, mask, i, rng, cancel, wide)
+        except CalibrationError as exc:
+            failed[i] = str(exc)
+        progress((k + 1) / len(todo))
+    return found, failed
+
+
+def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray, masks: np.ndarray, with_: str,
+                  cancel, bar: Ratchet, done: float, total: int, refused: dict[int, str]
+                  ) -> tuple[Session, Refinement] | None:
+    """Refine the best-supported of the planes `found` (LEAD_SHARE), held to the views calibrated before; a mirror
+    the refinement names is set aside (its refusal in `refused`, until a later round calibrates it) and the others
+    refined again, then the next best. -> (the session with the planes refined, their Refinement), or None when
+    none of them could be refined."""
+    waiting = dict(found)
+    while waiting:
+        best = max(waiting, key=lambda i: waiting[i].support)
+        lead = sorted(i for i, f in waiting.items() if i == best or f.support >= LEAD_SHARE * waiting[best].support)
+        trial = session
+        for i in lead:
+            trial = trial.with_mirror(i, replace(trial.mirrors[i], plane=waiting[i].plane))
+        start = done + (1.0 - done) / 3
+        part = bar.part(start, max(start, done + len(lead) / total))
+        try:
+            calibrated, result = refine_session(trial, depths, masks, lead, part, cancel, with_, FROM_SEARCH)
+        except CalibrationError as exc:
+            named = [i for i in lead if session.mirrors[i].name in exc.mirrors] or lead
+            for i in named:
+                refused[i] = str(exc)
+                del waiting[i]
+            continue
+        for i in lead:
+            refused.pop(i, None)
+        return calibrated, result
+    return None

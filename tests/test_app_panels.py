@@ -16,7 +16,7 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
-from app.jobs import agreement_line, refined_headline
+from app.jobs import UNDO_FOUND, agreement_line, found_headline, refined_headline
 from app.panels.dense import DensePanel
 from app.panels.measure import CANCELLED_NOTE, MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
@@ -271,6 +271,12 @@ def test_a_calibrations_notification_is_its_first_sentence_and_where_the_rest_is
     assert _result_note(headline) == ("Planes refined (moved > 0: away from the camera): left moved -2.7 mm and "
                                       "0.18°, glass 0.5 ± 1.2 mm. Under Mirrors: the report; the glass: type it in "
                                       "if you know it.")
+    fixed = [SimpleNamespace(name="left", shift_std_mm=0.4, tilt_std_deg=0.02)]
+    headline = f"{found_headline(fixed, 'surfaces', ['middle'])} Over the last 5 live frames. {UNDO_FOUND}"
+    assert _result_note(headline) == ("Planes found from the object (no markers), fixed by the data: left to ±0.4 mm "
+                                      "and ±0.02° (1σ; "
+                                      "the method may add 1 to 2 mm): check the heat map and the agreement below. "
+                                      "Under Mirrors: the report. ⚠ middle not found: why is in the report.")
 
 
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():

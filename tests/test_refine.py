@@ -243,8 +243,9 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
         refine_planes(outline_less, depths, masks)
     # the object is only in the camera's view: nothing to compare with
     direct_only = masks & (rig.inside_bits == 0)
-    with pytest.raises(CalibrationError, match="mirror 1: the camera and the mirror see too little of the same "
-                                               r"surface .* \(0 readings agree over 2 frame\(s\)"):
+    with pytest.raises(CalibrationError, match="mirror 1 and mirror 2: the camera and the mirrors see too little of "
+                                               r"the same surface .* \(mirror 1: 0 and mirror 2: 0 readings agree "
+                                               r"over 2 frame\(s\)"):
         refine_planes(rig, depths, direct_only)
     # a view that disagrees more than max_disagreement times what the depth noise explains (a searched plane's limit)
     with pytest.raises(CalibrationError, match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
@@ -304,7 +305,7 @@ def test_scene_search_then_refinement_without_markers(sphere):
     scene, rig, depths, masks = sphere
     centre = np.asarray(scene.objects[0].centre)
     blind = with_planes(rig, [None, None])
-    found = search_plane(blind, depths[0], masks[0], 0, np.random.default_rng(0))
+    found = search_plane(blind, depths[0], masks[0], 0, np.random.default_rng(0)).plane
     # near enough for the refinement (which comes back from a plane too near the camera), not more
     assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[0].plane, centre) < 0.0
     assert found.angle_to(rig.mirrors[0].plane) < 5.0
@@ -337,10 +338,20 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
     with pytest.raises(CalibrationError, match=r"^mirror 1: \d+ readings just outside its outline lie beyond the "
                                                r"object seen directly: its image spills over the outline; draw"):
         search_plane(narrow, depths[0], masks[0], 0, np.random.default_rng(0))
-    found = search_plane(narrow, depths[0], masks[0], 1, np.random.default_rng(0))
+    found = search_plane(narrow, depths[0], masks[0], 1, np.random.default_rng(0)).plane
     centre = np.asarray(scene.objects[0].centre)
     assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[1].plane, centre) < 0.0
     assert found.angle_to(rig.mirrors[1].plane) < 5.0
+    # calibrated without markers, mirror 2 is found and written, mirror 1 named with why (before, the refusal of
+    # one mirror dropped all: a helper on an arc of three)
+    sim = Simulator(scene, SensorModel.ideal())
+    mirrors = [replace(m, markers=(), plane=None) for m in session_mirrors(sim, sim.frame(0).truth)]
+    mirrors[0] = replace(mirrors[0], boundary=tuple(map(tuple, boundary)))
+    calibrated, result = calibrate_scene(Session(Path("."), rig.intrinsics, tuple(mirrors)), depths, masks,
+                                         np.random.default_rng(0))
+    assert [m.index for m in result.mirrors] == [1] and calibrated.mirrors[0].plane is None
+    assert [i for i, _ in result.refused] == [0] and "its image spills over the outline" in result.refused[0][1]
+    assert abs(offset_at(calibrated.mirrors[1].plane, centre) - offset_at(rig.mirrors[1].plane, centre)) < 1e-3
 
 
 def test_refinement_after_pairs_reaches_the_same_planes(sphere):
@@ -504,15 +515,22 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100), (2, 3, 100))
     assert _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
     assert _fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
+    # a search's guesses: each fixed by the views held, not through the other guesses
+    assert _fixed_by(arc, [2], ["middle"], 3, held_only=True) == {2: 620}       # the mirrors beside it, calibrated
     with pytest.raises(CalibrationError, match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
-                                               r"plane found without markers must be fixed by the camera itself\); "
-                                               r"click markers on it and fit it, then refine from the object$"):
-        _fixed_by(arc, [2], ["middle"], 3, camera_only=True)                    # a search's guess: the camera alone
+                                               r"plane found without markers must be fixed by the camera or by "
+                                               r"mirrors calibrated before it\); click markers on it and fit it, then "
+                                               r"refine from the object$") as refused:
+        _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3, held_only=True)
+    assert refused.value.mirrors == ("middle",)
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
-    with pytest.raises(CalibrationError, match=r"^left: the camera and the mirror see too little of the same "
-                                               r"surface to determine its plane \(18 readings agree over 10 "
-                                               r"frame\(s\), 200 are needed; the 5,000 it shares with the other "
-                                               r"mirrors fix nothing, as the camera fixes none of them\); refine on"):
-        _fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)
+    with pytest.raises(CalibrationError, match=r"^left, middle and right: the camera and the mirrors see too little "
+                                               r"of the same surface to determine their planes \(left: 18, middle: 0 "
+                                               r"and right: 10 readings agree over 10 frame\(s\), 200 are needed; the "
+                                               r"readings they share with one another \(left: 5,000, middle: 10,000 "
+                                               r"and right: 5,000\) fix nothing, as the camera fixes none of them\); "
+                                               r"refine on") as refused:
+        _fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)           # every mirror named, not the first
+    assert refused.value.mirrors == ("left", "middle", "right")
     with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
         _fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)

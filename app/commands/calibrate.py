@@ -70,6 +70,10 @@ def run(args: argparse.Namespace) -> int:
                   f"{np.round(report.after.abcd, 5).tolist()}  {report.summary(searched)}")
     save_session(session)
     print(f"wrote {session.path}")
+    if result is not None and result.refused:        # scene: the mirrors found are written, the others named
+        names = " and ".join(session.mirrors[i].name for i, _ in result.refused)
+        reasons = " ".join(dict.fromkeys(why for _, why in result.refused))
+        raise CalibrationError(f"{names} not calibrated (the planes found are written): {reasons}")
     return 0
 
 

@@ -133,7 +133,7 @@ class MirrorsPanel:
                 self._result_note = self.services.notify(          # until the planes change again (_report)
                     self.tab.client, "Calibration from the object",
                     _refusal_note(headline) if refused else _result_note(headline),
-                    "error" if refused else "info", stay=True, logged=False)
+                    "error" if refused else "warning" if _not_found(headline) else "info", stay=True, logged=False)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
         elif event.job == AGREEMENT:
@@ -596,7 +596,14 @@ def _result_note(headline: str) -> str:
     the rest is (with the advice on the glass, it had run past the notification's height: a helper)."""
     first = headline.split(". ")[0].removesuffix(".")
     glass = "; the glass: type it in if you know it" if GLASS_ADVICE in headline else ""
-    return f"{first}. Under Mirrors: the report{glass}."
+    missing = _not_found(headline)
+    return f"{first}. Under Mirrors: the report{glass}." + (f" ⚠ {missing}: why is in the report." if missing else "")
+
+
+def _not_found(headline: str) -> str:
+    """'mirror 2 not found' from a headline that names mirrors a search could not find (jobs.found_headline), else
+    ''."""
+    return headline.split(" ⚠ ", 1)[1].split(" (why below)")[0] if " ⚠ " in headline else ""
 
 
 def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
