@@ -16,6 +16,8 @@ HALO = (16, 16, 16)                                   # dark edge under every li
 WHITE = (255, 255, 255)
 QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40), "unknown": (235, 235, 235)}
 FONT = cv2.FONT_HERSHEY_SIMPLEX
+MARKER_HALO = 8                                       # pixels: the radius of a marker's dark disc
+LABEL_STEP = 8                                        # pixels: how much farther a label's second places are
 
 
 def depth_range(depth: np.ndarray) -> tuple[float, float]:
@@ -102,6 +104,7 @@ class Overlay:
         for mirror in ordered:                       # markers above every outline, labels last of all
             for marker in mirror.markers:
                 self._marker(marker, mirror.colour)
+        self._labels = [_marker_box(marker.uv) for mirror in ordered for marker in mirror.markers]
         for mirror in ordered:
             for marker in mirror.markers:
                 self._label(marker.uv, marker.label)
@@ -126,7 +129,7 @@ class Overlay:
 
     def _marker(self, marker: MarkerMark, colour) -> None:
         centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
-        cv2.circle(self.image, centre, 8, self._rgba(HALO), -1, cv2.LINE_AA)
+        cv2.circle(self.image, centre, MARKER_HALO, self._rgba(HALO), -1, cv2.LINE_AA)
         cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)
         cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1, cv2.LINE_AA)
         if marker.picked:
@@ -137,20 +140,34 @@ class Overlay:
                          self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
-        """A label on a dark box beside its marker, at the first of eight places around it that is free."""
+        """A label on a dark box beside its marker, at the first of eight places around it, then eight a little
+        farther (LABEL_STEP), that covers no other label and no marker, else at the one that covers least of them
+        (two mirrors' markers at a hinge: 1.6 and 2.1 had covered each other: a helper)."""
         (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
         u, v = int(round(uv[0])), int(round(uv[1]))
         rows, cols = self.image.shape[:2]
-        for du, dv in ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14),
-                       (-w // 2, 20 + h), (14, 4), (-14 - w, 4)):
+        places = []
+        ring = ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14), (-w // 2, 20 + h),
+                (14, 4), (-14 - w, 4))
+        for du, dv in ring + tuple((du + int(np.sign(du)) * LABEL_STEP, dv + int(np.sign(dv)) * LABEL_STEP)
+                                   for du, dv in ring):
             x0, y0 = min(max(u + du, 0), cols - w - 4), min(max(v + dv, h + 3), rows - 4)
             box = (x0 - 2, y0 - h - 3, x0 + w + 2, y0 + base)
-            if not any(_overlap(box, other) for other in self._labels):
+            places.append((sum(_overlap(box, other) for other in self._labels), (x0, y0), box))
+            if not places[-1][0]:
                 break
+        _, (x0, y0), box = min(places, key=lambda place: place[0])
         self._labels.append(box)
         cv2.rectangle(self.image, box[:2], box[2:], self._rgba(HALO), -1)
         cv2.putText(self.image, text, (x0, y0), FONT, 0.45, self._rgba(WHITE), 1, cv2.LINE_AA)
 
 
-def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+def _marker_box(uv) -> tuple[int, int, int, int]:
+    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers (its ring's halo, Overlay._marker)."""
+    u, v = int(round(uv[0])), int(round(uv[1]))
+    return (u - MARKER_HALO, v - MARKER_HALO, u + MARKER_HALO + 1, v + MARKER_HALO + 1)
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> int:
+    """The area (pixels) where boxes a and b (x0, y0, x1, y1) overlap, 0 when they do not."""
+    return max(0, min(a[2], b[2]) - max(a[0], b[0])) * max(0, min(a[3], b[3]) - max(a[1], b[1]))

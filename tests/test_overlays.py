@@ -3,7 +3,7 @@ reading dark) and a tab's overlay over it, checked pixel by pixel against the pl
 import cv2
 import numpy as np
 
-from app.overlays import NO_READING, OBJECT_TINT, MarkerMark, MirrorMarks, Overlay, depth_layer
+from app.overlays import NO_READING, OBJECT_TINT, MarkerMark, MirrorMarks, Overlay, _overlap, depth_layer
 
 
 def test_the_depth_layer_is_grey_by_depth_with_the_object_tinted_and_no_reading_dark():
@@ -35,3 +35,15 @@ def test_the_overlay_covers_the_depth_layer_exactly_where_it_is_drawn():
     overlay.draw([], None)                                   # redrawn with nothing: the base again
     assert np.array_equal(overlay.over(base), base)
     assert cv2.countNonZero(overlay.image[..., 3]) == 0
+
+
+def test_labels_cover_no_other_label_and_no_marker_where_there_is_room():
+    """Two mirrors' markers at a hinge, a few pixels apart (1.6 and 2.1 had covered each other: a helper)."""
+    left = tuple(MarkerMark((100.0 - 25 * (k % 2), 20.0 + 30 * k), f"1.{k + 1}", "good") for k in range(6))
+    right = tuple(MarkerMark((112.0 + 25 * (k % 2), 36.0 + 30 * k), f"2.{k + 1}", "fair") for k in range(6))
+    overlay = Overlay((200, 240))
+    overlay.draw([MirrorMarks((255, 0, 0), (), True, left), MirrorMarks((0, 0, 255), (), True, right)], None)
+    markers, labels = overlay._labels[:12], overlay._labels[12:]
+    assert len(labels) == 12
+    for k, box in enumerate(labels):
+        assert not any(_overlap(box, other) for other in markers + labels[:k] + labels[k + 1:]), k
