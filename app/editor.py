@@ -235,9 +235,10 @@ class SessionEditor:
         names = [self.mirror(mirror_id).name for mirror_id in planes]
         label = f"{what} of {names[0]}" if len(names) == 1 else f"{what}s of {', '.join(names[:-1])} and {names[-1]}"
         group = next(self._groups) if len(names) > 1 else 0
-        for mirror_id, (plane, _) in planes.items():
-            offset, std = glass[mirror_id]
-            self._set_mirror(mirror_id, label, group, what, plane=plane, marker_offset=offset, marker_offset_std=std)
+        for k, (mirror_id, (plane, _)) in enumerate(planes.items()):     # saved once, with all of them (a file with
+            offset, std = glass[mirror_id]                                # some had been the backup: a helper)
+            self._set_mirror(mirror_id, label, group, what, save=k == len(planes) - 1, plane=plane,
+                             marker_offset=offset, marker_offset_std=std)
         return True
 
     @_edits
@@ -451,26 +452,29 @@ class SessionEditor:
             raise MirrorscanError(f"{mirror.name}: no {field} to clear")
         self._set_mirror(mirror_id, f"clear the {field} of {mirror.name}", **{field: ()})
 
-    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "", **changes) -> None:
+    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "", save: bool = True,
+                    **changes) -> None:
         index = self._index(mirror_id)
         before = self._session.mirrors[index]
         after = replace(before, **changes)
-        self._commit(mirror_id, Step(label, before, after, group, what), self._session.with_mirror(index, after))
+        self._commit(mirror_id, Step(label, before, after, group, what), self._session.with_mirror(index, after), save)
 
     def _change(self, label: str, change: tuple, session: Session) -> None:
         """A change of the session's own (SESSION_SCOPE): change = (kind, a, b), see _restore and _inverse."""
         self._commit(SESSION_SCOPE, Step(label, _inverse(change), change), session)
 
-    def _commit(self, scope: int, step: Step, session: Session) -> None:
+    def _commit(self, scope: int, step: Step, session: Session, save: bool = True) -> None:
+        """Record an undo step and take the session, saving it unless `save` is False (one of several steps that
+        the last saves)."""
         check_limits(session)                         # the limits of a session that is read: it would not reopen
         self._undo[scope] = (self._undo.get(scope, []) + [step])[-UNDO_DEPTH:]
         self._redo.pop(scope, None)
         self._session = session
-        self._save_and_notify()
+        self._save_and_notify(save)
 
-    def _save_and_notify(self) -> None:
+    def _save_and_notify(self, save: bool = True) -> None:
         self.last_save_error = None
-        if self.autosave:
+        if self.autosave and save:
             try:
                 save_session(self._session)
             except OSError as exc:   # the previous file is intact (atomic write); say so and go on

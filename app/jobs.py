@@ -50,6 +50,7 @@ GLASS_ADVICE = "The glass is measured on"    # the first words of a refinement's
 REFINED = "Planes refined"   # the first words of a refinement's report when it applied new planes...
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
+FOUND_CHECK = ": check the heat map and the agreement below"     # after the planes found, in the report
 UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
 SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
 SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (UNCHANGED)
@@ -602,8 +603,8 @@ def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = (
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
     missing = (f" ⚠ {' and '.join(not_found)} not found (why below): {'its' if len(not_found) == 1 else 'their'} "
                "plane is as it was." if not_found else "")
-    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]}): check the "
-            f"heat map and the agreement below.{missing}")
+    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]})"
+            f"{FOUND_CHECK}.{missing}")
 
 
 def _signed(mm: float) -> str:

@@ -41,7 +41,9 @@ PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D vie
 RESUME_S = 600.0          # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
 IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
 NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}   # a notification's colour by its kind
-NOTE_SECONDS = 8.0        # a notification closes after this, unless it stays (the result of long work)
+NOTE_SECONDS = 8.0        # a notification closes after this...
+RESULT_NOTE_SECONDS = 45.0  # ... the result of long work after this (it had stayed until closed or the planes
+                            # changed, and covered the depth frame's corner, with the outline to fix, at 1024x600)
 GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
 
 
@@ -241,7 +243,7 @@ class MirrorscanApp:
     def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
                stay: bool = False, logged: bool = True) -> viser.NotificationHandle | None:
         """A notification on one tab (or on every tab: client None) in its kind's colour (NOTE_COLOURS), closing
-        after NOTE_SECONDS, or staying until closed (`stay`: the result of long work, whose report may be out of
+        after NOTE_SECONDS, or RESULT_NOTE_SECONDS (`stay`: the result of long work, whose report may be out of
         view), and a line of the server's log unless `logged` is False (each tab's note of a shared job's end, which
         the job logs once). Returns the one tab's notification (to take it away when it no longer holds), else
         None."""
@@ -249,7 +251,8 @@ class MirrorscanApp:
             log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
         notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
-                                         auto_close_seconds=None if stay else NOTE_SECONDS) for target in targets]
+                                         auto_close_seconds=RESULT_NOTE_SECONDS if stay else NOTE_SECONDS)
+                 for target in targets]
         return notes[0] if client is not None else None
 
     def open_session(self, session: Session, play: bool = False) -> None:

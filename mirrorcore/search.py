@@ -21,7 +21,7 @@ from .errors import CalibrationError, Cancelled
 from .geometry.camera import reproject_depth
 from .geometry.plane import Plane
 from .noise import axial_sigma
-from .progress import Progress, Ratchet, cancel_requested
+from .progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
 from .refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
 from .rig import Mirror, Rig
 from .session import Session
@@ -38,6 +38,7 @@ WIDE = (35.0, 0.5, 300)              # a wide search (a mirror searched again, a
 COARSE = (2.0, 0.02, 0.03)           # degrees between normals, metres between offsets, tolerance of agreement (m)
 FINE = (0.5, 0.005, 0.01)
 KEEP = 5                             # coarse candidates refined finely
+COARSE_PART = 0.6                    # of a search's progress: the coarse candidates (about 0.6 of its time)
 BATCH = 256                          # candidates scored at once
 FAR_MARGIN = 0.02                    # metres beyond the direct object's depth where its mirror image starts
 SPILL_PX = 15                        # pixels around a mirror's outline where readings beyond the direct object are
@@ -69,13 +70,14 @@ class Found(NamedTuple):
 
 
 def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng: np.random.Generator,
-                 cancel=None, wide: bool = False) -> Found:
+                 cancel=None, wide: bool = False, progress: Progress | None = None) -> Found:
     """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best explains one frame.
 
     depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The candidates are scored
     against the camera's view (the object's pixels outside every mirror's boundary) and the views of the rig's other
     mirrors that have a plane (an arc's middle mirror sees the person's back, which the camera does not see, and the
-    sides that the mirrors beside it see); `wide`: over a wider range of planes (WIDE). Raises CalibrationError
+    sides that the mirrors beside it see); `wide`: over a wider range of planes (WIDE); progress(fraction) as the
+    candidates are scored (the coarse ones COARSE_PART of it). Raises CalibrationError
     naming the mirror when it has no boundary or the object is not seen both directly and in it.
     """
     mirror = rig.mirrors[index]
@@ -111,12 +113,15 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
     middle = (real + image) / 2
     cone, offsets, points = WIDE if wide else (CONE_DEG, OFFSETS, SEARCH_POINTS)
     coarse = _candidates(axis, middle, cone, offsets, COARSE)
-    scores = scorer.scores(coarse, COARSE[2], cancel, points)
+    bar = Ratchet(progress)
+    scores = scorer.scores(coarse, COARSE[2], cancel, points, bar.part(0.0, COARSE_PART))
     best = []
     for k in np.argsort(scores)[::-1][:KEEP]:
         n, d = coarse[k, :3], coarse[k, 3]
         fine = _candidates(n, -d * n, COARSE[0], COARSE[1], FINE)
-        fine_scores = scorer.scores(fine, FINE[2], cancel)
+        part = bar.part(COARSE_PART + (1 - COARSE_PART) * len(best) / KEEP,
+                        COARSE_PART + (1 - COARSE_PART) * (len(best) + 1) / KEEP)
+        fine_scores = scorer.scores(fine, FINE[2], cancel, progress=part)
         best.append((fine_scores.max(), fine[np.argmax(fine_scores)]))
     support, abcd = max(best, key=lambda b: b[0])
     try:
@@ -153,12 +158,17 @@ def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
     bool, outside every outline) lie within SPILL_PX of the mirror's outline (inside: (H, W) bool): its image spills
     over an outline drawn too narrow, and those readings would be taken for the object seen directly (a helper's
     outline a third too narrow: the search said the mirror did not show the object)."""
-    kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
-    spilled = int(np.count_nonzero(beyond & cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)))
+    spilled = int(np.count_nonzero(beyond & _near(inside)))
     if spilled >= MIN_POINTS:
         raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the object seen "
                                "directly: its image spills over the outline; draw the outline along the glass's edge",
                                (name,))
+
+
+def _near(inside: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels within SPILL_PX of `inside` (H, W) bool, and those pixels themselves."""
+    kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
+    return cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)
 
 
 def _direct_far(z: np.ndarray) -> float:
@@ -216,9 +226,10 @@ class _Scorer:
         self.mirror = _View(None, inside.reshape(-1), virtual.reshape(-1), virtual_points)
         self.views = views
 
-    def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS) -> np.ndarray:
+    def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS,
+               progress: Progress | None = None) -> np.ndarray:
         """(k,) agreements minus twice the contradictions, both ways with each view, as a share of the points
-        scored: the first `points` of each view's."""
+        scored: the first `points` of each view's; progress(fraction) after each BATCH of candidates."""
         out = np.zeros(len(planes))
         for start in range(0, len(planes), BATCH):
             if cancel_requested(cancel):
@@ -227,6 +238,8 @@ class _Scorer:
             for view in self.views:
                 out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch, tolerance, view)
                                              + self._one_way(view.points[:points], batch, tolerance, self.mirror))
+            if progress is not None:
+                progress(min(start + BATCH, len(planes)) / len(planes))
         return out
 
     def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float, view: _View) -> np.ndarray:
@@ -271,7 +284,8 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
     depths, masks = np.asarray(depths), np.asarray(masks, bool)
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
-    bar = Ratchet(progress)
+    direct = _without_spill(Rig.from_session(session), depths, masks)         # for the refinements
+    bar = Ratchet(progress, RATCHET_SECONDS)
     calibrated, todo, rounds, refused = session, list(indices), [], {}
     while todo:
         done = 1.0 - len(todo) / len(indices)
@@ -279,7 +293,7 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
                                       bar.part(done, done + (1.0 - done) / 3), wide=bool(rounds))
         refused.update(failed)
         todo = [i for i in todo if i in found]
-        result = _refine_round(calibrated, found, depths, masks, with_, cancel, bar, done, len(indices), refused)
+        result = _refine_round(calibrated, found, depths, direct, with_, cancel, bar, done, len(indices), refused)
         if result is None:
             break
         calibrated, round_result = result
@@ -287,7 +301,7 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
         todo = [i for i in todo if i not in round_result.planes]
     if not rounds:
         names = tuple(session.mirrors[i].name for i in sorted(refused))
-        raise CalibrationError(" ".join(dict.fromkeys(refused[i] for i in sorted(refused))), names)
+        raise CalibrationError(sentences(refused[i] for i in sorted(refused)), names)
     for i in refused:                                       # a mirror not found keeps the plane it had
         calibrated = calibrated.with_mirror(i, replace(calibrated.mirrors[i], plane=session.mirrors[i].plane))
     bar(1.0)
@@ -296,6 +310,28 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
                                                            key=lambda m: m.index)),
                                iterations=sum(r.iterations for r in rounds),
                                refused=tuple(sorted(refused.items())))
+
+
+def sentences(reasons) -> str:
+    """Refusals (one-line strings) as one line of sentences, each once, in order."""
+    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))
+
+
+def _without_spill(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """masks (F, H, W) bool without a mirror's image spilling over an outline drawn too narrow: in the frames of
+    depths (F, H, W) metres where the search would see one (_check_outline: MIN_POINTS of the object's readings beyond
+    what the camera sees directly, _direct_far, within SPILL_PX outside an outline), all the readings outside every
+    outline beyond what the camera sees directly (an outline 80 px too narrow leaves its image up to 80 px wide). It
+    had also been the camera's view in the other mirrors' refinement, and they were refused with it (45 readings
+    agreed: a helper); frames without one keep their masks whole."""
+    outside = rig.inside_bits == 0
+    near = _near(~outside) & outside
+    out = masks.copy()
+    for k, (depth, mask) in enumerate(zip(depths, masks)):
+        beyond = mask & outside & (depth > _direct_far(depth[mask & outside]))
+        if np.count_nonzero(beyond & near) >= MIN_POINTS:
+            out[k] &= ~beyond
+    return out
 
 
 def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int], rng: np.random.Generator,
@@ -308,7 +344,8 @@ def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: l
     found, failed = {}, {}
     for k, i in enumerate(todo):
         try:
-            found[i] = search_plane(blind, depth, mask, i, rng, cancel, wide)
+            found[i] = search_plane(blind, depth, mask, i, rng, cancel, wide,
+                                    lambda f, k=k: progress((k + f) / len(todo)))
         except CalibrationError as exc:
             failed[i] = str(exc)
         progress((k + 1) / len(todo))

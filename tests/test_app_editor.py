@@ -142,12 +142,18 @@ def test_a_fit_computed_on_another_state_is_never_applied(editor):
     assert all(m.plane is None for m in editor.session.mirrors)      # mirror 2 did not receive it
 
 
-def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor):
+def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor, monkeypatch):
     """A fit or refinement of several mirrors is one action: undone and redone from any of its mirrors, for every
-    mirror whose last change it still is."""
+    mirror whose last change it still is; saved once, with all of them (a file with one of them had been written
+    first, and became the backup: a helper)."""
+    import app.editor
     editor.add_mirror()
     other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
+    written = []
+    monkeypatch.setattr(app.editor, "save_session", lambda session: written.append(
+        [m.plane for m in session.mirrors]) or save_session(session))
     editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))}, what="refined plane")
+    assert written == [[PLANE, other]]
     assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
     assert editor.undo_label(1) == editor.undo_label(2) == "refined planes of mirror 1 and mirror 2"
     assert editor.undo(2) == "refined planes of mirror 1 and mirror 2"

@@ -1018,8 +1018,12 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert f"the last {HEAT_POOL} frames, against the camera's surface (> 0: outside it):<br>left: median -0.4 mm, " \
            "7% of its points compared" in text
     assert "this frame, against" in heat_legend_html({1: (-0.44, 0.07)}, 1, {1: "left"}.get)
-    assert "left: median -1.4 mm, under 1% of its points compared" in heat_legend_html({1: (-1.44, 0.004)}, 1,
-                                                                                       {1: "left"}.get)
+    assert "left: median -1.4 mm, under 1% of its points compared (it sees little of what the camera sees: its " \
+           "agreement under Mirrors compares it with every view)" in heat_legend_html({1: (-1.44, 0.004)}, 1,
+                                                                                      {1: "left"}.get)
+    assert "compares it with every view" not in text                     # 7% compared: the camera checks it
+    bare = heat_legend_html({}, 0, {1: "left"}.get, planes=False)         # no plane: what to do, not "computing"
+    assert "No mirror has a plane yet" in bare and "computing" not in bare
     assert text.endswith("<i>A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm "
                          "read 0.2 mm on the sphere): <b>Refine from the object</b> measures it.</i></div>")
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)

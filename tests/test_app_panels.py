@@ -275,8 +275,8 @@ def test_a_calibrations_notification_is_its_first_sentence_and_where_the_rest_is
     headline = f"{found_headline(fixed, 'surfaces', ['middle'])} Over the last 5 live frames. {UNDO_FOUND}"
     assert _result_note(headline) == ("Planes found from the object (no markers), fixed by the data: left to ±0.4 mm "
                                       "and ±0.02° (1σ; "
-                                      "the method may add 1 to 2 mm): check the heat map and the agreement below. "
-                                      "Under Mirrors: the report. ⚠ middle not found: why is in the report.")
+                                      "the method may add 1 to 2 mm). Under Mirrors: the report. ⚠ middle not found: "
+                                      "why is in the report.")                  # nothing is "below" a notification
 
 
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():

@@ -21,6 +21,7 @@ from mirrorcore.reconstruct import reconstruct_raw
 from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement,
                               _fixed_by, _Residuals, marker_offset, moved_plane, offset_at, refine_planes,
                               refine_session, reflection_jacobian, view_agreement)
+from mirrorcore.progress import Ratchet
 from mirrorcore.rig import Mirror, Rig
 from mirrorcore.search import calibrate_scene, search_plane
 from mirrorcore.session import Session
@@ -210,6 +211,19 @@ def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
     assert all(_fraction(k) < _fraction(k + 1) <= 0.75 for k in range(1, 2 * MAX_ITERATIONS))
 
 
+def test_a_bar_never_goes_back_and_a_throttled_one_still_reaches_the_end():
+    seen, fast = [], []
+    bar = Ratchet(seen.append)
+    for fraction in (0.1, 0.3, 0.2, 0.3, 0.5):
+        bar(fraction)
+    bar.part(0.5, 1.0)(0.5)
+    assert seen == [0.1, 0.3, 0.5, 0.75]
+    throttled = Ratchet(fast.append, seconds=60.0)
+    for fraction in (0.1, 0.2, 0.9, 1.0):
+        throttled(fraction)
+    assert fast == [0.1, 1.0]
+
+
 def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
     scene, rig, depths, masks = sphere
     centre = np.asarray(scene.objects[0].centre)
@@ -312,7 +326,9 @@ def test_scene_search_then_refinement_without_markers(sphere):
     sim = Simulator(scene, SensorModel.ideal())
     session = Session(Path("."), rig.intrinsics,
                       tuple(replace(m, markers=()) for m in session_mirrors(sim, sim.frame(0).truth)))
-    calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0))
+    fractions = []
+    calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), progress=fractions.append)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and fractions[0] < 0.05    # the search tells too
     for mirror, truth in zip(calibrated.mirrors, rig.mirrors):
         assert abs(offset_at(mirror.plane, centre) - offset_at(truth.plane, centre)) < 1e-3
         assert mirror.plane.angle_to(truth.plane) < 0.05

@@ -11,7 +11,7 @@ from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
 from mirrorcore.rig import Rig
-from mirrorcore.search import calibrate_scene
+from mirrorcore.search import calibrate_scene, sentences
 from mirrorcore.session import Session, load_session, save_session
 
 from . import percent_bar
@@ -72,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {session.path}")
     if result is not None and result.refused:        # scene: the mirrors found are written, the others named
         names = " and ".join(session.mirrors[i].name for i, _ in result.refused)
-        reasons = " ".join(dict.fromkeys(why for _, why in result.refused))
-        raise CalibrationError(f"{names} not calibrated (the planes found are written): {reasons}")
+        raise CalibrationError(f"{names} not calibrated (the planes found are written): "
+                               f"{sentences(why for _, why in result.refused)}")
     return 0
 
 

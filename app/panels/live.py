@@ -59,18 +59,27 @@ HEAT_READS = ("A tilted plane or a wrong boundary colours a mirror's points; a g
               "on the sphere)")            # a helper found "(the sphere: 0.5° read 6 mm)" hard to read, and a scale:
 HEAT_GLASS = ": <b>Refine from the object</b> measures it."                    # its figure's 1.6° read 4 mm
 HEAT_REFINED = "; these planes come from the object, where the glass plays no part."
+HEAT_FEW = 0.05             # a view with fewer of its points compared than this is told where it is checked
+FEW_COMPARED = (" (it sees little of what the camera sees: its agreement under Mirrors compares it with every "
+                "view)")          # an arc's middle mirror: "under 1%", with no advice (a helper)
 
 
 def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str],
-                     refined: bool = False) -> str:
+                     refined: bool = False, planes: bool = True) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
     and the share of its points compared over the heat maps of the last `frames` frames (figures as in HeatChanged;
     empty until the first map arrives), against the camera's surface (the agreement lines beside it compare every
     view); then what the map can show (HEAT_READS) and what measures the glass: the refinement, or (`refined`: every
-    plane came from it) that it did."""
+    plane came from it) that it did; without `planes` (no mirror has one) what to do first (it had said "computing
+    the heat map…" for good: a helper)."""
+    if not planes:
+        return (f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the points seen in a '
+                "mirror with the camera's surface. Fit the planes from their markers, or find them from the object "
+                "(Mirrors).</div>")
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{escape(name(j))}: median {median:+.1f} mm, {_share(share)} of its points compared"
-             if np.isfinite(median) else f"{escape(name(j))}: none of its points seen by the camera"
+             + (FEW_COMPARED if share < HEAT_FEW else "")
+             if np.isfinite(median) else f"{escape(name(j))}: none of its points seen by the camera{FEW_COMPARED}"
              for j, (median, share) in figures.items()]
     over = "this frame" if frames == 1 else f"the last {frames} frames"
     body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures
@@ -328,8 +337,10 @@ class LivePanel:
             self.seek.value = number
         names = source_names(frame.snapshot.session)
         heat = self.tab.heat and self.tab.state.view == "3d"     # its key only where it shows
+        session = frame.snapshot.session
         self.legend.content = (heat_legend_html(self.tab.heat_figures, self.tab.heat_frames, names,
-                                                _from_object(services.jobs, frame.snapshot.session)) if heat
+                                                _from_object(services.jobs, session),
+                                                any(m.plane is not None for m in session.mirrors)) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids, tuple(
                                    m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
         if first:

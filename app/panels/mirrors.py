@@ -18,7 +18,7 @@ from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
 from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
-from ..jobs import (AGREEMENT, CANCELLED, FAILED, GLASS_ADVICE, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE,
+from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE,
                    planes_key)
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
@@ -326,7 +326,7 @@ class MirrorsPanel:
 
     def _report(self, text: str) -> None:
         """Show a fit's or refinement's report, for the planes as they are now; the notification of the last
-        calibration from the object goes (it stayed until closed: one told after it would stack under it)."""
+        calibration from the object goes (it stays a while: one told after it would stack under it)."""
         self._result_planes = planes_key(self.services.editor.session)
         self.result.content = markdown(text)
         if self._result_note is not None:
@@ -462,15 +462,19 @@ class MirrorsPanel:
             self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
         refining = self.services.jobs.running(REFINE)
         self.refine.disabled = refining or not any(m.plane is not None for m in session.mirrors)
-        self.scene.visible = any(m.boundary and m.plane is None for m in session.mirrors)
-        self.scene.disabled = refining
+        bare = [m.id for m in session.mirrors if m.boundary and m.plane is None]
+        self.scene.visible = bool(bare)                       # not again while every mirror it would search was
+        refused = self.services.jobs.refusals(session)        # refused as it now is (it gave the same refusal: a
+        self.scene.disabled = refining or all(refused.get(i) == "scene" for i in bare)      # helper)
         has = selected is not None
         for button in (self.rename, self.remove):
             button.disabled = not has
-        few = not has or len(selected.markers) < 3            # offered only when it can fit ("0 usable marker(s) of
-        self.fit.disabled = few or refining                    # 0": a helper); a refinement applies what it computed
-        self.clear_markers.disabled = not has or not selected.markers                      # on the planes
-        self.fit_all.disabled = not session.mirrors or refining                             # it started from
+        # the fits offered only when they can fit ("0 usable marker(s) of 0"; Fit all with no marker anywhere said
+        # "not done": helpers); not while a refinement runs, which applies what it computed on the planes it started
+        # from
+        self.fit.disabled = refining or not has or len(selected.markers) < 3
+        self.fit_all.disabled = refining or not any(len(m.markers) >= 3 for m in session.mirrors)
+        self.clear_markers.disabled = not has or not selected.markers
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
             " Now click where it goes." if state.moving_marker else "")
@@ -594,7 +598,7 @@ def _refusal_note(refusal: str) -> str:
 def _result_note(headline: str) -> str:
     """A calibration's headline for its notification: its first sentence (the planes' changes and glass) and where
     the rest is (with the advice on the glass, it had run past the notification's height: a helper)."""
-    first = headline.split(". ")[0].removesuffix(".")
+    first = headline.split(". ")[0].removesuffix(".").removesuffix(FOUND_CHECK)    # nothing is below a note
     glass = "; the glass: type it in if you know it" if GLASS_ADVICE in headline else ""
     missing = _not_found(headline)
     return f"{first}. Under Mirrors: the report{glass}." + (f" ⚠ {missing}: why is in the report." if missing else "")
