@@ -35,6 +35,7 @@ from mirrorcore.session import (
     load_session,
     save_session,
 )
+from mirrorcore.words import listed
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
@@ -233,7 +234,7 @@ class SessionEditor:
         if not planes:
             return False
         names = [self.mirror(mirror_id).name for mirror_id in planes]
-        label = f"{what} of {names[0]}" if len(names) == 1 else f"{what}s of {', '.join(names[:-1])} and {names[-1]}"
+        label = f"{what}{'s' if len(names) > 1 else ''} of {listed(names)}"
         group = next(self._groups) if len(names) > 1 else 0
         for k, (mirror_id, (plane, _)) in enumerate(planes.items()):     # saved once, with all of them (a file with
             offset, std = glass[mirror_id]                                # some had been the backup: a helper)
@@ -331,7 +332,7 @@ class SessionEditor:
         if not step.group:
             return step.label
         moving, left = self._group_split(step, source)
-        name = lambda ids: " and ".join(self.mirror(i).name for i in ids)     # noqa: E731
+        name = lambda ids: listed([self.mirror(i).name for i in ids])     # noqa: E731
         label = f"{step.what}{'s' if len(moving) > 1 else ''} of {name(moving)}"
         return f"{label}{PARTIAL}{name(left)} changed since" if left else label
 

@@ -35,6 +35,7 @@ from .readings import reflect_directions
 from .rig import Mirror, Rig
 from .session import MAX_MARKER_OFFSET, Session
 from .spheretarget import SCATTER_AUTO, SCATTER_FRAMES, NotASphere, SpherePlanes, sphere_planes
+from .words import listed
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30
@@ -491,8 +492,8 @@ def _free_refusal(found: _Residuals, free: list[tuple[int, str]], held: set[int]
                   held_only: bool) -> str:
     """The refusal of the mirrors nothing fixes (free: (j, name) pairs, in session order), one line naming each."""
     one = len(free) == 1
-    names = _listed([name for _, name in free])
-    agree = _listed([f"{_shared(found, j, held):,}" if one else f"{name}: {_shared(found, j, held):,}"
+    names = listed([name for _, name in free])
+    agree = listed([f"{_shared(found, j, held):,}" if one else f"{name}: {_shared(found, j, held):,}"
                      for j, name in free])
     what = ("the mirror see too little of the same surface to determine its plane" if one else
             "the mirrors see too little of the same surface to determine their planes")
@@ -504,18 +505,13 @@ def _free_refusal(found: _Residuals, free: list[tuple[int, str]], held: set[int]
         shared = [(name, _shared(found, j, set(np.unique(found.pair)) - {0, j})) for j, name in free]
         mirrors = ""                            # (one mirror sharing that many with the others would be fixed)
         if any(n >= MIN_AGREEMENTS for _, n in shared):
-            counts = _listed([f"{name}: {n:,}" for name, n in shared])
+            counts = listed([f"{name}: {n:,}" for name, n in shared])
             mirrors = (f"; the readings they share with one another ({counts}) fix nothing, as the camera fixes "
                        "none of them")
         advice = ("refine on an object that both see from the side (a person, a sphere), not a flat face, or "
                   "on more frames of one that moves")
     return (f"{names}: the camera and {what} ({agree} readings agree over {frames} frame(s), {MIN_AGREEMENTS} are "
             f"needed{mirrors}); {advice}")
-
-
-def _listed(words: list[str]) -> str:
-    """'a', 'a and b', 'a, b and c'."""
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
 
 
 def _shared(found: _Residuals, j: int, views: set[int]) -> int:

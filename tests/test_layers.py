@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "mirrorcore"
 FLOORS = {
-    "errors": 0, "atomic": 0, "jsonfile": 0, "palette": 0, "budget": 0, "progress": 0,
+    "errors": 0, "atomic": 0, "jsonfile": 0, "palette": 0, "budget": 0, "progress": 0, "words": 0,
     "geometry": 1,
     "noise": 2, "kinect": 2, "depthops": 2, "depthio": 2, "selection": 2, "temporal": 2,
     "session": 3, "ply": 3, "outputs": 3,
