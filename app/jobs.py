@@ -30,6 +30,7 @@ from mirrorcore.search import calibrate_scene
 from mirrorcore.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
 from mirrorcore.sources.record import Recorder, new_recording_folder
+from mirrorcore.words import listed
 
 from .events import DenseChanged, EventBus, FrameReady, HeatChanged, JobProgress
 from .live import frame_number
@@ -51,6 +52,7 @@ REFINED = "Planes refined"   # the first words of a refinement's report when it 
 FOUND = "Planes found from the object"     # ... and of a calibration without markers
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
 FOUND_CHECK = ": check the heat map and the agreement below"     # after the planes found, in the report
+NOT_FOUND = " ⚠ not found: "                  # a report's line of a mirror a search could not find: its why follows
 UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
 SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
 SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (UNCHANGED)
@@ -325,7 +327,8 @@ class Jobs:
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
         details = [f"**{r.name}** {'refined' if search is None else 'found'}: "
                    f"{r.summary(searched=search is not None, saved=changed)}" for r in result.mirrors]
-        details += [f"**{session.mirrors[i].name}** ⚠ not found: {why}" for i, why in result.refused]
+        details += [f"**{session.mirrors[i].name}**{NOT_FOUND}{why.removeprefix(session.mirrors[i].name + ': ')}"
+                    for i, why in result.refused]
         if not changed:                              # no undo step: Undo and Redo keep the report that set them
             report = "\n\n".join([f"{UNCHANGED} Over {used}.", *details])
             self.refinements.setdefault(planes_key(editor.session), report)
@@ -333,7 +336,10 @@ class Jobs:
         not_found = [session.mirrors[i].name for i, _ in result.refused]
         headline = (refined_headline(result.mirrors, result.compared) if search is None else
                     found_headline(result.mirrors, result.compared, not_found))
-        report = "\n\n".join([f"{headline} Over {used}. {UNDO_NOTE if search is None else UNDO_FOUND}", *details])
+        undo = UNDO_NOTE if search is None else UNDO_FOUND
+        if result.refused:                           # Undo goes by the mirror selected, which may be one not found
+            undo = f"{undo.removesuffix('.')}, with {listed([r.name for r in result.mirrors])} selected."
+        report = "\n\n".join([f"{headline} Over {used}. {undo}", *details])
         self.refinements[planes_key(editor.session)] = report
         return report
 
@@ -568,7 +574,7 @@ def left_out(session: Session) -> str:
     """What a cloud of the session leaves out: 'mirror 1 and mirror 2 have no plane yet: what is seen inside their
     outlines is not in it', or '' when every mirror with an outline has a plane."""
     bare = [m.name for m in session.mirrors if m.boundary and m.plane is None]
-    return (f"{' and '.join(bare)} {'has' if len(bare) == 1 else 'have'} no plane yet: what is seen inside "
+    return (f"{listed(bare)} {'has' if len(bare) == 1 else 'have'} no plane yet: what is seen inside "
             f"{'its outline' if len(bare) == 1 else 'their outlines'} is not in it" if bare else "")
 
 
@@ -601,7 +607,7 @@ def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = (
     (compared, as for refined_headline) what they came from; then the mirrors `not_found` (names), if any."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
-    missing = (f" ⚠ {' and '.join(not_found)} not found (why below): {'its' if len(not_found) == 1 else 'their'} "
+    missing = (f" ⚠ {listed(not_found)} not found (why below): {'its' if len(not_found) == 1 else 'their'} "
                "plane is as it was." if not_found else "")
     return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]})"
             f"{FOUND_CHECK}.{missing}")

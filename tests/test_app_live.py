@@ -680,7 +680,8 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
     assert app_.editor.mirror(second.id).plane == second.plane and app_.editor.mirror(first.id).plane is None
     report = app_.jobs.refinements[app.jobs.planes_key(app_.editor.session)]
     assert f"⚠ {first.name} not found (why below): its plane is as it was." in report.split("\n\n")[0]
-    assert report.endswith(f"**{first.name}** ⚠ not found: {why}")
+    assert f"Undo takes the planes found back, with {second.name} selected." in report.split("\n\n")[0]
+    assert report.endswith(f"**{first.name}** ⚠ not found: {why.removeprefix(first.name + ': ')}")   # named once
     assert app_.jobs.refusals(app_.editor.session) == {first.id: "scene"}
 
 
@@ -735,7 +736,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click a marker on the mirror, or **Find the planes from the object** (no markers).")
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False,
-                      refused={1: "scene"}) == "left: click a marker on the mirror."      # not offered again
+                      refused={1: "scene"}) == ("left: not found from the object (why and what to do: under "
+                                                "Mirrors); or click a marker on the mirror.")   # not offered again
     one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))
     assert start_hint(one, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
         "left: click more markers (3 or more, spread out) on the mirror.")        # markers begun: no second way
@@ -767,7 +769,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(bare, TabState(mirror_id=1), True, True) == (
         "Now top: select it and do the same (no markers: click 3 or more, or **Find the planes from the object**).")
     assert start_hint(bare, TabState(mirror_id=1), True, True, refused={2: "scene"}) == (
-        "Now top: select it and do the same (no markers: click 3 or more).")
+        "Now top: not found from the object (why and what to do: under Mirrors); or select it and click 3 or more "
+        "markers on it.")
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers

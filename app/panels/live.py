@@ -14,6 +14,7 @@ from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, H
                                 source_name)
 from mirrorcore.session import Session
 from mirrorcore.sources import SessionSource
+from mirrorcore.words import listed
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged, SessionChanged
@@ -43,7 +44,7 @@ def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: 
     items = "".join(_swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
                     for j, count in counts.items())
     if unplaned:
-        items += (f"<br>{escape(' and '.join(unplaned))}: no plane yet, so the object seen in "
+        items += (f"<br>{escape(listed(unplaned))}: no plane yet, so the object seen in "
                   f"{'it' if len(unplaned) == 1 else 'them'} is left out")
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
@@ -74,7 +75,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
     the heat map…" for good: a helper)."""
     if not planes:
         return (f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the points seen in a '
-                "mirror with the camera's surface. Fit the planes from their markers, or find them from the object "
+                "mirror with the camera's surface. Fit the planes from markers, or find them from the object "
                 "(Mirrors).</div>")
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
     lines = [f"{escape(name(j))}: median {median:+.1f} mm, {_share(share)} of its points compared"
@@ -136,7 +137,7 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return (f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are under "
                 "*Record › Reconstruct every frame (batch)*.")
     if state.proposal_for:
-        return (f"A new plane for {' and '.join(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
+        return (f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
                 "it.")
     look = "" if state.view == "depth" else "Look at the **Depth frame** (View, below); "
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
@@ -146,23 +147,28 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
         choose = "" if state.mode == "markers" else "choose **Markers** and "
-        scene = "" if mirror.markers or refused.get(mirror.id) == "scene" else (
-            ", or **Find the planes from the object** (no markers)")
+        if refused.get(mirror.id) == "scene":        # it had only said "click a marker" (a helper)
+            return (f"{mirror.name}: not found from the object (why and what to do: under Mirrors); or "
+                    f"{choose}click {what} on the mirror.")
+        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
         return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
         ready = [m.name for m in session.mirrors if m.plane is None and m.boundary and len(m.markers) >= 3]
         if len(ready) > 1:
-            return f"{' and '.join(ready)}: **Fit all planes**."
+            return f"{listed(ready)}: **Fit all planes**."
         return f"{mirror.name}: **Fit plane**."
     todo = [m for m in session.mirrors if m.plane is None or not m.boundary]
     if todo:
-        scene = "" if refused.get(todo[0].id) == "scene" else ", or **Find the planes from the object**"
-        how = f" (no markers: click 3 or more{scene})" if todo[0].boundary and not todo[0].markers else ""
+        if refused.get(todo[0].id) == "scene":       # "do the same" beside a plane found from the object (a helper)
+            return (f"Now {todo[0].name}: not found from the object (why and what to do: under Mirrors); or select "
+                    "it and click 3 or more markers on it.")
+        how = (" (no markers: click 3 or more, or **Find the planes from the object**)"
+               if todo[0].boundary and not todo[0].markers else "")
         return f"Now {todo[0].name}: select it and do the same{how}."
     if glass_unused:
-        return (f"The glass typed in for {' and '.join(glass_unused)} is not in its plane yet: select it and "
+        return (f"The glass typed in for {listed(glass_unused)} is not in its plane yet: select it and "
                 "**Mirrors › Fit plane** moves the plane behind the glass." if len(glass_unused) == 1 else
-                f"The glass typed in for {' and '.join(glass_unused)} is not in their planes yet: **Mirrors › Fit "
+                f"The glass typed in for {listed(glass_unused)} is not in their planes yet: **Mirrors › Fit "
                 "all planes** moves them behind the glass.")
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
@@ -174,15 +180,15 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
                 f"{start}** (above) when done.")
     if disagreeing:
         views = "its view disagrees" if len(disagreeing) == 1 else "their views disagree"
-        return (f"⚠ {' and '.join(disagreeing)}: {views} with the others beyond the depth noise (why, under "
+        return (f"⚠ {listed(disagreeing)}: {views} with the others beyond the depth noise (why, under "
                 "*Mirrors*): **Mirrors › Refine from the object**, or fit again.")
     if no_glass and "refine" in refused.values():
-        return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}, and the refinement could "
+        return (f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}, and the refinement could "
                 "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
                 "glass, remove, clear** if you know it, then fit again; or refine on an object that the camera and "
                 "the mirrors see from the side (a person, a sphere).")
     if no_glass:
-        return (f"Ready: the merged cloud is live. No glass set on {' and '.join(no_glass)}: **Mirrors › Refine from "
+        return (f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}: **Mirrors › Refine from "
                 "the object** measures it.")
     return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
 

@@ -14,12 +14,13 @@ from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.markers import MIN_MARKER_PIXELS, marker_points, review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
+from mirrorcore.words import listed
 
 from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
-from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, REFINE, UNDO_FOUND, UNDO_NOTE,
-                   planes_key)
+from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, NOT_FOUND, REFINE,
+                   UNDO_FOUND, UNDO_NOTE, planes_key)
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -132,7 +133,7 @@ class MirrorsPanel:
                 headline = event.status.split("\n\n")[0]
                 self._result_note = self.services.notify(          # until the planes change again (_report)
                     self.tab.client, "Calibration from the object",
-                    _refusal_note(headline) if refused else _result_note(headline),
+                    _refusal_note(headline) if refused else _result_note(event.status),
                     "error" if refused else "warning" if _not_found(headline) else "info", stay=True, logged=False)
             if not running:
                 self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
@@ -154,7 +155,7 @@ class MirrorsPanel:
         if flagged and lines != self._flagged:
             views = "its view disagrees" if len(flagged) == 1 else "their views disagree"
             self.services.notify(self.tab.client, "The views disagree",
-                                 f"{' and '.join(flagged)}: ⚠ {views} with the others beyond the depth noise; why and "
+                                 f"{listed(flagged)}: ⚠ {views} with the others beyond the depth noise; why and "
                                  "what to do are under Mirrors, below the buttons.", "warning", logged=False)
         self._flagged = lines if flagged else ""
 
@@ -595,13 +596,20 @@ def _refusal_note(refusal: str) -> str:
     return f"{refusal[:refusal.index(' (')]}; why and what to do are under Mirrors."
 
 
-def _result_note(headline: str) -> str:
-    """A calibration's headline for its notification: its first sentence (the planes' changes and glass) and where
-    the rest is (with the advice on the glass, it had run past the notification's height: a helper)."""
+def _result_note(report: str) -> str:
+    """A calibration's report for its notification: its headline's first sentence (the planes' changes and glass)
+    and where the rest is (with the advice on the glass, it had run past the notification's height: a helper); then
+    the mirrors not found, with the first one's why (NOT_FOUND in its details), shortened as a refusal's is (at
+    1024x600 the report's line is a long scroll down: a helper)."""
+    headline = report.split("\n\n")[0]
     first = headline.split(". ")[0].removesuffix(".").removesuffix(FOUND_CHECK)    # nothing is below a note
     glass = "; the glass: type it in if you know it" if GLASS_ADVICE in headline else ""
+    note = f"{first}. Under Mirrors: the report{glass}."
     missing = _not_found(headline)
-    return f"{first}. Under Mirrors: the report{glass}." + (f" ⚠ {missing}: why is in the report." if missing else "")
+    if not missing:
+        return note
+    why = next(line.split(NOT_FOUND, 1)[1] for line in report.split("\n\n") if NOT_FOUND in line)
+    return f"{note} ⚠ {missing}: {_refusal_note(why)}"
 
 
 def _not_found(headline: str) -> str:
@@ -615,9 +623,9 @@ def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
     be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set;
     the poor markers of a plane applied anyway (a refit of markers taken before: FitReview.refit); then the mirrors
     left out for want of markers. fits : (Calibration, SessionMirror, FitReview) each."""
-    names = " and ".join(m.name for _, m, _ in fits)
+    names = listed(m.name for _, m, _ in fits)
     them = "it is" if len(without_markers) == 1 else "they are"
-    left = (f" {' and '.join(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
+    left = (f" {listed(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
             "from the object)." if without_markers else "")
     if waits:
         crossed = " (the crossed markers)" if any(r.poor for _, _, r in fits) else ""
