@@ -53,6 +53,7 @@ FOUND = "Planes found from the object"     # ... and of a calibration without ma
 UNDO_NOTE = "Undo restores the previous planes."     # the last words of a refinement's headline...
 FOUND_CHECK = ": check the heat map and the agreement below"     # after the planes found, in the report
 NOT_FOUND = " ⚠ not found: "                  # a report's line of a mirror a search could not find: its why follows
+NOT_FOUND_HEAD = " not found (why below)"      # ... and in its headline, after the names of those mirrors
 UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
 SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
 SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (UNCHANGED)
@@ -607,7 +608,7 @@ def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = (
     (compared, as for refined_headline) what they came from; then the mirrors `not_found` (names), if any."""
     fixed = [f"{r.name} to ±{r.shift_std_mm:.1f} mm and ±{r.tilt_std_deg:.2f}°" for r in mirrors]
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
-    missing = (f" ⚠ {listed(not_found)} not found (why below): {'its' if len(not_found) == 1 else 'their'} "
+    missing = (f" ⚠ {listed(not_found)}{NOT_FOUND_HEAD}: {'its' if len(not_found) == 1 else 'their'} "
                "plane is as it was." if not_found else "")
     return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]})"
             f"{FOUND_CHECK}.{missing}")

@@ -19,8 +19,8 @@ from mirrorcore.words import listed
 from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
-from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, NOT_FOUND, REFINE,
-                   UNDO_FOUND, UNDO_NOTE, planes_key)
+from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, NOT_FOUND, NOT_FOUND_HEAD,
+                   REFINE, UNDO_FOUND, UNDO_NOTE, planes_key)
 from ..markup import markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -608,14 +608,14 @@ def _result_note(report: str) -> str:
     missing = _not_found(headline)
     if not missing:
         return note
-    why = next(line.split(NOT_FOUND, 1)[1] for line in report.split("\n\n") if NOT_FOUND in line)
-    return f"{note} ⚠ {missing}: {_refusal_note(why)}"
+    why = next((line.split(NOT_FOUND, 1)[1] for line in report.split("\n\n") if NOT_FOUND in line), "")
+    return f"{note} ⚠ {missing} not found: {_refusal_note(why) if why else 'why is in the report.'}"
 
 
 def _not_found(headline: str) -> str:
-    """'mirror 2 not found' from a headline that names mirrors a search could not find (jobs.found_headline), else
-    ''."""
-    return headline.split(" ⚠ ", 1)[1].split(" (why below)")[0] if " ⚠ " in headline else ""
+    """'mirror 2' (the names) from a headline that names mirrors a search could not find (jobs.found_headline),
+    else ''."""
+    return headline.split(" ⚠ ", 1)[1].split(NOT_FOUND_HEAD)[0] if NOT_FOUND_HEAD in headline else ""
 
 
 def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
