@@ -318,17 +318,17 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     if depths.ndim == 2:
         depths, masks = depths[None], masks[None]
     refined = [i + 1 for i in indices]
-    sphere = _sphere(rig, depths, masks, refined, with_, progress, cancel)
+    bar = Ratchet(progress)
+    sphere = _sphere(rig, depths, masks, refined, with_, bar, cancel)
     if sphere is not None:
-        return _from_sphere(rig, depths, masks, refined, sphere, leash, progress, cancel)
+        return _from_sphere(rig, depths, masks, refined, sphere, leash, bar, cancel)
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes, iterations, labelled, gate = dict(start), 0, rig, leash.gate
-    progress = None if progress is None else Ratchet(progress)
     for _ in range(2):                                   # once more when the planes moved enough to relabel pixels
         views_end = _fraction(iterations + RELABEL_ITERATIONS) if iterations else _fraction(0)
-        frames = _views(labelled, depths, masks, cancel, _part(progress, _fraction(iterations, 0.0), views_end))
+        frames = _views(labelled, depths, masks, cancel, bar.part(_fraction(iterations, 0.0), views_end))
         centre = np.mean([f.centre for f in frames], axis=0)
-        planes, iterations, final, fixing = _iterate(frames, planes, refined, centre, gate, progress, cancel,
+        planes, iterations, final, fixing = _iterate(frames, planes, refined, centre, gate, bar, cancel,
                                                      iterations, [rig.mirrors[j - 1].name for j in refined],
                                                      leash.held_only)
         gate = 0.0
@@ -338,24 +338,23 @@ def refine_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, indices=None,
     shown = []
     for k, p in enumerate((start, planes)):              # the agreement before and after: each as an iteration
         shown.append(residuals(frames, p, refined, centre, SHOWN_GATE))
-        if progress is not None:                         # (the bar had held through them, and the first frame's
-            progress(_fraction(iterations + k + 1))      # own planes: 1.7 of 8.6 s on the arc, 8 s loaded)
-    scatter = _frames_scatter(frames, planes, refined, centre, progress, cancel, _fraction(iterations + 2))
+        bar(_fraction(iterations + k + 1))               # (the bar had held through them, and the first frame's
+                                                         # own planes: 1.7 of 8.6 s on the arc, 8 s loaded)
+    scatter = _frames_scatter(frames, planes, refined, centre, bar, cancel, _fraction(iterations + 2))
     reports = tuple(_report(rig, j, start[j], planes[j], centre, tuple(shown),
                             _determined(final, refined, j, rig.mirrors[j - 1].name, scatter.get(j)),
                             (fixing[j], final.with_camera(j)), leash) for j in refined)
-    if progress is not None:
-        progress(1.0)
+    bar(1.0)
     return Refinement(reports, len(depths), iterations, tuple(float(x) for x in centre))
 
 
-def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], with_: str, progress, cancel
+def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], with_: str, bar: Ratchet, cancel
             ) -> SpherePlanes | None:
     """The planes from the sphere's centres (spheretarget.sphere_planes, over the first SPHERE_PART of the progress), or
     None: with "surfaces", and with "auto" when the object is not a sphere, or not a round one (SCATTER_AUTO)."""
     if with_ == "surfaces":
         return None
-    part = _part(progress, 0.0, SPHERE_PART)
+    part = bar.part(0.0, SPHERE_PART)
     scatter = SCATTER_AUTO if with_ == "auto" else np.inf
     try:
         return sphere_planes(rig, depths, masks, refined, np.random.default_rng(0), part, cancel, scatter)
@@ -366,19 +365,18 @@ def _sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int],
 
 
 def _from_sphere(rig: Rig, depths: np.ndarray, masks: np.ndarray, refined: list[int], sphere: SpherePlanes,
-                 leash: Leash, progress, cancel) -> Refinement:
+                 leash: Leash, bar: Ratchet, cancel) -> Refinement:
     """The Refinement of the planes the sphere gave: the views' agreement before and after as the surfaces'
     refinement reports it, how well the centres fix each plane, the same refusals (the leash's limits; its
     held_only plays no part: the centres fix each plane alone)."""
     start = {j: m.plane for j, m in enumerate(rig.mirrors, start=1) if m.plane is not None}
     planes = {**start, **sphere.planes}
-    frames = _views(_with_planes(rig, planes), depths, masks, cancel, _part(progress, SPHERE_PART, 0.97))
+    frames = _views(_with_planes(rig, planes), depths, masks, cancel, bar.part(SPHERE_PART, 0.97))
     shown = tuple(residuals(frames, p, refined, sphere.centre, SHOWN_GATE) for p in (start, planes))
     reports = tuple(replace(_report(rig, j, start[j], planes[j], sphere.centre, shown,
                                     (sphere.shift_std[j], sphere.tilt_std[j]), (shown[1].with_camera(j),) * 2, leash),
                             sphere_radius_mm=1e3 * sphere.radius) for j in refined)
-    if progress is not None:
-        progress(1.0)
+    bar(1.0)
     return Refinement(reports, len(depths), 0, tuple(float(x) for x in sphere.centre), "sphere")
 
 
@@ -392,11 +390,6 @@ def _views(rig: Rig, depths: np.ndarray, masks: np.ndarray, cancel, progress: Pr
         if progress is not None:
             progress((k + 1) / len(depths))
     return frames
-
-
-def _part(progress: Progress | None, start: float, end: float) -> Progress | None:
-    """`progress` of a part of the work that runs from `start` to `end` of the whole: its own 0 to 1 mapped there."""
-    return None if progress is None else (lambda f: progress(start + (end - start) * f))
 
 
 def _fraction(iterations: int, within: float = 1.0) -> float:
