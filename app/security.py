@@ -125,8 +125,12 @@ class Guard:
 
 
 def new_token() -> str:
-    """A secret token: 32 random bytes, URL-safe."""
-    return secrets.token_urlsafe(32)
+    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (1 in 64 would: `--token` would then
+    read it as an option where a user pastes it)."""
+    token = secrets.token_urlsafe(32)
+    while token.startswith("-"):
+        token = secrets.token_urlsafe(32)
+    return token
 
 
 def is_loopback(host: str) -> bool:

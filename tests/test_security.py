@@ -178,6 +178,14 @@ def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_
         other.stop()
 
 
+
+def test_a_new_token_never_begins_with_a_dash(monkeypatch):
+    """1 draw in 64 of token_urlsafe begins with '-', which `serve --token` would read as an option (it failed CI)."""
+    draws = iter(["-leading-dash-token-0123456789", "a-token-without-one-0123456789"])
+    monkeypatch.setattr("app.security.secrets.token_urlsafe", lambda n: next(draws))
+    assert new_token() == "a-token-without-one-0123456789"
+
+
 # --------------------------------------------------------------------- sizes
 def test_an_upload_is_refused_from_its_declared_size_before_its_parts(app):
     """A tab uploads to its own Session step's button: declared too large, or sending more than it declared, its
