@@ -21,7 +21,7 @@ from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, refined_headline
 from app.panels.live import LAG_NOTE_S, _no_glass, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out
 import app.server as server_module
 from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
@@ -683,6 +683,43 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
     assert f"Undo takes the planes found back, with {second.name} selected." in report.split("\n\n")[0]
     assert report.endswith(f"**{first.name}** ⚠ not found: {why.removeprefix(first.name + ': ')}")   # named once
     assert app_.jobs.refusals(app_.editor.session) == {first.id: "scene"}
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    headless.tab.state.mirror_id = first.id                       # the one not found: Find greyed out, saying
+    mirrors.refresh()                                             # why (viser shows no hint on a button)
+    assert mirrors.scene.disabled and mirrors.greyed.visible
+    assert (f"<b>Find</b>: {first.name} not found as it is (why: in the report below); offered again once an "
+            "outline or a marker changes") in mirrors.greyed.content
+    label = app_.editor.undo_label                                # nothing to undo on it (the shared demo's
+    monkeypatch.setattr(app_.editor, "undo_label",                # earlier tests left steps): the found plane
+                        lambda scope: None if scope in (first.id, 0) else label(scope))        # is on the other
+    mirrors.refresh()
+    assert mirrors.undo.disabled
+    assert mirrors.greyed.content.endswith(f"<b>Undo</b>: nothing to take back on {first.name}; select "
+                                           f"{second.name} for its changes</div>")
+    headless.tab.state.mirror_id = second.id
+    mirrors.refresh()
+    assert not mirrors.undo.disabled and "<b>Undo</b>" not in mirrors.greyed.content
+
+
+
+def test_greyed_out_buttons_say_why():
+    """Why each calibration button is greyed out, named, in one line of small print, names escaped (a mirror's
+    name comes from a session file); nothing when every button is offered."""
+    plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
+    camera = Intrinsics.kinect_v1()
+    bare = SessionMirror("<b>m1</b>", plane=None, boundary=((0, 0), (10, 0), (10, 10)), markers=((1, 1),), id=1)
+    fitted = SessionMirror("m2", plane=plane, markers=((1, 1), (2, 2), (3, 3)), id=2)
+    lone = Session(Path("s"), camera, (bare,))
+    text = greyed_out(lone, bare, {})
+    assert text.count("<b>") == 3 and "&lt;b&gt;m1&lt;/b&gt; has 1 of the 3 markers it needs" in text
+    assert "<b>Fit all planes</b>: no mirror has 3 markers" in text and "<b>Refine</b>: no mirror has a plane" in text
+    assert "<b>Find</b>" not in text and "<b>Find</b>: &lt;b&gt;m1" in greyed_out(lone, bare, {1: "scene"})
+    assert greyed_out(lone, bare, {1: "refine"}) == text                   # a refinement refused: Find still offered
+    both = Session(Path("s"), camera, (bare, fitted))
+    assert greyed_out(both, fitted, {}) == ""
+    assert "select m2 for its changes" in greyed_out(both, bare, {}, ("m2",))
+    assert "select m2 or m3 for their changes" in greyed_out(both, bare, {}, ("m2", "m3"))
+    assert greyed_out(Session(Path("s"), camera, ()), None, {}) == ""
 
 
 def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes):

@@ -217,8 +217,7 @@ class LivePanel:
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
         self.title = gui.add_markdown("")
-        self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False,
-                                   hint="the recording stops playing; the session being edited stays")
+        self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False)
         self.rate = gui.add_markdown("starting…")
         self.hint = gui.add_markdown("")
         self.view = gui.add_button_group("View", tuple(VIEWS))
@@ -228,8 +227,7 @@ class LivePanel:
             self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
             self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
-            self.frame_object = gui.add_button("Look at the object", hint="the object fills the 3D view; "
-                                               "Home (the rig) comes back with the 3D scene button")
+            self.frame_object = gui.add_button("Look at the object")
             self.virtual = gui.add_checkbox("Virtual cameras", initial_value=True,
                                             hint="the camera as each mirror, and each sequence of mirrors, shows it")
             self.heat = gui.add_checkbox("Heat map", initial_value=False,

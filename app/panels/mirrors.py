@@ -13,7 +13,7 @@ import numpy as np
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.markers import MIN_MARKER_PIXELS, marker_points, review_fit
-from mirrorcore.session import MAX_MARKER_OFFSET, SessionMirror
+from mirrorcore.session import MAX_MARKER_OFFSET, Session, SessionMirror
 from mirrorcore.words import listed
 
 from ..context import TabContext
@@ -21,7 +21,7 @@ from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inp
 from ..events import JobProgress
 from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, NOT_FOUND, NOT_FOUND_HEAD,
                    REFINE, UNDO_FOUND, UNDO_NOTE, planes_key)
-from ..markup import markdown
+from ..markup import escape, markdown
 from ..overlays import QUALITY_COLOURS
 
 TITLE = "Mirrors"
@@ -43,6 +43,9 @@ PROPOSAL_HEAD = ("**Proposal, not applied**: look at it below{crossed}, then app
 CROSSED = " and at the crossed markers"   # said only when a marker is crossed (a helper looked for crosses in vain)
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 NOTE_CHARS = 200           # a refusal longer than this is shortened in its notification (_refusal_note)
+FIT_MARKERS = 3            # the markers a plane's fit needs
+SMALL_TEXT = "font-size:0.8em;line-height:1.45;padding:0 12px"   # small print (the marker list, greyed_out),
+                                                               # inset as the panel's text (raw HTML is not)
 
 
 class MirrorsPanel:
@@ -66,14 +69,12 @@ class MirrorsPanel:
         self.help = gui.add_markdown(HELP["inspect"])
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
-        self.refine = gui.add_button("Refine from the object", hint="adjust every calibrated plane so that the "
-                                     "mirrors' views of the object agree with the camera's (markers on glass, "
-                                     "clicks a pixel off)")
-        self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False,
-                                    hint="for the mirrors with a boundary and no plane: a search, then the "
-                                    "refinement; the object must be seen directly and in each mirror")
+        self.refine = gui.add_button("Refine from the object")
+        self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False)
         self.refine_cancel = gui.add_button("Cancel", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
+        self.greyed = gui.add_html("", visible=False)   # why the buttons above are greyed out (viser 1.1 shows no
+                                                        # hint on a button: a greyed Find said nothing, a helper)
         self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
         self.redo = gui.add_button("Redo", disabled=True)
         # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
@@ -123,6 +124,7 @@ class MirrorsPanel:
             running = event.fraction is not None
             self.refine.disabled, self.refine_cancel.visible = running, running
             self.scene.disabled = self.undo.disabled = self.redo.disabled = running
+            self.greyed.visible = self.greyed.visible and not running
             if running:                                         # after it, refresh() says what is offered
                 self.fit.disabled = self.fit_all.disabled = True
                 self.refine_progress.value = event.percent
@@ -473,8 +475,8 @@ class MirrorsPanel:
         # the fits offered only when they can fit ("0 usable marker(s) of 0"; Fit all with no marker anywhere said
         # "not done": helpers); not while a refinement runs, which applies what it computed on the planes it started
         # from
-        self.fit.disabled = refining or not has or len(selected.markers) < 3
-        self.fit_all.disabled = refining or not any(len(m.markers) >= 3 for m in session.mirrors)
+        self.fit.disabled = refining or not has or len(selected.markers) < FIT_MARKERS
+        self.fit_all.disabled = refining or not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors)
         self.clear_markers.disabled = not has or not selected.markers
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
@@ -494,6 +496,10 @@ class MirrorsPanel:
         self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
         if refining:                  # what a refinement applies is computed on the planes as they were
             self.undo.disabled = self.redo.disabled = True
+        elsewhere = () if not self.undo.disabled else tuple(
+            m.name for m in session.mirrors if m.id != scope and editor.undo_label(m.id))
+        why = "" if refining or self.proposal is not None else greyed_out(session, selected, refused, elsewhere)
+        self.greyed.content, self.greyed.visible = why, bool(why)
         restore = editor.undo_label(SESSION_SCOPE)
         self.restore.visible = bool(restore and restore.startswith("remove"))
         if self.restore.visible:
@@ -562,7 +568,7 @@ class MirrorsPanel:
             rows.append(_dot(grade) + f"{name} {text}")
         legend = "" if residuals is None else (f"{_dot('good')}within 2σ of the plane {_dot('fair')}3σ "
                                                f"{_dot('poor')}beyond (σ: the depth noise at the marker)")
-        return (f'<div style="font-size:0.8em;line-height:1.45">{legend}<br>'
+        return (f'<div style="{SMALL_TEXT}">{legend}<br>'
                 + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
 
 
@@ -672,6 +678,37 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
                   ", not in the plane yet: **Fit plane** moves it behind the glass")
     count = len(mirror.markers)
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
+
+
+def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[int, str],
+               undo_elsewhere: tuple[str, ...] = ()) -> str:
+    """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out, as small print (HTML,
+    names escaped), '' when none is; `refused` as Jobs.refusals; undo_elsewhere: the other mirrors with a change to
+    undo while the selected mirror has none (undo goes by mirror: after a Find that found one mirror of two, the
+    one not found was selected). Not while a calibration runs or a proposal waits: their progress bar, and Apply
+    and Discard, say so."""
+    if not session.mirrors:
+        return ""                                        # nothing but Add a mirror, which the start hint names
+    reasons = []
+    if selected is not None and len(selected.markers) < FIT_MARKERS:
+        reasons.append(f"<b>Fit plane</b>: {escape(selected.name)} has {len(selected.markers)} of the "
+                       f"{FIT_MARKERS} markers it needs")
+    if not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors):
+        reasons.append(f"<b>Fit all planes</b>: no mirror has {FIT_MARKERS} markers")
+    if all(m.plane is None for m in session.mirrors):
+        reasons.append("<b>Refine</b>: no mirror has a plane yet")
+    bare = [m for m in session.mirrors if m.boundary and m.plane is None]
+    if bare and all(refused.get(m.id) == "scene" for m in bare):
+        names = escape(listed([m.name for m in bare]))
+        reasons.append(f"<b>Find</b>: {names} not found as {'it is' if len(bare) == 1 else 'they are'} (why: in "
+                       "the report below); offered again once an outline or a marker changes")
+    if undo_elsewhere and selected is not None:
+        reasons.append(f"<b>Undo</b>: nothing to take back on {escape(selected.name)}; select "
+                       f"{escape(listed(undo_elsewhere, 'or'))} for {'its' if len(undo_elsewhere) == 1 else 'their'} "
+                       "changes")
+    if not reasons:
+        return ""
+    return f'<div style="{SMALL_TEXT};color:#666">Greyed out: ' + " · ".join(reasons) + "</div>"
 
 
 def _glass_source(mirror: SessionMirror) -> str:

@@ -36,8 +36,8 @@ class SessionPanel:
         self.new_name = gui.add_text("Save as", "")
         self.save_as = gui.add_button("Save as new session")
         self.confirm_open = None                  # the question asked before an unsaved session goes
-        self.upload = gui.add_upload_button("Upload background (16-bit depth PNG)", mime_type="image/png",
-                                            hint=f"the scene without the object; at most {MAX_UPLOAD_MB} MB")
+        self.upload = gui.add_upload_button(f"Upload background (16-bit depth PNG, at most {MAX_UPLOAD_MB} MB)",
+                                            mime_type="image/png")
         act = tab.act
         self.open.on_click(lambda _: act(self._open))
         self.save_as.on_click(lambda _: act(self._save_as))
