@@ -103,6 +103,22 @@ def test_refining_a_good_calibration_keeps_it_good(rigs, tmp_path):
         assert abs(a - c) < 0.05 and abs(b - d) < 0.005
 
 
+
+def test_with_an_ideal_sensor_exact_markers_move_by_their_own_error_alone(tmp_path):
+    """No noise (the readings exact, saved in millimetre steps): exact markers are 0.19 and 0.23 mm off (the steps),
+    and the refinement takes both planes to 0.01 mm: it moves them by the markers' own error and no more (README)."""
+    session = tmp_path / "ideal"
+    run_ok("simulate", session, "--noise", "none", "--frames", 3, "--quiet")
+    truth = json.loads((session / "truth.json").read_text())
+    run_ok("calibrate", session, "--quiet")
+    markers = plane_errors(session, truth)
+    assert all(0.1 < abs(offset) < 0.3 and angle < 0.02 for offset, angle in markers), markers
+    run_ok("calibrate", session, "--refine", "--quiet")
+    refined = plane_errors(session, truth)
+    assert all(abs(offset) < 0.05 and angle < 0.005 for offset, angle in refined), refined
+    assert all(abs(a - b) < 0.25 for (a, _), (b, _) in zip(markers, refined))
+
+
 def without_markers(source, target) -> None:
     shutil.copytree(source, target)
     data = json.loads((target / "session.json").read_text())
