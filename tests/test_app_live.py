@@ -702,6 +702,21 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
 
 
 
+def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(demo):
+    """Find, a mirror without a plane removed, then a refinement that changed nothing: its report holds the planes'
+    key, and undoing the planes found said "Undone: Nothing changed" (a helper)."""
+    from app.jobs import UNCHANGED
+    app_, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    before, after = (("a",),), (("b",),)
+    app_.jobs.refinements[before] = f"{UNCHANGED} Over the last 5 live frames."
+    label = "found planes of mirror 1 and mirror 2"
+    assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."
+    app_.jobs.refinements[before] = "Found mirror 1 and mirror 2 from the object. Undo takes the planes found back."
+    assert mirrors._report_after_travel(before, after, label, True) == "Undone: Found mirror 1 and mirror 2 from " \
+        "the object."
+
+
 def test_greyed_out_buttons_say_why():
     """Why each calibration button is greyed out, named, in one line of small print, names escaped (a mirror's
     name comes from a session file); nothing when every button is offered."""
@@ -808,6 +823,10 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(bare, TabState(mirror_id=1), True, True, refused={2: "scene"}) == (
         "Now top: not found from the object (why and what to do: under Mirrors); or select it and click 3 or more "
         "markers on it.")
+    outline = Session(tmp_path, session.camera, mirrors=(done.mirrors[0], replace(marked, name="top", id=2,
+                                                                                  markers=(), boundary=())))
+    assert start_hint(outline, TabState(mirror_id=1), True, True) == (        # not "do the same" (Find, not offered
+        "Now top: select it, choose **Boundary** and click its corners.")     # without an outline: a helper)
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers

@@ -162,8 +162,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         if refused.get(todo[0].id) == "scene":       # "do the same" beside a plane found from the object (a helper)
             return (f"Now {todo[0].name}: not found from the object (why and what to do: under Mirrors); or select "
                     "it and click 3 or more markers on it.")
-        how = (" (no markers: click 3 or more, or **Find the planes from the object**)"
-               if todo[0].boundary and not todo[0].markers else "")
+        if not todo[0].boundary:              # "do the same" beside planes found: its Find is not offered
+            return f"Now {todo[0].name}: select it, choose **Boundary** and click its corners."    # (a helper)
+        how = " (no markers: click 3 or more, or **Find the planes from the object**)" if not todo[0].markers else ""
         return f"Now {todo[0].name}: select it and do the same{how}."
     if glass_unused:
         return (f"The glass typed in for {listed(glass_unused)} is not in its plane yet: select it and "

@@ -20,7 +20,7 @@ from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
 from ..events import JobProgress
 from ..jobs import (AGREEMENT, CANCELLED, FAILED, FOUND_CHECK, GLASS_ADVICE, NOT_DONE, NOT_FOUND, NOT_FOUND_HEAD,
-                   REFINE, UNDO_FOUND, UNDO_NOTE, planes_key)
+                   REFINE, UNCHANGED, UNDO_FOUND, UNDO_NOTE, planes_key)
 from ..markup import escape, markdown
 from ..overlays import QUALITY_COLOURS
 
@@ -345,6 +345,10 @@ class MirrorsPanel:
             return refinements[after]
         if PARTIAL in label:
             return f"{'Undone' if undone else 'Redone'}: {label}."
+        if before in refinements and before != after and refinements[before].startswith(UNCHANGED):
+            return f"{'Undone' if undone else 'Redone'}: {label}."   # a refinement that changed nothing after a
+            # mirror was removed holds the key of the planes found before it (a helper read "Undone: Nothing
+            # changed" with both planes gone)
         if before in refinements and before != after:
             headline = refinements[before].split("\n\n")[0]
             return "Undone: " + headline.removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
