@@ -717,6 +717,32 @@ def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(dem
         "the object."
 
 
+def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
+    """Two corners of a new mirror's outline clicked, Undo takes them back one at a time, and only then the mirror
+    (it removed the mirror with its corners at once: a helper)."""
+    app_, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    editor, state = app_.editor, headless.tab.state
+    mirrors._add()
+    new = state.mirror_id
+    try:
+        mirrors._boundary_click(100.0, 100.0)
+        mirrors._boundary_click(200.0, 100.0)
+        mirrors.refresh()
+        assert mirrors.undo.label == "Undo: corner 2 of the outline" and not mirrors.undo.disabled
+        mirrors._travel(editor.undo)
+        assert state.drafts[new] == ((100.0, 100.0),) and editor.mirror(new) is not None
+        mirrors.refresh()
+        assert mirrors.undo.label == "Undo: corner 1 of the outline"
+        mirrors._travel(editor.undo)
+        assert new not in state.drafts and editor.mirror(new) is not None
+        mirrors.refresh()
+        assert mirrors.undo.label.startswith("Undo: add ")
+    finally:
+        editor.remove_mirror(new)
+        state.mirror_id = editor.session.mirrors[0].id
+
+
 def test_greyed_out_buttons_say_why():
     """Why each calibration button is greyed out, named, in one line of small print, names escaped (a mirror's
     name comes from a session file); nothing when every button is offered."""

@@ -316,8 +316,17 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _travel(self, move) -> None:
-        """Undo or redo in the selected mirror's scope, or in the session's when the mirror has nothing to undo."""
+        """Undo or redo in the selected mirror's scope, or in the session's when the mirror has nothing to undo;
+        undo while an outline is drawn takes its last corner back (it removed the mirror being drawn: a helper)."""
         editor = self.services.editor
+        draft = self.tab.state.drafts.get(self.tab.state.mirror_id)
+        if move == editor.undo and draft:
+            if len(draft) > 1:
+                self.tab.state.drafts[self.tab.state.mirror_id] = draft[:-1]
+            else:
+                del self.tab.state.drafts[self.tab.state.mirror_id]
+            self.tab.changed()
+            return
         scope = self.tab.state.mirror_id or SESSION_SCOPE
         label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
         before = planes_key(editor.session)
@@ -496,7 +505,9 @@ class MirrorsPanel:
         self.delete_corner.disabled = state.picked_corner is None
         self.clear_boundary.disabled = not has or not (selected.boundary or state.drafts.get(selected.id))
         scope = state.mirror_id or SESSION_SCOPE
-        self._label(self.undo, "Undo", editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
+        draft = state.drafts.get(scope)
+        self._label(self.undo, "Undo", f"corner {len(draft)} of the outline" if draft else
+                    editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
         self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
         if refining:                  # what a refinement applies is computed on the planes as they were
             self.undo.disabled = self.redo.disabled = True
