@@ -45,6 +45,8 @@ log = logging.getLogger("mirrorscan")
 DENSE, BACKGROUND, RECORD, BATCH = "dense", "background", "record", "batch"
 REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
 CHECKING = "checking how the views agree…"
+NO_AGREEMENT = ("No mirror has a plane yet, so no view can be compared with another: fit the planes from markers, or "
+                "find them from the object.")       # it said "no view sees what another sees" (a helper)
 NOT_DONE, FAILED = "not done", "failed"   # the first words of a job's last status when it was refused, or hit a bug
 CANCELLED = "cancelled"      # the last status of a job cancelled
 GLASS_ADVICE = "The glass is measured on"    # the first words of a refinement's advice to type the glass in
@@ -367,7 +369,7 @@ class Jobs:
                 lines = [agreement_line(mirrors[j].name, found[j], self._by_markers(mirrors[j])) for j in sorted(found)]
             self.disagreeing = tuple(mirrors[j].name for j in sorted(found) if found[j].points >= MIN_AGREEMENTS
                                      and agreement_doubt(found[j]))
-            self.agreement = "\n\n".join(lines) or "no view sees what another sees"
+            self.agreement = "\n\n".join(lines) or NO_AGREEMENT
             return self.agreement
         try:
             self._start(AGREEMENT, work, "an agreement check is running")

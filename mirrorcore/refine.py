@@ -48,7 +48,9 @@ MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving mor
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
 METHOD_BIAS = {"surfaces": "the method may add 1 to 2 mm",           # what each may leave on the planes beyond the
                "sphere": "the method may add 0.3 mm and 0.04°"}      # 1 sigma it reports (README: the walking
-                                                                     # figure, and the sphere at 1.2 to 3 m)
+                                                                     # figure, and the sphere at 1.2 to 3 m)...
+METHOD_LIMITS = {"surfaces": (2e-3, 0.05), "sphere": (0.3e-3, 0.04)}  # ... at most (metres at the object, degrees),
+                                                                     # in the glass's 1 sigma (_glass_std)
 SPHERE_PART = 0.8            # of the progress: the sphere's centres, then the views' agreement for the report
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
@@ -683,9 +685,13 @@ def _trimmed_mean(distances: np.ndarray, z: np.ndarray) -> float:
 
 
 def _glass_std(report: MirrorRefinement, glass: Glass, centre) -> float:
-    """Metres, 1 sigma of a mirror's glass: its markers' spread and the refined plane's own uncertainty where they are
-    (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there)."""
+    """Metres, 1 sigma of a mirror's glass: its markers' spread, the refined plane's own uncertainty where they are
+    (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there) and, likewise, what the
+    method may add (METHOD_LIMITS: the planes' own 1 sigma left a sphere's glass at 3.7 +- 0.2 mm for 3.0, a
+    helper)."""
     along = glass.centroid - np.asarray(centre)
     away = np.linalg.norm(along - (along @ report.after.n) * report.after.n)
+    shift, tilt = METHOD_LIMITS["sphere" if report.sphere_radius_mm is not None else "surfaces"]
     plane = np.hypot(1e-3 * report.shift_std_mm, np.radians(report.tilt_std_deg) * away)
-    return float(np.hypot(glass.spread, plane))
+    method = np.hypot(shift, np.radians(tilt) * away)
+    return float(np.sqrt(glass.spread ** 2 + plane ** 2 + method ** 2))

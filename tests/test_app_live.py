@@ -597,6 +597,22 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
         app_.editor.rename_mirror(1, "mirror 1")
 
 
+
+def test_without_planes_the_agreement_says_what_to_do(demo, monkeypatch):
+    """No mirror has a plane: the agreement says so and what to do (it read "no view sees what another sees")."""
+    import app.jobs
+    app_, _ = demo
+    frame = app_.loop.run_once()
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
+    monkeypatch.setattr(app.jobs, "view_agreement", lambda rig, depths, masks: {})
+    app_.jobs.start_agreement(frame.depth)
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
+    assert app_.jobs.agreement == app.jobs.NO_AGREEMENT
+    monkeypatch.undo()
+    app_.jobs.start_agreement(frame.depth)
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
+
+
 def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypatch):
     """After a refinement was refused, the next step no longer sends the technician back to it for the glass (a
     helper, a box on three mirrors: refused every time), but to typing the glass in, also after the next fit (it had
