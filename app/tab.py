@@ -242,7 +242,7 @@ class Tab:
     def _on_heat(self, event: HeatChanged) -> None:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
             if self.heat and not self.closed:
-                self.scene.show_heat(event.points, event.colours)
+                self.scene.show_heat(event.points, event.colours, event.direct)
                 self.heat_figures, self.heat_frames = event.figures, event.frames
 
     def show_dense(self, result) -> None:

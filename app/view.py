@@ -20,6 +20,7 @@ from .stream import SourcePart
 FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small
 VIRTUAL_LABEL_DROP = 2.5   # a virtual camera's name this many of its frustum's sizes under it (at one, the name of
                            # the walking figure's mirror, seen beside it, ran over it: a helper)
+HEAT_DIRECT_SIZE = 0.5     # the heat map's points seen directly, as large as the point size times this
 SAME_PLACE = 0.10          # metres: virtual cameras closer than this share one label (hinged mirrors at 360 / n
                            # degrees put images through two and three mirrors within a few cm: 1.3 to 5.4 measured)
 DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
@@ -212,13 +213,22 @@ class TabScene:
             f"/cloud/{part.source}/{part.half}", part.offsets, colour, point_size=self.point_size,
             precision=precision, point_shape="circle", position=tuple(part.centre), visible=self.clouds_visible)
 
-    def show_heat(self, points: np.ndarray | None, colours: np.ndarray | None) -> None:
-        """A frame's points coloured one by one (the heat map of the calibration), or none."""
+    def show_heat(self, points: np.ndarray | None, colours: np.ndarray | None,
+                  direct: np.ndarray | None = None) -> None:
+        """A frame's points (n, 3) metres coloured one by one (n, 3) uint8 (the heat map of the calibration), or
+        none; those the camera sees directly (`direct` (n,) bool) drawn HEAT_DIRECT_SIZE as large, so that the
+        mirrors' colours show between them where both views see the surface (drawn alike, the camera's grey hid
+        them: a helper saw a strip of pink dots)."""
         if points is None:
             self.scene.remove_by_name("/heat")
             return
-        self.scene.add_point_cloud("/heat", np.ascontiguousarray(points), colours, point_size=self.point_size,
-                                   precision="float32", point_shape="circle")
+        direct = np.zeros(len(points), bool) if direct is None else np.asarray(direct, bool)
+        points = np.asarray(points, np.float32)
+        self.scene.add_point_cloud("/heat", np.ascontiguousarray(points[~direct]), colours[~direct],
+                                   point_size=self.point_size, precision="float32", point_shape="circle")
+        self.scene.add_point_cloud("/heat/direct", np.ascontiguousarray(points[direct]), colours[direct],
+                                   point_size=self.point_size * HEAT_DIRECT_SIZE, precision="float32",
+                                   point_shape="circle")
 
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
         """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""

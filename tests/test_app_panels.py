@@ -24,11 +24,12 @@ from app.panels.object import ObjectPanel
 from app.panels.record import BATCH_IDLE, RecordPanel
 from app.panels.session import SessionPanel
 from app.server import MirrorscanApp
-from app.view import beside_offset
+from app.view import HEAT_DIRECT_SIZE, beside_offset
 from bench.tabs import HeadlessTab, wait_for
 from mirrorcore.calibration import calibration_depth
 from mirrorcore.errors import MirrorscanError
 from mirrorcore.markers import marker_residuals
+from mirrorcore.palette import SOURCE_COLOURS
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.ply import read_ply
@@ -442,6 +443,12 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     tab.look("3d")
     tab.show_heat(True)
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 60, "the heat map")
+    nodes = tab.client.scene._handle_from_node_name                # the camera's points smaller: the mirrors'
+    direct = wait_for(lambda: nodes.get("/heat/direct"), 10, "the camera's points")      # colours show between
+    assert direct.point_size == pytest.approx(HEAT_DIRECT_SIZE * nodes["/heat"].point_size)
+    grey = np.asarray(SOURCE_COLOURS[0], np.uint8)                 # the camera's points in their own node only
+    assert len(direct.points) and np.all(direct.colors == grey)
+    assert not np.all(nodes["/heat"].colors == grey, axis=1).any()
     legend = wait_for(lambda: "mirror 2: median" in tab.header.legend.content and tab.header.legend.content, 10,
                       "the heat map's legend")
     assert "not seen by the camera" in legend and re.search(r"this frame, against the camera's surface \(> 0: "
