@@ -869,6 +869,10 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
                                                                                   markers=(), boundary=())))
     assert start_hint(outline, TabState(mirror_id=1), True, True) == (        # not "do the same" (Find, not offered
         "Now top: select it, choose **Boundary** and click its corners.")     # without an outline: a helper)
+    drafted = TabState(mirror_id=2, view="depth", drafts={2: ((1.0, 1.0), (9.0, 1.0))})
+    assert start_hint(outline, drafted, True, True) == "top: 2 corners drawn; choose **Boundary** and click the next."
+    drafted = replace(drafted, mode="boundary", drafts={2: ((1.0, 1.0), (9.0, 1.0), (9.0, 9.0))})
+    assert start_hint(outline, drafted, True, True) == "top: 3 corners drawn; click the next, or the first to close."
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith("Recording (see above)")
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))   # calibrate --method
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")           # scene: no markers

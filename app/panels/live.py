@@ -143,6 +143,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
     if not mirror.boundary:
         choose = "" if state.mode == "boundary" else "choose **Boundary** and "
+        if drawn := len(state.drafts.get(mirror.id, ())):      # kept while another mirror was selected (a helper)
+            more = "the next" if drawn < 3 else "the next, or the first to close"
+            return f"{look}{mirror.name}: {drawn} corner{'s' if drawn > 1 else ''} drawn; {choose}click {more}."
         return f"{look}{mirror.name}: {choose}click its corners; click the first corner to close."
     if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
