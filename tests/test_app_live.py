@@ -774,6 +774,9 @@ def test_greyed_out_buttons_say_why():
     assert greyed_out(lone, bare, {1: "refine"}) == text                   # a refinement refused: Find still offered
     both = Session(Path("s"), camera, (bare, fitted))
     assert greyed_out(both, fitted, {}) == ""
+    assert "<b>Fit plane</b>" not in greyed_out(both, replace(fitted, markers=()), {})   # a plane without markers
+    found = Session(Path("s"), camera, (replace(bare, plane=plane, markers=()), replace(fitted, markers=())))
+    assert greyed_out(found, found.mirrors[0], {}) == ""          # planes found, no markers: nothing to fit
     assert "select m2 for its changes" in greyed_out(both, bare, {}, ("m2",))
     assert "select m2 or m3 for their changes" in greyed_out(both, bare, {}, ("m2", "m3"))
     assert greyed_out(Session(Path("s"), camera, ()), None, {}) == ""

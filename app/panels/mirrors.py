@@ -698,17 +698,19 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
 def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[int, str],
                undo_elsewhere: tuple[str, ...] = ()) -> str:
     """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out, as small print (HTML,
-    names escaped), '' when none is; `refused` as Jobs.refusals; undo_elsewhere: the other mirrors with a change to
+    names escaped), '' when none is (the fits only while a plane is missing: after Find with no markers it had
+    stood there for good); `refused` as Jobs.refusals; undo_elsewhere: the other mirrors with a change to
     undo while the selected mirror has none (undo goes by mirror: after a Find that found one mirror of two, the
     one not found was selected). Not while a calibration runs or a proposal waits: their progress bar, and Apply
     and Discard, say so."""
     if not session.mirrors:
         return ""                                        # nothing but Add a mirror, which the start hint names
-    reasons = []
-    if selected is not None and len(selected.markers) < FIT_MARKERS:
+    reasons = []                    # the fits' only while a plane is missing (planes found from the object need
+    if selected is not None and selected.plane is None and len(selected.markers) < FIT_MARKERS:     # no markers)
         reasons.append(f"<b>Fit plane</b>: {escape(selected.name)} has {len(selected.markers)} of the "
                        f"{FIT_MARKERS} markers it needs")
-    if not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors):
+    missing = any(m.plane is None for m in session.mirrors)
+    if missing and not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors):
         reasons.append(f"<b>Fit all planes</b>: no mirror has {FIT_MARKERS} markers")
     if all(m.plane is None for m in session.mirrors):
         reasons.append("<b>Refine</b>: no mirror has a plane yet")
