@@ -21,7 +21,7 @@ from app.events import EventBus, HeatChanged, JobProgress
 from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, refined_headline
 from app.panels.live import LAG_NOTE_S, _no_glass, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out
+from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
 import app.server as server_module
 from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from app.state import Snapshot
@@ -721,6 +721,7 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
 def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(demo):
     """Find, a mirror without a plane removed, then a refinement that changed nothing: its report holds the planes'
     key, and undoing the planes found said "Undone: Nothing changed" (a helper)."""
+    import app.jobs
     from app.jobs import UNCHANGED
     app_, headless = demo
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
@@ -728,9 +729,13 @@ def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(dem
     app_.jobs.refinements[before] = f"{UNCHANGED} Over the last 5 live frames."
     label = "found planes of mirror 1 and mirror 2"
     assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."
-    app_.jobs.refinements[before] = "Found mirror 1 and mirror 2 from the object. Undo takes the planes found back."
-    assert mirrors._report_after_travel(before, after, label, True) == "Undone: Found mirror 1 and mirror 2 from " \
-        "the object."
+    app_.jobs.refinements[before] = ("Planes found from the object (no markers), fixed by the data: mirror 1 to "
+                                     f"±0.2 mm{app.jobs.FOUND_CHECK}. Undo takes the planes found back.")
+    assert mirrors._report_after_travel(before, after, label, True) == "Undone: Planes found from the object (no " \
+        "markers), fixed by the data: mirror 1 to ±0.2 mm."                    # its advice was for the planes undone
+    del app_.jobs.refinements[before]                                          # a mirror removed since the report:
+    assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."     # it had said nothing
+    assert mirrors._report_after_travel(before, before, "marker 1.2", True) == ""     # the planes as they were
 
 
 def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
@@ -757,6 +762,15 @@ def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
     finally:
         editor.remove_mirror(new)
         state.mirror_id = editor.session.mirrors[0].id
+
+
+def test_removing_a_mirror_names_what_it_has():
+    plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
+    full = SessionMirror("left", markers=((1, 1),), boundary=((0, 0), (10, 0), (10, 10)), plane=plane, id=1)
+    assert removal_question(full) == ("left and its 1 marker, boundary and plane leave the session. *Undo* below the "
+                                      "Remove button brings it back.")
+    assert removal_question(replace(full, markers=(), plane=None)).startswith("left and its boundary leave the")
+    assert removal_question(SessionMirror("new", id=2)).startswith("new leaves the session.")
 
 
 def test_greyed_out_buttons_say_why():

@@ -16,7 +16,7 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
-from app.jobs import UNDO_FOUND, agreement_line, found_headline, refined_headline
+from app.jobs import FOUND_CHECK, UNDO_FOUND, agreement_line, found_headline, refined_headline
 from app.panels.dense import DensePanel
 from app.panels.measure import CANCELLED_NOTE, MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
@@ -908,7 +908,8 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             assert [m.plane for m in app.editor.session.mirrors] == found
             assert app.editor.undo_label(1) == "found planes of mirror 1 and mirror 2"
             panel(headless.tab, MirrorsPanel)._travel(app.editor.undo)
-            assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo takes the planes found back.')}"
+            undone = headline.removesuffix(" Undo takes the planes found back.").replace(FOUND_CHECK, "")  # its
+            assert mirrors.result.content == f"Undone: {undone}"                # advice was for the planes undone
             panel(headless.tab, MirrorsPanel)._travel(app.editor.redo)
             assert mirrors.result.content == report
             app.open_session(load_session(tmp_path / "drawn"))     # Session › Open of the session being served:

@@ -346,28 +346,25 @@ class MirrorsPanel:
             self._result_note = None
 
     def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
-        """After an undo or redo (of the step `label`): the report of the refinement whose planes are back, or a
-        line saying which one was undone, or which part of it (the others changed since); else nothing (the last
-        fit's report no longer describes the mirrors)."""
-        refinements = self.services.jobs.refinements
+        """After an undo or redo (of the step `label`): the report of the refinement whose planes are back, or the
+        headline of the one undone, or a line naming the step (or its part: the others changed since); nothing when
+        the planes stayed (the last fit's report no longer describes the mirrors)."""
+        refinements, verb = self.services.jobs.refinements, "Undone" if undone else "Redone"
         if after in refinements:
             return refinements[after]
-        if PARTIAL in label:
-            return f"{'Undone' if undone else 'Redone'}: {label}."
-        if before in refinements and before != after and refinements[before].startswith(UNCHANGED):
-            return f"{'Undone' if undone else 'Redone'}: {label}."   # a refinement that changed nothing after a
-            # mirror was removed holds the key of the planes found before it (a helper read "Undone: Nothing
-            # changed" with both planes gone)
-        if before in refinements and before != after:
-            headline = refinements[before].split("\n\n")[0]
-            return "Undone: " + headline.removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
-        return ""
+        if before == after:
+            return ""
+        if PARTIAL in label or refinements.get(before, UNCHANGED).startswith(UNCHANGED):
+            return f"{verb}: {label}."    # no report of these planes (a mirror removed since), or one of a
+                                          # refinement that changed nothing (it read "Undone: Nothing changed" with
+                                          # both planes gone, or nothing: helpers)
+        headline = refinements[before].split("\n\n")[0].removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
+        return f"{verb}: " + headline.replace(FOUND_CHECK, "", 1)    # its advice was for the planes undone
 
     def _confirm_remove(self) -> None:
         mirror = self._mirror()
-        self.tab.ask(f"Remove {mirror.name}?", f"{mirror.name} and its {len(mirror.markers)} markers, boundary and "
-                     "plane leave the session. *Undo* below the Remove button brings it back.",
-                     f"Remove {mirror.name}", lambda: self.services.editor.remove_mirror(mirror.id), "Keep it")
+        self.tab.ask(f"Remove {mirror.name}?", removal_question(mirror), f"Remove {mirror.name}",
+                     lambda: self.services.editor.remove_mirror(mirror.id), "Keep it")
 
     # ------------------------------------------------------------------ plane fitting
     def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
@@ -695,6 +692,16 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
     return markdown(" · ".join([plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]))
 
 
+def removal_question(mirror: SessionMirror) -> str:
+    """What removing a mirror takes out of the session, as much as it has (it said "its 0 markers, boundary and
+    plane" of a mirror with none: a helper), and how to bring it back."""
+    count = len(mirror.markers)
+    has = (([f"{count} marker{'s' if count != 1 else ''}"] if count else []) + (["boundary"] if mirror.boundary else [])
+           + (["plane"] if mirror.plane is not None else []))
+    what = f"{mirror.name} and its {listed(has)} leave" if has else f"{mirror.name} leaves"
+    return f"{what} the session. *Undo* below the Remove button brings it back."
+
+
 def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[int, str],
                undo_elsewhere: tuple[str, ...] = ()) -> str:
     """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out, as small print (HTML,
@@ -725,7 +732,8 @@ def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[i
                        "changes")
     if not reasons:
         return ""
-    return f'<div style="{SMALL_TEXT};color:#666">Greyed out: ' + " · ".join(reasons) + "</div>"
+    return (f'<div style="{SMALL_TEXT};color:#666;padding-bottom:0.4em">Greyed out: '   # clear of Undo under it
+            + " · ".join(reasons) + "</div>")
 
 
 def _glass_source(mirror: SessionMirror) -> str:
