@@ -94,7 +94,7 @@ EVIL_NAME = '<img src=x onerror="window.__pwned=(window.__pwned||0)+1">'
 
 def test_a_name_from_a_session_file_is_shown_as_text_never_run(browser, tmp_path):
     """viser renders Markdown and HTML unsanitised: a mirror so named in a shared session file ran its script in the
-    technician's browser (in the next-step line, the legend, the Remove question)."""
+    technician's browser (in the next-step line, the legend, the Remove question, the greyed-out line)."""
     rig = Simulator(paper_scene(object="sphere"), seed=0, fps=5.0)
     session = Session(tmp_path / "scan", rig.intrinsics, (SessionMirror(EVIL_NAME), SessionMirror("mirror 2")))
     save_session(session)
@@ -113,7 +113,8 @@ def test_a_name_from_a_session_file_is_shown_as_text_never_run(browser, tmp_path
         hint = EVIL_NAME + ": choose Boundary and click its corners; click the first corner to close."
         assert page.get_by_text(hint).count() == 1                               # shown as text: the next step,
         assert page.get_by_text(f"{EVIL_NAME} and mirror 2: no plane yet").count() == 1   # the legend,
-        assert page.get_by_text(f"{EVIL_NAME} and its 0 markers").count() == 1   # the question
+        assert page.get_by_text(f"{EVIL_NAME} leaves the session").count() == 1     # the question,
+        assert page.get_by_text(f"{EVIL_NAME} has 0 of the 3 markers it needs").count() == 1   # the greyed-out line
         page.close()
     finally:
         app.stop()
