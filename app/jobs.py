@@ -590,7 +590,7 @@ def refined_headline(mirrors, compared: str = "surfaces") -> str:
     moved = [f"{r.name} moved {_signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°" + _glass(r) for r in mirrors]
     how = " from the sphere's centres" if compared == "sphere" else ""
     measured = any(r.marker_offset is not None and r.glass_typed is None for r in mirrors)
-    glass = (f" {GLASS_ADVICE} these planes, which {METHOD_BIAS['surfaces'].removeprefix('the method ')}: "
+    glass = (f" {GLASS_ADVICE} these planes, which {METHOD_BIAS['surfaces'].words.removeprefix('the method ')}: "
              "if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, clear "
              "(a refinement keeps a glass typed in)." if compared == "surfaces" and measured else "")
     return f"{REFINED}{how} (moved > 0: away from the camera): {'; '.join(moved)}.{glass}"
@@ -613,7 +613,7 @@ def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = (
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
     missing = (f" ⚠ {listed(not_found)}{NOT_FOUND_HEAD}: {'its' if len(not_found) == 1 else 'their'} "
                "plane is as it was." if not_found else "")
-    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared]})"
+    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared].words})"
             f"{FOUND_CHECK}.{missing}")
 
 

@@ -46,11 +46,20 @@ MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
-METHOD_BIAS = {"surfaces": "the method may add 1 to 2 mm",           # what each may leave on the planes beyond the
-               "sphere": "the method may add 0.3 mm and 0.04°"}      # 1 sigma it reports (README: the walking
-                                                                     # figure, and the sphere at 1.2 to 3 m)...
-METHOD_LIMITS = {"surfaces": (2e-3, 0.05), "sphere": (0.3e-3, 0.04)}  # ... at most (metres at the object, degrees),
-                                                                     # in the glass's 1 sigma (_glass_std)
+
+
+class MethodBias(NamedTuple):
+    """What a way of comparing may leave on the planes beyond the 1 sigma it reports (README: the walking figure,
+    and the sphere at 1.2 to 3 m): in `words` for the reports, and at most `shift` metres at the object and
+    `tilt_deg` degrees, which the glass's 1 sigma takes in (_glass_std)."""
+
+    words: str
+    shift: float
+    tilt_deg: float
+
+
+METHOD_BIAS = {"surfaces": MethodBias("the method may add 1 to 2 mm", 2e-3, 0.05),
+               "sphere": MethodBias("the method may add 0.3 mm and 0.04°", 0.3e-3, 0.04)}
 SPHERE_PART = 0.8            # of the progress: the sphere's centres, then the views' agreement for the report
 REFINE_FRAMES = 10           # the frames of a recording a calibration from the object uses, evenly spaced over it
 RELABEL = 0.005              # metres at the object: planes that moved more label the frames' pixels again
@@ -149,10 +158,10 @@ class MirrorRefinement:
         if self.sphere_radius_mm is None:
             whom = ("the camera" if self.agreements == self.camera_agreements else
                     f"the camera and the mirrors that fix it, {self.camera_agreements:,} with the camera")
-            how = f"{METHOD_BIAS['surfaces']}; {self.agreements:,} points seen both ways with {whom}"
+            how = f"{METHOD_BIAS['surfaces'].words}; {self.agreements:,} points seen both ways with {whom}"
         else:
             how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen directly and in it; "
-                   f"{METHOD_BIAS['sphere']}")
+                   f"{METHOD_BIAS['sphere'].words}")
         text += f"; the data fix it to ±{self.shift_std_mm:.2f} mm and ±{self.tilt_std_deg:.3f}° (1σ; {how})"
         if self.glass_typed is not None:
             text += (f", markers {1e3 * self.marker_offset:.1f} ± {1e3 * self.marker_offset_std:.1f} mm in front of "
@@ -687,11 +696,11 @@ def _trimmed_mean(distances: np.ndarray, z: np.ndarray) -> float:
 def _glass_std(report: MirrorRefinement, glass: Glass, centre) -> float:
     """Metres, 1 sigma of a mirror's glass: its markers' spread, the refined plane's own uncertainty where they are
     (its offset's at the object, `centre` (3,) metres, and its tilt's over the way there) and, likewise, what the
-    method may add (METHOD_LIMITS: the planes' own 1 sigma left a sphere's glass at 3.7 +- 0.2 mm for 3.0, a
+    method may add (METHOD_BIAS: the planes' own 1 sigma left a sphere's glass at 3.7 +- 0.2 mm for 3.0, a
     helper)."""
     along = glass.centroid - np.asarray(centre)
     away = np.linalg.norm(along - (along @ report.after.n) * report.after.n)
-    shift, tilt = METHOD_LIMITS["sphere" if report.sphere_radius_mm is not None else "surfaces"]
+    bias = METHOD_BIAS["sphere" if report.sphere_radius_mm is not None else "surfaces"]
     plane = np.hypot(1e-3 * report.shift_std_mm, np.radians(report.tilt_std_deg) * away)
-    method = np.hypot(shift, np.radians(tilt) * away)
+    method = np.hypot(bias.shift, np.radians(bias.tilt_deg) * away)
     return float(np.sqrt(glass.spread ** 2 + plane ** 2 + method ** 2))
