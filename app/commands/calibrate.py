@@ -13,6 +13,7 @@ from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_ses
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene, sentences
 from mirrorcore.session import Session, load_session, save_session
+from mirrorcore.words import listed
 
 from . import percent_bar
 
@@ -71,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     save_session(session)
     print(f"wrote {session.path}")
     if result is not None and result.refused:        # scene: the mirrors found are written, the others named
-        names = " and ".join(session.mirrors[i].name for i, _ in result.refused)
+        names = listed(session.mirrors[i].name for i, _ in result.refused)
         raise CalibrationError(f"{names} not calibrated (the planes found are written): "
                                f"{sentences(why for _, why in result.refused)}")
     return 0
