@@ -97,15 +97,15 @@ class TargetView:
         reading = self.index[v[inside] * self.intrinsics.width + u[inside]]
         index, reading, uv = inside[reading >= 0], reading[reading >= 0], uv[inside[reading >= 0]]
         target = self.view
-        normal = target.normals[reading]
+        normal, theirs = target.normals[reading], mapped.normals[index]
+        facing = ((np.einsum("ij,ij->i", normal, theirs) > MIN_NORMAL_COSINE)
+                  & (-np.einsum("ij,ij->i", theirs, target.rays[reading]) > np.cos(np.radians(MAX_INCIDENCE_DEG))))
+        index, reading, uv, normal = index[facing], reading[facing], uv[facing], normal[facing]
         surface = target.surface_points(self.intrinsics, reading, uv)
         sigma = np.hypot(_along(target, reading, normal), _along(mapped, index, normal))
         offset = np.einsum("ij,ij->i", normal, mapped.anchors[index] - surface)   # > 0: in front of the surface
         velocity = self._velocity(mapped, index)
         agree = ((np.abs(offset) <= AGREE_SIGMAS * ANCHOR_NOISE * sigma + gate)
-                 & (np.einsum("ij,ij->i", normal, mapped.normals[index]) > MIN_NORMAL_COSINE)
-                 & (-np.einsum("ij,ij->i", mapped.normals[index], target.rays[reading])
-                    > np.cos(np.radians(MAX_INCIDENCE_DEG)))
                  & (~target.rim[reading]
                     | (np.sqrt(mapped.anchor_var[index]) * np.hypot(*velocity.T) <= RIM_LANDING_PX)))
         index, normal, reading, uv, surface, velocity = (

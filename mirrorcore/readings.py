@@ -33,6 +33,14 @@ RIM_LATERAL_PX = 1.5         # ... and of a reading on the rim of the object (ne
                              # the walking figure, whose views overlap mostly near their rims
 
 
+_OFFSETS = np.array([(du, dv) for dv in range(-NEIGHBOURS_RADIUS, NEIGHBOURS_RADIUS + 1)
+                     for du in range(-NEIGHBOURS_RADIUS, NEIGHBOURS_RADIUS + 1) if du or dv])    # (48, 2) pixels
+_BASIS = np.column_stack([np.ones(len(_OFFSETS)), _OFFSETS[:, 0], _OFFSETS[:, 1], _OFFSETS[:, 0] ** 2,
+                          _OFFSETS[:, 0] * _OFFSETS[:, 1], _OFFSETS[:, 1] ** 2]).astype(np.float64)   # (48, 6)
+_OUTER = np.einsum("ki,kj->kij", _BASIS, _BASIS).reshape(len(_OFFSETS), -1)       # (48, 36): each offset's part
+_PATTERN_BITS = 2.0 ** np.arange(len(_OFFSETS))         # which neighbours are readings, as the bits of one number
+
+
 @dataclass(frozen=True, eq=False)
 class ViewPoints:
     """Readings of one view of one frame; (n, 3) float64 metres in the camera frame unless said otherwise.
@@ -115,35 +123,35 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np
 
 
 def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, ...]:
-    """The surface through each pixel's neighbours (see the module docstring), for every pixel at once.
+    """The surface through each reading's neighbours (see the module docstring), for every reading at once.
 
     z : (h, w) float64 metres, 0 = not the view's; rays : (3, h, w) (x/z, y/z, 1) of the pixels -> coefficients
     (h, w, 6) (ViewPoints.surface), the variance (h, w) (1/m^2) of the surface's disparity at the pixel (the
     neighbours' scatter about it, so whatever the sensor), the surface's unit normal at the pixel (3, h, w) towards
-    the camera, and (h, w) bool where at least MIN_NEIGHBOURS neighbours determine the fit.
+    the camera, and (h, w) bool where the view has a reading and at least MIN_NEIGHBOURS neighbours determine the fit.
+    The least-squares matrix depends only on which neighbours are readings: it is inverted once per such pattern
+    (a fifth as many as the readings on the walking figure), not once per reading.
     """
-    size = 2 * NEIGHBOURS_RADIUS + 1
-    du, dv = np.meshgrid(np.arange(size) - NEIGHBOURS_RADIUS, np.arange(size) - NEIGHBOURS_RADIUS)
-    basis = [np.ones(du.shape), du, dv, du * du, du * dv, dv * dv]
-    centre = (du == 0) & (dv == 0)
     valid = (z > 0).astype(np.float64)
     w = np.divide(1.0, z, out=np.zeros_like(z), where=z > 0)
-
-    def window_sum(image: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """Sum over each pixel's neighbours (not itself) of image * weights(offset) (filter2D correlates)."""
-        return cv2.filter2D(image, cv2.CV_64F, np.where(centre, 0.0, weights), borderType=cv2.BORDER_CONSTANT)
-    normal_matrix = np.stack([np.stack([window_sum(valid, p * q) for q in basis], -1) for p in basis], -2)
-    rhs = np.stack([window_sum(w, p) for p in basis], -1)
-    ok = normal_matrix[..., 0, 0] >= MIN_NEIGHBOURS
-    spread = np.linalg.eigvalsh(normal_matrix[ok])               # ascending: neighbours on a line have a zero
-    ok[ok] = spread[:, 0] > 1e-6 * spread[:, -1]
-    coef, variance = np.zeros_like(rhs), np.zeros(z.shape)
-    unit = np.broadcast_to(np.eye(len(basis))[:, :1], (int(ok.sum()), len(basis), 1))
-    solved = np.linalg.solve(normal_matrix[ok], np.concatenate([rhs[ok][..., None], unit], axis=-1))
-    coef[ok] = solved[..., 0]
-    count = normal_matrix[ok][:, 0, 0]
-    squares = window_sum(w * w, np.ones(du.shape))[ok] - np.einsum("ij,ij->i", coef[ok], rhs[ok])  # residual sum
-    variance[ok] = np.maximum(squares, 0.0) / np.maximum(count - len(basis), 1.0) * solved[:, 0, 1]
+    pattern = _window_sum(valid, _PATTERN_BITS)                  # exact: distinct powers of two below 2^48
+    ok = (z > 0) & (_window_sum(valid, np.ones(len(_OFFSETS))) >= MIN_NEIGHBOURS)
+    patterns, which = np.unique(pattern[ok].astype(np.int64), return_inverse=True)
+    present = ((patterns[:, None] >> np.arange(len(_OFFSETS))) & 1).astype(np.float64)       # (p, 48)
+    matrices = (present @ _OUTER).reshape(-1, len(_BASIS.T), len(_BASIS.T))                  # (p, 6, 6)
+    spread = np.linalg.eigvalsh(matrices)                        # ascending: neighbours on a line have a zero
+    solvable = spread[:, 0] > 1e-6 * spread[:, -1]
+    inverse = np.zeros_like(matrices)
+    inverse[solvable] = np.linalg.inv(matrices[solvable])
+    which = which.ravel()
+    ok[ok] = solvable[which]
+    which = which[solvable[which]]                               # each solvable reading's pattern
+    rhs = np.stack([_window_sum(w, column) for column in _BASIS.T], -1)[ok]                  # (n, 6)
+    coef, variance = np.zeros(z.shape + (len(_BASIS.T),)), np.zeros(z.shape)
+    coef[ok] = np.einsum("nij,nj->ni", inverse[which], rhs)
+    squares = _window_sum(w * w, np.ones(len(_OFFSETS)))[ok] - np.einsum("ij,ij->i", coef[ok], rhs)  # residual sum
+    count = present[which].sum(axis=1)
+    variance[ok] = np.maximum(squares, 0.0) / np.maximum(count - len(_BASIS.T), 1.0) * inverse[which, 0, 0]
     ok &= coef[..., 0] > 0
     # w = a + b du + c dv on the plane n.P + d = 0 gives n ~ (b fx, c fy, a - b fx x' - c fy y') with x' = x/z
     a, b, c = coef[..., 0], coef[..., 1] * intr.fx, coef[..., 2] * intr.fy
@@ -151,6 +159,14 @@ def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tu
     normals *= -np.sign(normals[2])[None]                # towards the camera: the surface is in front of it
     normals /= np.maximum(np.linalg.norm(normals, axis=0), 1e-12)
     return coef, variance, normals, ok
+
+
+def _window_sum(image: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Sum over each pixel's neighbours (_OFFSETS, not itself) of image * weights (one per offset): (h, w) float64
+    (filter2D correlates: offset (du, dv) reads the pixel du columns right and dv rows down)."""
+    kernel = np.zeros((2 * NEIGHBOURS_RADIUS + 1,) * 2)
+    kernel[_OFFSETS[:, 1] + NEIGHBOURS_RADIUS, _OFFSETS[:, 0] + NEIGHBOURS_RADIUS] = weights
+    return cv2.filter2D(image, cv2.CV_64F, kernel, borderType=cv2.BORDER_CONSTANT)
 
 
 def _no_depth_edge(z: np.ndarray) -> np.ndarray:
