@@ -764,6 +764,47 @@ def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
         state.mirror_id = editor.session.mirrors[0].id
 
 
+
+def test_the_outline_buttons_are_offered_only_where_they_can_act(demo):
+    """Boundary mode: Close boundary while an outline is drawn, saying how many corners it still needs, and Delete the
+    picked corner once it is closed, naming the corner picked (both had stood greyed, no reason given, where they
+    could never act)."""
+    app_, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    editor, state = app_.editor, headless.tab.state
+    mirrors._add()
+    new = state.mirror_id
+    try:
+        state.mode = "boundary"
+        mirrors.refresh()
+
+        def shown() -> tuple[bool, bool, bool]:
+            return mirrors.close.visible, mirrors.delete_corner.visible, mirrors.clear_boundary.visible
+        assert shown() == (True, False, True) and mirrors.close.disabled and mirrors.clear_boundary.disabled
+        assert mirrors.close.label == "Close boundary (0 of the 3 corners it needs)"
+        for u, v in ((100.0, 100.0), (200.0, 100.0)):
+            mirrors._boundary_click(u, v)
+        mirrors.refresh()
+        assert mirrors.close.label == "Close boundary (2 of the 3 corners it needs)" and mirrors.close.disabled
+        assert not mirrors.clear_boundary.disabled
+        mirrors._boundary_click(200.0, 200.0)
+        mirrors.refresh()
+        assert mirrors.close.label == "Close boundary" and not mirrors.close.disabled
+        mirrors._close_boundary()
+        state.mode = "boundary"
+        mirrors.refresh()
+        assert shown() == (False, True, True) and mirrors.delete_corner.disabled
+        assert mirrors.delete_corner.label == "Delete the picked corner"
+        mirrors._boundary_click(201.0, 99.0)                      # near the second corner: picks it
+        mirrors.refresh()
+        assert mirrors.delete_corner.label == "Delete corner 2" and not mirrors.delete_corner.disabled
+        state.mode = "markers"
+        mirrors.refresh()
+        assert shown() == (False, False, False)
+    finally:
+        editor.remove_mirror(new)
+        state.mirror_id, state.mode, state.picked_corner = editor.session.mirrors[0].id, "inspect", None
+
 def test_removing_a_mirror_names_what_it_has():
     plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
     full = SessionMirror("left", markers=((1, 1),), boundary=((0, 0), (10, 0), (10, 10)), plane=plane, id=1)

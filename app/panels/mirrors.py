@@ -12,6 +12,7 @@ import numpy as np
 
 from mirrorcore.calibration import calibrate_session
 from mirrorcore.errors import MirrorscanError
+from mirrorcore.geometry.polygon import MIN_VERTICES
 from mirrorcore.markers import MIN_MARKER_PIXELS, marker_points, review_fit
 from mirrorcore.session import MAX_MARKER_OFFSET, Session, SessionMirror
 from mirrorcore.words import listed
@@ -259,7 +260,7 @@ class MirrorsPanel:
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
         draft = state.drafts.get(mirror.id)
         if draft is not None:
-            if _nearest(draft, (u, v)) == 0 and len(draft) >= 3:
+            if _nearest(draft, (u, v)) == 0 and len(draft) >= MIN_VERTICES:
                 self._close_boundary()
                 return
             state.drafts[mirror.id] = draft + ((round(u, 2), round(v, 2)),)
@@ -497,10 +498,8 @@ class MirrorsPanel:
         self.move.disabled = self.delete.disabled = not picked
         which = f"marker {selected.id}.{state.picked_marker + 1}" if picked else "the picked marker"
         self.move.label, self.delete.label = f"Move {which}", f"Delete {which}"
-        self.close.visible = self.delete_corner.visible = self.clear_boundary.visible = boundary
-        self.close.disabled = not (has and len(state.drafts.get(selected.id, ())) >= 3)
-        self.delete_corner.disabled = state.picked_corner is None
-        self.clear_boundary.disabled = not has or not (selected.boundary or state.drafts.get(selected.id))
+        self._outline_buttons(boundary and has, has and bool(selected.boundary),
+                              len(state.drafts.get(state.mirror_id, ())), state.picked_corner)
         scope = state.mirror_id or SESSION_SCOPE
         draft = state.drafts.get(scope)
         self._label(self.undo, "Undo", f"corner {len(draft)} of the outline" if draft else
@@ -519,6 +518,20 @@ class MirrorsPanel:
         self._drop_stale_proposal()
         self._show_proposal()
         self.markers.content = self._marker_list(selected)
+
+    def _outline_buttons(self, shown: bool, closed: bool, drafted: int, picked: int | None) -> None:
+        """Boundary mode's buttons, each only where it can act: Close boundary while an outline is drawn (greyed,
+        with the corners still needed, below 3), Delete the picked corner once it is closed (greyed, as Move the
+        picked marker, until a corner is picked: the help says how); Clear boundary whenever there is something to
+        clear. (Both had stood greyed, with no reason given, where they could never act.)"""
+        self.close.visible, self.delete_corner.visible = shown and not closed, shown and closed
+        self.clear_boundary.visible = shown
+        self.close.disabled = drafted < MIN_VERTICES
+        self.close.label = ("Close boundary" if drafted >= MIN_VERTICES else
+                            f"Close boundary ({drafted} of the {MIN_VERTICES} corners it needs)")
+        self.delete_corner.disabled = picked is None
+        self.delete_corner.label = "Delete the picked corner" if picked is None else f"Delete corner {picked + 1}"
+        self.clear_boundary.disabled = not (closed or drafted)
 
     @staticmethod
     def _label(button, verb: str, what: str | None) -> None:

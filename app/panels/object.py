@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.geometry.polygon import MIN_VERTICES, validate_polygon
 from mirrorcore.palette import MAX_ORDER
 from mirrorcore.selection import object_mask
 from mirrorcore.sources import SimulatedSource
@@ -87,7 +87,7 @@ class ObjectPanel:
         self.bounces.value = snapshot.session.bounces
         drawing = state.mode == "region"
         self.close.visible = drawing
-        self.close.disabled = len(state.region_draft) < 3
+        self.close.disabled = len(state.region_draft) < MIN_VERTICES
 
     def _set(self, **changes) -> None:
         self.services.editor.set_selection(replace(self.services.snapshot.session.selection, **changes))

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import MirrorscanError
 
+MIN_VERTICES = 3             # a polygon's fewest corners (an outline, a region)
 MAX_VERTICES = 1000     # a drawn outline has a handful of corners; the crossing test is quadratic in the worst case
 PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB of temporaries)
 
@@ -13,9 +14,9 @@ PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB 
 def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:
     """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
 
-    Refuses (MirrorscanError naming `where`): fewer than 3 or more than MAX_VERTICES vertices, non-finite values,
-    vertices outside the image of size `shape` = (H, W) when given, a polygon with no area, and a polygon whose edges
-    cross each other.
+    Refuses (MirrorscanError naming `where`): fewer than MIN_VERTICES or more than MAX_VERTICES vertices, non-finite
+    values, vertices outside the image of size `shape` = (H, W) when given, a polygon with no area, and a polygon
+    whose edges cross each other.
     """
     try:
         poly = np.asarray(points, dtype=np.float64)
@@ -23,8 +24,8 @@ def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = 
         raise MirrorscanError(f"{where}: vertices must be [u, v] pairs of numbers") from None
     if poly.ndim != 2 or poly.shape[1] != 2:
         raise MirrorscanError(f"{where}: vertices must be [u, v] pairs, got an array of shape {poly.shape}")
-    if len(poly) < 3:
-        raise MirrorscanError(f"{where}: a polygon needs at least 3 vertices, got {len(poly)}")
+    if len(poly) < MIN_VERTICES:
+        raise MirrorscanError(f"{where}: a polygon needs at least {MIN_VERTICES} vertices, got {len(poly)}")
     if len(poly) > MAX_VERTICES:
         raise MirrorscanError(f"{where}: {len(poly):,} vertices, more than the {MAX_VERTICES:,} a polygon may have")
     if not np.all(np.isfinite(poly)):
