@@ -18,7 +18,9 @@ import websockets.sync.client
 from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
-from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, refined_headline
+from app.editor import SESSION_SCOPE
+from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, planes_key, refined_headline
+from app.markup import markdown
 from app.panels.live import LAG_NOTE_S, _no_glass, heat_legend_html, legend_html, source_title, start_hint
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
@@ -493,7 +495,6 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
     number of mirrors followed is a session setting that can be undone."""
     from dataclasses import replace
 
-    from app.editor import SESSION_SCOPE
     from app.server import MirrorscanApp
     from bench.tabs import HeadlessTab
     from mirrorcore.palette import FIRST_MULTI_LABEL
@@ -804,6 +805,43 @@ def test_the_outline_buttons_are_offered_only_where_they_can_act(demo):
     finally:
         editor.remove_mirror(new)
         state.mirror_id, state.mode, state.picked_corner = editor.session.mirrors[0].id, "inspect", None
+
+
+def test_a_report_stays_while_it_describes_every_plane(demo):
+    """The report under the buttons stays when a mirror without a plane is added, and when a mirror is removed
+    (naming it: a Find's report had gone with the mirror it had not found, a helper); it goes when a plane changes,
+    and Undo of the removal brings back the report as it was."""
+    app_, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    editor, state = app_.editor, headless.tab.state
+    first, second = editor.session.mirrors[:2]
+    report = "Planes found from the object: both fixed by the data."
+    app_.jobs.refinements[planes_key(editor.session)] = report
+    mirrors._report(report)
+    try:
+        new = editor.add_mirror()
+        mirrors.refresh()
+        assert mirrors.result.content == markdown(report)
+        editor.remove_mirror(new)
+        editor.remove_mirror(second.id)
+        mirrors.refresh()
+        assert mirrors.result.content == markdown(f"{report}\n\n*{second.name} was removed since.*")
+        editor.undo(SESSION_SCOPE)                                 # the second mirror back: its report as it was
+        mirrors.refresh()
+        assert mirrors.result.content == markdown(report)
+        editor.remove_mirror(second.id)
+        mirrors.refresh()
+        editor.set_planes({first.id: (Plane.from_abcd([0.0, 0.0, -1.0, 2.0]), editor.mirror(first.id))})
+        mirrors.refresh()
+        assert mirrors.result.content == markdown("")
+    finally:
+        if editor.mirror(first.id).plane != first.plane:
+            editor.undo(first.id)
+        if all(m.id != second.id for m in editor.session.mirrors):
+            editor.undo(SESSION_SCOPE)
+        state.mirror_id = editor.session.mirrors[0].id
+        mirrors.refresh()
+    assert [(m.id, m.plane) for m in editor.session.mirrors] == [(first.id, first.plane), (second.id, second.plane)]
 
 def test_removing_a_mirror_names_what_it_has():
     plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])

@@ -81,7 +81,9 @@ class MirrorsPanel:
         # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
         # report of the refinement that left the planes as they are
         self._result_planes = planes_key(self.services.editor.session)     # the planes `result` describes
-        self.result = gui.add_markdown(markdown(self.services.jobs.refinements.get(self._result_planes, "")))
+        self._result_text, self._gone = self.services.jobs.refinements.get(self._result_planes, ""), ()
+        self._names = {m.id: m.name for m in self.services.editor.session.mirrors}   # as the last refresh saw them
+        self.result = gui.add_markdown(markdown(self._result_text))
         self.agreement = gui.add_markdown(markdown(self.services.jobs.agreement))
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
@@ -337,14 +339,32 @@ class MirrorsPanel:
         self._check_agreement()                    # the views' agreement with the planes now
         self.tab.changed()
 
-    def _report(self, text: str) -> None:
-        """Show a fit's or refinement's report, for the planes as they are now; the notification of the last
-        calibration from the object goes (it stays a while: one told after it would stack under it)."""
-        self._result_planes = planes_key(self.services.editor.session)
-        self.result.content = markdown(text)
+    def _report(self, text: str, gone: tuple[str, ...] = ()) -> None:
+        """Show a fit's or refinement's report, for the planes as they are now, and the mirrors it names that were
+        removed since; the notification of the last calibration from the object goes (it stays a while: one told
+        after it would stack under it)."""
+        self._result_planes, self._result_text, self._gone = planes_key(self.services.editor.session), text, gone
+        self.result.content = markdown(text + (f"\n\n*{listed(gone)} {'was' if len(gone) == 1 else 'were'} removed "
+                                               "since.*" if gone else ""))
         if self._result_note is not None:
             self._result_note.remove()
             self._result_note = None
+
+    def _follow_planes(self, session: Session) -> None:
+        """The planes changed other than by this panel: the report of the refinement that left them so, else the
+        report shown while it still describes every plane (mirrors only added without a plane, or removed: a Find's
+        report had gone with a mirror removed after it, a helper), naming those removed, else none."""
+        key = planes_key(session)
+        if key in self.services.jobs.refinements:
+            self._report(self.services.jobs.refinements[key])
+            return
+        before, now = dict(self._result_planes), dict(key)
+        if any(before[i] != now[i] for i in before.keys() & now.keys()) or \
+                any(now[i] is not None for i in now.keys() - before.keys()) or not self._result_text:
+            self._report("")
+            return
+        gone = tuple(self._names.get(i, f"mirror {i}") for i in before.keys() - now.keys())
+        self._report(self._result_text, self._gone + gone)
 
     def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
         """After an undo or redo (of the step `label`): the report of the refinement whose planes are back, or the
@@ -473,7 +493,8 @@ class MirrorsPanel:
         self.status.content = mirror_status(selected, from_object,
                                             selected is not None and editor.glass_unused(selected.id))
         if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
-            self._report(self.services.jobs.refinements.get(planes_key(session), ""))   # terminal): its report went
+            self._follow_planes(session)                      # terminal, a mirror added or removed)
+        self._names = {m.id: m.name for m in session.mirrors}
         refining = self.services.jobs.running(REFINE)
         self.refine.disabled = refining or not any(m.plane is not None for m in session.mirrors)
         bare = [m.id for m in session.mirrors if m.boundary and m.plane is None]
