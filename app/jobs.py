@@ -396,8 +396,7 @@ class Jobs:
             pooled = self._pool_heat(frame.snapshot.rig, frame_number(frame.index, self.loop.source.frame_count),
                                      distances, sources)
             figures = heat_figures(*(np.concatenate(parts) for parts in zip(*pooled)))
-            self.bus.publish(HeatChanged(frame.index, frame.cloud.points, colours, figures, len(pooled),
-                                         sources == 0))
+            self.bus.publish(HeatChanged(frame.index, frame.cloud.points, colours, figures, len(pooled), sources))
         self._start(HEAT, work, "")
 
     def heat_wanted(self, frame: "LiveFrame") -> bool:

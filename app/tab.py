@@ -13,7 +13,7 @@ import numpy as np
 import viser
 from viser import _messages
 
-from mirrorcore.palette import source_colour
+from mirrorcore.palette import SOURCE_COLOURS, source_colour
 
 from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
@@ -85,6 +85,8 @@ class Tab:
         self.heat, self._last_heat = False, 0.0
         self.heat_figures: dict[int, tuple[float, float]] = {}   # the last heat map's, per mirror view (HeatChanged)
         self.heat_frames = 0                                      # ... over this many heat maps
+        self.heat_of: int | None = None      # the mirror (id) whose points alone the heat map colours (None: all)
+        self._heat_event: HeatChanged | None = None                # the heat map drawn
         self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
         self._framed = False
         camera = services.snapshot.session.camera
@@ -225,7 +227,7 @@ class Tab:
             self.heat, self._stale, self._last_heat = on, True, 0.0
             if not on:
                 self.scene.show_heat(None, None)
-                self.heat_figures = {}
+                self.heat_figures, self._heat_event = {}, None
         if on:
             self._heat_now()
         self.scene.show_clouds(not on and self.state.view == "3d")
@@ -242,8 +244,30 @@ class Tab:
     def _on_heat(self, event: HeatChanged) -> None:
         with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
             if self.heat and not self.closed:
-                self.scene.show_heat(event.points, event.colours, event.direct)
+                self._heat_event = event
+                self._draw_heat()
                 self.heat_figures, self.heat_frames = event.figures, event.frames
+
+    def heat_only(self, mirror_id: int | None) -> None:
+        """Colour only this mirror's points on the heat map (None: every mirror's), the others' grey and small as
+        the camera's: which strip was whose could not be told (a helper)."""
+        with self._heat_lock:
+            self.heat_of = mirror_id
+            if self.heat and self._heat_event is not None and not self.closed:
+                self._draw_heat()
+
+    def _draw_heat(self) -> None:
+        """Draw the last heat map (under _heat_lock): the camera's points, and those of the mirrors not chosen
+        (heat_of), small and grey."""
+        event = self._heat_event
+        if event.sources is None:
+            self.scene.show_heat(event.points, event.colours)
+            return
+        mirrors = self.services.snapshot.session.mirrors
+        label = next((k for k, m in enumerate(mirrors, start=1) if m.id == self.heat_of), None)
+        small = event.sources == 0 if label is None else event.sources != label
+        colours = np.where((small & (event.sources != 0))[:, None], SOURCE_COLOURS[0], event.colours)
+        self.scene.show_heat(event.points, colours.astype(np.uint8), small)
 
     def show_dense(self, result) -> None:
         """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""

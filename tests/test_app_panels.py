@@ -16,7 +16,7 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
-from app.jobs import FOUND_CHECK, UNDO_FOUND, agreement_line, found_headline, refined_headline
+from app.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, refined_headline
 from app.panels.dense import DensePanel
 from app.panels.measure import CANCELLED_NOTE, MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
@@ -463,6 +463,20 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     time.sleep(0.3)                               # view had stayed empty until Step: a helper)
     tab.show_heat(True)
     wait_for(lambda: "/heat" in tab.client.scene._handle_from_node_name, 10, "the heat map while paused")
+    wait_for(lambda: not app.jobs.running(HEAT) and tab._heat_event, 10, "the paused frame's map")
+    header = tab.header                                 # one mirror's points alone (which strip was whose could
+    header._heat_choices()                              # not be told: a helper)
+    assert header.heat_of.visible and header.heat_of.options == ("every mirror", "mirror 1", "mirror 2")
+    sources = tab._heat_event.sources
+    header.heat_of.value = "mirror 2"
+    tab.heat_only(header._heat_mirror())
+    nodes = tab.client.scene._handle_from_node_name
+    assert len(nodes["/heat"].points) == np.count_nonzero(sources == 2)
+    assert np.all(nodes["/heat/direct"].colors == grey) and len(nodes["/heat/direct"].points) == np.count_nonzero(
+        sources != 2)
+    header.heat_of.value = "every mirror"
+    tab.heat_only(header._heat_mirror())
+    assert len(tab.client.scene._handle_from_node_name["/heat"].points) == np.count_nonzero(sources != 0)
     tab.show_heat(False)
     app.pause(False)
     tab.look("depth")                         # turned on in the depth view: the 3D view then frames the object, as

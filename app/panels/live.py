@@ -28,6 +28,7 @@ PROCESS_WINDOW = 30        # frames: the header gives the median of their proces
                            # with whatever else the machine does)
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 PROGRESS_STEP = 0.05       # the start hint gives a calibration's progress in steps of this
+EVERY_MIRROR = "every mirror"    # the heat map of every mirror's points (Heat map of)
 LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"   # the panel's text is inset so; raw HTML is not
 
 
@@ -240,6 +241,8 @@ class LivePanel:
                                          "saturated), grey where there is nothing to compare; a frame a "
                                          "second, the view on the object (the colours are on its rims). It "
                                          "shows a tilt, hardly the glass: Refine from the object measures that")
+            self.heat_of = gui.add_dropdown("Heat map of", (EVERY_MIRROR,), initial_value=EVERY_MIRROR,
+                                            visible=False)      # which strip was whose could not be told (a helper)
             self.pixel = gui.add_markdown("Last pixel read: none yet")
         self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
@@ -249,7 +252,8 @@ class LivePanel:
         self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
-        self.heat.on_update(lambda _: tab.show_heat(bool(self.heat.value)))
+        self.heat.on_update(lambda _: self._show_heat())
+        self.heat_of.on_update(lambda _: tab.heat_only(self._heat_mirror()))
         self.frame_object.on_click(lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object())))
         tab.on_click("inspect", self.show_pixel)
         tab.on_state(lambda _: self.refresh_hint())
@@ -351,8 +355,30 @@ class LivePanel:
                                                 any(m.plane is not None for m in session.mirrors)) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids, tuple(
                                    m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
+        self._heat_choices()
         if first:
             self.refresh_hint()
+
+    def _show_heat(self) -> None:
+        self.tab.show_heat(bool(self.heat.value))
+        self._heat_choices()
+
+    def _heat_choices(self) -> None:
+        """Offer, while the heat map shows, to colour one mirror's points alone: every mirror with a plane, when
+        there are two or more; a mirror chosen and since removed (or its plane cleared) goes back to all."""
+        names = tuple(m.name for m in self.tab.services.snapshot.session.mirrors if m.plane is not None)
+        choices = (EVERY_MIRROR, *names)
+        if self.heat_of.options != choices:
+            if self.heat_of.value not in choices:
+                self.heat_of.value = EVERY_MIRROR
+                self.tab.heat_only(None)
+            self.heat_of.options = choices
+        self.heat_of.visible = self.tab.heat and len(names) > 1
+
+    def _heat_mirror(self) -> int | None:
+        """The id of the mirror the heat map is of (the dropdown's name), None for every mirror."""
+        session = self.tab.services.snapshot.session
+        return next((m.id for m in session.mirrors if m.name == self.heat_of.value), None)
 
     def show_pixel(self, u: float, v: float) -> None:
         frame = self.tab.services.last_frame
