@@ -739,14 +739,17 @@ def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(dem
     assert mirrors._report_after_travel(before, before, "marker 1.2", True) == ""     # the planes as they were
 
 
+def _panel_with_a_new_mirror(demo):
+    """The demo tab's Mirrors panel, the editor and the tab's state, after Add a mirror; and the new mirror's id."""
+    app_, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    mirrors._add()
+    return mirrors, app_.editor, headless.tab.state, headless.tab.state.mirror_id
+
 def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
     """Two corners of a new mirror's outline clicked, Undo takes them back one at a time, and only then the mirror
     (it removed the mirror with its corners at once: a helper)."""
-    app_, headless = demo
-    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
-    editor, state = app_.editor, headless.tab.state
-    mirrors._add()
-    new = state.mirror_id
+    mirrors, editor, state, new = _panel_with_a_new_mirror(demo)
     try:
         mirrors._boundary_click(100.0, 100.0)
         mirrors._boundary_click(200.0, 100.0)
@@ -765,16 +768,11 @@ def test_undo_while_an_outline_is_drawn_takes_its_last_corner_back(demo):
         state.mirror_id = editor.session.mirrors[0].id
 
 
-
 def test_the_outline_buttons_are_offered_only_where_they_can_act(demo):
     """Boundary mode: Close boundary while an outline is drawn, saying how many corners it still needs, and Delete the
     picked corner once it is closed, naming the corner picked (both had stood greyed, no reason given, where they
     could never act)."""
-    app_, headless = demo
-    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
-    editor, state = app_.editor, headless.tab.state
-    mirrors._add()
-    new = state.mirror_id
+    mirrors, editor, state, new = _panel_with_a_new_mirror(demo)
     try:
         state.mode = "boundary"
         mirrors.refresh()
