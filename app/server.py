@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import io
 import logging
+import math
 import threading
 import time
 import warnings
@@ -30,11 +31,15 @@ from .state import Snapshot
 from .tab import Resume, Tab
 
 log = logging.getLogger("mirrorscan")
-VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden, and session.json whether another
-                          # program changed it (the editor then reloads it)
+FILE_POLL_S = 0.5         # how often session.json is looked at: did another program change it (it is then reloaded)
+VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden or lag, while the live cloud plays...
+QUIET_POLL_S = 5.0        # ... and while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw
+                          # its 3D scene for 250 ms, which kept a paused scene at 28-30 frames a second and Chromium's
+                          # software WebGL on one of the 2 cores (Find on the walking figure, paused: 7.0-7.5 s at
+                          # 0.5 s, 5.6 s at 5 s, as with no browser)
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
-BUSY_FPS = 5.0            # ... and while a job that needs the cores runs (on 2 cores with Chromium drawing the cloud,
-                          # Find the planes on the walking figure: 16.7-18.8 s at 30 fps, 14.5-14.7 s at this rate)
+BUSY_FPS = 1.0            # ... and while a job that needs the cores runs: each cloud sent makes the page draw for
+                          # 250 ms (on 2 cores, Find on the walking figure with the cloud playing: 8.3-11.3 s at 5 fps)
 BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
@@ -166,12 +171,24 @@ class MirrorscanApp:
             return self.tabs[client.client_id]
 
     def _poll_tabs(self) -> None:
-        while not self._stop.wait(VISIBILITY_POLL_S):
-            with self._tabs_lock:
-                tabs = list(self.tabs.values())
-            for tab in tabs:
-                tab.poll_visibility()
+        asked = -math.inf                       # time.monotonic() when the tabs were last asked
+        while not self._stop.wait(FILE_POLL_S):
+            if time.monotonic() - asked >= self._visibility_poll_s():
+                asked = time.monotonic()
+                with self._tabs_lock:
+                    tabs = list(self.tabs.values())
+                for tab in tabs:
+                    tab.poll_visibility()
             self.act(None, self._reload_if_changed)
+
+    def _visibility_poll_s(self) -> float:
+        """Seconds between two questions to the tabs: VISIBILITY_POLL_S while the live cloud plays, else QUIET_POLL_S
+        (nothing is streamed that a hidden or lagging tab should be spared, and each question costs the page a draw)."""
+        return QUIET_POLL_S if self.paused or self._busy() is not None else VISIBILITY_POLL_S
+
+    def _busy(self) -> str | None:
+        """What runs of BUSY_JOBS (its words), or None."""
+        return next((what for job, what in BUSY_JOBS.items() if self.jobs.running(job)), None)
 
     def _reload_if_changed(self) -> None:
         message = self.editor.reload_if_changed()
@@ -218,7 +235,7 @@ class MirrorscanApp:
         as processing 30 frames a second would only take the cores from the browser on the same laptop."""
         if self.jobs.running(RECORD):
             return None
-        busy = next((what for job, what in BUSY_JOBS.items() if self.jobs.running(job)), None)
+        busy = self._busy()
         with self._tabs_lock:
             tabs = list(self.tabs.values())
         if busy is not None:

@@ -387,6 +387,34 @@ def test_the_loop_gives_the_cores_to_a_calibration_from_the_object(demo):
     assert app.fps_wanted() is None and loop.pace() == 30.0
 
 
+def test_the_tabs_are_asked_less_often_while_nothing_plays(demo, monkeypatch):
+    """Each question whether a tab is hidden or lags makes viser's page draw its 3D scene for 250 ms (Chromium's
+    software WebGL took a core from Find the planes): the tabs are asked every VISIBILITY_POLL_S while the cloud
+    plays, every QUIET_POLL_S while it is paused or a calibration from the object runs; session.json is looked at
+    every FILE_POLL_S all the same."""
+    app, headless = demo
+    for name, seconds in (("FILE_POLL_S", 0.01), ("VISIBILITY_POLL_S", 0.01), ("QUIET_POLL_S", 0.3)):
+        monkeypatch.setattr(server_module, name, seconds)
+    asked, looked = [], []
+    monkeypatch.setattr(headless.tab, "poll_visibility", lambda: asked.append(1))
+    monkeypatch.setattr(app.editor, "reload_if_changed", lambda: looked.append(1) and "")
+
+    def questions(seconds: float = 0.6) -> tuple[int, int]:
+        asked.clear(), looked.clear()
+        time.sleep(seconds)
+        return len(asked), len(looked)
+
+    app._poller.start()
+    playing = questions()
+    app.pause(True)
+    paused = questions()
+    app.pause(False)
+    monkeypatch.setattr(app.jobs, "running", lambda job: job == "refine")
+    busy = questions()
+    assert playing[0] >= 10 and 1 <= paused[0] <= 3 and 1 <= busy[0] <= 3, (playing, paused, busy)
+    assert min(playing[1], paused[1], busy[1]) >= 10, (playing, paused, busy)
+
+
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
     """The source's 30 fps while a tab looks at the 3D scene, records, or collects frames; IDLE_FPS while every tab
     looks at the depth frame (sent 8 times a second) or is hidden, the header saying so."""
