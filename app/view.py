@@ -18,14 +18,16 @@ from .jobs import DenseResult
 from .stream import SourcePart
 
 FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small
-VIRTUAL_LABEL_DROP = 2.5   # a virtual camera's name this many of its frustum's sizes under it (at one, the name of
-                           # the walking figure's mirror, seen beside it, ran over it: a helper)
+VIRTUAL_LABEL_RISE = 1.2   # a virtual camera's name this many of its frustum's sizes above it: seen from home, above
+                           # the mirror's name (2.5 sizes under it, as it was, sat on the walking figure's head)
 HEAT_DIRECT_SIZE = 0.5     # the heat map's points seen directly, as large as the point size times this
 SAME_PLACE = 0.10          # metres: virtual cameras closer than this share one label (hinged mirrors at 360 / n
                            # degrees put images through two and three mirrors within a few cm: 1.3 to 5.4 measured)
 DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
 BOX_COLOUR = (90, 90, 90)
-HOME_DIRECTION = np.array([1.0, -0.55, -0.75])   # from the scene's centre towards the first view (right, up, front)
+HOME_DIRECTION = np.array([1.0, -0.9, -0.75])   # from the scene's centre towards the first view (right, up, front):
+                                                # 37 degrees from above, so that the virtual cameras behind the
+                                                # mirrors are seen above the object (at 24, over its top)
 
 
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
@@ -64,6 +66,12 @@ def label_anchor(outline: np.ndarray) -> np.ndarray:
     """(3,) metres: where a mirror's name goes, the middle of its outline's two highest corners (up is -y): the top
     edge's middle for a pane, and apart for two mirrors hinged at a shared top corner. outline : (b, 3) metres."""
     return outline[np.argsort(outline[:, 1], kind="stable")[:2]].mean(axis=0)
+
+
+def virtual_label_anchor(pose: np.ndarray, scale: float) -> np.ndarray:
+    """(3,) metres: where a virtual camera's name goes, VIRTUAL_LABEL_RISE of its frustum's size `scale` (metres)
+    above it (along -y of its pose (4, 4), the camera's up: a vertical mirror keeps it the world's)."""
+    return pose[:3, 3] - VIRTUAL_LABEL_RISE * scale * pose[:3, 1]
 
 
 def scene_points(rig: Rig) -> np.ndarray:
@@ -164,10 +172,10 @@ class TabScene:
                 visible=self.virtual_visible and self.labels_visible))
         for group in same_place(cameras):
             first = group[0]
-            self._virtual_labels.append(self.scene.add_label(      # well under it: clear of the mirror's name
-                f"/virtual_labels/{first.source}",                 # (seen past the mirror's top, a frustum's own
-                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),   # height
-                position=first.pose[:3, 3] + VIRTUAL_LABEL_DROP * _frustum_scale(first) * first.pose[:3, 1],
+            self._virtual_labels.append(self.scene.add_label(
+                f"/virtual_labels/{first.source}",
+                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
+                position=virtual_label_anchor(first.pose, _frustum_scale(first)),
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:

@@ -29,7 +29,7 @@ from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connectio
 from app.state import Snapshot
 from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
 from app.tab import MAX_LAG_S, SETTLING_S, Tab
-from app.view import label_anchor, same_place
+from app.view import home_pose, label_anchor, same_place, scene_points
 from bench.tabs import CAMERA_MESSAGE, wait_for
 from mirrorcore.cloud import Cloud
 from mirrorcore.errors import CalibrationError, Cancelled, MirrorscanError
@@ -568,6 +568,46 @@ def test_a_mirrors_name_is_at_the_middle_of_its_top_edge():
     right = left * [-1, 1, 1]
     np.testing.assert_allclose(label_anchor(left), [-0.35, -0.5, 2.0])
     np.testing.assert_allclose(label_anchor(right), [0.35, -0.5, 2.0])
+
+
+def _home_pixels(points: np.ndarray, canvas: tuple[int, int], scene: np.ndarray) -> np.ndarray:
+    """(k, 2) pixels of `points` (k, 3) metres in the first view (home_pose of `scene`, as Tab.look_home frames it)
+    of a canvas (width, height) with the tab's 50 degrees of vertical field of view; y grows downwards."""
+    fov = np.radians(50.0)
+    position, target = home_pose(scene, fov, canvas[0] / canvas[1])
+    forward = (target - position) / np.linalg.norm(target - position)
+    right = np.cross(forward, [0.0, -1.0, 0.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(forward, right)
+    rays = points - position
+    focal = canvas[1] / 2 / np.tan(fov / 2)
+    depth = rays @ forward
+    return np.stack([canvas[0] / 2 + focal * (rays @ right) / depth, canvas[1] / 2 + focal * (rays @ down) / depth], 1)
+
+
+@pytest.mark.parametrize("canvas", [(976, 900), (620, 600)])        # the 3D view at 1400x900 and at 1024x600
+def test_seen_from_home_the_virtual_cameras_names_clear_the_object_and_the_mirrors_names(demo, canvas):
+    """The walking figure's first view: the name of each camera seen in a mirror (a box 7 px a character wide and 18
+    px high about its anchor, as drawn) lies neither on the figure's points nor on a mirror's name; it had sat on the
+    figure's head (2.5 frustum sizes under the frustum, seen from 24 degrees above)."""
+    app, headless = demo
+    frame = app.loop.run_once()
+    scene = headless.tab.scene
+    points = frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
+    home = np.concatenate([scene_points(app.snapshot.rig), points])
+
+    def boxes(labels) -> list[tuple[np.ndarray, np.ndarray]]:
+        centres = _home_pixels(np.array([label.position for label in labels]), canvas, home)
+        half = [[3.5 * len(label.text), 9.0] for label in labels]
+        return [(c - h, c + h) for c, h in zip(centres, np.array(half))]
+
+    figure = _home_pixels(points, canvas, home)
+    mirrors = boxes([label for label in scene._labels if label.text.startswith("mirror")])
+    cameras = boxes(scene._virtual_labels)
+    assert len(mirrors) == 2 and len(cameras) == 2
+    for low, high in cameras:
+        assert not np.any(np.all((figure >= low) & (figure <= high), axis=1)), (low, high)
+        assert not any(np.all(low <= other_high) and np.all(other_low <= high) for other_low, other_high in mirrors)
 
 
 def test_virtual_cameras_in_one_place_share_one_label():
