@@ -591,7 +591,8 @@ def refined_headline(mirrors, compared: str = "surfaces") -> str:
     measured = any(r.marker_offset is not None and r.glass_typed is None for r in mirrors)
     glass = (f" {GLASS_ADVICE} these planes, which {METHOD_BIAS['surfaces'].words.removeprefix('the method ')}: "
              "if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, clear "
-             "(a refinement keeps a glass typed in)." if compared == "surfaces" and measured else "")
+             "(the markers fit then uses it; a refinement keeps it, and its planes do not depend on it)." if
+             compared == "surfaces" and measured else "")
     return f"{REFINED}{how} (moved > 0: away from the camera): {'; '.join(moved)}.{glass}"
 
 

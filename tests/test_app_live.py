@@ -21,7 +21,8 @@ from app.events import EventBus, HeatChanged, JobProgress
 from app.editor import SESSION_SCOPE
 from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, planes_key, refined_headline
 from app.markup import markdown
-from app.panels.live import LAG_NOTE_S, _no_glass, heat_legend_html, legend_html, source_title, start_hint
+from app.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
+                             start_hint)
 from app.panels.measure import fit_report
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
 import app.server as server_module
@@ -1077,7 +1078,7 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     assert refined_headline(glass).endswith(                                         # said as no surer than the
         "left moved 0.0 mm and 0.05°, glass 0.5 ± 0.8 mm. The glass is measured on these planes, which may add 1 to "
         "2 mm: if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, "
-        "clear (a refinement keeps a glass typed in).")                              # surfaces' planes (a helper)
+        "clear (the markers fit then uses it; a refinement keeps it, and its planes do not depend on it).")
     assert refined_headline(glass, "sphere").endswith("glass 0.5 ± 0.8 mm.")
     typed = [SimpleNamespace(**{**vars(glass[0]), "glass_typed": 0.003})]          # typed in: kept, and said so
     assert refined_headline(typed).endswith("left moved 0.0 mm and 0.05°, glass 3.0 mm as typed in (read 0.5 ± 0.8 "
@@ -1214,6 +1215,26 @@ def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
                SessionMirror("right", ((1.0, 1.0),) * 3, plane=plane, id=2, marker_offset_std=8e-4))
     jobs = SimpleNamespace(from_object=lambda mirror_id, plane: False)
     assert _no_glass(jobs, Session(tmp_path, Intrinsics.kinect_v1(), mirrors)) == ("left",)
+
+
+def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_path):
+    """The glass typed in, a markers fit applied over a plane from the object: its report asked to refine again and
+    the next step read "Ready" (a helper). The next step names the mirrors whose planes a markers fit of this tool
+    set behind a glass typed in; not those from the object, those fitted elsewhere, nor a glass measured."""
+    plane = Plane.from_abcd([0.5, 0.0, -0.8, 2.4])
+    mirrors = (SessionMirror("left", ((1.0, 1.0),) * 3, plane=plane, id=1, marker_offset=0.003),
+               SessionMirror("right", ((1.0, 1.0),) * 3, plane=plane, id=2, marker_offset=0.003),
+               SessionMirror("top", ((1.0, 1.0),) * 3, plane=plane, id=3, marker_offset=0.003),
+               SessionMirror("back", ((1.0, 1.0),) * 3, plane=plane, id=4, marker_offset=0.003,
+                             marker_offset_std=5e-4))
+    session = Session(tmp_path, Intrinsics.kinect_v1(), tuple(replace(m, boundary=((0, 0), (9, 0), (9, 9)))
+                                                              for m in mirrors))
+    jobs = SimpleNamespace(from_object=lambda mirror_id, plane: mirror_id == 2)
+    editor = SimpleNamespace(fitted_on_its_markers=lambda mirror_id: mirror_id != 3)
+    assert _from_markers(jobs, editor, session) == ("left",)
+    assert start_hint(session, TabState(mirror_id=1), True, True, from_markers=("left",)) == (
+        "Ready: the merged cloud is live. The planes of left come from the markers alone: **Mirrors › Refine from "
+        "the object** makes them more accurate, their tilt above all.")
 
 
 def test_a_markers_fit_without_glass_says_how_to_measure_it():

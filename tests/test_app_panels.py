@@ -485,6 +485,13 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     points, target = app.last_frame.cloud.points, np.asarray(tab.client.camera.look_at)
     assert np.all(target > points.min(axis=0)) and np.all(target < points.max(axis=0))
     tab.show_heat(False)
+    tab.look("depth")                         # ticked in the depth view: the 3D scene, where it is drawn (it had
+    header.heat.value = True                  # changed nothing on the screen: a helper)
+    header._show_heat(ticked=True)
+    assert tab.state.view == "3d" and tab.heat
+    header.heat.value = False
+    header._show_heat(ticked=True)
+    assert tab.state.view == "3d" and not tab.heat
 
 
 def test_look_at_the_object_frames_the_object_not_the_rig(sphere):
