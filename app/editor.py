@@ -91,6 +91,13 @@ def _edits(method):
     return wrapper
 
 
+def _inside(mirror: SessionMirror, uv: tuple[float, float]) -> bool:
+    """Whether pixel uv lies inside the mirror's boundary (False without one)."""
+    if len(mirror.boundary) < 3:
+        return False
+    return cv2.pointPolygonTest(np.asarray(mirror.boundary, np.float32).reshape(-1, 1, 2), uv, False) >= 0
+
+
 class SessionEditor:
     """The session being edited, shared by every tab.
 
@@ -432,8 +439,9 @@ class SessionEditor:
         if mirror.boundary:
             contour = np.asarray(mirror.boundary, np.float32).reshape(-1, 1, 2)
             if cv2.pointPolygonTest(contour, uv, True) < -ON_EDGE:
-                raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its boundary; a marker "
-                                      "must be on the mirror")
+                other = next((m.name for m in self._session.mirrors if m.id != mirror.id and _inside(m, uv)), None)
+                where = f"on {other}: select {other} (Mirror, above) to mark it" if other else "a marker must be on it"
+                raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its boundary; {where}")
         return uv
 
     @staticmethod

@@ -58,6 +58,19 @@ def test_a_marker_off_its_mirror_is_refused_and_changes_nothing(editor, tmp_path
     assert (tmp_path / "session.json").read_bytes() == before and editor.mirror(1).markers == ((100.5, 50.0),)
 
 
+def test_a_marker_clicked_on_another_mirror_names_it(editor):
+    """With mirror 2 selected, a click on mirror 1's glass was refused as "a marker must be on the mirror", though it
+    was on one (a helper): the refusal names the mirror it is on."""
+    editor.set_boundary(1, SQUARE)
+    editor.set_boundary(editor.add_mirror(), [(x + 200, y) for x, y in SQUARE])
+    with pytest.raises(MirrorscanError, match=r"^mirror 2: \(50, 50\) is outside its boundary; on mirror 1: select "
+                                              r"mirror 1 \(Mirror, above\) to mark it$"):
+        editor.add_marker(2, (50, 50))
+    with pytest.raises(MirrorscanError, match=r"is outside its boundary; a marker must be on it$"):
+        editor.add_marker(2, (150, 50))                                # on neither
+    assert not editor.mirror(2).markers and not editor.mirror(1).markers
+
+
 def test_boundaries_are_validated_and_nothing_changes_on_refusal(editor, tmp_path):
     with pytest.raises(MirrorscanError, match="at least 3 vertices"):
         editor.set_boundary(1, SQUARE[:2])

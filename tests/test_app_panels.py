@@ -199,6 +199,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     click(tab, (630, 470))                                    # beside the panel, off mirror 2
     assert said and "outside its boundary" in said[-1] and app.editor.mirror(2) == before
     assert kinds[-1] == ("error", False)                                                  # refused: red
+    mirrors.refresh()                                         # the mode's line names where the clicks go
+    assert mirrors.help.content.startswith("**Markers** mode: click a marker's centre on **mirror 2**")
     # a marker inside the outline but clicked on the floor seen through the glass: the fit moves little, but the
     # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
     bottom = max(before.boundary, key=lambda p: p[1])

@@ -28,14 +28,15 @@ from ..overlays import QUALITY_COLOURS
 TITLE = "Mirrors"
 NO_MIRROR = "(no mirror yet)"
 CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary"}
-HELP = {                                         # the click mode in force, named (the buttons do not show it)
+HELP = {           # the click mode in force, named (the buttons do not show it), and the mirror the clicks go to
+                   # (a click on another mirror's glass was taken for one off the mirror: a helper)
     "inspect": "**Inspect** mode: a click on the depth frame reads the pixel.",
-    "markers": "**Markers** mode: click a marker's centre to add it; click an existing one to pick it.",
-    "boundary": "**Boundary** mode: click the corners in order; click the first again to close.",
+    "markers": "**Markers** mode: click a marker's centre on **{name}** to add it; click an existing one to pick it.",
+    "boundary": "**Boundary** mode: click the corners of **{name}** in order; click the first again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
-CLOSED_HELP = ("**Boundary** mode: the outline is closed: click a corner to pick it, click again to move it, or "
-               "*Clear boundary* to draw it again.")
+CLOSED_HELP = ("**Boundary** mode: the outline of **{name}** is closed: click a corner to pick it, click again to "
+               "move it, or *Clear boundary* to draw it again.")
 NO_GLASS_NOTE = ("Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and a plane on "
                  "their faces is that much too near: **Refine from the object** measures the glass and moves the "
                  "plane behind it.")
@@ -511,7 +512,8 @@ class MirrorsPanel:
         self.fit_all.disabled = refining or not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors)
         self.clear_markers.disabled = not has or not selected.markers
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
-        self.help.content = (CLOSED_HELP if closed else HELP[state.mode]) + (
+        name = selected.name if selected is not None else "the mirror"
+        self.help.content = (CLOSED_HELP if closed else HELP[state.mode]).format(name=name) + (
             " Now click where it goes." if state.moving_marker else "")
         markers, boundary = state.mode == "markers", state.mode == "boundary"
         picked = state.picked_marker is not None and has
