@@ -285,12 +285,11 @@ class Jobs:
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)
             depths = source.session.read_frames(picks)
-            return depths, (f"frames {', '.join(map(str, picks))} of the recording's {len(source.session.frames)}"
-                            " (numbered as in the header)")
+            return depths, _frames_used(picks, len(source.session.frames))
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet to calibrate from")
-        return depths, f"the last {len(depths)} live frames"
+        return depths, "the last live frame" if len(depths) == 1 else f"the last {len(depths)} live frames"
 
     def _refuse(self, session: Session, ids: list[int], kind: str) -> None:
         """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are (refusals)."""
@@ -579,6 +578,15 @@ def left_out(session: Session) -> str:
     bare = [m.name for m in session.mirrors if m.boundary and m.plane is None]
     return (f"{listed(bare)} {'has' if len(bare) == 1 else 'have'} no plane yet: what is seen inside "
             f"{'its outline' if len(bare) == 1 else 'their outlines'} is not in it" if bare else "")
+
+
+def _frames_used(picks: list[int], count: int) -> str:
+    """The frames of a recording of `count` a calibration from the object used (`picks`), in words ("Over frames 0
+    of the recording's 1" read oddly: a helper)."""
+    if count == 1:
+        return "the recording's only frame"
+    which = f"frame {picks[0]}" if len(picks) == 1 else f"frames {', '.join(map(str, picks))}"
+    return f"{which} of the recording's {count} (numbered as in the header)"
 
 
 def refined_headline(mirrors, compared: str = "surfaces") -> str:

@@ -127,7 +127,7 @@ class LiveLoop:
         self.rate = RateMeter()
         self.anchors = Anchors()          # the stream's centres, kept from frame to frame
         self.index = 0
-        self._recent: deque[np.ndarray] = deque(maxlen=RECENT_FRAMES)
+        self._recent: dict[int, np.ndarray] = {}     # frame_number -> depth, oldest first (RECENT_FRAMES at most)
         self._recent_lock = threading.Lock()   # appended on the loop's thread, copied on the browser's
         self._collectors: list[Callable[[LiveFrame], None]] = []
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
@@ -180,8 +180,12 @@ class LiveLoop:
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
             frame = process_frame(self.snapshot(), self.index, source_frame, self.anchors)
             self.index += 1
-        with self._recent_lock:
-            self._recent.append(frame.depth)
+        with self._recent_lock:      # a frame of a recording that loops replaces itself: the same frame again is
+            number = frame_number(frame.index, self.source.frame_count)     # no new data (a one-frame session's
+            self._recent.pop(number, None)                                     # agreement said "over 5 frames")
+            self._recent[number] = frame.depth
+            while len(self._recent) > RECENT_FRAMES:
+                del self._recent[next(iter(self._recent))]
             collectors = list(self._collectors)
         for collect in collectors:
             collect(frame)
@@ -190,9 +194,11 @@ class LiveLoop:
         return frame
 
     def use_source(self, source: DepthSource) -> None:
-        """Play another source of the same camera from its first frame."""
+        """Play another source of the same camera from its first frame (the recent frames were the other's)."""
         with self._turn:
             self.source, self.index, self._ahead = source, 0, None
+            with self._recent_lock:
+                self._recent.clear()
 
     def seek(self, index: int) -> None:
         """Play on from frame `index` (a seekable source); while paused, that frame is processed at once (shown)."""
@@ -210,9 +216,10 @@ class LiveLoop:
         return self.source.read(index)
 
     def recent_depths(self) -> np.ndarray | None:
-        """(k, H, W) metres: the last RECENT_FRAMES depth frames (for calibration over their median), or None."""
+        """(k, H, W) metres: the last RECENT_FRAMES distinct depth frames, oldest first (for calibration over their
+        median), or None."""
         with self._recent_lock:
-            frames = list(self._recent)
+            frames = list(self._recent.values())
         return np.stack(frames) if frames else None
 
     def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0,

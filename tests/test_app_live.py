@@ -19,7 +19,8 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.editor import SESSION_SCOPE
-from app.jobs import HEAT_POOL, Jobs, _moved, agreement_line, found_headline, planes_key, refined_headline
+from app.jobs import HEAT_POOL, Jobs, _frames_used, _moved, agreement_line, found_headline, planes_key, refined_headline
+from app.live import RECENT_FRAMES
 from app.markup import markdown
 from app.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
                              start_hint)
@@ -386,6 +387,21 @@ def test_the_loop_gives_the_cores_to_a_calibration_from_the_object(demo):
         patch.setattr(app.jobs, "running", lambda job: job in ("refine", "record"))   # a recording keeps its rate
         assert app.fps_wanted() is None
     assert app.fps_wanted() is None and loop.pace() == 30.0
+
+
+def test_the_recent_frames_are_distinct_frames(demo, monkeypatch):
+    """A recording that loops gives the same frame again: on a one-frame session the agreement lines said "over 5
+    frames" (and counted its points five times; a helper). The last RECENT_FRAMES frames are distinct ones."""
+    app, _ = demo
+    loop = app.loop
+    monkeypatch.setattr(loop.source, "frame_count", 1)                 # a one-frame recording, looping
+    loop.use_source(loop.source)                                       # played from its start: no frame yet
+    assert loop.recent_depths() is None
+    frames = [loop.run_once().depth for _ in range(3)]
+    assert len(loop.recent_depths()) == 1 and np.array_equal(loop.recent_depths()[0], frames[-1])
+    monkeypatch.setattr(loop.source, "frame_count", None)              # a live source: every frame is new
+    frames = [loop.run_once().depth for _ in range(RECENT_FRAMES + 2)]
+    np.testing.assert_array_equal(loop.recent_depths(), np.stack(frames[-RECENT_FRAMES:]))
 
 
 def test_the_tabs_are_asked_less_often_while_nothing_plays(demo, monkeypatch):
@@ -1215,6 +1231,13 @@ def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
                SessionMirror("right", ((1.0, 1.0),) * 3, plane=plane, id=2, marker_offset_std=8e-4))
     jobs = SimpleNamespace(from_object=lambda mirror_id, plane: False)
     assert _no_glass(jobs, Session(tmp_path, Intrinsics.kinect_v1(), mirrors)) == ("left",)
+
+
+def test_the_frames_a_calibration_used_are_said_plainly():
+    """ "Over frames 0 of the recording's 1" (a helper)."""
+    assert _frames_used([0], 1) == "the recording's only frame"
+    assert _frames_used([3], 8) == "frame 3 of the recording's 8 (numbered as in the header)"
+    assert _frames_used([0, 4, 9], 10) == "frames 0, 4, 9 of the recording's 10 (numbered as in the header)"
 
 
 def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_path):
