@@ -1337,5 +1337,7 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert "No mirror has a plane yet" in bare and "computing" not in bare
     assert text.endswith("<i>A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm "
                          "read 0.2 mm on the sphere): <b>Refine from the object</b> measures it.</i></div>")
+    typed = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, no_glass=False)   # every glass set
+    assert typed.endswith("a glass hardly does (3 mm read 0.2 mm on the sphere).</i></div>")
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)
     assert "Refine from the object" not in refined and "these planes come from the object" in refined

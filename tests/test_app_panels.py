@@ -298,8 +298,8 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     assert mirror_status(placed, True, glass_unused=True) == (          # a helper typed 4 mm over a refined 2.8
         "plane from the object · glass 4.2 mm typed in: the next markers fit uses it, this plane does not depend on "
         "it · 1 marker")
-    measured = replace(placed, marker_offset=0.0)              # the refinement measured no glass: not "none set"
-    assert mirror_status(measured, True) == "plane from the object · glass 0.0 mm · 1 marker"
+    measured = replace(placed, marker_offset=0.0)    # no glass read (one marker): not "0.0 mm"
+    assert mirror_status(measured, True) == "plane from the object · glass not measured · 1 marker"
     assert mirror_status(measured, False).startswith("plane calibrated · no glass set")
     assert mirror_status(replace(measured, markers=()), True) == "plane from the object · 0 markers"
 

@@ -67,13 +67,14 @@ FEW_COMPARED = (" (it sees little of what the camera sees: its agreement under M
 
 
 def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str],
-                     refined: bool = False, planes: bool = True) -> str:
+                     refined: bool = False, planes: bool = True, no_glass: bool = True) -> str:
     """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the direct surface
     and the share of its points compared over the heat maps of the last `frames` frames (figures as in HeatChanged;
     empty until the first map arrives), against the camera's surface (the agreement lines beside it compare every
-    view); then what the map can show (HEAT_READS) and what measures the glass: the refinement, or (`refined`: every
-    plane came from it) that it did; without `planes` (no mirror has one) what to do first (it had said "computing
-    the heat map…" for good: a helper)."""
+    view); then what the map can show (HEAT_READS) and what measures the glass: the refinement, while `no_glass`
+    (a plane from markers has none set: after the glass was typed in, it still said so: a helper), or (`refined`:
+    every plane came from it) that it did; without `planes` (no mirror has one) what to do first (it had said
+    "computing the heat map…" for good: a helper)."""
     if not planes:
         return (f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the points seen in a '
                 "mirror with the camera's surface. Fit the planes from markers, or find them from the object "
@@ -86,7 +87,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
     over = "this frame" if frames == 1 else f"the last {frames} frames"
     body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures
             else "computing the heat map…")
-    reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS)
+    reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS if no_glass else ".")
     return f'<div style="{LEGEND_STYLE}">{key}<br>{body}<br><i>{reads}</i></div>'
 
 
@@ -367,7 +368,8 @@ class LivePanel:
         session = frame.snapshot.session
         self.legend.content = (heat_legend_html(self.tab.heat_figures, self.tab.heat_frames, names,
                                                 _from_object(services.jobs, session),
-                                                any(m.plane is not None for m in session.mirrors)) if heat
+                                                any(m.plane is not None for m in session.mirrors),
+                                                bool(_no_glass(services.jobs, session))) if heat
                                else legend_html(frame.counts, names, frame.mirror_ids, tuple(
                                    m.name for m in frame.snapshot.session.mirrors if m.plane is None)))
         self._heat_choices()

@@ -95,9 +95,10 @@ class MirrorsPanel:
         with gui.add_folder("Rename, glass, remove, clear", expand_by_default=False):
             self.name = gui.add_text("Name", "")
             self.rename = gui.add_button("Rename")
-            self.glass = gui.add_number("Markers in front of the silver (mm)", initial_value=0.0, min=0.0,
-                                        max=MAX_MARKER_OFFSET * 1e3, step=0.1,
-                                        hint="the glass between the stickers and the reflecting surface; fit again")
+            self.glass = gui.add_number("Glass (mm)", initial_value=0.0, min=0.0,    # as every message calls it
+                                        max=MAX_MARKER_OFFSET * 1e3, step=0.1,       # (a helper)
+                                        hint="how far the markers stand in front of the silver (the glass they "
+                                        "are stuck on): a fit from the markers puts the plane this far behind them")
             self.clear_markers = gui.add_button("Clear markers")
             self.remove = gui.add_button("Remove this mirror…", color="red")
             self.restore = gui.add_button("Undo", visible=False)
@@ -720,7 +721,8 @@ def mirror_status(mirror: SessionMirror | None, from_object: bool, glass_unused:
     elif mirror.glass_typed:
         glass = f"glass {mirror.marker_offset * 1e3:.1f} mm typed in"
     else:
-        glass = f"glass {mirror.marker_offset * 1e3:.1f} mm" if from_object else "no glass set"
+        glass = "glass not measured" if from_object else "no glass set"    # "glass 0.0 mm" beside one marker on
+                                                                            # a plane found (a helper)
     if glass_unused:
         glass += (": the next markers fit uses it, this plane does not depend on it" if from_object else
                   ", not in the plane yet: **Fit plane** moves it behind the glass")
