@@ -71,8 +71,8 @@ class MirrorsPanel:
         self.help = gui.add_markdown(HELP["inspect"])
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
-        self.refine = gui.add_button("Refine from the object")
-        self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False)
+        self.scene = gui.add_button("Find the planes from the object (no markers)", visible=False)   # above Refine:
+        self.refine = gui.add_button("Refine from the object")   # in view at 1024x600 where no plane is set (a helper)
         self.refine_cancel = gui.add_button("Cancel", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
         self.greyed = gui.add_html("", visible=False)   # why the buttons above are greyed out (viser 1.1 shows no
