@@ -190,6 +190,10 @@ def test_simulate_kaleidoscope_and_bounces(tmp_path, capsys):
     truth = json.loads((out / "truth.json").read_text())
     expected = kaleidoscope_scene(72.0)
     assert [m["plane"] for m in truth["mirrors"]] == [m.plane.to_list() for m in expected.mirrors]
+    assert "note:" not in capsys.readouterr().out
+    assert main(["simulate", str(tmp_path / "k120"), "--kaleidoscope", "--noise", "none", "--quiet"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == (     # the angle of the V (a helper expected 72): said
+        "note: hinged at 120 degrees the mirrors show no view through two of them; --angle 72 gives such views")
     for argv, message in [(["--bounces", "4"], "--bounces: the simulator renders 1 to 3 reflections, got 4"),
                           (["--single-bounce", "--bounces", "2"], "--single-bounce means --bounces 1"),
                           (["--kaleidoscope", "--mirrors", "3"], "--kaleidoscope: a hinged pair has 2 mirrors"),

@@ -24,8 +24,9 @@ def register(sub) -> None:
     p.add_argument("--distance", type=float, help="camera to object, metres (default 2.0; 3.0 for the figure, which "
                    "the camera sees whole only from there)")
     p.add_argument("--kaleidoscope", action="store_true",
-                   help="two mirrors hinged at the apex (1.4 m wide, 15 cm from the object) instead of the paper's V: "
-                        "below about 90 degrees the object is also seen through two and three mirrors in turn")
+                   help="two mirrors hinged at the apex (1.4 m wide, 15 cm from the object) instead of the paper's V, "
+                        "at --angle (default 120, as the V): below about 90 degrees (72, say) the object is also seen "
+                        "through two and three mirrors in turn")
     p.add_argument("--scene", help="a scene JSON file instead of the options above")
     p.add_argument("--noise", choices=["none", "kinect", "kinect-noiseless"], default="kinect",
                    help="sensor model (default kinect)")
@@ -61,6 +62,9 @@ def run(args: argparse.Namespace) -> int:
     rig = Simulator(scene, SensorModel.from_name(args.noise), args.seed, bounces)
     out = write_session(rig, args.out, args.frames, args.noise, progress=not args.quiet)
     print(f"wrote {out} ({args.frames} frame{'s' if args.frames != 1 else ''}, {len(scene.mirrors)} mirrors)")
+    if args.kaleidoscope and (args.angle is None or args.angle >= 90):     # a helper took 120 for the 72 wanted
+        print(f"note: hinged at {args.angle or 120:g} degrees the mirrors show no view through two of them; "
+              "--angle 72 gives such views")
     return 0
 
 
