@@ -906,7 +906,11 @@ def test_a_report_stays_while_it_describes_every_plane(demo):
         mirrors.refresh()
         assert mirrors.result.content == markdown(report)
         editor.remove_mirror(new)
-        editor.remove_mirror(second.id)
+        checks = []
+        with pytest.MonkeyPatch.context() as patch:       # the agreement lines checked again (they had kept the
+            patch.setattr(app_.jobs, "start_agreement", lambda: checks.append(1))     # removed mirror's: a helper)
+            mirrors._travel_mirrors(lambda: editor.remove_mirror(second.id))
+        assert checks == [1]
         mirrors.refresh()
         assert mirrors.result.content == markdown(f"{report}\n\n*{second.name} was removed since.*")
         editor.undo(SESSION_SCOPE)                                 # the second mirror back: its report as it was
@@ -929,10 +933,13 @@ def test_a_report_stays_while_it_describes_every_plane(demo):
 def test_removing_a_mirror_names_what_it_has():
     plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
     full = SessionMirror("left", markers=((1, 1),), boundary=((0, 0), (10, 0), (10, 10)), plane=plane, id=1)
-    assert removal_question(full) == ("left and its 1 marker, boundary and plane leave the session. *Undo* below the "
-                                      "Remove button brings it back.")
+    assert removal_question(full) == (                  # its reflection became a grey ghost object (a helper)
+        "left and its 1 marker, boundary and plane leave the session. What it shows then counts as seen directly: "
+        "take the mirror out of the camera's view too, or what is seen in it stands in the cloud as an object of its "
+        "own. *Undo* below the Remove button brings it back.")
     assert removal_question(replace(full, markers=(), plane=None)).startswith("left and its boundary leave the")
-    assert removal_question(SessionMirror("new", id=2)).startswith("new leaves the session.")
+    assert removal_question(SessionMirror("new", id=2)) == (
+        "new leaves the session. *Undo* below the Remove button brings it back.")
 
 
 def test_greyed_out_buttons_say_why():
@@ -1297,8 +1304,10 @@ def test_the_legend_says_which_mirrors_leave_their_part_out():
     name = {0: "direct", 1: "left", 2: "right"}.get
     assert "no plane yet" not in legend_html({0: 1350, 1: 0}, name, (1, 2))
     one = legend_html({0: 1350, 1: 0}, name, (1, 2), ("left",))
-    assert one.endswith("<br>left: no plane yet, so the object seen in it is left out</div>")
-    assert "left and right: no plane yet, so the object seen in them is left out" in legend_html(
+    assert one.endswith("<br>left: no plane yet, so all inside its outline is left out (the object in front "
+                        "too)</div>")
+    assert ("left and right: no plane yet, so all inside their outlines is left out (the object in front "
+            "too)") in legend_html(
         {0: 1350}, name, (1, 2), ("left", "right"))
 
 
@@ -1333,6 +1342,9 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
            "agreement under Mirrors compares it with every view)" in heat_legend_html({1: (-1.44, 0.004)}, 1,
                                                                                       {1: "left"}.get)
     assert "compares it with every view" not in text                     # 7% compared: the camera checks it
+    multi = heat_legend_html({33: (float("nan"), 0.0)}, 1, {33: "left then right"}.get)   # no line of its own
+    assert ("left then right: none of its points seen by the camera (seen through several mirrors: the agreement "
+            "lines of those mirrors under Mirrors check it)") in multi
     bare = heat_legend_html({}, 0, {1: "left"}.get, planes=False)         # no plane: what to do, not "computing"
     assert "No mirror has a plane yet" in bare and "computing" not in bare
     assert text.endswith("<i>A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm "

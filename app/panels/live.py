@@ -10,8 +10,8 @@ from typing import Callable
 
 import numpy as np
 
-from mirrorcore.palette import (HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO, SOURCE_COLOURS, source_colour,
-                                source_name)
+from mirrorcore.palette import (FIRST_MULTI_LABEL, HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO,
+                                SOURCE_COLOURS, source_colour, source_name)
 from mirrorcore.session import Session
 from mirrorcore.sources import SessionSource
 from mirrorcore.words import listed
@@ -45,8 +45,9 @@ def legend_html(counts: dict[int, int], name: Callable[[int], str], mirror_ids: 
     items = "".join(_swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
                     for j, count in counts.items())
     if unplaned:
-        items += (f"<br>{escape(listed(unplaned))}: no plane yet, so the object seen in "
-                  f"{'it' if len(unplaned) == 1 else 'them'} is left out")
+        items += (f"<br>{escape(listed(unplaned))}: no plane yet, so all inside "     # the object in front of
+                  f"{'its outline' if len(unplaned) == 1 else 'their outlines'} is left out "     # them too: a helper
+                  "(the object in front too)")                                           # took "direct 0" for none
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
@@ -64,6 +65,7 @@ HEAT_REFINED = "; these planes come from the object, where the glass plays no pa
 HEAT_FEW = 0.05             # a view with fewer of its points compared than this is told where it is checked
 FEW_COMPARED = (" (it sees little of what the camera sees: its agreement under Mirrors compares it with every "
                 "view)")          # an arc's middle mirror: "under 1%", with no advice (a helper)
+FEW_COMPARED_MULTI = " (seen through several mirrors: the agreement lines of those mirrors under Mirrors check it)"
 
 
 def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name: Callable[[int], str],
@@ -80,9 +82,12 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
                 "mirror with the camera's surface. Fit the planes from markers, or find them from the object "
                 "(Mirrors).</div>")
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
+    def few(j: int) -> str:       # a view through several mirrors has no agreement line (a helper looked for one)
+        return FEW_COMPARED_MULTI if j >= FIRST_MULTI_LABEL else FEW_COMPARED
+
     lines = [f"{escape(name(j))}: median {median:+.1f} mm, {_share(share)} of its points compared"
-             + (FEW_COMPARED if share < HEAT_FEW else "")
-             if np.isfinite(median) else f"{escape(name(j))}: none of its points seen by the camera{FEW_COMPARED}"
+             + (few(j) if share < HEAT_FEW else "")
+             if np.isfinite(median) else f"{escape(name(j))}: none of its points seen by the camera{few(j)}"
              for j, (median, share) in figures.items()]
     over = "this frame" if frames == 1 else f"the last {frames} frames"
     body = ("<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines]) if figures

@@ -189,7 +189,7 @@ class MirrorsPanel:
         self.refine_cancel.on_click(lambda _: self.services.jobs.cancel(REFINE))
         self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
         self.remove.on_click(lambda _: act(self._confirm_remove))
-        self.restore.on_click(lambda _: act(lambda: editor.undo(SESSION_SCOPE)))
+        self.restore.on_click(lambda _: act(lambda: self._travel_mirrors(lambda: editor.undo(SESSION_SCOPE))))
 
     # ------------------------------------------------------------------ the selected mirror
     def _id(self) -> int:
@@ -387,7 +387,13 @@ class MirrorsPanel:
     def _confirm_remove(self) -> None:
         mirror = self._mirror()
         self.tab.ask(f"Remove {mirror.name}?", removal_question(mirror), f"Remove {mirror.name}",
-                     lambda: self.services.editor.remove_mirror(mirror.id), "Keep it")
+                     lambda: self._travel_mirrors(lambda: self.services.editor.remove_mirror(mirror.id)), "Keep it")
+
+    def _travel_mirrors(self, change: Callable[[], object]) -> None:
+        """A mirror removed, or brought back (its Undo): then how the views agree (the lines had kept the removed
+        mirror's figures: a helper)."""
+        change()
+        self._check_agreement()
 
     # ------------------------------------------------------------------ plane fitting
     def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
@@ -737,7 +743,9 @@ def removal_question(mirror: SessionMirror) -> str:
     has = (([f"{count} marker{'s' if count != 1 else ''}"] if count else []) + (["boundary"] if mirror.boundary else [])
            + (["plane"] if mirror.plane is not None else []))
     what = f"{mirror.name} and its {listed(has)} leave" if has else f"{mirror.name} leaves"
-    return f"{what} the session. *Undo* below the Remove button brings it back."
+    shows = (" What it shows then counts as seen directly: take the mirror out of the camera's view too, or what is "
+             "seen in it stands in the cloud as an object of its own." if mirror.boundary else "")
+    return f"{what} the session.{shows} *Undo* below the Remove button brings it back."
 
 
 def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[int, str],
