@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mirrorcore.agreement import heat_figures, surface_distances
+from mirrorcore.agreement import heat_figures, local_means, surface_distances
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
 from mirrorcore.calibration import calibration_depth, static_frames
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
@@ -382,16 +382,18 @@ class Jobs:
 
     def start_heat(self, frame: "LiveFrame") -> None:
         """The heat map of one live frame, on a worker (about a third of a second a frame): its points, grey for the
-        direct view and coloured by their distance to the direct surface for the mirrors' (white on it, red
-        outside, blue inside, HEAT_LIMIT_MM and beyond saturated; dark grey where the camera does not see them), and
-        each mirror view's figures, published as HeatChanged; skipped while one runs."""
+        direct view and coloured by their distance to the direct surface for the mirrors' (agreement.local_means
+        of it; white on it, red outside, blue inside, HEAT_LIMIT_MM and beyond saturated; dark grey where the camera
+        does not see them), and each mirror view's figures (of the points' own distances), published as
+        HeatChanged; skipped while one runs."""
         if self.running(HEAT):
             return
 
         def work(cancel: threading.Event) -> None:
             distances = surface_distances(frame.snapshot.rig, frame.cloud, frame.prepared_depth)
             sources = frame.cloud.sources
-            colours = heat_map_colours(distances, sources, HEAT_LIMIT_MM)
+            local = local_means(distances, frame.cloud.pixel_index, sources, frame.prepared_depth.shape)
+            colours = heat_map_colours(local, sources, HEAT_LIMIT_MM)
             pooled = self._pool_heat(frame.snapshot.rig, frame_number(frame.index, self.loop.source.frame_count),
                                      distances, sources)
             figures = heat_figures(*(np.concatenate(parts) for parts in zip(*pooled)))

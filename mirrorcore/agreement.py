@@ -42,6 +42,9 @@ AGREE_SIGMAS = 3.0           # ... and their surfaces within this many standard 
 ANCHOR_NOISE = 0.3           # a neighbours' surface having this share of a reading's noise (wider windows let the
                              # walking figure's limbs compare with the wrong surfaces: 1.5 mm more bias at 0.5)
 SHOWN_GATE = 0.03            # metres: distances shown (heat map, reports) count surfaces this far apart as the same
+HEAT_WINDOW = 7              # pixels: the heat map colours a point by the mean distance of its view's compared points
+                             # in this window about it (one point's scatters by the depth noise, 6 to 10 mm: correct
+                             # planes looked mottled red and blue at a 10 mm scale, a helper)
 CURVATURE_STEP = 0.005       # metres along a point's ray: the step of the second difference that measures the target
                              # surface's curvature where the anchor's error moves it (its quadratic: any step < 2 cm)
 RIM_LANDING_PX = 1.0         # pixels: how surely a point must fall on a reading on the rim of the other view to be
@@ -195,6 +198,25 @@ def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
             found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane), SHOWN_GATE)
             pixels = views.points(j).pixels[found.index]
             out[np.searchsorted(cloud.pixel_index, pixels)] = 1e3 * found.residual
+    return out
+
+
+def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray, shape: tuple[int, int],
+                size: int = HEAT_WINDOW) -> np.ndarray:
+    """(n,) float32: each finite value replaced by the mean of the finite values of its own source within the size x
+    size pixels about its pixel; NaN stays NaN. values (n,) float, pixel_index (n,) flat indices into an image of
+    `shape` (H, W) (one point a pixel), sources (n,) labels."""
+    values, sources = np.asarray(values, np.float32), np.asarray(sources)
+    out = np.full(len(values), np.nan, np.float32)
+    finite = np.isfinite(values)
+    for label in np.unique(sources[finite]):             # a few views a frame
+        pick = finite & (sources == label)
+        pixels = np.asarray(pixel_index)[pick]
+        total, count = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+        total.reshape(-1)[pixels], count.reshape(-1)[pixels] = values[pick], 1.0
+        total, count = (cv2.boxFilter(image, -1, (size, size), normalize=False, borderType=cv2.BORDER_CONSTANT)
+                        for image in (total, count))
+        out[pick] = total.reshape(-1)[pixels] / count.reshape(-1)[pixels]
     return out
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from helpers import plane_depth, sphere_depth
 
-from mirrorcore.agreement import TargetView, frame_views, heat_figures, in_view, surface_distances
+from mirrorcore.agreement import TargetView, frame_views, heat_figures, in_view, local_means, surface_distances
 from mirrorcore.calibration import calibrate_from_pairs
 from mirrorcore.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics, project_points
@@ -386,6 +386,17 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
         assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3
         assert a.after.angle_to(b.after) < 0.01
+
+
+def test_the_heat_map_colours_a_point_by_its_views_local_mean():
+    """One point's distance scatters by the depth noise (correct planes looked mottled: a helper): the mean of the
+    finite distances of its own view within the window about it; other views and NaN (not compared) stay out."""
+    shape = (5, 6)
+    pixels = np.ravel_multi_index(([0, 0, 0, 0, 1, 4], [0, 1, 2, 3, 3, 5]), shape)
+    values = np.array([1.0, 2.0, np.nan, 10.0, 4.0, 7.0])
+    sources = np.array([1, 1, 1, 2, 1, 1])
+    means = local_means(values, pixels, sources, shape, size=3)
+    np.testing.assert_allclose(means, [1.5, 1.5, np.nan, 10.0, 4.0, 7.0])   # (0, 3) is mirror 2's alone
 
 
 def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
