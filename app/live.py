@@ -23,6 +23,8 @@ from .state import Snapshot
 from .stream import HALVES, Anchors, SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # the last depth frames kept for calibrating on (markers.marker_points)
+PACE_CHECK_S = 0.1  # while the loop waits for its next frame, it looks at its pace this often (at 1 fps during a job,
+                    # the header said so for up to a second after the job had ended: a helper)
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,7 +269,16 @@ class LiveLoop:
             except Exception as exc:  # noqa: BLE001 - a bad frame or a lost camera must not end the loop
                 self.on_error(exc)
                 self._stop.wait(0.5)
-            self._stop.wait(max(0.0, 1.0 / self.pace() - (time.perf_counter() - started)))
+            self._rest(started)
+
+    def _rest(self, started: float) -> None:
+        """Wait until the next frame is due at the pace (time.perf_counter() `started` the last), looking at the pace
+        every PACE_CHECK_S: a job that ends brings the next frame at once."""
+        while not self._stop.is_set():
+            left = 1.0 / self.pace() - (time.perf_counter() - started)
+            if left <= 0:
+                return
+            self._stop.wait(min(left, PACE_CHECK_S))
 
     def pace(self) -> float:
         """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks for fewer and no

@@ -432,6 +432,19 @@ def test_the_tabs_are_asked_less_often_while_nothing_plays(demo, monkeypatch):
     assert min(playing[1], paused[1], busy[1]) >= 10, (playing, paused, busy)
 
 
+def test_the_loop_speeds_up_as_soon_as_a_job_ends(demo, monkeypatch):
+    """At BUSY_FPS (1) the loop had waited out its second after the job ended, the header still saying "at most 1
+    fps while ..." (a helper): it looks at its pace every PACE_CHECK_S while it waits."""
+    app, _ = demo
+    busy = [True]
+    monkeypatch.setattr(app.jobs, "running", lambda job: busy[0] and job == "refine")
+    assert app.loop.pace() == BUSY_FPS == 1.0
+    threading.Timer(0.2, lambda: busy.__setitem__(0, False)).start()       # the job ends 0.2 s in
+    started = time.perf_counter()
+    app.loop._rest(started)
+    assert time.perf_counter() - started < 0.6
+
+
 def test_the_loop_slows_down_while_no_tab_shows_the_cloud(demo, tmp_path, monkeypatch):
     """The source's 30 fps while a tab looks at the 3D scene, records, or collects frames; IDLE_FPS while every tab
     looks at the depth frame (sent 8 times a second) or is hidden, the header saying so."""
