@@ -35,11 +35,12 @@ FILE_POLL_S = 0.5         # how often session.json is looked at: did another pro
 VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden or lag, while the live cloud plays...
 QUIET_POLL_S = 5.0        # ... and while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw
                           # its 3D scene for 250 ms, which kept a paused scene at 28-30 frames a second and Chromium's
-                          # software WebGL on one of the 2 cores (Find on the walking figure, paused: 7.0-7.5 s at
-                          # 0.5 s, 5.6 s at 5 s, as with no browser)
+                          # software WebGL on one of the 2 cores (Find on the walking figure, paused: 6.2-8.9 s at
+                          # 0.5 s, 5.0-5.4 s at 5 s, as with no browser)
 IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 BUSY_FPS = 1.0            # ... and while a job that needs the cores runs: each cloud sent makes the page draw for
-                          # 250 ms (on 2 cores, Find on the walking figure with the cloud playing: 8.3-11.3 s at 5 fps)
+                          # 250 ms (on 2 cores, Find on the walking figure with the cloud playing: 9.3-9.8 s at 5 fps,
+                          # 6.2-6.8 s at this rate with the quiet poll)
 BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
 AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
 PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest

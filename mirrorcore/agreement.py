@@ -43,8 +43,9 @@ ANCHOR_NOISE = 0.3           # a neighbours' surface having this share of a read
                              # walking figure's limbs compare with the wrong surfaces: 1.5 mm more bias at 0.5)
 SHOWN_GATE = 0.03            # metres: distances shown (heat map, reports) count surfaces this far apart as the same
 HEAT_WINDOW = 7              # pixels: the heat map colours a point by the mean distance of its view's compared points
-                             # in this window about it (one point's scatters by the depth noise, 6 to 10 mm: correct
-                             # planes looked mottled red and blue at a 10 mm scale, a helper)
+                             # in this window about it (one point's scatters with the depth noise: correct planes
+                             # looked mottled red and blue at a 10 mm scale, a helper; on the sphere's true planes the
+                             # share beyond 5 mm went from 3-8 % to 0-3 %)
 CURVATURE_STEP = 0.005       # metres along a point's ray: the step of the second difference that measures the target
                              # surface's curvature where the anchor's error moves it (its quadratic: any step < 2 cm)
 RIM_LANDING_PX = 1.0         # pixels: how surely a point must fall on a reading on the rim of the other view to be

@@ -82,6 +82,7 @@ def heat_legend_html(figures: dict[int, tuple[float, float]], frames: int, name:
                 "mirror with the camera's surface. Fit the planes from markers, or find them from the object "
                 "(Mirrors).</div>")
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
+
     def few(j: int) -> str:       # a view through several mirrors has no agreement line (a helper looked for one)
         return FEW_COMPARED_MULTI if j >= FIRST_MULTI_LABEL else FEW_COMPARED
 
