@@ -56,6 +56,8 @@ class Step:
     group: int = 0
     what: str = ""          # of set_planes' steps: what each mirror's change is ('plane' from the markers, 'refined
                             # plane'): names a part of a group, and tells a markers fit
+    order: int = 0          # when it was made, undone or redone last (the editor's count): which history holds the
+                            # newest step (travel_scope)
 
 
 PARTIAL = " only: "     # in the label of a group's step that moves part of its mirrors (the others changed since)
@@ -117,6 +119,7 @@ class SessionEditor:
         self.last_save_error: str | None = None
         self._changed = False
         self._groups = itertools.count(1)
+        self._orders = itertools.count(1)          # Step.order
         self._disk = _stamp(session.path)          # session.json as the editor last read or wrote it
 
     @property
@@ -323,6 +326,20 @@ class SessionEditor:
         return f"{where} was changed by another program (mirrorscan calibrate?): reloaded, undo history cleared", True
 
     # ------------------------------------------------------------------ undo and redo
+    def travel_scope(self, mirror_id: int | None, redo: bool = False) -> int:
+        """Where undo (or redo) acts for the selected mirror: its own history, or the session's (mirrors added and
+        removed, the bounces) when the mirror's holds nothing or the session's last step is a removal made, undone
+        or redone after the mirror's last (a mirror removed, the main Undo had offered the selected mirror's older
+        refinement: a helper). An added mirror is not taken back over the selected one's steps: its undo would
+        take the new mirror's work with it."""
+        with self._lock:
+            source = self._redo if redo else self._undo
+            own, shared = source.get(mirror_id) if mirror_id else None, source.get(SESSION_SCOPE)
+            if not own:
+                return SESSION_SCOPE
+            removal = bool(shared) and shared[-1].after[0] == "remove" and shared[-1].order > own[-1].order
+            return SESSION_SCOPE if removal else mirror_id
+
     def undo_label(self, scope: int) -> str | None:
         """What undo in this scope (a mirror id, or SESSION_SCOPE) would take back, or None."""
         with self._lock:
@@ -395,10 +412,11 @@ class SessionEditor:
             raise MirrorscanError(f"nothing to {verb}")
         label = self._label(scope, source)
         scopes = self._group_split(steps[-1], source)[0] or [scope]
+        order = next(self._orders)
         for s in scopes:
             moved = source[s].pop()
             self._session = self._restore(s, getattr(moved, side))
-            target.setdefault(s, []).append(moved)
+            target.setdefault(s, []).append(replace(moved, order=order))
         self._save_and_notify()
         return label
 
@@ -476,6 +494,7 @@ class SessionEditor:
         """Record an undo step and take the session, saving it unless `save` is False (one of several steps that
         the last saves)."""
         check_limits(session)                         # the limits of a session that is read: it would not reopen
+        step = replace(step, order=next(self._orders))
         self._undo[scope] = (self._undo.get(scope, []) + [step])[-UNDO_DEPTH:]
         self._redo.pop(scope, None)
         self._session = session

@@ -212,6 +212,28 @@ def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(edit
     assert editor.glass_unused(1)
 
 
+def test_undo_takes_back_the_newest_step_of_the_mirror_or_the_session(editor):
+    """A mirror removed after the selected mirror's refinement: the main Undo had offered the refinement, the removal
+    sitting under its own button (a helper). A removal newer than the mirror's last step is undone first, and redone
+    first when it was undone last; a mirror added is not (its undo would take its work with it)."""
+    editor.set_planes({1: (PLANE, editor.mirror(1))}, what="refined plane")
+    second = editor.add_mirror()
+    assert editor.travel_scope(1) == 1 and editor.travel_scope(second) == SESSION_SCOPE      # the add: not over 1
+    editor.remove_mirror(second)
+    assert editor.travel_scope(1) == SESSION_SCOPE and editor.undo_label(SESSION_SCOPE) == f"remove mirror {second}"
+    editor.undo(editor.travel_scope(1))                              # the removal taken back first
+    assert [m.id for m in editor.session.mirrors] == [1, second]
+    assert editor.travel_scope(1, redo=True) == SESSION_SCOPE
+    editor.add_marker(1, (20, 20))                                  # a newer step of the mirror's own
+    assert editor.travel_scope(1) == 1 and editor.undo_label(1) == "marker 1.1"
+    editor.undo(editor.travel_scope(1))
+    assert editor.travel_scope(1) == 1                              # then its plane (the mirror added: not over it)
+    assert editor.travel_scope(1, redo=True) == 1                   # the marker was undone last
+    editor.redo(1)
+    assert editor.travel_scope(1) == 1                              # redone: the newest again
+    assert editor.travel_scope(None) == SESSION_SCOPE and editor.travel_scope(second) == SESSION_SCOPE
+
+
 def test_a_plane_fitted_on_the_markers_a_mirror_has_is_known_as_such(editor):
     """A markers fit of the same markers again only refits them on other frames: the editor tells from its undo steps,
     so that a marker the user applied a plane with is not asked about again (a helper was asked to apply 'turned

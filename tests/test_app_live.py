@@ -951,10 +951,10 @@ def test_removing_a_mirror_names_what_it_has():
     assert removal_question(full) == (                  # its reflection became a grey ghost object (a helper)
         "left and its 1 marker, boundary and plane leave the session. What it shows then counts as seen directly: "
         "take the mirror out of the camera's view too, or what is seen in it stands in the cloud as an object of its "
-        "own. *Undo* below the Remove button brings it back.")
+        "own. *Undo*, or *Bring back* below the Remove button, brings it back.")
     assert removal_question(replace(full, markers=(), plane=None)).startswith("left and its boundary leave the")
     assert removal_question(SessionMirror("new", id=2)) == (
-        "new leaves the session. *Undo* below the Remove button brings it back.")
+        "new leaves the session. *Undo*, or *Bring back* below the Remove button, brings it back.")
 
 
 def test_greyed_out_buttons_say_why():

@@ -132,9 +132,10 @@ def test_removing_asks_and_can_be_undone(app, tab):
     button(page, "Remove this mirror…")
     button(page, "Remove mirror 1")
     wait_for(lambda: [m.id for m in app.editor.session.mirrors] == [2], what="the removal")
-    button(page, "Undo: remove mirror 1")
-    wait_for(lambda: [m.id for m in app.editor.session.mirrors] == [1, 2], what="mirror 1 back")
-    assert app.editor.mirror(1).plane is not None
+    wait_for(lambda: page.get_by_role("button", name="Bring back mirror 1").is_visible(), what="its own button")
+    button(page, "Undo: remove mirror 1")                          # the main Undo offers it too (it had offered
+    wait_for(lambda: [m.id for m in app.editor.session.mirrors] == [1, 2], what="mirror 1 back")  # mirror 2's
+    assert app.editor.mirror(1).plane is not None                                                 # plane: a helper)
 
 
 def test_two_tabs_keep_their_own_mode(app, browser, tab):

@@ -321,8 +321,9 @@ class MirrorsPanel:
         self.tab.changed()
 
     def _travel(self, move) -> None:
-        """Undo or redo in the selected mirror's scope, or in the session's when the mirror has nothing to undo;
-        undo while an outline is drawn takes its last corner back (it removed the mirror being drawn: a helper)."""
+        """Undo or redo in the selected mirror's scope, or in the session's when that holds the newer step
+        (SessionEditor.travel_scope); undo while an outline is drawn takes its last corner back (it removed the
+        mirror being drawn: a helper)."""
         editor = self.services.editor
         draft = self.tab.state.drafts.get(self.tab.state.mirror_id)
         if move == editor.undo and draft:
@@ -332,10 +333,8 @@ class MirrorsPanel:
                 del self.tab.state.drafts[self.tab.state.mirror_id]
             self.tab.changed()
             return
-        scope = self.tab.state.mirror_id or SESSION_SCOPE
-        label = (editor.undo_label if move == editor.undo else editor.redo_label)(scope)
         before = planes_key(editor.session)
-        label = move(scope if label is not None else SESSION_SCOPE)
+        label = move(editor.travel_scope(self.tab.state.mirror_id, redo=move == editor.redo))
         self.tab.state.picked_marker = self.tab.state.picked_corner = None
         self._report(self._report_after_travel(before, planes_key(editor.session), label, move == editor.undo))
         self._check_agreement()                    # the views' agreement with the planes now
@@ -533,8 +532,8 @@ class MirrorsPanel:
         scope = state.mirror_id or SESSION_SCOPE
         draft = state.drafts.get(scope)
         self._label(self.undo, "Undo", f"corner {len(draft)} of the outline" if draft else
-                    editor.undo_label(scope) or editor.undo_label(SESSION_SCOPE))
-        self._label(self.redo, "Redo", editor.redo_label(scope) or editor.redo_label(SESSION_SCOPE))
+                    editor.undo_label(editor.travel_scope(state.mirror_id)))
+        self._label(self.redo, "Redo", editor.redo_label(editor.travel_scope(state.mirror_id, redo=True)))
         if refining:                  # what a refinement applies is computed on the planes as they were
             self.undo.disabled = self.redo.disabled = True
         elsewhere = () if not self.undo.disabled else tuple(
@@ -542,9 +541,9 @@ class MirrorsPanel:
         why = "" if refining or self.proposal is not None else greyed_out(session, selected, refused, elsewhere)
         self.greyed.content, self.greyed.visible = why, bool(why)
         restore = editor.undo_label(SESSION_SCOPE)
-        self.restore.visible = bool(restore and restore.startswith("remove"))
-        if self.restore.visible:
-            self.restore.label = f"Undo: {restore}"
+        self.restore.visible = bool(restore and restore.startswith("remove "))
+        if self.restore.visible:           # named apart from the main Undo, which offers it too (travel_scope)
+            self.restore.label = f"Bring back {restore.removeprefix('remove ')}"
         self._drop_stale_proposal()
         self._show_proposal()
         self.markers.content = self._marker_list(selected)
@@ -745,7 +744,7 @@ def removal_question(mirror: SessionMirror) -> str:
     what = f"{mirror.name} and its {listed(has)} leave" if has else f"{mirror.name} leaves"
     shows = (" What it shows then counts as seen directly: take the mirror out of the camera's view too, or what is "
              "seen in it stands in the cloud as an object of its own." if mirror.boundary else "")
-    return f"{what} the session.{shows} *Undo* below the Remove button brings it back."
+    return f"{what} the session.{shows} *Undo*, or *Bring back* below the Remove button, brings it back."
 
 
 def greyed_out(session: Session, selected: SessionMirror | None, refused: dict[int, str],
