@@ -249,13 +249,7 @@ class LivePanel:
         self.view = gui.add_button_group("View", tuple(VIEWS))
         self.legend = gui.add_html("")
         with gui.add_folder("Playback and view", expand_by_default=False):
-            self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
-            self.step = gui.add_button("Step one frame", disabled=not services.paused)
-            self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
-            self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
-            self.frame_object = gui.add_button("Look at the object")
-            self.virtual = gui.add_checkbox("Virtual cameras", initial_value=True,
-                                            hint="the camera as each mirror, and each sequence of mirrors, shows it")
+            # the heat map first: its legend, above the folder, pushed its box below the fold at 1024x600 (a helper)
             self.heat = gui.add_checkbox("Heat map", initial_value=False,
                                          hint="the mirrors' points by their distance to the surface the camera sees "
                                          "directly: white on it, red outside, blue inside (10 mm and more "
@@ -264,6 +258,13 @@ class LivePanel:
                                          "shows a tilt, hardly the glass: Refine from the object measures that")
             self.heat_of = gui.add_dropdown("Heat map of", (EVERY_MIRROR,), initial_value=EVERY_MIRROR,
                                             visible=False)      # which strip was whose could not be told (a helper)
+            self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
+            self.step = gui.add_button("Step one frame", disabled=not services.paused)
+            self.seek = gui.add_slider("Frame", min=0, max=1, step=1, initial_value=0, visible=False)
+            self.size = gui.add_slider("Point size (mm)", min=1.0, max=20.0, step=0.5, initial_value=6.0)
+            self.frame_object = gui.add_button("Look at the object")
+            self.virtual = gui.add_checkbox("Virtual cameras", initial_value=True,
+                                            hint="the camera as each mirror, and each sequence of mirrors, shows it")
             self.pixel = gui.add_markdown("Last pixel read: none yet")
         self._pixel_note = None                     # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
