@@ -16,12 +16,11 @@ import threading
 from dataclasses import dataclass, replace
 from typing import Callable
 
-import cv2
 import numpy as np
 
 from mirrorcore.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.geometry.polygon import validate_polygon
+from mirrorcore.geometry.polygon import edge_distance, validate_polygon
 from mirrorcore.rig import check_bounces
 from mirrorcore.selection import Selection
 from mirrorcore.session import (
@@ -91,13 +90,6 @@ def _edits(method):
             if changed:
                 self._tell(session)
     return wrapper
-
-
-def _inside(mirror: SessionMirror, uv: tuple[float, float]) -> bool:
-    """Whether pixel uv lies inside the mirror's boundary (False without one)."""
-    if len(mirror.boundary) < 3:
-        return False
-    return cv2.pointPolygonTest(np.asarray(mirror.boundary, np.float32).reshape(-1, 1, 2), uv, False) >= 0
 
 
 class SessionEditor:
@@ -454,12 +446,11 @@ class SessionEditor:
     def _on_mirror(self, mirror: SessionMirror, uv) -> tuple[float, float]:
         """A marker's pixel, refused outside the image or (when the mirror has a boundary) off the mirror."""
         uv = self._pixel(uv)
-        if mirror.boundary:
-            contour = np.asarray(mirror.boundary, np.float32).reshape(-1, 1, 2)
-            if cv2.pointPolygonTest(contour, uv, True) < -ON_EDGE:
-                other = next((m.name for m in self._session.mirrors if m.id != mirror.id and _inside(m, uv)), None)
-                where = f"on {other}: select {other} (Mirror, above) to mark it" if other else "a marker must be on it"
-                raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its boundary; {where}")
+        if mirror.boundary and edge_distance(mirror.boundary, uv) < -ON_EDGE:
+            other = next((m.name for m in self._session.mirrors
+                          if m.id != mirror.id and edge_distance(m.boundary, uv) >= 0), None)
+            where = f"on {other}: select {other} (Mirror, above) to mark it" if other else "a marker must be on it"
+            raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its boundary; {where}")
         return uv
 
     @staticmethod

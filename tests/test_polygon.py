@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mirrorcore.errors import MirrorscanError
-from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
+from mirrorcore.geometry.polygon import edge_distance, polygon_mask, validate_polygon
 
 
 def test_square_mask_includes_its_edges_only():
@@ -52,3 +52,11 @@ def test_bad_polygons(poly, message):
 def test_valid_concave_polygon_passes():
     poly = validate_polygon([[0, 0], [10, 0], [5, 3], [10, 10], [0, 10]], (480, 640))
     assert poly.shape == (5, 2)
+
+
+def test_edge_distance_is_signed_and_nothing_is_inside_no_polygon():
+    square = [(10, 10), (100, 10), (100, 100), (10, 100)]
+    assert edge_distance(square, (50, 30)) == pytest.approx(20.0)          # inside: to the nearest edge
+    assert edge_distance(square, (103, 50)) == pytest.approx(-3.0)         # outside
+    assert edge_distance(square, (100, 50)) == 0.0                         # on it
+    assert edge_distance(square[:2], (50, 10)) == -np.inf

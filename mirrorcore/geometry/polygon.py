@@ -94,6 +94,15 @@ def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarra
     return hit
 
 
+def edge_distance(poly, uv: tuple[float, float]) -> float:
+    """The signed distance (pixels) from pixel uv to the polygon's edge (n, 2) (u, v): > 0 inside, < 0 outside;
+    -inf for fewer than MIN_VERTICES vertices (no polygon: nothing is inside)."""
+    if len(poly) < MIN_VERTICES:
+        return -np.inf
+    contour = np.asarray(poly, np.float32).reshape(-1, 1, 2)
+    return float(cv2.pointPolygonTest(contour, (float(uv[0]), float(uv[1])), True))
+
+
 def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Rasterise a polygon to an (H, W) bool mask with OpenCV.
 
