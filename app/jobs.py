@@ -112,6 +112,8 @@ class Jobs:
         self.agreement = ""        # the last report of how the mirrors' views agree (a tab opening later shows it)
         self.disagreeing: tuple[str, ...] = ()     # ... and the mirrors it flags (their names)
         self.refinements: dict[tuple, str] = {}    # each refinement's report, by the planes it left (planes_key)
+        self.fits: dict[tuple, str] = {}           # each markers fit's report, by the planes it left (an undo of a
+                                                   # mirror's removal had brought back a refinement's alone: a helper)
         self.refused: dict[int, str] = {}  # mirror id -> "refine" or "scene": refused on it, until one succeeds
         self.recorder: Recorder | None = None
         self._tap: LiveTap | None = None
@@ -344,6 +346,10 @@ class Jobs:
         report = "\n\n".join([f"{headline} Over {used}. {undo}", *details])
         self.refinements[planes_key(editor.session)] = report
         return report
+
+    def report(self, key: tuple) -> str:
+        """The report of the refinement or markers fit that left the planes `key` (planes_key), '' when none did."""
+        return self.refinements.get(key) or self.fits.get(key, "")
 
     def start_agreement(self, depths: np.ndarray | None = None) -> None:
         """How well each mirror's view agrees with the others over frames (mirrorcore.refine.view_agreement; depths

@@ -16,7 +16,8 @@ import pytest
 
 from app.demo import calibrated_session, demo_source
 from app.events import JobProgress
-from app.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, refined_headline
+from app.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, planes_key, refined_headline
+from app.markup import markdown
 from app.panels.dense import DensePanel
 from app.panels.measure import CANCELLED_NOTE, MeasurePanel
 from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
@@ -400,7 +401,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     panel(tab, MirrorsPanel)._travel(app.editor.undo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
     assert shown[0].removed                                           # and its notification, which had stayed
-    assert mirrors.result.content == f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}"
+    fitted = app.jobs.fits[planes_key(app.editor.session)]          # then the report of the markers fit now back
+    assert mirrors.result.content == markdown(
+        f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}\n\n{fitted}")
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
     assert mirrors.result.content == report                                           # its report back

@@ -80,9 +80,9 @@ class MirrorsPanel:
         self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600 after them
         self.redo = gui.add_button("Redo", disabled=True)
         # a fit's or refinement's report, under the buttons that made it; a tab opened (or reloaded) later shows the
-        # report of the refinement that left the planes as they are
+        # report of the refinement or fit that left the planes as they are
         self._result_planes = planes_key(self.services.editor.session)     # the planes `result` describes
-        self._result_text, self._gone = self.services.jobs.refinements.get(self._result_planes, ""), ()
+        self._result_text, self._gone = self.services.jobs.report(self._result_planes), ()
         self._names = {m.id: m.name for m in self.services.editor.session.mirrors}   # as the last refresh saw them
         self.result = gui.add_markdown(markdown(self._result_text))
         self.agreement = gui.add_markdown(markdown(self.services.jobs.agreement))
@@ -152,7 +152,7 @@ class MirrorsPanel:
     def _cancelled(self) -> str:
         """A calibration from the object cancelled: the planes are as they were, and so is their report (a bare
         'cancelled' had replaced it: a helper)."""
-        before = self.services.jobs.refinements.get(planes_key(self.services.editor.session), "")
+        before = self.services.jobs.report(planes_key(self.services.editor.session))
         return "Cancelled: the planes are as they were." + (f"\n\n{before}" if before else "")
 
     def _warn_disagreement(self, lines: str) -> None:
@@ -352,12 +352,13 @@ class MirrorsPanel:
             self._result_note = None
 
     def _follow_planes(self, session: Session) -> None:
-        """The planes changed other than by this panel: the report of the refinement that left them so, else the
-        report shown while it still describes every plane (mirrors only added without a plane, or removed: a Find's
-        report had gone with a mirror removed after it, a helper), naming those removed, else none."""
+        """The planes changed other than by this panel: the report of the refinement or fit that left them so, else
+        the report shown while it still describes every plane (mirrors only added without a plane, or removed: a
+        Find's report had gone with a mirror removed after it, a helper), naming those removed, else none."""
         key = planes_key(session)
-        if key in self.services.jobs.refinements:
-            self._report(self.services.jobs.refinements[key])
+        known = self.services.jobs.report(key)
+        if known:
+            self._report(known)
             return
         before, now = dict(self._result_planes), dict(key)
         if any(before[i] != now[i] for i in before.keys() & now.keys()) or \
@@ -369,19 +370,23 @@ class MirrorsPanel:
 
     def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
         """After an undo or redo (of the step `label`): the report of the refinement whose planes are back, or the
-        headline of the one undone, or a line naming the step (or its part: the others changed since); nothing when
-        the planes stayed (the last fit's report no longer describes the mirrors)."""
+        headline of the one undone (or a line naming the step, or its part: the others changed since), then the
+        report of the markers fit whose planes are back; nothing when the planes stayed (the last fit's report no
+        longer describes the mirrors)."""
         refinements, verb = self.services.jobs.refinements, "Undone" if undone else "Redone"
         if after in refinements:
             return refinements[after]
         if before == after:
             return ""
         if PARTIAL in label or refinements.get(before, UNCHANGED).startswith(UNCHANGED):
-            return f"{verb}: {label}."    # no report of these planes (a mirror removed since), or one of a
+            step = f"{verb}: {label}."    # no report of these planes (a mirror removed since), or one of a
                                           # refinement that changed nothing (it read "Undone: Nothing changed" with
                                           # both planes gone, or nothing: helpers)
-        headline = refinements[before].split("\n\n")[0].removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
-        return f"{verb}: " + headline.replace(FOUND_CHECK, "", 1)    # its advice was for the planes undone
+        else:
+            headline = refinements[before].split("\n\n")[0].removesuffix(f" {UNDO_NOTE}").removesuffix(f" {UNDO_FOUND}")
+            step = f"{verb}: " + headline.replace(FOUND_CHECK, "", 1)    # its advice was for the planes undone
+        fit = self.services.jobs.fits.get(after)
+        return f"{step}\n\n{fit}" if fit else step
 
     def _confirm_remove(self) -> None:
         mirror = self._mirror()
@@ -445,9 +450,7 @@ class MirrorsPanel:
             self.proposal = fits
             self._report("")
         else:
-            self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self._report(report)
-            self._check_agreement()
+            self._apply_fits(fits, report)
         self.tab.state.flagged_markers = _flags(fits)
         look = waits or without_markers or any(r.poor for _, _, r in fits.values())
         self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
@@ -472,10 +475,17 @@ class MirrorsPanel:
         fits, self.proposal = self.proposal, None
         self.tab.state.flagged_markers = ()
         if fits:
-            self.services.editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
-            self._report(_fit_report(fits.values(), " (applied on confirmation)"))
-            self._check_agreement()
+            self._apply_fits(fits, _fit_report(fits.values(), " (applied on confirmation)"))
         self.tab.changed()
+
+    def _apply_fits(self, fits: dict, report: str) -> None:
+        """Markers fits' planes ({mirror id: (Calibration, SessionMirror, FitReview)}) into the session, their report
+        shown and kept by the planes they leave (Jobs.fits: an undo brings it back), the views' agreement checked."""
+        editor = self.services.editor
+        editor.set_planes({mirror_id: (c.plane, m) for mirror_id, (c, m, _) in fits.items()})
+        self.services.jobs.fits[planes_key(editor.session)] = report
+        self._report(report)
+        self._check_agreement()
 
     def _discard(self) -> None:
         self.proposal = None
