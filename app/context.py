@@ -94,7 +94,8 @@ class TabState:
     picked_corner: int | None = None
     picked_marker: int | None = None
     moving_marker: bool = False
-    flagged_markers: tuple[tuple[int, int], ...] = ()   # (mirror id, marker index) crossed on the depth frame
+    flagged_markers: tuple[tuple[int, tuple[float, float]], ...] = ()   # (mirror id, marker's pixel) crossed on the
+                                   # depth frame: by place (by index, a marker deleted before it moved the cross on)
     proposal_for: tuple[str, ...] = ()     # the mirrors whose fitted plane waits for Apply or Discard
     view: str = "3d"
 

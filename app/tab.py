@@ -367,7 +367,7 @@ class Tab:
             grades = snapshot.marker_grades.get(mirror.id, ("unknown",) * len(mirror.markers))
             markers = tuple(MarkerMark(uv, mirror.marker_name(k), grades[k],
                                        picked=selected and state.picked_marker == k,
-                                       flagged=(mirror.id, k) in state.flagged_markers)
+                                       flagged=(mirror.id, uv) in state.flagged_markers)
                             for k, uv in enumerate(mirror.markers))
             mirrors.append(MirrorMarks(tuple(int(c) for c in source_colour(1, (mirror.id,))),
                                        draft if draft is not None else mirror.boundary, draft is None, markers,

@@ -220,7 +220,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert not app.jobs.running("refine") and mirrors.proposal is not None
     assert "A new plane for mirror 2 waits" in tab.header.hint.content                     # the next step says so
     assert mirrors.review.visible and "⚠" in mirrors.review.content
-    assert tab.state.flagged_markers == ((2, len(before.markers)),)                     # crossed on the image,
+    stray = (2, app.editor.mirror(2).markers[-1])
+    assert tab.state.flagged_markers == (stray,)                                        # crossed on the image,
     drawn: list = []                                                             # whichever mirror is selected
     tab.state.mirror_id = 1                                                      # (a helper saw mirror 2's only
     with monkeypatch.context() as patch:                                         # once it was selected)
@@ -247,8 +248,15 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.undo_label(2) == step                                                # not asked again
     assert re.search(r"⚠ mirror 2: the same markers as before, and marker\(s\) 2\.\d+ lie off it beyond the depth "
                      r"noise: delete them \(crossed on the depth frame\) and fit again\.", said[-1]), said[-1]
-    assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == ((2, len(before.markers)),)
+    assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == (stray,)
     assert "⚠ marker(s) 2." in mirrors.result.content
+    tab.state.picked_marker = 0                         # another marker deleted: the cross stays on the stray one
+    mirrors._delete_marker()                            # (by index it had moved to the marker after it)
+    with monkeypatch.context() as patch:
+        patch.setattr(tab.overlay, "draw", lambda marks, region: drawn.append(marks))
+        tab._redraw_overlay()
+    assert [mark.uv for mark in drawn[-1][1].markers if mark.flagged] == [stray[1]]
+    mirrors._travel(app.editor.undo)                                                      # the marker back
     tab.state.picked_marker = len(before.markers)                                         # delete just that one
     mirrors._delete_marker()
     assert app.editor.mirror(2).markers == before.markers

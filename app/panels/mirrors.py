@@ -636,11 +636,11 @@ class MirrorsPanel:
                 + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows) + "</div>")
 
 
-def _flags(fits: dict[int, tuple]) -> tuple[tuple[int, int], ...]:
-    """(mirror id, marker index) of every poor marker of the fits ({id: (Calibration, SessionMirror, FitReview)}):
-    crossed on the depth frame whichever mirror is selected (the note names them all; a helper saw mirror 2's
-    crossed only once it was selected)."""
-    return tuple((mirror.id, k) for _, mirror, review in fits.values() for k in review.poor)
+def _flags(fits: dict[int, tuple]) -> tuple[tuple[int, tuple[float, float]], ...]:
+    """(mirror id, marker's pixel (u, v)) of every poor marker of the fits ({id: (Calibration, SessionMirror,
+    FitReview)}): crossed on the depth frame whichever mirror is selected (the note names them all; a helper saw
+    mirror 2's crossed only once it was selected), until that marker is moved or deleted."""
+    return tuple((mirror.id, mirror.markers[k]) for _, mirror, review in fits.values() for k in review.poor)
 
 
 def _dot(grade: str) -> str:
