@@ -25,9 +25,15 @@ SAME_PLACE = 0.10          # metres: virtual cameras closer than this share one 
                            # degrees put images through two and three mirrors within a few cm: 1.3 to 5.4 measured)
 DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
 BOX_COLOUR = (90, 90, 90)
-HOME_DIRECTION = np.array([1.0, -0.9, -0.75])   # from the scene's centre towards the first view (right, up, front):
-                                                # 37 degrees from above, so that the virtual cameras behind the
-                                                # mirrors are seen above the object (at 24, over its top)
+HOME_DIRECTION = np.array([0.0, -0.9, -1.4])    # from the scene's centre towards the first view (right, up, front):
+                                                # from behind the depth camera, 33 degrees from above, so that every
+                                                # virtual camera is in view (seen from the right, 45 degrees round,
+                                                # the right mirror's was behind the panel: helpers) and above the
+                                                # object (at 24 degrees, over its top)
+CAMERA_LABEL = (0.0, FRUSTUM_SCALE, 0.0)   # metres: the depth camera's name, under it (y down)
+MIN_DISTANCE = 0.3         # metres: the first view stands at least this far from what it frames
+LABEL_SIDE = 0.3           # metres: a virtual camera farther than this left or right of the depth camera has its name
+                           # on its inner side, towards the rig (centred, the outer mirror's ran off the 3D view)
 
 
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
@@ -74,13 +80,25 @@ def virtual_label_anchor(pose: np.ndarray, scale: float) -> np.ndarray:
     return pose[:3, 3] - VIRTUAL_LABEL_RISE * scale * pose[:3, 1]
 
 
+def virtual_label_side(pose: np.ndarray) -> str:
+    """Which corner of a virtual camera's name sits at its anchor (viser's label anchor): the name stands above the
+    camera and runs towards the rig's middle from a camera left or right of the depth camera (by LABEL_SIDE along x),
+    centred otherwise. pose : (4, 4)."""
+    x = pose[0, 3]
+    return "bottom-left" if x < -LABEL_SIDE else "bottom-right" if x > LABEL_SIDE else "bottom-center"
+
+
 def scene_points(rig: Rig) -> np.ndarray:
-    """(k, 3) metres: the points the first view must show, the camera, the mirrors' corners and where the object is
-    expected (in front of the mirrors, on the optical axis at 2 m without them)."""
+    """(k, 3) metres: the points the first view must show, the camera and its name, the mirrors' corners, where the
+    object is expected (in front of the mirrors, on the optical axis at 2 m without them), and the virtual cameras
+    with their names' anchors."""
     outlines = [o for o in (mirror_outline(rig.intrinsics, m) for m in rig.mirrors) if o is not None]
-    points = [np.zeros((1, 3))] + outlines
+    points = [np.array([(0.0, 0.0, 0.0), CAMERA_LABEL])] + outlines
     centres = [o.mean(axis=0) for o in outlines]
     points.append((0.85 * np.mean(centres, axis=0) if centres else np.array([0.0, 0.0, 2.0]))[None])
+    cameras = [camera for camera in rig.virtual_cameras() if camera.sequence]
+    points += [np.array([camera.pose[:3, 3], virtual_label_anchor(camera.pose, _frustum_scale(camera))])
+               for camera in cameras]
     return np.concatenate(points)
 
 
@@ -100,13 +118,20 @@ def beside_offset(result: DenseResult) -> np.ndarray:
 
 def home_pose(points: np.ndarray, fov: float, aspect: float, margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
     """(camera position, look-at point) in metres that frame `points` (k, 3) for a view of vertical field of view
-    `fov` (radians) and `aspect` (width / height), looking from HOME_DIRECTION, their bounding sphere's radius times
-    `margin` from the middle of the view to its nearer edge."""
+    `fov` (radians) and `aspect` (width / height), up -y: looking from HOME_DIRECTION at the middle of their bounding
+    box, as near as keeps every point inside the view's middle 1 / `margin` (its bounding sphere, as before, left the
+    rig half as large once the virtual cameras were framed too)."""
     centre = (points.min(axis=0) + points.max(axis=0)) / 2
-    radius = float(np.linalg.norm(points - centre, axis=1).max())
-    half = min(fov / 2, np.arctan(np.tan(fov / 2) * aspect))
-    distance = margin * radius / np.sin(half)
     direction = HOME_DIRECTION / np.linalg.norm(HOME_DIRECTION)
+    right = np.cross(-direction, [0.0, -1.0, 0.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(-direction, right)
+    half_height = np.tan(fov / 2) / margin
+    offsets = points - centre
+    # a point at `offsets` is in view from `distance` along `direction` when its sideways offset is within the
+    # half-width times its depth (distance - offsets . direction)
+    needed = np.maximum(np.abs(offsets @ right) / (half_height * aspect), np.abs(offsets @ down) / half_height)
+    distance = max(float(np.max(needed + offsets @ direction)), MIN_DISTANCE)
     return centre + distance * direction, centre
 
 
@@ -140,8 +165,8 @@ class TabScene:
                                    # two threads re-adding /camera at once failed ('on a removed CameraFrustumHandle')
             self.scene.add_camera_frustum("/camera", fov, aspect, scale=FRUSTUM_SCALE, color=(60, 60, 60))
             self.scene.remove_by_name("/mirrors")
-            self._labels = [self.scene.add_label("/mirrors/camera", "depth camera", position=(0.0, FRUSTUM_SCALE, 0.0),
-                                                 visible=self.labels_visible)]   # under it (y down); with the names
+            self._labels = [self.scene.add_label("/mirrors/camera", "depth camera", position=CAMERA_LABEL,
+                                                 visible=self.labels_visible)]   # with the names
             for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
                 outline = mirror_outline(intr, mirror)
                 if outline is None:
@@ -175,7 +200,7 @@ class TabScene:
             self._virtual_labels.append(self.scene.add_label(
                 f"/virtual_labels/{first.source}",
                 "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
-                position=virtual_label_anchor(first.pose, _frustum_scale(first)),
+                position=virtual_label_anchor(first.pose, _frustum_scale(first)), anchor=virtual_label_side(first.pose),
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:

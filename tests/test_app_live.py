@@ -618,10 +618,11 @@ def _home_pixels(points: np.ndarray, canvas: tuple[int, int], scene: np.ndarray)
 
 
 @pytest.mark.parametrize("canvas", [(976, 900), (620, 600)])        # the 3D view at 1400x900 and at 1024x600
-def test_seen_from_home_the_virtual_cameras_names_clear_the_object_and_the_mirrors_names(demo, canvas):
+def test_seen_from_home_every_virtual_camera_is_named_in_view_clear_of_the_object_and_the_mirrors_names(demo, canvas):
     """The walking figure's first view: the name of each camera seen in a mirror (a box 7 px a character wide and 18
-    px high about its anchor, as drawn) lies neither on the figure's points nor on a mirror's name; it had sat on the
-    figure's head (2.5 frustum sizes under the frustum, seen from 24 degrees above)."""
+    px high at its anchor's corner, as drawn) lies inside the 3D view (and the depth camera's), neither on the figure's points nor on a
+    mirror's name. It had sat on the figure's head (2.5 frustum sizes under the frustum, seen from 24 degrees above),
+    and seen from the right the right mirror's camera was out of view (helpers)."""
     app, headless = demo
     frame = app.loop.run_once()
     scene = headless.tab.scene
@@ -629,15 +630,22 @@ def test_seen_from_home_the_virtual_cameras_names_clear_the_object_and_the_mirro
     home = np.concatenate([scene_points(app.snapshot.rig), points])
 
     def boxes(labels) -> list[tuple[np.ndarray, np.ndarray]]:
-        centres = _home_pixels(np.array([label.position for label in labels]), canvas, home)
-        half = [[3.5 * len(label.text), 9.0] for label in labels]
-        return [(c - h, c + h) for c, h in zip(centres, np.array(half))]
+        anchors = _home_pixels(np.array([label.position for label in labels]), canvas, home)
+        found = []
+        for anchor, label in zip(anchors, labels):
+            vertical, horizontal = label.anchor.split("-")
+            size = np.array([7.0 * len(label.text), 18.0])
+            corner = np.array([{"left": 0.0, "center": 0.5, "right": 1.0}[horizontal],
+                               {"top": 0.0, "center": 0.5, "bottom": 1.0}[vertical]])
+            found.append((anchor - corner * size, anchor - corner * size + size))
+        return found
 
     figure = _home_pixels(points, canvas, home)
     mirrors = boxes([label for label in scene._labels if label.text.startswith("mirror")])
     cameras = boxes(scene._virtual_labels)
     assert len(mirrors) == 2 and len(cameras) == 2
-    for low, high in cameras:
+    for low, high in cameras + boxes([label for label in scene._labels if label.text == "depth camera"]):
+        assert np.all(low >= 0) and np.all(high <= canvas), (low, high)
         assert not np.any(np.all((figure >= low) & (figure <= high), axis=1)), (low, high)
         assert not any(np.all(low <= other_high) and np.all(other_low <= high) for other_low, other_high in mirrors)
 
