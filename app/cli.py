@@ -10,7 +10,7 @@ from mirrorcore.budget import ENV, set_memory_budget
 from mirrorcore.errors import MirrorscanError
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "experiment", "sources", "record", "bench"]
+COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "truth", "experiment", "sources", "record", "bench"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -57,8 +57,6 @@ FOUND_CHECK = ": check the heat map and the agreement below"     # after the pla
 NOT_FOUND = " ⚠ not found: "                  # a report's line of a mirror a search could not find: its why follows
 NOT_FOUND_HEAD = " not found (why below)"      # ... and in its headline, after the names of those mirrors
 UNDO_FOUND = "Undo takes the planes found back."     # ... and of planes found where there were none
-SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
-SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (UNCHANGED)
 UNCHANGED = ("Nothing changed: the planes and the glass are already where this object puts them (no undo step; Undo "
              "still takes back the step before).")
 HEAT_LIMIT_MM = 10.0      # the heat map's colours saturate at this distance to the direct surface
@@ -325,7 +323,7 @@ class Jobs:
         planes = {session.mirrors[r.index].id: (r.after, session.mirrors[r.index]) for r in result.mirrors}
         glass = {session.mirrors[r.index].id: (refined.mirrors[r.index].marker_offset,
                                                 refined.mirrors[r.index].marker_offset_std) for r in result.mirrors}
-        changed = (search is not None or _moved(result, session, refined)) and editor.set_planes(
+        changed = (search is not None or result.changed(session, refined)) and editor.set_planes(
             planes, glass, what="refined plane" if search is None else "found plane")
         self._object_planes.update((i, editor.mirror(i).plane) for i in planes)
         self.start_agreement(depths)                 # the lines under the report: the new planes' agreement
@@ -558,15 +556,6 @@ def _behind(recorder: Recorder, tap: LiveTap) -> str:
     """' (N written so far)' while the recorder writes behind the frames taken, else '': the header, the Record
     step and the end had said 25, 21 and 28 frames of one take (a helper)."""
     return f" ({recorder.frames} written so far)" if recorder.frames < tap.taken else ""
-
-
-def _moved(result, before: Session, after: Session) -> bool:
-    """Whether a refinement moved a plane (SAME_PLANE) or a glass (SAME_GLASS_MM) by more than nothing: one right
-    after the search's own refinement, on the same frames, made an undo step of 'moved 0.0 mm and 0.00°' (a
-    helper)."""
-    return any(abs(r.shift_mm) >= SAME_PLANE[0] or r.tilt_deg >= SAME_PLANE[1]
-               or abs(after.mirrors[r.index].marker_offset - before.mirrors[r.index].marker_offset) * 1e3
-               >= SAME_GLASS_MM for r in result.mirrors)
 
 
 def _same_views(a: "Snapshot", b: "Snapshot") -> bool:

@@ -45,6 +45,8 @@ MIN_AGREEMENTS = 200         # readings of a mirror and of the camera (or of mir
 MAX_SHIFT_STD = 1e-3         # ... and the plane's offset at the object known to this (metres, 1 sigma)...
 MAX_TILT_STD_DEG = 0.2       # ... and its tilt to this, or the mirror is refused: its views overlap too little
 MAX_CHANGE = (0.05, 5.0)     # metres at the object, degrees: a plane moving more has not settled, and is refused
+SAME_PLANE = (0.05, 0.005)   # mm at the object, degrees: a refinement that moves no plane more than this...
+SAME_GLASS_MM = 0.05         # ... nor any glass more than this changes nothing (Refinement.changed)
 REFINE_WITH = ("auto", "sphere", "surfaces")   # what the refinement compares (refine_planes' `with_`)
 
 
@@ -190,6 +192,14 @@ class Refinement:
     def planes(self) -> dict[int, Plane]:
         """{session index (0-based): refined plane}."""
         return {m.index: m.after for m in self.mirrors}
+
+    def changed(self, before: Session, after: Session) -> bool:
+        """Whether it moved a plane (SAME_PLANE) or a glass (SAME_GLASS_MM, from the session `before` to `after`) by
+        more than nothing: one right after the search's own refinement, on the same frames, made an undo step of
+        'moved 0.0 mm and 0.00°' in the browser and rewrote session.json on the command line (helpers)."""
+        return any(abs(r.shift_mm) >= SAME_PLANE[0] or r.tilt_deg >= SAME_PLANE[1]
+                   or abs(after.mirrors[r.index].marker_offset - before.mirrors[r.index].marker_offset) * 1e3
+                   >= SAME_GLASS_MM for r in self.mirrors)
 
 
 # --------------------------------------------------------------------------------------------- one plane's step

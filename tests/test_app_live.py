@@ -19,7 +19,7 @@ from app.context import TabState
 from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.editor import SESSION_SCOPE
-from app.jobs import HEAT_POOL, Jobs, _frames_used, _moved, agreement_line, found_headline, planes_key, refined_headline
+from app.jobs import HEAT_POOL, Jobs, _frames_used, agreement_line, found_headline, planes_key, refined_headline
 from app.live import RECENT_FRAMES
 from app.markup import markdown
 from app.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
@@ -1128,20 +1128,6 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "**Mirrors › Refine from the object**, or fit again.")
     assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left",)).startswith(
         "⚠ left: its view disagrees with the others")
-
-
-def test_a_refinement_that_moves_nothing_changes_nothing():
-    """One right after the search's own refinement, on the same frames, made an undo step of 'moved 0.0 mm and
-    0.00°' (a helper): below 0.05 mm, 0.005° and 0.05 mm of glass it is no change."""
-    glass = lambda *mm: SimpleNamespace(mirrors=[SimpleNamespace(marker_offset=x / 1e3) for x in mm])  # noqa: E731
-    still = [SimpleNamespace(index=0, shift_mm=-0.04, tilt_deg=0.004), SimpleNamespace(index=1, shift_mm=0.0,
-                                                                                       tilt_deg=0.0)]
-    assert not _moved(SimpleNamespace(mirrors=still), glass(3.0, 0.0), glass(3.04, 0.0))
-    assert _moved(SimpleNamespace(mirrors=still), glass(3.0, 0.0), glass(3.0, 0.06))           # a glass moved
-    moved = SimpleNamespace(index=1, shift_mm=-0.06, tilt_deg=0.0)
-    assert _moved(SimpleNamespace(mirrors=[still[0], moved]), glass(0, 0), glass(0, 0))
-    turned = SimpleNamespace(index=0, shift_mm=0.0, tilt_deg=0.006)
-    assert _moved(SimpleNamespace(mirrors=[turned]), glass(0, 0), glass(0, 0))
 
 
 def test_a_progress_bar_is_given_tenths_of_a_percent():

@@ -3,6 +3,7 @@ analytic surfaces, signs that a wrong plane shows, planes recovered on the simul
 import threading
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -18,7 +19,7 @@ from mirrorcore.palette import heat_colours, heat_map_colours
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement,
+from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement, Refinement,
                               _fixed_by, _Residuals, marker_offset, moved_plane, offset_at, refine_planes,
                               refine_session, reflection_jacobian, view_agreement)
 from mirrorcore.progress import Ratchet
@@ -561,3 +562,17 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     assert refused.value.mirrors == ("left", "middle", "right")
     with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
         _fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)
+
+
+def test_a_refinement_that_moves_nothing_changes_nothing():
+    """One right after the search's own refinement, on the same frames, made an undo step of 'moved 0.0 mm and
+    0.00°' (a helper) and rewrote session.json: below 0.05 mm, 0.005° and 0.05 mm of glass it is no change."""
+    glass = lambda *mm: SimpleNamespace(mirrors=[SimpleNamespace(marker_offset=x / 1e3) for x in mm])  # noqa: E731
+    still = [SimpleNamespace(index=0, shift_mm=-0.04, tilt_deg=0.004), SimpleNamespace(index=1, shift_mm=0.0,
+                                                                                       tilt_deg=0.0)]
+    assert not Refinement.changed(SimpleNamespace(mirrors=still), glass(3.0, 0.0), glass(3.04, 0.0))
+    assert Refinement.changed(SimpleNamespace(mirrors=still), glass(3.0, 0.0), glass(3.0, 0.06))    # a glass moved
+    moved = SimpleNamespace(index=1, shift_mm=-0.06, tilt_deg=0.0)
+    assert Refinement.changed(SimpleNamespace(mirrors=[still[0], moved]), glass(0, 0), glass(0, 0))
+    turned = SimpleNamespace(index=0, shift_mm=0.0, tilt_deg=0.006)
+    assert Refinement.changed(SimpleNamespace(mirrors=[turned]), glass(0, 0), glass(0, 0))

@@ -9,7 +9,7 @@ import numpy as np
 from mirrorcore.calibration import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.errors import CalibrationError
 from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
+from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, SAME_GLASS_MM, SAME_PLANE, Refinement, refine_session
 from mirrorcore.rig import Rig
 from mirrorcore.search import calibrate_scene, sentences
 from mirrorcore.session import Session, load_session, save_session
@@ -62,13 +62,21 @@ def run(args: argparse.Namespace) -> int:
     if args.refine_with != "auto" and not (args.refine or method == "scene"):
         raise CalibrationError(f"--refine-with {args.refine_with} applies to --refine or --method scene; add one")
     rng = np.random.default_rng(args.seed)
+    loaded = session
     with percent_bar("refining", disable=args.quiet or not (args.refine or method == "scene")) as progress:
         session, result = _calibrate(session, method, args, rng, progress)
+    changed = method is not None or result.changed(loaded, session)    # --refine alone may change nothing
     if result is not None:
         for report in result.mirrors:
             searched = method == "scene"
             print(f"{report.name}: {'found' if searched else 'refined'} plane "
-                  f"{np.round(report.after.abcd, 5).tolist()}  {report.summary(searched)}")
+                  f"{np.round(report.after.abcd, 5).tolist()}  {report.summary(searched, saved=changed)}")
+        if method == "scene":
+            _say_markers_unused([session.mirrors[r.index] for r in result.mirrors])
+    if not changed:                                                     # as the browser says it
+        print(f"nothing changed: the planes and the glass are already where this object puts them (within "
+              f"{SAME_PLANE[0]} mm, {SAME_PLANE[1]}° and {SAME_GLASS_MM} mm of glass); {session.path} not written")
+        return 0
     save_session(session)
     print(f"wrote {session.path}")
     if result is not None and result.refused:        # scene: the mirrors found are written, the others named
@@ -76,6 +84,15 @@ def run(args: argparse.Namespace) -> int:
         raise CalibrationError(f"{names} not calibrated (the planes found are written): "
                                f"{sentences(why for _, why in result.refused)}")
     return 0
+
+
+def _say_markers_unused(found: list) -> None:
+    """After --method scene: the mirrors found that have markers, whose planes did not use them (a helper ran it on
+    a session with markers and read no word of them)."""
+    marked = [m.name for m in found if m.markers]
+    if marked:
+        print(f"{listed(marked)}: {'its plane was' if len(marked) == 1 else 'their planes were'} found from the "
+              "object alone; the markers only read the glass (--method markers fits the planes to them)")
 
 
 def _unset(session: Session) -> list[int] | None:

@@ -19,11 +19,11 @@ from .devices import FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource, OpenNI2S
 from .files import ImageSequenceSource, SessionSource, StackSource, load_camera, open_npz, open_png_folder, open_tum
 from .realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
 from .record import Recorder, new_recording_folder, record
-from .sim import SimulatedSource, open_simulated, session_scene
+from .sim import SimulatedSource, open_simulated, session_scene, session_truth
 
 __all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS", "OpenNI2Source",
            "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource", "SourceKind", "StackSource",
-           "new_recording_folder", "open_source", "parse_spec", "record", "session_scene"]
+           "new_recording_folder", "open_source", "parse_spec", "record", "session_scene", "session_truth"]
 _OPTIONS = ("camera", "scale", "fps")
 
 

@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import FileFormatError
-from ..jsonfile import read_json
+from ..jsonfile import finite_number, read_json
 from ..session import TRUTH_FILE, Session
 from ..sim.layouts import paper_scene
 from ..sim.scene import Scene, load_scene, scene_from_json
-from ..sim.simulator import Simulator
+from ..sim.simulator import FPS, Simulator
 from .base import DepthSource, Frame
 
 
@@ -49,10 +49,20 @@ def open_simulated(target: str, session: Session | None) -> SimulatedSource:
 
 def session_scene(session: Session | None) -> Scene | None:
     """The simulated scene a session was made from (its truth.json), or None."""
+    truth = session_truth(session)
+    return None if truth is None else truth[0]
+
+
+def session_truth(session: Session | None) -> tuple[Scene, float] | None:
+    """(the simulated scene a session was made from, its frames per second: frame i shows the scene at i / fps),
+    from its truth.json, or None without one."""
     if session is None or not (Path(session.root) / TRUTH_FILE).is_file():
         return None
     path = Path(session.root) / TRUTH_FILE
     data = read_json(path, "truth file")
     if not isinstance(data, dict) or "scene" not in data:
         raise FileFormatError(f"{path}: missing key 'scene'")
-    return scene_from_json(data["scene"], f"{path}: scene")
+    fps = finite_number(data.get("fps", FPS))
+    if fps is None or fps <= 0:
+        raise FileFormatError(f"{path}: fps must be a positive number, got {data.get('fps')!r}")
+    return scene_from_json(data["scene"], f"{path}: scene"), fps
