@@ -20,7 +20,7 @@ from app.demo import calibrated_session, demo_source
 from app.events import EventBus, HeatChanged, JobProgress
 from app.editor import SESSION_SCOPE
 from app.jobs import HEAT_POOL, Jobs, _frames_used, agreement_line, found_headline, planes_key, refined_headline
-from app.live import RECENT_FRAMES
+from app.live import RECENT_FRAMES, RateMeter
 from app.markup import markdown
 from app.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
                              start_hint)
@@ -1399,3 +1399,20 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     assert typed.endswith("a glass hardly does (3 mm read 0.2 mm on the sphere).</i></div>")
     refined = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get, refined=True)
     assert "Refine from the object" not in refined and "these planes come from the object" in refined
+
+
+def test_the_frame_rate_follows_a_slowdown_within_seconds():
+    """30 fps, then the loop paced to 1 fps for a job: the rate reads about 1 within 3 s (the last 30 frames' window
+    had still read 14.8 fps beside "at most 1 fps": a helper), and a steady rate reads as it is."""
+    meter = RateMeter()
+    assert meter.fps == 0.0
+    for k in range(60):
+        meter.tick(k / 30)
+    assert meter.fps == pytest.approx(30.0)
+    for k in range(1, 4):
+        meter.tick(59 / 30 + k)
+    assert meter.fps == pytest.approx(1.0)
+    slow = RateMeter()
+    for k in range(2):
+        slow.tick(5.0 * k)                       # one frame in 5 s: the last two still make a rate
+    assert slow.fps == pytest.approx(0.2)
