@@ -32,8 +32,8 @@ HOME_DIRECTION = np.array([0.0, -0.9, -1.4])    # from the scene's centre toward
                                                 # object (at 24 degrees, over its top)
 CAMERA_LABEL = (0.0, FRUSTUM_SCALE, 0.0)   # metres: the depth camera's name, under it (y down)
 MIN_DISTANCE = 0.3         # metres: the first view stands at least this far from what it frames
-LABEL_SIDE = 0.3           # metres: a virtual camera farther than this left or right of the depth camera has its name
-                           # on its inner side, towards the rig (centred, the outer mirror's ran off the 3D view)
+SEQUENCE_FONT = 0.85       # a virtual camera's name through several mirrors, this much smaller: they stand between
+                           # the others, and full size two of them ran into each other at 1024x600 (a helper)
 
 
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
@@ -74,18 +74,29 @@ def label_anchor(outline: np.ndarray) -> np.ndarray:
     return outline[np.argsort(outline[:, 1], kind="stable")[:2]].mean(axis=0)
 
 
-def virtual_label_anchor(pose: np.ndarray, scale: float) -> np.ndarray:
-    """(3,) metres: where a virtual camera's name goes, VIRTUAL_LABEL_RISE of its frustum's size `scale` (metres)
-    above it (along -y of its pose (4, 4), the camera's up: a vertical mirror keeps it the world's)."""
-    return pose[:3, 3] - VIRTUAL_LABEL_RISE * scale * pose[:3, 1]
+def virtual_label_anchor(camera) -> np.ndarray:
+    """(3,) metres: where a virtual camera's name goes (rig.virtual_cameras' item): VIRTUAL_LABEL_RISE of its
+    frustum's size above it (along -y of its pose, the camera's up: a vertical mirror keeps it the world's), or as
+    far below it for a camera through several mirrors (on four mirrors their names had stacked on those of the
+    cameras through one beside them: a helper)."""
+    below = -1.0 if len(camera.sequence) > 1 else 1.0
+    return camera.pose[:3, 3] - below * VIRTUAL_LABEL_RISE * _frustum_scale(camera) * camera.pose[:3, 1]
 
 
-def virtual_label_side(pose: np.ndarray) -> str:
-    """Which corner of a virtual camera's name sits at its anchor (viser's label anchor): the name stands above the
-    camera and runs towards the rig's middle from a camera left or right of the depth camera (by LABEL_SIDE along x),
-    centred otherwise. pose : (4, 4)."""
-    x = pose[0, 3]
-    return "bottom-left" if x < -LABEL_SIDE else "bottom-right" if x > LABEL_SIDE else "bottom-center"
+def virtual_label_sides(cameras: list) -> list[str]:
+    """Which corner of each virtual camera's name (rig.virtual_cameras' items) sits at its anchor (viser's label
+    anchor, see virtual_label_anchor): centred on the camera, but the leftmost's runs right and the rightmost's left,
+    towards the rig (centred, those ran off the 3D view; run inwards from every camera beyond the mirrors, the names
+    of the cameras between ran into each other: helpers)."""
+    xs = [float(camera.pose[0, 3]) for camera in cameras]
+    sides = ["center"] * len(xs)
+    if xs:
+        left, right = int(np.argmin(xs)), int(np.argmax(xs))
+        if xs[left] < 0:
+            sides[left] = "left"
+        if xs[right] > 0:
+            sides[right] = "right"
+    return [("top-" if len(camera.sequence) > 1 else "bottom-") + side for camera, side in zip(cameras, sides)]
 
 
 def scene_points(rig: Rig) -> np.ndarray:
@@ -97,8 +108,7 @@ def scene_points(rig: Rig) -> np.ndarray:
     centres = [o.mean(axis=0) for o in outlines]
     points.append((0.85 * np.mean(centres, axis=0) if centres else np.array([0.0, 0.0, 2.0]))[None])
     cameras = [camera for camera in rig.virtual_cameras() if camera.sequence]
-    points += [np.array([camera.pose[:3, 3], virtual_label_anchor(camera.pose, _frustum_scale(camera))])
-               for camera in cameras]
+    points += [np.array([camera.pose[:3, 3], virtual_label_anchor(camera)]) for camera in cameras]
     return np.concatenate(points)
 
 
@@ -195,12 +205,14 @@ class TabScene:
                 f"/virtual/{camera.source}", fov, aspect, scale=_frustum_scale(camera), color=colour,
                 wxyz=tf.SO3.from_matrix(camera.pose[:3, :3]).wxyz, position=camera.pose[:3, 3],
                 visible=self.virtual_visible and self.labels_visible))
-        for group in same_place(cameras):
+        groups = same_place(cameras)
+        for group, side in zip(groups, virtual_label_sides([group[0] for group in groups])):
             first = group[0]
             self._virtual_labels.append(self.scene.add_label(
                 f"/virtual_labels/{first.source}",
                 "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
-                position=virtual_label_anchor(first.pose, _frustum_scale(first)), anchor=virtual_label_side(first.pose),
+                position=virtual_label_anchor(first), anchor=side,
+                font_screen_scale=1.0 if len(first.sequence) == 1 else SEQUENCE_FONT,
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:

@@ -2,6 +2,7 @@
 gets it as float16 offsets within 0.3 mm, one node per source, and the depth frame; a tab looking at the depth frame,
 or hidden, is not sent the cloud, and the loop slows down; pause and step; the depth screen's pixel mapping and
 framing; a snapshot keeps the rig's tables while the geometry stays."""
+import itertools
 import sys
 import threading
 import time
@@ -553,21 +554,10 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
     """On a 72-degree kaleidoscope with its true planes: the views through two mirrors in turn reach the tab as
     sources of their own, the legend names them with the mirrors' names, their virtual cameras are drawn, and the
     number of mirrors followed is a session setting that can be undone."""
-    from dataclasses import replace
-
-    from app.server import MirrorscanApp
     from bench.tabs import HeadlessTab
     from mirrorcore.palette import FIRST_MULTI_LABEL
-    from mirrorcore.session import Session
-    from mirrorcore.sim.export import session_mirrors
     from mirrorcore.sim.layouts import kaleidoscope_scene
-    from mirrorcore.sim.simulator import Simulator
-    from mirrorcore.sources import SimulatedSource
-    rig = Simulator(kaleidoscope_scene(72.0), seed=0)
-    truth = rig.background().truth
-    mirrors = tuple(replace(m, plane=p) for m, p in zip(session_mirrors(rig, truth), rig.planes))
-    app = MirrorscanApp(Session(Path("unused"), rig.intrinsics, mirrors), SimulatedSource(rig), port=0,
-                        autosave=False)
+    app = _simulated_app(kaleidoscope_scene(72.0))
     try:
         with HeadlessTab(app) as headless:
             tab = headless.tab
@@ -617,37 +607,86 @@ def _home_pixels(points: np.ndarray, canvas: tuple[int, int], scene: np.ndarray)
     return np.stack([canvas[0] / 2 + focal * (rays @ right) / depth, canvas[1] / 2 + focal * (rays @ down) / depth], 1)
 
 
-@pytest.mark.parametrize("canvas", [(976, 900), (620, 600)])        # the 3D view at 1400x900 and at 1024x600
+def _simulated_app(scene):
+    """The app (not started, not saved) on a simulated scene, its planes the true ones (a perfect calibration)."""
+    from app.server import MirrorscanApp
+    from mirrorcore.session import Session
+    from mirrorcore.sim.export import session_mirrors
+    from mirrorcore.sim.simulator import Simulator
+    from mirrorcore.sources import SimulatedSource
+    rig = Simulator(scene, seed=0)
+    mirrors = tuple(replace(m, plane=p) for m, p in zip(session_mirrors(rig, rig.background().truth), rig.planes))
+    return MirrorscanApp(Session(Path("unused"), rig.intrinsics, mirrors), SimulatedSource(rig), port=0,
+                         autosave=False)
+
+
+def _name_boxes(labels, canvas: tuple[int, int], home: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(low, high) pixels of each label's name in the first view framing `home` (k, 3) metres: a box 7 px a
+    character wide and 18 px high, times its font scale, at its anchor's corner, as drawn."""
+    anchors = _home_pixels(np.array([label.position for label in labels]), canvas, home)
+    found = []
+    for anchor, label in zip(anchors, labels):
+        vertical, horizontal = label.anchor.split("-")
+        size = np.array([7.0 * len(label.text), 18.0]) * label.font_screen_scale
+        corner = np.array([{"left": 0.0, "center": 0.5, "right": 1.0}[horizontal],
+                           {"top": 0.0, "center": 0.5, "bottom": 1.0}[vertical]])
+        found.append((anchor - corner * size, anchor - corner * size + size))
+    return found
+
+
+CANVASES = [(976, 900), (620, 600)]        # the 3D view at 1400x900 and at 1024x600
+
+
+@pytest.mark.parametrize("canvas", CANVASES)
 def test_seen_from_home_every_virtual_camera_is_named_in_view_clear_of_the_object_and_the_mirrors_names(demo, canvas):
-    """The walking figure's first view: the name of each camera seen in a mirror (a box 7 px a character wide and 18
-    px high at its anchor's corner, as drawn) lies inside the 3D view (and the depth camera's), neither on the figure's points nor on a
-    mirror's name. It had sat on the figure's head (2.5 frustum sizes under the frustum, seen from 24 degrees above),
-    and seen from the right the right mirror's camera was out of view (helpers)."""
+    """The walking figure's first view: the name of each camera seen in a mirror lies inside the 3D view (and the
+    depth camera's), neither on the figure's points nor on a mirror's name. It had sat on the figure's head (2.5
+    frustum sizes under the frustum, seen from 24 degrees above), and seen from the right the right mirror's camera
+    was out of view (helpers)."""
     app, headless = demo
     frame = app.loop.run_once()
     scene = headless.tab.scene
     points = frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
     home = np.concatenate([scene_points(app.snapshot.rig), points])
-
-    def boxes(labels) -> list[tuple[np.ndarray, np.ndarray]]:
-        anchors = _home_pixels(np.array([label.position for label in labels]), canvas, home)
-        found = []
-        for anchor, label in zip(anchors, labels):
-            vertical, horizontal = label.anchor.split("-")
-            size = np.array([7.0 * len(label.text), 18.0])
-            corner = np.array([{"left": 0.0, "center": 0.5, "right": 1.0}[horizontal],
-                               {"top": 0.0, "center": 0.5, "bottom": 1.0}[vertical]])
-            found.append((anchor - corner * size, anchor - corner * size + size))
-        return found
-
     figure = _home_pixels(points, canvas, home)
-    mirrors = boxes([label for label in scene._labels if label.text.startswith("mirror")])
-    cameras = boxes(scene._virtual_labels)
+    mirrors = _name_boxes([label for label in scene._labels if label.text.startswith("mirror")], canvas, home)
+    cameras = _name_boxes(scene._virtual_labels, canvas, home)
     assert len(mirrors) == 2 and len(cameras) == 2
-    for low, high in cameras + boxes([label for label in scene._labels if label.text == "depth camera"]):
+    for low, high in cameras + _name_boxes([label for label in scene._labels if label.text == "depth camera"],
+                                           canvas, home):
         assert np.all(low >= 0) and np.all(high <= canvas), (low, high)
         assert not np.any(np.all((figure >= low) & (figure <= high), axis=1)), (low, high)
         assert not any(np.all(low <= other_high) and np.all(other_low <= high) for other_low, other_high in mirrors)
+
+
+@pytest.mark.parametrize("scene", ["arc", "hinged", "four"])
+def test_seen_from_home_the_names_of_cameras_through_several_mirrors_stand_apart(scene):
+    """An arc of three mirrors around the figure, two hinged at 72 degrees, four mirrors: every name (the depth
+    camera's, the mirrors', the cameras' through one mirror and through two) inside the 3D view and none on another
+    by more than 2 px, at both window sizes. Run inwards from every camera beyond the mirrors, names through two
+    mirrors had been written over each other, and on four mirrors over those through one (a helper)."""
+    from bench.tabs import HeadlessTab
+    from mirrorcore.sim.layouts import arc_scene, kaleidoscope_scene
+    made = {"arc": lambda: arc_scene(3, object="figure", distance=3.0), "hinged": lambda: kaleidoscope_scene(72.0),
+            "four": lambda: arc_scene(4)}[scene]()
+    app = _simulated_app(made)
+    try:
+        with HeadlessTab(app) as headless:
+            tab = headless.tab
+            frame = app.loop.run_once()
+            labels = tab.scene._labels + tab.scene._virtual_labels
+            assert any(label.text.count("then") for label in tab.scene._virtual_labels)
+            points = frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
+            home = np.concatenate([scene_points(app.snapshot.rig), points])
+            for canvas in CANVASES:
+                boxes = _name_boxes(labels, canvas, home)
+                for (low, high), label in zip(boxes, labels):
+                    assert np.all(low >= 0) and np.all(high <= canvas), (label.text, canvas)
+                for (a, (low, high)), (b, (other_low, other_high)) in itertools.combinations(enumerate(boxes), 2):
+                    assert not (np.all(low < other_high - 2) and np.all(other_low < high - 2)), \
+                        (labels[a].text, labels[b].text, canvas)
+    finally:
+        app.stop()
 
 
 def test_virtual_cameras_in_one_place_share_one_label():
