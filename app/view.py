@@ -79,8 +79,8 @@ def virtual_label_anchor(camera) -> np.ndarray:
     frustum's size above it (along -y of its pose, the camera's up: a vertical mirror keeps it the world's), or as
     far below it for a camera through several mirrors (on four mirrors their names had stacked on those of the
     cameras through one beside them: a helper)."""
-    below = -1.0 if len(camera.sequence) > 1 else 1.0
-    return camera.pose[:3, 3] - below * VIRTUAL_LABEL_RISE * _frustum_scale(camera) * camera.pose[:3, 1]
+    rise = VIRTUAL_LABEL_RISE * _frustum_scale(camera) * (-1.0 if len(camera.sequence) > 1 else 1.0)
+    return camera.pose[:3, 3] - rise * camera.pose[:3, 1]          # up is -y
 
 
 def virtual_label_sides(cameras: list) -> list[str]:

@@ -121,5 +121,7 @@ def test_refusals_are_one_line(glass, tmp_path, capsys):
     status, _, err = run(capsys, "truth", plain)
     assert status == 2 and err == ("mirrorscan truth: error: the session has 1 mirrors, its truth 2: a mirror was "
                                    "added or removed since it was simulated\n")
-    status, _, err = run(capsys, "truth", glass, "--frame", -1)
-    assert status == 2 and err == "mirrorscan truth: error: --frame: a frame number from 0, got -1\n"
+    for frame in (-1, 2):
+        status, _, err = run(capsys, "truth", glass, "--frame", frame)
+        assert status == 2
+        assert err == f"mirrorscan truth: error: --frame: the session's frames are 0 to 1, got {frame}\n"

@@ -34,8 +34,8 @@ def run(args: argparse.Namespace) -> int:
         raise MirrorscanError(f"{args.session}: no {TRUTH_FILE}: only a session `mirrorscan simulate` wrote has a "
                               "truth to compare with")
     scene, fps = truth
-    if args.frame < 0:
-        raise MirrorscanError(f"--frame: a frame number from 0, got {args.frame}")
+    if not 0 <= args.frame < len(session.frames):
+        raise MirrorscanError(f"--frame: the session's frames are 0 to {len(session.frames) - 1}, got {args.frame}")
     planes = plane_errors(session, scene)
     surface = None
     if args.cloud is not None:

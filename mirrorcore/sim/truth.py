@@ -49,8 +49,8 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
     """Each mirror of `session` against the scene's mirror in the same place (session order is the scene's order, as
     `mirrorcore.sim.export` writes it); the offsets at the first object's middle (the origin without objects)."""
     if len(session.mirrors) != len(scene.mirrors):
-        raise MirrorscanError(f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a mirror "
-                         "was added or removed since it was simulated")
+        raise MirrorscanError(f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
+                              "mirror was added or removed since it was simulated")
     at = object_middle(scene.objects[0]) if scene.objects else np.zeros(3)
     out = []
     for mirror, true in zip(session.mirrors, scene.mirrors):
