@@ -993,8 +993,9 @@ def test_a_report_stays_while_it_describes_every_plane(demo):
     assert [(m.id, m.plane) for m in editor.session.mirrors] == [(first.id, first.plane), (second.id, second.plane)]
 
 def test_undoing_a_removal_brings_back_the_markers_fits_report(demo):
-    """Fit all planes (applied on confirmation), a mirror removed, then Undo: the mirror is back with its plane, and so is the fit's report
-    (per mirror, its markers' residuals; it had come back only when a refinement had set the planes: a helper)."""
+    """Fit all planes (applied on confirmation), a mirror removed, then Undo: the mirror is back with its plane, and
+    so is the fit's report (per mirror, its markers' residuals; it had come back only when a refinement had set the
+    planes: a helper)."""
     app_, headless = demo
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     editor, state = app_.editor, headless.tab.state
