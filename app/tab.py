@@ -34,6 +34,7 @@ MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll 
 SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, and is not said to
 OBJECT_MARGIN = 1.6     # Look at the object: the view's nearer edge is this many radii of the object's bounding
                         # sphere from its middle (its points are drawn as discs of many pixels at that distance)
+HOME_TOLERANCE = 0.01    # metres: a camera this near where the first view put it has not been moved by the technician
 HIDDEN_KEY = "mirrorscan-hidden"
 PAGE_KEY = "mirrorscan-page"
 PAGE_NAME_CHARS = 64
@@ -89,6 +90,7 @@ class Tab:
         self._heat_event: HeatChanged | None = None                # the heat map drawn
         self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
         self._framed = False
+        self._home_pose: tuple[np.ndarray, np.ndarray] | None = None   # (position, look-at) look_home last set
         camera = services.snapshot.session.camera
         self.scene = TabScene(client)
         self.screen = DepthScreen(client, camera, self._clicked)
@@ -276,7 +278,8 @@ class Tab:
     # ------------------------------------------------------------------ views
     def look_home(self) -> None:
         """The first view: the rig (camera, mirrors) and where the object is, framed for this tab's canvas."""
-        self._frame(np.concatenate([scene_points(self.services.snapshot.rig), self._object_points()]))
+        self._home_pose = self._frame(np.concatenate([scene_points(self.services.snapshot.rig),
+                                                      self._object_points()]))
 
     def look_at_object(self) -> None:
         """The object's cloud (the last frame's, all its views) filling this tab's canvas, seen as from home; the
@@ -300,8 +303,9 @@ class Tab:
             return np.zeros((0, 3))
         return frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
 
-    def _frame(self, points: np.ndarray, margin: float = 1.1) -> None:
-        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose, with `margin`) for its canvas."""
+    def _frame(self, points: np.ndarray, margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
+        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose, with `margin`) for its canvas;
+        returns its (position, look-at), metres."""
         camera = self.client.camera
         try:
             aspect = camera.image_width / max(camera.image_height, 1)
@@ -314,6 +318,7 @@ class Tab:
             camera.up_direction = (0.0, -1.0, 0.0)
             camera.position = tuple(position)
             camera.look_at = tuple(target)
+        return position, target
 
     # ------------------------------------------------------------------ events
     def _on_frame(self, event: FrameReady) -> None:
@@ -346,11 +351,25 @@ class Tab:
                 self.state.picked_marker = self.state.picked_corner = None
             session = snapshot.session           # what the scene draws: mirrors, and virtual cameras to `bounces`
             key = (session.bounces, *((m.id, m.name, m.plane, m.boundary) for m in session.mirrors))
-            if key != self._session_key:
+            rig_changed = key != self._session_key
+            if rig_changed:
                 self._session_key = key
                 self.scene.show_rig(snapshot.rig, ids)
                 self.scene.recolour(ids)
-        self.changed()
+        if rig_changed and self.state.view == "3d" and not self.heat and self._still_home():
+            self.look_home()           # the rig as it now is (the mirrors fitted after the page opened had left the
+        self.changed()                 # figure's head out of view and the camera filling half of it: a helper)
+
+    def _still_home(self) -> bool:
+        """Whether this tab's camera is where look_home last put it (HOME_TOLERANCE): not turned or zoomed since."""
+        if self._home_pose is None:
+            return False
+        try:
+            position, look_at = self.client.camera.position, self.client.camera.look_at
+        except AssertionError:            # the tab has not reported its camera yet
+            return False
+        return bool(np.allclose(position, self._home_pose[0], atol=HOME_TOLERANCE)
+                    and np.allclose(look_at, self._home_pose[1], atol=HOME_TOLERANCE))
 
     def _clicked(self, u: float, v: float) -> None:
         handler = self._click_handlers.get(self.state.mode)

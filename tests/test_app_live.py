@@ -1456,3 +1456,29 @@ def test_the_frame_rate_follows_a_slowdown_within_seconds():
     for k in range(2):
         slow.tick(5.0 * k)                       # one frame in 5 s: the last two still make a rate
     assert slow.fps == pytest.approx(0.2)
+
+
+def test_the_first_view_follows_the_rig_until_the_technician_moves_it(demo):
+    """Mirrors fitted after the page opened: the view framed the rig without them, and the figure's head was out of
+    view with the camera filling half of it (a helper). While the camera is where the first view put it, a change of
+    the rig frames it again; once turned, it stays where the technician put it."""
+    app, headless = demo
+    tab, editor = headless.tab, app.editor
+    first = next(m for m in editor.session.mirrors if m.plane is not None)
+    moved = Plane(first.plane.normal, first.plane.d + 0.3)
+    assert not tab.heat
+    tab.look("3d")                                                # the first view, in the 3D scene
+    home = np.array(tab.client.camera.position)
+    try:
+        editor.set_planes({first.id: (moved, first)})
+        wait_for(lambda: not np.allclose(tab.client.camera.position, home, atol=0.01), 10, "the view framed again")
+        again = np.array(tab.client.camera.position)
+        tab.client.camera.position = again + [0.5, 0.0, 0.0]          # turned by the technician
+        editor.undo(first.id)
+        time.sleep(0.3)
+        assert np.allclose(tab.client.camera.position, again + [0.5, 0.0, 0.0])
+    finally:
+        if editor.mirror(first.id).plane != first.plane:
+            editor.undo(first.id)
+        tab.look_home()
+    assert editor.mirror(first.id).plane == first.plane

@@ -193,7 +193,8 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypat
 def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, notes, monkeypatch):
     app, headless = sphere
     kinds: list[tuple[str, bool]] = []
-    tab, said = headless.tab, notes(app, kinds)
+    shown: list = []
+    tab, said = headless.tab, notes(app, kinds, shown)
     mirrors = panel(tab, MirrorsPanel)
     tab.state.mirror_id, tab.state.mode = 2, "markers"
     before = app.editor.mirror(2)
@@ -229,19 +230,23 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
         tab._redraw_overlay()
     tab.state.mirror_id = 2
     assert [k for k, mark in enumerate(drawn[-1][1].markers) if mark.flagged] == [len(before.markers)]
+    waiting = shown[-1]
     mirrors._discard()
     assert app.editor.mirror(2).plane == plane and not mirrors.review.visible
-    mirrors.fit_planes([2])
+    assert waiting.removed                              # its "waits, not applied" goes with it (it had stayed up
+    mirrors.fit_planes([2])                             # after Apply: a helper)
     assert mirrors.fit.disabled                                                           # one proposal at a time
+    waiting = shown[-1]
     tab.state.picked_marker = len(before.markers)       # the flagged marker deleted while the proposal is up: the
     mirrors._delete_marker()                            # proposal, fitted with it, goes, and Fit plane comes back
-    assert mirrors.proposal is None and not mirrors.review.visible and not mirrors.fit.disabled
+    assert mirrors.proposal is None and not mirrors.review.visible and not mirrors.fit.disabled and waiting.removed
     assert tab.state.flagged_markers == () and "dropped: mirror 2 changed" in mirrors.result.content
     assert app.editor.mirror(2).plane == plane
     mirrors._travel(app.editor.undo)                                                      # the marker back
     mirrors.fit_planes([2])
+    waiting = shown[-1]
     mirrors._apply()                                                                      # on confirmation
-    assert app.editor.mirror(2).plane != plane
+    assert app.editor.mirror(2).plane != plane and waiting.removed
     applied, step = app.editor.mirror(2).plane, app.editor.undo_label(2)
     mirrors.fit_planes([2])                     # the same markers again, refitted on the frames of now: applied
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(applied) < 0.25  # the marker named,

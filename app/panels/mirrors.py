@@ -57,6 +57,7 @@ class MirrorsPanel:
         gui, self.tab, self.services = tab.gui, tab, tab.services
         self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
         self._result_note = None            # the notification of the last calibration from the object, while it holds
+        self._proposal_note = None          # ... and of the fit waiting for Apply or Discard, while it waits
         self._flagged = ""                  # the agreement lines last warned of in a notification
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
@@ -118,6 +119,9 @@ class MirrorsPanel:
     def proposal(self, fits: dict[int, tuple] | None) -> None:
         self._proposal = fits
         self.tab.state.proposal_for = tuple(mirror.name for _, mirror, _ in fits.values()) if fits else ()
+        if self._proposal_note is not None:    # "... waits, not applied" holds no longer (it had stayed up after
+            self._proposal_note.remove()       # Apply, over the figure at 1024x600: a helper)
+            self._proposal_note = None
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
@@ -453,8 +457,10 @@ class MirrorsPanel:
             self._apply_fits(fits, report)
         self.tab.state.flagged_markers = _flags(fits)
         look = waits or without_markers or any(r.poor for _, _, r in fits.values())
-        self.services.notify(self.tab.client, "Fit from the markers", fit_note(fits.values(), waits, without_markers),
-                             "warning" if look else "info")
+        note = self.services.notify(self.tab.client, "Fit from the markers",
+                                    fit_note(fits.values(), waits, without_markers), "warning" if look else "info")
+        if waits:
+            self._proposal_note = note
         self.tab.changed()
 
     def _set_glass(self) -> None:
