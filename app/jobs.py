@@ -618,7 +618,7 @@ def found_headline(mirrors, compared: str = "surfaces", not_found: list[str] = (
     head = "Planes found from the sphere's centres" if compared == "sphere" else FOUND
     missing = (f" ⚠ {listed(not_found)}{NOT_FOUND_HEAD}: {'its' if len(not_found) == 1 else 'their'} "
                "plane is as it was." if not_found else "")
-    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared].words})"
+    return (f"{head} (no markers), fixed by the data: {'; '.join(fixed)} (1σ; {METHOD_BIAS[compared].reported})"
             f"{FOUND_CHECK}.{missing}")
 
 

@@ -1196,7 +1196,7 @@ def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing
     assert found_headline(fixed, "sphere") == (
         "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; "
         "the method may add 0.3 mm and 0.04°): check the heat map and the agreement below.")
-    assert "(1σ; the method may add 1 to 2 mm)" in found_headline(fixed)
+    assert "(1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm)" in found_headline(fixed)
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():

@@ -292,8 +292,9 @@ def test_a_calibrations_notification_is_its_first_sentence_and_where_the_rest_is
     headline = f"{found_headline(fixed, 'surfaces', ['middle'])} Over the last 5 live frames. {UNDO_FOUND}"
     report = f"{headline}\n\n**left** found: ...\n\n**middle** ⚠ not found: its image spills over the outline"
     assert _result_note(report) == ("Planes found from the object (no markers), fixed by the data: left to ±0.4 mm "
-                                    "and ±0.02° (1σ; the method may add 1 to 2 mm). Under Mirrors: the report. ⚠ "
-                                    "middle not found: its image spills over the outline")   # and no "below"
+                                    "and ±0.02° (1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm). "
+                                    "Under Mirrors: the report. ⚠ middle not found: its image spills over the "
+                                    "outline")                                                          # and no "below"
 
 
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():
