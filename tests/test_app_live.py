@@ -1358,8 +1358,10 @@ def test_a_markers_fit_without_glass_says_how_to_measure_it():
     def fit(name: str, glass: float, std: float | None = None):
         mirror = SessionMirror(name, ((1.0, 1.0),) * 3, id=1, marker_offset=glass, marker_offset_std=std)
         return SimpleNamespace(marker_offset=glass, summary=lambda names: f"{len(names)} markers"), mirror, None
-    bare = _fit_report([fit("left", 0.0), fit("right", 0.004)], " (applied)")
-    assert bare == f"**left**: 3 markers (applied)\n\n**right**: 3 markers (applied)\n\n{NO_GLASS_NOTE}"
+    left, right = fit("left", 0.0), fit("right", 0.004)
+    right = (right[0], replace(right[1], id=2), None)
+    bare = _fit_report([left, right], confirmed=(2,))                 # right's waited for Apply, left's did not
+    assert bare == f"**left**: 3 markers\n\n**right**: 3 markers (applied on confirmation)\n\n{NO_GLASS_NOTE}"
     assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add
     assert _fit_report([fit("left", 0.0, 8e-4)]) == "**left**: 3 markers"     # 0 measured is set too (the demo's
                                                                                # line said measured, the note 'none')
@@ -1380,9 +1382,21 @@ def test_a_proposal_points_at_crossed_markers_only_when_a_marker_is_crossed():
     """A proposal for a plane turned 4 degrees (no poor marker) sent a helper to look for crosses in vain."""
     def fit(poor):
         return (SimpleNamespace(marker_offset=0.003), SimpleNamespace(name="left"), SimpleNamespace(poor=poor))
-    assert fit_note([fit(())], True) == "A new plane for left waits, not applied: look at it under Mirrors, then " \
+    assert fit_note([], [fit(())]) == "A new plane for left waits, not applied: look at it under Mirrors, then " \
         "Apply or Discard it."
-    assert "under Mirrors (the crossed markers), then" in fit_note([fit((2,))], True)
+    assert "under Mirrors (the crossed markers), then" in fit_note([], [fit((2,))])
+
+
+def test_a_fit_of_several_mirrors_applies_those_that_need_no_look_and_proposes_the_others():
+    """One mirror's stray marker had held every mirror's new plane back for Apply (a helper on an arc of three):
+    the note says both what was applied and what waits."""
+    def fit(name, poor=()):
+        return (SimpleNamespace(rms_mm=2.0), SimpleNamespace(name=name, glass_set=True, marker_names=["3.1", "3.2"]),
+                SimpleNamespace(poor=poor))
+    assert fit_note([fit("mirror 1"), fit("mirror 2")], [fit("mirror 3", (1,))], ("mirror 4",)) == (
+        "Applied: mirror 1 2.0 mm RMS, mirror 2 2.0 mm RMS. The report is under Mirrors. A new plane for mirror 3 "
+        "waits, not applied: look at it under Mirrors (the crossed markers), then Apply or Discard it. mirror 4: no "
+        "markers, left as it is (click 3 or more, or Find the planes from the object).")
 
 
 def test_the_legend_says_which_mirrors_leave_their_part_out():

@@ -896,6 +896,39 @@ def test_fit_all_fits_the_mirrors_with_markers_and_names_the_others(tmp_path, no
         app.stop()
 
 
+def test_fit_all_applies_the_planes_that_need_no_look_and_proposes_the_others(tmp_path, notes):
+    """Mirror 2 with a marker clicked on the floor seen through its glass: its new plane waits for Apply, mirror 1's
+    is applied at once (one stray marker had held every mirror back: a helper on an arc of three); Discard leaves
+    mirror 1's, and the report says both."""
+    sim = Simulator(paper_scene(object="sphere"), seed=3)
+    write_session(sim, tmp_path / "stray", 2, progress=False)
+    session = load_session(tmp_path / "stray")
+    second = session.mirrors[1]
+    bottom = max(second.boundary, key=lambda p: p[1])
+    stray = replace(second, markers=second.markers + ((bottom[0] - 10, bottom[1] - 6),))
+    save_session(replace(session, mirrors=(session.mirrors[0], stray)))
+    app = MirrorscanApp(load_session(tmp_path / "stray"), SessionSource(session), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            said = notes(app)
+            wait_for(lambda: app.last_frame is not None, 30, "the first frame")
+            mirrors = panel(headless.tab, MirrorsPanel)
+            mirrors.fit_all_planes()
+            first, second = app.editor.session.mirrors
+            assert first.plane is not None and first.plane.angle_to(sim.planes[0]) < 0.5       # applied
+            assert second.plane is None and list(mirrors.proposal) == [second.id]             # waits
+            assert said[-1].startswith("Applied: mirror 1 ") and " A new plane for mirror 2 waits, not applied" \
+                in said[-1]
+            assert mirrors.result.content.startswith("**mirror 1**: ")
+            mirrors._discard()
+            assert app.editor.mirror(first.id).plane == first.plane and app.editor.mirror(second.id).plane is None
+            assert mirrors.result.content.startswith("**mirror 1**: ")
+            assert mirrors.result.content.endswith("mirror 2: the proposed plane discarded, as before.")
+    finally:
+        app.stop()
+
+
 def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(tmp_path):
     """The technician only drew the boundaries: the Mirrors step offers to find the planes from the object, over the
     recording's frames spread as `mirrorscan calibrate --method scene` picks them (the same result whenever it is

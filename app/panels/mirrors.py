@@ -58,6 +58,7 @@ class MirrorsPanel:
         self._proposal: dict[int, tuple] | None = None   # mirror id -> (plane, mirror as fitted, review)
         self._result_note = None            # the notification of the last calibration from the object, while it holds
         self._proposal_note = None          # ... and of the fit waiting for Apply or Discard, while it waits
+        self._ready: dict[int, tuple] = {}  # the fits applied at once beside the last proposal (its report's too)
         self._flagged = ""                  # the agreement lines last warned of in a notification
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
@@ -448,18 +449,19 @@ class MirrorsPanel:
                     "it replaces the plane found from the object: the markers alone are less accurate (the "
                     f"refinement moved it{_glass_source(mirror)}); refine again after applying",))
             fits[mirror.id] = (calibration, mirror, review)
-        report = _fit_report(fits.values())
-        waits = any(review.needs_confirmation for _, _, review in fits.values())
-        if waits:
-            self.proposal = fits
+        waiting = {i: fit for i, fit in fits.items() if fit[2].needs_confirmation}   # the others are applied (all
+        ready = {i: fit for i, fit in fits.items() if i not in waiting}             # had waited for one: a helper)
+        if ready:
+            self._apply_fits(ready, _fit_report(ready.values()))
+        self.proposal, self._ready = waiting or None, ready
+        if not ready:
             self._report("")
-        else:
-            self._apply_fits(fits, report)
         self.tab.state.flagged_markers = _flags(fits)
-        look = waits or without_markers or any(r.poor for _, _, r in fits.values())
+        look = waiting or without_markers or any(r.poor for _, _, r in fits.values())
         note = self.services.notify(self.tab.client, "Fit from the markers",
-                                    fit_note(fits.values(), waits, without_markers), "warning" if look else "info")
-        if waits:
+                                    fit_note(ready.values(), waiting.values(), without_markers),
+                                    "warning" if look else "info")
+        if waiting:
             self._proposal_note = note
         self.tab.changed()
 
@@ -478,10 +480,11 @@ class MirrorsPanel:
         self.services.jobs.start_agreement()
 
     def _apply(self) -> None:
+        """The proposal applied; the report names the planes of the same fit applied at once too."""
         fits, self.proposal = self.proposal, None
         self.tab.state.flagged_markers = ()
         if fits:
-            self._apply_fits(fits, _fit_report(fits.values(), " (applied on confirmation)"))
+            self._apply_fits(fits, _fit_report([*self._ready.values(), *fits.values()], confirmed=tuple(fits)))
         self.tab.changed()
 
     def _apply_fits(self, fits: dict, report: str) -> None:
@@ -494,9 +497,13 @@ class MirrorsPanel:
         self._check_agreement()
 
     def _discard(self) -> None:
+        """The proposal discarded; the planes of the same fit applied at once stay, and their report."""
+        waiting = [m.name for _, m, _ in (self.proposal or {}).values()]
         self.proposal = None
         self.tab.state.flagged_markers = ()
-        self._report("The proposed plane(s) were discarded; nothing changed.")
+        self._report(f"{_fit_report(self._ready.values())}\n\n{listed(waiting)}: the proposed "
+                     f"plane{'s' if len(waiting) > 1 else ''} discarded, as before." if self._ready else
+                     "The proposed plane(s) were discarded; nothing changed.")
         self.tab.changed()
 
     # ------------------------------------------------------------------ what the panel shows
@@ -694,32 +701,36 @@ def _not_found(headline: str) -> str:
     return headline.split(" ⚠ ", 1)[1].split(NOT_FOUND_HEAD)[0] if NOT_FOUND_HEAD in headline else ""
 
 
-def fit_note(fits, waits: bool, without_markers: tuple[str, ...] = ()) -> str:
+def fit_note(applied, waiting, without_markers: tuple[str, ...] = ()) -> str:
     """A markers fit in a notification's plain words (it is in view whatever the panel's scroll, where the report may
-    be below the window): the planes fitted with their RMS, or the proposal waiting, and the glass when none is set;
-    the poor markers of a plane applied anyway (a refit of markers taken before: FitReview.refit); then the mirrors
-    left out for want of markers. fits : (Calibration, SessionMirror, FitReview) each."""
-    names = listed(m.name for _, m, _ in fits)
-    them = "it is" if len(without_markers) == 1 else "they are"
-    left = (f" {listed(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
-            "from the object)." if without_markers else "")
-    if waits:
-        crossed = " (the crossed markers)" if any(r.poor for _, _, r in fits) else ""
-        return (f"A new plane for {names} waits, not applied: look at it under Mirrors{crossed}, then "
-                f"Apply or Discard it.{left}")
-    rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in fits)
-    glass = ("; glass 0 mm: Refine from the object measures it" if any(not m.glass_set for _, m, _ in fits)
-             else "")
-    poor = " ".join(f"⚠ {m.name}: the same markers as before, and marker(s) "
-                    f"{', '.join(m.marker_names[i] for i in r.poor)} lie off it beyond the depth noise: delete them "
-                    "(crossed on the depth frame) and fit again." for _, m, r in fits if r.poor)
-    return f"Applied: {rms}{glass}. {poor + ' ' if poor else ''}The report is under Mirrors.{left}"
+    be below the window): the planes applied with their RMS, and the glass when none is set, the poor markers of a
+    plane applied anyway (a refit of markers taken before: FitReview.refit); then the proposal waiting; then the
+    mirrors left out for want of markers. applied, waiting : (Calibration, SessionMirror, FitReview) each."""
+    applied, waiting = list(applied), list(waiting)
+    parts = []
+    if applied:
+        rms = ", ".join(f"{m.name} {c.rms_mm:.1f} mm RMS" for c, m, _ in applied)
+        glass = ("; glass 0 mm: Refine from the object measures it" if any(not m.glass_set for _, m, _ in applied)
+                 else "")
+        poor = " ".join(f"⚠ {m.name}: the same markers as before, and marker(s) "
+                        f"{', '.join(m.marker_names[i] for i in r.poor)} lie off it beyond the depth noise: delete "
+                        "them (crossed on the depth frame) and fit again." for _, m, r in applied if r.poor)
+        parts.append(f"Applied: {rms}{glass}. {poor + ' ' if poor else ''}The report is under Mirrors.")
+    if waiting:
+        crossed = " (the crossed markers)" if any(r.poor for _, _, r in waiting) else ""
+        parts.append(f"A new plane for {listed(m.name for _, m, _ in waiting)} waits, not applied: look at it under "
+                     f"Mirrors{crossed}, then Apply or Discard it.")
+    if without_markers:
+        them = "it is" if len(without_markers) == 1 else "they are"
+        parts.append(f"{listed(without_markers)}: no markers, left as {them} (click 3 or more, or Find the planes "
+                     "from the object).")
+    return " ".join(parts)
 
 
-def _fit_report(fits, applied: str = "") -> str:
-    """The report of markers fits ((Calibration, SessionMirror, FitReview) each): a line per mirror, then, when a
-    mirror has no glass set, how to get it."""
-    lines = [f"**{m.name}**: {c.summary(m.marker_names)}{applied}"
+def _fit_report(fits, confirmed: tuple[int, ...] = ()) -> str:
+    """The report of markers fits ((Calibration, SessionMirror, FitReview) each): a line per mirror (those whose ids
+    are `confirmed` applied on confirmation), then, when a mirror has no glass set, how to get it."""
+    lines = [f"**{m.name}**: {c.summary(m.marker_names)}{' (applied on confirmation)' if m.id in confirmed else ''}"
              + "".join(f"\n  - ⚠ {concern}" for concern in (r.concerns if r else ())) for c, m, r in fits]
     if any(not m.glass_set for _, m, _ in fits):
         lines.append(NO_GLASS_NOTE)
