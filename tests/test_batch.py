@@ -85,17 +85,17 @@ def test_changed_calibration_or_options_are_refused_unless_overwrite(recording, 
     subprocess.run(["cp", "-r", str(recording), str(session_copy)], check=True)
     out = tmp_path / "out"
     run_batch(BatchJob(session_copy, out), IN_PROCESS)
-    with pytest.raises(MirrorscanError, match=r"different options.temporal \(0 -> 1\); use --overwrite"):
+    with pytest.raises(MirrorscanError, match=r"made with other settings \(temporal \(0 -> 1\)\); use --overwrite"):
         run_batch(BatchJob(session_copy, out, temporal=1), IN_PROCESS)
-    with pytest.raises(MirrorscanError, match=r"different method \(raw -> tsdf\), options"):
+    with pytest.raises(MirrorscanError, match=r"other settings \(method \(raw -> tsdf\), margin \(none -> 0"):
         run_batch(BatchJob(session_copy, out, "tsdf"), IN_PROCESS)
     session = load_session(session_copy)
     plane = session.mirrors[1].plane
     moved = Plane.from_abcd([*plane.n, plane.d + 0.002])
     save_session(session.with_mirror(1, replace(session.mirrors[1], plane=moved)))
     before = ply_files(out)
-    with pytest.raises(MirrorscanError, match=r"manifest.json: its frames were made with a different "
-                                              r"calibration.mirrors;"):
+    with pytest.raises(MirrorscanError, match=r"manifest.json: its frames were made with other settings "
+                                              r"\(calibration.mirrors\);"):
         run_batch(BatchJob(session_copy, out), IN_PROCESS)
     assert ply_files(out) == before                              # nothing touched
     report = run_batch(BatchJob(session_copy, out), IN_PROCESS, overwrite=True)

@@ -202,7 +202,7 @@ def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
     capsys.readouterr()
     assert main(["calibrate", str(session), "--refine"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "mirror 1: no plane to refine yet; fit the planes first" in err
+    assert len(err.splitlines()) == 1 and "mirror 1 and mirror 2: no plane to refine yet; fit the planes first" in err
     assert f"mirrorscan calibrate {session} --method markers --refine" in err
     box = tmp_path / "box"
     run_ok("simulate", box, "--object", "box", "--quiet")

@@ -124,4 +124,5 @@ def test_refusals_are_one_line(glass, tmp_path, capsys):
     for frame in (-1, 2):
         status, _, err = run(capsys, "truth", glass, "--frame", frame)
         assert status == 2
-        assert err == f"mirrorscan truth: error: --frame: the session's frames are 0 to 1, got {frame}\n"
+        assert err == (f"mirrorscan truth: error: {glass / 'session.json'}: no frame {frame}; the session has 2 "
+                       "(0 to 1)\n")

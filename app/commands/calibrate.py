@@ -23,8 +23,9 @@ def register(sub) -> None:
                                          "optionally refine it from the object; write it into session.json")
     p.add_argument("session", help="session folder")
     p.add_argument("--frame", type=int, default=None,
-                   help="use this frame only (default: markers and region use the per-pixel median of the background "
-                        f"and up to {MAX_MARKER_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)")
+                   help="use this frame only (default: markers and region use the robust mean of the background and "
+                        f"up to {MAX_MARKER_FRAMES} frames, each pixel's readings within 3 sigma of their median; "
+                        f"scene and --refine up to {REFINE_FRAMES} frames)")
     p.add_argument("--method", choices=["markers", "region", "scene"], default=None,
                    help="markers (the default without --refine): the mirror's 'markers'; region: its 'region' "
                         "polygon (its frame); scene: no markers, the object seen directly and in each mirror (search, "
@@ -118,7 +119,7 @@ def _calibrate(session: Session, method: str | None, args: argparse.Namespace, r
         return session, None
     unset = [m.name for m in session.mirrors if m.plane is None]
     if method is None and unset:
-        raise CalibrationError(f"{unset[0]}: no plane to refine yet; fit the planes first and then refine them: "
+        raise CalibrationError(f"{listed(unset)}: no plane to refine yet; fit the planes first and then refine them: "
                                f"mirrorscan calibrate {session.root} --method markers --refine")
     try:
         return refine_session(session, *object_frames(session, args.frame), range(len(session.mirrors)),

@@ -35,7 +35,8 @@ def run(args: argparse.Namespace) -> int:
                               "truth to compare with")
     scene, fps = truth
     if not 0 <= args.frame < len(session.frames):
-        raise MirrorscanError(f"--frame: the session's frames are 0 to {len(session.frames) - 1}, got {args.frame}")
+        raise MirrorscanError(f"{session.path}: no frame {args.frame}; the session has {len(session.frames)} (0 to "
+                              f"{len(session.frames) - 1})")                     # as reconstruct and calibrate say it
     planes = plane_errors(session, scene)
     surface = None
     if args.cloud is not None:

@@ -98,7 +98,8 @@ def session_inputs(session: Session) -> dict:
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
     """The keys (dotted paths) whose values differ between two JSON objects, with the old and new values when they
-    are single numbers or strings: ['method (raw -> tsdf)', 'options.voxel (0.002 -> 0.004)', 'calibration.mirrors']."""
+    are single numbers or strings (None as 'none'; a helper read "(0.02 -> None)"): ['method (raw -> tsdf)',
+    'options.voxel (0.002 -> 0.004)', 'calibration.mirrors']."""
     found = []
     for key in sorted(set(old) | set(new)):
         a, b = old.get(key), new.get(key)
@@ -108,7 +109,7 @@ def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
         if isinstance(a, dict) and isinstance(b, dict):
             found += differences(a, b, f"{name}.")
         elif all(isinstance(x, (int, float, str, type(None))) for x in (a, b)):
-            found.append(f"{name} ({a} -> {b})")
+            found.append(f"{name} ({'none' if a is None else a} -> {'none' if b is None else b})")
         else:
             found.append(name)
     return found

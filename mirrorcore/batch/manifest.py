@@ -156,8 +156,9 @@ class OutputFolder:
             return {}
         changed = differences({**old.settings, **old.inputs}, {**self.manifest.settings, **self.manifest.inputs})
         if changed and not overwrite:
-            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with a different "
-                                  f"{', '.join(changed)}; use --overwrite to redo every frame, or another folder")
+            said = ", ".join(change.removeprefix("options.") for change in changed)    # "a different options.voxel"
+            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with other settings ({said}); "
+                                  "use --overwrite to redo every frame, or another folder")     # had read oddly
         if overwrite:
             for record in old.done.values():
                 if record.file not in names:
