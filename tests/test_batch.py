@@ -353,13 +353,14 @@ def test_the_commands_summary_names_retried_and_failed_frames(tmp_path, capsys):
     from app.commands.reconstruct import _summary
     from mirrorcore.batch import BatchReport
     report = BatchReport(tmp_path, 40, kept=10, written=27, failed={3: "frames/000003.png: no such depth image",
-                         5: "x", 6: "y"}, retried={20: "tcp://10.0.0.2:4000", 21: "tcp://10.0.0.2:4000"}, seconds=2.7)
+                         5: "x", 6: "y"}, retried={20: "tcp://10.0.0.2:4000", 21: "tcp://10.0.0.2:4000"}, seconds=2.7,
+                         startup_seconds=12.34)
     with pytest.raises(MirrorscanError, match=r"^3 frame\(s\) failed \(3, 5, 6; see .*manifest.json\), frame 3: "
                                               r"frames/000003.png: no such depth image$"):
         _summary(report)
     out = capsys.readouterr().out.splitlines()
-    assert out[0] == (f"wrote 27 PLY files into {tmp_path} (10 kept from an earlier run) at 10.0 frames/s; 37 of 40 "
-                      f"frames done, manifest {tmp_path / MANIFEST_FILE}")
+    assert out[0] == (f"wrote 27 PLY files into {tmp_path} (10 kept from an earlier run) at 10.0 frames/s after "
+                      f"12.3 s starting the workers; 37 of 40 frames done, manifest {tmp_path / MANIFEST_FILE}")
     assert out[1] == "worker tcp://10.0.0.2:4000 left the cluster with frames 20, 21: they were run again"
     with pytest.raises(KeyboardInterrupt):
         _summary(BatchReport(tmp_path, 40, 0, 5, cancelled=True))

@@ -177,7 +177,9 @@ def _summary(report: BatchReport) -> int:
         print(f"nothing to do: the {report.total} frames are in {report.out} already (see {report.manifest})")
     else:
         kept = f" ({report.kept} kept from an earlier run)" if report.kept else ""
-        print(f"wrote {report.written} PLY files into {report.out}{kept} at {report.fps:.1f} frames/s; "
+        startup = (f" after {report.startup_seconds:.1f} s starting the workers" if report.startup_seconds >= 1.0
+                   else "")      # the rate leaves it out: 114 frames "at 182.5 frames/s" in 14 s (a helper)
+        print(f"wrote {report.written} PLY files into {report.out}{kept} at {report.fps:.1f} frames/s{startup}; "
               f"{report.kept + report.written} of {report.total} frames done, manifest {report.manifest}")
     for worker in sorted(set(report.retried.values())):
         frames = [i for i, w in report.retried.items() if w == worker]
