@@ -104,3 +104,15 @@ def test_a_frame_listed_outside_frames_is_protected(session):
     (session / "session.json").write_text(json.dumps(data))
     with pytest.raises(MirrorscanError, match="extra.png of the session"):
         check_output(session / "extra.png")
+
+
+def test_one_frame_is_not_written_over_a_batch_record(session, tmp_path, capsys):
+    """A helper wrote a frame's PLY over a batch folder's manifest.json: the next run of the batch failed on it."""
+    out = tmp_path / "frames"
+    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers", "1"]) == 0
+    for name in ("manifest.json", ".mirrorscan-batch.lock"):
+        if (out / name).exists():
+            refused(capsys, out, ["reconstruct", session, "-o", out / name, "--frame", 0],
+                    f"would write over the record of the batch in {out}")
+    assert (out / "manifest.json").exists()
+    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers", "1"]) == 0

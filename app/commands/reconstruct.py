@@ -13,6 +13,7 @@ import numpy as np
 from tqdm import tqdm
 
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, Where, read_depth, run_batch
+from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depthio import require_readings
@@ -83,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
             index = int(args.frame)
         except ValueError:
             raise MirrorscanError(f"--frame: expected an integer or 'all', got {args.frame!r}") from None
+        _not_over_a_batch_record(out)
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
         cloud, _ = object_cloud(rig, read_scan_frame(session, index, args.temporal), background, selection)
@@ -91,6 +93,14 @@ def run(args: argparse.Namespace) -> int:
             f"{source_name(k)} {v}" for k, v in cloud.source_counts(len(rig.mirrors)).items()))
         return 0
     return run_all(args, out)
+
+
+def _not_over_a_batch_record(out: Path) -> None:
+    """Refuse one frame's output over a batch folder's manifest or lock: the batch could no longer go on (a helper
+    wrote a PLY over manifest.json, and the next run failed on it)."""
+    if out.name in (MANIFEST_FILE, LOCK_FILE) and out.exists():
+        raise MirrorscanError(f"{out}: would write over the record of the batch in {out.parent} (a rerun goes on "
+                              "from it); write the output elsewhere")
 
 
 def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, background, selection,
