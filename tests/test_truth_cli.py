@@ -11,7 +11,8 @@ from app.cli import main
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.ply import read_ply
 from mirrorcore.session import load_session, save_session
-from mirrorcore.sim.truth import object_middle, surface_error
+from mirrorcore.sim.layouts import object_extent
+from mirrorcore.sim.truth import surface_error
 from mirrorcore.sources import session_truth
 
 
@@ -51,11 +52,10 @@ def test_markers_on_glass_read_as_planes_too_near_and_the_glass_beside_the_truth
     assert lines[0].endswith("; glass 0.0 mm (true 3.0 mm)")
 
 
-def test_the_true_planes_read_zero_and_a_plane_moved_away_reads_its_move(glass, tmp_path, capsys):
-    folder = tmp_path / "moved"
+def test_the_true_planes_read_zero_and_a_plane_moved_away_reads_its_move(glass, capsys):
     scene, _ = session_truth(load_session(glass))
     true = [m.plane for m in scene.mirrors]
-    at = object_middle(scene.objects[0])
+    at = object_extent(scene.objects[0])[0]
     farther = Plane(true[1].normal, true[1].d + 0.005)           # 5 mm farther from the camera (d > 0 at it)
     assert farther.signed_distance(np.zeros(3)) > true[1].signed_distance(np.zeros(3))
     assert abs(farther.signed_distance(at) - true[1].signed_distance(at)) == pytest.approx(0.005)

@@ -16,7 +16,7 @@ import numpy as np
 from mirrorcore.pipeline import prepare_frame
 from mirrorcore.refine import offset_at, refine_planes
 from mirrorcore.sim.export import true_rig
-from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.layouts import object_extent, paper_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 
@@ -29,7 +29,6 @@ SENSORS = {                                   # the Kinect v1 model with its eff
     "kinect": KINECT,
 }
 DISTANCE = {"sphere": 2.0, "figure": 3.0}     # metres, as in tests/test_calibrate_refine.py
-CENTRE = {"figure": (0.0, 0.1, 3.0)}          # where offsets are measured: the body's middle (the figure's is its feet)
 
 
 @dataclass(frozen=True)
@@ -51,7 +50,7 @@ def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.nda
     1-sigma mm) per mirror."""
     scene = paper_scene(object=obj, distance=DISTANCE[obj])
     sim, rig = Simulator(scene, SENSORS[sensor], seed=seed), true_rig(scene)
-    centre = np.asarray(CENTRE.get(obj, scene.objects[0].centre))
+    centre = object_extent(scene.objects[0])[0]            # the body's middle (the figure's centre is its feet)
     background = sim.background().depth
     out = []
     for i in frames:

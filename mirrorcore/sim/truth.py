@@ -11,14 +11,16 @@ import open3d as o3d
 from ..errors import MirrorscanError
 from ..session import Session
 from .objects import object_geometry
-from .scene import Scene, SceneObject
+from .layouts import object_extent
+from .scene import Scene
 
 
 @dataclass(frozen=True)
 class PlaneError:
-    """One mirror's plane against its true plane, at the object's middle (object_middle): offset_mm along the normal
-    (> 0: the plane too far from the camera) and tilt_deg, both None while it has no plane; its glass (the session's
-    marker_offset) beside the true one, mm."""
+    """One mirror's plane against its true plane, at the object's middle (layouts.object_extent: a figure's is half
+    its height above the floor point between its feet): offset_mm along the normal (> 0: the plane too far from the
+    camera) and tilt_deg, both None while it has no plane; its glass (the session's marker_offset) beside the true
+    one, mm."""
 
     name: str
     offset_mm: float | None
@@ -38,20 +40,13 @@ class SurfaceError:
     p95_mm: float
 
 
-def object_middle(obj: SceneObject) -> np.ndarray:
-    """(3,) metres, camera frame: where a plane's offset is measured, an object's centre; a figure's is the point on
-    the floor between its feet, so half its height above that (y down)."""
-    centre = np.asarray(obj.centre, dtype=np.float64)
-    return centre - [0.0, obj.height / 2, 0.0] if obj.type == "figure" else centre
-
-
 def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
     """Each mirror of `session` against the scene's mirror in the same place (session order is the scene's order, as
     `mirrorcore.sim.export` writes it); the offsets at the first object's middle (the origin without objects)."""
     if len(session.mirrors) != len(scene.mirrors):
         raise MirrorscanError(f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
                               "mirror was added or removed since it was simulated")
-    at = object_middle(scene.objects[0]) if scene.objects else np.zeros(3)
+    at = object_extent(scene.objects[0])[0] if scene.objects else np.zeros(3)
     out = []
     for mirror, true in zip(session.mirrors, scene.mirrors):
         plane = mirror.plane
