@@ -6,8 +6,8 @@ import argparse
 import importlib
 import sys
 
-from mirrorcore.budget import ENV, set_memory_budget
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.budget import ENV, set_memory_budget
+from mirrorcore.base.errors import MirrorscanError
 
 # Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
 COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "truth", "experiment", "sources", "record", "bench"]
@@ -20,7 +20,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "smaller of 4G and half this machine's memory)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
-        importlib.import_module(f"app.commands.{name}").register(sub)
+        importlib.import_module(f"mirrorscan.commands.{name}").register(sub)
     return parser
 
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mirrorcore.calibration import calibrate_session
-from mirrorcore.session import Session
+from mirrorcore.calibration.fit import calibrate_session
+from mirrorcore.io.session import Session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -2,7 +2,7 @@
 background, every edit naming its mirror by its stable id. Undo and redo are kept per mirror (and for the session's
 own changes: adding or removing a mirror, the selection, the background), each step named for the button; the
 planes set by one fit or refinement of several mirrors are undone and redone together, from any of them. Pure logic
-over mirrorcore.session; thread-safe; autosaved after every change.
+over mirrorcore.io.session; thread-safe; autosaved after every change.
 
 session.json may also be written by another program while the tool edits it (`mirrorscan calibrate SESSION` in a
 terminal): the editor never saves over such a change. It reloads the file (`reload_if_changed`, which the server
@@ -18,12 +18,12 @@ from typing import Callable
 
 import numpy as np
 
-from mirrorcore.errors import FileFormatError, MirrorscanError
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import edge_distance, validate_polygon
-from mirrorcore.rig import check_bounces
-from mirrorcore.selection import Selection
-from mirrorcore.session import (
+from mirrorcore.rig.model import check_bounces
+from mirrorcore.depth.selection import Selection
+from mirrorcore.io.session import (
     MAX_MARKER_OFFSET,
     MAX_MIRRORS,
     Pixels,
@@ -34,7 +34,7 @@ from mirrorcore.session import (
     load_session,
     save_session,
 )
-from mirrorcore.words import listed
+from mirrorcore.base.words import listed
 
 UNDO_DEPTH = 100
 PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
@@ -262,7 +262,7 @@ class SessionEditor:
 
     @_edits
     def set_bounces(self, bounces: int) -> None:
-        """How many mirrors in turn a camera ray is followed through (1 to 3; mirrorcore.rig)."""
+        """How many mirrors in turn a camera ray is followed through (1 to 3; mirrorcore.rig.model)."""
         self._change("mirrors followed in turn", ("bounces", self._session.bounces, check_bounces(bounces)),
                      replace(self._session, bounces=check_bounces(bounces)))
 

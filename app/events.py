@@ -68,7 +68,7 @@ class DenseChanged:
 class HeatChanged:
     """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3) uint8, and per view
     seen in a mirror (source label) the median distance (mm) and the share of its points compared
-    (mirrorcore.agreement.heat_figures) over the heat maps of the last `frames` frames with the same planes; `sources`
+    (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the last `frames` frames with the same planes; `sources`
     (n,) uint8: each point's source label, 0 the camera's (None: not told apart)."""
 
     index: int

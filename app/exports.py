@@ -8,8 +8,8 @@ from pathlib import Path
 
 import viser
 
-from mirrorcore.atomic import write_atomic
-from mirrorcore.outputs import check_output
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.io.outputs import check_output
 
 EXPORTS = "exports"
 

@@ -14,23 +14,23 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from mirrorcore.agreement import heat_figures, local_means, surface_distances
+from mirrorcore.calibration.agreement import heat_figures, local_means, surface_distances
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, BatchRun, Where, exports_folder
-from mirrorcore.calibration import calibration_depth, static_frames
+from mirrorcore.calibration.fit import calibration_depth, static_frames
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
-from mirrorcore.depthops import median_depth
-from mirrorcore.errors import CalibrationError, Cancelled, MirrorscanError
+from mirrorcore.depth.ops import median_depth
+from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.palette import heat_map_colours
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, MIN_AGREEMENTS, NOISE_EXPLAINS,
+from mirrorcore.base.palette import heat_map_colours
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, MIN_AGREEMENTS, NOISE_EXPLAINS,
                                REFINE_FRAMES, ViewAgreement, refine_session, view_agreement)
-from mirrorcore.search import calibrate_scene
-from mirrorcore.session import SESSION_FILE, Session, save_session
+from mirrorcore.calibration.search import calibrate_scene
+from mirrorcore.io.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
 from mirrorcore.sources.record import Recorder, new_recording_folder
-from mirrorcore.words import listed
+from mirrorcore.base.words import listed
 
 from .events import DenseChanged, EventBus, FrameReady, HeatChanged, JobProgress
 from .live import frame_number
@@ -231,7 +231,7 @@ class Jobs:
 
     # ------------------------------------------------------------------ calibration from the object
     def start_refine(self, editor: "SessionEditor") -> threading.Thread:
-        """Refine the planes of the session's calibrated mirrors from the agreement of the views (mirrorcore.refine.
+        """Refine the planes of the session's calibrated mirrors from the agreement of the views (mirrorcore.calibration.refine.
         refine_session) over object_frames, then apply the planes and marker offsets (one undo step per mirror); the
         per-mirror report is the job's last status."""
         depths, used = self.object_frames()
@@ -241,7 +241,7 @@ class Jobs:
 
     def start_scene(self, editor: "SessionEditor") -> threading.Thread:
         """Find the planes of the mirrors that have a boundary and no plane from the object, without markers
-        (mirrorcore.search.calibrate_scene: a search in the first of object_frames, then the refinement over all of
+        (mirrorcore.calibration.search.calibrate_scene: a search in the first of object_frames, then the refinement over all of
         them, the other calibrated mirrors taking part as they are), and apply them as start_refine does."""
         session = editor.session
         todo = [i for i, m in enumerate(session.mirrors) if m.boundary and m.plane is None]
@@ -350,7 +350,7 @@ class Jobs:
         return self.refinements.get(key) or self.fits.get(key, "")
 
     def start_agreement(self, depths: np.ndarray | None = None) -> None:
-        """How well each mirror's view agrees with the others over frames (mirrorcore.refine.view_agreement; depths
+        """How well each mirror's view agrees with the others over frames (mirrorcore.calibration.refine.view_agreement; depths
         (k, H, W) or (H, W) metres, the last AGREEMENT_FRAMES of them; None: the last live frames), with the current
         session's planes and selection, as the job's last status. While one runs, none is started: the running one
         checks again when the rig or the background changed meanwhile (an undo, a fit), so that its report is
@@ -630,7 +630,7 @@ def _signed(mm: float) -> str:
 
 def agreement_line(name: str, found: ViewAgreement, by_markers: bool = True) -> str:
     """One mirror's agreement with the other views, against what the depth noise of the readings compared explains
-    (mirrorcore.refine.view_agreement; beyond it: agreement_doubt). A mirror that disagrees with the camera gets a
+    (mirrorcore.calibration.refine.view_agreement; beyond it: agreement_doubt). A mirror that disagrees with the camera gets a
     warning that its plane may be tilted or its boundary off; one that agrees with the camera but not with another
     mirror, that a plane is off (this one's along its normal, or another's), so that a mirror whose neighbour was
     fitted wrong is not told to fix itself (a helper). Fewer than MIN_AGREEMENTS comparisons judge nothing, as they
@@ -676,7 +676,7 @@ def agreement_doubt(found: ViewAgreement) -> str:
     """'camera' when a mirror's comparisons with the camera (MIN_AGREEMENTS or more) go beyond the noise (their RMS
     beyond NOISE_EXPLAINS times it, or their mean beyond CAMERA_MEAN_EXPLAINS times), 'mirrors' when only all its
     comparisons together do (MEAN_EXPLAINS for their mean), else ''. The camera's alone single out a tilted plane:
-    the comparisons between two mirrors put a tilt or an offset of one on both (mirrorcore.refine)."""
+    the comparisons between two mirrors put a tilt or an offset of one on both (mirrorcore.calibration.refine)."""
     def beyond(rms: float, mean: float, noise: float, share: float) -> bool:
         return rms > NOISE_EXPLAINS * noise or abs(mean) > share * noise
     if found.camera_points >= MIN_AGREEMENTS and beyond(found.camera_rms_mm, found.camera_mean_mm,

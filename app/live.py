@@ -12,10 +12,10 @@ from typing import Callable
 
 import numpy as np
 
-from mirrorcore.cloud import Cloud
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.reconstruct import reconstruct_raw
+from mirrorcore.rig.cloud import Cloud
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.sources import DepthSource, Frame
 
 from .overlays import depth_layer, depth_range
@@ -234,7 +234,7 @@ class LiveLoop:
         """The depth of n frames read after this call (blocks; progress(k) after each): the frame already read ahead
         is skipped, so a scene changed just before the call (the object taken out) is what is collected. While paused,
         frames are stepped one by one. Raises MirrorscanError when the source stops delivering for `timeout` s,
-        mirrorcore.errors.Cancelled when `cancel` is set."""
+        mirrorcore.base.errors.Cancelled when `cancel` is set."""
         frames: list[np.ndarray] = []
         done = threading.Event()
         first = self.index + 2   # the frame in hand and the one read ahead may predate the call

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from mirrorcore.depthops import masked_copy
+from mirrorcore.depth.ops import masked_copy
 
 OBJECT_TINT = np.array([255, 214, 120], np.float32)   # the object's pixels, a warm light yellow over the grey depth
 NO_READING = (24, 24, 32)                             # pixels with no depth reading

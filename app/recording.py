@@ -10,8 +10,8 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from mirrorcore.budget import memory_budget
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.budget import memory_budget
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.sources import DepthSource, Frame
 
 from .live import LiveFrame

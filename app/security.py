@@ -38,8 +38,8 @@ from viser import _messages
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
-from mirrorcore.budget import check_memory
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import MirrorscanError
 
 log = logging.getLogger("mirrorscan.security")
 

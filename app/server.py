@@ -16,9 +16,9 @@ from typing import Callable
 import numpy as np
 import viser
 
-from mirrorcore.depthio import write_depth_png
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import BACKGROUND_FILE, Session
+from mirrorcore.depth.files import write_depth_png
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import BACKGROUND_FILE, Session
 from mirrorcore.sources import DepthSource, SessionSource
 
 from .editor import SessionEditor

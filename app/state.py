@@ -7,17 +7,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mirrorcore.markers import MarkerResiduals, marker_residuals
-from mirrorcore.rig import Rig
-from mirrorcore.selection import Backdrop
-from mirrorcore.session import Session
+from mirrorcore.calibration.markers import MarkerResiduals, marker_residuals
+from mirrorcore.rig.model import Rig
+from mirrorcore.depth.selection import Backdrop
+from mirrorcore.io.session import Session
 
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
     """One consistent state: the session, its rig (reflection tables built once), the background depth (H, W) metres
     or None and its Backdrop (the subtraction's limit map, made once), and for each calibrated mirror (by id) how far
-    each marker lies from its plane (mirrorcore.markers)."""
+    each marker lies from its plane (mirrorcore.calibration.markers)."""
 
     session: Session
     rig: Rig

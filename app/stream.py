@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from mirrorcore.cloud import Cloud
+from mirrorcore.rig.cloud import Cloud
 
 MAX_POINTS = 60_000          # points shown per frame, all sources together (evenly strided)
 FLOAT16_EXTENT = 1.0         # metres: offsets below this round to float16 within 2^-12 m (0.24 mm)

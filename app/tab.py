@@ -13,7 +13,7 @@ import numpy as np
 import viser
 from viser import _messages
 
-from mirrorcore.palette import SOURCE_COLOURS, source_colour
+from mirrorcore.base.palette import SOURCE_COLOURS, source_colour
 
 from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen

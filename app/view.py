@@ -11,8 +11,8 @@ import viser
 import viser.transforms as tf
 
 from mirrorcore.geometry.camera import Intrinsics, pixels_on_plane
-from mirrorcore.palette import source_colour, source_name
-from mirrorcore.rig import Rig
+from mirrorcore.base.palette import source_colour, source_name
+from mirrorcore.rig.model import Rig
 
 from .jobs import DenseResult
 from .stream import SourcePart

@@ -5,7 +5,7 @@ import importlib
 import time
 from typing import Callable
 
-MODULES = ["bench.alg1", "bench.sim", "bench.serve", "bench.carve", "bench.tsdf", "bench.refine", "bench.batch"]
+MODULES = ["mirrorscan.bench.alg1", "mirrorscan.bench.sim", "mirrorscan.bench.serve", "mirrorscan.bench.carve", "mirrorscan.bench.tsdf", "mirrorscan.bench.refine", "mirrorscan.bench.batch"]
 
 
 def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> float:

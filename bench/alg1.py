@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import open3d as o3d
 
-from bench import interleaved_ms, median_ms
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.rig import Rig
-from mirrorcore.selection import Selection, object_mask
+from mirrorscan.bench import interleaved_ms, median_ms
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.depth.selection import Selection, object_mask
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -9,12 +9,12 @@ from typing import Callable
 
 import numpy as np
 
-from bench import interleaved_ms
+from mirrorscan.bench import interleaved_ms
 from mirrorcore.dense.carve import carve
 from mirrorcore.dense.volume import Volume
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.rig import Rig
-from mirrorcore.shapes import FitErrors, Sphere
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.model import Rig
+from mirrorcore.geometry.shapes import FitErrors, Sphere
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import median_ms
-from mirrorcore.calibration import calibrate_session
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import refine_planes
-from mirrorcore.rig import Rig
-from mirrorcore.session import Session
+from mirrorscan.bench import median_ms
+from mirrorcore.calibration.fit import calibrate_session
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.refine import refine_planes
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import Session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.demo import calibrated_session, demo_source
-from app.jobs import AGREEMENT
-from app.server import MirrorscanApp
-from bench.tabs import HeadlessTab, wait_for
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.jobs import AGREEMENT
+from mirrorscan.server import MirrorscanApp
+from mirrorscan.bench.tabs import HeadlessTab, wait_for
 from mirrorcore.sources import StackSource
 
 FRAMES = 60

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import itertools
 
-from bench import median_ms
+from mirrorscan.bench import median_ms
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 

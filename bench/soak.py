@@ -2,7 +2,7 @@
 127.0.0.1) for a set time while the session is edited and autosaved; reports memory (RSS), frames, frame rate, what
 every tab received, and whether every edit reached the disk.
 
-    .venv/bin/python -m bench.soak --minutes 10 --clients 4      # the long run; the test suite runs ~25 s of it
+    .venv/bin/python -m mirrorscan.bench.soak --minutes 10 --clients 4      # the long run; the test suite runs ~25 s of it
 """
 from __future__ import annotations
 
@@ -20,10 +20,10 @@ from pathlib import Path
 import viser
 import websockets.asyncio.client
 
-from app.demo import calibrated_session, demo_source
-from app.server import MirrorscanApp
-from bench.tabs import CAMERA_MESSAGE
-from mirrorcore.session import load_session
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.server import MirrorscanApp
+from mirrorscan.bench.tabs import CAMERA_MESSAGE
+from mirrorcore.io.session import load_session
 
 WARM_UP = 0.2          # fraction of the run after which memory is taken as the baseline
 EDIT_EVERY_S = 5.0     # a mirror is renamed (and autosaved) this often
@@ -132,7 +132,7 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.soak", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m mirrorscan.bench.soak", description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=10.0, help="how long to stream (default 10)")
     parser.add_argument("--clients", type=int, default=4, help="simulated browser tabs (default 4)")
     args = parser.parse_args(argv)

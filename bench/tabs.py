@@ -14,7 +14,7 @@ import viser
 import websockets.sync.client
 import zstandard
 
-from app.tab import PAGE_KEY
+from mirrorscan.tab import PAGE_KEY
 
 CAMERA_MESSAGE = msgspec.msgpack.encode({       # what a browser tab sends first: its view of the scene
     "type": "ViewerCameraMessage", "wxyz": [1.0, 0.0, 0.0, 0.0], "position": [0.0, 0.0, 0.0], "fov": 1.0,

@@ -10,8 +10,8 @@ import numpy as np
 import open3d as o3d
 import open3d.core as o3c
 
-from bench import interleaved_ms
-from bench.carve import SphereFrames, peak_mb, sphere_frames
+from mirrorscan.bench import interleaved_ms
+from mirrorscan.bench.carve import SphereFrames, peak_mb, sphere_frames
 from mirrorcore.dense.tsdf import fuse
 from mirrorcore.dense.views import rig_views
 from mirrorcore.dense.volume import Volume

@@ -1,4 +1,4 @@
 """mirrorcore: one depth camera and flat mirrors -> a merged, source-labelled 3D cloud (Nguyen, Huynh & Meunier 2018)."""
-from .errors import CalibrationError, FileFormatError, MirrorscanError
+from mirrorcore.base.errors import CalibrationError, FileFormatError, MirrorscanError
 
 __all__ = ["MirrorscanError", "CalibrationError", "FileFormatError"]

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import viser.transforms as tf
 
-from bench.tabs import wait_for
+from tests.waiting import wait_for
 
 CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
 ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",

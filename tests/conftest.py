@@ -12,10 +12,11 @@ from types import SimpleNamespace
 
 import pytest
 
-from app.demo import calibrated_session, demo_source
-from app.server import MirrorscanApp, quiet_closed_connections
-from bench.tabs import HeadlessTab, wait_for
-from mirrorcore.session import Session, save_session
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.server import MirrorscanApp, quiet_closed_connections
+from mirrorscan.bench.tabs import HeadlessTab
+from tests.waiting import wait_for
+from mirrorcore.io.session import Session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
@@ -32,7 +33,7 @@ def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
 
 @pytest.fixture(autouse=True)
 def servers_warning_filter():
-    """app.server silences viser's warning for messages to a tab that has gone, once on import; pytest restores the
+    """mirrorscan.server silences viser's warning for messages to a tab that has gone, once on import; pytest restores the
     warning filters around every test, so each test gets it again (a module's server outlives the test that made it)."""
     quiet_closed_connections()
 

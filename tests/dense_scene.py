@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.rig import Rig
+from mirrorcore.rig.model import Rig
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.render import GroundTruth

@@ -7,12 +7,12 @@ from dataclasses import replace
 
 import pytest
 
-from app.editor import SESSION_SCOPE, SessionEditor
-from mirrorcore.errors import MirrorscanError
+from mirrorscan.editor import SESSION_SCOPE, SessionEditor
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.selection import Selection
-from mirrorcore.session import Session, load_session, save_session
+from mirrorcore.depth.selection import Selection
+from mirrorcore.io.session import Session, load_session, save_session
 
 SQUARE = [(10, 10), (100, 10), (100, 100), (10, 100)]
 PLANE = Plane.from_abcd([0.5, 0, -0.8, 2.4])
@@ -159,11 +159,11 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor, 
     """A fit or refinement of several mirrors is one action: undone and redone from any of its mirrors, for every
     mirror whose last change it still is; saved once, with all of them (a file with one of them had been written
     first, and became the backup: a helper)."""
-    import app.editor
+    import mirrorscan.editor as editor_module
     editor.add_mirror()
     other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
     written = []
-    monkeypatch.setattr(app.editor, "save_session", lambda session: written.append(
+    monkeypatch.setattr(editor_module, "save_session", lambda session: written.append(
         [m.plane for m in session.mirrors]) or save_session(session))
     editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))}, what="refined plane")
     assert written == [[PLANE, other]]

@@ -16,31 +16,32 @@ import pytest
 import viser
 import websockets.sync.client
 
-from app.context import TabState
-from app.demo import calibrated_session, demo_source
-from app.events import EventBus, HeatChanged, JobProgress
-from app.editor import SESSION_SCOPE
-from app.jobs import HEAT_POOL, Jobs, _frames_used, agreement_line, found_headline, planes_key, refined_headline
-from app.live import RECENT_FRAMES, RateMeter
-from app.markup import markdown
-from app.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
+from mirrorscan.context import TabState
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.events import EventBus, HeatChanged, JobProgress
+from mirrorscan.editor import SESSION_SCOPE
+from mirrorscan.jobs import HEAT_POOL, Jobs, _frames_used, agreement_line, found_headline, planes_key, refined_headline
+from mirrorscan.live import RECENT_FRAMES, RateMeter
+from mirrorscan.markup import markdown
+from mirrorscan.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
                              start_hint)
-from app.panels.measure import fit_report
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
-import app.server as server_module
-from app.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
-from app.state import Snapshot
-from app.stream import FLOAT16_EXTENT, Anchors, stream_parts
-from app.tab import MAX_LAG_S, SETTLING_S, Tab
-from app.view import home_pose, label_anchor, same_place, scene_points
-from bench.tabs import CAMERA_MESSAGE, wait_for
-from mirrorcore.cloud import Cloud
-from mirrorcore.errors import CalibrationError, Cancelled, MirrorscanError
-from mirrorcore.fitting import fit_cylinder, fit_sphere
+from mirrorscan.panels.measure import fit_report
+from mirrorscan.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
+import mirrorscan.server as server_module
+from mirrorscan.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
+from mirrorscan.state import Snapshot
+from mirrorscan.stream import FLOAT16_EXTENT, Anchors, stream_parts
+from mirrorscan.tab import MAX_LAG_S, SETTLING_S, Tab
+from mirrorscan.view import home_pose, label_anchor, same_place, scene_points
+from mirrorscan.bench.tabs import CAMERA_MESSAGE
+from tests.waiting import wait_for
+from mirrorcore.rig.cloud import Cloud
+from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
+from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.refine import ViewAgreement
-from mirrorcore.session import Session, SessionMirror, load_session
+from mirrorcore.calibration.refine import ViewAgreement
+from mirrorcore.io.session import Session, SessionMirror, load_session
 from mirrorcore.sources import StackSource
 
 
@@ -63,7 +64,7 @@ def test_a_reloaded_page_takes_up_the_work_of_the_page_before(demo, monkeypatch)
     """A reload lost the corners of a boundary being drawn, the mirror, the mode, the view and the heat map (a
     helper): the page says which it is (the same through its reloads), and a reload within RESUME_S takes up the work
     of its tab before; another page, or a reload later, starts afresh."""
-    from bench.tabs import HeadlessTab
+    from mirrorscan.bench.tabs import HeadlessTab
     app, _ = demo
     second = app.snapshot.session.mirrors[1].id
     with HeadlessTab(app, page="bench") as before:
@@ -194,7 +195,7 @@ def test_a_tab_that_lags_gets_no_frames_until_it_keeps_up(demo, monkeypatch):
     sent = []
     show_cloud = tab.scene.show_cloud
     monkeypatch.setattr(tab.scene, "show_cloud", lambda *args: (sent.append(args[2]), show_cloud(*args)))
-    monkeypatch.setattr("app.panels.live.STATS_HZ", 1000.0)          # the header refreshed with every frame
+    monkeypatch.setattr("mirrorscan.panels.live.STATS_HZ", 1000.0)          # the header refreshed with every frame
     headless.answer_delay = 1.2 * MAX_LAG_S
     monkeypatch.setattr(tab, "_opened", time.perf_counter())              # a page being built lags unsaid
     try:
@@ -345,7 +346,7 @@ def test_a_tab_gone_while_it_was_built_is_not_kept(demo, monkeypatch):
         go_on.wait(10)
         built.append(Tab(client, services))
         return built[-1]
-    monkeypatch.setattr("app.server.Tab", slow_tab)
+    monkeypatch.setattr("mirrorscan.server.Tab", slow_tab)
     ws = websockets.sync.client.connect(f"ws://127.0.0.1:{app.port}", subprotocols=[f"viser-v{viser.__version__}"])
     ws.send(CAMERA_MESSAGE)
     assert building.wait(10)
@@ -369,7 +370,7 @@ def test_what_viser_drops_for_a_closed_tab_is_not_shown_as_a_warning():
         quiet_closed_connections()
         warnings.warn_explicit(text, UserWarning, "buffer.py", 1, module="viser.infra._async_message_buffer")
         warnings.warn_explicit(text.replace("Gui", "SceneNode"), UserWarning, "buffer.py", 1, module="viser")
-        warnings.warn_explicit(text, UserWarning, "tab.py", 1, module="app.tab")
+        warnings.warn_explicit(text, UserWarning, "tab.py", 1, module="mirrorscan.tab")
         warnings.warn_explicit("Something else", UserWarning, "buffer.py", 1, module="viser.infra")
     assert [(str(w.message), w.filename) for w in caught] == [("Something else", "buffer.py")]
 
@@ -554,8 +555,8 @@ def test_views_through_several_mirrors_are_streamed_named_and_drawn(notes):
     """On a 72-degree kaleidoscope with its true planes: the views through two mirrors in turn reach the tab as
     sources of their own, the legend names them with the mirrors' names, their virtual cameras are drawn, and the
     number of mirrors followed is a session setting that can be undone."""
-    from bench.tabs import HeadlessTab
-    from mirrorcore.palette import FIRST_MULTI_LABEL
+    from mirrorscan.bench.tabs import HeadlessTab
+    from mirrorcore.base.palette import FIRST_MULTI_LABEL
     from mirrorcore.sim.layouts import kaleidoscope_scene
     app = _simulated_app(kaleidoscope_scene(72.0))
     try:
@@ -609,8 +610,8 @@ def _home_pixels(points: np.ndarray, canvas: tuple[int, int], scene: np.ndarray)
 
 def _simulated_app(scene):
     """The app (not started, not saved) on a simulated scene, its planes the true ones (a perfect calibration)."""
-    from app.server import MirrorscanApp
-    from mirrorcore.session import Session
+    from mirrorscan.server import MirrorscanApp
+    from mirrorcore.io.session import Session
     from mirrorcore.sim.export import session_mirrors
     from mirrorcore.sim.simulator import Simulator
     from mirrorcore.sources import SimulatedSource
@@ -665,7 +666,7 @@ def test_seen_from_home_the_names_of_cameras_through_several_mirrors_stand_apart
     camera's, the mirrors', the cameras' through one mirror and through two) inside the 3D view and none on another
     by more than 2 px, at both window sizes. Run inwards from every camera beyond the mirrors, names through two
     mirrors had been written over each other, and on four mirrors over those through one (a helper)."""
-    from bench.tabs import HeadlessTab
+    from mirrorscan.bench.tabs import HeadlessTab
     from mirrorcore.sim.layouts import arc_scene, kaleidoscope_scene
     made = {"arc": lambda: arc_scene(3, object="figure", distance=3.0), "hinged": lambda: kaleidoscope_scene(72.0),
             "four": lambda: arc_scene(4)}[scene]()
@@ -720,11 +721,11 @@ def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
 def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch):
     """A change of the mirrors while the agreement is computed (an undo, a fit: here a rename) is not left out: the
     check asked for meanwhile is not started beside the running one, which checks again before it reports."""
-    import app.jobs
+    import mirrorscan.jobs as jobs_module
     app_, _ = demo
     frame, calls = app_.loop.run_once(), []
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
-    real = app.jobs.view_agreement
+    real = jobs_module.view_agreement
 
     def renamed_meanwhile(rig, depths, masks):
         calls.append(rig)
@@ -732,7 +733,7 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
             app_.editor.rename_mirror(1, "left")
             app_.jobs.start_agreement(frame.depth)                 # asked again while it runs: not started
         return real(rig, depths, masks)
-    monkeypatch.setattr(app.jobs, "view_agreement", renamed_meanwhile)
+    monkeypatch.setattr(jobs_module, "view_agreement", renamed_meanwhile)
     done = []
     unsubscribe = app_.bus.subscribe(JobProgress, lambda e: e.job == "agreement" and e.fraction is None
                                      and done.append(e.status))
@@ -748,14 +749,14 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
 
 def test_without_planes_the_agreement_says_what_to_do(demo, monkeypatch):
     """No mirror has a plane: the agreement says so and what to do (it read "no view sees what another sees")."""
-    import app.jobs
+    import mirrorscan.jobs as jobs_module
     app_, _ = demo
     frame = app_.loop.run_once()
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
-    monkeypatch.setattr(app.jobs, "view_agreement", lambda rig, depths, masks: {})
+    monkeypatch.setattr(jobs_module, "view_agreement", lambda rig, depths, masks: {})
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
-    assert app_.jobs.agreement == app.jobs.NO_AGREEMENT
+    assert app_.jobs.agreement == jobs_module.NO_AGREEMENT
     monkeypatch.undo()
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
@@ -765,14 +766,14 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     """After a refinement was refused, the next step no longer sends the technician back to it for the glass (a
     helper, a box on three mirrors: refused every time), but to typing the glass in, also after the next fit (it had
     gone back to the refinement then: a helper), until a refinement succeeds."""
-    import app.jobs
+    import mirrorscan.jobs as jobs_module
     app_, headless = demo
     app_.loop.run_once()
-    real = app.jobs.refine_session
+    real = jobs_module.refine_session
 
     def refused(*args, **kwargs):
         raise CalibrationError("mirror 1: the camera and the mirror see too little of the same surface", ("mirror 1",))
-    monkeypatch.setattr(app.jobs, "refine_session", refused)
+    monkeypatch.setattr(jobs_module, "refine_session", refused)
     hint = headless.tab.header.hint
     headless.tab.header.refresh_hint()
     assert "No glass set on mirror 1 and mirror 2: **Mirrors › Refine from the object** measures it." in hint.content
@@ -792,7 +793,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     app_.editor.set_planes({ids[0]: (replace(mirror.plane, d=mirror.plane.d + 0.001), mirror)})
     headless.tab.header.refresh_hint()
     assert "the refinement could not measure it on this object" in hint.content
-    monkeypatch.setattr(app.jobs, "refine_session", real)                  # one that succeeds clears it
+    monkeypatch.setattr(jobs_module, "refine_session", real)                  # one that succeeds clears it
     app_.jobs.start_refine(app_.editor).join(120)
     assert app_.jobs.refused == {}
     assert app_.editor.undo(ids[0]).startswith("refined planes") and app_.editor.undo(ids[0]).startswith("plane")
@@ -801,7 +802,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
 def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_markers(demo, monkeypatch):
     """Find the planes from the object with mirror 1 fitted from its markers and held: only mirror 2's plane comes
     from the object (mirror 1's had been taken for one too, and the glass it lacked was not asked for: a helper)."""
-    import app.jobs
+    import mirrorscan.jobs as jobs_module
     app_, headless = demo
     app_.loop.run_once()
     held, found = app_.editor.session.mirrors
@@ -814,7 +815,7 @@ def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_marke
                                  summary=lambda **_: "found")
         return session.with_mirror(1, replace(session.mirrors[1], plane=truth)), SimpleNamespace(
             mirrors=[report], compared="surfaces", refused=())
-    monkeypatch.setattr(app.jobs, "calibrate_scene", search)
+    monkeypatch.setattr(jobs_module, "calibrate_scene", search)
     app_.jobs.start_scene(app_.editor).join(60)
     assert app_.editor.mirror(found.id).plane == truth
     assert app_.jobs.from_object(found.id, truth) and not app_.jobs.from_object(held.id, held.plane)
@@ -826,7 +827,7 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
     """Find the planes from the object where one mirror cannot be found: the others' planes are applied and the one
     not found is named with why, in the headline and its details, and its Find is not offered again until its
     outline or markers change (before, one refusal dropped every plane found: a helper on an arc of three)."""
-    import app.jobs
+    import mirrorscan.jobs as jobs_module
     app_, headless = demo
     app_.loop.run_once()
     first, second = app_.editor.session.mirrors
@@ -839,10 +840,10 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
                                  summary=lambda **_: "found")
         return session.with_mirror(1, replace(session.mirrors[1], plane=second.plane)), SimpleNamespace(
             mirrors=[report], compared="surfaces", refused=((0, why),))
-    monkeypatch.setattr(app.jobs, "calibrate_scene", search)
+    monkeypatch.setattr(jobs_module, "calibrate_scene", search)
     app_.jobs.start_scene(app_.editor).join(60)
     assert app_.editor.mirror(second.id).plane == second.plane and app_.editor.mirror(first.id).plane is None
-    report = app_.jobs.refinements[app.jobs.planes_key(app_.editor.session)]
+    report = app_.jobs.refinements[jobs_module.planes_key(app_.editor.session)]
     assert f"⚠ {first.name} not found (why below): its plane is as it was." in report.split("\n\n")[0]
     assert f"Undo takes the planes found back, with {second.name} selected." in report.split("\n\n")[0]
     assert report.endswith(f"**{first.name}** ⚠ not found: {why.removeprefix(first.name + ': ')}")   # named once
@@ -869,8 +870,8 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
 def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(demo):
     """Find, a mirror without a plane removed, then a refinement that changed nothing: its report holds the planes'
     key, and undoing the planes found said "Undone: Nothing changed" (a helper)."""
-    import app.jobs
-    from app.jobs import UNCHANGED
+    import mirrorscan.jobs as jobs_module
+    from mirrorscan.jobs import UNCHANGED
     app_, headless = demo
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     before, after = (("a",),), (("b",),)
@@ -878,7 +879,7 @@ def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(dem
     label = "found planes of mirror 1 and mirror 2"
     assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."
     app_.jobs.refinements[before] = ("Planes found from the object (no markers), fixed by the data: mirror 1 to "
-                                     f"±0.2 mm{app.jobs.FOUND_CHECK}. Undo takes the planes found back.")
+                                     f"±0.2 mm{jobs_module.FOUND_CHECK}. Undo takes the planes found back.")
     assert mirrors._report_after_travel(before, after, label, True) == "Undone: Planes found from the object (no " \
         "markers), fixed by the data: mirror 1 to ±0.2 mm."                    # its advice was for the planes undone
     del app_.jobs.refinements[before]                                          # a mirror removed since the report:

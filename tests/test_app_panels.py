@@ -14,28 +14,29 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app.demo import calibrated_session, demo_source
-from app.events import JobProgress
-from app.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, planes_key, refined_headline
-from app.markup import markdown
-from app.panels.dense import DensePanel
-from app.panels.measure import CANCELLED_NOTE, MeasurePanel
-from app.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
-from app.panels.object import ObjectPanel
-from app.panels.record import BATCH_IDLE, RecordPanel
-from app.panels.session import SessionPanel
-from app.server import MirrorscanApp
-from app.view import HEAT_DIRECT_SIZE, beside_offset
-from bench.tabs import HeadlessTab, wait_for
-from mirrorcore.calibration import calibration_depth
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.markers import marker_residuals
-from mirrorcore.palette import SOURCE_COLOURS
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.events import JobProgress
+from mirrorscan.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, planes_key, refined_headline
+from mirrorscan.markup import markdown
+from mirrorscan.panels.dense import DensePanel
+from mirrorscan.panels.measure import CANCELLED_NOTE, MeasurePanel
+from mirrorscan.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
+from mirrorscan.panels.object import ObjectPanel
+from mirrorscan.panels.record import BATCH_IDLE, RecordPanel
+from mirrorscan.panels.session import SessionPanel
+from mirrorscan.server import MirrorscanApp
+from mirrorscan.view import HEAT_DIRECT_SIZE, beside_offset
+from mirrorscan.bench.tabs import HeadlessTab
+from tests.waiting import wait_for
+from mirrorcore.calibration.fit import calibration_depth
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.calibration.markers import marker_residuals
+from mirrorcore.base.palette import SOURCE_COLOURS
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.ply import read_ply
-from mirrorcore.refine import view_agreement
-from mirrorcore.session import SessionMirror, load_session, save_session
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.io.ply import read_ply
+from mirrorcore.calibration.refine import view_agreement
+from mirrorcore.io.session import SessionMirror, load_session, save_session
 from mirrorcore.sim.export import session_mirrors, write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

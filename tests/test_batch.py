@@ -16,14 +16,14 @@ import numpy as np
 import pytest
 from batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files, recording_fixture, reference_fixture  # noqa: F401
 
-from app.cli import main
+from mirrorscan.cli import main
 from mirrorcore.batch import MANIFEST_FILE, BatchJob, BatchRun, OutputFolder, exports_folder, run_batch
 from mirrorcore.batch.engine import task_chunks
 from mirrorcore.batch.manifest import LOCK_FILE, MAX_FLUSH_SECONDS, MIN_FLUSH_SECONDS, FrameRecord
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.ply import read_ply
-from mirrorcore.session import load_session, save_session
+from mirrorcore.io.ply import read_ply
+from mirrorcore.io.session import load_session, save_session
 
 ROOT = Path(__file__).resolve().parents[1]
 TSDF = OPTIONS["tsdf"]
@@ -258,7 +258,7 @@ def test_a_killed_command_loses_only_the_frames_after_the_last_manifest(recordin
     command is frozen (SIGSTOP) while its manifest is read, so the manifest read is the one the kill leaves. The rerun
     keeps what the manifest lists, redoes the rest, and every file is the one an uninterrupted run writes."""
     out, options = tmp_path / "out", replace(TSDF, voxel=KILLED_VOXEL)
-    argv = [sys.executable, "-m", "app.cli", "reconstruct", str(recording), "-o", str(out), "--frame", "all",
+    argv = [sys.executable, "-m", "mirrorscan.cli", "reconstruct", str(recording), "-o", str(out), "--frame", "all",
             "--workers", "1", "--method", "tsdf", "--voxel", str(KILLED_VOXEL)]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     process = subprocess.Popen(argv, env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -304,7 +304,7 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(recording, refe
 def test_the_manifest_lists_a_frame_only_once_its_file_is_on_the_disk(recording, reference, tmp_path, monkeypatch):
     """The workers write the frames without flushing them (no worker waits for the disk); the manifest's writer
     flushes them (fsync) before it writes the manifest that lists them, and stops on a frame it cannot flush."""
-    from mirrorcore import atomic
+    from mirrorcore.base import atomic
     expected, synced, real_fsync = reference["raw"], [], os.fsync
 
     def fsync(fd):
@@ -334,8 +334,8 @@ def test_the_browser_tools_folder_is_in_the_sessions_exports(tmp_path):
 
 
 def test_ply_element_counts_read_the_header_alone(tmp_path):
-    from mirrorcore.errors import FileFormatError
-    from mirrorcore.ply import ply_element_counts, write_ply
+    from mirrorcore.base.errors import FileFormatError
+    from mirrorcore.io.ply import ply_element_counts, write_ply
     write_ply(tmp_path / "mesh.ply", np.zeros((4, 3)), np.zeros(4, np.uint8), np.array([[0, 1, 2], [1, 2, 3]]))
     assert ply_element_counts(tmp_path / "mesh.ply") == {"vertex": 4, "face": 2}
     write_ply(tmp_path / "cloud.ply", np.zeros((5, 3)), np.ones(5, np.uint8))
@@ -350,7 +350,7 @@ def test_ply_element_counts_read_the_header_alone(tmp_path):
 
 
 def test_the_commands_summary_names_retried_and_failed_frames(tmp_path, capsys):
-    from app.commands.reconstruct import _summary
+    from mirrorscan.commands.reconstruct import _summary
     from mirrorcore.batch import BatchReport
     report = BatchReport(tmp_path, 40, kept=10, written=27, failed={3: "frames/000003.png: no such depth image",
                          5: "x", 6: "y"}, retried={20: "tcp://10.0.0.2:4000", 21: "tcp://10.0.0.2:4000"}, seconds=2.7,

@@ -13,7 +13,7 @@ import time
 import pytest
 from batch_scene import FRAMES, OPTIONS, child_processes, ply_files, recording_fixture, reference_fixture  # noqa: F401
 
-from app.cli import main
+from mirrorscan.cli import main
 from mirrorcore.batch import BatchJob, BatchRun, Where, run_batch
 from mirrorcore.batch.cluster import dask_client
 

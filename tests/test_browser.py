@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.panels.mirrors import MirrorsPanel
-from bench.tabs import wait_for
-from mirrorcore.ply import read_ply
+from mirrorscan.panels.mirrors import MirrorsPanel
+from tests.waiting import wait_for
+from mirrorcore.io.ply import read_ply
 from mirrorcore.sim.export import session_mirrors
 from tests.browser import (
     button,

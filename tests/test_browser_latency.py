@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from app.demo import calibrated_session, demo_source
-from app.server import MirrorscanApp
-from bench.tabs import wait_for
+from mirrorscan.demo import calibrated_session, demo_source
+from mirrorscan.server import MirrorscanApp
+from tests.waiting import wait_for
 from tests.browser import click_pixel, look_at_the_depth_frame, open_tab
 
 ARTIFACTS = Path(__file__).parent / "artifacts"

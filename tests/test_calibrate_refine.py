@@ -7,9 +7,9 @@ import shutil
 import numpy as np
 import pytest
 
-from app.cli import main
-from mirrorcore.ply import read_ply
-from mirrorcore.session import load_session
+from mirrorscan.cli import main
+from mirrorcore.io.ply import read_ply
+from mirrorcore.io.session import load_session
 from mirrorcore.sim.truth import plane_errors as truth_plane_errors, surface_error
 from mirrorcore.sources import session_truth
 

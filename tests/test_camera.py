@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from mirrorcore.errors import FileFormatError
+from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import (
     Intrinsics,
     load_open3d_json,

@@ -13,7 +13,7 @@ from mirrorcore.dense.carve import BLOCK, FREE, HIDDEN, NO_SOURCE, SURFACE, _car
 from mirrorcore.dense.sampling import QuadTable
 from mirrorcore.dense.views import rig_views
 from mirrorcore.dense.volume import Volume
-from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.sim.sensor import SensorModel
 from tests.dense_scene import sphere_scene
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.cli import main
-from app.commands import reconstruct as command
-from mirrorcore.ply import read_ply
+from mirrorscan.cli import main
+from mirrorscan.commands import reconstruct as command
+from mirrorcore.io.ply import read_ply
 
 DEMO = "sessions/demo"
 SPHERE_CENTRE = np.array([0.0, 0.0, 2.0])

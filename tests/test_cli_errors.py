@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from app.cli import main
+from mirrorscan.cli import main
 
 
 @pytest.fixture(scope="module")

@@ -16,9 +16,9 @@ from mirrorcore.dense.tsdf import BLOCK, fuse
 from mirrorcore.dense.views import rig_views
 from mirrorcore.dense.volume import Volume
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.rig import Rig
-from mirrorcore.session import load_session
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import load_session
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import kaleidoscope_scene
 from mirrorcore.sim.sensor import SensorModel

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 from helpers import plane_depth, sphere_depth
 
-from mirrorcore import depthops
-from mirrorcore.depthops import local_quadratic_depth, robust_mean_depth, smooth_depth, without_occluders
+from mirrorcore.depth import ops as depthops
+from mirrorcore.depth.ops import local_quadratic_depth, robust_mean_depth, smooth_depth, without_occluders
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.noise import axial_sigma
+from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.sim.sensor import SensorModel
 
 CAMERA = Intrinsics.primesense()

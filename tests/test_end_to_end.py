@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from app.cli import main
-from mirrorcore.ply import read_ply
-from mirrorcore.session import load_session
+from mirrorscan.cli import main
+from mirrorcore.io.ply import read_ply
+from mirrorcore.io.session import load_session
 
 TRUE_RADIUS = 0.115
 

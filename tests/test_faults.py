@@ -16,16 +16,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.events import JobProgress
-from app.jobs import DENSE
-from app.server import MirrorscanApp
-from bench.soak import listen
-from bench.soak import run as soak
-from bench.tabs import wait_for
+from mirrorscan.events import JobProgress
+from mirrorscan.jobs import DENSE
+from mirrorscan.server import MirrorscanApp
+from mirrorscan.bench.soak import listen
+from mirrorscan.bench.soak import run as soak
+from tests.waiting import wait_for
 from mirrorcore.dense import DenseOptions
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import DepthSource, Frame, SimulatedSource
@@ -36,7 +36,7 @@ SAVER = textwrap.dedent("""
     import sys
     from pathlib import Path
     from mirrorcore.geometry.camera import Intrinsics
-    from mirrorcore.session import SessionMirror, Session, save_session
+    from mirrorcore.io.session import SessionMirror, Session, save_session
     root, k = Path(sys.argv[1]), 0
     while True:   # sessions of changing size (0 to 20 kB), saved as fast as possible until killed
         k += 1
@@ -178,7 +178,7 @@ def test_an_unplugged_camera_is_reported_once_and_the_loop_recovers(monkeypatch)
 
 def test_short_soak_with_four_tabs():
     """20 s of the live demo to 4 simulated tabs with a session edit every 5 s: no error, every tab served, every edit
-    on disk (`python -m bench.soak` runs the long one; its speed figures are in `mirrorscan bench`)."""
+    on disk (`python -m mirrorscan.bench.soak` runs the long one; its speed figures are in `mirrorscan bench`)."""
     report = soak(20.0, clients=4)
     assert report.errors == [] and report.frames > 0
     assert min(report.messages) > 0 and report.late_messages > 0

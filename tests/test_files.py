@@ -9,13 +9,13 @@ import open3d as o3d
 import pytest
 import trimesh
 
-from mirrorcore.depthio import read_depth_png, write_depth_png
-from mirrorcore.errors import FileFormatError
+from mirrorcore.depth.files import read_depth_png, write_depth_png
+from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.ply import read_ply, write_ply
-from mirrorcore.selection import Selection
-from mirrorcore.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.ply import read_ply, write_ply
+from mirrorcore.depth.selection import Selection
+from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 
 CAMERA = Intrinsics.primesense()
 

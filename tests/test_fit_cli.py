@@ -8,9 +8,9 @@ import open3d as o3d
 import pytest
 from helpers import GLOBE_DEPTH, globe_points
 
-from app.cli import main
-from mirrorcore.fitting import fit_sphere
-from mirrorcore.ply import write_ply
+from mirrorscan.cli import main
+from mirrorcore.geometry.fitting import fit_sphere
+from mirrorcore.io.ply import write_ply
 
 
 

@@ -1,12 +1,12 @@
-"""Sphere and cylinder fitting (mirrorcore.fitting) and the paper's error measures (mirrorcore.fit_errors)."""
+"""Sphere and cylinder fitting (mirrorcore.geometry.fitting) and the paper's error measures (mirrorcore.fit_errors)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.fitting import estimate_normals, fit_cylinder, fit_sphere
-from mirrorcore.shapes import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.geometry.fitting import estimate_normals, fit_cylinder, fit_sphere
+from mirrorcore.geometry.shapes import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
 
 
 # ------------------------------------------------------------------------------------------------ synthetic scans

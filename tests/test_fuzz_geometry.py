@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics, project_points, reproject_pixels
 from mirrorcore.geometry.plane import Plane, fit_plane_ransac, fit_plane_svd
 from mirrorcore.geometry.polygon import validate_polygon

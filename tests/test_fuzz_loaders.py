@@ -11,8 +11,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mirrorcore.depthio import encode_depth_png, read_depth_png
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.depth.files import encode_depth_png, read_depth_png
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import (
     Intrinsics,
     load_open3d_json,
@@ -20,8 +20,8 @@ from mirrorcore.geometry.camera import (
     save_open3d_json,
     save_opencv_yaml,
 )
-from mirrorcore.ply import encode_ply, read_ply
-from mirrorcore.session import Session, SessionMirror, load_session, session_from_json
+from mirrorcore.io.ply import encode_ply, read_ply
+from mirrorcore.io.session import Session, SessionMirror, load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
 from mirrorcore.sources.files import open_npz

@@ -9,14 +9,14 @@ import json
 import numpy as np
 import pytest
 
-from app.cli import main
-from mirrorcore.depthops import smooth_depth
-from mirrorcore.palette import source_orders, source_sequence
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.ply import read_ply
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.rig import Rig
-from mirrorcore.session import load_session
+from mirrorscan.cli import main
+from mirrorcore.depth.ops import smooth_depth
+from mirrorcore.base.palette import source_orders, source_sequence
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.io.ply import read_ply
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import load_session
 
 TRUE_RADIUS = 0.115
 

@@ -1,7 +1,7 @@
 """The Kinect v1's disparity counts to metres and back (Burrus' calibration)."""
 import numpy as np
 
-from mirrorcore.kinect import DISPARITY_INVALID, depth_to_disparity, disparity_to_depth
+from mirrorcore.depth.kinect import DISPARITY_INVALID, depth_to_disparity, disparity_to_depth
 
 
 def test_burrus_disparity_round_trip_within_quantisation():

@@ -17,14 +17,14 @@ import cv2
 import numpy as np
 import pytest
 
-from mirrorcore.budget import MemoryBudgetError, check_memory, memory_budget, parse_size, set_memory_budget
+from mirrorcore.base.budget import MemoryBudgetError, check_memory, memory_budget, parse_size, set_memory_budget
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.volume import Volume
-from mirrorcore.depthio import read_depth_png
-from mirrorcore.errors import FileFormatError, MirrorscanError
+from mirrorcore.depth.files import read_depth_png
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.polygon import MAX_VERTICES, first_crossing, validate_polygon
-from mirrorcore.rig import Rig
-from mirrorcore.session import MAX_MARKERS, MAX_MIRRORS, SessionMirror, check_limits, check_name, load_session
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import MAX_MARKERS, MAX_MIRRORS, SessionMirror, check_limits, check_name, load_session
 from mirrorcore.sources import open_source
 from mirrorcore.sources.files import load_npz
 
@@ -86,7 +86,7 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
                                               r"307,200 pixels can hold"):
         read_depth_png(path, 0.001, (480, 640))
     # in a process of its own (this one's other threads allocate too): the refusal never holds the file
-    reader = ("import re, sys\nfrom mirrorcore.depthio import read_depth_png\n"
+    reader = ("import re, sys\nfrom mirrorcore.depth.files import read_depth_png\n"
               "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    pass\n"
               "print(re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1))")
     run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True, timeout=120,
@@ -256,7 +256,7 @@ def test_the_editor_check_refuses_what_the_reader_would_refuse():
 
 
 def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
-    from mirrorcore.session import save_session
+    from mirrorcore.io.session import save_session
     session = replace(load_session(DEMO), root=tmp_path)
     m = session.mirrors[0]
     full = tuple(replace(m, id=i, name=f"mirror {i}", plane=None) for i in range(1, MAX_MIRRORS + 1))
@@ -267,7 +267,7 @@ def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
 
 
 def test_the_command_line_takes_the_budget_and_refuses_by_it(tmp_path, capsys, budget):
-    from app.cli import main
+    from mirrorscan.cli import main
     out = tmp_path / "mesh.ply"
     assert main(["--memory", "64M", "reconstruct", DEMO, "-o", str(out), "--method", "tsdf", "--voxel", "0.001"]) == 2
     err = capsys.readouterr().err
@@ -278,7 +278,7 @@ def test_the_command_line_takes_the_budget_and_refuses_by_it(tmp_path, capsys, b
 
 def test_a_camera_or_a_cloud_file_beyond_the_budget_is_refused_before_its_tables(tmp_path, budget):
     from mirrorcore.geometry.camera import Intrinsics
-    from mirrorcore.ply import read_ply, write_ply
+    from mirrorcore.io.ply import read_ply, write_ply
     huge = Intrinsics(16384, 16384, 1e4, 1e4, 8191.5, 8191.5)
     with pytest.raises(MemoryBudgetError, match="rig: the per-pixel tables of a 16384x16384 camera: needs 16.0 GiB"):
         Rig(huge, ())                                               # 16 GiB of tables: refused before any

@@ -10,10 +10,10 @@ import time
 
 import pytest
 
-from app.cli import main
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.outputs import check_output
-from mirrorcore.session import load_session
+from mirrorscan.cli import main
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.outputs import check_output
+from mirrorcore.io.session import load_session
 
 
 @pytest.fixture

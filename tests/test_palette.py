@@ -5,7 +5,7 @@ from itertools import pairwise
 import numpy as np
 import pytest
 
-from mirrorcore.palette import (
+from mirrorcore.base.palette import (
     FIRST_MULTI_LABEL,
     MULTI_SEQUENCES,
     SOURCE_COLOURS,

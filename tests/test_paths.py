@@ -1,4 +1,4 @@
-"""Algorithm 1 through several mirrors in turn (mirrorcore.paths): a corner of two mirrors checked by hand, the
+"""Algorithm 1 through several mirrors in turn (mirrorcore.rig.raypaths): a corner of two mirrors checked by hand, the
 simulated kaleidoscope against its ground truth (no ghost, every label right), the bounce budget, the virtual
 cameras."""
 import dataclasses
@@ -6,11 +6,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.rig import Mirror, Rig
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Mirror, Rig
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import kaleidoscope_scene
 from mirrorcore.sim.render import Renderer

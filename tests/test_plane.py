@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from mirrorcore.errors import CalibrationError
+from mirrorcore.base.errors import CalibrationError
 from mirrorcore.geometry.plane import Plane, fit_plane_ransac, fit_plane_svd
 from mirrorcore.geometry.ransac import ransac_iterations
 

@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.polygon import edge_distance, polygon_mask, validate_polygon
 
 

@@ -4,10 +4,10 @@ keep a valid session, and so does an error after the first frame; the `record` a
 import numpy as np
 import pytest
 
-from app.cli import main
-from mirrorcore.depthio import encode_depth_png
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import load_session
+from mirrorscan.cli import main
+from mirrorcore.depth.files import encode_depth_png
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -15,10 +15,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app.recording import LiveTap
-from mirrorcore.errors import MirrorscanError
+from mirrorscan.recording import LiveTap
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.session import load_session
+from mirrorcore.io.session import load_session
 from mirrorcore.sources import DepthSource, Frame, Recorder, new_recording_folder
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,7 +67,7 @@ def _check_opens_with_its_frames(folder: Path) -> int:
 @pytest.mark.parametrize("how", ["command", "recorder"])
 def test_a_recording_killed_with_sigkill_opens_with_its_frames(tmp_path, how):
     folder = tmp_path / "take"
-    argv = ([sys.executable, "-m", "app.cli", "record", "sim", str(folder), "--quiet"] if how == "command"
+    argv = ([sys.executable, "-m", "mirrorscan.cli", "record", "sim", str(folder), "--quiet"] if how == "command"
             else [sys.executable, "-c", RECORDER_SCRIPT, str(folder)])
     process = subprocess.Popen(argv, cwd=ROOT, env=_env(), stderr=subprocess.PIPE, text=True)
     try:
@@ -84,7 +84,7 @@ def test_a_recording_killed_with_sigkill_opens_with_its_frames(tmp_path, how):
 @pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
 def test_record_stops_cleanly_on_sigterm_and_sighup(tmp_path, signum, status):
     folder = tmp_path / "take"
-    process = subprocess.Popen([sys.executable, "-m", "app.cli", "record", "sim", str(folder), "--quiet"], cwd=ROOT,
+    process = subprocess.Popen([sys.executable, "-m", "mirrorscan.cli", "record", "sim", str(folder), "--quiet"], cwd=ROOT,
                                env=_env(), stderr=subprocess.PIPE, text=True)
     try:
         _wait_for_frames(process, folder, 5)

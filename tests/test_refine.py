@@ -10,22 +10,22 @@ import numpy as np
 import pytest
 from helpers import plane_depth, sphere_depth
 
-from mirrorcore.agreement import TargetView, frame_views, heat_figures, in_view, local_means, surface_distances
-from mirrorcore.calibration import calibrate_from_pairs
-from mirrorcore.errors import CalibrationError, Cancelled
+from mirrorcore.calibration.agreement import TargetView, frame_views, heat_figures, in_view, local_means, surface_distances
+from mirrorcore.calibration.fit import calibrate_from_pairs
+from mirrorcore.base.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.palette import heat_colours, heat_map_colours
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement, Refinement,
+from mirrorcore.base.palette import heat_colours, heat_map_colours
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.calibration.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement, Refinement,
                               _fixed_by, _Residuals, marker_offset, moved_plane, offset_at, refine_planes,
                               refine_session, reflection_jacobian, view_agreement)
-from mirrorcore.progress import Ratchet
-from mirrorcore.rig import Mirror, Rig
-from mirrorcore.search import calibrate_scene, search_plane
-from mirrorcore.session import Session
+from mirrorcore.base.progress import Ratchet
+from mirrorcore.rig.model import Mirror, Rig
+from mirrorcore.calibration.search import calibrate_scene, search_plane
+from mirrorcore.io.session import Session
 from mirrorcore.sim.export import session_mirrors, true_rig
 from mirrorcore.sim.layouts import object_extent, paper_scene
 from mirrorcore.sim.sensor import SensorModel
@@ -208,7 +208,7 @@ def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     settled = len(fractions) - 1 - 3                              # the three frames' own planes, then the end
     assert fractions[settled - 1] <= 0.75 and np.all(np.diff(fractions[settled - 1:-1]) > 0.05)
-    from mirrorcore.refine import MAX_ITERATIONS, _fraction                 # however many iterations it takes
+    from mirrorcore.calibration.refine import MAX_ITERATIONS, _fraction                 # however many iterations it takes
     assert all(_fraction(k) < _fraction(k + 1) <= 0.75 for k in range(1, 2 * MAX_ITERATIONS))
 
 
@@ -463,7 +463,7 @@ def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
     depths = np.stack([sim.frame(i).depth for i in range(6)])
     masks = np.stack([prepare_frame(rig, d, background)[1] for d in depths])
     reported = refine_planes(rig, depths, masks, with_="surfaces")
-    monkeypatch.setattr("mirrorcore.refine.SCATTER_FRAMES", 7)
+    monkeypatch.setattr("mirrorcore.calibration.refine.SCATTER_FRAMES", 7)
     own = refine_planes(rig, depths, masks, with_="surfaces")
     centre = np.asarray(reported.centre)
     for mine, fits, truth in zip(reported.mirrors, own.mirrors, rig.mirrors):
@@ -473,10 +473,10 @@ def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
 
 
 def test_the_error_budget_experiment_on_noiseless_frames():
-    """app.experiments.refine_bias (README, "Where the plane error comes from"): refined from the true planes on
+    """mirrorscan.experiments.refine_bias (README, "Where the plane error comes from"): refined from the true planes on
     noiseless frames, the sphere's planes end 0.76 mm too near the camera (the neighbours' quadratic surfaces at the
     grazing incidence where the camera and the mirrors see the same surface), the same in every frame."""
-    from app.experiments.refine_bias import bias_row, errors_from_truth
+    from mirrorscan.experiments.refine_bias import bias_row, errors_from_truth
     found = errors_from_truth("sphere", "ideal", 0, range(1))
     assert found.shape == (1, 2, 2)
     np.testing.assert_allclose(found[0, :, 0], -0.76, atol=0.1)          # mm

@@ -10,12 +10,12 @@ import cv2
 import numpy as np
 import pytest
 
-from app.cli import build_parser, main
-from app.panels.session import SessionPanel
-from mirrorcore.depthio import encode_depth_png, read_depth_png
-from mirrorcore.errors import FileFormatError, MirrorscanError
+from mirrorscan.cli import build_parser, main
+from mirrorscan.panels.session import SessionPanel
+from mirrorcore.depth.files import encode_depth_png, read_depth_png
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
-from mirrorcore.session import Session, load_session, session_folder
+from mirrorcore.io.session import Session, load_session, session_folder
 from mirrorcore.sources import open_source
 
 ROOT = Path(__file__).resolve().parents[1]

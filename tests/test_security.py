@@ -19,13 +19,13 @@ import websockets.asyncio.client
 import websockets.exceptions
 from viser import _messages
 
-from app.panels.mirrors import MirrorsPanel
-from app.panels.session import SessionPanel
-from app.security import MAX_MESSAGE_BYTES, install_log_filter, new_token, protect
-from app.server import MirrorscanApp
-from bench.tabs import HeadlessTab
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import Session, SessionMirror, load_session, save_session
+from mirrorscan.panels.mirrors import MirrorsPanel
+from mirrorscan.panels.session import SessionPanel
+from mirrorscan.security import MAX_MESSAGE_BYTES, install_log_filter, new_token, protect
+from mirrorscan.server import MirrorscanApp
+from mirrorscan.bench.tabs import HeadlessTab
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
@@ -182,7 +182,7 @@ def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_
 def test_a_new_token_never_begins_with_a_dash(monkeypatch):
     """1 draw in 64 of token_urlsafe begins with '-', which `serve --token` would read as an option (it failed CI)."""
     draws = iter(["-leading-dash-token-0123456789", "a-token-without-one-0123456789"])
-    monkeypatch.setattr("app.security.secrets.token_urlsafe", lambda n: next(draws))
+    monkeypatch.setattr("mirrorscan.security.secrets.token_urlsafe", lambda n: next(draws))
     assert new_token() == "a-token-without-one-0123456789"
 
 
@@ -274,7 +274,7 @@ def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(t
 
     root = Path(__file__).resolve().parents[1]
     token = new_token()
-    process = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", str(tmp_path / "new"), "--port", "0",
+    process = subprocess.Popen([sys.executable, "-m", "mirrorscan.cli", "serve", str(tmp_path / "new"), "--port", "0",
                                 "--token", token], cwd=root, env={**os.environ, "PYTHONPATH": str(root)},
                                stderr=subprocess.PIPE, text=True)
     try:

@@ -2,10 +2,10 @@
 import numpy as np
 from helpers import sphere_depth
 
-from mirrorcore.depthops import median_depth, smooth_depth
+from mirrorcore.depth.ops import median_depth, smooth_depth
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.noise import axial_sigma
-from mirrorcore.selection import Selection, flying_pixels, object_mask, remove_specks
+from mirrorcore.depth.noise import axial_sigma
+from mirrorcore.depth.selection import Selection, flying_pixels, object_mask, remove_specks
 
 CAMERA = Intrinsics.primesense()
 
@@ -91,7 +91,7 @@ def test_roi_and_depth_range():
 def test_selection_json_errors():
     import pytest
 
-    from mirrorcore.errors import FileFormatError
+    from mirrorcore.base.errors import FileFormatError
     assert Selection.from_json({"depth_max": 5}).depth_max == 5
     assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0), (5, 0), (0, 5))
     with pytest.raises(FileFormatError, match="unknown key\\(s\\) colour"):

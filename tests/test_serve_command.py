@@ -1,9 +1,9 @@
 """`mirrorscan serve`'s choice of session and source, without starting a server."""
 import pytest
 
-from app.commands.serve import session_and_source
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import load_session
+from mirrorscan.commands.serve import session_and_source
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import load_session
 from mirrorcore.sources import SessionSource, SimulatedSource
 
 
@@ -20,7 +20,7 @@ def test_a_new_folder_starts_an_empty_session_on_the_simulated_rig(tmp_path):
 
 
 def test_a_session_with_frames_replays_them(tmp_path):
-    from app.cli import main
+    from mirrorscan.cli import main
     assert main(["simulate", str(tmp_path / "s"), "--frames", "2", "--quiet"]) == 0
     session, source, autosave = session_and_source(str(tmp_path / "s"), None)
     assert isinstance(source, SessionSource) and source.frame_count == 2 and autosave
@@ -36,7 +36,7 @@ def test_a_folder_that_is_not_a_session_is_refused(tmp_path):
 
 
 def test_bounces_become_the_session_setting(tmp_path):
-    from app.cli import main
+    from mirrorscan.cli import main
     assert main(["simulate", str(tmp_path / "s"), "--quiet"]) == 0
     assert session_and_source(str(tmp_path / "s"), None)[0].bounces == 3
     assert session_and_source(str(tmp_path / "s"), None, 1)[0].bounces == 1

@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.experiments import kaleidoscope as experiment_kaleidoscope
-from app.experiments.paper import ANGLES, COLUMNS, MIRROR_DISTANCES
+from mirrorscan.cli import main
+from mirrorscan.experiments import kaleidoscope as experiment_kaleidoscope
+from mirrorscan.experiments.paper import ANGLES, COLUMNS, MIRROR_DISTANCES
 from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
 
 EXPERIMENTS = {"angle": (ANGLES, SPHERE_RADIUS), "distance": (MIRROR_DISTANCES, CYLINDER_RADIUS)}

@@ -4,7 +4,7 @@ the paper scene shows the object in every mirror; the per-frame casts limited to
 import numpy as np
 import pytest
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
 from mirrorcore.sim.export import visible_markers

@@ -7,11 +7,11 @@ import cv2
 import numpy as np
 import pytest
 
-from app.cli import main
-from mirrorcore.errors import FileFormatError
+from mirrorscan.cli import main
+from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics, reproject_pixels
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.session import load_session
+from mirrorcore.io.session import load_session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import HINGE_GAP, HINGED_CLEARANCE, arc_scene, kaleidoscope_scene, paper_scene
 from mirrorcore.sim.scene import load_scene, save_scene

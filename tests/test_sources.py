@@ -4,11 +4,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mirrorcore.errors import FileFormatError, MirrorscanError
-from mirrorcore.fitting import fit_sphere
-from mirrorcore.pipeline import object_cloud
-from mirrorcore.rig import Rig
-from mirrorcore.session import load_session
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.fitting import fit_sphere
+from mirrorcore.rig.pipeline import object_cloud
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import load_session
 from mirrorcore.sources import SessionSource, SimulatedSource, open_source, session_scene
 
 DEMO = Path(__file__).resolve().parents[1] / "sessions" / "demo"

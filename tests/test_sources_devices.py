@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mirrorcore.errors import FileFormatError, MirrorscanError
-from mirrorcore.kinect import BURRUS_A, depth_to_disparity
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.depth.kinect import BURRUS_A, depth_to_disparity
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import open_source

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from mirrorcore.errors import FileFormatError, MirrorscanError
-from mirrorcore.fitting import fit_sphere
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.fitting import fit_sphere
 from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.sources import Frame, StackSource, open_source, parse_spec
 

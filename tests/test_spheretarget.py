@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 from helpers import GLOBE_DEPTH, globe_points
 
-from mirrorcore.errors import CalibrationError
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import moved_plane, offset_at, refine_planes
-from mirrorcore.rig import Rig
+from mirrorcore.base.errors import CalibrationError
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.refine import moved_plane, offset_at, refine_planes
+from mirrorcore.rig.model import Rig
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit, _on_sphere, _plain_fit,
+from mirrorcore.calibration.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit, _on_sphere, _plain_fit,
                                      _view_readings, sphere_planes)
 
 
@@ -112,7 +112,7 @@ def test_auto_takes_only_a_round_ball(kinect_sphere, monkeypatch):
     with pytest.raises(NotASphere, match=r"frame 0: the readings of the camera scatter about the sphere 1\.0\d times "
                                          r"what the depth noise explains \(at most 0\.9\): not a round ball"):
         sphere_planes(rig, depths[:1], masks[:1], [1, 2], np.random.default_rng(0), max_scatter=0.9)
-    monkeypatch.setattr("mirrorcore.refine.SCATTER_AUTO", 0.9)
+    monkeypatch.setattr("mirrorcore.calibration.refine.SCATTER_AUTO", 0.9)
     assert refine_planes(rig, depths[:1], masks[:1]).compared == "surfaces"
     assert refine_planes(rig, depths[:1], masks[:1], with_="sphere").compared == "sphere"
 

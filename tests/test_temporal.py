@@ -1,11 +1,11 @@
-"""Temporal smoothing (mirrorcore.temporal): static pixels are averaged over the neighbour frames, moving ones keep
+"""Temporal smoothing (mirrorcore.depth.temporal): static pixels are averaged over the neighbour frames, moving ones keep
 the centre frame's reading (a limb crossing the pixel, a surface moving by less than one reading's noise), holes are
 not filled, and the window is clipped at the ends of a recording."""
 import numpy as np
 import pytest
 
-from mirrorcore.noise import KINECT_AXIAL_COEF
-from mirrorcore.temporal import frame_window, temporal_smooth
+from mirrorcore.depth.noise import KINECT_AXIAL_COEF
+from mirrorcore.depth.temporal import frame_window, temporal_smooth
 
 SHAPE = (60, 80)
 SIGMA_W = KINECT_AXIAL_COEF          # one reading's standard deviation in disparity (1/m), at every depth

@@ -2,8 +2,8 @@
 the still parts of the body come closer to the true surface, the moving limbs are not smeared."""
 import numpy as np
 
-from app.cli import main
-from app.experiments.temporal import run_temporal_experiment, summary
+from mirrorscan.cli import main
+from mirrorscan.experiments.temporal import run_temporal_experiment, summary
 
 
 def test_the_still_parts_improve_and_the_moving_ones_do_not_smear():
@@ -17,7 +17,7 @@ def test_the_still_parts_improve_and_the_moving_ones_do_not_smear():
 
 
 def test_the_command_writes_its_csv_and_plot(tmp_path, capsys, monkeypatch):
-    import app.experiments.temporal as experiment
+    import mirrorscan.experiments.temporal as experiment
     calls = []
 
     def small(neighbours, frames, progress):

@@ -7,10 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.cli import main
+from mirrorscan.cli import main
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.ply import read_ply
-from mirrorcore.session import load_session, save_session
+from mirrorcore.io.ply import read_ply
+from mirrorcore.io.session import load_session, save_session
 from mirrorcore.sim.layouts import object_extent
 from mirrorcore.sim.truth import surface_error
 from mirrorcore.sources import session_truth

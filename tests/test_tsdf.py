@@ -13,16 +13,16 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 from skimage.measure import marching_cubes
 
-from mirrorcore.budget import MemoryBudgetError, set_memory_budget
+from mirrorcore.base.budget import MemoryBudgetError, set_memory_budget
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.blocks import Blocks
 from mirrorcore.dense.mesh import block_marching_cubes
 from mirrorcore.dense.tsdf import BLOCK, fuse
 from mirrorcore.dense.volume import NO_SOURCE, Volume
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.ply import read_ply, write_ply
-from mirrorcore.reconstruct import reconstruct_raw
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.io.ply import read_ply, write_ply
+from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.sim.sensor import SensorModel
 from tests.dense_scene import sphere_scene
 

@@ -7,7 +7,7 @@ import pytest
 
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
 from mirrorcore.dense.volume import Volume, run_chunks
-from mirrorcore.errors import Cancelled, MirrorscanError
+from mirrorcore.base.errors import Cancelled, MirrorscanError
 
 
 def test_box_to_grid_and_back():

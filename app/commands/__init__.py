@@ -7,7 +7,7 @@ from contextlib import contextmanager
 
 from tqdm import tqdm
 
-from mirrorcore.progress import Progress
+from mirrorcore.base.progress import Progress
 
 
 @contextmanager

@@ -5,7 +5,7 @@ import argparse
 import json
 import sys
 
-import bench
+import mirrorscan.bench as bench
 
 
 def register(sub) -> None:

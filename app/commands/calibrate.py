@@ -6,14 +6,14 @@ import argparse
 
 import numpy as np
 
-from mirrorcore.calibration import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
-from mirrorcore.errors import CalibrationError
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import REFINE_FRAMES, REFINE_WITH, SAME_GLASS_MM, SAME_PLANE, Refinement, refine_session
-from mirrorcore.rig import Rig
-from mirrorcore.search import calibrate_scene, sentences
-from mirrorcore.session import Session, load_session, save_session
-from mirrorcore.words import listed
+from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
+from mirrorcore.base.errors import CalibrationError
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, SAME_GLASS_MM, SAME_PLANE, Refinement, refine_session
+from mirrorcore.rig.model import Rig
+from mirrorcore.calibration.search import calibrate_scene, sentences
+from mirrorcore.io.session import Session, load_session, save_session
+from mirrorcore.base.words import listed
 
 from . import percent_bar
 

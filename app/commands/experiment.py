@@ -8,12 +8,12 @@ import csv
 import io
 from pathlib import Path
 
-from app.experiments import kaleidoscope as experiment_kaleidoscope
-from app.experiments import temporal as temporal_experiment
-from app.experiments.paper import COLUMNS, plot_experiment, run_experiment
-from mirrorcore.atomic import write_atomic
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.outputs import check_output
+from mirrorscan.experiments import kaleidoscope as experiment_kaleidoscope
+from mirrorscan.experiments import temporal as temporal_experiment
+from mirrorscan.experiments.paper import COLUMNS, plot_experiment, run_experiment
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.outputs import check_output
 
 
 def register(sub) -> None:

@@ -7,11 +7,11 @@ import json
 
 import numpy as np
 
-from mirrorcore.errors import FileFormatError
-from mirrorcore.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
-from mirrorcore.palette import source_name
-from mirrorcore.ply import read_ply
-from mirrorcore.shapes import FitErrors, ShapeFit
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.geometry.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
+from mirrorcore.base.palette import source_name
+from mirrorcore.io.ply import read_ply
+from mirrorcore.geometry.shapes import FitErrors, ShapeFit
 
 from . import percent_bar
 

@@ -16,14 +16,14 @@ from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, Where, read_d
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
-from mirrorcore.depthio import require_readings
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.outputs import check_output
-from mirrorcore.palette import MAX_ORDER, source_name
-from mirrorcore.pipeline import object_cloud, prepare_frame
-from mirrorcore.ply import write_ply
-from mirrorcore.rig import Rig, calibrated_rig
-from mirrorcore.session import Session, load_session
+from mirrorcore.depth.files import require_readings
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.io.outputs import check_output
+from mirrorcore.base.palette import MAX_ORDER, source_name
+from mirrorcore.rig.pipeline import object_cloud, prepare_frame
+from mirrorcore.io.ply import write_ply
+from mirrorcore.rig.model import Rig, calibrated_rig
+from mirrorcore.io.session import Session, load_session
 
 
 def register(sub) -> None:

@@ -10,8 +10,8 @@ from typing import Iterator
 
 from tqdm import tqdm
 
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.outputs import check_output
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.outputs import check_output
 from mirrorcore.sources import open_source, record
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)    # a clean stop, like Ctrl-C: the session keeps every frame

@@ -9,9 +9,9 @@ import sys
 import time
 from pathlib import Path
 
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.rig import check_bounces
-from mirrorcore.session import Session, load_session, save_session
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.rig.model import check_bounces
+from mirrorcore.io.session import Session, load_session, save_session
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source

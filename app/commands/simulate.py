@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.outputs import check_output
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import MAX_BOUNCES

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.ply import read_ply
-from mirrorcore.session import TRUTH_FILE, load_session
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.ply import read_ply
+from mirrorcore.io.session import TRUTH_FILE, load_session
 from mirrorcore.sim.truth import PlaneError, SurfaceError, plane_errors, surface_error
 from mirrorcore.sources import session_truth
 

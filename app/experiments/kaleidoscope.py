@@ -14,14 +14,14 @@ import matplotlib
 import numpy as np
 from tqdm import tqdm
 
-from mirrorcore.calibration import calibrate_session
-from mirrorcore.fitting import fit_sphere
-from mirrorcore.palette import source_orders
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.rig import Rig
-from mirrorcore.session import Session
-from mirrorcore.shapes import Sphere
+from mirrorcore.calibration.fit import calibrate_session
+from mirrorcore.geometry.fitting import fit_sphere
+from mirrorcore.base.palette import source_orders
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import Session
+from mirrorcore.geometry.shapes import Sphere
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import kaleidoscope_scene
 from mirrorcore.sim.scene import Scene

@@ -15,19 +15,19 @@ import matplotlib
 import numpy as np
 from tqdm import tqdm
 
-from mirrorcore.atomic import write_atomic
-from mirrorcore.calibration import calibrate_session
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.calibration.fit import calibrate_session
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.carve import carve
 from mirrorcore.dense.tsdf import fuse
-from mirrorcore.errors import CalibrationError
-from mirrorcore.fitting import fit_cylinder, fit_sphere
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.reconstruct import reconstruct_raw
-from mirrorcore.refine import refine_session
-from mirrorcore.rig import Rig
-from mirrorcore.session import Session
-from mirrorcore.shapes import Cylinder, FitErrors, Sphere
+from mirrorcore.base.errors import CalibrationError
+from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.calibration.refine import refine_session
+from mirrorcore.rig.model import Rig
+from mirrorcore.io.session import Session
+from mirrorcore.geometry.shapes import Cylinder, FitErrors, Sphere
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import Scene, SceneObject

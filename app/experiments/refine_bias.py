@@ -4,7 +4,7 @@ TRUE planes, with the sensor's effects switched on one at a time, one frame per 
 What a refinement from the truth ends at is its error: the mean over frames is its bias, the spread over frames its
 noise (compared with the 1-sigma the refinement reports of itself), and the correlation between the two mirrors says
 whether the error is common to both (the views' common offset, which on the paper's rig only the camera-mirror
-overlap at the silhouettes determines). Run as `python -m app.experiments.refine_bias [--object figure] ...`.
+overlap at the silhouettes determines). Run as `python -m mirrorscan.experiments.refine_bias [--object figure] ...`.
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mirrorcore.pipeline import prepare_frame
-from mirrorcore.refine import offset_at, refine_planes
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.calibration.refine import offset_at, refine_planes
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import object_extent, paper_scene
 from mirrorcore.sim.sensor import SensorModel

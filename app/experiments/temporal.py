@@ -1,4 +1,4 @@
-"""The effect of temporal smoothing (mirrorcore.temporal, `reconstruct --temporal N`) on the simulator's walking figure
+"""The effect of temporal smoothing (mirrorcore.depth.temporal, `reconstruct --temporal N`) on the simulator's walking figure
 (two mirrors at 120 deg, 3 m, Kinect v1 noise, perfect calibration): each frame's cloud (Algorithm 1, the whole
 pipeline) with and without, its RMSE to the true surface of the figure at that moment, on the still and the moving
 parts of the body.
@@ -18,12 +18,12 @@ import open3d as o3d
 from tqdm import tqdm
 
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.pipeline import object_cloud
+from mirrorcore.rig.pipeline import object_cloud
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.objects import object_geometry
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.temporal import temporal_smooth
+from mirrorcore.depth.temporal import temporal_smooth
 
 STILL, MOVING = 0.02, 0.2   # m/s along the surface's normal
 INLIER = 0.03               # metres

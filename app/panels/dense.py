@@ -10,8 +10,8 @@ import numpy as np
 
 from mirrorcore.dense import DenseOptions
 from mirrorcore.dense.volume import Volume
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.ply import encode_ply
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.ply import encode_ply
 
 from ..context import TabContext
 from ..events import DenseChanged, FrameReady, JobProgress, LoopChanged, SessionChanged

@@ -10,11 +10,11 @@ from typing import Callable
 
 import numpy as np
 
-from mirrorcore.palette import (FIRST_MULTI_LABEL, HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO,
+from mirrorcore.base.palette import (FIRST_MULTI_LABEL, HEAT_NEGATIVE, HEAT_POSITIVE, HEAT_UNCOMPARED, HEAT_ZERO,
                                 SOURCE_COLOURS, source_colour, source_name)
-from mirrorcore.session import Session
+from mirrorcore.io.session import Session
 from mirrorcore.sources import SessionSource
-from mirrorcore.words import listed
+from mirrorcore.base.words import listed
 
 from ..context import TabContext, TabState
 from ..events import JobProgress, LoopChanged, SessionChanged

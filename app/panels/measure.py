@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 import viser.uplot as uplot
 
-from mirrorcore.errors import Cancelled, MirrorscanError
-from mirrorcore.fitting import fit_cylinder, fit_sphere
-from mirrorcore.shapes import ShapeFit
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
+from mirrorcore.geometry.shapes import ShapeFit
 
 from ..context import TabContext
 from ..events import FrameReady

@@ -10,12 +10,12 @@ from typing import Callable
 
 import numpy as np
 
-from mirrorcore.calibration import calibrate_session
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.calibration.fit import calibrate_session
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.polygon import MIN_VERTICES
-from mirrorcore.markers import MIN_MARKER_PIXELS, marker_points, review_fit
-from mirrorcore.session import MAX_MARKER_OFFSET, Session, SessionMirror
-from mirrorcore.words import listed
+from mirrorcore.calibration.markers import MIN_MARKER_PIXELS, marker_points, review_fit
+from mirrorcore.io.session import MAX_MARKER_OFFSET, Session, SessionMirror
+from mirrorcore.base.words import listed
 
 from ..context import TabContext
 from ..editor import PARTIAL, PICK_RADIUS, SESSION_SCOPE, SessionEditor, fit_inputs
@@ -424,7 +424,7 @@ class MirrorsPanel:
 
     def fit_planes(self, mirror_ids: list[int], without_markers: tuple[str, ...] = ()) -> None:
         """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A fit
-        that needs a look (mirrorcore.markers.review_fit) becomes a proposal; the others are applied at once.
+        that needs a look (mirrorcore.calibration.markers.review_fit) becomes a proposal; the others are applied at once.
         Refused while a calibration from the object runs: it applies what it computed on the planes as they were.
         without_markers : the names of the mirrors Fit all left out, for the note."""
         if self.services.jobs.running(REFINE):

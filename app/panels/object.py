@@ -7,10 +7,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from mirrorcore.errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.polygon import MIN_VERTICES, validate_polygon
-from mirrorcore.palette import MAX_ORDER
-from mirrorcore.selection import object_mask
+from mirrorcore.base.palette import MAX_ORDER
+from mirrorcore.depth.selection import object_mask
 from mirrorcore.sources import SimulatedSource
 
 from ..context import TabContext

@@ -9,8 +9,8 @@ from pathlib import Path
 
 from mirrorcore.batch import BATCH_METHODS
 from mirrorcore.dense import DenseOptions
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.session import Session
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import Session
 from mirrorcore.sources import DepthSource, SessionSource
 
 from ..context import TabContext

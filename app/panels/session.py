@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mirrorcore.depthio import decode_depth_png, require_readings
-from mirrorcore.errors import MirrorscanError
-from mirrorcore.ply import encode_ply
-from mirrorcore.session import SESSION_FILE, copy_session, load_session, session_folder
+from mirrorcore.depth.files import decode_depth_png, require_readings
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.ply import encode_ply
+from mirrorcore.io.session import SESSION_FILE, copy_session, load_session, session_folder
 
 from ..context import TabContext
 from ..events import SessionChanged

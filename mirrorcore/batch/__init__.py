@@ -5,10 +5,10 @@ cancel keeps every finished frame). Above the pipeline and dense reconstruction 
     report = run_batch(BatchJob(session, out, method="raw", temporal=2), Where(workers=2), progress=print)
     run = BatchRun(BatchJob(session, out)).start(); run.progress; run.cancel(); run.wait()
 """
-from .engine import BatchProgress, BatchReport, BatchRun, Where, default_frames_per_task, run_batch
-from .frames import FrameContext, read_depth, reconstruct_frames
-from .job import BATCH_METHODS, BatchJob, exports_folder
-from .manifest import MANIFEST_FILE, FrameRecord, Manifest, OutputFolder
+from mirrorcore.batch.engine import BatchProgress, BatchReport, BatchRun, Where, default_frames_per_task, run_batch
+from mirrorcore.batch.frames import FrameContext, read_depth, reconstruct_frames
+from mirrorcore.batch.job import BATCH_METHODS, BatchJob, exports_folder
+from mirrorcore.batch.manifest import MANIFEST_FILE, FrameRecord, Manifest, OutputFolder
 
 __all__ = ["BATCH_METHODS", "MANIFEST_FILE", "BatchJob", "BatchProgress", "BatchReport", "BatchRun", "FrameContext",
            "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task", "exports_folder",

@@ -23,9 +23,9 @@ import cv2
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, get_worker, wait
 
-from ..errors import MirrorscanError
-from .frames import FrameContext, reconstruct_frames, task_error
-from .manifest import FrameRecord
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
+from mirrorcore.batch.manifest import FrameRecord
 
 CONNECT_SECONDS = 20.0     # to reach a scheduler and see a first worker
 DASHBOARD = ":8787"        # Dask's usual dashboard port (another free one if it is taken)

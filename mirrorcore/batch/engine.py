@@ -11,12 +11,12 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from ..dense.volume import cancel_requested
-from ..errors import MirrorscanError
-from ..session import load_session
-from .frames import FrameContext, reconstruct_frames, task_error
-from .job import BatchJob, session_inputs
-from .manifest import MANIFEST_FILE, OutputFolder
+from mirrorcore.dense.volume import cancel_requested
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import load_session
+from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
+from mirrorcore.batch.job import BatchJob, session_inputs
+from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
 
 POLL_SECONDS = 0.25         # how often a Dask run looks at the cancel request and the cluster's events
 
@@ -156,7 +156,7 @@ def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
     if where.in_process:
         yield _InProcess(context, cancel)
         return
-    from .cluster import DaskExecutor, dask_client  # distributed is imported only when used
+    from mirrorcore.batch.cluster import DaskExecutor, dask_client  # distributed is imported only when used
     with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
         local = where.scheduler is None
         executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)

@@ -9,17 +9,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
-from ..dense import dense_volume, reconstruct_dense, result_geometry
-from ..errors import MirrorscanError
-from ..pipeline import prepare_frame
-from ..ply import encode_ply
-from ..reconstruct import reconstruct_raw
-from ..rig import Rig, calibrated_rig
-from ..session import Session
-from ..temporal import frame_window, temporal_smooth
-from .job import BatchJob, output_names
-from .manifest import FrameRecord
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.dense import dense_volume, reconstruct_dense, result_geometry
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.io.ply import encode_ply
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig, calibrated_rig
+from mirrorcore.io.session import Session
+from mirrorcore.depth.temporal import frame_window, temporal_smooth
+from mirrorcore.batch.job import BatchJob, output_names
+from mirrorcore.batch.manifest import FrameRecord
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,7 +46,7 @@ class FrameContext:
 def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int, np.ndarray] | None = None
                ) -> np.ndarray:
     """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its `temporal`
-    neighbours on each side where the scene is static (mirrorcore.temporal; 0: as read). `cache` (frame index ->
+    neighbours on each side where the scene is static (mirrorcore.depth.temporal; 0: as read). `cache` (frame index ->
     depth) keeps the frames read for the next call."""
     count = len(session.frames)
     if not -count <= index < count:

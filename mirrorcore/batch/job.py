@@ -6,9 +6,9 @@ import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..dense import METHODS, DenseOptions
-from ..errors import FileFormatError, MirrorscanError
-from ..session import Session
+from mirrorcore.dense import METHODS, DenseOptions
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.io.session import Session
 
 BATCH_METHODS = ("raw", *METHODS)
 
@@ -21,7 +21,7 @@ class BatchJob:
     method : 'raw' (Algorithm 1, a cloud), 'paper' / 'carve' (a carved cloud), 'tsdf' (a mesh); each frame alone
     options : the dense methods' voxel, margin, bounds, threshold and truncation (unused by 'raw')
     temporal : N > 0 smooths each frame's depth with its N neighbours on each side where the scene is static
-        (mirrorcore.temporal); 0 = off
+        (mirrorcore.depth.temporal); 0 = off
     bounces : the most mirrors in turn a camera ray is followed through (None: the session's setting)
     """
 

@@ -15,11 +15,11 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ..atomic import make_durable, write_atomic
-from ..errors import FileFormatError, MirrorscanError
-from ..jsonfile import read_json
-from ..ply import ply_element_counts
-from .job import differences
+from mirrorcore.base.atomic import make_durable, write_atomic
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.base.jsonfile import read_json
+from mirrorcore.io.ply import ply_element_counts
+from mirrorcore.batch.job import differences
 
 MANIFEST_FILE = "manifest.json"
 LOCK_FILE = ".mirrorscan-batch.lock"

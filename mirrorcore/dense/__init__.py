@@ -1,4 +1,4 @@
-"""Dense reconstruction of frames of a static object: frames prepared as for Algorithm 1 (mirrorcore.pipeline.
+"""Dense reconstruction of frames of a static object: frames prepared as for Algorithm 1 (mirrorcore.rig.pipeline.
 prepare_frame), a volume around the raw cloud, then space carving (methods 'paper', 'carve') or volumetric fusion
 ('tsdf')."""
 from __future__ import annotations
@@ -7,12 +7,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MirrorscanError
-from ..reconstruct import reconstruct_raw
-from ..rig import Rig
-from .carve import CarveResult, carve
-from .tsdf import TsdfResult, fuse
-from .volume import Progress, Volume
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.dense.carve import CarveResult, carve
+from mirrorcore.dense.tsdf import TsdfResult, fuse
+from mirrorcore.dense.volume import Progress, Volume
 
 METHODS = ("paper", "carve", "tsdf")
 
@@ -41,7 +41,7 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
                       options: DenseOptions = DenseOptions(), progress: Progress | None = None,
                       cancel=None, workers: int | None = None) -> CarveResult | TsdfResult:
     """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see
-    mirrorcore.pipeline.prepare_frame).
+    mirrorcore.rig.pipeline.prepare_frame).
 
     depths, masks : (F, H, W) float metres / bool; workers : threads for the chunks (default the CPU count). Raises
     MirrorscanError for an unknown method, Cancelled when `cancel` (a threading.Event or a callable returning True)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .volume import CHUNK_VOXELS, Volume
+from mirrorcore.dense.volume import CHUNK_VOXELS, Volume
 
 
 @dataclass(frozen=True, eq=False)

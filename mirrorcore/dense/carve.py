@@ -33,13 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MirrorscanError
-from ..rig import Rig
-from .blocks import Blocks, cropped, padded_grid
-from .sampling import QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index, project, project_blocks, transform
-from .views import View, padded_flat, rig_views
-from .volume import NO_SOURCE, Progress, Volume, run_chunks
-from .windows import Window, mirror_sides, window_half
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.rig.model import Rig
+from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
+from mirrorcore.dense.sampling import QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index, project, project_blocks, transform
+from mirrorcore.dense.views import View, padded_flat, rig_views
+from mirrorcore.dense.volume import NO_SOURCE, Progress, Volume, run_chunks
+from mirrorcore.dense.windows import Window, mirror_sides, window_half
 
 FREE, SURFACE, HIDDEN = 0, 1, 2          # voxel states
 METHODS = ("paper", "carve")

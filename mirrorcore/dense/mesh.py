@@ -29,10 +29,10 @@ from functools import cache
 import numpy as np
 from skimage.measure import marching_cubes as _skimage_marching_cubes
 
-from ..budget import check_memory
-from ..errors import MirrorscanError
-from .blocks import Blocks
-from .volume import NO_SOURCE
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.dense.blocks import Blocks
+from mirrorcore.dense.volume import NO_SOURCE
 
 MESH_BLOCK_BYTES = 5_500    # bytes per 64 voxels of blocks at the peak, ghosts included: traced (tracemalloc) on the
 #                             bench's sphere in blocks of 4^3 voxels, 5.0 KB at 100^3, 4.9 KB at 200^3, 4.7 KB at 300^3

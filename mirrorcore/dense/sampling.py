@@ -17,8 +17,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ..geometry.camera import Intrinsics
-from ..rig import Rig
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.rig.model import Rig
 
 BILINEAR_GAP = 0.03   # metres: four neighbours spread wider than this are a depth edge (their least depth is read)
 BORDER = 2            # pixels of padding around a view's image in Quads

@@ -27,16 +27,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..budget import check_memory
-from ..errors import MirrorscanError
-from ..geometry.camera import Intrinsics
-from ..rig import Rig
-from .blocks import Blocks, cropped, padded_grid
-from .mesh import Mesh, block_marching_cubes
-from .sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
-from .views import View, cull_depth, rig_views
-from .volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
-from .windows import Window, mirror_sides, window_half
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.rig.model import Rig
+from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
+from mirrorcore.dense.mesh import Mesh, block_marching_cubes
+from mirrorcore.dense.sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
+from mirrorcore.dense.views import View, cull_depth, rig_views
+from mirrorcore.dense.volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
+from mirrorcore.dense.windows import Window, mirror_sides, window_half
 
 BLOCK = SMALLEST_BLOCK     # voxels along a block's edge: small blocks follow the surface's band closely
 TSDF_VOXEL_BYTES = 12      # bytes per allocated voxel: tsdf, weight, source, and their copy when empty blocks go

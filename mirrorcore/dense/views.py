@@ -6,7 +6,7 @@ A mirror's view is the camera seen through the mirror: a point P is seen by mirr
 P_j = reflect(P, plane j) projects into mirror j's boundary, at the measured (virtual, unfolded) depth of that pixel.
 The reflection is the view's extrinsic (det -1); projecting P_j with the camera's intrinsics is the whole model. A
 sequence of mirrors (a, b, ...) is a view the same way, with the extrinsic M_a M_b ... (det +1 for two mirrors), on
-the pixels whose ray meets those mirrors in turn (mirrorcore.paths), between the depths where it meets them.
+the pixels whose ray meets those mirrors in turn (mirrorcore.rig.raypaths), between the depths where it meets them.
 
 Per view and per pixel, `depth` (float32 metres, z of the unfolded point) reads:
   finite : the ray is empty up to this depth (and, where `surface` is set, meets the object's surface there)
@@ -22,19 +22,19 @@ from functools import cached_property, lru_cache
 import cv2
 import numpy as np
 
-from ..geometry.camera import check_depth_shape
-from ..geometry.polygon import polygon_mask
-from ..palette import source_sequence
-from ..paths import Chains, sequence_reflection
-from ..rig import ReflectionTable, Rig
-from .sampling import Quads
+from mirrorcore.geometry.camera import check_depth_shape
+from mirrorcore.geometry.polygon import polygon_mask
+from mirrorcore.base.palette import source_sequence
+from mirrorcore.rig.raypaths import Chains, sequence_reflection
+from mirrorcore.rig.model import ReflectionTable, Rig
+from mirrorcore.dense.sampling import Quads
 
 
 @dataclass(frozen=True, eq=False)
 class View:
-    """One view of the rig. source : 0 camera, j mirror j, from 33 a sequence of mirrors (mirrorcore.palette).
+    """One view of the rig. source : 0 camera, j mirror j, from 33 a sequence of mirrors (mirrorcore.base.palette).
     to_view : (3, 4) float64 [R | t] mapping camera-frame points to the points this view projects (identity, the
-    reflection through mirror j's plane, or the composition M_1 M_2 ... of a sequence's: mirrorcore.paths).
+    reflection through mirror j's plane, or the composition M_1 M_2 ... of a sequence's: mirrorcore.rig.raypaths).
     depth : (H*W + 1,) float32 flat depth per pixel as in the module docstring, its last cell NaN (off-image reads).
     surface : (H*W + 1,) bool, the pixel shows the object in this view (False in the last cell).
     outline : (H*W + 1,) bool, the pixels this view sees through (a mirror's boundary; for a sequence, the pixels
@@ -62,7 +62,7 @@ class View:
 
 def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]:
     """The camera's view, one view per calibrated mirror with a boundary (session order), then one per sequence of
-    mirrors that some pixel's ray follows (mirrorcore.paths; label order): the virtual cameras of the rig.
+    mirrors that some pixel's ray follows (mirrorcore.rig.raypaths; label order): the virtual cameras of the rig.
 
     depth : (H, W) float metres, 0 = no reading (typically smoothed as for Algorithm 1); mask : (H, W) bool, the
     object's pixels (direct or in a mirror). A pixel inside mirror j's boundary is mirror j's when its point lies

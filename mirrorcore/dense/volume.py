@@ -11,9 +11,9 @@ from typing import TypeVar
 
 import numpy as np
 
-from ..budget import check_memory
-from ..errors import Cancelled, MirrorscanError
-from ..progress import Progress, cancel_requested
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.base.progress import Progress, cancel_requested
 
 SMALLEST_BLOCK = 4                # voxels along the edge of the smallest blocks a method uses (fusion)
 CHUNK_VOXELS = 1 << 16            # voxels per chunk of work: temporaries stay in the CPU caches, memory bounded
@@ -34,7 +34,7 @@ class Volume:
 
     origin : (3,) metres, centre of voxel (0, 0, 0); voxel : edge in metres; shape : (nx, ny, nz).
     Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when the grid's smallest
-    blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget (mirrorcore.budget). Each method checks what
+    blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget (mirrorcore.base.budget). Each method checks what
     it allocates besides (`check_grids`, the TSDF's blocks), before allocating it.
     """
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..geometry.camera import Intrinsics
-from ..rig import Rig
-from .views import View
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.rig.model import Rig
+from mirrorcore.dense.views import View
 
 MAX_HALF = 16          # pixels: the largest window is 33 x 33
 Z_MIN = 1e-3           # metres: blocks nearer a view's plane than this are left to the voxel tests

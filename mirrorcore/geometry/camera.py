@@ -14,8 +14,8 @@ import cv2
 import numpy as np
 import yaml
 
-from ..errors import FileFormatError
-from ..jsonfile import finite_number
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.base.jsonfile import finite_number
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
 MAX_YAML_BYTES = 1 << 20   # a camera file is a few hundred bytes

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CalibrationError
-from .ransac import ransac_iterations
+from mirrorcore.base.errors import CalibrationError
+from mirrorcore.geometry.ransac import ransac_iterations
 
 
 @dataclass(frozen=True)

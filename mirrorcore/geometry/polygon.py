@@ -4,7 +4,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 
 MIN_VERTICES = 3             # a polygon's fewest corners (an outline, a region)
 MAX_VERTICES = 1000     # a drawn outline has a handful of corners; the crossing test is quadratic in the worst case

@@ -12,15 +12,15 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from ..atomic import new_folder
-from ..depthio import write_depth_png
-from ..errors import MirrorscanError
-from ..geometry.camera import Intrinsics, project_points
-from ..rig import Mirror, Rig
-from ..session import BACKGROUND_FILE, TRUTH_FILE, Session, SessionMirror, save_session
-from .render import MARKER, GroundTruth
-from .scene import Scene, SceneMirror
-from .simulator import Simulator
+from mirrorcore.base.atomic import new_folder
+from mirrorcore.depth.files import write_depth_png
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics, project_points
+from mirrorcore.rig.model import Mirror, Rig
+from mirrorcore.io.session import BACKGROUND_FILE, TRUTH_FILE, Session, SessionMirror, save_session
+from mirrorcore.sim.render import MARKER, GroundTruth
+from mirrorcore.sim.scene import Scene, SceneMirror
+from mirrorcore.sim.simulator import Simulator
 
 
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:

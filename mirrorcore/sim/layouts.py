@@ -7,11 +7,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import MirrorscanError
-from ..geometry.camera import Intrinsics
-from .placement import markers_in_view
-from .scene import Room, Scene, SceneMirror, SceneObject
-from .sensor import SensorModel
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.sim.placement import markers_in_view
+from mirrorcore.sim.scene import Room, Scene, SceneMirror, SceneObject
+from mirrorcore.sim.sensor import SensorModel
 
 SPHERE_RADIUS = 0.115       # the paper's sphere (figure 4)
 CYLINDER_RADIUS = 0.150     # the paper's cylinder (figure 5)

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from ..errors import FileFormatError
-from .scene import SceneObject
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.sim.scene import SceneObject
 
 SPHERE_SUBDIVISIONS = 4     # icosphere of 5120 faces: its faces lie within 0.12 mm of a 0.115 m sphere
 CYLINDER_SECTIONS = 128     # faces within 0.05 mm of a 0.15 m cylinder

@@ -9,9 +9,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..geometry.camera import project_points
-from .render import MARKER, GroundTruth, Renderer
-from .scene import Scene, SceneMirror
+from mirrorcore.geometry.camera import project_points
+from mirrorcore.sim.render import MARKER, GroundTruth, Renderer
+from mirrorcore.sim.scene import Scene, SceneMirror
 
 MIN_SEEN = 3           # markers a mirror needs in view for a fit: where fewer of a layout's are seen, the hidden move
 SPACING = 0.25         # ... this share of the mirror's smaller side from the other markers,

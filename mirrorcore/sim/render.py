@@ -20,12 +20,12 @@ from functools import cached_property
 import numpy as np
 import open3d as o3d
 
-from ..errors import MirrorscanError
-from ..geometry.camera import Intrinsics, project_points
-from ..geometry.plane import Plane
-from ..palette import MAX_ORDER, sequence_label
-from .objects import object_geometry
-from .scene import Scene
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics, project_points
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.base.palette import MAX_ORDER, sequence_label
+from mirrorcore.sim.objects import object_geometry
+from mirrorcore.sim.scene import Scene
 
 # Ground-truth surface codes: what the (last) ray segment of a pixel hit.
 NONE, ROOM, OBJECT, MARKER, MIRROR_BACK = 0, 1, 2, 3, 4
@@ -76,7 +76,7 @@ class GroundTruth:
 
     @property
     def source(self) -> np.ndarray:
-        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.palette): 0 = direct, j = through mirror j, the
+        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette): 0 = direct, j = through mirror j, the
         label of the sequence for several mirrors; -1 where no surface (or a sequence the labels do not cover)."""
         keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1, return_inverse=True)
         labels = np.array([_label(tuple(int(j) for j in key if j)) for key in keys.T], np.int16)

@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..atomic import write_atomic
-from ..errors import FileFormatError
-from ..geometry.camera import Intrinsics
-from ..geometry.plane import Plane
-from ..jsonfile import read_json
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.base.jsonfile import read_json
 
 SCENE_VERSION = 1
 OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")

@@ -28,7 +28,7 @@ from statistics import NormalDist
 import cv2
 import numpy as np
 
-from ..geometry.camera import Intrinsics
+from mirrorcore.geometry.camera import Intrinsics
 
 
 @dataclass(frozen=True)

@@ -5,11 +5,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.camera import Intrinsics
-from ..geometry.plane import Plane
-from .render import MAX_BOUNCES, GroundTruth, Renderer
-from .scene import Scene
-from .sensor import SensorModel
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.sim.render import MAX_BOUNCES, GroundTruth, Renderer
+from mirrorcore.sim.scene import Scene
+from mirrorcore.sim.sensor import SensorModel
 
 FPS = 30.0
 

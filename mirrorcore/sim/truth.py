@@ -8,11 +8,11 @@ from dataclasses import dataclass
 import numpy as np
 import open3d as o3d
 
-from ..errors import MirrorscanError
-from ..session import Session
-from .objects import object_geometry
-from .layouts import object_extent
-from .scene import Scene
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import Session
+from mirrorcore.sim.objects import object_geometry
+from mirrorcore.sim.layouts import object_extent
+from mirrorcore.sim.scene import Scene
 
 
 @dataclass(frozen=True)

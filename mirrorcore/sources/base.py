@@ -9,8 +9,8 @@ from typing import Iterator
 
 import numpy as np
 
-from ..errors import MirrorscanError
-from ..geometry.camera import Intrinsics, check_depth_shape
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
 
 
 @dataclass(frozen=True)

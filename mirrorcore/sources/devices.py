@@ -8,10 +8,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..errors import FileFormatError, MirrorscanError
-from ..geometry.camera import Intrinsics
-from ..kinect import disparity_to_depth
-from .base import DepthSource, Frame, require
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.depth.kinect import disparity_to_depth
+from mirrorcore.sources.base import DepthSource, Frame, require
 
 FREENECT_INSTALL = "Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' (PyPI freenect builds against it)"
 OPENNI2_INSTALL = "Debian's libopenni2-dev, then pip install 'mirrorscan[devices]' (PyPI openni)"
@@ -24,7 +24,7 @@ class FreenectSource(DepthSource):
 
     Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres by `disparity_model`
     ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default Nicolas Burrus' calibration
-    z = 1 / (counts * -0.0030711016 + 3.3309495161) (mirrorcore.kinect.disparity_to_depth); pass another function to
+    z = 1 / (counts * -0.0030711016 + 3.3309495161) (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
     use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1() (Burrus).
     Timestamps are seconds since the source opened, on the host's clock.
     """

@@ -9,13 +9,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..budget import check_memory
-from ..depthio import read_depth_png
-from ..errors import FileFormatError
-from ..geometry.camera import Intrinsics, load_open3d_json, load_opencv_yaml
-from ..jsonfile import read_json
-from ..session import Session
-from .base import DepthSource, Frame, checked_depth
+from mirrorcore.base.budget import check_memory
+from mirrorcore.depth.files import read_depth_png
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.geometry.camera import Intrinsics, load_open3d_json, load_opencv_yaml
+from mirrorcore.base.jsonfile import read_json
+from mirrorcore.io.session import Session
+from mirrorcore.sources.base import DepthSource, Frame, checked_depth
 
 CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, beside a folder's PNGs
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON

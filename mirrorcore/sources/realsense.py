@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileFormatError, MirrorscanError
-from ..geometry.camera import Intrinsics
-from .base import DepthSource, Frame, require
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.sources.base import DepthSource, Frame, require
 
 REALSENSE_INSTALL = "pip install 'mirrorscan[devices]' (PyPI pyrealsense2)"
 BAG_TIMEOUT_S = 600.0           # a bag's playback that has not ended by then is reported as broken

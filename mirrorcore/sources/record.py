@@ -19,11 +19,11 @@ from typing import Callable
 
 import cv2
 
-from ..atomic import write_atomic
-from ..depthio import write_depth_png
-from ..errors import FileFormatError, MirrorscanError
-from ..session import BACKGROUND_FILE, Session, save_session
-from .base import DepthSource, Frame
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.depth.files import write_depth_png
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.io.session import BACKGROUND_FILE, Session, save_session
+from mirrorcore.sources.base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"
 COLOUR_NAME = "frames/{:06d}_colour.png"

@@ -5,13 +5,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FileFormatError
-from ..jsonfile import finite_number, read_json
-from ..session import TRUTH_FILE, Session
-from ..sim.layouts import paper_scene
-from ..sim.scene import Scene, load_scene, scene_from_json
-from ..sim.simulator import FPS, Simulator
-from .base import DepthSource, Frame
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.base.jsonfile import finite_number, read_json
+from mirrorcore.io.session import TRUTH_FILE, Session
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.scene import Scene, load_scene, scene_from_json
+from mirrorcore.sim.simulator import FPS, Simulator
+from mirrorcore.sources.base import DepthSource, Frame
 
 
 class SimulatedSource(DepthSource):

@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from .noise import KINECT_AXIAL_COEF, axial_sigma
+from mirrorcore.depth.noise import KINECT_AXIAL_COEF, axial_sigma
 
 QUADRATIC_RADIUS = 4        # pixels: local_quadratic_depth fits the 9 x 9 pixels around each pixel
 QUADRATIC_SIGMA = 3.0       # pixels: the spatial Gaussian's sigma

@@ -5,7 +5,7 @@ import json
 import math
 from pathlib import Path
 
-from .errors import FileFormatError
+from mirrorcore.base.errors import FileFormatError
 
 MAX_JSON_BYTES = 64 << 20   # no file mirrorscan reads as JSON comes near; a larger one is refused before reading
 

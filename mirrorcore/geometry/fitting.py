@@ -13,10 +13,10 @@ from typing import Callable
 import numpy as np
 import open3d as o3d
 
-from .errors import Cancelled, MirrorscanError
-from .geometry.ransac import ransac_iterations
-from .progress import Progress, cancel_requested
-from .shapes import Cylinder, ShapeFit, Sphere
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.geometry.ransac import ransac_iterations
+from mirrorcore.base.progress import Progress, cancel_requested
+from mirrorcore.geometry.shapes import Cylinder, ShapeFit, Sphere
 
 DEFAULT_THRESHOLD = 0.02
 """Inlier distance, metres: about 3 sigma of Kinect v1 depth noise at 2 m (5.7 mm axial noise and 11.5 mm depth steps:

@@ -20,15 +20,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import CalibrationError, Cancelled, MirrorscanError
-from .fitting import fit_sphere
-from .geometry.plane import Plane
-from .noise import axial_sigma
-from .progress import Progress, cancel_requested
-from .readings import LATERAL_PX
-from .reconstruct import reconstruct_raw
-from .rig import Rig
-from .shapes import Sphere
+from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
+from mirrorcore.geometry.fitting import fit_sphere
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.depth.noise import axial_sigma
+from mirrorcore.base.progress import Progress, cancel_requested
+from mirrorcore.calibration.readings import LATERAL_PX
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.geometry.shapes import Sphere
 
 MIN_POINTS = 300             # readings of the sphere each view needs in every frame
 INLIER_SIGMAS = 3.0          # a reading within this many of its view's depth noise of its view's sphere is on it...

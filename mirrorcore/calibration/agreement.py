@@ -30,12 +30,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .cloud import Cloud
-from .geometry.camera import Intrinsics, project_points
-from .geometry.plane import Plane
-from .readings import MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints, view_points
-from .reconstruct import reconstruct_raw
-from .rig import Rig
+from mirrorcore.rig.cloud import Cloud
+from mirrorcore.geometry.camera import Intrinsics, project_points
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.calibration.readings import MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints, view_points
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
 
 MIN_NORMAL_COSINE = 0.7      # a point agrees with a reading when their normals are within 45 degrees...
 AGREE_SIGMAS = 3.0           # ... and their surfaces within this many standard deviations of each other,
@@ -158,7 +158,7 @@ class FrameViews:
 
 def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
     """A frame's views: depth (H, W) float metres as measured (not smoothed), mask (H, W) bool the object's pixels
-    (mirrorcore.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says which view each of the object's pixels
+    (mirrorcore.rig.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says which view each of the object's pixels
     belongs to; mirrors without a plane have no view."""
     depth = np.asarray(depth, dtype=np.float32)
     mask = np.asarray(mask, bool) & (depth > 0)

@@ -5,14 +5,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .palette import source_colours, source_name
+from mirrorcore.base.palette import source_colours, source_name
 
 
 @dataclass(frozen=True, eq=False)
 class Cloud:
     """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray before handing its
     buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
-    several mirrors in turn (mirrorcore.palette);
+    several mirrors in turn (mirrorcore.base.palette);
     pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width : image width."""
 
     points: np.ndarray
@@ -47,7 +47,7 @@ class Cloud:
     def source_counts(self, n_mirrors: int) -> dict[int, int]:
         """Points per source label: the direct view and every mirror listed even when absent, then each view through
         several mirrors in turn that has points, in label order: {0: n0, 1: n1, ..., 33: n33, ...} (name and colour
-        of a label: mirrorcore.palette.source_name, source_colour)."""
+        of a label: mirrorcore.base.palette.source_name, source_colour)."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         listed = [*range(n_mirrors + 1), *(int(s) for s in np.flatnonzero(counts) if s > n_mirrors)]
         return {j: int(counts[j]) for j in listed}

@@ -9,7 +9,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-from .errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 
 
 def write_atomic(path: str | Path, data: bytes, backup: bool = False, durable: bool = True) -> None:

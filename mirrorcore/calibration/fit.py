@@ -7,15 +7,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .depthio import require_readings
-from .depthops import median_depth, without_occluders
-from .errors import CalibrationError
-from .geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
-from .geometry.plane import Plane, fit_plane_ransac
-from .geometry.polygon import polygon_mask, validate_polygon
-from .markers import GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS, MarkerResiduals, marker_points, marker_residuals
-from .noise import axial_sigma
-from .session import Session, SessionMirror
+from mirrorcore.depth.files import require_readings
+from mirrorcore.depth.ops import median_depth, without_occluders
+from mirrorcore.base.errors import CalibrationError
+from mirrorcore.geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
+from mirrorcore.geometry.plane import Plane, fit_plane_ransac
+from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
+from mirrorcore.calibration.markers import GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS, MarkerResiduals, marker_points, marker_residuals
+from mirrorcore.depth.noise import axial_sigma
+from mirrorcore.io.session import Session, SessionMirror
 
 MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line are collinear
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels

@@ -13,15 +13,15 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .atomic import new_folder, write_atomic
-from .depthio import read_depth_png
-from .errors import FileFormatError, MirrorscanError
-from .geometry.camera import Intrinsics
-from .geometry.plane import Plane
-from .geometry.polygon import MAX_VERTICES, validate_polygon
-from .jsonfile import finite_number, read_json
-from .palette import MAX_MIRRORS, MAX_ORDER
-from .selection import Selection
+from mirrorcore.base.atomic import new_folder, write_atomic
+from mirrorcore.depth.files import read_depth_png
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.geometry.polygon import MAX_VERTICES, validate_polygon
+from mirrorcore.base.jsonfile import finite_number, read_json
+from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER
+from mirrorcore.depth.selection import Selection
 
 VERSION = 1
 SESSION_FILE = "session.json"
@@ -121,7 +121,7 @@ class Session:
     timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
     colour_frames : n colour PNG paths, one per frame, or None
     extra : top-level keys this version does not know, kept as they were
-    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig)
+    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig.model)
 
     Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
     """

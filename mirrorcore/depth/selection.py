@@ -7,11 +7,11 @@ from dataclasses import asdict, dataclass, fields
 import cv2
 import numpy as np
 
-from .depthops import bounding_window, masked_copy
-from .errors import FileFormatError, MirrorscanError
-from .geometry.camera import Intrinsics, check_depth_shape
-from .geometry.polygon import polygon_mask, validate_polygon
-from .noise import axial_sigma
+from mirrorcore.depth.ops import bounding_window, masked_copy
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
+from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
+from mirrorcore.depth.noise import axial_sigma
 
 
 @dataclass(frozen=True)

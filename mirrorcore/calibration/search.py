@@ -17,14 +17,14 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from .errors import CalibrationError, Cancelled
-from .geometry.camera import reproject_depth
-from .geometry.plane import Plane
-from .noise import axial_sigma
-from .progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
-from .refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
-from .rig import Mirror, Rig
-from .session import Session
+from mirrorcore.base.errors import CalibrationError, Cancelled
+from mirrorcore.geometry.camera import reproject_depth
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.depth.noise import axial_sigma
+from mirrorcore.base.progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
+from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
+from mirrorcore.rig.model import Mirror, Rig
+from mirrorcore.io.session import Session
 
 SEARCH_POINTS = 800                  # points of each view scored (a random subset)
 MIN_POINTS = 100                     # the object's readings needed in each view

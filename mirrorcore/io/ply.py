@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from .atomic import write_atomic
-from .budget import check_memory
-from .errors import FileFormatError
-from .palette import source_colours
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import FileFormatError
+from mirrorcore.base.palette import source_colours
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
@@ -22,7 +22,7 @@ _HEADER_LINES, _HEADER_LINE = 200, 1024   # a PLY header longer than this (lines
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
     """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j, 33.. several
-    mirrors in turn: mirrorcore.palette); faces : optional
+    mirrors in turn: mirrorcore.base.palette); faces : optional
     (m, 3) int vertex indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)

@@ -8,14 +8,14 @@ from functools import cached_property
 
 import numpy as np
 
-from .budget import check_memory
-from .errors import MirrorscanError
-from .geometry.camera import Intrinsics
-from .geometry.plane import Plane
-from .geometry.polygon import polygon_mask, validate_polygon
-from .palette import MAX_MIRRORS, MAX_ORDER, source_sequence
-from .paths import Chains, VirtualCamera, trace_chains
-from .session import Session
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
+from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER, source_sequence
+from mirrorcore.rig.raypaths import Chains, VirtualCamera, trace_chains
+from mirrorcore.io.session import Session
 
 DEFAULT_BOUNCES = MAX_ORDER   # reflections followed unless the session or the command says otherwise
 PIXEL_BYTES = 64   # the rig's per-pixel tables and one frame through Algorithm 1: 47 bytes a pixel measured at 640x480
@@ -40,7 +40,7 @@ class Mirror:
 @dataclass(frozen=True, eq=False)
 class Rig:
     """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]); bounces : the most
-    mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.paths; at 1, Algorithm 1 as the paper writes it,
+    mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths; at 1, Algorithm 1 as the paper writes it,
     with the points seen through a second mirror left out rather than misplaced)."""
 
     intrinsics: Intrinsics
@@ -92,7 +92,7 @@ class Rig:
 
     def virtual_cameras(self) -> tuple[VirtualCamera, ...]:
         """The views of the rig up to `bounces` mirrors: the camera, each calibrated mirror with a boundary, then each
-        sequence of mirrors that some pixel's ray follows (mirrorcore.paths), in label order. A mirror's `pixels` are
+        sequence of mirrors that some pixel's ray follows (mirrorcore.rig.raypaths), in label order. A mirror's `pixels` are
         those Algorithm 1 gives it first; a sequence's, those whose ray meets its mirrors in turn."""
         table = self.reflection_table
         counts = np.bincount(table.label.reshape(-1), minlength=len(self.mirrors) + 1)
@@ -130,7 +130,7 @@ class ReflectionTable:
     """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose
     boundary holds it (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
     z (n . ray) + d < 0. The per-pixel arrays are (H, W); all are read-only. `chains` holds the few pixels whose ray
-    then meets further mirrors (mirrorcore.paths), followed up to the rig's `bounces`.
+    then meets further mirrors (mirrorcore.rig.raypaths), followed up to the rig's `bounces`.
 
     label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
     threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray leaves the glass)

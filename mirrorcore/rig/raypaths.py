@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry.camera import Intrinsics
-from .geometry.plane import Plane
-from .palette import MAX_MIRRORS, sequence_label, source_name, source_sequence
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.base.palette import MAX_MIRRORS, sequence_label, source_name, source_sequence
 
 MIN_PATH = 1e-6    # metres: a reflected ray meets a mirror at least this far along (never the mirror it left)
 

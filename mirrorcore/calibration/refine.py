@@ -23,19 +23,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .agreement import SHOWN_GATE, FrameViews, frame_views, in_view
-from .calibration import MIN_MARKER_PIXELS, marker_points
-from .depthops import MEAN_SIGMAS
-from .errors import CalibrationError, Cancelled
-from .geometry.camera import Intrinsics
-from .geometry.plane import Plane
-from .noise import axial_sigma
-from .progress import Progress, Ratchet, cancel_requested
-from .readings import reflect_directions
-from .rig import Mirror, Rig
-from .session import MAX_MARKER_OFFSET, Session
-from .spheretarget import SCATTER_AUTO, SCATTER_FRAMES, NotASphere, SpherePlanes, sphere_planes
-from .words import listed
+from mirrorcore.calibration.agreement import SHOWN_GATE, FrameViews, frame_views, in_view
+from mirrorcore.calibration.fit import MIN_MARKER_PIXELS, marker_points
+from mirrorcore.depth.ops import MEAN_SIGMAS
+from mirrorcore.base.errors import CalibrationError, Cancelled
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.depth.noise import axial_sigma
+from mirrorcore.base.progress import Progress, Ratchet, cancel_requested
+from mirrorcore.calibration.readings import reflect_directions
+from mirrorcore.rig.model import Mirror, Rig
+from mirrorcore.io.session import MAX_MARKER_OFFSET, Session
+from mirrorcore.calibration.spheretarget import SCATTER_AUTO, SCATTER_FRAMES, NotASphere, SpherePlanes, sphere_planes
+from mirrorcore.base.words import listed
 
 CAUCHY = 2.385               # the Cauchy weight's scale, in standard deviations (95 % efficient on Gaussian noise)
 MAX_ITERATIONS = 30

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .palette import source_name
+from mirrorcore.base.palette import source_name
 
 
 def _as_points(points: np.ndarray) -> np.ndarray:

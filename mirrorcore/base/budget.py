@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import re
 
-from .errors import MirrorscanError
+from mirrorcore.base.errors import MirrorscanError
 
 ENV = "MIRRORSCAN_MEMORY"
 DEFAULT_BUDGET = 4 << 30            # bytes: 4 GiB (a 2 mm TSDF of 200^3 voxels needs 130 MB; 1 mm over 60 cm, 3.5 GB)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cloud import Cloud
-from .depthops import local_quadratic_depth, smooth_depth
-from .palette import source_orders
-from .reconstruct import reconstruct_raw
-from .rig import Rig
-from .selection import Backdrop, Selection, object_mask
+from mirrorcore.rig.cloud import Cloud
+from mirrorcore.depth.ops import local_quadratic_depth, smooth_depth
+from mirrorcore.base.palette import source_orders
+from mirrorcore.rig.reconstruct import reconstruct_raw
+from mirrorcore.rig.model import Rig
+from mirrorcore.depth.selection import Backdrop, Selection, object_mask
 
 
 def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,

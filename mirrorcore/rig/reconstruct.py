@@ -1,12 +1,12 @@
 """Algorithm 1 of the paper: the merged, source-labelled cloud of one depth frame (reproject, then reflect the pixels
-seen in a mirror through its plane), generalised to pixels seen through several mirrors in turn (mirrorcore.paths)."""
+seen in a mirror through its plane), generalised to pixels seen through several mirrors in turn (mirrorcore.rig.raypaths)."""
 from __future__ import annotations
 
 import numpy as np
 
-from .cloud import Cloud
-from .geometry.camera import Intrinsics, check_depth_shape
-from .rig import ReflectionTable, Rig
+from mirrorcore.rig.cloud import Cloud
+from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
+from mirrorcore.rig.model import ReflectionTable, Rig
 
 
 def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:

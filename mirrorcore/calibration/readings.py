@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .depthops import bounding_window
-from .geometry.camera import Intrinsics
-from .geometry.plane import Plane
-from .noise import axial_sigma
+from mirrorcore.depth.ops import bounding_window
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.depth.noise import axial_sigma
 
 NEIGHBOURS_RADIUS = 3        # pixels: a reading's surface is fitted to its (2 r + 1)^2 - 1 neighbours...
 MIN_NEIGHBOURS = 16          # ... of which at least this many must be the same view's readings

@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path, PurePosixPath
 
-from .errors import MirrorscanError
-from .session import BACKGROUND_FILE, FRAMES_FOLDER, SESSION_FILE, TRUTH_FILE
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import BACKGROUND_FILE, FRAMES_FOLDER, SESSION_FILE, TRUTH_FILE
 
 
 def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:

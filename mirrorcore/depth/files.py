@@ -8,10 +8,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .atomic import write_atomic
-from .budget import check_memory
-from .errors import FileFormatError, MirrorscanError
-from .geometry.camera import MAX_IMAGE_SIDE
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.base.budget import check_memory
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.geometry.camera import MAX_IMAGE_SIDE
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 DECODED_BYTES = 6         # a decoded pixel: uint16 as read, then float32 metres

@@ -7,10 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .depthops import robust_mean_depth
-from .geometry.camera import Intrinsics, reproject_pixels
-from .geometry.plane import Plane
-from .noise import axial_sigma
+from mirrorcore.depth.ops import robust_mean_depth
+from mirrorcore.geometry.camera import Intrinsics, reproject_pixels
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.depth.noise import axial_sigma
 
 MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
 MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading

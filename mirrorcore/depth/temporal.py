@@ -1,7 +1,7 @@
 """Temporal smoothing of depth frames for people in motion: each pixel is averaged with the same pixel of its
 neighbouring frames where the scene is static there (motion-aware, edge-preserving), in disparity.
 
-A structured-light camera's noise is constant in disparity w = 1/z (sigma_w = 1.425e-3 per metre, mirrorcore.noise),
+A structured-light camera's noise is constant in disparity w = 1/z (sigma_w = 1.425e-3 per metre, mirrorcore.depth.noise),
 so the difference of two readings of a static surface has the standard deviation sqrt(2) sigma_w at every depth. A
 neighbour frame k is used at a pixel when (1) its own difference to the centre frame is within `sigmas` of that, and
 (2) the mean difference over a `patch` x `patch` window around the pixel (the pixels where both frames read) is within
@@ -15,7 +15,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .noise import KINECT_AXIAL_COEF
+from mirrorcore.depth.noise import KINECT_AXIAL_COEF
 
 DEFAULT_SIGMAS = 3.0   # acceptance, in standard deviations of a difference of two readings
 DEFAULT_PATCH = 5      # pixels: side of the window whose mean difference tells motion from noise
