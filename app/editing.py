@@ -146,7 +146,8 @@ class EditorCore:
         return self._history.label(scope, redo, ids, lambda i: self.mirror(i).name)
 
     def glass_unused(self, mirror_id: int) -> bool:
-        """Whether the mirror's glass was typed in after its plane was set (History.glass_unused)."""
+        """Whether the mirror's glass was typed in after its plane was set (History.glass_unused).
+        """
         with self._lock:
             return self._history.glass_unused(mirror_id)
 

@@ -141,7 +141,8 @@ class SessionEditor(EditorCore):
     def clear_boundary(self, mirror_id: int) -> None:
         self._clear(mirror_id, "boundary")
 
-    # ------------------------------------------------------------------ calibration, selection, background
+    # ------------------------------------------------------------------ calibration, selection,
+    # background
     @edits
     def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]],
                    glass: dict[int, tuple[float, float | None]] | None = None,

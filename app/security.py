@@ -1,20 +1,21 @@
 """Who may use the browser tool, and what a stranger costs the log (issue 15, points 3, 6 and 8).
 
-viser 1.1 serves its page and its websocket on one port with no check of its own. protect() installs these checks
-into a running viser.ViserServer, before any client is let in:
+viser 1.1 serves its page and its websocket on one port with no check of its own. protect() installs
+these checks into a running viser.ViserServer, before any client is let in:
 
-- **Host**: a request whose Host header is not an IP address, `localhost` or a name given in `allowed_hosts` (and
-  this machine's own names) is refused (403): a DNS-rebinding page reaches 127.0.0.1 under its own domain name.
-- **Origin**: a websocket whose Origin is not the page's own (the Host it asked for) is refused (403): any web page
-  may open ws://127.0.0.1:PORT from the user's browser. A client without an Origin is not a browser page.
-- **Token**: required when listening beyond loopback (or whenever one is given): `?token=T` on the page's address
-  (the server then sets a cookie, HttpOnly and SameSite=Strict, that the page's websocket carries), the cookie, or
-  an `Authorization: Bearer T` header (scripts). Without it the page says where to find the address to open.
-- **Sizes**: a websocket message is at most MAX_MESSAGE_BYTES; an upload is refused as soon as its declared size, or
-  the bytes received, pass `max_upload_bytes` (or the memory budget, or MAX_UPLOADS_IN_FLIGHT over all uploads),
-  and the parts received so far are dropped.
-- **Log**: a plain TCP probe (connect, close: a health check, a port scan) is not logged at all (counted in
-  QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a traceback.
+- **Host**: a request whose Host header is not an IP address, `localhost` or a name given in
+`allowed_hosts` (and this machine's own names) is refused (403): a DNS-rebinding page reaches
+127.0.0.1 under its own domain name. - **Origin**: a websocket whose Origin is not the page's own
+(the Host it asked for) is refused (403): any web page may open ws://127.0.0.1:PORT from the user's
+browser. A client without an Origin is not a browser page. - **Token**: required when listening
+beyond loopback (or whenever one is given): `?token=T` on the page's address (the server then sets a
+cookie, HttpOnly and SameSite=Strict, that the page's websocket carries), the cookie, or an
+`Authorization: Bearer T` header (scripts). Without it the page says where to find the address to
+open. - **Sizes**: a websocket message is at most MAX_MESSAGE_BYTES; an upload is refused as soon as
+its declared size, or the bytes received, pass `max_upload_bytes` (or the memory budget, or
+MAX_UPLOADS_IN_FLIGHT over all uploads), and the parts received so far are dropped. - **Log**: a
+plain TCP probe (connect, close: a health check, a port scan) is not logged at all (counted in
+QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a traceback.
 """
 from __future__ import annotations
 
@@ -43,7 +44,8 @@ from mirrorcore.base.errors import MirrorscanError
 
 log = logging.getLogger("mirrorscan.security")
 
-MAX_MESSAGE_BYTES = 8 << 20          # one websocket message; uploads come in 512 KiB parts, GUI messages are small
+# one websocket message; uploads come in 512 KiB parts, GUI messages are small
+MAX_MESSAGE_BYTES = 8 << 20
 MAX_UPLOAD_BYTES = 20 << 20          # one upload (the Session panel's background PNG)
 MAX_UPLOADS_IN_FLIGHT = 64 << 20     # every upload being received at once, all tabs together
 MAX_REFUSED_REMEMBERED = 1000        # refused transfers whose late parts are still dropped
@@ -52,7 +54,8 @@ TOKEN_COOKIE = "mirrorscan-token-{port}"
 
 @dataclass
 class Guard:
-    """The checks protect() installed: the token (None when not required), the counters, and the address to open."""
+    """The checks protect() installed: the token (None when not required), the counters, and the
+    address to open."""
 
     host: str
     port: int
@@ -71,7 +74,8 @@ class Guard:
 
     # ------------------------------------------------------------------ the checks, on one request
     def check(self, request: Request) -> Response | None:
-        """None when `request` may go on; otherwise the 403 response that refuses it (with a one-line reason)."""
+        """None when `request` may go on; otherwise the 403 response that refuses it (with a
+        one-line reason)."""
         headers = request.headers
         hosts, origins = headers.get_all("Host"), headers.get_all("Origin")
         host = hosts[0] if len(hosts) == 1 else ""
@@ -98,7 +102,8 @@ class Guard:
             return name.lower() in self.allowed_hosts
 
     def token_given(self, request: Request) -> bool:
-        """True when the query string, the cookie or an Authorization: Bearer header carries the token."""
+        """True when the query string, the cookie or an Authorization: Bearer header carries the
+        token."""
         given = parse_qs(urlsplit(request.path).query).get("token", [])
         try:
             cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
@@ -125,8 +130,8 @@ class Guard:
 
 
 def new_token() -> str:
-    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (1 in 64 would: `--token` would then
-    read it as an option where a user pastes it)."""
+    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (1 in 64 would: `--token`
+    would then read it as an option where a user pastes it)."""
     token = secrets.token_urlsafe(32)
     while token.startswith("-"):
         token = secrets.token_urlsafe(32)
@@ -134,7 +139,8 @@ def new_token() -> str:
 
 
 def is_loopback(host: str) -> bool:
-    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can connect."""
+    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can
+    connect."""
     try:
         return host == "localhost" or ipaddress.ip_address(host).is_loopback
     except ValueError:
@@ -143,15 +149,16 @@ def is_loopback(host: str) -> bool:
 
 def protect(server: viser.ViserServer, host: str, token: str | None = None,
             allowed_hosts: tuple[str, ...] = (), max_upload_bytes: int = MAX_UPLOAD_BYTES) -> Guard:
-    """Install the checks of this module into a running viser server (call it right after creating the server, before
-    printing its address); connections already open that would not pass are closed.
+    """Install the checks of this module into a running viser server (call it right after creating
+    the server, before printing its address); connections already open that would not pass are
+    closed.
 
-    host : the address the server listens on; beyond loopback a token is required (a new one when `token` is None).
-    token : require this token even on loopback; allowed_hosts : host names besides IP addresses, localhost and
-    this machine's names that a browser may use (a name behind which the machine is reached).
-    Returns the Guard (its .url is the address to print). Raises MirrorscanError when viser's server cannot be
-    found (a viser version whose internals differ: the tool refuses to run unprotected). Protecting a server twice
-    returns the first Guard."""
+    host : the address the server listens on; beyond loopback a token is required (a new one when
+    `token` is None). token : require this token even on loopback; allowed_hosts : host names
+    besides IP addresses, localhost and this machine's names that a browser may use (a name behind
+    which the machine is reached). Returns the Guard (its .url is the address to print). Raises
+    MirrorscanError when viser's server cannot be found (a viser version whose internals differ: the
+    tool refuses to run unprotected). Protecting a server twice returns the first Guard."""
     if isinstance(getattr(server, "_mirrorscan_guard", None), Guard):
         return server._mirrorscan_guard
     if token is None and not is_loopback(host):
@@ -178,7 +185,8 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
 
 
 async def _install(websock, guard: Guard) -> None:
-    """On the server's event loop: wrap the websockets server's process_request with the guard's checks."""
+    """On the server's event loop: wrap the websockets server's process_request with the guard's
+    checks."""
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
 
@@ -199,7 +207,8 @@ async def _install(websock, guard: Guard) -> None:
 
 
 def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
-    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for the stop)."""
+    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for
+    the stop)."""
     for task in asyncio.all_tasks(loop):
         frame = getattr(task.get_coro(), "cr_frame", None)
         for value in (frame.f_locals.values() if frame is not None else ()):
@@ -210,10 +219,11 @@ def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
 
 # ---------------------------------------------------------------------- uploads
 def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
-    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it declared: viser
-    keeps an upload's parts in the upload state of the GUI that owns its button (the server's, or a tab's own, whose
-    handlers may run before or after these), so a refused transfer is remembered and dropped at its first part
-    whichever ran first; at most one 512 KiB part of it is ever held."""
+    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it
+    declared: viser keeps an upload's parts in the upload state of the GUI that owns its button (the
+    server's, or a tab's own, whose handlers may run before or after these), so a refused transfer
+    is remembered and dropped at its first part whichever ran first; at most one 512 KiB part of it
+    is ever held."""
     refused: dict[str, str] = {}                           # transfer id -> why
     lock = threading.Lock()
 
@@ -270,8 +280,9 @@ def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
 
 # ---------------------------------------------------------------------- the log
 class QuietProbes(logging.Filter):
-    """On the 'websockets.server' logger: a connection closed before its request (a probe) is not logged; a
-    malformed request, or a malformed message from a client (its connection is closed), is one line."""
+    """On the 'websockets.server' logger: a connection closed before its request (a probe) is not
+    logged; a malformed request, or a malformed message from a client (its connection is closed), is
+    one line."""
 
     def __init__(self):
         super().__init__("")
@@ -295,7 +306,8 @@ class QuietProbes(logging.Filter):
 
 
 def _is_probe(exc: BaseException) -> bool:
-    """True when the connection ended before a whole request came in (EOFError, a reset, somewhere in the chain)."""
+    """True when the connection ended before a whole request came in (EOFError, a reset, somewhere
+    in the chain)."""
     while exc is not None:
         if isinstance(exc, (EOFError, ConnectionError)):
             return True
@@ -304,7 +316,8 @@ def _is_probe(exc: BaseException) -> bool:
 
 
 def _from_a_message(exc: BaseException) -> bool:
-    """True when the exception was raised while reading or decoding a client's message (viser's consumer loop)."""
+    """True when the exception was raised while reading or decoding a client's message (viser's
+    consumer loop)."""
     return any(frame.name == "_message_consumer" for frame in traceback.extract_tb(exc.__traceback__))
 
 
@@ -323,9 +336,9 @@ _filter = QuietProbes()
 
 
 def install_log_filter() -> QuietProbes:
-    """Put the QuietProbes filter first on the websockets server logger (once per process) and return it. First:
-    viser adds a filter of its own there (on its first page request) that drops every failed handshake silently,
-    malformed requests included."""
+    """Put the QuietProbes filter first on the websockets server logger (once per process) and
+    return it. First: viser adds a filter of its own there (on its first page request) that drops
+    every failed handshake silently, malformed requests included."""
     logger = logging.getLogger("websockets.server")
     if _filter in logger.filters:
         logger.removeFilter(_filter)

@@ -1,6 +1,6 @@
-"""The server's shared state: the session and what is derived from it (rig, background, the grade of every marker)
-as one immutable Snapshot, replaced whole (one reference, assigned atomically), so that the live loop and the browser
-callbacks always see one consistent state."""
+"""The server's shared state: the session and what is derived from it (rig, background, the grade of
+every marker) as one immutable Snapshot, replaced whole (one reference, assigned atomically), so
+that the live loop and the browser callbacks always see one consistent state."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -15,9 +15,10 @@ from mirrorcore.io.session import Session
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
-    """One consistent state: the session, its rig (reflection tables built once), the background depth (H, W) metres
-    or None and its Backdrop (the subtraction's limit map, made once), and for each calibrated mirror (by id) how far
-    each marker lies from its plane (mirrorcore.calibration.markers)."""
+    """One consistent state: the session, its rig (reflection tables built once), the background
+    depth (H, W) metres or None and its Backdrop (the subtraction's limit map, made once), and for
+    each calibrated mirror (by id) how far each marker lies from its plane
+    (mirrorcore.calibration.markers)."""
 
     session: Session
     rig: Rig
@@ -33,9 +34,9 @@ class Snapshot:
     @classmethod
     def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None,
               previous: "Snapshot | None" = None) -> "Snapshot":
-        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers (none without).
-        What `previous` already holds for the same inputs is reused (a marker added keeps the rig's tables: a click
-        must not wait ~70 ms for them)."""
+        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers
+        (none without). What `previous` already holds for the same inputs is reused (a marker added
+        keeps the rig's tables: a click must not wait ~70 ms for them)."""
         rig = Rig.from_session(session)
         if previous is not None and rig.same_rays(previous.rig):
             rig = previous.rig

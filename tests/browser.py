@@ -1,7 +1,8 @@
-"""Driving the browser tool in headless Chromium as a technician would: open a tab at a window size, find the app's
-Tab for it, look at the depth frame, click pixels of it, press buttons, pick tabs of the side panel, and read in the
-page when the depth frame it shows changed (a hook on the page's websocket worker timestamps every depth-frame image
-and decodes it, so a test can tell when a click was drawn, measured in the page)."""
+"""Driving the browser tool in headless Chromium as a technician would: open a tab at a window size,
+find the app's Tab for it, look at the depth frame, click pixels of it, press buttons, pick tabs of
+the side panel, and read in the page when the depth frame it shows changed (a hook on the page's
+websocket worker timestamps every depth-frame image and decodes it, so a test can tell when a click
+was drawn, measured in the page)."""
 from __future__ import annotations
 
 import time
@@ -17,9 +18,9 @@ ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-
         "--no-first-run"]
 CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
 
-# Every depth-frame image the page receives, decoded, in window.__depth: [arrival ms, ms when the next animation frame
-# ran, the image as an ImageBitmap] (the last 64); window.__patch(bitmap, u, v) reads the RGBA of its 21x21 pixels
-# around (u, v), flat.
+# Every depth-frame image the page receives, decoded, in window.__depth: [arrival ms, ms when the
+# next animation frame ran, the image as an ImageBitmap] (the last 64); window.__patch(bitmap, u, v)
+# reads the RGBA of its 21x21 pixels around (u, v), flat.
 DEPTH_HOOK = """
 window.__depth = [];
 window.__patch = (bitmap, u, v) => {
@@ -51,7 +52,8 @@ window.Worker = class extends Base {
 
 
 def open_tab(browser, app, width: int, height: int):
-    """A new page at width x height on the app, with the depth hook; returns (page, the app's Tab for it)."""
+    """A new page at width x height on the app, with the depth hook; returns (page, the app's Tab
+    for it)."""
     before = set(app.tabs)
     page = browser.new_page(viewport={"width": width, "height": height})
     page.add_init_script(DEPTH_HOOK)
@@ -83,9 +85,9 @@ def step(page, title: str) -> None:
 
 
 def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
-    """Press 'Depth frame' (or not, when the server already switched the tab) and wait until the browser reports the
-    view back, steadily (a late report of the previous view could otherwise overwrite the server's copy of the
-    camera)."""
+    """Press 'Depth frame' (or not, when the server already switched the tab) and wait until the
+    browser reports the view back, steadily (a late report of the previous view could otherwise
+    overwrite the server's copy of the camera)."""
     if press:
         button(page, "Depth frame")
     wait_for(lambda: tab.state.view == "depth", 30, "the depth view")
@@ -101,7 +103,8 @@ def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
     raise AssertionError(f"the tab's camera stays at {tab.client.camera.position}, not {position}")
 
 
-# The 3D scene's canvas: the largest one of the page (a plot of the side panel has its own, maybe earlier).
+# The 3D scene's canvas: the largest one of the page (a plot of the side panel has its own, maybe
+# earlier).
 SCENE_CANVAS = ("[...document.querySelectorAll('canvas')]"
                 ".reduce((a, b) => a.clientWidth * a.clientHeight >= b.clientWidth * b.clientHeight ? a : b)")
 
@@ -113,7 +116,8 @@ def scene_canvas_box(page) -> dict:
 
 
 def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
-    """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes, vertical fov)."""
+    """Where a world point appears on the page (CSS px), from the tab's camera (OpenCV axes,
+    vertical fov)."""
     camera = client.camera
     R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
     p = R.T @ (np.asarray(world) - np.asarray(camera.position))
@@ -123,8 +127,8 @@ def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
 
 
 def click_pixel(page, tab, uv, registered=None, tries: int = 3) -> None:
-    """Click pixel uv of the tab's depth frame, until registered() holds when given (a click can be lost on a
-    loaded machine)."""
+    """Click pixel uv of the tab's depth frame, until registered() holds when given (a click can be
+    lost on a loaded machine)."""
     for _ in range(tries):
         page.mouse.click(*canvas_point(page, tab.client, tab.screen.world_of_pixel(*uv)))
         time.sleep(CLICK_PAUSE)

@@ -1,6 +1,7 @@
-"""Session editing behind the browser tool, without a browser: mirrors named by their stable id, markers guarded by
-the image and the mirror's boundary, boundaries, undo and redo per mirror with named steps, removal that can be
-undone, fits computed on a state that changed meanwhile refused, autosave and round trip."""
+"""Session editing behind the browser tool, without a browser: mirrors named by their stable id,
+markers guarded by the image and the mirror's boundary, boundaries, undo and redo per mirror with
+named steps, removal that can be undone, fits computed on a state that changed meanwhile refused,
+autosave and round trip."""
 import json
 import os
 from dataclasses import replace
@@ -33,7 +34,8 @@ def test_markers_are_kept_where_clicked_and_saved(editor, tmp_path):
     assert editor.add_marker(1, (120.4, 33.0)) == 0
     assert editor.add_marker(1, (200, 300)) == 1
     assert editor.mirror(1).markers == ((120.4, 33.0), (200.0, 300.0))
-    assert saved(tmp_path)["mirrors"][0]["markers"] == [[120.4, 33.0], [200.0, 300.0]]   # autosaved, (u, v)
+    # autosaved, (u, v)
+    assert saved(tmp_path)["mirrors"][0]["markers"] == [[120.4, 33.0], [200.0, 300.0]]
     assert saved(tmp_path)["mirrors"][0]["id"] == 1
     editor.move_marker(1, 0, (121, 34))
     editor.delete_marker(1, 1)
@@ -49,7 +51,8 @@ def test_markers_are_kept_where_clicked_and_saved(editor, tmp_path):
 
 def test_a_marker_off_its_mirror_is_refused_and_changes_nothing(editor, tmp_path):
     editor.set_boundary(1, SQUARE)
-    editor.add_marker(1, (100.5, 50))                              # on the edge (within 1.5 px) counts
+    # on the edge (within 1.5 px) counts
+    editor.add_marker(1, (100.5, 50))
     before = (tmp_path / "session.json").read_bytes()
     with pytest.raises(MirrorscanError, match="mirror 1: \\(300, 400\\) is outside its boundary"):
         editor.add_marker(1, (300, 400))                           # a stray click under the panel
@@ -59,8 +62,8 @@ def test_a_marker_off_its_mirror_is_refused_and_changes_nothing(editor, tmp_path
 
 
 def test_a_marker_clicked_on_another_mirror_names_it(editor):
-    """With mirror 2 selected, a click on mirror 1's glass was refused as "a marker must be on the mirror", though it
-    was on one (a helper): the refusal names the mirror it is on."""
+    """With mirror 2 selected, a click on mirror 1's glass was refused as "a marker must be on the
+    mirror", though it was on one (a helper): the refusal names the mirror it is on."""
     editor.set_boundary(1, SQUARE)
     editor.set_boundary(editor.add_mirror(), [(x + 200, y) for x, y in SQUARE])
     with pytest.raises(MirrorscanError, match=r"^mirror 2: \(50, 50\) is outside its boundary; on mirror 1: select "
@@ -98,13 +101,15 @@ def test_undo_and_redo_are_per_mirror_and_named(editor):
     editor.add_marker(2, (5, 6))
     editor.add_marker(1, (3, 4))
     assert editor.undo_label(1) == "marker 1.2" and editor.undo_label(2) == "marker 2.1"
-    assert editor.undo(2) == "marker 2.1"                          # mirror 2's own step, mirror 1 untouched
+    # mirror 2's own step, mirror 1 untouched
+    assert editor.undo(2) == "marker 2.1"
     assert editor.mirror(2).markers == () and len(editor.mirror(1).markers) == 2
     assert editor.undo(1) == "marker 1.2" and editor.mirror(1).markers == ((1.0, 2.0),)
     assert editor.redo_label(1) == "marker 1.2"
     editor.redo(1)
     assert editor.mirror(1).markers == ((1.0, 2.0), (3.0, 4.0))
-    editor.add_marker(1, (7, 8))                                   # a new step clears that mirror's redo
+    # a new step clears that mirror's redo
+    editor.add_marker(1, (7, 8))
     assert editor.redo_label(1) is None and editor.redo_label(2) == "marker 2.1"
     with pytest.raises(MirrorscanError, match="nothing to redo"):
         editor.redo(1)
@@ -117,13 +122,16 @@ def test_removal_keeps_ids_and_colours_and_can_be_undone(editor, tmp_path):
     with pytest.raises(MirrorscanError, match="already a mirror named 'left'"):
         editor.rename_mirror(1, "left")
     editor.remove_mirror(1)
-    assert [(m.id, m.name) for m in editor.session.mirrors] == [(2, "left")]   # mirror 2 stays mirror 2
-    assert editor.add_mirror() == 3                                  # ids are never reused while in the session
+    # mirror 2 stays mirror 2
+    assert [(m.id, m.name) for m in editor.session.mirrors] == [(2, "left")]
+    # ids are never reused while in the session
+    assert editor.add_mirror() == 3
     assert editor.undo_label(SESSION_SCOPE) == "add mirror 3"
     editor.undo(SESSION_SCOPE)
     assert editor.undo(SESSION_SCOPE) == "remove mirror 1"
     assert [m.id for m in editor.session.mirrors] == [1, 2] and editor.mirror(1).markers == ((1.0, 1.0),)
-    assert editor.undo(1) == "marker 1.1"                            # its own history came back with it
+    # its own history came back with it
+    assert editor.undo(1) == "marker 1.1"
     assert [m["id"] for m in saved(tmp_path)["mirrors"]] == [1, 2]
 
 
@@ -136,8 +144,8 @@ def test_an_edit_for_a_removed_mirror_is_refused(editor):
 
 
 def test_a_fit_computed_on_another_state_is_never_applied(editor):
-    """The race of two tabs: a plane fitted for mirror 1 while another tab removes mirror 1, or moves its markers,
-    must not land anywhere."""
+    """The race of two tabs: a plane fitted for mirror 1 while another tab removes mirror 1, or
+    moves its markers, must not land anywhere."""
     editor.add_mirror()
     editor.add_marker(1, (5, 5))
     fitted_on = editor.mirror(1)
@@ -145,7 +153,8 @@ def test_a_fit_computed_on_another_state_is_never_applied(editor):
     with pytest.raises(MirrorscanError, match="mirror 1 changed while its plane was computed; fit it again"):
         editor.set_planes({1: (PLANE, fitted_on)})
     fitted_on = editor.mirror(1)
-    editor.set_marker_offset(1, 0.004)                               # the glass set meanwhile: the fit used none
+    # the glass set meanwhile: the fit used none
+    editor.set_marker_offset(1, 0.004)
     with pytest.raises(MirrorscanError, match="mirror 1 changed while its plane was computed; fit it again"):
         editor.set_planes({1: (PLANE, fitted_on)})
     fitted_on = editor.mirror(1)
@@ -156,9 +165,9 @@ def test_a_fit_computed_on_another_state_is_never_applied(editor):
 
 
 def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor, monkeypatch):
-    """A fit or refinement of several mirrors is one action: undone and redone from any of its mirrors, for every
-    mirror whose last change it still is; saved once, with all of them (a file with one of them had been written
-    first, and became the backup: a helper)."""
+    """A fit or refinement of several mirrors is one action: undone and redone from any of its
+    mirrors, for every mirror whose last change it still is; saved once, with all of them (a file
+    with one of them had been written first, and became the backup: a helper)."""
     import mirrorscan.editing as editor_module
     editor.add_mirror()
     other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
@@ -173,31 +182,39 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor, 
     assert editor.mirror(2).plane is None and editor.mirror(1).plane is None
     assert editor.redo(1) == "refined planes of mirror 1 and mirror 2"
     assert editor.mirror(1).plane == PLANE and editor.mirror(2).plane == other
-    editor.add_marker(2, (7, 7))                                # mirror 2 edited since: its plane stays, and the
-    label = "refined plane of mirror 1 only: mirror 2 changed since"    # label says so (it promised both: a helper)
+    # mirror 2 edited since: its plane stays, and the
+    editor.add_marker(2, (7, 7))
+    # label says so (it promised both: a helper)
+    label = "refined plane of mirror 1 only: mirror 2 changed since"
     assert editor.undo_label(1) == label and editor.undo(1) == label
     assert editor.mirror(1).plane is None and editor.mirror(2).plane == other
     assert editor.redo_label(1) == "refined plane of mirror 1"
     assert editor.undo(2) == "marker 2.1" and editor.undo(2) == "refined plane of mirror 2"
     assert editor.mirror(2).plane is None
     editor.set_planes({1: (PLANE, editor.mirror(1)), 2: (other, editor.mirror(2))})
-    editor.remove_mirror(2)                                     # a mirror of the group gone: the other's undone
+    # a mirror of the group gone: the other's undone
+    editor.remove_mirror(2)
     assert editor.undo(1) == "plane of mirror 1" and editor.mirror(1).plane is None
     editor.set_planes({1: (PLANE, editor.mirror(1))})
     assert editor.undo_label(1) == "plane of mirror 1"          # one mirror: named alone
     editor.set_marker_offset(1, 0.003)
-    assert not editor.set_planes({1: (PLANE, editor.mirror(1))})   # the same plane and glass again (a fit of the
-    assert editor.undo(1) == "glass of mirror 1"                # same frames): no undo step that changes nothing
-    assert editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: (0.004, 0.0005)})   # the glass alone: a step
+    # the same plane and glass again (a fit of the
+    assert not editor.set_planes({1: (PLANE, editor.mirror(1))})
+    # same frames): no undo step that changes nothing
+    assert editor.undo(1) == "glass of mirror 1"
+    # the glass alone: a step
+    assert editor.set_planes({1: (PLANE, editor.mirror(1))}, {1: (0.004, 0.0005)})
     assert editor.undo_label(1) == "plane of mirror 1" and editor.mirror(1).marker_offset == 0.004
-    assert editor.mirror(1).marker_offset_std == 0.0005 and not editor.mirror(1).glass_typed      # measured
+    # measured
+    assert editor.mirror(1).marker_offset_std == 0.0005 and not editor.mirror(1).glass_typed
     editor.set_marker_offset(1, 0.003)
-    assert editor.mirror(1).marker_offset_std is None and editor.mirror(1).glass_typed            # typed in
+    # typed in
+    assert editor.mirror(1).marker_offset_std is None and editor.mirror(1).glass_typed
 
 
 def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(editor):
-    """The glass typed in moves no plane (the next fit uses it): the editor tells from its undo steps (a helper typed
-    4 mm and took the plane for moved)."""
+    """The glass typed in moves no plane (the next fit uses it): the editor tells from its undo
+    steps (a helper typed 4 mm and took the plane for moved)."""
     assert not editor.glass_unused(1)
     editor.set_marker_offset(1, 0.004)                          # no plane yet: nothing to say
     assert not editor.glass_unused(1)
@@ -213,21 +230,25 @@ def test_a_glass_typed_in_after_the_fit_is_known_not_to_be_in_the_plane_yet(edit
 
 
 def test_undo_takes_back_the_newest_step_of_the_mirror_or_the_session(editor):
-    """A mirror removed after the selected mirror's refinement: the main Undo had offered the refinement, the removal
-    sitting under its own button (a helper). A removal newer than the mirror's last step is undone first, and redone
-    first when it was undone last; a mirror added is not (its undo would take its work with it)."""
+    """A mirror removed after the selected mirror's refinement: the main Undo had offered the
+    refinement, the removal sitting under its own button (a helper). A removal newer than the
+    mirror's last step is undone first, and redone first when it was undone last; a mirror added is
+    not (its undo would take its work with it)."""
     editor.set_planes({1: (PLANE, editor.mirror(1))}, what="refined plane")
     second = editor.add_mirror()
-    assert editor.travel_scope(1) == 1 and editor.travel_scope(second) == SESSION_SCOPE      # the add: not over 1
+    # the add: not over 1
+    assert editor.travel_scope(1) == 1 and editor.travel_scope(second) == SESSION_SCOPE
     editor.remove_mirror(second)
     assert editor.travel_scope(1) == SESSION_SCOPE and editor.undo_label(SESSION_SCOPE) == f"remove mirror {second}"
     editor.undo(editor.travel_scope(1))                              # the removal taken back first
     assert [m.id for m in editor.session.mirrors] == [1, second]
     assert editor.travel_scope(1, redo=True) == SESSION_SCOPE
-    editor.add_marker(1, (20, 20))                                  # a newer step of the mirror's own
+    # a newer step of the mirror's own
+    editor.add_marker(1, (20, 20))
     assert editor.travel_scope(1) == 1 and editor.undo_label(1) == "marker 1.1"
     editor.undo(editor.travel_scope(1))
-    assert editor.travel_scope(1) == 1                              # then its plane (the mirror added: not over it)
+    # then its plane (the mirror added: not over it)
+    assert editor.travel_scope(1) == 1
     assert editor.travel_scope(1, redo=True) == 1                   # the marker was undone last
     editor.redo(1)
     assert editor.travel_scope(1) == 1                              # redone: the newest again
@@ -235,22 +256,25 @@ def test_undo_takes_back_the_newest_step_of_the_mirror_or_the_session(editor):
 
 
 def test_a_plane_fitted_on_the_markers_a_mirror_has_is_known_as_such(editor):
-    """A markers fit of the same markers again only refits them on other frames: the editor tells from its undo steps,
-    so that a marker the user applied a plane with is not asked about again (a helper was asked to apply 'turned
-    0.00°, moved 0.0 mm')."""
+    """A markers fit of the same markers again only refits them on other frames: the editor tells
+    from its undo steps, so that a marker the user applied a plane with is not asked about again (a
+    helper was asked to apply 'turned 0.00°, moved 0.0 mm')."""
     assert not editor.fitted_on_its_markers(1)                          # no plane yet
     for uv in SQUARE[:3]:
         editor.add_marker(1, uv)
     editor.set_planes({1: (PLANE, editor.mirror(1))})
     assert editor.fitted_on_its_markers(1)
-    editor.add_marker(1, SQUARE[3])                                     # a marker since: its plane is not theirs
+    # a marker since: its plane is not theirs
+    editor.add_marker(1, SQUARE[3])
     assert not editor.fitted_on_its_markers(1)
     editor.undo(1)
     assert editor.fitted_on_its_markers(1)
-    editor.set_marker_offset(1, 0.003)                                  # the glass too is an input of the fit
+    # the glass too is an input of the fit
+    editor.set_marker_offset(1, 0.003)
     assert not editor.fitted_on_its_markers(1)
     editor.set_planes({1: (replace(PLANE, d=PLANE.d + 0.003), editor.mirror(1))}, what="refined plane")
-    assert not editor.fitted_on_its_markers(1)                          # from the object, not from the markers
+    # from the object, not from the markers
+    assert not editor.fitted_on_its_markers(1)
 
 
 def test_session_round_trip_through_the_editor(editor, tmp_path):
@@ -291,8 +315,8 @@ def test_listeners_hear_every_change_and_refusals_are_silent(editor):
 
 
 def written_elsewhere(tmp_path, **changes) -> None:
-    """session.json changed by another program (as `mirrorscan calibrate SESSION` in a terminal writes it): the
-    first mirror's fields replaced."""
+    """session.json changed by another program (as `mirrorscan calibrate SESSION` in a terminal
+    writes it): the first mirror's fields replaced."""
     other = load_session(tmp_path)
     save_session(replace(other, mirrors=(replace(other.mirrors[0], **changes),) + other.mirrors[1:]))
 
@@ -305,10 +329,13 @@ def test_a_change_written_by_another_program_is_reloaded_never_saved_over(editor
     with pytest.raises(MirrorscanError, match=r"session.json was changed by another program .*reloaded, undo "
                                               r"history cleared; this change was not made: make it again"):
         editor.rename_mirror(1, "left")
-    assert saved(tmp_path)["mirrors"][0]["plane"] == pytest.approx(list(PLANE.abcd))   # not saved over
+    # not saved over
+    assert saved(tmp_path)["mirrors"][0]["plane"] == pytest.approx(list(PLANE.abcd))
     assert saved(tmp_path)["mirrors"][0]["name"] == "mirror 1"
-    assert editor.mirror(1).plane.abcd == pytest.approx(PLANE.abcd) and heard == [True]     # the tabs are told
-    assert editor.undo_label(1) is None           # undo would have put back the file as it was before
+    # the tabs are told
+    assert editor.mirror(1).plane.abcd == pytest.approx(PLANE.abcd) and heard == [True]
+    # undo would have put back the file as it was before
+    assert editor.undo_label(1) is None
     editor.rename_mirror(1, "left")               # made again, on the file as it now is
     assert saved(tmp_path)["mirrors"][0]["name"] == "left" and editor.mirror(1).plane is not None
     assert editor.reload_if_changed() == ""       # its own writes are not another program's
@@ -323,9 +350,11 @@ def test_the_server_s_poll_reloads_a_changed_file_and_keeps_its_own_over_an_unre
     (tmp_path / "session.json").write_text("{ half a file")
     assert "cannot be read" in editor.reload_if_changed()
     assert editor.mirror(1).name == "left"                     # its own session kept
-    editor.add_marker(1, (30, 40))                             # not refused: there was nothing to reload
+    # not refused: there was nothing to reload
+    editor.add_marker(1, (30, 40))
     assert len(saved(tmp_path)["mirrors"][0]["markers"]) == 2
-    assert (tmp_path / "session.json.bak").read_text() == "{ half a file"     # what was there is kept
+    # what was there is kept
+    assert (tmp_path / "session.json.bak").read_text() == "{ half a file"
     (tmp_path / "session.json").unlink()
     assert "was removed by another program" in editor.reload_if_changed()
     editor.add_marker(1, (50, 60))

@@ -1,6 +1,7 @@
-"""The browser tool's guard in a real browser (headless Chromium): the page opened with ?token= connects (the cookie
-it gets is what its websocket carries), the page without it is told what to open, and a page of another site that
-opens a websocket to the tool is refused (issue 15, point 3)."""
+"""The browser tool's guard in a real browser (headless Chromium): the page opened with ?token=
+connects (the cookie it gets is what its websocket carries), the page without it is told what to
+open, and a page of another site that opens a websocket to the tool is refused (issue 15, point 3).
+"""
 from __future__ import annotations
 
 import http.server
@@ -30,7 +31,8 @@ def app(tmp_path_factory):
     root = tmp_path_factory.mktemp("browser-guard") / "scan"
     session = Session(root, rig.intrinsics, (SessionMirror("mirror 1"), SessionMirror("mirror 2")))
     save_session(session)
-    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent, token=new_token())   # as
+    # as
+    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent, token=new_token())
     # shared on a network: a token
     app.start()
     yield app
@@ -61,7 +63,8 @@ def test_the_page_with_its_token_connects_and_without_it_is_told_what_to_open(ap
     assert wait_for(lambda: app.server.get_clients()), "the tab with the token did not connect"
     cookies = {c["name"]: c for c in user.cookies()}
     assert cookies[f"mirrorscan-token-{app.port}"]["httpOnly"]
-    page.get_by_role("button", name="Add a mirror").wait_for(timeout=60_000)   # the GUI arrived over the websocket
+    # the GUI arrived over the websocket
+    page.get_by_role("button", name="Add a mirror").wait_for(timeout=60_000)
     user.close()
     stranger.close()
 
@@ -70,17 +73,20 @@ def test_another_sites_page_cannot_open_the_tools_websocket(app, browser, tmp_pa
     evil = tmp_path / "evil"
     evil.mkdir()
     (evil / "index.html").write_text(EVIL_PAGE % (app.port, viser.__version__))
-    handler = lambda *a, **k: http.server.SimpleHTTPRequestHandler(*a, directory=str(evil), **k)  # noqa: E731
+    # noqa: E731
+    handler = lambda *a, **k: http.server.SimpleHTTPRequestHandler(*a, directory=str(evil), **k)
     site = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     threading.Thread(target=site.serve_forever, daemon=True).start()
     try:
         context = browser.new_context()
         page = context.new_page()
-        page.goto(app.guard.url)                                # the user's own tab has the cookie...
+        # the user's own tab has the cookie
+        page.goto(app.guard.url)
         assert wait_for(lambda: app.server.get_clients())
         clients = len(app.server.get_clients())
         other = context.new_page()
-        other.goto(f"http://127.0.0.1:{site.server_port}/")     # ...and another site opens the websocket
+        # and another site opens the websocket
+        other.goto(f"http://127.0.0.1:{site.server_port}/")
         assert wait_for(lambda: other.title() in ("opened", "refused"), 30) and other.title() == "refused"
         assert len(app.server.get_clients()) == clients
         context.close()
@@ -93,8 +99,9 @@ EVIL_NAME = '<img src=x onerror="window.__pwned=(window.__pwned||0)+1">'
 
 
 def test_a_name_from_a_session_file_is_shown_as_text_never_run(browser, tmp_path):
-    """viser renders Markdown and HTML unsanitised: a mirror so named in a shared session file ran its script in the
-    technician's browser (in the next-step line, the legend, the Remove question, the greyed-out line)."""
+    """viser renders Markdown and HTML unsanitised: a mirror so named in a shared session file ran
+    its script in the technician's browser (in the next-step line, the legend, the Remove question,
+    the greyed-out line)."""
     rig = Simulator(paper_scene(object="sphere"), seed=0, fps=5.0)
     session = Session(tmp_path / "scan", rig.intrinsics, (SessionMirror(EVIL_NAME), SessionMirror("mirror 2")))
     save_session(session)
@@ -104,17 +111,22 @@ def test_a_name_from_a_session_file_is_shown_as_text_never_run(browser, tmp_path
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         page.goto(f"http://127.0.0.1:{app.port}/")
         page.get_by_role("button", name="Add a mirror").wait_for(timeout=60_000)
-        page.get_by_text("direct").first.wait_for(timeout=30_000)                # the legend names the sources
+        # the legend names the sources
+        page.get_by_text("direct").first.wait_for(timeout=30_000)
         page.get_by_text("Rename, glass, remove, clear").click()
         page.get_by_role("button", name="Remove this mirror…").click()
-        page.get_by_role("button", name="Keep it").wait_for(timeout=10_000)      # the question is up
+        # the question is up
+        page.get_by_role("button", name="Keep it").wait_for(timeout=10_000)
         time.sleep(1.0)
         assert page.evaluate("window.__pwned || 0") == 0
         hint = EVIL_NAME + ": choose Boundary and click its corners; click the first corner to close."
-        assert page.get_by_text(hint).count() == 1                               # shown as text: the next step,
-        assert page.get_by_text(f"{EVIL_NAME} and mirror 2: no plane yet").count() == 1   # the legend,
+        # shown as text: the next step,
+        assert page.get_by_text(hint).count() == 1
+        # the legend,
+        assert page.get_by_text(f"{EVIL_NAME} and mirror 2: no plane yet").count() == 1
         assert page.get_by_text(f"{EVIL_NAME} leaves the session").count() == 1     # the question,
-        assert page.get_by_text(f"{EVIL_NAME} has 0 of the 3 markers it needs").count() == 1   # the greyed-out line
+        # the greyed-out line
+        assert page.get_by_text(f"{EVIL_NAME} has 0 of the 3 markers it needs").count() == 1
         page.close()
     finally:
         app.stop()

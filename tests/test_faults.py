@@ -1,6 +1,7 @@
-"""Faults: a process killed while saving leaves a session that loads; a write interrupted half-way leaves the previous
-file; a browser tab that closes during carving does not stop the server; a camera that stops delivering is reported
-once and the live loop recovers; cancelled carving gives its memory back; and a short soak under load."""
+"""Faults: a process killed while saving leaves a session that loads; a write interrupted half-way
+leaves the previous file; a browser tab that closes during carving does not stop the server; a
+camera that stops delivering is reported once and the live loop recovers; cancelled carving gives
+its memory back; and a short soak under load."""
 import asyncio
 import os
 import shutil
@@ -48,13 +49,15 @@ SAVER = textwrap.dedent("""
 
 
 def test_a_process_killed_while_saving_leaves_a_session_that_loads(tmp_path):
-    """SIGKILL at random moments of a save loop: session.json, and its backup on its own, always load."""
+    """SIGKILL at random moments of a save loop: session.json, and its backup on its own, always
+    load."""
     rng = np.random.default_rng(7)
     save_session(Session(tmp_path, Intrinsics.primesense(), (SessionMirror("first"),)))
     names = set()
     for _ in range(KILLS):
         saver = subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path)], cwd=ROOT, stdout=subprocess.PIPE)
-        assert saver.stdout.readline() == b"saving\n"   # started (however long the interpreter took), saving in a loop
+        # started (however long the interpreter took), saving in a loop
+        assert saver.stdout.readline() == b"saving\n"
         time.sleep(rng.uniform(0.0, 0.8))
         saver.send_signal(signal.SIGKILL)
         saver.wait()
@@ -66,7 +69,8 @@ def test_a_process_killed_while_saving_leaves_a_session_that_loads(tmp_path):
 
 
 def test_a_write_interrupted_half_way_leaves_the_previous_file(tmp_path, monkeypatch):
-    """A save stopped inside its write (Ctrl-C, or any exception) keeps the old file and leaves no temporary file."""
+    """A save stopped inside its write (Ctrl-C, or any exception) keeps the old file and leaves no
+    temporary file."""
     session = Session(tmp_path, Intrinsics.primesense(), (SessionMirror("kept"),))
     save_session(session)
     before = sorted(p.name for p in tmp_path.iterdir()), (tmp_path / "session.json").read_bytes()
@@ -80,13 +84,14 @@ def test_a_write_interrupted_half_way_leaves_the_previous_file(tmp_path, monkeyp
 
 
 def tab(port: int, seconds: float) -> int:
-    """A browser tab as the server sees it (bench.soak.listen), open `seconds`; the number of messages received."""
+    """A browser tab as the server sees it (bench.soak.listen), open `seconds`; the number of
+    messages received."""
     return asyncio.run(listen(f"ws://127.0.0.1:{port}", time.monotonic() + seconds))[0]
 
 
 def carve_around_the_sphere(app, voxel: float):
-    """Start the consistent carving of the last frame in a 30 cm box around the simulated sphere; returns its
-    thread."""
+    """Start the consistent carving of the last frame in a 30 cm box around the simulated sphere;
+    returns its thread."""
     centre = np.asarray(app.source.rig.scene.objects[0].centre)
     bounds = (tuple(centre - 0.15), tuple(centre + 0.15))
     return app.jobs.start_dense("carve", DenseOptions(voxel, 0.02, bounds), 1)
@@ -95,9 +100,11 @@ def carve_around_the_sphere(app, voxel: float):
 def test_a_tab_closing_during_carving_does_not_stop_the_server(sphere):
     app, _ = sphere
     connected: list[int] = []
-    already = set(app.server.get_clients())               # viser also calls a new callback for the tabs already in
+    # viser also calls a new callback for the tabs already in
+    already = set(app.server.get_clients())
     app.server.on_client_connect(lambda client: client.client_id in already or connected.append(client.client_id))
-    checked = threading.Event()                   # the carving waits at its first report until the tab is gone
+    # the carving waits at its first report until the tab is gone
+    checked = threading.Event()
     hold = app.bus.subscribe(JobProgress, lambda e: e.job == DENSE and e.fraction is not None and checked.wait(60))
     dropped = threading.Thread(target=tab, args=(app.port, 0.5))
     dropped.start()
@@ -119,14 +126,18 @@ def test_cancelled_carving_gives_its_memory_back(sphere):
     app, _ = sphere
     statuses: list[str] = []
     app.bus.subscribe(JobProgress, lambda e: statuses.append(e.status) if e.fraction is None else None)
-    working, cancelled = threading.Event(), threading.Event()   # the carving waits at a report past its start until
-    hold = app.bus.subscribe(JobProgress, lambda e: (   # it is cancelled (a fast machine carved it all in 0.5 s)
+    # the carving waits at a report past its start until
+    working, cancelled = threading.Event(), threading.Event()
+    # it is cancelled (a fast machine carved it all in 0.5 s)
+    hold = app.bus.subscribe(JobProgress, lambda e: (
         e.job == DENSE and e.fraction and not cancelled.is_set() and (working.set(), cancelled.wait(60))))
-    app.pause(True)                               # the live loop's own allocations are not the carving's
+    # the live loop's own allocations are not the carving's
+    app.pause(True)
     time.sleep(0.5)
     tracemalloc.start()
     before = tracemalloc.get_traced_memory()[0]
-    worker = carve_around_the_sphere(app, 0.001)  # 27 million voxels: hundreds of MB if it ran to the end
+    # 27 million voxels: hundreds of MB if it ran to the end
+    worker = carve_around_the_sphere(app, 0.001)
     assert working.wait(60)
     app.jobs.cancel("dense")                      # the Cancel button
     cancelled.set()
@@ -140,7 +151,8 @@ def test_cancelled_carving_gives_its_memory_back(sphere):
 
 
 class FlakySource(DepthSource):
-    """A camera that is unplugged for reads first..first + down - 1 (raising as a device library does), then back."""
+    """A camera that is unplugged for reads first..first + down - 1 (raising as a device library
+    does), then back."""
 
     def __init__(self, inner: DepthSource, first: int, down: int):
         self.inner, self.first, self.down, self.reads = inner, first, down, 0
@@ -173,12 +185,14 @@ def test_an_unplugged_camera_is_reported_once_and_the_loop_recovers(monkeypatch)
     finally:
         app.stop()
     assert said == [("Live frame failed", "MirrorscanError: flaky camera: no frame for 2 s (unplugged?)")]
-    assert app._last_error == ""                     # cleared by the first good frame: a new loss is reported again
+    # cleared by the first good frame: a new loss is reported again
+    assert app._last_error == ""
 
 
 def test_short_soak_with_four_tabs():
-    """20 s of the live demo to 4 simulated tabs with a session edit every 5 s: no error, every tab served, every edit
-    on disk (`python -m mirrorscan.bench.soak` runs the long one; its speed figures are in `mirrorscan bench`)."""
+    """20 s of the live demo to 4 simulated tabs with a session edit every 5 s: no error, every tab
+    served, every edit on disk (`python -m mirrorscan.bench.soak` runs the long one; its speed
+    figures are in `mirrorscan bench`)."""
     report = soak(20.0, clients=4)
     assert report.errors == [] and report.frames > 0
     assert min(report.messages) > 0 and report.late_messages > 0

@@ -1,5 +1,6 @@
-"""The depth frame as the tabs see it (app.overlays): the shared depth layer (grey by depth, the object tinted, no
-reading dark) and a tab's overlay over it, checked pixel by pixel against the plain definitions."""
+"""The depth frame as the tabs see it (app.overlays): the shared depth layer (grey by depth, the
+object tinted, no reading dark) and a tab's overlay over it, checked pixel by pixel against the
+plain definitions."""
 import cv2
 import numpy as np
 
@@ -12,14 +13,16 @@ def test_the_depth_layer_is_grey_by_depth_with_the_object_tinted_and_no_reading_
     depth[5:9, 10:30] = 0
     mask = np.zeros(depth.shape, bool)
     mask[20:40, 5:50] = True
-    mask[6, 12] = True                                       # the object's mask never outranks "no reading"
+    # the object's mask never outranks "no reading"
+    mask[6, 12] = True
     rgb = depth_layer(depth, mask, 1.0, 4.0)
     grey = np.clip(np.rint(235 - (depth - 1.0) * 215 / 3.0), 0, 255)
     expected = np.repeat(grey[..., None], 3, axis=2)
     expected[mask] = np.rint(0.45 * grey[mask][:, None] + 0.55 * OBJECT_TINT)
     expected[depth <= 0] = NO_READING
     assert np.abs(rgb.astype(int) - expected).max() <= 1     # rounding of the scale only
-    assert tuple(rgb[6, 12]) == NO_READING and rgb[30, 20, 0] > rgb[30, 20, 2]     # warm tint on the object
+    # warm tint on the object
+    assert tuple(rgb[6, 12]) == NO_READING and rgb[30, 20, 0] > rgb[30, 20, 2]
 
 
 def test_the_overlay_covers_the_depth_layer_exactly_where_it_is_drawn():
@@ -38,7 +41,8 @@ def test_the_overlay_covers_the_depth_layer_exactly_where_it_is_drawn():
 
 
 def test_labels_cover_no_other_label_and_no_marker_where_there_is_room():
-    """Two mirrors' markers at a hinge, a few pixels apart (1.6 and 2.1 had covered each other: a helper)."""
+    """Two mirrors' markers at a hinge, a few pixels apart (1.6 and 2.1 had covered each other: a
+    helper)."""
     left = tuple(MarkerMark((100.0 - 25 * (k % 2), 20.0 + 30 * k), f"1.{k + 1}", "good") for k in range(6))
     right = tuple(MarkerMark((112.0 + 25 * (k % 2), 36.0 + 30 * k), f"2.{k + 1}", "fair") for k in range(6))
     overlay = Overlay((200, 240))

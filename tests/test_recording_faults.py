@@ -1,6 +1,7 @@
-"""Recordings are never lost and never stuck (issue 15, points 4 and 5): a recording is a valid session at every moment
-(real processes killed with SIGKILL, stopped with SIGTERM and SIGHUP), Stop always returns, one recording at a time
-per live loop, and recordings started in the same second get folders of their own."""
+"""Recordings are never lost and never stuck (issue 15, points 4 and 5): a recording is a valid
+session at every moment (real processes killed with SIGKILL, stopped with SIGTERM and SIGHUP), Stop
+always returns, one recording at a time per live loop, and recordings started in the same second get
+folders of their own."""
 from __future__ import annotations
 
 import os
@@ -53,13 +54,15 @@ def _wait_for_frames(process: subprocess.Popen, folder: Path, count: int, timeou
 
 
 def _check_opens_with_its_frames(folder: Path) -> int:
-    """The session opens, lists only whole frames, each readable, and no more than one second's worth are unlisted."""
+    """The session opens, lists only whole frames, each readable, and no more than one second's
+    worth are unlisted."""
     session = load_session(folder)
     for i in range(len(session.frames)):
         assert session.read_frame(i).shape == session.camera.shape
     on_disk = sorted(p.name for p in (folder / "frames").glob("[0-9]*.png"))
     assert [Path(f).name for f in session.frames] == on_disk[:len(session.frames)]
-    assert len(on_disk) - len(session.frames) <= 60                # at most ~1 s of frames after the last save
+    # at most ~1 s of frames after the last save
+    assert len(on_disk) - len(session.frames) <= 60
     assert len(session.timestamps) == len(session.frames)
     return len(session.frames)
 
@@ -97,12 +100,14 @@ def test_record_stops_cleanly_on_sigterm_and_sighup(tmp_path, signum, status):
     assert f"stopped by {signal.Signals(signum).name}" in err
     session = load_session(folder)
     on_disk = sorted(p.name for p in (folder / "frames").glob("*.png"))
-    assert [Path(f).name for f in session.frames] == on_disk            # every frame written is listed
+    # every frame written is listed
+    assert [Path(f).name for f in session.frames] == on_disk
     assert not list(folder.rglob(".*.tmp"))
 
 
 class _Stalled(DepthSource):
-    """A live source whose camera stops delivering after `good` frames (a read then blocks until released)."""
+    """A live source whose camera stops delivering after `good` frames (a read then blocks until
+    released)."""
 
     def __init__(self, good: int):
         self.name, self.intrinsics, self.fps, self.frame_count = "stalled", CAMERA, 30.0, None
@@ -125,12 +130,14 @@ def test_stop_returns_even_when_the_source_is_stuck(tmp_path):
     assert time.monotonic() - t0 < 2
     source.release.set()
     recorder._thread.join(5)
-    assert not recorder._thread.is_alive()                          # it stopped after the stalled read: no more frames
+    # it stopped after the stalled read: no more frames
+    assert not recorder._thread.is_alive()
     assert len(load_session(tmp_path / "r").frames) == 4
 
 
 def _loop() -> SimpleNamespace:
-    """What LiveTap uses of the app: the source and a way to subscribe to its frames (here, a list of listeners)."""
+    """What LiveTap uses of the app: the source and a way to subscribe to its frames (here, a list
+    of listeners)."""
     listeners: list = []
 
     def subscribe(take):
@@ -145,12 +152,14 @@ def _live_frame(i: int) -> SimpleNamespace:
 
 
 def test_a_recording_that_plays_is_recorded_up_to_its_last_frame_and_none_twice():
-    """Recording while a 10-frame session played gave 106 frames, the 10 over and over, and times that ran back (a
-    helper): the tap ends where the replay starts over, and a frame processed again (paused) is taken once."""
+    """Recording while a 10-frame session played gave 106 frames, the 10 over and over, and times
+    that ran back (a helper): the tap ends where the replay starts over, and a frame processed again
+    (paused) is taken once."""
     loop = _loop()
     loop.source.frame_count = 5
     tap = loop.tap()
-    for i in (3, 4, 4, 5, 6, 7):                                    # live indices: frames 3, 4, 4, then 0, 1, 2
+    # live indices: frames 3, 4, 4, then 0, 1, 2
+    for i in (3, 4, 4, 5, 6, 7):
         for listener in list(loop.listeners):
             listener(_live_frame(i))
     assert tap.replay_ended
@@ -161,14 +170,16 @@ def test_a_recording_that_plays_is_recorded_up_to_its_last_frame_and_none_twice(
 def test_closing_a_full_tap_never_blocks_and_delivers_what_it_took():
     loop = _loop()
     tap = loop.tap()
-    for i in range(500):                                            # nobody reads: the queue fills, then drops
+    # nobody reads: the queue fills, then drops
+    for i in range(500):
         for listener in list(loop.listeners):
             listener(_live_frame(i))
     assert tap.dropped > 0
     done = threading.Event()
     threading.Thread(target=lambda: (tap.close(), done.set()), daemon=True).start()
     assert done.wait(2), "close() blocked on the full queue"
-    taken = list(tap)                                               # the frames taken before close, then the end
+    # the frames taken before close, then the end
+    taken = list(tap)
     assert len(taken) == 500 - tap.dropped and taken[0].timestamp == 0
     assert not loop.listeners
 

@@ -1,7 +1,7 @@
-"""Who may drive the browser tool (issue 15, points 3, 6 and 8), against a real MirrorscanApp on 127.0.0.1 with real
-websocket clients and plain HTTP requests: websockets from other sites and unknown Host headers (DNS rebinding) are
-refused, a token is needed beyond loopback, uploads are refused by size as they start, a probe is not logged and a
-malformed message is one line."""
+"""Who may drive the browser tool (issue 15, points 3, 6 and 8), against a real MirrorscanApp on
+127.0.0.1 with real websocket clients and plain HTTP requests: websockets from other sites and
+unknown Host headers (DNS rebinding) are refused, a token is needed beyond loopback, uploads are
+refused by size as they start, a probe is not logged and a malformed message is one line."""
 from __future__ import annotations
 
 import asyncio
@@ -34,7 +34,8 @@ PROTOCOL = f"viser-v{viser.__version__}"
 
 
 def _app(root, token: str | None = None) -> MirrorscanApp:
-    """The browser tool on 127.0.0.1 (it protects itself as it starts), a token required when one is given."""
+    """The browser tool on 127.0.0.1 (it protects itself as it starts), a token required when one is
+    given."""
     rig = Simulator(paper_scene(object="sphere"), seed=1, fps=5.0)
     session = Session(root, rig.intrinsics, (SessionMirror("mirror 1"), SessionMirror("mirror 2")))
     save_session(session)
@@ -50,8 +51,8 @@ def app(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def remote():
-    """A viser server protected with the policy of one listening beyond loopback (it listens on 127.0.0.1 whatever
-    the policy): a token is made and required."""
+    """A viser server protected with the policy of one listening beyond loopback (it listens on
+    127.0.0.1 whatever the policy): a token is made and required."""
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     yield SimpleNamespace(guard=protect(server, "0.0.0.0"), port=server.get_port())
     server.stop()
@@ -69,7 +70,8 @@ def http_get(port: int, path: str = "/", host: str | None = None, cookie: str | 
 
 
 async def _open(port: int, **kwargs) -> str:
-    """Open a websocket as a viser client and read one message: 'accepted', or the HTTP status that refused it."""
+    """Open a websocket as a viser client and read one message: 'accepted', or the HTTP status that
+    refused it."""
     try:
         async with websockets.asyncio.client.connect(f"ws://127.0.0.1:{port}/", subprotocols=[PROTOCOL],
                                                      max_size=None, open_timeout=10, **kwargs) as ws:
@@ -92,14 +94,18 @@ def test_a_websocket_from_another_site_is_refused(app):
     port = app.port
     assert ws_open(port, origin="https://evil.example") == "403"
     assert ws_open(port, origin="null") == "403"
-    assert ws_open(port, origin=f"http://127.0.0.1:{port + 1}") == "403"        # another port is another site
+    # another port is another site
+    assert ws_open(port, origin=f"http://127.0.0.1:{port + 1}") == "403"
     assert ws_open(port, origin=f"http://127.0.0.1:{port}") == "accepted"        # the page itself
-    assert ws_open(port) == "accepted"                                          # not a browser: no Origin
+    # not a browser: no Origin
+    assert ws_open(port) == "accepted"
 
 
 def test_another_sites_websocket_cannot_rename_a_mirror(app):
-    """What the adversarial pass did: rename a mirror from https://evil.example. Refused at the handshake."""
-    with HeadlessTab(app) as tab:                   # a tab of the page itself, whose Rename the attack aims at
+    """What the adversarial pass did: rename a mirror from https://evil.example. Refused at the
+    handshake."""
+    # a tab of the page itself, whose Rename the attack aims at
+    with HeadlessTab(app) as tab:
         mirrors = next(p for p in tab.tab.panels if isinstance(p, MirrorsPanel))
         name_field, rename_button = mirrors.name._impl.uuid, mirrors.rename._impl.uuid
     async def attack() -> str:
@@ -121,7 +127,8 @@ def test_another_sites_websocket_cannot_rename_a_mirror(app):
 def test_unknown_host_headers_are_refused(app, host):
     status, _, body = http_get(app.port, host=host.format(port=app.port) or " ")
     assert status == 403 and b"unknown Host" in body
-    if host:          # the same name on a websocket (its socket opened to 127.0.0.1, as a rebinding page's is)
+    # the same name on a websocket (its socket opened to 127.0.0.1, as a rebinding page's is)
+    if host:
         name = host.format(port=app.port).split(":")[0]
         sock = socket.create_connection(("127.0.0.1", app.port))
         assert asyncio.run(_open_as(f"ws://{name}:{app.port}/", sock)) == "403"
@@ -154,12 +161,14 @@ def test_beyond_loopback_a_token_is_made_and_required(remote):
     assert http_get(port, f"/?token={guard.token[:-1]}x")[0] == 403
     assert ws_open(port) == "403" and ws_open(port, origin=f"http://127.0.0.1:{port}") == "403"
 
-    status, headers, _ = http_get(port, f"/?token={guard.token}")             # the address printed at start
+    # the address printed at start
+    status, headers, _ = http_get(port, f"/?token={guard.token}")
     assert status == 200
     cookie = headers["Set-Cookie"]
     assert "HttpOnly" in cookie and "SameSite=Strict" in cookie
     jar = cookie.split(";")[0]
-    assert http_get(port, "/", cookie=jar)[0] == 200                          # the page's other requests
+    # the page's other requests
+    assert http_get(port, "/", cookie=jar)[0] == 200
     assert ws_open(port, origin=f"http://127.0.0.1:{port}", additional_headers={"Cookie": jar}) == "accepted"
     assert ws_open(port, additional_headers={"Authorization": f"Bearer {guard.token}"}) == "accepted"
     assert ws_open(port, origin="https://evil.example", additional_headers={"Cookie": jar}) == "403"
@@ -170,7 +179,8 @@ def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_
     with pytest.raises(MirrorscanError, match="--token: at least 16 characters"):
         _app(tmp_path / "short", token="short")
     token = new_token()
-    other = _app(tmp_path / "scan", token=token)                          # on loopback, when asked for
+    # on loopback, when asked for
+    other = _app(tmp_path / "scan", token=token)
     try:
         assert other.guard.token == token and http_get(other.port)[0] == 403
         assert http_get(other.port, f"/?token={token}")[0] == 200
@@ -180,7 +190,8 @@ def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_
 
 
 def test_a_new_token_never_begins_with_a_dash(monkeypatch):
-    """1 draw in 64 of token_urlsafe begins with '-', which `serve --token` would read as an option (it failed CI)."""
+    """1 draw in 64 of token_urlsafe begins with '-', which `serve --token` would read as an option
+    (it failed CI)."""
     draws = iter(["-leading-dash-token-0123456789", "a-token-without-one-0123456789"])
     monkeypatch.setattr("mirrorscan.security.secrets.token_urlsafe", lambda n: next(draws))
     assert new_token() == "a-token-without-one-0123456789"
@@ -188,8 +199,9 @@ def test_a_new_token_never_begins_with_a_dash(monkeypatch):
 
 # --------------------------------------------------------------------- sizes
 def test_an_upload_is_refused_from_its_declared_size_before_its_parts(app):
-    """A tab uploads to its own Session step's button: declared too large, or sending more than it declared, its
-    parts are dropped as they come (at most one part is ever held) and the tab is told."""
+    """A tab uploads to its own Session step's button: declared too large, or sending more than it
+    declared, its parts are dropped as they come (at most one part is ever held) and the tab is
+    told."""
     with HeadlessTab(app) as headless:
         client = headless.tab.client
         button = next(p for p in headless.tab.panels if isinstance(p, SessionPanel)).upload._impl.uuid
@@ -203,10 +215,12 @@ def test_an_upload_is_refused_from_its_declared_size_before_its_parts(app):
             for i in range(sent):
                 headless.ws.send(send(_messages.FileTransferPart(button, transfer, i, bytes(part_bytes))))
             time.sleep(0.5)
-            assert transfer not in states                            # refused, its parts not buffered
+            # refused, its parts not buffered
+            assert transfer not in states
 
         upload("t1", 1 << 30, 2048, 512 << 10)                       # declares 1 GiB
-        upload("t2", 1000, 100, 512 << 10)                           # declares 1 kB, sends 4 MB: dropped
+        # declares 1 kB, sends 4 MB: dropped
+        upload("t2", 1000, 100, 512 << 10)
         assert not states
         assert "huge.png: 1024.0 MB is more than the 20 MB an upload may have" in said[0]
         assert "huge.png: more bytes than it declared" in said[1]
@@ -220,7 +234,8 @@ def test_a_websocket_message_above_the_limit_closes_that_connection_only(app):
             await ws.send(bytes(MAX_MESSAGE_BYTES + 1))
             while True:
                 await asyncio.wait_for(ws.recv(), 10)
-        except (websockets.exceptions.ConnectionClosed, AttributeError):   # closed while the client still sent
+        # closed while the client still sent
+        except (websockets.exceptions.ConnectionClosed, AttributeError):
             pass
         await ws.wait_closed()
         return ws.close_code
@@ -232,7 +247,8 @@ def test_a_websocket_message_above_the_limit_closes_that_connection_only(app):
 # --------------------------------------------------------------------- the log
 def test_a_probe_is_not_logged_and_a_malformed_message_is_one_line(app, caplog):
     caplog.set_level(logging.DEBUG, logger="websockets")
-    http_get(app.port)                      # viser's own log filter is in place after a page request
+    # viser's own log filter is in place after a page request
+    http_get(app.port)
     quiet = install_log_filter()
     probes = quiet.probes
     for _ in range(5):                                                # health checks, port scans
@@ -263,7 +279,8 @@ def test_a_probe_is_not_logged_and_a_malformed_message_is_one_line(app, caplog):
     assert ws_open(app.port) == "accepted"
 
 
-# --------------------------------------------------------------------- the command, as a real process
+# --------------------------------------------------------------------- the command, as a real
+# process
 def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(tmp_path):
     import os
     import re
