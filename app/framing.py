@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import viser
 
-from .view import beside_offset, home_pose, scene_points
+from .placement import beside_offset, home_pose, scene_points
 
 # Look at the object: the view's nearer edge is this many radii of the object's bounding sphere
 # from its middle (its points are drawn as discs of many pixels at that distance).
