@@ -24,17 +24,33 @@ from .state import Snapshot
 from .stream import HALVES, Anchors, SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # the last depth frames kept for calibrating on (markers.marker_points)
-# while the loop waits for its next frame, it looks at its pace this often (at 1 fps during a job,
-# the header said so for up to a second after the job had ended: a helper)
+# seconds: while the loop waits for its next frame it looks at its pace this often, so that the
+# frame after a job comes at once
 PACE_CHECK_S = 0.1
 
 
 @dataclass(frozen=True, eq=False)
 class LiveFrame:
-    """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres as
-    read and as Algorithm 1 used it (prepared_depth: smoothed on the object), object mask (H, W)
-    bool, merged cloud, and the snapshot (session, rig) it was processed with; process_ms is the
-    processing time; anchors, the stream's centres kept from the frames before (app.stream.Anchors).
+    """One processed frame.
+
+    Attributes
+    ----------
+    index : int
+        Its running index in the loop.
+    timestamp : float
+        The source's, seconds.
+    depth, prepared_depth : (H, W) ndarray
+        Metres, as read and as Algorithm 1 used it (smoothed on the object).
+    mask : (H, W) bool ndarray
+        The object.
+    cloud : Cloud
+        The merged cloud.
+    snapshot : Snapshot
+        The session and rig it was processed with.
+    process_ms : float
+        The processing time, ms.
+    anchors : Anchors
+        The stream's centres kept from the frames before (mirrorscan.stream.Anchors).
     """
 
     index: int
@@ -61,12 +77,13 @@ class LiveFrame:
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
     def parts(self, half: int | None = None) -> list[SourcePart]:
-        """The cloud as it is streamed (see app.stream): one half's parts, or both halves' (None);
-        each half made once, by the first tab that asks for it."""
+        """The cloud as it is streamed (see mirrorscan.stream): one half's parts, or both halves'
+        (None); each half made once, by the first tab that asks for it."""
         if half is None:
             return [part for h in range(HALVES) for part in self.parts(h)]
         if half not in self._parts:
-            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,), anchors=self.anchors)
+            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,),
+                                             anchors=self.anchors)
         return self._parts[half]
 
     @cached_property
@@ -92,8 +109,10 @@ def frame_number(index: int, frame_count: int | None) -> int:
 
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors) -> LiveFrame:
+    """Select the object in a source frame and run Algorithm 1 on it with the snapshot's rig."""
     t0 = time.perf_counter()
-    prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
+    prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop,
+                                   snapshot.session.selection)
     cloud = reconstruct_raw(snapshot.rig, prepared, mask)
     return LiveFrame(index, frame.timestamp, frame.depth, prepared, mask, cloud, snapshot,
                      (time.perf_counter() - t0) * 1e3, anchors)
@@ -101,9 +120,11 @@ def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors
 
 class RateMeter:
     """Frames per second over the frame times of the last `seconds` (at least the last two), at most
-    `window` of them: when the loop slows down for a job (1 fps), the header had shown 14.8 fps
-    beside "at most 1 fps" for half a minute, the 30 frames' window still holding the faster ones (a
-    helper)."""
+    `window` of them.
+
+    The time bound makes the rate follow a loop that slows down for a job (1 fps) within
+    `seconds`, where a window of frames alone would still hold the faster ones.
+    """
 
     def __init__(self, window: int = 30, seconds: float = 2.0):
         self._times: deque[float] = deque(maxlen=window)
@@ -133,10 +154,12 @@ class LiveLoop:
     short pause (a camera may come back).
     """
 
-    def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot], on_frame: Callable[[LiveFrame], None],
+    def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot],
+                 on_frame: Callable[[LiveFrame], None],
                  on_error: Callable[[Exception], None] = lambda exc: None,
                  fps_wanted: Callable[[], float | None] = lambda: None):
-        self.source, self.snapshot, self.on_frame, self.on_error = source, snapshot, on_frame, on_error
+        self.source, self.snapshot = source, snapshot
+        self.on_frame, self.on_error = on_frame, on_error
         self.fps_wanted = fps_wanted
         self.rate = RateMeter()
         self.anchors = Anchors()          # the stream's centres, kept from frame to frame
@@ -192,18 +215,19 @@ class LiveLoop:
 
     def run_once(self) -> LiveFrame:
         """Read and process the next frame on the calling thread (also what the thread does each
-        turn). The frame after it is read meanwhile on a helper thread, so reading (ray casting,
-        file or device I/O) and processing share the two cores."""
+        turn).
+
+        The frame after it is read meanwhile on a reader thread, so reading (ray casting, file or
+        device I/O) and processing share two cores.
+        """
         with self._turn:
             source_frame = self._read(self.index)
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
             frame = process_frame(self.snapshot(), self.index, source_frame, self.anchors)
             self.index += 1
-        # a frame of a recording that loops replaces itself: the same frame again is
+        # A frame of a recording that loops replaces itself: the same frame again is no new data.
         with self._recent_lock:
-            # no new data (a one-frame session's
             number = frame_number(frame.index, self.source.frame_count)
-            # agreement said "over 5 frames")
             self._recent.pop(number, None)
             self._recent[number] = frame.depth
             while len(self._recent) > RECENT_FRAMES:
@@ -247,16 +271,29 @@ class LiveLoop:
             frames = list(self._recent.values())
         return np.stack(frames) if frames else None
 
-    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0,
-                cancel: threading.Event | None = None) -> list[np.ndarray]:
-        """The depth of n frames read after this call (blocks; progress(k) after each): the frame
-        already read ahead is skipped, so a scene changed just before the call (the object taken
-        out) is what is collected. While paused, frames are stepped one by one. Raises
-        MirrorscanError when the source stops delivering for `timeout` s,
-        mirrorcore.base.errors.Cancelled when `cancel` is set."""
+    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None,
+                timeout: float = 60.0, cancel: threading.Event | None = None) -> list[np.ndarray]:
+        """The depth of `n` frames read after this call; blocks, calling progress(k) after each.
+
+        The frame already read ahead is skipped, so a scene changed just before the call (the
+        object taken out) is what is collected. While paused, frames are stepped one by one.
+
+        Returns
+        -------
+        list of (H, W) ndarray
+            Metres.
+
+        Raises
+        ------
+        MirrorscanError
+            When the source stops delivering for `timeout` seconds.
+        mirrorcore.base.errors.Cancelled
+            When `cancel` is set.
+        """
         frames: list[np.ndarray] = []
         done = threading.Event()
-        first = self.index + 2   # the frame in hand and the one read ahead may predate the call
+        # the frame in hand and the one read ahead may predate the call
+        first = self.index + 2
 
         def take(frame: LiveFrame) -> None:
             if frame.index >= first and len(frames) < n:
@@ -272,10 +309,12 @@ class LiveLoop:
             while not done.wait(0.1):
                 if cancel is not None and cancel.is_set():
                     raise Cancelled(f"stopped after {len(frames)} of {n} frames")
-                if self.paused and not self._steps:   # one frame at a time while paused
+                # one frame at a time while paused
+                if self.paused and not self._steps:
                     self.step()
                 if time.monotonic() > deadline:
-                    raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in {timeout:.0f} s")
+                    raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in "
+                                          f"{timeout:.0f} s; check the camera and try again")
         finally:
             with self._recent_lock:
                 self._collectors.remove(take)
@@ -291,8 +330,8 @@ class LiveLoop:
             started = time.perf_counter()
             try:
                 self.run_once()
-            # noqa: BLE001 - a bad frame or a lost camera must not end the loop
-            except Exception as exc:
+            # a bad frame or a lost camera must not end the loop
+            except Exception as exc:  # noqa: BLE001
                 self.on_error(exc)
                 self._stop.wait(0.5)
             self._rest(started)

@@ -1,7 +1,10 @@
 """The browser tool: one viser server, one depth source, one session being edited, shared by every
-tab. The app is the mediator: it owns the shared services (the session editor, the live loop, the
-jobs, the event bus) and gives each connected tab a Tab of its own; tabs and their panels talk to it
-only through app.context.Services."""
+tab.
+
+The app is the mediator: it owns the shared services (the session editor, the live loop, the jobs,
+the event bus) and gives each connected tab a Tab of its own; tabs and their panels talk to it only
+through mirrorscan.context.Services.
+"""
 from __future__ import annotations
 
 import contextlib
@@ -12,7 +15,6 @@ import threading
 import time
 import warnings
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import viser
@@ -26,6 +28,7 @@ from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
 from .jobs import BATCH, DENSE, RECORD, REFINE, Jobs
 from .live import RECENT_FRAMES, LiveFrame, LiveLoop
+from .notices import Notifier
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
 from .state import Snapshot
@@ -37,17 +40,14 @@ FILE_POLL_S = 0.5
 # how often the tabs are asked whether they are hidden or lag, while the live cloud plays
 VISIBILITY_POLL_S = 0.5
 # and while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw its 3D
-# scene for 250 ms, which kept a paused scene at 28-30 frames a second and Chromium's software WebGL
-# on one of the 2 cores (Find on the walking figure, paused: 6.2-8.9 s at 0.5 s, 5.0-5.4 s at 5 s,
-# as with no browser)
+# scene for 250 ms, which keeps a browser without a GPU busy on one core
 QUIET_POLL_S = 5.0
 # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 IDLE_FPS = 10.0
-# and while a job that needs the cores runs: each cloud sent makes the page draw for 250 ms (on 2
-# cores, Find on the walking figure with the cloud playing: 9.3-9.8 s at 5 fps, 6.2-6.8 s at this
-# rate with the quiet poll)
+# and while a job that needs the cores runs: each cloud sent makes the page draw for 250 ms
 BUSY_FPS = 1.0
-BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
+BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction",
+             BATCH: "the batch"}
 # the scene's ambient light (no environment map): the mirrors' panes show their colours
 AMBIENT_LIGHT = 1.5
 # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
@@ -56,40 +56,49 @@ PANEL_WIDTH = 400
 RESUME_S = 600.0
 # where the background in use lives when it was captured for a session that is not saved
 IN_MEMORY = ":memory:"
-# a notification's colour by its kind
-NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}
-NOTE_SECONDS = 8.0        # a notification closes after this...
-# the result of long work after this (it had stayed until closed or the planes changed, and covered
-# the depth frame's corner, with the outline to fix, at 1024x600)
-RESULT_NOTE_SECONDS = 45.0
 GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
 
 
 def quiet_closed_connections() -> None:
     """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a
-    closed connection"): a tab can close at any moment, also between the server's check and its
-    send, and viser then drops the message, which is what is wanted (the Tab is closed when viser
-    reports the disconnection). The technician's terminal showed it every time a tab closed while it
-    was updated or built; viser attributes it to the caller's line (app/tab.py), so the filter goes
-    by its words alone."""
-    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning)
+    closed connection").
+
+    A tab can close at any moment, also between the server's check and its send, and viser then
+    drops the message, which is what is wanted (the Tab is closed when viser reports the
+    disconnection). viser attributes the warning to the caller's line, so the filter goes by its
+    words alone.
+    """
+    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection",
+                            category=UserWarning)
 
 
 # once, on import: for the whole process, whichever thread viser warns on
 quiet_closed_connections()
 
 
-class MirrorscanApp:
+class MirrorscanApp(Notifier):
     """Wires the session editor, the live loop, the jobs and the tabs (see the module docstring).
 
-    session : the session to edit (autosaved when `autosave`); source : where frames come from;
-    sessions_dir : the folder that Open and Save as work in; token : the secret a browser must give
-    (required beyond loopback: a new one when None; see app/security.py). The server is protected
-    before it accepts a page.
+    The server is protected before it accepts a page.
+
+    Parameters
+    ----------
+    session : Session
+        The session to edit, autosaved when `autosave`.
+    source : DepthSource
+        Where frames come from.
+    host, port
+        Where the server listens.
+    sessions_dir : str or Path
+        The folder that Open and Save as work in.
+    token : str or None
+        The secret a browser must give (required beyond loopback; a new one when None; see
+        mirrorscan.security).
     """
 
-    def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1", port: int = 8080,
-                 autosave: bool = True, sessions_dir: str | Path = "sessions", token: str | None = None):
+    def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1",
+                 port: int = 8080, autosave: bool = True, sessions_dir: str | Path = "sessions",
+                 token: str | None = None):
         self._source, self.sessions_dir = source, Path(sessions_dir)
         # the camera or simulator served from the start: replays come back to it
         self.start_source = source
@@ -97,7 +106,6 @@ class MirrorscanApp:
         with contextlib.redirect_stdout(io.StringIO()):
             self.server = viser.ViserServer(host=host, port=port, label="mirrorscan", verbose=False)
         # before any page can connect: Host, Origin and token checks, upload limits
-        # (app/security.py)
         try:
             self.guard = protect(self.server, host, token, max_upload_bytes=MAX_UPLOAD_MB << 20)
         except MirrorscanError:
@@ -119,17 +127,20 @@ class MirrorscanApp:
         self._snapshot = Snapshot.build(session, self._background[1])
         self.last_frame: LiveFrame | None = None
         self._last_error = ""
-        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error, self.fps_wanted)
+        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error,
+                             self.fps_wanted)
         self.jobs = Jobs(self.loop, lambda: self._snapshot, self.bus)
         self.tabs: dict[int, Tab] = {}
         # page -> (time.monotonic(), work) of its closed tab
         self._left: dict[str, tuple[float, Resume]] = {}
         self._tabs_lock = threading.Lock()
-        self._session_lock = threading.Lock()      # snapshots are rebuilt one at a time, in order
+        # snapshots are rebuilt one at a time, in order
+        self._session_lock = threading.Lock()
         self._stop = threading.Event()
         # the first frames' grading of the markers (_on_frame)
         self._grading: threading.Thread | None = None
-        self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs", daemon=True)
+        self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs",
+                                        daemon=True)
         self.editor.listeners.append(lambda _: self._on_session_change())
         self.server.on_client_connect(self._connect)
         self.server.on_client_disconnect(self._disconnect)
@@ -144,7 +155,11 @@ class MirrorscanApp:
 
     def stop(self) -> None:
         """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the
-        server."""
+        server.
+
+        Waits up to GRADING_WAIT_S for the first frames' grading of the markers, so that the
+        process exits with its own status.
+        """
         self._stop.set()
         if self.jobs.running(RECORD):
             try:
@@ -153,9 +168,8 @@ class MirrorscanApp:
                 log.warning("recording not finished cleanly: %s", exc)
         self.loop.stop()
         self.jobs.stop()
-        # a process that exits while it runs ended with status 1, not 130
         if self._grading is not None:
-            self._grading.join(GRADING_WAIT_S)   # (1 SIGTERM in 4 soon after the start)
+            self._grading.join(GRADING_WAIT_S)
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
 
@@ -164,12 +178,13 @@ class MirrorscanApp:
         tab = Tab(client, self)
         with self._tabs_lock:
             # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
-            # reloaded) while its Tab was built has had its _disconnect already, which found nothing
-            # to close. viser drops the client from get_clients() before it calls _disconnect, so
-            # checked under the lock one of the two closes it.
+            # reloaded) while its Tab was built may have had its _disconnect already, which found
+            # nothing to close. viser drops the client from get_clients() before it calls
+            # _disconnect, so checked under the lock one of the two closes it.
             if client.client_id in self.server.get_clients():
                 self.tabs[client.client_id] = tab
-                threading.Thread(target=self._resume, args=(tab,), name="mirrorscan-resume", daemon=True).start()
+                threading.Thread(target=self._resume, args=(tab,), name="mirrorscan-resume",
+                                 daemon=True).start()
                 return
         tab.close()
 
@@ -198,7 +213,8 @@ class MirrorscanApp:
             return self.tabs[client.client_id]
 
     def _poll_tabs(self) -> None:
-        asked = -math.inf                       # time.monotonic() when the tabs were last asked
+        # time.monotonic() when the tabs were last asked
+        asked = -math.inf
         while not self._stop.wait(FILE_POLL_S):
             if time.monotonic() - asked >= self._visibility_poll_s():
                 asked = time.monotonic()
@@ -276,43 +292,18 @@ class MirrorscanApp:
             fps, why = IDLE_FPS, "while no tab shows the 3D scene"
         return (fps, why) if self.loop.source.fps > fps else None
 
-    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
-        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification
-        on that tab, and so does a bug (logged with its traceback): a click never fails in silence.
-        """
-        try:
-            action()
-        except (MirrorscanError, OSError) as exc:
-            self.notify(client, "Not done", str(exc))
-        except Exception as exc:  # noqa: BLE001 - a bug must still be told on the tab that clicked
-            log.exception("an action failed")
-            self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
-
-    def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
-               stay: bool = False, logged: bool = True) -> viser.NotificationHandle | None:
-        """A notification on one tab (or on every tab: client None) in its kind's colour
-        (NOTE_COLOURS), closing after NOTE_SECONDS, or RESULT_NOTE_SECONDS (`stay`: the result of
-        long work, whose report may be out of view), and a line of the server's log unless `logged`
-        is False (each tab's note of a shared job's end, which the job logs once). Returns the one
-        tab's notification (to take it away when it no longer holds), else None."""
-        if logged:
-            log.info("%s: %s", title, message)
-        targets = [client] if client is not None else list(self.server.get_clients().values())
-        notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
-                                         auto_close_seconds=RESULT_NOTE_SECONDS if stay else NOTE_SECONDS)
-                 for target in targets]
-        return notes[0] if client is not None else None
-
     def open_session(self, session: Session, play: bool = False) -> None:
-        """Edit another session (autosaved in its folder from now on). Its recorded frames play when
-        `play`, or when it has some and no camera is live, as `mirrorscan serve SESSION` does (its
-        mirrors belong to them, not to the simulator or recording playing before); a live camera
-        stays, to be used with the session's calibration."""
+        """Edit another session, autosaved in its folder from now on.
+
+        Its recorded frames play when `play`, or when it has some and no camera is live, as
+        `mirrorscan serve SESSION` does (its mirrors belong to them, not to the simulator or
+        recording playing before); a live camera stays, to be used with the session's calibration.
+        """
         if session.frames and (play or not self._source.camera):
             # the session served from the start is not a replay
             start = self.start_source
-            served = isinstance(start, SessionSource) and Path(start.session.root).resolve() == \
-                Path(session.root).resolve()
+            served = (isinstance(start, SessionSource)
+                      and Path(start.session.root).resolve() == Path(session.root).resolve())
             # refused when its camera differs
             self.use_source(start if served else SessionSource(session))
         self.editor.autosave = True
@@ -323,8 +314,9 @@ class MirrorscanApp:
     def use_source(self, source: DepthSource) -> None:
         """Take frames from another source of the same camera (a recording to replay)."""
         if source.intrinsics.shape != self._source.intrinsics.shape:
-            raise MirrorscanError(f"{source.name}: its {source.intrinsics.width}x{source.intrinsics.height} frames "
-                                  f"do not fit this session's camera")
+            size = f"{source.intrinsics.width}x{source.intrinsics.height}"
+            raise MirrorscanError(f"{source.name}: its {size} frames do not fit this session's "
+                                  "camera; replay a recording of the same camera")
         self._source = source
         self.loop.use_source(source)
         self.bus.publish(LoopChanged(self.loop.paused, source))
@@ -337,8 +329,11 @@ class MirrorscanApp:
         self.pause(False)
 
     def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth` (H, W metres) as the background; saved beside a saved session as
-        background.png, held in memory for one that is not saved (Save as writes it)."""
+        """Use `depth`, (H, W) metres, as the background.
+
+        Saved beside a saved session as background.png, held in memory for one that is not saved
+        (Save as writes it).
+        """
         if self.editor.autosave:
             root = Path(self.editor.session.root)
             root.mkdir(parents=True, exist_ok=True)
@@ -364,7 +359,8 @@ class MirrorscanApp:
                     self._background = (session.background, session.read_background())
                 elif not session.background and self._background[0] not in (None, IN_MEMORY):
                     self._background = (None, self._source.background())
-                snapshot = Snapshot.build(session, self._background[1], self.jobs.marker_frames(), self._snapshot)
+                snapshot = Snapshot.build(session, self._background[1], self.jobs.marker_frames(),
+                                          self._snapshot)
             # a broken background file, a bad selection: keep the last state
             except MirrorscanError as exc:
                 self.notify(None, "Session not applied", str(exc))
@@ -377,14 +373,17 @@ class MirrorscanApp:
         self._last_error = ""
         # enough frames to grade the markers of the session as opened
         if frame.index + 1 == RECENT_FRAMES:
-            self._grading = threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True)
+            self._grading = threading.Thread(target=self._on_session_change,
+                                             name="mirrorscan-grade", daemon=True)
             self._grading.start()
+            # and to tell how its planes agree, before any fit
             if any(m.plane is not None for m in frame.snapshot.session.mirrors):
-                self.jobs.start_agreement()    # and to tell how its planes agree, before any fit
+                self.jobs.start_agreement()
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:
         message = f"{type(exc).__name__}: {exc}"
-        if message != self._last_error:      # say it once, not thirty times a second
+        # said once, not thirty times a second
+        if message != self._last_error:
             self.notify(None, "Live frame failed", message)
         self._last_error = message

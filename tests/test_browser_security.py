@@ -4,6 +4,7 @@ open, and a page of another site that opens a websocket to the tool is refused (
 """
 from __future__ import annotations
 
+import functools
 import http.server
 import threading
 import time
@@ -73,8 +74,7 @@ def test_another_sites_page_cannot_open_the_tools_websocket(app, browser, tmp_pa
     evil = tmp_path / "evil"
     evil.mkdir()
     (evil / "index.html").write_text(EVIL_PAGE % (app.port, viser.__version__))
-    # noqa: E731
-    handler = lambda *a, **k: http.server.SimpleHTTPRequestHandler(*a, directory=str(evil), **k)
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(evil))
     site = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     threading.Thread(target=site.serve_forever, daemon=True).start()
     try:
