@@ -25,13 +25,15 @@ class DepthScreen:
     +z like the depth camera.
     """
 
-    def __init__(self, client: viser.ClientHandle, intr: Intrinsics, on_pixel: Callable[[float, float], None]):
+    def __init__(self, client: viser.ClientHandle, intr: Intrinsics,
+                 on_pixel: Callable[[float, float], None]):
         self.client, self.intr, self.on_pixel = client, intr, on_pixel
         self.height = SCREEN_HEIGHT
         self.width = SCREEN_HEIGHT * intr.width / intr.height
         self.centre = np.array([0.0, 0.0, -SCREEN_DISTANCE])
-        self.handle = client.scene.add_image("/depth_frame", np.zeros((intr.height, intr.width, 3), np.uint8),
-                                             self.width, self.height, format="jpeg", jpeg_quality=85,
+        blank = np.zeros((intr.height, intr.width, 3), np.uint8)
+        self.handle = client.scene.add_image("/depth_frame", blank, self.width, self.height,
+                                             format="jpeg", jpeg_quality=85,
                                              position=tuple(self.centre), visible=False)
         self.handle.on_click(self._clicked)
 

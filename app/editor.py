@@ -54,7 +54,8 @@ class SessionEditor(EditorCore):
             raise MirrorscanError(f"a session holds at most {MAX_MIRRORS} mirrors")
         mirror_id = max([m.id for m in mirrors] + [0]) + 1
         names = {m.name for m in mirrors}
-        name = (name or "").strip() or next(f"mirror {k}" for k in range(mirror_id, mirror_id + 1000)
+        name = (name or "").strip() or next(f"mirror {k}"
+                                             for k in range(mirror_id, mirror_id + 1000)
                                              if f"mirror {k}" not in names)
         free_name(self._session, name, None)
         mirror = SessionMirror(name, id=mirror_id)
@@ -125,7 +126,8 @@ class SessionEditor(EditorCore):
     def move_vertex(self, mirror_id: int, vertex: int, uv: tuple[float, float]) -> None:
         mirror = self.mirror(mirror_id)
         has_vertex(mirror, vertex)
-        edited = mirror.boundary[:vertex] + (pixel(self._session.camera, uv),) + mirror.boundary[vertex + 1:]
+        moved = pixel(self._session.camera, uv)
+        edited = mirror.boundary[:vertex] + (moved,) + mirror.boundary[vertex + 1:]
         validate_polygon(edited, self._session.camera.shape, f"{mirror.name}: boundary")
         self._set_mirror(mirror_id, f"move corner {vertex + 1} of {mirror.name}", boundary=edited)
 

@@ -30,7 +30,8 @@ def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
     raise FileExistsError(f"{folder}: no free name for {stem}")
 
 
-def export_ply(session_root: Path | None, stem: str, data: bytes, client: viser.ClientHandle | None) -> Path | None:
+def export_ply(session_root: Path | None, stem: str, data: bytes,
+               client: viser.ClientHandle | None) -> Path | None:
     """Send PLY bytes to `client` as a download and, when the session has a folder (session_root),
     keep them in its exports/ folder; returns the path written, or None."""
     saved = None
@@ -38,5 +39,6 @@ def export_ply(session_root: Path | None, stem: str, data: bytes, client: viser.
         saved = check_output(free_name(Path(session_root) / EXPORTS, stem))
         write_atomic(saved, data)
     if client is not None:
-        client.send_file_download((saved.name if saved else f"{stem}.ply"), data, save_immediately=True)
+        client.send_file_download((saved.name if saved else f"{stem}.ply"), data,
+                                  save_immediately=True)
     return saved

@@ -51,7 +51,7 @@ class Notifier:
         Returns
         -------
         viser.NotificationHandle or None
-            The one tab's notification (to take it away when it no longer holds), else None.
+            The one tab's notification (to take it away once it is not true), else None.
         """
         if logged:
             log.info("%s: %s", title, message)

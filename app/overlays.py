@@ -16,7 +16,8 @@ OBJECT_TINT = np.array([255, 214, 120], np.float32)
 NO_READING = (24, 24, 32)                             # pixels with no depth reading
 HALO = (16, 16, 16)                                   # dark edge under every line and mark
 WHITE = (255, 255, 255)
-QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40), "unknown": (235, 235, 235)}
+QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40),
+                   "unknown": (235, 235, 235)}
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 MARKER_HALO = 8                                       # pixels: the radius of a marker's dark disc
 # pixels: how much farther a label's second places are
@@ -35,14 +36,31 @@ def depth_range(depth: np.ndarray) -> tuple[float, float]:
 
 
 # The object's tint of each grey level: 45 % grey, 55 % OBJECT_TINT (cv2.addWeighted's rounding).
-TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0, 255).astype(np.uint8)
+TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0, 255).astype(
+    np.uint8)
 
 
 def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
-    """(H, W) metres and the object mask (H, W) bool -> (H, W, 3) uint8 RGB: grey from white (near)
-    to dark (far), the object's pixels tinted (looked up in TINTED, only where the mask holds), no
-    reading dark blue-black. (Channel by channel with OpenCV's look-up and masked copy: 3x faster
-    than numpy's assignment of RGB rows.)"""
+    """The depth frame as the tab shows it: grey from white (near) to dark (far), the object's
+    pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black.
+
+    Made channel by channel with OpenCV's look-up and masked copy, about 3 times faster than
+    numpy's assignment of RGB rows.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray
+        Metres; 0 where there is no reading.
+    mask : (H, W) bool ndarray
+        The object.
+    near, far : float
+        Metres: the grey scale's ends (depth_range).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        RGB.
+    """
     scale = 215.0 / max(far - near, 1e-6)
     # near -> 235, far -> 20
     grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)
@@ -89,9 +107,9 @@ class Overlay:
     def __init__(self, shape: tuple[int, int]):
         self.image = np.zeros((*shape, 4), np.uint8)
         self._labels: list[tuple[int, int, int, int]] = []
-        # the image's colours and where it is drawn (alpha),
+        # the image's colours and where it is drawn (alpha), as OpenCV's masked copy takes them
         self._rgb = np.zeros((*shape, 3), np.uint8)
-        self._drawn = np.zeros(shape, np.uint8)           # as OpenCV's masked copy takes them
+        self._drawn = np.zeros(shape, np.uint8)
 
     def over(self, base: np.ndarray) -> np.ndarray:
         """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (the drawn pixels
@@ -100,7 +118,8 @@ class Overlay:
         cv2.copyTo(self._rgb, self._drawn, out)
         return out
 
-    def draw(self, mirrors: list[MirrorMarks], region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
+    def draw(self, mirrors: list[MirrorMarks],
+             region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
         """Redraw everything: the mirrors (selected last, on top) and the region of interest
         (vertices, closed)."""
         self.image[:] = 0
@@ -142,27 +161,28 @@ class Overlay:
         centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
         cv2.circle(self.image, centre, MARKER_HALO, self._rgba(HALO), -1, cv2.LINE_AA)
         cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)
-        cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1, cv2.LINE_AA)
+        cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1,
+                   cv2.LINE_AA)
         if marker.picked:
             cv2.circle(self.image, centre, 12, self._rgba(WHITE), 2, cv2.LINE_AA)
         if marker.flagged:
             for sign in (1, -1):
-                cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign), (centre[0] + 11, centre[1] + 11 * sign),
-                         self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
+                cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign),
+                         (centre[0] + 11, centre[1] + 11 * sign), self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
         """A label on a dark box beside its marker, at the first of eight places around it, then
         eight a little farther (LABEL_STEP), that covers no other label and no marker, else at the
-        one that covers least of them (two mirrors' markers at a hinge: 1.6 and 2.1 had covered each
-        other: a helper)."""
+        one that covers least of them (two mirrors' markers meet at a hinge)."""
         (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
         u, v = int(round(uv[0])), int(round(uv[1]))
         rows, cols = self.image.shape[:2]
         places = []
-        ring = ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14), (-w // 2, 20 + h),
-                (14, 4), (-14 - w, 4))
-        for du, dv in ring + tuple((du + int(np.sign(du)) * LABEL_STEP, dv + int(np.sign(dv)) * LABEL_STEP)
-                                   for du, dv in ring):
+        ring = ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14),
+                (-w // 2, 20 + h), (14, 4), (-14 - w, 4))
+        farther = tuple((du + int(np.sign(du)) * LABEL_STEP, dv + int(np.sign(dv)) * LABEL_STEP)
+                        for du, dv in ring)
+        for du, dv in ring + farther:
             x0, y0 = min(max(u + du, 0), cols - w - 4), min(max(v + dv, h + 3), rows - 4)
             box = (x0 - 2, y0 - h - 3, x0 + w + 2, y0 + base)
             places.append((sum(_overlap(box, other) for other in self._labels), (x0, y0), box))

@@ -41,11 +41,13 @@ class LiveTap(DepthSource):
     Raises MirrorscanError when the source already has an open tap (one recording at a time).
     """
 
-    def __init__(self, source: DepthSource, subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
+    def __init__(self, source: DepthSource,
+                 subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
         self.name = f"recording of {source.name}"
         self.intrinsics, self.fps, self.frame_count = source.intrinsics, source.fps, None
         self._background = source.background()
-        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog_frames(source.intrinsics.shape))
+        backlog = backlog_frames(source.intrinsics.shape)
+        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog)
         self._closed = threading.Event()
         self.dropped = 0
         # frames taken for the recording (the recorder writes them behind: Recorder.frames)

@@ -90,8 +90,9 @@ class Guard:
             origin = urlsplit(origins[0])
             if (len(origins) > 1 or origin.scheme not in ("http", "https")
                     or origin.netloc.lower() != host.lower()):
+                origin_text = ", ".join(origins)[:80]
                 return self._refuse("websocket from another site refused: open the tool from the "
-                                    f"address the server printed (Origin {', '.join(origins)[:80]!r})")
+                                    f"address the server printed (Origin {origin_text!r})")
         if self.token is not None and not self.token_given(request):
             return self._refuse("this server needs its token: open the address with ?token= that "
                                 "it printed when it started (or ask who started it)")
@@ -220,7 +221,8 @@ async def _install(websock, guard: Guard) -> None:
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
 
-    def process_request(connection: ws_server.ServerConnection, request: Request) -> Response | None:
+    def process_request(connection: ws_server.ServerConnection,
+                        request: Request) -> Response | None:
         refusal = guard.check(request)
         if refusal is not None:
             return refusal
@@ -281,15 +283,16 @@ def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
             log.warning("refused an upload: %s", reason)
             client = server.get_clients().get(client_id)
             if client is not None:
-                client.add_notification("Upload refused", reason, color="red", auto_close_seconds=8.0)
+                client.add_notification("Upload refused", reason, color="red",
+                                        auto_close_seconds=8.0)
 
     def on_start(client_id: int, message: _messages.FileTransferStartUpload) -> None:
         in_flight = sum(s["total_bytes"] for held in states(client_id) for s in held.values())
         name, size = message.filename[:80], message.size_bytes
         if size > guard.max_upload_bytes:
-            refuse(client_id, message.transfer_uuid,
-                   f"{name}: {size / 2**20:.1f} MB is more than the "
-                   f"{guard.max_upload_bytes / 2**20:g} MB an upload may have; upload a smaller file")
+            most = guard.max_upload_bytes / 2**20
+            refuse(client_id, message.transfer_uuid, f"{name}: {size / 2**20:.1f} MB is more than "
+                   f"the {most:g} MB an upload may have; upload a smaller file")
         elif in_flight > MAX_UPLOADS_IN_FLIGHT:
             refuse(client_id, message.transfer_uuid, f"{name}: too many uploads at once; try again")
         else:

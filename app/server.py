@@ -178,7 +178,7 @@ class MirrorscanApp(Notifier):
         tab = Tab(client, self)
         with self._tabs_lock:
             # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
-            # reloaded) while its Tab was built may have had its _disconnect already, which found
+            # reloaded) while its Tab was built may have run its _disconnect already, which found
             # nothing to close. viser drops the client from get_clients() before it calls
             # _disconnect, so checked under the lock one of the two closes it.
             if client.client_id in self.server.get_clients():

@@ -32,8 +32,8 @@ class Snapshot:
         return {mirror_id: r.grades for mirror_id, r in self.marker_residuals.items()}
 
     @classmethod
-    def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None,
-              previous: "Snapshot | None" = None) -> "Snapshot":
+    def build(cls, session: Session, background: np.ndarray | None,
+              depths: np.ndarray | None = None, previous: "Snapshot | None" = None) -> "Snapshot":
         """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers
         (none without). What `previous` already holds for the same inputs is reused (a marker added
         keeps the rig's tables: a click must not wait ~70 ms for them)."""

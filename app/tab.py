@@ -93,10 +93,11 @@ class Tab(TabPresence, TabFraming):
         for panel in PANELS:
             with group.add_tab(panel.TITLE):
                 self.panels.append(panel(self))
-        self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
-                             services.bus.subscribe(SessionChanged, lambda e: self._on_session()),
-                             services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
-                             services.bus.subscribe(HeatChanged, self._on_heat)]
+        bus = services.bus
+        self._unsubscribe = [bus.subscribe(FrameReady, self._on_frame),
+                             bus.subscribe(SessionChanged, lambda e: self._on_session()),
+                             bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
+                             bus.subscribe(HeatChanged, self._on_heat)]
         self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
@@ -121,8 +122,9 @@ class Tab(TabPresence, TabFraming):
     def resume(self) -> Resume:
         """This tab's work, for the next tab to take up (see Resume)."""
         with self._lock:
-            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None, picked_marker=None,
-                            moving_marker=False, flagged_markers=(), proposal_for=())
+            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
+                            picked_marker=None, moving_marker=False, flagged_markers=(),
+                            proposal_for=())
         return Resume(state, self.heat)
 
     def _first_view(self, _) -> None:
@@ -259,13 +261,15 @@ class Tab(TabPresence, TabFraming):
         mirrors = self.services.snapshot.session.mirrors
         label = next((k for k, m in enumerate(mirrors, start=1) if m.id == self.heat_of), None)
         small = event.sources == 0 if label is None else event.sources != label
-        colours = np.where((small & (event.sources != 0))[:, None], SOURCE_COLOURS[0], event.colours)
+        grey = (small & (event.sources != 0))[:, None]
+        colours = np.where(grey, SOURCE_COLOURS[0], event.colours)
         self.scene.show_heat(event.points, colours.astype(np.uint8), small)
 
     def show_dense(self, result) -> None:
         """Show the shared dense result in this tab's scene as the tab's Dense step says (shown,
         beside the cloud)."""
-        self.scene.show_dense(result, self.dense_visible and self.state.view == "3d", self.dense_beside)
+        self.scene.show_dense(result, self.dense_visible and self.state.view == "3d",
+                              self.dense_beside)
 
     # ------------------------------------------------------------------ events
     def _on_frame(self, event: FrameReady) -> None:
@@ -323,6 +327,7 @@ class Tab(TabPresence, TabFraming):
 
     # ------------------------------------------------------------------ the depth frame
     def _redraw_overlay(self) -> None:
+        """Draw this tab's overlay: every mirror's outline (or draft) and markers, the region."""
         snapshot, state = self.services.snapshot, self.state
         mirrors = []
         for mirror in snapshot.session.mirrors:
@@ -333,11 +338,15 @@ class Tab(TabPresence, TabFraming):
                                        picked=selected and state.picked_marker == k,
                                        flagged=(mirror.id, uv) in state.flagged_markers)
                             for k, uv in enumerate(mirror.markers))
-            mirrors.append(MirrorMarks(tuple(int(c) for c in source_colour(1, (mirror.id,))),
-                                       draft if draft is not None else mirror.boundary, draft is None, markers,
+            colour = tuple(int(c) for c in source_colour(1, (mirror.id,)))
+            outline = draft if draft is not None else mirror.boundary
+            mirrors.append(MirrorMarks(colour, outline, draft is None, markers,
                                        state.picked_corner if selected else None, selected))
         roi = snapshot.session.selection.roi
-        region = (state.region_draft, False) if state.region_draft else ((roi, True) if roi else None)
+        if state.region_draft:
+            region = (state.region_draft, False)
+        else:
+            region = (roi, True) if roi else None
         with self._lock:
             self.overlay.draw(mirrors, region)
 

@@ -129,7 +129,8 @@ class History:
                    and shared[-1].order > own[-1].order)
         return SESSION_SCOPE if removal else mirror_id
 
-    def split(self, step: Step, redo: bool, mirror_ids: Iterable[int]) -> tuple[list[int], list[int]]:
+    def split(self, step: Step, redo: bool,
+              mirror_ids: Iterable[int]) -> tuple[list[int], list[int]]:
         """The mirrors of `step`'s group that move with it, and those that stay.
 
         Parameters
@@ -167,7 +168,8 @@ class History:
         if not step.group:
             return step.label
         moving, left = self.split(step, redo, mirror_ids)
-        label = f"{step.what}{'s' if len(moving) > 1 else ''} of {listed([name(i) for i in moving])}"
+        plural = "s" if len(moving) > 1 else ""
+        label = f"{step.what}{plural} of {listed([name(i) for i in moving])}"
         return f"{label}{PARTIAL}{listed([name(i) for i in left])} changed since" if left else label
 
     def travel(self, scope: int, redo: bool, mirror_ids: Iterable[int]) -> list[tuple[int, Step]]:

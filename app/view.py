@@ -65,15 +65,18 @@ class TabScene:
                                           color=(60, 60, 60))
             self.scene.remove_by_name("/mirrors")
             self._labels = [self.scene.add_label("/mirrors/camera", "depth camera",
-                                                 position=CAMERA_LABEL, visible=self.labels_visible)]
+                                                 position=CAMERA_LABEL,
+                                                 visible=self.labels_visible)]
             for mirror, mirror_id in zip(rig.mirrors, mirror_ids):
                 outline = mirror_outline(intr, mirror)
                 if outline is None:
                     continue
                 colour = tuple(int(c) for c in source_colour(1, (mirror_id,)))
-                faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)], dtype=np.uint32)
-                self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass", outline.astype(np.float32),
-                                           faces, color=colour, opacity=0.2, side="double")
+                faces = np.array([[0, k, k + 1] for k in range(1, len(outline) - 1)],
+                                 dtype=np.uint32)
+                self.scene.add_mesh_simple(f"/mirrors/{mirror_id}/glass",
+                                           outline.astype(np.float32), faces, color=colour,
+                                           opacity=0.2, side="double")
                 self._labels.append(self.scene.add_label(f"/mirrors/{mirror_id}/label", mirror.name,
                                                          position=label_anchor(outline),
                                                          visible=self.labels_visible))
@@ -101,7 +104,8 @@ class TabScene:
             first = group[0]
             self._virtual_labels.append(self.scene.add_label(
                 f"/virtual_labels/{first.source}",
-                "camera in " + " · in ".join(source_name(camera.source, names) for camera in group),
+                "camera in " + " · in ".join(source_name(camera.source, names)
+                                             for camera in group),
                 position=virtual_label_anchor(first), anchor=side,
                 font_screen_scale=1.0 if len(first.sequence) == 1 else SEQUENCE_FONT,
                 visible=self.virtual_visible and self.labels_visible))
