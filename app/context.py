@@ -97,10 +97,9 @@ class TabState:
     picked_corner: int | None = None
     picked_marker: int | None = None
     moving_marker: bool = False
-    # (mirror id, marker's pixel) crossed on the
+    # (mirror id, marker's pixel) crossed on the depth frame: by place, so that a marker deleted
+    # before it does not move the cross on
     flagged_markers: tuple[tuple[int, tuple[float, float]], ...] = ()
-                                   # depth frame: by place (by index, a marker deleted before it
-                                   # moved the cross on)
     # the mirrors whose fitted plane waits for Apply or Discard
     proposal_for: tuple[str, ...] = ()
     view: str = "3d"
@@ -112,9 +111,9 @@ class TabContext(Protocol):
     client: viser.ClientHandle
     services: Services
     state: TabState
-    # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)
+    # the browser draws slower than frames come: it is sent fewer (presence.MAX_LAG_S)
     lagging: bool
-    # and when it last did, once its page was built (time.perf_counter())
+    # when it last lagged, once its page was built (time.perf_counter())
     lagged_at: float
 
     @property

@@ -38,8 +38,9 @@ class DepthScreen:
         self.handle.on_click(self._clicked)
 
     def set_visible(self, visible: bool) -> None:
-        """Shown while the tab looks at it; hidden in the 3D view, where it stood behind the camera
-        when zoomed out (its image is still refreshed, so that it is current when looked at)."""
+        """Show the screen while the tab looks at it; hidden in the 3D view, where it would stand
+        behind the camera when zoomed out. Its image is still refreshed, so that it is current when
+        looked at."""
         self.handle.visible = visible
 
     def show(self, rgb: np.ndarray) -> None:
@@ -80,7 +81,8 @@ class DepthScreen:
         camera = self.client.camera
         try:
             aspect = camera.image_width / max(camera.image_height, 1)
-        except Exception:  # noqa: BLE001 - the tab has not reported its canvas yet
+        # the tab has not reported its canvas yet
+        except Exception:  # noqa: BLE001
             aspect = 16 / 9
         position, target = self.view_pose(aspect)
         with self.client.atomic():

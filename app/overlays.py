@@ -168,7 +168,8 @@ class Overlay:
         if marker.flagged:
             for sign in (1, -1):
                 cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign),
-                         (centre[0] + 11, centre[1] + 11 * sign), self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
+                         (centre[0] + 11, centre[1] + 11 * sign),
+                         self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
         """A label on a dark box beside its marker, at the first of eight places around it, then

@@ -34,13 +34,24 @@ class Snapshot:
     @classmethod
     def build(cls, session: Session, background: np.ndarray | None,
               depths: np.ndarray | None = None, previous: "Snapshot | None" = None) -> "Snapshot":
-        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers
-        (none without). What `previous` already holds for the same inputs is reused (a marker added
-        keeps the rig's tables: a click must not wait ~70 ms for them)."""
+        """The snapshot of a session.
+
+        Parameters
+        ----------
+        session : Session
+        background : (H, W) ndarray or None
+            Metres.
+        depths : (k, H, W) ndarray, optional
+            Metres: the recent frames, which grade the markers (none are graded without).
+        previous : Snapshot, optional
+            What it holds for the same inputs is reused: a marker added keeps the rig's tables,
+            which take tens of ms to build.
+        """
         rig = Rig.from_session(session)
         if previous is not None and rig.same_rays(previous.rig):
             rig = previous.rig
-        rig.reflection_table  # built here, once, not in the first live frame
+        # built here, once, not in the first live frame
+        rig.reflection_table
         residuals = {}
         if depths is not None:
             residuals = {m.id: marker_residuals(session.camera, depths, m.markers, m.marker_plane)
