@@ -13,10 +13,13 @@ import viser.transforms as tf
 
 from tests.waiting import wait_for
 
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
-ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--no-first-run"]
-CLICK_PAUSE = 0.15       # the browser throttles clicks on scene nodes (~50 ms)
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium")
+                 if Path(p).exists()), None)
+ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update",
+        "--disable-sync", "--no-first-run"]
+CLICK_PAUSE = 0.15       # seconds: the browser throttles clicks on scene nodes (~50 ms)
+SETTLE = 0.3             # seconds for the server to handle a button or a step opened
+STEADY = 0.5             # seconds the view must stay put to count as steady
 
 # Every depth-frame image the page receives, decoded, in window.__depth: [arrival ms, ms when the
 # next animation frame ran, the image as an ImageBitmap] (the last 64); window.__patch(bitmap, u, v)
@@ -36,9 +39,11 @@ window.Worker = class extends Base {
       const data = event.data;
       if (!data || data.type !== "message_batch") return;
       for (const m of data.messages) {
-        if (m.type !== "SceneNodeUpdateMessage" || m.name !== "/depth_frame" || !m.updates._data) continue;
+        if (m.type !== "SceneNodeUpdateMessage" || m.name !== "/depth_frame"
+            || !m.updates._data) continue;
         const arrived = performance.now();
-        createImageBitmap(new Blob([new Uint8Array(m.updates._data)], {type: "image/jpeg"})).then((bitmap) => {
+        const jpeg = new Blob([new Uint8Array(m.updates._data)], {type: "image/jpeg"});
+        createImageBitmap(jpeg).then((bitmap) => {
           requestAnimationFrame(() => {
             window.__depth.push([arrived, performance.now(), bitmap]);
             if (window.__depth.length > 64) window.__depth.shift().close();
@@ -65,23 +70,25 @@ def open_tab(browser, app, width: int, height: int):
 
 
 def camera_known(client) -> bool:
+    """Whether the browser has reported the tab's camera (viser asserts until it has)."""
     try:
         client.camera.wxyz
         client.camera.image_width
         return True
-    except AssertionError:     # viser asserts until the browser has reported its camera
+    except AssertionError:
         return False
 
 
 def button(page, name: str) -> None:
+    """Press a button of the side panel by its name."""
     page.get_by_role("button", name=name, exact=True).click()
-    time.sleep(0.3)
+    time.sleep(SETTLE)  # deliberate: no general sign that the server has handled any button
 
 
 def step(page, title: str) -> None:
     """Open a step of the side panel (a tab of its tab group)."""
     page.get_by_role("tab", name=title, exact=True).click()
-    time.sleep(0.3)
+    time.sleep(SETTLE)  # deliberate: no general sign that the page has drawn the step
 
 
 def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
@@ -94,19 +101,26 @@ def look_at_the_depth_frame(page, tab, press: bool = True) -> None:
     for _ in range(10):
         aspect = tab.client.camera.image_width / tab.client.camera.image_height
         position = tab.screen.view_pose(aspect)[0]
-        time.sleep(1.0)
-        if np.allclose(tab.client.camera.position, position, atol=1e-3):
-            time.sleep(0.5)
-            if np.allclose(tab.client.camera.position, position, atol=1e-3):
-                return
+
+        def there() -> bool:
+            return np.allclose(tab.client.camera.position, position, atol=1e-3)
+        try:
+            wait_for(there, 1.0, "the depth view reported")
+        except AssertionError:
+            tab.screen.look_at()
+            continue
+        time.sleep(STEADY)  # deliberate: a late report of the previous view would come meanwhile
+        if there():
+            return
         tab.screen.look_at()
     raise AssertionError(f"the tab's camera stays at {tab.client.camera.position}, not {position}")
 
 
-# The 3D scene's canvas: the largest one of the page (a plot of the side panel has its own, maybe
-# earlier).
+# The 3D scene's canvas: the largest one of the page (a plot of the side panel has its own, which
+# may come first).
 SCENE_CANVAS = ("[...document.querySelectorAll('canvas')]"
-                ".reduce((a, b) => a.clientWidth * a.clientHeight >= b.clientWidth * b.clientHeight ? a : b)")
+                ".reduce((a, b) => a.clientWidth * a.clientHeight >= b.clientWidth * b.clientHeight"
+                " ? a : b)")
 
 
 def scene_canvas_box(page) -> dict:
@@ -123,7 +137,8 @@ def canvas_point(page, client, world: np.ndarray) -> tuple[float, float]:
     p = R.T @ (np.asarray(world) - np.asarray(camera.position))
     box = scene_canvas_box(page)
     f = (box["height"] / 2) / np.tan(camera.fov / 2)
-    return box["x"] + box["width"] / 2 + f * p[0] / p[2], box["y"] + box["height"] / 2 + f * p[1] / p[2]
+    return (box["x"] + box["width"] / 2 + f * p[0] / p[2],
+            box["y"] + box["height"] / 2 + f * p[1] / p[2])
 
 
 def click_pixel(page, tab, uv, registered=None, tries: int = 3) -> None:
@@ -131,7 +146,7 @@ def click_pixel(page, tab, uv, registered=None, tries: int = 3) -> None:
     lost on a loaded machine)."""
     for _ in range(tries):
         page.mouse.click(*canvas_point(page, tab.client, tab.screen.world_of_pixel(*uv)))
-        time.sleep(CLICK_PAUSE)
+        time.sleep(CLICK_PAUSE)  # deliberate: the browser throttles clicks on scene nodes
         if registered is None:
             return
         try:
@@ -143,4 +158,5 @@ def click_pixel(page, tab, uv, registered=None, tries: int = 3) -> None:
 
 
 def text(page) -> str:
+    """The page's visible text."""
     return page.locator("body").inner_text()
