@@ -29,7 +29,7 @@ RECORDER_SCRIPT = """
 import sys, time
 from mirrorcore.sources import Recorder, open_source
 Recorder(open_source("sim"), sys.argv[1]).start()
-time.sleep(600)
+time.sleep(600)  # deliberate: the recorder runs until the test kills it
 """
 
 
