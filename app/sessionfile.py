@@ -58,8 +58,8 @@ class SessionFile:
         try:
             reloaded = load_session(session.root)
         except FileFormatError as exc:
-            return (f"{where} was changed by another program and cannot be read; the tool "
-                    "keeps its own session, writing it at the next change (that file kept as "
-                    f"session.json.bak). {exc}"), None
+            return (f"{where} was changed by another program and cannot be read; the tool keeps "
+                    "its own session and writes it at the next change. The unreadable file "
+                    f"becomes session.json.bak. {exc}"), None
         return (f"{where} was changed by another program (mirrorscan calibrate?): reloaded, "
                 "undo history cleared"), reloaded
