@@ -12,9 +12,9 @@ from mirrorcore.base.errors import MirrorscanError
 log = logging.getLogger("mirrorscan")
 # a notification's colour by its kind
 NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}
-NOTE_SECONDS = 8.0        # a notification closes after this,
-# and the result of long work after this: its report stays in the panel, and the note must not
-# cover the depth frame's corner for long at 1024x600
+NOTE_SECONDS = 8.0        # seconds: a notification closes after this
+# seconds: the note of long work's result closes after this; its report stays in the panel, and
+# the note must not cover the depth frame's corner for long at 1024x600
 RESULT_NOTE_SECONDS = 45.0
 
 

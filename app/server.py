@@ -39,12 +39,13 @@ log = logging.getLogger("mirrorscan")
 FILE_POLL_S = 0.5
 # how often the tabs are asked whether they are hidden or lag, while the live cloud plays
 VISIBILITY_POLL_S = 0.5
-# and while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw its 3D
-# scene for 250 ms, which keeps a browser without a GPU busy on one core
+# the same while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw
+# its 3D scene for 250 ms, which keeps a browser without a GPU busy on one core
 QUIET_POLL_S = 5.0
 # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
 IDLE_FPS = 10.0
-# and while a job that needs the cores runs: each cloud sent makes the page draw for 250 ms
+# the live loop's rate while a job that needs the cores runs: each cloud sent makes the page draw
+# for 250 ms
 BUSY_FPS = 1.0
 BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction",
              BATCH: "the batch"}
@@ -376,7 +377,7 @@ class MirrorscanApp(Notifier):
             self._grading = threading.Thread(target=self._on_session_change,
                                              name="mirrorscan-grade", daemon=True)
             self._grading.start()
-            # and to tell how its planes agree, before any fit
+            # enough, too, to tell how its planes agree, before any fit
             if any(m.plane is not None for m in frame.snapshot.session.mirrors):
                 self.jobs.start_agreement()
         self.bus.publish(FrameReady(frame))

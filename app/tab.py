@@ -33,8 +33,8 @@ from .view import TabScene
 
 __all__ = ["DEPTH_HZ", "DEPTH_HZ_BEHIND", "MAX_LAG_S", "PAGE_KEY", "SETTLING_S", "Resume", "Tab"]
 
-DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view,
-DEPTH_HZ_BEHIND = 1.0   # and this often while the tab looks at the 3D scene
+DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view
+DEPTH_HZ_BEHIND = 1.0   # the same while the tab looks at the 3D scene
 HEAT_HZ = 1.0           # heat maps a second while the heat map is on
 
 

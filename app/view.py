@@ -46,7 +46,7 @@ class TabScene:
         self._dense: list = []                     # the dense result's nodes (result, label)
         self._dense_lock = threading.Lock()
         self._virtual: list = []                   # the virtual cameras' frusta
-        self._virtual_labels: list[viser.LabelHandle] = []    # and their names
+        self._virtual_labels: list[viser.LabelHandle] = []    # the virtual cameras' names
         self.virtual_visible = True
         self._box = None
         self._box_label = None
@@ -240,7 +240,7 @@ class TabScene:
         result's own label at the middle of its top), or none."""
         with self._marks_lock:
             if self._box is not None:
-                # and its label under it
+                # the box, with its label under it
                 self._box.remove()
                 self._box = self._box_label = None
             if low is None or high is None or not np.all(np.asarray(high) > np.asarray(low)):
