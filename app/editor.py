@@ -51,7 +51,8 @@ class SessionEditor(EditorCore):
         """Append a mirror (named 'mirror N' by default, N its id); returns its id."""
         mirrors = self._session.mirrors
         if len(mirrors) >= MAX_MIRRORS:
-            raise MirrorscanError(f"a session holds at most {MAX_MIRRORS} mirrors")
+            raise MirrorscanError(f"a session holds at most {MAX_MIRRORS} mirrors; remove one to "
+                                  "add another")
         mirror_id = max([m.id for m in mirrors] + [0]) + 1
         names = {m.name for m in mirrors}
         name = (name or "").strip() or next(f"mirror {k}"

@@ -69,7 +69,7 @@ def free_name(session: Session, name: str, mirror_id: int | None) -> None:
     `mirror_id` holds."""
     check_name(name)
     if any(m.name == name for m in session.mirrors if m.id != mirror_id):
-        raise MirrorscanError(f"there is already a mirror named {name!r}")
+        raise MirrorscanError(f"there is already a mirror named {name!r}; choose another name")
 
 
 def planes_to_set(mirrors: dict[int, SessionMirror],
