@@ -25,7 +25,7 @@ from mirrorcore.io.session import (
 from mirrorcore.rig.model import check_bounces
 
 from .editing import EditorCore, edits
-from .guards import (ON_EDGE, fit_inputs, free_name, has_marker, has_vertex, on_mirror, pixel,
+from .guards import (ON_EDGE, fit_inputs, unused_name, has_marker, has_vertex, on_mirror, pixel,
                      planes_to_set)
 from .undo import PARTIAL, SESSION_SCOPE, UNDO_DEPTH
 
@@ -58,7 +58,7 @@ class SessionEditor(EditorCore):
         name = (name or "").strip() or next(f"mirror {k}"
                                              for k in range(mirror_id, mirror_id + 1000)
                                              if f"mirror {k}" not in names)
-        free_name(self._session, name, None)
+        unused_name(self._session, name, None)
         mirror = SessionMirror(name, id=mirror_id)
         self._change(f"add {name}", ("add", len(mirrors), mirror),
                      replace(self._session, mirrors=mirrors + (mirror,)))
@@ -67,7 +67,7 @@ class SessionEditor(EditorCore):
     @edits
     def rename_mirror(self, mirror_id: int, name: str) -> None:
         name = name.strip()
-        free_name(self._session, name, mirror_id)
+        unused_name(self._session, name, mirror_id)
         self._set_mirror(mirror_id, f"name of {self.mirror(mirror_id).name}", name=name)
 
     @edits

@@ -16,8 +16,12 @@ EXPORTS = "exports"
 
 
 def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
-    """folder/stem-YYYYmmdd-HHMMSS.ply, or with -2, -3... when that file exists already (reserved by
-    creating it empty, exclusively, so that two exports in the same second never share a name)."""
+    """A new file's path: folder/stem-YYYYmmdd-HHMMSS.ply, or with -2, -3... when that file exists
+    already.
+
+    The name is reserved by creating the file empty, exclusively, so that two exports in the same
+    second never share a name.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     base = f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}"
     for k in range(1, 10_000):
@@ -27,7 +31,7 @@ def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
             return path
         except FileExistsError:
             continue
-    raise FileExistsError(f"{folder}: no free name for {stem}")
+    raise FileExistsError(f"{folder}: no free name for {stem}; export again in a second")
 
 
 def export_ply(session_root: Path | None, stem: str, data: bytes,

@@ -64,7 +64,7 @@ def has_vertex(mirror: SessionMirror, vertex: int) -> None:
         raise MirrorscanError(f"{mirror.name}: no corner {vertex + 1}")
 
 
-def free_name(session: Session, name: str, mirror_id: int | None) -> None:
+def unused_name(session: Session, name: str, mirror_id: int | None) -> None:
     """Refuse a mirror name that is not valid (check_name) or that another mirror than
     `mirror_id` holds."""
     check_name(name)
