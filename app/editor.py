@@ -25,8 +25,8 @@ from mirrorcore.io.session import (
 from mirrorcore.rig.model import check_bounces
 
 from .editing import EditorCore, edits
-from .guards import (ON_EDGE, fit_inputs, unused_name, has_marker, has_vertex, on_mirror, pixel,
-                     planes_to_set)
+from .guards import (ON_EDGE, fit_inputs, has_marker, has_vertex, on_mirror, pixel, planes_to_set,
+                     unused_name)
 from .undo import PARTIAL, SESSION_SCOPE, UNDO_DEPTH
 
 __all__ = ["ON_EDGE", "PARTIAL", "PICK_RADIUS", "SESSION_SCOPE", "UNDO_DEPTH", "SessionEditor",
