@@ -1,6 +1,7 @@
-"""The narrow interfaces a panel works through: the app's shared services (the session editor, the current state,
-the live loop's controls, the shared jobs, the event bus) and its own tab (GUI, per-tab state, view). A panel
-reads and calls these and publishes events; it never reaches into another panel or a GUI handle it does not own."""
+"""The narrow interfaces a panel works through: the app's shared services (the session editor, the
+current state, the live loop's controls, the shared jobs, the event bus) and its own tab (GUI,
+per-tab state, view). A panel reads and calls these and publishes events; it never reaches into
+another panel or a GUI handle it does not own."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -66,15 +67,17 @@ class Services(Protocol):
     @property
     def background_captured(self) -> bool: ...
 
-    def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
-               stay: bool = False, logged: bool = True) -> viser.NotificationHandle | None: ...
+    def notify(self, client: viser.ClientHandle | None, title: str, message: str,
+               kind: str = "error", stay: bool = False,
+               logged: bool = True) -> viser.NotificationHandle | None: ...
 
     def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None: ...
 
 
 @dataclass(frozen=True)
 class Question:
-    """A question on a tab (TabContext.ask): its modal, and its two answers as the buttons give them."""
+    """A question on a tab (TabContext.ask): its modal, and its two answers as the buttons give
+    them."""
 
     modal: object
     yes: Callable[[], None]
@@ -83,9 +86,9 @@ class Question:
 
 @dataclass
 class TabState:
-    """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts being drawn (a
-    boundary per mirror id, the region of interest), the picked corner or marker, the markers a proposal flags and the
-    mirrors it is for, and the view ('3d' or 'depth')."""
+    """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts
+    being drawn (a boundary per mirror id, the region of interest), the picked corner or marker, the
+    markers a proposal flags and the mirrors it is for, and the view ('3d' or 'depth')."""
 
     mode: str = "inspect"
     mirror_id: int | None = None
@@ -94,9 +97,11 @@ class TabState:
     picked_corner: int | None = None
     picked_marker: int | None = None
     moving_marker: bool = False
-    flagged_markers: tuple[tuple[int, tuple[float, float]], ...] = ()   # (mirror id, marker's pixel) crossed on the
-                                   # depth frame: by place (by index, a marker deleted before it moved the cross on)
-    proposal_for: tuple[str, ...] = ()     # the mirrors whose fitted plane waits for Apply or Discard
+    # (mirror id, marker's pixel) crossed on the depth frame: by place, so that a marker deleted
+    # before it does not move the cross on
+    flagged_markers: tuple[tuple[int, tuple[float, float]], ...] = ()
+    # the mirrors whose fitted plane waits for Apply or Discard
+    proposal_for: tuple[str, ...] = ()
     view: str = "3d"
 
 
@@ -106,14 +111,17 @@ class TabContext(Protocol):
     client: viser.ClientHandle
     services: Services
     state: TabState
-    lagging: bool           # the browser draws slower than frames come: it is sent fewer (tab.MAX_LAG_S)...
-    lagged_at: float        # ... and when it last did, once its page was built (time.perf_counter())
+    # the browser draws slower than frames come: it is sent fewer (presence.MAX_LAG_S)
+    lagging: bool
+    # when it last lagged, once its page was built (time.perf_counter())
+    lagged_at: float
 
     @property
     def gui(self): ...
 
     def changed(self) -> None:
-        """The tab's state changed: redraw what shows it (overlay, hints) and tell the tab's panels."""
+        """The tab's state changed: redraw what shows it (overlay, hints) and tell the tab's panels.
+        """
 
     def on_state(self, callback: Callable[[TabState], None]) -> None:
         """Call callback(state) after every change of the tab's state."""
@@ -129,5 +137,5 @@ class TabContext(Protocol):
 
     def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
             on_no: Callable[[], object] = lambda: None) -> "Question":
-        """Ask before an action that loses something: a modal with `text` (markdown) and two buttons; `yes` runs
-        on_yes as a user's action (act), `no` on_no; either closes it."""
+        """Ask before an action that loses something: a modal with `text` (markdown) and two
+        buttons; `yes` runs on_yes as a user's action (act), `no` on_no; either closes it."""

@@ -1,5 +1,5 @@
-"""The built-in demo: the paper's two-mirror rig with a person walking in place, simulated, its mirrors calibrated
-from their markers exactly as a user's would be."""
+"""The built-in demo: the paper's two-mirror rig with a person walking in place, simulated, its
+mirrors calibrated from their markers exactly as a user's would be."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,8 +22,9 @@ def demo_source() -> SimulatedSource:
 
 
 def calibrated_session(source: SimulatedSource, root: Path) -> Session:
-    """A session for a simulated source: markers and boundaries where the simulator draws them, planes calibrated from
-    the markers over the median of the background and a few frames (RANSAC + SVD, as for a real rig)."""
+    """A session for a simulated source: markers and boundaries where the simulator draws them,
+    planes calibrated from the markers over the median of the background and a few frames (RANSAC +
+    SVD, as for a real rig)."""
     rig = source.rig
     background = rig.background()
     depth = np.stack([background.depth] + [rig.frame(i).depth for i in range(CALIBRATION_FRAMES)])

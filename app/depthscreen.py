@@ -1,5 +1,6 @@
-"""The depth frame as a clickable screen in one tab's 3D scene (viser's GUI images take no clicks): an image node
-standing behind the depth camera, facing the same way, so that pixel (u, v) sits at the screen's local (x, y)."""
+"""The depth frame as a clickable screen in one tab's 3D scene (viser's GUI images take no clicks):
+an image node standing behind the depth camera, facing the same way, so that pixel (u, v) sits at
+the screen's local (x, y)."""
 from __future__ import annotations
 
 from typing import Callable
@@ -16,25 +17,30 @@ MARGIN = 1.04           # the frame fills the free area but for this much room a
 
 
 class DepthScreen:
-    """Shows an RGB rendering of the depth frame in one tab and reports its clicks as pixel coordinates.
+    """Shows an RGB rendering of the depth frame in one tab and reports its clicks as pixel
+    coordinates.
 
-    The image's local x runs with u and its local y with v (viser draws row 0 at local -y); with the identity rotation
-    at (0, 0, -SCREEN_DISTANCE), it is seen unmirrored from behind, looking along +z like the depth camera.
+    The image's local x runs with u and its local y with v (viser draws row 0 at local -y); with the
+    identity rotation at (0, 0, -SCREEN_DISTANCE), it is seen unmirrored from behind, looking along
+    +z like the depth camera.
     """
 
-    def __init__(self, client: viser.ClientHandle, intr: Intrinsics, on_pixel: Callable[[float, float], None]):
+    def __init__(self, client: viser.ClientHandle, intr: Intrinsics,
+                 on_pixel: Callable[[float, float], None]):
         self.client, self.intr, self.on_pixel = client, intr, on_pixel
         self.height = SCREEN_HEIGHT
         self.width = SCREEN_HEIGHT * intr.width / intr.height
         self.centre = np.array([0.0, 0.0, -SCREEN_DISTANCE])
-        self.handle = client.scene.add_image("/depth_frame", np.zeros((intr.height, intr.width, 3), np.uint8),
-                                             self.width, self.height, format="jpeg", jpeg_quality=85,
+        blank = np.zeros((intr.height, intr.width, 3), np.uint8)
+        self.handle = client.scene.add_image("/depth_frame", blank, self.width, self.height,
+                                             format="jpeg", jpeg_quality=85,
                                              position=tuple(self.centre), visible=False)
         self.handle.on_click(self._clicked)
 
     def set_visible(self, visible: bool) -> None:
-        """Shown while the tab looks at it; hidden in the 3D view, where it stood behind the camera when zoomed out
-        (its image is still refreshed, so that it is current when looked at)."""
+        """Show the screen while the tab looks at it; hidden in the 3D view, where it would stand
+        behind the camera when zoomed out. Its image is still refreshed, so that it is current when
+        looked at."""
         self.handle.visible = visible
 
     def show(self, rgb: np.ndarray) -> None:
@@ -42,7 +48,8 @@ class DepthScreen:
         self.handle.image = rgb
 
     def pixel_of_ray(self, origin, direction) -> tuple[float, float] | None:
-        """Where a ray (world frame) meets the screen, as pixel coordinates (u, v), or None when it misses."""
+        """Where a ray (world frame) meets the screen, as pixel coordinates (u, v), or None when it
+        misses."""
         origin, direction = np.asarray(origin, float), np.asarray(direction, float)
         if abs(direction[2]) < 1e-12:
             return None
@@ -63,8 +70,8 @@ class DepthScreen:
         return self.centre + np.array([x, y, 0.0])
 
     def view_pose(self, aspect: float) -> tuple[np.ndarray, np.ndarray]:
-        """(camera position, look-at point), metres: squarely behind the screen, the whole depth frame in a view of
-        VIEW_FOV_DEG and `aspect` (the tab's canvas, width / height), centred."""
+        """(camera position, look-at point), metres: squarely behind the screen, the whole depth
+        frame in a view of VIEW_FOV_DEG and `aspect` (the tab's canvas, width / height), centred."""
         tan_half = np.tan(np.radians(VIEW_FOV_DEG) / 2)
         distance = MARGIN * max(self.height / 2 / tan_half, self.width / 2 / (tan_half * aspect))
         return self.centre - np.array([0.0, 0.0, distance]), self.centre.copy()
@@ -74,7 +81,8 @@ class DepthScreen:
         camera = self.client.camera
         try:
             aspect = camera.image_width / max(camera.image_height, 1)
-        except Exception:  # noqa: BLE001 - the tab has not reported its canvas yet
+        # the tab has not reported its canvas yet
+        except Exception:  # noqa: BLE001
             aspect = 16 / 9
         position, target = self.view_pose(aspect)
         with self.client.atomic():

@@ -1,5 +1,6 @@
-"""The live loop: read a frame from the source, select the object, run Algorithm 1, hand the result to one callback
-(the app publishes it to the tabs); on its own thread, with pause, single steps, seeking and a measured frame rate."""
+"""The live loop: read a frame from the source, select the object, run Algorithm 1, hand the result
+to one callback (the app publishes it to the tabs); on its own thread, with pause, single steps,
+seeking and a measured frame rate."""
 from __future__ import annotations
 
 import threading
@@ -23,16 +24,34 @@ from .state import Snapshot
 from .stream import HALVES, Anchors, SourcePart, stream_parts
 
 RECENT_FRAMES = 5   # the last depth frames kept for calibrating on (markers.marker_points)
-PACE_CHECK_S = 0.1  # while the loop waits for its next frame, it looks at its pace this often (at 1 fps during a job,
-                    # the header said so for up to a second after the job had ended: a helper)
+# seconds: while the loop waits for its next frame it looks at its pace this often, so that the
+# frame after a job comes at once
+PACE_CHECK_S = 0.1
 
 
 @dataclass(frozen=True, eq=False)
 class LiveFrame:
-    """One processed frame: its index and the source's timestamp (seconds), depth (H, W) metres as read and as
-    Algorithm 1 used it (prepared_depth: smoothed on the object), object mask (H, W) bool, merged cloud, and the
-    snapshot (session, rig) it was processed with; process_ms is the processing time; anchors, the stream's centres
-    kept from the frames before (app.stream.Anchors)."""
+    """One processed frame.
+
+    Attributes
+    ----------
+    index : int
+        Its running index in the loop.
+    timestamp : float
+        The source's, seconds.
+    depth, prepared_depth : (H, W) ndarray
+        Metres, as read and as Algorithm 1 used it (smoothed on the object).
+    mask : (H, W) bool ndarray
+        The object.
+    cloud : Cloud
+        The merged cloud.
+    snapshot : Snapshot
+        The session and rig it was processed with.
+    process_ms : float
+        The processing time, ms.
+    anchors : Anchors
+        The stream's centres kept from the frames before (mirrorscan.stream.Anchors).
+    """
 
     index: int
     timestamp: float
@@ -44,7 +63,8 @@ class LiveFrame:
     process_ms: float
     anchors: Anchors
 
-    # What the tabs show of it, made once by the first tab that asks (a frozen dataclass keeps cached properties).
+    # What the tabs show of it, made once by the first tab that asks (a frozen dataclass keeps
+    # cached properties).
     @cached_property
     def mirror_ids(self) -> tuple[int, ...]:
         """The ids of the mirrors in session order: a source's colour follows its mirror's id."""
@@ -52,17 +72,18 @@ class LiveFrame:
 
     @cached_property
     def counts(self) -> dict[int, int]:
-        """Points per source label: the direct view and every mirror, then each view through several mirrors that
-        has points (Cloud.source_counts)."""
+        """Points per source label: the direct view and every mirror, then each view through several
+        mirrors that has points (Cloud.source_counts)."""
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
     def parts(self, half: int | None = None) -> list[SourcePart]:
-        """The cloud as it is streamed (see app.stream): one half's parts, or both halves' (None); each half made
-        once, by the first tab that asks for it."""
+        """The cloud as it is streamed (see mirrorscan.stream): one half's parts, or both halves'
+        (None); each half made once, by the first tab that asks for it."""
         if half is None:
             return [part for h in range(HALVES) for part in self.parts(h)]
         if half not in self._parts:
-            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,), anchors=self.anchors)
+            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,),
+                                             anchors=self.anchors)
         return self._parts[half]
 
     @cached_property
@@ -81,23 +102,29 @@ class LiveFrame:
 
 
 def frame_number(index: int, frame_count: int | None) -> int:
-    """A live frame's number as the technician sees it: its place in the recording that plays (which loops; from 0,
-    as the frame slider and the recording's files count), or its running index for a live source."""
+    """A live frame's number as the technician sees it: its place in the recording that plays (which
+    loops; from 0, as the frame slider and the recording's files count), or its running index for a
+    live source."""
     return index % frame_count if frame_count else index
 
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors) -> LiveFrame:
+    """Select the object in a source frame and run Algorithm 1 on it with the snapshot's rig."""
     t0 = time.perf_counter()
-    prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop, snapshot.session.selection)
+    prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop,
+                                   snapshot.session.selection)
     cloud = reconstruct_raw(snapshot.rig, prepared, mask)
     return LiveFrame(index, frame.timestamp, frame.depth, prepared, mask, cloud, snapshot,
                      (time.perf_counter() - t0) * 1e3, anchors)
 
 
 class RateMeter:
-    """Frames per second over the frame times of the last `seconds` (at least the last two), at most `window` of
-    them: when the loop slows down for a job (1 fps), the header had shown 14.8 fps beside "at most 1 fps" for half a
-    minute, the 30 frames' window still holding the faster ones (a helper)."""
+    """Frames per second over the frame times of the last `seconds` (at least the last two), at most
+    `window` of them.
+
+    The time bound makes the rate follow a loop that slows down for a job (1 fps) within
+    `seconds`, where a window of frames alone would still hold the faster ones.
+    """
 
     def __init__(self, window: int = 30, seconds: float = 2.0):
         self._times: deque[float] = deque(maxlen=window)
@@ -117,33 +144,41 @@ class RateMeter:
 
 
 class LiveLoop:
-    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame rate, with the
-    snapshot that snapshot() gives at each frame.
+    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame
+    rate, with the snapshot that snapshot() gives at each frame.
 
-    The thread runs at the source's frame rate, or at fps_wanted() frames per second when that is given and lower
-    (the app asks for fewer while no tab shows the cloud: see MirrorscanApp.fps_wanted).
-    on_frame(LiveFrame) is called on the loop's thread; an exception there or in the source is passed to on_error and
-    the loop goes on with the next frame after a short pause (a camera may come back).
+    The thread runs at the source's frame rate, or at fps_wanted() frames per second when that is
+    given and lower (the app asks for fewer while no tab shows the cloud: see
+    MirrorscanApp.fps_wanted). on_frame(LiveFrame) is called on the loop's thread; an exception
+    there or in the source is passed to on_error and the loop goes on with the next frame after a
+    short pause (a camera may come back).
     """
 
-    def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot], on_frame: Callable[[LiveFrame], None],
+    def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot],
+                 on_frame: Callable[[LiveFrame], None],
                  on_error: Callable[[Exception], None] = lambda exc: None,
                  fps_wanted: Callable[[], float | None] = lambda: None):
-        self.source, self.snapshot, self.on_frame, self.on_error = source, snapshot, on_frame, on_error
+        self.source, self.snapshot = source, snapshot
+        self.on_frame, self.on_error = on_frame, on_error
         self.fps_wanted = fps_wanted
         self.rate = RateMeter()
         self.anchors = Anchors()          # the stream's centres, kept from frame to frame
         self.index = 0
-        self._recent: dict[int, np.ndarray] = {}     # frame_number -> depth, oldest first (RECENT_FRAMES at most)
-        self._recent_lock = threading.Lock()   # appended on the loop's thread, copied on the browser's
+        # frame_number -> depth, oldest first (RECENT_FRAMES at most)
+        self._recent: dict[int, np.ndarray] = {}
+        # appended on the loop's thread, copied on the browser's
+        self._recent_lock = threading.Lock()
         self._collectors: list[Callable[[LiveFrame], None]] = []
         self._reader = ThreadPoolExecutor(max_workers=1, thread_name_prefix="mirrorscan-read")
-        self._turn = threading.Lock()     # one frame at a time; switching source or seeking waits for it
+        # one frame at a time; switching source or seeking waits for it
+        self._turn = threading.Lock()
         self._ahead: tuple[int, Future] | None = None
         self._paused = threading.Event()
-        self._wake = threading.Event()    # set on pause, step and stop: the paused loop looks at its state again
+        # set on pause, step and stop: the paused loop looks at its state again
+        self._wake = threading.Event()
         self._stop = threading.Event()
-        self._steps = 0                   # single steps asked for while paused (guarded by _step_lock)
+        # single steps asked for while paused (guarded by _step_lock)
+        self._steps = 0
         self._step_lock = threading.Lock()
         self._thread = threading.Thread(target=self._run, name="mirrorscan-live", daemon=True)
 
@@ -179,17 +214,21 @@ class LiveLoop:
             return False
 
     def run_once(self) -> LiveFrame:
-        """Read and process the next frame on the calling thread (also what the thread does each turn). The frame
-        after it is read meanwhile on a helper thread, so reading (ray casting, file or device I/O) and processing
-        share the two cores."""
+        """Read and process the next frame on the calling thread (also what the thread does each
+        turn).
+
+        The frame after it is read meanwhile on a reader thread, so reading (ray casting, file or
+        device I/O) and processing share two cores.
+        """
         with self._turn:
             source_frame = self._read(self.index)
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
             frame = process_frame(self.snapshot(), self.index, source_frame, self.anchors)
             self.index += 1
-        with self._recent_lock:      # a frame of a recording that loops replaces itself: the same frame again is
-            number = frame_number(frame.index, self.source.frame_count)     # no new data (a one-frame session's
-            self._recent.pop(number, None)                                     # agreement said "over 5 frames")
+        # A frame of a recording that loops replaces itself: the same frame again is no new data.
+        with self._recent_lock:
+            number = frame_number(frame.index, self.source.frame_count)
+            self._recent.pop(number, None)
             self._recent[number] = frame.depth
             while len(self._recent) > RECENT_FRAMES:
                 del self._recent[next(iter(self._recent))]
@@ -201,19 +240,22 @@ class LiveLoop:
         return frame
 
     def use_source(self, source: DepthSource) -> None:
-        """Play another source of the same camera from its first frame (the recent frames were the other's)."""
+        """Play another source of the same camera from its first frame (the recent frames were the
+        other's)."""
         with self._turn:
             self.source, self.index, self._ahead = source, 0, None
             with self._recent_lock:
                 self._recent.clear()
 
     def seek(self, index: int) -> None:
-        """Play on from frame `index` (a seekable source); while paused, that frame is processed at once (shown)."""
+        """Play on from frame `index` (a seekable source); while paused, that frame is processed at
+        once (shown)."""
         with self._turn:
             self.index, self._ahead = int(index), None
         if self.paused:
             with self._step_lock:
-                self._steps = 1         # the frame sought, once: a slider dragged over many frames ends on its own
+                # the frame sought, once: a slider dragged over many frames ends on its own
+                self._steps = 1
             self._wake.set()
 
     def _read(self, index: int) -> Frame:
@@ -223,21 +265,35 @@ class LiveLoop:
         return self.source.read(index)
 
     def recent_depths(self) -> np.ndarray | None:
-        """(k, H, W) metres: the last RECENT_FRAMES distinct depth frames, oldest first (for calibration over their
-        median), or None."""
+        """(k, H, W) metres: the last RECENT_FRAMES distinct depth frames, oldest first (for
+        calibration over their median), or None."""
         with self._recent_lock:
             frames = list(self._recent.values())
         return np.stack(frames) if frames else None
 
-    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None, timeout: float = 60.0,
-                cancel: threading.Event | None = None) -> list[np.ndarray]:
-        """The depth of n frames read after this call (blocks; progress(k) after each): the frame already read ahead
-        is skipped, so a scene changed just before the call (the object taken out) is what is collected. While paused,
-        frames are stepped one by one. Raises MirrorscanError when the source stops delivering for `timeout` s,
-        mirrorcore.base.errors.Cancelled when `cancel` is set."""
+    def collect(self, n: int, progress: Callable[[int], None] = lambda k: None,
+                timeout: float = 60.0, cancel: threading.Event | None = None) -> list[np.ndarray]:
+        """The depth of `n` frames read after this call; blocks, calling progress(k) after each.
+
+        The frame already read ahead is skipped, so a scene changed just before the call (the
+        object taken out) is what is collected. While paused, frames are stepped one by one.
+
+        Returns
+        -------
+        list of (H, W) ndarray
+            Metres.
+
+        Raises
+        ------
+        MirrorscanError
+            When the source stops delivering for `timeout` seconds.
+        mirrorcore.base.errors.Cancelled
+            When `cancel` is set.
+        """
         frames: list[np.ndarray] = []
         done = threading.Event()
-        first = self.index + 2   # the frame in hand and the one read ahead may predate the call
+        # the frame in hand and the one read ahead may predate the call
+        first = self.index + 2
 
         def take(frame: LiveFrame) -> None:
             if frame.index >= first and len(frames) < n:
@@ -253,10 +309,12 @@ class LiveLoop:
             while not done.wait(0.1):
                 if cancel is not None and cancel.is_set():
                     raise Cancelled(f"stopped after {len(frames)} of {n} frames")
-                if self.paused and not self._steps:   # one frame at a time while paused
+                # one frame at a time while paused
+                if self.paused and not self._steps:
                     self.step()
                 if time.monotonic() > deadline:
-                    raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in {timeout:.0f} s")
+                    raise MirrorscanError(f"the source delivered {len(frames)} of {n} frames in "
+                                          f"{timeout:.0f} s; check the camera and try again")
         finally:
             with self._recent_lock:
                 self._collectors.remove(take)
@@ -266,19 +324,21 @@ class LiveLoop:
         while not self._stop.is_set():
             if self._paused.is_set() and not self._take_step():
                 self._wake.wait()
-                self._wake.clear()         # the state is looked at again before waiting again: no wake is lost
+                # the state is looked at again before waiting again: no wake is lost
+                self._wake.clear()
                 continue
             started = time.perf_counter()
             try:
                 self.run_once()
-            except Exception as exc:  # noqa: BLE001 - a bad frame or a lost camera must not end the loop
+            # a bad frame or a lost camera must not end the loop
+            except Exception as exc:  # noqa: BLE001
                 self.on_error(exc)
                 self._stop.wait(0.5)
             self._rest(started)
 
     def _rest(self, started: float) -> None:
-        """Wait until the next frame is due at the pace (time.perf_counter() `started` the last), looking at the pace
-        every PACE_CHECK_S: a job that ends brings the next frame at once."""
+        """Wait until the next frame is due at the pace (time.perf_counter() `started` the last),
+        looking at the pace every PACE_CHECK_S: a job that ends brings the next frame at once."""
         while not self._stop.is_set():
             left = 1.0 / self.pace() - (time.perf_counter() - started)
             if left <= 0:
@@ -286,8 +346,8 @@ class LiveLoop:
             self._stop.wait(min(left, PACE_CHECK_S))
 
     def pace(self) -> float:
-        """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks for fewer and no
-        collect() is waiting for frames."""
+        """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks
+        for fewer and no collect() is waiting for frames."""
         with self._recent_lock:
             collecting = bool(self._collectors)
         wanted = None if collecting else self.fps_wanted()

@@ -1,6 +1,7 @@
-"""What the depth frame shows, in two layers: the frame itself (depth in grey, near bright, the object tinted), made
-once per frame and shared by every tab, and a tab's overlay (mirror outlines, numbered markers coloured by their
-residual, drafts, picks), redrawn only when what it shows changes. Drawn with OpenCV as RGB images for the browser."""
+"""What the depth frame shows, in two layers: the frame itself (depth in grey, near bright, the
+object tinted), made once per frame and shared by every tab, and a tab's overlay (mirror outlines,
+numbered markers coloured by their residual, drafts, picks), redrawn only when what it shows
+changes. Drawn with OpenCV as RGB images for the browser."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -10,19 +11,22 @@ import numpy as np
 
 from mirrorcore.depth.ops import masked_copy
 
-OBJECT_TINT = np.array([255, 214, 120], np.float32)   # the object's pixels, a warm light yellow over the grey depth
+# the object's pixels, a warm light yellow over the grey depth
+OBJECT_TINT = np.array([255, 214, 120], np.float32)
 NO_READING = (24, 24, 32)                             # pixels with no depth reading
 HALO = (16, 16, 16)                                   # dark edge under every line and mark
 WHITE = (255, 255, 255)
-QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40), "unknown": (235, 235, 235)}
+QUALITY_COLOURS = {"good": (60, 200, 80), "fair": (255, 176, 0), "poor": (235, 50, 40),
+                   "unknown": (235, 235, 235)}
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 MARKER_HALO = 8                                       # pixels: the radius of a marker's dark disc
-LABEL_STEP = 8                                        # pixels: how much farther a label's second places are
+# pixels: how much farther a label's second places are
+LABEL_STEP = 8
 
 
 def depth_range(depth: np.ndarray) -> tuple[float, float]:
-    """(near, far) metres: the 1st and 99th percentiles of the readings of (H, W) `depth` (a 1-in-16 sample), or
-    (0.5, 4.5) without readings."""
+    """(near, far) metres: the 1st and 99th percentiles of the readings of (H, W) `depth` (a 1-in-16
+    sample), or (0.5, 4.5) without readings."""
     sample = depth[::4, ::4]
     valid = sample[sample > 0]
     if not len(valid):
@@ -32,15 +36,34 @@ def depth_range(depth: np.ndarray) -> tuple[float, float]:
 
 
 # The object's tint of each grey level: 45 % grey, 55 % OBJECT_TINT (cv2.addWeighted's rounding).
-TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0, 255).astype(np.uint8)
+TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0, 255).astype(
+    np.uint8)
 
 
 def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
-    """(H, W) metres and the object mask (H, W) bool -> (H, W, 3) uint8 RGB: grey from white (near) to dark (far),
-    the object's pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black.
-    (Channel by channel with OpenCV's look-up and masked copy: 3x faster than numpy's assignment of RGB rows.)"""
+    """The depth frame as the tab shows it: grey from white (near) to dark (far), the object's
+    pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black.
+
+    Made channel by channel with OpenCV's look-up and masked copy, about 3 times faster than
+    numpy's assignment of RGB rows.
+
+    Parameters
+    ----------
+    depth : (H, W) ndarray
+        Metres; 0 where there is no reading.
+    mask : (H, W) bool ndarray
+        The object.
+    near, far : float
+        Metres: the grey scale's ends (depth_range).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+        RGB.
+    """
     scale = 215.0 / max(far - near, 1e-6)
-    grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)   # near -> 235, far -> 20
+    # near -> 235, far -> 20
+    grey = cv2.convertScaleAbs(depth, alpha=-scale, beta=235.0 + near * scale)
     none = depth <= 0
     channels = []
     for c in range(3):
@@ -53,8 +76,9 @@ def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) ->
 
 @dataclass(frozen=True)
 class MarkerMark:
-    """A marker as drawn: pixel (u, v), label ('2.3'), the quality that colours its centre ('good', 'fair', 'poor',
-    'unknown'), and whether it is picked (ringed) or flagged by a fit proposal (crossed)."""
+    """A marker as drawn: pixel (u, v), label ('2.3'), the quality that colours its centre ('good',
+    'fair', 'poor', 'unknown'), and whether it is picked (ringed) or flagged by a fit proposal
+    (crossed)."""
 
     uv: tuple[float, float]
     label: str
@@ -65,7 +89,8 @@ class MarkerMark:
 
 @dataclass(frozen=True)
 class MirrorMarks:
-    """One mirror as drawn: its colour, its outline (closed, or an open draft), the picked corner, its markers."""
+    """One mirror as drawn: its colour, its outline (closed, or an open draft), the picked corner,
+    its markers."""
 
     colour: tuple[int, int, int]
     outline: tuple[tuple[float, float], ...]
@@ -76,23 +101,27 @@ class MirrorMarks:
 
 
 class Overlay:
-    """A tab's overlay image (H, W, 4) RGBA, drawn from its marks; labels are placed so that they do not cover each
-    other or a marker."""
+    """A tab's overlay image (H, W, 4) RGBA, drawn from its marks; labels are placed so that they do
+    not cover each other or a marker."""
 
     def __init__(self, shape: tuple[int, int]):
         self.image = np.zeros((*shape, 4), np.uint8)
         self._labels: list[tuple[int, int, int, int]] = []
-        self._rgb = np.zeros((*shape, 3), np.uint8)        # the image's colours and where it is drawn (alpha),
-        self._drawn = np.zeros(shape, np.uint8)           # as OpenCV's masked copy takes them
+        # the image's colours and where it is drawn (alpha), as OpenCV's masked copy takes them
+        self._rgb = np.zeros((*shape, 3), np.uint8)
+        self._drawn = np.zeros(shape, np.uint8)
 
     def over(self, base: np.ndarray) -> np.ndarray:
-        """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (the drawn pixels copied over)."""
+        """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (the drawn pixels
+        copied over)."""
         out = base.copy()
         cv2.copyTo(self._rgb, self._drawn, out)
         return out
 
-    def draw(self, mirrors: list[MirrorMarks], region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
-        """Redraw everything: the mirrors (selected last, on top) and the region of interest (vertices, closed)."""
+    def draw(self, mirrors: list[MirrorMarks],
+             region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
+        """Redraw everything: the mirrors (selected last, on top) and the region of interest
+        (vertices, closed)."""
         self.image[:] = 0
         self._labels = []
         ordered = sorted(mirrors, key=lambda m: m.selected)
@@ -101,7 +130,8 @@ class Overlay:
             self._polygon(mirror.outline, mirror.colour, mirror.closed, mirror.picked_corner, width)
         if region is not None:
             self._polygon(region[0], WHITE, region[1], None, 2)
-        for mirror in ordered:                       # markers above every outline, labels last of all
+        # markers above every outline, labels last of all
+        for mirror in ordered:
             for marker in mirror.markers:
                 self._marker(marker, mirror.colour)
         self._labels = [_marker_box(marker.uv) for mirror in ordered for marker in mirror.markers]
@@ -131,26 +161,29 @@ class Overlay:
         centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
         cv2.circle(self.image, centre, MARKER_HALO, self._rgba(HALO), -1, cv2.LINE_AA)
         cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)
-        cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1, cv2.LINE_AA)
+        cv2.circle(self.image, centre, 4, self._rgba(QUALITY_COLOURS[marker.quality]), -1,
+                   cv2.LINE_AA)
         if marker.picked:
             cv2.circle(self.image, centre, 12, self._rgba(WHITE), 2, cv2.LINE_AA)
         if marker.flagged:
             for sign in (1, -1):
-                cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign), (centre[0] + 11, centre[1] + 11 * sign),
+                cv2.line(self.image, (centre[0] - 11, centre[1] - 11 * sign),
+                         (centre[0] + 11, centre[1] + 11 * sign),
                          self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
-        """A label on a dark box beside its marker, at the first of eight places around it, then eight a little
-        farther (LABEL_STEP), that covers no other label and no marker, else at the one that covers least of them
-        (two mirrors' markers at a hinge: 1.6 and 2.1 had covered each other: a helper)."""
+        """A label on a dark box beside its marker, at the first of eight places around it, then
+        eight a little farther (LABEL_STEP), that covers no other label and no marker, else at the
+        one that covers least of them (two mirrors' markers meet at a hinge)."""
         (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
         u, v = int(round(uv[0])), int(round(uv[1]))
         rows, cols = self.image.shape[:2]
         places = []
-        ring = ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14), (-w // 2, 20 + h),
-                (14, 4), (-14 - w, 4))
-        for du, dv in ring + tuple((du + int(np.sign(du)) * LABEL_STEP, dv + int(np.sign(dv)) * LABEL_STEP)
-                                   for du, dv in ring):
+        ring = ((11, -11), (11, 15 + h), (-11 - w, -11), (-11 - w, 15 + h), (-w // 2, -14),
+                (-w // 2, 20 + h), (14, 4), (-14 - w, 4))
+        farther = tuple((du + int(np.sign(du)) * LABEL_STEP, dv + int(np.sign(dv)) * LABEL_STEP)
+                        for du, dv in ring)
+        for du, dv in ring + farther:
             x0, y0 = min(max(u + du, 0), cols - w - 4), min(max(v + dv, h + 3), rows - 4)
             box = (x0 - 2, y0 - h - 3, x0 + w + 2, y0 + base)
             places.append((sum(_overlap(box, other) for other in self._labels), (x0, y0), box))
@@ -163,7 +196,8 @@ class Overlay:
 
 
 def _marker_box(uv) -> tuple[int, int, int, int]:
-    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers (its ring's halo, Overlay._marker)."""
+    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers (its ring's halo,
+    Overlay._marker)."""
     u, v = int(round(uv[0])), int(round(uv[1]))
     return (u - MARKER_HALO, v - MARKER_HALO, u + MARKER_HALO + 1, v + MARKER_HALO + 1)
 

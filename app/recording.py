@@ -1,7 +1,7 @@
-"""Recording what the browser tool shows: the live frames, tapped from the app's event bus as a depth source that
-mirrorcore's recorder writes into a session folder; the recording ends when the tap is closed (the Stop button). One
-tap per source at a time, and nothing here ever blocks: a slow disk drops the newest frames, close() returns at
-once."""
+"""Recording what the browser tool shows: the live frames, tapped from the app's event bus as a
+depth source that mirrorcore's recorder writes into a session folder; the recording ends when the
+tap is closed (the Stop button). One tap per source at a time, and nothing here ever blocks: a slow
+disk drops the newest frames, close() returns at once."""
 from __future__ import annotations
 
 import queue
@@ -16,36 +16,42 @@ from mirrorcore.sources import DepthSource, Frame
 
 from .live import LiveFrame
 
-BACKLOG = 120          # frames waiting to be written before new ones are dropped (a slow disk must not stall the view)
+# frames waiting to be written before new ones are dropped (a slow disk must not stall the view)
+BACKLOG = 120
 POLL_S = 0.1           # how often a reader waiting for a frame looks whether the tap was closed
 _taps_lock = threading.Lock()
 _tapped: set[int] = set()    # id() of the sources with an open tap
 
 
 def backlog_frames(shape: tuple[int, int]) -> int:
-    """BACKLOG, or fewer when a quarter of the memory budget cannot hold that many float32 frames of `shape`."""
+    """BACKLOG, or fewer when a quarter of the memory budget cannot hold that many float32 frames of
+    `shape`."""
     return int(max(1, min(BACKLOG, memory_budget() // 4 // (4 * shape[0] * shape[1]))))
 
 
 class LiveTap(DepthSource):
-    """The live frames of `source` from now on, in order, as a live source; iteration ends at close().
+    """The live frames of `source` from now on, in order, as a live source; iteration ends at
+    close().
 
-    subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the function that stops it.
-    A recording that plays (a finite source, which loops) is taken up to its last frame: from the first frame that
-    starts it over (or goes back, after a seek) the tap takes nothing more and `replay_ended` is True, so that no
-    frame is recorded twice and the recording's time never runs backwards. The same frame again (processed again
-    while paused) is taken once.
+    subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the
+    function that stops it. A recording that plays (a finite source, which loops) is taken up to its
+    last frame: from the first frame that starts it over (or goes back, after a seek) the tap takes
+    nothing more and `replay_ended` is True, so that no frame is recorded twice and the recording's
+    time never runs backwards. The same frame again (processed again while paused) is taken once.
     Raises MirrorscanError when the source already has an open tap (one recording at a time).
     """
 
-    def __init__(self, source: DepthSource, subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
+    def __init__(self, source: DepthSource,
+                 subscribe: Callable[[Callable[[LiveFrame], None]], Callable[[], None]]):
         self.name = f"recording of {source.name}"
         self.intrinsics, self.fps, self.frame_count = source.intrinsics, source.fps, None
         self._background = source.background()
-        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog_frames(source.intrinsics.shape))
+        backlog = backlog_frames(source.intrinsics.shape)
+        self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog)
         self._closed = threading.Event()
         self.dropped = 0
-        self.taken = 0          # frames taken for the recording (the recorder writes them behind: Recorder.frames)
+        # frames taken for the recording (the recorder writes them behind: Recorder.frames)
+        self.taken = 0
         self.replay_ended = False
         self._loop_length, self._last_number = source.frame_count, -1
         self._key = id(source)
@@ -65,8 +71,8 @@ class LiveTap(DepthSource):
             self.dropped += 1
 
     def _in_order(self, index: int) -> bool:
-        """Whether the frame of live index `index` is the next of a replay (always, for a live source); a replay
-        that starts over ends the tap's intake (replay_ended)."""
+        """Whether the frame of live index `index` is the next of a replay (always, for a live
+        source); a replay that starts over ends the tap's intake (replay_ended)."""
         if not self._loop_length:
             return True
         number = index % self._loop_length
@@ -78,7 +84,8 @@ class LiveTap(DepthSource):
         return False
 
     def _next(self) -> Frame | None:
-        """The next frame, waiting for it; None once the tap is closed and every frame taken before was delivered."""
+        """The next frame, waiting for it; None once the tap is closed and every frame taken before
+        was delivered."""
         while True:
             try:
                 frame = self._frames.get(timeout=POLL_S)
@@ -106,8 +113,8 @@ class LiveTap(DepthSource):
         return self._background
 
     def close(self) -> None:
-        """Stop tapping; the frames already taken are still delivered, then iteration ends. Never blocks; closing
-        twice does nothing."""
+        """Stop tapping; the frames already taken are still delivered, then iteration ends. Never
+        blocks; closing twice does nothing."""
         with _taps_lock:
             unsubscribe, self._unsubscribe = self._unsubscribe, None
             if unsubscribe is None:
@@ -116,6 +123,7 @@ class LiveTap(DepthSource):
         unsubscribe()
         self._closed.set()
         try:
-            self._frames.put_nowait(None)      # wakes a waiting reader at once; a full queue is drained first
+            # wakes a waiting reader at once; a full queue is drained first
+            self._frames.put_nowait(None)
         except queue.Full:
             pass

@@ -1,20 +1,24 @@
-"""Who may use the browser tool, and what a stranger costs the log (issue 15, points 3, 6 and 8).
+"""Who may use the browser tool, and what a stranger costs the log.
 
-viser 1.1 serves its page and its websocket on one port with no check of its own. protect() installs these checks
-into a running viser.ViserServer, before any client is let in:
+viser serves its page and its websocket on one port with no check of its own. protect() installs
+these checks into a running viser.ViserServer, before any client is let in:
 
-- **Host**: a request whose Host header is not an IP address, `localhost` or a name given in `allowed_hosts` (and
-  this machine's own names) is refused (403): a DNS-rebinding page reaches 127.0.0.1 under its own domain name.
-- **Origin**: a websocket whose Origin is not the page's own (the Host it asked for) is refused (403): any web page
-  may open ws://127.0.0.1:PORT from the user's browser. A client without an Origin is not a browser page.
-- **Token**: required when listening beyond loopback (or whenever one is given): `?token=T` on the page's address
-  (the server then sets a cookie, HttpOnly and SameSite=Strict, that the page's websocket carries), the cookie, or
-  an `Authorization: Bearer T` header (scripts). Without it the page says where to find the address to open.
-- **Sizes**: a websocket message is at most MAX_MESSAGE_BYTES; an upload is refused as soon as its declared size, or
-  the bytes received, pass `max_upload_bytes` (or the memory budget, or MAX_UPLOADS_IN_FLIGHT over all uploads),
-  and the parts received so far are dropped.
-- **Log**: a plain TCP probe (connect, close: a health check, a port scan) is not logged at all (counted in
-  QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a traceback.
+- **Host**: a request whose Host header is not an IP address, `localhost` or a name given in
+  `allowed_hosts` (and this machine's own names) is refused (403): a DNS-rebinding page reaches
+  127.0.0.1 under its own domain name.
+- **Origin**: a websocket whose Origin is not the page's own (the Host it asked for) is refused
+  (403): any web page may open ws://127.0.0.1:PORT from the user's browser. A client without an
+  Origin is not a browser page.
+- **Token**: required when listening beyond loopback (or whenever one is given): `?token=T` on the
+  page's address (the server then sets a cookie, HttpOnly and SameSite=Strict, that the page's
+  websocket carries), the cookie, or an `Authorization: Bearer T` header (scripts). Without it the
+  page says where to find the address to open.
+- **Sizes**: a websocket message is at most MAX_MESSAGE_BYTES; an upload is refused as soon as its
+  declared size, or the bytes received, pass `max_upload_bytes` (or the memory budget, or
+  MAX_UPLOADS_IN_FLIGHT over all uploads), and the parts received so far are dropped.
+- **Log**: a plain TCP probe (connect, close: a health check, a port scan) is not logged at all
+  (counted in QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a
+  traceback.
 """
 from __future__ import annotations
 
@@ -27,7 +31,6 @@ import re
 import secrets
 import socket
 import threading
-import traceback
 from dataclasses import dataclass, field
 from http.cookies import CookieError, SimpleCookie
 from urllib.parse import parse_qs, urlsplit
@@ -41,9 +44,12 @@ from websockets.http11 import Request, Response
 from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import MirrorscanError
 
+from .quietlog import QuietProbes, install_log_filter
+
 log = logging.getLogger("mirrorscan.security")
 
-MAX_MESSAGE_BYTES = 8 << 20          # one websocket message; uploads come in 512 KiB parts, GUI messages are small
+# one websocket message; uploads come in 512 KiB parts, GUI messages are small
+MAX_MESSAGE_BYTES = 8 << 20
 MAX_UPLOAD_BYTES = 20 << 20          # one upload (the Session panel's background PNG)
 MAX_UPLOADS_IN_FLIGHT = 64 << 20     # every upload being received at once, all tabs together
 MAX_REFUSED_REMEMBERED = 1000        # refused transfers whose late parts are still dropped
@@ -52,7 +58,8 @@ TOKEN_COOKIE = "mirrorscan-token-{port}"
 
 @dataclass
 class Guard:
-    """The checks protect() installed: the token (None when not required), the counters, and the address to open."""
+    """The checks protect() installed: the token (None when not required), the counters, and the
+    address to open."""
 
     host: str
     port: int
@@ -71,19 +78,24 @@ class Guard:
 
     # ------------------------------------------------------------------ the checks, on one request
     def check(self, request: Request) -> Response | None:
-        """None when `request` may go on; otherwise the 403 response that refuses it (with a one-line reason)."""
+        """None when `request` may go on; otherwise the 403 response that refuses it (with a
+        one-line reason)."""
         headers = request.headers
         hosts, origins = headers.get_all("Host"), headers.get_all("Origin")
         host = hosts[0] if len(hosts) == 1 else ""
         if not self.host_allowed(host):
-            return self._refuse(f"unknown Host {', '.join(hosts)[:80]!r} (open the address the server printed)")
+            return self._refuse(f"unknown Host {', '.join(hosts)[:80]!r}: open the address the "
+                                "server printed")
         if "websocket" in (v.lower() for v in headers.get_all("Upgrade")) and origins:
             origin = urlsplit(origins[0])
-            if len(origins) > 1 or origin.scheme not in ("http", "https") or origin.netloc.lower() != host.lower():
-                return self._refuse(f"websocket from another site (Origin {', '.join(origins)[:80]!r})")
+            if (len(origins) > 1 or origin.scheme not in ("http", "https")
+                    or origin.netloc.lower() != host.lower()):
+                origin_text = ", ".join(origins)[:80]
+                return self._refuse("websocket from another site refused: open the tool from the "
+                                    f"address the server printed (Origin {origin_text!r})")
         if self.token is not None and not self.token_given(request):
-            return self._refuse("this server needs its token: open the address with ?token= that it printed when "
-                                "it started (or ask who started it)")
+            return self._refuse("this server needs its token: open the address with ?token= that "
+                                "it printed when it started (or ask who started it)")
         return None
 
     def host_allowed(self, host_header: str) -> bool:
@@ -98,7 +110,8 @@ class Guard:
             return name.lower() in self.allowed_hosts
 
     def token_given(self, request: Request) -> bool:
-        """True when the query string, the cookie or an Authorization: Bearer header carries the token."""
+        """True when the query string, the cookie or an Authorization: Bearer header carries the
+        token."""
         given = parse_qs(urlsplit(request.path).query).get("token", [])
         try:
             cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
@@ -109,24 +122,27 @@ class Guard:
             given.append(cookie[name].value)
         given += [auth[7:].strip() for auth in request.headers.get_all("Authorization")
                   if auth.lower().startswith("bearer ")]
-        return any(hmac.compare_digest(t.encode(), self.token.encode()) for t in given if t.isascii())
+        return any(hmac.compare_digest(t.encode(), self.token.encode())
+                   for t in given if t.isascii())
 
     def _refuse(self, reason: str) -> Response:
         with self._lock:
             self.refused += 1
         log.warning("refused a connection: %s", reason)
         body = f"403 Forbidden: {reason}\n".encode()
-        return Response(http.HTTPStatus.FORBIDDEN, "Forbidden",
-                        Headers({"Content-Type": "text/plain; charset=utf-8", "Content-Length": str(len(body))}), body)
+        headers = Headers({"Content-Type": "text/plain; charset=utf-8",
+                           "Content-Length": str(len(body))})
+        return Response(http.HTTPStatus.FORBIDDEN, "Forbidden", headers, body)
 
     def cookie_header(self) -> str:
-        return (f"{TOKEN_COOKIE.format(port=self.port)}={self.token}; HttpOnly; SameSite=Strict; Path=/; "
-                "Max-Age=2592000")
+        """The Set-Cookie value that carries the token (30 days, HttpOnly, SameSite=Strict)."""
+        return (f"{TOKEN_COOKIE.format(port=self.port)}={self.token}; HttpOnly; SameSite=Strict; "
+                "Path=/; Max-Age=2592000")
 
 
 def new_token() -> str:
-    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (1 in 64 would: `--token` would then
-    read it as an option where a user pastes it)."""
+    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (`--token` would read
+    such a token as an option where a user pastes it)."""
     token = secrets.token_urlsafe(32)
     while token.startswith("-"):
         token = secrets.token_urlsafe(32)
@@ -134,7 +150,8 @@ def new_token() -> str:
 
 
 def is_loopback(host: str) -> bool:
-    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can connect."""
+    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can
+    connect."""
     try:
         return host == "localhost" or ipaddress.ip_address(host).is_loopback
     except ValueError:
@@ -143,22 +160,43 @@ def is_loopback(host: str) -> bool:
 
 def protect(server: viser.ViserServer, host: str, token: str | None = None,
             allowed_hosts: tuple[str, ...] = (), max_upload_bytes: int = MAX_UPLOAD_BYTES) -> Guard:
-    """Install the checks of this module into a running viser server (call it right after creating the server, before
-    printing its address); connections already open that would not pass are closed.
+    """Install the checks of this module into a running viser server.
 
-    host : the address the server listens on; beyond loopback a token is required (a new one when `token` is None).
-    token : require this token even on loopback; allowed_hosts : host names besides IP addresses, localhost and
-    this machine's names that a browser may use (a name behind which the machine is reached).
-    Returns the Guard (its .url is the address to print). Raises MirrorscanError when viser's server cannot be
-    found (a viser version whose internals differ: the tool refuses to run unprotected). Protecting a server twice
-    returns the first Guard."""
+    Call it right after creating the server, before printing its address; connections already open
+    that would not pass are closed. Protecting a server twice returns the first Guard.
+
+    Parameters
+    ----------
+    server : viser.ViserServer
+    host : str
+        The address the server listens on; beyond loopback a token is required (a new one when
+        `token` is None).
+    token : str or None
+        Require this token, even on loopback.
+    allowed_hosts : tuple of str
+        Host names besides IP addresses, localhost and this machine's names that a browser may use
+        (a name behind which the machine is reached).
+    max_upload_bytes : int
+        The largest upload.
+
+    Returns
+    -------
+    Guard
+        Its `url` is the address to print.
+
+    Raises
+    ------
+    MirrorscanError
+        When the token is malformed, or viser's server cannot be found (a viser version whose
+        internals differ): the tool refuses to run unprotected.
+    """
     if isinstance(getattr(server, "_mirrorscan_guard", None), Guard):
         return server._mirrorscan_guard
     if token is None and not is_loopback(host):
         token = new_token()
     if token is not None and not re.fullmatch(r"[A-Za-z0-9._~-]{16,}", token):
-        raise MirrorscanError("--token: at least 16 characters among letters, digits and . _ ~ - (they go in an "
-                              "address and a cookie)")
+        raise MirrorscanError("--token: at least 16 characters among letters, digits and . _ ~ - "
+                              "(the token goes in an address and a cookie)")
     names = {"localhost", *(n.lower() for n in allowed_hosts)}
     if not is_loopback(host):
         names |= {socket.gethostname().lower(), socket.getfqdn().lower()}
@@ -169,8 +207,8 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
     try:
         future.result(timeout=10)
     except (LookupError, TimeoutError) as exc:
-        raise MirrorscanError(f"cannot protect the browser tool's server ({exc}); refusing to run unprotected") \
-            from None
+        raise MirrorscanError("cannot protect the browser tool's server; refusing to run "
+                              f"unprotected (check the viser version): {exc}") from None
     _limit_uploads(server, guard)
     install_log_filter()
     server._mirrorscan_guard = guard
@@ -178,11 +216,13 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
 
 
 async def _install(websock, guard: Guard) -> None:
-    """On the server's event loop: wrap the websockets server's process_request with the guard's checks."""
+    """On the server's event loop: wrap the websockets server's process_request with the guard's
+    checks."""
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
 
-    def process_request(connection: ws_server.ServerConnection, request: Request) -> Response | None:
+    def process_request(connection: ws_server.ServerConnection,
+                        request: Request) -> Response | None:
         refusal = guard.check(request)
         if refusal is not None:
             return refusal
@@ -199,7 +239,8 @@ async def _install(websock, guard: Guard) -> None:
 
 
 def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
-    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for the stop)."""
+    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for
+    the stop)."""
     for task in asyncio.all_tasks(loop):
         frame = getattr(task.get_coro(), "cr_frame", None)
         for value in (frame.f_locals.values() if frame is not None else ()):
@@ -210,16 +251,22 @@ def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
 
 # ---------------------------------------------------------------------- uploads
 def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
-    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it declared: viser
-    keeps an upload's parts in the upload state of the GUI that owns its button (the server's, or a tab's own, whose
-    handlers may run before or after these), so a refused transfer is remembered and dropped at its first part
-    whichever ran first; at most one 512 KiB part of it is ever held."""
-    refused: dict[str, str] = {}                           # transfer id -> why
+    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it
+    declared.
+
+    viser keeps an upload's parts in the upload state of the GUI that owns its button (the server's,
+    or a tab's own, whose handlers may run before or after these), so a refused transfer is
+    remembered and dropped at its first part whichever ran first; at most one 512 KiB part of it is
+    ever held.
+    """
+    # transfer id -> why
+    refused: dict[str, str] = {}
     lock = threading.Lock()
 
     def states(client_id: int) -> list[dict]:
         client = server.get_clients().get(client_id)
-        return [server.gui._current_file_upload_states] + ([client.gui._current_file_upload_states] if client else [])
+        own = [client.gui._current_file_upload_states] if client else []
+        return [server.gui._current_file_upload_states] + own
 
     def drop(client_id: int, uuid: str) -> None:
         for held in states(client_id):
@@ -236,14 +283,16 @@ def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
             log.warning("refused an upload: %s", reason)
             client = server.get_clients().get(client_id)
             if client is not None:
-                client.add_notification("Upload refused", reason, color="red", auto_close_seconds=8.0)
+                client.add_notification("Upload refused", reason, color="red",
+                                        auto_close_seconds=8.0)
 
     def on_start(client_id: int, message: _messages.FileTransferStartUpload) -> None:
         in_flight = sum(s["total_bytes"] for held in states(client_id) for s in held.values())
         name, size = message.filename[:80], message.size_bytes
         if size > guard.max_upload_bytes:
-            refuse(client_id, message.transfer_uuid, f"{name}: {size / 2**20:.1f} MB is more than the "
-                                                     f"{guard.max_upload_bytes / 2**20:g} MB an upload may have")
+            most = guard.max_upload_bytes / 2**20
+            refuse(client_id, message.transfer_uuid, f"{name}: {size / 2**20:.1f} MB is more than "
+                   f"the {most:g} MB an upload may have; upload a smaller file")
         elif in_flight > MAX_UPLOADS_IN_FLIGHT:
             refuse(client_id, message.transfer_uuid, f"{name}: too many uploads at once; try again")
         else:
@@ -261,77 +310,13 @@ def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
             return
         for held in states(client_id):
             state = held.get(uuid)
-            if state is not None and state["transferred_bytes"] > min(state["total_bytes"], guard.max_upload_bytes):
+            most = min(state["total_bytes"], guard.max_upload_bytes) if state is not None else 0
+            if state is not None and state["transferred_bytes"] > most:
                 refuse(client_id, uuid, f"{state['filename'][:80]}: more bytes than it declared")
 
     server._websock_server.register_handler(_messages.FileTransferStartUpload, on_start)
     server._websock_server.register_handler(_messages.FileTransferPart, on_part)
 
 
-# ---------------------------------------------------------------------- the log
-class QuietProbes(logging.Filter):
-    """On the 'websockets.server' logger: a connection closed before its request (a probe) is not logged; a
-    malformed request, or a malformed message from a client (its connection is closed), is one line."""
-
-    def __init__(self):
-        super().__init__("")
-        self.probes = 0                  # connections closed before their request, in this process
-        self._lock = threading.Lock()
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        exc = record.exc_info[1] if record.exc_info else None
-        if exc is None:
-            return True
-        message = record.getMessage()
-        if message == "opening handshake failed":
-            if _is_probe(exc):
-                with self._lock:
-                    self.probes += 1
-                return False
-            return _one_line(record, f"bad request refused: {_describe(exc)}")
-        if message == "connection handler failed" and _from_a_message(exc):
-            return _one_line(record, f"malformed message from a client, connection closed: {_describe(exc)}")
-        return True
-
-
-def _is_probe(exc: BaseException) -> bool:
-    """True when the connection ended before a whole request came in (EOFError, a reset, somewhere in the chain)."""
-    while exc is not None:
-        if isinstance(exc, (EOFError, ConnectionError)):
-            return True
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
-def _from_a_message(exc: BaseException) -> bool:
-    """True when the exception was raised while reading or decoding a client's message (viser's consumer loop)."""
-    return any(frame.name == "_message_consumer" for frame in traceback.extract_tb(exc.__traceback__))
-
-
-def _describe(exc: BaseException) -> str:
-    text = str(exc).splitlines()[0][:160] if str(exc) else ""
-    return f"{type(exc).__name__}{': ' + text if text else ''}"
-
-
-def _one_line(record: logging.LogRecord, text: str) -> bool:
-    record.msg, record.args, record.exc_info, record.exc_text = text, (), None, None
-    record.levelno, record.levelname = logging.WARNING, "WARNING"
-    return True
-
-
-_filter = QuietProbes()
-
-
-def install_log_filter() -> QuietProbes:
-    """Put the QuietProbes filter first on the websockets server logger (once per process) and return it. First:
-    viser adds a filter of its own there (on its first page request) that drops every failed handshake silently,
-    malformed requests included."""
-    logger = logging.getLogger("websockets.server")
-    if _filter in logger.filters:
-        logger.removeFilter(_filter)
-    logger.filters.insert(0, _filter)
-    return _filter
-
-
-__all__ = ["Guard", "MAX_MESSAGE_BYTES", "MAX_UPLOAD_BYTES", "QuietProbes", "install_log_filter", "is_loopback",
-           "new_token", "protect"]
+__all__ = ["Guard", "MAX_MESSAGE_BYTES", "MAX_UPLOAD_BYTES", "QuietProbes", "install_log_filter",
+           "is_loopback", "new_token", "protect"]

@@ -1,6 +1,10 @@
-"""The browser tool: one viser server, one depth source, one session being edited, shared by every tab. The app is
-the mediator: it owns the shared services (the session editor, the live loop, the jobs, the event bus) and gives
-each connected tab a Tab of its own; tabs and their panels talk to it only through app.context.Services."""
+"""The browser tool: one viser server, one depth source, one session being edited, shared by every
+tab.
+
+The app is the mediator: it owns the shared services (the session editor, the live loop, the jobs,
+the event bus) and gives each connected tab a Tab of its own; tabs and their panels talk to it only
+through mirrorscan.context.Services.
+"""
 from __future__ import annotations
 
 import contextlib
@@ -11,7 +15,6 @@ import threading
 import time
 import warnings
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import viser
@@ -25,69 +28,95 @@ from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
 from .jobs import BATCH, DENSE, RECORD, REFINE, Jobs
 from .live import RECENT_FRAMES, LiveFrame, LiveLoop
+from .notices import Notifier
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
 from .state import Snapshot
 from .tab import Resume, Tab
 
 log = logging.getLogger("mirrorscan")
-FILE_POLL_S = 0.5         # how often session.json is looked at: did another program change it (it is then reloaded)
-VISIBILITY_POLL_S = 0.5   # how often the tabs are asked whether they are hidden or lag, while the live cloud plays...
-QUIET_POLL_S = 5.0        # ... and while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw
-                          # its 3D scene for 250 ms, which kept a paused scene at 28-30 frames a second and Chromium's
-                          # software WebGL on one of the 2 cores (Find on the walking figure, paused: 6.2-8.9 s at
-                          # 0.5 s, 5.0-5.4 s at 5 s, as with no browser)
-IDLE_FPS = 10.0           # the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
-BUSY_FPS = 1.0            # ... and while a job that needs the cores runs: each cloud sent makes the page draw for
-                          # 250 ms (on 2 cores, Find on the walking figure with the cloud playing: 9.3-9.8 s at 5 fps,
-                          # 6.2-6.8 s at this rate with the quiet poll)
-BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction", BATCH: "the batch"}
-AMBIENT_LIGHT = 1.5       # the scene's ambient light (no environment map): the mirrors' panes show their colours
-PANEL_WIDTH = 400         # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
-RESUME_S = 600.0          # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
-IN_MEMORY = ":memory:"    # where the background in use lives when it was captured for a session that is not saved
-NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}   # a notification's colour by its kind
-NOTE_SECONDS = 8.0        # a notification closes after this...
-RESULT_NOTE_SECONDS = 45.0  # ... the result of long work after this (it had stayed until closed or the planes
-                            # changed, and covered the depth frame's corner, with the outline to fix, at 1024x600)
+# how often session.json is looked at: did another program change it (it is then reloaded)
+FILE_POLL_S = 0.5
+# how often the tabs are asked whether they are hidden or lag, while the live cloud plays
+VISIBILITY_POLL_S = 0.5
+# the same while it is paused or a job of BUSY_JOBS runs: each question makes viser's page draw
+# its 3D scene for 250 ms, which keeps a browser without a GPU busy on one core
+QUIET_POLL_S = 5.0
+# the live loop's rate while no tab shows the cloud and nothing records (depth frame: 8 Hz)
+IDLE_FPS = 10.0
+# the live loop's rate while a job that needs the cores runs: each cloud sent makes the page draw
+# for 250 ms
+BUSY_FPS = 1.0
+BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense reconstruction",
+             BATCH: "the batch"}
+# the scene's ambient light (no environment map): the mirrors' panes show their colours
+AMBIENT_LIGHT = 1.5
+# CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
+PANEL_WIDTH = 400
+# seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
+RESUME_S = 600.0
+# where the background in use lives when it was captured for a session that is not saved
+IN_MEMORY = ":memory:"
 GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
 
 
 def quiet_closed_connections() -> None:
-    """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a closed
-    connection"): a tab can close at any moment, also between the server's check and its send, and viser then drops
-    the message, which is what is wanted (the Tab is closed when viser reports the disconnection). The technician's
-    terminal showed it every time a tab closed while it was updated or built; viser attributes it to the caller's
-    line (app/tab.py), so the filter goes by its words alone."""
-    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection", category=UserWarning)
+    """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a
+    closed connection").
+
+    A tab can close at any moment, also between the server's check and its send, and viser then
+    drops the message, which is what is wanted (the Tab is closed when viser reports the
+    disconnection). viser attributes the warning to the caller's line, so the filter goes by its
+    words alone.
+    """
+    warnings.filterwarnings("ignore", message=r"Queued a \w+ on a closed connection",
+                            category=UserWarning)
 
 
-quiet_closed_connections()      # once, on import: for the whole process, whichever thread viser warns on
+# once, on import: for the whole process, whichever thread viser warns on
+quiet_closed_connections()
 
 
-class MirrorscanApp:
+class MirrorscanApp(Notifier):
     """Wires the session editor, the live loop, the jobs and the tabs (see the module docstring).
 
-    session : the session to edit (autosaved when `autosave`); source : where frames come from; sessions_dir : the
-    folder that Open and Save as work in; token : the secret a browser must give (required beyond loopback: a new
-    one when None; see app/security.py). The server is protected before it accepts a page.
+    The server is protected before it accepts a page.
+
+    Parameters
+    ----------
+    session : Session
+        The session to edit, autosaved when `autosave`.
+    source : DepthSource
+        Where frames come from.
+    host, port
+        Where the server listens.
+    sessions_dir : str or Path
+        The folder that Open and Save as work in.
+    token : str or None
+        The secret a browser must give (required beyond loopback; a new one when None; see
+        mirrorscan.security).
     """
 
-    def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1", port: int = 8080,
-                 autosave: bool = True, sessions_dir: str | Path = "sessions", token: str | None = None):
+    def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1",
+                 port: int = 8080, autosave: bool = True, sessions_dir: str | Path = "sessions",
+                 token: str | None = None):
         self._source, self.sessions_dir = source, Path(sessions_dir)
-        self.start_source = source          # the camera or simulator served from the start: replays come back to it
-        with contextlib.redirect_stdout(io.StringIO()):   # viser prints a banner; stdout may be JSON (bench --json)
+        # the camera or simulator served from the start: replays come back to it
+        self.start_source = source
+        # viser prints a banner; stdout may be JSON (bench --json)
+        with contextlib.redirect_stdout(io.StringIO()):
             self.server = viser.ViserServer(host=host, port=port, label="mirrorscan", verbose=False)
-        try:       # before any page can connect: Host, Origin and token checks, upload limits (app/security.py)
+        # before any page can connect: Host, Origin and token checks, upload limits
+        try:
             self.guard = protect(self.server, host, token, max_upload_bytes=MAX_UPLOAD_MB << 20)
         except MirrorscanError:
             self.server.stop()
             raise
         self.server.gui.configure_theme(show_share_button=False, brand_color=(0, 114, 178))
         self.server.gui.main_panel.dock_right()
-        # Nothing in the scene is glossy: no environment map and no shadows, which cost a laptop without a GPU (and
-        # headless Chromium) a third of its frame rate; an ambient light keeps the panes in their mirrors' colours.
+        # Nothing in the scene is glossy: no environment map and no shadows, which cost a laptop
+        # without a GPU (and headless Chromium) a third of its frame rate; an ambient light keeps
+        # the panes in their mirrors' colours.
         self.server.scene.configure_environment_map(hdri=None)
         self.server.scene.configure_default_lights(enabled=True, cast_shadow=False)
         self.server.scene.add_light_ambient("/ambient", intensity=AMBIENT_LIGHT)
@@ -99,15 +128,20 @@ class MirrorscanApp:
         self._snapshot = Snapshot.build(session, self._background[1])
         self.last_frame: LiveFrame | None = None
         self._last_error = ""
-        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error, self.fps_wanted)
+        self.loop = LiveLoop(source, lambda: self._snapshot, self._on_frame, self._on_error,
+                             self.fps_wanted)
         self.jobs = Jobs(self.loop, lambda: self._snapshot, self.bus)
         self.tabs: dict[int, Tab] = {}
-        self._left: dict[str, tuple[float, Resume]] = {}   # page -> (time.monotonic(), work) of its closed tab
+        # page -> (time.monotonic(), work) of its closed tab
+        self._left: dict[str, tuple[float, Resume]] = {}
         self._tabs_lock = threading.Lock()
-        self._session_lock = threading.Lock()      # snapshots are rebuilt one at a time, in order
+        # snapshots are rebuilt one at a time, in order
+        self._session_lock = threading.Lock()
         self._stop = threading.Event()
-        self._grading: threading.Thread | None = None   # the first frames' grading of the markers (_on_frame)
-        self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs", daemon=True)
+        # the first frames' grading of the markers (_on_frame)
+        self._grading: threading.Thread | None = None
+        self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs",
+                                        daemon=True)
         self.editor.listeners.append(lambda _: self._on_session_change())
         self.server.on_client_connect(self._connect)
         self.server.on_client_disconnect(self._disconnect)
@@ -121,7 +155,12 @@ class MirrorscanApp:
         self._poller.start()
 
     def stop(self) -> None:
-        """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the server."""
+        """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the
+        server.
+
+        Waits up to GRADING_WAIT_S for the first frames' grading of the markers, so that the
+        process exits with its own status.
+        """
         self._stop.set()
         if self.jobs.running(RECORD):
             try:
@@ -130,8 +169,8 @@ class MirrorscanApp:
                 log.warning("recording not finished cleanly: %s", exc)
         self.loop.stop()
         self.jobs.stop()
-        if self._grading is not None:          # a process that exits while it runs ended with status 1, not 130
-            self._grading.join(GRADING_WAIT_S)   # (1 SIGTERM in 4 soon after the start)
+        if self._grading is not None:
+            self._grading.join(GRADING_WAIT_S)
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
 
@@ -139,17 +178,20 @@ class MirrorscanApp:
     def _connect(self, client: viser.ClientHandle) -> None:
         tab = Tab(client, self)
         with self._tabs_lock:
-            # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or reloaded) while its
-            # Tab was built has had its _disconnect already, which found nothing to close. viser drops the client
-            # from get_clients() before it calls _disconnect, so checked under the lock one of the two closes it.
+            # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
+            # reloaded) while its Tab was built may have run its _disconnect already, which found
+            # nothing to close. viser drops the client from get_clients() before it calls
+            # _disconnect, so checked under the lock one of the two closes it.
             if client.client_id in self.server.get_clients():
                 self.tabs[client.client_id] = tab
-                threading.Thread(target=self._resume, args=(tab,), name="mirrorscan-resume", daemon=True).start()
+                threading.Thread(target=self._resume, args=(tab,), name="mirrorscan-resume",
+                                 daemon=True).start()
                 return
         tab.close()
 
     def _resume(self, tab: Tab) -> None:
-        """Which page the tab is (tab.identify); a reload of a page closed within RESUME_S takes up its work."""
+        """Which page the tab is (tab.identify); a reload of a page closed within RESUME_S takes up
+        its work."""
         page = tab.identify()
         with self._tabs_lock:
             now = time.monotonic()
@@ -172,7 +214,8 @@ class MirrorscanApp:
             return self.tabs[client.client_id]
 
     def _poll_tabs(self) -> None:
-        asked = -math.inf                       # time.monotonic() when the tabs were last asked
+        # time.monotonic() when the tabs were last asked
+        asked = -math.inf
         while not self._stop.wait(FILE_POLL_S):
             if time.monotonic() - asked >= self._visibility_poll_s():
                 asked = time.monotonic()
@@ -183,8 +226,9 @@ class MirrorscanApp:
             self.act(None, self._reload_if_changed)
 
     def _visibility_poll_s(self) -> float:
-        """Seconds between two questions to the tabs: VISIBILITY_POLL_S while the live cloud plays, else QUIET_POLL_S
-        (nothing is streamed that a hidden or lagging tab should be spared, and each question costs the page a draw)."""
+        """Seconds between two questions to the tabs: VISIBILITY_POLL_S while the live cloud plays,
+        else QUIET_POLL_S (nothing is streamed that a hidden or lagging tab should be spared, and
+        each question costs the page a draw)."""
         return QUIET_POLL_S if self.paused or self._busy() is not None else VISIBILITY_POLL_S
 
     def _busy(self) -> str | None:
@@ -195,7 +239,8 @@ class MirrorscanApp:
         message = self.editor.reload_if_changed()
         if message:
             self.notify(None, "Session file changed", message, "info")
-            self.jobs.start_agreement()           # the agreement lines, for the planes as the file now has them
+            # the agreement lines, for the planes as the file now has them
+            self.jobs.start_agreement()
 
     # ------------------------------------------------------------------ the Services protocol
     @property
@@ -230,10 +275,11 @@ class MirrorscanApp:
         return None if paced is None else paced[0]
 
     def pacing(self) -> tuple[float, str] | None:
-        """(frames per second, why) when the live loop runs slower than its source, else None (the source's rate):
-        never while a recording runs; BUSY_FPS while a job of BUSY_JOBS runs (it needs the cores more than the live
-        cloud does); IDLE_FPS while every tab looks at the depth frame (sent at most 8 times a second) or is hidden,
-        as processing 30 frames a second would only take the cores from the browser on the same laptop."""
+        """(frames per second, why) when the live loop runs slower than its source, else None (the
+        source's rate): never while a recording runs; BUSY_FPS while a job of BUSY_JOBS runs (it
+        needs the cores more than the live cloud does); IDLE_FPS while every tab looks at the depth
+        frame (sent at most 8 times a second) or is hidden, as processing 30 frames a second would
+        only take the cores from the browser on the same laptop."""
         if self.jobs.running(RECORD):
             return None
         busy = self._busy()
@@ -247,64 +293,48 @@ class MirrorscanApp:
             fps, why = IDLE_FPS, "while no tab shows the 3D scene"
         return (fps, why) if self.loop.source.fps > fps else None
 
-    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
-        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification on that tab, and so
-        does a bug (logged with its traceback): a click never fails in silence."""
-        try:
-            action()
-        except (MirrorscanError, OSError) as exc:
-            self.notify(client, "Not done", str(exc))
-        except Exception as exc:  # noqa: BLE001 - a bug must still be told on the tab that clicked
-            log.exception("an action failed")
-            self.notify(client, "Failed (a bug: see the server's log)", f"{type(exc).__name__}: {exc}")
-
-    def notify(self, client: viser.ClientHandle | None, title: str, message: str, kind: str = "error",
-               stay: bool = False, logged: bool = True) -> viser.NotificationHandle | None:
-        """A notification on one tab (or on every tab: client None) in its kind's colour (NOTE_COLOURS), closing
-        after NOTE_SECONDS, or RESULT_NOTE_SECONDS (`stay`: the result of long work, whose report may be out of
-        view), and a line of the server's log unless `logged` is False (each tab's note of a shared job's end, which
-        the job logs once). Returns the one tab's notification (to take it away when it no longer holds), else
-        None."""
-        if logged:
-            log.info("%s: %s", title, message)
-        targets = [client] if client is not None else list(self.server.get_clients().values())
-        notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
-                                         auto_close_seconds=RESULT_NOTE_SECONDS if stay else NOTE_SECONDS)
-                 for target in targets]
-        return notes[0] if client is not None else None
-
     def open_session(self, session: Session, play: bool = False) -> None:
-        """Edit another session (autosaved in its folder from now on). Its recorded frames play when `play`, or when
-        it has some and no camera is live, as `mirrorscan serve SESSION` does (its mirrors belong to them, not to the
-        simulator or recording playing before); a live camera stays, to be used with the session's calibration."""
+        """Edit another session, autosaved in its folder from now on.
+
+        Its recorded frames play when `play`, or when it has some and no camera is live, as
+        `mirrorscan serve SESSION` does (its mirrors belong to them, not to the simulator or
+        recording playing before); a live camera stays, to be used with the session's calibration.
+        """
         if session.frames and (play or not self._source.camera):
-            start = self.start_source                    # the session served from the start is not a replay
-            served = isinstance(start, SessionSource) and Path(start.session.root).resolve() == \
-                Path(session.root).resolve()
-            self.use_source(start if served else SessionSource(session))  # refused when its camera differs
+            # the session served from the start is not a replay
+            start = self.start_source
+            served = (isinstance(start, SessionSource)
+                      and Path(start.session.root).resolve() == Path(session.root).resolve())
+            # refused when its camera differs
+            self.use_source(start if served else SessionSource(session))
         self.editor.autosave = True
-        self._background = (None, self._source.background())   # the session's own, if any, is read on the change
+        # the session's own, if any, is read on the change
+        self._background = (None, self._source.background())
         self.editor.replace_session(session)
 
     def use_source(self, source: DepthSource) -> None:
         """Take frames from another source of the same camera (a recording to replay)."""
         if source.intrinsics.shape != self._source.intrinsics.shape:
-            raise MirrorscanError(f"{source.name}: its {source.intrinsics.width}x{source.intrinsics.height} frames "
-                                  f"do not fit this session's camera")
+            size = f"{source.intrinsics.width}x{source.intrinsics.height}"
+            raise MirrorscanError(f"{source.name}: its {size} frames do not fit this session's "
+                                  "camera; replay a recording of the same camera")
         self._source = source
         self.loop.use_source(source)
         self.bus.publish(LoopChanged(self.loop.paused, source))
 
     def back_to_start_source(self) -> None:
-        """After a recording played (Record's replay, or a session opened over the simulator), take frames from the
-        source served from the start again, playing (not paused), keeping the session being edited (its
-        calibration is this rig's)."""
+        """After a recording played (Record's replay, or a session opened over the simulator), take
+        frames from the source served from the start again, playing (not paused), keeping the
+        session being edited (its calibration is this rig's)."""
         self.use_source(self.start_source)
         self.pause(False)
 
     def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth` (H, W metres) as the background; saved beside a saved session as background.png, held in
-        memory for one that is not saved (Save as writes it)."""
+        """Use `depth`, (H, W) metres, as the background.
+
+        Saved beside a saved session as background.png, held in memory for one that is not saved
+        (Save as writes it).
+        """
         if self.editor.autosave:
             root = Path(self.editor.session.root)
             root.mkdir(parents=True, exist_ok=True)
@@ -317,7 +347,8 @@ class MirrorscanApp:
 
     @property
     def background_captured(self) -> bool:
-        """Whether the background in use was captured (or read from the session's file), not the source's own."""
+        """Whether the background in use was captured (or read from the session's file), not the
+        source's own."""
         return self._background[0] is not None
 
     # ------------------------------------------------------------------ reactions
@@ -329,8 +360,10 @@ class MirrorscanApp:
                     self._background = (session.background, session.read_background())
                 elif not session.background and self._background[0] not in (None, IN_MEMORY):
                     self._background = (None, self._source.background())
-                snapshot = Snapshot.build(session, self._background[1], self.jobs.marker_frames(), self._snapshot)
-            except MirrorscanError as exc:   # a broken background file, a bad selection: keep the last state
+                snapshot = Snapshot.build(session, self._background[1], self.jobs.marker_frames(),
+                                          self._snapshot)
+            # a broken background file, a bad selection: keep the last state
+            except MirrorscanError as exc:
                 self.notify(None, "Session not applied", str(exc))
                 return
             self._snapshot = snapshot
@@ -339,15 +372,19 @@ class MirrorscanApp:
     def _on_frame(self, frame: LiveFrame) -> None:
         self.last_frame = frame
         self._last_error = ""
-        if frame.index + 1 == RECENT_FRAMES:     # enough frames to grade the markers of the session as opened
-            self._grading = threading.Thread(target=self._on_session_change, name="mirrorscan-grade", daemon=True)
+        # enough frames to grade the markers of the session as opened
+        if frame.index + 1 == RECENT_FRAMES:
+            self._grading = threading.Thread(target=self._on_session_change,
+                                             name="mirrorscan-grade", daemon=True)
             self._grading.start()
+            # enough, too, to tell how its planes agree, before any fit
             if any(m.plane is not None for m in frame.snapshot.session.mirrors):
-                self.jobs.start_agreement()    # and to tell how its planes agree, before any fit
+                self.jobs.start_agreement()
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:
         message = f"{type(exc).__name__}: {exc}"
-        if message != self._last_error:      # say it once, not thirty times a second
+        # said once, not thirty times a second
+        if message != self._last_error:
             self.notify(None, "Live frame failed", message)
         self._last_error = message

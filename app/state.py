@@ -1,6 +1,6 @@
-"""The server's shared state: the session and what is derived from it (rig, background, the grade of every marker)
-as one immutable Snapshot, replaced whole (one reference, assigned atomically), so that the live loop and the browser
-callbacks always see one consistent state."""
+"""The server's shared state: the session and what is derived from it (rig, background, the grade of
+every marker) as one immutable Snapshot, replaced whole (one reference, assigned atomically), so
+that the live loop and the browser callbacks always see one consistent state."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -15,9 +15,10 @@ from mirrorcore.io.session import Session
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
-    """One consistent state: the session, its rig (reflection tables built once), the background depth (H, W) metres
-    or None and its Backdrop (the subtraction's limit map, made once), and for each calibrated mirror (by id) how far
-    each marker lies from its plane (mirrorcore.calibration.markers)."""
+    """One consistent state: the session, its rig (reflection tables built once), the background
+    depth (H, W) metres or None and its Backdrop (the subtraction's limit map, made once), and for
+    each calibrated mirror (by id) how far each marker lies from its plane
+    (mirrorcore.calibration.markers)."""
 
     session: Session
     rig: Rig
@@ -31,15 +32,26 @@ class Snapshot:
         return {mirror_id: r.grades for mirror_id, r in self.marker_residuals.items()}
 
     @classmethod
-    def build(cls, session: Session, background: np.ndarray | None, depths: np.ndarray | None = None,
-              previous: "Snapshot | None" = None) -> "Snapshot":
-        """The snapshot of a session; depths (k, H, W) metres, the recent frames, grade the markers (none without).
-        What `previous` already holds for the same inputs is reused (a marker added keeps the rig's tables: a click
-        must not wait ~70 ms for them)."""
+    def build(cls, session: Session, background: np.ndarray | None,
+              depths: np.ndarray | None = None, previous: "Snapshot | None" = None) -> "Snapshot":
+        """The snapshot of a session.
+
+        Parameters
+        ----------
+        session : Session
+        background : (H, W) ndarray or None
+            Metres.
+        depths : (k, H, W) ndarray, optional
+            Metres: the recent frames, which grade the markers (none are graded without).
+        previous : Snapshot, optional
+            What it holds for the same inputs is reused: a marker added keeps the rig's tables,
+            which take tens of ms to build.
+        """
         rig = Rig.from_session(session)
         if previous is not None and rig.same_rays(previous.rig):
             rig = previous.rig
-        rig.reflection_table  # built here, once, not in the first live frame
+        # built here, once, not in the first live frame
+        rig.reflection_table
         residuals = {}
         if depths is not None:
             residuals = {m.id: marker_residuals(session.camera, depths, m.markers, m.marker_plane)

@@ -1,10 +1,15 @@
-"""The live cloud as it travels to a browser tab: at most MAX_POINTS points a frame, one node per source and half
-(a single colour each), positions as float16 offsets from the part's centre (6 bytes a point instead of 12) wherever
-that keeps every point within 0.3 mm, float32 where a part is too large for it. Each source's points are split into
-two interleaved halves (every other point); a live frame refreshes one half (even frames the first, odd frames the
-second), so a tab always shows every point while receiving half of them per frame; a paused or single frame sends
-both. A source keeps its centre from frame to frame while its points stay within reach of it (Anchors), so that a
-tab moves no node: viser's pose update took about half of a node's update time."""
+"""The live cloud as it travels to a browser tab.
+
+At most MAX_POINTS points a frame, one node per source and half (a single colour each), positions
+as float16 offsets from the part's centre (6 bytes a point instead of 12) wherever that keeps every
+point within 0.3 mm, float32 where a part is too large for it.
+
+Each source's points are split into two interleaved halves (every other point); a live frame
+refreshes one half (even frames the first, odd frames the second), so a tab always shows every
+point while receiving half of them per frame; a paused or single frame sends both. A source keeps
+its centre from frame to frame while its points stay within reach of it (Anchors), so that a tab
+moves no node: viser's pose update costs about half of a node's update.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,8 +26,17 @@ HALVES = 2
 
 @dataclass(frozen=True, eq=False)
 class SourcePart:
-    """One half of one source's points of a frame: centre (3,) float64 metres, camera frame; offsets (n, 3) float16
-    (or float32) metres from the centre."""
+    """One half of one source's points of a frame.
+
+    Attributes
+    ----------
+    source, half : int
+        The source label and which half.
+    centre : (3,) float64 ndarray
+        Metres, camera frame.
+    offsets : (n, 3) float16 or float32 ndarray
+        Metres from the centre.
+    """
 
     source: int
     half: int
@@ -35,16 +49,16 @@ class SourcePart:
 
 
 class Anchors:
-    """Each source's centre (3,) float32 metres, kept from one frame to the next while every point of the part at hand
-    lies within FLOAT16_EXTENT of it along each axis (the walking person's box moves, but rarely out of reach): the
-    halves of a source then share it too."""
+    """Each source's centre (3,) float32 metres, kept from one frame to the next while every point
+    of the part at hand lies within FLOAT16_EXTENT of it along each axis (the walking person's box
+    moves, but rarely out of reach): the halves of a source then share it too."""
 
     def __init__(self) -> None:
         self._centres: dict[int, np.ndarray] = {}
 
     def centre(self, source: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-        """The centre for a source's part whose points span the box [low, high] ((3,) float32 each): the kept one while
-        it reaches the whole box, else the box's middle (kept from now on)."""
+        """The centre for a source's part whose points span the box [low, high] ((3,) float32 each):
+        the kept one while it reaches the whole box, else the box's middle (kept from now on)."""
         kept = self._centres.get(source)
         if kept is not None and float(np.maximum(high - kept, kept - low).max()) < FLOAT16_EXTENT:
             return kept
@@ -53,19 +67,22 @@ class Anchors:
 
 
 def downsample(cloud: Cloud, max_points: int) -> Cloud:
-    """Every k-th point so that at most max_points remain (the order is row-major, so this thins evenly)."""
+    """Every k-th point so that at most max_points remain (the order is row-major, so this thins
+    evenly)."""
     step = max(1, int(np.ceil(len(cloud) / max_points)))
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
 def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES),
                  anchors: Anchors | None = None) -> list[SourcePart]:
-    """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones included, so that
-    a source that left the view is cleared). A part's centre is the middle of its points' box, or the one `anchors`
-    kept for its source. A live frame asks for the one half it sends: half the gathering and conversion."""
+    """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones
+    included, so that a source that left the view is cleared). A part's centre is the middle of its
+    points' box, or the one `anchors` kept for its source. A live frame asks for the one half it
+    sends: half the gathering and conversion."""
     cloud = downsample(cloud, max_points)
-    rows = cloud.points.T         # (3, n): Algorithm 1's cloud is rows of x, y, z already, and numpy gathers and
-    parts = []                    # reduces rows ~30x faster than columns
+    # (3, n): numpy gathers and reduces rows about 30 times faster than columns
+    rows = cloud.points.T
+    parts = []
     for j in labels:
         mine = np.flatnonzero(cloud.sources == j)
         for half in halves:
@@ -74,7 +91,8 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
 
 
 def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:
-    """The part of (3, k) float32 rows of points: float16 offsets where they reach every point, else float32."""
+    """The part of (3, k) float32 rows of points: float16 offsets where they reach every point, else
+    float32."""
     if not columns.shape[1]:
         return SourcePart(source, half, np.zeros(3), np.zeros((0, 3), np.float16))
     low, high = columns.min(axis=1), columns.max(axis=1)
@@ -85,9 +103,12 @@ def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) 
 
 
 def _offsets(columns: np.ndarray, centre: np.ndarray, dtype) -> np.ndarray:
-    """(3, k) float32 rows of points, their (3,) float32 centre -> (k, 3) C-ordered offsets in dtype: subtracted and
-    converted along the rows, then transposed by OpenCV (float16 as its bits). 3x faster than numpy writing the
-    transposed result (0.43 -> 0.13 ms for 10,000 points in float16), the same bits."""
+    """The (k, 3) C-ordered offsets in `dtype` of (3, k) float32 rows of points from their (3,)
+    float32 centre.
+
+    Subtracted and converted along the rows, then transposed by OpenCV (float16 as its bits):
+    about 3 times faster than numpy writing the transposed result, with the same bits.
+    """
     rows = np.subtract(columns, centre[:, None]).astype(dtype, copy=False)
     bits = rows.view(np.uint16) if dtype == np.float16 else rows
     return cv2.transpose(bits).view(dtype)

@@ -1,7 +1,11 @@
-"""One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene and depth frame,
-its GUI (a status header over one tab per step of the work), and what it streams: the live cloud only while it looks
-at the 3D scene, is not hidden and keeps up (MAX_LAG_S), the depth frame at most DEPTH_HZ times a second and at once
-after an edit. A page reloaded takes up the work of its tab before (Resume): the page tells which it is (identify)."""
+"""One browser tab: its own state (click mode, selected mirror, drafts, picks, view), its 3D scene
+and depth frame, its GUI (a status header over one tab per step of the work), and what it streams.
+
+It is sent the live cloud only while it looks at the 3D scene, is not hidden and keeps up
+(`mirrorscan.presence`), and the depth frame at most DEPTH_HZ times a second and at once after an
+edit. A page reloaded takes up the work of its tab before (Resume); the page tells which it is
+(identify).
+"""
 from __future__ import annotations
 
 import threading
@@ -11,86 +15,73 @@ from typing import Callable
 
 import numpy as np
 import viser
-from viser import _messages
 
 from mirrorcore.base.palette import SOURCE_COLOURS, source_colour
 
 from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
+from .framing import TabFraming
 from .live import LiveFrame
 from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
+from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, TabPresence
 from .stream import HALVES
-from .view import TabScene, beside_offset, home_pose, scene_points
+from .view import TabScene
 
-DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view...
-DEPTH_HZ_BEHIND = 1.0   # ... and this often while the tab looks at the 3D scene
-MAX_LAG_S = 0.5         # a tab that takes longer to answer the visibility poll lags: frames wait in the browser
-                        # to be drawn, so it is sent no live cloud and no depth frame until it answers in time (one
-                        # that draws slower than the loop sends would otherwise queue frames and show them minutes late)
-SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, and is not said to
-OBJECT_MARGIN = 1.6     # Look at the object: the view's nearer edge is this many radii of the object's bounding
-                        # sphere from its middle (its points are drawn as discs of many pixels at that distance)
-HOME_TOLERANCE = 0.01    # metres: a camera this near where the first view put it has not been moved by the technician
-HIDDEN_KEY = "mirrorscan-hidden"
-PAGE_KEY = "mirrorscan-page"
-PAGE_NAME_CHARS = 64
-# A browser tab keeps its sessionStorage through reloads and no other tab shares it: the page's name, made once.
-PAGE_JS = """(() => {{
-  let page = sessionStorage.getItem("{key}");
-  if (!page) {{
-    page = Date.now().toString(36) + Math.random().toString(36).slice(2);
-    sessionStorage.setItem("{key}", page);
-  }}
-  localStorage.setItem("viser-user:{key}-{client}", page);
-}})();"""
-VISIBILITY_JS = """(() => {{
-  const key = "viser-user:{key}";
-  const put = () => localStorage.setItem(key, document.hidden ? "1" : "0");
-  document.addEventListener("visibilitychange", put);
-  put();
-}})();"""
+__all__ = ["DEPTH_HZ", "DEPTH_HZ_BEHIND", "MAX_LAG_S", "PAGE_KEY", "SETTLING_S", "Resume", "Tab"]
+
+DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view
+DEPTH_HZ_BEHIND = 1.0   # the same while the tab looks at the 3D scene
+HEAT_HZ = 1.0           # heat maps a second while the heat map is on
 
 
 @dataclass(frozen=True)
 class Resume:
-    """What a closed tab leaves to the next tab of its page (a reload): its state as the technician left it (the
-    click mode, the selected mirror, the boundaries and region being drawn, the view; not a pick, nor a proposal,
-    which was that tab's) and whether its heat map was on."""
+    """What a closed tab leaves to the next tab of its page (a reload).
+
+    Attributes
+    ----------
+    state : TabState
+        As the technician left it: the click mode, the selected mirror, the boundaries and region
+        being drawn, the view; not a pick, nor a proposal, which were that tab's.
+    heat : bool
+        Whether its heat map was on.
+    """
 
     state: TabState
     heat: bool
 
 
-class Tab:
+class Tab(TabPresence, TabFraming):
     """Everything of one connected browser tab (see the module docstring)."""
 
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
         self.state = TabState()
-        self.page: str | None = None      # which browser page this is, once identify() has asked it
-        self.hidden = False
-        self.lagging = False        # see MAX_LAG_S
-        self.lagged_at = -np.inf    # time.perf_counter() when it last lagged, once settled (SETTLING_S)
-        self._opened = time.perf_counter()
+        self._init_presence()
         self.closed = False
         self._lock = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
-        self._stale = True          # the cloud shown is not the last frame's: send both halves next
+        # the cloud shown is not the last frame's: send both halves next
+        self._stale = True
         self.dense_visible, self.dense_beside = True, True
         self.heat, self._last_heat = False, 0.0
-        self.heat_figures: dict[int, tuple[float, float]] = {}   # the last heat map's, per mirror view (HeatChanged)
-        self.heat_frames = 0                                      # ... over this many heat maps
-        self.heat_of: int | None = None      # the mirror (id) whose points alone the heat map colours (None: all)
-        self._heat_event: HeatChanged | None = None                # the heat map drawn
-        self._heat_lock = threading.Lock()   # the heat worker's map is drawn, or the switch-off removes it: not both
+        # the last heat map's figures per mirror view (HeatChanged), over heat_frames heat maps
+        self.heat_figures: dict[int, tuple[float, float]] = {}
+        self.heat_frames = 0
+        # the mirror (id) whose points alone the heat map colours (None: every mirror's)
+        self.heat_of: int | None = None
+        self._heat_event: HeatChanged | None = None      # the heat map drawn
+        # the heat worker's map is drawn, or the switch-off removes it: never both
+        self._heat_lock = threading.Lock()
         self._framed = False
-        self._home_pose: tuple[np.ndarray, np.ndarray] | None = None   # (position, look-at) look_home last set
+        # (position, look-at) metres, where look_home last put the camera
+        self._home_pose: tuple[np.ndarray, np.ndarray] | None = None
         camera = services.snapshot.session.camera
         self.scene = TabScene(client)
         self.screen = DepthScreen(client, camera, self._clicked)
@@ -102,35 +93,26 @@ class Tab:
         for panel in PANELS:
             with group.add_tab(panel.TITLE):
                 self.panels.append(panel(self))
-        self._unsubscribe = [services.bus.subscribe(FrameReady, self._on_frame),
-                             services.bus.subscribe(SessionChanged, lambda e: self._on_session()),
-                             services.bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
-                             services.bus.subscribe(HeatChanged, self._on_heat)]
+        bus = services.bus
+        self._unsubscribe = [bus.subscribe(FrameReady, self._on_frame),
+                             bus.subscribe(SessionChanged, lambda e: self._on_session()),
+                             bus.subscribe(DenseChanged, lambda e: self.show_dense(e.result)),
+                             bus.subscribe(HeatChanged, self._on_heat)]
         self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
         self._watch_visibility()
 
-    def identify(self, timeout: float = 10.0) -> str | None:
-        """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs); the answer is kept in
-        `page`. None when it does not answer in time or went away."""
-        key = f"{PAGE_KEY}-{self.client.client_id}"
-        self.client._websock_connection.queue_message(
-            _messages.RunJavascriptMessage(source=PAGE_JS.format(key=PAGE_KEY, client=self.client.client_id)))
-        try:
-            answer = self.client.local_storage.get_item(key, timeout=timeout)
-        except (TimeoutError, RuntimeError):
-            return None
-        self.page = answer[:PAGE_NAME_CHARS] if answer else None     # a name, not a store: PAGE_JS makes ~20
-        return self.page
-
     def take_up(self, resume: Resume) -> None:
-        """Go on with the work the page's tab before it left (a reload): its state, view and heat map."""
+        """Go on with the work the page's tab before it left (a reload): its state, view and heat
+        map."""
         with self._lock:
-            if self.closed:                      # closed meanwhile (reloaded again at once): too late
+            # closed meanwhile (reloaded again at once): too late
+            if self.closed:
                 return
             self.state = resume.state
-        self._on_session()                       # drafts of mirrors gone since are dropped; the panels follow
+        # drafts of mirrors gone since are dropped; the panels follow
+        self._on_session()
         if resume.state.view == "depth":
             self.look("depth")
         if resume.heat:
@@ -140,18 +122,20 @@ class Tab:
     def resume(self) -> Resume:
         """This tab's work, for the next tab to take up (see Resume)."""
         with self._lock:
-            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None, picked_marker=None,
-                            moving_marker=False, flagged_markers=(), proposal_for=())
+            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
+                            picked_marker=None, moving_marker=False, flagged_markers=(),
+                            proposal_for=())
         return Resume(state, self.heat)
 
     def _first_view(self, _) -> None:
-        """Once the tab has reported its canvas: frame what the tab is looking at (the rig and the cloud, or the
-        depth frame when the tab was switched to it before the report)."""
+        """Once the tab has reported its canvas, frame what it looks at: the rig and the cloud, the
+        object under a heat map (a reload), or the depth frame when the tab was switched to it
+        before the report."""
         if not self._framed:
             self._framed = True
             if self.state.view == "depth":
                 self.screen.look_at()
-            elif self.heat:                    # a reload with the heat map on: its colours are on the object
+            elif self.heat:
                 self.look_at_object()
             else:
                 self.look_home()
@@ -196,8 +180,12 @@ class Tab:
         return question
 
     def look(self, view: str) -> None:
-        """Show the 3D scene or the depth frame; clouds and labels are hidden (and not sent) while the depth frame
-        is in view, and the depth frame fills the free area."""
+        """Show the 3D scene or the depth frame ('3d' or 'depth').
+
+        Clouds and labels are hidden, and not sent, while the depth frame is in view; the depth
+        frame fills the free area. Back in the 3D scene with the heat map on, the view frames the
+        object, whose rims carry its colours.
+        """
         with self._lock:
             self.state.view = view
         depth = view == "depth"
@@ -209,8 +197,8 @@ class Tab:
         if depth:
             self.screen.look_at()
             self._send_screen(force=True)
-        elif self.heat:                     # its colours are on the object's rims (turned on in the depth view,
-            self.look_at_object()           # it had shown the whole rig: a helper)
+        elif self.heat:
+            self.look_at_object()
             self._heat_now()
         else:
             self.look_home()
@@ -223,8 +211,12 @@ class Tab:
         return self.state.view == "3d" and not self.hidden
 
     def show_heat(self, on: bool) -> None:
-        """Show the heat map of a frame a second instead of the live cloud (or go back to the live cloud), the first
-        of the last frame at once: paused, no frame comes (the view had stayed empty until Step: a helper)."""
+        """Show the heat map of HEAT_HZ frames a second instead of the live cloud, or go back to
+        the live cloud.
+
+        The first heat map is of the last frame, at once: while paused no new frame comes. The
+        view frames the object, whose rims carry the heat map's colours.
+        """
         with self._heat_lock:
             self.heat, self._stale, self._last_heat = on, True, 0.0
             if not on:
@@ -233,7 +225,7 @@ class Tab:
         if on:
             self._heat_now()
         self.scene.show_clouds(not on and self.state.view == "3d")
-        if on and self.state.view == "3d":      # its colours are on the object's rims: a few pixels from home
+        if on and self.state.view == "3d":
             self.look_at_object()
 
     def _heat_now(self) -> None:
@@ -244,23 +236,24 @@ class Tab:
             self.services.jobs.start_heat(frame)
 
     def _on_heat(self, event: HeatChanged) -> None:
-        with self._heat_lock:              # a map whose check passed before a switch-off must not be drawn after it
+        # a map whose check passed before a switch-off must not be drawn after it
+        with self._heat_lock:
             if self.heat and not self.closed:
                 self._heat_event = event
                 self._draw_heat()
                 self.heat_figures, self.heat_frames = event.figures, event.frames
 
     def heat_only(self, mirror_id: int | None) -> None:
-        """Colour only this mirror's points on the heat map (None: every mirror's), the others' grey and small as
-        the camera's: which strip was whose could not be told (a helper)."""
+        """Colour only this mirror's points on the heat map (None: every mirror's); the others' are
+        grey and small, as the camera's, so that each strip can be told apart."""
         with self._heat_lock:
             self.heat_of = mirror_id
             if self.heat and self._heat_event is not None and not self.closed:
                 self._draw_heat()
 
     def _draw_heat(self) -> None:
-        """Draw the last heat map (under _heat_lock): the camera's points, and those of the mirrors not chosen
-        (heat_of), small and grey."""
+        """Draw the last heat map (under _heat_lock): the camera's points, and those of the mirrors
+        not chosen (heat_of), small and grey."""
         event = self._heat_event
         if event.sources is None:
             self.scene.show_heat(event.points, event.colours)
@@ -268,66 +261,26 @@ class Tab:
         mirrors = self.services.snapshot.session.mirrors
         label = next((k for k, m in enumerate(mirrors, start=1) if m.id == self.heat_of), None)
         small = event.sources == 0 if label is None else event.sources != label
-        colours = np.where((small & (event.sources != 0))[:, None], SOURCE_COLOURS[0], event.colours)
+        grey = (small & (event.sources != 0))[:, None]
+        colours = np.where(grey, SOURCE_COLOURS[0], event.colours)
         self.scene.show_heat(event.points, colours.astype(np.uint8), small)
 
     def show_dense(self, result) -> None:
-        """The shared dense result in this tab's scene, as the tab's Dense step says (shown, beside the cloud)."""
-        self.scene.show_dense(result, self.dense_visible and self.state.view == "3d", self.dense_beside)
-
-    # ------------------------------------------------------------------ views
-    def look_home(self) -> None:
-        """The first view: the rig (camera, mirrors) and where the object is, framed for this tab's canvas."""
-        self._home_pose = self._frame(np.concatenate([scene_points(self.services.snapshot.rig),
-                                                      self._object_points()]))
-
-    def look_at_object(self) -> None:
-        """The object's cloud (the last frame's, all its views) filling this tab's canvas, seen as from home; the
-        whole rig when there is no object in view."""
-        points = self._object_points()
-        if len(points) < 2:
-            self.look_home()
-        else:
-            self._frame(points, OBJECT_MARGIN)
-
-    def look_at_dense(self, result) -> None:
-        """The object's cloud and a dense result (where this tab draws it: beside the cloud or in place) filling this
-        tab's canvas, seen as from home (a Run had shown only the box, its result out of view: a helper)."""
-        corners = np.array([result.low, result.high], float) + (beside_offset(result) if self.dense_beside else 0.0)
-        self._frame(np.concatenate([self._object_points(), corners]), OBJECT_MARGIN)
-
-    def _object_points(self) -> np.ndarray:
-        """(k, 3) metres: about 500 of the last frame's object points (none before the first frame)."""
-        frame = self.services.last_frame
-        if frame is None or not len(frame.cloud):
-            return np.zeros((0, 3))
-        return frame.cloud.points[:: max(1, len(frame.cloud) // 500)]
-
-    def _frame(self, points: np.ndarray, margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
-        """Move this tab's camera to frame `points` (k, 3) metres (view.home_pose, with `margin`) for its canvas;
-        returns its (position, look-at), metres."""
-        camera = self.client.camera
-        try:
-            aspect = camera.image_width / max(camera.image_height, 1)
-        except AssertionError:            # the tab has not reported its canvas yet
-            aspect = 16 / 9
-        fov = np.radians(50.0)
-        position, target = home_pose(points, fov, aspect, margin)
-        with self.client.atomic():
-            camera.fov = fov
-            camera.up_direction = (0.0, -1.0, 0.0)
-            camera.position = tuple(position)
-            camera.look_at = tuple(target)
-        return position, target
+        """Show the shared dense result in this tab's scene as the tab's Dense step says (shown,
+        beside the cloud)."""
+        self.scene.show_dense(result, self.dense_visible and self.state.view == "3d",
+                              self.dense_beside)
 
     # ------------------------------------------------------------------ events
     def _on_frame(self, event: FrameReady) -> None:
-        if self.closed:                        # a frame in flight while the tab went away
+        # a frame in flight while the tab went away
+        if self.closed:
             return
         frame = event.frame
         if self.shows_cloud and not self.lagging:
             if self.heat:
-                if time.perf_counter() - self._last_heat >= 1.0 and self.services.jobs.heat_wanted(frame):
+                if (time.perf_counter() - self._last_heat >= 1 / HEAT_HZ
+                        and self.services.jobs.heat_wanted(frame)):
                     self._last_heat = time.perf_counter()
                     self.services.jobs.start_heat(frame)
             else:
@@ -338,18 +291,25 @@ class Tab:
         self.header.show(frame)
 
     def _on_session(self) -> None:
-        """Bring the tab to the app's current session. Its latest snapshot is read under the tab's lock, so that of
-        two changes handled at once (SessionChanged is published outside the session's lock) the later is drawn last,
-        whatever order their events arrive in."""
+        """Bring the tab to the app's current session.
+
+        Its latest snapshot is read under the tab's lock, so that of two changes handled at once
+        (SessionChanged is published outside the session's lock) the later is drawn last, whatever
+        order their events arrive in. A camera still at home is moved to frame the rig as it now
+        is.
+        """
         with self._lock:
             snapshot = self.services.snapshot
             ids = tuple(m.id for m in snapshot.session.mirrors)
-            for gone in [k for k in list(self.state.drafts) if k not in ids]:   # in place: a boundary click on
-                self.state.drafts.pop(gone, None)                                # a GUI thread adds to it meanwhile
+            # dropped in place: a boundary click on a GUI thread may add to the drafts meanwhile
+            for gone in [k for k in list(self.state.drafts) if k not in ids]:
+                self.state.drafts.pop(gone, None)
+            # a new tab starts at the first mirror
             if self.state.mirror_id not in ids:
-                self.state.mirror_id = ids[0] if ids else None        # a new tab starts at the first
+                self.state.mirror_id = ids[0] if ids else None
                 self.state.picked_marker = self.state.picked_corner = None
-            session = snapshot.session           # what the scene draws: mirrors, and virtual cameras to `bounces`
+            # what the scene draws: mirrors, and virtual cameras up to `bounces`
+            session = snapshot.session
             key = (session.bounces, *((m.id, m.name, m.plane, m.boundary) for m in session.mirrors))
             rig_changed = key != self._session_key
             if rig_changed:
@@ -357,19 +317,8 @@ class Tab:
                 self.scene.show_rig(snapshot.rig, ids)
                 self.scene.recolour(ids)
         if rig_changed and self.state.view == "3d" and not self.heat and self._still_home():
-            self.look_home()           # the rig as it now is (the mirrors fitted after the page opened had left the
-        self.changed()                 # figure's head out of view and the camera filling half of it: a helper)
-
-    def _still_home(self) -> bool:
-        """Whether this tab's camera is where look_home last put it (HOME_TOLERANCE): not turned or zoomed since."""
-        if self._home_pose is None:
-            return False
-        try:
-            position, look_at = self.client.camera.position, self.client.camera.look_at
-        except AssertionError:            # the tab has not reported its camera yet
-            return False
-        return bool(np.allclose(position, self._home_pose[0], atol=HOME_TOLERANCE)
-                    and np.allclose(look_at, self._home_pose[1], atol=HOME_TOLERANCE))
+            self.look_home()
+        self.changed()
 
     def _clicked(self, u: float, v: float) -> None:
         handler = self._click_handlers.get(self.state.mode)
@@ -378,6 +327,7 @@ class Tab:
 
     # ------------------------------------------------------------------ the depth frame
     def _redraw_overlay(self) -> None:
+        """Draw this tab's overlay: every mirror's outline (or draft) and markers, the region."""
         snapshot, state = self.services.snapshot, self.state
         mirrors = []
         for mirror in snapshot.session.mirrors:
@@ -388,63 +338,34 @@ class Tab:
                                        picked=selected and state.picked_marker == k,
                                        flagged=(mirror.id, uv) in state.flagged_markers)
                             for k, uv in enumerate(mirror.markers))
-            mirrors.append(MirrorMarks(tuple(int(c) for c in source_colour(1, (mirror.id,))),
-                                       draft if draft is not None else mirror.boundary, draft is None, markers,
+            colour = tuple(int(c) for c in source_colour(1, (mirror.id,)))
+            outline = draft if draft is not None else mirror.boundary
+            mirrors.append(MirrorMarks(colour, outline, draft is None, markers,
                                        state.picked_corner if selected else None, selected))
         roi = snapshot.session.selection.roi
-        region = (state.region_draft, False) if state.region_draft else ((roi, True) if roi else None)
+        if state.region_draft:
+            region = (state.region_draft, False)
+        else:
+            region = (roi, True) if roi else None
         with self._lock:
             self.overlay.draw(mirrors, region)
 
     def _send_screen(self, frame: LiveFrame | None = None, force: bool = False) -> None:
-        """Compose the shared depth layer of the latest frame with this tab's overlay and send it, when forced (an
-        edit) or when DEPTH_HZ (DEPTH_HZ_BEHIND in the 3D view) allows and the tab keeps up; never to a hidden
-        tab."""
+        """Compose the shared depth layer of the latest frame with this tab's overlay and send it.
+
+        Sent when forced (an edit), or when DEPTH_HZ (DEPTH_HZ_BEHIND in the 3D view) allows and
+        the tab keeps up; never to a hidden tab.
+        """
         frame = frame or self.services.last_frame
         now = time.perf_counter()
         rate = DEPTH_HZ if self.state.view == "depth" else DEPTH_HZ_BEHIND
-        if frame is None or self.hidden or (not force and (self.lagging or now - self._last_screen < 1 / rate)):
+        waits = self.lagging or now - self._last_screen < 1 / rate
+        if frame is None or self.hidden or (not force and waits):
             return
         self._last_screen = now
         with self._lock:
             rgb = self.overlay.over(frame.depth_rgb)
         self.screen.show(rgb)
-
-    # ------------------------------------------------------------------ visibility
-    def _watch_visibility(self) -> None:
-        """Ask the browser to note in its localStorage whether this tab is hidden (viser has no message for it)."""
-        key = f"{HIDDEN_KEY}-{self.client.client_id}"
-        self.client._websock_connection.queue_message(   # viser's own way to run code in a tab (it loads plotly so)
-            _messages.RunJavascriptMessage(source=VISIBILITY_JS.format(key=key)))
-
-    def poll_visibility(self, timeout: float = 2.0) -> None:
-        """Read whether the tab is hidden (see _watch_visibility), and whether it lags: its answer took longer
-        than MAX_LAG_S, or did not come within `timeout` seconds. A tab that comes back, or catches up, gets the
-        current state."""
-        if self.closed:                   # polled from a list of the tabs taken before it went away
-            return
-        start = time.perf_counter()
-        try:
-            value = self.client.local_storage.get_item(f"{HIDDEN_KEY}-{self.client.client_id}", timeout=timeout)
-        except TimeoutError:
-            self._keeps_up(False)
-            return
-        except RuntimeError:             # the tab is going away
-            return
-        self._keeps_up(time.perf_counter() - start <= MAX_LAG_S)
-        hidden = value == "1"
-        if hidden != self.hidden:
-            self.hidden, self._stale = hidden, True
-            if not hidden:
-                self._send_screen(force=True)
-
-    def _keeps_up(self, keeps_up: bool) -> None:
-        if not keeps_up and time.perf_counter() - self._opened > SETTLING_S:     # not the page's first build
-            self.lagged_at = time.perf_counter()
-        if keeps_up == self.lagging:
-            self.lagging, self._stale = not keeps_up, True
-            if keeps_up:
-                self._send_screen(force=True)
 
     def close(self) -> None:
         self.closed = True

@@ -1,0 +1,224 @@
+"""The machinery under the session editor: the session held under a lock, autosave, changes made
+to session.json by another program, and undo and redo.
+
+session.json may also be written by another program while the tool edits it (`mirrorscan calibrate
+SESSION` in a terminal): the editor never saves over such a change. It reloads the file
+(`reload_if_changed`, which the server calls twice a second) and refuses an edit that would have
+been saved over it, naming what happened.
+
+`EditorCore` holds no edit of its own: `SessionEditor` (mirrorscan.editor) defines them, each
+decorated with `edits`.
+"""
+from __future__ import annotations
+
+import functools
+import threading
+from dataclasses import replace
+from typing import Callable
+
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.session import Session, SessionMirror, check_limits, save_session
+
+from .sessionfile import SessionFile
+from .undo import SESSION_SCOPE, History, Step, inverse, restore
+
+
+def edits(method):
+    """Run an editing method under the editor's lock, then tell the listeners when it changed
+    something.
+
+    The listeners are called outside the lock, so that a listener may take its own locks in any
+    order. The edit is refused (MirrorscanError), and the session reloaded, when another program
+    changed session.json since the editor read or wrote it.
+    """
+
+    @functools.wraps(method)
+    def wrapper(self: "EditorCore", *args, **kwargs):
+        changed = False
+        try:
+            with self._lock:
+                try:
+                    message, reloaded = self._reload_external()
+                    if reloaded:
+                        raise MirrorscanError(f"{message}; this change was not made: make it again")
+                    return method(self, *args, **kwargs)
+                finally:
+                    session, changed, self._changed = self._session, self._changed, False
+        finally:
+            if changed:
+                self._tell(session)
+    return wrapper
+
+
+class EditorCore:
+    """A session under edit: its lock, undo history, autosave and listeners."""
+
+    def __init__(self, session: Session, autosave: bool = True):
+        self._lock = threading.RLock()
+        self._session = session
+        self._history = History()
+        self.autosave = autosave
+        self.listeners: list[Callable[[Session], None]] = []
+        self.last_save_error: str | None = None
+        self._changed = False
+        self._file = SessionFile(session)
+
+    @property
+    def session(self) -> Session:
+        with self._lock:
+            return self._session
+
+    def mirror(self, mirror_id: int) -> SessionMirror:
+        """The mirror with this id; MirrorscanError when it is gone."""
+        with self._lock:
+            return self._session.mirrors[self._index(mirror_id)]
+
+    def replace_session(self, session: Session) -> None:
+        """Open another session (the undo history is dropped)."""
+        with self._lock:
+            self._open(session)
+            self._changed = False
+        self._tell(session)
+
+    def reload_if_changed(self) -> str:
+        """Reload session.json when another program changed it since the editor read or wrote it.
+
+        Returns
+        -------
+        str
+            What happened, one line; '' when nothing did. See `_reload_external`.
+        """
+        with self._lock:
+            message, reloaded = self._reload_external()
+            session, self._changed = self._session, False
+        if reloaded:
+            self._tell(session)
+        return message
+
+    def _tell(self, session: Session) -> None:
+        for listener in list(self.listeners):
+            listener(session)
+
+    def _open(self, session: Session) -> None:
+        self._session, self._history = session, History()
+        self._file.written(session)
+
+    def _reload_external(self) -> tuple[str, bool]:
+        """Reload an autosaved session's session.json when another program changed it, dropping
+        the undo history (which describes the file before).
+
+        Returns
+        -------
+        message : str
+            What happened, one line ('' when the file is unchanged; see
+            `SessionFile.external_change`).
+        reloaded : bool
+            Whether the session was reloaded.
+        """
+        if not self.autosave:
+            return "", False
+        message, session = self._file.external_change(self._session)
+        if session is None:
+            return message, False
+        self._open(session)
+        self._changed = True
+        return message, True
+
+    # ------------------------------------------------------------------ undo and redo
+    def travel_scope(self, mirror_id: int | None, redo: bool = False) -> int:
+        """Where undo (or redo) acts for the selected mirror: its own history or the session's
+        (see `History.scope`)."""
+        with self._lock:
+            return self._history.scope(mirror_id, redo)
+
+    def undo_label(self, scope: int) -> str | None:
+        """What undo in this scope (a mirror id, or SESSION_SCOPE) would take back, or None."""
+        with self._lock:
+            return self._label(scope, redo=False)
+
+    def redo_label(self, scope: int) -> str | None:
+        """What redo in this scope (a mirror id, or SESSION_SCOPE) would put back, or None."""
+        with self._lock:
+            return self._label(scope, redo=True)
+
+    def _label(self, scope: int, redo: bool) -> str | None:
+        ids = [m.id for m in self._session.mirrors]
+        return self._history.label(scope, redo, ids, lambda i: self.mirror(i).name)
+
+    def glass_unused(self, mirror_id: int) -> bool:
+        """Whether the mirror's glass was typed in after its plane was set (History.glass_unused).
+        """
+        with self._lock:
+            return self._history.glass_unused(mirror_id)
+
+    def fitted_on_its_markers(self, mirror_id: int) -> bool:
+        """Whether the mirror's plane was set by a markers fit of this editor on the markers,
+        boundary, region and glass it has now: a fit of them again only refits them on other
+        frames."""
+        with self._lock:
+            now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
+            return self._history.fitted_on(mirror_id, now)
+
+    @edits
+    def undo(self, scope: int) -> str:
+        """Take back the last change in a scope (a mirror id, or SESSION_SCOPE); returns its
+        label."""
+        return self._travel(scope, redo=False)
+
+    @edits
+    def redo(self, scope: int) -> str:
+        """Make again the last change undone in a scope; returns its label."""
+        return self._travel(scope, redo=True)
+
+    def _travel(self, scope: int, redo: bool) -> str:
+        """Move the last step of `scope`, with its group, to the other history and put back its
+        `after` (redo) or `before` (undo)."""
+        label = self._label(scope, redo)
+        moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
+        if not moved:
+            raise MirrorscanError(f"nothing to {'redo' if redo else 'undo'}")
+        for s, step in moved:
+            self._session = restore(self._session, s, step.after if redo else step.before)
+        self._save_and_notify()
+        return label
+
+    def _index(self, mirror_id: int) -> int:
+        for i, m in enumerate(self._session.mirrors):
+            if m.id == mirror_id:
+                return i
+        raise MirrorscanError(f"mirror {mirror_id} is no longer in the session "
+                              "(removed in another tab?)")
+
+    def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "",
+                    save: bool = True, **changes) -> None:
+        index = self._index(mirror_id)
+        before = self._session.mirrors[index]
+        after = replace(before, **changes)
+        self._commit(mirror_id, Step(label, before, after, group, what),
+                     self._session.with_mirror(index, after), save)
+
+    def _change(self, label: str, change: tuple, session: Session) -> None:
+        """Make a change of the session's own (SESSION_SCOPE); `change` is (kind, a, b), see
+        `undo.restore` and `undo.inverse`."""
+        self._commit(SESSION_SCOPE, Step(label, inverse(change), change), session)
+
+    def _commit(self, scope: int, step: Step, session: Session, save: bool = True) -> None:
+        """Record an undo step and take the session, saving it unless `save` is False (one of
+        several steps that the last saves)."""
+        # the limits of a session that is read: past them it would not reopen
+        check_limits(session)
+        self._history.record(scope, step)
+        self._session = session
+        self._save_and_notify(save)
+
+    def _save_and_notify(self, save: bool = True) -> None:
+        self.last_save_error = None
+        if self.autosave and save:
+            try:
+                save_session(self._session)
+            except OSError as exc:
+                # the previous file is intact (atomic write): say so and go on
+                self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
+            self._file.written(self._session)
+        self._changed = True
+

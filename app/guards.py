@@ -1,0 +1,116 @@
+"""What the session editor checks before an edit: pixels in the image, markers on their mirror,
+markers and corners that exist, unique names, and the inputs a computed plane depends on. Each
+check raises MirrorscanError with a one-line message naming the mirror."""
+from __future__ import annotations
+
+import numpy as np
+
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.plane import Plane
+from mirrorcore.geometry.polygon import edge_distance
+from mirrorcore.io.session import Session, SessionMirror, check_name
+
+ON_EDGE = 1.5            # pixels: a marker this close outside its mirror's boundary is on it
+
+
+def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
+    """What a plane computed for a mirror depends on.
+
+    Returns
+    -------
+    tuple or None
+        Its markers, boundary, region, plane and glass; None when the mirror is gone. A plane
+        computed on other inputs is never applied.
+    """
+    if mirror is None:
+        return None
+    return mirror.markers, mirror.boundary, mirror.region, mirror.plane, mirror.marker_offset
+
+
+def pixel(camera: Intrinsics, uv) -> tuple[float, float]:
+    """Pixel `uv` (u, v) rounded to 0.01 pixel; refused outside the image."""
+    u, v = float(uv[0]), float(uv[1])
+    if not (np.isfinite(u) and np.isfinite(v)
+            and -0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
+        raise MirrorscanError(f"pixel ({u:g}, {v:g}) is outside the "
+                              f"{camera.width}x{camera.height} image")
+    return round(u, 2), round(v, 2)
+
+
+def on_mirror(session: Session, mirror: SessionMirror, uv) -> tuple[float, float]:
+    """A marker's pixel (u, v), refused outside the image or, when the mirror has a boundary, more
+    than ON_EDGE pixels outside it; the refusal names the mirror the pixel is on, if any."""
+    uv = pixel(session.camera, uv)
+    if mirror.boundary and edge_distance(mirror.boundary, uv) < -ON_EDGE:
+        other = next((m.name for m in session.mirrors
+                      if m.id != mirror.id and edge_distance(m.boundary, uv) >= 0), None)
+        where = (f"on {other}: select {other} (Mirror, above) to mark it" if other
+                 else "a marker must be on it")
+        raise MirrorscanError(f"{mirror.name}: ({uv[0]:.0f}, {uv[1]:.0f}) is outside its "
+                              f"boundary; {where}")
+    return uv
+
+
+def has_marker(mirror: SessionMirror, k: int) -> None:
+    """Refuse marker index `k` (0-based) that the mirror does not have."""
+    if not 0 <= k < len(mirror.markers):
+        raise MirrorscanError(f"{mirror.name}: no marker {mirror.marker_name(k)}")
+
+
+def has_vertex(mirror: SessionMirror, vertex: int) -> None:
+    """Refuse boundary vertex `vertex` (0-based) that the mirror does not have."""
+    if not 0 <= vertex < len(mirror.boundary):
+        raise MirrorscanError(f"{mirror.name}: no corner {vertex + 1}")
+
+
+def unused_name(session: Session, name: str, mirror_id: int | None) -> None:
+    """Refuse a mirror name that is not valid (check_name) or that another mirror than
+    `mirror_id` holds."""
+    check_name(name)
+    if any(m.name == name for m in session.mirrors if m.id != mirror_id):
+        raise MirrorscanError(f"there is already a mirror named {name!r}; choose another name")
+
+
+def planes_to_set(mirrors: dict[int, SessionMirror],
+                  planes: dict[int, tuple[Plane | None, SessionMirror]],
+                  glass: dict[int, tuple[float, float | None]],
+                  what: str) -> dict[int, tuple[Plane | None, float, float | None]]:
+    """The planes and glass of a fit or refinement that change their mirror.
+
+    Parameters
+    ----------
+    mirrors : dict of int to SessionMirror
+        By mirror id: each mirror of `planes` as it is now.
+    planes : dict of int to (Plane or None, SessionMirror)
+        By mirror id: the plane, and the mirror as it was when the plane was computed.
+    glass : dict of int to (float, float or None)
+        By mirror id: (marker_offset, marker_offset_std), metres, where measured; the others keep
+        theirs.
+    what : str
+        What the planes are ('plane', 'refined plane'): names the refusal.
+
+    Returns
+    -------
+    dict of int to (Plane or None, float, float or None)
+        By mirror id: (plane, marker_offset, marker_offset_std) of the mirrors whose plane or
+        glass changes.
+
+    Raises
+    ------
+    MirrorscanError
+        When a mirror's markers, boundary, region, plane or glass changed since its plane was
+        computed: a result computed on another state is never applied.
+    """
+    for mirror_id, (_, based_on) in planes.items():
+        current = mirrors[mirror_id]
+        if fit_inputs(current) != fit_inputs(based_on):
+            again = "refine it again" if what.startswith("refined") else "fit it again"
+            raise MirrorscanError(f"{current.name} changed while its {what} was computed; {again}")
+    out = {}
+    for i, (plane, _) in planes.items():
+        m = mirrors[i]
+        offset, std = glass.get(i, (m.marker_offset, m.marker_offset_std))
+        if (plane, offset, std) != (m.plane, m.marker_offset, m.marker_offset_std):
+            out[i] = (plane, offset, std)
+    return out

@@ -1,0 +1,63 @@
+"""What the browser tool tells the technician: notifications on one tab or every tab, each also
+a line of the server's log, and the refusal or failure of a user's action."""
+from __future__ import annotations
+
+import logging
+from typing import Callable
+
+import viser
+
+from mirrorcore.base.errors import MirrorscanError
+
+log = logging.getLogger("mirrorscan")
+# a notification's colour by its kind
+NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}
+NOTE_SECONDS = 8.0        # seconds: a notification closes after this
+# seconds: the note of long work's result closes after this; its report stays in the panel, and
+# the note must not cover the depth frame's corner for long at 1024x600
+RESULT_NOTE_SECONDS = 45.0
+
+
+class Notifier:
+    """The notifications of the app; mixed into `mirrorscan.server.MirrorscanApp`, whose `server`
+    it uses."""
+
+    server: viser.ViserServer
+
+    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
+        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification
+        on that tab, and so does a bug (logged with its traceback): a click never fails in silence.
+        """
+        try:
+            action()
+        except (MirrorscanError, OSError) as exc:
+            self.notify(client, "Not done", str(exc))
+        # a bug must still be told on the tab that clicked
+        except Exception as exc:  # noqa: BLE001
+            log.exception("an action failed")
+            self.notify(client, "Failed (a bug: see the server's log)",
+                        f"{type(exc).__name__}: {exc}")
+
+    def notify(self, client: viser.ClientHandle | None, title: str, message: str,
+               kind: str = "error", stay: bool = False,
+               logged: bool = True) -> viser.NotificationHandle | None:
+        """Show a notification on one tab (client None: on every tab) in its kind's colour
+        (NOTE_COLOURS), and log it.
+
+        It closes after NOTE_SECONDS, or RESULT_NOTE_SECONDS when `stay` (the result of long
+        work, whose report may be out of view). It is logged unless `logged` is False (each tab's
+        note of a shared job's end, which the job logs once).
+
+        Returns
+        -------
+        viser.NotificationHandle or None
+            The one tab's notification (to take it away once it is not true), else None.
+        """
+        if logged:
+            log.info("%s: %s", title, message)
+        targets = [client] if client is not None else list(self.server.get_clients().values())
+        seconds = RESULT_NOTE_SECONDS if stay else NOTE_SECONDS
+        notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
+                                         auto_close_seconds=seconds)
+                 for target in targets]
+        return notes[0] if client is not None else None

@@ -1,0 +1,120 @@
+"""Whether a browser tab is there for the live cloud: which page it is (kept through reloads),
+whether it is hidden, and whether it keeps up with what it is sent.
+
+viser has no message for a tab's visibility: the page notes it in its localStorage, which the
+server reads (`poll_visibility`); how long that answer takes tells whether the tab lags.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import viser
+from viser import _messages
+
+# seconds: a tab that takes longer to answer the visibility poll lags. Frames wait in its
+# browser to be drawn, so it is sent no live cloud and no depth frame until it answers in time;
+# otherwise a tab that draws slower than the loop sends would show frames minutes late.
+MAX_LAG_S = 0.5
+SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, unreported
+HIDDEN_KEY = "mirrorscan-hidden"
+PAGE_KEY = "mirrorscan-page"
+PAGE_NAME_CHARS = 64
+# A browser tab keeps its sessionStorage through reloads and no other tab shares it: the page's
+# name, made once.
+PAGE_JS = """(() => {{
+  let page = sessionStorage.getItem("{key}");
+  if (!page) {{
+    page = Date.now().toString(36) + Math.random().toString(36).slice(2);
+    sessionStorage.setItem("{key}", page);
+  }}
+  localStorage.setItem("viser-user:{key}-{client}", page);
+}})();"""
+VISIBILITY_JS = """(() => {{
+  const key = "viser-user:{key}";
+  const put = () => localStorage.setItem(key, document.hidden ? "1" : "0");
+  document.addEventListener("visibilitychange", put);
+  put();
+}})();"""
+
+
+def run_js(client: viser.ClientHandle, source: str) -> None:
+    """Run JavaScript `source` in the client's page (viser's own way, as it loads plotly)."""
+    client._websock_connection.queue_message(_messages.RunJavascriptMessage(source=source))
+
+
+class TabPresence:
+    """The page, visibility and lag of a tab; mixed into `mirrorscan.tab.Tab`.
+
+    Uses the tab's `client`, `closed`, `_stale` (send both halves of the cloud next) and
+    `_send_screen`.
+    """
+
+    client: viser.ClientHandle
+    closed: bool
+    _stale: bool
+
+    def _init_presence(self) -> None:
+        self.page: str | None = None      # which browser page this is, once identify() asked it
+        self.hidden = False
+        self.lagging = False              # see MAX_LAG_S
+        # time.perf_counter() when it last lagged, once settled (SETTLING_S)
+        self.lagged_at = -np.inf
+        self._opened = time.perf_counter()
+
+    def identify(self, timeout: float = 10.0) -> str | None:
+        """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs).
+
+        Returns
+        -------
+        str or None
+            The page's name, also kept in `page`; None when the page does not answer within
+            `timeout` seconds or went away.
+        """
+        key = f"{PAGE_KEY}-{self.client.client_id}"
+        run_js(self.client, PAGE_JS.format(key=PAGE_KEY, client=self.client.client_id))
+        try:
+            answer = self.client.local_storage.get_item(key, timeout=timeout)
+        except (TimeoutError, RuntimeError):
+            return None
+        # a name, not a store: PAGE_JS makes about 20 characters
+        self.page = answer[:PAGE_NAME_CHARS] if answer else None
+        return self.page
+
+    def _watch_visibility(self) -> None:
+        """Ask the browser to note in its localStorage whether this tab is hidden."""
+        run_js(self.client, VISIBILITY_JS.format(key=f"{HIDDEN_KEY}-{self.client.client_id}"))
+
+    def poll_visibility(self, timeout: float = 2.0) -> None:
+        """Read whether the tab is hidden, and whether it lags.
+
+        It lags when its answer took longer than MAX_LAG_S or did not come within `timeout`
+        seconds. A tab that comes back, or catches up, gets the current state.
+        """
+        # polled from a list of the tabs taken before it went away
+        if self.closed:
+            return
+        start = time.perf_counter()
+        try:
+            value = self.client.local_storage.get_item(f"{HIDDEN_KEY}-{self.client.client_id}",
+                                                       timeout=timeout)
+        except TimeoutError:
+            self._keeps_up(False)
+            return
+        except RuntimeError:             # the tab is going away
+            return
+        self._keeps_up(time.perf_counter() - start <= MAX_LAG_S)
+        hidden = value == "1"
+        if hidden != self.hidden:
+            self.hidden, self._stale = hidden, True
+            if not hidden:
+                self._send_screen(force=True)
+
+    def _keeps_up(self, keeps_up: bool) -> None:
+        # a lag while the page first builds is not reported
+        if not keeps_up and time.perf_counter() - self._opened > SETTLING_S:
+            self.lagged_at = time.perf_counter()
+        if keeps_up == self.lagging:
+            self.lagging, self._stale = not keeps_up, True
+            if keeps_up:
+                self._send_screen(force=True)
