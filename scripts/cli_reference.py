@@ -82,8 +82,9 @@ def generate() -> str:
         out += [f"| [`{name}`](#mirrorscan-{name}) | {_cell(helps.get(name) or '')} |"
                 for name in sub.choices]
         for name, command in sub.choices.items():
-            out += ["", f"## mirrorscan {name}", "", _cell(command.description or helps.get(name) or ""),
-                    "", *_usage(command), "", *_options(command)]
+            about = _cell(command.description or helps.get(name) or "")
+            out += ["", f"## mirrorscan {name}", "", about, "", *_usage(command), "",
+                    *_options(command)]
         return "\n".join(out) + "\n"
     finally:
         if saved is None:

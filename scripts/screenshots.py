@@ -1,4 +1,6 @@
-"""Screenshots of the browser tool for docs/browser-tool.md: `.venv/bin/python scripts/screenshots.py`.
+"""Screenshots of the browser tool for docs/browser-tool.md.
+
+Run `.venv/bin/python scripts/screenshots.py`.
 
 Serves the demo (`mirrorscan serve`) on 127.0.0.1 at a free port, opens it in headless Chromium at
 1400x900 and 1024x600, visits each step of the side panel and the depth frame, and writes
@@ -18,15 +20,17 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
 SIZES = ((1400, 900), (1024, 600))
 STEPS = ("Mirrors", "Object", "Measure", "Dense", "Record", "Session")
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium") if Path(p).exists()), None)
-ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update", "--disable-sync",
-        "--no-first-run"]
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium")
+                 if Path(p).exists()), None)
+ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update",
+        "--disable-sync", "--no-first-run"]
 SETTLE_S = 2.0       # the page redraws after a step opens; software WebGL takes a second or two
 START_S = 12.0       # the demo calibrates its mirrors and the first cloud reaches the page
-# viser's notice that the browser draws WebGL in software (true of headless Chromium, not of a laptop)
+# viser's notice that the browser draws WebGL in software (as headless Chromium does)
 CLOSE_WEBGL_NOTICE = """() => {
   for (const el of document.querySelectorAll("div")) {
-    if (el.textContent.startsWith("Software WebGL rendering detected") && el.querySelector("button")) {
+    const notice = el.textContent.startsWith("Software WebGL rendering detected");
+    if (notice && el.querySelector("button")) {
       el.querySelector("button").click();
       return true;
     }
@@ -81,14 +85,16 @@ def shoot(url: str, out: Path) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=OUT, help="folder of the PNGs (default docs/images)")
+    parser.add_argument("--out", type=Path, default=OUT,
+                        help="folder of the PNGs (default docs/images)")
     args = parser.parse_args(argv)
     if CHROMIUM is None:
         raise SystemExit("no chromium at /usr/bin/chromium: run scripts/setup.sh --test")
     args.out.mkdir(parents=True, exist_ok=True)
     port = free_port()
-    server = subprocess.Popen([str(ROOT / ".venv" / "bin" / "mirrorscan"), "serve", "--port", str(port)],
-                              cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    command = [str(ROOT / ".venv" / "bin" / "mirrorscan"), "serve", "--port", str(port)]
+    server = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
     try:
         url = f"http://127.0.0.1:{port}/"
         wait_until_served(url)

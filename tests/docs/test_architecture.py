@@ -8,8 +8,8 @@ arch = load("architecture")
 
 def test_import_graph_in_architecture_page_is_current():
     page = arch.PAGE.read_text()
-    assert page == arch.render(page), (
-        "the import graph in docs/architecture.md is stale: run `.venv/bin/python scripts/architecture.py`")
+    assert page == arch.render(page), ("the import graph in docs/architecture.md is stale: "
+                                       "run `.venv/bin/python scripts/architecture.py`")
 
 
 def test_packages_import_only_their_floor_and_below():
@@ -23,7 +23,8 @@ def test_import_graph_has_no_circle():
 def test_every_module_belongs_to_a_node():
     for folder in arch.FOLDERS:
         for path in (arch.ROOT / folder).rglob("*.py"):
-            assert arch.node(arch.module_name(path)) in arch.FLOORS, path
+            name = arch.module_name(path)
+            assert name == "mirrorcore" or arch.node(name) in arch.FLOORS, path
 
 
 def test_checks_find_a_circle_and_an_upward_import():
