@@ -4,11 +4,13 @@ Run `.venv/bin/python scripts/screenshots.py`.
 
 Serves the demo (`mirrorscan serve`) on 127.0.0.1 at a free port, opens it in headless Chromium at
 1400x900 and 1024x600, visits each step of the side panel and the depth frame, and writes
-docs/images/<step>-<width>x<height>.png. Needs the test extras (Playwright, Debian's chromium).
+docs/images/<step>-<width>x<height>.png; the Mirrors step at 1400x900 is also the README's
+docs/screenshot.png. Needs the test extras (Playwright, Debian's chromium).
 """
 from __future__ import annotations
 
 import argparse
+import shutil
 import socket
 import subprocess
 import sys
@@ -18,6 +20,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
+FRONT = ROOT / "docs" / "screenshot.png"     # the README's picture
 SIZES = ((1400, 900), (1024, 600))
 STEPS = ("Mirrors", "Object", "Measure", "Dense", "Record", "Session")
 CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium")
@@ -25,7 +28,7 @@ CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium")
 ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update",
         "--disable-sync", "--no-first-run"]
 SETTLE_S = 2.0       # the page redraws after a step opens; software WebGL takes a second or two
-START_S = 12.0       # the demo calibrates its mirrors and the first cloud reaches the page
+START_S = 20.0       # the demo calibrates its mirrors and the first cloud reaches the page
 # viser's notice that the browser draws WebGL in software (as headless Chromium does)
 CLOSE_WEBGL_NOTICE = """() => {
   for (const el of document.querySelectorAll("div")) {
@@ -68,6 +71,9 @@ def shoot(url: str, out: Path) -> list[Path]:
             page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
             time.sleep(START_S)  # the demo's first frames and calibration reach the page
             page.evaluate(CLOSE_WEBGL_NOTICE)
+            for step in STEPS:  # a first pass: the view settles and every step has been drawn once
+                page.get_by_role("tab", name=step, exact=True).click()
+                time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
             for step in STEPS:
                 page.get_by_role("tab", name=step, exact=True).click()
                 time.sleep(SETTLE_S)  # let the software renderer draw the opened step
@@ -100,6 +106,9 @@ def main(argv: list[str] | None = None) -> int:
         wait_until_served(url)
         for path in shoot(url, args.out):
             print(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
+        if args.out == OUT:
+            shutil.copyfile(OUT / "mirrors-1400x900.png", FRONT)
+            print(FRONT.relative_to(ROOT))
     finally:
         server.terminate()
         server.wait(timeout=30)
