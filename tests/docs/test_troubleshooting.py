@@ -10,7 +10,8 @@ from tests.docs.markdown import ROOT, blocks
 
 PAGE = ROOT / "docs" / "troubleshooting.md"
 # What the page writes for the parts a message fills in: PATH, MIRROR, N, WxH, (U, V), ...
-PLACEHOLDER = re.compile(r"\.\.\.|\([A-Z], [A-Z]\)|\b[A-Z][A-Za-z0-9_]*[A-Z0-9]\b|\b[A-Z]\b|\bWxH\b")
+PLACEHOLDER = re.compile(
+    r"\.\.\.|\([A-Z], [A-Z]\)|\b[A-Z][A-Za-z0-9_]*[A-Z0-9]\b|\b[A-Z]\b|\bWxH\b")
 SHORTEST = 6  # characters of a piece worth looking for
 
 
@@ -32,7 +33,8 @@ def strings() -> tuple[str, ...]:
 def quoted() -> list[str]:
     """The message starts the page quotes: the code spans of each table row's first cell."""
     rows = [text for kind, text in blocks(PAGE.read_text()) if kind == "row"]
-    return [span for row in rows for span in re.findall(r"`([^`]+)`", row.strip("|").split(" | ")[0])]
+    first_cells = [row.strip("|").split(" | ")[0] for row in rows]
+    return [span for cell in first_cells for span in re.findall(r"`([^`]+)`", cell)]
 
 
 def missing(quote: str) -> list[str]:
