@@ -79,6 +79,13 @@ def imports(path: Path) -> set[str]:
     return {m for m in found if m.split(".")[0] in ("mirrorcore", "mirrorscan")}
 
 
+def module_graph() -> dict[str, set[str]]:
+    """Each module of the project and the project's modules it imports."""
+    paths = [path for folder in FOLDERS for path in sorted((ROOT / folder).rglob("*.py"))]
+    known = {module_name(path) for path in paths}
+    return {module_name(path): (imports(path) & known) - {module_name(path)} for path in paths}
+
+
 def graph() -> dict[str, set[str]]:
     """Each node and the nodes it imports (itself left out)."""
     edges: dict[str, set[str]] = {name: set() for name in FLOORS}
@@ -181,6 +188,8 @@ def main() -> int:
     problems = upward(edges) + [" -> ".join(c) for c in circles(edges)]
     for problem in problems:
         print(f"import against the floors: {problem}", file=sys.stderr)
+    for circle in circles(module_graph()):
+        print(f"modules that import each other: {' -> '.join(circle)}", file=sys.stderr)
     return 1 if problems else 0
 
 
