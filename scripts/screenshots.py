@@ -1,0 +1,119 @@
+"""Screenshots of the browser tool for docs/browser-tool.md.
+
+Run `.venv/bin/python scripts/screenshots.py`.
+
+Serves the demo (`mirrorscan serve`) on 127.0.0.1 at a free port, opens it in headless Chromium at
+1400x900 and 1024x600, visits each step of the side panel and the depth frame, and writes
+docs/images/<step>-<width>x<height>.png; the Mirrors step at 1400x900 is also the README's
+docs/screenshot.png. Needs the test extras (Playwright, Debian's chromium).
+"""
+from __future__ import annotations
+
+import argparse
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "images"
+FRONT = ROOT / "docs" / "screenshot.png"     # the README's picture
+SIZES = ((1400, 900), (1024, 600))
+STEPS = ("Mirrors", "Object", "Measure", "Dense", "Record", "Session")
+CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/lib/chromium/chromium")
+                 if Path(p).exists()), None)
+ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-update",
+        "--disable-sync", "--no-first-run"]
+SETTLE_S = 2.0       # the page redraws after a step opens; software WebGL takes a second or two
+START_S = 20.0       # the demo calibrates its mirrors and the first cloud reaches the page
+# viser's notice that the browser draws WebGL in software (as headless Chromium does)
+CLOSE_WEBGL_NOTICE = """() => {
+  for (const el of document.querySelectorAll("div")) {
+    const notice = el.textContent.startsWith("Software WebGL rendering detected");
+    if (notice && el.querySelector("button")) {
+      el.querySelector("button").click();
+      return true;
+    }
+  }
+  return false;
+}"""
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def wait_until_served(url: str, timeout: float = 120.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            with urllib.request.urlopen(url, timeout=2):
+                return
+        except OSError:
+            time.sleep(0.5)  # the server is still starting: poll again
+    raise SystemExit(f"mirrorscan serve did not answer at {url} within {timeout:.0f} s")
+
+
+def shoot(url: str, out: Path) -> list[Path]:
+    from playwright.sync_api import sync_playwright
+
+    written = []
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        for width, height in SIZES:
+            page = browser.new_page(viewport={"width": width, "height": height})
+            page.goto(url)
+            page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
+            time.sleep(START_S)  # the demo's first frames and calibration reach the page
+            page.evaluate(CLOSE_WEBGL_NOTICE)
+            for step in STEPS:  # a first pass: the view settles and every step has been drawn once
+                page.get_by_role("tab", name=step, exact=True).click()
+                time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
+            for step in STEPS:
+                page.get_by_role("tab", name=step, exact=True).click()
+                time.sleep(SETTLE_S)  # let the software renderer draw the opened step
+                written.append(out / f"{step.lower()}-{width}x{height}.png")
+                page.screenshot(path=str(written[-1]))
+            page.get_by_role("tab", name=STEPS[0], exact=True).click()
+            page.get_by_role("button", name="Depth frame", exact=True).click()
+            time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
+            written.append(out / f"depth-frame-{width}x{height}.png")
+            page.screenshot(path=str(written[-1]))
+            page.close()
+        browser.close()
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=OUT,
+                        help="folder of the PNGs (default docs/images)")
+    args = parser.parse_args(argv)
+    if CHROMIUM is None:
+        raise SystemExit("no chromium at /usr/bin/chromium: run scripts/setup.sh --test")
+    args.out.mkdir(parents=True, exist_ok=True)
+    port = free_port()
+    command = [str(ROOT / ".venv" / "bin" / "mirrorscan"), "serve", "--port", str(port)]
+    server = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+    try:
+        url = f"http://127.0.0.1:{port}/"
+        wait_until_served(url)
+        for path in shoot(url, args.out):
+            print(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
+        if args.out == OUT:
+            shutil.copyfile(OUT / "mirrors-1400x900.png", FRONT)
+            print(FRONT.relative_to(ROOT))
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
