@@ -30,7 +30,7 @@ SENSORS = {  # the Kinect v1 model with its effects one at a time
     "kinect-noiseless": SensorModel.kinect_v1(noise=False),
     "kinect": KINECT,
 }
-DISTANCE = {"sphere": 2.0, "figure": 3.0}  # metres, as in tests/test_calibrate_refine.py
+DISTANCE = {"sphere": 2.0, "figure": 3.0}  # metres, as in tests/cli/test_calibrate.py
 
 
 @dataclass(frozen=True)
