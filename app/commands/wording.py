@@ -89,7 +89,7 @@ def fitted(name: str, fit: Calibration, marker_names: list[str] | None = None) -
 
 def refined(report: MirrorRefinement, searched: bool, saved: bool) -> Message:
     """A plane refined (or, `searched`, found by calibrate --method scene); `saved`: the glass
-    measured is written (False: the session had it already)."""
+    measured is written (False: the session holds it already)."""
     verdict = (
         "it agrees with the other views as well as the depth noise allows."
         if report.agreement_after_mm <= NOISE_EXPLAINS * report.noise_mm
@@ -170,8 +170,8 @@ def markers_unused(names: list[str]) -> Message:
     glass."""
     planes = "its plane was" if len(names) == 1 else "their planes were"
     return Message(
-        f"{listed(names)}: {planes} found from the object alone; the markers only read the "
-        "glass (--method markers fits the planes to them)."
+        f"{listed(names)}: {planes} found from the object alone; the markers only read the glass.",
+        ("--method markers fits the planes to the markers",),
     )
 
 
@@ -180,7 +180,8 @@ def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
     """One frame's merged cloud (Algorithm 1); counts: {source: points}."""
     mirrors = sum(1 for source, points in counts.items() if source > 0 and points)
     return Message(
-        f"wrote {out}: {points} points seen directly and in {mirrors} mirror views.",
+        f"wrote {out}: {points} points seen directly and in {mirrors} "
+        + ("mirror view." if mirrors == 1 else "mirror views."),
         ("points per view: " + ", ".join(f"{source_name(k)} {v}" for k, v in counts.items()),),
     )
 
