@@ -1,5 +1,7 @@
-"""Benchmarks behind `mirrorscan bench`: each module in MODULES has run() -> dict of figure name ->
-value."""
+"""Benchmarks behind `mirrorscan bench`.
+
+Each module in MODULES has run() -> dict of figure name -> value.
+"""
 
 from __future__ import annotations
 
@@ -34,8 +36,10 @@ def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> fl
 def interleaved_ms(
     fns: dict[str, Callable[[], object]], repeat: int = 30, warmup: int = 3
 ) -> dict[str, float]:
-    """Median wall-clock milliseconds of each fn() over `repeat` rounds that call every fn in turn
-    (so that a busy machine slows them alike), after `warmup` rounds."""
+    """Median wall-clock milliseconds of each fn() over `repeat` rounds, after `warmup` rounds.
+
+    Each round calls every fn in turn, so that a busy machine slows them alike.
+    """
     for _ in range(warmup):
         for fn in fns.values():
             fn()

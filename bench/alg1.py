@@ -1,8 +1,10 @@
-"""Benchmark of Algorithm 1 on a 640x480 two-mirror frame of the simulated rig (the walking figure,
-Kinect noise), beside Open3D's plain reprojection of the same frame (the three measured in turn),
-and on a frame of two hinged mirrors at 72 degrees, where rays go on through a second mirror (the
-kaleidoscope), with the time to trace them and to prepare that frame (select the object, smooth it,
-fit the views through two mirrors)."""
+"""Benchmark of Algorithm 1, beside Open3D's plain reprojection, and through several mirrors.
+
+A 640x480 two-mirror frame of the simulated rig (the walking figure, Kinect noise), beside Open3D's
+plain reprojection of the same frame (the three measured in turn), and on a frame of two hinged
+mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to
+trace them and to prepare that frame (select the object, smooth it, fit the views through two
+mirrors)."""
 
 from __future__ import annotations
 
@@ -54,10 +56,11 @@ def run() -> dict[str, float]:
 
 
 def _kaleidoscope() -> dict[str, float]:
-    """Algorithm 1 through up to 3 mirrors on the walking figure between two hinged mirrors at 72
-    degrees, the time to build the rig's per-pixel tables (tracing every ray through the mirrors'
-    outlines), and prepare_frame on that frame (selection, smoothing, and the local quadratic fits
-    of the pixels seen through two mirrors)."""
+    """Algorithm 1 through up to 3 mirrors: two hinged mirrors at 72 degrees.
+
+    The walking figure between them; the time to build the rig's per-pixel tables (tracing every ray
+    through the mirrors' outlines), and prepare_frame on that frame (selection, smoothing, and the
+    local quadratic fits of the pixels seen through two mirrors)."""
     sim = Simulator(kaleidoscope_scene(72.0, object="figure", distance=3.0), seed=0)
     rig = true_rig(sim.scene)
     depth, background = sim.frame(0).depth, sim.background().depth

@@ -1,7 +1,9 @@
-"""Benchmark of batch reconstruction (`reconstruct --frame all`, mirrorcore.batch): a 640x480
-recording of the walking figure with two mirrors (Kinect v1 noise), Algorithm 1 on every frame, each
-frame's PLY written to disk, on local Dask clusters of 1 and of 2 worker processes (one thread each)
-and in this process (`--workers 1`), measured in alternation; cluster start-up excluded.
+"""Benchmark of batch reconstruction (`reconstruct --frame all`, mirrorcore.batch).
+
+A 640x480 recording of the walking figure with two mirrors (Kinect v1 noise), Algorithm 1 on every
+frame, each frame's PLY written to disk, on local Dask clusters of 1 and of 2 worker processes (one
+thread each) and in this process (`--workers 1`), measured in alternation; cluster start-up
+excluded.
 
 batch_fps_per_core : frames per second with 2 workers, per worker (one core each)
 batch_scaling : the throughput of 2 workers over that of 1 worker (2.0 is perfect)
@@ -50,9 +52,11 @@ def cpu_seconds() -> float:
 
 
 def throughput(session: Path, out: Path, workers: int) -> tuple[float, float]:
-    """(frames written per second, CPU milliseconds per frame) of a fresh run on a new local cluster
-    of `workers` processes (0: in this process), from the first task on (cluster start-up and
-    shipping the rig excluded)."""
+    """(frames written per second, CPU milliseconds per frame) of a fresh run.
+
+    On a new local cluster of `workers` processes (0: in this process), from the first task on
+    (cluster start-up and shipping the rig excluded).
+    """
     shutil.rmtree(out, ignore_errors=True)
     started: list[float] = []
 

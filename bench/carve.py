@@ -1,7 +1,10 @@
-"""Benchmark of carving: a 300^3 volume (1.33 mm voxels over 40 cm; `carve_ms`, the issue 14 figure)
-and a 200^3 one (2 mm over the same box; `carve_200_ms`, the figure before) around the simulated
-sphere (640x480 Kinect frame with noise, two mirrors at 120 deg), with the peak memory at 300^3. The
-scene and the memory tracer serve bench.tsdf too."""
+"""Benchmark of carving.
+
+A 300^3 volume (1.33 mm voxels over 40 cm; `carve_ms`) and a 200^3 one (2 mm over the same box;
+`carve_200_ms`) around the simulated sphere (640x480 Kinect
+frame with noise, two mirrors at 120 deg), with the peak memory at 300^3. The scene and the memory
+tracer serve bench.tsdf too.
+"""
 
 from __future__ import annotations
 
@@ -26,8 +29,11 @@ BOX = 0.4  # metres: the edge of the cube around the sphere
 
 @dataclass(frozen=True)
 class SphereFrames:
-    """Prepared frames of the simulated sphere: depths, masks (F, H, W) float metres / bool; the
-    sphere's centre (3,) and radius, metres, camera frame."""
+    """Prepared frames of the simulated sphere.
+
+    Depths, masks (F, H, W) float metres / bool; the sphere's centre (3,) and radius, metres, camera
+    frame.
+    """
 
     rig: Rig
     depths: np.ndarray
@@ -50,8 +56,7 @@ class SphereFrames:
 
 
 def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
-    """`count` frames of the paper's sphere scene, simulated with `seed` and prepared as for
-    Algorithm 1."""
+    """`count` frames of the paper's sphere scene, simulated with `seed`, ready for Algorithm 1."""
     sim = Simulator(paper_scene(object="sphere"), seed=seed)
     rig = true_rig(sim.scene)
     background = sim.background().depth

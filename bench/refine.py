@@ -1,7 +1,8 @@
-"""Benchmark of the refinement of two mirrors' planes on one 640x480 frame of the simulated rig
-(Kinect noise), from planes fitted to markers 3 mm in front of the silver and clicked 2 px off: on
-the walking figure (the surfaces, `refine_ms`) and on the paper's sphere (its centres,
-`refine_sphere_ms`)."""
+"""Benchmark of the refinement of two mirrors' planes.
+
+One 640x480 frame of the simulated rig (Kinect noise), from planes fitted to markers 3 mm in front
+of the silver and clicked 2 px off: on the walking figure (the surfaces, `refine_ms`) and on the
+paper's sphere (its centres, `refine_sphere_ms`)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,7 @@
-"""Benchmark of the browser tool's live loop with one tab attached (bench.tabs.HeadlessTab, a
-websocket client that reads what a browser would): the built-in demo (walking figure, two mirrors,
+"""Benchmark of the browser tool's live loop with one tab attached.
+
+The tab is bench.tabs.HeadlessTab, a websocket client that reads what a browser would; the built-in
+demo (walking figure, two mirrors,
 Kinect noise), its frames rendered beforehand so that reading the source costs nothing.
 
 serve_loop_fps : frames per second as fast as the loop goes, the tab looking at the 3D scene (the
@@ -44,8 +46,10 @@ def demo_frames(n: int) -> StackSource:
 
 
 def paced(app: MirrorscanApp, tab: HeadlessTab | None, frames: int) -> tuple[float, float]:
-    """Run `frames` frames at FPS; (mean CPU ms of the loop's thread per frame, kB the tab received
-    per frame, 0 without a tab)."""
+    """Run `frames` frames at FPS.
+
+    (mean CPU ms of the loop's thread per frame, kB the tab received per frame, 0 without a tab).
+    """
     cpu, received = 0.0, tab.bytes if tab else 0
     for _ in range(frames):
         start, used = time.perf_counter(), time.thread_time()
@@ -94,9 +98,11 @@ def run() -> dict[str, float]:
 
 
 def click_ms(app: MirrorscanApp, tab, clicks: int = 10) -> float:
-    """Median ms from a click adding a marker on mirror 1 (the tab in its markers mode, looking at
-    the depth frame) until the tab sends a depth frame whose overlay has the marker, while another
-    thread runs the live loop at FPS."""
+    """Median ms from a click adding a marker until the tab is sent a depth frame showing it.
+
+    The tab is in its markers mode on mirror 1, looking at the depth frame, while another thread
+    runs the live loop at FPS.
+    """
     target: list[tuple[int, int]] = []  # the pixel clicked last
     sent: list[float] = []  # when a depth frame showing it was sent
     show = tab.screen.show

@@ -1,9 +1,12 @@
-"""Soak test of the browser tool: the live demo streamed to several simulated browser tabs
-(websocket clients on 127.0.0.1) for a set time while the session is edited and autosaved; reports
-memory (RSS), frames, frame rate, what every tab received, and whether every edit reached the disk.
+"""Soak test of the browser tool.
+
+The live demo streamed to several simulated browser tabs (websocket clients on 127.0.0.1) for a set
+time while the session is edited and autosaved; reports memory (RSS), frames, frame rate, what every
+tab received, and whether every edit reached the disk.
 
 .venv/bin/python -m mirrorscan.bench.soak --minutes 10 --clients 4      # the long run; the test
-suite runs ~25 s of it"""
+suite runs ~25 s of it
+"""
 
 from __future__ import annotations
 
@@ -34,12 +37,14 @@ LATE_CLIENT_S = 3.0  # the tab opened at the end listens this long
 
 @dataclass
 class SoakReport:
-    """What a soak run measured. rss_mb: memory of the whole process (server, live loop and the
-    simulated tabs), MB, at the 'start', after the warm-up ('warm'), at the 'end', its 'max' and
-    'growth' = end - warm; fps = frames / seconds; messages: per tab, in order; max_gap_s: the
-    longest silence any tab saw; edits / edits_on_disk: session renames made / found in session.json
-    at the end; late_messages: what a tab opened at the end received (the whole current state);
-    errors: live loop errors."""
+    """What a soak run measured.
+
+    rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB, at the
+    'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps =
+    frames / seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits
+    / edits_on_disk: session renames made / found in session.json at the end; late_messages: what a
+    tab opened at the end received (the whole current state); errors: live loop errors.
+    """
 
     seconds: float
     clients: int
@@ -69,9 +74,12 @@ def rss_mb() -> float:
 
 
 async def listen(url: str, until: float) -> tuple[int, float]:
-    """One simulated tab: connect with viser's protocol, report a camera view (viser counts a tab as
-    connected from then on), read every message until time.monotonic() >= until. Returns (messages
-    received, longest gap between two messages in seconds)."""
+    """One simulated tab.
+
+    Connect with viser's protocol, report a camera view (viser counts a tab as connected from then
+    on), read every message until time.monotonic() >= until. Returns (messages received, longest gap
+    between two messages in seconds).
+    """
     count, gap, last = 0, 0.0, time.monotonic()
     async with websockets.asyncio.client.connect(
         url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
@@ -92,9 +100,11 @@ async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
 
 
 def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
-    """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`, renaming a
-    mirror every EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder by default).
-    Stops by itself."""
+    """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`.
+
+    A mirror is renamed every EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder
+    by default). Stops by itself.
+    """
     report = SoakReport(seconds, clients, rss_mb={"start": rss_mb()})
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(folder or tmp) / "soak"

@@ -1,8 +1,11 @@
-"""A browser tab as the server sees it, without a browser: a websocket client speaking viser's
-protocol (its subprotocol, then a camera report, after which viser counts the tab as connected),
-reading every message on a thread, counting the bytes and answering the server's localStorage reads
-as a browser does (the app polls every tab that way, and takes a late answer for a tab that lags).
-The app then builds a Tab for it, which benchmarks measure and tests drive."""
+"""A browser tab as the server sees it, without a browser.
+
+A websocket client speaking viser's protocol (its subprotocol, then a camera report, after which
+viser counts the tab as connected), reading every message on a thread, counting the bytes and
+answering the server's localStorage reads as a browser does (the app polls every tab that way, and
+takes a late answer for a tab that lags). The app then builds a Tab for it, which benchmarks measure
+and tests drive.
+"""
 
 from __future__ import annotations
 
@@ -46,11 +49,13 @@ def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
 
 
 class HeadlessTab:
-    """Connect to `app` as a tab; .tab is the app's Tab for it; .bytes and .messages count what it
-    received. Set .answer_delay (seconds) to answer the server's localStorage reads that much later,
-    as a browser that draws more slowly than frames come (the messages before a read wait to be
-    drawn). `page`: the name the page gives when asked which it is (the same for a reload of it; by
-    default a new page's own)."""
+    """Connect to `app` as a tab.
+
+    .tab is the app's Tab for it; .bytes and .messages count what it received. Set .answer_delay
+    (seconds) to answer the server's localStorage reads that much later, as a browser that draws
+    more slowly than frames come (the messages before a read wait to be drawn). `page`: the name the
+    page gives when asked which it is (the same for a reload of it; by default a new page's own).
+    """
 
     def __init__(self, app, page: str | None = None):
         self.page = page or uuid.uuid4().hex
@@ -82,9 +87,12 @@ class HeadlessTab:
             pass
 
     def _answer(self, window: bytes) -> None:
-        """Answer each localStorage read in a window of messages (viser's wire format: the sizes of
-        the msgpack metadata, raw and zstd-compressed, then the metadata, then binary buffers): the
-        page's name when asked which page it is, else "0" (a tab in view)."""
+        """Answer each localStorage read in a window of messages.
+
+        The window is in viser's wire format: the sizes of the msgpack metadata, raw and
+        zstd-compressed, then the metadata, then binary buffers. The answer is the page's name when
+        asked which page it is, else "0" (a tab in view).
+        """
         size, packed = int.from_bytes(window[:8], "little"), int.from_bytes(window[8:16], "little")
         metadata = msgspec.msgpack.decode(
             self._unzip.decompress(window[16 : 16 + packed], max_output_size=size)

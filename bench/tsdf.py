@@ -1,10 +1,12 @@
-"""Benchmark of TSDF fusion against Open3D's: the sparse numpy fusion (mirrorcore.dense.tsdf) and
-Open3D's VoxelBlockGrid integrating the same views (the camera and each mirror's virtual camera,
-with its det -1 extrinsic) of the same frames of the simulated sphere, both with a truncation of 3
-voxels and their meshes extracted, timed interleaved: one frame at 200^3 voxels (2 mm over 40 cm),
-five frames, and the traced peak memory at 300^3 (1.33 mm). Each mesh's RMSE to the true sphere is
-reported beside. tsdf_fuse_ms and open3d_integrate_ms time the fusion alone (one frame, 200^3),
-without the meshes."""
+"""Benchmark of TSDF fusion against Open3D's.
+
+The sparse numpy fusion (mirrorcore.dense.tsdf) and Open3D's VoxelBlockGrid integrating the same
+views (the camera and each mirror's virtual camera, with its det -1 extrinsic) of the same frames of
+the simulated sphere, both with a truncation of 3 voxels and their meshes extracted, timed
+interleaved: one frame at 200^3 voxels (2 mm over 40 cm), five frames, and the traced peak memory at
+300^3 (1.33 mm). Each mesh's RMSE to the true sphere is reported beside. tsdf_fuse_ms and
+open3d_integrate_ms time the fusion alone (one frame, 200^3), without the meshes.
+"""
 
 from __future__ import annotations
 
@@ -26,9 +28,11 @@ O3D_MIN_WEIGHT = 0.5
 
 
 def open3d_tsdf(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
-    """Open3D's VoxelBlockGrid fusing the views of the first `count` frames (each view's depth where
-    it shows the object, 0 elsewhere), voxels of volume.voxel, depth up to 4 m, then its mesh
-    (camera frame, metres); without `mesh`, the grid."""
+    """Open3D's VoxelBlockGrid fusing the views of the first `count` frames, then its mesh.
+
+    Each view's depth where it shows the object, 0 elsewhere; voxels of volume.voxel, depth up to
+    4 m; the mesh in the camera frame, metres. Without `mesh`, the grid.
+    """
     intr = frames.rig.intrinsics
     intrinsic = o3c.Tensor([[intr.fx, 0, intr.cx], [0, intr.fy, intr.cy], [0, 0, 1]], o3c.float64)
     grid = o3d.t.geometry.VoxelBlockGrid(
@@ -57,8 +61,10 @@ def open3d_tsdf(frames: SphereFrames, volume: Volume, count: int, mesh: bool = T
 
 
 def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
-    """The sparse fusion's mesh of the first `count` frames (truncation TRUNCATION_VOXELS voxels);
-    without `mesh`, the fused result."""
+    """The sparse fusion's mesh of the first `count` frames (truncation TRUNCATION_VOXELS voxels).
+
+    Without `mesh`, the fused result.
+    """
     fused = fuse(
         frames.rig,
         frames.depths[:count],

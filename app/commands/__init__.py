@@ -1,5 +1,7 @@
-"""One module per `mirrorscan` subcommand; each has register(subparsers) that sets the parser's
-`run` default. Here: what several share."""
+"""One module per `mirrorscan` subcommand.
+
+Each has register(subparsers) that sets the parser's `run` default. Here: what several share.
+"""
 
 from __future__ import annotations
 
@@ -13,8 +15,10 @@ from mirrorcore.base.progress import Progress
 
 @contextmanager
 def percent_bar(desc: str, disable: bool = False) -> Iterator[Progress]:
-    """A tqdm bar (stderr) of the fraction done, shown after half a second and cleared at the end,
-    so that a refusal stays one line: yields progress(fraction)."""
+    """A tqdm bar (stderr) of the fraction done; yields progress(fraction).
+
+    The bar shows after half a second and is cleared at the end, so that a refusal stays one line.
+    """
     with tqdm(
         total=100,
         desc=desc,

@@ -154,8 +154,10 @@ def _calibrate(
     rng: np.random.Generator,
     progress,
 ) -> tuple[Session, Refinement | None]:
-    """The method's planes (printed as they are fitted), then the refinement when asked (always for
-    scene)."""
+    """The method's planes, printed as they are fitted, then the refinement when asked.
+
+    --method scene always refines.
+    """
     if method == "scene":
         return calibrate_scene(
             session,

@@ -1,6 +1,9 @@
-"""`mirrorscan experiment {angle,distance,kaleidoscope,temporal}`: the paper's figures 4a and 5a on
-the simulated rig, the error against the angle of two hinged mirrors seen through several mirrors in
-turn, and the effect of temporal smoothing on the walking figure, as CSV and PNG."""
+"""`mirrorscan experiment NAME`: the experiments on the simulated rig, as CSV and PNG.
+
+The paper's figures 4a and 5a on the simulated rig, the error against the angle of two hinged
+mirrors seen through several mirrors in turn, and the effect of temporal smoothing on the walking
+figure, as CSV and PNG.
+"""
 
 from __future__ import annotations
 

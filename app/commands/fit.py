@@ -1,5 +1,7 @@
-"""`mirrorscan fit {sphere,cylinder} CLOUD.ply [--json]`: RANSAC fit of a cloud, radius, RMSE and
-mean error (paper section 5)."""
+"""`mirrorscan fit {sphere,cylinder} CLOUD.ply`: a shape fitted to a cloud, as the paper measures.
+
+RANSAC fit, then radius, RMSE and mean error (paper section 5); --json for one JSON object.
+"""
 
 from __future__ import annotations
 

@@ -1,9 +1,11 @@
-"""`mirrorscan reconstruct SESSION -o OUT`: the merged cloud of frames, a carved cloud or a fused
-mesh, as PLY.
+"""`mirrorscan reconstruct SESSION -o OUT`.
+
+The merged cloud of frames, a carved cloud or a fused mesh, as PLY.
 
 --method raw is the paper's Algorithm 1, paper its Algorithm 2 as written, carve the consistent
 carving, tsdf a fused mesh; with `--frame all`, one PLY per frame and a manifest, on this machine's
-cores or a Dask cluster (mirrorcore.batch)."""
+cores or a Dask cluster (mirrorcore.batch).
+"""
 
 from __future__ import annotations
 
@@ -121,10 +123,16 @@ def register(sub) -> None:
 
 
 def read_scan_frame(session: Session, index: int, temporal: int = 0) -> np.ndarray:
-    """Frame `index` as (H, W) metres (smoothed with `temporal` neighbours,
-    mirrorcore.batch.read_depth), refused when it has no reading at all (nothing to scan in it).
-    `--frame all` reads frames as they are: a recording may begin with blank frames while the camera
-    starts."""
+    """Frame `index` as (H, W) metres, smoothed with `temporal` neighbours (batch.read_depth).
+
+    Refused when it has no reading at all (nothing to scan in it). `--frame all` reads frames as
+    they are: a recording may begin with blank frames while the camera starts.
+
+    Raises
+    ------
+    MirrorscanError
+        When every pixel of the frame is 0.
+    """
     return require_readings(
         read_depth(session, index, temporal), str(Path(session.root) / session.frames[index])
     )
@@ -185,8 +193,10 @@ def run_dense(
     selection,
     out: Path,
 ) -> int:
-    """Carve or fuse frames index.. (see mirrorcore.dense) with a progress bar; Ctrl-C cancels,
-    nothing is written."""
+    """Carve or fuse the frames from `index` on (mirrorcore.dense) with a progress bar.
+
+    Ctrl-C cancels; nothing is written then.
+    """
     count = args.frames if args.method == "tsdf" else 1
     if count < 1:
         raise MirrorscanError(f"--frames: expected a positive number, got {count}")
@@ -241,9 +251,11 @@ def run_dense(
 
 
 def run_all(args: argparse.Namespace, out: Path) -> int:
-    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar; Ctrl-C
-    stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and exits with
-    130."""
+    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar.
+
+    Ctrl-C stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and exits
+    with 130.
+    """
     if args.frames != 1:
         raise MirrorscanError(
             "--frames: with --frame all each frame is reconstructed alone (people move); "
@@ -263,9 +275,11 @@ def run_all(args: argparse.Namespace, out: Path) -> int:
 
 
 class _ProgressBar:
-    """A tqdm bar of the frames done (with their rate and the time left), made at the first progress
-    report (the frames kept from an earlier run count as done, not in the rate); failures and
-    retries after it."""
+    """A tqdm bar of the frames done, with their rate and the time left; failures and retries after.
+
+    It is made at the first progress report; the frames kept from an earlier run count as done, not
+    in the rate.
+    """
 
     def __init__(self, desc: str):
         self.desc = desc
@@ -333,9 +347,10 @@ def _dense_options(args: argparse.Namespace) -> DenseOptions:
 
 @contextmanager
 def _ctrl_c_cancels():
-    """While inside, Ctrl-C sets the yielded threading.Event (the computation stops at its next
-    chunk) instead of interrupting at an arbitrary point; the previous handler is restored on the
-    way out."""
+    """While inside, Ctrl-C sets the yielded threading.Event instead of interrupting.
+
+    The computation stops at its next chunk; the previous handler is restored on the way out.
+    """
     event = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: event.set())
     try:

@@ -1,5 +1,4 @@
-"""`mirrorscan record SOURCE SESSION [--seconds N] [--frames N]`: record any depth source into a
-session folder."""
+"""`mirrorscan record SOURCE SESSION`: record any depth source into a session folder."""
 
 from __future__ import annotations
 
@@ -46,10 +45,12 @@ def register(sub) -> None:
 
 @contextmanager
 def stop_signals() -> Iterator[list[int]]:
-    """While in the block, SIGTERM and SIGHUP ask for a clean stop: the signal numbers received are
-    appended to the list yielded (the recorder polls it between frames). A second signal raises
-    KeyboardInterrupt (the recorder still saves what it has). Outside the main thread (tests),
-    nothing is installed."""
+    """While in the block, SIGTERM and SIGHUP ask for a clean stop.
+
+    The signal numbers received are appended to the list yielded (the recorder polls it between
+    frames). A second signal raises KeyboardInterrupt (the recorder still saves what it has).
+    Outside the main thread (tests), nothing is installed.
+    """
     received: list[int] = []
     if threading.current_thread() is not threading.main_thread():
         yield received

@@ -57,8 +57,10 @@ def register(sub) -> None:
 def session_and_source(
     folder: str | None, spec: str | None, bounces: int | None = None
 ) -> tuple[Session, DepthSource, bool]:
-    """(session, source, autosave) for the command's arguments; `bounces` (--bounces) becomes the
-    session's setting (saved with its next change)."""
+    """(session, source, autosave) for the command's arguments.
+
+    `bounces` (--bounces) becomes the session's setting (saved with its next change).
+    """
     if bounces is not None:
         check_bounces(bounces)
     session, source, autosave = _session_and_source(folder, spec)
@@ -127,6 +129,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _stop(signum, frame) -> None:
-    """SIGTERM and SIGHUP stop the server as Ctrl-C does (the session is saved at every edit;
-    app.stop() ends a recording and the live loop)."""
+    """Stop the server on SIGTERM and SIGHUP as Ctrl-C does.
+
+    The session is saved at every edit; app.stop() ends a recording and the live loop.
+    """
     raise KeyboardInterrupt

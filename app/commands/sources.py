@@ -1,5 +1,4 @@
-"""`mirrorscan sources`: the kinds of depth source, their spec strings, and which can be used on
-this machine."""
+"""`mirrorscan sources`: the kinds of depth source, their specs, and which work on this machine."""
 
 from __future__ import annotations
 

@@ -1,6 +1,8 @@
-"""`mirrorscan truth SESSION [--cloud CLOUD.ply --frame N] [--json]`: how far a simulated session's
-planes (and a cloud of one of its frames) are from the simulator's truth, as the README's accuracy
-tables give them."""
+"""`mirrorscan truth SESSION`: a simulated session against the simulator's truth.
+
+How far a simulated session's planes (and a cloud of one of its frames) are from the simulator's
+truth, as the README's accuracy tables give them.
+"""
 
 from __future__ import annotations
 

@@ -88,8 +88,10 @@ def fitted(name: str, fit: Calibration, marker_names: list[str] | None = None) -
 
 
 def refined(report: MirrorRefinement, searched: bool, saved: bool) -> Message:
-    """A plane refined (or, `searched`, found by calibrate --method scene); `saved`: the glass
-    measured is written (False: the session holds it already)."""
+    """A plane refined (or, `searched`, found by calibrate --method scene).
+
+    `saved`: the glass measured is written (False: the session holds it already).
+    """
     verdict = (
         "it agrees with the other views as well as the depth noise allows."
         if report.agreement_after_mm <= NOISE_EXPLAINS * report.noise_mm
@@ -166,8 +168,10 @@ def unchanged(path: Path) -> Message:
 
 
 def markers_unused(names: list[str]) -> Message:
-    """After calibrate --method scene: the mirrors found that have markers, which set only their
-    glass."""
+    """After calibrate --method scene.
+
+    The mirrors found that have markers, which set only their glass.
+    """
     planes = "its plane was" if len(names) == 1 else "their planes were"
     return Message(
         f"{listed(names)}: {planes} found from the object alone; the markers only read the glass.",
@@ -246,8 +250,10 @@ def frame_list(frames: list[int], most: int = 10) -> str:
 
 # ------------------------------------------------------------------------------------- fit, truth
 def shape_fitted(fit: ShapeFit, name: str) -> Message:
-    """A sphere or a cylinder fitted to a cloud (mirrorscan fit): radius and RMSE, then the errors
-    over all points, the inliers and each source."""
+    """A sphere or a cylinder fitted to a cloud (mirrorscan fit).
+
+    Radius and RMSE, then the errors over all points, the inliers and each source.
+    """
     shape = fit.shape
     where = (
         f"centre ({', '.join(f'{x:.4f}' for x in shape.centre)}) m"

@@ -1,12 +1,14 @@
-"""The kaleidoscope experiment on the simulated rig: two mirrors hinged at the apex
-(mirrorcore.sim.layouts. kaleidoscope_scene), the paper's sphere (r = 115 mm at 2 m), the angle
-between the mirrors from 45 to 120 degrees. Below about 90 degrees the camera also sees the sphere
-through two and three mirrors in turn. Each trial runs the whole pipeline on one Kinect v1 frame
-rendered with up to three bounces (markers -> calibration -> object selection -> Algorithm 1
-following up to 3 mirrors, and again following 1), then fits the sphere: the share of points seen
-through several mirrors, how much larger the cloud is than with one bounce, the points farther than
-2 cm from the true sphere (ghosts), and the error of each kind of view (direct, through 1, 2 and 3
-mirrors)."""
+"""The kaleidoscope experiment on the simulated rig.
+
+Two mirrors hinged at the apex (mirrorcore.sim.layouts. kaleidoscope_scene), the paper's sphere (r =
+115 mm at 2 m), the angle between the mirrors from 45 to 120 degrees. Below about 90 degrees the
+camera also sees the sphere through two and three mirrors in turn. Each trial runs the whole
+pipeline on one Kinect v1 frame rendered with up to three bounces (markers -> calibration -> object
+selection -> Algorithm 1 following up to 3 mirrors, and again following 1), then fits the sphere:
+the share of points seen through several mirrors, how much larger the cloud is than with one bounce,
+the points farther than 2 cm from the true sphere (ghosts), and the error of each kind of view
+(direct, through 1, 2 and 3 mirrors).
+"""
 
 from __future__ import annotations
 
@@ -67,9 +69,11 @@ def experiment_scenes() -> list[tuple[float, Scene]]:
 
 
 def run_trial(scene: Scene, seed: int, noise: str = "kinect") -> dict[str, float]:
-    """One frame of `scene` through the whole pipeline, followed through 3 and through 1 mirror ->
-    the figures of COLUMNS (besides parameter and seed); errors in mm, NaN for a kind of view with
-    no point."""
+    """One frame of `scene` through the whole pipeline, through 3 and through 1 mirror.
+
+    Returns the figures of COLUMNS (besides parameter and seed); errors in mm, NaN for a kind of
+    view with no point.
+    """
     sim = Simulator(scene, SensorModel.from_name(noise), seed)
     frame, background = sim.frame(0), sim.background().depth
     rng = np.random.default_rng(seed)
@@ -113,16 +117,21 @@ def run_kaleidoscope(seeds: int, progress: bool = True) -> list[dict[str, float]
 
 
 def _nan_stat(stat, values: np.ndarray) -> float:
-    """stat (np.nanmean, np.nanstd) of values, NaN when none is finite (a kind of view absent at
-    that angle)."""
+    """stat (np.nanmean, np.nanstd) of values; NaN when none is finite.
+
+    A kind of view absent at an angle has no finite value.
+    """
     return float(stat(values)) if np.isfinite(values).any() else float("nan")
 
 
 def plot_kaleidoscope(rows: list[dict[str, float]], path) -> None:
-    """PNG: left, the RMSE (to the fitted sphere) of each kind of view against the angle (mean line,
+    """Write the experiment's PNG to `path`.
+
+    Left, the RMSE (to the fitted sphere) of each kind of view against the angle (mean line,
     standard deviation band over seeds; a value far above the others is written at the top); right,
     the share of points seen through several mirrors, the cloud's growth against one bounce and the
-    ghosts."""
+    ghosts.
+    """
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend
 

@@ -1,12 +1,15 @@
-"""The paper's experiments on the simulated rig: reconstruction error against the angle between the
-two mirrors (figure 4a, sphere r = 115 mm at 2 m) and against the object-to-mirror distance (figure
-5a, cylinder r = 150 mm). Each trial runs the whole pipeline: calibrate the mirrors from their
-markers, select the object against the background, Algorithm 1, then RANSAC fit of the shape; errors
-over all points as the paper measures them. The same frame is also carved (the consistent carving,
-mirrorcore.carve) and fused (TSDF mesh, mirrorcore.tsdf) in 2 mm voxels: their RMSE to the true
-shape beside the raw cloud's (the paper found its carved clouds less accurate). Each trial is also
-run as a real rig's markers would be (issue 11): 3 mm in front of the silver and clicked 2 px off,
-calibrated from them alone, then refined from the agreement of the views over 3 frames."""
+"""The paper's experiments on the simulated rig.
+
+Reconstruction error against the angle between the two mirrors (figure 4a, sphere r = 115 mm at 2 m)
+and against the object-to-mirror distance (figure 5a, cylinder r = 150 mm). Each trial runs the
+whole pipeline: calibrate the mirrors from their markers, select the object against the background,
+Algorithm 1, then RANSAC fit of the shape; errors over all points as the paper measures them. The
+same frame is also carved (the consistent carving, mirrorcore.carve) and fused (TSDF mesh,
+mirrorcore.tsdf) in 2 mm voxels: their RMSE to the true shape beside the raw cloud's (the paper
+found its carved clouds less accurate). Each trial is also run as a real rig's markers would be
+(issue 11): 3 mm in front of the silver and clicked 2 px off, calibrated from them alone, then
+refined from the agreement of the views over 3 frames.
+"""
 
 from __future__ import annotations
 
@@ -81,8 +84,7 @@ def true_shape(obj: SceneObject) -> Sphere | Cylinder:
 
 
 def run_trial(scene: Scene, seed: int) -> dict[str, float]:
-    """One noisy Kinect frame of `scene` (a sphere or a cylinder) through the whole pipeline -> the
-    fit's figures."""
+    """The fit's figures of one noisy Kinect frame of `scene` (a sphere or a cylinder)."""
     sim = Simulator(scene, SensorModel.kinect_v1(), seed)
     frame, background = sim.frame(0), sim.background().depth
     rng = np.random.default_rng(seed)
@@ -122,9 +124,12 @@ def run_trial(scene: Scene, seed: int) -> dict[str, float]:
 
 
 def glass_trial(scene: Scene, seed: int) -> dict[str, float]:
-    """The same scene and noise with the markers GLASS: the raw cloud's RMSE to the true shape (mm)
-    from the markers alone, then after the refinement (NaN when the refinement refuses: at 140
-    degrees and more the sphere hides what the mirrors and the camera would both see)."""
+    """The same scene and noise with the markers GLASS.
+
+    The raw cloud's RMSE to the true shape (mm) from the markers alone, then after the refinement
+    (NaN when the refinement refuses: at 140 degrees and more the sphere hides what the mirrors and
+    the camera would both see).
+    """
     sim = Simulator(scene.with_markers(*GLASS), SensorModel.kinect_v1(), seed)
     frames, background = [sim.frame(i).depth for i in range(REFINE_FRAMES)], sim.background().depth
     session = Session(Path("."), sim.intrinsics, session_mirrors(sim, sim.frame(0).truth))
@@ -148,8 +153,10 @@ def glass_trial(scene: Scene, seed: int) -> dict[str, float]:
 
 
 def experiment_scenes(name: str) -> list[tuple[float, Scene]]:
-    """'angle' -> (angle, sphere scene) pairs; 'distance' -> (mirror distance, cylinder scene)
-    pairs."""
+    """'angle' -> (angle, sphere scene) pairs.
+
+    'distance' -> (mirror distance, cylinder scene) pairs.
+    """
     if name == "angle":
         return [(float(a), paper_scene(angle_deg=a, object="sphere", distance=2.0)) for a in ANGLES]
     return [
@@ -168,8 +175,10 @@ def run_experiment(name: str, seeds: int, progress: bool = True) -> list[dict[st
 
 
 def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
-    """PNG of the mean (line) and standard deviation (band) over seeds of the PLOTTED errors against
-    the parameter."""
+    """Write the PNG of the PLOTTED errors against the parameter to `path`.
+
+    Each error is drawn as its mean over seeds (line) and standard deviation (band).
+    """
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend
 

@@ -1,12 +1,14 @@
-"""Where the refinement's plane errors come from (issue 11): refine the planes of the simulated rig
-starting from the TRUE planes, with the sensor's effects switched on one at a time, one frame per
-refinement, over many frames.
+"""Where the refinement's plane errors come from (issue 11).
+
+Refine the planes of the simulated rig starting from the TRUE planes, with the sensor's effects
+switched on one at a time, one frame per refinement, over many frames.
 
 What a refinement from the truth ends at is its error: the mean over frames is its bias, the spread
 over frames its noise (compared with the 1-sigma the refinement reports of itself), and the
 correlation between the two mirrors says whether the error is common to both (the views' common
 offset, which on the paper's rig only the camera-mirror overlap at the silhouettes determines). Run
-as `python -m mirrorscan.experiments.refine_bias [--object figure] ...`."""
+as `python -m mirrorscan.experiments.refine_bias [--object figure] ...`.
+"""
 
 from __future__ import annotations
 
@@ -35,10 +37,12 @@ DISTANCE = {"sphere": 2.0, "figure": 3.0}  # metres, as in tests/cli/test_calibr
 
 @dataclass(frozen=True)
 class BiasRow:
-    """One sensor's refinements from the truth, one frame each: per mirror (two), the mean and the
-    spread (std over frames) of the plane's error at the object (mm, > 0 away from the camera), the
-    1-sigma the refinement reported (mean over frames, mm), and the correlation of the two mirrors'
-    errors over frames."""
+    """One sensor's refinements from the truth, one frame each.
+
+    Per mirror (two), the mean and the spread (std over frames) of the plane's error at the object
+    (mm, > 0 away from the camera), the 1-sigma the refinement reported (mean over frames, mm), and
+    the correlation of the two mirrors' errors over frames.
+    """
 
     sensor: str
     frames: int
@@ -49,8 +53,11 @@ class BiasRow:
 
 
 def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.ndarray:
-    """(len(frames), 2 mirrors, 2) float: each frame's refinement from the true planes -> (offset
-    error mm, reported 1-sigma mm) per mirror."""
+    """(len(frames), 2 mirrors, 2) float.
+
+    Each frame's refinement from the true planes -> (offset error mm, reported 1-sigma mm) per
+    mirror.
+    """
     scene = paper_scene(object=obj, distance=DISTANCE[obj])
     sim, rig = Simulator(scene, SENSORS[sensor], seed=seed), true_rig(scene)
     # the body's middle (the figure's centre is its feet)

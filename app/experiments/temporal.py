@@ -1,7 +1,9 @@
-"""The effect of temporal smoothing (mirrorcore.depth.temporal, `reconstruct --temporal N`) on the
-simulator's walking figure (two mirrors at 120 deg, 3 m, Kinect v1 noise, perfect calibration): each
-frame's cloud (Algorithm 1, the whole pipeline) with and without, its RMSE to the true surface of
-the figure at that moment, on the still and the moving parts of the body.
+"""The effect of temporal smoothing (`reconstruct --temporal N`) on the walking figure.
+
+mirrorcore.depth.temporal on the simulator's walking figure (two mirrors at 120 deg, 3 m, Kinect v1
+noise, perfect calibration): each frame's cloud (Algorithm 1, the whole pipeline) with and without,
+its RMSE to the true surface of the figure at that moment, on the still and the moving parts of the
+body.
 
 A point's part is read from the true surface nearest to it: 'still' where that surface moves along
 its own normal slower than STILL (the torso and head bob up and down with the gait, which a depth
@@ -43,9 +45,20 @@ COLUMNS = (
 def surface_errors(
     geometry, t: float, fps: float, points: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Distances (n,) metres from points (n, 3) to the figure's true surface at time t, and the
-    speed (n,) m/s of that nearest surface along its normal (central difference over one frame
-    either side)."""
+    """Distances of points to the figure's true surface at time t, and that surface's speed.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Metres, camera frame.
+
+    Returns
+    -------
+    distances : (n,) float
+        Metres to the nearest true surface.
+    speeds : (n,) float
+        m/s of that surface along its normal (central difference over one frame either side).
+    """
     vertices, faces = geometry.mesh_at(t)
     before, _ = geometry.mesh_at(t - 1 / fps)
     after, _ = geometry.mesh_at(t + 1 / fps)
@@ -64,8 +77,10 @@ def surface_errors(
 def run_temporal_experiment(
     neighbours: int = 2, frames: int = 30, scale: float = 1.0, seed: int = 0, progress: bool = True
 ) -> list[dict]:
-    """Rows (keys COLUMNS), one per frame and part, for `frames` frames (30: one stride) smoothed
-    with `neighbours` frames on each side; the camera is 640x480 * scale."""
+    """Rows (keys COLUMNS), one per frame and part, of `frames` frames (30: one stride).
+
+    Each frame is smoothed with `neighbours` frames on each side; the camera is 640x480 * scale.
+    """
     scene = paper_scene(object="figure", distance=3.0, camera=Intrinsics.kinect_v1().scaled(scale))
     sim = Simulator(scene, seed=seed)
     rig, background = true_rig(scene), sim.background().depth
@@ -93,8 +108,7 @@ def run_temporal_experiment(
 
 
 def summary(rows: list[dict]) -> dict[str, dict[str, float]]:
-    """Per part: the median over frames of the RMSE without and with smoothing (mm), and its change
-    (%)."""
+    """Per part: the median RMSE over frames without and with smoothing (mm), its change (%)."""
     out = {}
     for part in PARTS:
         before = np.median([r["rmse_mm"] for r in rows if r["part"] == part])

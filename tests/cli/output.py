@@ -6,7 +6,7 @@ from mirrorscan.commands.wording import HEADLINE_WORDS, INDENT
 
 
 def headlines(out: str) -> list[str]:
-    """The lines of `out` that are not indented, each checked to have at most HEADLINE_WORDS words."""
+    """The lines of `out` that are not indented, each of at most HEADLINE_WORDS words (asserted)."""
     lines = [line for line in out.splitlines() if line and not line.startswith(INDENT)]
     for line in lines:
         assert len(line.split()) <= HEADLINE_WORDS, f"{len(line.split())} words: {line}"

@@ -1,4 +1,4 @@
-"""`mirrorscan reconstruct --frame all`: the batch's manifest.json, what it lists and when it is written."""
+"""`mirrorscan reconstruct --frame all`: the manifest.json, what it lists and when it is written."""
 
 import json
 import os
