@@ -36,8 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--memory",
         metavar="SIZE",
-        help=f"memory budget for work sized by your numbers, e.g. 8G (default: ${ENV}, "
-        "else the smaller of 4G and half this machine's memory)",
+        help=f"memory budget for work sized by your numbers, e.g. 8G (default: ${ENV}, else the "
+        "smaller of 4G and half this machine's memory)",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:

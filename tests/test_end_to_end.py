@@ -57,7 +57,7 @@ def test_cloud_lies_on_the_true_sphere(scanned):
         assert np.sqrt(np.mean(error**2)) < 1e-3  # RMSE to the true sphere below 1 mm
     else:
         assert np.mean(np.abs(error) > 0.02) < 0.01  # fewer than 1 % farther than 2 cm
-        for j in range(3):  # and no source is biased
+        for j in range(3):  # no source is biased
             assert abs(np.mean(error[sources == j])) < 3e-3
 
 

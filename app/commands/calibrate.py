@@ -25,39 +25,37 @@ from . import percent_bar, wording
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="fit every mirror's plane (from its markers, its frame, or the "
-        "object), optionally refine it; write it into session.json",
+        help="fit every mirror's plane (from its markers, its frame, or the object), optionally "
+        "refine it; write it into session.json",
     )
     p.add_argument("session", help="session folder")
     p.add_argument(
         "--frame",
         type=int,
         default=None,
-        help="use this frame only (default: markers and region use the robust mean of the "
-        f"background and up to {MAX_MARKER_FRAMES} frames, each pixel's readings within "
-        f"3 sigma of their median; scene and --refine up to {REFINE_FRAMES} frames)",
+        help="use this frame only (default: markers and region the robust mean of the background "
+        f"and up to {MAX_MARKER_FRAMES} frames; scene and --refine up to {REFINE_FRAMES} frames)",
     )
     p.add_argument(
         "--method",
         choices=["markers", "region", "scene"],
         default=None,
-        help="markers (the default without --refine): the mirror's markers; region: its "
-        "region polygon (its frame); scene: no markers, the object seen directly and in "
-        "each mirror (search, then refinement)",
+        help="markers (default without --refine): fit to the markers; region: to the region "
+        "polygon; scene: search from the object, no markers",
     )
     p.add_argument(
         "--refine",
         action="store_true",
-        help="refine the planes so that the object seen in the mirrors agrees with the object "
-        "seen directly (after --method, or alone on a session whose planes are set)",
+        help="refine the planes until the object in the mirrors agrees with the object seen "
+        "directly (after --method, or alone when the planes are set)",
     )
     p.add_argument(
         "--refine-with",
         choices=REFINE_WITH,
         default="auto",
-        help="what the refinement (and scene) compares: auto (default) the sphere's centres "
-        "when every view sees a sphere (a calibration ball), else the surfaces the views "
-        "share; sphere: the sphere or a refusal; surfaces: any object's surfaces",
+        help="what --refine and scene compare: sphere: a calibration ball's centres (refused "
+        "without one); surfaces: any object's shared surfaces; auto (default): sphere if every "
+        "view sees one",
     )
     p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -179,8 +177,8 @@ def _calibrate(
     unset = [m.name for m in session.mirrors if m.plane is None]
     if method is None and unset:
         raise CalibrationError(
-            f"{listed(unset)}: no plane to refine yet; fit the planes first and then "
-            f"refine them: mirrorscan calibrate {session.root} --method markers --refine"
+            f"{listed(unset)}: no plane to refine yet; fit the planes first and then refine them: "
+            f"mirrorscan calibrate {session.root} --method markers --refine"
         )
     try:
         return refine_session(

@@ -23,9 +23,9 @@ from mirrorcore.io.outputs import check_output
 def register(sub) -> None:
     p = sub.add_parser(
         "experiment",
-        help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) "
-        "experiment on the simulated rig, the kaleidoscope's error-vs-angle, or "
-        "temporal smoothing on the walking figure",
+        help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) experiment on "
+        "the simulated rig, the kaleidoscope's error-vs-angle, or temporal smoothing on the "
+        "walking figure",
     )
     p.add_argument("name", choices=["angle", "distance", "kaleidoscope", "temporal"])
     p.add_argument(
@@ -82,9 +82,8 @@ def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
     for part, figures in temporal_experiment.summary(rows).items():
         print(
             f"{part} parts: RMSE {figures['rmse_mm']:.2f} mm as read, "
-            f"{figures['temporal_rmse_mm']:.2f} mm with "
-            f"--temporal {args.neighbours} ({figures['change_pct']:+.0f} %), median over "
-            f"{args.frames} frames"
+            f"{figures['temporal_rmse_mm']:.2f} mm with --temporal {args.neighbours} "
+            f"({figures['change_pct']:+.0f} %), median over {args.frames} frames"
         )
     print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
     return 0

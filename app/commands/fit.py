@@ -28,11 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "fit",
         help="fit a sphere or a cylinder to a cloud; radius, RMSE and mean error as in the paper",
-        description="RANSAC fit, then least squares on the inliers. Errors (paper eq. 4 and 5) are "
-        "over all points and "
-        "per source (when the PLY has a `source` property), and over the inliers. Lengths are "
-        "printed in "
-        "mm; in --json, centre and axis are in metres (camera frame), figures ending in _mm in mm.",
+        description="RANSAC fit, then least squares on the inliers. Errors (paper eq. 4 and 5) "
+        "are over all points and per source (when the PLY has a `source` property), and over the "
+        "inliers. Lengths are printed in mm; in --json, centre and axis are in metres (camera "
+        "frame), figures ending in _mm in mm.",
     )
     parser.add_argument("shape", choices=sorted(_FITS), help="the shape to fit")
     parser.add_argument(

@@ -41,8 +41,8 @@ def register(sub) -> None:
         "-o",
         "--output",
         required=True,
-        help="PLY file, or with --frame all a folder of PLY files (new, or "
-        "one this command made: it goes on)",
+        help="PLY file, or with --frame all a folder of PLY files (new, or one this command made: "
+        "it goes on)",
     )
     p.add_argument(
         "--frame", default="0", help="frame index (0-based, negative from the end) or 'all'"
@@ -51,9 +51,8 @@ def register(sub) -> None:
         "--method",
         choices=["raw", *METHODS],
         default="raw",
-        help="raw: the paper's Algorithm 1; paper: its Algorithm 2 as written (carved cloud); "
-        "carve: the "
-        "consistent carving (cloud); tsdf: fusion of every view of --frames frames (mesh)",
+        help="raw: Algorithm 1 (cloud); paper: Algorithm 2 as written (carved cloud); carve: "
+        "consistent carving (cloud); tsdf: fusion of --frames frames (mesh)",
     )
     p.add_argument(
         "--voxel", type=float, default=DenseOptions.voxel, help="dense methods: voxel edge, metres"
@@ -89,12 +88,11 @@ def register(sub) -> None:
         default=0,
         metavar="N",
         help="smooth each frame's depth with its N neighbours on each side where the scene is "
-        "static "
-        "(moving people; default 0: off)",
+        "static (moving people; default 0: off)",
     )
     batch = p.add_argument_group(
-        "--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does "
-        "only the frames missing)"
+        "--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does only "
+        "the frames missing)"
     )
     batch.add_argument(
         "--workers",
@@ -104,8 +102,8 @@ def register(sub) -> None:
     batch.add_argument(
         "--scheduler",
         metavar="tcp://HOST:8786",
-        help="run on this existing Dask cluster (the session "
-        "and OUT on a file system all workers share)",
+        help="run on this existing Dask cluster (the session and OUT on a file system all workers "
+        "share)",
     )
     batch.add_argument(
         "--frames-per-task",
@@ -143,8 +141,8 @@ def add_bounces_option(p) -> None:
     p.add_argument(
         "--bounces",
         type=int,
-        help=f"follow a camera ray through at most this many mirrors in turn, 1 to "
-        f"{MAX_ORDER} (default: the session's setting, {MAX_ORDER} unless set)",
+        help=f"follow a camera ray through at most this many mirrors in turn, 1 to {MAX_ORDER} "
+        f"(default: the session's setting, {MAX_ORDER} unless set)",
     )
 
 
@@ -207,8 +205,8 @@ def run_dense(
     )
     if first + count > len(session.frames):
         raise MirrorscanError(
-            f"--frames: the session has {len(session.frames)} frames, "
-            f"{first} + {count} is past the end"
+            f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
+            "the end"
         )
     prepared = [
         prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
@@ -258,8 +256,8 @@ def run_all(args: argparse.Namespace, out: Path) -> int:
     """
     if args.frames != 1:
         raise MirrorscanError(
-            "--frames: with --frame all each frame is reconstructed alone (people move); "
-            "--frames fuses several frames into one result"
+            "--frames: with --frame all each frame is reconstructed alone (people move); --frames "
+            "fuses several frames into one result"
         )
     job = BatchJob(
         Path(args.session), out, args.method, _dense_options(args), args.temporal, args.bounces
@@ -329,8 +327,8 @@ def _summary(report: BatchReport, verbose: bool) -> int:
     if report.failed:
         first, message = next(iter(report.failed.items()))
         raise MirrorscanError(
-            f"{len(report.failed)} frame(s) failed ({wording.frame_list(list(report.failed))}; "
-            f"see {report.manifest}), frame {first}: {message}"
+            f"{len(report.failed)} frame(s) failed ({wording.frame_list(list(report.failed))}; see "
+            f"{report.manifest}), frame {first}: {message}"
         )
     return 0
 

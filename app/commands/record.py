@@ -23,11 +23,11 @@ def register(sub) -> None:
     p = sub.add_parser(
         "record",
         help="record a depth source (camera, recording, simulator) into a session folder",
-        description="Frames are written as 16-bit PNG with their timestamps in session.json, which "
-        "is valid from the start and rewritten every second. Ctrl-C, SIGTERM and SIGHUP "
-        "stop and keep a valid session of what was recorded (exit 130, 143, 129); a "
-        "killed recording opens with all but its last second. `mirrorscan sources` "
-        "lists the source specs.",
+        description="Frames are written as 16-bit PNG with their timestamps in session.json, "
+        "which is valid from the start and rewritten every second. Ctrl-C, SIGTERM and SIGHUP "
+        "stop and keep a valid session of what was recorded (exit 130, 143, 129); a killed "
+        "recording opens with all but its last second. `mirrorscan sources` lists the source "
+        "specs.",
     )
     p.add_argument(
         "source", metavar="SOURCE", help="a source spec: sim, tum:FOLDER, freenect:0, bag:FILE..."

@@ -29,13 +29,13 @@ def register(sub) -> None:
     p.add_argument(
         "session",
         nargs="?",
-        help="session folder; a new (or empty) folder starts an empty session there "
-        "(default: the built-in simulated demo, saved only on 'Save as')",
+        help="session folder; a new (or empty) folder starts an empty session there (default: the "
+        "built-in simulated demo, saved only on 'Save as')",
     )
     p.add_argument(
         "--source",
-        help="where frames come from (default: the session's frames, else the simulated rig); "
-        "see `mirrorscan sources`",
+        help="where frames come from (default: the session's frames, else the simulated rig); see "
+        "`mirrorscan sources`",
     )
     p.add_argument(
         "--host",
@@ -99,8 +99,7 @@ def run(args: argparse.Namespace) -> int:
     if not is_loopback(args.host):
         log.warning(
             "listening on %s: whoever has the address with its token can see and change the "
-            "session; "
-            "prefer 127.0.0.1 and an SSH tunnel (see the README)",
+            "session; prefer 127.0.0.1 and an SSH tunnel (see the README)",
             args.host,
         )
     app.start()

@@ -31,17 +31,14 @@ def register(sub) -> None:
     p.add_argument(
         "--distance",
         type=float,
-        help="camera to object, metres (default 2.0; 3.0 for the figure, which "
-        "the camera sees whole only from there)",
+        help="camera to object, metres (default 2.0; 3.0 for the figure, which the camera sees "
+        "whole only from there)",
     )
     p.add_argument(
         "--kaleidoscope",
         action="store_true",
-        help="two mirrors hinged at the apex (1.4 m wide, 15 cm from the object) instead of the "
-        "paper's V, "
-        "at --angle (default 120, as the V): below about 90 degrees (72, say) the object is also "
-        "seen "
-        "through two and three mirrors in turn",
+        help="two mirrors hinged at the apex, 15 cm from the object, at --angle (default 120); "
+        "below 90 degrees (72, say) views go on through two and three mirrors",
     )
     p.add_argument("--scene", help="a scene JSON file instead of the options above")
     p.add_argument(
@@ -55,8 +52,8 @@ def register(sub) -> None:
     p.add_argument(
         "--bounces",
         type=int,
-        help=f"the most reflections a ray may make, 1 to {MAX_BOUNCES} "
-        f"(default {MAX_BOUNCES}); a ray meeting one more mirror reads nothing",
+        help=f"the most reflections a ray may make, 1 to {MAX_BOUNCES} (default {MAX_BOUNCES}); a "
+        "ray meeting one more mirror reads nothing",
     )
     p.add_argument(
         "--single-bounce",
@@ -68,16 +65,14 @@ def register(sub) -> None:
         type=float,
         metavar="MM",
         help="the markers' faces this many millimetres in front of every mirror's reflecting "
-        "surface, as "
-        "stickers on the glass of an ordinary mirror (default 0, or the scene file's)",
+        "surface, as stickers on the glass of an ordinary mirror (default 0, or the scene file's)",
     )
     p.add_argument(
         "--click-jitter",
         type=float,
         metavar="PX",
         help="radial RMS error, pixels, of the session's marker clicks (seeded; default 0, or the "
-        "scene "
-        "file's)",
+        "scene file's)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
@@ -112,8 +107,7 @@ def run(args: argparse.Namespace) -> int:
     if args.kaleidoscope and (args.angle is None or args.angle >= 90):
         print(
             f"note: hinged at {args.angle or 120:g} degrees the mirrors show no view through two "
-            "of them; "
-            "--angle 72 gives such views"
+            "of them; --angle 72 gives such views"
         )
     return 0
 

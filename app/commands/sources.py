@@ -11,8 +11,8 @@ def register(sub) -> None:
     p = sub.add_parser(
         "sources",
         help="list the depth sources, their specs, and which are available here",
-        description="Depth source specs for --source and `mirrorscan record`: KIND:TARGET, options "
-        "after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.",
+        description="Depth source specs for --source and `mirrorscan record`: KIND:TARGET, "
+        "options after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.",
     )
     p.set_defaults(run=run)
 

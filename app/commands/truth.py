@@ -23,12 +23,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "truth",
         help="compare a simulated session's planes, and a cloud of it, with the simulator's truth",
         description=f"Needs the {TRUTH_FILE} that `mirrorscan simulate` writes. Per mirror: its "
-        "plane's offset from "
-        "the true plane at the object's middle (mm, along the normal; > 0: too far from the "
-        "camera), "
-        "its tilt (degrees) and its glass beside the true one (mm). With --cloud: the cloud's "
-        "distances "
-        "to the objects' true surfaces at that frame (RMSE, mean and 95th percentile, mm).",
+        "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
+        "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
+        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
+        "mean and 95th percentile, mm).",
     )
     parser.add_argument(
         "session", metavar="SESSION", help="a session folder written by `mirrorscan simulate`"

@@ -76,8 +76,8 @@ def fitted(name: str, fit: Calibration, marker_names: list[str] | None = None) -
         worst = int(np.nanargmax(ratio))
         label = marker_names[worst] if marker_names else str(worst + 1)
         details.append(
-            f"farthest: marker {label}, {fit.markers.distance_mm[worst]:.1f} mm from the "
-            f"plane ({ratio[worst]:.1f}σ)"
+            f"farthest: marker {label}, {fit.markers.distance_mm[worst]:.1f} mm from the plane "
+            f"({ratio[worst]:.1f}σ)"
         )
     details.append(
         f"glass: plane {1e3 * fit.marker_offset:.1f} mm behind the markers"
@@ -101,8 +101,8 @@ def refined(report: MirrorRefinement, searched: bool, saved: bool) -> Message:
     details = [f"plane {plane_figures(report.after.abcd)}"]
     if searched:
         details.append(
-            f"agreement with the other views: RMS {report.agreement_after_mm:.2f} mm, "
-            f"mean {report.offset_after_mm:+.2f} mm"
+            f"agreement with the other views: RMS {report.agreement_after_mm:.2f} mm, mean "
+            f"{report.offset_after_mm:+.2f} mm"
         )
     else:
         details += [
@@ -137,8 +137,8 @@ def _compared(report: MirrorRefinement) -> list[str]:
     )
     return [
         f"compared: {report.agreements:,} points seen both ways with {whom}",
-        f"the method may add up to {1e3 * bias.shift:.1f} mm and {bias.tilt_deg:.2f}°; "
-        f"a ball in every view {1e3 * ball.shift:.1f} mm",
+        f"the method may add up to {1e3 * bias.shift:.1f} mm and {bias.tilt_deg:.2f}°; a ball in "
+        f"every view {1e3 * ball.shift:.1f} mm",
     ]
 
 
@@ -147,8 +147,8 @@ def _glass(report: MirrorRefinement, saved: bool) -> str | None:
     if report.marker_offset is None:
         return None
     markers = (
-        f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm "
-        "in front of the"
+        f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm in "
+        "front of the"
     )
     if report.glass_typed is not None:
         return (
@@ -161,8 +161,8 @@ def _glass(report: MirrorRefinement, saved: bool) -> str | None:
 def unchanged(path: Path) -> Message:
     """A refinement that moved no plane and no glass by more than nothing (Refinement.changed)."""
     return Message(
-        f"nothing changed: the planes and the glass are already where this object puts "
-        f"them; {path} not written.",
+        "nothing changed: the planes and the glass are already where this object puts them; "
+        f"{path} not written.",
         (f"within {SAME_PLANE[0]} mm, {SAME_PLANE[1]}° and {SAME_GLASS_MM} mm of glass",),
     )
 
@@ -280,9 +280,8 @@ def shape_fitted(fit: ShapeFit, name: str) -> Message:
 
 def _errors(errors: FitErrors) -> str:
     return (
-        f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  "
-        f"mean error {1e3 * errors.mean_error:+7.2f} mm  "
-        f"mean |error| {1e3 * errors.mean_abs_error:6.2f} mm"
+        f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  mean error "
+        f"{1e3 * errors.mean_error:+7.2f} mm  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm"
     )
 
 

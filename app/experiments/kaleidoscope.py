@@ -163,8 +163,7 @@ def plot_kaleidoscope(rows: list[dict[str, float]], path) -> None:
     right.set_ylim(0, 1)
     fig.suptitle(
         "simulated Kinect v1, sphere r=115 mm, two hinged mirrors, up to 3 bounces, "
-        f"{len(rows) // len(xs)} "
-        "seeds"
+        f"{len(rows) // len(xs)} seeds"
     )
     fig.tight_layout()
     fig.savefig(path, dpi=120)

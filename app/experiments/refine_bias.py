@@ -112,8 +112,7 @@ def main(argv=None) -> None:
         print(
             f"{row.sensor:17s} {row.frames:6d}  {row.mean_mm[0]:+.2f} {row.mean_mm[1]:+.2f}       "
             f"{row.spread_mm[0]:.2f} {row.spread_mm[1]:.2f}                {row.reported_mm:.2f}   "
-            "       "
-            f"{row.correlation:.2f}",
+            f"       {row.correlation:.2f}",
             flush=True,
         )
 
