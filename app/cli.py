@@ -31,7 +31,10 @@ VERBOSE_HELP = "also print the figures behind each line (sigma, counts, before a
 def build_parser() -> argparse.ArgumentParser:
     """The parser of `mirrorscan`: --memory, then one subcommand, each with -v/--verbose."""
     parser = argparse.ArgumentParser(
-        prog="mirrorscan", description="3D scanning with one depth camera and mirrors."
+        prog="mirrorscan",
+        description="3D scanning with one depth camera and mirrors.",
+        epilog="Each command prints one headline per result; add -v/--verbose after the command "
+        "for the figures behind it.",
     )
     parser.add_argument(
         "--memory",
