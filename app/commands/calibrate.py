@@ -14,7 +14,7 @@ from mirrorcore.base.errors import CalibrationError
 from mirrorcore.base.words import listed
 from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
-from mirrorcore.calibration.search import calibrate_scene, sentences
+from mirrorcore.calibration.search import calibrate_scene
 from mirrorcore.io.session import Session, load_session, save_session
 from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         names = listed(session.mirrors[i].name for i, _ in result.refused)
         raise CalibrationError(
             f"{names} not calibrated (the planes found are written): "
-            f"{sentences(why for _, why in result.refused)}"
+            f"{wording.sentences(why for _, why in result.refused)}"
         )
     return 0
 
