@@ -1,5 +1,8 @@
-"""The `mirrorscan` command line (the script contract of docs/DESIGN.md): exit 0 on success, 2 with a one-line error
-on bad input."""
+"""The `mirrorscan` command line (the script contract of docs/DESIGN.md).
+
+Exit 0 on success, 2 with a one-line error on bad input, 130 when cancelled.
+"""
+
 from __future__ import annotations
 
 import argparse
@@ -9,22 +12,45 @@ import sys
 from mirrorcore.base.budget import ENV, set_memory_budget
 from mirrorcore.base.errors import MirrorscanError
 
-# Subcommand modules under app.commands, in the order `mirrorscan --help` lists them.
-COMMANDS = ["serve", "calibrate", "reconstruct", "fit", "simulate", "truth", "experiment", "sources", "record", "bench"]
+# Subcommand modules under mirrorscan.commands, in the order `mirrorscan --help` lists them.
+COMMANDS = [
+    "serve",
+    "calibrate",
+    "reconstruct",
+    "fit",
+    "simulate",
+    "truth",
+    "experiment",
+    "sources",
+    "record",
+    "bench",
+]
+VERBOSE_HELP = "also print the figures behind each line (sigma, counts, before and after), indented"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mirrorscan", description="3D scanning with one depth camera and mirrors.")
-    parser.add_argument("--memory", metavar="SIZE",
-                        help=f"memory budget for work sized by your numbers, e.g. 8G (default: ${ENV}, else the "
-                             "smaller of 4G and half this machine's memory)")
+    """The parser of `mirrorscan`: --memory, then one subcommand, each with -v/--verbose."""
+    parser = argparse.ArgumentParser(
+        prog="mirrorscan",
+        description="3D scanning with one depth camera and mirrors.",
+        epilog="Each command prints one headline per result; add -v/--verbose after the command "
+        "for the figures behind it.",
+    )
+    parser.add_argument(
+        "--memory",
+        metavar="SIZE",
+        help=f"memory budget for work sized by your numbers, e.g. 8G (default: ${ENV}, else the "
+        "smaller of 4G and half this machine's memory)",
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"mirrorscan.commands.{name}").register(sub)
+        sub.choices[name].add_argument("-v", "--verbose", action="store_true", help=VERBOSE_HELP)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command of `argv` (default sys.argv[1:]); returns the exit status."""
     args = build_parser().parse_args(argv)
     try:
         if args.memory is not None:
@@ -33,8 +59,12 @@ def main(argv: list[str] | None = None) -> int:
     except MirrorscanError as exc:
         print(f"mirrorscan {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except OSError as exc:  # a file that cannot be read or written: name it, no traceback
-        print(f"mirrorscan {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+    except OSError as exc:
+        # a file that cannot be read or written: named, without a traceback
+        print(
+            f"mirrorscan {args.command}: error: {exc.filename or ''}: {exc.strerror or exc}",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print(f"mirrorscan {args.command}: cancelled", file=sys.stderr)

@@ -1,11 +1,23 @@
-"""Benchmarks behind `mirrorscan bench`: each module in MODULES has run() -> dict of figure name -> value."""
+"""Benchmarks behind `mirrorscan bench`.
+
+Each module in MODULES has run() -> dict of figure name -> value.
+"""
+
 from __future__ import annotations
 
 import importlib
 import time
 from typing import Callable
 
-MODULES = ["mirrorscan.bench.alg1", "mirrorscan.bench.sim", "mirrorscan.bench.serve", "mirrorscan.bench.carve", "mirrorscan.bench.tsdf", "mirrorscan.bench.refine", "mirrorscan.bench.batch"]
+MODULES = [
+    "mirrorscan.bench.alg1",
+    "mirrorscan.bench.sim",
+    "mirrorscan.bench.serve",
+    "mirrorscan.bench.carve",
+    "mirrorscan.bench.tsdf",
+    "mirrorscan.bench.refine",
+    "mirrorscan.bench.batch",
+]
 
 
 def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> float:
@@ -21,9 +33,13 @@ def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> fl
     return times[len(times) // 2]
 
 
-def interleaved_ms(fns: dict[str, Callable[[], object]], repeat: int = 30, warmup: int = 3) -> dict[str, float]:
-    """Median wall-clock milliseconds of each fn() over `repeat` rounds that call every fn in turn (so that a busy
-    machine slows them alike), after `warmup` rounds."""
+def interleaved_ms(
+    fns: dict[str, Callable[[], object]], repeat: int = 30, warmup: int = 3
+) -> dict[str, float]:
+    """Median wall-clock milliseconds of each fn() over `repeat` rounds, after `warmup` rounds.
+
+    Each round calls every fn in turn, so that a busy machine slows them alike.
+    """
     for _ in range(warmup):
         for fn in fns.values():
             fn()

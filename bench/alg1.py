@@ -1,7 +1,11 @@
-"""Benchmark of Algorithm 1 on a 640x480 two-mirror frame of the simulated rig (the walking figure, Kinect noise),
-beside Open3D's plain reprojection of the same frame (the three measured in turn), and on a frame of two hinged
-mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to trace them and
-to prepare that frame (select the object, smooth it, fit the views through two mirrors)."""
+"""Benchmark of Algorithm 1, beside Open3D's plain reprojection, and through several mirrors.
+
+A 640x480 two-mirror frame of the simulated rig (the walking figure, Kinect noise), beside Open3D's
+plain reprojection of the same frame (the three measured in turn), and on a frame of two hinged
+mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to
+trace them and to prepare that frame (select the object, smooth it, fit the views through two
+mirrors)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -25,24 +29,38 @@ def run() -> dict[str, float]:
     mask = object_mask(camera, depth, sim.background().depth, Selection())
     rig.reflection_table  # built once per rig, as the live loop does
     image = o3d.geometry.Image(np.round(depth / camera.depth_scale).astype(np.uint16))
-    pinhole = o3d.camera.PinholeCameraIntrinsic(camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
+    pinhole = o3d.camera.PinholeCameraIntrinsic(
+        camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
+    )
 
     def open3d_reproject():
-        cloud = o3d.geometry.PointCloud.create_from_depth_image(image, pinhole, depth_scale=1 / camera.depth_scale,
-                                                                depth_trunc=100.0)
+        cloud = o3d.geometry.PointCloud.create_from_depth_image(
+            image, pinhole, depth_scale=1 / camera.depth_scale, depth_trunc=100.0
+        )
         return np.asarray(cloud.points)
 
-    figures = interleaved_ms({"alg1_object_ms": lambda: reconstruct_raw(rig, depth, mask),
-                              "alg1_full_frame_ms": lambda: reconstruct_raw(rig, depth),
-                              "open3d_reproject_ms": open3d_reproject}, repeat=100)
-    return {**figures, "alg1_object_points": float(mask.sum()), "alg1_full_frame_points": float((depth > 0).sum()),
-            **_kaleidoscope()}
+    figures = interleaved_ms(
+        {
+            "alg1_object_ms": lambda: reconstruct_raw(rig, depth, mask),
+            "alg1_full_frame_ms": lambda: reconstruct_raw(rig, depth),
+            "open3d_reproject_ms": open3d_reproject,
+        },
+        repeat=100,
+    )
+    return {
+        **figures,
+        "alg1_object_points": float(mask.sum()),
+        "alg1_full_frame_points": float((depth > 0).sum()),
+        **_kaleidoscope(),
+    }
 
 
 def _kaleidoscope() -> dict[str, float]:
-    """Algorithm 1 through up to 3 mirrors on the walking figure between two hinged mirrors at 72 degrees, the time
-    to build the rig's per-pixel tables (tracing every ray through the mirrors' outlines), and prepare_frame on that
-    frame (selection, smoothing, and the local quadratic fits of the pixels seen through two mirrors)."""
+    """Algorithm 1 through up to 3 mirrors: two hinged mirrors at 72 degrees.
+
+    The walking figure between them; the time to build the rig's per-pixel tables (tracing every ray
+    through the mirrors' outlines), and prepare_frame on that frame (selection, smoothing, and the
+    local quadratic fits of the pixels seen through two mirrors)."""
     sim = Simulator(kaleidoscope_scene(72.0, object="figure", distance=3.0), seed=0)
     rig = true_rig(sim.scene)
     depth, background = sim.frame(0).depth, sim.background().depth
@@ -50,8 +68,17 @@ def _kaleidoscope() -> dict[str, float]:
 
     rig.reflection_table
     cloud = reconstruct_raw(rig, depth, mask)
-    return {"alg1_kaleidoscope_object_ms": median_ms(lambda: reconstruct_raw(rig, depth, mask), repeat=100),
-            "alg1_kaleidoscope_multi_points": float(np.count_nonzero(cloud.sources > 2)),
-            "prepare_kaleidoscope_ms": median_ms(lambda: prepare_frame(rig, depth, background), repeat=30),
-            "alg1_tables_ms": median_ms(lambda: Rig(rig.intrinsics, rig.mirrors, rig.bounces).reflection_table,
-                                        repeat=5, warmup=1)}
+    return {
+        "alg1_kaleidoscope_object_ms": median_ms(
+            lambda: reconstruct_raw(rig, depth, mask), repeat=100
+        ),
+        "alg1_kaleidoscope_multi_points": float(np.count_nonzero(cloud.sources > 2)),
+        "prepare_kaleidoscope_ms": median_ms(
+            lambda: prepare_frame(rig, depth, background), repeat=30
+        ),
+        "alg1_tables_ms": median_ms(
+            lambda: Rig(rig.intrinsics, rig.mirrors, rig.bounces).reflection_table,
+            repeat=5,
+            warmup=1,
+        ),
+    }

@@ -1,6 +1,11 @@
-"""Benchmark of carving: a 300^3 volume (1.33 mm voxels over 40 cm; `carve_ms`, the issue 14 figure) and a 200^3 one
-(2 mm over the same box; `carve_200_ms`, the figure before) around the simulated sphere (640x480 Kinect frame with
-noise, two mirrors at 120 deg), with the peak memory at 300^3. The scene and the memory tracer serve bench.tsdf too."""
+"""Benchmark of carving.
+
+A 300^3 volume (1.33 mm voxels over 40 cm; `carve_ms`) and a 200^3 one (2 mm over the same box;
+`carve_200_ms`) around the simulated sphere (640x480 Kinect
+frame with noise, two mirrors at 120 deg), with the peak memory at 300^3. The scene and the memory
+tracer serve bench.tsdf too.
+"""
+
 from __future__ import annotations
 
 import tracemalloc
@@ -19,13 +24,16 @@ from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 
-BOX = 0.4       # metres: the edge of the cube around the sphere
+BOX = 0.4  # metres: the edge of the cube around the sphere
 
 
 @dataclass(frozen=True)
 class SphereFrames:
-    """Prepared frames of the simulated sphere: depths, masks (F, H, W) float metres / bool; the sphere's centre (3,)
-    and radius, metres, camera frame."""
+    """Prepared frames of the simulated sphere.
+
+    Depths, masks (F, H, W) float metres / bool; the sphere's centre (3,) and radius, metres, camera
+    frame.
+    """
 
     rig: Rig
     depths: np.ndarray
@@ -39,18 +47,28 @@ class SphereFrames:
 
     def rmse_mm(self, points: np.ndarray) -> float:
         """RMS distance of points (n, 3) metres to the true sphere, mm."""
-        return 1e3 * FitErrors.from_deviations(Sphere(tuple(self.centre), self.radius).deviations(points)).rmse
+        return (
+            1e3
+            * FitErrors.from_deviations(
+                Sphere(tuple(self.centre), self.radius).deviations(points)
+            ).rmse
+        )
 
 
 def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
-    """`count` frames of the paper's sphere scene, simulated with `seed` and prepared as for Algorithm 1."""
+    """`count` frames of the paper's sphere scene, simulated with `seed`, ready for Algorithm 1."""
     sim = Simulator(paper_scene(object="sphere"), seed=seed)
     rig = true_rig(sim.scene)
     background = sim.background().depth
     prepared = [prepare_frame(rig, sim.frame(i).depth, background) for i in range(count)]
     sphere = sim.scene.objects[0]
-    return SphereFrames(rig, np.stack([p[0] for p in prepared]), np.stack([p[1] for p in prepared]),
-                        np.asarray(sphere.centre, float), float(sphere.radius))
+    return SphereFrames(
+        rig,
+        np.stack([p[0] for p in prepared]),
+        np.stack([p[1] for p in prepared]),
+        np.asarray(sphere.centre, float),
+        float(sphere.radius),
+    )
 
 
 def peak_mb(fn: Callable[[], object]) -> float:
@@ -67,7 +85,16 @@ def run() -> dict[str, float]:
     frames = sphere_frames()
     rig, depth, mask = frames.rig, frames.depths[0], frames.masks[0]
     small, large = frames.volume(200), frames.volume(300)
-    times = interleaved_ms({"carve_ms": lambda: carve(rig, depth, mask, large),
-                            "carve_200_ms": lambda: carve(rig, depth, mask, small)}, repeat=5, warmup=1)
-    return {**times, "carve_peak_mb": peak_mb(lambda: carve(rig, depth, mask, large)),
-            "dense_voxels": float(large.size)}
+    times = interleaved_ms(
+        {
+            "carve_ms": lambda: carve(rig, depth, mask, large),
+            "carve_200_ms": lambda: carve(rig, depth, mask, small),
+        },
+        repeat=5,
+        warmup=1,
+    )
+    return {
+        **times,
+        "carve_peak_mb": peak_mb(lambda: carve(rig, depth, mask, large)),
+        "dense_voxels": float(large.size),
+    }

@@ -1,6 +1,9 @@
-"""Benchmark of the refinement of two mirrors' planes on one 640x480 frame of the simulated rig (Kinect noise), from
-planes fitted to markers 3 mm in front of the silver and clicked 2 px off: on the walking figure (the surfaces,
-`refine_ms`) and on the paper's sphere (its centres, `refine_sphere_ms`)."""
+"""Benchmark of the refinement of two mirrors' planes.
+
+One 640x480 frame of the simulated rig (Kinect noise), from planes fitted to markers 3 mm in front
+of the silver and clicked 2 px off: on the walking figure (the surfaces, `refine_ms`) and on the
+paper's sphere (its centres, `refine_sphere_ms`)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -24,9 +27,14 @@ def run() -> dict[str, float]:
         sim = Simulator(paper_scene(object=obj, distance=distance).with_markers(0.003, 2.0), seed=0)
         frame, background = sim.frame(0), sim.background().depth
         session = Session(Path("."), sim.intrinsics, session_mirrors(sim, frame.truth))
-        rig = Rig.from_session(calibrate_session(session, np.stack([frame.depth, background]),
-                                                 np.random.default_rng(0))[0])
+        rig = Rig.from_session(
+            calibrate_session(
+                session, np.stack([frame.depth, background]), np.random.default_rng(0)
+            )[0]
+        )
         mask = prepare_frame(rig, frame.depth, background)[1]
-        out[f"{name}_ms"] = median_ms(lambda: refine_planes(rig, frame.depth[None], mask[None]), repeat=5, warmup=1)
+        out[f"{name}_ms"] = median_ms(
+            lambda: refine_planes(rig, frame.depth[None], mask[None]), repeat=5, warmup=1
+        )
         out[f"{name}_points"] = float(mask.sum())
     return out

@@ -1,4 +1,8 @@
-"""Benchmark of the simulated rig: one 640x480 Kinect v1 frame of the walking figure with two mirrors, with noise."""
+"""Benchmark of the simulated rig.
+
+One 640x480 Kinect v1 frame of the walking figure with two mirrors, with noise.
+"""
+
 from __future__ import annotations
 
 import itertools

@@ -1,9 +1,13 @@
-"""Soak test of the browser tool: the live demo streamed to several simulated browser tabs (websocket clients on
-127.0.0.1) for a set time while the session is edited and autosaved; reports memory (RSS), frames, frame rate, what
-every tab received, and whether every edit reached the disk.
+"""Soak test of the browser tool.
 
-    .venv/bin/python -m mirrorscan.bench.soak --minutes 10 --clients 4      # the long run; the test suite runs ~25 s of it
+The live demo streamed to several simulated browser tabs (websocket clients on 127.0.0.1) for a set
+time while the session is edited and autosaved; reports memory (RSS), frames, frame rate, what every
+tab received, and whether every edit reached the disk.
+
+.venv/bin/python -m mirrorscan.bench.soak --minutes 10 --clients 4      # the long run; the test
+suite runs ~25 s of it
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,17 +29,22 @@ from mirrorscan.server import MirrorscanApp
 from mirrorscan.bench.tabs import CAMERA_MESSAGE
 from mirrorcore.io.session import load_session
 
-WARM_UP = 0.2          # fraction of the run after which memory is taken as the baseline
-EDIT_EVERY_S = 5.0     # a mirror is renamed (and autosaved) this often
-SAMPLE_EVERY_S = 1.0   # RSS sampled this often
-LATE_CLIENT_S = 3.0    # the tab opened at the end listens this long
+WARM_UP = 0.2  # fraction of the run after which memory is taken as the baseline
+EDIT_EVERY_S = 5.0  # a mirror is renamed (and autosaved) this often
+SAMPLE_EVERY_S = 1.0  # RSS sampled this often
+LATE_CLIENT_S = 3.0  # the tab opened at the end listens this long
+
+
 @dataclass
 class SoakReport:
-    """What a soak run measured. rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB,
-    at the 'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps = frames /
-    seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits / edits_on_disk: session
-    renames made / found in session.json at the end; late_messages: what a tab opened at the end received (the whole
-    current state); errors: live loop errors."""
+    """What a soak run measured.
+
+    rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB, at the
+    'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps =
+    frames / seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits
+    / edits_on_disk: session renames made / found in session.json at the end; late_messages: what a
+    tab opened at the end received (the whole current state); errors: live loop errors.
+    """
 
     seconds: float
     clients: int
@@ -52,7 +61,9 @@ class SoakReport:
 
 def describe(exc: BaseException) -> str:
     """'Type: message' and the innermost frames (file:line) where it was raised, for the report."""
-    where = "; ".join(f"{Path(f.filename).name}:{f.lineno}" for f in traceback.extract_tb(exc.__traceback__)[-4:])
+    where = "; ".join(
+        f"{Path(f.filename).name}:{f.lineno}" for f in traceback.extract_tb(exc.__traceback__)[-4:]
+    )
     return f"{type(exc).__name__}: {exc} (at {where})"
 
 
@@ -63,12 +74,16 @@ def rss_mb() -> float:
 
 
 async def listen(url: str, until: float) -> tuple[int, float]:
-    """One simulated tab: connect with viser's protocol, report a camera view (viser counts a tab as connected from
-    then on), read every message until time.monotonic() >= until.
-    Returns (messages received, longest gap between two messages in seconds)."""
+    """One simulated tab.
+
+    Connect with viser's protocol, report a camera view (viser counts a tab as connected from then
+    on), read every message until time.monotonic() >= until. Returns (messages received, longest gap
+    between two messages in seconds).
+    """
     count, gap, last = 0, 0.0, time.monotonic()
-    async with websockets.asyncio.client.connect(url, subprotocols=[f"viser-v{viser.__version__}"],
-                                                 max_size=None) as ws:
+    async with websockets.asyncio.client.connect(
+        url, subprotocols=[f"viser-v{viser.__version__}"], max_size=None
+    ) as ws:
         await ws.send(CAMERA_MESSAGE)
         while (left := until - time.monotonic()) > 0:
             try:
@@ -85,21 +100,31 @@ async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
 
 
 def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
-    """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`, renaming a mirror every
-    EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder by default). Stops by itself."""
+    """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`.
+
+    A mirror is renamed every EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder
+    by default). Stops by itself.
+    """
     report = SoakReport(seconds, clients, rss_mb={"start": rss_mb()})
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(folder or tmp) / "soak"
         source = demo_source()
-        app = MirrorscanApp(calibrated_session(source, root), source, port=0, autosave=True,
-                            sessions_dir=root.parent)
+        app = MirrorscanApp(
+            calibrated_session(source, root),
+            source,
+            port=0,
+            autosave=True,
+            sessions_dir=root.parent,
+        )
         report_error = app.loop.on_error
         app.loop.on_error = lambda exc: (report.errors.append(describe(exc)), report_error(exc))
         url = f"ws://127.0.0.1:{app.port}"
         start = time.monotonic()
         until = start + seconds
         tabs: list[tuple[int, float]] = []
-        listener = threading.Thread(target=lambda: tabs.extend(asyncio.run(_tabs(url, clients, until))), daemon=True)
+        listener = threading.Thread(
+            target=lambda: tabs.extend(asyncio.run(_tabs(url, clients, until))), daemon=True
+        )
         try:
             app.start()
             listener.start()
@@ -126,14 +151,21 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
         report.messages = [count for count, _ in tabs]
         report.max_gap_s = max((gap for _, gap in tabs), default=float("inf"))
         report.late_messages = late[0][0]
-        report.edits_on_disk = load_session(root).mirrors[0].name == app.editor.session.mirrors[0].name == (
-            f"mirror 1 edit {report.edits}" if report.edits else "mirror 1")
+        report.edits_on_disk = (
+            load_session(root).mirrors[0].name
+            == app.editor.session.mirrors[0].name
+            == (f"mirror 1 edit {report.edits}" if report.edits else "mirror 1")
+        )
     return report
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m mirrorscan.bench.soak", description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", type=float, default=10.0, help="how long to stream (default 10)")
+    parser = argparse.ArgumentParser(
+        prog="python -m mirrorscan.bench.soak", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument(
+        "--minutes", type=float, default=10.0, help="how long to stream (default 10)"
+    )
     parser.add_argument("--clients", type=int, default=4, help="simulated browser tabs (default 4)")
     args = parser.parse_args(argv)
     print(json.dumps(asdict(run(args.minutes * 60, args.clients)), indent=1))

@@ -1,11 +1,15 @@
-"""The whole command-line pipeline on the simulated two-mirror rig of the paper (sphere r = 115 mm at 2 m, mirrors
-at 120 degrees, planes unknown): simulate -> calibrate (markers only) -> reconstruct -> fit, against the truth."""
+"""The whole command-line pipeline on the simulated two-mirror rig of the paper (sphere r = 115 mm
+at 2 m, mirrors at 120 degrees, planes unknown): simulate -> calibrate (markers only) -> reconstruct
+-> fit, against the truth."""
+
 import json
+import shutil
 
 import numpy as np
 import pytest
 
 from mirrorscan.cli import main
+from tests.cli.output import details, headlines
 from mirrorcore.io.ply import read_ply
 from mirrorcore.io.session import load_session
 
@@ -50,10 +54,10 @@ def test_cloud_lies_on_the_true_sphere(scanned):
     centre = np.asarray(truth["object"]["centre"])
     error = np.linalg.norm(points - centre, axis=1) - TRUE_RADIUS
     if noise == "none":
-        assert np.sqrt(np.mean(error ** 2)) < 1e-3                  # RMSE to the true sphere below 1 mm
+        assert np.sqrt(np.mean(error**2)) < 1e-3  # RMSE to the true sphere below 1 mm
     else:
-        assert np.mean(np.abs(error) > 0.02) < 0.01                 # fewer than 1 % farther than 2 cm
-        for j in range(3):                                           # and no source is biased
+        assert np.mean(np.abs(error) > 0.02) < 0.01  # fewer than 1 % farther than 2 cm
+        for j in range(3):  # no source is biased
             assert abs(np.mean(error[sources == j])) < 3e-3
 
 
@@ -75,3 +79,30 @@ def test_all_frames_into_a_folder(scanned, tmp_path, capsys):
     assert files == [".mirrorscan-batch.lock", "000000.ply", "000001.ply", "manifest.json"]
     run_ok("reconstruct", session, "-o", tmp_path / "clouds", "--frame", "all", "--workers", 1)
     assert "nothing to do: the 2 frames are in" in capsys.readouterr().out
+
+
+def test_every_line_is_a_headline_and_verbose_adds_the_figures(scanned, tmp_path, capsys):
+    """Each command of a scan prints headlines of at most 25 words; -v/--verbose adds the figures
+    under each, indented, and keeps the headlines (the same commands on two copies)."""
+    _, session, *_ = scanned
+    out = {}
+    for name, flags in (("plain", []), ("verbose", ["--verbose"])):
+        s, cloud = tmp_path / name / "s", tmp_path / name / "cloud.ply"
+        shutil.copytree(session, s)
+        capsys.readouterr()
+        for argv in (
+            ["calibrate", s],
+            ["calibrate", s, "--refine", "--quiet"],
+            ["reconstruct", s, "-o", cloud],
+            ["fit", "sphere", cloud],
+            ["truth", s, "--cloud", cloud],
+        ):
+            run_ok(*argv, *flags)
+            out[name, argv[0], len(argv)] = capsys.readouterr().out.replace(
+                str(tmp_path / name), ""
+            )
+    for (name, *command), text in out.items():
+        if name == "plain":
+            verbose = out["verbose", *command]
+            assert headlines(text) == headlines(verbose) and details(text) == [], command
+            assert len(details(verbose)) >= len(headlines(verbose)) - 1, command

@@ -1,5 +1,8 @@
-"""One module per `mirrorscan` subcommand; each has register(subparsers) that sets the parser's `run` default. Here:
-what several share."""
+"""One module per `mirrorscan` subcommand.
+
+Each has register(subparsers) that sets the parser's `run` default. Here: what several share.
+"""
+
 from __future__ import annotations
 
 from collections.abc import Iterator
@@ -12,8 +15,17 @@ from mirrorcore.base.progress import Progress
 
 @contextmanager
 def percent_bar(desc: str, disable: bool = False) -> Iterator[Progress]:
-    """A tqdm bar (stderr) of the fraction done, shown after half a second and cleared at the end, so that a refusal
-    stays one line: yields progress(fraction)."""
-    with tqdm(total=100, desc=desc, unit="%", leave=False, delay=0.5, bar_format="{l_bar}{bar}| {elapsed}",
-              disable=disable) as bar:
+    """A tqdm bar (stderr) of the fraction done; yields progress(fraction).
+
+    The bar shows after half a second and is cleared at the end, so that a refusal stays one line.
+    """
+    with tqdm(
+        total=100,
+        desc=desc,
+        unit="%",
+        leave=False,
+        delay=0.5,
+        bar_format="{l_bar}{bar}| {elapsed}",
+        disable=disable,
+    ) as bar:
         yield lambda fraction: bar.update(100 * fraction - bar.n)

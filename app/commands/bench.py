@@ -1,4 +1,5 @@
 """`mirrorscan bench [--json]`: the performance figures (median milliseconds, frames per second)."""
+
 from __future__ import annotations
 
 import argparse

@@ -1,6 +1,10 @@
-"""`mirrorscan experiment {angle,distance,kaleidoscope,temporal}`: the paper's figures 4a and 5a on the simulated rig,
-the error against the angle of two hinged mirrors seen through several mirrors in turn, and the effect of temporal
-smoothing on the walking figure, as CSV and PNG."""
+"""`mirrorscan experiment NAME`: the experiments on the simulated rig, as CSV and PNG.
+
+The paper's figures 4a and 5a on the simulated rig, the error against the angle of two hinged
+mirrors seen through several mirrors in turn, and the effect of temporal smoothing on the walking
+figure, as CSV and PNG.
+"""
+
 from __future__ import annotations
 
 import argparse
@@ -17,15 +21,28 @@ from mirrorcore.io.outputs import check_output
 
 
 def register(sub) -> None:
-    p = sub.add_parser("experiment", help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) "
-                                          "experiment on the simulated rig, the kaleidoscope's error-vs-angle, or "
-                                          "temporal smoothing on the walking figure")
+    p = sub.add_parser(
+        "experiment",
+        help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) experiment on "
+        "the simulated rig, the kaleidoscope's error-vs-angle, or temporal smoothing on the "
+        "walking figure",
+    )
     p.add_argument("name", choices=["angle", "distance", "kaleidoscope", "temporal"])
-    p.add_argument("-o", "--out", default=None, help="output prefix: writes PREFIX.csv and PREFIX.png "
-                                                     "(default experiment-NAME)")
-    p.add_argument("--seeds", type=int, default=3, help="angle, distance: noise seeds per point (default 3)")
-    p.add_argument("--neighbours", type=int, default=2, help="temporal: frames on each side (default 2)")
-    p.add_argument("--frames", type=int, default=30, help="temporal: frames measured (default 30, one stride)")
+    p.add_argument(
+        "-o",
+        "--out",
+        default=None,
+        help="output prefix: writes PREFIX.csv and PREFIX.png (default experiment-NAME)",
+    )
+    p.add_argument(
+        "--seeds", type=int, default=3, help="angle, distance: noise seeds per point (default 3)"
+    )
+    p.add_argument(
+        "--neighbours", type=int, default=2, help="temporal: frames on each side (default 2)"
+    )
+    p.add_argument(
+        "--frames", type=int, default=30, help="temporal: frames measured (default 30, one stride)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -37,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if not prefix.parent.is_dir():
         raise MirrorscanError(f"{prefix.parent}: no such folder")
     for path in (prefix.with_suffix(".csv"), prefix.with_suffix(".png")):
-        check_output(path)                     # before minutes of work: never over a session's files
+        check_output(path)  # before minutes of work: never over a session's files
     if args.name == "temporal":
         return run_temporal(args, prefix)
     if args.name == "kaleidoscope":
@@ -54,13 +71,20 @@ def run(args: argparse.Namespace) -> int:
 
 def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
     if args.neighbours < 1 or args.frames < 1:
-        raise MirrorscanError(f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}")
-    rows = temporal_experiment.run_temporal_experiment(args.neighbours, args.frames, progress=not args.quiet)
+        raise MirrorscanError(
+            f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}"
+        )
+    rows = temporal_experiment.run_temporal_experiment(
+        args.neighbours, args.frames, progress=not args.quiet
+    )
     write_csv(prefix.with_suffix(".csv"), temporal_experiment.COLUMNS, rows)
     temporal_experiment.plot_temporal(rows, args.neighbours, prefix.with_suffix(".png"))
     for part, figures in temporal_experiment.summary(rows).items():
-        print(f"{part} parts: RMSE {figures['rmse_mm']:.2f} mm as read, {figures['temporal_rmse_mm']:.2f} mm with "
-              f"--temporal {args.neighbours} ({figures['change_pct']:+.0f} %), median over {args.frames} frames")
+        print(
+            f"{part} parts: RMSE {figures['rmse_mm']:.2f} mm as read, "
+            f"{figures['temporal_rmse_mm']:.2f} mm with --temporal {args.neighbours} "
+            f"({figures['change_pct']:+.0f} %), median over {args.frames} frames"
+        )
     print(f"wrote {prefix.with_suffix('.csv')} and {prefix.with_suffix('.png')}")
     return 0
 

@@ -1,5 +1,8 @@
-"""`mirrorscan fit {sphere,cylinder} CLOUD.ply [--json]`: RANSAC fit of a cloud, radius, RMSE and mean error (paper
-section 5)."""
+"""`mirrorscan fit {sphere,cylinder} CLOUD.ply`: a shape fitted to a cloud, as the paper measures.
+
+RANSAC fit, then radius, RMSE and mean error (paper section 5); --json for one JSON object.
+"""
+
 from __future__ import annotations
 
 import argparse
@@ -8,32 +11,59 @@ import json
 import numpy as np
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.geometry.fitting import DEFAULT_RADIUS_RANGE, DEFAULT_THRESHOLD, fit_cylinder, fit_sphere
-from mirrorcore.base.palette import source_name
+from mirrorcore.geometry.fitting import (
+    DEFAULT_RADIUS_RANGE,
+    DEFAULT_THRESHOLD,
+    fit_cylinder,
+    fit_sphere,
+)
 from mirrorcore.io.ply import read_ply
-from mirrorcore.geometry.shapes import FitErrors, ShapeFit
 
-from . import percent_bar
+from . import percent_bar, wording
 
 _FITS = {"sphere": fit_sphere, "cylinder": fit_cylinder}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "fit", help="fit a sphere or a cylinder to a cloud; radius, RMSE and mean error as in the paper",
-        description="RANSAC fit, then least squares on the inliers. Errors (paper eq. 4 and 5) are over all points and "
-                    "per source (when the PLY has a `source` property), and over the inliers. Lengths are printed in "
-                    "mm; in --json, centre and axis are in metres (camera frame), figures ending in _mm in mm.")
+        "fit",
+        help="fit a sphere or a cylinder to a cloud; radius, RMSE and mean error as in the paper",
+        description="RANSAC fit, then least squares on the inliers. Errors (paper eq. 4 and 5) "
+        "are over all points and per source (when the PLY has a `source` property), and over the "
+        "inliers. Lengths are printed in mm; in --json, centre and axis are in metres (camera "
+        "frame), figures ending in _mm in mm.",
+    )
     parser.add_argument("shape", choices=sorted(_FITS), help="the shape to fit")
-    parser.add_argument("cloud", metavar="CLOUD.ply", help="a point cloud PLY (any; a `source` property is used)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
-    parser.add_argument("--threshold", type=float, default=1e3 * DEFAULT_THRESHOLD, metavar="MM",
-                        help="RANSAC inlier distance in mm (default %(default)g)")
-    parser.add_argument("--min-radius", type=float, default=1e3 * DEFAULT_RADIUS_RANGE[0], metavar="MM",
-                        help="reject models with a smaller radius, mm (default %(default)g)")
-    parser.add_argument("--max-radius", type=float, default=1e3 * DEFAULT_RADIUS_RANGE[1], metavar="MM",
-                        help="reject models with a larger radius, mm (default %(default)g)")
-    parser.add_argument("--seed", type=int, default=0, help="RANSAC random seed (default %(default)s)")
+    parser.add_argument(
+        "cloud", metavar="CLOUD.ply", help="a point cloud PLY (any; a `source` property is used)"
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object instead of a summary"
+    )
+    parser.add_argument(
+        "--threshold",
+        type=float,
+        default=1e3 * DEFAULT_THRESHOLD,
+        metavar="MM",
+        help="RANSAC inlier distance in mm (default %(default)g)",
+    )
+    parser.add_argument(
+        "--min-radius",
+        type=float,
+        default=1e3 * DEFAULT_RADIUS_RANGE[0],
+        metavar="MM",
+        help="reject models with a smaller radius, mm (default %(default)g)",
+    )
+    parser.add_argument(
+        "--max-radius",
+        type=float,
+        default=1e3 * DEFAULT_RADIUS_RANGE[1],
+        metavar="MM",
+        help="reject models with a larger radius, mm (default %(default)g)",
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="RANSAC random seed (default %(default)s)"
+    )
     parser.set_defaults(run=run)
 
 
@@ -41,28 +71,19 @@ def run(args: argparse.Namespace) -> int:
     points, sources = read_ply(args.cloud)
     if len(points) == 0:
         raise FileFormatError(f"{args.cloud}: the PLY has no points")
-    # RANSAC's samples on stderr, after half a second (a cloud that is not the shape draws 20,000 of them: 1.8 s)
+    # RANSAC's samples on stderr after half a second: a cloud that is not the shape draws 20,000
     with percent_bar(f"fitting a {args.shape}") as progress:
-        fit = _FITS[args.shape](points, np.random.default_rng(args.seed), threshold=1e-3 * args.threshold,
-                                sources=sources, radius_range=(1e-3 * args.min_radius, 1e-3 * args.max_radius),
-                                where=args.cloud, progress=progress)
-    print(json.dumps({"file": args.cloud, **fit.to_json()}) if args.json else summary(fit, args.cloud))
+        fit = _FITS[args.shape](
+            points,
+            np.random.default_rng(args.seed),
+            threshold=1e-3 * args.threshold,
+            sources=sources,
+            radius_range=(1e-3 * args.min_radius, 1e-3 * args.max_radius),
+            where=args.cloud,
+            progress=progress,
+        )
+    if args.json:
+        print(json.dumps({"file": args.cloud, **fit.to_json()}))
+    else:
+        wording.show(wording.shape_fitted(fit, args.cloud), args.verbose)
     return 0
-
-
-def summary(fit: ShapeFit, name: str) -> str:
-    """A few lines for a person: the shape, then RMSE and mean error over all points, the inliers and each source."""
-    shape = fit.shape
-    where = (f"centre ({', '.join(f'{x:.4f}' for x in shape.centre)}) m" if shape.kind == "sphere" else
-             f"axis through ({', '.join(f'{x:.4f}' for x in shape.axis_point)}) m, "
-             f"direction ({', '.join(f'{x:.4f}' for x in shape.axis_direction)})")
-    rows = [("all points", fit.errors), ("inliers", fit.inlier_errors),
-            *((source_name(s), e) for s, e in fit.per_source.items())]
-    return "\n".join([f"{name}: {shape.kind}, radius {1e3 * shape.radius:.2f} mm, {where}",
-                      f"  {np.count_nonzero(fit.inliers)} of {len(fit.inliers)} points within "
-                      f"{1e3 * fit.threshold:g} mm", *(f"  {label:<11} {_figures(e)}" for label, e in rows)])
-
-
-def _figures(errors: FitErrors) -> str:
-    return (f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  "
-            f"mean error {1e3 * errors.mean_error:+7.2f} mm  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm")

@@ -1,6 +1,12 @@
-"""`mirrorscan reconstruct SESSION -o OUT [--frame I|all] [--method raw|paper|carve|tsdf]`: the merged cloud of frames
-(Algorithm 1), a carved cloud (Algorithm 2 as written, or the consistent carving) or a fused mesh, as PLY; with
-`--frame all`, one PLY per frame and a manifest, on this machine's cores or a Dask cluster (mirrorcore.batch)."""
+"""`mirrorscan reconstruct SESSION -o OUT`.
+
+The merged cloud of frames, a carved cloud or a fused mesh, as PLY.
+
+--method raw is the paper's Algorithm 1, paper its Algorithm 2 as written, carve the consistent
+carving, tsdf a fused mesh; with `--frame all`, one PLY per frame and a manifest, on this machine's
+cores or a Dask cluster (mirrorcore.batch).
+"""
+
 from __future__ import annotations
 
 import argparse
@@ -12,65 +18,132 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, Where, read_depth, run_batch
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depth.files import require_readings
-from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.io.outputs import check_output
-from mirrorcore.base.palette import MAX_ORDER, source_name
-from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 from mirrorcore.io.ply import write_ply
-from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.io.session import Session, load_session
+from mirrorcore.rig.model import Rig, calibrated_rig
+from mirrorcore.rig.pipeline import object_cloud, prepare_frame
+
+from . import wording
 
 
 def register(sub) -> None:
     p = sub.add_parser("reconstruct", help="the object's merged cloud (Algorithm 1) as PLY")
     p.add_argument("session", help="session folder (calibrated: run `mirrorscan calibrate` first)")
-    p.add_argument("-o", "--output", required=True, help="PLY file, or with --frame all a folder of PLY files (new, or "
-                                                         "one this command made: it goes on)")
-    p.add_argument("--frame", default="0", help="frame index (0-based, negative from the end) or 'all'")
-    p.add_argument("--method", choices=["raw", *METHODS], default="raw",
-                   help="raw: the paper's Algorithm 1; paper: its Algorithm 2 as written (carved cloud); carve: the "
-                        "consistent carving (cloud); tsdf: fusion of every view of --frames frames (mesh)")
-    p.add_argument("--voxel", type=float, default=DenseOptions.voxel, help="dense methods: voxel edge, metres")
-    p.add_argument("--margin", type=float, default=DenseOptions.margin,
-                   help="dense methods: metres added around the raw cloud's bounding box")
-    p.add_argument("--bounds", type=float, nargs=6, metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
-                   help="dense methods: the box in metres (camera frame) instead of the automatic one")
-    p.add_argument("--threshold", type=float, help="paper, carve: th in metres (default: the voxel size)")
-    p.add_argument("--truncation", type=float, help="tsdf: truncation in metres (default: 3 voxels)")
-    p.add_argument("--frames", type=int, default=1, help="tsdf: fuse this many frames from --frame on (static object)")
-    p.add_argument("--temporal", type=int, default=0, metavar="N",
-                   help="smooth each frame's depth with its N neighbours on each side where the scene is static "
-                        "(moving people; default 0: off)")
-    batch = p.add_argument_group("--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does "
-                                 "only the frames missing)")
-    batch.add_argument("--workers", type=int, help="local worker processes (default: one per core; 1: in this "
-                                                   "process, without Dask)")
-    batch.add_argument("--scheduler", metavar="tcp://HOST:8786", help="run on this existing Dask cluster (the session "
-                                                                      "and OUT on a file system all workers share)")
-    batch.add_argument("--frames-per-task", type=int, metavar="N", help="frames in one Dask task (default 8 raw, "
-                                                                       "1 dense; the last tasks are smaller)")
-    batch.add_argument("--overwrite", action="store_true",
-                       help="redo every frame when OUT was made with another calibration or options")
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="PLY file, or with --frame all a folder of PLY files (new, or one this command made: "
+        "it goes on)",
+    )
+    p.add_argument(
+        "--frame", default="0", help="frame index (0-based, negative from the end) or 'all'"
+    )
+    p.add_argument(
+        "--method",
+        choices=["raw", *METHODS],
+        default="raw",
+        help="raw: Algorithm 1 (cloud); paper: Algorithm 2 as written (carved cloud); carve: "
+        "consistent carving (cloud); tsdf: fusion of --frames frames (mesh)",
+    )
+    p.add_argument(
+        "--voxel", type=float, default=DenseOptions.voxel, help="dense methods: voxel edge, metres"
+    )
+    p.add_argument(
+        "--margin",
+        type=float,
+        default=DenseOptions.margin,
+        help="dense methods: metres added around the raw cloud's bounding box",
+    )
+    p.add_argument(
+        "--bounds",
+        type=float,
+        nargs=6,
+        metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
+        help="dense methods: the box in metres (camera frame) instead of the automatic one",
+    )
+    p.add_argument(
+        "--threshold", type=float, help="paper, carve: th in metres (default: the voxel size)"
+    )
+    p.add_argument(
+        "--truncation", type=float, help="tsdf: truncation in metres (default: 3 voxels)"
+    )
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=1,
+        help="tsdf: fuse this many frames from --frame on (static object)",
+    )
+    p.add_argument(
+        "--temporal",
+        type=int,
+        default=0,
+        metavar="N",
+        help="smooth each frame's depth with its N neighbours on each side where the scene is "
+        "static (moving people; default 0: off)",
+    )
+    batch = p.add_argument_group(
+        "--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does only "
+        "the frames missing)"
+    )
+    batch.add_argument(
+        "--workers",
+        type=int,
+        help="local worker processes (default: one per core; 1: in this process, without Dask)",
+    )
+    batch.add_argument(
+        "--scheduler",
+        metavar="tcp://HOST:8786",
+        help="run on this existing Dask cluster (the session and OUT on a file system all workers "
+        "share)",
+    )
+    batch.add_argument(
+        "--frames-per-task",
+        type=int,
+        metavar="N",
+        help="frames in one Dask task (default 8 raw, 1 dense; the last tasks are smaller)",
+    )
+    batch.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="redo every frame when OUT was made with another calibration or options",
+    )
     add_bounces_option(p)
     p.set_defaults(run=run)
 
 
 def read_scan_frame(session: Session, index: int, temporal: int = 0) -> np.ndarray:
-    """Frame `index` as (H, W) metres (smoothed with `temporal` neighbours, mirrorcore.batch.read_depth), refused when
-    it has no reading at all (nothing to scan in it). `--frame all` reads frames as they are: a recording may begin
-    with blank frames while the camera starts."""
-    return require_readings(read_depth(session, index, temporal), str(Path(session.root) / session.frames[index]))
+    """Frame `index` as (H, W) metres, smoothed with `temporal` neighbours (batch.read_depth).
+
+    Refused when it has no reading at all (nothing to scan in it). `--frame all` reads frames as
+    they are: a recording may begin with blank frames while the camera starts.
+
+    Raises
+    ------
+    MirrorscanError
+        When every pixel of the frame is 0.
+    """
+    return require_readings(
+        read_depth(session, index, temporal), str(Path(session.root) / session.frames[index])
+    )
 
 
 def add_bounces_option(p) -> None:
     """--bounces, for the commands that reconstruct (reconstruct, serve)."""
-    p.add_argument("--bounces", type=int, help=f"follow a camera ray through at most this many mirrors in turn, 1 to "
-                                               f"{MAX_ORDER} (default: the session's setting, {MAX_ORDER} unless set)")
+    p.add_argument(
+        "--bounces",
+        type=int,
+        help=f"follow a camera ray through at most this many mirrors in turn, 1 to {MAX_ORDER} "
+        f"(default: the session's setting, {MAX_ORDER} unless set)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -78,73 +151,117 @@ def run(args: argparse.Namespace) -> int:
     rig = calibrated_rig(session, args.bounces)
     selection = session.selection
     background = session.read_background()
-    out = check_output(args.output, (args.session,))   # never over a session's files or its own input
+    # never over a session's files or its own input
+    out = check_output(args.output, (args.session,))
     if args.frame != "all":
         try:
             index = int(args.frame)
         except ValueError:
-            raise MirrorscanError(f"--frame: expected an integer or 'all', got {args.frame!r}") from None
+            raise MirrorscanError(
+                f"--frame: expected an integer or 'all', got {args.frame!r}"
+            ) from None
         _not_over_a_batch_record(out)
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
-        cloud, _ = object_cloud(rig, read_scan_frame(session, index, args.temporal), background, selection)
+        cloud, _ = object_cloud(
+            rig, read_scan_frame(session, index, args.temporal), background, selection
+        )
         write_ply(out, cloud.points, cloud.sources)
-        print(f"wrote {out}: {len(cloud)} points " + ", ".join(
-            f"{source_name(k)} {v}" for k, v in cloud.source_counts(len(rig.mirrors)).items()))
+        counts = cloud.source_counts(len(rig.mirrors))
+        wording.show(wording.cloud_written(out, len(cloud), counts), args.verbose)
         return 0
     return run_all(args, out)
 
 
 def _not_over_a_batch_record(out: Path) -> None:
-    """Refuse one frame's output over a batch folder's manifest or lock: the batch could no longer go on (a helper
-    wrote a PLY over manifest.json, and the next run failed on it)."""
+    """Refuse one frame over a batch folder's manifest or lock (a rerun goes on from them)."""
     if out.name in (MANIFEST_FILE, LOCK_FILE) and out.exists():
-        raise MirrorscanError(f"{out}: would write over the record of the batch in {out.parent} (a rerun goes on "
-                              "from it); write the output elsewhere")
+        raise MirrorscanError(
+            f"{out}: would write over the record of the batch in {out.parent} (a rerun goes on "
+            "from it); write the output elsewhere"
+        )
 
 
-def run_dense(args: argparse.Namespace, rig: Rig, session: Session, index: int, background, selection,
-              out: Path) -> int:
-    """Carve or fuse frames index.. (see mirrorcore.dense) with a progress bar; Ctrl-C cancels, nothing is written."""
+def run_dense(
+    args: argparse.Namespace,
+    rig: Rig,
+    session: Session,
+    index: int,
+    background,
+    selection,
+    out: Path,
+) -> int:
+    """Carve or fuse the frames from `index` on (mirrorcore.dense) with a progress bar.
+
+    Ctrl-C cancels; nothing is written then.
+    """
     count = args.frames if args.method == "tsdf" else 1
     if count < 1:
         raise MirrorscanError(f"--frames: expected a positive number, got {count}")
-    first = index % len(session.frames) if -len(session.frames) <= index < len(session.frames) else index
+    first = (
+        index % len(session.frames)
+        if -len(session.frames) <= index < len(session.frames)
+        else index
+    )
     if first + count > len(session.frames):
-        raise MirrorscanError(f"--frames: the session has {len(session.frames)} frames, "
-                              f"{first} + {count} is past the end")
-    prepared = [prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
-                for i in range(first, first + count)]
+        raise MirrorscanError(
+            f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
+            "the end"
+        )
+    prepared = [
+        prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
+        for i in range(first, first + count)
+    ]
     depths, masks = (np.stack(a) for a in zip(*prepared))
     options = _dense_options(args)
     volume = dense_volume(rig, depths[0], masks[0], options)
-    with tqdm(total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}") as bar, \
-            _ctrl_c_cancels() as cancel:
+    with (
+        tqdm(
+            total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}"
+        ) as bar,
+        _ctrl_c_cancels() as cancel,
+    ):
         try:
-            result = reconstruct_dense(rig, depths, masks, volume, args.method, options,
-                                       progress=lambda f: bar.update(f - bar.n), cancel=cancel)
+            result = reconstruct_dense(
+                rig,
+                depths,
+                masks,
+                volume,
+                args.method,
+                options,
+                progress=lambda f: bar.update(f - bar.n),
+                cancel=cancel,
+            )
         except Cancelled:
             raise KeyboardInterrupt from None
-    shape = "x".join(map(str, volume.shape))
     if isinstance(result, CarveResult):
         points, sources = result.surface_points()
         write_ply(out, points, sources)
-        print(f"wrote {out}: {len(points)} surface voxels of a {shape} volume ({volume.voxel * 1e3:g} mm)")
+        message = wording.carved_written(out, len(points), volume.shape, volume.voxel)
     else:
         mesh = result.mesh()
         write_ply(out, mesh.vertices, mesh.sources, mesh.faces)
-        print(f"wrote {out}: mesh of {len(mesh.vertices)} vertices, {len(mesh.faces)} faces from {count} frame(s), "
-              f"{shape} volume ({volume.voxel * 1e3:g} mm)")
+        message = wording.mesh_written(
+            out, len(mesh.vertices), len(mesh.faces), count, volume.shape, volume.voxel
+        )
+    wording.show(message, args.verbose)
     return 0
 
 
 def run_all(args: argparse.Namespace, out: Path) -> int:
-    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar; Ctrl-C stops cleanly (the
-    frames finished and the manifest are kept; a rerun goes on) and exits with 130."""
+    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar.
+
+    Ctrl-C stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and exits
+    with 130.
+    """
     if args.frames != 1:
-        raise MirrorscanError("--frames: with --frame all each frame is reconstructed alone (people move); "
-                              "--frames fuses several frames into one result")
-    job = BatchJob(Path(args.session), out, args.method, _dense_options(args), args.temporal, args.bounces)
+        raise MirrorscanError(
+            "--frames: with --frame all each frame is reconstructed alone (people move); --frames "
+            "fuses several frames into one result"
+        )
+    job = BatchJob(
+        Path(args.session), out, args.method, _dense_options(args), args.temporal, args.bounces
+    )
     where = Where(args.workers, args.scheduler)
     if where.scheduler:
         print(f"connecting to the Dask cluster at {where.scheduler}...", flush=True)
@@ -152,12 +269,15 @@ def run_all(args: argparse.Namespace, out: Path) -> int:
         print(f"starting {where.local_workers} local Dask workers...", flush=True)
     with _ProgressBar(args.method) as bar, _ctrl_c_cancels() as cancel:
         report = run_batch(job, where, args.frames_per_task, args.overwrite, bar.show, cancel)
-    return _summary(report)
+    return _summary(report, args.verbose)
 
 
 class _ProgressBar:
-    """A tqdm bar of the frames done (with their rate and the time left), made at the first progress report (the
-    frames kept from an earlier run count as done, not in the rate); failures and retries after it."""
+    """A tqdm bar of the frames done, with their rate and the time left; failures and retries after.
+
+    It is made at the first progress report; the frames kept from an earlier run count as done, not
+    in the rate.
+    """
 
     def __init__(self, desc: str):
         self.desc = desc
@@ -174,50 +294,61 @@ class _ProgressBar:
         if self.bar is None:
             if progress.dashboard:
                 print(f"Dask dashboard: {progress.dashboard}", flush=True)
-            self.bar = tqdm(total=progress.total, initial=progress.kept, desc=self.desc, unit="frame")
-        self.bar.set_postfix({k: v for k, v in (("failed", progress.failed), ("retried", len(progress.retried)))
-                              if v}, refresh=False)
+            self.bar = tqdm(
+                total=progress.total, initial=progress.kept, desc=self.desc, unit="frame"
+            )
+        self.bar.set_postfix(
+            {
+                k: v
+                for k, v in (("failed", progress.failed), ("retried", len(progress.retried)))
+                if v
+            },
+            refresh=False,
+        )
         self.bar.update(progress.done - self.bar.n)
 
 
-def _summary(report: BatchReport) -> int:
-    """Print how the batch went; MirrorscanError (exit 2) when frames failed, KeyboardInterrupt (130) when
-    cancelled."""
-    if report.complete and not report.written:
-        print(f"nothing to do: the {report.total} frames are in {report.out} already (see {report.manifest})")
-    else:
-        kept = f" ({report.kept} kept from an earlier run)" if report.kept else ""
-        startup = (f" after {report.startup_seconds:.1f} s starting the workers" if report.startup_seconds >= 1.0
-                   else "")      # the rate leaves it out: 114 frames "at 182.5 frames/s" in 14 s (a helper)
-        print(f"wrote {report.written} PLY files into {report.out}{kept} at {report.fps:.1f} frames/s{startup}; "
-              f"{report.kept + report.written} of {report.total} frames done, manifest {report.manifest}")
+def _summary(report: BatchReport, verbose: bool) -> int:
+    """Print how the batch went.
+
+    Raises
+    ------
+    MirrorscanError
+        When frames failed (exit 2).
+    KeyboardInterrupt
+        When cancelled (exit 130).
+    """
+    wording.show(wording.batch_done(report), verbose)
     for worker in sorted(set(report.retried.values())):
         frames = [i for i, w in report.retried.items() if w == worker]
-        print(f"worker {worker} left the cluster with frames {_frame_list(frames)}: they were run again")
+        wording.show(wording.retried(worker, frames), verbose)
     if report.cancelled:
         raise KeyboardInterrupt
     if report.failed:
         first, message = next(iter(report.failed.items()))
-        raise MirrorscanError(f"{len(report.failed)} frame(s) failed ({_frame_list(list(report.failed))}; see "
-                              f"{report.manifest}), frame {first}: {message}")
+        raise MirrorscanError(
+            f"{len(report.failed)} frame(s) failed ({wording.frame_list(list(report.failed))}; see "
+            f"{report.manifest}), frame {first}: {message}"
+        )
     return 0
 
 
-def _frame_list(frames: list[int], most: int = 10) -> str:
-    """'3, 4, 9' (at most `most`, then '... and N more')."""
-    shown = ", ".join(map(str, frames[:most]))
-    return shown + (f" and {len(frames) - most} more" if len(frames) > most else "")
-
-
 def _dense_options(args: argparse.Namespace) -> DenseOptions:
-    return DenseOptions(args.voxel, args.margin, None if args.bounds is None else
-                        (tuple(args.bounds[:3]), tuple(args.bounds[3:])), args.threshold, args.truncation)
+    return DenseOptions(
+        args.voxel,
+        args.margin,
+        None if args.bounds is None else (tuple(args.bounds[:3]), tuple(args.bounds[3:])),
+        args.threshold,
+        args.truncation,
+    )
 
 
 @contextmanager
 def _ctrl_c_cancels():
-    """While inside, Ctrl-C sets the yielded threading.Event (the computation stops at its next chunk) instead of
-    interrupting at an arbitrary point; the previous handler is restored on the way out."""
+    """While inside, Ctrl-C sets the yielded threading.Event instead of interrupting.
+
+    The computation stops at its next chunk; the previous handler is restored on the way out.
+    """
     event = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: event.set())
     try:

@@ -1,4 +1,5 @@
-"""`mirrorscan serve [SESSION] [--source SPEC] [--host 127.0.0.1] [--port 8080]`: the browser tool."""
+"""`mirrorscan serve [SESSION] [--source SPEC] [--host HOST] [--port PORT]`: the browser tool."""
+
 from __future__ import annotations
 
 import argparse
@@ -25,27 +26,49 @@ log = logging.getLogger("mirrorscan")
 
 def register(sub) -> None:
     p = sub.add_parser("serve", help="the browser tool (no arguments: the simulated rig)")
-    p.add_argument("session", nargs="?",
-                   help="session folder; a new (or empty) folder starts an empty session there "
-                        "(default: the built-in simulated demo, saved only on 'Save as')")
-    p.add_argument("--source", help="where frames come from (default: the session's frames, else the simulated rig); "
-                                    "see `mirrorscan sources`")
-    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=int, default=8080, help="port (default 8080; the next free one if taken)")
-    p.add_argument("--token", help="a secret the browser must give (default: none on 127.0.0.1; beyond it a new one, "
-                                   "printed in the address to open)")
+    p.add_argument(
+        "session",
+        nargs="?",
+        help="session folder; a new (or empty) folder starts an empty session there (default: the "
+        "built-in simulated demo, saved only on 'Save as')",
+    )
+    p.add_argument(
+        "--source",
+        help="where frames come from (default: the session's frames, else the simulated rig); see "
+        "`mirrorscan sources`",
+    )
+    p.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1: this machine only)",
+    )
+    p.add_argument(
+        "--port", type=int, default=8080, help="port (default 8080; the next free one if taken)"
+    )
+    p.add_argument(
+        "--token",
+        help="a secret the browser must give (default: none on 127.0.0.1; beyond it a new one, "
+        "printed in the address to open)",
+    )
     add_bounces_option(p)
     p.set_defaults(run=run)
 
 
-def session_and_source(folder: str | None, spec: str | None,
-                       bounces: int | None = None) -> tuple[Session, DepthSource, bool]:
-    """(session, source, autosave) for the command's arguments; `bounces` (--bounces) becomes the session's setting
-    (saved with its next change)."""
+def session_and_source(
+    folder: str | None, spec: str | None, bounces: int | None = None
+) -> tuple[Session, DepthSource, bool]:
+    """(session, source, autosave) for the command's arguments.
+
+    `bounces` (--bounces) becomes the session's setting (saved with its next change).
+    """
     if bounces is not None:
         check_bounces(bounces)
     session, source, autosave = _session_and_source(folder, spec)
-    return (session if bounces is None else dataclasses.replace(session, bounces=bounces)), source, autosave
+    return (
+        (session if bounces is None else dataclasses.replace(session, bounces=bounces)),
+        source,
+        autosave,
+    )
 
 
 def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
@@ -66,24 +89,37 @@ def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, 
 
 
 def run(args: argparse.Namespace) -> int:
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s"
+    )
     install_log_filter()
     session, source, autosave = session_and_source(args.session, args.source, args.bounces)
     sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
     app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir, args.token)
     if not is_loopback(args.host):
-        log.warning("listening on %s: whoever has the address with its token can see and change the session; "
-                    "prefer 127.0.0.1 and an SSH tunnel (see the README)", args.host)
+        log.warning(
+            "listening on %s: whoever has the address with its token can see and change the "
+            "session; prefer 127.0.0.1 and an SSH tunnel (see the README)",
+            args.host,
+        )
     app.start()
     log.info("mirrorscan is at %s (Ctrl-C to stop)", app.guard.url)
     previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
     try:
         while True:
             time.sleep(3600)
-    except KeyboardInterrupt:       # the way to stop it: not a cancelled command
-        edited = app.editor       # the session being edited now: another may have been opened or saved as
-        print("mirrorscan serve: stopped" + (f"; every edit is saved in {edited.session.root}" if edited.autosave else
-                                             "; the demo's session was kept in memory only"), file=sys.stderr)
+    except KeyboardInterrupt:  # the way to stop it: not a cancelled command
+        # the session being edited now: another may have been opened or saved as
+        edited = app.editor
+        print(
+            "mirrorscan serve: stopped"
+            + (
+                f"; every edit is saved in {edited.session.root}"
+                if edited.autosave
+                else "; the demo's session was kept in memory only"
+            ),
+            file=sys.stderr,
+        )
         return 130
     finally:
         for s, handler in previous.items():
@@ -92,6 +128,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _stop(signum, frame) -> None:
-    """SIGTERM and SIGHUP stop the server as Ctrl-C does (the session is saved at every edit; app.stop() ends a
-    recording and the live loop)."""
+    """Stop the server on SIGTERM and SIGHUP as Ctrl-C does.
+
+    The session is saved at every edit; app.stop() ends a recording and the live loop.
+    """
     raise KeyboardInterrupt

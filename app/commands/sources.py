@@ -1,4 +1,5 @@
-"""`mirrorscan sources`: the kinds of depth source, their spec strings, and which can be used on this machine."""
+"""`mirrorscan sources`: the kinds of depth source, their specs, and which work on this machine."""
+
 from __future__ import annotations
 
 import argparse
@@ -7,9 +8,12 @@ from mirrorcore.sources import KINDS
 
 
 def register(sub) -> None:
-    p = sub.add_parser("sources", help="list the depth sources, their specs, and which are available here",
-                       description="Depth source specs for --source and `mirrorscan record`: KIND:TARGET, options "
-                                   "after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.")
+    p = sub.add_parser(
+        "sources",
+        help="list the depth sources, their specs, and which are available here",
+        description="Depth source specs for --source and `mirrorscan record`: KIND:TARGET, "
+        "options after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.",
+    )
     p.set_defaults(run=run)
 
 
@@ -17,5 +21,8 @@ def run(args: argparse.Namespace) -> int:
     width = max(len(k.spec) for k in KINDS)
     for kind in KINDS:
         reason = kind.unavailable()
-        print(f"{kind.spec:<{width}}  {kind.what}\n{'':<{width}}  {'available' if reason is None else reason}")
+        print(
+            f"{kind.spec:<{width}}  {kind.what}\n{'':<{width}}  "
+            f"{'available' if reason is None else reason}"
+        )
     return 0

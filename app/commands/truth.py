@@ -1,5 +1,9 @@
-"""`mirrorscan truth SESSION [--cloud CLOUD.ply --frame N] [--json]`: how far a simulated session's planes (and a cloud
-of one of its frames) are from the simulator's truth, as the README's accuracy tables give them."""
+"""`mirrorscan truth SESSION`: a simulated session against the simulator's truth.
+
+How far a simulated session's planes (and a cloud of one of its frames) are from the simulator's
+truth, as the README's accuracy tables give them.
+"""
+
 from __future__ import annotations
 
 import argparse
@@ -8,22 +12,37 @@ import json
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.ply import read_ply
 from mirrorcore.io.session import TRUTH_FILE, load_session
-from mirrorcore.sim.truth import PlaneError, SurfaceError, plane_errors, surface_error
+from mirrorcore.sim.truth import plane_errors, surface_error
 from mirrorcore.sources import session_truth
+
+from . import wording
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "truth", help="compare a simulated session's planes, and a cloud of it, with the simulator's truth",
-        description=f"Needs the {TRUTH_FILE} that `mirrorscan simulate` writes. Per mirror: its plane's offset from "
-                    "the true plane at the object's middle (mm, along the normal; > 0: too far from the camera), "
-                    "its tilt (degrees) and its glass beside the true one (mm). With --cloud: the cloud's distances "
-                    "to the objects' true surfaces at that frame (RMSE, mean and 95th percentile, mm).")
-    parser.add_argument("session", metavar="SESSION", help="a session folder written by `mirrorscan simulate`")
-    parser.add_argument("--cloud", metavar="CLOUD.ply", help="a cloud of the session (`mirrorscan reconstruct`)")
-    parser.add_argument("--frame", type=int, default=0, help="the frame the cloud is of (default %(default)s; a "
-                                                             "walking figure moves)")
-    parser.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
+        "truth",
+        help="compare a simulated session's planes, and a cloud of it, with the simulator's truth",
+        description=f"Needs the {TRUTH_FILE} that `mirrorscan simulate` writes. Per mirror: its "
+        "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
+        "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
+        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
+        "mean and 95th percentile, mm).",
+    )
+    parser.add_argument(
+        "session", metavar="SESSION", help="a session folder written by `mirrorscan simulate`"
+    )
+    parser.add_argument(
+        "--cloud", metavar="CLOUD.ply", help="a cloud of the session (`mirrorscan reconstruct`)"
+    )
+    parser.add_argument(
+        "--frame",
+        type=int,
+        default=0,
+        help="the frame the cloud is of (default %(default)s; a walking figure moves)",
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object instead of a summary"
+    )
     parser.set_defaults(run=run)
 
 
@@ -31,32 +50,39 @@ def run(args: argparse.Namespace) -> int:
     session = load_session(args.session)
     truth = session_truth(session)
     if truth is None:
-        raise MirrorscanError(f"{args.session}: no {TRUTH_FILE}: only a session `mirrorscan simulate` wrote has a "
-                              "truth to compare with")
+        raise MirrorscanError(
+            f"{args.session}: no {TRUTH_FILE}: only a session `mirrorscan simulate` wrote has a "
+            "truth to compare with"
+        )
     scene, fps = truth
     if not 0 <= args.frame < len(session.frames):
-        raise MirrorscanError(f"{session.path}: no frame {args.frame}; the session has {len(session.frames)} (0 to "
-                              f"{len(session.frames) - 1})")                     # as reconstruct and calibrate say it
+        # as reconstruct and calibrate say it
+        raise MirrorscanError(
+            f"{session.path}: no frame {args.frame}; the session has {len(session.frames)} (0 to "
+            f"{len(session.frames) - 1})"
+        )
     planes = plane_errors(session, scene)
     surface = None
     if args.cloud is not None:
         points, _ = read_ply(args.cloud)
         surface = surface_error(points, scene, args.frame / fps)
     if args.json:
-        print(json.dumps({"session": args.session, "planes": [vars(p) for p in planes],
-                          **({"cloud": args.cloud, "frame": args.frame, **vars(surface)} if surface else {})}))
+        print(
+            json.dumps(
+                {
+                    "session": args.session,
+                    "planes": [vars(p) for p in planes],
+                    **(
+                        {"cloud": args.cloud, "frame": args.frame, **vars(surface)}
+                        if surface
+                        else {}
+                    ),
+                }
+            )
+        )
     else:
-        print("\n".join([*map(_plane_line, planes), *([_surface_line(surface, args.cloud)] if surface else [])]))
+        for plane in planes:
+            wording.show(wording.plane_error(plane), args.verbose)
+        if surface is not None:
+            wording.show(wording.surface_error(surface, args.cloud), args.verbose)
     return 0
-
-
-def _plane_line(error: PlaneError) -> str:
-    plane = ("no plane yet" if error.offset_mm is None else
-             f"plane {error.offset_mm:+.2f} mm at the object (> 0: too far from the camera), "
-             f"tilted {error.tilt_deg:.3f}°")
-    return f"{error.name}: {plane}; glass {error.glass_mm:.1f} mm (true {error.true_glass_mm:.1f} mm)"
-
-
-def _surface_line(error: SurfaceError, cloud: str) -> str:
-    return (f"{cloud}: {error.points:,} points, distance to the true surface RMSE {error.rmse_mm:.2f} mm, "
-            f"mean {error.mean_mm:.2f} mm, 95 % within {error.p95_mm:.2f} mm")

@@ -1,13 +1,16 @@
-"""The effect of temporal smoothing (mirrorcore.depth.temporal, `reconstruct --temporal N`) on the simulator's walking figure
-(two mirrors at 120 deg, 3 m, Kinect v1 noise, perfect calibration): each frame's cloud (Algorithm 1, the whole
-pipeline) with and without, its RMSE to the true surface of the figure at that moment, on the still and the moving
-parts of the body.
+"""The effect of temporal smoothing (`reconstruct --temporal N`) on the walking figure.
 
-A point's part is read from the true surface nearest to it: 'still' where that surface moves along its own normal
-slower than STILL (the torso and head bob up and down with the gait, which a depth camera does not see: the surface
-slides along itself), 'moving' where faster than MOVING (swinging arms and legs, the feet). RMSE is over the points
-within INLIER of the true surface; the share of points farther (two-bounce rays, mixed pixels at edges) is given
-beside it."""
+mirrorcore.depth.temporal on the simulator's walking figure (two mirrors at 120 deg, 3 m, Kinect v1
+noise, perfect calibration): each frame's cloud (Algorithm 1, the whole pipeline) with and without,
+its RMSE to the true surface of the figure at that moment, on the still and the moving parts of the
+body.
+
+A point's part is read from the true surface nearest to it: 'still' where that surface moves along
+its own normal slower than STILL (the torso and head bob up and down with the gait, which a depth
+camera does not see: the surface slides along itself), 'moving' where faster than MOVING (swinging
+arms and legs, the feet). RMSE is over the points within INLIER of the true surface; the share of
+points farther (two-bounce rays, mixed pixels at edges) is given beside it."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -25,15 +28,37 @@ from mirrorcore.sim.objects import object_geometry
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.depth.temporal import temporal_smooth
 
-STILL, MOVING = 0.02, 0.2   # m/s along the surface's normal
-INLIER = 0.03               # metres
+STILL, MOVING = 0.02, 0.2  # m/s along the surface's normal
+INLIER = 0.03  # metres
 PARTS = ("still", "moving")
-COLUMNS = ("frame", "part", "points", "rmse_mm", "temporal_rmse_mm", "outliers_pct", "temporal_outliers_pct")
+COLUMNS = (
+    "frame",
+    "part",
+    "points",
+    "rmse_mm",
+    "temporal_rmse_mm",
+    "outliers_pct",
+    "temporal_outliers_pct",
+)
 
 
-def surface_errors(geometry, t: float, fps: float, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distances (n,) metres from points (n, 3) to the figure's true surface at time t, and the speed (n,) m/s of
-    that nearest surface along its normal (central difference over one frame either side)."""
+def surface_errors(
+    geometry, t: float, fps: float, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Distances of points to the figure's true surface at time t, and that surface's speed.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Metres, camera frame.
+
+    Returns
+    -------
+    distances : (n,) float
+        Metres to the nearest true surface.
+    speeds : (n,) float
+        m/s of that surface along its normal (central difference over one frame either side).
+    """
     vertices, faces = geometry.mesh_at(t)
     before, _ = geometry.mesh_at(t - 1 / fps)
     after, _ = geometry.mesh_at(t + 1 / fps)
@@ -49,18 +74,25 @@ def surface_errors(geometry, t: float, fps: float, points: np.ndarray) -> tuple[
     return distance, np.abs(np.sum(velocity * normal, axis=1))
 
 
-def run_temporal_experiment(neighbours: int = 2, frames: int = 30, scale: float = 1.0, seed: int = 0,
-                            progress: bool = True) -> list[dict]:
-    """Rows (keys COLUMNS), one per frame and part, for `frames` frames (30: one stride) smoothed with `neighbours`
-    frames on each side; the camera is 640x480 * scale."""
+def run_temporal_experiment(
+    neighbours: int = 2, frames: int = 30, scale: float = 1.0, seed: int = 0, progress: bool = True
+) -> list[dict]:
+    """Rows (keys COLUMNS), one per frame and part, of `frames` frames (30: one stride).
+
+    Each frame is smoothed with `neighbours` frames on each side; the camera is 640x480 * scale.
+    """
     scene = paper_scene(object="figure", distance=3.0, camera=Intrinsics.kinect_v1().scaled(scale))
     sim = Simulator(scene, seed=seed)
     rig, background = true_rig(scene), sim.background().depth
     geometry = object_geometry(scene.objects[0])
     depths = [sim.frame(i).depth for i in range(frames + 2 * neighbours)]
     rows = []
-    for i in tqdm(range(neighbours, neighbours + frames), desc="temporal", unit="frame", disable=not progress):
-        smoothed = temporal_smooth(np.stack(depths[i - neighbours:i + neighbours + 1]), neighbours)
+    for i in tqdm(
+        range(neighbours, neighbours + frames), desc="temporal", unit="frame", disable=not progress
+    ):
+        smoothed = temporal_smooth(
+            np.stack(depths[i - neighbours : i + neighbours + 1]), neighbours
+        )
         figures = {}
         for name, depth in (("", depths[i]), ("temporal_", smoothed)):
             cloud, _ = object_cloud(rig, depth, background)
@@ -69,20 +101,23 @@ def run_temporal_experiment(neighbours: int = 2, frames: int = 30, scale: float 
                 d = distance[selected]
                 inlier = d[d < INLIER]
                 figures.setdefault(part, {"frame": i, "part": part, "points": len(d)})
-                figures[part][f"{name}rmse_mm"] = 1e3 * float(np.sqrt(np.mean(inlier ** 2)))
+                figures[part][f"{name}rmse_mm"] = 1e3 * float(np.sqrt(np.mean(inlier**2)))
                 figures[part][f"{name}outliers_pct"] = 100.0 * (1 - len(inlier) / max(len(d), 1))
         rows += [figures[part] for part in PARTS]
     return rows
 
 
 def summary(rows: list[dict]) -> dict[str, dict[str, float]]:
-    """Per part: the median over frames of the RMSE without and with smoothing (mm), and its change (%)."""
+    """Per part: the median RMSE over frames without and with smoothing (mm), its change (%)."""
     out = {}
     for part in PARTS:
         before = np.median([r["rmse_mm"] for r in rows if r["part"] == part])
         after = np.median([r["temporal_rmse_mm"] for r in rows if r["part"] == part])
-        out[part] = {"rmse_mm": float(before), "temporal_rmse_mm": float(after),
-                     "change_pct": float(100 * (after / before - 1))}
+        out[part] = {
+            "rmse_mm": float(before),
+            "temporal_rmse_mm": float(after),
+            "change_pct": float(100 * (after / before - 1)),
+        }
     return out
 
 
@@ -90,17 +125,29 @@ def plot_temporal(rows: list[dict], neighbours: int, path: str | Path) -> None:
     """PNG of the per-frame RMSE with and without smoothing, still and moving parts."""
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend
+
     fig, ax = plt.subplots(figsize=(6, 4))
     for part, colour in zip(PARTS, ("tab:blue", "tab:orange")):
         frames = [r["frame"] for r in rows if r["part"] == part]
-        ax.plot(frames, [r["rmse_mm"] for r in rows if r["part"] == part], color=colour, linestyle="--",
-                label=f"{part} parts, as read")
-        ax.plot(frames, [r["temporal_rmse_mm"] for r in rows if r["part"] == part], color=colour,
-                label=f"{part} parts, --temporal {neighbours}")
+        ax.plot(
+            frames,
+            [r["rmse_mm"] for r in rows if r["part"] == part],
+            color=colour,
+            linestyle="--",
+            label=f"{part} parts, as read",
+        )
+        ax.plot(
+            frames,
+            [r["temporal_rmse_mm"] for r in rows if r["part"] == part],
+            color=colour,
+            label=f"{part} parts, --temporal {neighbours}",
+        )
     ax.set_xlabel("frame (30 fps)")
     ax.set_ylabel("RMSE to the true surface (mm)")
-    ax.set_title(f"walking figure at 3 m, two mirrors, Kinect v1 noise (points within {INLIER * 1e3:g} mm)",
-                 fontsize=10)
+    ax.set_title(
+        f"walking figure at 3 m, two mirrors, Kinect v1 noise (points within {INLIER * 1e3:g} mm)",
+        fontsize=10,
+    )
     ax.grid(True, alpha=0.3)
     ax.legend()
     fig.tight_layout()

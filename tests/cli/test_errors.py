@@ -1,4 +1,6 @@
-"""Bad input on the command line: exit status 2, one line naming the file and the problem, nothing on disk changed."""
+"""Bad input on the command line: exit status 2, one line naming the file and the problem, nothing
+on disk changed."""
+
 import json
 import shutil
 
@@ -44,8 +46,13 @@ def fails(capsys, folder, argv, message):
 
 
 def test_collinear_markers(session, capsys):
-    edit_json(session, lambda d: d["mirrors"][0].update(markers=[m for m in d["mirrors"][0]["markers"][:3]]))
-    fails(capsys, session, ["calibrate", session], "mirror 1: markers 1, 2, 3 are (nearly) collinear")
+    edit_json(
+        session,
+        lambda d: d["mirrors"][0].update(markers=[m for m in d["mirrors"][0]["markers"][:3]]),
+    )
+    fails(
+        capsys, session, ["calibrate", session], "mirror 1: markers 1, 2, 3 are (nearly) collinear"
+    )
 
 
 def test_markers_on_invalid_depth(session, capsys):
@@ -54,8 +61,13 @@ def test_markers_on_invalid_depth(session, capsys):
         depth = cv2.imread(str(session / name), cv2.IMREAD_UNCHANGED)
         depth[:12, :12] = depth[-12:, :12] = depth[:12, -12:] = 0
         cv2.imwrite(str(session / name), depth)
-    fails(capsys, session, ["calibrate", session],
-          "mirror 2: 0 usable marker(s) of 3, 3 are needed; marker(s) 1, 2, 3 have no depth reading within 2 px")
+    fails(
+        capsys,
+        session,
+        ["calibrate", session],
+        "mirror 2: 0 usable marker(s) of 3, 3 are needed; marker(s) 1, 2, 3 have no depth reading "
+        "within 2 px",
+    )
 
 
 def test_corrupt_frame(session, capsys):
@@ -65,7 +77,9 @@ def test_corrupt_frame(session, capsys):
 
 def test_wrong_size_frame(session, capsys):
     cv2.imwrite(str(session / "frames/000000.png"), np.zeros((240, 320), np.uint16))
-    fails(capsys, session, ["calibrate", session], "size 320x240 does not match the camera's 640x480")
+    fails(
+        capsys, session, ["calibrate", session], "size 320x240 does not match the camera's 640x480"
+    )
 
 
 def test_missing_key(session, capsys):
@@ -74,21 +88,38 @@ def test_missing_key(session, capsys):
 
 
 def test_self_crossing_boundary(session, capsys):
-    edit_json(session, lambda d: d["mirrors"][0].update(boundary=[[0, 0], [100, 100], [100, 0], [0, 100]]))
-    fails(capsys, session, ["calibrate", session], "(mirror 1): boundary: the polygon crosses itself (edges 1 and 3)")
+    edit_json(
+        session, lambda d: d["mirrors"][0].update(boundary=[[0, 0], [100, 100], [100, 0], [0, 100]])
+    )
+    fails(
+        capsys,
+        session,
+        ["calibrate", session],
+        "(mirror 1): boundary: the polygon crosses itself (edges 1 and 3)",
+    )
 
 
 def test_reconstruct_needs_a_calibration(session, tmp_path, capsys):
-    fails(capsys, tmp_path, ["reconstruct", session, "-o", tmp_path / "out.ply"],
-          "mirror 1 has no plane; run `mirrorscan calibrate")
+    fails(
+        capsys,
+        tmp_path,
+        ["reconstruct", session, "-o", tmp_path / "out.ply"],
+        "mirror 1 has no plane; run `mirrorscan calibrate",
+    )
     assert not (tmp_path / "out.ply").exists()
 
 
 def test_missing_session_and_bad_frame_index(session, tmp_path, capsys):
-    fails(capsys, tmp_path, ["calibrate", tmp_path / "nowhere"], "nowhere/session.json: no such file")
+    fails(
+        capsys, tmp_path, ["calibrate", tmp_path / "nowhere"], "nowhere/session.json: no such file"
+    )
     assert main(["calibrate", str(session)]) == 0
-    fails(capsys, tmp_path, ["reconstruct", session, "-o", tmp_path / "o.ply", "--frame", "9"],
-          "no frame 9; the session has 1 (0 to 0)")
+    fails(
+        capsys,
+        tmp_path,
+        ["reconstruct", session, "-o", tmp_path / "o.ply", "--frame", "9"],
+        "no frame 9; the session has 1 (0 to 0)",
+    )
 
 
 def test_fit_on_a_missing_file(tmp_path, capsys):
@@ -98,4 +129,9 @@ def test_fit_on_a_missing_file(tmp_path, capsys):
 def test_unwritable_output_is_one_line(session, tmp_path, capsys):
     assert main(["calibrate", str(session)]) == 0
     (tmp_path / "a_file").write_text("not a folder")
-    fails(capsys, tmp_path, ["reconstruct", session, "-o", tmp_path / "a_file" / "o.ply"], "a_file/o.ply: Not a directory")
+    fails(
+        capsys,
+        tmp_path,
+        ["reconstruct", session, "-o", tmp_path / "a_file" / "o.ply"],
+        "a_file/o.ply: Not a directory",
+    )
