@@ -12,8 +12,8 @@ if TYPE_CHECKING:
 
     from mirrorcore.sources import DepthSource
 
-    from .jobs import DenseResult
     from .live import LiveFrame
+    from .results import DenseResult
     from .state import Snapshot
 
 log = logging.getLogger("mirrorscan")
@@ -44,16 +44,24 @@ class LoopChanged:
 
 @dataclass(frozen=True, eq=False)
 class JobProgress:
-    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT, HEAT) moved on:
-    fraction done in [0, 1] or None when it is not running, and a one-line status."""
+    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT, HEAT) moved on.
+
+    Attributes
+    ----------
+    job : the job's kind.
+    fraction : done, in [0, 1], or None when it is not running.
+    status : Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
+    result : the typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide on.
+    """
 
     job: str
     fraction: float | None
     status: str
+    result: object = None
 
     @property
     def percent(self) -> float:
-        """The fraction done as a progress bar's value, to 0.1 % (a screen reader read out "55.00000000000001")."""
+        """The fraction done as a progress bar's value, to 0.1 % (a screen reader reads out every digit)."""
         return round(100.0 * (self.fraction or 0.0), 1)
 
 

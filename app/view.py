@@ -14,7 +14,7 @@ from mirrorcore.geometry.camera import Intrinsics, pixels_on_plane
 from mirrorcore.base.palette import source_colour, source_name
 from mirrorcore.rig.model import Rig
 
-from .jobs import DenseResult
+from .results import DenseResult
 from .stream import SourcePart
 
 FRUSTUM_SCALE = 0.15       # metres: the depth camera and the virtual cameras, drawn small

@@ -20,13 +20,19 @@ from mirrorscan.context import TabState
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.events import EventBus, HeatChanged, JobProgress
 from mirrorscan.editor import SESSION_SCOPE
-from mirrorscan.jobs import HEAT_POOL, Jobs, _frames_used, agreement_line, found_headline, planes_key, refined_headline
+from mirrorscan.jobs import HEAT_POOL, Jobs, planes_key
+from mirrorscan.results import (AgreementReport, CalibrationReport, FramesUsed, MirrorAgreement, NotFound)
+from mirrorscan.wording import HEADLINE_WORDS, words
+from mirrorscan.wording import refinement as calibration_words
+from mirrorscan.wording.refinement import agreement_line, frames_used
 from mirrorscan.live import RECENT_FRAMES, RateMeter
 from mirrorscan.markup import markdown
-from mirrorscan.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html, source_title,
-                             start_hint)
+from mirrorscan.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html,
+                                    source_title)
+from mirrorscan.wording.hints import start_hint
 from mirrorscan.panels.measure import fit_report
-from mirrorscan.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _fit_report, fit_note, greyed_out, removal_question
+from mirrorscan.panels.mirrors import MirrorsPanel
+from mirrorscan.wording.mirrors import NO_GLASS_NOTE, fit_note, fit_report, greyed_out, removal_question
 import mirrorscan.server as server_module
 from mirrorscan.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from mirrorscan.state import Snapshot

@@ -16,11 +16,20 @@ import pytest
 
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.events import JobProgress
-from mirrorscan.jobs import FOUND_CHECK, HEAT, UNDO_FOUND, agreement_line, found_headline, planes_key, refined_headline
+from mirrorscan.jobs import HEAT, planes_key
+from mirrorscan.results import AgreementReport, CalibrationReport, FramesUsed, MirrorAgreement, NotFound
+from mirrorcore.calibration.refine import MirrorRefinement
+from mirrorcore.geometry.plane import Plane
+from mirrorscan.wording import HEADLINE_WORDS, Message, joined, words
+from mirrorscan.wording import refinement as calibration_words
 from mirrorscan.markup import markdown
 from mirrorscan.panels.dense import DensePanel
 from mirrorscan.panels.measure import CANCELLED_NOTE, MeasurePanel
-from mirrorscan.panels.mirrors import NO_GLASS_NOTE, MirrorsPanel, _refusal_note, _result_note, mirror_status
+from mirrorscan.panels.mirrors import MirrorsPanel
+from mirrorscan.wording import refusal
+from mirrorscan.wording import mirrors as mirror_words
+from mirrorscan.wording.mirrors import NO_GLASS_NOTE, fit_report, mirror_status
+from mirrorscan.wording.jobs import dense as dense_message
 from mirrorscan.panels.object import ObjectPanel
 from mirrorscan.panels.record import BATCH_IDLE, RecordPanel
 from mirrorscan.panels.session import SessionPanel
@@ -131,8 +140,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypat
     dense.method.value, dense.voxel.value = "carve (consistent)", 6.0
     dense.start()
     wait_for(lambda: app.jobs.dense_result is not None, 120, "the dense result")
-    assert app.jobs.dense_result.summary.endswith("; ⚠ mirror 1 and mirror 2 have no plane yet: what is seen inside "
-                                                  "their outlines is not in it")
+    assert app.jobs.dense_result.left_out == ("mirror 1", "mirror 2")
     wait_for(lambda: dense.status.content.endswith("is not in it"), 30, "said under Run")
     dense.show_box.value = False                                   # (a step below starts without the box)
     panel(tab, MirrorsPanel).fit_planes([m.id for m in app.editor.session.mirrors])
@@ -140,7 +148,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(sphere, notes, monkeypat
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
     mirrors = panel(tab, MirrorsPanel)
     assert "markers: 6 good" in mirrors.result.content and mirrors.proposal is None
-    assert mirrors.result.content.endswith(NO_GLASS_NOTE)                 # where a real rig's glass is measured
+    assert mirrors.result.content.endswith(NO_GLASS_NOTE.markdown())                 # where a real rig's glass is measured
     wait_for(lambda: set(app.snapshot.marker_grades) == {1, 2})
     assert set(app.snapshot.marker_grades[1]) == {"good"}
     assert mirrors.undo.label == "Undo: planes of mirror 1 and mirror 2"     # named; one fit of both, undone together
@@ -209,7 +217,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     bottom = max(before.boundary, key=lambda p: p[1])
     click(tab, (bottom[0] - 10, bottom[1] - 6))
     assert re.fullmatch(r"\d+ mm \(\d+σ\) from mirror 2's plane: off the glass \(on the object seen in it\?\)\. "
-                        r"Undo takes it back; a fit would leave it out and ask first\.", said[-1]), said[-1]
+                        r"Undo takes it back; a fit would ask first\.", said[-1]), said[-1]
     assert kinds[-1] == ("warning", False)                                                # taken, but look: orange
     plane = app.editor.mirror(2).plane
     mirrors.fit_planes([2])
@@ -252,8 +260,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     mirrors.fit_planes([2])                     # the same markers again, refitted on the frames of now: applied
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(applied) < 0.25  # the marker named,
     assert app.editor.undo_label(2) == step                                                # not asked again
-    assert re.search(r"⚠ mirror 2: the same markers as before, and marker\(s\) 2\.\d+ lie off it beyond the depth "
-                     r"noise: delete them \(crossed on the depth frame\) and fit again\.", said[-1]), said[-1]
+    assert said[-1] == ("Applied: mirror 2; ⚠ mirror 2: markers off the plane, delete the crossed ones and fit "
+                        "again. The report is under Mirrors.")
     assert kinds[-1] == ("warning", False) and tab.state.flagged_markers == (stray,)
     assert "⚠ marker(s) 2." in mirrors.result.content
     tab.state.picked_marker = 0                         # another marker deleted: the cross stays on the stray one
@@ -268,34 +276,61 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(sphere, note
     assert app.editor.mirror(2).markers == before.markers
     mirrors.fit_planes([2])
     assert mirrors.proposal is None and app.editor.mirror(2).plane.angle_to(app.source.rig.planes[1]) < 1.0
-    assert re.fullmatch(r"Applied: mirror 2 \d\.\d mm RMS; glass 0 mm: Refine from the object measures it\. "
-                        r"The report is under Mirrors\.", said[-1]), said[-1]
+    assert said[-1] == "Applied: mirror 2. The report is under Mirrors."
     assert kinds[-1] == ("info", False) and not mirrors.refine.disabled
 
 
-def test_a_long_refusal_is_shortened_in_its_notification():
-    long = ("not done: mirror 1: the camera and the mirror see too little of the same surface to determine its plane "
-            "(18 readings agree over 10 frame(s), 200 are needed; the 72,126 it shares with the other mirrors fix "
-            "nothing, as the camera fixes none of them); refine on an object that both see from the side")
-    assert _refusal_note(long) == ("not done: mirror 1: the camera and the mirror see too little of the same surface "
-                                   "to determine its plane; why and what to do are under Mirrors.")
-    assert _refusal_note("not done: a short one (here)") == "not done: a short one (here)"
+def test_a_long_refusal_leads_with_a_short_headline_and_keeps_all_in_its_details():
+    long = ("not done: mirror 1: the camera and the mirror see too little of the same surface to determine its "
+            "plane (18 readings agree over 10 frame(s), 200 are needed; the 72,126 it shares with the other "
+            "mirrors fix nothing, as the camera fixes none of them); refine on an object that both see from the "
+            "side")
+    said = refusal(long, "why is in the details")
+    assert said.headline == ("not done: mirror 1: the camera and the mirror see too little of the same surface "
+                             "to determine its plane; why is in the details.")
+    assert said.details == (long,) and words(said.headline) <= HEADLINE_WORDS
+    assert refusal("not done: a short one (here)").headline == "not done: a short one (here)"
+    search = calibration_words.calibration_refused(long, ("mirror 1",), search=True)
+    assert search.headline.startswith("mirror 1 not found from the object: the planes are as they were")
+    assert search.details == (long,) and words(search.headline) <= HEADLINE_WORDS
 
 
-def test_a_calibrations_notification_is_its_first_sentence_and_where_the_rest_is():
-    moved = [SimpleNamespace(name="left", shift_mm=-2.7, tilt_deg=0.18, marker_offset=5e-4, marker_offset_std=1.2e-3,
-                             glass_typed=None)]
-    headline = f"{refined_headline(moved)} Over the last 5 live frames. Undo restores the previous planes."
-    assert _result_note(headline) == ("Planes refined (moved > 0: away from the camera): left moved -2.7 mm and "
-                                      "0.18°, glass 0.5 ± 1.2 mm. Under Mirrors: the report; the glass: type it in "
-                                      "if you know it.")
-    fixed = [SimpleNamespace(name="left", shift_std_mm=0.4, tilt_std_deg=0.02)]
-    headline = f"{found_headline(fixed, 'surfaces', ['middle'])} Over the last 5 live frames. {UNDO_FOUND}"
-    report = f"{headline}\n\n**left** found: ...\n\n**middle** ⚠ not found: its image spills over the outline"
-    assert _result_note(report) == ("Planes found from the object (no markers), fixed by the data: left to ±0.4 mm "
-                                    "and ±0.02° (1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm). "
-                                    "Under Mirrors: the report. ⚠ middle not found: its image spills over the "
-                                    "outline")                                                          # and no "below"
+def refined(name="left", index=0, **figures) -> MirrorRefinement:
+    """A mirror's refinement with plausible figures (mm, degrees), `figures` replacing some."""
+    plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
+    values = dict(index=index, name=name, before=plane, after=plane, agreement_before_mm=1.42,
+                  agreement_after_mm=0.91, offset_before_mm=0.61, offset_after_mm=0.05, shift_mm=-2.7,
+                  tilt_deg=0.18, shift_std_mm=0.4, tilt_std_deg=0.02, agreements=5000, camera_agreements=5000,
+                  noise_mm=1.0, marker_offset=5e-4, marker_offset_std=1.2e-3)
+    return MirrorRefinement(**{**values, **figures})
+
+
+def test_a_calibrations_headline_is_short_and_its_figures_are_in_the_details():
+    used = FramesUsed((0, 1, 2, 3, 4))
+    report = CalibrationReport((refined(),), False, "surfaces", True, used)
+    head = calibration_words.headline(report)
+    assert head.headline == ("Planes refined. Undo restores the previous planes. Glass measured: type it in if "
+                             "you know it (how: in the details).")
+    assert head.details[-1].startswith("Type it in under Mirrors › Rename, glass, remove, clear.")
+    assert "Over the last 5 live frames." in head.details and "A move > 0 is away from the camera." in head.details
+    line = calibration_words.mirror_line(report.mirrors[0], search=False)
+    assert line.headline == ("**left** refined: moved -2.7 mm and 0.18°; its view agrees with the others as the "
+                             "depth noise allows.")                                       # the sign kept
+    assert ("RMS 1.42 mm before, 0.91 mm after; mean +0.61 mm before, +0.05 mm after; the depth noise alone "
+            "gives 1.00 mm RMS.") in line.details
+    assert "Glass: markers 0.5 ± 1.2 mm in front of the silver (saved as its glass)." in line.details
+    worse = calibration_words.mirror_line(refined(agreement_after_mm=1.2), search=False)
+    assert "⚠ its view agrees less well than the depth noise explains: check its boundary" in worse.headline
+    found = CalibrationReport((refined(),), True, "surfaces", True, used,
+                              (NotFound("middle", "its image spills over the outline"),))
+    said = calibration_words.report(found)
+    assert said[0].headline.startswith("Planes found; ⚠ middle not found (why below). Undo takes")
+    assert said[-1].headline.startswith("**middle** ⚠ not found") and said[-1].details == (
+        "its image spills over the outline",)
+    assert calibration_words.note(found).plain.endswith("The report is under Mirrors.")
+    for message in [*said, *calibration_words.report(report), calibration_words.note(report)]:
+        assert words(message.headline) <= HEADLINE_WORDS, message.headline
+    assert "<details><summary>Details</summary>" in said[0].markdown()
 
 
 def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_markers():
@@ -344,16 +379,18 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     app, headless = sphere
     tab = headless.tab
     mirrors = panel(tab, MirrorsPanel)
-    wait_for(lambda: "agrees with the other views within" in mirrors.agreement.content, 60, "the agreement")
+    wait_for(lambda: "agrees with the other views" in mirrors.agreement.content, 60, "the agreement")
     snapshot, depths = app.snapshot, app.loop.recent_depths()                # each mirror under its own name,
     masks = [prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection)[1] for d in depths]
     found = view_agreement(snapshot.rig, depths, np.stack(masks))              # with its own figures, over frames
-    expected = "\n\n".join(agreement_line(m.name, found[j]) for j, m in enumerate(snapshot.rig.mirrors))
+    expected = joined(calibration_words.agreement(AgreementReport(tuple(
+        MirrorAgreement(m.name, found[j], True) for j, m in enumerate(snapshot.session.mirrors)))))
     app.jobs.start_agreement(depths)
     wait_for(lambda: mirrors.agreement.content == expected, 60, f"the agreement to read {expected!r}")
     assert expected.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in expected
-    assert len(depths) == 5 and expected.count("RMS over 5 frames") == 2
-    assert expected.count("as the depth noise there explains") == 2                    # a good calibration
+    assert len(depths) == 5 and expected.count("mm RMS over 5 frames") == 2         # the figures in the fold
+    assert expected.count("agrees with the other views as the depth noise explains.") == 2     # a good one
+    assert expected.count("<details><summary>Details</summary>") == 2
     with HeadlessTab(app) as later:                                            # a tab opening now shows it too
         assert panel(later.tab, MirrorsPanel).agreement.content == expected
     before = {m.id: m.plane for m in app.editor.session.mirrors}
@@ -392,18 +429,16 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     wait_for(lambda: sorted(job for job, _ in ended) == ["agreement", "refine"], 60, "the agreement after it")
     checked = dict(ended)["agreement"]                                     # (it may end before the refinement says so)
     assert mirrors.agreement.content == checked and "agrees with the other views" in checked
-    assert "agree with the other views as well as the depth noise allows" in mirrors.result.content
-    assert "the data fix it to ±" in mirrors.result.content
+    assert mirrors.result.content.count("its view agrees with the others as the depth noise allows.") == 2
+    assert "The data fix it to ±" in mirrors.result.content
     assert "from the centres of the sphere" in mirrors.result.content
     headline = mirrors.result.content.split("\n\n")[0]                  # first, in a line, and told at once
-    assert re.fullmatch(r"Planes refined from the sphere's centres \(moved > 0: away from the camera\): mirror 1 moved "
-                        r"[+-]?\d+\.\d mm and "
-                        r"\d+\.\d\d°(, glass \d+\.\d ± \d+\.\d mm)?; "
-                        r"mirror 2 moved .*\. Over the last \d live frames\. Undo restores the previous planes\.",
-                        headline), headline
-    told = headline.split(". Over the last")[0] + ". Under Mirrors: the report."    # short (a longer one ran past
-    assert said == [told] * 2 and kinds == [("info", True)] * 2   # the notification's height); it stays: the report
-                                                                  # may be out of view; a note on each tab
+    assert headline == "Planes refined from the sphere's centres. Undo restores the previous planes.", headline
+    assert re.search(r"\*\*mirror 1\*\* refined: moved [+-]?\d+\.\d mm and \d+\.\d\d°; its view agrees",
+                     mirrors.result.content), mirrors.result.content
+    assert "Over the last 5 live frames." in mirrors.result.content                     # in its details
+    told = f"{headline} The report is under Mirrors."       # it stays: the report may be out of view
+    assert said == [told] * 2 and kinds == [("info", True)] * 2                         # a note on each tab
     other.__exit__(None, None, None)
     logged = [r.getMessage() for r in caplog.records if "Planes refined" in r.getMessage()]
     assert len(logged) == 1 and logged[0].startswith("refine: Planes refined from the sphere's centres"), logged
@@ -417,13 +452,13 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     assert {m.id: m.plane for m in app.editor.session.mirrors} == before              # the refinement undone
     assert shown[0].removed                                           # and its notification, which had stayed
     fitted = app.jobs.fits[planes_key(app.editor.session)]          # then the report of the markers fit now back
-    assert mirrors.result.content == markdown(
-        f"Undone: {headline.removesuffix(' Undo restores the previous planes.')}\n\n{fitted}")
+    assert mirrors.result.content == joined([Message("Undone: the planes refined from the object for mirror 1 and "
+                                                     "mirror 2."), *fit_report(fitted)])
     panel(tab, MirrorsPanel)._travel(app.editor.redo)
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined             # and redone,
     assert mirrors.result.content == report                                           # its report back
     mirrors.fit_planes([m.id for m in app.editor.session.mirrors])         # the markers again: shown, not applied
-    concerns = [c for _, _, review in mirrors.proposal.values() for c in review.concerns]
+    concerns = [c for fit in mirrors.proposal.values() for c in mirror_words.concerns(fit)]
     assert sum("it replaces the plane found from the object" in c for c in concerns) == 2, concerns
     assert {m.id: m.plane for m in app.editor.session.mirrors} == refined
     mirrors._discard()
@@ -443,9 +478,9 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
         mirrors._set_glass()                                                          # -5: a helper)
     assert mirrors.glass.value == 3.0 and app.editor.mirror(1).marker_offset == 0.003
     mirrors.fit_planes([m.id for m in app.editor.session.mirrors])      # the glass typed in is said as typed (the
-    concerns = {i: " ".join(review.concerns) for i, (_, _, review) in mirrors.proposal.items()}   # refinement's had
-    assert "(the refinement moved it; the markers fit uses the glass typed in)" in concerns[1]    # been said: a
-    assert "(the refinement moved it, and set the glass the markers fit now uses)" in concerns[2]     # helper)
+    concerns = {i: " ".join(mirror_words.concerns(fit)) for i, fit in mirrors.proposal.items()}
+    assert "(the refinement moved it; the markers fit uses the glass typed in)" in concerns[1]
+    assert "(the refinement moved it, and set the glass the markers fit now uses)" in concerns[2]
     app.editor.set_marker_offset(2, 0.004)          # one of them changed: dropped, and fitted again as it was fitted
     mirrors._drop_stale_proposal()
     assert mirrors.proposal is None and mirrors.result.content == (
@@ -698,7 +733,7 @@ def test_record_then_replay_with_the_calibration(sphere):
     record.play_recording()
     assert app.source.frame_count == len(recorded.frames) and headless.tab.header.seek.visible
     assert not dense.show.value and not headless.tab.scene._dense[0].visible   # not over the replay (a helper)
-    assert dense.status.content == (f"{result.summary}, of the frames of {result.source}: hidden while "
+    assert dense.status.content == (f"{dense_message(result).headline}, of the frames of {result.source}: hidden while "
                                     f"{app.source.name} plays (Show the dense result shows it)")
     # a fit from the markers reads what `mirrorscan calibrate` reads, whenever it is clicked (it read the last
     # frames played, and two clicks on one session gave two reports: a helper)
@@ -726,7 +761,7 @@ def test_record_then_replay_with_the_calibration(sphere):
     assert record.replay.disabled                                      # it plays: not offered again
     playing = app.source
     app.back_to_start_source()
-    assert dense.show.value and dense.status.content == result.summary            # its frames' source again
+    assert dense.show.value and dense.status.content == dense_message(result).markdown()            # its frames' source again
     assert not app.paused and not record.replay.disabled and not headless.tab.header.back.visible
     assert app.editor.session.root == recorded.root            # the edits still go to the recording's session, and
     wait_for(lambda: header.title.content.endswith(f" · edits saved in session **{recorded.root.name}**"), 5,
@@ -791,7 +826,7 @@ def test_a_tab_opened_while_a_batch_runs_shows_it(sphere, monkeypatch):
     with HeadlessTab(app) as opened:
         record = panel(opened.tab, RecordPanel)
         assert (record.method.value, record.temporal.value, record.workers.value) == ("tsdf", 3, 1)
-        assert record.batch_cancel.visible and record.batch.disabled and "a batch of tsdf runs" in \
+        assert record.batch_cancel.visible and record.batch.disabled and "starting tsdf on every frame" in \
             record.batch_status.content
         opened.tab.header.refresh_hint()
         assert "A batch reconstructs every frame (0% done)" in opened.tab.header.hint.content
@@ -808,8 +843,8 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     wait_for(lambda: app.last_frame.index == count - 2 and app.loop.index == count - 1)   # helper's take from near
     # the end held 3 frames); the sought frame processed: paused on it before, the last frame had its index already
     record.start()
-    assert (f"(the recording that plays is at frame {count - 2} of {count}: it is taken up to its last one; to take "
-            "all of it, stop, set the Frame slider to 0, and record again)") in record.status.content
+    assert (f"The recording that plays is at frame {count - 2} of {count}: it is taken up to its last one (1 "
+            "more); to take all of it, stop, set the Frame slider to 0, and record again.") in record.status.content
     app.pause(False)
     wait_for(lambda: app.jobs._tap.replay_ended, 60, "the replay's last frame")
     wait_for(lambda: "came to its last frame" in record.status.content, 10, "the Record step saying so")
@@ -890,9 +925,9 @@ def test_fit_all_fits_the_mirrors_with_markers_and_names_the_others(tmp_path, no
             panel(headless.tab, MirrorsPanel).fit_all_planes()
             first, second = app.editor.session.mirrors
             assert first.plane is not None and first.plane.angle_to(sim.planes[0]) < 0.5 and second.plane is None
-            assert said[-1].startswith("Applied: mirror 1 ") and kinds[-1][0] == "warning"
-            assert said[-1].endswith("mirror 2: no markers, left as it is (click 3 or more, or Find the planes from "
-                                     "the object).")
+            assert said[-1] == ("Applied: mirror 1. mirror 2: no markers, left as it is. The report is under "
+                                "Mirrors.")
+            assert kinds[-1][0] == "warning"
     finally:
         app.stop()
 
@@ -919,8 +954,7 @@ def test_fit_all_applies_the_planes_that_need_no_look_and_proposes_the_others(tm
             first, second = app.editor.session.mirrors
             assert first.plane is not None and first.plane.angle_to(sim.planes[0]) < 0.5       # applied
             assert second.plane is None and list(mirrors.proposal) == [second.id]             # waits
-            assert said[-1].startswith("Applied: mirror 1 ") and " A new plane for mirror 2 waits, not applied" \
-                in said[-1]
+            assert said[-1].startswith("Applied: mirror 1. A new plane for mirror 2 waits, not applied")
             assert mirrors.result.content.startswith("**mirror 1**: ")
             mirrors._discard()
             assert app.editor.mirror(first.id).plane == first.plane and app.editor.mirror(second.id).plane is None
@@ -953,15 +987,16 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             with pytest.raises(MirrorscanError, match="no mirror has markers: click 3 or more on each in Markers "
                                                       "mode, or use Find the planes from the object"):
                 mirrors.fit_all_planes()
-            assert "**Find the planes from the object** (no markers)" in headless.tab.header.hint.content
+            assert "**Find the planes from the object**" in headless.tab.header.hint.content
             app.jobs.start_scene(app.editor)
             wait_for(lambda: not app.jobs.running("refine") and "found:" in mirrors.result.content, 240,
                      "the planes found")
             headline = mirrors.result.content.split("\n\n")[0]
-            assert re.fullmatch(r"Planes found from the sphere's centres \(no markers\), fixed by the data: mirror 1 "
-                                r"to ±\d\.\d mm and ±\d\.\d\d°; mirror 2 to .* Over frames 0, 1, 2, 3 of the "
-                                r"recording's 4 \(numbered as in the header\)\. Undo takes the planes found back\.",
-                                headline), headline
+            assert headline == ("Planes found from the sphere's centres (no markers): check the agreement "
+                                "below. Undo takes them back."), headline
+            content = mirrors.result.content                       # the figures in the folds
+            assert "Over frames 0, 1, 2, 3 of the recording's 4 (numbered as in the header)." in content
+            assert len(re.findall(r"The data fix it to ±\d\.\d\d mm and ±\d\.\d{3}°", content)) == 2, content
             found = [m.plane for m in app.editor.session.mirrors]
             for plane, truth in zip(found, sim.planes):
                 assert plane.angle_to(truth) < 0.3 and abs(plane.d - truth.d) < 0.003
@@ -973,17 +1008,16 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             assert [m.plane for m in app.editor.session.mirrors] == found
             report = mirrors.result.content
             # refined from there, the sphere's centres give them again: said so, no undo step, and Undo still takes
-            # back the planes found (with their report: a helper read "Undone: ... moved 0.0 mm" for a 3 mm move)
+            # back the planes found
             app.jobs.start_refine(app.editor)
             wait_for(lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content, 240, "refined")
-            assert mirrors.result.content.startswith("Nothing changed: the planes and the glass are already where this "
-                                                     "object puts them (no undo step; Undo still takes back the step "
-                                                     "before). Over frames 0, 1, 2, 3")
+            assert mirrors.result.content.startswith(
+                "Nothing changed: the planes and the glass already fit this object (no undo step).\n\n<details>")
+            assert "Undo still takes back the step before." in mirrors.result.content
             assert [m.plane for m in app.editor.session.mirrors] == found
             assert app.editor.undo_label(1) == "found planes of mirror 1 and mirror 2"
             panel(headless.tab, MirrorsPanel)._travel(app.editor.undo)
-            undone = headline.removesuffix(" Undo takes the planes found back.").replace(FOUND_CHECK, "")  # its
-            assert mirrors.result.content == f"Undone: {undone}"                # advice was for the planes undone
+            assert mirrors.result.content == "Undone: the planes found from the object for mirror 1 and mirror 2."
             panel(headless.tab, MirrorsPanel)._travel(app.editor.redo)
             assert mirrors.result.content == report
             app.open_session(load_session(tmp_path / "drawn"))     # Session › Open of the session being served:

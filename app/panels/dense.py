@@ -18,6 +18,7 @@ from ..events import DenseChanged, FrameReady, JobProgress, LoopChanged, Session
 from ..exports import export_ply
 from ..jobs import DENSE
 from ..markup import markdown
+from ..wording.jobs import dense as dense_message
 
 TITLE = "Dense"
 METHODS = {"carve (consistent)": "carve", "TSDF fusion (mesh)": "tsdf", "Algorithm 2 as in the paper": "paper"}
@@ -96,11 +97,12 @@ class DensePanel:
         elsewhere = event.source.name != result.source
         if elsewhere and self.show.value:
             self._hidden_elsewhere, self.show.value = True, False
-            self.status.content = markdown(f"{result.summary}, of the frames of {result.source}: hidden while "
-                                           f"{event.source.name} plays (Show the dense result shows it)")
+            self.status.content = markdown(f"{dense_message(result).headline}, of the frames of {result.source}: "
+                                           f"hidden while {event.source.name} plays (Show the dense result "
+                                           "shows it)")
         elif not elsewhere and self._hidden_elsewhere:
             self._hidden_elsewhere, self.show.value = False, True
-            self.status.content = markdown(result.summary)
+            self.status.content = dense_message(result).markdown()
 
     def _box_edited(self, event) -> None:
         """A corner typed in by the technician: the box stays where it is put from now on, and is shown."""
@@ -174,14 +176,14 @@ class DensePanel:
         self.progress.visible = running
         if running:
             self.progress.value = event.percent
-        self.status.content = markdown(event.status)
+        self.status.content = event.status
 
     def _on_result(self, event: DenseChanged) -> None:
         result = event.result
         self.export.disabled = result is None
         if result is not None:
             self.low.value, self.high.value = tuple(result.low), tuple(result.high)
-            self.status.content = markdown(result.summary)
+            self.status.content = dense_message(result).markdown()
             if self._look and self.show.value and self.tab.state.view == "3d":     # the tab that ran it sees it
                 self.tab.look_at_dense(result)
             self._look = False
@@ -194,4 +196,5 @@ class DensePanel:
         data = encode_ply(result.vertices, result.sources, result.faces)
         root = self.services.editor.session.root if self.services.editor.autosave else None
         saved = export_ply(root, f"dense-{result.method}", data, self.tab.client)
-        self.status.content = markdown(f"{result.summary}; " + (f"saved as `{saved}`" if saved else "downloaded"))
+        self.status.content = markdown(f"{dense_message(result).headline}; "
+                                       + (f"saved as `{saved}`" if saved else "downloaded"))

@@ -21,6 +21,8 @@ from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import AGREEMENT, BATCH, HEAT_LIMIT_MM, RECORD, REFINE, Jobs
 from ..live import LiveFrame, frame_number
 from ..markup import escape, markdown
+from ..wording.hints import start_hint
+from ..wording.jobs import recording_headline
 
 STATS_HZ = 4.0
 LAG_NOTE_S = 5.0           # seconds the header says a tab lagged after it last did (it catches up and lags again)
@@ -122,101 +124,6 @@ def _swatch(colour, text: str) -> str:
     return (f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;width:0.8em;'
             f'height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:50%;'
             f'border:1px solid #999"></span>{text}</span>')
-
-
-def start_hint(session: Session, state: TabState, has_frame: bool, has_background: bool,
-               playback: str = "live", calibrating: float | None = None, recording: bool = False,
-               no_glass: tuple[str, ...] = (), glass_unused: tuple[str, ...] = (),
-               refused: dict[int, str] | None = None, start: str = "the live source",
-               batch: float | None = None, disagreeing: tuple[str, ...] = (),
-               from_markers: tuple[str, ...] = ()) -> str:
-    """What to do next, in one line, from where the session and this tab stand; playback: 'live' (the source served
-    from the start plays), 'recording' (another plays: a replay) or 'paused'; calibrating: how far a calibration from
-    the object that runs is (0 to 1), or None; recording: the live frames are being recorded; no_glass: the mirrors
-    whose planes come from markers with no glass set (_no_glass); glass_unused: those whose glass was typed in after
-    their plane was fitted (SessionEditor.glass_unused); refused: {mirror id: "refine" or "scene"}, what was refused
-    on it lately (Jobs.refused: a helper was sent back to it after every refusal); start: the name of the source
-    served from the start, as the header's Back to button gives it; batch: how far a batch that runs is (0 to 1),
-    or None; disagreeing: the mirrors whose views the last agreement check flags (Jobs.disagreeing: the line read
-    "Ready" under three flagged mirrors, and their notification had closed: a helper); from_markers: the mirrors
-    whose planes a markers fit of this tool set behind the glass typed in (_from_markers: after Apply the line read
-    "Ready" while the fit's report asked to refine again: a helper)."""
-    refused = refused or {}
-    if not has_frame:
-        return "Waiting for the first frame from the source…"
-    if recording:
-        return ("Recording (see above): **Record › Stop recording** saves it, with the calibration as it then "
-                "stands.")
-    if not session.mirrors:
-        return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
-    if calibrating is not None:
-        return (f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then its "
-                "report are under *Mirrors*.")
-    if batch is not None:
-        return (f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are under "
-                "*Record › Reconstruct every frame (batch)*.")
-    if state.proposal_for:
-        return (f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
-                "it.")
-    look = "" if state.view == "depth" else "Look at the **Depth frame** (View, below); "
-    mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
-    if not mirror.boundary:
-        choose = "" if state.mode == "boundary" else "choose **Boundary** and "
-        if drawn := len(state.drafts.get(mirror.id, ())):      # kept while another mirror was selected (a helper)
-            more = "the next" if drawn < 3 else "the next, or the first to close"
-            return f"{look}{mirror.name}: {drawn} corner{'s' if drawn > 1 else ''} drawn; {choose}click {more}."
-        return f"{look}{mirror.name}: {choose}click its corners; click the first corner to close."
-    if len(mirror.markers) < 3 and mirror.plane is None:      # a plane from the object or a region needs none
-        what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
-        choose = "" if state.mode == "markers" else "choose **Markers** and "
-        if refused.get(mirror.id) == "scene":        # it had only said "click a marker" (a helper)
-            return (f"{mirror.name}: not found from the object (why and what to do: under Mirrors); or "
-                    f"{choose}click {what} on the mirror.")
-        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
-        return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
-    if mirror.plane is None:
-        ready = [m.name for m in session.mirrors if m.plane is None and m.boundary and len(m.markers) >= 3]
-        if len(ready) > 1:
-            return f"{listed(ready)}: **Fit all planes**."
-        return f"{mirror.name}: **Fit plane**."
-    todo = [m for m in session.mirrors if m.plane is None or not m.boundary]
-    if todo:
-        if refused.get(todo[0].id) == "scene":       # "do the same" beside a plane found from the object (a helper)
-            return (f"Now {todo[0].name}: not found from the object (why and what to do: under Mirrors); or select "
-                    "it and click 3 or more markers on it.")
-        if not todo[0].boundary:              # "do the same" beside planes found: its Find is not offered
-            return f"Now {todo[0].name}: select it, choose **Boundary** and click its corners."    # (a helper)
-        how = " (no markers: click 3 or more, or **Find the planes from the object**)" if not todo[0].markers else ""
-        return f"Now {todo[0].name}: select it and do the same{how}."
-    if glass_unused:
-        return (f"The glass typed in for {listed(glass_unused)} is not in its plane yet: select it and "
-                "**Mirrors › Fit plane** moves the plane behind the glass." if len(glass_unused) == 1 else
-                f"The glass typed in for {listed(glass_unused)} is not in their planes yet: **Mirrors › Fit "
-                "all planes** moves them behind the glass.")
-    if not has_background:
-        return "Mirrors done. **Object**: capture the background with the object out of view."
-    if playback == "paused":
-        return ("Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, under *Playback "
-                "and view*); untick **Pause** to play on.")
-    if playback == "recording":
-        return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to "
-                f"{start}** (above) when done.")
-    if disagreeing:
-        views = "its view disagrees" if len(disagreeing) == 1 else "their views disagree"
-        return (f"⚠ {listed(disagreeing)}: {views} with the others beyond the depth noise (why, under "
-                "*Mirrors*): **Mirrors › Refine from the object**, or fit again.")
-    if no_glass and "refine" in refused.values():
-        return (f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}, and the refinement could "
-                "not measure it on this object (its reason is under *Mirrors*): type it under **Mirrors › Rename, "
-                "glass, remove, clear** if you know it, then fit again; or refine on an object that the camera and "
-                "the mirrors see from the side (a person, a sphere).")
-    if no_glass:
-        return (f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}: **Mirrors › Refine from "
-                "the object** measures it.")
-    if from_markers:
-        return (f"Ready: the merged cloud is live. The planes of {listed(from_markers)} come from the markers "
-                "alone: **Mirrors › Refine from the object** makes them more accurate, their tilt above all.")
-    return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
 
 
 def source_root(source) -> Path | None:
@@ -362,7 +269,8 @@ class LivePanel:
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
-        recording = services.jobs.recording_headline()
+        state = services.jobs.recording_state()
+        recording = None if state is None else recording_headline(state)
         self.rate.content = ((f"{recording} · " if recording else "")
                              + f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
                              + (f" · at most {paced[0]:.0f} fps {paced[1]}" if paced and not services.paused else "")

@@ -17,8 +17,9 @@ from mirrorcore.geometry.shapes import ShapeFit
 
 from ..context import TabContext
 from ..events import FrameReady
-from ..jobs import left_out
+from ..jobs import unplaned
 from ..markup import markdown
+from ..wording.jobs import left_out
 from .live import source_names
 
 if TYPE_CHECKING:
@@ -195,6 +196,6 @@ class MeasurePanel:
 
 
 def _left_out(frame: "LiveFrame | None") -> str:
-    """A report's first paragraph: what the frame's cloud leaves out (jobs.left_out), or ''."""
-    missing = "" if frame is None else left_out(frame.snapshot.session)
+    """A report's first paragraph: what the frame's cloud leaves out (wording.jobs.left_out), or ''."""
+    missing = "" if frame is None else left_out(unplaned(frame.snapshot.session))
     return f"⚠ {missing}.\n\n" if missing else ""

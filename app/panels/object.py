@@ -17,7 +17,9 @@ from ..context import TabContext
 from ..events import JobProgress, SessionChanged
 from ..jobs import BACKGROUND
 from ..markup import markdown
-from .mirrors import _nearest
+from ..wording import Message
+from ..wording.jobs import say
+from .mirrors.clicks import nearest
 
 TITLE = "Object"
 SEEN_OBJECT = 500      # pixels: an object this large in the last frame is checked against a new background...
@@ -107,7 +109,7 @@ class ObjectPanel:
 
     def _region_click(self, u: float, v: float) -> None:
         state = self.tab.state
-        if len(state.region_draft) >= 3 and _nearest(state.region_draft[:1], (u, v)) == 0:
+        if len(state.region_draft) >= 3 and nearest(state.region_draft[:1], (u, v)) == 0:
             self._close_region()
             return
         state.region_draft = state.region_draft + ((round(u, 2), round(v, 2)),)
@@ -133,26 +135,27 @@ class ObjectPanel:
     def _capture(self) -> None:
         self.services.jobs.capture_background(int(self.frames.value), self._captured)
 
-    def _captured(self, depth: np.ndarray) -> str | None:
-        """Use a captured background (H, W) metres; but when it would hide most of the object seen in the last frame
-        (the object was in view while it was captured), only once the user confirms. Returns the status then."""
+    def _captured(self, depth: np.ndarray) -> bool:
+        """Use a captured background (H, W) metres; but when it would hide most of the object seen in the last
+        frame (the object was in view while it was captured), only once the user confirms. Returns whether it
+        waits for that."""
         frame, snapshot = self.services.last_frame, self.services.snapshot
         seen = 0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))
         if seen < SEEN_OBJECT:
             self.services.set_background(depth)
-            return None
+            return False
         left = int(np.count_nonzero(object_mask(snapshot.rig.intrinsics, frame.depth, depth,
                                                 snapshot.session.selection)))
         if left >= (1 - HIDDEN_SHARE) * seen:
             self.services.set_background(depth)
-            return None
+            return False
         self.pending_background = depth
         self.confirm = self.tab.ask(
             "Use this background?", f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> "
             f"{left:,} pixels): was the object in view while it was captured? Take it out and capture again. (If the "
             "scene itself changed, the camera moved say, use it.)", "Use it anyway", self._use_captured,
             "Keep the background as it was", self._keep_background)
-        return "captured; it would hide most of the object: answer the question first"
+        return True
 
     def _use_captured(self) -> None:
         """The user confirmed: use the pending captured background."""
@@ -173,4 +176,5 @@ class ObjectPanel:
         if running:
             self.progress.value = event.percent
         else:
-            self.status.content = markdown(f"Background: {event.status}.")
+            said = say(event.result)[0]
+            self.status.content = Message(f"Background: {said.headline}.", said.details).markdown()

@@ -17,6 +17,9 @@ from ..context import TabContext
 from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import BATCH, RECORD
 from ..markup import markdown
+from ..results import BatchStarting
+from ..wording import Message
+from ..wording.jobs import recording, say, status
 
 TITLE = "Record"
 CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
@@ -43,7 +46,8 @@ class RecordPanel:
         self.recorded: Session | None = None
         self.start_button = gui.add_button("Record", color="red")
         self.stop_button = gui.add_button("Stop recording", disabled=True)
-        self.status = gui.add_markdown(markdown(self.services.jobs.recording_status() or IDLE))
+        state = self.services.jobs.recording_state()
+        self.status = gui.add_markdown(IDLE if state is None else recording(state).markdown())
         self.replay = gui.add_button("Replay the recording", disabled=True)
         with gui.add_folder("Reconstruct every frame (batch)", expand_by_default=False):
             self.method = gui.add_dropdown("Method", BATCH_METHODS, initial_value="raw")
@@ -64,10 +68,11 @@ class RecordPanel:
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
         self._batch_root = self.services.editor.session.root      # the session the batch line speaks of
+        self._batch_said = Message(BATCH_IDLE)                     # ... and its last message
         self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
                              self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source)),
                              self.services.bus.subscribe(SessionChanged, self._session_changed)]
-        self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, ""))
+        self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, "", None))
         if self.services.jobs.running(BATCH):      # a tab opened while one runs shows it and its settings (a
             self._show_batch()                      # helper's read 'Method raw' under a TSDF batch)
 
@@ -118,13 +123,19 @@ class RecordPanel:
         settings = self.services.jobs.batch_settings
         if settings is not None:
             self.method.value, self.temporal.value, self.workers.value = settings
-        self._on_job(JobProgress(BATCH, 0.0, f"a batch of {self.method.value} runs on every frame…"))
+        starting = BatchStarting(self.method.value)
+        self._on_job(JobProgress(BATCH, 0.0, status(starting), starting))
 
     def cancel_batch(self) -> None:
         """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
         self.services.jobs.cancel(BATCH)
         self.batch_cancel.disabled = True
-        self.batch_status.content += CANCELLING
+        self.batch_status.content = self._batch_line(self._batch_said, cancelling=True)
+
+    @staticmethod
+    def _batch_line(said: Message, cancelling: bool) -> str:
+        """The batch's line: its message, said to be cancelling after Cancel until it stops."""
+        return Message(said.headline + (CANCELLING if cancelling else ""), said.details).markdown()
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job == BATCH:
@@ -132,8 +143,9 @@ class RecordPanel:
             self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = running, running, running
             if running:
                 self.batch_progress.value = event.percent
-            cancelling = running and self.batch_cancel.disabled
-            self.batch_status.content = markdown(event.status + (CANCELLING if cancelling else ""))
+            self._batch_said = say(event.result)[0]
+            self.batch_status.content = self._batch_line(self._batch_said,
+                                                         running and self.batch_cancel.disabled)
             if not running:
                 self.batch_cancel.disabled = False
             return
@@ -142,4 +154,4 @@ class RecordPanel:
         running = event.fraction is not None
         self.start_button.disabled, self.stop_button.disabled = running, not running
         if event.status:
-            self.status.content = markdown(event.status)
+            self.status.content = event.status

@@ -13,9 +13,10 @@ from mirrorcore.io.session import SESSION_FILE, copy_session, load_session, sess
 from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
-from ..jobs import left_out
+from ..jobs import unplaned
 from ..live import frame_number
 from ..markup import markdown
+from ..wording.jobs import left_out
 
 TITLE = "Session"
 CHOOSE = ""          # the Open list's first entry: nothing is opened by a stray click on the button
@@ -114,7 +115,7 @@ class SessionPanel:
         number = frame_number(frame.index, count)                              # as the header names it
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
         which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
-        missing = left_out(frame.snapshot.session)
+        missing = left_out(unplaned(frame.snapshot.session))
         self.exported.content = markdown(f"{which}: {len(frame.cloud):,} points"
                                           + (f", saved as `{saved}`" if saved else ", downloaded")
                                           + (f". ⚠ {missing}" if missing else ""))
