@@ -21,10 +21,12 @@ from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.events import EventBus, HeatChanged, JobProgress
 from mirrorscan.editor import SESSION_SCOPE
 from mirrorscan.jobs import HEAT_POOL, Jobs, planes_key
-from mirrorscan.results import (AgreementReport, CalibrationReport, FramesUsed, MirrorAgreement, NotFound)
-from mirrorscan.wording import HEADLINE_WORDS, words
+from mirrorscan.results import (AgreementReport, BackgroundCaptured, CalibrationReport, Fit, FitsApplied, FramesUsed,
+                                MirrorAgreement, NotFound)
+from mirrorscan.wording import HEADLINE_WORDS, Message, joined, words
 from mirrorscan.wording import refinement as calibration_words
 from mirrorscan.wording.refinement import agreement_line, frames_used
+from tests.test_app_panels import refined
 from mirrorscan.live import RECENT_FRAMES, RateMeter
 from mirrorscan.markup import markdown
 from mirrorscan.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_legend_html, legend_html,
@@ -32,7 +34,9 @@ from mirrorscan.panels.live import (LAG_NOTE_S, _from_markers, _no_glass, heat_l
 from mirrorscan.wording.hints import start_hint
 from mirrorscan.panels.measure import fit_report
 from mirrorscan.panels.mirrors import MirrorsPanel
-from mirrorscan.wording.mirrors import NO_GLASS_NOTE, fit_note, fit_report, greyed_out, removal_question
+from mirrorscan.wording.mirrors import fit_report as markers_report
+from mirrorscan.wording.mirrors import (NO_GLASS_NOTE, fit_note, greyed_out, removal_question,
+                                       report_markdown)
 import mirrorscan.server as server_module
 from mirrorscan.server import BUSY_FPS, IDLE_FPS, MirrorscanApp, quiet_closed_connections
 from mirrorscan.state import Snapshot
@@ -719,7 +723,9 @@ def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
     app.start()
     try:
         report = wait_for(lambda: app.jobs.agreement, 60, "the agreement")
-        assert report.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in report
+        assert [m.name for m in report.mirrors] == ["mirror 1", "mirror 2"]
+        said = joined(calibration_words.agreement(report))
+        assert said.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in said
     finally:
         app.stop()
 
@@ -727,7 +733,7 @@ def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
 def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch):
     """A change of the mirrors while the agreement is computed (an undo, a fit: here a rename) is not left out: the
     check asked for meanwhile is not started beside the running one, which checks again before it reports."""
-    import mirrorscan.jobs as jobs_module
+    import mirrorscan.jobs.agreement as jobs_module
     app_, _ = demo
     frame, calls = app_.loop.run_once(), []
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
@@ -742,11 +748,11 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
     monkeypatch.setattr(jobs_module, "view_agreement", renamed_meanwhile)
     done = []
     unsubscribe = app_.bus.subscribe(JobProgress, lambda e: e.job == "agreement" and e.fraction is None
-                                     and done.append(e.status))
+                                     and done.append(e.result))
     try:
         app_.jobs.start_agreement(frame.depth)
         report = wait_for(lambda: done, 60, "the agreement")[0]
-        assert report.startswith("left: agrees") and len(calls) == 2 and app_.jobs.agreement == report
+        assert report.mirrors[0].name == "left" and len(calls) == 2 and app_.jobs.agreement is report
     finally:
         unsubscribe()
         app_.editor.rename_mirror(1, "mirror 1")
@@ -755,14 +761,15 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
 
 def test_without_planes_the_agreement_says_what_to_do(demo, monkeypatch):
     """No mirror has a plane: the agreement says so and what to do (it read "no view sees what another sees")."""
-    import mirrorscan.jobs as jobs_module
+    import mirrorscan.jobs.agreement as jobs_module
     app_, _ = demo
     frame = app_.loop.run_once()
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
     monkeypatch.setattr(jobs_module, "view_agreement", lambda rig, depths, masks: {})
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
-    assert app_.jobs.agreement == jobs_module.NO_AGREEMENT
+    assert app_.jobs.agreement == AgreementReport(())
+    assert calibration_words.agreement(app_.jobs.agreement) == [calibration_words.NO_AGREEMENT]
     monkeypatch.undo()
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
@@ -772,7 +779,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     """After a refinement was refused, the next step no longer sends the technician back to it for the glass (a
     helper, a box on three mirrors: refused every time), but to typing the glass in, also after the next fit (it had
     gone back to the refinement then: a helper), until a refinement succeeds."""
-    import mirrorscan.jobs as jobs_module
+    import mirrorscan.jobs.refinement as jobs_module
     app_, headless = demo
     app_.loop.run_once()
     real = jobs_module.refine_session
@@ -788,7 +795,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     assert app_.jobs.refused == {ids[0]: "refine"}                 # the mirror it names (a search refused on
                                                                       # one had withdrawn the others' offer: a helper)
     headless.tab.header.refresh_hint()
-    assert "the refinement could not measure it on this object" in hint.content
+    assert "this object could not measure it" in hint.content
     assert app_.jobs.refusals(app_.editor.session) == {ids[0]: "refine"}
     corner = app_.editor.mirror(ids[0]).boundary[0]                       # its outline drawn again: refused no more
     app_.editor.move_vertex(ids[0], 0, (corner[0] + 3.0, corner[1]))      # (a search refused for an outline too
@@ -798,7 +805,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     mirror = app_.editor.mirror(ids[0])                                   # a fit moves a plane: still so
     app_.editor.set_planes({ids[0]: (replace(mirror.plane, d=mirror.plane.d + 0.001), mirror)})
     headless.tab.header.refresh_hint()
-    assert "the refinement could not measure it on this object" in hint.content
+    assert "this object could not measure it" in hint.content
     monkeypatch.setattr(jobs_module, "refine_session", real)                  # one that succeeds clears it
     app_.jobs.start_refine(app_.editor).join(120)
     assert app_.jobs.refused == {}
@@ -808,7 +815,7 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
 def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_markers(demo, monkeypatch):
     """Find the planes from the object with mirror 1 fitted from its markers and held: only mirror 2's plane comes
     from the object (mirror 1's had been taken for one too, and the glass it lacked was not asked for: a helper)."""
-    import mirrorscan.jobs as jobs_module
+    import mirrorscan.jobs.refinement as jobs_module
     app_, headless = demo
     app_.loop.run_once()
     held, found = app_.editor.session.mirrors
@@ -817,8 +824,7 @@ def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_marke
 
     def search(session, depths, masks, rng, indices, progress=None, cancel=None, with_="auto"):
         assert list(indices) == [1]
-        report = SimpleNamespace(index=1, name=found.name, after=truth, shift_std_mm=0.1, tilt_std_deg=0.01,
-                                 summary=lambda **_: "found")
+        report = refined(found.name, 1, after=truth)
         return session.with_mirror(1, replace(session.mirrors[1], plane=truth)), SimpleNamespace(
             mirrors=[report], compared="surfaces", refused=())
     monkeypatch.setattr(jobs_module, "calibrate_scene", search)
@@ -833,7 +839,7 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
     """Find the planes from the object where one mirror cannot be found: the others' planes are applied and the one
     not found is named with why, in the headline and its details, and its Find is not offered again until its
     outline or markers change (before, one refusal dropped every plane found: a helper on an arc of three)."""
-    import mirrorscan.jobs as jobs_module
+    import mirrorscan.jobs.refinement as jobs_module
     app_, headless = demo
     app_.loop.run_once()
     first, second = app_.editor.session.mirrors
@@ -842,17 +848,19 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
 
     def search(session, depths, masks, rng, indices, progress=None, cancel=None, with_="auto"):
         assert list(indices) == [0, 1]
-        report = SimpleNamespace(index=1, name=second.name, after=second.plane, shift_std_mm=0.1, tilt_std_deg=0.01,
-                                 summary=lambda **_: "found")
+        report = refined(second.name, 1, after=second.plane)
         return session.with_mirror(1, replace(session.mirrors[1], plane=second.plane)), SimpleNamespace(
             mirrors=[report], compared="surfaces", refused=((0, why),))
     monkeypatch.setattr(jobs_module, "calibrate_scene", search)
     app_.jobs.start_scene(app_.editor).join(60)
     assert app_.editor.mirror(second.id).plane == second.plane and app_.editor.mirror(first.id).plane is None
-    report = app_.jobs.refinements[jobs_module.planes_key(app_.editor.session)]
-    assert f"⚠ {first.name} not found (why below): its plane is as it was." in report.split("\n\n")[0]
-    assert f"Undo takes the planes found back, with {second.name} selected." in report.split("\n\n")[0]
-    assert report.endswith(f"**{first.name}** ⚠ not found: {why.removeprefix(first.name + ': ')}")   # named once
+    report = app_.jobs.refinements[planes_key(app_.editor.session)]
+    assert report.not_found == (NotFound(first.name, why.removeprefix(first.name + ": ")),)
+    said = calibration_words.report(report)
+    assert f"⚠ {first.name} not found (why below)." in said[0].headline
+    assert f"Undo goes by mirror: select {second.name} to take the planes found back." in said[0].details
+    assert said[-1].headline.startswith(f"**{first.name}** ⚠ not found") and said[-1].details == (
+        why.removeprefix(first.name + ": "),)                                           # named once
     assert app_.jobs.refusals(app_.editor.session) == {first.id: "scene"}
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     headless.tab.state.mirror_id = first.id                       # the one not found: Find greyed out, saying
@@ -875,21 +883,19 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
 
 def test_undoing_planes_whose_last_refinement_changed_nothing_names_the_step(demo):
     """Find, a mirror without a plane removed, then a refinement that changed nothing: its report holds the planes'
-    key, and undoing the planes found said "Undone: Nothing changed" (a helper)."""
-    import mirrorscan.jobs as jobs_module
-    from mirrorscan.jobs import UNCHANGED
+    key, and undoing the planes found names the step undone, not the refinement."""
     app_, headless = demo
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     before, after = (("a",),), (("b",),)
-    app_.jobs.refinements[before] = f"{UNCHANGED} Over the last 5 live frames."
+    unchanged = CalibrationReport((refined("mirror 1"),), False, "surfaces", False, FramesUsed((0, 1, 2, 3, 4)))
+    app_.jobs.refinements[before] = unchanged
     label = "found planes of mirror 1 and mirror 2"
     assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."
-    app_.jobs.refinements[before] = ("Planes found from the object (no markers), fixed by the data: mirror 1 to "
-                                     f"±0.2 mm{jobs_module.FOUND_CHECK}. Undo takes the planes found back.")
-    assert mirrors._report_after_travel(before, after, label, True) == "Undone: Planes found from the object (no " \
-        "markers), fixed by the data: mirror 1 to ±0.2 mm."                    # its advice was for the planes undone
-    del app_.jobs.refinements[before]                                          # a mirror removed since the report:
-    assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."     # it had said nothing
+    app_.jobs.refinements[before] = replace(unchanged, search=True, changed=True)
+    assert mirrors._report_after_travel(before, after, label, True) == (
+        "Undone: the planes found from the object for mirror 1.")            # its advice was for the planes undone
+    del app_.jobs.refinements[before]                                          # a mirror removed since the report
+    assert mirrors._report_after_travel(before, after, label, True) == f"Undone: {label}."
     assert mirrors._report_after_travel(before, before, "marker 1.2", True) == ""     # the planes as they were
 
 
@@ -967,13 +973,15 @@ def test_a_report_stays_while_it_describes_every_plane(demo):
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     editor, state = app_.editor, headless.tab.state
     first, second = editor.session.mirrors[:2]
-    report = "Planes found from the object: both fixed by the data."
-    app_.jobs.refinements[planes_key(editor.session)] = report
+    found = CalibrationReport((refined(first.name), refined(second.name, 1)), True, "surfaces", True,
+                              FramesUsed((0, 1, 2, 3, 4)))
+    app_.jobs.refinements[planes_key(editor.session)] = found
+    report = report_markdown(found)
     mirrors._report(report)
     try:
         new = editor.add_mirror()
         mirrors.refresh()
-        assert mirrors.result.content == markdown(report)
+        assert mirrors.result.content == report
         editor.remove_mirror(new)
         checks = []
         with pytest.MonkeyPatch.context() as patch:       # the agreement lines checked again (they had kept the
@@ -981,15 +989,15 @@ def test_a_report_stays_while_it_describes_every_plane(demo):
             mirrors._travel_mirrors(lambda: editor.remove_mirror(second.id))
         assert checks == [1]
         mirrors.refresh()
-        assert mirrors.result.content == markdown(f"{report}\n\n*{second.name} was removed since.*")
+        assert mirrors.result.content == f"{report}\n\n*{second.name} was removed since.*"
         editor.undo(SESSION_SCOPE)                                 # the second mirror back: its report as it was
         mirrors.refresh()
-        assert mirrors.result.content == markdown(report)
+        assert mirrors.result.content == report
         editor.remove_mirror(second.id)
         mirrors.refresh()
         editor.set_planes({first.id: (Plane.from_abcd([0.0, 0.0, -1.0, 2.0]), editor.mirror(first.id))})
         mirrors.refresh()
-        assert mirrors.result.content == markdown("")
+        assert mirrors.result.content == ""
     finally:
         if editor.mirror(first.id).plane != first.plane:
             editor.undo(first.id)
@@ -1012,18 +1020,20 @@ def test_undoing_a_removal_brings_back_the_markers_fits_report(demo):
         mirrors.fit_all_planes()
         assert mirrors.proposal is not None                  # the demo's planes came from the object: a proposal
         mirrors._apply()
-        report = app_.jobs.fits[planes_key(editor.session)]
+        applied = app_.jobs.fits[planes_key(editor.session)]
+        assert [f.mirror.name for f in applied.fits] == [first.name, second.name]
+        report = report_markdown(applied)
         assert report.startswith(f"**{first.name}**: ") and f"**{second.name}**: " in report
-        assert mirrors.result.content == markdown(report)
+        assert mirrors.result.content == report
         state.mirror_id = second.id
         mirrors._travel_mirrors(lambda: editor.remove_mirror(second.id))
         mirrors.refresh()
-        assert mirrors.result.content == markdown(f"{report}\n\n*{second.name} was removed since.*")
+        assert mirrors.result.content == f"{report}\n\n*{second.name} was removed since.*"
         state.mirror_id = first.id
         mirrors._travel(editor.undo)                                  # the removal taken back first
         assert editor.mirror(second.id).plane is not None
         assert mirrors.result.content.startswith("Undone: ")
-        assert mirrors.result.content.endswith(markdown(f"\n\n{report}"))
+        assert mirrors.result.content.endswith(f"\n\n{report}")
         mirrors.refresh()                                             # and it stays
         assert report.split("\n\n")[0] in mirrors.result.content
     finally:
@@ -1079,16 +1089,19 @@ def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes
     kinds: list = []
     said = notes(app_, kinds)
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
-    good = "mirror 1: agrees with the other views within 13.4 mm RMS over 5 frames"
-    bad = "mirror 2: ⚠ its points lie -4.2 mm from the camera's surface on average"
-    ended = lambda status: JobProgress("agreement", None, status)                  # noqa: E731
+    good = ViewAgreement(10.0, 0.5, 900, 11.7, 5.0, 0.5, 9.0, 800, frames=5)
+    bad = ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.2, 9.0, 800, frames=5)      # tilted against the camera
+
+    def ended(*views):
+        report = AgreementReport(tuple(MirrorAgreement(f"mirror {k}", v, True) for k, v in enumerate(views, 1)))
+        return JobProgress("agreement", None, joined(calibration_words.agreement(report)), report)
     mirrors._on_job(ended(good))
     assert said == []
-    mirrors._on_job(ended(f"{good}\n\n{bad}"))
-    assert said == ["mirror 2: ⚠ its view disagrees with the others beyond the depth noise; why and what to do are "
-                    "under Mirrors, below the buttons."] and kinds == [("warning", False)]
-    mirrors._on_job(ended(f"{good}\n\n{bad}"))                                   # the same lines again: once
-    mirrors._on_job(ended(f"{bad.replace('2', '1')}\n\n{bad}"))
+    mirrors._on_job(ended(good, bad))
+    assert said == ["mirror 2: ⚠ its view disagrees with the others beyond the depth noise; why and what to do "
+                    "are under Mirrors."] and kinds == [("warning", False)]
+    mirrors._on_job(ended(good, bad))                                          # the same lines again: once
+    mirrors._on_job(ended(bad, bad))
     assert len(said) == 2 and said[-1].startswith("mirror 1 and mirror 2: ⚠ their views disagree")
 
 
@@ -1136,13 +1149,10 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
         "Ready: the merged cloud is live. No glass set on left: **Mirrors › Refine from the object** measures it.")
     assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",), refused={1: "refine"}) == (
-        "Ready: the merged cloud is live. No glass set on left, and the refinement could not measure it on this "
-        "object (its reason is under *Mirrors*): type it under **Mirrors › Rename, glass, remove, clear** if you "
-        "know it, then fit again; or refine on an object that the camera and the mirrors see from the side (a "
-        "person, a sphere).")
+        "Ready. No glass on left, and this object could not measure it: type it under **Mirrors › Rename, glass, "
+        "remove, clear**.")
     assert start_hint(done, TabState(mirror_id=1), True, True, glass_unused=("left",)) == (
-        "The glass typed in for left is not in its plane yet: select it and **Mirrors › Fit plane** moves the plane "
-        "behind the glass.")
+        "The glass typed in for left is not in its plane yet: **Mirrors › Fit plane** moves it behind the glass.")
     assert start_hint(done, TabState(mirror_id=1), True, True, "paused").startswith("Paused: ")
     assert start_hint(done, TabState(mirror_id=1), True, True, "recording", start="session gait").endswith(
         "**Back to session gait** (above) when done.")               # as the button reads (a helper looked for
@@ -1156,8 +1166,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(bare, TabState(mirror_id=1), True, True) == (
         "Now top: select it and do the same (no markers: click 3 or more, or **Find the planes from the object**).")
     assert start_hint(bare, TabState(mirror_id=1), True, True, refused={2: "scene"}) == (
-        "Now top: not found from the object (why and what to do: under Mirrors); or select it and click 3 or more "
-        "markers on it.")
+        "Now top: not found from the object (why: under Mirrors); or select it and click 3 or more markers on it.")
     outline = Session(tmp_path, session.camera, mirrors=(done.mirrors[0], replace(marked, name="top", id=2,
                                                                                   markers=(), boundary=())))
     assert start_hint(outline, TabState(mirror_id=1), True, True) == (        # not "do the same" (Find, not offered
@@ -1182,84 +1191,105 @@ def test_a_progress_bar_is_given_tenths_of_a_percent():
     assert JobProgress("refine", None, "done").percent == 0.0
 
 
-def test_the_refinement_headline_says_no_sign_for_a_shift_that_rounds_to_nothing():
-    """Beside the detail line's "-0.02 mm", the headline said "moved +0.0 mm" (a helper read it as a contradiction)."""
-    moved = [SimpleNamespace(name=n, shift_mm=mm, tilt_deg=0.05, marker_offset=None, glass_typed=None)
-             for n, mm in (("left", -0.02), ("right", -1.47))]
-    assert refined_headline(moved).startswith("Planes refined (moved > 0: away from the camera): left moved 0.0 mm and "
-                                              "0.05°; right moved -1.5 mm")
-    # from a sphere's centres the report says so, and what that method may add (0.3 mm, not the surfaces' 1 to 2 mm)
-    assert refined_headline(moved, "sphere").startswith("Planes refined from the sphere's centres (moved > 0")
-    glass = [SimpleNamespace(**{**vars(moved[0]), "marker_offset": 5e-4, "marker_offset_std": 8e-4})]  # 3 mm: 0.5
-    assert refined_headline(glass).endswith(                                         # said as no surer than the
-        "left moved 0.0 mm and 0.05°, glass 0.5 ± 0.8 mm. The glass is measured on these planes, which may add 1 to "
-        "2 mm: if you know it (3 to 6 mm on an ordinary mirror), type it under Mirrors › Rename, glass, remove, "
-        "clear (the markers fit then uses it; a refinement keeps it, and its planes do not depend on it).")
-    assert refined_headline(glass, "sphere").endswith("glass 0.5 ± 0.8 mm.")
-    typed = [SimpleNamespace(**{**vars(glass[0]), "glass_typed": 0.003})]          # typed in: kept, and said so
-    assert refined_headline(typed).endswith("left moved 0.0 mm and 0.05°, glass 3.0 mm as typed in (read 0.5 ± 0.8 "
-                                            "mm).")
-    fixed = [SimpleNamespace(name="left", shift_std_mm=0.1, tilt_std_deg=0.01)]
-    assert found_headline(fixed, "sphere") == (
-        "Planes found from the sphere's centres (no markers), fixed by the data: left to ±0.1 mm and ±0.01° (1σ; "
-        "the method may add 0.3 mm and 0.04°): check the heat map and the agreement below.")
-    assert "(1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm)" in found_headline(fixed)
+def line(name, found, by_markers=True):
+    """An agreement line's message (headline and details) for one mirror's figures."""
+    return agreement_line(MirrorAgreement(name, found, by_markers))
+
+
+def test_a_refined_mirrors_line_says_no_sign_for_a_shift_that_rounds_to_nothing():
+    """Beside the details' "-0.02 mm", the headline says "moved 0.0 mm", not "+0.0"."""
+    assert calibration_words.mirror_line(refined(shift_mm=-0.02, tilt_deg=0.05), False).headline.startswith(
+        "**left** refined: moved 0.0 mm and 0.05°;")
+    said = calibration_words.mirror_line(refined(shift_mm=-1.47, tilt_deg=0.05), False)
+    assert said.headline.startswith("**left** refined: moved -1.5 mm and 0.05°;")
+    assert "Moved -1.47 mm (> 0: away from the camera) and 0.050°." in said.details
+    typed = calibration_words.mirror_line(refined(glass_typed=0.003), False)          # typed in: kept, said so
+    assert "Markers 0.5 ± 1.2 mm in front of the refined plane; its glass stays 3.0 mm, as typed in." in typed.details
+    sphere = CalibrationReport((refined(sphere_radius_mm=115.0),), False, "sphere", True, FramesUsed((0,)))
+    head = calibration_words.headline(sphere)                                     # no glass advice from a sphere
+    assert head.headline == "Planes refined from the sphere's centres. Undo restores the previous planes."
+    assert "Beyond the 1σ of each plane, the method may add 0.3 mm and 0.04°." in head.details
+    found = calibration_words.mirror_line(refined(sphere_radius_mm=115.0), True)
+    assert found.headline.startswith("**left** found: its view agrees") and "moved" not in found.headline
+    assert any("from the centres of the sphere (radius 115.0 mm)" in d for d in found.details)
 
 
 def test_a_mirror_that_no_other_view_overlaps_is_said_so_not_nan():
-    assert agreement_line("left", ViewAgreement(1.234, -0.16, 1200, 1.3)) == (
-        "left: agrees with the other views within 1.2 mm RMS on one frame, as the depth noise there explains (1.3 mm; "
-        "mean -0.2 mm over 1,200 points seen both ways)")
-    assert "within 1.2 mm RMS over 5 frames, as" in agreement_line("left", ViewAgreement(1.234, -0.16, 1200, 1.3,
-                                                                                          frames=5))
+    said = line("left", ViewAgreement(1.234, -0.16, 1200, 1.3))
+    assert said.headline == "left: agrees with the other views as the depth noise explains."
+    assert said.details == ("1.2 mm RMS on one frame; the depth noise there 1.3 mm; mean -0.2 mm over 1,200 points "
+                            "seen both ways.",)
+    assert "1.2 mm RMS over 5 frames;" in line("left", ViewAgreement(1.234, -0.16, 1200, 1.3, frames=5)).details[0]
     nan = float("nan")
-    assert "cannot be checked (put the object in view)" in agreement_line("left", ViewAgreement(nan, nan, 0, nan))
+    assert "put the object in view to check it" in line("left", ViewAgreement(nan, nan, 0, nan)).headline
 
 
 def test_a_mirror_seen_too_little_by_the_others_is_not_judged():
-    """Fewer comparisons than fix a plane in the refinement judge nothing (26 with the camera flagged a box's mirror
-    one way, then the other, a helper); few with the camera leave the judgement to those with the mirrors."""
-    few = agreement_line("left", ViewAgreement(30.0, -9.0, 150, 11.7, 30.0, -9.0, 9.0, 26, frames=5))
-    assert few == ("left: too little of what it shows is seen by another view to judge its plane (150 points seen "
-                   "both ways over 5 frames, 200 needed): put the object where the camera and the mirror both see "
-                   "its sides (a person, a sphere), or check its markers' grades")
+    """Fewer comparisons than fix a plane in the refinement judge nothing; few with the camera leave the judgement
+    to those with the mirrors."""
+    few = line("left", ViewAgreement(30.0, -9.0, 150, 11.7, 30.0, -9.0, 9.0, 26, frames=5))
+    assert few.headline.startswith("left: too little is seen both in it and by another view to judge its plane")
+    assert few.details[0].startswith("150 points seen both ways over 5 frames, 200 needed")
     arc = ViewAgreement(10.0, 0.5, 7565, 11.7, 30.0, -9.0, 9.0, 42, frames=5)      # the middle mirror of an arc
-    assert agreement_line("middle", arc).startswith("middle: agrees with the other views within 10.0 mm RMS")
-    assert agreement_line("middle", arc._replace(mean_mm=-4.0)).startswith(
-        "middle: ⚠ disagrees with the other mirrors (the camera sees too little of what it shows to say which is "
-        "off): its points lie -4.0 mm from theirs on average, good planes within 3.5 mm (RMS 10.0 mm, the depth "
-        "noise 11.7 mm; 7,565 points seen both ways over 5 frames)")
+    assert line("middle", arc).headline.startswith("middle: agrees with the other views")
+    off = line("middle", arc._replace(mean_mm=-4.0))
+    assert off.headline == "middle: ⚠ disagrees with the other mirrors: a plane is off. Refine from the object."
+    assert off.details[0] == ("Its points lie -4.0 mm from theirs on average (good planes within 3.5 mm); RMS "
+                              "10.0 mm against 11.7 mm of depth noise; 7,565 points seen both ways over 5 frames.")
 
 
 def test_a_mirror_that_agrees_worse_than_the_noise_explains_is_flagged_and_the_one_at_fault_singled_out():
     """The comparisons with the camera single out the mirror at fault; one that agrees with the camera but not with
-    another mirror says so instead of being told to fix itself (a helper: the neighbour had been fitted wrong)."""
+    another mirror says so instead of being told to fix itself."""
     good_camera = dict(camera_rms_mm=5.0, camera_mean_mm=0.5, camera_noise_mm=9.0, camera_points=800)
-    tilted = agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800))    # 0.44 x 9 mm
-    assert tilted == ("left: ⚠ its points lie -4.0 mm from the camera's surface on average (RMS 8.0 mm, the depth "
-                      "noise 9.0 mm; good planes within 3.6 mm) on one frame: its plane may be tilted or its boundary "
-                      "off; Refine from the object, or check its markers (800 points seen both ways)")
-    assert agreement_line("left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0, 800)).startswith(
-        "left: ⚠ its points lie +0.5 mm from the camera's surface on average (RMS 9.04 mm, the depth noise 9.00 mm")
-    neighbour = agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera))   # the mean: 0.34 x
-    assert neighbour == ("right: ⚠ agrees with the camera (mean +0.5 mm) but not with the other mirrors: its points "
-                         "lie -4.0 mm from theirs on average, good planes within 3.5 mm (RMS 10.1 mm, the depth noise "
-                         "11.7 mm; 900 points seen both ways on one frame). Another mirror flagged against the camera "
-                         "is off; if none is, a plane is off along its normal: markers on glass put it that much too "
-                         "near (set each mirror's glass and fit again), or Refine from the object")
-    # a plane found from the object is not sent to its markers or its glass (a helper)
-    assert agreement_line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800), False).endswith(
-        "its plane may be tilted or its boundary off; Refine from the object, or check its boundary (800 points seen "
-        "both ways)")
-    assert agreement_line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera), False).endswith(
-        "if none is, a plane is off along its normal: Refine from the object")
-    assert "but not with the other mirrors: RMS 15.2 mm against 11.7 mm of depth noise (mean +0.4 mm; 900" in (
-        agreement_line("right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera)))
-    assert agreement_line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).startswith(
-        "right: agrees with the other views within 10.1 mm RMS")
+    tilted = line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800))    # 0.44 x 9 mm
+    assert tilted.headline == ("left: ⚠ disagrees with the camera: its plane may be tilted or its boundary off. "
+                               "Refine from the object, or check its markers.")
+    assert tilted.details == ("Its points lie -4.0 mm from the camera's surface on average (good planes within "
+                              "3.6 mm); RMS 8.0 mm, the depth noise 9.0 mm; 800 points seen both ways on one "
+                              "frame.",)
+    assert "RMS 9.04 mm, the depth noise 9.00 mm" in line(
+        "left", ViewAgreement(10.0, 0.5, 900, 11.7, 9.04, 0.5, 9.0, 800)).details[0]
+    neighbour = line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera))   # the mean: 0.34 x
+    assert neighbour.headline == ("right: ⚠ agrees with the camera, not with the other mirrors: a plane is off "
+                                  "along its normal. Refine from the object.")
+    assert neighbour.details[0].startswith("Its points lie -4.0 mm from theirs on average (good planes within "
+                                           "3.5 mm); RMS 10.1 mm")
+    assert "Against the camera: mean +0.5 mm." in neighbour.details
+    assert neighbour.details[-1].endswith("markers on glass put it that much too near (set each mirror's glass and "
+                                          "fit again).")
+    # a plane found from the object is not sent to its markers or its glass
+    assert line("left", ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800), False).headline.endswith(
+        "Refine from the object, or check its boundary.")
+    found = line("right", ViewAgreement(10.1, -4.0, 900, 11.7, **good_camera), False)
+    assert found.details[-1].endswith("a plane is off along its normal.")
+    assert "RMS 15.2 mm against 11.7 mm of depth noise" in line(
+        "right", ViewAgreement(15.2, 0.4, 900, 11.7, **good_camera)).details[0]
+    assert line("right", ViewAgreement(10.1, -3.0, 900, 11.7, **good_camera)).headline.startswith(
+        "right: agrees with the other views")
     # without figures against the camera alone, all the comparisons are judged together
-    assert "⚠ disagrees with the other mirrors (the camera sees too little" in agreement_line(
-        "right", ViewAgreement(15.2, 0.4, 900, 11.7))
+    assert "⚠ disagrees with the other mirrors: a plane is off" in line(
+        "right", ViewAgreement(15.2, 0.4, 900, 11.7)).headline
+
+
+def test_every_message_of_the_wording_has_a_short_headline():
+    """Every agreement line above, the refinement's report and the next-step hints lead with a headline of at most
+    HEADLINE_WORDS words."""
+    figures = [ViewAgreement(1.234, -0.16, 1200, 1.3), ViewAgreement(float("nan"), float("nan"), 0, float("nan")),
+               ViewAgreement(30.0, -9.0, 150, 11.7, 30.0, -9.0, 9.0, 26, frames=5),
+               ViewAgreement(12.0, 3.0, 900, 11.7, 8.0, -4.0, 9.0, 800),
+               ViewAgreement(10.1, -4.0, 900, 11.7, 5.0, 0.5, 9.0, 800), ViewAgreement(15.2, 0.4, 900, 11.7)]
+    messages = [line("mirror 12", f, by) for f in figures for by in (True, False)]
+    mirrors = (refined("mirror 1"), refined("mirror 2", 1, agreement_after_mm=2.0), refined("mirror 3", 2))
+    for search in (False, True):
+        for changed in (False, True):
+            report = CalibrationReport(mirrors, search, "surfaces", changed, FramesUsed((0, 3, 6, 9), 10),
+                                       (NotFound("mirror 4", "its image spills over the outline"),))
+            messages += [*calibration_words.report(report), calibration_words.note(report),
+                         calibration_words.undone(report, "Undone")]
+    messages.append(calibration_words.disagreement_note(("mirror 1", "mirror 2", "mirror 3")))
+    for message in messages:
+        assert words(message.headline) <= HEADLINE_WORDS, message.headline
 
 
 def test_a_fit_that_most_points_miss_is_flagged():
@@ -1318,9 +1348,9 @@ def test_a_job_says_its_last_word_once_it_is_over():
 
     def refused(cancel):
         raise MirrorscanError("no frame yet")
-    for work in (lambda cancel: "done", cancelled, refused):
+    for work in (lambda cancel: BackgroundCaptured(3), cancelled, refused):
         jobs._start("x", work, "busy").join(10)
-    assert ended == [("done", False), ("cancelled", False), ("not done: no frame yet", False)]
+    assert ended == [("captured from 3 frames", False), ("cancelled", False), ("not done: no frame yet", False)]
 
 
 def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
@@ -1334,10 +1364,13 @@ def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
 
 
 def test_the_frames_a_calibration_used_are_said_plainly():
-    """ "Over frames 0 of the recording's 1" (a helper)."""
-    assert _frames_used([0], 1) == "the recording's only frame"
-    assert _frames_used([3], 8) == "frame 3 of the recording's 8 (numbered as in the header)"
-    assert _frames_used([0, 4, 9], 10) == "frames 0, 4, 9 of the recording's 10 (numbered as in the header)"
+    """A recording's only frame, one frame, several frames, the last live frames."""
+    assert frames_used(FramesUsed((0,), 1)) == "the recording's only frame"
+    assert frames_used(FramesUsed((3,), 8)) == "frame 3 of the recording's 8 (numbered as in the header)"
+    assert frames_used(FramesUsed((0, 4, 9), 10)) == ("frames 0, 4, 9 of the recording's 10 (numbered as in the "
+                                                      "header)")
+    assert frames_used(FramesUsed((0, 1, 2, 3, 4))) == "the last 5 live frames"
+    assert frames_used(FramesUsed((0,))) == "the last live frame"
 
 
 def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_path):
@@ -1356,22 +1389,24 @@ def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_
     editor = SimpleNamespace(fitted_on_its_markers=lambda mirror_id: mirror_id != 3)
     assert _from_markers(jobs, editor, session) == ("left",)
     assert start_hint(session, TabState(mirror_id=1), True, True, from_markers=("left",)) == (
-        "Ready: the merged cloud is live. The planes of left come from the markers alone: **Mirrors › Refine from "
-        "the object** makes them more accurate, their tilt above all.")
+        "Ready. The planes of left come from markers alone: **Mirrors › Refine from the object** makes them more "
+        "accurate.")
 
 
 def test_a_markers_fit_without_glass_says_how_to_measure_it():
     """Markers on 3 mm of glass gave a quiet all-clear (a helper): the planes were 2.4 and 4.3 mm too near."""
-    def fit(name: str, glass: float, std: float | None = None):
-        mirror = SessionMirror(name, ((1.0, 1.0),) * 3, id=1, marker_offset=glass, marker_offset_std=std)
-        return SimpleNamespace(marker_offset=glass, summary=lambda names: f"{len(names)} markers"), mirror, None
-    left, right = fit("left", 0.0), fit("right", 0.004)
-    right = (right[0], replace(right[1], id=2), None)
-    bare = _fit_report([left, right], confirmed=(2,))                 # right's waited for Apply, left's did not
-    assert bare == f"**left**: 3 markers\n\n**right**: 3 markers (applied on confirmation)\n\n{NO_GLASS_NOTE}"
-    assert _fit_report([fit("left", 0.003)]) == "**left**: 3 markers"                 # glass set: nothing to add
-    assert _fit_report([fit("left", 0.0, 8e-4)]) == "**left**: 3 markers"     # 0 measured is set too (the demo's
-                                                                               # line said measured, the note 'none')
+    def fit(name: str, glass: float, std: float | None = None, mirror_id: int = 1) -> Fit:
+        mirror = SessionMirror(name, ((1.0, 1.0),) * 3, id=mirror_id, marker_offset=glass, marker_offset_std=std)
+        calibration = SimpleNamespace(rms_mm=2.0, n_inliers=90, n_points=100, markers=None, marker_offset=glass)
+        return Fit(calibration, mirror, SimpleNamespace(poor=(), tilt_deg=0.0, shift_mm=0.0))
+    left, right = fit("left", 0.0), fit("right", 0.004, mirror_id=2)
+    bare = markers_report(FitsApplied((left, right), confirmed=(2,)))      # right's waited for Apply, left's did not
+    assert [m.headline for m in bare] == ["**left**: plane fitted, 2.0 mm RMS",
+                                          "**right**: plane fitted, 2.0 mm RMS (applied on confirmation)",
+                                          NO_GLASS_NOTE.headline]
+    assert bare[0].details == ("RMS 2.00 mm over 90/100 points.",)
+    assert len(markers_report(FitsApplied((fit("left", 0.003),)))) == 1                  # glass set: nothing to add
+    assert len(markers_report(FitsApplied((fit("left", 0.0, 8e-4),)))) == 1               # 0 measured is set too
 
 
 def test_the_header_names_the_session_edited_where_another_plays(tmp_path):
@@ -1386,24 +1421,27 @@ def test_the_header_names_the_session_edited_where_another_plays(tmp_path):
 
 
 def test_a_proposal_points_at_crossed_markers_only_when_a_marker_is_crossed():
-    """A proposal for a plane turned 4 degrees (no poor marker) sent a helper to look for crosses in vain."""
+    """A proposal for a plane turned 4 degrees (no poor marker) has no crossed marker to point at."""
     def fit(poor):
-        return (SimpleNamespace(marker_offset=0.003), SimpleNamespace(name="left"), SimpleNamespace(poor=poor))
-    assert fit_note([], [fit(())]) == "A new plane for left waits, not applied: look at it under Mirrors, then " \
-        "Apply or Discard it."
-    assert "under Mirrors (the crossed markers), then" in fit_note([], [fit((2,))])
+        return Fit(SimpleNamespace(marker_offset=0.003), SimpleNamespace(name="left"), SimpleNamespace(poor=poor))
+    assert fit_note([], [fit(())]).headline == ("A new plane for left waits, not applied: look at it under "
+                                                "Mirrors, then Apply or Discard it.")
+    assert "under Mirrors (the crossed markers), then" in fit_note([], [fit((2,))]).headline
 
 
 def test_a_fit_of_several_mirrors_applies_those_that_need_no_look_and_proposes_the_others():
-    """One mirror's stray marker had held every mirror's new plane back for Apply (a helper on an arc of three):
-    the note says both what was applied and what waits."""
+    """One mirror's stray marker does not hold back the other mirrors' planes: the note says both what was
+    applied and what waits; the RMS in its details."""
     def fit(name, poor=()):
-        return (SimpleNamespace(rms_mm=2.0), SimpleNamespace(name=name, glass_set=True, marker_names=["3.1", "3.2"]),
-                SimpleNamespace(poor=poor))
-    assert fit_note([fit("mirror 1"), fit("mirror 2")], [fit("mirror 3", (1,))], ("mirror 4",)) == (
-        "Applied: mirror 1 2.0 mm RMS, mirror 2 2.0 mm RMS. The report is under Mirrors. A new plane for mirror 3 "
-        "waits, not applied: look at it under Mirrors (the crossed markers), then Apply or Discard it. mirror 4: no "
-        "markers, left as it is (click 3 or more, or Find the planes from the object).")
+        return Fit(SimpleNamespace(rms_mm=2.0), SimpleNamespace(name=name, glass_set=True,
+                                                                marker_names=["3.1", "3.2"]),
+                   SimpleNamespace(poor=poor))
+    said = fit_note([fit("mirror 1"), fit("mirror 2")], [fit("mirror 3", (1,))], ("mirror 4",))
+    assert said.headline == (
+        "Applied: mirror 1 and mirror 2. mirror 3: a new plane waits, Apply or Discard it. mirror 4: no markers, "
+        "left as it is.")
+    assert words(said.headline) <= HEADLINE_WORDS
+    assert said.details[0] == "mirror 1 2.0 mm RMS, mirror 2 2.0 mm RMS."
 
 
 def test_the_legend_says_which_mirrors_leave_their_part_out():

@@ -954,7 +954,7 @@ def test_fit_all_applies_the_planes_that_need_no_look_and_proposes_the_others(tm
             first, second = app.editor.session.mirrors
             assert first.plane is not None and first.plane.angle_to(sim.planes[0]) < 0.5       # applied
             assert second.plane is None and list(mirrors.proposal) == [second.id]             # waits
-            assert said[-1].startswith("Applied: mirror 1. A new plane for mirror 2 waits, not applied")
+            assert said[-1].startswith("Applied: mirror 1. mirror 2: a new plane waits")
             assert mirrors.result.content.startswith("**mirror 1**: ")
             mirrors._discard()
             assert app.editor.mirror(first.id).plane == first.plane and app.editor.mirror(second.id).plane is None

@@ -34,17 +34,19 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if not has_frame:
         return "Waiting for the first frame from the source…"
     if recording:
-        return "Recording (see above): **Record › Stop recording** saves it, with the calibration as it then stands."
+        return ("Recording (see above): **Record › Stop recording** saves it, with the calibration as it then "
+                "stands.")
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
     if calibrating is not None:
-        return (f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then "
-                "its report are under *Mirrors*.")
+        return (f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then its "
+                "report are under *Mirrors*.")
     if batch is not None:
         return (f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are under "
                 "*Record › Reconstruct every frame (batch)*.")
     if state.proposal_for:
-        return f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** it."
+        return (f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
+                "it.")
     look = "" if state.view == "depth" else "Look at the **Depth frame** (View, below); "
     mirror = next((m for m in session.mirrors if m.id == state.mirror_id), session.mirrors[-1])
     if not mirror.boundary:
@@ -57,9 +59,9 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         what = "a marker" if not mirror.markers else "more markers (3 or more, spread out)"
         choose = "" if state.mode == "markers" else "choose **Markers** and "
         if refused.get(mirror.id) == "scene":
-            return (f"{mirror.name}: not found from the object (why: under Mirrors); or {choose}click {what} on "
-                    "the mirror.")
-        scene = "" if mirror.markers else ", or **Find the planes from the object**"
+            return (f"{mirror.name}: not found from the object (why and what to do: under Mirrors); or "
+                    f"{choose}click {what} on the mirror.")
+        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
         return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
         ready = [m.name for m in session.mirrors if m.plane is None and m.boundary and len(m.markers) >= 3]
@@ -68,14 +70,13 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
         return f"{mirror.name}: **Fit plane**."
     todo = [m for m in session.mirrors if m.plane is None or not m.boundary]
     if todo:
-        name = todo[0].name
         if refused.get(todo[0].id) == "scene":
-            return (f"Now {name}: not found from the object (why: under Mirrors); or select it and click 3 or "
-                    "more markers on it.")
+            return (f"Now {todo[0].name}: not found from the object (why: under Mirrors); or select it and click "
+                    "3 or more markers on it.")
         if not todo[0].boundary:              # its Find is not offered before it has an outline
-            return f"Now {name}: select it, choose **Boundary** and click its corners."
+            return f"Now {todo[0].name}: select it, choose **Boundary** and click its corners."
         how = " (no markers: click 3 or more, or **Find the planes from the object**)" if not todo[0].markers else ""
-        return f"Now {name}: select it and do the same{how}."
+        return f"Now {todo[0].name}: select it and do the same{how}."
     if glass_unused:
         one = len(glass_unused) == 1
         return (f"The glass typed in for {listed(glass_unused)} is not in {'its plane' if one else 'their planes'} "
@@ -83,20 +84,22 @@ def start_hint(session: Session, state: TabState, has_frame: bool, has_backgroun
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
     if playback == "paused":
-        return "Paused: the cloud is one frame's (**Step**, or the **Frame** slider); untick **Pause** to play on."
+        return ("Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, under *Playback "
+                "and view*); untick **Pause** to play on.")
     if playback == "recording":
-        return (f"A recording plays with this calibration: **Refine from the object** works on it; **Back to "
+        return ("A recording plays with this calibration: **Refine from the object** works on it; **Back to "
                 f"{start}** (above) when done.")
     if disagreeing:
         views = "its view disagrees" if len(disagreeing) == 1 else "their views disagree"
-        return (f"⚠ {listed(disagreeing)}: {views} with the others (why: under *Mirrors*): **Refine from the "
-                "object**, or fit again.")
+        return (f"⚠ {listed(disagreeing)}: {views} with the others beyond the depth noise (why, under "
+                "*Mirrors*): **Mirrors › Refine from the object**, or fit again.")
     if no_glass and "refine" in refused.values():
         return (f"Ready. No glass on {listed(no_glass)}, and this object could not measure it: type it under "
                 "**Mirrors › Rename, glass, remove, clear**.")
     if no_glass:
-        return f"Ready. No glass set on {listed(no_glass)}: **Mirrors › Refine from the object** measures it."
+        return (f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}: **Mirrors › Refine from "
+                "the object** measures it.")
     if from_markers:
-        return (f"Ready. The planes of {listed(from_markers)} come from markers alone: **Mirrors › Refine from the "
-                "object** makes them more accurate.")
+        return (f"Ready. The planes of {listed(from_markers)} come from markers alone: **Mirrors › Refine from "
+                "the object** makes them more accurate.")
     return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."

@@ -119,8 +119,10 @@ def fit_note(applied: list[Fit], waiting: list[Fit], without_markers: tuple[str,
                     "noise: delete them (crossed on the depth frame) and fit again." for f in poor]
     if waiting:
         crossed = " (the crossed markers)" if any(f.review.poor for f in waiting) else ""
-        heads.append(f"A new plane for {listed(f.mirror.name for f in waiting)} waits, not applied: look at it "
-                     f"under Mirrors{crossed}, then Apply or Discard it.")
+        names = listed(f.mirror.name for f in waiting)
+        heads.append(f"A new plane for {names} waits, not applied: look at it under Mirrors{crossed}, then "
+                     "Apply or Discard it." if not (applied or without_markers) else
+                     f"{names}: a new plane waits, Apply or Discard it.")
     if without_markers:
         them = "it is" if len(without_markers) == 1 else "they are"
         heads.append(f"{listed(without_markers)}: no markers, left as {them}.")

@@ -183,26 +183,24 @@ def agreement_line(line: MirrorAgreement) -> Message:
         return Message(f"{name}: nothing of the object is seen both in it and by another view: put the object in "
                        "view to check it.")
     if found.points < MIN_AGREEMENTS:
-        return Message(f"{name}: too little is seen both in it and by another view to judge its plane: put the "
-                       "object where the camera and the mirror both see it.",
+        return Message(f"{name}: too little is seen both in it and by another view to judge its plane: move "
+                       "the object where both see it.",
                        (f"{found.points:,} points seen both ways {_over(found)}, {MIN_AGREEMENTS} needed; a person "
                         "or a sphere seen from the side serves; or check its markers' grades.",))
     kind = doubt(found)
     if kind == "camera":
         rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
         check = "markers" if line.by_markers else "boundary"
-        return Message(f"{name}: ⚠ its view disagrees with the camera's: its plane may be tilted or its boundary "
-                       f"off. Refine from the object, or check its {check}.",
+        return Message(f"{name}: ⚠ disagrees with the camera: its plane may be tilted or its boundary off. "
+                       f"Refine from the object, or check its {check}.",
                        (f"Its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on average "
                         f"(good planes within {CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm); RMS {rms} "
                         f"mm, the depth noise {noise} mm; {found.camera_points:,} points seen both ways "
                         f"{_over(found)}.",))
     if kind == "mirrors":
-        fix = ("set each mirror's glass and fit again, or Refine from the object" if line.by_markers else
-               "Refine from the object")
-        head = (f"{name}: ⚠ agrees with the camera but not with the other mirrors: a plane is off along its "
-                f"normal; {fix}." if found.camera_points >= MIN_AGREEMENTS else
-                f"{name}: ⚠ disagrees with the other mirrors: a plane is off; {fix}.")
+        head = (f"{name}: ⚠ agrees with the camera, not with the other mirrors: a plane is off along its "
+                "normal. Refine from the object." if found.camera_points >= MIN_AGREEMENTS else
+                f"{name}: ⚠ disagrees with the other mirrors: a plane is off. Refine from the object.")
         limit = MEAN_EXPLAINS * found.noise_mm
         rms, noise = _apart(found.rms_mm, found.noise_mm)
         details = [f"Its points lie {found.mean_mm:+.1f} mm from theirs on average (good planes within "
@@ -211,8 +209,8 @@ def agreement_line(line: MirrorAgreement) -> Message:
         if found.camera_points >= MIN_AGREEMENTS:
             details.append(f"Against the camera: mean {found.camera_mean_mm:+.1f} mm.")
         details.append("Another mirror flagged against the camera is the one off; if none is, a plane is off "
-                       "along its normal" + (": markers on glass put it that much too near." if line.by_markers
-                                             else "."))
+                       "along its normal" + (": markers on glass put it that much too near (set each mirror's "
+                                             "glass and fit again)." if line.by_markers else "."))
         return Message(head, tuple(details))
     return Message(f"{name}: agrees with the other views as the depth noise explains.",
                    (f"{found.rms_mm:.1f} mm RMS {_over(found)}; the depth noise there {found.noise_mm:.1f} mm; mean "
