@@ -1,5 +1,7 @@
-"""What the long jobs give back, as typed results: the jobs (mirrorscan.jobs) make them, the bus carries them
-(mirrorscan.events), and the wording (mirrorscan.wording) says them in the browser. No prose is made here."""
+"""What the long jobs give back, as typed results: the jobs (mirrorscan.jobs) make them, the bus
+carries them (mirrorscan.events), and the wording (mirrorscan.wording) says them in the browser. No
+prose is made here."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -15,7 +17,8 @@ from mirrorcore.io.session import SessionMirror
 
 @dataclass(frozen=True)
 class Refused:
-    """A job refused what it was asked (a MirrorscanError or an OSError): `reason` is the error's one line."""
+    """A job refused what it was asked (a MirrorscanError or an OSError): `reason` is the error's
+    one line."""
 
     reason: str
 
@@ -64,8 +67,8 @@ class DenseResult:
 
 @dataclass(frozen=True)
 class DenseWork:
-    """A dense reconstruction under way: its method, the frames prepared, the volume's shape (None while the
-    frames are prepared)."""
+    """A dense reconstruction under way: its method, the frames prepared, the volume's shape (None
+    while the frames are prepared)."""
 
     method: str
     frames: int
@@ -74,8 +77,8 @@ class DenseWork:
 
 @dataclass(frozen=True)
 class FramesUsed:
-    """The frames a calibration from the object read: `picks` of a recording of `count` frames (numbered as in
-    the header), or the last `len(picks)` live frames (`count` None)."""
+    """The frames a calibration from the object read: `picks` of a recording of `count` frames
+    (numbered as in the header), or the last `len(picks)` live frames (`count` None)."""
 
     picks: tuple[int, ...]
     count: int | None = None
@@ -83,8 +86,8 @@ class FramesUsed:
 
 @dataclass(frozen=True)
 class CalibrationWork:
-    """A calibration from the object under way: a search (`search`) or a refinement, over `used`; `started`
-    once the frames are prepared."""
+    """A calibration from the object under way: a search (`search`) or a refinement, over `used`;
+    `started` once the frames are prepared."""
 
     search: bool
     used: FramesUsed
@@ -93,7 +96,8 @@ class CalibrationWork:
 
 @dataclass(frozen=True)
 class NotFound:
-    """A mirror a search could not find while it found others: its name and the library's one-line why."""
+    """A mirror a search could not find while it found others: its name and the library's one-line
+    why."""
 
     name: str
     why: str
@@ -123,8 +127,8 @@ class CalibrationReport:
 
 @dataclass(frozen=True)
 class CalibrationRefused:
-    """A calibration from the object refused: the error's line, the mirrors it is about (names), and whether
-    it was a search."""
+    """A calibration from the object refused: the error's line, the mirrors it is about (names), and
+    whether it was a search."""
 
     reason: str
     mirrors: tuple[str, ...]
@@ -133,8 +137,8 @@ class CalibrationRefused:
 
 @dataclass(frozen=True)
 class MirrorAgreement:
-    """One mirror's view against the others: its name, the figures, and whether its plane comes from its
-    markers (what the advice may send the technician back to)."""
+    """One mirror's view against the others: its name, the figures, and whether its plane comes from
+    its markers (what the advice may send the technician back to)."""
 
     name: str
     found: ViewAgreement
@@ -143,8 +147,8 @@ class MirrorAgreement:
 
 @dataclass(frozen=True)
 class AgreementReport:
-    """How the mirrors' views agree with the planes as they are: one entry per mirror with a plane (empty when
-    no mirror has one)."""
+    """How the mirrors' views agree with the planes as they are: one entry per mirror with a plane
+    (empty when no mirror has one)."""
 
     mirrors: tuple[MirrorAgreement, ...]
 
@@ -164,7 +168,8 @@ class Collecting:
 
 @dataclass(frozen=True)
 class BackgroundCaptured:
-    """A background captured from `frames` frames; `waiting`: it is used only once the technician confirms."""
+    """A background captured from `frames` frames; `waiting`: it is used only once the technician
+    confirms."""
 
     frames: int
     waiting: bool = False
@@ -217,8 +222,8 @@ class BatchStarting:
 
 @dataclass(frozen=True, eq=False)
 class Fit:
-    """A markers fit of one mirror: the Calibration, the SessionMirror as fitted, its FitReview, and whether it
-    replaces a plane found from the object (the markers alone are less accurate)."""
+    """A markers fit of one mirror: the Calibration, the SessionMirror as fitted, its FitReview, and
+    whether it replaces a plane found from the object (the markers alone are less accurate)."""
 
     calibration: Calibration
     mirror: SessionMirror
@@ -227,15 +232,15 @@ class Fit:
 
     @property
     def needs_confirmation(self) -> bool:
-        """Whether it waits for Apply or Discard: a concern of the review, or a plane from the object it
-        replaces, unless it is a refit of markers taken before."""
+        """Whether it waits for Apply or Discard: a concern of the review, or a plane from the
+        object it replaces, unless it is a refit of markers taken before."""
         return (self.review.needs_confirmation or self.replaces_object) and not self.review.refit
 
 
 @dataclass(frozen=True, eq=False)
 class FitsApplied:
-    """Markers fits applied (Fit each); the ids of those applied on confirmation; the names of the mirrors
-    whose proposed planes were discarded."""
+    """Markers fits applied (Fit each); the ids of those applied on confirmation; the names of the
+    mirrors whose proposed planes were discarded."""
 
     fits: tuple[Fit, ...]
     confirmed: tuple[int, ...] = ()

@@ -1,8 +1,9 @@
-"""The long jobs every tab shares, one of each kind at a time: dense reconstruction of the recent frames,
-background capture, recording, the batch reconstruction of every frame of a recording, the calibration from the
-object, the views' agreement after a fit, and the heat map of a frame. Each runs on a worker thread
-(runner.Runner), reports JobProgress on the bus with a typed result (mirrorscan.results), and can be
-cancelled."""
+"""The long jobs every tab shares, one of each kind at a time: dense reconstruction of the recent
+frames, background capture, recording, the batch reconstruction of every frame of a recording, the
+calibration from the object, the views' agreement after a fit, and the heat map of a frame. Each
+runs on a worker thread (runner.Runner), reports JobProgress on the bus with a typed result
+(mirrorscan.results), and can be cancelled."""
+
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable
@@ -22,13 +23,29 @@ if TYPE_CHECKING:
     from ..live import LiveLoop
     from ..state import Snapshot
 
-__all__ = ["AGREEMENT", "AGREEMENT_FRAMES", "BACKGROUND", "BATCH", "DENSE", "HEAT", "HEAT_LIMIT_MM", "HEAT_POOL",
-           "RECORD", "REFINE", "DenseResult", "Jobs", "planes_key", "unplaned"]
+__all__ = [
+    "AGREEMENT",
+    "AGREEMENT_FRAMES",
+    "BACKGROUND",
+    "BATCH",
+    "DENSE",
+    "HEAT",
+    "HEAT_LIMIT_MM",
+    "HEAT_POOL",
+    "RECORD",
+    "REFINE",
+    "DenseResult",
+    "Jobs",
+    "planes_key",
+    "unplaned",
+]
 
 
-class Jobs(DenseJob, BackgroundJob, RecordingJob, BatchJob, RefinementJob, AgreementJob, HeatJob, Runner):
-    """The shared jobs of one app: `loop` gives the frames, `snapshot()` the consistent state, `bus` carries
-    their progress and results."""
+class Jobs(
+    DenseJob, BackgroundJob, RecordingJob, BatchJob, RefinementJob, AgreementJob, HeatJob, Runner
+):
+    """The shared jobs of one app: `loop` gives the frames, `snapshot()` the consistent state, `bus`
+    carries their progress and results."""
 
     def __init__(self, loop: "LiveLoop", snapshot: Callable[[], "Snapshot"], bus: EventBus):
         Runner.__init__(self, bus)

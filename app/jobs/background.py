@@ -1,4 +1,5 @@
 """The background capture job: the per-pixel median of the next frames."""
+
 from __future__ import annotations
 
 import threading
@@ -15,13 +16,18 @@ from .runner import BACKGROUND, Runner
 class BackgroundJob(Runner):
     """Background capture (Jobs mixes it in)."""
 
-    def capture_background(self, n_frames: int,
-                           on_done: Callable[[np.ndarray], bool]) -> threading.Thread:
-        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres), which
-        returns whether it waits for the technician's confirmation."""
+    def capture_background(
+        self, n_frames: int, on_done: Callable[[np.ndarray], bool]
+    ) -> threading.Thread:
+        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres),
+        which returns whether it waits for the technician's confirmation."""
+
         def work(cancel: threading.Event) -> BackgroundCaptured:
             frames = self.loop.collect(
-                n_frames, lambda k: self.progress(BACKGROUND, k / n_frames, Collecting(k, n_frames)),
-                cancel=cancel)
+                n_frames,
+                lambda k: self.progress(BACKGROUND, k / n_frames, Collecting(k, n_frames)),
+                cancel=cancel,
+            )
             return BackgroundCaptured(n_frames, bool(on_done(median_depth(np.stack(frames)))))
+
         return self._start(BACKGROUND, work, "a background capture is already running")

@@ -1,4 +1,5 @@
 """The recording job: the live frames into a new session folder, saved with the session's mirrors."""
+
 from __future__ import annotations
 
 import threading
@@ -15,7 +16,7 @@ from ..recording import LiveTap
 from ..results import Recorded, RecordingState, Replay
 from .runner import RECORD, Runner
 
-COUNT_EVERY = 10           # live frames between two counts of the frames recorded
+COUNT_EVERY = 10  # live frames between two counts of the frames recorded
 
 
 class RecordingJob(Runner):
@@ -25,24 +26,28 @@ class RecordingJob(Runner):
     _tap: LiveTap | None = None
 
     def start_recording(self, sessions_dir: Path) -> Path:
-        """Record the live frames into a new session folder in `sessions_dir` (a name of its own even when two
-        recordings start in the same second); stop_recording() saves it with the session's mirrors and
-        selection as they are then. Returns the folder."""
+        """Record the live frames into a new session folder in `sessions_dir` (a name of its own
+        even when two recordings start in the same second); stop_recording() saves it with the
+        session's mirrors and selection as they are then. Returns the folder."""
         with self._lock:
             if RECORD in self._running:
                 raise MirrorscanError("already recording; stop first")
             self._running[RECORD] = threading.Event()
         try:
             folder = new_recording_folder(sessions_dir)
-            self._tap = LiveTap(self.loop.source,
-                                lambda take: self.bus.subscribe(FrameReady, lambda e: take(e.frame)))
+            self._tap = LiveTap(
+                self.loop.source,
+                lambda take: self.bus.subscribe(FrameReady, lambda e: take(e.frame)),
+            )
         except (MirrorscanError, OSError):
             with self._lock:
                 self._running.pop(RECORD, None)
             raise
         self.recorder = Recorder(self._tap, folder).start()
         self.progress(RECORD, 0.0, self.recording_state())
-        self._unsubscribe_count = self.bus.subscribe(FrameReady, lambda e: self._count(e.frame.index))
+        self._unsubscribe_count = self.bus.subscribe(
+            FrameReady, lambda e: self._count(e.frame.index)
+        )
         return folder
 
     def _replay_at(self) -> Replay | None:
@@ -63,7 +68,9 @@ class RecordingJob(Runner):
             return None
         error = str(recorder.error) if recorder.done and recorder.error is not None else None
         ended = tap.replay_ended or (recorder.done and error is None)
-        return RecordingState(Path(recorder.folder), tap.taken, recorder.frames, self._replay_at(), ended, error)
+        return RecordingState(
+            Path(recorder.folder), tap.taken, recorder.frames, self._replay_at(), ended, error
+        )
 
     def stop_recording(self, current: Session) -> Session:
         """End the recording and save it with the `current` session's mirrors and selection."""
@@ -74,12 +81,15 @@ class RecordingJob(Runner):
         self._unsubscribe_count()
         tap.close()
         try:
-            recorded = recorder.stop(timeout=5)     # always returns; a stuck source is named with what was saved
+            # always returns; a stuck source is named with what was saved
+            recorded = recorder.stop(timeout=5)
         finally:
             with self._lock:
                 self._running.pop(RECORD, None)
             self.recorder = self._tap = None
         recorded = replace(recorded, mirrors=current.mirrors, selection=current.selection)
         save_session(recorded)
-        self.progress(RECORD, None, Recorded(len(recorded.frames), Path(recorded.root), tap.dropped))
+        self.progress(
+            RECORD, None, Recorded(len(recorded.frames), Path(recorded.root), tap.dropped)
+        )
         return recorded

@@ -1,5 +1,6 @@
-"""The thread runner of the long jobs: one job of each kind at a time, each on a worker thread of its own, that
-can be cancelled and publishes its typed result on the bus once it is over."""
+"""The thread runner of the long jobs: one job of each kind at a time, each on a worker thread of
+its own, that can be cancelled and publishes its typed result on the bus once it is over."""
+
 from __future__ import annotations
 
 import logging
@@ -24,8 +25,9 @@ class Runner:
 
     def __init__(self, bus: EventBus):
         self.bus = bus
-        self._running: dict[str, threading.Event] = {}      # kind -> its cancel event, while it runs
-        self._threads: dict[str, threading.Thread] = {}     # kind -> its last thread
+        # kind -> its cancel event, while it runs
+        self._running: dict[str, threading.Event] = {}
+        self._threads: dict[str, threading.Thread] = {}  # kind -> its last thread
         self._lock = threading.Lock()
 
     def running(self, kind: str) -> bool:
@@ -44,10 +46,12 @@ class Runner:
         """Publish how a job stands: `result` typed, its words (wording.jobs.status) beside it."""
         self.bus.publish(JobProgress(kind, fraction, status(result), result))
 
-    def _start(self, kind: str, work: Callable[[threading.Event], object], busy: str) -> threading.Thread:
-        """Run work(cancel) on a thread of its own. Its typed result (or Refused, Failed, Cancelled) is
-        published once the job is over, so that a button enabled by it can start the next one at once; a
-        result of None publishes nothing. `busy`: the refusal while one of `kind` runs."""
+    def _start(
+        self, kind: str, work: Callable[[threading.Event], object], busy: str
+    ) -> threading.Thread:
+        """Run work(cancel) on a thread of its own. Its typed result (or Refused, Failed, Cancelled)
+        is published once the job is over, so that a button enabled by it can start the next one at
+        once; a result of None publishes nothing. `busy`: the refusal while one of `kind` runs."""
         with self._lock:
             if kind in self._running:
                 raise MirrorscanError(busy)
@@ -68,8 +72,9 @@ class Runner:
                 with self._lock:
                     self._running.pop(kind, None)
             if result is not None:
-                log.info("%s: %s", kind, say(result)[0].plain)     # once, however many tabs tell it
+                log.info("%s: %s", kind, say(result)[0].plain)  # once, however many tabs tell it
                 self.progress(kind, None, result)
+
         thread = threading.Thread(target=run, name=f"mirrorscan-{kind}", daemon=True)
         with self._lock:
             self._threads[kind] = thread
@@ -77,8 +82,8 @@ class Runner:
         return thread
 
     def stop(self, timeout: float = 10.0) -> None:
-        """Cancel every running job and wait up to `timeout` seconds in all for them to end (a job left in
-        native code when the process exits aborts it)."""
+        """Cancel every running job and wait up to `timeout` seconds in all for them to end (a job
+        left in native code when the process exits aborts it)."""
         with self._lock:
             events, threads = list(self._running.values()), list(self._threads.values())
         for event in events:

@@ -1,5 +1,6 @@
-"""The Mirrors step's clicks on the depth frame: markers (add, pick, move, delete) and outlines (corners drawn,
-closed, picked, moved, deleted)."""
+"""The Mirrors step's clicks on the depth frame: markers (add, pick, move, delete) and outlines
+(corners drawn, closed, picked, moved, deleted)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -53,23 +54,35 @@ class MirrorClicks:
         self.tab.changed()
 
     def _warn_if_off(self, mirror_id: int, k: int) -> None:
-        """A marker just added with no depth under it (on the frames a fit reads), or far off its mirror's plane
-        (a click on the object seen in the mirror, or beside the sticker), is told at once: the next fit would
-        refuse it, or show it crossed, as a proposal."""
+        """A marker just added with no depth under it (on the frames a fit reads), or far off its
+        mirror's plane (a click on the object seen in the mirror, or beside the sticker), is told at
+        once: the next fit would refuse it, or show it crossed, as a proposal."""
         mirror = self.services.editor.mirror(mirror_id)
         frames = self.services.jobs.marker_frames()
-        if frames is not None and k < len(mirror.markers) and len(marker_points(
-                self.services.snapshot.rig.intrinsics, frames, mirror.markers[k])) < MIN_MARKER_PIXELS:
+        if (
+            frames is not None
+            and k < len(mirror.markers)
+            and len(marker_points(self.services.snapshot.rig.intrinsics, frames, mirror.markers[k]))
+            < MIN_MARKER_PIXELS
+        ):
             note = no_depth_note()
-            self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} has no depth", note.plain,
-                                 "warning")
+            self.services.notify(
+                self.tab.client,
+                f"Marker {mirror.marker_name(k)} has no depth",
+                note.plain,
+                "warning",
+            )
             return
         residuals = self.services.snapshot.marker_residuals.get(mirror_id)
         if residuals is None or k >= len(residuals.grades) or residuals.grades[k] != "poor":
             return
         note = marker_off_note(mirror.name, residuals.signed_mm[k], residuals.sigma_mm[k])
-        self.services.notify(self.tab.client, f"Marker {mirror.marker_name(k)} is off the plane", note.plain,
-                             "warning")
+        self.services.notify(
+            self.tab.client,
+            f"Marker {mirror.marker_name(k)} is off the plane",
+            note.plain,
+            "warning",
+        )
 
     def _boundary_click(self, u: float, v: float) -> None:
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
@@ -85,8 +98,10 @@ class MirrorClicks:
         elif (near := nearest(mirror.boundary, (u, v))) is not None:
             state.picked_corner = near
         elif mirror.boundary:
-            raise MirrorscanError(f"{mirror.name} has a boundary: click a corner to pick and move it, or "
-                                  "Clear boundary to draw it again")
+            raise MirrorscanError(
+                f"{mirror.name} has a boundary: click a corner to pick and move it, or "
+                "Clear boundary to draw it again"
+            )
         else:
             state.drafts[mirror.id] = ((round(u, 2), round(v, 2)),)
         self.tab.changed()
@@ -109,8 +124,11 @@ class MirrorClicks:
         self.tab.changed()
 
     def _delete_corner(self) -> None:
-        self._delete_picked("picked_corner", self.services.editor.delete_vertex,
-                            "pick a corner first: in Boundary mode, click a corner of the closed boundary")
+        self._delete_picked(
+            "picked_corner",
+            self.services.editor.delete_vertex,
+            "pick a corner first: in Boundary mode, click a corner of the closed boundary",
+        )
 
     def _start_move(self) -> None:
         if self.tab.state.picked_marker is None:
@@ -119,8 +137,11 @@ class MirrorClicks:
         self.tab.changed()
 
     def _delete_marker(self) -> None:
-        self._delete_picked("picked_marker", self.services.editor.delete_marker,
-                            "pick a marker first: in Markers mode, click it")
+        self._delete_picked(
+            "picked_marker",
+            self.services.editor.delete_marker,
+            "pick a marker first: in Markers mode, click it",
+        )
 
     def _delete_picked(self, attribute: str, delete, refusal: str) -> None:
         """Delete the picked corner or marker (the tab state's `attribute`) of the selected mirror."""
@@ -132,15 +153,20 @@ class MirrorClicks:
         self.tab.changed()
 
     def _outline_buttons(self, shown: bool, closed: bool, drafted: int, picked: int | None) -> None:
-        """Boundary mode's buttons, each only where it can act: Close boundary while an outline is drawn
-        (greyed, with the corners still needed, below MIN_VERTICES), Delete the picked corner once it is closed
-        (greyed until a corner is picked), Clear boundary whenever there is something to clear."""
+        """Boundary mode's buttons, each only where it can act: Close boundary while an outline is
+        drawn (greyed, with the corners still needed, below MIN_VERTICES), Delete the picked corner
+        once it is closed (greyed until a corner is picked), Clear boundary whenever there is
+        something to clear."""
         self.close.visible, self.delete_corner.visible = shown and not closed, shown and closed
         self.clear_boundary.visible = shown
         self.close.disabled = drafted < MIN_VERTICES
-        self.close.label = ("Close boundary" if drafted >= MIN_VERTICES else
-                            f"Close boundary ({drafted} of the {MIN_VERTICES} corners it needs)")
+        self.close.label = (
+            "Close boundary"
+            if drafted >= MIN_VERTICES
+            else f"Close boundary ({drafted} of the {MIN_VERTICES} corners it needs)"
+        )
         self.delete_corner.disabled = picked is None
-        self.delete_corner.label = ("Delete the picked corner" if picked is None else
-                                    f"Delete corner {picked + 1}")
+        self.delete_corner.label = (
+            "Delete the picked corner" if picked is None else f"Delete corner {picked + 1}"
+        )
         self.clear_boundary.disabled = not (closed or drafted)

@@ -1,26 +1,34 @@
-"""The Mirrors panel: its widgets, the selected mirror, the reports of the fits and of the calibration from the
-object, undo and redo, and what the buttons offer."""
+"""The Mirrors panel: its widgets, the selected mirror, the reports of the fits and of the
+calibration from the object, undo and redo, and what the buttons offer."""
+
 from __future__ import annotations
 
 from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.base.words import listed
-from mirrorcore.io.session import MAX_MARKER_OFFSET, Session
+from mirrorcore.io.session import MAX_MARKER_OFFSET
 
 from ...context import TabContext
-from ...editor import PARTIAL, SESSION_SCOPE, SessionEditor
+from ...editor import SESSION_SCOPE, SessionEditor
 from ...events import JobProgress
 from ...jobs import AGREEMENT, REFINE, planes_key
 from ...overlays import QUALITY_COLOURS
-from ...results import AgreementReport, CalibrationRefused, CalibrationReport, Cancelled, Fit
-from ...wording import Message, joined
+from ...results import AgreementReport, CalibrationReport, Cancelled, Fit
+from ...wording import joined
 from ...wording import refinement as words
 from ...wording.jobs import say
-from ...wording.mirrors import (CLOSED_HELP, FIT_MARKERS, HELP, fit_report, greyed_out, marker_list,
-                                mirror_status, removal_question, report_markdown)
+from ...wording.mirrors import (
+    CLOSED_HELP,
+    FIT_MARKERS,
+    HELP,
+    greyed_out,
+    marker_list,
+    mirror_status,
+    report_markdown,
+)
 from .clicks import MirrorClicks
 from .fits import MirrorFits
+from .reports import MirrorReports
 
 TITLE = "Mirrors"
 NO_MIRROR = "(no mirror yet)"
@@ -28,22 +36,26 @@ CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
-class MirrorsPanel(MirrorClicks, MirrorFits):
-    """Step 1: add and select mirrors, click their boundaries and markers on the depth frame, fit their
-    planes, calibrate them from the object; undo and redo per mirror."""
+class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
+    """Step 1: add and select mirrors, click their boundaries and markers on the depth frame, fit
+    their planes, calibrate them from the object; undo and redo per mirror."""
 
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
         gui, self.tab, self.services = tab.gui, tab, tab.services
         jobs = self.services.jobs
-        self._proposal: dict[int, Fit] | None = None   # mirror id -> the fit waiting for Apply or Discard
-        self._result_note = None       # the notification of the last calibration from the object, while it holds
-        self._proposal_note = None     # ... and of the fit waiting for Apply or Discard, while it waits
-        self._ready: dict[int, Fit] = {}   # the fits applied at once beside the last proposal
-        self._flagged = ""                 # the agreement lines last warned of in a notification
+        # mirror id -> the fit waiting for Apply or Discard
+        self._proposal: dict[int, Fit] | None = None
+        # the notification of the last calibration from the object, while it holds
+        self._result_note = None
+        # ... and of the fit waiting for Apply or Discard, while it waits
+        self._proposal_note = None
+        self._ready: dict[int, Fit] = {}  # the fits applied at once beside the last proposal
+        self._flagged = ""  # the agreement lines last warned of in a notification
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
-        self.status = gui.add_markdown("")                      # the selected mirror's plane, glass and markers
+        # the selected mirror's plane, glass and markers
+        self.status = gui.add_markdown("")
         # a proposal first, its details below its own buttons: Apply stays in view at 1024x600
         self.proposal_head = gui.add_markdown("", visible=False)
         self.apply = gui.add_button("Apply the new plane(s)", color="orange", visible=False)
@@ -59,16 +71,19 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         self.refine = gui.add_button("Refine from the object")
         self.refine_cancel = gui.add_button("Cancel", visible=False)
         self.refine_progress = gui.add_progress_bar(0.0, visible=False)
-        self.greyed = gui.add_html("", visible=False)   # why the buttons above are greyed out
-        self.undo = gui.add_button("Undo", disabled=True)    # above the reports: in view at 1024x600
+        self.greyed = gui.add_html("", visible=False)  # why the buttons above are greyed out
+        # above the reports: in view at 1024x600
+        self.undo = gui.add_button("Undo", disabled=True)
         self.redo = gui.add_button("Redo", disabled=True)
         # the report of what left the planes as they are, under the buttons that made it
-        self._result_planes = planes_key(self.services.editor.session)     # the planes `result` describes
+        # the planes `result` describes
+        self._result_planes = planes_key(self.services.editor.session)
         self._result_text, self._gone = report_markdown(jobs.report(self._result_planes)), ()
         self._names = {m.id: m.name for m in self.services.editor.session.mirrors}
         self.result = gui.add_markdown(self._result_text)
-        self.agreement = gui.add_markdown("" if jobs.agreement is None else
-                                          joined(words.agreement(jobs.agreement)))
+        self.agreement = gui.add_markdown(
+            "" if jobs.agreement is None else joined(words.agreement(jobs.agreement))
+        )
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
         self.close = gui.add_button("Close boundary", visible=False)
@@ -78,10 +93,15 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         with gui.add_folder("Rename, glass, remove, clear", expand_by_default=False):
             self.name = gui.add_text("Name", "")
             self.rename = gui.add_button("Rename")
-            self.glass = gui.add_number("Glass (mm)", initial_value=0.0, min=0.0,
-                                        max=MAX_MARKER_OFFSET * 1e3, step=0.1,
-                                        hint="how far the markers stand in front of the silver (the glass they "
-                                        "are stuck on): a fit from the markers puts the plane this far behind them")
+            self.glass = gui.add_number(
+                "Glass (mm)",
+                initial_value=0.0,
+                min=0.0,
+                max=MAX_MARKER_OFFSET * 1e3,
+                step=0.1,
+                hint="how far the markers stand in front of the silver (the glass they "
+                "are stuck on): a fit from the markers puts the plane this far behind them",
+            )
             self.clear_markers = gui.add_button("Clear markers")
             self.remove = gui.add_button("Remove this mirror…", color="red")
             self.restore = gui.add_button("Undo", visible=False)
@@ -101,7 +121,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
     def proposal(self, fits: dict[int, Fit] | None) -> None:
         self._proposal = fits
         self.tab.state.proposal_for = tuple(f.mirror.name for f in fits.values()) if fits else ()
-        if self._proposal_note is not None:    # "... waits, not applied" holds no longer
+        if self._proposal_note is not None:  # "... waits, not applied" holds no longer
             self._proposal_note.remove()
             self._proposal_note = None
 
@@ -119,13 +139,15 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
                 self._warn_disagreement(event.result, event.status)
 
     def _on_calibration(self, event: JobProgress) -> None:
-        """A calibration from the object moved on or ended: the buttons, its progress, its report; its end in
-        a notification (in view whatever the panel's scroll) until the planes change again."""
+        """A calibration from the object moved on or ended: the buttons, its progress, its report;
+        its end in a notification (in view whatever the panel's scroll) until the planes change
+        again."""
         running, result = event.fraction is not None, event.result
         self.refine.disabled, self.refine_cancel.visible = running, running
         self.scene.disabled = self.undo.disabled = self.redo.disabled = running
         self.greyed.visible = self.greyed.visible and not running
-        if running:                                         # after it, refresh() says what is offered
+        # after it, refresh() says what is offered
+        if running:
             self.fit.disabled = self.fit_all.disabled = True
             self.refine_progress.value = event.percent
         self.refine_progress.visible = running
@@ -136,23 +158,38 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
                 note, kind = words.note(result), "warning" if result.not_found else "info"
             else:
                 note, kind = say(result)[0], "error"
-            self._result_note = self.services.notify(self.tab.client, "Calibration from the object", note.plain,
-                                                     kind, stay=True, logged=False)
+            self._result_note = self.services.notify(
+                self.tab.client,
+                "Calibration from the object",
+                note.plain,
+                kind,
+                stay=True,
+                logged=False,
+            )
         if not running:
-            self.refresh()                      # Undo and Redo as they now stand (a refusal changes nothing)
+            # Undo and Redo as they now stand (a refusal changes nothing)
+            self.refresh()
 
     def _cancelled(self) -> str:
-        """A calibration from the object cancelled: the planes are as they were, and so is their report."""
-        before = report_markdown(self.services.jobs.report(planes_key(self.services.editor.session)))
+        """A calibration from the object cancelled: the planes are as they were, and so is their
+        report."""
+        before = report_markdown(
+            self.services.jobs.report(planes_key(self.services.editor.session))
+        )
         return words.CANCELLED.markdown() + (f"\n\n{before}" if before else "")
 
     def _warn_disagreement(self, report: AgreementReport, lines: str) -> None:
-        """A notification naming the mirrors the agreement lines flag (they may be out of view), not again for
-        the same lines."""
+        """A notification naming the mirrors the agreement lines flag (they may be out of view), not
+        again for the same lines."""
         flagged = tuple(m.name for m in report.mirrors if words.disagrees(m.found))
         if flagged and lines != self._flagged:
-            self.services.notify(self.tab.client, "The views disagree", words.disagreement_note(flagged).plain,
-                                 "warning", logged=False)
+            self.services.notify(
+                self.tab.client,
+                "The views disagree",
+                words.disagreement_note(flagged).plain,
+                "warning",
+                logged=False,
+            )
         self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
@@ -171,14 +208,18 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         self.close.on_click(lambda _: act(self._close_boundary))
         self.delete_corner.on_click(lambda _: act(self._delete_corner))
         self.clear_boundary.on_click(lambda _: act(lambda: self._clear_boundary()))
-        self.rename.on_click(lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value)))
+        self.rename.on_click(
+            lambda _: act(lambda: editor.rename_mirror(self._id(), self.name.value))
+        )
         self.glass.on_update(lambda e: e.client is not None and act(self._set_glass))
         self.refine.on_click(lambda _: act(lambda: self._from_object(jobs.start_refine)))
         self.scene.on_click(lambda _: act(lambda: self._from_object(jobs.start_scene)))
         self.refine_cancel.on_click(lambda _: jobs.cancel(REFINE))
         self.clear_markers.on_click(lambda _: act(lambda: editor.clear_markers(self._id())))
         self.remove.on_click(lambda _: act(self._confirm_remove))
-        self.restore.on_click(lambda _: act(lambda: self._travel_mirrors(lambda: editor.undo(SESSION_SCOPE))))
+        self.restore.on_click(
+            lambda _: act(lambda: self._travel_mirrors(lambda: editor.undo(SESSION_SCOPE)))
+        )
 
     # ------------------------------------------------------------------ the selected mirror
     def _select(self, name: str) -> None:
@@ -187,13 +228,19 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         state.mirror_id = None if mirror is None else mirror.id
         state.picked_marker = state.picked_corner = None
         state.moving_marker = False
-        if state.mode in ("markers", "boundary"):     # a mode is chosen for a mirror, not carried to the next
+        # a mode is chosen for a mirror, not carried to the next
+        if state.mode in ("markers", "boundary"):
             state.mode = "inspect"
         self.tab.changed()
 
     def _set_mode(self, mode: str) -> None:
         state = self.tab.state
-        state.mode, state.picked_marker, state.picked_corner, state.moving_marker = mode, None, None, False
+        state.mode, state.picked_marker, state.picked_corner, state.moving_marker = (
+            mode,
+            None,
+            None,
+            False,
+        )
         if mode != "inspect" and state.view != "depth":
             self.tab.look("depth")
         self.tab.changed()
@@ -204,8 +251,8 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         self._set_mode("boundary")
 
     def _set_glass(self) -> None:
-        """The glass typed in for the selected mirror; refused (not 0 to 50 mm), the field shows the mirror's
-        glass again."""
+        """The glass typed in for the selected mirror; refused (not 0 to 50 mm), the field shows the
+        mirror's glass again."""
         editor = self.services.editor
         try:
             editor.set_marker_offset(self._id(), self.glass.value / 1e3)
@@ -213,85 +260,9 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
             self.glass.value = round(editor.mirror(self._id()).marker_offset * 1e3, 2)
             raise
 
-    # ------------------------------------------------------------------ reports, undo and redo
-    def _travel(self, move) -> None:
-        """Undo or redo in the selected mirror's scope, or in the session's when that holds the newer step
-        (SessionEditor.travel_scope); undo while an outline is drawn takes its last corner back."""
-        editor, state = self.services.editor, self.tab.state
-        draft = state.drafts.get(state.mirror_id)
-        if move == editor.undo and draft:
-            if len(draft) > 1:
-                state.drafts[state.mirror_id] = draft[:-1]
-            else:
-                del state.drafts[state.mirror_id]
-            self.tab.changed()
-            return
-        before = planes_key(editor.session)
-        label = move(editor.travel_scope(state.mirror_id, redo=move == editor.redo))
-        state.picked_marker = state.picked_corner = None
-        self._report(self._report_after_travel(before, planes_key(editor.session), label,
-                                               move == editor.undo))
-        self._check_agreement()                    # the views' agreement with the planes now
-        self.tab.changed()
-
-    def _report(self, text: str, gone: tuple[str, ...] = ()) -> None:
-        """Show a report (Markdown) for the planes as they are now, and the mirrors it names that were removed
-        since; the notification of the last calibration from the object goes (one told after it would stack
-        under it)."""
-        self._result_planes, self._result_text, self._gone = planes_key(self.services.editor.session), text, gone
-        self.result.content = text + (f"\n\n*{listed(gone)} {'was' if len(gone) == 1 else 'were'} removed "
-                                      "since.*" if gone else "")
-        if self._result_note is not None:
-            self._result_note.remove()
-            self._result_note = None
-
-    def _follow_planes(self, session: Session) -> None:
-        """The planes changed other than by this panel: the report of the calibration or fit that left them
-        so, else the report shown while it still describes every plane (mirrors only added without a plane,
-        or removed), naming those removed, else none."""
-        key = planes_key(session)
-        known = self.services.jobs.report(key)
-        if known is not None:
-            self._report(report_markdown(known))
-            return
-        before, now = dict(self._result_planes), dict(key)
-        if any(before[i] != now[i] for i in before.keys() & now.keys()) or \
-                any(now[i] is not None for i in now.keys() - before.keys()) or not self._result_text:
-            self._report("")
-            return
-        gone = tuple(self._names.get(i, f"mirror {i}") for i in before.keys() - now.keys())
-        self._report(self._result_text, self._gone + gone)
-
-    def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
-        """After an undo or redo (of the step `label`): the report of the calibration whose planes are back,
-        or what was undone (the step's label when no calibration changed these planes, or only a part of the
-        step was taken back), then the report of the markers fit whose planes are back; nothing when the
-        planes stayed."""
-        jobs, verb = self.services.jobs, "Undone" if undone else "Redone"
-        if after in jobs.refinements:
-            return report_markdown(jobs.refinements[after])
-        if before == after:
-            return ""
-        prior = jobs.refinements.get(before)
-        step = (Message(f"{verb}: {label}.") if PARTIAL in label or prior is None or not prior.changed else
-                words.undone(prior, verb))
-        fit = jobs.fits.get(after)
-        return joined([step, *(fit_report(fit) if fit else [])])
-
-    def _confirm_remove(self) -> None:
-        mirror = self._mirror()
-        self.tab.ask(f"Remove {mirror.name}?", removal_question(mirror), f"Remove {mirror.name}",
-                     lambda: self._travel_mirrors(lambda: self.services.editor.remove_mirror(mirror.id)),
-                     "Keep it")
-
-    def _travel_mirrors(self, change: Callable[[], object]) -> None:
-        """A mirror removed, or brought back (its Undo): then how the views agree."""
-        change()
-        self._check_agreement()
-
     def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
-        """Start a calibration from the object (Jobs.start_refine or start_scene), but not over a proposal: it
-        would refine the planes the proposal replaces."""
+        """Start a calibration from the object (Jobs.start_refine or start_scene), but not over a
+        proposal: it would refine the planes the proposal replaces."""
         if self.proposal is not None:
             raise MirrorscanError("a fit from the markers waits: apply or discard it first")
         start(self.services.editor)
@@ -302,7 +273,8 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
 
     # ------------------------------------------------------------------ what the panel shows
     def refresh(self) -> None:
-        """Follow the session and the tab's state: the mirror list, the mode, the buttons, the markers."""
+        """Follow the session and the tab's state: the mirror list, the mode, the buttons, the
+        markers."""
         session, state, editor = self.services.editor.session, self.tab.state, self.services.editor
         jobs = self.services.jobs
         names = tuple(m.name for m in session.mirrors) or (NO_MIRROR,)
@@ -315,10 +287,12 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         if selected:
             self.glass.value = round(selected.marker_offset * 1e3, 2)
         from_object = selected is not None and jobs.from_object(selected.id, selected.plane)
-        self.status.content = mirror_status(selected, from_object,
-                                            selected is not None and editor.glass_unused(selected.id))
-        if planes_key(session) != self._result_planes:       # the planes changed otherwise (calibrate in a
-            self._follow_planes(session)                      # terminal, a mirror added or removed)
+        self.status.content = mirror_status(
+            selected, from_object, selected is not None and editor.glass_unused(selected.id)
+        )
+        # the planes changed otherwise (calibrate in a
+        if planes_key(session) != self._result_planes:
+            self._follow_planes(session)  # terminal, a mirror added or removed)
         self._names = {m.id: m.name for m in session.mirrors}
         refining = jobs.running(REFINE)
         self.refine.disabled = refining or not any(m.plane is not None for m in session.mirrors)
@@ -330,47 +304,74 @@ class MirrorsPanel(MirrorClicks, MirrorFits):
         has = selected is not None
         for button in (self.rename, self.remove):
             button.disabled = not has
-        # the fits only where they can fit, and not while a refinement runs (it applies what it computed on
+        # the fits only where they can fit, and not while a refinement runs (it applies what it
+        # computed on
         # the planes it started from)
         self.fit.disabled = refining or not has or len(selected.markers) < FIT_MARKERS
-        self.fit_all.disabled = refining or not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors)
+        self.fit_all.disabled = refining or not any(
+            len(m.markers) >= FIT_MARKERS for m in session.mirrors
+        )
         self.clear_markers.disabled = not has or not selected.markers
         self._mode_help(selected)
         scope = state.mirror_id or SESSION_SCOPE
         draft = state.drafts.get(scope)
-        self._label(self.undo, "Undo", f"corner {len(draft)} of the outline" if draft else
-                    editor.undo_label(editor.travel_scope(state.mirror_id)))
-        self._label(self.redo, "Redo", editor.redo_label(editor.travel_scope(state.mirror_id, redo=True)))
-        if refining:                  # what a refinement applies is computed on the planes as they were
+        self._label(
+            self.undo,
+            "Undo",
+            f"corner {len(draft)} of the outline"
+            if draft
+            else editor.undo_label(editor.travel_scope(state.mirror_id)),
+        )
+        self._label(
+            self.redo, "Redo", editor.redo_label(editor.travel_scope(state.mirror_id, redo=True))
+        )
+        # what a refinement applies is computed on the planes as they were
+        if refining:
             self.undo.disabled = self.redo.disabled = True
-        elsewhere = () if not self.undo.disabled else tuple(
-            m.name for m in session.mirrors if m.id != scope and editor.undo_label(m.id))
-        why = "" if refining or self.proposal is not None else greyed_out(session, selected, refused, elsewhere)
+        elsewhere = (
+            ()
+            if not self.undo.disabled
+            else tuple(m.name for m in session.mirrors if m.id != scope and editor.undo_label(m.id))
+        )
+        why = (
+            ""
+            if refining or self.proposal is not None
+            else greyed_out(session, selected, refused, elsewhere)
+        )
         self.greyed.content, self.greyed.visible = why, bool(why)
         restore = editor.undo_label(SESSION_SCOPE)
         self.restore.visible = bool(restore and restore.startswith("remove "))
-        if self.restore.visible:           # named apart from the main Undo, which offers it too (travel_scope)
+        # named apart from the main Undo, which offers it too (travel_scope)
+        if self.restore.visible:
             self.restore.label = f"Bring back {restore.removeprefix('remove ')}"
         self._drop_stale_proposal()
         self._show_proposal()
-        residuals = None if selected is None else self.services.snapshot.marker_residuals.get(selected.id)
+        residuals = (
+            None if selected is None else self.services.snapshot.marker_residuals.get(selected.id)
+        )
         self.markers.content = marker_list(selected, residuals, state.picked_marker, GRADE_CSS)
 
     def _mode_help(self, selected) -> None:
-        """The click mode's help and its buttons (markers: move, delete; boundary: close, delete, clear)."""
+        """The click mode's help and its buttons (markers: move, delete; boundary: close, delete,
+        clear)."""
         state = self.tab.state
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         name = selected.name if selected is not None else "the mirror"
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]).format(name=name) + (
-            " Now click where it goes." if state.moving_marker else "")
+            " Now click where it goes." if state.moving_marker else ""
+        )
         has = selected is not None
         picked = state.picked_marker is not None and has
         self.move.visible = self.delete.visible = state.mode == "markers"
         self.move.disabled = self.delete.disabled = not picked
         which = f"marker {selected.id}.{state.picked_marker + 1}" if picked else "the picked marker"
         self.move.label, self.delete.label = f"Move {which}", f"Delete {which}"
-        self._outline_buttons(state.mode == "boundary" and has, has and bool(selected.boundary),
-                              len(state.drafts.get(state.mirror_id, ())), state.picked_corner)
+        self._outline_buttons(
+            state.mode == "boundary" and has,
+            has and bool(selected.boundary),
+            len(state.drafts.get(state.mirror_id, ())),
+            state.picked_corner,
+        )
 
     @staticmethod
     def _label(button, verb: str, what: str | None) -> None:
