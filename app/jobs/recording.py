@@ -1,4 +1,4 @@
-"""The recording job: the live frames into a new session folder, saved with the session's mirrors."""
+"""The recording job: the live frames into a new session folder, saved with the mirrors."""
 
 from __future__ import annotations
 

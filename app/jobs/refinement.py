@@ -37,7 +37,7 @@ BUSY = "a refinement is already running"
 
 
 def planes_key(session: Session) -> tuple:
-    """What a calibration leaves: each mirror's id and plane (undo and redo find its report by it)."""
+    """What a calibration leaves: each mirror's id and plane (undo and redo find reports by it)."""
     return tuple((m.id, m.plane) for m in session.mirrors)
 
 

@@ -117,8 +117,7 @@ class DensePanel:
 
     def _source_changed(self, event: LoopChanged) -> None:
         """A dense result is hidden while another source than the one whose frames it was made of
-        plays (a helper saw one session's result over another's replay), said under Run, and shown
-        again when its source plays again."""
+        plays, said under Run, and shown again when its source plays again."""
         result = self.services.jobs.dense_result
         if result is None:
             return
@@ -192,8 +191,7 @@ class DensePanel:
 
     def _show_box(self) -> None:
         """Draw the box the fields hold now (one callback at a time: the last one draws both fields'
-        last values), once Dense is used (show_box): a technician who scans people only had a 'dense
-        box' around every frame."""
+        last values), once Dense is used (show_box): not over the scene of one who never uses it."""
         with self._box_lock:
             low, high = self._box() if self.show_box.value else (None, None)
             self.tab.scene.show_box(low, high)

@@ -92,8 +92,8 @@ class LivePanel:
         self.view = gui.add_button_group("View", tuple(VIEWS))
         self.legend = gui.add_html("")
         with gui.add_folder("Playback and view", expand_by_default=False):
-            # the heat map first: its legend, above the folder, pushed its box below the fold at
-            # 1024x600 (a helper)
+            # the heat map first: its legend, above the folder, would push its box below the fold
+            # at 1024x600
             self.heat = gui.add_checkbox(
                 "Heat map",
                 initial_value=False,
@@ -107,7 +107,6 @@ class LivePanel:
                 "Heat map of",
                 (EVERY_MIRROR,),
                 initial_value=EVERY_MIRROR,
-                # which strip was whose could not be told (a helper)
                 visible=False,
             )
             self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
@@ -199,8 +198,8 @@ class LivePanel:
 
     def _name(self, event: SessionChanged | None = None) -> None:
         """The header's title: the source, and the session being edited where it is saved and is not
-        the one that plays (after Record's replay and Back to, a helper took the edits of the
-        recording's session for those of the session served, which the header named)."""
+        the one that plays (after Record's replay and Back to, the edits go to the recording's
+        session)."""
         services = self.tab.services
         self.title.content = markdown(
             source_title(
@@ -298,8 +297,8 @@ class LivePanel:
 
     def _show_heat(self, ticked: bool = False) -> None:
         """The heat map on or off as the box says; `ticked` by the technician while the depth frame
-        is in view, the view goes to the 3D scene, where it is drawn (it had changed nothing on the
-        screen: a helper; a reload taking up a heat map keeps its view)."""
+        is in view, the view goes to the 3D scene, where it is drawn (a reload taking up a heat map
+        keeps its view)."""
         on = bool(self.heat.value)
         if on and ticked and self.tab.state.view == "depth":
             self.tab.look("3d")

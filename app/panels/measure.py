@@ -35,7 +35,6 @@ TRACK_HZ = 2.0
 MIN_FITTING = 0.5
 # ... and so does one whose RMSE over every point reaches this share of the threshold
 MAX_SPREAD = 0.75
-# (it had stayed as if new: a helper)
 CANCELLED_NOTE = "Cancelled: the report below is the fit before."
 
 
@@ -50,13 +49,15 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
     warning = []
     if share < MIN_FITTING:
         warning = [
-            f"⚠ only {share:.0%} of the points lie within {band} of the {shape}: the object may not be a "
+            f"⚠ only {share:.0%} of the points lie within {band} of the {shape}: the object may "
+            "not be a "
             f"{shape}, or the selection holds more than the object.",
             "",
         ]
     elif e.rmse >= MAX_SPREAD * fit.threshold:
         warning = [
-            f"⚠ the points scatter {e.rmse * 1e3:.0f} mm RMS about the {shape}, as far as the {band} band "
+            f"⚠ the points scatter {e.rmse * 1e3:.0f} mm RMS about the {shape}, as far as the "
+            f"{band} band "
             f"allows: the object may not be a {shape}.",
             "",
         ]
@@ -67,7 +68,8 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
         "",
         "| view (errors in mm) | points | RMSE | mean error | mean \\|error\\| |",
         "|---|---|---|---|---|",
-        f"| all | {e.points:,} | {e.rmse * 1e3:.2f} | {e.mean_error * 1e3:+.2f} | {e.mean_abs_error * 1e3:.2f} |",
+        f"| all | {e.points:,} | {e.rmse * 1e3:.2f} | {e.mean_error * 1e3:+.2f} | "
+        f"{e.mean_abs_error * 1e3:.2f} |",
     ]
     # the unit in the corner: narrow columns keep a number on one line; the views' names are wider
     # than it
@@ -134,7 +136,7 @@ class MeasurePanel:
         progress: Callable[[float], None] | None = None,
         cancel: threading.Event | None = None,
     ) -> ShapeFit:
-        """The shape chosen, fitted to the frame's cloud (fitting.fit_sphere's progress and cancel)."""
+        """The shape chosen, fitted to the frame's cloud (with fit_sphere's progress and cancel)."""
         cloud = frame.cloud
         if len(cloud) < 10:
             raise MirrorscanError(f"the current cloud has {len(cloud)} points; a fit needs more")
@@ -162,7 +164,7 @@ class MeasurePanel:
     def start_fit(self) -> threading.Thread:
         """The button: fit_current on a thread, the button disabled, a progress bar and Cancel shown
         until it ends (a sphere fitted to a walking person's cloud draws RANSAC's 20,000 samples:
-        1.8 s, 17 s on a helper's busy laptop, with the tab's panel frozen and no progress before).
+        seconds on a busy machine, during which the tab's panel stays usable).
         Cancelled, the last fit's report stays under CANCELLED_NOTE; failed, the report says so."""
         if self._cancel is not None:
             raise MirrorscanError("a fit runs: wait for it, or cancel it")
@@ -231,8 +233,8 @@ class MeasurePanel:
             self._busy.release()
 
     def _show(self, frame: "LiveFrame", result: ShapeFit) -> None:
-        """The report of a fit of the frame's cloud, first what the cloud leaves out (a helper's fit
-        before any plane read a sphere of 166 points, radius 124.7 mm, without a word), and the fit
+        """The report of a fit of the frame's cloud, first what the cloud leaves out (a fit before
+        any plane measures the object seen directly alone), and the fit
         in the plot."""
         self.report.content = markdown(
             _left_out(frame) + fit_report(result, source_names(frame.snapshot.session))
@@ -257,6 +259,6 @@ class MeasurePanel:
 
 
 def _left_out(frame: "LiveFrame | None") -> str:
-    """A report's first paragraph: what the frame's cloud leaves out (wording.jobs.left_out), or ''."""
+    """A report's first paragraph: what the frame's cloud leaves out (wording.left_out), or ''."""
     missing = "" if frame is None else left_out(unplaned(frame.snapshot.session))
     return f"⚠ {missing}.\n\n" if missing else ""

@@ -194,7 +194,8 @@ class ObjectPanel:
         self.confirm = self.tab.ask(
             "Use this background?",
             f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> "
-            f"{left:,} pixels): was the object in view while it was captured? Take it out and capture again. (If the "
+            f"{left:,} pixels): was the object in view while it was captured? Take it out and "
+            "capture again. (If the "
             "scene itself changed, the camera moved say, use it.)",
             "Use it anyway",
             self._use_captured,

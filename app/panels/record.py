@@ -24,11 +24,12 @@ from ..wording.jobs import recording, say, status
 TITLE = "Record"
 CANCELLING = " · **cancelling…**"  # after the batch's status from Cancel until it stops
 BATCH_IDLE = (
-    "One PLY per frame and a manifest in the session's exports/ folder; a second run goes on where the first \
-stopped."
+    "One PLY per frame and a manifest in the session's exports/ folder; a second run goes on where "
+    "the first stopped."
 )
 IDLE = (
-    "Records the frames as they come into a new session folder (from a recording that plays: up to its last "
+    "Records the frames as they come into a new session folder (from a recording that plays: up to "
+    "its last "
     "frame, none twice)."
 )
 # the batch's temporal smoothing unless changed: on the walking figure the still body 42 % less
@@ -38,10 +39,10 @@ BATCH_TEMPORAL = 2
 
 def batch_label(session: Session) -> str:
     """The batch button names the session whose frames it reconstructs (after a replay and Back to,
-    that is the recording's, not the session that plays: a helper expected the other's 30 frames).
-    """
+    that is the recording's, not the session that plays)."""
     count = len(session.frames)
-    return f"Reconstruct every frame of session {Path(session.root).name} ({count} frame{'s' if count != 1 else ''})"
+    frames = f"{count} frame{'s' if count != 1 else ''}"
+    return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
 
 
 class RecordPanel:
@@ -63,7 +64,8 @@ class RecordPanel:
                 max=5,
                 step=1,
                 initial_value=BATCH_TEMPORAL,
-                hint="each pixel averaged with the same pixel of this many frames before and after, where the "
+                hint="each pixel averaged with the same pixel of this many frames before and "
+                "after, where the "
                 "scene is still there (0: none)",
             )
 
@@ -90,9 +92,9 @@ class RecordPanel:
         self._on_job(
             JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, "", None)
         )
-        # a tab opened while one runs shows it and its settings (a
+        # a tab opened while one runs shows it and its settings
         if self.services.jobs.running(BATCH):
-            self._show_batch()  # helper's read 'Method raw' under a TSDF batch)
+            self._show_batch()
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""

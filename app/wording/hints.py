@@ -1,4 +1,4 @@
-"""The status header's 'Start here' line: what to do next, from where the session and the tab stand."""
+"""The status header's 'Start here' line: what to do next, from where the session and tab stand."""
 
 from __future__ import annotations
 
@@ -47,24 +47,28 @@ def start_hint(
         return "Waiting for the first frame from the source…"
     if recording:
         return (
-            "Recording (see above): **Record › Stop recording** saves it, with the calibration as it then "
+            "Recording (see above): **Record › Stop recording** saves it, with the calibration as "
+            "it then "
             "stands."
         )
     if not session.mirrors:
         return "Start here: **Mirrors › Add a mirror**, then look at the depth frame."
     if calibrating is not None:
         return (
-            f"A calibration from the object runs ({calibrating:.0%} done): its progress, **Cancel** and then its "
+            f"A calibration from the object runs ({calibrating:.0%} done): its progress, "
+            "**Cancel** and then its "
             "report are under *Mirrors*."
         )
     if batch is not None:
         return (
-            f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are under "
+            f"A batch reconstructs every frame ({batch:.0%} done): its progress and **Cancel** are "
+            "under "
             "*Record › Reconstruct every frame (batch)*."
         )
     if state.proposal_for:
         return (
-            f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or **Discard** "
+            f"A new plane for {listed(state.proposal_for)} waits: **Mirrors › Apply** it or "
+            "**Discard** "
             "it."
         )
     look = "" if state.view == "depth" else "Look at the **Depth frame** (View, below); "
@@ -74,7 +78,8 @@ def start_hint(
         # kept while another mirror was selected
         if drawn := len(state.drafts.get(mirror.id, ())):
             more = "the next" if drawn < 3 else "the next, or the first to close"
-            return f"{look}{mirror.name}: {drawn} corner{'s' if drawn > 1 else ''} drawn; {choose}click {more}."
+            corners = f"{drawn} corner{'s' if drawn > 1 else ''}"
+            return f"{look}{mirror.name}: {corners} drawn; {choose}click {more}."
         return f"{look}{mirror.name}: {choose}click its corners; click the first corner to close."
     # a plane from the object or a region needs none
     if len(mirror.markers) < 3 and mirror.plane is None:
@@ -100,7 +105,8 @@ def start_hint(
     if todo:
         if refused.get(todo[0].id) == "scene":
             return (
-                f"Now {todo[0].name}: not found from the object (why: under Mirrors); or select it and click "
+                f"Now {todo[0].name}: not found from the object (why: under Mirrors); or select it "
+                "and click "
                 "3 or more markers on it."
             )
         if not todo[0].boundary:  # its Find is not offered before it has an outline
@@ -114,19 +120,23 @@ def start_hint(
     if glass_unused:
         one = len(glass_unused) == 1
         return (
-            f"The glass typed in for {listed(glass_unused)} is not in {'its plane' if one else 'their planes'} "
-            f"yet: **Mirrors › {'Fit plane' if one else 'Fit all planes'}** moves it behind the glass."
+            f"The glass typed in for {listed(glass_unused)} is not in "
+            f"{'its plane' if one else 'their planes'} "
+            f"yet: **Mirrors › {'Fit plane' if one else 'Fit all planes'}** moves it behind the "
+            "glass."
         )
     if not has_background:
         return "Mirrors done. **Object**: capture the background with the object out of view."
     if playback == "paused":
         return (
-            "Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, under *Playback "
+            "Paused: the cloud is one frame's (**Step**, or the **Frame** slider of a recording, "
+            "under *Playback "
             "and view*); untick **Pause** to play on."
         )
     if playback == "recording":
         return (
-            "A recording plays with this calibration: **Refine from the object** works on it; **Back to "
+            "A recording plays with this calibration: **Refine from the object** works on it; "
+            "**Back to "
             f"{start}** (above) when done."
         )
     if disagreeing:
@@ -137,17 +147,23 @@ def start_hint(
         )
     if no_glass and "refine" in refused.values():
         return (
-            f"Ready. No glass on {listed(no_glass)}, and this object could not measure it: type it under "
+            f"Ready. No glass on {listed(no_glass)}, and this object could not measure it: type it "
+            "under "
             "**Mirrors › Rename, glass, remove, clear**."
         )
     if no_glass:
         return (
-            f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}: **Mirrors › Refine from "
+            f"Ready: the merged cloud is live. No glass set on {listed(no_glass)}: **Mirrors › "
+            "Refine from "
             "the object** measures it."
         )
     if from_markers:
         return (
-            f"Ready. The planes of {listed(from_markers)} come from markers alone: **Mirrors › Refine from "
+            f"Ready. The planes of {listed(from_markers)} come from markers alone: **Mirrors › "
+            "Refine from "
             "the object** makes them more accurate."
         )
-    return "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, **Session** exports."
+    return (
+        "Ready: the merged cloud is live. **Measure** fits a shape, **Record** records, "
+        "**Session** exports."
+    )

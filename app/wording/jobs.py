@@ -44,7 +44,8 @@ def left_out(names: tuple[str, ...]) -> str:
 def dense(result: DenseResult) -> Message:
     """A dense reconstruction done: what it made; a warning of the mirrors left out."""
     if result.faces is None:
-        made = f"{result.method}: {len(result.vertices):,} surface voxels of {result.voxel * 1e3:.1f} mm"
+        voxel = f"{result.voxel * 1e3:.1f} mm"
+        made = f"{result.method}: {len(result.vertices):,} surface voxels of {voxel}"
     else:
         made = f"tsdf: mesh of {len(result.vertices):,} vertices, {len(result.faces):,} faces"
     missing = left_out(result.left_out)

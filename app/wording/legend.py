@@ -28,7 +28,7 @@ LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"
 
 
 def source_names(session: Session) -> Callable[[int], str]:
-    """A source label's name with the session's mirror names: 'direct', 'left', 'left then right'."""
+    """A source label's name with the session's mirror names: 'direct', 'left then right'."""
     names = [m.name for m in session.mirrors]
     return lambda label: source_name(label, names)
 
@@ -47,12 +47,9 @@ def legend_html(
         for j, count in counts.items()
     )
     if unplaned:
-        # the object in front of
         items += (
             f"<br>{escape(listed(unplaned))}: no plane yet, so all inside "
-            # them too: a helper
             f"{'its outline' if len(unplaned) == 1 else 'their outlines'} is left out "
-            # took "direct 0" for none
             "(the object in front too)"
         )
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
@@ -68,14 +65,11 @@ HEAT_KEY = (
 
 
 # what the map can show, as measured on the glass sphere (seed 1, ten frames: README) and on a box
-# between three
-# mirrors (seed 2, a helper), and what measures the glass
+# between three mirrors (seed 2), and what measures the glass
 HEAT_READS = (
-    "A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm read 0.2 mm "
-    # a helper found "(the sphere: 0.5° read 6 mm)" hard to read, and a scale:
-    "on the sphere)"
+    "A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm read "
+    "0.2 mm on the sphere)"
 )
-# its figure's 1.6° read 4 mm
 HEAT_GLASS = ": <b>Refine from the object</b> measures it."
 HEAT_REFINED = "; these planes come from the object, where the glass plays no part."
 # a view with fewer of its points compared than this is told where it is checked
@@ -83,7 +77,7 @@ HEAT_FEW = 0.05
 FEW_COMPARED = (
     " (it sees little of what the camera sees: its agreement under Mirrors compares it with every "
     "view)"
-)  # an arc's middle mirror: "under 1%", with no advice (a helper)
+)
 FEW_COMPARED_MULTI = (
     " (seen through several mirrors: the agreement lines of those mirrors under Mirrors check it)"
 )
@@ -102,18 +96,19 @@ def heat_legend_html(
     frames (figures as in HeatChanged; empty until the first map arrives), against the camera's
     surface (the agreement lines beside it compare every view); then what the map can show
     (HEAT_READS) and what measures the glass: the refinement, while `no_glass` (a plane from markers
-    has none set: after the glass was typed in, it still said so: a helper), or (`refined`: every
-    plane came from it) that it did; without `planes` (no mirror has one) what to do first (it had
-    said "computing the heat map…" for good: a helper)."""
+    has none set), or (`refined`: every plane came from it) that it did; without `planes` (no
+    mirror has one) what to do first."""
     if not planes:
         return (
-            f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the points seen in a '
-            "mirror with the camera's surface. Fit the planes from markers, or find them from the object "
+            f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the '
+            "points seen in a "
+            "mirror with the camera's surface. Fit the planes from markers, or find them from the "
+            "object "
             "(Mirrors).</div>"
         )
     key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
 
-    # a view through several mirrors has no agreement line (a helper looked for one)
+    # a view through several mirrors has no agreement line of its own
     def few(j: int) -> str:
         return FEW_COMPARED_MULTI if j >= FIRST_MULTI_LABEL else FEW_COMPARED
 
@@ -135,15 +130,15 @@ def heat_legend_html(
 
 
 def _share(share: float) -> str:
-    """A share of a view's points, as a percentage: 'under 1%' for a few ('over 0% of its points'
-    read as nothing behind the median: a helper)."""
+    """A share of a view's points, as a percentage: 'under 1%' for a few (not '0%')."""
     return f"{share:.0%}" if share >= 0.005 else "under 1%"
 
 
 def _swatch(colour, text: str) -> str:
     r, g, b = (int(c) for c in colour)
     return (
-        f'<span style="white-space:nowrap;margin-right:0.8em"><span style="display:inline-block;width:0.8em;'
+        '<span style="white-space:nowrap;margin-right:0.8em"><span '
+        'style="display:inline-block;width:0.8em;'
         f"height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:50%;"
         f'border:1px solid #999"></span>{text}</span>'
     )

@@ -15,12 +15,15 @@ from . import Message, joined, refinement
 
 HELP = {
     "inspect": "**Inspect** mode: a click on the depth frame reads the pixel.",
-    "markers": "**Markers** mode: click a marker's centre on **{name}** to add it; click an existing one to pick it.",
-    "boundary": "**Boundary** mode: click the corners of **{name}** in order; click the first again to close.",
+    "markers": "**Markers** mode: click a marker's centre on **{name}** to add it; click an "
+    "existing one to pick it.",
+    "boundary": "**Boundary** mode: click the corners of **{name}** in order; click the first "
+    "again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
 CLOSED_HELP = (
-    "**Boundary** mode: the outline of **{name}** is closed: click a corner to pick it, click again to "
+    "**Boundary** mode: the outline of **{name}** is closed: click a corner to pick it, click "
+    "again to "
     "move it, or *Clear boundary* to draw it again."
 )
 NO_GLASS_NOTE = Message(
@@ -31,7 +34,8 @@ NO_GLASS_NOTE = Message(
     ),
 )
 PROPOSAL_HEAD = (
-    "**Proposal, not applied**: look at it below{crossed}, then apply or discard it (the calibration "
+    "**Proposal, not applied**: look at it below{crossed}, then apply or discard it (the "
+    "calibration "
     "from the object waits for that)."
 )
 CROSSED = " and at the crossed markers"
@@ -51,7 +55,8 @@ def concerns(fit: Fit) -> list[str]:
     said = []
     if review.tilt_deg > MAX_TILT_DEG or review.shift_mm > MAX_SHIFT_MM:
         said.append(
-            f"it turns the plane by {review.tilt_deg:.1f}° and moves it {review.shift_mm:.0f} mm (more "
+            f"it turns the plane by {review.tilt_deg:.1f}° and moves it {review.shift_mm:.0f} mm "
+            "(more "
             f"than {MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)"
         )
     if review.poor and markers is not None:
@@ -104,7 +109,8 @@ def fit_line(fit: Fit, confirmed: bool = False) -> Message:
         head += " (applied on confirmation)"
     if fit.review.poor:
         head += (
-            f"; ⚠ marker(s) {', '.join(m.marker_names[i] for i in fit.review.poor)} lie off it: delete "
+            f"; ⚠ marker(s) {', '.join(m.marker_names[i] for i in fit.review.poor)} lie off it: "
+            "delete "
             "them and fit again"
         )
     details += [f"⚠ {concern}" for concern in concerns(fit)]
@@ -153,7 +159,8 @@ def fit_note(
         heads.append(
             f"Applied: {listed(f.mirror.name for f in applied)}"
             + (
-                f"; ⚠ {listed(f.mirror.name for f in poor)}: markers off the plane, delete the crossed "
+                f"; ⚠ {listed(f.mirror.name for f in poor)}: markers off the plane, delete the "
+                "crossed "
                 "ones and fit again"
                 if poor
                 else ""
@@ -167,7 +174,8 @@ def fit_note(
             details.append("Glass 0 mm: Refine from the object measures it.")
         details += [
             f"⚠ {f.mirror.name}: the same markers as before, and marker(s) "
-            f"{', '.join(f.mirror.marker_names[i] for i in f.review.poor)} lie off it beyond the depth "
+            f"{', '.join(f.mirror.marker_names[i] for i in f.review.poor)} lie off it beyond the "
+            "depth "
             "noise: delete them (crossed on the depth frame) and fit again."
             for f in poor
         ]
@@ -205,7 +213,8 @@ def mirror_status(
     )
     if mirror.marker_offset_std is not None:
         glass = (
-            f"glass {mirror.marker_offset * 1e3:.1f} ± {mirror.marker_offset_std * 1e3:.1f} mm measured "
+            f"glass {mirror.marker_offset * 1e3:.1f} ± {mirror.marker_offset_std * 1e3:.1f} mm "
+            "measured "
             "(type it in if you know it)"
         )
     elif mirror.glass_typed:
@@ -227,7 +236,7 @@ def mirror_status(
 
 
 def removal_question(mirror: SessionMirror) -> str:
-    """What removing a mirror takes out of the session, as much as it has, and how to bring it back."""
+    """What removing a mirror takes out of the session, as much as it has, and how to undo it."""
     count = len(mirror.markers)
     has = (
         ([f"{count} marker{'s' if count != 1 else ''}"] if count else [])
@@ -236,12 +245,14 @@ def removal_question(mirror: SessionMirror) -> str:
     )
     what = f"{mirror.name} and its {listed(has)} leave" if has else f"{mirror.name} leaves"
     shows = (
-        " What it shows then counts as seen directly: take the mirror out of the camera's view too, or what "
+        " What it shows then counts as seen directly: take the mirror out of the camera's view "
+        "too, or what "
         "is seen in it stands in the cloud as an object of its own."
         if mirror.boundary
         else ""
     )
-    return f"{what} the session.{shows} *Undo*, or *Bring back* below the Remove button, brings it back."
+    back = "*Undo*, or *Bring back* below the Remove button, brings it back."
+    return f"{what} the session.{shows} {back}"
 
 
 def greyed_out(
@@ -305,14 +316,16 @@ def marker_off_note(mirror: str, signed_mm: float, sigma_mm: float) -> Message:
         else "off the glass (on the object seen in it?)"
     )
     return Message(
-        f"{abs(signed_mm):.0f} mm ({abs(signed_mm) / sigma_mm:.0f}σ) from {mirror}'s plane: {where}. "
+        f"{abs(signed_mm):.0f} mm ({abs(signed_mm) / sigma_mm:.0f}σ) from {mirror}'s plane: "
+        f"{where}. "
         "Undo takes it back; a fit would ask first."
     )
 
 
 def _dot(grade: str, colours: dict[str, str]) -> str:
     return (
-        f'<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 0.25em;'
+        '<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 '
+        "0.25em;"
         f'background:{colours[grade]}"></span>'
     )
 

@@ -84,7 +84,10 @@ def headline(report: CalibrationReport) -> Message:
         head = f"Planes found{sphere} (no markers): check the agreement below. Undo takes them back"
         if report.not_found:
             names = listed(m.name for m in report.not_found)
-            head = f"Planes found{sphere}; ⚠ {names} not found (why below). Undo takes the planes found back"
+            head = (
+                f"Planes found{sphere}; ⚠ {names} not found (why below). "
+                "Undo takes the planes found back"
+            )
             found = listed(r.name for r in report.mirrors)
             details = (
                 used,
@@ -100,7 +103,8 @@ def headline(report: CalibrationReport) -> Message:
         details.append(
             f"Type it in under {GLASS_WHERE}. The glass is measured on these planes, which "
             f"{METHOD_BIAS['surfaces'].words.removeprefix('the method ')}: an ordinary mirror's is "
-            "3 to 6 mm. Typed in, the markers fit uses it; a refinement keeps it, and its planes do "
+            "3 to 6 mm. Typed in, the markers fit uses it; a refinement keeps it, and its planes "
+            "do "
             "not depend on it."
         )
     return Message(
@@ -138,10 +142,12 @@ def mirror_line(r: MirrorRefinement, search: bool, saved: bool = True) -> Messag
             if r.agreements == r.camera_agreements
             else f"the camera and the mirrors that fix it, {r.camera_agreements:,} with the camera"
         )
-        how = f"{METHOD_BIAS['surfaces'].reported}; {r.agreements:,} points seen both ways with {whom}"
+        seen = f"{r.agreements:,} points seen both ways with {whom}"
+        how = f"{METHOD_BIAS['surfaces'].reported}; {seen}"
     else:
         how = (
-            f"from the centres of the sphere (radius {r.sphere_radius_mm:.1f} mm) seen directly and in it; "
+            f"from the centres of the sphere (radius {r.sphere_radius_mm:.1f} mm) seen directly "
+            "and in it; "
             f"{METHOD_BIAS['sphere'].words}"
         )
     details.append(
@@ -243,7 +249,8 @@ def agreement_line(line: MirrorAgreement) -> Message:
     name, found = line.name, line.found
     if not found.points or not np.isfinite(found.rms_mm):
         return Message(
-            f"{name}: nothing of the object is seen both in it and by another view: put the object in "
+            f"{name}: nothing of the object is seen both in it and by another view: put the object "
+            "in "
             "view to check it."
         )
     if found.points < MIN_AGREEMENTS:
@@ -251,7 +258,8 @@ def agreement_line(line: MirrorAgreement) -> Message:
             f"{name}: too little is seen both in it and by another view to judge its plane: move "
             "the object where both see it.",
             (
-                f"{found.points:,} points seen both ways {_over(found)}, {MIN_AGREEMENTS} needed; a person "
+                f"{found.points:,} points seen both ways {_over(found)}, {MIN_AGREEMENTS} needed; "
+                "a person "
                 "or a sphere seen from the side serves; or check its markers' grades.",
             ),
         )
@@ -263,24 +271,29 @@ def agreement_line(line: MirrorAgreement) -> Message:
             f"{name}: ⚠ disagrees with the camera: its plane may be tilted or its boundary off. "
             f"Refine from the object, or check its {check}.",
             (
-                f"Its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on average "
-                f"(good planes within {CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm); RMS {rms} "
+                f"Its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on "
+                "average "
+                f"(good planes within {CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm); RMS "
+                f"{rms} "
                 f"mm, the depth noise {noise} mm; {found.camera_points:,} points seen both ways "
                 f"{_over(found)}.",
             ),
         )
     if kind == "mirrors":
         head = (
-            f"{name}: ⚠ agrees with the camera, not with the other mirrors: a plane is off along its "
+            f"{name}: ⚠ agrees with the camera, not with the other mirrors: a plane is off along "
+            "its "
             "normal. Refine from the object."
             if found.camera_points >= MIN_AGREEMENTS
-            else f"{name}: ⚠ disagrees with the other mirrors: a plane is off. Refine from the object."
+            else f"{name}: ⚠ disagrees with the other mirrors: a plane is off. Refine from the "
+            "object."
         )
         limit = MEAN_EXPLAINS * found.noise_mm
         rms, noise = _apart(found.rms_mm, found.noise_mm)
         details = [
             f"Its points lie {found.mean_mm:+.1f} mm from theirs on average (good planes within "
-            f"{limit:.1f} mm); RMS {rms} mm against {noise} mm of depth noise; {found.points:,} points "
+            f"{limit:.1f} mm); RMS {rms} mm against {noise} mm of depth noise; {found.points:,} "
+            "points "
             f"seen both ways {_over(found)}."
         ]
         if found.camera_points >= MIN_AGREEMENTS:
@@ -299,7 +312,8 @@ def agreement_line(line: MirrorAgreement) -> Message:
     return Message(
         f"{name}: agrees with the other views as the depth noise explains.",
         (
-            f"{found.rms_mm:.1f} mm RMS {_over(found)}; the depth noise there {found.noise_mm:.1f} mm; mean "
+            f"{found.rms_mm:.1f} mm RMS {_over(found)}; the depth noise there {found.noise_mm:.1f} "
+            "mm; mean "
             f"{found.mean_mm:+.1f} mm over {found.points:,} points seen both ways.",
         ),
     )
@@ -314,6 +328,7 @@ def disagreement_note(names: tuple[str, ...]) -> Message:
     """The notification naming the mirrors the agreement lines flag."""
     views = "its view disagrees" if len(names) == 1 else "their views disagree"
     return Message(
-        f"{listed(names)}: ⚠ {views} with the others beyond the depth noise; why and what to do are "
+        f"{listed(names)}: ⚠ {views} with the others beyond the depth noise; why and what to do "
+        "are "
         "under Mirrors."
     )

@@ -144,7 +144,7 @@ class MirrorClicks:
         )
 
     def _delete_picked(self, attribute: str, delete, refusal: str) -> None:
-        """Delete the picked corner or marker (the tab state's `attribute`) of the selected mirror."""
+        """Delete the picked corner or marker (`attribute` of the tab's state) of the mirror."""
         picked = getattr(self.tab.state, attribute)
         if picked is None:
             raise MirrorscanError(refusal)

@@ -133,7 +133,7 @@ class MirrorFits:
 
     def _drop_stale_proposal(self) -> None:
         """A proposal for a mirror whose markers, boundary, glass or plane changed since the fit
-        could no longer be applied: drop it, so that Fit plane is offered again."""
+        cannot be applied: drop it, so that Fit plane is offered again."""
         if self.proposal is None:
             return
         current = {m.id: m for m in self.services.editor.session.mirrors}

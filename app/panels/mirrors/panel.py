@@ -121,7 +121,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
     def proposal(self, fits: dict[int, Fit] | None) -> None:
         self._proposal = fits
         self.tab.state.proposal_for = tuple(f.mirror.name for f in fits.values()) if fits else ()
-        if self._proposal_note is not None:  # "... waits, not applied" holds no longer
+        if self._proposal_note is not None:  # its "... waits, not applied" is over
             self._proposal_note.remove()
             self._proposal_note = None
 
