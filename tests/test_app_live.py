@@ -899,7 +899,7 @@ def test_seen_from_home_the_names_of_cameras_through_several_mirrors_stand_apart
 
 def test_virtual_cameras_in_one_place_share_one_label():
     """Between mirrors hinged at 72 degrees, calibrated from their markers, the camera seen through
-    two mirrors and through three stand 1.3 to 5.4 cm apart (where they were in helpers' sessions):
+    two mirrors and through three stand 1.3 to 5.4 cm apart:
     one label names both, where their two labels were written over each other; cameras 12 cm apart
     keep their own."""
 
@@ -1471,7 +1471,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(edged, TabState(mirror_id=1), True, False) == (
         "Look at the **Depth frame** (View, below); left: choose **Markers** and click a marker on "
         "the mirror, or "
-        "**Find the planes from the object** (no markers)."
+        "**Find the planes from the object**."
     )
     assert start_hint(edged, TabState(mirror_id=1), True, False, calibrating=0.45) == (
         "A calibration from the object runs (45% done): its progress, **Cancel** and then its "
@@ -1479,7 +1479,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "*Mirrors*."
     )
     assert start_hint(edged, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
-        "left: click a marker on the mirror, or **Find the planes from the object** (no markers)."
+        "left: click a marker on the mirror, or **Find the planes from the object**."
     )
     assert start_hint(
         edged,
@@ -1488,10 +1488,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         False,
         refused={1: "scene"},
     ) == (
-        "left: not found from the object (why and what to "
-        "do: under "
-        # not offered again
-        "Mirrors); or click a marker on the mirror."
+        "left: not found from the object (why: under Mirrors); or click a marker on the mirror."
     )
     one = Session(tmp_path, session.camera, mirrors=(replace(edged.mirrors[0], markers=((1, 1),)),))
     assert start_hint(one, TabState(mirror_id=1, mode="markers", view="depth"), True, False) == (
@@ -1584,10 +1581,8 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     # scene: no markers
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")
     # flagged mirrors before "Ready" (it read so under three flagged mirrors, their note closed: a
-    # helper)
     assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left", "right")) == (
-        "⚠ left and right: their views disagree with the others beyond the depth noise (why, under "
-        "*Mirrors*): "
+        "⚠ left and right: their views disagree with the others (why: under *Mirrors*): "
         "**Mirrors › Refine from the object**, or fit again."
     )
     assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left",)).startswith(
@@ -1775,6 +1770,34 @@ def test_every_message_of_the_wording_has_a_short_headline():
     messages.append(calibration_words.disagreement_note(("mirror 1", "mirror 2", "mirror 3")))
     for message in messages:
         assert words(message.headline) <= HEADLINE_WORDS, message.headline
+
+
+def test_every_next_step_hint_is_short(tmp_path):
+    """The 'Start here' line at every stage of two mirrors is at most HEADLINE_WORDS words."""
+    plane = Plane.from_abcd([0.0, 0.0, -1.0, 2.0])
+    outline = ((0, 0), (9, 0), (0, 9))
+    bare = (SessionMirror("mirror 1", id=1), SessionMirror("mirror 2", id=2))
+    drawn = tuple(replace(m, boundary=outline) for m in bare)
+    marked = tuple(replace(m, markers=((1, 1), (5, 1))) for m in drawn)
+    ready = tuple(replace(m, markers=((1, 1), (5, 1), (1, 5))) for m in drawn)
+    done = tuple(replace(m, plane=plane) for m in ready)
+    names = ("mirror 1", "mirror 2")
+    hints = []
+    for mirrors in ((), bare, drawn, marked, ready, done, (done[0], drawn[1]), (done[0], bare[1])):
+        session = Session(tmp_path, Intrinsics.kinect_v1(), mirrors)
+        for state in (TabState(mirror_id=1), TabState(mirror_id=2, drafts={2: ((1.0, 1.0),) * 3}),
+                      TabState(mirror_id=1, proposal_for=names)):
+            for refused in ({}, {1: "scene", 2: "scene"}, {1: "refine"}):
+                hints += [start_hint(session, state, True, background, playback, None, False, names,
+                                     (), refused, "session gait", None, disagreeing, names)
+                          for background in (False, True)
+                          for playback in ("live", "paused", "recording")
+                          for disagreeing in ((), names)]
+        hints.append(start_hint(session, TabState(mirror_id=1), True, True, glass_unused=names))
+        hints.append(start_hint(session, TabState(mirror_id=1), True, True, calibrating=0.45))
+        hints.append(start_hint(session, TabState(mirror_id=1), True, True, batch=0.5))
+    for hint in set(hints):
+        assert words(hint) <= HEADLINE_WORDS, hint
 
 
 def test_a_fit_that_most_points_miss_is_flagged():

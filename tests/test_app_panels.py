@@ -1185,8 +1185,8 @@ def test_a_batch_being_cancelled_says_so(sphere):
 
 
 def test_a_tab_opened_while_a_batch_runs_shows_it(sphere, monkeypatch):
-    """A tab reopened during a TSDF batch read 'Method raw' and 'Ready: the merged cloud is live' (a
-    helper): it shows the batch's settings and that it runs, and the next step says where."""
+    """A tab opened during a TSDF batch shows the batch's settings and that it runs, and the next
+    step says where."""
     app, _ = sphere
     running = app.jobs.running
     monkeypatch.setattr(app.jobs, "running", lambda kind: kind == "batch" or running(kind))

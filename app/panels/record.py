@@ -139,8 +139,7 @@ class RecordPanel:
         )
 
     def _session_changed(self, event: SessionChanged) -> None:
-        """Another session edited: the last batch's line, which named the other's exports, goes (a
-        helper read 'batch done … gait/exports' beside another session)."""
+        """Another session edited: the last batch's line, which named the other's exports, goes."""
         root = event.snapshot.session.root
         if root != self._batch_root and not self.services.jobs.running(BATCH):
             self.batch_status.content = BATCH_IDLE

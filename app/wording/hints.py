@@ -87,10 +87,10 @@ def start_hint(
         choose = "" if state.mode == "markers" else "choose **Markers** and "
         if refused.get(mirror.id) == "scene":
             return (
-                f"{mirror.name}: not found from the object (why and what to do: under Mirrors); or "
+                f"{mirror.name}: not found from the object (why: under Mirrors); or "
                 f"{choose}click {what} on the mirror."
             )
-        scene = "" if mirror.markers else ", or **Find the planes from the object** (no markers)"
+        scene = "" if mirror.markers else ", or **Find the planes from the object**"
         return f"{look}{mirror.name}: {choose}click {what} on the mirror{scene}."
     if mirror.plane is None:
         ready = [
@@ -142,8 +142,8 @@ def start_hint(
     if disagreeing:
         views = "its view disagrees" if len(disagreeing) == 1 else "their views disagree"
         return (
-            f"⚠ {listed(disagreeing)}: {views} with the others beyond the depth noise (why, under "
-            "*Mirrors*): **Mirrors › Refine from the object**, or fit again."
+            f"⚠ {listed(disagreeing)}: {views} with the others (why: under *Mirrors*): "
+            "**Mirrors › Refine from the object**, or fit again."
         )
     if no_glass and "refine" in refused.values():
         return (
