@@ -133,7 +133,7 @@ def test_a_reloaded_page_takes_up_the_work_of_the_page_before(demo, monkeypatch)
     # reloaded after RESUME_S: a new start
     with HeadlessTab(app, page="bench") as later:
         wait_for(lambda: later.tab.page, 10, "its name")
-        time.sleep(0.2)
+        time.sleep(0.2)  # late state, if any, arrives meanwhile
         assert later.tab.state.view == "3d" and not later.tab.state.drafts and not later.tab.heat
 
 
@@ -234,7 +234,7 @@ def test_a_tab_looking_at_the_depth_frame_or_hidden_gets_no_cloud(demo, monkeypa
 
     def bytes_per_frame(n: int = 6) -> float:
         app.loop.run_once()
-        time.sleep(0.3)
+        time.sleep(0.3)  # the frame reaches the tab
         start, calls = headless.bytes, len(sent)
         for _ in range(n):
             app.loop.run_once()
@@ -461,7 +461,7 @@ def test_a_tab_gone_while_it_was_built_is_not_kept(demo, monkeypatch):
         10,
         "the tab built",
     )
-    time.sleep(0.1)
+    time.sleep(0.1)  # a close still due comes meanwhile
     assert set(app.tabs) == {headless.tab.client.client_id} and built[0].closed
 
 
@@ -550,7 +550,7 @@ def test_the_tabs_are_asked_less_often_while_nothing_plays(demo, monkeypatch):
         """(tabs asked, files looked at, how many QUIET_POLL_S the 0.6 s slept took)"""
         asked.clear(), looked.clear()
         started = time.perf_counter()
-        time.sleep(0.6)
+        time.sleep(0.6)  # the poller runs meanwhile: the point
         return len(asked), len(looked), (time.perf_counter() - started) / 0.3
 
     app._poller.start()
@@ -665,17 +665,17 @@ def test_loop_thread_pause_and_step(demo):
     app.pause(True)
     time.sleep(0.3)  # let a frame in progress finish
     held = app.loop.index
-    time.sleep(0.5)
+    time.sleep(0.5)  # time for frames that must not come
     assert app.loop.index == held  # paused: no new frames
     app.step()
     wait_for(lambda: app.loop.index == held + 1)
-    time.sleep(0.3)
+    time.sleep(0.3)  # time for a frame that must not come
     assert app.loop.index == held + 1  # exactly one
     # the frame slider dragged while paused
     for k in (5, 6, 7, 40):
         app.seek(k)
     wait_for(lambda: app.last_frame.index == 40)
-    time.sleep(0.3)
+    time.sleep(0.3)  # time for frames that must not come
     assert app.loop.index == 41  # the frame sought is shown, once
     app.pause(False)
     wait_for(lambda: app.loop.index >= held + 3)
@@ -2153,7 +2153,7 @@ def test_the_first_view_follows_the_rig_until_the_technician_moves_it(demo):
         again = np.array(tab.client.camera.position)
         tab.client.camera.position = again + [0.5, 0.0, 0.0]  # turned by the technician
         editor.undo(first.id)
-        time.sleep(0.3)
+        time.sleep(0.3)  # time for a reframing that must not come
         assert np.allclose(tab.client.camera.position, again + [0.5, 0.0, 0.0])
     finally:
         if editor.mirror(first.id).plane != first.plane:

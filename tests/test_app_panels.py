@@ -771,7 +771,7 @@ def test_refine_from_the_object_and_the_heat_map(sphere, notes, caplog):
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")
     # paused, no frame comes: the map of the frame shown, at once (the
     app.pause(True)
-    time.sleep(0.3)
+    time.sleep(0.3)  # a frame in progress finishes
     tab.show_heat(True)
     wait_for(
         lambda: "/heat" in tab.client.scene._handle_from_node_name, 10, "the heat map while paused"
@@ -1078,7 +1078,7 @@ def test_record_then_replay_with_the_calibration(sphere):
     )
     assert app.editor.session.root == recorded.root
     app.pause(True)
-    time.sleep(0.3)
+    time.sleep(0.3)  # a frame in progress finishes
     # paused: the frame sought is shown at once (no step needed)
     app.seek(0)
     wait_for(lambda: app.last_frame.index == 0)
@@ -1210,7 +1210,7 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(sphere):
     record = panel(headless.tab, RecordPanel)
     count = app.source.frame_count
     app.pause(True)
-    time.sleep(0.3)
+    time.sleep(0.3)  # a frame in progress finishes
     # near its end: the Record step says how to take all of it (a
     app.seek(count - 2)
     wait_for(lambda: app.last_frame.index == count - 2 and app.loop.index == count - 1)
