@@ -1,5 +1,7 @@
-"""What happens in the browser tool, as events on one bus: the live loop, the session editor and the long jobs
-publish; the tabs (and their panels) subscribe. Panels never call each other: they publish and subscribe here."""
+"""What happens in the browser tool, as events on one bus: the live loop, the session editor and the
+long jobs publish; the tabs (and their panels) subscribe. Panels never call each other: they publish
+and subscribe here."""
+
 from __future__ import annotations
 
 import logging
@@ -12,8 +14,8 @@ if TYPE_CHECKING:
 
     from mirrorcore.sources import DepthSource
 
-    from .jobs import DenseResult
     from .live import LiveFrame
+    from .results import DenseResult
     from .state import Snapshot
 
 log = logging.getLogger("mirrorscan")
@@ -44,16 +46,27 @@ class LoopChanged:
 
 @dataclass(frozen=True, eq=False)
 class JobProgress:
-    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT, HEAT) moved on:
-    fraction done in [0, 1] or None when it is not running, and a one-line status."""
+    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT,
+    HEAT) moved on.
+
+    Attributes
+    ----------
+    job : the job's kind.
+    fraction : done, in [0, 1], or None when it is not running.
+    status : Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
+    result : the typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide
+        on.
+    """
 
     job: str
     fraction: float | None
     status: str
+    result: object = None
 
     @property
     def percent(self) -> float:
-        """The fraction done as a progress bar's value, to 0.1 % (a screen reader read out "55.00000000000001")."""
+        """The fraction done as a progress bar's value, to 0.1 % (a screen reader reads out every
+        digit)."""
         return round(100.0 * (self.fraction or 0.0), 1)
 
 
@@ -66,10 +79,11 @@ class DenseChanged:
 
 @dataclass(frozen=True, eq=False)
 class HeatChanged:
-    """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3) uint8, and per view
-    seen in a mirror (source label) the median distance (mm) and the share of its points compared
-    (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the last `frames` frames with the same planes; `sources`
-    (n,) uint8: each point's source label, 0 the camera's (None: not told apart)."""
+    """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3)
+    uint8, and per view seen in a mirror (source label) the median distance (mm) and the share of
+    its points compared (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the
+    last `frames` frames with the same planes; `sources` (n,) uint8: each point's source label, 0
+    the camera's (None: not told apart)."""
 
     index: int
     points: "np.ndarray"
@@ -80,15 +94,16 @@ class HeatChanged:
 
 
 class EventBus:
-    """Publish / subscribe by event type. publish() calls the subscribers of the event's type on the calling thread,
-    in order of subscription; one that raises is logged and the others still run."""
+    """Publish / subscribe by event type. publish() calls the subscribers of the event's type on the
+    calling thread, in order of subscription; one that raises is logged and the others still run."""
 
     def __init__(self):
         self._lock = threading.Lock()
         self._subscribers: dict[type, list[Callable[[Any], None]]] = {}
 
     def subscribe(self, kind: type[E], callback: Callable[[E], None]) -> Callable[[], None]:
-        """Call callback(event) for every published event of type `kind`; returns the function that unsubscribes."""
+        """Call callback(event) for every published event of type `kind`; returns the function that
+        unsubscribes."""
         with self._lock:
             self._subscribers.setdefault(kind, []).append(callback)
 
@@ -96,6 +111,7 @@ class EventBus:
             with self._lock:
                 if callback in self._subscribers.get(kind, []):
                     self._subscribers[kind].remove(callback)
+
         return unsubscribe
 
     def publish(self, event: object) -> None:

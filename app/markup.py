@@ -1,15 +1,29 @@
-"""Text for the browser's Markdown and HTML elements. viser renders both with any raw HTML in them unsanitised,
-script handlers included, so a mirror named `<img src=x onerror=...>` in a session file ran its script in the
-technician's browser. Every Markdown content the tool shows goes through `markdown`; the HTML elements (legends,
-marker lists) pass each piece of text through `escape`. Notifications, labels and buttons are text already."""
+"""Text for the browser's Markdown and HTML elements. viser renders both with any raw HTML in them
+unsanitised, script handlers included, so a mirror named `<img src=x onerror=...>` in a session file
+would run its script in the technician's browser. Every Markdown content the tool shows goes through
+`markdown`; the HTML elements (legends, marker lists) pass each piece of text through `escape`.
+Notifications, labels and buttons are text already."""
+
 from __future__ import annotations
 
 from html import escape
 
-__all__ = ["escape", "markdown"]
+__all__ = ["escape", "fold", "markdown"]
+
+FOLD_TITLE = "Details"
 
 
 def markdown(text: str) -> str:
-    """Markdown `text` (the tool's own has no HTML) with any HTML tag in it shown as text: '<' as an entity, so that
-    no tag (and no autolink) starts; the rest of the Markdown stays."""
+    """Markdown `text` (the tool's own has no HTML) with any HTML tag in it shown as text: '<' as an
+    entity, so that no tag (and no autolink) starts; the rest of the Markdown stays."""
     return text.replace("<", "&lt;")
+
+
+def fold(headline: str, details: list[str]) -> str:
+    """Markdown: `headline`, then `details` (Markdown paragraphs, already passed through `markdown`)
+    in a collapsed HTML <details> fold, which viser's Markdown renders; the headline alone without
+    details."""
+    if not details:
+        return headline
+    body = "\n\n".join(details)
+    return f"{headline}\n\n<details><summary>{FOLD_TITLE}</summary>\n\n{body}\n\n</details>"

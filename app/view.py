@@ -13,7 +13,7 @@ import viser.transforms as tf
 from mirrorcore.base.palette import source_colour, source_name
 from mirrorcore.rig.model import Rig
 
-from .jobs import DenseResult
+from .results import DenseResult
 from .placement import (CAMERA_LABEL, FRUSTUM_SCALE, SEQUENCE_FONT, beside_offset, box_edges,
                         frustum_angles, frustum_scale, home_pose, label_anchor, mirror_outline,
                         same_place, scene_points, virtual_label_anchor, virtual_label_sides)

@@ -1,6 +1,7 @@
-"""Step 2, "Object": which pixels are the object: capture the background (median of N frames, with progress), the
-depth range, edge-aware smoothing, and a region of interest drawn on the depth frame; with the simulated rig, take
-the object out of the scene to capture."""
+"""Step 2, "Object": which pixels are the object: capture the background (median of N frames, with
+progress), the depth range, edge-aware smoothing, and a region of interest drawn on the depth frame;
+with the simulated rig, take the object out of the scene to capture."""
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -17,11 +18,15 @@ from ..context import TabContext
 from ..events import JobProgress, SessionChanged
 from ..jobs import BACKGROUND
 from ..markup import markdown
-from .mirrors import _nearest
+from ..wording import Message
+from ..wording.jobs import say
+from .mirrors.clicks import nearest
 
 TITLE = "Object"
-SEEN_OBJECT = 500      # pixels: an object this large in the last frame is checked against a new background...
-HIDDEN_SHARE = 0.5     # ...which is used only on confirmation when it would hide more than this share of it
+# pixels: an object this large in the last frame is checked against a new background...
+SEEN_OBJECT = 500
+# ...which is used only on confirmation when it would hide more than this share of it
+HIDDEN_SHARE = 0.5
 
 
 class ObjectPanel:
@@ -31,21 +36,37 @@ class ObjectPanel:
         gui, self.tab, self.services = tab.gui, tab, tab.services
         selection = self.services.snapshot.session.selection
         self.status = gui.add_markdown("")
-        self.confirm = None               # the question asked before a background that hides the object is used,
-        self.pending_background = None    # and that background
+        # the question asked before a background that hides the object is used,
+        self.confirm = None
+        self.pending_background = None  # and that background
         if isinstance(self.services.source, SimulatedSource):
-            self.object_in_scene = gui.add_checkbox("Simulated object in the scene", initial_value=True)
+            self.object_in_scene = gui.add_checkbox(
+                "Simulated object in the scene", initial_value=True
+            )
             self.object_in_scene.on_update(
-                lambda _: setattr(self.services.source, "objects_in_view", bool(self.object_in_scene.value)))
+                lambda _: setattr(
+                    self.services.source, "objects_in_view", bool(self.object_in_scene.value)
+                )
+            )
         self.frames = gui.add_slider("Background frames", min=1, max=60, step=1, initial_value=15)
         self.capture = gui.add_button("Capture background (object out of view)")
         self.cancel = gui.add_button("Cancel capture", visible=False)
         self.progress = gui.add_progress_bar(0.0, visible=False)
-        self.range = gui.add_multi_slider("Depth range (m)", min=0.0, max=8.0, step=0.05,
-                                          initial_value=(selection.depth_min, selection.depth_max))
+        self.range = gui.add_multi_slider(
+            "Depth range (m)",
+            min=0.0,
+            max=8.0,
+            step=0.05,
+            initial_value=(selection.depth_min, selection.depth_max),
+        )
         self.smooth = gui.add_checkbox("Smooth depth (edge-aware)", initial_value=selection.smooth)
-        self.bounces = gui.add_slider("Views through up to N mirrors", min=1, max=MAX_ORDER, step=1,
-                                      initial_value=self.services.snapshot.session.bounces)
+        self.bounces = gui.add_slider(
+            "Views through up to N mirrors",
+            min=1,
+            max=MAX_ORDER,
+            step=1,
+            initial_value=self.services.snapshot.session.bounces,
+        )
         self.draw = gui.add_button("Draw a region of interest")
         self.close = gui.add_button("Close the region", visible=False)
         self.clear = gui.add_button("Clear the region of interest")
@@ -53,16 +74,24 @@ class ObjectPanel:
         self.capture.on_click(lambda _: act(self._capture))
         self.cancel.on_click(lambda _: self.services.jobs.cancel(BACKGROUND))
         self.range.on_update(lambda e: e.client is not None and act(self._set_range))
-        self.smooth.on_update(lambda e: e.client is not None and act(lambda: self._set(smooth=self.smooth.value)))
-        self.bounces.on_update(lambda e: e.client is not None and act(
-            lambda: self.services.editor.set_bounces(int(self.bounces.value))))
+        self.smooth.on_update(
+            lambda e: e.client is not None and act(lambda: self._set(smooth=self.smooth.value))
+        )
+        self.bounces.on_update(
+            lambda e: (
+                e.client is not None
+                and act(lambda: self.services.editor.set_bounces(int(self.bounces.value)))
+            )
+        )
         self.draw.on_click(lambda _: act(self._start_region))
         self.close.on_click(lambda _: act(self._close_region))
         self.clear.on_click(lambda _: act(self._clear_region))
         tab.on_click("region", self._region_click)
         tab.on_state(lambda _: self.refresh())
-        self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
-                             self.services.bus.subscribe(SessionChanged, lambda _: self.refresh())]
+        self._unsubscribe = [
+            self.services.bus.subscribe(JobProgress, self._on_job),
+            self.services.bus.subscribe(SessionChanged, lambda _: self.refresh()),
+        ]
         self.refresh()
 
     def detach(self) -> None:
@@ -73,15 +102,20 @@ class ObjectPanel:
     def refresh(self) -> None:
         snapshot, state = self.services.snapshot, self.tab.state
         selection = snapshot.session.selection
-        source = ("captured" if self.services.background_captured else "from the source") \
-            if snapshot.background is not None else "none: the object is every pixel in the depth range"
+        source = (
+            ("captured" if self.services.background_captured else "from the source")
+            if snapshot.background is not None
+            else "none: the object is every pixel in the depth range"
+        )
         roi = selection.roi
         region = f"{len(roi)} corners" if roi else "the whole image"
         if state.region_draft:
             region += f" (drawing: {len(state.region_draft)} corners)"
         # the numbers, which the slider does not show
-        self.status.content = markdown(f"Background: {source}. Depth range: {selection.depth_min:.2f} to "
-                                       f"{selection.depth_max:.2f} m. Region of interest: {region}.")
+        self.status.content = markdown(
+            f"Background: {source}. Depth range: {selection.depth_min:.2f} to "
+            f"{selection.depth_max:.2f} m. Region of interest: {region}."
+        )
         self.range.value = (selection.depth_min, selection.depth_max)
         self.smooth.value = selection.smooth
         self.bounces.value = snapshot.session.bounces
@@ -90,7 +124,9 @@ class ObjectPanel:
         self.close.disabled = len(state.region_draft) < MIN_VERTICES
 
     def _set(self, **changes) -> None:
-        self.services.editor.set_selection(replace(self.services.snapshot.session.selection, **changes))
+        self.services.editor.set_selection(
+            replace(self.services.snapshot.session.selection, **changes)
+        )
 
     def _set_range(self) -> None:
         low, high = self.range.value
@@ -107,7 +143,7 @@ class ObjectPanel:
 
     def _region_click(self, u: float, v: float) -> None:
         state = self.tab.state
-        if len(state.region_draft) >= 3 and _nearest(state.region_draft[:1], (u, v)) == 0:
+        if len(state.region_draft) >= 3 and nearest(state.region_draft[:1], (u, v)) == 0:
             self._close_region()
             return
         state.region_draft = state.region_draft + ((round(u, 2), round(v, 2)),)
@@ -115,7 +151,9 @@ class ObjectPanel:
 
     def _close_region(self) -> None:
         state = self.tab.state
-        roi = validate_polygon(state.region_draft, self.services.snapshot.session.camera.shape, "region of interest")
+        roi = validate_polygon(
+            state.region_draft, self.services.snapshot.session.camera.shape, "region of interest"
+        )
         state.region_draft, state.mode = (), "inspect"
         self._set(roi=tuple(map(tuple, roi.tolist())))
         self.tab.changed()
@@ -133,26 +171,38 @@ class ObjectPanel:
     def _capture(self) -> None:
         self.services.jobs.capture_background(int(self.frames.value), self._captured)
 
-    def _captured(self, depth: np.ndarray) -> str | None:
-        """Use a captured background (H, W) metres; but when it would hide most of the object seen in the last frame
-        (the object was in view while it was captured), only once the user confirms. Returns the status then."""
+    def _captured(self, depth: np.ndarray) -> bool:
+        """Use a captured background (H, W) metres; but when it would hide most of the object seen
+        in the last frame (the object was in view while it was captured), only once the user
+        confirms. Returns whether it waits for that."""
         frame, snapshot = self.services.last_frame, self.services.snapshot
-        seen = 0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))
+        seen = (
+            0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))
+        )
         if seen < SEEN_OBJECT:
             self.services.set_background(depth)
-            return None
-        left = int(np.count_nonzero(object_mask(snapshot.rig.intrinsics, frame.depth, depth,
-                                                snapshot.session.selection)))
+            return False
+        left = int(
+            np.count_nonzero(
+                object_mask(snapshot.rig.intrinsics, frame.depth, depth, snapshot.session.selection)
+            )
+        )
         if left >= (1 - HIDDEN_SHARE) * seen:
             self.services.set_background(depth)
-            return None
+            return False
         self.pending_background = depth
         self.confirm = self.tab.ask(
-            "Use this background?", f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> "
-            f"{left:,} pixels): was the object in view while it was captured? Take it out and capture again. (If the "
-            "scene itself changed, the camera moved say, use it.)", "Use it anyway", self._use_captured,
-            "Keep the background as it was", self._keep_background)
-        return "captured; it would hide most of the object: answer the question first"
+            "Use this background?",
+            f"It would hide {1 - left / seen:.0%} of the object seen now ({seen:,} -> "
+            f"{left:,} pixels): was the object in view while it was captured? Take it out and "
+            "capture again. (If the "
+            "scene itself changed, the camera moved say, use it.)",
+            "Use it anyway",
+            self._use_captured,
+            "Keep the background as it was",
+            self._keep_background,
+        )
+        return True
 
     def _use_captured(self) -> None:
         """The user confirmed: use the pending captured background."""
@@ -173,4 +223,5 @@ class ObjectPanel:
         if running:
             self.progress.value = event.percent
         else:
-            self.status.content = markdown(f"Background: {event.status}.")
+            said = say(event.result)[0]
+            self.status.content = Message(f"Background: {said.headline}.", said.details).markdown()

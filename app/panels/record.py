@@ -1,7 +1,8 @@
-"""Step 5, "Record": record the live frames into a new session folder (with the current calibration and object
-selection), see it count, stop, and replay it with the frame slider (in the header); then reconstruct every frame of
-the session being edited in a batch (mirrorcore.batch), with its progress, time left and a cancel. One recording and
-one batch at a time, shared by every tab."""
+"""Step 5, "Record": record the live frames into a new session folder (with the current calibration
+and object selection), see it count, stop, and replay it with the frame slider (in the header); then
+reconstruct every frame of the session being edited in a batch (mirrorcore.batch), with its
+progress, time left and a cancel. One recording and one batch at a time, shared by every tab."""
+
 from __future__ import annotations
 
 import os
@@ -16,23 +17,32 @@ from mirrorcore.sources import DepthSource, SessionSource
 from ..context import TabContext
 from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import BATCH, RECORD
-from ..markup import markdown
+from ..results import BatchStarting
+from ..wording import Message
+from ..wording.jobs import recording, say, status
 
 TITLE = "Record"
-CANCELLING = " · **cancelling…**"   # after the batch's status from Cancel until it stops
-BATCH_IDLE = "One PLY per frame and a manifest in the session's exports/ folder; a second run goes on where the first \
-stopped."
-IDLE = ("Records the frames as they come into a new session folder (from a recording that plays: up to its last "
-        "frame, none twice).")
-BATCH_TEMPORAL = 2      # the batch's temporal smoothing unless changed: on the walking figure the still body 42 % less
-                        # noisy, the limbs as they were (README, Temporal smoothing for moving people)
+CANCELLING = " · **cancelling…**"  # after the batch's status from Cancel until it stops
+BATCH_IDLE = (
+    "One PLY per frame and a manifest in the session's exports/ folder; a second run goes on where "
+    "the first stopped."
+)
+IDLE = (
+    "Records the frames as they come into a new session folder (from a recording that plays: up to "
+    "its last "
+    "frame, none twice)."
+)
+# the batch's temporal smoothing unless changed: on the walking figure the still body 42 % less
+# noisy, the limbs as they were (README, Temporal smoothing for moving people)
+BATCH_TEMPORAL = 2
 
 
 def batch_label(session: Session) -> str:
-    """The batch button names the session whose frames it reconstructs (after a replay and Back to, that is the
-    recording's, not the session that plays: a helper expected the other's 30 frames)."""
+    """The batch button names the session whose frames it reconstructs (after a replay and Back to,
+    that is the recording's, not the session that plays)."""
     count = len(session.frames)
-    return f"Reconstruct every frame of session {Path(session.root).name} ({count} frame{'s' if count != 1 else ''})"
+    frames = f"{count} frame{'s' if count != 1 else ''}"
+    return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
 
 
 class RecordPanel:
@@ -43,17 +53,25 @@ class RecordPanel:
         self.recorded: Session | None = None
         self.start_button = gui.add_button("Record", color="red")
         self.stop_button = gui.add_button("Stop recording", disabled=True)
-        self.status = gui.add_markdown(markdown(self.services.jobs.recording_status() or IDLE))
+        state = self.services.jobs.recording_state()
+        self.status = gui.add_markdown(IDLE if state is None else recording(state).markdown())
         self.replay = gui.add_button("Replay the recording", disabled=True)
         with gui.add_folder("Reconstruct every frame (batch)", expand_by_default=False):
             self.method = gui.add_dropdown("Method", BATCH_METHODS, initial_value="raw")
             self.temporal = gui.add_slider(
-                "Temporal smoothing (neighbours)", min=0, max=5, step=1, initial_value=BATCH_TEMPORAL,
-                hint="each pixel averaged with the same pixel of this many frames before and after, where the "
-                     "scene is still there (0: none)")
+                "Temporal smoothing (neighbours)",
+                min=0,
+                max=5,
+                step=1,
+                initial_value=BATCH_TEMPORAL,
+                hint="each pixel averaged with the same pixel of this many frames before and "
+                "after, where the "
+                "scene is still there (0: none)",
+            )
 
-            self.workers = gui.add_slider("Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1,
-                                          initial_value=1)
+            self.workers = gui.add_slider(
+                "Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1, initial_value=1
+            )
             self.batch = gui.add_button(batch_label(self.services.editor.session))
             self.batch_cancel = gui.add_button("Cancel the batch", visible=False)
             self.batch_progress = gui.add_progress_bar(0.0, visible=False)
@@ -63,13 +81,20 @@ class RecordPanel:
         self.start_button.on_click(lambda _: tab.act(self.start))
         self.stop_button.on_click(lambda _: tab.act(self.stop))
         self.replay.on_click(lambda _: tab.act(self.play_recording))
-        self._batch_root = self.services.editor.session.root      # the session the batch line speaks of
-        self._unsubscribe = [self.services.bus.subscribe(JobProgress, self._on_job),
-                             self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source)),
-                             self.services.bus.subscribe(SessionChanged, self._session_changed)]
-        self._on_job(JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, ""))
-        if self.services.jobs.running(BATCH):      # a tab opened while one runs shows it and its settings (a
-            self._show_batch()                      # helper's read 'Method raw' under a TSDF batch)
+        # the session the batch line speaks of
+        self._batch_root = self.services.editor.session.root
+        self._batch_said = Message(BATCH_IDLE)  # ... and its last message
+        self._unsubscribe = [
+            self.services.bus.subscribe(JobProgress, self._on_job),
+            self.services.bus.subscribe(LoopChanged, lambda e: self._offer_replay(e.source)),
+            self.services.bus.subscribe(SessionChanged, self._session_changed),
+        ]
+        self._on_job(
+            JobProgress(RECORD, 0.0 if self.services.jobs.running(RECORD) else None, "", None)
+        )
+        # a tab opened while one runs shows it and its settings
+        if self.services.jobs.running(BATCH):
+            self._show_batch()
 
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
@@ -87,25 +112,34 @@ class RecordPanel:
 
     def _offer_replay(self, source: DepthSource) -> None:
         """Offer the replay once something is recorded, but not while that recording plays."""
-        playing = (isinstance(source, SessionSource) and self.recorded is not None
-                   and source.session.root == self.recorded.root)
+        playing = (
+            isinstance(source, SessionSource)
+            and self.recorded is not None
+            and source.session.root == self.recorded.root
+        )
         self.replay.disabled = self.recorded is None or playing
 
     def play_recording(self) -> None:
-        """Edit the recorded session and play its frames (header › Playback: pause and the frame slider)."""
+        """Edit the recorded session and play its frames (header › Playback: pause and the frame
+        slider)."""
         if self.recorded is None:
             raise MirrorscanError("nothing recorded yet")
         self.services.open_session(self.recorded, play=True)
 
     def start_batch(self) -> None:
-        """Every frame of the session being edited (a saved recording, say), with the chosen method, on the
-        chosen number of worker processes (1: in this process; more: a local Dask cluster)."""
-        self.services.jobs.start_batch(self.services.editor.session, self.method.value, DenseOptions(),
-                                       int(self.temporal.value), int(self.workers.value))
+        """Every frame of the session being edited (a saved recording, say), with the chosen method,
+        on the chosen number of worker processes (1: in this process; more: a local Dask cluster).
+        """
+        self.services.jobs.start_batch(
+            self.services.editor.session,
+            self.method.value,
+            DenseOptions(),
+            int(self.temporal.value),
+            int(self.workers.value),
+        )
 
     def _session_changed(self, event: SessionChanged) -> None:
-        """Another session edited: the last batch's line, which named the other's exports, goes (a helper read
-        'batch done … gait/exports' beside another session)."""
+        """Another session edited: the last batch's line, which named the other's exports, goes."""
         root = event.snapshot.session.root
         if root != self._batch_root and not self.services.jobs.running(BATCH):
             self.batch_status.content = BATCH_IDLE
@@ -113,27 +147,40 @@ class RecordPanel:
         self.batch.label = batch_label(event.snapshot.session)
 
     def _show_batch(self) -> None:
-        """The batch that runs, as its tab started it: its settings (once they are set, just after it starts) and a
-        running status until its next progress."""
+        """The batch that runs, as its tab started it: its settings (once they are set, just after
+        it starts) and a running status until its next progress."""
         settings = self.services.jobs.batch_settings
         if settings is not None:
             self.method.value, self.temporal.value, self.workers.value = settings
-        self._on_job(JobProgress(BATCH, 0.0, f"a batch of {self.method.value} runs on every frame…"))
+        starting = BatchStarting(self.method.value)
+        self._on_job(JobProgress(BATCH, 0.0, status(starting), starting))
 
     def cancel_batch(self) -> None:
-        """Ask the batch to stop: the frame under way finishes, every frame written stays (a new start goes on)."""
+        """Ask the batch to stop: the frame under way finishes, every frame written stays (a new
+        start goes on)."""
         self.services.jobs.cancel(BATCH)
         self.batch_cancel.disabled = True
-        self.batch_status.content += CANCELLING
+        self.batch_status.content = self._batch_line(self._batch_said, cancelling=True)
+
+    @staticmethod
+    def _batch_line(said: Message, cancelling: bool) -> str:
+        """The batch's line: its message, said to be cancelling after Cancel until it stops."""
+        return Message(said.headline + (CANCELLING if cancelling else ""), said.details).markdown()
 
     def _on_job(self, event: JobProgress) -> None:
         if event.job == BATCH:
             running = event.fraction is not None
-            self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = running, running, running
+            self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = (
+                running,
+                running,
+                running,
+            )
             if running:
                 self.batch_progress.value = event.percent
-            cancelling = running and self.batch_cancel.disabled
-            self.batch_status.content = markdown(event.status + (CANCELLING if cancelling else ""))
+            self._batch_said = say(event.result)[0]
+            self.batch_status.content = self._batch_line(
+                self._batch_said, running and self.batch_cancel.disabled
+            )
             if not running:
                 self.batch_cancel.disabled = False
             return
@@ -142,4 +189,4 @@ class RecordPanel:
         running = event.fraction is not None
         self.start_button.disabled, self.stop_button.disabled = running, not running
         if event.status:
-            self.status.content = markdown(event.status)
+            self.status.content = event.status

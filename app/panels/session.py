@@ -1,6 +1,7 @@
-"""The "Session" step: where the session lives, open another, save it under a new name, upload a depth PNG as the
-background, and export the current cloud as PLY (downloaded by the tab, kept in the session's exports/ folder under a
-new name each time)."""
+"""The "Session" step: where the session lives, open another, save it under a new name, upload a
+depth PNG as the background, and export the current cloud as PLY (downloaded by the tab, kept in the
+session's exports/ folder under a new name each time)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,13 +14,14 @@ from mirrorcore.io.session import SESSION_FILE, copy_session, load_session, sess
 from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
-from ..jobs import left_out
+from ..jobs import unplaned
 from ..live import frame_number
 from ..markup import markdown
+from ..wording.jobs import left_out
 
 TITLE = "Session"
-CHOOSE = ""          # the Open list's first entry: nothing is opened by a stray click on the button
-MAX_UPLOAD_MB = 20   # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
+CHOOSE = ""  # the Open list's first entry: nothing is opened by a stray click on the button
+MAX_UPLOAD_MB = 20  # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
 
 
 class SessionPanel:
@@ -30,19 +32,25 @@ class SessionPanel:
         self.where = gui.add_markdown("")
         self.export = gui.add_button("Export the cloud as PLY", color="blue")
         self.exported = gui.add_markdown("")
-        self._root = self.services.editor.session.root     # the session the export line speaks of
+        self._root = self.services.editor.session.root  # the session the export line speaks of
         self.open_choice = gui.add_dropdown("Open", (CHOOSE,))
         self.open = gui.add_button("Open session")
         self.new_name = gui.add_text("Save as", "")
         self.save_as = gui.add_button("Save as new session")
-        self.confirm_open = None                  # the question asked before an unsaved session goes
-        self.upload = gui.add_upload_button(f"Upload background (16-bit depth PNG, at most {MAX_UPLOAD_MB} MB)",
-                                            mime_type="image/png")
+        # the question asked before an unsaved session goes
+        self.confirm_open = None
+        self.upload = gui.add_upload_button(
+            f"Upload background (16-bit depth PNG, at most {MAX_UPLOAD_MB} MB)",
+            mime_type="image/png",
+        )
         act = tab.act
         self.open.on_click(lambda _: act(self._open))
         self.save_as.on_click(lambda _: act(self._save_as))
-        self.upload.on_upload(lambda e: act(lambda: self.upload_background(e.target.value.name,
-                                                                          e.target.value.content)))
+        self.upload.on_upload(
+            lambda e: act(
+                lambda: self.upload_background(e.target.value.name, e.target.value.content)
+            )
+        )
         self.export.on_click(lambda _: act(self.export_cloud))
         self._unsubscribe = self.services.bus.subscribe(SessionChanged, lambda _: self.refresh())
         self.refresh()
@@ -53,72 +61,106 @@ class SessionPanel:
 
     def refresh(self) -> None:
         editor = self.services.editor
-        state = "autosaved after every change" if editor.autosave else "not saved yet: *Save as* to keep it"
-        error = f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
+        state = (
+            "autosaved after every change"
+            if editor.autosave
+            else "not saved yet: *Save as* to keep it"
+        )
+        error = (
+            f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
+        )
         self.where.content = markdown(f"`{editor.session.root}` ({state}){error}")
-        if editor.session.root != self._root:           # another session: the last export was another's
+        # another session: the last export was another's
+        if editor.session.root != self._root:
             self._root, self.exported.content = editor.session.root, ""
-        names = (CHOOSE, *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")))
+        names = (
+            CHOOSE,
+            *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")),
+        )
         if self.open_choice.options != names:
             self.open_choice.options = names
 
     def _open(self) -> None:
-        """Open the chosen session; while the current one is not saved (the built-in demo), only once the user has
-        confirmed that its calibration goes."""
+        """Open the chosen session; while the current one is not saved (the built-in demo), only
+        once the user has confirmed that its calibration goes."""
         name = self.open_choice.value
         if name == CHOOSE:
-            raise MirrorscanError(f"choose a session in the Open list first (saved sessions are in "
-                                  f"{self.services.sessions_dir})")
+            raise MirrorscanError(
+                f"choose a session in the Open list first (saved sessions are in "
+                f"{self.services.sessions_dir})"
+            )
         session = load_session(session_folder(self.services.sessions_dir, name))
         if self.services.editor.autosave:
             self.services.open_session(session)
             return
         self.confirm_open = self.tab.ask(
-            f"Open {name}?", "This session is not saved: its mirrors and calibration go when another one opens. "
-            "*Save as* first to keep them.", f"Open {name}, discard this one",
-            lambda: self.services.open_session(session), "Keep this session")
+            f"Open {name}?",
+            "This session is not saved: its mirrors and calibration go when another one opens. "
+            "*Save as* first to keep them.",
+            f"Open {name}, discard this one",
+            lambda: self.services.open_session(session),
+            "Keep this session",
+        )
 
     def _save_as(self) -> None:
-        """Save the session as a new one in the sessions folder and go on editing that one; a background captured
-        while the session was not saved (held in memory) is written with it."""
+        """Save the session as a new one in the sessions folder and go on editing that one; a
+        background captured while the session was not saved (held in memory) is written with it."""
         folder = session_folder(self.services.sessions_dir, self.new_name.value)
         services = self.services
-        held = services.snapshot.background if services.background_captured and not services.editor.autosave \
+        held = (
+            services.snapshot.background
+            if services.background_captured and not services.editor.autosave
             else None
+        )
         services.open_session(copy_session(services.editor.session, folder))
         if held is not None:
             services.set_background(held)
         self.new_name.value = ""
 
     def upload_background(self, name: str, data: bytes) -> None:
-        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the session's
-        background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB, a name not ending in .png,
-        an image that is not 16-bit or not the camera's size, and one with no reading at all."""
+        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the
+        session's background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB,
+        a name not ending in .png, an image that is not 16-bit or not the camera's size, and one
+        with no reading at all."""
         if len(data) > MAX_UPLOAD_MB * 2**20:
-            raise MirrorscanError(f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "
-                                  "upload may have")
+            raise MirrorscanError(
+                f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "
+                "upload may have"
+            )
         if not name.lower().endswith(".png"):
             raise MirrorscanError(f"{name}: not a .png file; upload a 16-bit depth PNG")
         camera = self.services.editor.session.camera
-        depth = require_readings(decode_depth_png(data, camera.depth_scale, camera.shape, name), name)
+        depth = require_readings(
+            decode_depth_png(data, camera.depth_scale, camera.shape, name), name
+        )
         self.services.set_background(depth)
 
     def export_cloud(self) -> Path | None:
-        """The current cloud as PLY, downloaded and (for a saved session) kept under a new name in exports/."""
+        """The current cloud as PLY, downloaded and (for a saved session) kept under a new name in
+        exports/."""
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no cloud yet to export")
         data = encode_ply(frame.cloud.points, frame.cloud.sources)
         root = self.services.editor.session.root if self.services.editor.autosave else None
         count = self.services.source.frame_count
-        number = frame_number(frame.index, count)                              # as the header names it
+        # as the header names it
+        number = frame_number(frame.index, count)
         saved = export_ply(root, f"frame-{number:06d}", data, self.tab.client)
-        which = f"Frame {number} of {count}" if count else f"Live frame {number}"         # as the header says
-        missing = left_out(frame.snapshot.session)
-        self.exported.content = markdown(f"{which}: {len(frame.cloud):,} points"
-                                          + (f", saved as `{saved}`" if saved else ", downloaded")
-                                          + (f". ⚠ {missing}" if missing else ""))
-        if missing:                          # 1,946 points of a person mostly inside the outlines, said as done
-            self.services.notify(self.tab.client, "Exported, not all of the object",
-                                 f"{which}: {len(frame.cloud):,} points; {missing}.", "warning")
+        # as the header says
+        which = f"Frame {number} of {count}" if count else f"Live frame {number}"
+        missing = left_out(unplaned(frame.snapshot.session))
+        self.exported.content = markdown(
+            f"{which}: {len(frame.cloud):,} points"
+            + (f", saved as `{saved}`" if saved else ", downloaded")
+            + (f". ⚠ {missing}" if missing else "")
+        )
+        # 1,946 points of a person mostly inside the outlines, said as done
+        if missing:
+            self.services.notify(
+                self.tab.client,
+                "Exported, not all of the object",
+                f"{which}: {len(frame.cloud):,} points; {missing}.",
+                "warning",
+            )
         return saved

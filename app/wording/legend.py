@@ -1,0 +1,144 @@
+"""The status header's legend (HTML): the points per source, or, while the heat map shows, its key
+and each mirror view's figures."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from mirrorcore.base.palette import (
+    FIRST_MULTI_LABEL,
+    HEAT_NEGATIVE,
+    HEAT_POSITIVE,
+    HEAT_UNCOMPARED,
+    HEAT_ZERO,
+    SOURCE_COLOURS,
+    source_colour,
+    source_name,
+)
+from mirrorcore.base.words import listed
+from mirrorcore.io.session import Session
+
+from ..jobs.heat import HEAT_LIMIT_MM
+from ..markup import escape
+
+# the panel's text is inset so; raw HTML is not
+LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"
+
+
+def source_names(session: Session) -> Callable[[int], str]:
+    """A source label's name with the session's mirror names: 'direct', 'left then right'."""
+    names = [m.name for m in session.mirrors]
+    return lambda label: source_name(label, names)
+
+
+def legend_html(
+    counts: dict[int, int],
+    name: Callable[[int], str],
+    mirror_ids: tuple[int, ...],
+    unplaned: tuple[str, ...] = (),
+) -> str:
+    """One line: a swatch in each source's colour, its name and its point count; counts {label:
+    points}; then the mirrors with no plane yet (unplaned: their names), whose part of the frame is
+    left out."""
+    items = "".join(
+        _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
+        for j, count in counts.items()
+    )
+    if unplaned:
+        items += (
+            f"<br>{escape(listed(unplaned))}: no plane yet, so all inside "
+            f"{'its outline' if len(unplaned) == 1 else 'their outlines'} is left out "
+            "(the object in front too)"
+        )
+    return f'<div style="{LEGEND_STYLE}">{items}</div>'
+
+
+HEAT_KEY = (
+    (HEAT_ZERO, "on the direct surface"),
+    (HEAT_POSITIVE, f"{HEAT_LIMIT_MM:g} mm outside"),
+    (HEAT_NEGATIVE, f"{HEAT_LIMIT_MM:g} mm inside"),
+    (SOURCE_COLOURS[0], "the camera's points"),
+    (HEAT_UNCOMPARED, "not seen by the camera"),
+)
+
+
+# what the map can show, as measured on the glass sphere (seed 1, ten frames: README) and on a box
+# between three mirrors (seed 2), and what measures the glass
+HEAT_READS = (
+    "A tilted plane or a wrong boundary colours a mirror's points; a glass hardly does (3 mm read "
+    "0.2 mm on the sphere)"
+)
+HEAT_GLASS = ": <b>Refine from the object</b> measures it."
+HEAT_REFINED = "; these planes come from the object, where the glass plays no part."
+# a view with fewer of its points compared than this is told where it is checked
+HEAT_FEW = 0.05
+FEW_COMPARED = (
+    " (it sees little of what the camera sees: its agreement under Mirrors compares it with every "
+    "view)"
+)
+FEW_COMPARED_MULTI = (
+    " (seen through several mirrors: the agreement lines of those mirrors under Mirrors check it)"
+)
+
+
+def heat_legend_html(
+    figures: dict[int, tuple[float, float]],
+    frames: int,
+    name: Callable[[int], str],
+    refined: bool = False,
+    planes: bool = True,
+    no_glass: bool = True,
+) -> str:
+    """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the
+    direct surface and the share of its points compared over the heat maps of the last `frames`
+    frames (figures as in HeatChanged; empty until the first map arrives), against the camera's
+    surface (the agreement lines beside it compare every view); then what the map can show
+    (HEAT_READS) and what measures the glass: the refinement, while `no_glass` (a plane from markers
+    has none set), or (`refined`: every plane came from it) that it did; without `planes` (no
+    mirror has one) what to do first."""
+    if not planes:
+        return (
+            f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the '
+            "points seen in a "
+            "mirror with the camera's surface. Fit the planes from markers, or find them from the "
+            "object "
+            "(Mirrors).</div>"
+        )
+    key = "".join(_swatch(colour, text) for colour, text in HEAT_KEY)
+
+    # a view through several mirrors has no agreement line of its own
+    def few(j: int) -> str:
+        return FEW_COMPARED_MULTI if j >= FIRST_MULTI_LABEL else FEW_COMPARED
+
+    lines = [
+        f"{escape(name(j))}: median {median:+.1f} mm, {_share(share)} of its points compared"
+        + (few(j) if share < HEAT_FEW else "")
+        if np.isfinite(median)
+        else f"{escape(name(j))}: none of its points seen by the camera{few(j)}"
+        for j, (median, share) in figures.items()
+    ]
+    over = "this frame" if frames == 1 else f"the last {frames} frames"
+    body = (
+        "<br>".join([f"{over}, against the camera's surface (> 0: outside it):", *lines])
+        if figures
+        else "computing the heat map…"
+    )
+    reads = HEAT_READS + (HEAT_REFINED if refined else HEAT_GLASS if no_glass else ".")
+    return f'<div style="{LEGEND_STYLE}">{key}<br>{body}<br><i>{reads}</i></div>'
+
+
+def _share(share: float) -> str:
+    """A share of a view's points, as a percentage: 'under 1%' for a few (not '0%')."""
+    return f"{share:.0%}" if share >= 0.005 else "under 1%"
+
+
+def _swatch(colour, text: str) -> str:
+    r, g, b = (int(c) for c in colour)
+    return (
+        '<span style="white-space:nowrap;margin-right:0.8em"><span '
+        'style="display:inline-block;width:0.8em;'
+        f"height:0.8em;background:rgb({r},{g},{b});margin-right:0.3em;border-radius:50%;"
+        f'border:1px solid #999"></span>{text}</span>'
+    )

@@ -1,0 +1,376 @@
+"""The words of the Mirrors step: the click modes' help, the markers fits (notification, report,
+proposal), a mirror's status line, the removal question and why buttons are greyed out."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mirrorcore.base.words import listed
+from mirrorcore.calibration.markers import GRADES, MAX_SHIFT_MM, MAX_TILT_DEG
+from mirrorcore.io.session import Session, SessionMirror
+
+from ..markup import escape, markdown
+from ..results import Fit, FitsApplied
+from . import Message, joined, refinement
+
+HELP = {
+    "inspect": "**Inspect** mode: a click on the depth frame reads the pixel.",
+    "markers": "**Markers** mode: click a marker's centre on **{name}** to add it; click an "
+    "existing one to pick it.",
+    "boundary": "**Boundary** mode: click the corners of **{name}** in order; click the first "
+    "again to close.",
+    "region": "**Region** mode: drawing the region of interest (Object step).",
+}
+CLOSED_HELP = (
+    "**Boundary** mode: the outline of **{name}** is closed: click a corner to pick it, click "
+    "again to "
+    "move it, or *Clear boundary* to draw it again."
+)
+NO_GLASS_NOTE = Message(
+    "No glass set: **Refine from the object** measures it and moves the plane behind it.",
+    (
+        "Markers stuck on an ordinary mirror's glass stand 3 to 6 mm in front of its silver, and "
+        "a plane on their faces is that much too near.",
+    ),
+)
+PROPOSAL_HEAD = (
+    "**Proposal, not applied**: look at it below{crossed}, then apply or discard it (the "
+    "calibration "
+    "from the object waits for that)."
+)
+CROSSED = " and at the crossed markers"
+FIT_MARKERS = 3  # the markers a plane's fit needs
+# small print, inset as the panel's text
+SMALL_TEXT = "font-size:0.8em;line-height:1.45;padding:0 12px"
+
+
+def _why_off(signed_mm: float) -> str:
+    return "in front: hidden by something?" if signed_mm > 0 else "behind: off the glass?"
+
+
+def concerns(fit: Fit) -> list[str]:
+    """Why a fit asks for a look: a large turn or move, the poor markers, a plane from the object it
+    replaces."""
+    review, markers, names = fit.review, fit.calibration.markers, fit.mirror.marker_names
+    said = []
+    if review.tilt_deg > MAX_TILT_DEG or review.shift_mm > MAX_SHIFT_MM:
+        said.append(
+            f"it turns the plane by {review.tilt_deg:.1f}° and moves it {review.shift_mm:.0f} mm "
+            "(more "
+            f"than {MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)"
+        )
+    if review.poor and markers is not None:
+        worst = ", ".join(
+            f"{names[i]} ({markers.distance_mm[i]:.0f} mm, "
+            f"{markers.distance_mm[i] / markers.sigma_mm[i]:.0f}σ, "
+            f"{_why_off(markers.signed_mm[i])})"
+            for i in review.poor
+        )
+        said.append(f"marker(s) {worst} lie off the plane beyond the depth noise")
+    if fit.replaces_object:
+        glass = (
+            "; the markers fit uses the glass typed in"
+            if fit.mirror.glass_typed
+            else ", and set the glass the markers fit now uses"
+            if fit.mirror.glass_set
+            else ""
+        )
+        said.append(
+            "it replaces the plane found from the object: the markers alone are less accurate (the "
+            f"refinement moved it{glass}); refine again after applying"
+        )
+    return said
+
+
+def fit_line(fit: Fit, confirmed: bool = False) -> Message:
+    """One mirror's markers fit: its RMS and the markers' grades (⚠ the poor ones); the points kept,
+    the farthest marker, the glass and the concerns in the details."""
+    c, m = fit.calibration, fit.mirror
+    head = f"**{m.name}**: plane fitted, {c.rms_mm:.1f} mm RMS"
+    details = [f"RMS {c.rms_mm:.2f} mm over {c.n_inliers}/{c.n_points} points."]
+    if c.markers is not None:
+        grades = c.markers.grades
+        head += "; markers: " + ", ".join(
+            f"{grades.count(g)} {g}" for g in GRADES if grades.count(g)
+        )
+        ratio = np.asarray(c.markers.distance_mm) / np.asarray(c.markers.sigma_mm)
+        if np.any(np.isfinite(ratio)):
+            worst = int(np.nanargmax(ratio))
+            details.append(
+                f"Farthest: marker {m.marker_names[worst]}, {c.markers.distance_mm[worst]:.1f} mm, "
+                f"{ratio[worst]:.1f}σ."
+            )
+        details.append(
+            f"Plane {1e3 * c.marker_offset:.1f} mm behind the markers (the mirror's glass)."
+            if c.marker_offset
+            else "Plane on the markers' faces (glass 0 mm)."
+        )
+    if confirmed:
+        head += " (applied on confirmation)"
+    if fit.review.poor:
+        head += (
+            f"; ⚠ marker(s) {', '.join(m.marker_names[i] for i in fit.review.poor)} lie off it: "
+            "delete "
+            "them and fit again"
+        )
+    details += [f"⚠ {concern}" for concern in concerns(fit)]
+    return Message(head, tuple(details))
+
+
+def fit_report(applied: FitsApplied) -> list[Message]:
+    """The report of markers fits: a line per mirror, what was discarded, then how to get the glass
+    when a mirror has none set."""
+    lines = [fit_line(f, f.mirror.id in applied.confirmed) for f in applied.fits]
+    if any(not f.mirror.glass_set for f in applied.fits):
+        lines.append(NO_GLASS_NOTE)
+    if applied.discarded:
+        lines.append(
+            Message(
+                f"{listed(applied.discarded)}: the proposed plane"
+                f"{'s' if len(applied.discarded) > 1 else ''} discarded, as before."
+            )
+        )
+    return lines
+
+
+def proposal(fits: list[Fit]) -> list[Message]:
+    """The proposal's lines: each plane against the one it replaces, and why it asks for a look."""
+    lines = []
+    for fit in fits:
+        old = (
+            "uncalibrated"
+            if fit.mirror.plane is None
+            else f"turned {fit.review.tilt_deg:.2f}°, moved {fit.review.shift_mm:.1f} mm"
+        )
+        said = fit_line(fit)
+        lines.append(Message(f"**{fit.mirror.name}**: {old}", said.details))
+    return lines
+
+
+def fit_note(
+    applied: list[Fit], waiting: list[Fit], without_markers: tuple[str, ...] = ()
+) -> Message:
+    """A markers fit's notification: the planes applied (⚠ those with poor markers), the proposal
+    waiting, the mirrors left out for want of markers; the RMS, the glass and the poor markers in
+    the details."""
+    heads, details = [], []
+    if applied:
+        poor = [f for f in applied if f.review.poor]
+        heads.append(
+            f"Applied: {listed(f.mirror.name for f in applied)}"
+            + (
+                f"; ⚠ {listed(f.mirror.name for f in poor)}: markers off the plane, delete the "
+                "crossed "
+                "ones and fit again"
+                if poor
+                else ""
+            )
+            + "."
+        )
+        details.append(
+            ", ".join(f"{f.mirror.name} {f.calibration.rms_mm:.1f} mm RMS" for f in applied) + "."
+        )
+        if any(not f.mirror.glass_set for f in applied):
+            details.append("Glass 0 mm: Refine from the object measures it.")
+        details += [
+            f"⚠ {f.mirror.name}: the same markers as before, and marker(s) "
+            f"{', '.join(f.mirror.marker_names[i] for i in f.review.poor)} lie off it beyond the "
+            "depth "
+            "noise: delete them (crossed on the depth frame) and fit again."
+            for f in poor
+        ]
+    if waiting:
+        crossed = " (the crossed markers)" if any(f.review.poor for f in waiting) else ""
+        names = listed(f.mirror.name for f in waiting)
+        heads.append(
+            f"A new plane for {names} waits, not applied: look at it under Mirrors{crossed}, then "
+            "Apply or Discard it."
+            if not (applied or without_markers)
+            else f"{names}: a new plane waits, Apply or Discard it."
+        )
+    if without_markers:
+        them = "it is" if len(without_markers) == 1 else "they are"
+        heads.append(f"{listed(without_markers)}: no markers, left as {them}.")
+        details.append("Click 3 or more markers on each, or Find the planes from the object.")
+    if applied and not waiting:
+        heads.append("The report is under Mirrors.")
+    return Message(" ".join(heads), tuple(details))
+
+
+def mirror_status(
+    mirror: SessionMirror | None, from_object: bool, glass_unused: bool = False
+) -> str:
+    """One line (Markdown) on a mirror: where its plane stands (none yet, calibrated, or from the
+    object), its markers' glass (mm in front of the silver: typed in, or measured by a refinement
+    with its 1 sigma; none without markers; glass_unused: typed in after the plane was set, which it
+    does not move) and how many markers it has."""
+    if mirror is None:
+        return ""
+    plane = (
+        "no plane yet"
+        if mirror.plane is None
+        else ("plane from the object" if from_object else "plane calibrated")
+    )
+    if mirror.marker_offset_std is not None:
+        glass = (
+            f"glass {mirror.marker_offset * 1e3:.1f} ± {mirror.marker_offset_std * 1e3:.1f} mm "
+            "measured "
+            "(type it in if you know it)"
+        )
+    elif mirror.glass_typed:
+        glass = f"glass {mirror.marker_offset * 1e3:.1f} mm typed in"
+    else:
+        glass = "glass not measured" if from_object else "no glass set"
+    if glass_unused:
+        glass += (
+            ": the next markers fit uses it, this plane does not depend on it"
+            if from_object
+            else ", not in the plane yet: **Fit plane** moves it behind the glass"
+        )
+    count = len(mirror.markers)
+    return markdown(
+        " · ".join(
+            [plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]
+        )
+    )
+
+
+def removal_question(mirror: SessionMirror) -> str:
+    """What removing a mirror takes out of the session, as much as it has, and how to undo it."""
+    count = len(mirror.markers)
+    has = (
+        ([f"{count} marker{'s' if count != 1 else ''}"] if count else [])
+        + (["boundary"] if mirror.boundary else [])
+        + (["plane"] if mirror.plane is not None else [])
+    )
+    what = f"{mirror.name} and its {listed(has)} leave" if has else f"{mirror.name} leaves"
+    shows = (
+        " What it shows then counts as seen directly: take the mirror out of the camera's view "
+        "too, or what "
+        "is seen in it stands in the cloud as an object of its own."
+        if mirror.boundary
+        else ""
+    )
+    back = "*Undo*, or *Bring back* below the Remove button, brings it back."
+    return f"{what} the session.{shows} {back}"
+
+
+def greyed_out(
+    session: Session,
+    selected: SessionMirror | None,
+    refused: dict[int, str],
+    undo_elsewhere: tuple[str, ...] = (),
+) -> str:
+    """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out, as small
+    print (HTML, names escaped), '' when none is. The fits' reasons only while a plane is missing;
+    `refused` as Jobs.refusals; undo_elsewhere: the other mirrors with a change to undo while the
+    selected one has none."""
+    if not session.mirrors:
+        return ""
+    reasons = []
+    if selected is not None and selected.plane is None and len(selected.markers) < FIT_MARKERS:
+        reasons.append(
+            f"<b>Fit plane</b>: {escape(selected.name)} has {len(selected.markers)} of the "
+            f"{FIT_MARKERS} markers it needs"
+        )
+    missing = any(m.plane is None for m in session.mirrors)
+    if missing and not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors):
+        reasons.append(f"<b>Fit all planes</b>: no mirror has {FIT_MARKERS} markers")
+    if all(m.plane is None for m in session.mirrors):
+        reasons.append("<b>Refine</b>: no mirror has a plane yet")
+    bare = [m for m in session.mirrors if m.boundary and m.plane is None]
+    if bare and all(refused.get(m.id) == "scene" for m in bare):
+        names = escape(listed([m.name for m in bare]))
+        reasons.append(
+            f"<b>Find</b>: {names} not found as {'it is' if len(bare) == 1 else 'they are'} (why: "
+            "in the report below); offered again once an outline or a marker changes"
+        )
+    if undo_elsewhere and selected is not None:
+        reasons.append(
+            f"<b>Undo</b>: nothing to take back on {escape(selected.name)}; select "
+            f"{escape(listed(undo_elsewhere, 'or'))} for "
+            f"{'its' if len(undo_elsewhere) == 1 else 'their'} changes"
+        )
+    if not reasons:
+        return ""
+    return (
+        f'<div style="{SMALL_TEXT};color:#666;padding-bottom:0.4em">Greyed out: '
+        + " · ".join(reasons)
+        + "</div>"
+    )
+
+
+def no_depth_note() -> Message:
+    """A marker clicked where the camera reads nothing."""
+    return Message(
+        "the camera reads nothing there in the recent frames: a fit cannot use it (click the "
+        "sticker's centre; Undo takes it back)"
+    )
+
+
+def marker_off_note(mirror: str, signed_mm: float, sigma_mm: float) -> Message:
+    """A marker clicked far off its mirror's plane: how far (mm and σ) and on which side."""
+    where = (
+        "behind something in front of the mirror"
+        if signed_mm > 0
+        else "off the glass (on the object seen in it?)"
+    )
+    return Message(
+        f"{abs(signed_mm):.0f} mm ({abs(signed_mm) / sigma_mm:.0f}σ) from {mirror}'s plane: "
+        f"{where}. "
+        "Undo takes it back; a fit would ask first."
+    )
+
+
+def _dot(grade: str, colours: dict[str, str]) -> str:
+    return (
+        '<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 '
+        "0.25em;"
+        f'background:{colours[grade]}"></span>'
+    )
+
+
+def marker_list(
+    mirror: SessionMirror | None, residuals, picked: int | None, colours: dict[str, str]
+) -> str:
+    """Every marker of the mirror with its distance to the plane and the noise there (HTML), in its
+    grade's colour (`colours`: grade -> CSS colour, as its centre on the depth frame); a poor one
+    says which way it is off; `picked` (0-based) in bold; residuals: MarkerResiduals or None."""
+    if mirror is None or not mirror.markers:
+        return ""
+    rows = []
+    for k, (u, v) in enumerate(mirror.markers):
+        name = escape(mirror.marker_name(k))
+        if k == picked:
+            name = f"<b>{name}</b>"
+        if residuals is None:
+            rows.append(_dot("unknown", colours) + f"{name} ({u:.0f}, {v:.0f})")
+            continue
+        grade, d, s = residuals.grades[k], residuals.signed_mm[k], residuals.sigma_mm[k]
+        text = "no depth" if not np.isfinite(d) else f"{abs(d):.1f} mm ({abs(d) / s:.1f}σ)"
+        if grade == "poor":
+            text += " (hidden by something in front?)" if d > 0 else " (off the glass?)"
+        rows.append(_dot(grade, colours) + f"{name} {text}")
+    legend = (
+        ""
+        if residuals is None
+        else (
+            f"{_dot('good', colours)}within 2σ of the plane {_dot('fair', colours)}3σ "
+            f"{_dot('poor', colours)}beyond (σ: the depth noise at the marker)"
+        )
+    )
+    return (
+        f'<div style="{SMALL_TEXT}">{legend}<br>'
+        + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows)
+        + "</div>"
+    )
+
+
+def report_markdown(report) -> str:
+    """The report of what left the planes as they are (Jobs.report: a CalibrationReport or
+    FitsApplied, or None) as a panel's Markdown."""
+    if report is None:
+        return ""
+    if isinstance(report, FitsApplied):
+        return joined(fit_report(report))
+    return joined(refinement.report(report))

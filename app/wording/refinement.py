@@ -1,0 +1,334 @@
+"""The words of a calibration from the object (a refinement, or a search without markers) and of the
+views' agreement, built from their typed results."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mirrorcore.base.words import listed
+from mirrorcore.calibration.refine import (
+    CAMERA_MEAN_EXPLAINS,
+    MEAN_EXPLAINS,
+    METHOD_BIAS,
+    MIN_AGREEMENTS,
+    NOISE_EXPLAINS,
+    MirrorRefinement,
+    ViewAgreement,
+)
+
+from ..results import (
+    AgreementReport,
+    CalibrationReport,
+    CalibrationWork,
+    FramesUsed,
+    MirrorAgreement,
+    NotFound,
+)
+from . import Message, refusal
+
+NO_AGREEMENT = Message(
+    "No mirror has a plane yet, so no view can be compared: fit the planes from markers, or "
+    "find them from the object."
+)
+CHECKING = Message("Checking how the views agree…")
+CANCELLED = Message("Cancelled: the planes are as they were.")
+GLASS_WHERE = "Mirrors › Rename, glass, remove, clear"
+
+
+def frames_used(used: FramesUsed) -> str:
+    """The frames a calibration read, in words: 'the last 5 live frames', 'frames 0, 4 and 9 of the
+    recording's 10 (numbered as in the header)'."""
+    if used.count is None:
+        return (
+            "the last live frame"
+            if len(used.picks) == 1
+            else f"the last {len(used.picks)} live frames"
+        )
+    if used.count == 1:
+        return "the recording's only frame"
+    which = (
+        f"frame {used.picks[0]}"
+        if len(used.picks) == 1
+        else f"frames {', '.join(map(str, used.picks))}"
+    )
+    return f"{which} of the recording's {used.count} (numbered as in the header)"
+
+
+def working(work: CalibrationWork) -> Message:
+    """A calibration from the object under way."""
+    doing = "Finding the planes" if work.search else "Refining the planes"
+    return Message(f"{doing} from the object…", (f"Over {frames_used(work.used)}.",))
+
+
+def signed(mm: float) -> str:
+    """mm to 0.1 with its sign, '0.0' when it rounds to nothing."""
+    return f"{mm:+.1f}" if round(mm, 1) != 0 else "0.0"
+
+
+def _glass_measured(report: CalibrationReport) -> bool:
+    return any(r.marker_offset is not None and r.glass_typed is None for r in report.mirrors)
+
+
+def headline(report: CalibrationReport) -> Message:
+    """The calibration's headline: what it did and what to do now (Undo, the glass); the frames, the
+    sign convention and the method's bias in the details."""
+    used = f"Over {frames_used(report.used)}."
+    if not report.changed:
+        return Message(
+            "Nothing changed: the planes and the glass already fit this object (no undo step).",
+            (used, "Undo still takes back the step before."),
+        )
+    sphere = " from the sphere's centres" if report.compared == "sphere" else ""
+    bias = f"Beyond the 1σ of each plane, {METHOD_BIAS[report.compared].reported}."
+    if report.search:
+        head = f"Planes found{sphere} (no markers): check the agreement below. Undo takes them back"
+        if report.not_found:
+            names = listed(m.name for m in report.not_found)
+            head = (
+                f"Planes found{sphere}; ⚠ {names} not found (why below). "
+                "Undo takes the planes found back"
+            )
+            found = listed(r.name for r in report.mirrors)
+            details = (
+                used,
+                f"Undo goes by mirror: select {found} to take the planes found back.",
+                bias,
+            )
+            return Message(f"{head}.", details)
+        return Message(f"{head}.", (used, bias))
+    details = [used, "A move > 0 is away from the camera.", bias]
+    glass = ""
+    if report.compared == "surfaces" and _glass_measured(report):
+        glass = " Glass measured: type it in if you know it (how: in the details)."
+        details.append(
+            f"Type it in under {GLASS_WHERE}. The glass is measured on these planes, which "
+            f"{METHOD_BIAS['surfaces'].words.removeprefix('the method ')}: an ordinary mirror's is "
+            "3 to 6 mm. Typed in, the markers fit uses it; a refinement keeps it, and its planes "
+            "do "
+            "not depend on it."
+        )
+    return Message(
+        f"Planes refined{sphere}. Undo restores the previous planes.{glass}", tuple(details)
+    )
+
+
+def mirror_line(r: MirrorRefinement, search: bool, saved: bool = True) -> Message:
+    """One refined (or found) mirror: its move and whether its view now agrees as well as the depth
+    noise allows; the figures before and after, how well the data fix it and its glass in the
+    details."""
+    agrees = r.agreement_after_mm <= NOISE_EXPLAINS * r.noise_mm
+    moved = "" if search else f" moved {signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°;"
+    verdict = (
+        "its view agrees with the others as the depth noise allows."
+        if agrees
+        else "⚠ its view agrees less well than the depth noise explains: check its boundary."
+    )
+    done = "found" if search else "refined"
+    if search:
+        figures = f"RMS {r.agreement_after_mm:.2f} mm, mean {r.offset_after_mm:+.2f} mm"
+    else:
+        figures = (
+            f"RMS {r.agreement_before_mm:.2f} mm before, {r.agreement_after_mm:.2f} mm after; mean "
+            f"{r.offset_before_mm:+.2f} mm before, {r.offset_after_mm:+.2f} mm after"
+        )
+    details = [f"{figures}; the depth noise alone gives {r.noise_mm:.2f} mm RMS."]
+    if not search:
+        details.append(
+            f"Moved {r.shift_mm:+.2f} mm (> 0: away from the camera) and {r.tilt_deg:.3f}°."
+        )
+    if r.sphere_radius_mm is None:
+        whom = (
+            "the camera"
+            if r.agreements == r.camera_agreements
+            else f"the camera and the mirrors that fix it, {r.camera_agreements:,} with the camera"
+        )
+        seen = f"{r.agreements:,} points seen both ways with {whom}"
+        how = f"{METHOD_BIAS['surfaces'].reported}; {seen}"
+    else:
+        how = (
+            f"from the centres of the sphere (radius {r.sphere_radius_mm:.1f} mm) seen directly "
+            "and in it; "
+            f"{METHOD_BIAS['sphere'].words}"
+        )
+    details.append(
+        f"The data fix it to ±{r.shift_std_mm:.2f} mm and ±{r.tilt_std_deg:.3f}° (1σ; {how})."
+    )
+    if r.marker_offset is not None:
+        read = f"{1e3 * r.marker_offset:.1f} ± {1e3 * r.marker_offset_std:.1f} mm"
+        details.append(
+            f"Markers {read} in front of the refined plane; its glass stays "
+            f"{1e3 * r.glass_typed:.1f} mm, as typed in."
+            if r.glass_typed is not None
+            else f"Glass: markers {read} in front of the silver "
+            f"({'saved as its glass' if saved else 'its glass already'})."
+        )
+    return Message(f"**{r.name}** {done}:{moved} {verdict}", tuple(details))
+
+
+def not_found_line(missing: NotFound) -> Message:
+    """A mirror a search could not find: its plane stays; the library's why in the details."""
+    return Message(
+        f"**{missing.name}** ⚠ not found: its plane is as it was (why in the details).",
+        (missing.why,),
+    )
+
+
+def report(result: CalibrationReport) -> list[Message]:
+    """The report of a calibration from the object: its headline, then a line per mirror."""
+    lines = [headline(result)]
+    lines += [mirror_line(r, result.search, result.changed) for r in result.mirrors]
+    lines += [not_found_line(m) for m in result.not_found]
+    return lines
+
+
+def note(result: CalibrationReport) -> Message:
+    """The calibration's notification: its headline, and where the report is."""
+    head = headline(result).headline
+    return Message(f"{head} The report is under Mirrors.")
+
+
+def undone(result: CalibrationReport, verb: str) -> Message:
+    """After an undo or redo of the calibration `result`: what was undone or redone."""
+    what = "found" if result.search else "refined"
+    names = listed(r.name for r in result.mirrors)
+    return Message(f"{verb}: the planes {what} from the object for {names}.")
+
+
+def calibration_refused(reason: str, mirrors: tuple[str, ...], search: bool) -> Message:
+    """A calibration from the object refused; `mirrors`: the names the refusal is about."""
+    if mirrors:
+        what = "not found from the object" if search else "not refined from the object"
+        return Message(
+            f"{listed(mirrors)} {what}: the planes are as they were; why and what to do are in the "
+            "details.",
+            (reason,),
+        )
+    return refusal(reason, "the planes are as they were")
+
+
+# ------------------------------------------------------------------------------------------
+# agreement
+def doubt(found: ViewAgreement) -> str:
+    """'camera' when a mirror's comparisons with the camera (MIN_AGREEMENTS or more) go beyond the
+    noise (their RMS beyond NOISE_EXPLAINS times it, or their mean beyond CAMERA_MEAN_EXPLAINS
+    times), 'mirrors' when only all its comparisons together do (MEAN_EXPLAINS for their mean), else
+    ''. The camera's alone single out a tilted plane: the comparisons between two mirrors put a tilt
+    or an offset of one on both."""
+
+    def beyond(rms: float, mean: float, noise: float, share: float) -> bool:
+        return rms > NOISE_EXPLAINS * noise or abs(mean) > share * noise
+
+    if found.camera_points >= MIN_AGREEMENTS and beyond(
+        found.camera_rms_mm, found.camera_mean_mm, found.camera_noise_mm, CAMERA_MEAN_EXPLAINS
+    ):
+        return "camera"
+    return "mirrors" if beyond(found.rms_mm, found.mean_mm, found.noise_mm, MEAN_EXPLAINS) else ""
+
+
+def disagrees(found: ViewAgreement) -> bool:
+    """Whether an agreement line warns of the mirror (enough comparisons, beyond the noise)."""
+    return found.points >= MIN_AGREEMENTS and bool(doubt(found))
+
+
+def _over(found: ViewAgreement) -> str:
+    return "on one frame" if found.frames == 1 else f"over {found.frames} frames"
+
+
+def _apart(value: float, limit: float) -> tuple[str, str]:
+    """Two figures (mm) to 0.1, or to 0.01 where they would read the same."""
+    places = 2 if f"{value:.1f}" == f"{limit:.1f}" else 1
+    return f"{value:.{places}f}", f"{limit:.{places}f}"
+
+
+def agreement_line(line: MirrorAgreement) -> Message:
+    """One mirror's agreement with the other views against what the depth noise explains. A mirror
+    that disagrees with the camera may be tilted or have its boundary off; one that agrees with the
+    camera but not with another mirror has a plane off along its normal (its own or another's).
+    Fewer than MIN_AGREEMENTS comparisons judge nothing. The advice names the markers and the glass
+    only for a plane from markers."""
+    name, found = line.name, line.found
+    if not found.points or not np.isfinite(found.rms_mm):
+        return Message(
+            f"{name}: nothing of the object is seen both in it and by another view: put the object "
+            "in "
+            "view to check it."
+        )
+    if found.points < MIN_AGREEMENTS:
+        return Message(
+            f"{name}: too little is seen both in it and by another view to judge its plane: move "
+            "the object where both see it.",
+            (
+                f"{found.points:,} points seen both ways {_over(found)}, {MIN_AGREEMENTS} needed; "
+                "a person "
+                "or a sphere seen from the side serves; or check its markers' grades.",
+            ),
+        )
+    kind = doubt(found)
+    if kind == "camera":
+        rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
+        check = "markers" if line.by_markers else "boundary"
+        return Message(
+            f"{name}: ⚠ disagrees with the camera: its plane may be tilted or its boundary off. "
+            f"Refine from the object, or check its {check}.",
+            (
+                f"Its points lie {found.camera_mean_mm:+.1f} mm from the camera's surface on "
+                "average "
+                f"(good planes within {CAMERA_MEAN_EXPLAINS * found.camera_noise_mm:.1f} mm); RMS "
+                f"{rms} "
+                f"mm, the depth noise {noise} mm; {found.camera_points:,} points seen both ways "
+                f"{_over(found)}.",
+            ),
+        )
+    if kind == "mirrors":
+        head = (
+            f"{name}: ⚠ agrees with the camera, not with the other mirrors: a plane is off along "
+            "its "
+            "normal. Refine from the object."
+            if found.camera_points >= MIN_AGREEMENTS
+            else f"{name}: ⚠ disagrees with the other mirrors: a plane is off. Refine from the "
+            "object."
+        )
+        limit = MEAN_EXPLAINS * found.noise_mm
+        rms, noise = _apart(found.rms_mm, found.noise_mm)
+        details = [
+            f"Its points lie {found.mean_mm:+.1f} mm from theirs on average (good planes within "
+            f"{limit:.1f} mm); RMS {rms} mm against {noise} mm of depth noise; {found.points:,} "
+            "points "
+            f"seen both ways {_over(found)}."
+        ]
+        if found.camera_points >= MIN_AGREEMENTS:
+            details.append(f"Against the camera: mean {found.camera_mean_mm:+.1f} mm.")
+        details.append(
+            "Another mirror flagged against the camera is the one off; if none is, a plane is off "
+            "along its normal"
+            + (
+                ": markers on glass put it that much too near (set each mirror's "
+                "glass and fit again)."
+                if line.by_markers
+                else "."
+            )
+        )
+        return Message(head, tuple(details))
+    return Message(
+        f"{name}: agrees with the other views as the depth noise explains.",
+        (
+            f"{found.rms_mm:.1f} mm RMS {_over(found)}; the depth noise there {found.noise_mm:.1f} "
+            "mm; mean "
+            f"{found.mean_mm:+.1f} mm over {found.points:,} points seen both ways.",
+        ),
+    )
+
+
+def agreement(report: AgreementReport) -> list[Message]:
+    """The agreement lines, a mirror each; NO_AGREEMENT when no mirror has a plane."""
+    return [agreement_line(m) for m in report.mirrors] or [NO_AGREEMENT]
+
+
+def disagreement_note(names: tuple[str, ...]) -> Message:
+    """The notification naming the mirrors the agreement lines flag."""
+    views = "its view disagrees" if len(names) == 1 else "their views disagree"
+    return Message(
+        f"{listed(names)}: ⚠ {views} with the others beyond the depth noise; why and what to do "
+        "are "
+        "under Mirrors."
+    )
