@@ -55,7 +55,7 @@ def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
     (tmp_path / "shim.c").write_text(SHIM)
     subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "shim.so"), str(tmp_path / "shim.c")], check=True)
     env = {**os.environ, "FAKENECT_PATH": str(tmp_path / "rec"), "LD_PRELOAD": str(tmp_path / "shim.so"),
-           "LD_LIBRARY_PATH": str(Path(FAKENECT[0]).parent), "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+           "LD_LIBRARY_PATH": str(Path(FAKENECT[0]).parent), "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
     out = tmp_path / "out.npz"
     run = subprocess.run([sys.executable, "-c", READER, str(out), "4"], env=env, capture_output=True, text=True,
                          timeout=60)

@@ -12,7 +12,7 @@ from mirrorcore.geometry.fitting import fit_sphere
 from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.sources import Frame, StackSource, open_source, parse_spec
 
-REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real"
+REAL = Path(__file__).resolve().parents[4] / "shared" / "data" / "real"
 needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"no real frames at {REAL} (shared/ beside the clone)")
 
 
@@ -87,7 +87,7 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
              "noscale": "an integer depth stack needs 'depth_scale'",
              "badk": "'K' must be integer or floating of shape \\(3, 3\\)", "junk": "not a .npz archive",
              "complex": "'depth_scale' must be integer or floating of shape \\(\\), got complex64"}   # a TypeError,
-    # found by the fuzzing (tests/test_fuzz_loaders.py)
+    # found by the fuzzing (tests/core/io/test_fuzz_loaders.py)
     for name, message in cases.items():
         with pytest.raises(FileFormatError, match=rf"{name}.npz: {message}"):
             open_source(f"npz:{tmp_path / name}.npz")

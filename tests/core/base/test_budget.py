@@ -90,7 +90,7 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
               "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    pass\n"
               "print(re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1))")
     run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True, timeout=120,
-                         cwd=Path(__file__).resolve().parents[1])
+                         cwd=Path(__file__).resolve().parents[3])
     assert int(run.stdout.split()[-1]) < 400_000, run.stdout + run.stderr   # kB (VmHWM, not inherited like
     # ru_maxrss): the interpreter, numpy and OpenCV, not the file
 

@@ -23,7 +23,7 @@ from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import kaleidoscope_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
-from tests.test_paths import CAMERA, corner
+from tests.core.rig.test_raypaths import CAMERA, corner
 
 VOXEL = 0.002
 
@@ -102,7 +102,7 @@ DEMO_DENSE_DIGESTS = {"carve": "b2da67d49d164cbb", "paper": "06482df27eac37fb", 
 def test_where_no_ray_meets_two_mirrors_dense_results_do_not_change():
     """The sparse fusion (issue 14) gives the same values to the voxels it computes, and leaves out only voxels that
     every view sees empty beyond the truncation (weight 0 there, tsdf 1 in the whole fusion)."""
-    session = load_session(Path(__file__).resolve().parents[1] / "sessions" / "demo")
+    session = load_session(Path(__file__).resolve().parents[3] / "sessions" / "demo")
     rig = Rig.from_session(session)
     selection = dataclasses.replace(session.selection, smooth=False)
     depth, mask = prepare_frame(rig, session.read_frame(0), session.read_background(), selection)

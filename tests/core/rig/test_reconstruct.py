@@ -129,7 +129,7 @@ def _digest(cloud) -> str:
 
 def test_where_no_ray_meets_two_mirrors_nothing_changes():
     """The paper's 120-degree rig: no pixel's ray meets a second mirror, and every cloud is the same, bit for bit."""
-    session = load_session(Path(__file__).resolve().parents[1] / "sessions" / "demo")
+    session = load_session(Path(__file__).resolve().parents[3] / "sessions" / "demo")
     rig, background = Rig.from_session(session), session.read_background()
     selection = replace(session.selection, smooth=False)
     assert rig.bounces == 3 and len(rig.reflection_table.chains) == 0

@@ -11,7 +11,7 @@ from mirrorcore.rig.model import Rig
 from mirrorcore.io.session import load_session
 from mirrorcore.sources import SessionSource, SimulatedSource, open_source, session_scene
 
-DEMO = Path(__file__).resolve().parents[1] / "sessions" / "demo"
+DEMO = Path(__file__).resolve().parents[3] / "sessions" / "demo"
 
 
 def test_shipped_demo_session_is_calibrated_and_scans_the_sphere():
