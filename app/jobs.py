@@ -24,8 +24,11 @@ from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.base.palette import heat_map_colours
 from mirrorcore.rig.pipeline import prepare_frame
-from mirrorcore.calibration.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, MIN_AGREEMENTS, NOISE_EXPLAINS,
-                               REFINE_FRAMES, ViewAgreement, refine_session, view_agreement)
+from mirrorcore.calibration.fixing import MIN_AGREEMENTS
+from mirrorcore.calibration.refine import REFINE_FRAMES, refine_session
+from mirrorcore.calibration.residuals import ViewAgreement, view_agreement
+from mirrorcore.calibration.results import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS,
+                                            NOISE_EXPLAINS)
 from mirrorcore.calibration.search import calibrate_scene
 from mirrorcore.io.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource

@@ -9,7 +9,8 @@ import numpy as np
 from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.rig.pipeline import prepare_frame
-from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, SAME_GLASS_MM, SAME_PLANE, Refinement, refine_session
+from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, refine_session
+from mirrorcore.calibration.results import SAME_GLASS_MM, SAME_PLANE, Refinement
 from mirrorcore.rig.model import Rig
 from mirrorcore.calibration.search import calibrate_scene, sentences
 from mirrorcore.io.session import Session, load_session, save_session

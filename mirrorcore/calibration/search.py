@@ -22,7 +22,8 @@ from mirrorcore.geometry.camera import reproject_depth
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.base.progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
-from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
+from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, refine_session
+from mirrorcore.calibration.results import Refinement
 from mirrorcore.rig.model import Mirror, Rig
 from mirrorcore.io.session import Session
 

@@ -19,9 +19,14 @@ from mirrorcore.base.palette import heat_colours, heat_map_colours
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.calibration.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points
 from mirrorcore.rig.reconstruct import reconstruct_raw
-from mirrorcore.calibration.refine import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS, Leash, MirrorRefinement, Refinement,
-                              _fixed_by, _Residuals, marker_offset, moved_plane, offset_at, refine_planes,
-                              refine_session, reflection_jacobian, view_agreement)
+from mirrorcore.calibration.fixing import fixed_by
+from mirrorcore.calibration.gaussnewton import MAX_ITERATIONS, progress_fraction
+from mirrorcore.calibration.glass import marker_offset
+from mirrorcore.calibration.planestep import moved_plane, offset_at, reflection_jacobian
+from mirrorcore.calibration.refine import Leash, refine_planes, refine_session
+from mirrorcore.calibration.residuals import Residuals, view_agreement
+from mirrorcore.calibration.results import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS,
+                                            MirrorRefinement, Refinement)
 from mirrorcore.base.progress import Ratchet
 from mirrorcore.rig.model import Mirror, Rig
 from mirrorcore.calibration.search import calibrate_scene, search_plane
@@ -208,8 +213,9 @@ def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     settled = len(fractions) - 1 - 3                              # the three frames' own planes, then the end
     assert fractions[settled - 1] <= 0.75 and np.all(np.diff(fractions[settled - 1:-1]) > 0.05)
-    from mirrorcore.calibration.refine import MAX_ITERATIONS, _fraction                 # however many iterations it takes
-    assert all(_fraction(k) < _fraction(k + 1) <= 0.75 for k in range(1, 2 * MAX_ITERATIONS))
+    # however many iterations it takes
+    assert all(progress_fraction(k) < progress_fraction(k + 1) <= 0.75
+               for k in range(1, 2 * MAX_ITERATIONS))
 
 
 def test_a_bar_never_goes_back_and_a_throttled_one_still_reaches_the_end():
@@ -463,7 +469,7 @@ def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
     depths = np.stack([sim.frame(i).depth for i in range(6)])
     masks = np.stack([prepare_frame(rig, d, background)[1] for d in depths])
     reported = refine_planes(rig, depths, masks, with_="surfaces")
-    monkeypatch.setattr("mirrorcore.calibration.refine.SCATTER_FRAMES", 7)
+    monkeypatch.setattr("mirrorcore.calibration.gaussnewton.SCATTER_FRAMES", 7)
     own = refine_planes(rig, depths, masks, with_="surfaces")
     centre = np.asarray(reported.centre)
     for mine, fits, truth in zip(reported.mirrors, own.mirrors, rig.mirrors):
@@ -532,26 +538,26 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     assert worse.summary().split("; the data fix")[0].endswith("4.00 mm RMS): check its boundary")
 
 
-def _comparisons(*pairs: tuple[int, int, int]) -> _Residuals:
+def _comparisons(*pairs: tuple[int, int, int]) -> Residuals:
     """Residuals with `count` comparisons of view a's readings against view b's, for each (a, b, count)."""
     pair = np.array([(a, b) for a, b, count in pairs for _ in range(count)]).reshape(-1, 2)
     zeros = np.zeros(len(pair))
-    return _Residuals(np.zeros((len(pair), 3)), zeros, zeros + 1.0, pair)
+    return Residuals(np.zeros((len(pair), 3)), zeros, zeros + 1.0, pair)
 
 
 def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     """The middle mirror of an arc shares little with the camera and much with the mirrors beside it, which the camera
     fixes; a cluster of mirrors that the camera fixes none of is refused, whatever they share (a box)."""
     arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100), (2, 3, 100))
-    assert _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
-    assert _fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
+    assert fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
+    assert fixed_by(arc, [2], ["middle"], 3) == {2: 620}                        # held mirrors fix it too
     # a search's guesses: each fixed by the views held, not through the other guesses
-    assert _fixed_by(arc, [2], ["middle"], 3, held_only=True) == {2: 620}       # the mirrors beside it, calibrated
+    assert fixed_by(arc, [2], ["middle"], 3, held_only=True) == {2: 620}       # the mirrors beside it, calibrated
     with pytest.raises(CalibrationError, match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
                                                r"plane found without markers must be fixed by the camera or by "
                                                r"mirrors calibrated before it\); click markers on it and fit it, then "
                                                r"refine from the object$") as refused:
-        _fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3, held_only=True)
+        fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3, held_only=True)
     assert refused.value.mirrors == ("middle",)
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
     with pytest.raises(CalibrationError, match=r"^left, middle and right: the camera and the mirrors see too little "
@@ -560,10 +566,10 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
                                                r"readings they share with one another \(left: 5,000, middle: 10,000 "
                                                r"and right: 5,000\) fix nothing, as the camera fixes none of them\); "
                                                r"refine on") as refused:
-        _fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)           # every mirror named, not the first
+        fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)           # every mirror named, not the first
     assert refused.value.mirrors == ("left", "middle", "right")
     with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
-        _fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)
+        fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)
 
 
 def test_a_refinement_that_moves_nothing_changes_nothing():

@@ -9,7 +9,8 @@ from helpers import GLOBE_DEPTH, globe_points
 
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.rig.pipeline import prepare_frame
-from mirrorcore.calibration.refine import moved_plane, offset_at, refine_planes
+from mirrorcore.calibration.planestep import moved_plane, offset_at
+from mirrorcore.calibration.refine import refine_planes
 from mirrorcore.rig.model import Rig
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
