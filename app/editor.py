@@ -29,11 +29,10 @@ from mirrorcore.io.session import (
     Pixels,
     Session,
     SessionMirror,
-    check_limits,
-    check_name,
     load_session,
     save_session,
 )
+from mirrorcore.io.limits import check_limits, check_name
 from mirrorcore.base.words import listed
 
 UNDO_DEPTH = 100

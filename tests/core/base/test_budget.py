@@ -24,7 +24,8 @@ from mirrorcore.depth.files import read_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.polygon import MAX_VERTICES, first_crossing, validate_polygon
 from mirrorcore.rig.model import Rig
-from mirrorcore.io.session import MAX_MARKERS, MAX_MIRRORS, SessionMirror, check_limits, check_name, load_session
+from mirrorcore.io.limits import MAX_MARKERS, check_limits, check_name
+from mirrorcore.io.session import MAX_MIRRORS, SessionMirror, load_session
 from mirrorcore.sources import open_source
 from mirrorcore.sources.files import load_npz
 
