@@ -7,12 +7,14 @@ from pathlib import Path
 
 from mirrorcore.base.errors import FileFormatError
 
-MAX_JSON_BYTES = 64 << 20   # no file mirrorscan reads as JSON comes near; a larger one is refused before reading
+# no file mirrorscan reads as JSON comes near; a larger one is refused before reading
+MAX_JSON_BYTES = 64 << 20
 
 
 def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BYTES) -> object:
-    """The parsed content of a JSON file; FileFormatError naming the file when it is missing, larger than `max_bytes`
-    (checked before reading), not UTF-8, invalid, nested too deeply or holding a number too long to read.
+    """The parsed content of a JSON file; FileFormatError naming the file when it is missing, larger
+    than `max_bytes` (checked before reading), not UTF-8, invalid, nested too deeply or holding a
+    number too long to read.
     what : how the file is called in the 'no such ...' message ('session file', 'scene file'...)."""
     path = Path(path)
     if not path.is_file():
@@ -33,8 +35,8 @@ def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BY
 
 
 def finite_number(value) -> float | None:
-    """A parsed JSON (or YAML) number as a finite float, or None: not a number, a boolean, infinite, NaN, or an
-    integer too large for a float."""
+    """A parsed JSON (or YAML) number as a finite float, or None: not a number, a boolean, infinite,
+    NaN, or an integer too large for a float."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return None
     try:

@@ -1,9 +1,11 @@
-"""Batch reconstruction of long recordings: one PLY file per frame and a manifest, on this machine's cores or a Dask
-cluster, resumable (a rerun does only the frames missing), safe (atomic files, workers that die are replaced, a
-cancel keeps every finished frame). Above the pipeline and dense reconstruction (docs/DESIGN.md, floor 10).
+"""Batch reconstruction of long recordings: one PLY file per frame and a manifest, on this machine's
+cores or a Dask cluster, resumable (a rerun does only the frames missing), safe (atomic files,
+workers that die are replaced, a cancel keeps every finished frame). Above the pipeline and dense
+reconstruction (docs/DESIGN.md, floor 10).
 
-    report = run_batch(BatchJob(session, out, method="raw", temporal=2), Where(workers=2), progress=print)
-    run = BatchRun(BatchJob(session, out)).start(); run.progress; run.cancel(); run.wait()
+    report = run_batch(BatchJob(session, out, method="raw", temporal=2), Where(workers=2),
+    progress=print) run = BatchRun(BatchJob(session, out)).start(); run.progress; run.cancel();
+    run.wait()
 """
 from mirrorcore.batch.engine import BatchProgress, BatchReport, BatchRun, Where, default_frames_per_task, run_batch
 from mirrorcore.batch.frames import FrameContext, read_depth, reconstruct_frames

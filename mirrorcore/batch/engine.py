@@ -1,6 +1,6 @@
-"""Running a batch: the frames still to do, split into tasks of a few frames, run in this process or on Dask (a local
-cluster, or an existing one), the manifest kept up to date, progress reported, stopped cleanly on cancel.
-`run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
+"""Running a batch: the frames still to do, split into tasks of a few frames, run in this process or
+on Dask (a local cluster, or an existing one), the manifest kept up to date, progress reported,
+stopped cleanly on cancel. `run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
 from __future__ import annotations
 
 import os
@@ -18,14 +18,15 @@ from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
 
-POLL_SECONDS = 0.25         # how often a Dask run looks at the cancel request and the cluster's events
+# how often a Dask run looks at the cancel request and the cluster's events
+POLL_SECONDS = 0.25
 
 
 @dataclass(frozen=True)
 class Where:
-    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this process, without
-    Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786') instead; dashboard : serve the Dask
-    dashboard of a local cluster."""
+    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this
+    process, without Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786')
+    instead; dashboard : serve the Dask dashboard of a local cluster."""
 
     workers: int | None = None
     scheduler: str | None = None
@@ -52,9 +53,11 @@ class Where:
 
 @dataclass(frozen=True)
 class BatchProgress:
-    """Where a batch stands. total : the session's frames; done : frames done (kept + written); kept : frames an
-    earlier run had done; failed : frames that failed in this run; fps : frames written per second by this run;
-    seconds_left : at that rate (None before the first frame); retried : frames run again after their worker died;
+    """Where a batch stands. total : the session's frames; done : frames done (kept + written); kept
+    : frames an earlier run had done; failed : frames that failed in this run; fps : frames written
+    per second by this run;
+    seconds_left : at that rate (None before the first frame); retried : frames run again after
+    their worker died;
     dashboard : the Dask dashboard's address (None in process or without one)."""
 
     total: int
@@ -73,9 +76,11 @@ class BatchProgress:
 
 @dataclass(frozen=True)
 class BatchReport:
-    """How a batch ended. out : the output folder; kept, written : frames an earlier run had done / this run wrote;
-    failed : {frame: one-line error}; retried : {frame: address of the worker that died with it}; seconds : this
-    run's wall time from the first task to the last result (cluster start-up excluded, in `startup_seconds`);
+    """How a batch ended. out : the output folder; kept, written : frames an earlier run had done /
+    this run wrote;
+    failed : {frame: one-line error}; retried : {frame: address of the worker that died with it};
+    seconds : this run's wall time from the first task to the last result (cluster start-up
+    excluded, in `startup_seconds`);
     fps : frames written per second; cancelled : stopped by a cancel request."""
 
     out: Path
@@ -104,14 +109,16 @@ class BatchReport:
 
 
 def default_frames_per_task(method: str) -> int:
-    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense frame."""
+    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense
+    frame."""
     return 8 if method == "raw" else 1
 
 
 def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int, ...]]:
-    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most a 2 * `workers`-th
-    of the frames left (and at least one), so that the tasks shrink towards the end and the workers finish together
-    instead of one running a whole last task alone (guided self-scheduling). One worker: tasks of `per_task`."""
+    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most
+    a 2 * `workers`-th of the frames left (and at least one), so that the tasks shrink towards the
+    end and the workers finish together instead of one running a whole last task alone (guided
+    self-scheduling). One worker: tasks of `per_task`."""
     chunks, start = [], 0
     while start < len(todo):
         left = len(todo) - start
@@ -123,13 +130,15 @@ def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int,
 
 def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None, overwrite: bool = False,
               progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
-    """Reconstruct every frame of job.session not yet done in job.out (see mirrorcore.batch.manifest) and return how
-    it went. Frames that cannot be read or reconstructed are reported in the report and the manifest, the others go
-    on; a rerun does only the frames still missing.
+    """Reconstruct every frame of job.session not yet done in job.out (see
+    mirrorcore.batch.manifest) and return how it went. Frames that cannot be read or reconstructed
+    are reported in the report and the manifest, the others go on; a rerun does only the frames
+    still missing.
 
-    progress(BatchProgress) is called after each task and when a worker dies; cancel (a threading.Event or a
-    callable returning True) stops the run: frames finished are kept and the manifest is written. Raises
-    MirrorscanError (one line) for a bad session, output folder or cluster.
+    progress(BatchProgress) is called after each task and when a worker dies; cancel (a
+    threading.Event or a callable returning True) stops the run: frames finished are kept and the
+    manifest is written. Raises MirrorscanError (one line) for a bad session, output folder or
+    cluster.
     """
     session = load_session(Path(job.session).resolve())
     job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
@@ -156,7 +165,8 @@ def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
     if where.in_process:
         yield _InProcess(context, cancel)
         return
-    from mirrorcore.batch.cluster import DaskExecutor, dask_client  # distributed is imported only when used
+    # distributed is imported only when used
+    from mirrorcore.batch.cluster import DaskExecutor, dask_client
     with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
         local = where.scheduler is None
         executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
@@ -185,11 +195,13 @@ class _InProcess:
         self.chunks.extend(chunks)
 
     def wait(self, timeout: float) -> list:
-        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the others go on)."""
+        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the
+        others go on)."""
         chunk = self.chunks.pop(0)
         try:
             records, failures = reconstruct_frames(self.context, chunk, lambda: cancel_requested(self.cancel))
-        except Exception as exc:         # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
+        # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
+        except Exception as exc:
             records, failures = [], {i: task_error(exc) for i in chunk}
         return [(chunk, records, failures)]
 
@@ -198,7 +210,8 @@ class _InProcess:
 
 
 class _Run:
-    """The client's side of one run: results into the manifest, progress, the figures of the report."""
+    """The client's side of one run: results into the manifest, progress, the figures of the
+    report."""
 
     def __init__(self, folder: OutputFolder, total: int, progress: Callable[[BatchProgress], None] | None):
         self.folder, self.total, self.progress = folder, total, progress
@@ -248,9 +261,10 @@ class _Run:
 
 
 class BatchRun:
-    """A batch in a background thread, for a UI: start() it, read `progress` (the latest BatchProgress, None before
-    the first) or pass `on_progress`, cancel() it, wait() for its BatchReport. `error` holds the exception that
-    ended it (a MirrorscanError: show its one line) and wait() re-raises it."""
+    """A batch in a background thread, for a UI: start() it, read `progress` (the latest
+    BatchProgress, None before the first) or pass `on_progress`, cancel() it, wait() for its
+    BatchReport. `error` holds the exception that ended it (a MirrorscanError: show its one line)
+    and wait() re-raises it."""
 
     def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
                  overwrite: bool = False, on_progress: Callable[[BatchProgress], None] | None = None):
@@ -267,7 +281,8 @@ class BatchRun:
         return self
 
     def cancel(self) -> None:
-        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait() returns."""
+        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait()
+        returns."""
         self._cancel.set()
 
     @property
@@ -275,7 +290,8 @@ class BatchRun:
         return self._thread.is_alive()
 
     def wait(self, timeout: float | None = None) -> BatchReport | None:
-        """The report once the run has ended (None if it is still running after `timeout` seconds)."""
+        """The report once the run has ended (None if it is still running after `timeout`
+        seconds)."""
         self._thread.join(timeout)
         if self._thread.is_alive():
             return None

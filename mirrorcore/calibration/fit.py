@@ -1,5 +1,5 @@
-"""Mirror calibration, the three ways of the paper's section 3: from markers on the glass, from the mirror's frame (a
-region), and from pairs of real and virtual points of a calibration object."""
+"""Mirror calibration, the three ways of the paper's section 3: from markers on the glass, from the
+mirror's frame (a region), and from pairs of real and virtual points of a calibration object."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -19,21 +19,26 @@ from mirrorcore.io.session import Session, SessionMirror
 
 MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line are collinear
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
-INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
-MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
-MAX_MARKER_FRAMES = 30     # a session's markers and regions are read on its background and up to this many of its
-                           # frames, evenly spaced (per pixel, the regions on their median, the markers on their
-                           # robust mean: markers.marker_points)
+# RANSAC inlier threshold in standard deviations of the depth noise at each point
+INLIER_SIGMAS = 3.0
+# metres: a mirror plane passing closer to the camera than this is refused
+MIN_CAMERA_DISTANCE = 0.05
+# a session's markers and regions are read on its background and up to this many of its frames,
+# evenly spaced (per pixel, the regions on their median, the markers on their robust mean:
+# markers.marker_points)
+MAX_MARKER_FRAMES = 30
 
 
 @dataclass(frozen=True)
 class Calibration:
     """A fitted mirror plane and how well the data support it.
 
-    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC;
-    markers : for a markers fit, how far each marker's centre lies from the plane against the noise there (None for
-    region and pair calibrations); centre : (3,) metres, the middle of the points used (where a change of the plane
-    is measured); marker_offset : metres, the glass the markers fit put between its markers and the plane.
+    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used
+    / kept by RANSAC;
+    markers : for a markers fit, how far each marker's centre lies from the plane against the noise
+    there (None for region and pair calibrations); centre : (3,) metres, the middle of the points
+    used (where a change of the plane is measured); marker_offset : metres, the glass the markers
+    fit put between its markers and the plane.
     """
 
     plane: Plane
@@ -45,8 +50,9 @@ class Calibration:
     marker_offset: float = 0.0
 
     def summary(self, marker_names: list[str] | None = None) -> str:
-        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor, the farthest (by
-        its name in `marker_names`, else its number from 1) and the glass taken between the markers and the plane."""
+        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor,
+        the farthest (by its name in `marker_names`, else its number from 1) and the glass taken
+        between the markers and the plane."""
         text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
         if self.markers is not None:
             grades = self.markers.grades
@@ -67,14 +73,15 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
                            marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
-    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel robust mean, inside the
-    markers' windows only: markers.marker_points)
-    markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
-    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass): the plane
-    fitted to the markers is moved this far away from the camera, along its normal. The residuals stay those of the
-    markers' own plane.
-    The inlier threshold is INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the
-    mirror and the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
+    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel robust
+    mean, inside the markers' windows only: markers.marker_points)
+    markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window`
+    pixels.
+    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the
+    glass): the plane fitted to the markers is moved this far away from the camera, along its
+    normal. The residuals stay those of the markers' own plane. The inlier threshold is
+    INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the mirror and
+    the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
     through the camera.
     """
     depth = np.asarray(depth)
@@ -104,9 +111,10 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
 
 def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,
                           name: str = "mirror") -> Calibration:
-    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper: "if it is large
-    enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u, v).
-    Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too thin for a plane."""
+    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper:
+    "if it is large enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u,
+    v). Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too
+    thin for a plane."""
     depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
     polygon = validate_polygon(polygon, intr.shape, f"{name}: region")
     inside = polygon_mask(polygon, intr.shape) & (depth > 0)
@@ -122,13 +130,15 @@ def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.
 
 
 def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
-    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its virtual image).
+    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its
+    virtual image).
 
-    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a calibration
-    object seen directly and behind the mirror. The normal is the mean of the unit directions virtual -> real
-    (towards the camera's side); d makes the plane pass through the pairs' midpoints on average.
-    rms_mm reports the RMS of |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where
-    the plane puts it. Raises CalibrationError for no pairs, coincident pairs, or a camera behind the resulting plane.
+    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a
+    calibration object seen directly and behind the mirror. The normal is the mean of the unit
+    directions virtual -> real (towards the camera's side); d makes the plane pass through the
+    pairs' midpoints on average. rms_mm reports the RMS of |reflect(virtual) - real| / 2, the
+    distance of each virtual point's reflection to where the plane puts it. Raises CalibrationError
+    for no pairs, coincident pairs, or a camera behind the resulting plane.
     """
     real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
     virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)
@@ -155,10 +165,12 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
 
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
                       method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
-    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers (moved back by
-    each mirror's marker_offset), or with method 'region' from each mirror's region polygon; all or nothing: the first
-    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
-    returns the session with the new planes, and (index, Calibration) for each mirror calibrated."""
+    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their
+    markers (moved back by each mirror's marker_offset), or with method 'region' from each mirror's
+    region polygon; all or nothing: the first
+    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float
+    metres. returns the session with the new planes, and (index, Calibration) for each mirror
+    calibrated."""
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
         raise CalibrationError(f"{session.path}: the session has no mirrors")
@@ -199,10 +211,10 @@ def _check_camera_side(plane: Plane, name: str) -> None:
 
 
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
-    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
-    background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in front of the background in
-    them (static_frames). Raises CalibrationError without any, and MirrorscanError naming them when no
-    pixel of theirs has a reading."""
+    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked
+    for, or its background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in
+    front of the background in them (static_frames). Raises CalibrationError without any, and
+    MirrorscanError naming them when no pixel of theirs has a reading."""
     if frame is not None:
         return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
     frames = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
@@ -213,9 +225,9 @@ def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
 
 
 def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> np.ndarray | None:
-    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front of the
-    background in them (depthops.without_occluders), then the background (H, W) itself; either alone when the other
-    is None; None without both. -> (k + 1, H, W) float32."""
+    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front
+    of the background in them (depthops.without_occluders), then the background (H, W) itself;
+    either alone when the other is None; None without both. -> (k + 1, H, W) float32."""
     if background is None:
         return None if frames is None else np.asarray(frames, dtype=np.float32)
     background = np.asarray(background, dtype=np.float32)[None]

@@ -1,7 +1,8 @@
-"""Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and projection.
+"""Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and
+projection.
 
-Conventions (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth camera's centre,
-pixel (u, v) = (column, row) with integer coordinates at pixel centres.
+Conventions (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth
+camera's centre, pixel (u, v) = (column, row) with integer coordinates at pixel centres.
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ from mirrorcore.base.jsonfile import finite_number
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
 MAX_YAML_BYTES = 1 << 20   # a camera file is a few hundred bytes
-MAX_IMAGE_SIDE = 16384   # pixels: no depth camera comes near; a larger size in a file is damage, not a camera
+# pixels: no depth camera comes near; a larger size in a file is damage, not a camera
+MAX_IMAGE_SIDE = 16384
 
 
 @dataclass(frozen=True)
@@ -56,8 +58,8 @@ class Intrinsics:
     # ----------------------------------------------------------------- constructors and presets
     @classmethod
     def from_dict(cls, data: dict, where: str = "camera") -> "Intrinsics":
-        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md); raises FileFormatError
-        naming `where`."""
+        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md);
+        raises FileFormatError naming `where`."""
         if not isinstance(data, dict):
             raise FileFormatError(f"{where}: expected an object with {', '.join(_FIELDS)}")
         missing = [k for k in _FIELDS[:6] if k not in data]
@@ -84,11 +86,13 @@ class Intrinsics:
 
     @classmethod
     def primesense(cls) -> "Intrinsics":
-        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault), 640x480."""
+        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault),
+        640x480."""
         return cls(640, 480, 525.0, 525.0, 319.5, 239.5)
 
     def scaled(self, factor: float) -> "Intrinsics":
-        """The same camera at `factor` times the resolution (pixel centres stay at integer coordinates)."""
+        """The same camera at `factor` times the resolution (pixel centres stay at integer
+        coordinates)."""
         w, h = round(self.width * factor), round(self.height * factor)
         return replace(self, width=w, height=h, fx=self.fx * factor, fy=self.fy * factor,
                        cx=(self.cx + 0.5) * factor - 0.5, cy=(self.cy + 0.5) * factor - 0.5)
@@ -106,8 +110,9 @@ class Intrinsics:
 
     @cached_property
     def rays(self) -> np.ndarray:
-        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z reprojects to
-        (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that gathers and products stay contiguous."""
+        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z
+        reprojects to (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that
+        gathers and products stay contiguous."""
         table = np.empty((2, self.height, self.width), dtype=np.float32)
         table[0] = ((np.arange(self.width) - self.cx) / self.fx)[None, :]
         table[1] = ((np.arange(self.height) - self.cy) / self.fy)[:, None]
@@ -116,8 +121,8 @@ class Intrinsics:
 
     @cached_property
     def axis_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables small enough to
-        stay in cache)."""
+        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables
+        small enough to stay in cache)."""
         x, y = np.array(self.rays[0, 0]), np.array(self.rays[1, :, 0])
         x.flags.writeable = y.flags.writeable = False
         return x, y
@@ -152,8 +157,10 @@ def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None
 
 
 def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
-    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres, camera frame
-    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a mirrorcore.plane.Plane."""
+    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres,
+    camera frame
+    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a
+    mirrorcore.plane.Plane."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy, np.ones(len(uv))], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -177,7 +184,8 @@ def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray
 
 
 def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth image") -> np.ndarray:
-    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the intrinsics."""
+    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the
+    intrinsics."""
     depth = np.asarray(depth)
     if depth.shape != intr.shape:
         raise FileFormatError(
@@ -206,7 +214,8 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
 
 
 def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
-    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with cv2.FileStorage."""
+    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with
+    cv2.FileStorage."""
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
     try:
         fs.write("image_width", intr.width)
@@ -218,9 +227,10 @@ def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
 
 
 def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
-    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional depth_scale); raises
-    FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's '%YAML:1.0' line and '!!opencv-matrix' tags are
-    set aside), not with OpenCV's own parser: damaged bytes made that one abort the whole process."""
+    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional
+    depth_scale); raises FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's
+    '%YAML:1.0' line and '!!opencv-matrix' tags are set aside), not with OpenCV's own parser:
+    damaged bytes made that one abort the whole process."""
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
@@ -249,7 +259,8 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
 
 
 def _opencv_matrix(node) -> np.ndarray | None:
-    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64, or None."""
+    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64,
+    or None."""
     if not isinstance(node, dict) or node.get("rows") != 3 or node.get("cols") != 3:
         return None
     values = node.get("data")

@@ -1,4 +1,5 @@
-"""Image polygons (mirror boundaries, regions of interest): validation and rasterisation to pixel masks."""
+"""Image polygons (mirror boundaries, regions of interest): validation and rasterisation to pixel
+masks."""
 from __future__ import annotations
 
 import cv2
@@ -7,16 +8,17 @@ import numpy as np
 from mirrorcore.base.errors import MirrorscanError
 
 MIN_VERTICES = 3             # a polygon's fewest corners (an outline, a region)
-MAX_VERTICES = 1000     # a drawn outline has a handful of corners; the crossing test is quadratic in the worst case
+# a drawn outline has a handful of corners; the crossing test is quadratic in the worst case
+MAX_VERTICES = 1000
 PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB of temporaries)
 
 
 def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:
     """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
 
-    Refuses (MirrorscanError naming `where`): fewer than MIN_VERTICES or more than MAX_VERTICES vertices, non-finite
-    values, vertices outside the image of size `shape` = (H, W) when given, a polygon with no area, and a polygon
-    whose edges cross each other.
+    Refuses (MirrorscanError naming `where`): fewer than MIN_VERTICES or more than MAX_VERTICES
+    vertices, non-finite values, vertices outside the image of size `shape` = (H, W) when given, a
+    polygon with no area, and a polygon whose edges cross each other.
     """
     try:
         poly = np.asarray(points, dtype=np.float64)
@@ -52,11 +54,12 @@ def polygon_area(poly: np.ndarray) -> float:
 
 
 def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
-    """The first pair (i, j), i < j, of non-adjacent edges that intersect (edge i runs from vertex i to i+1), or None.
+    """The first pair (i, j), i < j, of non-adjacent edges that intersect (edge i runs from vertex i
+    to i+1), or None.
 
-    Memory stays bounded whatever the polygon's size: the pairs are tested in blocks of rows of at most PAIR_BLOCK
-    pairs, and only pairs whose bounding boxes overlap are tested exactly. Time is quadratic in the worst case, which
-    is why polygons are limited to MAX_VERTICES.
+    Memory stays bounded whatever the polygon's size: the pairs are tested in blocks of rows of at
+    most PAIR_BLOCK pairs, and only pairs whose bounding boxes overlap are tested exactly. Time is
+    quadratic in the worst case, which is why polygons are limited to MAX_VERTICES.
     """
     a = np.asarray(poly, dtype=np.float64)
     b = np.roll(a, -1, axis=0)
@@ -71,7 +74,8 @@ def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
         ii, jj = np.nonzero(pair)
         hit = _segments_meet(a[ii + start], b[ii + start], a[jj], b[jj])
         if hit.any():
-            k = int(np.argmax(hit))                                  # row-major: the first pair in (i, j) order
+            # row-major: the first pair in (i, j) order
+            k = int(np.argmax(hit))
             return int(ii[k] + start), int(jj[k])
     return None
 
@@ -95,8 +99,8 @@ def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarra
 
 
 def edge_distance(poly, uv: tuple[float, float]) -> float:
-    """The signed distance (pixels) from pixel uv to the polygon's edge (n, 2) (u, v): > 0 inside, < 0 outside;
-    -inf for fewer than MIN_VERTICES vertices (no polygon: nothing is inside)."""
+    """The signed distance (pixels) from pixel uv to the polygon's edge (n, 2) (u, v): > 0 inside, <
+    0 outside; -inf for fewer than MIN_VERTICES vertices (no polygon: nothing is inside)."""
     if len(poly) < MIN_VERTICES:
         return -np.inf
     contour = np.asarray(poly, np.float32).reshape(-1, 1, 2)
@@ -106,9 +110,9 @@ def edge_distance(poly, uv: tuple[float, float]) -> float:
 def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """Rasterise a polygon to an (H, W) bool mask with OpenCV.
 
-    Vertices (u, v) snap to the nearest pixel centre. A pixel is in the mask when its centre is inside the snapped
-    polygon or on an edge (and, as OpenCV rasterises, within half a pixel outside an edge): every pixel a user sees
-    under the drawn outline counts as inside.
+    Vertices (u, v) snap to the nearest pixel centre. A pixel is in the mask when its centre is
+    inside the snapped polygon or on an edge (and, as OpenCV rasterises, within half a pixel outside
+    an edge): every pixel a user sees under the drawn outline counts as inside.
     """
     pts = np.round(np.asarray(poly, dtype=np.float64)).astype(np.int32).reshape(-1, 1, 2)
     mask = np.zeros(shape, dtype=np.uint8)

@@ -1,6 +1,6 @@
-"""PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y z float32 (metres,
-camera frame), red green blue uchar (source colour), source uchar; faces (vertex_indices, uchar count + int32) for
-meshes."""
+"""PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y
+z float32 (metres, camera frame), red green blue uchar (source colour), source uchar; faces
+(vertex_indices, uchar count + int32) for meshes."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,15 +15,17 @@ from mirrorcore.base.palette import source_colours
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
-READ_COPIES = 4     # trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
+# trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
+READ_COPIES = 4
 _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
-_HEADER_LINES, _HEADER_LINE = 200, 1024   # a PLY header longer than this (lines, bytes a line) is damage
+# a PLY header longer than this (lines, bytes a line) is damage
+_HEADER_LINES, _HEADER_LINE = 200, 1024
 
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
-    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j, 33.. several
-    mirrors in turn: mirrorcore.base.palette); faces : optional
-    (m, 3) int vertex indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
+    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j,
+    33.. several mirrors in turn: mirrorcore.base.palette); faces : optional (m, 3) int vertex
+    indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)
     if len(sources) != len(points):
@@ -63,8 +65,8 @@ def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray, faces: 
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Read the vertices of any PLY (ours, Open3D's, MeshLab's...).
 
-    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source` property.
-    Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
+    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source`
+    property. Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
     """
     path = Path(path)
     if not path.is_file():
@@ -76,9 +78,11 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     try:
         geometry = trimesh.load(path, file_type="ply", process=False)
         vertex = geometry.metadata["_ply_raw"]["vertex"]["data"]
-    except Exception as exc:  # trimesh raises many kinds on broken files; all mean the same to the user
+    # trimesh raises many kinds on broken files; all mean the same to the user
+    except Exception as exc:
         raise FileFormatError(f"{path}: broken PLY ({type(exc).__name__}: {exc})") from None
-    names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())  # ASCII: dict of columns
+    # ASCII: dict of columns
+    names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())
     if not {"x", "y", "z"} <= names:
         raise FileFormatError(f"{path}: the PLY's vertices have no x, y, z")
     points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
@@ -87,8 +91,9 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def ply_element_counts(path: str | Path) -> dict[str, int]:
-    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading the data.
-    Raises FileFormatError naming the file when it is missing or its header is not a PLY header."""
+    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading
+    the data. Raises FileFormatError naming the file when it is missing or its header is not a PLY
+    header."""
     path = Path(path)
     counts: dict[str, int] = {}
     try:

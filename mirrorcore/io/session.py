@@ -83,7 +83,8 @@ class SessionMirror:
 
     @property
     def glass_set(self) -> bool:
-        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is not)."""
+        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is
+        not)."""
         return self.marker_offset != 0.0 or self.marker_offset_std is not None
 
     @property
@@ -92,7 +93,8 @@ class SessionMirror:
         return self.marker_offset != 0.0 and self.marker_offset_std is None
 
     def marker_name(self, k: int) -> str:
-        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the mirror's id)."""
+        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the
+        mirror's id)."""
         return f"{self.id}.{k + 1}"
 
     @property
@@ -101,8 +103,8 @@ class SessionMirror:
 
     @property
     def marker_plane(self) -> Plane | None:
-        """The plane of the markers' faces: the calibrated reflecting surface moved towards the camera by
-        marker_offset (the stickers sit on the glass), or None while uncalibrated."""
+        """The plane of the markers' faces: the calibrated reflecting surface moved towards the
+        camera by marker_offset (the stickers sit on the glass), or None while uncalibrated."""
         if self.plane is None:
             return None
         return Plane(self.plane.normal, self.plane.d - self.marker_offset)
@@ -122,16 +124,19 @@ class SessionMirror:
 
 @dataclass(frozen=True)
 class Session:
-    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative to `root`
-    (POSIX style).
+    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative
+    to `root` (POSIX style).
 
     selection : how the object is found in a frame (the defaults unless the file says otherwise)
-    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
+    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i /
+    fps)
     colour_frames : n colour PNG paths, one per frame, or None
     extra : top-level keys this version does not know, kept as they were
-    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig.model)
+    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to
+    MAX_ORDER (mirrorcore.rig.model)
 
-    Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
+    Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a
+    stable identity.
     """
 
     root: Path
@@ -173,7 +178,8 @@ class Session:
         return replace(self, mirrors=tuple(mirrors))
 
     def mirror_index(self, mirror_id: int) -> int:
-        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when there is none."""
+        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when
+        there is none."""
         for i, m in enumerate(self.mirrors):
             if m.id == mirror_id:
                 return i
@@ -189,7 +195,8 @@ class Session:
         return self._read(self.frames[index])
 
     def spread_frames(self, most: int) -> np.ndarray:
-        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none without frames)."""
+        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none
+        without frames)."""
         if not self.frames:
             return np.zeros(0, int)
         return np.unique(np.linspace(0, len(self.frames) - 1, min(len(self.frames), most)).astype(int))
@@ -215,15 +222,16 @@ def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
 
 # --------------------------------------------------------------------- reading
 def load_session(folder: str | Path) -> Session:
-    """Read and validate SESSION/session.json; raises FileFormatError with the file and the offending key."""
+    """Read and validate SESSION/session.json; raises FileFormatError with the file and the
+    offending key."""
     folder = Path(folder)
     return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)",
                                        MAX_SESSION_BYTES), folder)
 
 
 def session_from_json(data, folder: Path) -> Session:
-    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that paths are relative
-    to. Raises FileFormatError naming the file and the key."""
+    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that
+    paths are relative to. Raises FileFormatError naming the file and the key."""
     where = str(Path(folder) / SESSION_FILE)
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
@@ -314,8 +322,8 @@ _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_ .-]{0,99}$")
 
 
 def session_folder(sessions_dir: str | Path, name: str) -> Path:
-    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long, or could leave the
-    folder (separators, '..', leading dots)."""
+    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long,
+    or could leave the folder (separators, '..', leading dots)."""
     name = name.strip()
     if not _NAME.match(name) or ".." in name:
         raise MirrorscanError(f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
@@ -324,8 +332,9 @@ def session_folder(sessions_dir: str | Path, name: str) -> Path:
 
 
 def copy_session(session: Session, folder: str | Path) -> Session:
-    """Save a session under a new folder with its background, frames and colour frames; all or nothing. Refuses an
-    existing folder that is not empty. Returns the session as it now lives in `folder`."""
+    """Save a session under a new folder with its background, frames and colour frames; all or
+    nothing. Refuses an existing folder that is not empty. Returns the session as it now lives in
+    `folder`."""
     folder = Path(folder)
     with new_folder(folder) as work:
         for rel in ([session.background] if session.background else []) + list(session.frames) \

@@ -1,5 +1,5 @@
-"""From a depth frame to the object's merged cloud: select the object, smooth its depth (prepare_frame, which the
-dense methods share), then Algorithm 1."""
+"""From a depth frame to the object's merged cloud: select the object, smooth its depth
+(prepare_frame, which the dense methods share), then Algorithm 1."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,9 +14,9 @@ from mirrorcore.depth.selection import Backdrop, Selection, object_mask
 
 def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                   selection: Selection = Selection()) -> tuple[np.ndarray, np.ndarray]:
-    """The object's pixels and the depth the reconstruction uses: depth (H, W) float metres, background (H, W) float
-    metres or its Backdrop or None -> (depth (H, W) float32 metres, smoothed on the object when selection.smooth;
-    mask (H, W) bool)."""
+    """The object's pixels and the depth the reconstruction uses: depth (H, W) float metres,
+    background (H, W) float metres or its Backdrop or None -> (depth (H, W) float32 metres, smoothed
+    on the object when selection.smooth; mask (H, W) bool)."""
     mask = object_mask(rig.intrinsics, depth, background, selection)
     if selection.smooth:
         smoothed = smooth_depth(depth, mask)
@@ -25,12 +25,13 @@ def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop
 
 
 def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over the pixels of
-    their own view (depthops.local_quadratic_depth), the others as smoothed: their (virtual) depths are longer, so a
-    structured-light camera's noise is larger there (1.3 to 1.6 times at 60 to 90 degrees between two mirrors), and a
-    fit over 9 x 9 pixels brings them to the error of the views through one mirror where an average over as many
-    would sag on curved surfaces. depth, smoothed : (H, W) float metres, raw and smooth_depth's; mask : (H, W) bool
-    -> (H, W) float32 metres."""
+    """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over
+    the pixels of their own view (depthops.local_quadratic_depth), the others as smoothed: their
+    (virtual) depths are longer, so a structured-light camera's noise is larger there (1.3 to 1.6
+    times at 60 to 90 degrees between two mirrors), and a fit over 9 x 9 pixels brings them to the
+    error of the views through one mirror where an average over as many
+    would sag on curved surfaces. depth, smoothed : (H, W) float metres, raw and smooth_depth's;
+    mask : (H, W) bool -> (H, W) float32 metres."""
     cloud = reconstruct_raw(rig, smoothed, mask)
     through = source_orders(cloud.sources) >= 2
     if not through.any():

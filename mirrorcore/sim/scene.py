@@ -1,22 +1,25 @@
-"""Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their JSON file.
+"""Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their
+JSON file.
 
-Everything is in the camera frame (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the
-depth camera. "Up" in the room is -y. A scene file is JSON:
+Everything is in the camera frame (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z
+forward), origin at the depth camera. "Up" in the room is -y. A scene file is JSON:
 
     {"version": 1,
-     "camera": {"width": 640, ...} or "kinect_v1" or "primesense",
-     "mirrors": [{"name": "mirror 1", "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
-                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04, "marker_offset": 0.0}],
+     "camera": {"width": 640, ...} or "kinect_v1" or "primesense", "mirrors": [{"name": "mirror 1",
+     "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
+                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04,
+                  "marker_offset": 0.0}],
      "objects": [{"type": "sphere", "centre": [0, 0, 2], "radius": 0.115}, ...],
      "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null,
      "click_jitter_px": 0.0}
 
-A mirror's `centre` and `normal` give its reflecting surface (the silver), whose `normal` points to the reflective
-side, which must face the camera; `up` is the direction of its height (made orthogonal to the normal); marker (s, t)
-are offsets in metres from the mirror's centre along its right (up x normal) and up axes; markers are matte squares of
-side `marker_size` whose faces are `marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on
-the glass of a back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error of
-each marker click in the session made from the scene (sim/export.py).
+A mirror's `centre` and `normal` give its reflecting surface (the silver), whose `normal` points to
+the reflective side, which must face the camera; `up` is the direction of its height (made
+orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its
+right (up x normal) and up axes; markers are matte squares of side `marker_size` whose faces are
+`marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on the glass of a
+back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error
+of each marker click in the session made from the scene (sim/export.py).
 """
 from __future__ import annotations
 
@@ -35,12 +38,14 @@ from mirrorcore.base.jsonfile import read_json
 SCENE_VERSION = 1
 OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
 _CAMERA_PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
-MARKER_LIFT = 1e-4            # metres: the least a marker's face stands in front of the glass (no coplanar faces)
+# metres: the least a marker's face stands in front of the glass (no coplanar faces)
+MARKER_LIFT = 1e-4
 MAX_MARKER_OFFSET = 0.05      # metres
 
 
 def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
-    """A 3-vector of finite floats (normalised when `unit`); raises FileFormatError naming `where`."""
+    """A 3-vector of finite floats (normalised when `unit`); raises FileFormatError naming
+    `where`."""
     try:
         v = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -67,8 +72,10 @@ class SceneMirror:
 
     centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
     up : (3,) unit, the direction of `height` (orthogonal to normal); width, height : metres;
-    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a marker, metres;
-    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>= 0).
+    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a
+    marker, metres;
+    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>=
+    0).
     """
 
     name: str
@@ -101,7 +108,8 @@ class SceneMirror:
 
     @property
     def plane(self) -> Plane:
-        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d > 0)."""
+        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d
+        > 0)."""
         return Plane.from_point_normal(self.centre, self.normal)
 
     def local_to_camera(self, st: np.ndarray) -> np.ndarray:
@@ -116,12 +124,13 @@ class SceneMirror:
 
     @property
     def marker_lift(self) -> float:
-        """Metres from the reflecting surface to the markers' faces: marker_offset, at least MARKER_LIFT."""
+        """Metres from the reflecting surface to the markers' faces: marker_offset, at least
+        MARKER_LIFT."""
         return max(self.marker_offset, MARKER_LIFT)
 
     def marker_centres(self) -> np.ndarray:
-        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting surface), camera
-        frame."""
+        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting
+        surface), camera frame."""
         st = np.asarray(self.markers, dtype=np.float64).reshape(-1, 2)
         return self.local_to_camera(st) + self.marker_lift * np.asarray(self.normal)
 
@@ -135,11 +144,13 @@ class SceneMirror:
 class SceneObject:
     """An object in front of the mirrors.
 
-    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle of a cylinder's
-    axis, a box's centre, where a mesh's bounding-box centre goes, the point on the floor between a figure's feet.
+    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle
+    of a cylinder's axis, a box's centre, where a mesh's bounding-box centre goes, the point on the
+    floor between a figure's feet.
     radius : sphere/cylinder radius, metres. height : cylinder length or figure height, metres.
     axis : (3,) unit cylinder axis. size : (3,) box edges along x, y, z, metres.
-    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale : metres per unit.
+    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale :
+    metres per unit.
     gait_hz : strides per second of a figure walking in place (0 = standing still).
     """
 
@@ -168,7 +179,8 @@ class SceneObject:
 
 @dataclass(frozen=True)
 class Room:
-    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2 * half_width wide."""
+    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2
+    * half_width wide."""
 
     floor_y: float = 1.0
     back_z: float = 4.2
@@ -180,8 +192,10 @@ class Room:
 
 @dataclass(frozen=True)
 class Scene:
-    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None);
-    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the scene."""
+    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the
+    room (or None);
+    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the
+    scene."""
 
     camera: Intrinsics
     mirrors: tuple[SceneMirror, ...]
@@ -195,7 +209,8 @@ class Scene:
                 "room": None if self.room is None else self.room.to_json(), "click_jitter_px": self.click_jitter_px}
 
     def with_markers(self, marker_offset: float | None = None, click_jitter_px: float | None = None) -> "Scene":
-        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels) replaced (None keeps)."""
+        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels)
+        replaced (None keeps)."""
         mirrors = self.mirrors if marker_offset is None else tuple(
             replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
         jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px, "click jitter")
@@ -235,7 +250,8 @@ def scene_from_json(data, where: str = "scene") -> Scene:
 
 
 def _offset(value, where: str) -> float:
-    """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where` otherwise."""
+    """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where`
+    otherwise."""
     if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
             or not 0 <= value <= MAX_MARKER_OFFSET):
         raise FileFormatError(f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "

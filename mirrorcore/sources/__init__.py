@@ -1,8 +1,10 @@
-"""Depth sources behind one interface (Frame, DepthSource), chosen by a short spec string: open_source(spec) and the
-table of kinds with what each needs on this machine (`mirrorscan sources`).
+"""Depth sources behind one interface (Frame, DepthSource), chosen by a short spec string:
+open_source(spec) and the table of kinds with what each needs on this machine (`mirrorscan
+sources`).
 
-Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.
-A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz, .bag or .oni file.
+Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT,
+fps=N. A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz,
+.bag or .oni file.
 """
 from __future__ import annotations
 
@@ -29,8 +31,8 @@ _OPTIONS = ("camera", "scale", "fps")
 
 @dataclass(frozen=True)
 class SourceKind:
-    """One kind of source: its spec form, what it reads, and a check that returns None when it can be used here or
-    a one-line reason why not."""
+    """One kind of source: its spec form, what it reads, and a check that returns None when it can
+    be used here or a one-line reason why not."""
 
     name: str
     spec: str
@@ -88,8 +90,9 @@ KINDS = (
 
 
 def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
-    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a path; its kind is
-    guessed from what is there (see the module docstring). Raises MirrorscanError for an unknown kind or option."""
+    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a
+    path; its kind is guessed from what is there (see the module docstring). Raises MirrorscanError
+    for an unknown kind or option."""
     body, _, query = spec.partition("?")
     options = dict(parse_qsl(query, keep_blank_values=True))
     unknown = sorted(set(options) - set(_OPTIONS))
@@ -114,9 +117,10 @@ def _guess_kind(path: Path, spec: str) -> str:
 
 
 def open_source(spec: str | None, session: Session | None = None) -> DepthSource:
-    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a session with
-    frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to. Raises MirrorscanError (a
-    missing library or device: what to install or plug in) or FileFormatError (a bad file: which and why)."""
+    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a
+    session with frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to.
+    Raises MirrorscanError (a missing library or device: what to install or plug in) or
+    FileFormatError (a bad file: which and why)."""
     if spec is None:
         spec = "session" if session is not None and session.frames else "sim"
     kind, target, options = parse_spec(spec)

@@ -1,5 +1,5 @@
-"""Live depth cameras through optional libraries, imported only when used: Kinect v1 (libfreenect) and OpenNI2
-devices and .oni recordings (PrimeSense, Xtion)."""
+"""Live depth cameras through optional libraries, imported only when used: Kinect v1 (libfreenect)
+and OpenNI2 devices and .oni recordings (PrimeSense, Xtion)."""
 from __future__ import annotations
 
 import time
@@ -22,11 +22,12 @@ _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM"
 class FreenectSource(DepthSource):
     """A Kinect v1 through libfreenect's sync wrapper, live.
 
-    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres by `disparity_model`
-    ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default Nicolas Burrus' calibration
-    z = 1 / (counts * -0.0030711016 + 3.3309495161) (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
-    use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1() (Burrus).
-    Timestamps are seconds since the source opened, on the host's clock.
+    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres
+    by `disparity_model` ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default
+    Nicolas Burrus' calibration z = 1 / (counts * -0.0030711016 + 3.3309495161)
+    (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
+    use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1()
+    (Burrus). Timestamps are seconds since the source opened, on the host's clock.
     """
 
     def __init__(self, index: int = 0, intrinsics: Intrinsics | None = None,
@@ -35,7 +36,8 @@ class FreenectSource(DepthSource):
         self._freenect = require("freenect", self.name, FREENECT_INSTALL)
         self.intrinsics, self.fps, self.frame_count = intrinsics or Intrinsics.kinect_v1(), 30.0, None
         self.disparity_model, self._t0 = disparity_model, time.monotonic()
-        self._first: Frame | None = self._grab()       # fails here, at open, when there is no Kinect
+        # fails here, at open, when there is no Kinect
+        self._first: Frame | None = self._grab()
 
     def _grab(self) -> Frame:
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
@@ -53,11 +55,12 @@ class FreenectSource(DepthSource):
 
 
 class OpenNI2Source(DepthSource):
-    """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording (seekable).
+    """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording
+    (seekable).
 
-    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units holds those units);
-    intrinsics from the stream's fields of view (principal point at the image centre); timestamps from the device,
-    seconds.
+    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units
+    holds those units); intrinsics from the stream's fields of view (principal point at the image
+    centre); timestamps from the device, seconds.
     """
 
     def __init__(self, target: str = ""):
@@ -85,7 +88,8 @@ class OpenNI2Source(DepthSource):
         self.fps = float(mode.fps or 30)
         self._playback = self._device.playback if is_file else None
         if self._playback is not None:
-            self._playback.set_speed(-1)                    # manual: one frame per read, no real-time pacing
+            # manual: one frame per read, no real-time pacing
+            self._playback.set_speed(-1)
         self.frame_count = None if self._playback is None else self._playback.get_number_of_frames(self._stream)
 
     def read(self, i: int) -> Frame:
@@ -103,7 +107,8 @@ class OpenNI2Source(DepthSource):
 
 
 def initialise_openni2(openni2, what: str) -> None:
-    """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when it is missing."""
+    """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when
+    it is missing."""
     try:
         openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()] or ["."])
     except Exception as exc:  # openni raises its own InitializationError, not an ImportError

@@ -1,5 +1,6 @@
-"""Recorded depth sources that users already have: session folders, folders of 16-bit PNG, TUM RGB-D folders and
-.npz stacks. All are seekable: frame_count frames, read(i) for any i (modulo frame_count: playing loops)."""
+"""Recorded depth sources that users already have: session folders, folders of 16-bit PNG, TUM RGB-D
+folders and .npz stacks. All are seekable: frame_count frames, read(i) for any i (modulo
+frame_count: playing loops)."""
 from __future__ import annotations
 
 import zipfile
@@ -21,16 +22,18 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
-REAL = (np.integer, np.floating)           # the dtypes of a .npz's numbers (np.number also takes complex ones)
+# the dtypes of a .npz's numbers (np.number also takes complex ones)
+REAL = (np.integer, np.floating)
 _NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
 class ImageSequenceSource(DepthSource):
-    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and optional colour.
+    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and
+    optional colour.
 
-    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or None entries), or
-    None for none.
+    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or
+    None entries), or None for none.
     """
 
     def __init__(self, name: str, intrinsics: Intrinsics, paths: list[Path], timestamps: np.ndarray,
@@ -49,7 +52,8 @@ class ImageSequenceSource(DepthSource):
 
 
 class SessionSource(ImageSequenceSource):
-    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour frames."""
+    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour
+    frames."""
 
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
@@ -67,8 +71,9 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_
                     fps: float = 30.0) -> ImageSequenceSource:
     """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
 
-    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object) or intrinsic.json
-    (Open3D). depth_scale (metres per unit): the argument, else camera.json's, else 0.001. Raises FileFormatError.
+    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object)
+    or intrinsic.json (Open3D). depth_scale (metres per unit): the argument, else camera.json's,
+    else 0.001. Raises FileFormatError.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -83,7 +88,8 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_
 
 
 def folder_camera(folder: Path) -> Intrinsics:
-    """The camera described beside a folder's images: camera.json, else intrinsic.json; FileFormatError if neither."""
+    """The camera described beside a folder's images: camera.json, else intrinsic.json;
+    FileFormatError if neither."""
     if (folder / CAMERA_SIDECAR).is_file():
         path = folder / CAMERA_SIDECAR
         return Intrinsics.from_dict(read_json(path, "camera file"), str(path))
@@ -94,8 +100,8 @@ def folder_camera(folder: Path) -> Intrinsics:
 
 
 def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
-    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json (the session's camera
-    object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
+    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json
+    (the session's camera object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
     if value in PRESETS:
         return Intrinsics(**{**PRESETS[value]().to_dict(), "depth_scale": depth_scale})
     path = Path(value)
@@ -109,9 +115,9 @@ def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
 
 def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None
              ) -> ImageSequenceSource:
-    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x 5000, colour
-    from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera defaults to TUM's recommended
-    525 / 525 / 319.5 / 239.5 at 640x480."""
+    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x
+    5000, colour from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera
+    defaults to TUM's recommended 525 / 525 / 319.5 / 239.5 at 640x480."""
     folder = Path(folder)
     depth_stamps, depth_paths = read_tum_list(folder / "depth.txt")
     scale = TUM_DEPTH_SCALE if depth_scale is None else depth_scale
@@ -127,7 +133,8 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
 
 
 def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
-    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's folder."""
+    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's
+    folder."""
     if not path.is_file():
         raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
     stamps, paths = [], []
@@ -153,7 +160,8 @@ def _parses(text: str) -> bool:
 
 
 def nearest_stamps(stamps: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float -> (m,) int."""
+    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float ->
+    (m,) int."""
     right = np.searchsorted(stamps, queries).clip(0, len(stamps) - 1)
     left = (right - 1).clip(0)
     return np.where(np.abs(stamps[left] - queries) <= np.abs(stamps[right] - queries), left, right)
@@ -175,7 +183,8 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
 class StackSource(DepthSource):
     """Frames held in memory as a stack of sensor units.
 
-    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float seconds;
+    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float
+    seconds;
     colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.units (uint16).
     NaN, inf and values <= 0 read as no reading.
     """
@@ -196,9 +205,10 @@ class StackSource(DepthSource):
 
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
-    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale` metres (integer
-    stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3) camera matrix, optional
-    `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3) uint8 RGB. Raises FileFormatError."""
+    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale`
+    metres (integer stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3)
+    camera matrix, optional `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3)
+    uint8 RGB. Raises FileFormatError."""
     path = Path(path)
     arrays = load_npz(path)
     for key in ("depth", "K"):
@@ -227,7 +237,8 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
 
 
 def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[type, ...], default):
-    """arrays[key] checked for shape and dtype, one of `kinds` (REAL, (np.uint8,)...), or `default` when absent."""
+    """arrays[key] checked for shape and dtype, one of `kinds` (REAL, (np.uint8,)...), or `default`
+    when absent."""
     if key not in arrays:
         return default
     value = arrays[key]
@@ -238,9 +249,9 @@ def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[typ
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt or pickled, and
-    MemoryBudgetError when the arrays' declared shapes (read from their .npy headers first) would not fit in the
-    memory budget."""
+    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt
+    or pickled, and MemoryBudgetError when the arrays' declared shapes (read from their .npy headers
+    first) would not fit in the memory budget."""
     if not path.is_file():
         raise FileFormatError(f"{path}: no such .npz file")
     if not zipfile.is_zipfile(path):
@@ -260,8 +271,9 @@ def load_npz(path: Path) -> dict[str, np.ndarray]:
 
 
 def npz_declared_bytes(file) -> dict[str, int]:
-    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item size), read without
-    loading any array: {member name: bytes}. Raises ValueError for a member that is not an .npy array."""
+    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item
+    size), read without loading any array: {member name: bytes}. Raises ValueError for a member that
+    is not an .npy array."""
     sizes = {}
     with zipfile.ZipFile(file) as archive:
         for info in archive.infolist():

@@ -1,4 +1,5 @@
-"""Intel RealSense through pyrealsense2 (optional, imported only when used): live cameras and .bag recordings."""
+"""Intel RealSense through pyrealsense2 (optional, imported only when used): live cameras and .bag
+recordings."""
 from __future__ import annotations
 
 import queue
@@ -14,12 +15,14 @@ from mirrorcore.sources.base import DepthSource, Frame, require
 
 REALSENSE_INSTALL = "pip install 'mirrorscan[devices]' (PyPI pyrealsense2)"
 BAG_TIMEOUT_S = 600.0           # a bag's playback that has not ended by then is reported as broken
-BAG_START_S = 5.0               # a playback still stopped this long after its start delivers nothing
+# a playback still stopped this long after its start delivers nothing
+BAG_START_S = 5.0
 
 
 class RealSenseSource(DepthSource):
-    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units (Frame.units holds
-    the z16 values), intrinsics from the depth stream's profile, timestamps from the device in seconds."""
+    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units
+    (Frame.units holds the z16 values), intrinsics from the depth stream's profile, timestamps from
+    the device in seconds."""
 
     def __init__(self, serial: str = ""):
         self.name = f"realsense:{serial}"
@@ -49,7 +52,8 @@ class RealSenseSource(DepthSource):
 
 
 def profile_camera(rs, profile) -> tuple[Intrinsics, float]:
-    """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth units) and fps."""
+    """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth
+    units) and fps."""
     stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
     return _camera(stream, profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
 
@@ -61,19 +65,21 @@ def _camera(stream, units: float) -> Intrinsics:
 
 
 def open_bag(path: str | Path) -> "BagSource":
-    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a time (see BagSource).
-    Raises FileFormatError for a missing or unreadable bag."""
+    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a
+    time (see BagSource). Raises FileFormatError for a missing or unreadable bag."""
     return BagSource(path)
 
 
 class BagSource(DepthSource):
-    """A .bag played from its file one frame at a time, so that memory does not grow with its length: depth frames as
-    z16 units (Frame.units) times the recorded depth units, device timestamps in seconds.
+    """A .bag played from its file one frame at a time, so that memory does not grow with its
+    length: depth frames as z16 units (Frame.units) times the recorded depth units, device
+    timestamps in seconds.
 
-    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the next frame takes
-    it from the playback; any other i restarts the playback from the start and skips to it (seeking costs a replay).
-    The depth sensor is read through a callback with real-time playback off, so the playback waits for each frame
-    (a pipeline drops frames on a busy machine); the callback hands frames over through a queue of BAG_QUEUE."""
+    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the
+    next frame takes it from the playback; any other i restarts the playback from the start and
+    skips to it (seeking costs a replay). The depth sensor is read through a callback with real-time
+    playback off, so the playback waits for each frame (a pipeline drops frames on a busy machine);
+    the callback hands frames over through a queue of BAG_QUEUE."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -117,8 +123,9 @@ BAG_QUEUE = 2           # frames decoded ahead of the reader
 
 
 class _Playback:
-    """One pass over a bag's depth frames: start(), then next() -> (units (H, W) uint16 or None, seconds) until None
-    at the end; close() (or the with block) stops it, even while the callback waits for room in the queue."""
+    """One pass over a bag's depth frames: start(), then next() -> (units (H, W) uint16 or None,
+    seconds) until None at the end; close() (or the with block) stops it, even while the callback
+    waits for room in the queue."""
 
     def __init__(self, rs, path: Path, keep_data: bool = True):
         self.rs, self.path, self.keep_data = rs, path, keep_data
@@ -153,7 +160,8 @@ class _Playback:
         return self
 
     def _take(self, frame) -> None:
-        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits too."""
+        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits
+        too."""
         item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None, frame.get_timestamp() * 1e-3)
         while not self._stopping.is_set():
             try:
@@ -163,8 +171,9 @@ class _Playback:
                 continue
 
     def next(self) -> tuple | None:
-        """The next frame, or None once the playback has stopped after delivering its frames (it reads 'stopped'
-        before it starts too: BAG_START_S). Raises FileFormatError when it has not ended within BAG_TIMEOUT_S."""
+        """The next frame, or None once the playback has stopped after delivering its frames (it
+        reads 'stopped' before it starts too: BAG_START_S). Raises FileFormatError when it has not
+        ended within BAG_TIMEOUT_S."""
         while True:
             try:
                 item = self._queue.get(timeout=0.02)
