@@ -49,7 +49,8 @@ def _write_beside(path: Path, data: bytes, backup: bool, durable: bool) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
-            os.fchmod(f.fileno(), path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~current_umask())
+            os.fchmod(f.fileno(),
+                      path.stat().st_mode & 0o7777 if path.exists() else 0o666 & ~current_umask())
             f.write(data)
             f.flush()
             if durable:

@@ -168,8 +168,10 @@ def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) ->
     """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at
     0, blue at -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN
     (the direct grey)."""
-    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0, 1.0)[:, None]
-    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t, HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
+    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0,
+                1.0)[:, None]
+    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t,
+                   HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
     rgb[np.isnan(np.asarray(values, dtype=np.float64))] = missing
     return np.round(rgb).astype(np.uint8)
 
@@ -180,5 +182,6 @@ def heat_map_colours(distances: np.ndarray, sources: np.ndarray, limit: float) -
     direct grey for the camera's own points, HEAT_UNCOMPARED (dark grey) for the mirrors' points the
     camera does not see."""
     colours = heat_colours(distances, limit)
-    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(distances, dtype=np.float64))] = HEAT_UNCOMPARED
+    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(distances,
+                                                             dtype=np.float64))] = HEAT_UNCOMPARED
     return colours

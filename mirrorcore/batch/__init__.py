@@ -7,11 +7,13 @@ reconstruction (docs/DESIGN.md, floor 10).
     progress=print) run = BatchRun(BatchJob(session, out)).start(); run.progress; run.cancel();
     run.wait()
 """
-from mirrorcore.batch.engine import BatchProgress, BatchReport, BatchRun, Where, default_frames_per_task, run_batch
+from mirrorcore.batch.engine import (BatchProgress, BatchReport, BatchRun, Where,
+                                     default_frames_per_task, run_batch)
 from mirrorcore.batch.frames import FrameContext, read_depth, reconstruct_frames
 from mirrorcore.batch.job import BATCH_METHODS, BatchJob, exports_folder
 from mirrorcore.batch.manifest import MANIFEST_FILE, FrameRecord, Manifest, OutputFolder
 
-__all__ = ["BATCH_METHODS", "MANIFEST_FILE", "BatchJob", "BatchProgress", "BatchReport", "BatchRun", "FrameContext",
+__all__ = ["BATCH_METHODS", "MANIFEST_FILE", "BatchJob", "BatchProgress", "BatchReport", "BatchRun",
+           "FrameContext",
            "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task", "exports_folder",
            "read_depth", "reconstruct_frames", "run_batch"]

@@ -35,7 +35,8 @@ _SPAWN_ENVIRON = "distributed.nanny.pre-spawn-environ"
 # Dask's defaults, 60 with these (most of it the 20 ms tick that only watches for a blocked event
 # loop, and the sampling profiler that costs a worker ~2 ms a frame). Work stealing has nothing to
 # do with one queue of equal tasks.
-LEAN_LOCAL_CLUSTER = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+LEAN_LOCAL_CLUSTER = {"distributed.worker.profile.enabled": False,
+                      "distributed.admin.tick.interval": "1s",
                       "distributed.scheduler.work-stealing": False}
 
 ChunkResult = tuple[tuple[int, ...], list[FrameRecord], dict[int, str]]
@@ -86,12 +87,15 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
             yield client
         return
     scratch = tempfile.mkdtemp(prefix="mirrorscan-dask-")
-    config = {**LEAN_LOCAL_CLUSTER, _SPAWN_ENVIRON: worker_environment(), "temporary-directory": scratch}
+    config = {**LEAN_LOCAL_CLUSTER, _SPAWN_ENVIRON: worker_environment(),
+              "temporary-directory": scratch}
     try:
         # the scheduler's HTTP server runs even without the dashboard: on a free port then
         with dask.config.set(config), LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", local_directory=scratch,
-                dashboard_address=DASHBOARD if dashboard else ":0", scheduler_kwargs={"dashboard": dashboard},
+                n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                local_directory=scratch,
+                dashboard_address=DASHBOARD if dashboard else ":0",
+                scheduler_kwargs={"dashboard": dashboard},
                 silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
             yield client
     finally:
@@ -102,7 +106,8 @@ def worker_environment() -> dict:
     """Dask's environment for new worker processes without MALLOC_TRIM_THRESHOLD_: Dask sets it to
     64 kB so that workers give memory back sooner, which makes every large numpy array a fresh mmap
     and a frame 3 to 4 times slower here (measured: a TSDF frame 1.25 s instead of 0.38 s)."""
-    return {k: v for k, v in dask.config.get(_SPAWN_ENVIRON).items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    return {k: v for k,
+            v in dask.config.get(_SPAWN_ENVIRON).items() if k != "MALLOC_TRIM_THRESHOLD_"}
 
 
 class DaskExecutor:
@@ -150,7 +155,8 @@ class DaskExecutor:
         if not self._pending:
             return []
         try:
-            finished = wait(list(self._pending), timeout=timeout, return_when="FIRST_COMPLETED").done
+            finished = wait(list(self._pending), timeout=timeout,
+                            return_when="FIRST_COMPLETED").done
         except TimeoutError:
             return []
         results = []

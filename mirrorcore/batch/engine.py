@@ -48,7 +48,8 @@ class Where:
         """The local worker processes: `workers`, or the cores this process may use."""
         if self.workers:
             return self.workers
-        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        return len(os.sched_getaffinity(0)) if hasattr(os,
+                                                       "sched_getaffinity") else os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
@@ -128,7 +129,8 @@ def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int,
     return chunks
 
 
-def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None, overwrite: bool = False,
+def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
+              overwrite: bool = False,
               progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
     """Reconstruct every frame of job.session not yet done in job.out (see
     mirrorcore.batch.manifest) and return how it went. Frames that cannot be read or reconstructed
@@ -146,7 +148,8 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
     if per_task < 1:
         raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
     context = FrameContext.build(session, job, threads=None if where.in_process else 1)
-    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session), context.names,
+    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session),
+                          context.names,
                           overwrite)
     try:
         todo = [i for i in range(len(context.names)) if i not in folder.kept]
@@ -199,7 +202,8 @@ class _InProcess:
         others go on)."""
         chunk = self.chunks.pop(0)
         try:
-            records, failures = reconstruct_frames(self.context, chunk, lambda: cancel_requested(self.cancel))
+            records, failures = reconstruct_frames(self.context, chunk,
+                                                   lambda: cancel_requested(self.cancel))
         # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
         except Exception as exc:
             records, failures = [], {i: task_error(exc) for i in chunk}
@@ -213,7 +217,8 @@ class _Run:
     """The client's side of one run: results into the manifest, progress, the figures of the
     report."""
 
-    def __init__(self, folder: OutputFolder, total: int, progress: Callable[[BatchProgress], None] | None):
+    def __init__(self, folder: OutputFolder, total: int,
+                 progress: Callable[[BatchProgress], None] | None):
         self.folder, self.total, self.progress = folder, total, progress
         self.kept = len(folder.kept)
         self.written = 0
@@ -246,8 +251,10 @@ class _Run:
             return
         fps = self._fps()
         left = self.total - self.kept - self.written - len(self.failed)
-        self.progress(BatchProgress(self.total, self.kept + self.written, self.kept, len(self.failed), fps,
-                                    left / fps if fps > 0 else None, tuple(sorted(self.retried)), self.dashboard))
+        self.progress(BatchProgress(self.total, self.kept + self.written, self.kept,
+                                    len(self.failed), fps,
+                                    left / fps if fps > 0 else None, tuple(sorted(self.retried)),
+                                    self.dashboard))
 
     def _fps(self) -> float:
         seconds = (self.finished or 0.0) - (self.started or 0.0)
@@ -256,8 +263,10 @@ class _Run:
     def report(self, out: Path, cancelled: bool) -> BatchReport:
         seconds = (self.finished - self.started) if self.started and self.finished else 0.0
         startup = (self.started - self.created) if self.started else 0.0
-        return BatchReport(out, self.total, self.kept, self.written, dict(sorted(self.failed.items())),
-                           dict(sorted(self.retried.items())), seconds, startup, cancelled, self.dashboard)
+        return BatchReport(out, self.total, self.kept, self.written,
+                           dict(sorted(self.failed.items())),
+                           dict(sorted(self.retried.items())), seconds, startup, cancelled,
+                           self.dashboard)
 
 
 class BatchRun:
@@ -267,7 +276,8 @@ class BatchRun:
     and wait() re-raises it."""
 
     def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
-                 overwrite: bool = False, on_progress: Callable[[BatchProgress], None] | None = None):
+                 overwrite: bool = False,
+                 on_progress: Callable[[BatchProgress], None] | None = None):
         self.job, self.where, self.frames_per_task, self.overwrite = job, where, frames_per_task, overwrite
         self.on_progress = on_progress
         self.progress: BatchProgress | None = None
@@ -306,7 +316,8 @@ class BatchRun:
 
     def _run(self) -> None:
         try:
-            self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite, self._progress,
+            self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite,
+                                    self._progress,
                                     self._cancel)
         except BaseException as exc:       # noqa: BLE001 (kept for wait() and the UI)
             self.error = exc

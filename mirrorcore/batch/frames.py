@@ -47,7 +47,8 @@ class FrameContext:
         return cls(session, rig, session.read_background(), job, output_names(session), threads)
 
 
-def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int, np.ndarray] | None = None
+def read_depth(session: Session, index: int, temporal: int = 0,
+               cache: dict[int, np.ndarray] | None = None
                ) -> np.ndarray:
     """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its
     `temporal` neighbours on each side where the scene is static (mirrorcore.depth.temporal; 0: as
@@ -85,7 +86,9 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         for old in [i for i in cache if i < index - context.job.temporal]:
             del cache[old]                                   # keep only the frames still needed
         try:
-            data, sources, faces = _frame_ply(context, read_depth(context.session, index, context.job.temporal,
+            data, sources, faces = _frame_ply(context,
+                                              read_depth(context.session, index,
+                                                                  context.job.temporal,
                                                                    cache))
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
@@ -93,7 +96,8 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
             failures[index] = _one_line(exc)
             continue
         counts = np.bincount(sources, minlength=len(context.rig.mirrors) + 1)
-        records.append(FrameRecord(index, context.names[index], len(sources), faces, tuple(int(c) for c in counts),
+        records.append(FrameRecord(index, context.names[index], len(sources), faces,
+                                   tuple(int(c) for c in counts),
                                    len(data), round(time.perf_counter() - start, 4)))
     return records, failures
 
@@ -112,8 +116,10 @@ def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndar
         faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
     else:
         volume = dense_volume(rig, depth, mask, job.options)
-        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[None], volume, job.method,
-                                                                   job.options, workers=context.threads))
+        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[None],
+                                                                   volume, job.method,
+                                                                   job.options,
+                                                                   workers=context.threads))
     return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
 
 

@@ -40,7 +40,8 @@ class BatchJob:
         if self.method not in BATCH_METHODS:
             raise MirrorscanError(f"--method: unknown method {self.method!r} (expected one of "
                                   f"{', '.join(BATCH_METHODS)})")
-        if isinstance(self.temporal, bool) or not isinstance(self.temporal, int) or self.temporal < 0:
+        if isinstance(self.temporal, bool) or not isinstance(self.temporal,
+                                                             int) or self.temporal < 0:
             raise MirrorscanError(f"--temporal: expected a whole number of neighbour frames >= 0, got "
                                   f"{self.temporal!r}")
         object.__setattr__(self, "session", Path(self.session))
@@ -53,7 +54,8 @@ class BatchJob:
         if self.method != "raw":
             o = self.options
             options.update(voxel=o.voxel, margin=o.margin, threshold=o.threshold,
-                           bounds=None if o.bounds is None else [list(o.bounds[0]), list(o.bounds[1])])
+                           bounds=None if o.bounds is None else [list(o.bounds[0]),
+                                                                 list(o.bounds[1])])
             if self.method == "tsdf":
                 options.update(truncation=o.truncation)
         options["temporal"] = self.temporal
@@ -65,7 +67,8 @@ class BatchJob:
 def exports_folder(session_root: str | Path, method: str = "raw", temporal: int = 0) -> Path:
     """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD
     (with '-temporalN' when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
-    return Path(session_root) / "exports" / (f"frames-{method}" + (f"-temporal{temporal}" if temporal else ""))
+    return Path(session_root) / "exports" / (f"frames-{method}" + (f"-temporal{temporal}"
+                                                                   if temporal else ""))
 
 
 def output_names(session: Session) -> tuple[str, ...]:
@@ -87,7 +90,8 @@ def session_inputs(session: Session) -> dict:
     mirror's plane and boundary, in session order; the mirrors followed in turn), the object
     selection, the background image's SHA-256 and the frames' paths (their count and a SHA-256 of
     the list)."""
-    mirrors = [{"plane": None if m.plane is None else m.plane.to_list(), "boundary": [list(p) for p in m.boundary]}
+    mirrors = [{"plane": None if m.plane is None else m.plane.to_list(),
+                "boundary": [list(p) for p in m.boundary]}
                for m in session.mirrors]
     background = None
     if session.background is not None:
@@ -96,7 +100,8 @@ def session_inputs(session: Session) -> dict:
             raise FileFormatError(f"{path}: no such depth image")
         background = hashlib.sha256(path.read_bytes()).hexdigest()
     frames = hashlib.sha256("\n".join(session.frames).encode("utf-8")).hexdigest()
-    return {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors, "bounces": session.bounces},
+    return {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors,
+                            "bounces": session.bounces},
             "selection": session.selection.to_json(), "background_sha256": background,
             "frames": {"count": len(session.frames), "sha256": frames}}
 

@@ -84,7 +84,8 @@ class Manifest:
     total: int
     done: dict[int, FrameRecord] = field(default_factory=dict)
     failed: dict[int, str] = field(default_factory=dict)
-    _lines: dict[int, tuple[FrameRecord, str]] = field(default_factory=dict, repr=False, compare=False)
+    _lines: dict[int, tuple[FrameRecord, str]] = field(default_factory=dict, repr=False,
+                                                       compare=False)
 
     @property
     def complete(self) -> bool:
@@ -93,7 +94,8 @@ class Manifest:
     def text(self) -> str:
         """manifest.json's text: the settings indented, then one line per frame done (each line is
         made once and kept: 18,000 frames are rewritten in a few tens of milliseconds)."""
-        head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings, "inputs": self.inputs,
+        head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings,
+                "inputs": self.inputs,
                 "total": self.total, "complete": self.complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "failed": [{"index": i, "error": self.failed[i]} for i in sorted(self.failed)]}
         for i, record in self.done.items():
@@ -111,7 +113,8 @@ class Manifest:
                                   f"version {VERSION}")
         try:
             settings = {"method": str(data["method"]), "options": dict(data["options"])}
-            records = [FrameRecord.from_json(r, f"{where}: frames[{k}]") for k, r in enumerate(data["frames"])]
+            records = [FrameRecord.from_json(r, f"{where}: frames[{k}]") for k,
+                       r in enumerate(data["frames"])]
             failed = {int(f["index"]): str(f["error"]) for f in data["failed"]}
             return cls(str(data["session"]), settings, dict(data["inputs"]), int(data["total"]),
                        {r.index: r for r in records}, failed)
@@ -130,7 +133,8 @@ class OutputFolder:
     are removed).
     """
 
-    def __init__(self, path: Path, session: str, settings: dict, inputs: dict, names: tuple[str, ...],
+    def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
+                 names: tuple[str, ...],
                  overwrite: bool = False):
         self.path = Path(path)
         self._flushed = self._flush_seconds = 0.0
@@ -164,7 +168,8 @@ class OutputFolder:
         """The frames of the old manifest that this run keeps (see the class docstring)."""
         if old is None:
             return {}
-        changed = differences({**old.settings, **old.inputs}, {**self.manifest.settings, **self.manifest.inputs})
+        changed = differences({**old.settings, **old.inputs},
+                              {**self.manifest.settings, **self.manifest.inputs})
         if changed and not overwrite:
             # "a different options.voxel"
             said = ", ".join(change.removeprefix("options.") for change in changed)
@@ -176,7 +181,9 @@ class OutputFolder:
                 if record.file not in names:
                     (self.path / record.file).unlink(missing_ok=True)
             return {}
-        return {i: r for i, r in old.done.items() if i < len(names) and r.file == names[i] and r.intact(self.path)}
+        return {i: r for i,
+                r in old.done.items() if i < len(names) and r.file == names[i]
+                and r.intact(self.path)}
 
     def add(self, records: list[FrameRecord], failures: dict[int, str]) -> None:
         """Record frames done and frames failed. The manifest is written when the time since the

@@ -36,7 +36,8 @@ import numpy as np
 from mirrorcore.rig.cloud import Cloud
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.calibration.readings import MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints, view_points
+from mirrorcore.calibration.readings import (MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints,
+                                             view_points)
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig
 
@@ -115,7 +116,8 @@ class TargetView:
         target = self.view
         normal, theirs = target.normals[reading], mapped.normals[index]
         facing = ((np.einsum("ij,ij->i", normal, theirs) > MIN_NORMAL_COSINE)
-                  & (-np.einsum("ij,ij->i", theirs, target.rays[reading]) > np.cos(np.radians(MAX_INCIDENCE_DEG))))
+                  & (-np.einsum("ij,ij->i", theirs,
+                                target.rays[reading]) > np.cos(np.radians(MAX_INCIDENCE_DEG))))
         index, reading, uv, normal = index[facing], reading[facing], uv[facing], normal[facing]
         surface = target.surface_points(self.intrinsics, reading, uv)
         sigma = np.hypot(_along(target, reading, normal), _along(mapped, index, normal))
@@ -128,7 +130,8 @@ class TargetView:
         index, normal, reading, uv, surface, velocity = (
             a[agree] for a in (index, normal, reading, uv, surface, velocity))
         residual = np.einsum("ij,ij->i", normal, mapped.points[index] - surface)
-        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(reading, uv, surface, normal, velocity)
+        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(reading, uv, surface, normal,
+                                                                     velocity)
         return Comparison(index, residual, sigma[agree], normal)
 
     def _velocity(self, mapped: ViewPoints, index: np.ndarray) -> np.ndarray:
@@ -139,14 +142,16 @@ class TargetView:
                                 self.intrinsics.fy * (rays[:, 1] * anchors[:, 2] - anchors[:, 1] * rays[:, 2])]
                                ) / anchors[:, 2:] ** 2
 
-    def _curvature(self, reading: np.ndarray, uv: np.ndarray, surface: np.ndarray, normal: np.ndarray,
+    def _curvature(self, reading: np.ndarray, uv: np.ndarray, surface: np.ndarray,
+                   normal: np.ndarray,
                    velocity: np.ndarray) -> np.ndarray:
         """(m,) 1/metres: the second derivative, along `normal` (m, 3), of the surface of readings
         `reading` (m,) where points' anchors would fall if they moved along their rays from where
         they fall now (uv (m, 2) pixels, on `surface` (m, 3) metres; `velocity` (m, 2) pixels per
         metre, _velocity): the residual's curvature in the anchor's error."""
         step = CURVATURE_STEP * velocity                                  # pixels
-        ahead, behind = (self.view.surface_points(self.intrinsics, reading, uv + sign * step) for sign in (1, -1))
+        ahead, behind = (self.view.surface_points(self.intrinsics, reading, uv + sign * step)
+                         for sign in (1, -1))
         return np.einsum("ij,ij->i", normal, ahead + behind - 2 * surface) / CURVATURE_STEP ** 2
 
 
@@ -212,13 +217,15 @@ def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
         return out
     for j in views.targets:
         if j:
-            found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane), SHOWN_GATE)
+            found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane),
+                                             SHOWN_GATE)
             pixels = views.points(j).pixels[found.index]
             out[np.searchsorted(cloud.pixel_index, pixels)] = 1e3 * found.residual
     return out
 
 
-def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray, shape: tuple[int, int],
+def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray,
+                shape: tuple[int, int],
                 size: int = HEAT_WINDOW) -> np.ndarray:
     """(n,) float32: each finite value replaced by the mean of the finite values of its own source
     within the size x size pixels about its pixel; NaN stays NaN. values (n,) float, pixel_index
@@ -231,7 +238,8 @@ def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray
         pixels = np.asarray(pixel_index)[pick]
         total, count = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
         total.reshape(-1)[pixels], count.reshape(-1)[pixels] = values[pick], 1.0
-        total, count = (cv2.boxFilter(image, -1, (size, size), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        total, count = (cv2.boxFilter(image, -1, (size, size), normalize=False,
+                                      borderType=cv2.BORDER_CONSTANT)
                         for image in (total, count))
         out[pick] = total.reshape(-1)[pixels] / count.reshape(-1)[pixels]
     return out
@@ -246,5 +254,6 @@ def heat_figures(distances: np.ndarray, sources: np.ndarray) -> dict[int, tuple[
     for label in np.unique(sources[sources != 0]):
         mine = distances[sources == label]
         compared = mine[np.isfinite(mine)]
-        figures[int(label)] = (float(np.median(compared)) if len(compared) else float("nan"), len(compared) / len(mine))
+        figures[int(label)] = (float(np.median(compared)) if len(compared) else float("nan"),
+                               len(compared) / len(mine))
     return figures

@@ -13,7 +13,8 @@ from mirrorcore.base.errors import CalibrationError
 from mirrorcore.geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from mirrorcore.geometry.plane import Plane, fit_plane_ransac
 from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
-from mirrorcore.calibration.markers import GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS, MarkerResiduals, marker_points, marker_residuals
+from mirrorcore.calibration.markers import (GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS,
+                                            MarkerResiduals, marker_points, marker_residuals)
 from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.io.session import Session, SessionMirror
 
@@ -56,7 +57,8 @@ class Calibration:
         text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
         if self.markers is not None:
             grades = self.markers.grades
-            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES if grades.count(g))
+            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES
+                                              if grades.count(g))
             ratio = np.asarray(self.markers.distance_mm) / np.asarray(self.markers.sigma_mm)
             if np.any(np.isfinite(ratio)):
                 worst = int(np.nanargmax(ratio))
@@ -105,7 +107,8 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     silver = Plane(fit.plane.normal, fit.plane.d + float(marker_offset))
     _check_camera_side(silver, name)
     return Calibration(silver, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
-                       marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]),
+                       marker_residuals(intr, depth, markers, fit.plane, window),
+                       _centre(points[fit.inliers]),
                        float(marker_offset))
 
 
@@ -126,7 +129,8 @@ def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.
         raise CalibrationError(f"{name}: the region is too thin to define a plane")
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
-    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()), centre=_centre(points))
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
+                       centre=_centre(points))
 
 
 def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
@@ -174,7 +178,8 @@ def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Genera
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
         raise CalibrationError(f"{session.path}: the session has no mirrors")
-    results = [(i, _calibrate_mirror(session, session.mirrors[i], depth, method, rng)) for i in indices]
+    results = [(i, _calibrate_mirror(session, session.mirrors[i], depth, method, rng))
+               for i in indices]
     for i, result in results:
         session = session.with_mirror(i, replace(session.mirrors[i], plane=result.plane))
     return session, results
@@ -216,7 +221,8 @@ def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
     front of the background in them (static_frames). Raises CalibrationError without any, and
     MirrorscanError naming them when no pixel of theirs has a reading."""
     if frame is not None:
-        return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
+        return require_readings(session.read_frame(frame)[None],
+                                str(Path(session.root) / session.frames[frame]))
     frames = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
     stack = static_frames(np.stack(frames) if frames else None, session.read_background())
     if stack is None:
@@ -231,4 +237,6 @@ def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> n
     if background is None:
         return None if frames is None else np.asarray(frames, dtype=np.float32)
     background = np.asarray(background, dtype=np.float32)[None]
-    return background if frames is None else np.concatenate([without_occluders(frames, background[0]), background])
+    return background if frames is None else np.concatenate([without_occluders(frames,
+                                                                               background[0]),
+                                                             background])

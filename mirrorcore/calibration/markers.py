@@ -63,7 +63,8 @@ class MarkerResiduals:
         """'good' (within GOOD_SIGMAS), 'fair' (within FAIR_SIGMAS), 'poor' or 'unknown' (no depth),
         per marker."""
         ratio = np.asarray(self.distance_mm) / np.asarray(self.sigma_mm)
-        grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS], [0, 1, 2], 3)
+        grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS],
+                          [0, 1, 2], 3)
         return tuple(GRADES[g] for g in grade)
 
     def poor(self) -> tuple[int, ...]:
@@ -71,7 +72,8 @@ class MarkerResiduals:
         return tuple(i for i, g in enumerate(self.grades) if g == "poor")
 
 
-def marker_centres(intr: Intrinsics, depth: np.ndarray, markers, window: int = MARKER_WINDOW) -> np.ndarray:
+def marker_centres(intr: Intrinsics, depth: np.ndarray, markers,
+                   window: int = MARKER_WINDOW) -> np.ndarray:
     """(k, 3) float64 metres: the median point of each marker's window, NaN rows for markers without
     depth."""
     centres = np.full((len(markers), 3), np.nan)
@@ -90,7 +92,8 @@ def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
     with np.errstate(invalid="ignore"):
         signed = plane.signed_distance(centres) * 1e3
         sigma = axial_sigma(centres[:, 2]) * 1e3
-    return MarkerResiduals(tuple(signed.tolist()), tuple(np.where(np.isnan(centres[:, 2]), np.nan, sigma).tolist()))
+    return MarkerResiduals(tuple(signed.tolist()),
+                           tuple(np.where(np.isnan(centres[:, 2]), np.nan, sigma).tolist()))
 
 
 @dataclass(frozen=True)

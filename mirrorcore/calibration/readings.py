@@ -42,7 +42,8 @@ RIM_LATERAL_PX = 1.5
 _OFFSETS = np.array([(du, dv) for dv in range(-NEIGHBOURS_RADIUS, NEIGHBOURS_RADIUS + 1)
                      # (48, 2) pixels
                      for du in range(-NEIGHBOURS_RADIUS, NEIGHBOURS_RADIUS + 1) if du or dv])
-_BASIS = np.column_stack([np.ones(len(_OFFSETS)), _OFFSETS[:, 0], _OFFSETS[:, 1], _OFFSETS[:, 0] ** 2,
+_BASIS = np.column_stack([np.ones(len(_OFFSETS)), _OFFSETS[:, 0], _OFFSETS[:, 1],
+                          _OFFSETS[:, 0] ** 2,
                           # (48, 6)
                           _OFFSETS[:, 0] * _OFFSETS[:, 1], _OFFSETS[:, 1] ** 2]).astype(np.float64)
 # (48, 36): each offset's part
@@ -94,7 +95,8 @@ class ViewPoints:
         normals towards the mirror's virtual camera (still out of the object). `surface` stays in
         the view's own image."""
         return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
-                          reflect_directions(plane, self.normals), reflect_directions(plane, self.rays), self.sigma,
+                          reflect_directions(plane, self.normals),
+                          reflect_directions(plane, self.rays), self.sigma,
                           self.anchor_var, self.lateral, self.rim, self.pixels, self.surface)
 
     def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
@@ -106,7 +108,8 @@ class ViewPoints:
         c = self.surface[index]
         w = c[:, 0] + c[:, 1] * du + c[:, 2] * dv + c[:, 3] * du * du + c[:, 4] * du * dv + c[:, 5] * dv * dv
         z = 1.0 / np.maximum(w, 1e-6)
-        return np.column_stack([(uv[:, 0] - intr.cx) / intr.fx * z, (uv[:, 1] - intr.cy) / intr.fy * z, z])
+        return np.column_stack([(uv[:, 0] - intr.cx) / intr.fx * z,
+                                (uv[:, 1] - intr.cy) / intr.fy * z, z])
 
 
 def reflect_directions(plane: Plane, vectors: np.ndarray) -> np.ndarray:
@@ -115,7 +118,8 @@ def reflect_directions(plane: Plane, vectors: np.ndarray) -> np.ndarray:
     return vectors - 2 * (vectors @ plane.n)[:, None] * plane.n
 
 
-def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np.ndarray) -> ViewPoints:
+def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray,
+                rim: np.ndarray) -> ViewPoints:
     """The readings of one view.
 
     depth : (H, W) float metres as measured (a mirror's pixels hold virtual depths); pixels : (n,)
@@ -128,7 +132,8 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np
     mine.reshape(-1)[pixels] = True
     win = bounding_window(mine, NEIGHBOURS_RADIUS)
     z = np.where(mine[win], depth[win], 0).astype(np.float64)
-    rays = np.stack([intr.rays[0][win], intr.rays[1][win], np.ones(z.shape, np.float32)]).astype(np.float64)
+    rays = np.stack([intr.rays[0][win], intr.rays[1][win],
+                     np.ones(z.shape, np.float32)]).astype(np.float64)
     coef, variance, normals, ok = _neighbour_surfaces(z, rays, intr)
     unit = rays / np.linalg.norm(rays, axis=0)
     ok &= mine[win] & _no_depth_edge(z.astype(np.float32))
@@ -138,12 +143,14 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray, rim: np
     lateral = np.where(on_rim, RIM_LATERAL_PX, LATERAL_PX) * anchor / intr.fx
     # (dz/dw)^2 |ray|^2 var(w)
     anchor_var = variance[v, u] * anchor ** 4 * np.einsum("ij,ij->i", ray, ray)
-    return ViewPoints(ray * measured[:, None], ray * anchor[:, None], normals[:, v, u].T, unit[:, v, u].T,
+    return ViewPoints(ray * measured[:, None], ray * anchor[:, None], normals[:, v, u].T,
+                      unit[:, v, u].T,
                       axial_sigma(anchor), anchor_var, lateral, on_rim,
                       (v + win[0].start) * intr.width + u + win[1].start, coef[v, u])
 
 
-def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray, ...]:
+def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray,
+                                                                                    ...]:
     """The surface through each reading's neighbours (see the module docstring), for every reading
     at once.
 
@@ -180,7 +187,8 @@ def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tu
     # residual sum
     squares = _window_sum(w * w, np.ones(len(_OFFSETS)))[ok] - np.einsum("ij,ij->i", coef[ok], rhs)
     count = present[which].sum(axis=1)
-    variance[ok] = np.maximum(squares, 0.0) / np.maximum(count - len(_BASIS.T), 1.0) * inverse[which, 0, 0]
+    variance[ok] = np.maximum(squares, 0.0) / np.maximum(count - len(_BASIS.T),
+                                                         1.0) * inverse[which, 0, 0]
     ok &= coef[..., 0] > 0
     # w = a + b du + c dv on the plane n.P + d = 0 gives n ~ (b fx, c fy, a - b fx x' - c fy y')
     # with x' = x/z

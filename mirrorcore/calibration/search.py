@@ -82,7 +82,8 @@ class Found(NamedTuple):
     support: float
 
 
-def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng: np.random.Generator,
+def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
+                 rng: np.random.Generator,
                  cancel=None, wide: bool = False, progress: Progress | None = None) -> Found:
     """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best
     explains one frame.
@@ -97,7 +98,8 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
     """
     mirror = rig.mirrors[index]
     if mirror.boundary is None:
-        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first", (mirror.name,))
+        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first",
+                               (mirror.name,))
     depth = np.asarray(depth, np.float32)
     far = _direct_far(depth[mask & (rig.inside_bits == 0)])
     outside = mask & (rig.inside_bits == 0) & (depth <= far)
@@ -151,7 +153,8 @@ def _inside(rig: Rig, index: int) -> np.ndarray:
     return ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool)
 
 
-def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int, rng: np.random.Generator
+def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int,
+                  rng: np.random.Generator
                   ) -> list["_View"]:
     """The views of the rig's mirrors other than `index` that have a plane and a boundary, each with
     at least MIN_POINTS of the object's readings `beyond` (H, W) bool (beyond what the camera sees
@@ -204,10 +207,12 @@ def _direct_far(z: np.ndarray) -> float:
 
 
 def _subset(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return points[rng.choice(len(points), SEARCH_POINTS, replace=False)] if len(points) > SEARCH_POINTS else points
+    return points[rng.choice(len(points), SEARCH_POINTS,
+                             replace=False)] if len(points) > SEARCH_POINTS else points
 
 
-def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: float, step: tuple) -> np.ndarray:
+def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: float,
+                step: tuple) -> np.ndarray:
     """(k, 4) planes [n, d]: unit normals within cone_deg of `axis` (a square grid of tilts, step[0]
     degrees apart) and, for each, offsets every step[1] metres within `offsets` of the plane through
     `point` (3,)."""
@@ -259,13 +264,16 @@ class _Scorer:
                 raise Cancelled("search cancelled")
             batch = planes[start:start + BATCH]
             for view in self.views:
-                out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch, tolerance, view)
-                                             + self._one_way(view.points[:points], batch, tolerance, self.mirror))
+                out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch,
+                                                           tolerance, view)
+                                             + self._one_way(view.points[:points], batch, tolerance,
+                                                             self.mirror))
             if progress is not None:
                 progress(min(start + BATCH, len(planes)) / len(planes))
         return out
 
-    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float, view: _View) -> np.ndarray:
+    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float,
+                 view: _View) -> np.ndarray:
         """points (m, 3) reflected through each plane (k, 4) and seen in `view` (through its mirror,
         if any), compared with the depth where they fall: agreeing on its object's pixels,
         contradicted where it (its field of pixels) saw farther."""
@@ -288,7 +296,8 @@ class _Scorer:
         return (agree.sum(axis=1) - CONTRADICTION_WEIGHT * contradict.sum(axis=1)) / points.shape[0]
 
 
-def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng: np.random.Generator,
+def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray,
+                    rng: np.random.Generator,
                     indices=None, progress: Progress | None = None, cancel=None, with_: str = "auto"
                     ) -> tuple[Session, Refinement]:
     """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers, in
@@ -317,7 +326,8 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
                                       bar.part(done, done + (1.0 - done) / 3), wide=bool(rounds))
         refused.update(failed)
         todo = [i for i in todo if i in found]
-        result = _refine_round(calibrated, found, depths, direct, with_, cancel, bar, done, len(indices), refused)
+        result = _refine_round(calibrated, found, depths, direct, with_, cancel, bar, done,
+                               len(indices), refused)
         if result is None:
             break
         calibrated, round_result = result
@@ -328,7 +338,9 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng
         raise CalibrationError(sentences(refused[i] for i in sorted(refused)), names)
     # a mirror not found keeps the plane it had
     for i in refused:
-        calibrated = calibrated.with_mirror(i, replace(calibrated.mirrors[i], plane=session.mirrors[i].plane))
+        calibrated = calibrated.with_mirror(i,
+                                            replace(calibrated.mirrors[i],
+                                                       plane=session.mirrors[i].plane))
     bar(1.0)
     first = rounds[0]
     return calibrated, replace(first, mirrors=tuple(sorted((m for r in rounds for m in r.mirrors),
@@ -360,8 +372,10 @@ def _without_spill(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> np.ndarra
     return out
 
 
-def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int], rng: np.random.Generator,
-                  cancel, progress: Progress, wide: bool) -> tuple[dict[int, Found], dict[int, str]]:
+def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int],
+                  rng: np.random.Generator,
+                  cancel, progress: Progress,
+                  wide: bool) -> tuple[dict[int, Found], dict[int, str]]:
     """Search the planes of the mirrors at `todo` (0-based) in one frame, against the camera and the
     mirrors with a plane that are not searched (`wide`: search_plane's) -> ({index: Found}, {index:
     why it was not found})."""
@@ -379,7 +393,8 @@ def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: l
     return found, failed
 
 
-def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray, masks: np.ndarray, with_: str,
+def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray, masks: np.ndarray,
+                  with_: str,
                   cancel, bar: Ratchet, done: float, total: int, refused: dict[int, str]
                   ) -> tuple[Session, Refinement] | None:
     """Refine the best-supported of the planes `found` (LEAD_SHARE), held to the views calibrated
@@ -389,14 +404,17 @@ def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray,
     waiting = dict(found)
     while waiting:
         best = max(waiting, key=lambda i: waiting[i].support)
-        lead = sorted(i for i, f in waiting.items() if i == best or f.support >= LEAD_SHARE * waiting[best].support)
+        lead = sorted(i for i,
+                      f in waiting.items() if i == best
+                      or f.support >= LEAD_SHARE * waiting[best].support)
         trial = session
         for i in lead:
             trial = trial.with_mirror(i, replace(trial.mirrors[i], plane=waiting[i].plane))
         start = done + (1.0 - done) / 3
         part = bar.part(start, max(start, done + len(lead) / total))
         try:
-            calibrated, result = refine_session(trial, depths, masks, lead, part, cancel, with_, FROM_SEARCH)
+            calibrated, result = refine_session(trial, depths, masks, lead, part, cancel, with_,
+                                                FROM_SEARCH)
         except CalibrationError as exc:
             named = [i for i in lead if session.mirrors[i].name in exc.mirrors] or lead
             for i in named:

@@ -82,8 +82,10 @@ class SpherePlanes:
     frames: int
 
 
-def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list[int], rng: np.random.Generator,
-                  progress: Progress | None = None, cancel=None, max_scatter: float = np.inf) -> SpherePlanes:
+def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list[int],
+                  rng: np.random.Generator,
+                  progress: Progress | None = None, cancel=None,
+                  max_scatter: float = np.inf) -> SpherePlanes:
     """The planes of `mirrors` (1-based) from the sphere seen directly and in each of them, over
     frames.
 
@@ -200,10 +202,12 @@ def _plain_fit(readings: list[tuple[np.ndarray, np.ndarray]], start: np.ndarray,
     """The joint fit of one frame's views as measured, from `start` (_view_readings) -> (x (3 k +
     1,) float64 metres, [centres..., radius]; each view's noise scale, _noise_scale; fx pixels)."""
     x0 = _joint_fit([r * z[:, None] for r, z in readings], start)
-    return x0, [_noise_scale(r, z, x0[3 * k:3 * k + 3], x0[-1], fx) for k, (r, z) in enumerate(readings)]
+    return x0, [_noise_scale(r, z, x0[3 * k:3 * k + 3], x0[-1], fx) for k,
+                (r, z) in enumerate(readings)]
 
 
-def _debiased_fit(readings: list[tuple[np.ndarray, np.ndarray]], x0: np.ndarray, scales: list[float],
+def _debiased_fit(readings: list[tuple[np.ndarray, np.ndarray]], x0: np.ndarray,
+                  scales: list[float],
                   rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """SIMEX of the joint fit over one frame's views, from its plain fit x0 and the views' noise
     scales (_plain_fit) -> (x (3 k + 1,) float64 metres, [centres..., radius] taken back to no
@@ -212,7 +216,8 @@ def _debiased_fit(readings: list[tuple[np.ndarray, np.ndarray]], x0: np.ndarray,
     (radians), the fit's own noise)."""
     means, level_one = [x0], []
     for level in SIMEX_LEVELS:
-        repeats = [_joint_fit([r * _noisier(z, level * scale, rng)[:, None] for (r, z), scale in zip(readings, scales)],
+        repeats = [_joint_fit([r * _noisier(z, level * scale, rng)[:, None] for (r, z),
+                               scale in zip(readings, scales)],
                               x0) for _ in range(SIMEX_REPEATS)]
         means.append(np.mean(repeats, axis=0))
         level_one = repeats if level == 1.0 else level_one
@@ -220,7 +225,8 @@ def _debiased_fit(readings: list[tuple[np.ndarray, np.ndarray]], x0: np.ndarray,
     return trend[0] - trend[1] + trend[2], _repeat_spread(level_one, len(readings))
 
 
-def _noise_scale(rays: np.ndarray, z: np.ndarray, centre: np.ndarray, radius: float, fx: float) -> float:
+def _noise_scale(rays: np.ndarray, z: np.ndarray, centre: np.ndarray, radius: float,
+                 fx: float) -> float:
     """How noisy a view's readings are in depth, as a multiple of the variance noise.axial_sigma
     gives: the mean square of their distances to the fitted sphere, less what a lateral uncertainty
     of readings.LATERAL_PX explains (a neighbour's depth read: it moves a reading along the surface
@@ -237,7 +243,8 @@ def _noise_scale(rays: np.ndarray, z: np.ndarray, centre: np.ndarray, radius: fl
         return 1.0
     lateral = LATERAL_PX * z[near] / fx * np.sqrt(1.0 - cos[near] ** 2)
     depth = axial_sigma(z[near]) * cos[near]
-    return max(float(np.sum((distance[near] - radius) ** 2 - lateral ** 2) / np.sum(depth ** 2)), 0.0)
+    return max(float(np.sum((distance[near] - radius) ** 2 - lateral ** 2) / np.sum(depth ** 2)),
+               0.0)
 
 
 def _noisier(z: np.ndarray, level: float, rng: np.random.Generator) -> np.ndarray:
@@ -253,7 +260,8 @@ def _repeat_spread(repeats: list[np.ndarray], views: int) -> np.ndarray:
     out = []
     for i in range(1, views):
         planes = [_bisector(x[:3], x[3 * i:3 * i + 3], None) for x in repeats]
-        out.append((np.std([p.signed_distance(at) for p in planes], ddof=1), _normal_spread(planes)))
+        out.append((np.std([p.signed_distance(at) for p in planes], ddof=1),
+                    _normal_spread(planes)))
     return np.asarray(out)
 
 
@@ -281,7 +289,8 @@ def _mean_plane(planes: list[Plane], centre: np.ndarray) -> Plane:
     return Plane.from_abcd([*n, offset - float(n @ centre)])
 
 
-def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[float, float]:
+def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[float,
+                                                                                            float]:
     """How well the mean plane is known: (metres along its normal at `centre`, degrees), the larger
     of the frames' own noise (their SIMEX repeats' spread) and, from SCATTER_FRAMES frames on, the
     spread of their planes, over the square root of the number of frames."""

@@ -52,10 +52,12 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
         raise MirrorscanError(f"--method: unknown dense method {method!r} (expected one of {', '.join(METHODS)})")
     if method == "tsdf":
         return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers)
-    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel, workers)
+    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel,
+                 workers)
 
 
-def result_geometry(result: CarveResult | TsdfResult) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+def result_geometry(result: CarveResult | TsdfResult) -> tuple[np.ndarray, np.ndarray,
+                                                               np.ndarray | None]:
     """What a PLY file holds of a dense result: points (n, 3) float32 metres, camera frame, their
     sources (n,) uint8 and faces (m, 3) int32 or None: the surface voxels' centres of a carving, the
     mesh of a fusion (MirrorscanError when the volume holds no surface)."""

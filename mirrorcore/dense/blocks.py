@@ -63,7 +63,8 @@ class Blocks:
         (1, B, 1, m), z (1, 1, B, m), the same values as Volume.axes() cast to float32."""
         b, m = self.size, len(self)
         local = np.arange(b)[:, None]
-        x, y, z = (a[local + self.ijk[None, :, r] * b] for r, a in enumerate(self.volume.padded_axes(b)))
+        x, y, z = (a[local + self.ijk[None, :, r] * b] for r,
+                   a in enumerate(self.volume.padded_axes(b)))
         return x.reshape(b, 1, 1, m), y.reshape(1, b, 1, m), z.reshape(1, 1, b, m)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -80,7 +81,9 @@ class Blocks:
         ((B, B, B, m), the block layout, or a scalar)."""
         a, b, c = self.ijk.T
         s = self.size
-        grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[a, :, b, :, c, :] = \
+        grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[a, :, b,
+                                                                                          :, c,
+                                                                                          :] = \
             np.moveaxis(values, -1, 0) if np.ndim(values) else values
 
 

@@ -42,7 +42,8 @@ import numpy as np
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
-from mirrorcore.dense.sampling import QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index, project, project_blocks, transform
+from mirrorcore.dense.sampling import (QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index,
+                                       project, project_blocks, transform)
 from mirrorcore.dense.views import View, padded_flat, rig_views
 from mirrorcore.dense.volume import NO_SOURCE, Progress, Volume, run_chunks
 from mirrorcore.dense.windows import Window, mirror_sides, window_half
@@ -138,14 +139,16 @@ class _PaperImages:
                    padded_flat(z * np.sqrt(rays[0] ** 2 + rays[1] ** 2 + 1), np.nan))
 
 
-def _undecided_blocks(rig: Rig, views: tuple[View, ...], th: float, blocks: Blocks, state: np.ndarray) -> Blocks:
+def _undecided_blocks(rig: Rig, views: tuple[View, ...], th: float, blocks: Blocks,
+                      state: np.ndarray) -> Blocks:
     """Method 'carve' on whole blocks (mirrorcore.dense.windows), in batches of DECIDE_BLOCKS: FREE
     where some view sees through the block or it lies behind a mirror (as the grid starts), HIDDEN
     (written into `state`) where it lies in front of every mirror and every view sees it behind its
     surface by more than th -> the other blocks."""
     intr, volume = rig.intrinsics, blocks.volume
     extent = (BLOCK - 1) * volume.voxel
-    windows = [Window.for_carving(v, window_half(intr, v.to_view, volume.corners(), extent)) for v in views]
+    windows = [Window.for_carving(v, window_half(intr, v.to_view, volume.corners(), extent))
+               for v in views]
     undecided = []
     for start in range(0, len(blocks), DECIDE_BLOCKS):
         batch = blocks.take(slice(start, start + DECIDE_BLOCKS))
@@ -163,7 +166,8 @@ def _undecided_blocks(rig: Rig, views: tuple[View, ...], th: float, blocks: Bloc
     return Blocks(volume, np.concatenate(undecided), BLOCK)
 
 
-def _carve_voxels(rig: Rig, views: tuple[View, ...], tables: list[QuadTable], lows: list[np.ndarray], th: float,
+def _carve_voxels(rig: Rig, views: tuple[View, ...], tables: list[QuadTable],
+                  lows: list[np.ndarray], th: float,
                   blocks: Blocks) -> tuple[np.ndarray, np.ndarray]:
     """Method 'carve' voxel by voxel on blocks -> their state, source (B, B, B, m) uint8 (the block
     layout); tables

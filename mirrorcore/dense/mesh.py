@@ -59,7 +59,8 @@ class Mesh:
     sources: np.ndarray
 
 
-def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, source: np.ndarray) -> Mesh:
+def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
+                         source: np.ndarray) -> Mesh:
     """The surface values == 0 of the blocks' voxels ((m, B, B, B) float, one block after another,
     in the order of `blocks`), on the edges with both ends where mask (m, B, B, B) bool holds: the
     mesh of classic marching cubes on the whole grid with the voxels outside the blocks unobserved,
@@ -75,7 +76,8 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray, s
     check_memory(blocks.voxels / 64 * MESH_BLOCK_BYTES,
                  f"mesh: {len(blocks):,} blocks of {blocks.size}^3 voxels")
     rows = _neighbour_rows(blocks)
-    ext = [_extended(rows, a, fill) for a, fill in ((values.astype(np.float32, copy=False), 1.0), (mask, False),
+    ext = [_extended(rows, a, fill) for a,
+           fill in ((values.astype(np.float32, copy=False), 1.0), (mask, False),
                                                    (source, NO_SOURCE))]
     ids, grid, labels, points = _edge_vertices(blocks, rows, *ext)
     faces = _faces(rows, _cases(ext[0] <= 0, ext[1]), ids, points, blocks.size)
@@ -100,7 +102,8 @@ def case_table() -> tuple[np.ndarray, np.ndarray]:
         for k, corner in enumerate(CORNERS):
             if case >> k & 1:
                 cube[corner] = -1.0
-        verts, faces, _, _ = _skimage_marching_cubes(cube, 0.0, method="lorensen", allow_degenerate=True)
+        verts, faces, _, _ = _skimage_marching_cubes(cube, 0.0, method="lorensen",
+                                                     allow_degenerate=True)
         # vertices at the edges' midpoints
         lower = np.floor(verts).astype(int)
         axis = np.argmax(verts != lower, axis=1)
@@ -118,7 +121,8 @@ def _cube_table() -> tuple[np.ndarray, np.ndarray]:
     counts, edges = case_table()
     key = np.arange(1 << 16)
     case, seen = (sum((key >> 2 * k + bit & 1) << k for k in range(8)) for bit in (0, 1))
-    ends = [1 << CORNERS.index(d) | 1 << CORNERS.index(tuple(np.add(d, np.eye(3, dtype=int)[a]))) for d, a in EDGES]
+    ends = [1 << CORNERS.index(d) | 1 << CORNERS.index(tuple(np.add(d, np.eye(3, dtype=int)[a])))
+            for d, a in EDGES]
     # (256, 5): the corners to observe
     needs = np.bitwise_or.reduce(np.array(ends)[edges], axis=2)
     keep = (np.arange(MAX_TRIANGLES) < counts[case][:, None]) & (seen[:, None] & needs[case] == needs[case])
@@ -204,13 +208,15 @@ def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: n
     ids[edge[off]] = np.arange(len(off))
     ids[edge[on]] = len(off) + which
     row, at = np.concatenate([row[off], row[on][one]]), np.concatenate([low[off], point[one]])
-    grid = (np.take(blocks.size * blocks.ijk, row, axis=0) + np.take(np.argwhere(np.ones((b + 1,) * 3, bool)), at,
+    grid = (np.take(blocks.size * blocks.ijk, row,
+                    axis=0) + np.take(np.argwhere(np.ones((b + 1,) * 3, bool)), at,
                                                                      axis=0)).astype(np.float64)
     grid[np.arange(len(off)), axis[off]] += t[off]
     return ids, grid, np.concatenate([labels[off], np.take(source, point[one] * span + row[len(off):])]), len(one)
 
 
-def _grid_points(rows: np.ndarray, row: np.ndarray, point: np.ndarray, b: int) -> tuple[np.ndarray, np.ndarray]:
+def _grid_points(rows: np.ndarray, row: np.ndarray, point: np.ndarray, b: int) -> tuple[np.ndarray,
+                                                                                        np.ndarray]:
     """Vertices on grid points: the rows (n,) of their blocks and their points (n,), voxels of the
     extended blocks ((B + 1)^3, C order), observed -> the index (k,) of the first vertex on each
     distinct grid point and which one (n,) each is on, 0..k-1. The only sort of the mesh, on these
@@ -251,7 +257,9 @@ def _ext_owner(b: int) -> tuple[np.ndarray, np.ndarray]:
     index, 0 the block itself) and its voxel there (C order): two ((B + 1)^3,) int64."""
     ext = np.argwhere(np.ones((b + 1,) * 3, bool))
     beyond = ext >= b
-    return beyond[:, 0] + 2 * beyond[:, 1] + 4 * beyond[:, 2], np.ravel_multi_index(tuple((ext % b).T), (b,) * 3)
+    return beyond[:, 0] + 2 * beyond[:, 1] + 4 * beyond[:,
+                                                        2], np.ravel_multi_index(tuple((ext % b).T),
+                                                                                    (b,) * 3)
 
 
 @cache
@@ -260,7 +268,8 @@ def _corner_edges(b: int) -> tuple[np.ndarray, np.ndarray]:
     which block (CORNERS index, 0 the block itself) holds the voxel that owns the edge (its lower
     end), and the index [voxel in C order, axis] of the edge there: two (B^3 * 12,) int64."""
     owner, local = _ext_owner(b)
-    ext = _ext_voxel(b)[:, None] + np.array([np.ravel_multi_index(d, (b + 1,) * 3) for d, _ in EDGES])
+    ext = _ext_voxel(b)[:,
+                        None] + np.array([np.ravel_multi_index(d, (b + 1,) * 3) for d, _ in EDGES])
     axes = np.array([a for _, a in EDGES])
     return owner[ext].reshape(-1), (local[ext] * 3 + axes).reshape(-1)
 

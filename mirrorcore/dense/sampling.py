@@ -56,7 +56,8 @@ class Quads:
         shows, d = surface[box], depth[box]
         r, c = np.nonzero(shows[:-1, :-1] & shows[:-1, 1:] & shows[1:, :-1] & shows[1:, 1:])
         corners = np.stack([d[r, c], d[r, c + 1], d[r + 1, c], d[r + 1, c + 1]], axis=1)
-        spread = np.fmax(np.fmax(corners[:, 0], corners[:, 1]), np.fmax(corners[:, 2], corners[:, 3])) - \
+        spread = np.fmax(np.fmax(corners[:, 0], corners[:, 1]),
+                         np.fmax(corners[:, 2], corners[:, 3])) - \
             np.fmin(np.fmin(corners[:, 0], corners[:, 1]), np.fmin(corners[:, 2], corners[:, 3]))
         # four surface pixels with no depth edge between
         ok = spread < BILINEAR_GAP
@@ -101,15 +102,18 @@ class QuadTable:
     @classmethod
     def of(cls, quads: list[Quads]) -> "QuadTable":
         """The table of one view's Quads in each frame."""
-        index = quads[0].index if len(quads) == 1 else np.unique(np.concatenate([q.index for q in quads]))
+        index = quads[0].index if len(quads) == 1 else np.unique(np.concatenate([q.index
+                                                                                 for q in quads]))
         h, w = quads[0].image.shape
         lookup = np.zeros((h + 2 * BORDER) * (w + 2 * BORDER), np.int32)
         lookup[index] = np.arange(1, len(index) + 1, dtype=np.int32)
         rows = np.full((len(quads), len(index) + 1, 4), np.nan, np.float32)
-        near, far = np.full(len(index), np.inf, np.float32), np.full(len(index), -np.inf, np.float32)
+        near, far = np.full(len(index), np.inf, np.float32), np.full(len(index), -np.inf,
+                                                                     np.float32)
         for frame, q in zip(rows, quads):
             d, at = q.corners, np.searchsorted(index, q.index)
-            frame[at + 1] = np.stack([d[:, 0], d[:, 1] - d[:, 0], d[:, 2], d[:, 3] - d[:, 2]], axis=1)
+            frame[at + 1] = np.stack([d[:, 0], d[:, 1] - d[:, 0], d[:, 2], d[:, 3] - d[:, 2]],
+                                     axis=1)
             near[at] = np.minimum(near[at], d.min(axis=1))
             far[at] = np.maximum(far[at], d.max(axis=1))
         return cls(index, near, far, lookup, rows)
@@ -164,9 +168,11 @@ def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.n
         np.copyto(inv, np.float32(np.nan), where=p[2] <= 0)
     width = intr.width + 2 * BORDER
     cells, fractions = [], []
-    for f, c, coordinate, size in ((intr.fx, intr.cx, p[0], intr.width), (intr.fy, intr.cy, p[1], intr.height)):
+    for f, c, coordinate, size in ((intr.fx, intr.cx, p[0], intr.width),
+                                   (intr.fy, intr.cy, p[1], intr.height)):
         t = coordinate * np.float32(f)
-        t = np.multiply(t, inv, out=t if t.shape == np.broadcast_shapes(t.shape, inv.shape) else None)
+        t = np.multiply(t, inv,
+                        out=t if t.shape == np.broadcast_shapes(t.shape, inv.shape) else None)
         t += np.float32(c)
         low = np.fmax(t, np.float32(-BORDER))
         np.fmin(low, np.float32(size), out=low)
@@ -183,7 +189,8 @@ def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.n
     else:
         index = cells[1].astype(np.float64) * width + cells[0]
     index += BORDER * width + BORDER
-    flat = [np.broadcast_to(a, shape).reshape(-1) for a in (p[2], index.astype(np.intp), *fractions)]
+    flat = [np.broadcast_to(a, shape).reshape(-1)
+            for a in (p[2], index.astype(np.intp), *fractions)]
     return Projection(*flat)
 
 
@@ -217,7 +224,8 @@ def transform(to_view: np.ndarray, points: np.ndarray) -> np.ndarray:
     with extrinsic to_view (3, 4); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is
     several times slower)."""
     m = to_view.astype(np.float32)
-    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3] for r in range(3)])
+    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3]
+                     for r in range(3)])
 
 
 def project(intr: Intrinsics, p) -> tuple[np.ndarray, np.ndarray]:

@@ -36,9 +36,11 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
 from mirrorcore.dense.mesh import Mesh, block_marching_cubes
-from mirrorcore.dense.sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
+from mirrorcore.dense.sampling import (BORDER, QuadTable, in_front_of_mirrors, nearest_pixels,
+                                       project_blocks)
 from mirrorcore.dense.views import View, cull_depth, rig_views
-from mirrorcore.dense.volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
+from mirrorcore.dense.volume import (CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume,
+                                     run_chunks)
 from mirrorcore.dense.windows import Window, mirror_sides, window_half
 
 # voxels along a block's edge: small blocks follow the surface's band closely
@@ -86,7 +88,8 @@ class TsdfResult:
         return tuple(grids)
 
 
-def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, truncation: float | None = None,
+def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
+         truncation: float | None = None,
          progress: Progress | None = None, cancel=None, workers: int | None = None,
          blocks: Blocks | None = None) -> TsdfResult:
     """Fuse the views of one or more frames of a static object into a TSDF volume (see the module
@@ -125,7 +128,8 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, trunca
 
     def work(item: tuple[slice, int]) -> None:
         rows, code = item
-        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code, tsdf[rows],
+        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code,
+                     tsdf[rows],
                      weight[rows], source[rows])
 
     run_chunks(plan.items(), work, progress, cancel, workers)
@@ -135,14 +139,16 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, trunca
     return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc)
 
 
-def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray], volume: Volume,
+def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray],
+                   volume: Volume,
                    truncation: float) -> Blocks:
     """The blocks of `volume` holding a voxel that some view (its QuadTable over the frames and its
     extrinsic) may see within `truncation` metres of its measured surface: for each quad of pixels
     that shows the surface (sampling.Quads), the axis-aligned box (camera frame) of the part of its
     pixels' frustum between its least depth
     - truncation and its greatest + truncation over the frames."""
-    boxes = [_quad_boxes(intr, table, to_view, truncation) for table, to_view in zip(tables, to_views)]
+    boxes = [_quad_boxes(intr, table, to_view, truncation) for table,
+             to_view in zip(tables, to_views)]
     return Blocks.marked(volume, _covered(volume, np.concatenate([b[0] for b in boxes]),
                                           np.concatenate([b[1] for b in boxes])), BLOCK)
 
@@ -241,12 +247,15 @@ class _Plan:
         step = max(1, max_voxels // BLOCK ** 3)
         starts = np.flatnonzero(np.diff(self.codes, prepend=-1))
         ends = np.append(starts[1:], len(self.codes))
-        return [(slice(i, min(i + step, end)), int(self.codes[start])) for start, end in zip(starts, ends)
+        return [(slice(i, min(i + step, end)), int(self.codes[start])) for start,
+                end in zip(starts, ends)
                 for i in range(start, end, step)]
 
 
-def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], views: tuple[View, ...],
-                 cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray, weight: np.ndarray,
+def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
+                 views: tuple[View, ...],
+                 cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray,
+                 weight: np.ndarray,
                  source: np.ndarray) -> None:
     """Fuse the views that `code` (_Plan) names (their tables over the frames, extrinsics, and the
     views of one frame for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B)

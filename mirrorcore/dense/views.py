@@ -101,11 +101,13 @@ def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]
         np.logical_and(through, mask, out=surface_image)
         segments.end_first(j, seen_image, surface_image)
         claimed |= surface_image
-        views.append(View(j, mirror.plane.reflection_matrix()[:3], seen, surface, outline, intr.shape))
+        views.append(View(j, mirror.plane.reflection_matrix()[:3], seen, surface, outline,
+                          intr.shape))
     for label, sequence in segments.sequences():
         seen, surface, outline = segments.view_of(label, empty, mask)
         claimed |= surface[:-1].reshape(intr.shape)
-        views.append(View(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface, outline, intr.shape))
+        views.append(View(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface,
+                          outline, intr.shape))
     surface, surface_image = _padded(intr.shape, False, bool)
     np.logical_and(mask, ~claimed, out=surface_image)
     direct = View(0, np.eye(3, 4), empty, surface, _everywhere(intr.shape), intr.shape)
@@ -117,7 +119,8 @@ def cull_depth(depth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     several views' cull depths is the cull depth of their least depth (erosion and the minimum
     commute)."""
     image = depth[:-1].reshape(shape)
-    cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image), np.ones((3, 3), np.uint8))
+    cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image),
+                     np.ones((3, 3), np.uint8))
     return padded_flat(cull, np.inf)
 
 
@@ -184,8 +187,10 @@ class _Segments:
         chains = table.chains
         flat_threshold = table.threshold.reshape(-1)[chains.pixel]
         start = np.concatenate([flat_threshold[:, None], chains.threshold.T], axis=1)
-        end = np.minimum(np.concatenate([chains.threshold.T, chains.cutoff[:, None]], axis=1), chains.cutoff[:, None])
-        return cls(chains, table.label.reshape(-1)[chains.pixel], start, end, z.reshape(-1)[chains.pixel], z.shape)
+        end = np.minimum(np.concatenate([chains.threshold.T, chains.cutoff[:, None]], axis=1),
+                         chains.cutoff[:, None])
+        return cls(chains, table.label.reshape(-1)[chains.pixel], start, end,
+                   z.reshape(-1)[chains.pixel], z.shape)
 
     def end_first(self, mirror: int, seen: np.ndarray, surface: np.ndarray) -> None:
         """Mirror `mirror`'s view (seen : (H, W) float32 depth, surface : (H, W) bool, in place)
@@ -199,9 +204,12 @@ class _Segments:
     def sequences(self) -> list[tuple[int, tuple[int, ...]]]:
         """(label, sequence) of every sequence of two or more mirrors that some pixel follows, in
         label order."""
-        return [(int(s), source_sequence(int(s))) for s in np.unique(self.chains.label[self.chains.label > 0])]
+        return [(int(s), source_sequence(int(s)))
+                for s in np.unique(self.chains.label[self.chains.label > 0])]
 
-    def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray,
+                                                                                np.ndarray,
+                                                                                np.ndarray]:
         """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the
         sequence `label`'s view: its pixels see the ray's segment after that sequence (empty up to
         the measured depth (empty (H*W + 1,)), or up to the next mirror); elsewhere, and where the

@@ -55,7 +55,8 @@ class Volume:
             raise MirrorscanError(f"volume: the grid needs at least one voxel per axis, got {self.shape}")
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "shape", tuple(int(s) for s in self.shape))
-        check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK), float))) * BLOCK_GRID_BYTES,
+        check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK),
+                                              float))) * BLOCK_GRID_BYTES,
                      self._what())
 
     @classmethod
@@ -131,7 +132,8 @@ class Volume:
                 "(use larger voxels or a smaller box)")
 
 
-def run_chunks(items: Sequence[Item], work: Callable[[Item], None], progress: Progress | None = None,
+def run_chunks(items: Sequence[Item], work: Callable[[Item], None],
+               progress: Progress | None = None,
                cancel=None, workers: int | None = None) -> None:
     """Call work(item) for every item, in this thread for one worker, else on `workers` threads
     (default: the CPU count; numpy releases the GIL in its array operations) with at most

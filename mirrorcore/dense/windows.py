@@ -69,7 +69,8 @@ class Window:
         the image)."""
         shown = np.full(views[0].shape, -np.inf, np.float32)
         for view in views:
-            np.copyto(shown.reshape(-1), np.fmax(shown.reshape(-1), view.depth[:-1]), where=view.surface[:-1])
+            np.copyto(shown.reshape(-1), np.fmax(shown.reshape(-1), view.depth[:-1]),
+                      where=view.surface[:-1])
         return cls(views[0].to_view, half, None, _extreme(cv2.dilate, shown, half, -np.inf))
 
     @classmethod
@@ -80,7 +81,8 @@ class Window:
         return cls(np.eye(3, 4), half, _extreme(cv2.erode, image, half, np.inf),
                    _extreme(cv2.dilate, image, half, np.inf))
 
-    def test(self, intr: Intrinsics, box: tuple[np.ndarray, np.ndarray], th: float) -> tuple[np.ndarray, np.ndarray]:
+    def test(self, intr: Intrinsics, box: tuple[np.ndarray, np.ndarray],
+             th: float) -> tuple[np.ndarray, np.ndarray]:
         """box : (centre (3, m), half size (3, m)) float64 of m blocks (Blocks.bounds) -> (m,) bool
         each: the view sees through every voxel, the view sees every voxel behind its surface by
         more than th (or nothing of it). The block's x, y, z ranges in the view's frame are exact
@@ -90,7 +92,8 @@ class Window:
         z_near, z_far = np.where(ahead, z0, 1), np.where(ahead, z1, 1)
         fits = ahead
         centre = []
-        for f, c, lo, hi, size in ((intr.fx, intr.cx, x0, x1, intr.width), (intr.fy, intr.cy, y0, y1, intr.height)):
+        for f, c, lo, hi, size in ((intr.fx, intr.cx, x0, x1, intr.width),
+                                   (intr.fy, intr.cy, y0, y1, intr.height)):
             # the quads' pixels, one more
             first = np.floor(f * np.minimum(lo / z_near, lo / z_far) + c) - 1
             last = np.floor(f * np.maximum(hi / z_near, hi / z_far) + c) + 2      # each side
@@ -119,7 +122,8 @@ def mirror_sides(rig: Rig, box: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarr
     return behind_one, in_front
 
 
-def box_ranges(transform: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
+def box_ranges(transform: np.ndarray,
+               box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
     """The range (least, greatest) of each row of transform (r, 4) (a linear function and offset per
     row) over boxes (centre (3, m), half size (3, m)): r pairs of (m,) float64."""
     centre, half = box
@@ -139,7 +143,8 @@ def _extreme(operation, image: np.ndarray, half: int, border: float) -> np.ndarr
                      borderValue=border).reshape(-1)
 
 
-def window_half(intr: Intrinsics, to_view: np.ndarray, volume_corners: np.ndarray, block_extent: float) -> int:
+def window_half(intr: Intrinsics, to_view: np.ndarray, volume_corners: np.ndarray,
+                block_extent: float) -> int:
     """The half size in pixels (at most MAX_HALF) of a window holding the projection of any block of
     edge `block_extent` metres in a volume with corners volume_corners (8, 3) float64 (camera
     frame), seen by a view of extrinsic to_view (3, 4), and two pixels more each side (the quads and

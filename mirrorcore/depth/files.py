@@ -20,7 +20,8 @@ DECODED_BYTES = 6         # a decoded pixel: uint16 as read, then float32 metres
 FILE_SLACK = 1 << 20
 
 
-def read_depth_png(path: str | Path, depth_scale: float, shape: tuple[int, int] | None = None) -> np.ndarray:
+def read_depth_png(path: str | Path, depth_scale: float,
+                   shape: tuple[int, int] | None = None) -> np.ndarray:
     """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file
     when it is missing, or when it is larger than an image of its size can be (checked before
     reading it: see max_file_bytes)."""
@@ -30,7 +31,8 @@ def read_depth_png(path: str | Path, depth_scale: float, shape: tuple[int, int] 
     with open(path, "rb") as f:
         head = f.read(24)
         size = os.fstat(f.fileno()).st_size
-        pixels = _png_pixels(head, shape, str(path)) or (shape[0] * shape[1] if shape is not None else None)
+        pixels = _png_pixels(head, shape,
+                             str(path)) or (shape[0] * shape[1] if shape is not None else None)
         limit = max_file_bytes(pixels) if pixels is not None else None
         if limit is not None and size > limit:
             raise FileFormatError(f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "

@@ -30,4 +30,5 @@ def disparity_to_depth(counts: np.ndarray) -> np.ndarray:
     float32; DISPARITY_INVALID and counts with no positive depth (>= DISPARITY_LIMIT) -> 0."""
     counts = np.asarray(counts, dtype=np.float64)
     ok = (counts < DISPARITY_LIMIT) & (counts >= 0)
-    return np.where(ok, 1.0 / np.where(ok, counts * BURRUS_A + BURRUS_B, 1.0), 0.0).astype(np.float32)
+    return np.where(ok, 1.0 / np.where(ok, counts * BURRUS_A + BURRUS_B, 1.0),
+                    0.0).astype(np.float32)

@@ -56,7 +56,8 @@ def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
     median = median_depth(frames)
     keep = (frames > 0) & (np.abs(frames - median) <= np.float32(MEAN_SIGMAS) * axial_sigma(median))
     count = keep.sum(axis=0)
-    return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1), 0).astype(np.float32)
+    return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1),
+                    0).astype(np.float32)
 
 
 def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
@@ -66,7 +67,8 @@ def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
     glass) is left out of it; pixels where
     the background has no reading keep theirs. frames : (k, H, W) float metres; background : (H, W)
     -> (k, H, W) float32."""
-    frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background, dtype=np.float32)
+    frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background,
+                                                                          dtype=np.float32)
     front = (background > 0) & (frames < background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background))
     return np.where(front, np.float32(0), frames)
 
@@ -78,10 +80,12 @@ def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:
     if w == 0:
         return slice(0, 0), slice(0, 0)
     rows, cols = mask.shape
-    return slice(max(v - pad, 0), min(v + h + pad, rows)), slice(max(u - pad, 0), min(u + w + pad, cols))
+    return slice(max(v - pad, 0), min(v + h + pad, rows)), slice(max(u - pad, 0),
+                                                                 min(u + w + pad, cols))
 
 
-def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength: float = 3.0) -> np.ndarray:
+def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2,
+                 strength: float = 3.0) -> np.ndarray:
     """Edge-aware smoothing of the masked pixels of a depth image, in inverse depth (disparity).
 
     A structured-light camera's noise is constant in disparity (sigma_z = 1.425e-3 z^2 is sigma_w =
@@ -107,7 +111,8 @@ def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength:
     return out
 
 
-def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.ndarray, labels: np.ndarray,
+def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.ndarray,
+                          labels: np.ndarray,
                           radius: int = QUADRATIC_RADIUS, sigma: float = QUADRATIC_SIGMA,
                           strength: float = QUADRATIC_STRENGTH) -> np.ndarray:
     """Edge-aware smoothing that follows curvature: at each of `pixels`, a weighted least-squares
@@ -150,7 +155,8 @@ def _fit_labels(depth: np.ndarray, labels: np.ndarray, pixels: np.ndarray, pixel
         for start in range(0, len(chosen), QUADRATIC_CHUNK):
             part = slice(start, start + QUADRATIC_CHUNK)
             at = chosen[part]
-            readings = neighbours[rows[part] - box[0].start, cols[part] - box[1].start].reshape(len(at), -1)
+            readings = neighbours[rows[part] - box[0].start,
+                                  cols[part] - box[1].start].reshape(len(at), -1)
             flat[at] = window.fit(readings, flat[at])
 
 
@@ -183,9 +189,11 @@ class _QuadraticWindow:
         design = np.stack([dx, dy, dx * dx, dx * dy, dy * dy, np.ones_like(dx)], axis=1)
         upper = np.triu_indices(6)
         return cls(radius, design, design[:, upper[0]] * design[:, upper[1]],
-                   np.exp(-(dx * dx + dy * dy) / np.float32(2 * sigma * sigma)), strength * KINECT_AXIAL_COEF)
+                   np.exp(-(dx * dx + dy * dy) / np.float32(2 * sigma * sigma)),
+                   strength * KINECT_AXIAL_COEF)
 
-    def neighbours(self, depth: np.ndarray, same: np.ndarray, box: tuple[slice, slice]) -> np.ndarray:
+    def neighbours(self, depth: np.ndarray, same: np.ndarray,
+                   box: tuple[slice, slice]) -> np.ndarray:
         """The windows around the pixels of `box` (h, w): depth (H, W) metres and same (H, W) bool,
         the pixels whose readings count -> (h, w, 2 radius + 1, 2 radius + 1) float32 view of their
         disparities, NO_READING where a reading does not count or is missing or lies outside the
@@ -193,7 +201,8 @@ class _QuadraticWindow:
         r, (height, width) = self.radius, np.shape(depth)
         grow = (slice(max(box[0].start - r, 0), min(box[0].stop + r, height)),
                 slice(max(box[1].start - r, 0), min(box[1].stop + r, width)))
-        w = np.full((box[0].stop - box[0].start + 2 * r, box[1].stop - box[1].start + 2 * r), NO_READING, np.float32)
+        w = np.full((box[0].stop - box[0].start + 2 * r, box[1].stop - box[1].start + 2 * r),
+                    NO_READING, np.float32)
         inside = w[grow[0].start - box[0].start + r:grow[0].stop - box[0].start + r,
                    grow[1].start - box[1].start + r:grow[1].stop - box[1].start + r]
         values = np.asarray(depth[grow], np.float32)
@@ -209,10 +218,12 @@ class _QuadraticWindow:
         residual = readings - ref_w[:, None]
         # exp(-80) is 2e-35, no weight; the clamp keeps cv2.exp off its slow path for arguments
         # below float32's range
-        weight = cv2.exp(cv2.max(cv2.multiply(residual, residual, scale=-0.5 / self.range_sigma ** 2), -80.0))
+        weight = cv2.exp(cv2.max(cv2.multiply(residual, residual,
+                                              scale=-0.5 / self.range_sigma ** 2), -80.0))
         weight *= self.spatial
         total = weight.sum(axis=1)
-        offset = _eliminate(weight @ self.products, (weight * residual) @ self.design, RIDGE * total)
+        offset = _eliminate(weight @ self.products, (weight * residual) @ self.design,
+                            RIDGE * total)
         ok = (total >= self.design.shape[1]) & (np.abs(offset) <= self.range_sigma)
         return np.where(ok, inverse(ref_w + offset), reference)
 

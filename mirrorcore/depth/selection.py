@@ -60,12 +60,15 @@ class Selection:
         values = dict(data)
         if values.get("roi") is not None:
             try:
-                values["roi"] = tuple(map(tuple, validate_polygon(values["roi"], None, f"{where}: roi").tolist()))
+                values["roi"] = tuple(map(tuple,
+                                          validate_polygon(values["roi"], None,
+                                                                  f"{where}: roi").tolist()))
             except MirrorscanError as exc:
                 raise FileFormatError(str(exc)) from None
         try:
             sel = cls(**values)
-            numbers = [float(getattr(sel, f.name)) for f in fields(cls) if f.name not in ("roi", "smooth")]
+            numbers = [float(getattr(sel, f.name)) for f in fields(cls)
+                       if f.name not in ("roi", "smooth")]
         except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: {exc}") from None
         if not all(np.isfinite(numbers)) or sel.depth_min < 0 or sel.depth_max <= sel.depth_min:
@@ -102,7 +105,8 @@ class Backdrop:
         depth = np.asarray(background, np.float32)
         tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(depth),
                                np.float32(selection.min_gap))
-        return cls(depth, np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))
+        return cls(depth,
+                   np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))
 
 
 def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Backdrop | None,
@@ -131,11 +135,13 @@ def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Ba
     win = bounding_window(cores.view(bool), CORE_MARGIN)
     cleaned = np.zeros_like(mask)
     if mask[win].size:
-        cleaned[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection), selection.min_blob)
+        cleaned[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection),
+                                     selection.min_blob)
     return cleaned
 
 
-def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
+def flying_pixels(depth: np.ndarray, mask: np.ndarray,
+                  selection: Selection = Selection()) -> np.ndarray:
     """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings
     at depth edges), by more than max(flying_sigmas * sigma(z), flying_gap * z). The depth-dependent
     gap is computed only where the pixel is behind by more than its part flying_gap * z (a few
@@ -148,7 +154,8 @@ def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Se
     beyond = np.float32(selection.flying_gap) * depth.reshape(-1)
     candidates = np.flatnonzero(np.greater(behind, beyond) & mask.reshape(-1))
     z = np.take(depth.reshape(-1), candidates)
-    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(z), np.take(beyond, candidates))
+    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(z),
+                     np.take(beyond, candidates))
     flying = np.zeros(depth.shape, bool)
     flying.reshape(-1)[candidates[np.take(behind, candidates) > gap]] = True
     return flying

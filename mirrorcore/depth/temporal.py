@@ -56,7 +56,8 @@ def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIG
         diff = np.where(both, w[k] - w0, 0.0).astype(np.float32)
         pairs = cv2.boxFilter(both.astype(np.float32), -1, (patch, patch), normalize=False,
                               borderType=cv2.BORDER_CONSTANT)
-        local = cv2.boxFilter(diff, -1, (patch, patch), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        local = cv2.boxFilter(diff, -1, (patch, patch), normalize=False,
+                              borderType=cv2.BORDER_CONSTANT)
         # the mean of n differences has 1/sqrt(n) of one difference's deviation: |sum| < tolerance *
         # sqrt(n)
         static = both & (np.abs(diff) <= tolerance) & (np.abs(local) <= tolerance * np.sqrt(np.maximum(pairs, 1.0)))

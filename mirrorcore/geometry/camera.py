@@ -82,7 +82,8 @@ class Intrinsics:
     @classmethod
     def kinect_v1(cls) -> "Intrinsics":
         """Kinect v1 depth (IR) camera, Nicolas Burrus' calibration, 640x480."""
-        return cls(640, 480, 594.21434211923247, 591.04053696870778, 339.30780975300314, 242.73913761751615)
+        return cls(640, 480, 594.21434211923247, 591.04053696870778, 339.30780975300314,
+                   242.73913761751615)
 
     @classmethod
     def primesense(cls) -> "Intrinsics":
@@ -162,7 +163,8 @@ def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
     (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a
     mirrorcore.plane.Plane."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy, np.ones(len(uv))], axis=-1)
+    rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy,
+                     np.ones(len(uv))], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -plane.d / (rays @ plane.n)
     t[~(t > 0)] = np.nan
@@ -183,7 +185,8 @@ def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray
     return uv, z
 
 
-def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth image") -> np.ndarray:
+def check_depth_shape(intr: Intrinsics, depth: np.ndarray,
+                      where: str = "depth image") -> np.ndarray:
     """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the
     intrinsics."""
     depth = np.asarray(depth)
@@ -197,7 +200,8 @@ def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth i
 # --------------------------------------------------------------------- intrinsics files
 def save_open3d_json(intr: Intrinsics, path: str | Path) -> None:
     """Write Open3D's PinholeCameraIntrinsic JSON (column-major intrinsic_matrix)."""
-    data = {"width": intr.width, "height": intr.height, "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
+    data = {"width": intr.width, "height": intr.height,
+            "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
     Path(path).write_text(json.dumps(data, indent=2))
 
 
@@ -206,7 +210,8 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     try:
         data = json.loads(Path(path).read_text())
         K = np.asarray(data["intrinsic_matrix"], dtype=float).reshape(3, 3).T
-        return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2], K[1, 2], depth_scale)
+        return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2],
+                          K[1, 2], depth_scale)
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
     except (OSError, ValueError, KeyError, TypeError, OverflowError) as exc:

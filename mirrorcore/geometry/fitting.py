@@ -40,7 +40,8 @@ direction)."""
 
 # --------------------------------------------------------------------------------------------- public API
 def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
-               sources: np.ndarray | None = None, radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
+               sources: np.ndarray | None = None,
+               radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
                confidence: float = 0.999, max_iterations: int = 20_000, where: str = "cloud",
                progress: Progress | None = None, cancel=None) -> ShapeFit:
     """Fit a sphere by RANSAC (4-point closed-form samples) and least squares on the inliers.
@@ -55,14 +56,17 @@ def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = 
     callable, progress.cancel_requested) stops it with Cancelled. Raises MirrorscanError naming
     `where` for non-finite or too few points (< 4) and when no sphere is found.
     """
-    return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence, max_iterations, where,
+    return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence,
+                max_iterations, where,
                 _ticker(progress, cancel, where))
 
 
 def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
                  sources: np.ndarray | None = None, normals: np.ndarray | None = None,
-                 radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE, confidence: float = 0.999,
-                 max_iterations: int = 20_000, where: str = "cloud", progress: Progress | None = None,
+                 radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
+                 confidence: float = 0.999,
+                 max_iterations: int = 20_000, where: str = "cloud",
+                 progress: Progress | None = None,
                  cancel=None) -> ShapeFit:
     """Fit a cylinder by RANSAC (2 points with normals) and geometric least squares on the inliers.
 
@@ -74,7 +78,8 @@ def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float 
     naming `where` for non-finite or too few points (< 5), normals of the wrong shape, and when no
     cylinder is found.
     """
-    return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence, max_iterations, where,
+    return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence,
+                max_iterations, where,
                 _ticker(progress, cancel, where))
 
 
@@ -88,7 +93,8 @@ def estimate_normals(points: np.ndarray, neighbours: int = _NORMAL_NEIGHBOURS) -
 
 # --------------------------------------------------------------------------------------------- the shared pipeline
 def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.ndarray | None,
-         rng: np.random.Generator, threshold: float, radius_range: tuple[float, float], confidence: float,
+         rng: np.random.Generator, threshold: float, radius_range: tuple[float, float],
+         confidence: float,
          max_iterations: int, where: str, tick: Callable[[float], None]) -> ShapeFit:
     """Check the input, centre it (for conditioning), run RANSAC and the refinement, and measure the
     errors."""
@@ -107,7 +113,8 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
         propose, distances, refine = _sphere_propose(centred), _sphere_distances(centred), _sphere_refine
         sample_size = 4
     else:
-        normals = estimate_normals(points) if normals is None else np.asarray(normals, dtype=np.float64)
+        normals = estimate_normals(points) if normals is None else np.asarray(normals,
+                                                                              dtype=np.float64)
         if normals.shape != points.shape:
             raise MirrorscanError(f"{where}: {len(points)} points but normals of shape {normals.shape}")
         propose, distances, refine = _cylinder_propose(centred, normals), _cylinder_distances(centred), _cylinder_refine
@@ -116,7 +123,8 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
 
     def optimise(model: Model) -> tuple[Model, int]:
         return _local_optimum(centred, model, threshold, distances, refine, min_points)
-    model = _ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold, rng, radius_range,
+    model = _ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold,
+                    rng, radius_range,
                     confidence, max_iterations, tick)
     if model is None:
         raise MirrorscanError(f"{where}: no {kind} found (no {kind} of radius {radius_mm} has {min_points} points "
@@ -126,16 +134,21 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
     if count < min_points or not _in_range(model[-1], radius_range):
         raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} mm) has {count} points "
                               f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is the cloud one plane?)")
-    shape = _sphere_shape(model, origin) if kind == "sphere" else _cylinder_shape(model, origin, centred,
-                                                                                   distances, threshold)
+    shape = _sphere_shape(model, origin) if kind == "sphere" else _cylinder_shape(model, origin,
+                                                                                  centred,
+                                                                                   distances,
+                                                                                   threshold)
     deviations = shape.deviations(points)
     return ShapeFit(shape, np.abs(deviations) < threshold, deviations,
-                    None if sources is None else np.asarray(sources).reshape(-1).astype(np.uint8), float(threshold))
+                    None if sources is None else np.asarray(sources).reshape(-1).astype(np.uint8),
+                    float(threshold))
 
 
 def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.ndarray], np.ndarray],
-            distances: Callable[[np.ndarray], np.ndarray], optimise: Callable[[Model], tuple[Model, int]],
-            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float], confidence: float,
+            distances: Callable[[np.ndarray], np.ndarray],
+            optimise: Callable[[Model], tuple[Model, int]],
+            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float],
+            confidence: float,
             max_iterations: int, tick: Callable[[float], None]) -> Model | None:
     """Batched LO-RANSAC: `propose` maps samples (m, sample_size) int to models (m, p) (NaN rows =
     degenerate sample); `distances` maps models (m, p) to signed point-model deviations (n, m); each
@@ -147,7 +160,8 @@ def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.nd
     best, best_count, needed, drawn = None, min_inliers - 1, max_iterations, 0
     while drawn < min(needed, max_iterations):
         models = propose(rng.integers(0, n, size=(batch, sample_size)))
-        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1], radius_range)]
+        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1],
+                                                                        radius_range)]
         if len(models):
             counts = np.count_nonzero(np.abs(distances(models)) < threshold, axis=0)
             k = int(np.argmax(counts))
@@ -177,8 +191,10 @@ def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> 
     return (radius >= radius_range[0]) & (radius <= radius_range[1])
 
 
-def _local_optimum(points: np.ndarray, model: Model, threshold: float, distances: Callable[[np.ndarray], np.ndarray],
-                   refine: Callable[[np.ndarray, Model], Model], min_points: int) -> tuple[Model, int]:
+def _local_optimum(points: np.ndarray, model: Model, threshold: float,
+                   distances: Callable[[np.ndarray], np.ndarray],
+                   refine: Callable[[np.ndarray, Model], Model],
+                   min_points: int) -> tuple[Model, int]:
     """Least-squares refit on the inliers, repeated with the refit's inliers until they stop
     changing (at most 10 refits) -> (model, its inlier count). Stops, keeping the last model, when
     fewer than min_points are inliers."""
@@ -194,7 +210,8 @@ def _local_optimum(points: np.ndarray, model: Model, threshold: float, distances
     return model, int(np.count_nonzero(np.abs(distances(model[None])[:, 0]) < threshold))
 
 
-def _gauss_newton(model: Model, residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
+def _gauss_newton(model: Model,
+                  residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
                   step: Callable[[Model, np.ndarray], Model], iterations: int = 100) -> Model:
     """Minimise sum(r^2) from `model`: residuals_jacobian(model) -> r (n,), J (n, k); step(model,
     delta (k,)) -> model. Halves a step that does not lower the cost; stops when the cost stops
@@ -251,7 +268,8 @@ def _sphere_distances(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
 def _sphere_refine(points: np.ndarray, model: Model) -> Model:
     """Algebraic least squares ([2P, 1] [c, R^2 - |c|^2] = |P|^2), then geometric least squares
     (Gauss-Newton on |P - c| - R) from it. The RANSAC model only chose the inliers."""
-    solution = np.linalg.lstsq(np.column_stack([2.0 * points, np.ones(len(points))]), np.sum(points ** 2, axis=1),
+    solution = np.linalg.lstsq(np.column_stack([2.0 * points, np.ones(len(points))]),
+                               np.sum(points ** 2, axis=1),
                                rcond=None)[0]
     center = solution[:3]
     start = np.append(center, np.sqrt(max(solution[3] + center @ center, 0.0)))
@@ -259,7 +277,8 @@ def _sphere_refine(points: np.ndarray, model: Model) -> Model:
     def residuals_jacobian(m: Model) -> tuple[np.ndarray, np.ndarray]:
         q = points - m[:3]
         dist = np.linalg.norm(q, axis=1)
-        return dist - m[3], np.column_stack([-q / np.maximum(dist, 1e-300)[:, None], -np.ones(len(points))])
+        return dist - m[3], np.column_stack([-q / np.maximum(dist, 1e-300)[:, None],
+                                             -np.ones(len(points))])
     return _gauss_newton(start, residuals_jacobian, lambda m, delta: m + delta)
 
 
@@ -268,7 +287,8 @@ def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
 
 
 # --------------------------------------------------------------------------------------------- cylinder
-def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.ndarray],
+                                                                           np.ndarray]:
     """Cylinder from 2 points with normals: direction n1 x n2; axis point = midpoint of the closest
     points of the lines p_i + t n_i; radius = mean distance of the two points to that axis. NaN rows
     for (nearly) parallel normals."""
@@ -285,7 +305,8 @@ def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.n
         t, s = (b * e - c * d) / denom, (a * e - b * d) / denom
         axis_point = 0.5 * (p1 + t[:, None] * n1 + p2 + s[:, None] * n2)
         direction /= np.sqrt(denom)[:, None]
-        radius = 0.5 * (_line_distance(p1, axis_point, direction) + _line_distance(p2, axis_point, direction))
+        radius = 0.5 * (_line_distance(p1, axis_point, direction) + _line_distance(p2, axis_point,
+                                                                                   direction))
         return np.column_stack([axis_point, direction, radius])
     return propose
 
@@ -340,7 +361,8 @@ def _cylinder_refine(points: np.ndarray, model: Model) -> Model:
     def step(m: Model, delta: np.ndarray) -> Model:
         u, v = _perpendicular_basis(m[3:6])
         d = m[3:6] + delta[0] * u + delta[1] * v
-        return np.concatenate([m[:3] + delta[2] * u + delta[3] * v, d / np.linalg.norm(d), [m[6] + delta[4]]])
+        return np.concatenate([m[:3] + delta[2] * u + delta[3] * v, d / np.linalg.norm(d),
+                               [m[6] + delta[4]]])
     return _gauss_newton(model, residuals_jacobian, step)
 
 

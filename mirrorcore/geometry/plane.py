@@ -78,7 +78,8 @@ class Plane:
         """points : (..., 3) metres -> (...,) metres, > 0 on the camera's side, < 0 behind the
         mirror."""
         points = np.asarray(points)
-        return points @ self.n.astype(points.dtype if points.dtype == np.float32 else np.float64) + self.d
+        return points @ self.n.astype(points.dtype if points.dtype == np.float32
+                                      else np.float64) + self.d
 
     def reflect(self, points: np.ndarray) -> np.ndarray:
         """Paper eq. 3: P_r = P - 2 (n.P + d) n. points : (..., 3) -> (..., 3), same float dtype
@@ -115,7 +116,8 @@ class Plane:
     def angle_to(self, other: "Plane") -> float:
         """Angle between the two normals, degrees (atan2 of the cross and dot products: exact near 0
         and 180)."""
-        return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)), np.dot(self.n, other.n))))
+        return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)),
+                                           np.dot(self.n, other.n))))
 
 
 def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
@@ -151,7 +153,8 @@ class PlaneFit:
 
 
 def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
-                     confidence: float = 0.999, max_iterations: int = 2000, where: str = "plane") -> PlaneFit:
+                     confidence: float = 0.999, max_iterations: int = 2000,
+                     where: str = "plane") -> PlaneFit:
     """RANSAC on 3-point samples scored by MSAC (squared distances in units of each point's
     threshold, capped at 1, summed: every outlier costs the same wherever it lies, and among planes
     with as many inliers the closest wins), then an SVD refit on the inliers, repeated until they
@@ -186,7 +189,8 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
     if best is None:
         raise CalibrationError(f"{where}: no three points define a plane")
     inliers = np.abs(points @ best[0] + best[1]) < threshold
-    plane = fit_plane_svd(points[inliers], where) if inliers.sum() >= 3 else Plane.from_point_normal(
+    plane = fit_plane_svd(points[inliers],
+                          where) if inliers.sum() >= 3 else Plane.from_point_normal(
         -best[1] * best[0], best[0])
     for _ in range(5):
         refit = np.abs(plane.signed_distance(points)) < threshold

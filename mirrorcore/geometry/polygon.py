@@ -13,7 +13,8 @@ MAX_VERTICES = 1000
 PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB of temporaries)
 
 
-def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = "polygon") -> np.ndarray:
+def validate_polygon(points, shape: tuple[int, int] | None = None,
+                     where: str = "polygon") -> np.ndarray:
     """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
 
     Refuses (MirrorscanError naming `where`): fewer than MIN_VERTICES or more than MAX_VERTICES
@@ -33,7 +34,8 @@ def validate_polygon(points, shape: tuple[int, int] | None = None, where: str = 
     if not np.all(np.isfinite(poly)):
         raise MirrorscanError(f"{where}: vertices must be finite numbers")
     if shape is not None:
-        outside = np.nonzero((poly[:, 0] < -0.5) | (poly[:, 1] < -0.5) | (poly[:, 0] > shape[1] - 0.5)
+        outside = np.nonzero((poly[:, 0] < -0.5) | (poly[:, 1] < -0.5) | (poly[:,
+                                                                               0] > shape[1] - 0.5)
                              | (poly[:, 1] > shape[0] - 0.5))[0]
         if len(outside):
             i = int(outside[0])
@@ -86,8 +88,10 @@ def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarra
         return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
 
     def on_segment(p, q, r):  # r collinear with p-q lies within its bounding box
-        return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0], q[:, 0]))
-                & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1], q[:, 1])))
+        return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0],
+                                                                                   q[:, 0]))
+                & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1],
+                                                                                     q[:, 1])))
 
     o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
     hit = (o1 != o2) & (o3 != o4) & (o1 != 0) & (o2 != 0) & (o3 != 0) & (o4 != 0)

@@ -56,7 +56,8 @@ class Cylinder:
         return np.linalg.norm(q - np.outer(q @ direction, direction), axis=1) - self.radius
 
     def to_json(self) -> dict:
-        return {"shape": self.kind, "radius_mm": 1e3 * self.radius, "axis_point": list(self.axis_point),
+        return {"shape": self.kind, "radius_mm": 1e3 * self.radius,
+                "axis_point": list(self.axis_point),
                 "axis_direction": list(self.axis_direction)}
 
 
@@ -82,8 +83,10 @@ class FitErrors:
 
     def to_json(self) -> dict:
         """{"points", "rmse_mm", "mean_error_mm", "mean_abs_error_mm"} (NaN becomes null)."""
-        mm = [None if np.isnan(x) else 1e3 * x for x in (self.rmse, self.mean_error, self.mean_abs_error)]
-        return {"points": self.points, "rmse_mm": mm[0], "mean_error_mm": mm[1], "mean_abs_error_mm": mm[2]}
+        mm = [None if np.isnan(x) else 1e3 * x
+              for x in (self.rmse, self.mean_error, self.mean_abs_error)]
+        return {"points": self.points, "rmse_mm": mm[0], "mean_error_mm": mm[1],
+                "mean_abs_error_mm": mm[2]}
 
 
 def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, FitErrors]:
@@ -97,8 +100,10 @@ def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, 
     if len(sources) and sources.min() < 0:
         raise ValueError("source labels must be >= 0")
     counts = np.bincount(sources)
-    sq, total, absolute = (np.bincount(sources, weights=w) for w in (deviations ** 2, deviations, np.abs(deviations)))
-    return {int(s): FitErrors(int(counts[s]), float(np.sqrt(sq[s] / counts[s])), float(total[s] / counts[s]),
+    sq, total, absolute = (np.bincount(sources, weights=w)
+                           for w in (deviations ** 2, deviations, np.abs(deviations)))
+    return {int(s): FitErrors(int(counts[s]), float(np.sqrt(sq[s] / counts[s])),
+                              float(total[s] / counts[s]),
                               float(absolute[s] / counts[s]))
             for s in np.flatnonzero(counts)}
 
@@ -140,6 +145,7 @@ class ShapeFit:
         camera frame), the figures over all points (points, rmse_mm, mean_error_mm,
         mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source {"direct": {...},
         "mirror 1": {...}}."""
-        return {**self.shape.to_json(), **self.errors.to_json(), "inliers": int(np.count_nonzero(self.inliers)),
+        return {**self.shape.to_json(), **self.errors.to_json(),
+                "inliers": int(np.count_nonzero(self.inliers)),
                 "threshold_mm": 1e3 * self.threshold, "inlier_errors": self.inlier_errors.to_json(),
                 "per_source": {source_name(s): e.to_json() for s, e in self.per_source.items()}}

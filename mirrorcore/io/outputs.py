@@ -50,5 +50,6 @@ def session_files(folder: str | Path) -> set[str]:
         return files
     listed = [data.get("background")] + [p for key in ("frames", "colour_frames")
                                          if isinstance(data.get(key), list) for p in data[key]]
-    files.update(PurePosixPath(p.replace("\\", "/")).as_posix() for p in listed if isinstance(p, str) and p)
+    files.update(PurePosixPath(p.replace("\\", "/")).as_posix() for p in listed
+                 if isinstance(p, str) and p)
     return files

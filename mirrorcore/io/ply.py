@@ -40,10 +40,13 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
     header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
               "source 0 = direct, j = mirror j, 33 and up = through several mirrors in turn (docs/DESIGN.md)\n"
               f"element vertex {len(points)}\n"
-              + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n" for n in _VERTEX.names)
-              + ("" if faces is None else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")
+              + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n"
+                        for n in _VERTEX.names)
+              + ("" if faces is None
+                 else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")
               + "end_header\n")
-    return header.encode("ascii") + vertex.tobytes() + (b"" if faces is None else _face_bytes(faces, len(points)))
+    return header.encode("ascii") + vertex.tobytes() + (b"" if faces is None
+                                                        else _face_bytes(faces, len(points)))
 
 
 def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
@@ -57,7 +60,8 @@ def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
     return face.tobytes()
 
 
-def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> None:
+def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray,
+              faces: np.ndarray | None = None) -> None:
     """Write a labelled cloud, or a mesh with `faces`, atomically (see encode_ply)."""
     write_atomic(path, encode_ply(points, sources, faces))
 
@@ -85,8 +89,10 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())
     if not {"x", "y", "z"} <= names:
         raise FileFormatError(f"{path}: the PLY's vertices have no x, y, z")
-    points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
-    sources = np.asarray(vertex["source"], dtype=np.uint8).reshape(-1) if "source" in names else None
+    points = np.stack([vertex["x"], vertex["y"], vertex["z"]],
+                      axis=-1).astype(np.float32).reshape(-1, 3)
+    sources = np.asarray(vertex["source"],
+                         dtype=np.uint8).reshape(-1) if "source" in names else None
     return points, sources
 
 

@@ -159,7 +159,8 @@ class Session:
         return Path(self.root) / SESSION_FILE
 
     def to_json(self) -> dict:
-        data = {"version": VERSION, "camera": self.camera.to_dict(), "mirrors": [m.to_json() for m in self.mirrors],
+        data = {"version": VERSION, "camera": self.camera.to_dict(),
+                "mirrors": [m.to_json() for m in self.mirrors],
                 "background": self.background, "frames": list(self.frames)}
         if self.selection != Selection():
             data["selection"] = self.selection.to_json()
@@ -199,7 +200,8 @@ class Session:
         without frames)."""
         if not self.frames:
             return np.zeros(0, int)
-        return np.unique(np.linspace(0, len(self.frames) - 1, min(len(self.frames), most)).astype(int))
+        return np.unique(np.linspace(0, len(self.frames) - 1,
+                                     min(len(self.frames), most)).astype(int))
 
     def read_frames(self, indices) -> np.ndarray:
         """Frames `indices` (k,) as (k, H, W) float32 metres (read_frame each)."""
@@ -225,7 +227,8 @@ def load_session(folder: str | Path) -> Session:
     """Read and validate SESSION/session.json; raises FileFormatError with the file and the
     offending key."""
     folder = Path(folder)
-    return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)",
+    return session_from_json(read_json(folder / SESSION_FILE,
+                                       f"file (is {folder} a session folder?)",
                                        MAX_SESSION_BYTES), folder)
 
 
@@ -243,7 +246,9 @@ def session_from_json(data, folder: Path) -> Session:
                               f"{VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
     mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
-                    for i, m in enumerate(read_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS, "mirrors")))
+                    for i,
+                    m in enumerate(read_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS,
+                                                    "mirrors")))
     _check_ids(mirrors, where)
     background = data.get("background")
     if background is not None:
@@ -262,7 +267,8 @@ def session_from_json(data, folder: Path) -> Session:
         raise FileFormatError(f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
     return Session(Path(folder), camera, mirrors, background, frames,
-                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra,
+                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps,
+                   colour_frames, extra,
                    bounces)
 
 
@@ -275,7 +281,8 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
         raise FileFormatError(str(exc)) from None
     where = f"{where} ({data['name']})"
     mirror_id = data.get("id", 0)                # none yet: the session gives it one
-    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int) or not 1 <= mirror_id < 2**31):
+    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int)
+                         or not 1 <= mirror_id < 2**31):
         raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
     markers = read_pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
     boundary = read_polygon(data.get("boundary", []), camera, f"{where}: boundary")
@@ -294,12 +301,14 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
         raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
                               f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
     std = data.get("marker_offset_std")
-    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float)) or not 0 <= std
+    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
+                            or not 0 <= std
                             <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
         raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to {MAX_MARKER_OFFSET:g}) to which "
                               f"a refinement measured the glass, got {std!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra,
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset),
+                         extra,
                          None if std is None else float(std))
 
 

@@ -33,7 +33,8 @@ class Mirror:
     boundary: np.ndarray | None
 
     def __hash__(self) -> int:
-        return hash((self.name, self.plane, None if self.boundary is None else self.boundary.tobytes()))
+        return hash((self.name, self.plane,
+                     None if self.boundary is None else self.boundary.tobytes()))
 
     def __eq__(self, other: object) -> bool:
         return (isinstance(other, Mirror) and self.name == other.name and self.plane == other.plane
@@ -64,7 +65,8 @@ class Rig:
         """Whether `other` traces the same rays (same camera, mirrors with their names, planes and
         boundaries, and bounces): then its per-pixel tables serve this rig too (rigs compare by
         identity, as they hold caches)."""
-        return (self.intrinsics, self.mirrors, self.bounces) == (other.intrinsics, other.mirrors, other.bounces)
+        return (self.intrinsics, self.mirrors, self.bounces) == (other.intrinsics, other.mirrors,
+                                                                 other.bounces)
 
     @classmethod
     def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
@@ -72,7 +74,8 @@ class Rig:
         setting)."""
         mirrors = tuple(
             Mirror(m.name, m.plane,
-                   validate_polygon(m.boundary, session.camera.shape, f"{m.name}: boundary") if m.boundary else None)
+                   validate_polygon(m.boundary, session.camera.shape,
+                                    f"{m.name}: boundary") if m.boundary else None)
             for m in session.mirrors)
         return cls(session.camera, mirrors, session.bounces if bounces is None else bounces)
 
@@ -105,10 +108,12 @@ class Rig:
         table = self.reflection_table
         counts = np.bincount(table.label.reshape(-1), minlength=len(self.mirrors) + 1)
         views = [VirtualCamera.of(self.planes, (), self.intrinsics.width * self.intrinsics.height)]
-        views += [VirtualCamera.of(self.planes, (j,), counts[j]) for j, m in enumerate(self.mirrors, start=1)
+        views += [VirtualCamera.of(self.planes, (j,), counts[j]) for j,
+                  m in enumerate(self.mirrors, start=1)
                   if m.plane is not None and m.boundary is not None]
         labels, pixels = np.unique(table.chains.label[table.chains.label > 0], return_counts=True)
-        views += [VirtualCamera.of(self.planes, source_sequence(int(s)), n) for s, n in zip(labels, pixels)]
+        views += [VirtualCamera.of(self.planes, source_sequence(int(s)), n) for s,
+                  n in zip(labels, pixels)]
         return tuple(views)
 
 
@@ -201,10 +206,13 @@ class ReflectionTable:
         offset, nx, ny, nz = (np.take(planes[:, k], label) for k in range(4))      # (H, W) each
         ray_dot = nx * rays[0] + ny * rays[1] + nz
         with np.errstate(divide="ignore", invalid="ignore"):
-            threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
+            threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot,
+                                 np.inf).astype(np.float32)
         arrays = dict(label=label, threshold=threshold, ray_dot=ray_dot, overlap=count > 1,
                       uncalibrated=uncalibrated, planes=planes)
-        chains = trace_chains(rig.intrinsics, tuple(m.plane if m.boundary is not None else None for m in rig.mirrors),
+        chains = trace_chains(rig.intrinsics,
+                              tuple(m.plane if m.boundary is not None else None
+                                                    for m in rig.mirrors),
                               rig.inside_bits, label, threshold, rig.bounces)
         for a in (*arrays.values(), *vars(chains).values()):
             a.flags.writeable = False

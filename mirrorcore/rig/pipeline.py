@@ -20,11 +20,13 @@ def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop
     mask = object_mask(rig.intrinsics, depth, background, selection)
     if selection.smooth:
         smoothed = smooth_depth(depth, mask)
-        depth = _smooth_through_mirrors(rig, depth, smoothed, mask) if len(rig.reflection_table.chains) else smoothed
+        depth = _smooth_through_mirrors(rig, depth, smoothed,
+                                        mask) if len(rig.reflection_table.chains) else smoothed
     return np.asarray(depth, np.float32), mask
 
 
-def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray, mask: np.ndarray) -> np.ndarray:
+def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray,
+                            mask: np.ndarray) -> np.ndarray:
     """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over
     the pixels of their own view (depthops.local_quadratic_depth), the others as smoothed: their
     (virtual) depths are longer, so a structured-light camera's noise is larger there (1.3 to 1.6

@@ -55,7 +55,8 @@ class Chains:
         return len(self.pixel)
 
 
-def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray, first: np.ndarray,
+def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray,
+                 first: np.ndarray,
                  threshold: np.ndarray, bounces: int) -> Chains:
     """Follow every pixel's ray past its first mirror, up to `bounces` reflections in all (see the
     module docstring).
@@ -67,13 +68,16 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
     """
     pixel = np.flatnonzero(np.isfinite(threshold))
     levels = bounces - 1
-    chains = Chains(pixel, np.full((levels, len(pixel)), np.inf, np.float32), np.zeros((levels, len(pixel)), np.uint8),
-                    np.zeros((levels, len(pixel), 3), np.float32), np.zeros((levels, len(pixel)), np.float32),
+    chains = Chains(pixel, np.full((levels, len(pixel)), np.inf, np.float32),
+                    np.zeros((levels, len(pixel)), np.uint8),
+                    np.zeros((levels, len(pixel), 3), np.float32),
+                    np.zeros((levels, len(pixel)), np.float32),
                     np.full(len(pixel), np.inf, np.float32))
     # the rays still followed: rows of `chains`
     rows = np.arange(len(pixel))
     z = threshold.reshape(-1)[pixel].astype(np.float64)
-    rays = np.stack([intr.rays[0].reshape(-1)[pixel], intr.rays[1].reshape(-1)[pixel], np.ones(len(pixel))], axis=1)
+    rays = np.stack([intr.rays[0].reshape(-1)[pixel], intr.rays[1].reshape(-1)[pixel],
+                     np.ones(len(pixel))], axis=1)
     # where each ray meets its first mirror
     point = rays * z[:, None]
     # 1-based: the mirror each ray last met
@@ -87,7 +91,9 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
         # one mirror more than followed, or no label for it
         chains.cutoff[rows[label == 0]] = z[label == 0]
         named = np.flatnonzero(label)
-        rows, z, t, nxt, point, direction, label = (a[named] for a in (rows, z, t, nxt, point, direction, label))
+        rows, z, t, nxt, point, direction, label = (a[named]
+                                                    for a in (rows, z, t, nxt, point, direction,
+                                                                       label))
         if not len(rows):
             break
         _record(chains, level, rows, z, label, nxt, planes)
@@ -95,11 +101,13 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
         direction, mirror = _reflect_directions(direction, planes, nxt), nxt
     keep = np.isfinite(chains.cutoff) | np.isfinite(chains.threshold).any(axis=0)
     return Chains(chains.pixel[keep], *(np.ascontiguousarray(a[:, keep]) for a in
-                                        (chains.threshold, chains.label, chains.normal, chains.offset)),
+                                        (chains.threshold, chains.label, chains.normal,
+                                         chains.offset)),
                   chains.cutoff[keep])
 
 
-def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: np.ndarray, mirror: np.ndarray,
+def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: np.ndarray,
+            mirror: np.ndarray,
             planes: tuple[Plane | None, ...]) -> None:
     """Write, for rows `rows` of `chains`, the depth z where the ray meets its (level + 2)-th mirror
     `mirror` (1-based), that mirror's plane and the label of the sequence so far."""
@@ -110,7 +118,8 @@ def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: 
         chains.offset[level, rows[mirror == j]] = planes[j - 1].d
 
 
-def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...], mirror: np.ndarray) -> np.ndarray:
+def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...],
+                        mirror: np.ndarray) -> np.ndarray:
     """(n, 3) directions reflected off mirror[i] (1-based; 0 leaves the row as it is) -> (n, 3)
     float64."""
     out = np.array(directions, np.float64)
@@ -121,7 +130,8 @@ def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...]
     return out
 
 
-def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray, point: np.ndarray,
+def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray,
+                 point: np.ndarray,
                  direction: np.ndarray, mirror: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For rays point + t * direction ((n, 3) float64 each) that left mirror `mirror` (n,) 1-based:
     the nearest mirror met from the front inside its boundary as the camera sees it -> t (n,)
@@ -142,7 +152,8 @@ def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
     return best_t, best
 
 
-def _in_boundary(intr: Intrinsics, inside_bits: np.ndarray, points: np.ndarray, j: int) -> np.ndarray:
+def _in_boundary(intr: Intrinsics, inside_bits: np.ndarray, points: np.ndarray,
+                 j: int) -> np.ndarray:
     """(n, 3) points (camera frame, metres) -> (n,) bool: the camera sees them inside mirror j's
     boundary (their nearest pixel is in its rasterised polygon)."""
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -201,7 +212,8 @@ class VirtualCamera:
     pixels: int
 
     @classmethod
-    def of(cls, planes: tuple[Plane | None, ...], sequence: tuple[int, ...], pixels: int) -> "VirtualCamera":
+    def of(cls, planes: tuple[Plane | None, ...], sequence: tuple[int, ...],
+           pixels: int) -> "VirtualCamera":
         to_view = sequence_reflection(planes, sequence)
         pose = np.linalg.inv(to_view)
         if len(sequence) % 2:

@@ -45,7 +45,8 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     sources[rows] = label = np.take(table.label.reshape(-1), pixel)
     xyz = _first_mirror(_rays(intr, index, whole=mask is None), table, z, rows, pixel, label)
     if table.any_overlap:
-        _later_mirrors(rig, index, xyz, sources, np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
+        _later_mirrors(rig, index, xyz, sources,
+                       np.flatnonzero(~behind & table.overlap.reshape(-1)[index]))
     drop = np.zeros(len(index), bool) if len(table.chains) or table.any_uncalibrated else None
     if len(table.chains):
         _further_mirrors(table, index, z, xyz, sources, drop)
@@ -70,7 +71,8 @@ def _rays(intr: Intrinsics, index: np.ndarray, whole: bool) -> tuple[np.ndarray,
     return np.take(x, index - row * intr.width), np.take(y, row)
 
 
-def _first_mirror(rays: tuple[np.ndarray, np.ndarray], table: ReflectionTable, z: np.ndarray, rows: np.ndarray,
+def _first_mirror(rays: tuple[np.ndarray, np.ndarray], table: ReflectionTable, z: np.ndarray,
+                  rows: np.ndarray,
                   pixel: np.ndarray, label: np.ndarray) -> np.ndarray:
     """The points (3, n) float32, rows x, y, z, of pixels with rays (x/z, y/z, each (n,)) at depth z
     (n,) float32 (paper eq. 1), the columns `rows` (k,) behind their pixel's first mirror (pixels
@@ -81,13 +83,15 @@ def _first_mirror(rays: tuple[np.ndarray, np.ndarray], table: ReflectionTable, z
     np.multiply(z, rays[1], out=xyz[1])
     xyz[2] = z
     plane = np.take(table.planes, label, axis=0)                # d, nx, ny, nz
-    step = np.float32(-2) * (np.take(z, rows) * np.take(table.ray_dot.reshape(-1), pixel) + plane[:, 0])
+    step = np.float32(-2) * (np.take(z, rows) * np.take(table.ray_dot.reshape(-1),
+                                                        pixel) + plane[:, 0])
     for axis in range(3):
         xyz[axis][rows] = np.take(xyz[axis], rows) + step * plane[:, 1 + axis]
     return xyz
 
 
-def _later_mirrors(rig: Rig, index: np.ndarray, xyz: np.ndarray, sources: np.ndarray, rows: np.ndarray) -> None:
+def _later_mirrors(rig: Rig, index: np.ndarray, xyz: np.ndarray, sources: np.ndarray,
+                   rows: np.ndarray) -> None:
     """Where boundaries overlap and the first mirror did not apply, try the others in session order
     (in place).
     index : (n,) flat pixel indices of the points xyz (3, n) float32 and sources (n,); rows : the
@@ -107,7 +111,8 @@ def _later_mirrors(rig: Rig, index: np.ndarray, xyz: np.ndarray, sources: np.nda
         todo &= ~hit
 
 
-def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: np.ndarray, sources: np.ndarray,
+def _further_mirrors(table: ReflectionTable, index: np.ndarray, z: np.ndarray, xyz: np.ndarray,
+                     sources: np.ndarray,
                      drop: np.ndarray) -> None:
     """Reflect the points of the chains' pixels through the further mirrors their depth is beyond
     and relabel them;

@@ -41,23 +41,28 @@ def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
 def true_rig(scene: Scene) -> Rig:
     """The rig of a scene as a perfect calibration would give it: the true planes and each mirror's
     outline in the image (mirror_outline), in session order."""
-    return Rig(scene.camera, tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m)) for m in scene.mirrors))
+    return Rig(scene.camera,
+               tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m))
+                                   for m in scene.mirrors))
 
 
-def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int, truth: GroundTruth) -> np.ndarray:
+def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int,
+                    truth: GroundTruth) -> np.ndarray:
     """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the
     camera sees directly (the ideal render shows that mirror's marker face at the rounded pixel)."""
     uv, z = project_points(camera, mirror.marker_centres())
     pix = np.round(uv[z > 0]).astype(int)
     inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
     uv, pix = uv[z > 0][inside], pix[inside]
-    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1], pix[:, 0]] == 0)
+    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1],
+                                                                                 pix[:, 0]] == 0)
     points = truth.points[pix[:, 1], pix[:, 0]]
     on_this = np.abs(mirror.plane.signed_distance(points.astype(np.float64)) - mirror.marker_lift) < 1e-3
     return uv[seen & on_this]
 
 
-def jitter_clicks(camera: Intrinsics, uv: np.ndarray, jitter_px: float, rng: np.random.Generator) -> np.ndarray:
+def jitter_clicks(camera: Intrinsics, uv: np.ndarray, jitter_px: float,
+                  rng: np.random.Generator) -> np.ndarray:
     """Clicks as a person makes them: uv (k, 2) float64 pixels, each moved by a Gaussian offset of
     radial RMS `jitter_px` pixels (std jitter_px / sqrt(2) per axis) drawn from `rng`, kept inside
     the image."""
@@ -116,7 +121,8 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
     return out
 
 
-def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool, true_planes: bool) -> None:
+def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool,
+           true_planes: bool) -> None:
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)
@@ -131,4 +137,5 @@ def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bo
     if true_planes:
         mirrors = tuple(replace(m, plane=plane) for m, plane in zip(mirrors, rig.planes))
     save_session(Session(folder, camera, mirrors, BACKGROUND_FILE, tuple(frames)))
-    (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")
+    (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n",
+                                     encoding="utf-8")

@@ -41,7 +41,8 @@ def default_distance(spec: str) -> float:
     return FIGURE_DISTANCE if spec == "figure" else OBJECT_DISTANCE
 
 
-def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0, gait_hz: float = 1.0) -> SceneObject:
+def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
+                gait_hz: float = 1.0) -> SceneObject:
     """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis
     at `distance` m (default_distance when None).
 
@@ -54,11 +55,13 @@ def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0, 
     if spec == "sphere":
         return SceneObject("sphere", centre, radius=SPHERE_RADIUS)
     if spec == "cylinder":
-        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6, axis=(0.0, 1.0, 0.0))
+        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6,
+                           axis=(0.0, 1.0, 0.0))
     if spec == "box":
         return SceneObject("box", centre, size=(0.3, 0.3, 0.3))
     if spec == "figure":
-        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT, gait_hz=gait_hz)
+        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT,
+                           gait_hz=gait_hz)
     if spec.startswith("mesh:") and len(spec) > 5:
         return SceneObject("mesh", centre, path=spec[5:])
     raise MirrorscanError(f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
@@ -70,7 +73,8 @@ def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
     centre = np.asarray(obj.centre, dtype=np.float64)
     if obj.type == "figure":
         return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
-    half = {"sphere": obj.radius, "cylinder": obj.radius, "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
+    half = {"sphere": obj.radius, "cylinder": obj.radius,
+            "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
     tall = {"sphere": 2 * obj.radius, "cylinder": obj.height, "box": obj.size[1]}.get(obj.type, 0.3)
     return centre, half, tall
 
@@ -84,7 +88,8 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
 
 def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
             marker_size: float = MARKER_SIZE) -> SceneMirror:
-    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
+    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()),
+                       size[0], size[1],
                   _markers(*size), marker_size)
 
 
@@ -130,7 +135,8 @@ def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
     return tuple(mirrors)
 
 
-def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float, size: tuple[float, float],
+def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
+                   size: tuple[float, float],
                    turn_deg: float) -> tuple[SceneMirror, SceneMirror]:
     """Two vertical mirrors that meet at the apex of a V behind `target` (a hinged pair: the
     kaleidoscope), each `size` = (width, height) metres from HINGE_GAP off the apex outwards,
@@ -141,7 +147,8 @@ def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
                          HINGED_MARKER_SIZE) for j, (normal, along) in enumerate(sides))
 
 
-def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float, clearance: float,
+def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float,
+                clearance: float,
                 size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, ...]:
     """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over
     `span_deg` degrees centred on the far side, left to right. Each faces the half-way direction
@@ -159,8 +166,10 @@ def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: flo
     return tuple(mirrors)
 
 
-def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere", distance: float | None = None,
-                mirror_distance: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere",
+                distance: float | None = None,
+                mirror_distance: float | None = None, camera: Intrinsics | None = None,
+                room: Room | None = Room(),
                 gait_hz: float = 1.0) -> Scene:
     """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis
     `distance` m away (default_distance when None), two mirrors in a V at `angle_deg` behind it,
@@ -175,11 +184,14 @@ def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sph
     target, half, tall = object_extent(obj)
     md = half + 0.25 if mirror_distance is None else mirror_distance
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,), room)
+    return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,),
+                 room)
 
 
-def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None = None, radius: float | None = None,
-              span_deg: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None = None,
+              radius: float | None = None,
+              span_deg: float | None = None, camera: Intrinsics | None = None,
+              room: Room | None = Room(),
               gait_hz: float = 1.0) -> Scene:
     """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the
     object's half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg). A
@@ -191,7 +203,8 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None
     target, half, tall = object_extent(obj)
     span = min(60.0 * (n_mirrors - 1), 200.0) if span_deg is None else span_deg
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span, 3 * half, size)
+    mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span,
+                          3 * half, size)
     return markers_in_view(Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room),
                            SensorModel.kinect_v1().max_range)
 
@@ -209,9 +222,11 @@ def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, 
     return (0.0, half_width) if angle_deg >= 90.0 else (angle_deg / 4, 0.0)
 
 
-def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float | None = None,
+def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere",
+                       distance: float | None = None,
                        mirror_distance: float | None = None, turn_deg: float | None = None,
-                       offset: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+                       offset: float | None = None, camera: Intrinsics | None = None,
+                       room: Room | None = Room(),
                        gait_hz: float = 1.0) -> Scene:
     """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the
     mirrors meet at the apex, so that below about 90 degrees the camera sees the object through two
@@ -228,4 +243,5 @@ def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance
     shift = np.array([default_offset if offset is None else offset, 0.0, 0.0])
     obj = replace(obj, centre=tuple((np.asarray(obj.centre) + shift).tolist()))
     size = (max(HINGED_WIDTH, 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    return Scene(camera or Intrinsics.kinect_v1(), hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)
+    return Scene(camera or Intrinsics.kinect_v1(),
+                 hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)

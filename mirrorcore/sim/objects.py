@@ -41,8 +41,10 @@ _PELVIS_Y = -0.95
 _LIMBS = (
     ("thigh_l", None, (-0.09, 0.03), 0.43, 0.07), ("shin_l", "thigh_l", None, 0.43, 0.05),
     ("thigh_r", None, (0.09, 0.03), 0.43, 0.07), ("shin_r", "thigh_r", None, 0.43, 0.05),
-    ("upper_arm_l", None, (-0.21, -0.46), 0.30, 0.05), ("forearm_l", "upper_arm_l", None, 0.28, 0.04),
-    ("upper_arm_r", None, (0.21, -0.46), 0.30, 0.05), ("forearm_r", "upper_arm_r", None, 0.28, 0.04),
+    ("upper_arm_l", None, (-0.21, -0.46), 0.30, 0.05),
+    ("forearm_l", "upper_arm_l", None, 0.28, 0.04),
+    ("upper_arm_r", None, (0.21, -0.46), 0.30, 0.05),
+    ("forearm_r", "upper_arm_r", None, 0.28, 0.04),
 )
 _FOOT = (0.09, 0.06, 0.24)   # box edges x, y, z; its top at the ankle, reaching forwards
 _HIP_SWING, _KNEE_BEND, _ARM_SWING, _ELBOW = np.radians([25.0, 55.0, 0.7 * 25.0, 20.0])
@@ -71,11 +73,14 @@ class WalkingFigure:
         self.gait_hz = obj.gait_hz
         self.animated = obj.animated
         limbs = [trimesh.creation.capsule(height=length, radius=r, count=[10, 10]).apply_transform(
-            trimesh.transformations.rotation_matrix(-np.pi / 2, [1, 0, 0])).apply_translation([0, length / 2, 0])
+            trimesh.transformations.rotation_matrix(-np.pi / 2,
+                                                    [1, 0, 0])).apply_translation([0, length / 2,
+                                                                                               0])
             for _, _, _, length, r in _LIMBS]
         feet = [trimesh.creation.box(_FOOT).apply_translation([0, _FOOT[1] / 2, -_FOOT[2] / 4])] * 2
         body = trimesh.util.concatenate([
-            trimesh.creation.capsule(height=0.40, radius=0.15, count=[12, 12]).apply_scale([1.0, 0.6, 1.0])
+            trimesh.creation.capsule(height=0.40, radius=0.15,
+                                     count=[12, 12]).apply_scale([1.0, 0.6, 1.0])
             .apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
             .apply_translation([0, _PELVIS_Y - 0.24, 0]),
             trimesh.creation.capsule(height=0.10, radius=0.05, count=[8, 8])
@@ -102,7 +107,8 @@ class WalkingFigure:
         R = _x_rotation(np.array([flex[name] for name, *_ in _LIMBS]))
         starts, ends = {}, {}
         for k, (name, parent, attach, length, _) in enumerate(_LIMBS):
-            starts[name] = np.array([attach[0], _PELVIS_Y + attach[1], 0.0]) if parent is None else ends[parent]
+            starts[name] = np.array([attach[0], _PELVIS_Y + attach[1],
+                                     0.0]) if parent is None else ends[parent]
             ends[name] = starts[name] + R[k] @ np.array([0.0, length, 0.0])
         return R, np.array([starts[name] for name, *_ in _LIMBS])
 
@@ -128,7 +134,8 @@ def object_geometry(obj: SceneObject) -> StaticMesh | WalkingFigure:
         mesh = trimesh.creation.icosphere(SPHERE_SUBDIVISIONS, obj.radius)
     elif obj.type == "cylinder":
         mesh = trimesh.creation.cylinder(obj.radius, obj.height, sections=CYLINDER_SECTIONS,
-                                         transform=trimesh.geometry.align_vectors([0, 0, 1], obj.axis))
+                                         transform=trimesh.geometry.align_vectors([0, 0, 1],
+                                                                                  obj.axis))
     elif obj.type == "box":
         mesh = trimesh.creation.box(obj.size)
     elif obj.type == "mesh":

@@ -34,14 +34,17 @@ def markers_in_view(scene: Scene, max_range: float) -> Scene:
     renderer = Renderer(scene, 1)
     moments = np.arange(MOMENTS) / MOMENTS if renderer.animated else np.zeros(1)
     views = [renderer.render(float(t)) for t in moments]
-    mirrors = tuple(_placed(scene, j, mirror, views, max_range) for j, mirror in enumerate(scene.mirrors))
+    mirrors = tuple(_placed(scene, j, mirror, views, max_range) for j,
+                    mirror in enumerate(scene.mirrors))
     return replace(scene, mirrors=mirrors)
 
 
-def _placed(scene: Scene, j: int, mirror: SceneMirror, views: list[GroundTruth], max_range: float) -> SceneMirror:
+def _placed(scene: Scene, j: int, mirror: SceneMirror, views: list[GroundTruth],
+            max_range: float) -> SceneMirror:
     """Mirror j (0-based) with its hidden markers moved, when fewer than MIN_SEEN are seen."""
     markers = np.asarray(mirror.markers, float).reshape(-1, 2)
-    seen = _seen(scene, mirror.marker_centres(), views, max_range, 0, lambda v: (v.surface == MARKER)
+    seen = _seen(scene, mirror.marker_centres(), views, max_range, 0,
+                 lambda v: (v.surface == MARKER)
                  # at its centre's pixel, as a session's clicks are
                  & (v.first_mirror == 0))
     if np.count_nonzero(seen) >= MIN_SEEN:

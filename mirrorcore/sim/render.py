@@ -84,7 +84,8 @@ class GroundTruth:
         """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette): 0 = direct, j =
         through mirror j, the label of the sequence for several mirrors; -1 where no surface (or a
         sequence the labels do not cover)."""
-        keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1, return_inverse=True)
+        keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1,
+                                  return_inverse=True)
         labels = np.array([_label(tuple(int(j) for j in key if j)) for key in keys.T], np.int16)
         src = labels[inverse.reshape(-1)].reshape(self.depth.shape)
         src[self.surface == NONE] = -1
@@ -133,12 +134,14 @@ def _static_meshes(scene: Scene) -> tuple[list, list, list]:
     for m in scene.mirrors:
         h = m.marker_size / 2
         square = np.array([[-h, -h], [h, -h], [h, h], [-h, h]])
-        corners = m.local_to_camera((np.asarray(m.markers).reshape(-1, 1, 2) + square).reshape(-1, 2))
+        corners = m.local_to_camera((np.asarray(m.markers).reshape(-1, 1, 2) + square).reshape(-1,
+                                                                                               2))
         markers.append(_quads((corners + m.marker_lift * np.asarray(m.normal)).reshape(-1, 4, 3)))
     return room, glass, markers
 
 
-def _raycasting_scene(meshes: list[tuple[np.ndarray, np.ndarray]]) -> o3d.t.geometry.RaycastingScene:
+def _raycasting_scene(meshes: list[tuple[np.ndarray,
+                                         np.ndarray]]) -> o3d.t.geometry.RaycastingScene:
     """A RaycastingScene of meshes (vertices (n, 3) float32, faces (m, 3) uint32); geometry id i =
     meshes[i]."""
     rc = o3d.t.geometry.RaycastingScene()
@@ -150,7 +153,8 @@ def _raycasting_scene(meshes: list[tuple[np.ndarray, np.ndarray]]) -> o3d.t.geom
 def _box_corners(vertices: np.ndarray) -> np.ndarray:
     """vertices : (n, 3) -> (8, 3) float64 corners of their axis-aligned bounding box."""
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-    return np.stack(np.meshgrid(*zip(lo, hi), indexing="ij"), axis=-1).reshape(-1, 3).astype(np.float64)
+    return np.stack(np.meshgrid(*zip(lo, hi), indexing="ij"), axis=-1).reshape(-1,
+                                                                               3).astype(np.float64)
 
 
 def _pixel_window(camera: Intrinsics, points: np.ndarray) -> tuple[slice, slice] | None:
@@ -208,9 +212,11 @@ class Renderer:
         room, glass, markers = _static_meshes(scene)
         m = len(scene.mirrors)
         # static geometry id -> kind and mirror index (0-based); the last entry is for misses
-        self._kind = np.array([ROOM] * len(room) + [_MIRROR] * m + [MARKER] * m + [NONE], dtype=np.uint8)
+        self._kind = np.array([ROOM] * len(room) + [_MIRROR] * m + [MARKER] * m + [NONE],
+                              dtype=np.uint8)
         self._index = np.array([-1] * len(room) + [*range(m)] * 2 + [-1], dtype=np.int16)
-        self._normals = np.array([mm.normal for mm in scene.mirrors], dtype=np.float32).reshape(-1, 3)
+        self._normals = np.array([mm.normal for mm in scene.mirrors],
+                                 dtype=np.float32).reshape(-1, 3)
         self._planes = tuple(mm.plane for mm in scene.mirrors)
         self._objects = [object_geometry(o) for o in scene.objects]
         self._still_objects: tuple[o3d.t.geometry.RaycastingScene, list[np.ndarray]] | None = None
@@ -234,7 +240,8 @@ class Renderer:
         new = dirs - 2 * np.einsum("ij,ij->i", dirs, n)[:, None] * n
         return hit + _REFLECT_OFFSET * new, new
 
-    def _trace_static(self, rc: o3d.t.geometry.RaycastingScene) -> tuple[tuple[np.ndarray, ...], list[_Segment]]:
+    def _trace_static(self, rc: o3d.t.geometry.RaycastingScene) -> tuple[tuple[np.ndarray, ...],
+                                                                         list[_Segment]]:
         """Every pixel's path through the static geometry `rc` -> the background, flat arrays (depth
         (H*W,) float32 metres, surface (H*W,) uint8, mirrors (MAX_BOUNCES, H*W) uint8), and the
         segments of the paths."""
@@ -260,7 +267,8 @@ class Renderer:
                 kind[glass[facing]] = NONE
             maps = np.full((2, n), -1, np.int32)
             maps[:, pixels] = path, np.arange(len(pixels))
-            segments.append(_Segment(pixels, rays, start, t_hit, mirror_paths, maps[0].astype(np.int16).reshape(shape),
+            segments.append(_Segment(pixels, rays, start, t_hit, mirror_paths,
+                                     maps[0].astype(np.int16).reshape(shape),
                                      maps[1].reshape(shape)))
             end = np.flatnonzero(kind != _MIRROR)
             surface[pixels[end]] = kind[end]
@@ -287,7 +295,8 @@ class Renderer:
             self._still_objects = built
         return built
 
-    def _candidates(self, segment: _Segment, boxes: list[np.ndarray], done: np.ndarray) -> np.ndarray:
+    def _candidates(self, segment: _Segment, boxes: list[np.ndarray],
+                    done: np.ndarray) -> np.ndarray:
         """(c,) int64 indices into `segment` of the rays that may hit an object: the pixels inside
         the window of each box's image through the mirrors of each path, leaving out the pixels
         `done` (d,) int64 (flat indices)."""
@@ -327,5 +336,6 @@ class Renderer:
                 mirrors[bounce:, pix] = 0
                 done = np.concatenate([done, pix])
         shape = self.scene.camera.shape
-        return GroundTruth(self.scene.camera, self._planes, depth.reshape(shape), surface.reshape(shape),
+        return GroundTruth(self.scene.camera, self._planes, depth.reshape(shape),
+                           surface.reshape(shape),
                            mirrors.reshape(MAX_BOUNCES, *shape), obj.reshape(shape))

@@ -135,7 +135,8 @@ class SceneMirror:
         return self.local_to_camera(st) + self.marker_lift * np.asarray(self.normal)
 
     def to_json(self) -> dict:
-        return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal), "up": list(self.up),
+        return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal),
+                "up": list(self.up),
                 "width": self.width, "height": self.height, "markers": [list(m) for m in self.markers],
                 "marker_size": self.marker_size, "marker_offset": self.marker_offset}
 
@@ -173,7 +174,8 @@ class SceneObject:
         keys = {"sphere": ("radius",), "cylinder": ("radius", "height", "axis"), "box": ("size",),
                 "mesh": ("path", "scale"), "figure": ("height", "gait_hz")}[self.type]
         out = {"type": self.type, "centre": list(self.centre)}
-        out.update({k: (list(v) if isinstance(v, tuple) else v) for k in keys for v in [getattr(self, k)]})
+        out.update({k: (list(v) if isinstance(v, tuple) else v) for k in keys
+                    for v in [getattr(self, k)]})
         return out
 
 
@@ -208,12 +210,14 @@ class Scene:
                 "mirrors": [m.to_json() for m in self.mirrors], "objects": [o.to_json() for o in self.objects],
                 "room": None if self.room is None else self.room.to_json(), "click_jitter_px": self.click_jitter_px}
 
-    def with_markers(self, marker_offset: float | None = None, click_jitter_px: float | None = None) -> "Scene":
+    def with_markers(self, marker_offset: float | None = None,
+                     click_jitter_px: float | None = None) -> "Scene":
         """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels)
         replaced (None keeps)."""
         mirrors = self.mirrors if marker_offset is None else tuple(
             replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
-        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px, "click jitter")
+        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px,
+                                                                              "click jitter")
         return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
@@ -243,8 +247,10 @@ def scene_from_json(data, where: str = "scene") -> Scene:
     if room is not None:
         if not isinstance(room, dict):
             raise FileFormatError(f"{where}: room: must be an object or null")
-        room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k)) for k in ("floor_y", "back_z")},
-                    half_width=_positive(room.get("half_width", Room.half_width), f"{where}: room.half_width"))
+        room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k))
+                       for k in ("floor_y", "back_z")},
+                    half_width=_positive(room.get("half_width", Room.half_width),
+                                         f"{where}: room.half_width"))
     return Scene(camera, mirrors, objects, room,
                  _jitter(data.get("click_jitter_px", 0.0), f"{where}: click_jitter_px"))
 
@@ -291,10 +297,12 @@ def _mirror(data, where: str) -> SceneMirror:
     except (TypeError, ValueError):
         raise FileFormatError(f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
     name = data.get("name", where.rsplit("[", 1)[-1].rstrip("]"))
-    return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
+    return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"),
+                       _vec(data["normal"], f"{where}.normal", True),
                   _vec(data["up"], f"{where}.up", True), _positive(data["width"], f"{where}.width"),
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
-                  _positive(data.get("marker_size", SceneMirror.marker_size), f"{where}.marker_size"),
+                  _positive(data.get("marker_size", SceneMirror.marker_size),
+                            f"{where}.marker_size"),
                   _offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
 
 
@@ -313,8 +321,10 @@ def _object(data, where: str) -> SceneObject:
         radius=_positive(data.get("radius", SceneObject.radius), f"{where}.radius"),
         height=_positive(data.get("height", SceneObject.height), f"{where}.height"),
         axis=_vec(data.get("axis", SceneObject.axis), f"{where}.axis", unit=True),
-        size=tuple(_positive(s, f"{where}.size") for s in _vec(data.get("size", SceneObject.size), f"{where}.size")),
-        path=data.get("path"), scale=_positive(data.get("scale", 1.0), f"{where}.scale"), gait_hz=gait)
+        size=tuple(_positive(s, f"{where}.size")
+                   for s in _vec(data.get("size", SceneObject.size), f"{where}.size")),
+        path=data.get("path"), scale=_positive(data.get("scale", 1.0), f"{where}.scale"),
+        gait_hz=gait)
 
 
 def load_scene(path: str | Path) -> Scene:

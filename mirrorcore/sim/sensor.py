@@ -58,7 +58,8 @@ class SensorModel:
     @classmethod
     def ideal(cls) -> "SensorModel":
         """The exact ideal depth: no noise, no quantisation, no range limits, no shadow."""
-        return cls(axial_k=0.0, quantise=False, lateral_sigma=0.0, min_range=0.0, max_range=np.inf, shadow=False)
+        return cls(axial_k=0.0, quantise=False, lateral_sigma=0.0, min_range=0.0, max_range=np.inf,
+                   shadow=False)
 
     @classmethod
     def kinect_v1(cls, noise: bool = True) -> "SensorModel":
@@ -70,7 +71,8 @@ class SensorModel:
     def from_name(cls, name: str) -> "SensorModel":
         """'none' -> ideal(), 'kinect' -> kinect_v1(), 'kinect-noiseless' ->
         kinect_v1(noise=False)."""
-        return {"none": cls.ideal, "kinect": cls.kinect_v1, "kinect-noiseless": lambda: cls.kinect_v1(False)}[name]()
+        return {"none": cls.ideal, "kinect": cls.kinect_v1,
+                "kinect-noiseless": lambda: cls.kinect_v1(False)}[name]()
 
     def disparity_noise_std(self, fx: float) -> float:
         """Std (pixels) of the Gaussian added to the disparity, before quantisation."""
@@ -140,7 +142,8 @@ def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarra
     xp = cols - disparity
     # u' in [u, u + D_max + 1]
     window = np.ones((1, min(int(np.ceil(d_max)) + 2, depth.shape[1])), np.uint8)
-    right_min = cv2.erode(xp, window, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
+    right_min = cv2.erode(xp, window, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT,
+                          borderValue=np.inf)
     # u' = u itself never passes (tolerance >= 0)
     return (depth > 0) & (right_min < xp - tolerance)
 
@@ -160,12 +163,14 @@ def lateral_jitter(depth: np.ndarray, sigma: float, rng: np.random.Generator) ->
     # (u, v) offsets, probabilities to 1/256
     offset = cv2.LUT(rng.integers(0, 256, (h, w, 2), dtype=np.uint8), step)
     offset += _pixel_grid(h, w)
-    return cv2.remap(depth, offset, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return cv2.remap(depth, offset, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                     borderValue=0)
 
 
 @cache
 def _pixel_grid(h: int, w: int) -> np.ndarray:
     """(h, w, 2) int16 read-only (u, v) of every pixel: an OpenCV CV_16SC2 map."""
-    grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)), axis=-1)
+    grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)),
+                    axis=-1)
     grid.flags.writeable = False
     return grid

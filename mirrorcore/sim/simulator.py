@@ -36,7 +36,8 @@ class Simulator:
     of `frame(i)` (time i / fps).
     """
 
-    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0, bounces: int = MAX_BOUNCES,
+    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0,
+                 bounces: int = MAX_BOUNCES,
                  fps: float = FPS):
         self.scene = scene
         self.sensor = SensorModel.kinect_v1() if sensor is None else sensor

@@ -72,6 +72,8 @@ def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceEr
         vertices, faces = object_geometry(obj).mesh_at(t)
         raycasting.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
                                  o3d.core.Tensor(np.asarray(faces, np.uint32)))
-    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
-    return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))), float(distances.mean()),
+    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(points,
+                                                                             np.float32))).numpy()
+    return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))),
+                        float(distances.mean()),
                         float(np.percentile(distances, 95)))

@@ -17,13 +17,16 @@ from urllib.parse import parse_qsl
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import SESSION_FILE, Session, load_session
 from mirrorcore.sources.base import DepthSource, Frame, require
-from mirrorcore.sources.devices import FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource, OpenNI2Source, initialise_openni2
-from mirrorcore.sources.files import ImageSequenceSource, SessionSource, StackSource, load_camera, open_npz, open_png_folder, open_tum
+from mirrorcore.sources.devices import (FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource,
+                                        OpenNI2Source, initialise_openni2)
+from mirrorcore.sources.files import (ImageSequenceSource, SessionSource, StackSource, load_camera,
+                                      open_npz, open_png_folder, open_tum)
 from mirrorcore.sources.realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
 from mirrorcore.sources.record import Recorder, new_recording_folder, record
 from mirrorcore.sources.sim import SimulatedSource, open_simulated, session_scene, session_truth
 
-__all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS", "OpenNI2Source",
+__all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS",
+           "OpenNI2Source",
            "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource", "SourceKind", "StackSource",
            "new_recording_folder", "open_source", "parse_spec", "record", "session_scene", "session_truth"]
 _OPTIONS = ("camera", "scale", "fps")
@@ -76,15 +79,22 @@ def _realsense_devices() -> str | None:
 
 
 KINDS = (
-    SourceKind("sim", "sim | sim:SCENE.json", "the simulated rig (live, Kinect v1 noise)", lambda: None),
-    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None),
-    SourceKind("dir", "dir:FOLDER", "16-bit depth PNGs; camera.json or intrinsic.json beside them, or ?camera=",
+    SourceKind("sim", "sim | sim:SCENE.json", "the simulated rig (live, Kinect v1 noise)",
                lambda: None),
-    SourceKind("tum", "tum:FOLDER", "a TUM RGB-D folder (depth.txt, rgb.txt, metres x 5000)", lambda: None),
-    SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]", lambda: None),
-    SourceKind("bag", "bag:FILE", "a RealSense .bag recording", _library("pyrealsense2", REALSENSE_INSTALL)),
-    SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)", _freenect_devices),
-    SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording", _openni2_devices),
+    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None),
+    SourceKind("dir", "dir:FOLDER",
+               "16-bit depth PNGs; camera.json or intrinsic.json beside them, or ?camera=",
+               lambda: None),
+    SourceKind("tum", "tum:FOLDER", "a TUM RGB-D folder (depth.txt, rgb.txt, metres x 5000)",
+               lambda: None),
+    SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]",
+               lambda: None),
+    SourceKind("bag", "bag:FILE", "a RealSense .bag recording",
+               _library("pyrealsense2", REALSENSE_INSTALL)),
+    SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)",
+               _freenect_devices),
+    SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording",
+               _openni2_devices),
     SourceKind("realsense", "realsense:SERIAL", "a RealSense camera (live)", _realsense_devices),
 )
 

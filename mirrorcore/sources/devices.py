@@ -15,7 +15,8 @@ from mirrorcore.sources.base import DepthSource, Frame, require
 
 FREENECT_INSTALL = "Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' (PyPI freenect builds against it)"
 OPENNI2_INSTALL = "Debian's libopenni2-dev, then pip install 'mirrorscan[devices]' (PyPI openni)"
-OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib", "/usr/local/lib")
+OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib",
+                        "/usr/local/lib")
 _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM": 0.0001}
 
 
@@ -98,7 +99,8 @@ class OpenNI2Source(DepthSource):
         frame = self._stream.read_frame()
         h, w = self.intrinsics.shape
         units = np.frombuffer(frame.get_buffer_as_uint16(), np.uint16, h * w).reshape(h, w).copy()
-        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), frame.timestamp * 1e-6,
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                     frame.timestamp * 1e-6,
                      units=units)
 
     def close(self) -> None:
@@ -110,7 +112,8 @@ def initialise_openni2(openni2, what: str) -> None:
     """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when
     it is missing."""
     try:
-        openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()] or ["."])
+        openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()]
+                           or ["."])
     except Exception as exc:  # openni raises its own InitializationError, not an ImportError
         raise MirrorscanError(f"{what}: cannot load libOpenNI2 ({str(exc).splitlines()[0].strip()}); "
                               f"install {OPENNI2_INSTALL}") from None
@@ -119,4 +122,5 @@ def initialise_openni2(openni2, what: str) -> None:
 def _openni2_message(exc: Exception) -> str:
     """OpenNIError(status, b'message', ...) -> its message as one line."""
     detail = exc.args[1] if len(exc.args) > 1 else exc
-    return (detail.decode(errors="replace") if isinstance(detail, bytes) else str(detail)).strip().replace("\n", " ")
+    return (detail.decode(errors="replace") if isinstance(detail, bytes)
+            else str(detail)).strip().replace("\n", " ")

@@ -24,7 +24,8 @@ TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
 # the dtypes of a .npz's numbers (np.number also takes complex ones)
 REAL = (np.integer, np.floating)
-_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0,
+                (2, 0): np.lib.format.read_array_header_2_0}
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
@@ -47,7 +48,8 @@ class ImageSequenceSource(DepthSource):
     def read(self, i: int) -> Frame:
         i = self._wrap(i)
         depth = read_depth_png(self.paths[i], self.intrinsics.depth_scale, self.intrinsics.shape)
-        colour = None if self.colour_paths is None else read_colour(self.colour_paths[i], self.intrinsics)
+        colour = None if self.colour_paths is None else read_colour(self.colour_paths[i],
+                                                                    self.intrinsics)
         return Frame(depth, float(self.timestamps[i]), colour)
 
 
@@ -59,7 +61,8 @@ class SessionSource(ImageSequenceSource):
         self.session = session
         root = Path(session.root)
         stamps = session.timestamps if session.timestamps is not None else np.arange(len(session.frames)) / fps
-        colour = None if session.colour_frames is None else [root / c for c in session.colour_frames]
+        colour = None if session.colour_frames is None else [root / c
+                                                             for c in session.colour_frames]
         super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
                          np.asarray(stamps, float), colour, fps)
 
@@ -67,7 +70,8 @@ class SessionSource(ImageSequenceSource):
         return self.session.read_background()
 
 
-def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None,
+def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
+                    depth_scale: float | None = None,
                     fps: float = 30.0) -> ImageSequenceSource:
     """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
 
@@ -84,7 +88,8 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_
     camera = camera or folder_camera(folder)
     if depth_scale is not None:
         camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
-    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths, np.arange(len(paths)) / fps, fps=fps)
+    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths,
+                               np.arange(len(paths)) / fps, fps=fps)
 
 
 def folder_camera(folder: Path) -> Intrinsics:
@@ -110,7 +115,8 @@ def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
     data = read_json(path, "camera file")
     if isinstance(data, dict) and "intrinsic_matrix" in data:
         return load_open3d_json(path, depth_scale)
-    return Intrinsics.from_dict({"depth_scale": depth_scale, **data} if isinstance(data, dict) else data, str(path))
+    return Intrinsics.from_dict({"depth_scale": depth_scale, **data} if isinstance(data, dict)
+                                else data, str(path))
 
 
 def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None
@@ -128,7 +134,8 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
         nearest = nearest_stamps(colour_stamps, depth_stamps)
         ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
         colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
-    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0], 1e-9) if len(depth_stamps) > 1 else 30.0
+    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0],
+                                        1e-9) if len(depth_stamps) > 1 else 30.0
     return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
 
 
@@ -189,7 +196,8 @@ class StackSource(DepthSource):
     NaN, inf and values <= 0 read as no reading.
     """
 
-    def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float, timestamps: np.ndarray,
+    def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float,
+                 timestamps: np.ndarray,
                  colour: np.ndarray | None = None, fps: float = 30.0):
         self.name, self.intrinsics, self.fps, self.frame_count = name, intrinsics, float(fps), len(units)
         self.units, self.scale = units, np.float32(scale)
@@ -201,7 +209,8 @@ class StackSource(DepthSource):
         with np.errstate(invalid="ignore", over="ignore"):
             depth = checked_depth(units.astype(np.float32) * self.scale, self.intrinsics, self.name)
         sensor_units = units.astype(np.uint16) if np.issubdtype(units.dtype, np.integer) else None
-        return Frame(depth, float(self.timestamps[i]), None if self.colour is None else self.colour[i], sensor_units)
+        return Frame(depth, float(self.timestamps[i]),
+                     None if self.colour is None else self.colour[i], sensor_units)
 
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
@@ -216,7 +225,8 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
             raise FileFormatError(f"{path}: missing array '{key}' (has {', '.join(sorted(arrays)) or 'none'})")
     depth = arrays["depth"][None] if arrays["depth"].ndim == 2 else arrays["depth"]
     integer = np.issubdtype(depth.dtype, np.integer)
-    if depth.ndim != 3 or not (integer or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
+    if depth.ndim != 3 or not (integer
+                               or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
         raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got {depth.dtype} "
                               f"{depth.shape}")
     if integer and "depth_scale" not in arrays:

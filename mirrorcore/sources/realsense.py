@@ -44,7 +44,8 @@ class RealSenseSource(DepthSource):
     def read(self, i: int) -> Frame:
         depth = self._pipe.wait_for_frames().get_depth_frame()
         units = np.asanyarray(depth.get_data()).copy()
-        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), depth.get_timestamp() * 1e-3,
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                     depth.get_timestamp() * 1e-3,
                      units=units)
 
     def close(self) -> None:
@@ -55,7 +56,8 @@ def profile_camera(rs, profile) -> tuple[Intrinsics, float]:
     """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth
     units) and fps."""
     stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
-    return _camera(stream, profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
+    return _camera(stream,
+                   profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
 
 
 def _camera(stream, units: float) -> Intrinsics:
@@ -111,7 +113,8 @@ class BagSource(DepthSource):
             self._next += 1
             if self._next > i:
                 units, stamp = item
-                return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), stamp, units=units)
+                return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                             stamp, units=units)
 
     def close(self) -> None:
         if self._player is not None:
@@ -134,7 +137,8 @@ class _Playback:
         self._started, self._delivered = False, 0
         try:
             self.playback = rs.context().load_device(str(path)).as_playback()
-            self.sensor = next((s for s in self.playback.query_sensors() if _depth_profile(rs, s) is not None), None)
+            self.sensor = next((s for s in self.playback.query_sensors()
+                                if _depth_profile(rs, s) is not None), None)
             if self.sensor is None:
                 raise FileFormatError(f"{path}: the recording has no depth stream")
             self.profile = _depth_profile(rs, self.sensor)
@@ -162,7 +166,8 @@ class _Playback:
     def _take(self, frame) -> None:
         """The sensor's callback (librealsense's thread): wait for room, so that the playback waits
         too."""
-        item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None, frame.get_timestamp() * 1e-3)
+        item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None,
+                frame.get_timestamp() * 1e-3)
         while not self._stopping.is_set():
             try:
                 self._queue.put(item, timeout=0.05)

@@ -32,7 +32,8 @@ COLOUR_NAME = "frames/{:06d}_colour.png"
 SAVE_EVERY_S = 1.0          # session.json is rewritten this often while recording (and at the end)
 
 
-def record(source: DepthSource, folder: str | Path, seconds: float | None = None, frames: int | None = None,
+def record(source: DepthSource, folder: str | Path, seconds: float | None = None,
+           frames: int | None = None,
            progress: Callable[[int, Frame], None] = lambda n, frame: None,
            cancel: Callable[[], bool] = lambda: False) -> Session:
     """Record `source` into a new session folder and return its Session.
@@ -90,7 +91,8 @@ class _Take:
         """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S
         old."""
         n = len(self.names)
-        write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth, self.source.intrinsics.depth_scale)
+        write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth,
+                        self.source.intrinsics.depth_scale)
         if frame.colour is not None:
             write_colour_png(self.folder / COLOUR_NAME.format(n), frame.colour)
             self.colours.append(COLOUR_NAME.format(n))
@@ -100,7 +102,8 @@ class _Take:
             self.save()
 
     def save(self) -> Session:
-        session = Session(self.folder, self.source.intrinsics, (), self.background, tuple(self.names),
+        session = Session(self.folder, self.source.intrinsics, (), self.background,
+                          tuple(self.names),
                           timestamps=tuple(self.stamps),
                           colour_frames=tuple(self.colours) if self.colours and len(self.colours) == len(self.names)
                           else None)
@@ -174,7 +177,8 @@ class Recorder:
 
     def _run(self) -> None:
         try:
-            self.session = record(self.source, self.folder, self.seconds, self.limit, self._count, self._cancel.is_set)
+            self.session = record(self.source, self.folder, self.seconds, self.limit, self._count,
+                                  self._cancel.is_set)
         except Exception as exc:  # handed to the caller of stop()
             self.error = exc
 

@@ -32,7 +32,8 @@ class SimulatedSource(DepthSource):
 
     def read(self, i: int) -> Frame:
         if not self.objects_in_view:
-            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]), False).depth,
+            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
+                                         False).depth,
                          i / self.fps)
         frame = self.rig.frame(i)
         return Frame(frame.depth, frame.t)
@@ -46,7 +47,8 @@ def open_simulated(target: str, session: Session | None) -> SimulatedSource:
     rig with a walking figure at 3 m; 'sim:SCENE.json': a scene file."""
     if target:
         return SimulatedSource(Simulator(load_scene(target)), f"simulated {Path(target).name}")
-    return SimulatedSource(Simulator(session_scene(session) or paper_scene(object="figure", distance=3.0)))
+    return SimulatedSource(Simulator(session_scene(session)
+                                     or paper_scene(object="figure", distance=3.0)))
 
 
 def session_scene(session: Session | None) -> Scene | None:
