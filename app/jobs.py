@@ -29,7 +29,7 @@ from mirrorcore.calibration.refine import REFINE_FRAMES, refine_session
 from mirrorcore.calibration.residuals import ViewAgreement, view_agreement
 from mirrorcore.calibration.results import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS,
                                             NOISE_EXPLAINS)
-from mirrorcore.calibration.search import calibrate_scene
+from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.io.session import SESSION_FILE, Session, save_session
 from mirrorcore.sources import SessionSource
 from mirrorcore.sources.record import Recorder, new_recording_folder

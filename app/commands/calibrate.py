@@ -12,7 +12,7 @@ from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, refine_session
 from mirrorcore.calibration.results import SAME_GLASS_MM, SAME_PLANE, Refinement
 from mirrorcore.rig.model import Rig
-from mirrorcore.calibration.search import calibrate_scene, sentences
+from mirrorcore.calibration.scene import calibrate_scene, sentences
 from mirrorcore.io.session import Session, load_session, save_session
 from mirrorcore.base.words import listed
 

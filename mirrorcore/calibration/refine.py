@@ -62,7 +62,7 @@ class Leash:
     """How far a refinement trusts the planes it starts from.
 
     The default suits planes from markers; a search's guesses, which it scored against the views
-    not refined, are held tighter (search.FROM_SEARCH).
+    not refined, are held tighter (scene.FROM_SEARCH).
 
     Attributes
     ----------

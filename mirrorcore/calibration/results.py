@@ -195,7 +195,7 @@ class Refinement:
         "surfaces" or "sphere" (refine.REFINE_WITH).
     refused : tuple of (int, str)
         The mirrors a calibration without markers could not calibrate while it did the others
-        (search.calibrate_scene): (session index, the one-line refusal), in session order.
+        (scene.calibrate_scene): (session index, the one-line refusal), in session order.
     """
 
     mirrors: tuple[MirrorRefinement, ...]

@@ -1,6 +1,5 @@
-"""Mirror planes without markers (`calibrate --method scene`): in one frame where something is seen
-both directly and in a mirror, search for the plane that makes the two views consistent, then refine
-(refine.py).
+"""The search for a mirror's plane without markers: in one frame where something is seen both
+directly and in a mirror, the plane that makes the two views consistent (scene.py then refines it).
 
 A candidate plane reflects the mirror's view of the object (its virtual points) into the room, and
 the camera's view into the mirror's: a reflected point agrees when the other view measured about its
@@ -8,12 +7,10 @@ depth where it falls, and contradicts it when that view saw farther (it would ha
 The score is agreements minus contradictions; the search tries a cone of normals around the
 direction from the virtual object to the real one (their medians: the plane is about their
 perpendicular bisector) and a range of offsets, coarse then fine. Mirrors calibrated already are
-views like the camera's; calibrate_scene finds the mirrors in rounds, the best supported first, so
-that a mirror the camera hardly shares anything with is found against those beside it.
+views like the camera's (scene.calibrate_scene finds the mirrors in rounds).
 """
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import NamedTuple
 
 import cv2
@@ -23,11 +20,8 @@ from mirrorcore.base.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import reproject_depth
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.depth.noise import axial_sigma
-from mirrorcore.base.progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
-from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, refine_session
-from mirrorcore.calibration.results import Refinement
-from mirrorcore.rig.model import Mirror, Rig
-from mirrorcore.io.session import Session
+from mirrorcore.base.progress import Progress, Ratchet, cancel_requested
+from mirrorcore.rig.model import Rig
 
 SEARCH_POINTS = 800                  # points of each view scored (a random subset)
 MIN_POINTS = 100                     # the object's readings needed in each view
@@ -56,22 +50,10 @@ IMAGE_GAP = 0.1
 # a reflected point agrees within this many standard deviations of depth noise
 AGREE_SIGMAS = 3.0
 CONTRADICTION_WEIGHT = 2.0             # a contradiction counts as much as two agreements
-# metres: the refinement after a search starts with this wide agreement...
-SEARCH_GATE = 0.03
-# ... from the found plane moved this much towards the camera: with that gate it came back from
-# planes 4 cm too near and 2 cm too far, not 4 cm too far (the mirror's points then hide behind the
-# object)
+# Metres: a found plane is moved this much towards the camera before the refinement, which comes
+# back with scene.SEARCH_GATE from planes 4 cm too near and 2 cm too far, not from 4 cm too far
+# (the mirror's points then hide behind the object).
 NEARER = 0.02
-# metres, degrees: how far the refinement may move a searched plane
-SEARCH_CHANGE = (0.2, 15.0)
-# a round of calibrate_scene refines the mirrors whose search scores at least this share of the
-# best's; the others are searched again once these are calibrated, against them too (an arc's middle
-# mirror, against the camera alone: 0.2 where the mirrors beside it scored 0.76 and 0.91; its plane
-# came out 17 degrees off, and was written)
-LEAD_SHARE = 0.5
-# the refinement after it
-FROM_SEARCH = Leash(SEARCH_GATE, SEARCH_CHANGE, MAX_DISAGREEMENT, held_only=True)
-
 
 class Found(NamedTuple):
     """A searched plane, and how well it explains the frame: `support`, the best candidate's score
@@ -101,7 +83,7 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
         raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first",
                                (mirror.name,))
     depth = np.asarray(depth, np.float32)
-    far = _direct_far(depth[mask & (rig.inside_bits == 0)])
+    far = direct_far(depth[mask & (rig.inside_bits == 0)])
     outside = mask & (rig.inside_bits == 0) & (depth <= far)
     inside = _inside(rig, index)
     _check_outline(mirror.name, inside, mask & (rig.inside_bits == 0) & (depth > far))
@@ -176,28 +158,27 @@ def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
     """Refuse, naming the mirror, when MIN_POINTS of the object's readings beyond the direct object
     (beyond: (H, W) bool, outside every outline) lie within SPILL_PX of the mirror's outline
     (inside: (H, W) bool): its image spills over an outline drawn too narrow, and those readings
-    would be taken for the object seen directly (a helper's outline a third too narrow: the search
-    said the mirror did not show the object)."""
-    spilled = int(np.count_nonzero(beyond & _near(inside)))
+    would be taken for the object seen directly."""
+    spilled = int(np.count_nonzero(beyond & near_outline(inside)))
     if spilled >= MIN_POINTS:
-        raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the object seen "
-                               "directly: its image spills over the outline; draw the outline along the glass's edge",
-                               (name,))
+        raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the "
+                               "object seen directly: its image spills over the outline; draw the "
+                               "outline along the glass's edge", (name,))
 
 
-def _near(inside: np.ndarray) -> np.ndarray:
+def near_outline(inside: np.ndarray) -> np.ndarray:
     """(H, W) bool: the pixels within SPILL_PX of `inside` (H, W) bool, and those pixels
     themselves."""
     kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
     return cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)
 
 
-def _direct_far(z: np.ndarray) -> float:
+def direct_far(z: np.ndarray) -> float:
     """Metres: the depth beyond which the object's readings outside every outline (z (n,) metres)
     are an image, not the object seen directly: FAR_MARGIN beyond the 99th percentile of those up to
     the first gap of IMAGE_GAP above their median (an outline drawn too narrow leaves part of the
-    mirror's image outside: it had raised the cut above the whole image, and the search said the
-    mirror did not show the object: a helper); inf without readings."""
+    mirror's image outside, which must not raise the cut above the whole image); inf without
+    readings."""
     z = np.sort(z[z > 0])
     if not len(z):
         return np.inf
@@ -294,134 +275,3 @@ class _Scorer:
         agree = seen & view.objects[pixel] & (np.abs(measured - z) < margin)
         contradict = seen & (measured > z + margin)
         return (agree.sum(axis=1) - CONTRADICTION_WEIGHT * contradict.sum(axis=1)) / points.shape[0]
-
-
-def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray,
-                    rng: np.random.Generator,
-                    indices=None, progress: Progress | None = None, cancel=None, with_: str = "auto"
-                    ) -> tuple[Session, Refinement]:
-    """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers, in
-    rounds. Each round searches the planes still to find in the first frame (search_plane, against
-    the camera and the mirrors calibrated so far; a mirror's own plane is ignored), then refines
-    those the search supports best (at least LEAD_SHARE of the best's support) over every frame
-    (refine.refine_session, comparing `with_`, each fixed by the views calibrated before:
-    FROM_SEARCH); a mirror the refinement refuses waits with the others for the next round, which
-    searches them against these too (an arc's middle mirror, which the camera sees from the front
-    and it from the back, is found through the mirrors beside it). depths (F, H, W) float metres as
-    measured; masks (F, H, W) bool, the object's pixels. Returns the session with the planes found
-    and one Refinement of them all; a mirror no round could calibrate keeps its plane and is named,
-    with why, in the Refinement's `refused`. CalibrationError (naming them) when none can be."""
-    indices = list(range(len(session.mirrors)) if indices is None else indices)
-    if not indices:
-        raise CalibrationError(f"{session.path}: the session has no mirrors")
-    depths, masks = np.asarray(depths), np.asarray(masks, bool)
-    if depths.ndim == 2:
-        depths, masks = depths[None], masks[None]
-    direct = _without_spill(Rig.from_session(session), depths, masks)         # for the refinements
-    bar = Ratchet(progress, RATCHET_SECONDS)
-    calibrated, todo, rounds, refused = session, list(indices), [], {}
-    while todo:
-        done = 1.0 - len(todo) / len(indices)
-        found, failed = _search_round(calibrated, depths[0], masks[0], todo, rng, cancel,
-                                      bar.part(done, done + (1.0 - done) / 3), wide=bool(rounds))
-        refused.update(failed)
-        todo = [i for i in todo if i in found]
-        result = _refine_round(calibrated, found, depths, direct, with_, cancel, bar, done,
-                               len(indices), refused)
-        if result is None:
-            break
-        calibrated, round_result = result
-        rounds.append(round_result)
-        todo = [i for i in todo if i not in round_result.planes]
-    if not rounds:
-        names = tuple(session.mirrors[i].name for i in sorted(refused))
-        raise CalibrationError(sentences(refused[i] for i in sorted(refused)), names)
-    # a mirror not found keeps the plane it had
-    for i in refused:
-        calibrated = calibrated.with_mirror(i,
-                                            replace(calibrated.mirrors[i],
-                                                       plane=session.mirrors[i].plane))
-    bar(1.0)
-    first = rounds[0]
-    return calibrated, replace(first, mirrors=tuple(sorted((m for r in rounds for m in r.mirrors),
-                                                           key=lambda m: m.index)),
-                               iterations=sum(r.iterations for r in rounds),
-                               refused=tuple(sorted(refused.items())))
-
-
-def sentences(reasons) -> str:
-    """Refusals (one-line strings) as one line of sentences, each once, in order."""
-    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))
-
-
-def _without_spill(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> np.ndarray:
-    """masks (F, H, W) bool without a mirror's image spilling over an outline drawn too narrow: in
-    the frames of depths (F, H, W) metres where the search would see one (_check_outline: MIN_POINTS
-    of the object's readings beyond what the camera sees directly, _direct_far, within SPILL_PX
-    outside an outline), all the readings outside every outline beyond what the camera sees directly
-    (an outline 80 px too narrow leaves its image up to 80 px wide). It had also been the camera's
-    view in the other mirrors' refinement, and they were refused with it (45 readings agreed: a
-    helper); frames without one keep their masks whole."""
-    outside = rig.inside_bits == 0
-    near = _near(~outside) & outside
-    out = masks.copy()
-    for k, (depth, mask) in enumerate(zip(depths, masks)):
-        beyond = mask & outside & (depth > _direct_far(depth[mask & outside]))
-        if np.count_nonzero(beyond & near) >= MIN_POINTS:
-            out[k] &= ~beyond
-    return out
-
-
-def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int],
-                  rng: np.random.Generator,
-                  cancel, progress: Progress,
-                  wide: bool) -> tuple[dict[int, Found], dict[int, str]]:
-    """Search the planes of the mirrors at `todo` (0-based) in one frame, against the camera and the
-    mirrors with a plane that are not searched (`wide`: search_plane's) -> ({index: Found}, {index:
-    why it was not found})."""
-    rig = Rig.from_session(session)
-    blind = Rig(rig.intrinsics, tuple(Mirror(m.name, None if i in todo else m.plane, m.boundary)
-                                      for i, m in enumerate(rig.mirrors)))
-    found, failed = {}, {}
-    for k, i in enumerate(todo):
-        try:
-            found[i] = search_plane(blind, depth, mask, i, rng, cancel, wide,
-                                    lambda f, k=k: progress((k + f) / len(todo)))
-        except CalibrationError as exc:
-            failed[i] = str(exc)
-        progress((k + 1) / len(todo))
-    return found, failed
-
-
-def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray, masks: np.ndarray,
-                  with_: str,
-                  cancel, bar: Ratchet, done: float, total: int, refused: dict[int, str]
-                  ) -> tuple[Session, Refinement] | None:
-    """Refine the best-supported of the planes `found` (LEAD_SHARE), held to the views calibrated
-    before; a mirror the refinement names is set aside (its refusal in `refused`, until a later
-    round calibrates it) and the others refined again, then the next best. -> (the session with the
-    planes refined, their Refinement), or None when none of them could be refined."""
-    waiting = dict(found)
-    while waiting:
-        best = max(waiting, key=lambda i: waiting[i].support)
-        lead = sorted(i for i,
-                      f in waiting.items() if i == best
-                      or f.support >= LEAD_SHARE * waiting[best].support)
-        trial = session
-        for i in lead:
-            trial = trial.with_mirror(i, replace(trial.mirrors[i], plane=waiting[i].plane))
-        start = done + (1.0 - done) / 3
-        part = bar.part(start, max(start, done + len(lead) / total))
-        try:
-            calibrated, result = refine_session(trial, depths, masks, lead, part, cancel, with_,
-                                                FROM_SEARCH)
-        except CalibrationError as exc:
-            named = [i for i in lead if session.mirrors[i].name in exc.mirrors] or lead
-            for i in named:
-                refused[i] = str(exc)
-                del waiting[i]
-            continue
-        for i in lead:
-            refused.pop(i, None)
-        return calibrated, result
-    return None

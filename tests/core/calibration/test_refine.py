@@ -29,7 +29,8 @@ from mirrorcore.calibration.results import (CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS,
                                             MirrorRefinement, Refinement)
 from mirrorcore.base.progress import Ratchet
 from mirrorcore.rig.model import Mirror, Rig
-from mirrorcore.calibration.search import calibrate_scene, search_plane
+from mirrorcore.calibration.scene import calibrate_scene
+from mirrorcore.calibration.search import search_plane
 from mirrorcore.io.session import Session
 from mirrorcore.sim.export import session_mirrors, true_rig
 from mirrorcore.sim.layouts import object_extent, paper_scene
