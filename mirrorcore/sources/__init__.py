@@ -1,4 +1,4 @@
-"""Depth sources behind one interface (Frame, DepthSource), chosen by a short spec string:
+"""Floor 8, depth sources behind one interface (Frame, DepthSource), chosen by a short spec string:
 open_source(spec) and the table of kinds with what each needs on this machine (`mirrorscan
 sources`).
 
@@ -26,9 +26,9 @@ from mirrorcore.sources.record import Recorder, new_recording_folder, record
 from mirrorcore.sources.sim import SimulatedSource, open_simulated, session_scene, session_truth
 
 __all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS",
-           "OpenNI2Source",
-           "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource", "SourceKind", "StackSource",
-           "new_recording_folder", "open_source", "parse_spec", "record", "session_scene", "session_truth"]
+           "OpenNI2Source", "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource",
+           "SourceKind", "StackSource", "new_recording_folder", "open_source", "parse_spec",
+           "record", "session_scene", "session_truth"]
 _OPTIONS = ("camera", "scale", "fps")
 
 
