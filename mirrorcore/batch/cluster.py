@@ -112,9 +112,15 @@ def worker_environment() -> dict:
 
 class DaskExecutor:
     """Runs chunks of frames on a Dask cluster: submit() them all, then wait() for those that
-    finish; deaths()
-    gives the frames whose worker died while it had them (they are run again elsewhere). local : the
-    cluster is this command's own; dashboard : give the dashboard's address."""
+    finish; deaths() gives the frames whose worker died with them (they are run again elsewhere).
+
+    Parameters
+    ----------
+    local : bool
+        The cluster is this command's own.
+    dashboard : bool
+        Give the dashboard's address.
+    """
 
     def __init__(self, client: Client, context: FrameContext, local: bool, dashboard: bool):
         self.client = client

@@ -48,18 +48,34 @@ class Where:
         """The local worker processes: `workers`, or the cores this process may use."""
         if self.workers:
             return self.workers
-        return len(os.sched_getaffinity(0)) if hasattr(os,
-                                                       "sched_getaffinity") else os.cpu_count() or 1
+        if hasattr(os, "sched_getaffinity"):
+            return len(os.sched_getaffinity(0))
+        return os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
 class BatchProgress:
-    """Where a batch stands. total : the session's frames; done : frames done (kept + written); kept
-    : frames an earlier run had done; failed : frames that failed in this run; fps : frames written
-    per second by this run;
-    seconds_left : at that rate (None before the first frame); retried : frames run again after
-    their worker died;
-    dashboard : the Dask dashboard's address (None in process or without one)."""
+    """Where a batch stands.
+
+    Attributes
+    ----------
+    total : int
+        The session's frames.
+    done : int
+        Frames done (kept + written).
+    kept : int
+        Frames found done in the output folder when this run started.
+    failed : int
+        Frames that failed in this run.
+    fps : float
+        Frames written per second by this run.
+    seconds_left : float or None
+        At that rate (None before the first frame).
+    retried : int
+        Frames run again after their worker died.
+    dashboard : str or None
+        The Dask dashboard's address (None in process or without one).
+    """
 
     total: int
     done: int
@@ -77,12 +93,26 @@ class BatchProgress:
 
 @dataclass(frozen=True)
 class BatchReport:
-    """How a batch ended. out : the output folder; kept, written : frames an earlier run had done /
-    this run wrote;
-    failed : {frame: one-line error}; retried : {frame: address of the worker that died with it};
-    seconds : this run's wall time from the first task to the last result (cluster start-up
-    excluded, in `startup_seconds`);
-    fps : frames written per second; cancelled : stopped by a cancel request."""
+    """How a batch ended.
+
+    Attributes
+    ----------
+    out : Path
+        The output folder.
+    kept, written : int
+        Frames found done in the output folder when this run started, and frames this run wrote.
+    failed : dict
+        {frame: one-line error}.
+    retried : dict
+        {frame: address of the worker that died with it}.
+    seconds : float
+        This run's wall time from the first task to the last result (cluster start-up excluded, in
+        `startup_seconds`).
+    fps : float
+        Frames written per second.
+    cancelled : bool
+        Stopped by a cancel request.
+    """
 
     out: Path
     total: int

@@ -108,8 +108,8 @@ def session_inputs(session: Session) -> dict:
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
     """The keys (dotted paths) whose values differ between two JSON objects, with the old and new
-    values when they are single numbers or strings (None as 'none'; a helper read "(0.02 -> None)"):
-    ['method (raw -> tsdf)', 'options.voxel (0.002 -> 0.004)', 'calibration.mirrors']."""
+    values when they are single numbers or strings (None as 'none'), for example
+    ['method (raw -> tsdf)', 'calibration.mirrors']."""
     found = []
     for key in sorted(set(old) | set(new)):
         a, b = old.get(key), new.get(key)

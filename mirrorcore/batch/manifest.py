@@ -129,8 +129,8 @@ class OutputFolder:
 
     Refuses (MirrorscanError, one line) a folder that holds other files and no manifest, a folder
     another run is writing into, and a manifest made with other settings or inputs unless
-    `overwrite` (then every frame is done again, and the files of frames the session no longer has
-    are removed).
+    `overwrite` (then every frame is done again, and the files of frames that are not in the
+    session are removed).
     """
 
     def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
@@ -171,11 +171,10 @@ class OutputFolder:
         changed = differences({**old.settings, **old.inputs},
                               {**self.manifest.settings, **self.manifest.inputs})
         if changed and not overwrite:
-            # "a different options.voxel"
             said = ", ".join(change.removeprefix("options.") for change in changed)
-            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with other settings ({said}); "
-                                  # had read oddly
-                                  "use --overwrite to redo every frame, or another folder")
+            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with other "
+                                  f"settings ({said}); use --overwrite to redo every frame, or "
+                                  "another folder")
         if overwrite:
             for record in old.done.values():
                 if record.file not in names:

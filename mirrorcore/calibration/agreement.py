@@ -51,9 +51,9 @@ ANCHOR_NOISE = 0.3
 # metres: distances shown (heat map, reports) count surfaces this far apart as the same
 SHOWN_GATE = 0.03
 # pixels: the heat map colours a point by the mean distance of its view's compared points in this
-# window about it (one point's scatters with the depth noise: correct planes looked mottled red and
-# blue at a 10 mm scale, a helper; on the sphere's true planes the share beyond 5 mm went from 3-8 %
-# to 0-3 %)
+# window about it (one point's distance scatters with the depth noise, which would mottle correct
+# planes red and blue at a 10 mm scale; on the sphere's true planes the window leaves 0 to 3 % of
+# the points beyond 5 mm, single points 3 to 8 %)
 HEAT_WINDOW = 7
 # metres along a point's ray: the step of the second difference that measures the target surface's
 # curvature where the anchor's error moves it (its quadratic: any step < 2 cm)

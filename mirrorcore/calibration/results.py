@@ -134,7 +134,8 @@ class MirrorRefinement:
         noise allows (NOISE_EXPLAINS), their RMS and mean distance before and after against the
         noise's RMS, and how well the data fix the plane. A plane's offset hardly shows in the
         agreement (it moves the points along the surface where the views overlap), so the verdict
-        leads. The glass is said to be saved unless `saved` is False (the session had it)."""
+        leads. The glass is said to be saved unless `saved` is False (it was in the session
+        already)."""
         if searched:
             # its start was the search's guess: nothing before worth saying
             figures = f"RMS {self.agreement_after_mm:.2f} mm, mean {self.offset_after_mm:+.2f} mm"

@@ -131,7 +131,7 @@ class Session:
     timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i /
     fps)
     colour_frames : n colour PNG paths, one per frame, or None
-    extra : top-level keys this version does not know, kept as they were
+    extra : top-level keys this mirrorscan does not read, kept as they were
     bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to
     MAX_ORDER (mirrorcore.rig.model)
 

@@ -156,9 +156,8 @@ class ReflectionTable:
     uncalibrated : bool, inside the boundary of a mirror that has no plane yet
     planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (row 0 and
     uncalibrated mirrors zeros): a frame reads a reflected pixel's plane from this small table by
-    its label, and only ray_dot per pixel (a fifth of the bytes that per-pixel rows of all five
-    took: the object's 2.7 -> 2.35 ms in the bench, where the tables come from memory each call; the
-    same values bit for bit)
+    its label, and only ray_dot per pixel (a fifth of the bytes of per-pixel rows of all five,
+    with the same values bit for bit)
     """
 
     label: np.ndarray

@@ -1,8 +1,8 @@
 """Where a technician sticks a mirror's markers: where the camera sees them. A layout puts six
 markers near each mirror's corners and edges' middles; on some rigs most of them are hidden (an arc
-of three around the walking figure: the middle mirror, raised above the figure, had its upper
-markers out of the image and its lower ones behind the mirrors beside it and the figure), and the
-mirror could not be fitted from its markers. `markers_in_view` moves the hidden ones of such a
+of three around the walking figure: the middle mirror, raised above the figure, has its upper
+markers out of the image and its lower ones behind the mirrors beside it and the figure), and
+such a mirror cannot be fitted from its markers. `markers_in_view` moves the hidden ones of such a
 mirror to places on its glass that the camera sees, in every moment of the object's motion."""
 from __future__ import annotations
 
