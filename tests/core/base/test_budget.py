@@ -1,6 +1,7 @@
-"""Sizes and counts that a user or a file chooses (issue 15, points 6 and 7): the memory budget is checked before the
-work (voxel grids, image headers, frame files, .npz shapes), the boundary crossing test stays small, and a session
-holds only what the tool can hold: refused by name, quickly, where it is read and where it is edited."""
+"""Sizes and counts that a user or a file chooses (issue 15, points 6 and 7): the memory budget is
+checked before the work (voxel grids, image headers, frame files, .npz shapes), the boundary
+crossing test stays small, and a session holds only what the tool can hold: refused by name,
+quickly, where it is read and where it is edited."""
 from __future__ import annotations
 
 import io
@@ -42,11 +43,13 @@ def budget():
 # --------------------------------------------------------------------- the budget
 def test_the_budget_comes_from_the_option_the_environment_or_the_default(monkeypatch, budget):
     monkeypatch.delenv("MIRRORSCAN_MEMORY", raising=False)
-    assert 1 << 30 <= memory_budget() <= 4 << 30                  # 4 GiB, or half the machine when less
+    # 4 GiB, or half the machine when less
+    assert 1 << 30 <= memory_budget() <= 4 << 30
     monkeypatch.setenv("MIRRORSCAN_MEMORY", "1.5GiB")
     assert memory_budget() == 3 << 29
     budget("512M")
-    assert memory_budget() == 512 << 20                            # the command line's --memory wins
+    # the command line's --memory wins
+    assert memory_budget() == 512 << 20
     for bad in ("lots", "12 parsecs", "1K", "-5G"):
         with pytest.raises(MirrorscanError, match="--memory"):
             parse_size(bad, "--memory")
@@ -58,16 +61,19 @@ def test_a_volume_that_does_not_fit_in_the_budget_is_refused_before_any_grid(bud
     rig = Rig.from_session(load_session(DEMO))
     box = ((-0.2, -0.3, 1.7), (0.2, 0.3, 2.3))                    # a person-sized box
     t0 = time.perf_counter()
-    # The volume holds only its grid of 4^3-voxel blocks (24 bytes each; the fusion allocates the blocks near the
-    # surface, carving its two grids, each checked before allocating): 0.3 mm (1334x2000x2000) now fits in 4 GiB.
+    # The volume holds only its grid of 4^3-voxel blocks (24 bytes each; the fusion allocates the
+    # blocks near the surface, carving its two grids, each checked before allocating): 0.3 mm
+    # (1334x2000x2000) now fits in 4 GiB.
     with pytest.raises(MemoryBudgetError, match=r"volume: 4000x6000x6000 voxels of 0.1 mm .* memory budget"):
         dense_volume(rig, np.zeros(rig.intrinsics.shape), np.zeros(rig.intrinsics.shape, bool),
-                     DenseOptions(voxel=0.0001, bounds=box))      # a browser client asking for 0.1 mm
+                     # a browser client asking for 0.1 mm
+                     DenseOptions(voxel=0.0001, bounds=box))
     assert time.perf_counter() - t0 < 1.0
     assert Volume.from_bounds(*box, 0.004).size == 100 * 150 * 150  # 4 mm: fine
     budget(4 << 20)
     with pytest.raises(MemoryBudgetError):
-        Volume.from_bounds(*box, 0.002)                             # 352 k blocks x 24 bytes > 4 MiB
+        # 352 k blocks x 24 bytes > 4 MiB
+        Volume.from_bounds(*box, 0.002)
 
 
 # --------------------------------------------------------------------- images, frames, .npz
@@ -86,13 +92,15 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
     with pytest.raises(FileFormatError, match=r"000000.png: 2,147,483,648 bytes is more than a depth image of "
                                               r"307,200 pixels can hold"):
         read_depth_png(path, 0.001, (480, 640))
-    # in a process of its own (this one's other threads allocate too): the refusal never holds the file
+    # in a process of its own (this one's other threads allocate too): the refusal never holds the
+    # file
     reader = ("import re, sys\nfrom mirrorcore.depth.files import read_depth_png\n"
               "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    pass\n"
               "print(re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1))")
     run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True, timeout=120,
                          cwd=Path(__file__).resolve().parents[3])
-    assert int(run.stdout.split()[-1]) < 400_000, run.stdout + run.stderr   # kB (VmHWM, not inherited like
+    # kB (VmHWM, not inherited like
+    assert int(run.stdout.split()[-1]) < 400_000, run.stdout + run.stderr
     # ru_maxrss): the interpreter, numpy and OpenCV, not the file
 
 
@@ -142,7 +150,8 @@ def test_the_crossing_test_of_a_large_polygon_stays_small_in_memory():
     tracemalloc.stop()
     assert peak < 50 << 20
     bowtie = circle.copy()
-    bowtie[[10, 4000]] = bowtie[[4000, 10]]                         # two vertices swapped: it crosses itself
+    # two vertices swapped: it crosses itself
+    bowtie[[10, 4000]] = bowtie[[4000, 10]]
     assert first_crossing(bowtie) is not None
     with pytest.raises(MirrorscanError, match=f"boundary: 8,000 vertices, more than the {MAX_VERTICES:,}"):
         validate_polygon(circle, (480, 640), "boundary")
@@ -282,7 +291,8 @@ def test_a_camera_or_a_cloud_file_beyond_the_budget_is_refused_before_its_tables
     from mirrorcore.io.ply import read_ply, write_ply
     huge = Intrinsics(16384, 16384, 1e4, 1e4, 8191.5, 8191.5)
     with pytest.raises(MemoryBudgetError, match="rig: the per-pixel tables of a 16384x16384 camera: needs 16.0 GiB"):
-        Rig(huge, ())                                               # 16 GiB of tables: refused before any
+        # 16 GiB of tables: refused before any
+        Rig(huge, ())
     write_ply(tmp_path / "cloud.ply", np.zeros((300_000, 3), np.float32), np.zeros(300_000, np.uint8))
     budget(4 << 20)
     with pytest.raises(MemoryBudgetError, match="cloud.ply: reading the PLY"):

@@ -1,4 +1,5 @@
-"""Mirror calibration from markers, from a region and from pairs; degenerate input is refused by name."""
+"""Mirror calibration from markers, from a region and from pairs; degenerate input is refused by
+name."""
 import numpy as np
 import pytest
 from helpers import plane_depth
@@ -23,8 +24,9 @@ MARKERS = np.array([[420, 100], [560, 120], [430, 380], [580, 360], [500, 240], 
 
 
 def mirror_frame(rng=None, virtual_extra=0.8) -> np.ndarray:
-    """Depth of a scene where 9x9 squares around each marker read the glass and the rest of the glass shows a virtual
-    scene farther away (as a structured-light camera sees it); optional Kinect-like noise."""
+    """Depth of a scene where 9x9 squares around each marker read the glass and the rest of the
+    glass shows a virtual scene farther away (as a structured-light camera sees it); optional
+    Kinect-like noise."""
     glass = plane_depth(CAMERA, GLASS)
     depth = glass + virtual_extra
     for u, v in MARKERS.astype(int):
@@ -43,7 +45,8 @@ def test_noiseless_markers_give_the_exact_plane():
 
 
 def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
-    """Stickers on 3 mm of glass: their plane is 3 mm nearer the camera than the reflecting surface."""
+    """Stickers on 3 mm of glass: their plane is 3 mm nearer the camera than the reflecting
+    surface."""
     stickers = Plane(GLASS.normal, GLASS.d - 0.003)
     depth = mirror_frame()
     for u, v in MARKERS.astype(int):
@@ -52,16 +55,19 @@ def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
     moved = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1", marker_offset=0.003)
     np.testing.assert_allclose(plain.plane.abcd, stickers.abcd, atol=1e-5)
     np.testing.assert_allclose(moved.plane.abcd, GLASS.abcd, atol=1e-5)
-    assert moved.rms_mm == plain.rms_mm and moved.markers == plain.markers      # graded on the stickers' plane
+    # graded on the stickers' plane
+    assert moved.rms_mm == plain.rms_mm and moved.markers == plain.markers
     assert max(moved.markers.distance_mm) < 0.01
-    glass = SessionMirror("mirror 1", plane=moved.plane, marker_offset=0.003)     # what the browser grades against
+    # what the browser grades against
+    glass = SessionMirror("mirror 1", plane=moved.plane, marker_offset=0.003)
     np.testing.assert_allclose(glass.marker_plane.abcd, stickers.abcd, atol=1e-5)
     assert SessionMirror("mirror 2").marker_plane is None
 
 
 def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
-    """The review measured the old plane's distance to the markers' faces: refitting markers on 3 mm of glass over the
-    plane a refinement left said 'moved 3.0 mm' (a helper saw 4.1 mm for a plane that moved 0.6)."""
+    """The review measured the old plane's distance to the markers' faces: refitting markers on 3 mm
+    of glass over the plane a refinement left said 'moved 3.0 mm' (a helper saw 4.1 mm for a plane
+    that moved 0.6)."""
     stickers = Plane(GLASS.normal, GLASS.d - 0.003)
     depth = mirror_frame()
     for u, v in MARKERS.astype(int):
@@ -76,19 +82,22 @@ def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
 
 
 def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothing():
-    """A poor marker makes a fit a proposal, once: the same markers fitted again, within a refit's noise, are applied
-    with the marker named (a helper was asked to apply 'turned 0.00°, moved 0.0 mm'); a larger change still asks."""
+    """A poor marker makes a fit a proposal, once: the same markers fitted again, within a refit's
+    noise, are applied with the marker named (a helper was asked to apply 'turned 0.00°, moved 0.0
+    mm'); a larger change still asks."""
     depth = mirror_frame()
     u, v = MARKERS[2].astype(int)
     depth[v - 4:v + 5, u - 4:u + 5] += 0.3
     cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
     names = [f"2.{k + 1}" for k in range(len(MARKERS))]
     first = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
-    assert first.needs_confirmation and not first.refit                 # not fitted on these markers before
+    # not fitted on these markers before
+    assert first.needs_confirmation and not first.refit
     again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names, same_markers=True)
     assert again.refit and not again.needs_confirmation and again.poor == (2,) and again.concerns == first.concerns
     moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers, np.asarray(cal.centre), names,
-                       same_markers=True)                               # 2.5 mm: more than other frames move it
+                       # 2.5 mm: more than other frames move it
+                       same_markers=True)
     assert moved.needs_confirmation and not moved.refit
 
 
@@ -106,17 +115,21 @@ def test_noisy_markers_over_a_median_of_frames():
 def test_a_marker_off_the_glass_is_graded_poor_and_named():
     depth = mirror_frame()
     u, v = MARKERS[2].astype(int)
-    depth[v - 4:v + 5, u - 4:u + 5] += 0.3    # clicked beside its marker: the glass shows a virtual point there
+    # clicked beside its marker: the glass shows a virtual point there
+    depth[v - 4:v + 5, u - 4:u + 5] += 0.3
     cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
     np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-5)   # RANSAC leaves it out...
     assert cal.n_inliers == 7 * 25
-    assert cal.markers.poor() == (2,) and cal.markers.distance_mm[2] > 250     # ...and the report points at it
+    # ...and the report points at it
+    assert cal.markers.poor() == (2,) and cal.markers.distance_mm[2] > 250
     assert cal.markers.grades.count("good") == 7
     assert "markers: 7 good, 1 poor (farthest: marker 3, 285.4 mm, 23.3σ)" in cal.summary()
-    names = [f"2.{k + 1}" for k in range(len(MARKERS))]                 # as the depth frame labels mirror 2's
+    # as the depth frame labels mirror 2's
+    names = [f"2.{k + 1}" for k in range(len(MARKERS))]
     assert "(farthest: marker 2.3, 285.4 mm" in cal.summary(names)
     assert cal.summary().endswith("; plane on the markers' faces (glass 0 mm)")
-    review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)     # which side, and so why
+    # which side, and so why
+    review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
     assert review.concerns == ("marker(s) 2.3 (285 mm, 23σ, behind: off the glass?) lie off the plane beyond the "
                                "depth noise",)
     depth[v - 4:v + 5, u - 4:u + 5] -= 0.6                      # something in front of it
@@ -146,7 +159,8 @@ def test_too_few_and_collinear_markers():
 
 
 def test_plane_through_the_camera_is_refused():
-    real, virtual = np.array([[0.01, 0.0, 1.0]]), np.array([[-0.05, 0.0, 1.0]])   # bisector x = -0.02
+    # bisector x = -0.02
+    real, virtual = np.array([[0.01, 0.0, 1.0]]), np.array([[-0.05, 0.0, 1.0]])
     with pytest.raises(CalibrationError, match="mirror 1: the fitted plane passes 20 mm from the camera"):
         calibrate_from_pairs(real, virtual, "mirror 1")
 
@@ -183,10 +197,10 @@ def test_markers_project_where_clicked():
 
 
 def test_a_stray_marker_far_behind_the_glass_does_not_tilt_the_plane():
-    """A click below mirror 2's bottom markers lands on the floor seen through the glass (a virtual point 2 m farther,
-    where the depth noise and so the inlier threshold are 3x larger). With outliers costing their own squared
-    threshold, the plane through the bottom row and that marker cost less than the glass and won (75 degrees off);
-    every outlier must cost the same."""
+    """A click below mirror 2's bottom markers lands on the floor seen through the glass (a virtual
+    point 2 m farther, where the depth noise and so the inlier threshold are 3x larger). With
+    outliers costing their own squared threshold, the plane through the bottom row and that marker
+    cost less than the glass and won (75 degrees off); every outlier must cost the same."""
     from mirrorcore.sim.export import session_mirrors
     from mirrorcore.sim.layouts import paper_scene
     from mirrorcore.sim.simulator import Simulator
@@ -197,20 +211,24 @@ def test_a_stray_marker_far_behind_the_glass_does_not_tilt_the_plane():
     stray = (bottom[0] - 10, bottom[1] - 6)
     cal = calibrate_from_markers(rig.intrinsics, depth, mirror.markers + (stray,), np.random.default_rng(0))
     assert cal.plane.angle_to(rig.planes[1]) < 0.5
-    assert cal.markers.poor() == (6,) and cal.markers.signed_mm[6] < -1000      # behind the glass, named
+    # behind the glass, named
+    assert cal.markers.poor() == (6,) and cal.markers.signed_mm[6] < -1000
 
 
 def test_markers_a_person_walks_in_front_of_are_read_behind_him(tmp_path):
-    """A walking figure between the mirrors covers three of their markers in most frames: read on the median of the
-    frames and the background, they were 0.4 to 0.55 m off the glass and every fit of a gait session was a proposal
-    (a helper); the frames without what passes in front of the background read them on the glass."""
+    """A walking figure between the mirrors covers three of their markers in most frames: read on
+    the median of the frames and the background, they were 0.4 to 0.55 m off the glass and every fit
+    of a gait session was a proposal (a helper); the frames without what passes in front of the
+    background read them on the glass."""
     scene = paper_scene(object="figure")
     session = load_session(write_session(Simulator(scene, SensorModel.kinect_v1(), seed=0), tmp_path / "gait", 5,
                                          progress=False))
     frames = np.stack([*session.read_frames(range(len(session.frames))), session.read_background()])
     _, on_median = calibrate_session(session, frames, np.random.default_rng(0))
-    assert sum(c.markers.grades.count("poor") for _, c in on_median) >= 2          # the scene covers markers
+    # the scene covers markers
+    assert sum(c.markers.grades.count("poor") for _, c in on_median) >= 2
     _, behind = calibrate_session(session, calibration_depth(session), np.random.default_rng(0))
     for _, calibration in behind:
         assert "poor" not in calibration.markers.grades
-        assert np.nanmax(np.abs(calibration.markers.signed_mm)) < 20               # on the glass, within its noise
+        # on the glass, within its noise
+        assert np.nanmax(np.abs(calibration.markers.signed_mm)) < 20

@@ -1,6 +1,7 @@
-"""Mirror planes from a sphere's centres (spheretarget.py) and the refinement's choice of it (refine.py, `with_`):
-within 0.2 mm of the truth with the Kinect's noise, where the plain fit is 2 mm off; exact on exact readings; a
-person or a view without the sphere is refused by name, and "auto" then compares the surfaces."""
+"""Mirror planes from a sphere's centres (spheretarget.py) and the refinement's choice of it
+(refine.py, `with_`): within 0.2 mm of the truth with the Kinect's noise, where the plain fit is 2
+mm off; exact on exact readings; a person or a view without the sphere is refused by name, and
+"auto" then compares the surfaces."""
 from dataclasses import replace
 
 import numpy as np
@@ -35,7 +36,8 @@ def kinect_sphere():
 
 
 def errors_mm(planes: dict, rig: Rig, centre) -> list[tuple[float, float]]:
-    """Per mirror: (mm along the normal at the object, > 0 away from the camera; degrees) from the truth."""
+    """Per mirror: (mm along the normal at the object, > 0 away from the camera; degrees) from the
+    truth."""
     return [(1e3 * (offset_at(planes[j], centre) - offset_at(m.plane, centre)), planes[j].angle_to(m.plane))
             for j, m in enumerate(rig.mirrors, start=1)]
 
@@ -49,8 +51,9 @@ def test_the_centres_give_the_planes_once_the_noise_bias_is_taken_off(kinect_sph
     for (offset, angle), j in zip(errors_mm(found.planes, rig, centre), (1, 2)):
         assert abs(offset) < 0.4 and angle < 0.05
         assert 0.05e-3 < found.shift_std[j] < 0.3e-3 and 0.002 < found.tilt_std[j] < 0.05
-    # the plain least-squares fit of the same readings: the depth noise along the rays pulls every centre towards the
-    # camera and the planes 2 mm nearer (what the simulation-extrapolation takes off)
+    # the plain least-squares fit of the same readings: the depth noise along the rays pulls every
+    # centre towards the camera and the planes 2 mm nearer (what the simulation-extrapolation takes
+    # off)
     readings, start = _view_readings(rig, depths[0], masks[0], [0, 1, 2], 0)
     plain = _joint_fit([r * z[:, None] for r, z in readings], start)
     assert plain[-1] < 0.1140
@@ -74,7 +77,8 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
     result = refine_planes(start, depths, masks, progress=fractions.append)
     assert result.compared == "sphere" and result.iterations == 0 and fractions[-1] == 1.0
     assert fractions == sorted(fractions)
-    assert sum(0.8 < f < 1 for f in fractions) == len(depths)       # the report's part moves too, a step a frame
+    # the report's part moves too, a step a frame
+    assert sum(0.8 < f < 1 for f in fractions) == len(depths)
     refined = {i + 1: plane for i, plane in result.planes.items()}
     for (offset, angle), report in zip(errors_mm(refined, rig, centre), result.mirrors):
         assert abs(offset) < 0.4 and angle < 0.05
@@ -106,9 +110,10 @@ def test_a_mirror_that_does_not_see_the_sphere_is_named(kinect_sphere):
 
 
 def test_auto_takes_only_a_round_ball(kinect_sphere, monkeypatch):
-    """The correction takes the readings' scatter about the sphere for the camera's noise: a ball that is not round
-    would be over-corrected, so "auto" takes the sphere only while its readings scatter at most SCATTER_AUTO times
-    what the depth noise explains (1.0 to 1.03 here); asked for, the sphere is taken anyway."""
+    """The correction takes the readings' scatter about the sphere for the camera's noise: a ball
+    that is not round would be over-corrected, so "auto" takes the sphere only while its readings
+    scatter at most SCATTER_AUTO times what the depth noise explains (1.0 to 1.03 here); asked for,
+    the sphere is taken anyway."""
     _, rig, depths, masks = kinect_sphere
     with pytest.raises(NotASphere, match=r"frame 0: the readings of the camera scatter about the sphere 1\.0\d times "
                                          r"what the depth noise explains \(at most 0\.9\): not a round ball"):
@@ -120,8 +125,9 @@ def test_auto_takes_only_a_round_ball(kinect_sphere, monkeypatch):
 
 @pytest.mark.skipif(not GLOBE_DEPTH.is_file(), reason="real data not available")
 def test_a_real_inflatable_globe_is_not_round_enough_for_auto():
-    """The TUM RGB-D globe (a Kinect-class camera, one view): its readings scatter about the best sphere 1.45 times
-    what the depth noise explains, beyond SCATTER_AUTO; corrected as noise, its radius would grow by 5 mm."""
+    """The TUM RGB-D globe (a Kinect-class camera, one view): its readings scatter about the best
+    sphere 1.45 times what the depth noise explains, beyond SCATTER_AUTO; corrected as noise, its
+    radius would grow by 5 mm."""
     points = globe_points().astype(np.float64)
     on, sphere = _on_sphere(points, points[:, 2], "globe")
     rays, z = points[on] / points[on, 2:], points[on, 2]

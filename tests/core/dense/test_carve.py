@@ -1,6 +1,6 @@
-"""Space carving (mirrorcore.carve) on the noiseless simulated sphere at half resolution: surface voxels on the true
-sphere, the seen surface covered, the documented fate of free, mirror-only and hidden voxels, whole blocks decided
-as the voxel test would, progress, cancellation."""
+"""Space carving (mirrorcore.carve) on the noiseless simulated sphere at half resolution: surface
+voxels on the true sphere, the seen surface covered, the documented fate of free, mirror-only and
+hidden voxels, whole blocks decided as the voxel test would, progress, cancellation."""
 import threading
 import tracemalloc
 
@@ -45,14 +45,16 @@ def test_surface_voxels_lie_on_the_true_sphere(carved, scene):
     error = np.abs(np.linalg.norm(points - scene.centre, axis=1) - scene.radius)
     if carved.method == "carve":          # within one voxel (99 %), never beyond 1.5 voxels
         assert np.mean(error <= VOXEL) > 0.99 and error.max() < 1.5 * VOXEL
-    else:                                 # the paper's shell is 2 th thick, and the nearest pixel is used
+    # the paper's shell is 2 th thick, and the nearest pixel is used
+    else:
         assert np.median(error) < VOXEL and error.max() < 3 * VOXEL
     assert set(np.unique(sources)) <= {0, 1, 2}
 
 
 def test_carving_covers_every_seen_part_of_the_sphere(carved, scene):
-    """Coverage: the true surface points seen by some pixel (directly or in a mirror) that have a SURFACE voxel
-    within 2 voxels. The paper's algorithm keeps a mirror's surface only where both mirrors see it."""
+    """Coverage: the true surface points seen by some pixel (directly or in a mirror) that have a
+    SURFACE voxel within 2 voxels. The paper's algorithm keeps a mirror's surface only where both
+    mirrors see it."""
     points, _ = carved.surface_points()
     seen = scene.truth.points[scene.truth.object_mask]
     near = cKDTree(points).query(seen)[0] <= 2 * VOXEL
@@ -68,13 +70,14 @@ def test_free_space_in_front_of_the_object_is_carved(carved, scene):
 
 
 def test_a_voxel_seen_only_through_a_mirror(carved, scene):
-    """Real points of mirror-1 pixels on the sphere's back, hidden from the camera and more than 1 cm from anything
-    mirror 2 sees: the consistent carving keeps surface voxels labelled 1 within a voxel of them; the paper's keeps
-    none (not every mirror sees them)."""
+    """Real points of mirror-1 pixels on the sphere's back, hidden from the camera and more than 1
+    cm from anything mirror 2 sees: the consistent carving keeps surface voxels labelled 1 within a
+    voxel of them; the paper's keeps none (not every mirror sees them)."""
     truth = scene.truth
     seen_by = [truth.points[(truth.source == j) & truth.object_mask] for j in (1, 2)]
     only_1 = seen_by[0][cKDTree(seen_by[1]).query(seen_by[0])[0] > 0.01]
-    only_1 = only_1[only_1[:, 2] > scene.centre[2] + 0.05]          # behind the centre: the camera cannot see them
+    # behind the centre: the camera cannot see them
+    only_1 = only_1[only_1[:, 2] > scene.centre[2] + 0.05]
     assert len(only_1) > 10
     points, sources = carved.surface_points()
     near = cKDTree(points[sources == 1]).query(only_1)[0] <= VOXEL * np.sqrt(3)
@@ -85,13 +88,15 @@ def test_a_voxel_seen_only_through_a_mirror(carved, scene):
 
 
 def test_a_voxel_behind_the_object_from_every_view(carved, scene):
-    """The sphere's centre: no view sees through it or on its surface -> HIDDEN (carve), removed (paper)."""
+    """The sphere's centre: no view sees through it or on its surface -> HIDDEN (carve), removed
+    (paper)."""
     assert state_at(carved, scene.centre)[0] == (HIDDEN if carved.method == "carve" else FREE)
 
 
 def test_whole_blocks_are_decided_as_every_voxel_would_be(scene):
-    """The blocks the windows decide (FREE, HIDDEN) hold only voxels that the voxel test gives that state: carving
-    every block voxel by voxel gives the same grids, and most blocks were decided whole."""
+    """The blocks the windows decide (FREE, HIDDEN) hold only voxels that the voxel test gives that
+    state: carving every block voxel by voxel gives the same grids, and most blocks were decided
+    whole."""
     volume = Volume.from_bounds(scene.centre - 0.14, scene.centre + 0.14, 0.003)
     result = carve(scene.rig, scene.depth, scene.truth.object_mask, volume)
     views = rig_views(scene.rig, scene.depth, scene.truth.object_mask)
@@ -132,7 +137,8 @@ def test_cancel_stops_early_and_frees_memory(scene, volume, kind):
         carve(scene.rig, scene.depth, scene.truth.object_mask, volume, progress=progress, cancel=cancel, workers=1)
     after = tracemalloc.get_traced_memory()[0]
     tracemalloc.stop()
-    assert len(calls) == 1 < len(chunks) // 4           # one worker: stopped before the second chunk
+    # one worker: stopped before the second chunk
+    assert len(calls) == 1 < len(chunks) // 4
     assert after - before < 1e6           # the 2 x 2.7 MB grids are gone
 
 

@@ -1,6 +1,6 @@
-"""Dense reconstruction with the views through several mirrors as extra virtual cameras: the views of a corner of two
-mirrors by hand, carving and fusion of the simulated kaleidoscope (hinged mirrors at 72 degrees), and the paper's
-120-degree rig, where nothing changes."""
+"""Dense reconstruction with the views through several mirrors as extra virtual cameras: the views
+of a corner of two mirrors by hand, carving and fusion of the simulated kaleidoscope (hinged mirrors
+at 72 degrees), and the paper's 120-degree rig, where nothing changes."""
 import dataclasses
 import hashlib
 from pathlib import Path
@@ -29,10 +29,11 @@ VOXEL = 0.002
 
 
 def test_views_of_the_corner_by_hand():
-    """Column 5 meets the glass (mirror 1) at z = 2, then the side mirror (2) at 8/3 in rows 1-3. With the object at
-    z = 3 there, mirror 1's view knows the ray up to 8/3 only and does not see the object; the view 'mirror 1 then
-    2' (label 33, extrinsic M_1 M_2, a proper rotation) sees it at 3. A point before 8/3 (row 0: 2.5) is mirror 1's
-    surface, and the sequence's view knows nothing of that ray."""
+    """Column 5 meets the glass (mirror 1) at z = 2, then the side mirror (2) at 8/3 in rows 1-3.
+    With the object at z = 3 there, mirror 1's view knows the ray up to 8/3 only and does not see
+    the object; the view 'mirror 1 then 2' (label 33, extrinsic M_1 M_2, a proper rotation) sees it
+    at 3. A point before 8/3 (row 0: 2.5) is mirror 1's surface, and the sequence's view knows
+    nothing of that ray."""
     depth = np.zeros(CAMERA.shape, np.float32)
     depth[:, 5] = [2.5, 3.0, 3.0, 3.0, 2.5, 2.5]
     mask = depth > 0
@@ -47,13 +48,14 @@ def test_views_of_the_corner_by_hand():
     assert second.surface[flat].tolist() == [False, True, True, True, False, False]
     assert second.outline[flat].tolist() == [False, True, True, True, False, False]
     assert np.linalg.det(second.to_view[:, :3]) == pytest.approx(1.0)
-    assert not views[0].surface[flat].any()                       # every object pixel is claimed by a mirror view
+    # every object pixel is claimed by a mirror view
+    assert not views[0].surface[flat].any()
 
 
 @pytest.fixture(scope="module")
 def kaleidoscope():
-    """Ideal frame of the hinged mirrors at 72 degrees (half resolution), the volume around the sphere, the truth's
-    real points of the object pixels and their source labels."""
+    """Ideal frame of the hinged mirrors at 72 degrees (half resolution), the volume around the
+    sphere, the truth's real points of the object pixels and their source labels."""
     scene = kaleidoscope_scene(72.0, camera=Intrinsics.kinect_v1().scaled(0.5))
     frame = Simulator(scene, SensorModel.ideal(), 0).frame(0)
     truth, obj = frame.truth, scene.objects[0]
@@ -65,8 +67,9 @@ def kaleidoscope():
 
 @pytest.mark.parametrize("bounces", [1, 3])
 def test_carving_uses_the_views_through_two_mirrors(kaleidoscope, bounces):
-    """The back of the sphere that only the views through two mirrors see is covered when they are used (3 bounces)
-    and not with one; the surface voxels stay within a voxel of the true sphere and carry those views' labels."""
+    """The back of the sphere that only the views through two mirrors see is covered when they are
+    used (3 bounces) and not with one; the surface voxels stay within a voxel of the true sphere and
+    carry those views' labels."""
     rig, depth, mask, volume, centre, radius, seen, seen_source = kaleidoscope
     result = carve(dataclasses.replace(rig, bounces=bounces), depth, mask, volume)
     points, sources = result.surface_points()
@@ -91,17 +94,18 @@ def test_fusion_uses_the_views_through_two_mirrors(kaleidoscope):
     assert {33, 34} <= set(mesh.sources.tolist())
 
 
-# sha256 (first 16 hex digits) of the grids of the demo session's frame 0 (mirrors at 120 degrees) carved ('carve',
-# 'paper': state, source) and fused ('tsdf': tsdf, weight, source) in 4 mm voxels around its raw cloud, its depth not
-# smoothed (OpenCV's bilateral filter changes its last bits between releases), recorded before the views through
-# several mirrors were added (commit a4c18a3; the same on OpenCV 5.0 and 5.1), the fusion computing every voxel
-# ('tsdf', now Blocks.all).
+# sha256 (first 16 hex digits) of the grids of the demo session's frame 0 (mirrors at 120 degrees)
+# carved ('carve', 'paper': state, source) and fused ('tsdf': tsdf, weight, source) in 4 mm voxels
+# around its raw cloud, its depth not smoothed (OpenCV's bilateral filter changes its last bits
+# between releases), recorded before the views through several mirrors were added (commit a4c18a3;
+# the same on OpenCV 5.0 and 5.1), the fusion computing every voxel ('tsdf', now Blocks.all).
 DEMO_DENSE_DIGESTS = {"carve": "b2da67d49d164cbb", "paper": "06482df27eac37fb", "tsdf": "b40231bbb1a7a0b7"}
 
 
 def test_where_no_ray_meets_two_mirrors_dense_results_do_not_change():
-    """The sparse fusion (issue 14) gives the same values to the voxels it computes, and leaves out only voxels that
-    every view sees empty beyond the truncation (weight 0 there, tsdf 1 in the whole fusion)."""
+    """The sparse fusion (issue 14) gives the same values to the voxels it computes, and leaves out
+    only voxels that every view sees empty beyond the truncation (weight 0 there, tsdf 1 in the
+    whole fusion)."""
     session = load_session(Path(__file__).resolve().parents[3] / "sessions" / "demo")
     rig = Rig.from_session(session)
     selection = dataclasses.replace(session.selection, smooth=False)

@@ -1,8 +1,9 @@
-"""Volumetric fusion (mirrorcore.tsdf) of the camera's and the mirrors' views: on the simulated sphere with Kinect
-noise the mesh is at least as accurate as the raw cloud of Algorithm 1; the sparse fusion computes every voxel of
-the truncation band as a fusion of the whole grid does, and its mesh is the whole grid's; large boxes with little
-surface fit the memory budget; the mesh PLY file; progress and cancel. The mesh is scikit-image's Lorensen marching
-cubes on the whole grids, kept to observed edges, across block boundaries and with vertices exactly on grid points."""
+"""Volumetric fusion (mirrorcore.tsdf) of the camera's and the mirrors' views: on the simulated
+sphere with Kinect noise the mesh is at least as accurate as the raw cloud of Algorithm 1; the
+sparse fusion computes every voxel of the truncation band as a fusion of the whole grid does, and
+its mesh is the whole grid's; large boxes with little surface fit the memory budget; the mesh PLY
+file; progress and cancel. The mesh is scikit-image's Lorensen marching cubes on the whole grids,
+kept to observed edges, across block boundaries and with vertices exactly on grid points."""
 import threading
 
 import numpy as np
@@ -33,7 +34,8 @@ def rmse_to_sphere(points, scene) -> float:
 
 @pytest.fixture(scope="module", params=[0, 1])
 def noisy(request):
-    """(scene, prepared depth, mask, raw cloud, fused result) of one Kinect frame at full resolution."""
+    """(scene, prepared depth, mask, raw cloud, fused result) of one Kinect frame at full
+    resolution."""
     scene = sphere_scene(1.0, SensorModel.kinect_v1(), seed=request.param)
     depth, mask = prepare_frame(scene.rig, scene.depth, scene.background)
     volume = dense_volume(scene.rig, depth, mask, DenseOptions())
@@ -44,9 +46,11 @@ def test_mesh_is_no_less_accurate_than_the_raw_cloud(noisy):
     scene, _, _, raw, fused = noisy
     mesh = fused.mesh()
     assert rmse_to_sphere(mesh.vertices, scene) <= rmse_to_sphere(raw.points, scene)
-    assert len(mesh.faces) > 50_000                 # a closed-ish surface of 2 mm cells, not a few patches
+    # a closed-ish surface of 2 mm cells, not a few patches
+    assert len(mesh.faces) > 50_000
     counts = np.bincount(mesh.sources, minlength=3)
-    assert len(counts) == 3 and (counts > 10_000).all(), counts   # every view contributes (reflections work)
+    # every view contributes (reflections work)
+    assert len(counts) == 3 and (counts > 10_000).all(), counts
 
 
 def test_mesh_ply_is_readable(noisy, tmp_path):
@@ -78,9 +82,9 @@ def half():
 
 
 def test_the_sparse_fusion_computes_the_band_as_the_whole_grid_does(half):
-    """Every voxel to which some view gives a value below 1 (within the truncation of its surface) is in the blocks
-    and has the tsdf, weight and source of a fusion of every voxel, bit for bit; the voxels left out are those every
-    view sees empty (tsdf 1) or not at all."""
+    """Every voxel to which some view gives a value below 1 (within the truncation of its surface)
+    is in the blocks and has the tsdf, weight and source of a fusion of every voxel, bit for bit;
+    the voxels left out are those every view sees empty (tsdf 1) or not at all."""
     scene, depth, mask, volume = half
     sparse = fuse(scene.rig, depth, mask, volume)
     whole = fuse(scene.rig, depth, mask, volume, blocks=Blocks.all(volume, BLOCK))
@@ -93,15 +97,17 @@ def test_the_sparse_fusion_computes_the_band_as_the_whole_grid_does(half):
     left_out = (ww > 0) & ~computed
     assert left_out.sum() > 0 and (tw[left_out] == 1).all()
     assert (t[~computed] == 1).all() and (s[~computed] == NO_SOURCE).all()
-    assert len(sparse.blocks) < np.prod(volume.block_shape(BLOCK)) / 5     # 15 % of the grid's blocks
+    # 15 % of the grid's blocks
+    assert len(sparse.blocks) < np.prod(volume.block_shape(BLOCK)) / 5
 
 
 def lorensen_on_observed_edges(values, observed):
-    """The reference: scikit-image's Lorensen marching cubes on whole grids (nx, ny, nz), kept to the faces whose 3
-    vertices lie on edges with both ends observed, the vertices at one grid point merged (scikit-image nudges each off
-    it by 2e-16 along its own edge), the faces made degenerate by that and the vertices no face uses dropped ->
-    vertices (n, 3) float64 voxel index coordinates, faces (f, 3), and the count of faces scikit-image made. A vertex
-    exactly on a grid point tells no edge here: that point alone must be observed (the blocks' mesh checks the edge
+    """The reference: scikit-image's Lorensen marching cubes on whole grids (nx, ny, nz), kept to
+    the faces whose 3 vertices lie on edges with both ends observed, the vertices at one grid point
+    merged (scikit-image nudges each off it by 2e-16 along its own edge), the faces made degenerate
+    by that and the vertices no face uses dropped -> vertices (n, 3) float64 voxel index
+    coordinates, faces (f, 3), and the count of faces scikit-image made. A vertex exactly on a grid
+    point tells no edge here: that point alone must be observed (the blocks' mesh checks the edge
     its corner was found on); the grids below have no such vertex beside an unobserved voxel."""
     verts, faces, _, _ = marching_cubes(values, 0.0, method="lorensen", allow_degenerate=True)
     made = len(faces)
@@ -116,8 +122,8 @@ def lorensen_on_observed_edges(values, observed):
 
 
 def oriented(faces):
-    """(f, 3) vertex indices -> the faces without a repeated index, each rotated to start at its least index (the
-    winding kept), in sorted order."""
+    """(f, 3) vertex indices -> the faces without a repeated index, each rotated to start at its
+    least index (the winding kept), in sorted order."""
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
     start = np.argmin(faces, axis=1)[:, None]
     faces = np.take_along_axis(faces, (start + np.arange(3)) % 3, axis=1)
@@ -125,9 +131,10 @@ def oriented(faces):
 
 
 def assert_same_mesh(mesh, volume, verts, faces):
-    """The block mesh has the reference's vertices (metres, to 1e-6 m) and its faces with their winding. Vertices
-    closer than that (a few, near grid points: float32 metres do not tell them apart) count as one place; the faces
-    are compared as triples of places, and the places as counts of vertices."""
+    """The block mesh has the reference's vertices (metres, to 1e-6 m) and its faces with their
+    winding. Vertices closer than that (a few, near grid points: float32 metres do not tell them
+    apart) count as one place; the faces are compared as triples of places, and the places as counts
+    of vertices."""
     expected = np.asarray(volume.origin) + volume.voxel * verts
     assert len(mesh.vertices) == len(expected)
     np.testing.assert_allclose(np.sort(mesh.vertices, axis=0), np.sort(expected, axis=0), atol=1e-6)
@@ -143,8 +150,8 @@ def assert_same_mesh(mesh, volume, verts, faces):
 
 
 def in_blocks(volume, values, mask, source, keep=None):
-    """Whole grids (padded to blocks of BLOCK^3 voxels) -> the Blocks where `keep` holds (default: those with a voxel
-    in the mask) and their values, mask and source as (m, B, B, B)."""
+    """Whole grids (padded to blocks of BLOCK^3 voxels) -> the Blocks where `keep` holds (default:
+    those with a voxel in the mask) and their values, mask and source as (m, B, B, B)."""
     b = BLOCK
     shape = tuple(n // b for n in values.shape)
     cut = [g.reshape(shape[0], b, shape[1], b, shape[2], b).transpose(0, 2, 4, 1, 3, 5) for g in (values, mask, source)]
@@ -153,23 +160,25 @@ def in_blocks(volume, values, mask, source, keep=None):
 
 
 def test_the_mesh_of_the_blocks_is_scikit_images_lorensen_on_the_whole_grids(half):
-    """Marching cubes over the blocks gives the vertices and the oriented faces that scikit-image's Lorensen marching
-    cubes gives on the whole grids (the voxels outside the blocks unobserved: tsdf 1, weight 0), kept to the faces on
-    observed edges; every vertex has a label."""
+    """Marching cubes over the blocks gives the vertices and the oriented faces that scikit-image's
+    Lorensen marching cubes gives on the whole grids (the voxels outside the blocks unobserved: tsdf
+    1, weight 0), kept to the faces on observed edges; every vertex has a label."""
     scene, depth, mask, volume = half
     fused = fuse(scene.rig, depth, mask, volume)
     mesh = fused.mesh()
     tsdf, weight, _ = fused.grids()
     verts, faces, made = lorensen_on_observed_edges(tsdf, weight > 0)
-    assert len(faces) > 20_000 and made > len(faces) + 1000                  # the observed-edge rule drops some
+    # the observed-edge rule drops some
+    assert len(faces) > 20_000 and made > len(faces) + 1000
     assert_same_mesh(mesh, volume, verts, faces)
     assert (mesh.sources != NO_SOURCE).all()
 
 
 def test_a_surface_across_blocks_is_the_whole_grids():
-    """A tilted plane crossing 27 blocks and a sphere, with the blocks far from both and one block the plane crosses
-    left out (unobserved): the block mesh is the whole grid's across every block boundary and around the missing
-    blocks, the faces of the cubes whose lowest corner is in a missing block included."""
+    """A tilted plane crossing 27 blocks and a sphere, with the blocks far from both and one block
+    the plane crosses left out (unobserved): the block mesh is the whole grid's across every block
+    boundary and around the missing blocks, the faces of the cubes whose lowest corner is in a
+    missing block included."""
     volume = Volume.from_bounds([0, 0, 0], [12, 12, 12], 1.0)
     x, y, z = np.meshgrid(*(np.arange(12.0),) * 3, indexing="ij")
     plane = (0.6 * x + 0.3 * y + 0.2 * z - 5.25) / 2                  # no value exactly 0
@@ -191,10 +200,10 @@ def test_a_surface_across_blocks_is_the_whole_grids():
 
 
 def test_vertices_on_grid_points_are_one_vertex_and_their_degenerate_faces_go():
-    """The plane x + y + z = 3 through grid points: every vertex is a grid point (a value exactly 0), one vertex each
-    (10 of them), and the faces of the cubes that it only touches at a corner, degenerate, are dropped; it is
-    scikit-image's mesh with its copies at one point merged. A lone zero among positive voxels makes only degenerate
-    faces: they go, and so does its vertex."""
+    """The plane x + y + z = 3 through grid points: every vertex is a grid point (a value exactly
+    0), one vertex each (10 of them), and the faces of the cubes that it only touches at a corner,
+    degenerate, are dropped; it is scikit-image's mesh with its copies at one point merged. A lone
+    zero among positive voxels makes only degenerate faces: they go, and so does its vertex."""
     volume = Volume.from_bounds([0, 0, 0], [4, 4, 4], 1.0)
     values = np.sum(np.indices((4, 4, 4)), axis=0).astype(np.float32) - 3
     mask, source = np.ones(values.shape, bool), np.zeros(values.shape, np.uint8)
@@ -212,13 +221,15 @@ def test_vertices_on_grid_points_are_one_vertex_and_their_degenerate_faces_go():
 
 
 def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
-    """A plane between x = 1 and x = 2 crossing each edge at t = 0.75, 0.25, 0.5, 0.25 along y: the vertex takes the
-    label of the nearer end (1 at x = 1, 2 at x = 2; the lower end at 0.5), the other end's when the nearer one has
-    none (x = 1 unlabelled at y = 3), and none when neither has one (z = 3)."""
+    """A plane between x = 1 and x = 2 crossing each edge at t = 0.75, 0.25, 0.5, 0.25 along y: the
+    vertex takes the label of the nearer end (1 at x = 1, 2 at x = 2; the lower end at 0.5), the
+    other end's when the nearer one has none (x = 1 unlabelled at y = 3), and none when neither has
+    one (z = 3)."""
     volume = Volume.from_bounds([0, 0, 0], [4, 4, 4], 1.0)
     values = np.ones((4, 4, 4), np.float32)
     values[1], values[2:] = np.array([0.75, 0.25, 0.5, 0.25])[:, None], -1.0
-    values[2] = values[1] - 1                                      # x = 2: t - 1, so that the crossing is at t
+    # x = 2: t - 1, so that the crossing is at t
+    values[2] = values[1] - 1
     source = np.zeros((4, 4, 4), np.uint8)
     source[1], source[2] = 1, 2
     source[1, 3], source[1:3, :, 3] = NO_SOURCE, NO_SOURCE
@@ -231,9 +242,10 @@ def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
 
 
 def test_a_large_box_with_little_surface_fits_the_budget(half):
-    """60 cm at 1 mm: 216 million voxels (4.3 GB at the 20 bytes a voxel fusion used to need). Its blocks near the
-    sphere fit in 256 MiB and its mesh is as accurate as the raw cloud; carving, which holds two bytes a voxel, is
-    refused before any work, and so is a fusion whose blocks do not fit."""
+    """60 cm at 1 mm: 216 million voxels (4.3 GB at the 20 bytes a voxel fusion used to need). Its
+    blocks near the sphere fit in 256 MiB and its mesh is as accurate as the raw cloud; carving,
+    which holds two bytes a voxel, is refused before any work, and so is a fusion whose blocks do
+    not fit."""
     scene, depth, mask, _ = half
     raw = reconstruct_raw(scene.rig, depth, mask).points
     volume = Volume.from_bounds(scene.centre - 0.3, scene.centre + 0.3, 0.001)

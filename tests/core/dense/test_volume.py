@@ -1,5 +1,5 @@
-"""The voxel grid (mirrorcore.dense.volume) and its blocks (mirrorcore.dense.blocks): box to shape, centres, blocks
-and their layout, bounds, writing, refusals, the chunk runner."""
+"""The voxel grid (mirrorcore.dense.volume) and its blocks (mirrorcore.dense.blocks): box to shape,
+centres, blocks and their layout, bounds, writing, refusals, the chunk runner."""
 import threading
 
 import numpy as np
@@ -21,8 +21,9 @@ def test_box_to_grid_and_back():
 
 
 def test_the_box_of_a_grid_gives_the_grid_back():
-    """The box a grid covers, made into a grid again (the browser's Dense fields after a run), keeps its shape: a
-    box a whole number of voxels wide, up to rounding, does not gain a voxel (it did, by rounding up 26.000000000004)."""
+    """The box a grid covers, made into a grid again (the browser's Dense fields after a run), keeps
+    its shape: a box a whole number of voxels wide, up to rounding, does not gain a voxel (it did,
+    by rounding up 26.000000000004)."""
     for lo, voxel in (([1.9179862439359936, 1.1744999658616915, 2.740289695151073], 0.004), ([0, 0, 1], 0.01)):
         grid = Volume.from_bounds(lo, np.add(lo, [0.836, 0.104, 0.872]), voxel)
         for _ in range(3):
@@ -30,7 +31,8 @@ def test_the_box_of_a_grid_gives_the_grid_back():
             again = Volume.from_bounds(low, low + voxel * np.asarray(grid.shape), voxel)
             assert again.shape == grid.shape and np.allclose(again.origin, grid.origin)
             grid = again
-    assert Volume.from_bounds([0, 0, 0], [0.0401, 0.04, 0.04], 0.004).shape == (11, 10, 10)   # over by 0.025 voxel
+    # over by 0.025 voxel
+    assert Volume.from_bounds([0, 0, 0], [0.0401, 0.04, 0.04], 0.004).shape == (11, 10, 10)
 
 
 def test_around_a_cloud_with_margin():
@@ -60,14 +62,16 @@ def test_blocks_cover_the_grid_and_lay_out_their_voxels(volume):
     assert blocks.voxels == 18 * 64 and blocks.keys.tolist() == list(range(18))
     x, y, z = blocks.axes()
     assert x.shape == (4, 1, 1, 18) and y.shape == (1, 4, 1, 18) and z.shape == (1, 1, 4, 18)
-    r = 17                                                           # block (2, 1, 2): voxels 8..11, 4..7, 8..11
+    # block (2, 1, 2): voxels 8..11, 4..7, 8..11
+    r = 17
     assert blocks.ijk[r].tolist() == [2, 1, 2]
     xs, ys, zs = (np.asarray(volume.axes()[a], np.float32) for a in range(3))
     np.testing.assert_array_equal(x[:2, 0, 0, r], xs[8:10])
     np.testing.assert_array_equal(y[0, :2, 0, r], ys[4:6])
     np.testing.assert_array_equal(z[0, 0, :1, r], zs[8:9])
     assert np.isnan(x[2:, 0, 0, r]).all() and np.isnan(y[0, 2:, 0, r]).all() and np.isnan(z[0, 0, 1:, r]).all()
-    centre, half = blocks.bounds()                                   # the box of its voxel centres inside the grid
+    # the box of its voxel centres inside the grid
+    centre, half = blocks.bounds()
     np.testing.assert_allclose(centre[:, r] - half[:, r], [0.08, 0.04, 1.08])
     np.testing.assert_allclose(centre[:, r] + half[:, r], [0.09, 0.05, 1.08])
     chunks = blocks.chunks(max_voxels=64 * 5)
@@ -78,7 +82,8 @@ def test_block_values_land_on_their_voxels(volume):
     blocks = Blocks.all(volume, 4).take(np.array([0, 17]))
     values = np.arange(2 * 64, dtype=np.int32).reshape(2, 4, 4, 4)            # block-major
     grid = padded_grid(volume, -1, np.int32, 4)
-    blocks.write(grid, np.moveaxis(values, 0, -1))                         # the block layout (B, B, B, m)
+    # the block layout (B, B, B, m)
+    blocks.write(grid, np.moveaxis(values, 0, -1))
     assert grid[1, 2, 3] == values[0, 1, 2, 3] and grid[9, 5, 8] == values[1, 1, 1, 0]
     assert (grid == -1).sum() == grid.size - 128
     assert cropped(volume, grid).shape == (10, 6, 9)

@@ -9,7 +9,8 @@ def test_burrus_disparity_round_trip_within_quantisation():
     counts = depth_to_disparity(z)
     assert counts.dtype == np.uint16 and counts.max() < 2047
     back = disparity_to_depth(counts)
-    # rounding moves 1/z by at most half a disparity step |A| / 2, so |back - z| <= |A| / 2 * z * back
+    # rounding moves 1/z by at most half a disparity step |A| / 2, so |back - z| <= |A| / 2 * z *
+    # back
     assert np.all(np.abs(back - z) <= 0.5 * 0.0030711016 * z * back * 1.0001 + 1e-6)
     np.testing.assert_array_equal(depth_to_disparity(disparity_to_depth(counts)), counts)
     assert depth_to_disparity(np.array([0.0, 0.1, np.nan]).tolist()).tolist() == [DISPARITY_INVALID] * 3

@@ -1,4 +1,5 @@
-"""Object selection: background subtraction with a depth-dependent tolerance, flying pixels, specks, ROI, range."""
+"""Object selection: background subtraction with a depth-dependent tolerance, flying pixels, specks,
+ROI, range."""
 import numpy as np
 from helpers import sphere_depth
 
@@ -24,7 +25,8 @@ def scene(rng, wall=4.0):
 
 def test_noisy_far_wall_does_not_leak():
     rng = np.random.default_rng(0)
-    background, frame, truth = scene(rng, wall=4.0)           # sigma(4 m) = 23 mm: a fixed 5 cm tolerance leaks
+    # sigma(4 m) = 23 mm: a fixed 5 cm tolerance leaks
+    background, frame, truth = scene(rng, wall=4.0)
     mask = object_mask(CAMERA, frame, background, Selection(smooth=False))
     assert (mask & ~truth).sum() == 0
     assert (mask & truth).sum() > 0.97 * truth.sum()
@@ -35,9 +37,11 @@ def test_noisy_far_wall_does_not_leak():
 def test_flying_pixels_and_specks_are_removed():
     rng = np.random.default_rng(1)
     background, frame, truth = scene(rng, wall=3.0)
-    edge = truth & ~np.roll(truth, 1, axis=1)                   # left silhouette pixels of the sphere
+    # left silhouette pixels of the sphere
+    edge = truth & ~np.roll(truth, 1, axis=1)
     v, u = np.nonzero(edge)
-    frame[v, u - 1] = 2.5                                       # mixed readings half-way to the wall
+    # mixed readings half-way to the wall
+    frame[v, u - 1] = 2.5
     frame[10:12, 10:12] = 1.0                                   # a 4-pixel speck near the camera
     mask = object_mask(CAMERA, frame, background, Selection(min_blob=20))
     assert not mask[v, u - 1].any()
@@ -46,8 +50,9 @@ def test_flying_pixels_and_specks_are_removed():
 
 
 def test_specks_are_dropped_by_size_however_many_pieces():
-    """Pieces of 1-4 pixels on a grid (few, then more than 255: the 8-bit lookup and the general path) and pieces of
-    exactly min_blob - 1 and min_blob pixels: only the last and the large blob stay."""
+    """Pieces of 1-4 pixels on a grid (few, then more than 255: the 8-bit lookup and the general
+    path) and pieces of exactly min_blob - 1 and min_blob pixels: only the last and the large blob
+    stay."""
     for step in (40, 12):                                       # 143 and 1,400 specks
         mask = np.zeros((480, 640), bool)
         mask[step // 2::step, step // 2::step] = True
@@ -64,7 +69,8 @@ def test_specks_are_dropped_by_size_however_many_pieces():
 
 
 def test_flying_pixels_follow_their_definition():
-    """A pixel is flying when it lies behind its nearest masked 8-neighbour by more than max(6 sigma(z), 0.03 z)."""
+    """A pixel is flying when it lies behind its nearest masked 8-neighbour by more than max(6
+    sigma(z), 0.03 z)."""
     rng = np.random.default_rng(4)
     depth = rng.uniform(0.5, 5.0, (60, 80)).astype(np.float32)
     mask = rng.random((60, 80)) < 0.8
@@ -117,6 +123,8 @@ def test_smoothing_reduces_noise_and_keeps_edges():
     left = np.s_[:, 10:300]
     assert np.std(smoothed[left] - 2.0) < 0.4 * np.std(depth[left] - 2.0)
     assert abs(np.mean(smoothed[left]) - 2.0) < 5e-4                     # no bias
-    assert np.abs(smoothed[:, 318:322] - truth[:, 318:322]).max() < 0.05   # no blur across the 1 m edge
+    # no blur across the 1 m edge
+    assert np.abs(smoothed[:, 318:322] - truth[:, 318:322]).max() < 0.05
     mask[:, :100] = False
-    assert (smooth_depth(depth, mask)[:, :100] == depth[:, :100]).all()    # unmasked pixels untouched
+    # unmasked pixels untouched
+    assert (smooth_depth(depth, mask)[:, :100] == depth[:, :100]).all()

@@ -20,7 +20,8 @@ from mirrorcore.geometry.camera import (
 def test_reprojection_by_hand():
     intr = Intrinsics(4, 3, fx=2.0, fy=4.0, cx=1.5, cy=1.0)
     depth = np.zeros((3, 4), np.float32)
-    depth[2, 3] = 2.0          # u = 3, v = 2: x = (3 - 1.5) / 2 * 2 = 1.5, y = (2 - 1) / 4 * 2 = 0.5
+    # u = 3, v = 2: x = (3 - 1.5) / 2 * 2 = 1.5, y = (2 - 1) / 4 * 2 = 0.5
+    depth[2, 3] = 2.0
     depth[0, 0] = 1.0          # u = 0, v = 0: x = -0.75, y = -0.25
     points, pixels = reproject_depth(intr, depth)
     assert pixels.tolist() == [[0, 0], [3, 2]]      # (u, v), row-major order
@@ -70,7 +71,8 @@ def test_open3d_json_round_trip(tmp_path):
     intr = Intrinsics.kinect_v1()
     save_open3d_json(intr, tmp_path / "k.json")
     data = json.loads((tmp_path / "k.json").read_text())
-    assert data["intrinsic_matrix"][6] == pytest.approx(intr.cx)   # column-major, as Open3D writes it
+    # column-major, as Open3D writes it
+    assert data["intrinsic_matrix"][6] == pytest.approx(intr.cx)
     assert load_open3d_json(tmp_path / "k.json") == intr
 
 

@@ -1,4 +1,5 @@
-"""Sphere and cylinder fitting (mirrorcore.geometry.fitting) and the paper's error measures (mirrorcore.fit_errors)."""
+"""Sphere and cylinder fitting (mirrorcore.geometry.fitting) and the paper's error measures
+(mirrorcore.fit_errors)."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,8 +16,9 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def _viewpoints(center: np.ndarray, mirrors: int) -> np.ndarray:
-    """The camera (origin) and `mirrors` virtual cameras, as the paper's rig: the camera's position turned about the
-    vertical (y) line through the object by +-120 degrees (mirror j's view is the object seen from viewpoint j)."""
+    """The camera (origin) and `mirrors` virtual cameras, as the paper's rig: the camera's position
+    turned about the vertical (y) line through the object by +-120 degrees (mirror j's view is the
+    object seen from viewpoint j)."""
     angles = np.radians([0.0, 120.0, -120.0][: 1 + mirrors])
     c, s = np.cos(angles), np.sin(angles)
     rot = np.zeros((len(angles), 3, 3))
@@ -26,8 +28,9 @@ def _viewpoints(center: np.ndarray, mirrors: int) -> np.ndarray:
 
 def _visible(surface: np.ndarray, normals: np.ndarray, viewpoints: np.ndarray,
              min_cos: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
-    """Points facing a viewpoint (cosine of the view angle > min_cos, as a depth camera returns), labelled by the first
-    viewpoint that sees them (0 = camera, j = mirror j) -> points (m, 3), sources (m,) uint8."""
+    """Points facing a viewpoint (cosine of the view angle > min_cos, as a depth camera returns),
+    labelled by the first viewpoint that sees them (0 = camera, j = mirror j) -> points (m, 3),
+    sources (m,) uint8."""
     rays = _unit(viewpoints[None] - surface[:, None])                 # (n, v, 3)
     facing = np.einsum("nvk,nk->nv", rays, normals) > min_cos
     seen = facing.any(axis=1)
@@ -35,7 +38,8 @@ def _visible(surface: np.ndarray, normals: np.ndarray, viewpoints: np.ndarray,
 
 
 def _sphere_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
-    """A sphere at ~1.5-2.5 m of radius 5-30 cm, seen by the camera and `mirrors` mirrors -> (Sphere, points, sources)."""
+    """A sphere at ~1.5-2.5 m of radius 5-30 cm, seen by the camera and `mirrors` mirrors ->
+    (Sphere, points, sources)."""
     center = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(1.5, 2.5)])
     radius = rng.uniform(0.05, 0.3)
     directions = _unit(rng.normal(size=(n, 3)))
@@ -44,8 +48,9 @@ def _sphere_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
 
 
 def _cylinder_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
-    """A cylinder of radius 5-30 cm and length 6 radii, seen like _sphere_scan, its axis in any orientation more than
-    34 degrees away from the line of sight (closer to it, the camera would see the end rather than the side)."""
+    """A cylinder of radius 5-30 cm and length 6 radii, seen like _sphere_scan, its axis in any
+    orientation more than 34 degrees away from the line of sight (closer to it, the camera would see
+    the end rather than the side)."""
     axis_point = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(1.5, 2.5)])
     sight = _unit(axis_point)
     across = _unit(np.cross(sight, rng.normal(size=3)))
@@ -61,8 +66,8 @@ def _cylinder_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
 
 
 def _corrupt(rng: np.random.Generator, points: np.ndarray, sources: np.ndarray, sigma: float, outlier_ratio: float):
-    """Gaussian noise (sigma metres, every axis) and uniform outliers in the cloud's box grown by 50 % (outlier_ratio
-    of the returned points, labelled direct)."""
+    """Gaussian noise (sigma metres, every axis) and uniform outliers in the cloud's box grown by 50
+    % (outlier_ratio of the returned points, labelled direct)."""
     noisy = points + rng.normal(scale=sigma, size=points.shape)
     lo, hi = points.min(axis=0), points.max(axis=0)
     margin = 0.25 * (hi - lo)
@@ -72,8 +77,8 @@ def _corrupt(rng: np.random.Generator, points: np.ndarray, sources: np.ndarray, 
 
 
 def _assert_cylinder_close(got: Cylinder, want: Cylinder, tol: float) -> None:
-    """Same axis line (direction up to sign, axis point on the true axis) and radius, all within tol metres
-    (direction within tol / radius radians)."""
+    """Same axis line (direction up to sign, axis point on the true axis) and radius, all within tol
+    metres (direction within tol / radius radians)."""
     d_got, d_want = np.array(got.axis_direction), np.array(want.axis_direction)
     assert np.linalg.norm(np.cross(d_got, d_want)) < tol / want.radius
     assert np.linalg.norm(d_got) == pytest.approx(1.0, abs=1e-12)
@@ -114,7 +119,8 @@ def test_error_figures_of_no_points_are_null():
 
 def test_per_source_errors_by_hand():
     per_source = per_source_errors(np.array([0.1, -0.2, 0.0, 0.3, -0.1]), np.array([0, 1, 1, 3, 0]))
-    assert list(per_source) == [0, 1, 3]                                 # no mirror 2 points: no entry
+    # no mirror 2 points: no entry
+    assert list(per_source) == [0, 1, 3]
     assert per_source[0] == FitErrors(2, pytest.approx(0.1), pytest.approx(0.0), pytest.approx(0.1))
     assert per_source[1] == FitErrors(2, pytest.approx(np.sqrt(0.02)), pytest.approx(-0.1), pytest.approx(0.1))
     assert per_source[3] == FitErrors(1, pytest.approx(0.3), pytest.approx(0.3), pytest.approx(0.3))
@@ -130,7 +136,8 @@ def test_shape_fit_json_over_all_points_inliers_and_sources():
     assert out["shape"] == "sphere" and out["center"] == [0.0, 0.0, 2.0]
     assert out["radius_mm"] == pytest.approx(100.0)
     assert out["points"] == 4 and out["inliers"] == 3 and out["threshold_mm"] == pytest.approx(10.0)
-    assert out["rmse_mm"] == pytest.approx(1e3 * np.sqrt(np.mean(deviations ** 2)))      # the outlier counts
+    # the outlier counts
+    assert out["rmse_mm"] == pytest.approx(1e3 * np.sqrt(np.mean(deviations ** 2)))
     assert out["mean_error_mm"] == pytest.approx(12.5)
     assert out["mean_abs_error_mm"] == pytest.approx(14.0)
     assert out["inlier_errors"]["mean_error_mm"] == pytest.approx(0.0)
@@ -190,17 +197,19 @@ def test_shapes_with_noise_and_outliers(kind, seed, mirrors):
     else:
         _assert_cylinder_close(fit.shape, truth, TOL)
     assert 0.7 * SIGMA < fit.inlier_errors.rmse < 1.1 * SIGMA
-    assert fit.errors.rmse > 3 * fit.inlier_errors.rmse                 # all points: the outliers count
+    # all points: the outliers count
+    assert fit.errors.rmse > 3 * fit.inlier_errors.rmse
     assert abs(fit.inlier_errors.mean_error) < 1e-9
 
 
 # ------------------------------------------------------------------------------------------------ signs and sources
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
 def test_per_source_errors_and_their_sign(kind):
-    """Mirror 1's points pushed 3 mm outwards, mirror 2's 3 mm inwards (mis-calibrated mirrors), each mirror with a
-    third of the direct view's points: with a 0.5 mm threshold the shape is the direct view's, and the per-source mean
-    errors say which way each mirror is off. (The cylinder gets its exact normals: normals estimated across the 3 mm
-    steps between views give 2-point samples too rough for a 0.5 mm threshold.)"""
+    """Mirror 1's points pushed 3 mm outwards, mirror 2's 3 mm inwards (mis-calibrated mirrors),
+    each mirror with a third of the direct view's points: with a 0.5 mm threshold the shape is the
+    direct view's, and the per-source mean errors say which way each mirror is off. (The cylinder
+    gets its exact normals: normals estimated across the 3 mm steps between views give 2-point
+    samples too rough for a 0.5 mm threshold.)"""
     scan = _sphere_scan if kind == "sphere" else _cylinder_scan
     truth, points, sources = scan(np.random.default_rng(7), mirrors=2, n=12000)
     keep = (sources == 0) | (np.arange(len(sources)) % 3 == 0)
@@ -246,7 +255,8 @@ def test_given_normals_are_used():
     good = _outward_normals(truth, points) * np.random.default_rng(0).choice([-1.0, 2.0], size=(len(points), 1))
     fit = fit_cylinder(points, np.random.default_rng(0), normals=good)
     _assert_cylinder_close(fit.shape, truth, 1e-6 * truth.radius)
-    with pytest.raises(MirrorscanError, match="no cylinder found"):   # all normals parallel: every sample degenerate
+    # all normals parallel: every sample degenerate
+    with pytest.raises(MirrorscanError, match="no cylinder found"):
         fit_cylinder(points, np.random.default_rng(0), normals=np.tile([0.0, 0.0, 1.0], (len(points), 1)))
     with pytest.raises(MirrorscanError, match=rf"{len(points)} points but normals of shape \(3,\)"):
         fit_cylinder(points, np.random.default_rng(0), normals=np.ones(3))
@@ -261,8 +271,9 @@ def test_estimate_normals_of_a_plane():
 
 @pytest.mark.parametrize("fit_shape, scan", [(fit_sphere, _sphere_scan), (fit_cylinder, _cylinder_scan)])
 def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
-    """The fraction rises to 1 by the samples RANSAC will draw (batches of them, with 90 % outliers); the same fit is
-    the one without progress; a cancel request stops it at the next batch, naming where."""
+    """The fraction rises to 1 by the samples RANSAC will draw (batches of them, with 90 %
+    outliers); the same fit is the one without progress; a cancel request stops it at the next
+    batch, naming where."""
     rng = np.random.default_rng(4)
     _, points, sources = scan(rng, mirrors=1, n=1500)
     cloud = _corrupt(rng, points, sources, SIGMA, 0.9)[0]

@@ -1,6 +1,6 @@
-"""Property-based tests of the geometry (hypothesis): reflection is an involution and an isometry, projection inverts
-reprojection, planes fitted under noise stay close to the truth, and any numbers given as a plane or a polygon end in
-a plane, a polygon or our own one-line error."""
+"""Property-based tests of the geometry (hypothesis): reflection is an involution and an isometry,
+projection inverts reprojection, planes fitted under noise stay close to the truth, and any numbers
+given as a plane or a polygon end in a plane, a polygon or our own one-line error."""
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -63,7 +63,8 @@ def test_points_behind_the_camera_never_project(camera, p):
 @EXAMPLES
 @given(normals, distances, st.integers(0, 2**32 - 1), st.floats(0, 0.002))
 def test_plane_fits_under_noise_stay_close(normal, d, seed, sigma):
-    """A 1 m x 1 m patch of 200 points with Gaussian noise sigma along the normal (and 10 % outliers for RANSAC)."""
+    """A 1 m x 1 m patch of 200 points with Gaussian noise sigma along the normal (and 10 % outliers
+    for RANSAC)."""
     rng = np.random.default_rng(seed)
     plane = Plane.from_abcd([*normal, d])
     e1 = np.cross(plane.n, [1.0, 0, 0] if abs(plane.n[0]) < 0.9 else [0, 1.0, 0])

@@ -1,4 +1,5 @@
-"""Planes: the sign convention, reflection (paper eq. 3), the reflection matrix, and fitting by SVD and RANSAC."""
+"""Planes: the sign convention, reflection (paper eq. 3), the reflection matrix, and fitting by SVD
+and RANSAC."""
 import numpy as np
 import pytest
 
@@ -15,16 +16,20 @@ def mirror_2m() -> Plane:
 def test_convention_camera_side_is_positive():
     plane = mirror_2m()
     assert plane.d > 0 and np.linalg.norm(plane.n) == pytest.approx(1)
-    assert plane.signed_distance(np.zeros(3)) == pytest.approx(plane.d)      # the camera is in front
-    assert plane.signed_distance([0.3, -0.1, 3.0]) < 0                        # beyond the glass is behind
-    flipped = Plane.from_abcd(-plane.abcd)                                    # any sign in, the same plane out
+    # the camera is in front
+    assert plane.signed_distance(np.zeros(3)) == pytest.approx(plane.d)
+    # beyond the glass is behind
+    assert plane.signed_distance([0.3, -0.1, 3.0]) < 0
+    # any sign in, the same plane out
+    flipped = Plane.from_abcd(-plane.abcd)
     np.testing.assert_allclose(flipped.abcd, plane.abcd)
 
 
 def test_reflection_by_hand():
     plane = Plane.from_abcd([0, 0, -1, 2])           # z = 2, normal towards the camera (-z)
     np.testing.assert_allclose(plane.reflect(np.array([1.0, 2.0, 3.0])), [1, 2, 1])
-    np.testing.assert_allclose(plane.reflect(np.array([0.0, 0.0, 0.0])), [0, 0, 4])   # the virtual camera
+    # the virtual camera
+    np.testing.assert_allclose(plane.reflect(np.array([0.0, 0.0, 0.0])), [0, 0, 4])
 
 
 def test_reflection_is_an_involution_and_an_isometry():
@@ -33,8 +38,10 @@ def test_reflection_is_an_involution_and_an_isometry():
     r = plane.reflect(p)
     np.testing.assert_allclose(plane.reflect(r), p, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(r[:100] - r[100:], axis=1), np.linalg.norm(p[:100] - p[100:], axis=1))
-    np.testing.assert_allclose(plane.signed_distance(r), -plane.signed_distance(p))   # swaps the sides
-    np.testing.assert_allclose(plane.signed_distance((p + r) / 2), 0, atol=1e-12)      # midpoints on the glass
+    # swaps the sides
+    np.testing.assert_allclose(plane.signed_distance(r), -plane.signed_distance(p))
+    # midpoints on the glass
+    np.testing.assert_allclose(plane.signed_distance((p + r) / 2), 0, atol=1e-12)
 
 
 def test_reflection_matrix_agrees_with_eq3():

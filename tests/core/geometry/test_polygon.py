@@ -1,4 +1,5 @@
-"""Polygons: validation (too few vertices, self-crossing, outside the image) and rasterisation at the edges."""
+"""Polygons: validation (too few vertices, self-crossing, outside the image) and rasterisation at
+the edges."""
 import cv2
 import numpy as np
 import pytest
@@ -10,7 +11,8 @@ from mirrorcore.geometry.polygon import edge_distance, polygon_mask, validate_po
 def test_square_mask_includes_its_edges_only():
     mask = polygon_mask(np.array([[2, 1], [5, 1], [5, 3], [2, 3]], float), (6, 8))
     expected = np.zeros((6, 8), bool)
-    expected[1:4, 2:6] = True           # rows (v) 1..3, columns (u) 2..5: u and v not swapped, edges included
+    # rows (v) 1..3, columns (u) 2..5: u and v not swapped, edges included
+    expected[1:4, 2:6] = True
     np.testing.assert_array_equal(mask, expected)
 
 
@@ -22,7 +24,8 @@ def test_mask_agrees_with_point_in_polygon():
         poly = centre + np.stack([np.cos(angles), np.sin(angles)], 1) * rng.uniform(30, 90, (7, 1))
         mask = polygon_mask(poly, (300, 300))
         v, u = np.mgrid[0:300, 0:300]
-        contour = np.round(poly).astype(np.float32).reshape(-1, 1, 2)     # vertices snap to pixel centres
+        # vertices snap to pixel centres
+        contour = np.round(poly).astype(np.float32).reshape(-1, 1, 2)
         dist = np.array([cv2.pointPolygonTest(contour, (float(x), float(y)), True)
                          for x, y in zip(u.ravel()[::7], v.ravel()[::7])])
         sampled = mask.ravel()[::7]
@@ -56,7 +59,8 @@ def test_valid_concave_polygon_passes():
 
 def test_edge_distance_is_signed_and_nothing_is_inside_no_polygon():
     square = [(10, 10), (100, 10), (100, 100), (10, 100)]
-    assert edge_distance(square, (50, 30)) == pytest.approx(20.0)          # inside: to the nearest edge
+    # inside: to the nearest edge
+    assert edge_distance(square, (50, 30)) == pytest.approx(20.0)
     assert edge_distance(square, (103, 50)) == pytest.approx(-3.0)         # outside
     assert edge_distance(square, (100, 50)) == 0.0                         # on it
     assert edge_distance(square[:2], (50, 10)) == -np.inf

@@ -1,6 +1,7 @@
-"""Property-based tests of every loader (hypothesis): session JSON, depth PNG bytes, PLY bytes, scene JSON, .npz stacks
-and intrinsics files, given random input and valid files with random damage. Any input ends in a result or our own
-one-line error (a MirrorscanError subclass, or an OSError naming the file); never another exception."""
+"""Property-based tests of every loader (hypothesis): session JSON, depth PNG bytes, PLY bytes,
+scene JSON, .npz stacks and intrinsics files, given random input and valid files with random damage.
+Any input ends in a result or our own one-line error (a MirrorscanError subclass, or an OSError
+naming the file); never another exception."""
 import io
 import json
 import zipfile
@@ -40,7 +41,8 @@ json_values = st.recursive(
 
 
 def ends_cleanly(load, *args) -> object | None:
-    """load(*args): its result, or None after our own error (one line; an OSError must name its file)."""
+    """load(*args): its result, or None after our own error (one line; an OSError must name its
+    file)."""
     try:
         return load(*args)
     except MirrorscanError as exc:
@@ -94,7 +96,8 @@ def folder(tmp_path_factory) -> Path:
 @given(st.one_of(json_values, damaged_json(SESSION)))
 def test_session_json(folder, data):
     session = ends_cleanly(session_from_json, data, folder)
-    if session is not None:                     # what was accepted is a session that writes back to itself
+    # what was accepted is a session that writes back to itself
+    if session is not None:
         assert session_from_json(session.to_json(), folder) == session
 
 
@@ -150,7 +153,8 @@ dtypes = st.sampled_from(["u1", "u2", "i4", "f4", "f8", "c8", "?", "U3", "M8[s]"
 
 @st.composite
 def npz_arrays(draw) -> bytes:
-    """An archive of arrays named like ours (or not), of random dtypes and shapes, values including NaN and inf."""
+    """An archive of arrays named like ours (or not), of random dtypes and shapes, values including
+    NaN and inf."""
     arrays = {}
     for name in draw(st.sets(st.sampled_from(["depth", "K", "depth_scale", "timestamps", "colour", "other"]))):
         shape = tuple(draw(st.lists(st.integers(0, 4), max_size=4)))
@@ -193,7 +197,8 @@ def test_intrinsics_files(folder, data):
         raw = data.draw(st.one_of(st.binary(max_size=120), damaged_bytes(intrinsics_bytes(save, name, folder))))
         (folder / name).write_bytes(raw)
         camera = ends_cleanly(load, folder / name)
-        if camera is not None:                  # what was accepted is a camera that saves and loads to itself
+        # what was accepted is a camera that saves and loads to itself
+        if camera is not None:
             save(camera, folder / name)
             again = load(folder / name)
             assert (again.width, again.height) == (camera.width, camera.height)

@@ -1,6 +1,6 @@
-"""No command writes over a file that belongs to a session, or over its own input (issue 15, point 1): before,
-`reconstruct -o SESSION/session.json` replaced the session with a PLY (exit 0) and the next `calibrate` lost the
-calibration."""
+"""No command writes over a file that belongs to a session, or over its own input (issue 15, point
+1): before, `reconstruct -o SESSION/session.json` replaced the session with a PLY (exit 0) and the
+next `calibrate` lost the calibration."""
 from __future__ import annotations
 
 import json
@@ -46,7 +46,8 @@ def test_reconstruct_never_writes_over_a_session_file(session, capsys, target):
 
 
 def test_the_calibration_survives_a_wrong_output_and_the_next_calibrate(session, capsys):
-    """The issue's sequence: reconstruct -o SESSION/session.json, then calibrate: the planes are still there."""
+    """The issue's sequence: reconstruct -o SESSION/session.json, then calibrate: the planes are
+    still there."""
     planes = [m.plane for m in load_session(session).mirrors]
     refused(capsys, session, ["reconstruct", session, "-o", session / "session.json"])
     assert main(["calibrate", str(session)]) == 0
@@ -107,7 +108,8 @@ def test_a_frame_listed_outside_frames_is_protected(session):
 
 
 def test_one_frame_is_not_written_over_a_batch_record(session, tmp_path, capsys):
-    """A helper wrote a frame's PLY over a batch folder's manifest.json: the next run of the batch failed on it."""
+    """A helper wrote a frame's PLY over a batch folder's manifest.json: the next run of the batch
+    failed on it."""
     out = tmp_path / "frames"
     assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers", "1"]) == 0
     for name in ("manifest.json", ".mirrorscan-batch.lock"):

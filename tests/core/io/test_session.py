@@ -1,4 +1,5 @@
-"""Session folders, depth PNGs and PLY files: round trips, clear errors, and nothing lost on failure."""
+"""Session folders, depth PNGs and PLY files: round trips, clear errors, and nothing lost on
+failure."""
 import dataclasses
 import json
 import os
@@ -44,7 +45,8 @@ def test_session_round_trip(tmp_path):
     data = json.loads((tmp_path / "session.json").read_text())
     assert set(data) >= {"version", "camera", "mirrors", "background", "frames"} and data["version"] == 1
     assert data["mirrors"][1]["plane"] is None
-    assert "marker_offset" not in data["mirrors"][1]       # written only when the markers are off the silver
+    # written only when the markers are off the silver
+    assert "marker_offset" not in data["mirrors"][1]
 
 
 def test_marker_offset_round_trip(tmp_path):
@@ -53,9 +55,11 @@ def test_marker_offset_round_trip(tmp_path):
     save_session(session)
     assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset"] == 0.0042
     assert load_session(tmp_path).mirrors[0].marker_offset == 0.0042
-    assert "marker_offset_std" not in json.loads((tmp_path / "session.json").read_text())["mirrors"][0]   # typed
+    # typed
+    assert "marker_offset_std" not in json.loads((tmp_path / "session.json").read_text())["mirrors"][0]
     assert load_session(tmp_path).mirrors[0].glass_typed
-    save_session(session.with_mirror(0, replace(session.mirrors[0], marker_offset_std=0.0008)))      # measured
+    # measured
+    save_session(session.with_mirror(0, replace(session.mirrors[0], marker_offset_std=0.0008)))
     assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset_std"] == 0.0008
     loaded = load_session(tmp_path).mirrors[0]
     assert loaded.marker_offset_std == 0.0008 and not loaded.glass_typed
@@ -73,7 +77,8 @@ def test_a_glass_uncertainty_that_is_not_metres_is_refused_by_name(tmp_path, bad
 
 
 def test_bounces_are_kept_and_written_only_when_set(tmp_path):
-    """The session's `bounces` (extension): 3 unless the file says otherwise, written only when it differs."""
+    """The session's `bounces` (extension): 3 unless the file says otherwise, written only when it
+    differs."""
     session = make_session(tmp_path)
     save_session(session)
     assert "bounces" not in json.loads((tmp_path / "session.json").read_text())
@@ -183,7 +188,8 @@ def test_ply_layout_and_readers(tmp_path):
     o3d_cloud = o3d.io.read_point_cloud(str(tmp_path / "c.ply"))
     np.testing.assert_allclose(np.asarray(o3d_cloud.points), pts, atol=1e-7)
     colours = (np.asarray(o3d_cloud.colors) * 255).round()
-    assert (colours[:10] == colours[0]).all() and not (colours[10] == colours[0]).all()  # colour by source
+    # colour by source
+    assert (colours[:10] == colours[0]).all() and not (colours[10] == colours[0]).all()
     assert len(trimesh.load(tmp_path / "c.ply").vertices) == 50
 
 

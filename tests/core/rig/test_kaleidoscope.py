@@ -1,7 +1,8 @@
-"""The issue's figures on the simulator, through the command line as a user runs it: two mirrors hinged at 60, 72
-and 90 degrees, rendered with up to three bounces, noiseless and with Kinect v1 noise: simulate -> calibrate (markers)
--> reconstruct (up to 3 mirrors, and --bounces 1) -> fit sphere. No ghost, the radius, the cloud's growth, and the
-error of the views through two mirrors against the views through one."""
+"""The issue's figures on the simulator, through the command line as a user runs it: two mirrors
+hinged at 60, 72 and 90 degrees, rendered with up to three bounces, noiseless and with Kinect v1
+noise: simulate -> calibrate (markers) -> reconstruct (up to 3 mirrors, and --bounces 1) -> fit
+sphere. No ghost, the radius, the cloud's growth, and the error of the views through two mirrors
+against the views through one."""
 import contextlib
 import io
 import json
@@ -31,8 +32,8 @@ def run_ok(*argv) -> str:
 @pytest.fixture(scope="module", params=[(n, a) for n in ("none", "kinect") for a in (60, 72, 90)],
                 ids=lambda p: f"{p[0]}-{p[1]}")
 def scanned(request, tmp_path_factory):
-    """(noise, angle, session, truth, points and sources followed through 3 mirrors, the point count with 1, fit
-    JSON of the 3-mirror cloud)."""
+    """(noise, angle, session, truth, points and sources followed through 3 mirrors, the point count
+    with 1, fit JSON of the 3-mirror cloud)."""
     noise, angle = request.param
     root = tmp_path_factory.mktemp(f"kaleidoscope-{noise}-{angle}")
     session = root / "session"
@@ -61,20 +62,23 @@ def test_radius_within_half_a_millimetre(scanned):
 
 
 def test_the_views_through_two_mirrors_are_used(scanned):
-    """At least 20 % more points than following one mirror, labelled with their sequences; the fit reports them."""
+    """At least 20 % more points than following one mirror, labelled with their sequences; the fit
+    reports them."""
     _, angle, _, _, points, sources, one_bounce, fit = scanned
     assert len(points) >= 1.2 * one_bounce
     multi = sorted(set(sources.tolist()) - {0, 1, 2})
     assert multi and all(len(source_sequence(s)) in (2, 3) for s in multi)
     assert {f"mirror {' then '.join(map(str, source_sequence(s)))}" for s in multi} <= set(fit["per_source"])
-    assert (angle == 60) == any(len(source_sequence(s)) == 3 for s in multi)   # the image through 3 mirrors
+    # the image through 3 mirrors
+    assert (angle == 60) == any(len(source_sequence(s)) == 3 for s in multi)
 
 
 def test_the_views_through_two_mirrors_are_as_good_as_those_through_one(scanned):
-    """The RMSE (to the fitted sphere, as the fit reports per source) of the views through two mirrors is at most
-    1.5 times that of the views through one, though the sensor's own noise at their longer (virtual) depths grows
-    more (Kinect v1: sigma = 1.425e-3 z^2, 1.62 times at 60 degrees): their depth is fitted by local quadratic
-    surfaces over 9 x 9 pixels (pipeline.prepare_frame), which the measured 1.25 to 1.38 times at 60 degrees owe to."""
+    """The RMSE (to the fitted sphere, as the fit reports per source) of the views through two
+    mirrors is at most 1.5 times that of the views through one, though the sensor's own noise at
+    their longer (virtual) depths grows more (Kinect v1: sigma = 1.425e-3 z^2, 1.62 times at 60
+    degrees): their depth is fitted by local quadratic surfaces over 9 x 9 pixels
+    (pipeline.prepare_frame), which the measured 1.25 to 1.38 times at 60 degrees owe to."""
     *_, fit = scanned
     per_order = {}
     for name, errors in fit["per_source"].items():
@@ -85,8 +89,8 @@ def test_the_views_through_two_mirrors_are_as_good_as_those_through_one(scanned)
 
 
 def test_only_the_views_through_several_mirrors_are_fitted(scanned):
-    """prepare_frame smooths the direct view and the views through one mirror as before (smooth_depth, bit for bit)
-    and fits the others by local quadratic surfaces."""
+    """prepare_frame smooths the direct view and the views through one mirror as before
+    (smooth_depth, bit for bit) and fits the others by local quadratic surfaces."""
     session = load_session(scanned[2])
     rig, depth = Rig.from_session(session), session.read_frame(1)
     prepared, mask = prepare_frame(rig, depth, session.read_background(), session.selection)

@@ -27,8 +27,10 @@ def test_behind_the_glass_inside_the_boundary_is_reflected():
     depth = np.full(CAMERA.shape, 3.0, np.float32)       # everything reads 1 m behind the glass
     cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth)
     u = cloud.pixels[:, 0]
-    assert (cloud.sources[u <= 3] == 1).all() and (cloud.sources[u >= 4] == 0).all()   # boundary edge u = 3 inside
-    np.testing.assert_allclose(cloud.points[u <= 3, 2], 1.0, atol=1e-6)   # z = 3 reflected through z = 2 -> 1
+    # boundary edge u = 3 inside
+    assert (cloud.sources[u <= 3] == 1).all() and (cloud.sources[u >= 4] == 0).all()
+    # z = 3 reflected through z = 2 -> 1
+    np.testing.assert_allclose(cloud.points[u <= 3, 2], 1.0, atol=1e-6)
     np.testing.assert_allclose(cloud.points[u >= 4, 2], 3.0)
     # x and y are reflected too: through z = 2 they keep their value
     x_direct = (u[u <= 3] - CAMERA.cx) / CAMERA.fx * 3.0
@@ -36,7 +38,8 @@ def test_behind_the_glass_inside_the_boundary_is_reflected():
 
 
 def test_points_in_front_of_the_mirror_are_never_reflected():
-    depth = np.full(CAMERA.shape, 1.5, np.float32)       # in front of the glass (the real object, a marker)
+    # in front of the glass (the real object, a marker)
+    depth = np.full(CAMERA.shape, 1.5, np.float32)
     cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth)
     assert (cloud.sources == 0).all()
     np.testing.assert_allclose(cloud.points[:, 2], 1.5)
@@ -49,9 +52,11 @@ def test_first_mirror_wins_where_boundaries_overlap():
     depth = np.full(CAMERA.shape, 2.2, np.float32)       # behind `near` only
     cloud = reconstruct_raw(rig(Mirror("far", far, all_pixels), Mirror("near", near, LEFT)), depth)
     u = cloud.pixels[:, 0]
-    assert (cloud.sources[u <= 3] == 2).all()            # far does not apply (in front of it), near does
+    # far does not apply (in front of it), near does
+    assert (cloud.sources[u <= 3] == 2).all()
     assert (cloud.sources[u >= 4] == 0).all()
-    depth[:] = 3.0                                        # behind both: the first in session order wins
+    # behind both: the first in session order wins
+    depth[:] = 3.0
     cloud = reconstruct_raw(rig(Mirror("far", far, all_pixels), Mirror("near", near, LEFT)), depth)
     assert (cloud.sources == 1).all()
     np.testing.assert_allclose(cloud.points[:, 2], 2.0, atol=1e-6)
@@ -74,7 +79,8 @@ def test_uncalibrated_mirror_pixels_are_left_out():
 
 
 def test_reflected_sphere_lands_on_the_real_sphere():
-    """A virtual sphere behind a tilted mirror, rendered analytically, comes back onto the real one."""
+    """A virtual sphere behind a tilted mirror, rendered analytically, comes back onto the real
+    one."""
     camera = Intrinsics.primesense()
     mirror = Plane.from_point_normal([0.0, 0.0, 2.5], [0.3, 0.1, -1.0])
     centre, radius = np.array([0.05, 0.0, 2.1]), 0.115
@@ -101,7 +107,8 @@ def test_empty_mask_gives_an_empty_cloud():
 
 
 def test_a_window_off_the_corner_keeps_pixel_indices():
-    """Only the pixel (u=6, v=4) is masked: its point and its index come from that pixel, not the window's corner."""
+    """Only the pixel (u=6, v=4) is masked: its point and its index come from that pixel, not the
+    window's corner."""
     depth = np.full(CAMERA.shape, 3.0, np.float32)
     mask = np.zeros(CAMERA.shape, bool)
     mask[4, 6] = True
@@ -110,11 +117,11 @@ def test_a_window_off_the_corner_keeps_pixel_indices():
     np.testing.assert_allclose(cloud.points[0], [(6 - 3.5) / 4 * 3, (4 - 2.5) / 4 * 3, 3.0], atol=1e-6)
 
 
-# sha256 (first 16 hex digits) of points, sources and pixel indices of the demo session's frames 0-4 (the paper's rig,
-# mirrors at 120 degrees): the whole frame, then the object's cloud, its depth not smoothed (OpenCV's bilateral filter
-# changes its last bits between releases: 5.0 and 5.1 differ by up to 1.2 micrometres). Recorded with Algorithm 1 as
-# it was before rays were followed through several mirrors (commit a4c18a3, the same object clouds on OpenCV 5.0 and
-# 5.1).
+# sha256 (first 16 hex digits) of points, sources and pixel indices of the demo session's frames 0-4
+# (the paper's rig, mirrors at 120 degrees): the whole frame, then the object's cloud, its depth not
+# smoothed (OpenCV's bilateral filter changes its last bits between releases: 5.0 and 5.1 differ by
+# up to 1.2 micrometres). Recorded with Algorithm 1 as it was before rays were followed through
+# several mirrors (commit a4c18a3, the same object clouds on OpenCV 5.0 and 5.1).
 DEMO_DIGESTS = [("6ab9d7e1fc0bd3dc", "b76beb237e6a3147"), ("ae8ac8717f864730", "f91b68d21f310c74"),
                 ("e1e801ffe99a75ab", "fdf54b3c0b8bfc17"), ("e71109e6f2504321", "0fb8d401fed7c32f"),
                 ("38c77736e9dc6e9f", "5220d552b95df3e1")]
@@ -128,7 +135,8 @@ def _digest(cloud) -> str:
 
 
 def test_where_no_ray_meets_two_mirrors_nothing_changes():
-    """The paper's 120-degree rig: no pixel's ray meets a second mirror, and every cloud is the same, bit for bit."""
+    """The paper's 120-degree rig: no pixel's ray meets a second mirror, and every cloud is the
+    same, bit for bit."""
     session = load_session(Path(__file__).resolve().parents[3] / "sessions" / "demo")
     rig, background = Rig.from_session(session), session.read_background()
     selection = replace(session.selection, smooth=False)

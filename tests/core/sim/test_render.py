@@ -1,6 +1,7 @@
-"""Simulated rig against analytic truth: object and marker pixels reflected through the true planes land on the true
-sphere and mirror planes; rays through two and three mirrors follow the bounce budget and carry their full sequence;
-the paper scene shows the object in every mirror; the per-frame casts limited to the objects' windows lose no pixel."""
+"""Simulated rig against analytic truth: object and marker pixels reflected through the true planes
+land on the true sphere and mirror planes; rays through two and three mirrors follow the bounce
+budget and carry their full sequence; the paper scene shows the object in every mirror; the
+per-frame casts limited to the objects' windows lose no pixel."""
 import numpy as np
 import pytest
 
@@ -39,7 +40,8 @@ def test_sphere_pixels_reflected_through_true_planes_lie_on_the_sphere(paper):
         p = virtual[sel]
         if j:
             p = scene.mirrors[j - 1].plane.reflect(p)
-            assert np.all(scene.mirrors[j - 1].plane.signed_distance(virtual[sel]) < 0)   # virtual: behind the glass
+            # virtual: behind the glass
+            assert np.all(scene.mirrors[j - 1].plane.signed_distance(virtual[sel]) < 0)
         err = np.abs(np.linalg.norm(p - sphere.centre, axis=1) - sphere.radius)
         assert err.max() < TOL, f"source {j}: max |P - c| - r = {err.max() * 1e3:.3f} mm"
 
@@ -62,8 +64,8 @@ def test_sphere_seen_through_two_mirrors_folds_back_onto_the_sphere():
 
 
 def test_object_windows_lose_no_pixel(monkeypatch):
-    """Casting every pixel's path into the objects gives the same frame as casting only the windows: with five mirrors
-    the figure hides mirrors, shows through one and through two mirrors."""
+    """Casting every pixel's path into the objects gives the same frame as casting only the windows:
+    with five mirrors the figure hides mirrors, shows through one and through two mirrors."""
     scene = arc_scene(5, object="figure", distance=3.0, camera=CAMERA)
     windowed = Renderer(scene).render(0.3)
     assert (windowed.object_mask & (windowed.bounces == 2)).sum() > 300
@@ -102,28 +104,32 @@ def test_two_bounces_follow_the_switch():
 
 @pytest.fixture(scope="module")
 def kaleidoscope():
-    """Two hinged mirrors at 60 degrees: the sphere is seen through one, two and three mirrors in turn."""
+    """Two hinged mirrors at 60 degrees: the sphere is seen through one, two and three mirrors in
+    turn."""
     scene = kaleidoscope_scene(60.0, camera=CAMERA)
     return scene, Renderer(scene).render()
 
 
 def test_three_bounces_fold_back_onto_the_sphere_with_their_sequence(kaleidoscope):
-    """Each object pixel's virtual point, reflected through its mirrors in the order its ray met them (the truth's
-    full sequence, read back from its source label), lies on the true sphere; every kind of view is there."""
+    """Each object pixel's virtual point, reflected through its mirrors in the order its ray met
+    them (the truth's full sequence, read back from its source label), lies on the true sphere;
+    every kind of view is there."""
     scene, truth = kaleidoscope
     sphere = scene.objects[0]
     virtual = _virtual_points(truth)
     for label in np.unique(truth.source[truth.object_mask]):
         sel = truth.object_mask & (truth.source == label)
         sequence = tuple(int(j) for j in truth.mirrors[:, sel][:, 0] if j)
-        assert np.all(truth.mirrors[:, sel] == truth.mirrors[:, sel][:, :1])       # one sequence per label
+        # one sequence per label
+        assert np.all(truth.mirrors[:, sel] == truth.mirrors[:, sel][:, :1])
         p = virtual[sel]
         for j in sequence:
             p = scene.mirrors[j - 1].plane.reflect(p)
         err = np.abs(np.linalg.norm(p - sphere.centre, axis=1) - sphere.radius)
         assert err.max() < TOL, f"sequence {sequence}: {err.max() * 1e3:.3f} mm"
     kinds = np.bincount(truth.bounces[truth.object_mask], minlength=4)
-    assert kinds.min() > 100, kinds                              # direct, one, two and three mirrors
+    # direct, one, two and three mirrors
+    assert kinds.min() > 100, kinds
     assert set(np.unique(truth.source[truth.object_mask & (truth.bounces == 2)])) <= {33, 34}
     assert set(np.unique(truth.source[truth.object_mask & (truth.bounces == 3)])) <= {35, 36}
 
@@ -152,7 +158,8 @@ def test_object_stays_behind_the_mirror_edge():
     virtual = _virtual_points(truth)
     for j, mirror in enumerate(scene.mirrors, start=1):
         sel = truth.object_mask & (truth.first_mirror == j)
-        t = virtual[sel] * (mirror.plane.d / -(virtual[sel] @ mirror.plane.n))[:, None]    # ray meets the plane
+        # ray meets the plane
+        t = virtual[sel] * (mirror.plane.d / -(virtual[sel] @ mirror.plane.n))[:, None]
         local = (t - mirror.centre) @ mirror.axes[:2].T
         assert np.all(np.abs(local[:, 0]) <= mirror.width / 2 + 1e-6)
         assert np.all(np.abs(local[:, 1]) <= mirror.height / 2 + 1e-6)
@@ -166,10 +173,11 @@ def test_arc_scenes_show_the_object_in_every_mirror(n):
 
 
 def test_an_arc_around_the_figure_has_its_markers_where_the_camera_sees_them():
-    """Three mirrors on an arc around the walking figure: the middle one, raised above the figure, showed none of its
-    six markers (out of the image, behind the mirrors beside it and the figure) and could not be fitted from them.
-    The hidden ones move to places the camera sees at every moment of the stride, apart; mirrors that showed 3 or
-    more (every mirror of the paper's rig, the arc's sphere) keep theirs."""
+    """Three mirrors on an arc around the walking figure: the middle one, raised above the figure,
+    showed none of its six markers (out of the image, behind the mirrors beside it and the figure)
+    and could not be fitted from them. The hidden ones move to places the camera sees at every
+    moment of the stride, apart; mirrors that showed 3 or more (every mirror of the paper's rig, the
+    arc's sphere) keep theirs."""
     scene = arc_scene(3, object="figure")
     layout = arc_mirrors(3, *object_extent(scene.objects[0])[:1], 0.75, 120.0, 0.9,
                          (scene.mirrors[0].width, scene.mirrors[0].height))
@@ -183,7 +191,8 @@ def test_an_arc_around_the_figure_has_its_markers_where_the_camera_sees_them():
     st = np.asarray(middle.markers)
     apart = np.linalg.norm(st[:, None] - st[None], axis=-1) + np.eye(len(st))
     assert apart.min() >= MARKER_SPACING * min(middle.width, middle.height) - 1e-9
-    assert np.linalg.matrix_rank(np.column_stack([st, np.ones(len(st))])) == 3         # not on one line
+    # not on one line
+    assert np.linalg.matrix_rank(np.column_stack([st, np.ones(len(st))])) == 3
     sphere = arc_scene(3)
     assert [m.markers for m in sphere.mirrors] == [m.markers for m in arc_mirrors(
         3, *object_extent(sphere.objects[0])[:1], 0.115 + 0.45, 120.0, 3 * 0.115,

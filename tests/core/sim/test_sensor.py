@@ -1,5 +1,6 @@
-"""Kinect v1 sensor model: total axial std k Z^2 at 1, 2 and 3 m, the Gaussian table, exact noiseless mode, visible
-quantisation steps, seeds, range, IR shadow (and its window against a running minimum over whole rows)."""
+"""Kinect v1 sensor model: total axial std k Z^2 at 1, 2 and 3 m, the Gaussian table, exact
+noiseless mode, visible quantisation steps, seeds, range, IR shadow (and its window against a
+running minimum over whole rows)."""
 import numpy as np
 import pytest
 
@@ -33,7 +34,8 @@ def test_standard_normal_table_has_gaussian_moments_and_tails():
     x = standard_normal(np.random.default_rng(3), (1000, 1000))
     assert x.dtype == np.float32 and x.shape == (1000, 1000)
     assert abs(x.mean()) < 0.005 and x.std() == pytest.approx(1.0, abs=0.005)
-    assert np.mean(np.abs(x) > 2) == pytest.approx(0.0455, abs=0.001)       # two-sided tail of N(0, 1)
+    # two-sided tail of N(0, 1)
+    assert np.mean(np.abs(x) > 2) == pytest.approx(0.0455, abs=0.001)
     assert np.abs(x).max() < 4.4
 
 
@@ -65,8 +67,8 @@ def test_same_seed_same_frame_and_range():
 
 
 def test_ir_shadow_is_beside_the_near_edge_away_from_the_projector():
-    """A near box (1 m) before a wall (3 m): with the projector at +x the shadow is a band left of the box, as wide
-    as the disparity difference f b (1/1 - 1/3)."""
+    """A near box (1 m) before a wall (3 m): with the projector at +x the shadow is a band left of
+    the box, as wide as the disparity difference f b (1/1 - 1/3)."""
     depth = _wall(3.0)
     depth[200:280, 300:400] = 1.0
     fb = CAMERA.fx * 0.075
@@ -79,8 +81,8 @@ def test_ir_shadow_is_beside_the_near_edge_away_from_the_projector():
 
 
 def test_ir_shadow_equals_a_running_minimum_over_whole_rows():
-    """The window of the largest disparity loses nothing: near objects at 0.5 m (90 px of disparity), gaps of no
-    reading, random depths."""
+    """The window of the largest disparity loses nothing: near objects at 0.5 m (90 px of
+    disparity), gaps of no reading, random depths."""
     rng = np.random.default_rng(4)
     depth = rng.uniform(0.5, 5.0, CAMERA.shape).astype(np.float32)
     depth[rng.random(CAMERA.shape) < 0.2] = 0

@@ -1,5 +1,6 @@
-"""Device sources without hardware: Kinect v1 through libfreenect's replay driver (fakenect) fed with the simulator's
-raw disparity, a RealSense .bag written here with pyrealsense2's software device, OpenNI2's messages."""
+"""Device sources without hardware: Kinect v1 through libfreenect's replay driver (fakenect) fed
+with the simulator's raw disparity, a RealSense .bag written here with pyrealsense2's software
+device, OpenNI2's messages."""
 import glob
 import os
 import shutil
@@ -32,9 +33,10 @@ np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]), raw=np.stack([f
 
 
 def write_fakenect(folder: Path, raws: list[np.ndarray], period: float, padding: int) -> None:
-    """A fakenect recording: raw 11-bit frames as d-TIME-STAMP.pgm (a one-line header, then little-endian uint16),
-    `period` seconds apart, then `padding` repeats of the last one 1/30 s apart, so that the replay does not run out
-    (libfreenect 0.5's fake driver crashes at the end of its index) before the reader closes."""
+    """A fakenect recording: raw 11-bit frames as d-TIME-STAMP.pgm (a one-line header, then
+    little-endian uint16), `period` seconds apart, then `padding` repeats of the last one 1/30 s
+    apart, so that the replay does not run out (libfreenect 0.5's fake driver crashes at the end of
+    its index) before the reader closes."""
     folder.mkdir()
     names = []
     for n, raw in enumerate(raws + [raws[-1]] * padding):
@@ -61,13 +63,17 @@ def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
                          timeout=60)
     assert run.returncode == 0, run.stderr[-2000:]
     got = np.load(out, allow_pickle=False)
-    np.testing.assert_array_equal(got["raw"], np.stack(raws))          # the driver's frames, byte for byte
-    assert np.all(np.diff(got["t"]) > 0.1)                             # one new frame per read, none skipped
+    # the driver's frames, byte for byte
+    np.testing.assert_array_equal(got["raw"], np.stack(raws))
+    # one new frame per read, none skipped
+    assert np.all(np.diff(got["t"]) > 0.1)
     valid = truth > 0
     np.testing.assert_array_equal(got["depth"] > 0, valid)
-    half_step = 0.5 * -BURRUS_A * np.maximum(truth, got["depth"]) ** 2  # |dz/draw| = |A| z^2, raw rounded to 1
+    # |dz/draw| = |A| z^2, raw rounded to 1
+    half_step = 0.5 * -BURRUS_A * np.maximum(truth, got["depth"]) ** 2
     assert np.all(np.abs(got["depth"] - truth)[valid] <= 1.0001 * half_step[valid])
-    assert 0.002 < np.abs(got["depth"] - truth)[valid].max()           # the quantisation is really there
+    # the quantisation is really there
+    assert 0.002 < np.abs(got["depth"] - truth)[valid].max()
 
 
 def write_bag(path: Path, frames: np.ndarray, units: float) -> None:
@@ -140,8 +146,8 @@ def test_a_missing_oni_recording_is_named(tmp_path):
 
 
 def test_a_bag_is_read_one_frame_at_a_time(tmp_path):
-    """A .bag is streamed, not loaded: reading 40 frames of 640x480 holds a few frames at most (the whole bag was
-    1.2 MB of memory a frame before: a 10-minute bag needed about 22 GB)."""
+    """A .bag is streamed, not loaded: reading 40 frames of 640x480 holds a few frames at most (the
+    whole bag was 1.2 MB of memory a frame before: a 10-minute bag needed about 22 GB)."""
     import tracemalloc
     frames = np.random.default_rng(1).integers(0, 6000, (40, 480, 640), dtype=np.uint16)
     write_bag(tmp_path / "long.bag", frames, 0.001)
@@ -152,7 +158,10 @@ def test_a_bag_is_read_one_frame_at_a_time(tmp_path):
             frame = source.read(i)
             np.testing.assert_array_equal(frame.units, expected)
         peak = tracemalloc.get_traced_memory()[1]
-        np.testing.assert_array_equal(source.read(3).units, frames[3])          # seeking back replays to it
-        np.testing.assert_array_equal(source.read(43).units, frames[3])         # loops like every recording
+        # seeking back replays to it
+        np.testing.assert_array_equal(source.read(3).units, frames[3])
+        # loops like every recording
+        np.testing.assert_array_equal(source.read(43).units, frames[3])
     tracemalloc.stop()
-    assert peak < frames.nbytes / 3, f"{peak / 1e6:.1f} MB traced"      # a few frames and their metres, not 40
+    # a few frames and their metres, not 40
+    assert peak < frames.nbytes / 3, f"{peak / 1e6:.1f} MB traced"

@@ -1,4 +1,5 @@
-"""Recorded depth sources: real frames through the PNG-folder and TUM readers, .npz stacks, spec strings."""
+"""Recorded depth sources: real frames through the PNG-folder and TUM readers, .npz stacks, spec
+strings."""
 import json
 import shutil
 from pathlib import Path
@@ -29,8 +30,10 @@ def test_png_folder_reads_the_kinect_room_in_millimetres(tmp_path):
     np.testing.assert_array_equal(frames[1].depth, units.astype(np.float32) * np.float32(0.001))
     assert [f.timestamp for f in frames] == pytest.approx([0, 1 / 30, 2 / 30])
     assert 1.0 < np.median(frames[0].depth[frames[0].depth > 0]) < 4.0        # a room, in metres
-    again = open_source(f"{tmp_path}?camera=primesense&scale=0.002&fps=10")       # a bare path, options override
-    assert again.intrinsics.fx == 525.0 and again.read(4).timestamp == pytest.approx(0.1)   # read(4) loops to 1
+    # a bare path, options override
+    again = open_source(f"{tmp_path}?camera=primesense&scale=0.002&fps=10")
+    # read(4) loops to 1
+    assert again.intrinsics.fx == 525.0 and again.read(4).timestamp == pytest.approx(0.1)
     np.testing.assert_array_equal(again.read(4).depth, 2 * frames[1].depth)
 
 
@@ -51,11 +54,13 @@ def test_tum_folder_finds_the_globe_at_2_2_m_with_its_colour(tmp_path):
     np.testing.assert_array_equal(frame.colour, bgr[..., ::-1])
     box = np.zeros(source.intrinsics.shape, bool)
     box[20:200, 60:260] = True                          # where the README says the globe stands
-    near = box & (frame.depth > 1.8) & (frame.depth < 2.25)      # in front of the cabinet behind it (2.3 m+)
+    # in front of the cabinet behind it (2.3 m+)
+    near = box & (frame.depth > 1.8) & (frame.depth < 2.25)
     points, _ = reproject_depth(source.intrinsics, frame.depth, near)
     globe = fit_sphere(points, np.random.default_rng(0)).shape
     assert 0.20 < globe.radius < 0.24                  # an inflatable globe, about 21-23 cm
-    assert 2.2 < globe.centre[2] < 2.45                 # its front at about 2.1 m, its centre one radius behind
+    # its front at about 2.1 m, its centre one radius behind
+    assert 2.2 < globe.centre[2] < 2.45
 
 
 def test_npz_stack_integer_and_float_with_no_readings(tmp_path):
@@ -86,7 +91,8 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
     cases = {"pickled": "holds pickled \\(object\\) arrays, which mirrorscan never loads", "nok": "missing array 'K'",
              "noscale": "an integer depth stack needs 'depth_scale'",
              "badk": "'K' must be integer or floating of shape \\(3, 3\\)", "junk": "not a .npz archive",
-             "complex": "'depth_scale' must be integer or floating of shape \\(\\), got complex64"}   # a TypeError,
+             # a TypeError,
+             "complex": "'depth_scale' must be integer or floating of shape \\(\\), got complex64"}
     # found by the fuzzing (tests/core/io/test_fuzz_loaders.py)
     for name, message in cases.items():
         with pytest.raises(FileFormatError, match=rf"{name}.npz: {message}"):
