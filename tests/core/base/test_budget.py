@@ -18,7 +18,8 @@ import cv2
 import numpy as np
 import pytest
 
-from mirrorcore.base.budget import MemoryBudgetError, check_memory, memory_budget, parse_size, set_memory_budget
+from mirrorcore.base.budget import (MemoryBudgetError, check_memory, memory_budget, parse_size,
+                                    set_memory_budget)
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.volume import Volume
 from mirrorcore.depth.files import read_depth_png
@@ -53,7 +54,8 @@ def test_the_budget_comes_from_the_option_the_environment_or_the_default(monkeyp
     for bad in ("lots", "12 parsecs", "1K", "-5G"):
         with pytest.raises(MirrorscanError, match="--memory"):
             parse_size(bad, "--memory")
-    with pytest.raises(MemoryBudgetError, match=r"thing: needs 1.0 GiB, more than the memory budget of 512.0 MiB"):
+    with pytest.raises(MemoryBudgetError,
+                       match=r"thing: needs 1.0 GiB, more than the memory budget of 512.0 MiB"):
         check_memory(1 << 30, "thing")
 
 
@@ -64,7 +66,8 @@ def test_a_volume_that_does_not_fit_in_the_budget_is_refused_before_any_grid(bud
     # The volume holds only its grid of 4^3-voxel blocks (24 bytes each; the fusion allocates the
     # blocks near the surface, carving its two grids, each checked before allocating): 0.3 mm
     # (1334x2000x2000) now fits in 4 GiB.
-    with pytest.raises(MemoryBudgetError, match=r"volume: 4000x6000x6000 voxels of 0.1 mm .* memory budget"):
+    with pytest.raises(MemoryBudgetError,
+                       match=r"volume: 4000x6000x6000 voxels of 0.1 mm .* memory budget"):
         dense_volume(rig, np.zeros(rig.intrinsics.shape), np.zeros(rig.intrinsics.shape, bool),
                      # a browser client asking for 0.1 mm
                      DenseOptions(voxel=0.0001, bounds=box))
@@ -89,7 +92,8 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
     with open(path, "wb") as f:                                     # 2 GiB, sparse: costs no disk
         f.write(_png_head(640, 480))
         f.truncate(2 << 30)
-    with pytest.raises(FileFormatError, match=r"000000.png: 2,147,483,648 bytes is more than a depth image of "
+    with pytest.raises(FileFormatError,
+                       match=r"000000.png: 2,147,483,648 bytes is more than a depth image of "
                                               r"307,200 pixels can hold"):
         read_depth_png(path, 0.001, (480, 640))
     # in a process of its own (this one's other threads allocate too): the refusal never holds the
@@ -97,7 +101,8 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
     reader = ("import re, sys\nfrom mirrorcore.depth.files import read_depth_png\n"
               "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    pass\n"
               "print(re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1))")
-    run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True, timeout=120,
+    run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True,
+                         timeout=120,
                          cwd=Path(__file__).resolve().parents[3])
     # kB (VmHWM, not inherited like
     assert int(run.stdout.split()[-1]) < 400_000, run.stdout + run.stderr
@@ -108,14 +113,16 @@ def test_an_image_header_beyond_the_budget_is_refused_before_decoding(tmp_path, 
     path = tmp_path / "big.png"
     path.write_bytes(_png_head(12000, 12000))
     budget(256 << 20)
-    with pytest.raises(MemoryBudgetError, match=r"big.png: decoding a 12000x12000 image: needs 824.0 MiB"):
+    with pytest.raises(MemoryBudgetError,
+                       match=r"big.png: decoding a 12000x12000 image: needs 824.0 MiB"):
         read_depth_png(path, 0.001)
 
 
 def _forged_npz(path, shape) -> None:
     """An .npz whose depth.npy header declares `shape` (uint16) but holds 10 bytes."""
     header = io.BytesIO()
-    np.lib.format.write_array_header_1_0(header, {"descr": "<u2", "fortran_order": False, "shape": shape})
+    np.lib.format.write_array_header_1_0(header,
+                                         {"descr": "<u2", "fortran_order": False, "shape": shape})
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
         archive.writestr("depth.npy", header.getvalue() + bytes(10))
         archive.writestr("K.npy", _npy(np.eye(3)))
@@ -153,7 +160,8 @@ def test_the_crossing_test_of_a_large_polygon_stays_small_in_memory():
     # two vertices swapped: it crosses itself
     bowtie[[10, 4000]] = bowtie[[4000, 10]]
     assert first_crossing(bowtie) is not None
-    with pytest.raises(MirrorscanError, match=f"boundary: 8,000 vertices, more than the {MAX_VERTICES:,}"):
+    with pytest.raises(MirrorscanError,
+                       match=f"boundary: 8,000 vertices, more than the {MAX_VERTICES:,}"):
         validate_polygon(circle, (480, 640), "boundary")
 
 
@@ -181,7 +189,8 @@ def _meet(p1, q1, p2, q2) -> bool:
         return np.sign((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
 
     def on(p, q, r):
-        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[1], q[1])
+        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[1],
+                                                                                             q[1])
 
     o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
     if o1 * o2 < 0 and o3 * o4 < 0:
@@ -207,15 +216,19 @@ BIG = 10 ** 400     # a JSON number no float can hold
 @pytest.mark.parametrize("edit, message", [
     (lambda d: d.update(mirrors=[dict(d["mirrors"][0], id=i + 1, name=f"m{i}") for i in range(42)]),
      "mirrors: 42 mirrors, more than the 32 a session may hold"),
-    (lambda d: d["mirrors"][0].update(markers=[[1, 1]] * 200_000), "markers: 200,000 points, more than the 500"),
-    (lambda d: d["mirrors"][0].update(boundary=[[1, 1]] * 30_000), "boundary: 30,000 points, more than the 1,000"),
-    (lambda d: d.update(selection={"roi": [[1, 1]] * 30_000}), "roi: 30,000 vertices, more than the 1,000"),
+    (lambda d: d["mirrors"][0].update(markers=[[1, 1]] * 200_000),
+     "markers: 200,000 points, more than the 500"),
+    (lambda d: d["mirrors"][0].update(boundary=[[1, 1]] * 30_000),
+     "boundary: 30,000 points, more than the 1,000"),
+    (lambda d: d.update(selection={"roi": [[1, 1]] * 30_000}),
+     "roi: 30,000 vertices, more than the 1,000"),
     (lambda d: d["mirrors"][0].update(name="x" * 101), "name: 101 characters, more than the 100"),
     (lambda d: d["mirrors"][0].update(name="bad\ud800"), "cannot be shown or saved"),
     (lambda d: d["mirrors"][0].update(name="tab\tbell\x07"), "cannot be shown or saved"),
     (lambda d: d.update(frames=["a\ud800.png"] * len(d["frames"])), r"frames\[0\]: must be a path"),
     (lambda d: d["camera"].update(fx=BIG), "camera: camera values must be numbers"),
-    (lambda d: d["mirrors"][0].update(plane=[BIG, 0, 0, 1]), "plane: a plane needs 4 finite numbers"),
+    (lambda d: d["mirrors"][0].update(plane=[BIG, 0, 0, 1]),
+     "plane: a plane needs 4 finite numbers"),
     (lambda d: d["mirrors"][0]["markers"].append([BIG, 1]), "must be a pair of numbers"),
     (lambda d: d.update(selection={"min_blob": BIG}), "selection: int too large"),
     (lambda d: d.update(selection={"roi": [[BIG, 1], [2, 3], [4, 5]]}), "roi: vertices must be"),
@@ -255,7 +268,8 @@ def test_the_editor_check_refuses_what_the_reader_would_refuse():
     with pytest.raises(MirrorscanError, match="33 mirrors, more than the 32"):
         check_limits(replace(session, mirrors=mirrors + (SessionMirror("one more", id=99),)))
     m = session.mirrors[0]
-    with pytest.raises(MirrorscanError, match=r"mirrors\[0\] \(mirror 1\): 501 markers, more than the 500"):
+    with pytest.raises(MirrorscanError,
+                       match=r"mirrors\[0\] \(mirror 1\): 501 markers, more than the 500"):
         check_limits(session.with_mirror(0, replace(m, markers=((1.0, 1.0),) * (MAX_MARKERS + 1))))
     with pytest.raises(MirrorscanError, match="boundary: 1,001 vertices"):
         check_limits(session.with_mirror(0, replace(m, boundary=((1.0, 1.0),) * 1001)))
@@ -269,7 +283,8 @@ def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
     from mirrorcore.io.session import save_session
     session = replace(load_session(DEMO), root=tmp_path)
     m = session.mirrors[0]
-    full = tuple(replace(m, id=i, name=f"mirror {i}", plane=None) for i in range(1, MAX_MIRRORS + 1))
+    full = tuple(replace(m, id=i, name=f"mirror {i}", plane=None)
+                 for i in range(1, MAX_MIRRORS + 1))
     save_session(check_limits(replace(session, mirrors=full, frames=(), timestamps=None)))
     again = load_session(tmp_path)
     assert len(again.mirrors) == MAX_MIRRORS and Rig.from_session(again).mirrors
@@ -279,7 +294,8 @@ def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
 def test_the_command_line_takes_the_budget_and_refuses_by_it(tmp_path, capsys, budget):
     from mirrorscan.cli import main
     out = tmp_path / "mesh.ply"
-    assert main(["--memory", "64M", "reconstruct", DEMO, "-o", str(out), "--method", "tsdf", "--voxel", "0.001"]) == 2
+    assert main(["--memory", "64M", "reconstruct", DEMO, "-o", str(out), "--method", "tsdf",
+                 "--voxel", "0.001"]) == 2
     err = capsys.readouterr().err
     assert "memory budget of 64.0 MiB" in err and "--memory" in err and not out.exists()
     assert main(["--memory", "lots", "sources"]) == 2
@@ -290,10 +306,12 @@ def test_a_camera_or_a_cloud_file_beyond_the_budget_is_refused_before_its_tables
     from mirrorcore.geometry.camera import Intrinsics
     from mirrorcore.io.ply import read_ply, write_ply
     huge = Intrinsics(16384, 16384, 1e4, 1e4, 8191.5, 8191.5)
-    with pytest.raises(MemoryBudgetError, match="rig: the per-pixel tables of a 16384x16384 camera: needs 16.0 GiB"):
+    with pytest.raises(MemoryBudgetError,
+                       match="rig: the per-pixel tables of a 16384x16384 camera: needs 16.0 GiB"):
         # 16 GiB of tables: refused before any
         Rig(huge, ())
-    write_ply(tmp_path / "cloud.ply", np.zeros((300_000, 3), np.float32), np.zeros(300_000, np.uint8))
+    write_ply(tmp_path / "cloud.ply", np.zeros((300_000, 3), np.float32),
+              np.zeros(300_000, np.uint8))
     budget(4 << 20)
     with pytest.raises(MemoryBudgetError, match="cloud.ply: reading the PLY"):
         read_ply(tmp_path / "cloud.ply")

@@ -22,13 +22,15 @@ def test_direct_and_single_mirrors_keep_their_labels_names_and_colours():
     assert source_name(0) == "direct" and source_name(1) == "mirror 1" and source_name(32) == "mirror 32"
     assert sequence_label(()) == 0 and sequence_label((1,)) == 1 and sequence_label((7,)) == 7
     assert source_sequence(0) == () and source_sequence(5) == (5,)
-    np.testing.assert_array_equal(source_colours(np.arange(9)), SOURCE_COLOURS[[0, 1, 2, 3, 4, 5, 6, 7, 1]])
+    np.testing.assert_array_equal(source_colours(np.arange(9)),
+                                  SOURCE_COLOURS[[0, 1, 2, 3, 4, 5, 6, 7, 1]])
 
 
 def test_the_first_multi_bounce_labels_by_hand():
     """Two mirrors: 33 = 1 then 2, 34 = 2 then 1, 35 = 1 then 2 then 1, 36 = 2 then 1 then 2; a
     third mirror follows."""
-    assert [source_sequence(s) for s in range(33, 38)] == [(1, 2), (2, 1), (1, 2, 1), (2, 1, 2), (1, 3)]
+    assert [source_sequence(s) for s in range(33, 38)] == [(1, 2), (2, 1), (1, 2, 1), (2, 1, 2),
+                                                           (1, 3)]
     assert source_name(34) == "mirror 2 then 1" and source_name(36) == "mirror 2 then 1 then 2"
     assert sequence_label((2, 1)) == 34 and sequence_label((1, 3)) == 37
 
@@ -86,6 +88,7 @@ def test_colours_follow_the_mirror_ids_when_given():
     """Ids (3, 1) in session order: label 1 takes mirror colour 3, label 2 colour 1; 'mirror 1 then
     2' is then a shade of colour 1 (the last mirror's id), just as 'mirror 2 then 1' is without
     ids."""
-    np.testing.assert_array_equal(source_colours(np.array([0, 1, 2]), (3, 1)), SOURCE_COLOURS[[0, 3, 1]])
+    np.testing.assert_array_equal(source_colours(np.array([0, 1, 2]), (3, 1)),
+                                  SOURCE_COLOURS[[0, 3, 1]])
     assert source_colour(33, (2, 1)).tolist() == source_colour(34).tolist()
     assert source_colour(33, (1, 2)).tolist() == source_colour(33).tolist()

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from helpers import plane_depth
 
-from mirrorcore.calibration.fit import (calibrate_from_markers, calibrate_from_pairs, calibrate_from_region,
+from mirrorcore.calibration.fit import (calibrate_from_markers, calibrate_from_pairs,
+                                        calibrate_from_region,
                                     calibrate_session, calibration_depth)
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.calibration.markers import review_fit
@@ -19,7 +20,8 @@ from mirrorcore.sim.simulator import Simulator
 
 CAMERA = Intrinsics.kinect_v1()
 GLASS = Plane.from_point_normal([0.4, 0.0, 2.6], [-0.5, 0.05, -1.0])
-MARKERS = np.array([[420, 100], [560, 120], [430, 380], [580, 360], [500, 240], [460, 300], [540, 180], [610, 250]],
+MARKERS = np.array([[420, 100], [560, 120], [430, 380], [580, 360], [500, 240], [460, 300],
+                    [540, 180], [610, 250]],
                    float)
 
 
@@ -37,7 +39,8 @@ def mirror_frame(rng=None, virtual_extra=0.8) -> np.ndarray:
 
 
 def test_noiseless_markers_give_the_exact_plane():
-    cal = calibrate_from_markers(CAMERA, mirror_frame(), MARKERS, np.random.default_rng(0), "mirror 1")
+    cal = calibrate_from_markers(CAMERA, mirror_frame(), MARKERS, np.random.default_rng(0),
+                                 "mirror 1")
     np.testing.assert_allclose(cal.plane.abcd, GLASS.abcd, atol=1e-5)
     assert cal.rms_mm < 0.01 and cal.n_points == 8 * 25 and cal.n_inliers == cal.n_points
     assert len(cal.markers.distance_mm) == 8 and max(cal.markers.distance_mm) < 0.01
@@ -52,7 +55,8 @@ def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
     for u, v in MARKERS.astype(int):
         depth[v - 4:v + 5, u - 4:u + 5] = plane_depth(CAMERA, stickers)[v - 4:v + 5, u - 4:u + 5]
     plain = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1")
-    moved = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1", marker_offset=0.003)
+    moved = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1",
+                                   marker_offset=0.003)
     np.testing.assert_allclose(plain.plane.abcd, stickers.abcd, atol=1e-5)
     np.testing.assert_allclose(moved.plane.abcd, GLASS.abcd, atol=1e-5)
     # graded on the stickers' plane
@@ -72,11 +76,13 @@ def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
     depth = mirror_frame()
     for u, v in MARKERS.astype(int):
         depth[v - 4:v + 5, u - 4:u + 5] = plane_depth(CAMERA, stickers)[v - 4:v + 5, u - 4:u + 5]
-    cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1", marker_offset=0.003)
+    cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1",
+                                 marker_offset=0.003)
     names = [f"1.{k + 1}" for k in range(len(MARKERS))]
     same = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
     assert same.shift_mm < 0.01 and same.tilt_deg < 1e-3 and not same.needs_confirmation
-    farther = review_fit(Plane(GLASS.normal, GLASS.d + 0.025), cal.plane, cal.markers, np.asarray(cal.centre), names)
+    farther = review_fit(Plane(GLASS.normal, GLASS.d + 0.025), cal.plane, cal.markers,
+                         np.asarray(cal.centre), names)
     assert farther.shift_mm == pytest.approx(25.0, abs=0.01) and farther.needs_confirmation
     assert "moves it 25 mm" in farther.concerns[0]
 
@@ -93,9 +99,11 @@ def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothin
     first = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
     # not fitted on these markers before
     assert first.needs_confirmation and not first.refit
-    again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names, same_markers=True)
+    again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names,
+                       same_markers=True)
     assert again.refit and not again.needs_confirmation and again.poor == (2,) and again.concerns == first.concerns
-    moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers, np.asarray(cal.centre), names,
+    moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers,
+                       np.asarray(cal.centre), names,
                        # 2.5 mm: more than other frames move it
                        same_markers=True)
     assert moved.needs_confirmation and not moved.refit
@@ -135,8 +143,10 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     depth[v - 4:v + 5, u - 4:u + 5] -= 0.6                      # something in front of it
     hidden = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
     assert "in front: hidden by something?" in review_fit(GLASS, hidden.plane, hidden.markers,
-                                                          np.asarray(hidden.centre), names).concerns[0]
-    glass = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), marker_offset=0.0054)
+                                                          np.asarray(hidden.centre),
+                                                          names).concerns[0]
+    glass = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0),
+                                   marker_offset=0.0054)
     assert glass.summary().endswith("; plane 5.4 mm behind the markers (the mirror's glass)")
 
 
@@ -144,24 +154,28 @@ def test_markers_on_invalid_depth_are_named():
     depth = mirror_frame()
     for u, v in MARKERS[[1, 3, 4]].astype(int):
         depth[v - 4:v + 5, u - 4:u + 5] = 0
-    with pytest.raises(CalibrationError, match=r"mirror 2: 2 usable marker\(s\) of 5, 3 are needed; "
+    with pytest.raises(CalibrationError,
+                       match=r"mirror 2: 2 usable marker\(s\) of 5, 3 are needed; "
                                                r"marker\(s\) 2, 4, 5 have no depth reading"):
         calibrate_from_markers(CAMERA, depth, MARKERS[:5], np.random.default_rng(0), "mirror 2")
 
 
 def test_too_few_and_collinear_markers():
     with pytest.raises(CalibrationError, match=r"mirror 1: 2 usable marker\(s\) of 2"):
-        calibrate_from_markers(CAMERA, mirror_frame(), MARKERS[:2], np.random.default_rng(0), "mirror 1")
+        calibrate_from_markers(CAMERA, mirror_frame(), MARKERS[:2], np.random.default_rng(0),
+                               "mirror 1")
     line = np.array([[420, 100], [470, 150], [520, 200], [570, 250]], float)
     depth = plane_depth(CAMERA, GLASS)
-    with pytest.raises(CalibrationError, match="mirror 1: markers 1, 2, 3, 4 are \\(nearly\\) collinear"):
+    with pytest.raises(CalibrationError,
+                       match="mirror 1: markers 1, 2, 3, 4 are \\(nearly\\) collinear"):
         calibrate_from_markers(CAMERA, depth, line, np.random.default_rng(0), "mirror 1")
 
 
 def test_plane_through_the_camera_is_refused():
     # bisector x = -0.02
     real, virtual = np.array([[0.01, 0.0, 1.0]]), np.array([[-0.05, 0.0, 1.0]])
-    with pytest.raises(CalibrationError, match="mirror 1: the fitted plane passes 20 mm from the camera"):
+    with pytest.raises(CalibrationError,
+                       match="mirror 1: the fitted plane passes 20 mm from the camera"):
         calibrate_from_pairs(real, virtual, "mirror 1")
 
 
@@ -184,7 +198,8 @@ def test_pairs_calibration():
     assert cal.rms_mm < 1e-6
     with pytest.raises(CalibrationError, match="swapped"):
         calibrate_from_pairs(virtual, real)
-    with pytest.raises(CalibrationError, match="pair\\(s\\) 1 have the real and virtual point in the same place"):
+    with pytest.raises(CalibrationError,
+                       match="pair\\(s\\) 1 have the real and virtual point in the same place"):
         calibrate_from_pairs(real[:1], real[:1])
 
 
@@ -209,7 +224,8 @@ def test_a_stray_marker_far_behind_the_glass_does_not_tilt_the_plane():
     depth = np.stack([rig.frame(i).depth for i in range(5)])
     bottom = max(mirror.boundary, key=lambda p: p[1])
     stray = (bottom[0] - 10, bottom[1] - 6)
-    cal = calibrate_from_markers(rig.intrinsics, depth, mirror.markers + (stray,), np.random.default_rng(0))
+    cal = calibrate_from_markers(rig.intrinsics, depth, mirror.markers + (stray,),
+                                 np.random.default_rng(0))
     assert cal.plane.angle_to(rig.planes[1]) < 0.5
     # behind the glass, named
     assert cal.markers.poor() == (6,) and cal.markers.signed_mm[6] < -1000
@@ -221,7 +237,8 @@ def test_markers_a_person_walks_in_front_of_are_read_behind_him(tmp_path):
     of a gait session was a proposal (a helper); the frames without what passes in front of the
     background read them on the glass."""
     scene = paper_scene(object="figure")
-    session = load_session(write_session(Simulator(scene, SensorModel.kinect_v1(), seed=0), tmp_path / "gait", 5,
+    session = load_session(write_session(Simulator(scene, SensorModel.kinect_v1(), seed=0),
+                                         tmp_path / "gait", 5,
                                          progress=False))
     frames = np.stack([*session.read_frames(range(len(session.frames))), session.read_background()])
     _, on_median = calibrate_session(session, frames, np.random.default_rng(0))

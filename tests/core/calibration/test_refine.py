@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from helpers import plane_depth, sphere_depth
 
-from mirrorcore.calibration.agreement import TargetView, frame_views, heat_figures, in_view, local_means, surface_distances
+from mirrorcore.calibration.agreement import (TargetView, frame_views, heat_figures, in_view,
+                                              local_means, surface_distances)
 from mirrorcore.calibration.fit import calibrate_from_pairs
 from mirrorcore.base.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import Intrinsics, project_points
@@ -132,7 +133,8 @@ def test_the_anchors_error_does_not_bias_the_residual_on_a_curved_surface():
     n = int(seen.sum())
     points, normals, rays = points[seen], normals[seen], rays[seen]
     anchors = points + spread * rng.standard_normal(n)[:, None] * rays
-    mapped = ViewPoints(points, anchors, normals, rays, np.full(n, 0.05), np.full(n, spread ** 2), np.zeros(n),
+    mapped = ViewPoints(points, anchors, normals, rays, np.full(n, 0.05), np.full(n, spread ** 2),
+                        np.zeros(n),
                         np.zeros(n, bool), np.zeros(n, np.int64), np.zeros((n, 6)))
     blind = replace(mapped, anchor_var=np.zeros(n))
     found, uncorrected = target.compare(mapped), target.compare(blind)
@@ -158,9 +160,11 @@ def test_a_point_is_compared_with_the_other_views_rim_only_when_it_surely_falls_
     side = np.array([1.5, 0.0, 2.0])
     rays = (points - side) / np.linalg.norm(points - side, axis=1)[:, None]
     n = len(points)
-    exact = ViewPoints(points, points, normals, rays, np.full(n, 0.01), np.zeros(n), np.zeros(n), np.zeros(n, bool),
+    exact = ViewPoints(points, points, normals, rays, np.full(n, 0.01), np.zeros(n), np.zeros(n),
+                       np.zeros(n, bool),
                        np.zeros(n, np.int64), np.zeros((n, 6)))
-    sure, unsure = (target.compare(replace(exact, anchor_var=np.full(n, s ** 2))) for s in (1e-3, 8e-3))
+    sure, unsure = (target.compare(replace(exact, anchor_var=np.full(n, s ** 2)))
+                    for s in (1e-3, 8e-3))
     uv, _ = project_points(CAMERA, points)
     falls = target.index[np.round(uv[:, 1]).astype(int) * CAMERA.width + np.round(uv[:, 0]).astype(int)]
     on_rim = target.view.rim[falls[sure.index]]
@@ -255,7 +259,8 @@ def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
     result = refine_planes(start, depths, masks, progress=fractions.append, with_="surfaces")
     assert fractions == sorted(fractions) and 0 < fractions[0] and fractions[-1] <= 1
     assert result.frames == 2 and [m.index for m in result.mirrors] == [0, 1]
-    again = refine_planes(with_planes(rig, [nearer(m.plane, centre, -0.002) for m in rig.mirrors]), depths, masks,
+    again = refine_planes(with_planes(rig, [nearer(m.plane, centre, -0.002) for m in rig.mirrors]),
+                          depths, masks,
                           with_="surfaces")
     for report, other, truth in zip(result.mirrors, again.mirrors, rig.mirrors):
         # from 3 mm too near and from 2 mm too far: the same planes, within the neighbours'
@@ -282,13 +287,15 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
         refine_planes(outline_less, depths, masks)
     # the object is only in the camera's view: nothing to compare with
     direct_only = masks & (rig.inside_bits == 0)
-    with pytest.raises(CalibrationError, match="mirror 1 and mirror 2: the camera and the mirrors see too little of "
+    with pytest.raises(CalibrationError,
+                       match="mirror 1 and mirror 2: the camera and the mirrors see too little of "
                                                r"the same surface .* \(mirror 1: 0 and mirror 2: 0 readings agree "
                                                r"over 2 frame\(s\)"):
         refine_planes(rig, depths, direct_only)
     # a view that disagrees more than max_disagreement times what the depth noise explains (a
     # searched plane's limit)
-    with pytest.raises(CalibrationError, match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
+    with pytest.raises(CalibrationError,
+                       match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
                                                r"RMS where the depth noise explains .* mm\): its plane was not found"):
         refine_planes(rig, depths, masks, with_="surfaces", leash=Leash(max_disagreement=0.01))
     # no such limit by default
@@ -334,7 +341,9 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
     # a glass typed in stays, the reading beside it (a helper typed 3 mm as advised, and the next
     # refinement put back its 0.5); a glass measured before is measured again
     typed = session.with_mirror(0, replace(session.mirrors[0], marker_offset=0.003))
-    typed = typed.with_mirror(1, replace(typed.mirrors[1], marker_offset=0.002, marker_offset_std=0.0009))
+    typed = typed.with_mirror(1,
+                              replace(typed.mirrors[1], marker_offset=0.002,
+                                         marker_offset_std=0.0009))
     again, result = refine_session(typed, frame.depth[None], mask[None])
     assert again.mirrors[0].marker_offset == 0.003 and again.mirrors[0].marker_offset_std is None
     assert result.mirrors[0].glass_typed == 0.003 and result.mirrors[0].marker_offset == pytest.approx(0.004, abs=1e-3)
@@ -353,19 +362,25 @@ def test_scene_search_then_refinement_without_markers(sphere):
     assert found.angle_to(rig.mirrors[0].plane) < 5.0
     sim = Simulator(scene, SensorModel.ideal())
     session = Session(Path("."), rig.intrinsics,
-                      tuple(replace(m, markers=()) for m in session_mirrors(sim, sim.frame(0).truth)))
+                      tuple(replace(m, markers=())
+                            for m in session_mirrors(sim, sim.frame(0).truth)))
     fractions = []
-    calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0), progress=fractions.append)
+    calibrated, result = calibrate_scene(session, depths, masks, np.random.default_rng(0),
+                                         progress=fractions.append)
     # the search tells too
     assert fractions == sorted(fractions) and fractions[-1] == 1.0 and fractions[0] < 0.05
     for mirror, truth in zip(calibrated.mirrors, rig.mirrors):
         assert abs(offset_at(mirror.plane, centre) - offset_at(truth.plane, centre)) < 1e-3
         assert mirror.plane.angle_to(truth.plane) < 0.05
-    with pytest.raises(CalibrationError, match=r"mirror 2: the object is not seen in the mirror in this frame \(0 "):
-        search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 2), 1, np.random.default_rng(0))
-    with pytest.raises(CalibrationError, match=r"mirror 2: the object is not seen directly outside the mirrors' "
+    with pytest.raises(CalibrationError,
+                       match=r"mirror 2: the object is not seen in the mirror in this frame \(0 "):
+        search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 2), 1,
+                     np.random.default_rng(0))
+    with pytest.raises(CalibrationError,
+                       match=r"mirror 2: the object is not seen directly outside the mirrors' "
                                                r"outlines in this frame \(0 readings there, 100 needed; [1-9]\d+ more"):
-        search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 0), 1, np.random.default_rng(0))
+        search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 0), 1,
+                     np.random.default_rng(0))
 
 
 def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_found(sphere):
@@ -377,12 +392,14 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
     scene, rig, depths, masks = sphere
     boundary = np.array(rig.mirrors[0].boundary, float)
     boundary[boundary[:, 0] < boundary[:, 0].mean(), 0] += 80.0
-    narrow = Rig(rig.intrinsics, (replace(rig.mirrors[0], plane=None, boundary=tuple(map(tuple, boundary))),
+    narrow = Rig(rig.intrinsics,
+                 (replace(rig.mirrors[0], plane=None, boundary=tuple(map(tuple, boundary))),
                                   replace(rig.mirrors[1], plane=None)))
     spilled = masks[0] & (narrow.inside_bits == 0) & (rig.inside_bits != 0) & (depths[0] > 2.3)
     # its image, outside every outline
     assert np.count_nonzero(spilled) > 500
-    with pytest.raises(CalibrationError, match=r"^mirror 1: \d+ readings just outside its outline lie beyond the "
+    with pytest.raises(CalibrationError,
+                       match=r"^mirror 1: \d+ readings just outside its outline lie beyond the "
                                                r"object seen directly: its image spills over the outline; draw"):
         search_plane(narrow, depths[0], masks[0], 0, np.random.default_rng(0))
     found = search_plane(narrow, depths[0], masks[0], 1, np.random.default_rng(0)).plane
@@ -394,11 +411,13 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
     sim = Simulator(scene, SensorModel.ideal())
     mirrors = [replace(m, markers=(), plane=None) for m in session_mirrors(sim, sim.frame(0).truth)]
     mirrors[0] = replace(mirrors[0], boundary=tuple(map(tuple, boundary)))
-    calibrated, result = calibrate_scene(Session(Path("."), rig.intrinsics, tuple(mirrors)), depths, masks,
+    calibrated, result = calibrate_scene(Session(Path("."), rig.intrinsics, tuple(mirrors)), depths,
+                                         masks,
                                          np.random.default_rng(0))
     assert [m.index for m in result.mirrors] == [1] and calibrated.mirrors[0].plane is None
     assert [i for i, _ in result.refused] == [0] and "its image spills over the outline" in result.refused[0][1]
-    assert abs(offset_at(calibrated.mirrors[1].plane, centre) - offset_at(rig.mirrors[1].plane, centre)) < 1e-3
+    assert abs(offset_at(calibrated.mirrors[1].plane, centre) - offset_at(rig.mirrors[1].plane,
+                                                                          centre)) < 1e-3
 
 
 def test_refinement_after_pairs_reaches_the_same_planes(sphere):
@@ -408,12 +427,16 @@ def test_refinement_after_pairs_reaches_the_same_planes(sphere):
     centre = np.asarray(scene.objects[0].centre)
     rng = np.random.default_rng(1)
     real = centre + rng.normal(0, 0.005, (4, 3))
-    paired = [calibrate_from_pairs(real, m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
+    paired = [calibrate_from_pairs(real,
+                                   m.plane.reflect(centre) + rng.normal(0, 0.005, (4, 3))).plane
               for m in rig.mirrors]
     # a rough start
     assert max(p.angle_to(m.plane) for p, m in zip(paired, rig.mirrors)) > 0.3
-    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, with_="surfaces", leash=Leash(gate=0.01))
-    from_markers = refine_planes(with_planes(rig, [nearer(m.plane, centre, 0.003, 0.2) for m in rig.mirrors]),
+    from_pairs = refine_planes(with_planes(rig, paired), depths, masks, with_="surfaces",
+                               leash=Leash(gate=0.01))
+    from_markers = refine_planes(with_planes(rig,
+                                             [nearer(m.plane, centre, 0.003, 0.2)
+                                                   for m in rig.mirrors]),
                                  depths, masks, with_="surfaces")
     for a, b in zip(from_pairs.mirrors, from_markers.mirrors):
         assert abs(offset_at(a.after, centre) - offset_at(b.after, centre)) < 0.1e-3
@@ -437,7 +460,9 @@ def test_view_agreement_after_a_markers_fit_and_the_heat_colours(sphere):
     scene, rig, depths, masks = sphere
     centre = np.asarray(scene.objects[0].centre)
     good = view_agreement(rig, depths, masks)
-    tilted = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 0.3), rig.mirrors[1].plane]),
+    tilted = view_agreement(with_planes(rig,
+                                        [nearer(rig.mirrors[0].plane, centre, 0.0, 0.3),
+                                              rig.mirrors[1].plane]),
                             depths, masks)
     assert set(good) == {0, 1} and min(found.points for found in good.values()) > 200
     assert good[0].rms_mm < 0.5 and tilted[0].rms_mm > 1.0         # on the surfaces, then off them
@@ -470,7 +495,9 @@ def test_the_agreement_is_measured_against_the_depth_noise():
     mask = prepare_frame(rig, depth, sim.background().depth)[1]
     good = view_agreement(rig, depth, mask)
     centre = np.asarray(object_extent(scene.objects[0])[0])
-    tilted = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.0, 2.0), rig.mirrors[1].plane]),
+    tilted = view_agreement(with_planes(rig,
+                                        [nearer(rig.mirrors[0].plane, centre, 0.0, 2.0),
+                                              rig.mirrors[1].plane]),
                             depth, mask)
     for found in good.values():
         # sigma_z at 2 to 3 m
@@ -491,7 +518,9 @@ def test_the_agreement_is_measured_against_the_depth_noise():
         # planes are
         assert found.camera_rms_mm < 0.8 * NOISE_EXPLAINS * found.camera_noise_mm
         assert abs(found.mean_mm) < 0.5 * MEAN_EXPLAINS * found.noise_mm
-    moved = view_agreement(with_planes(rig, [nearer(rig.mirrors[0].plane, centre, 0.01), rig.mirrors[1].plane]),
+    moved = view_agreement(with_planes(rig,
+                                       [nearer(rig.mirrors[0].plane, centre, 0.01),
+                                             rig.mirrors[1].plane]),
                            depth, mask)
     # 10 mm: both mirrors' means, through their comparisons
     for j in (0, 1):
@@ -531,7 +560,8 @@ def test_the_error_budget_experiment_on_noiseless_frames():
     assert np.all(found[0, :, 1] < 0.1)                                  # the reported 1-sigma, mm
     row = bias_row("sphere", "ideal", 0, 2)
     assert row.frames == 2 and row.spread_mm == pytest.approx((0.0, 0.0), abs=1e-9)
-    assert row.mean_mm == pytest.approx(tuple(found[0, :, 0]), abs=1e-9) and np.isnan(row.correlation)
+    assert row.mean_mm == pytest.approx(tuple(found[0, :, 0]),
+                                        abs=1e-9) and np.isnan(row.correlation)
 
 
 def test_markers_read_behind_the_silver_give_no_glass():
@@ -552,7 +582,8 @@ def test_markers_read_behind_the_silver_give_no_glass():
     # mm of glass (a helper saw "glass 1.0 ± 109.8 mm (saved as its glass)" on the walking figure)
     hidden = depth.copy()
     hidden[290:311, 90:111] = 1.4
-    glass = marker_offset(CAMERA, hidden, [*markers, (100.0, 300.0)], Plane((0.0, 0.0, -1.0), 2.001))
+    glass = marker_offset(CAMERA, hidden, [*markers, (100.0, 300.0)],
+                          Plane((0.0, 0.0, -1.0), 2.001))
     assert glass.offset == pytest.approx(0.001, abs=1e-6) and glass.spread < 1e-6
 
 
@@ -562,7 +593,8 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     report says first whether it is within what the noise explains (NOISE_EXPLAINS), then the
     figures before and after."""
     plane = Plane.from_abcd([0.0, 0.0, 1.0, -2.0])
-    report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -0.73, 0.04, 3.41, 0.02, 0.5, 0.01, 900, 900, 7.94)
+    report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -0.73, 0.04, 3.41, 0.02, 0.5,
+                              0.01, 900, 900, 7.94)
     assert report.summary() == (
         "plane moved +3.41 mm (> 0: away from the camera) and 0.020°; its points agree with the other views as well "
         "as the depth noise allows (RMS 5.43 mm before, 5.44 mm after, mean -0.73 mm before, +0.04 mm after over the "
@@ -597,21 +629,24 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     """The middle mirror of an arc shares little with the camera and much with the mirrors beside
     it, which the camera fixes; a cluster of mirrors that the camera fixes none of is refused,
     whatever they share (a box)."""
-    arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100), (2, 3, 100))
+    arc = _comparisons((1, 0, 150), (0, 1, 150), (3, 0, 300), (2, 0, 20), (2, 1, 400), (3, 2, 100),
+                       (2, 3, 100))
     assert fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3) == {1: 300, 3: 300, 2: 620}
     # held mirrors fix it too
     assert fixed_by(arc, [2], ["middle"], 3) == {2: 620}
     # a search's guesses: each fixed by the views held, not through the other guesses
     # the mirrors beside it, calibrated
     assert fixed_by(arc, [2], ["middle"], 3, held_only=True) == {2: 620}
-    with pytest.raises(CalibrationError, match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
+    with pytest.raises(CalibrationError,
+                       match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
                                                r"plane found without markers must be fixed by the camera or by "
                                                r"mirrors calibrated before it\); click markers on it and fit it, then "
                                                r"refine from the object$") as refused:
         fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3, held_only=True)
     assert refused.value.mirrors == ("middle",)
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
-    with pytest.raises(CalibrationError, match=r"^left, middle and right: the camera and the mirrors see too little "
+    with pytest.raises(CalibrationError,
+                       match=r"^left, middle and right: the camera and the mirrors see too little "
                                                r"of the same surface to determine their planes \(left: 18, middle: 0 "
                                                r"and right: 10 readings agree over 10 frame\(s\), 200 are needed; the "
                                                r"readings they share with one another \(left: 5,000, middle: 10,000 "
@@ -620,7 +655,8 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
         # every mirror named, not the first
         fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)
     assert refused.value.mirrors == ("left", "middle", "right")
-    with pytest.raises(CalibrationError, match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
+    with pytest.raises(CalibrationError,
+                       match=r"\(10 readings agree over 10 frame\(s\), 200 are needed\); refine"):
         fixed_by(_comparisons((1, 0, 10)), [1], ["left"], 10)
 
 
@@ -629,8 +665,10 @@ def test_a_refinement_that_moves_nothing_changes_nothing():
     0.0 mm and 0.00°' (a helper) and rewrote session.json: below 0.05 mm, 0.005° and 0.05 mm of
     glass it is no change."""
     # noqa: E731
-    glass = lambda *mm: SimpleNamespace(mirrors=[SimpleNamespace(marker_offset=x / 1e3) for x in mm])
-    still = [SimpleNamespace(index=0, shift_mm=-0.04, tilt_deg=0.004), SimpleNamespace(index=1, shift_mm=0.0,
+    glass = lambda *mm: SimpleNamespace(mirrors=[SimpleNamespace(marker_offset=x / 1e3)
+                                                 for x in mm])
+    still = [SimpleNamespace(index=0, shift_mm=-0.04, tilt_deg=0.004),
+             SimpleNamespace(index=1, shift_mm=0.0,
                                                                                        tilt_deg=0.0)]
     assert not Refinement.changed(SimpleNamespace(mirrors=still), glass(3.0, 0.0), glass(3.04, 0.0))
     # a glass moved

@@ -17,7 +17,8 @@ from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.calibration.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit, _on_sphere, _plain_fit,
+from mirrorcore.calibration.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit,
+                                                 _on_sphere, _plain_fit,
                                      _view_readings, sphere_planes)
 
 
@@ -38,7 +39,8 @@ def kinect_sphere():
 def errors_mm(planes: dict, rig: Rig, centre) -> list[tuple[float, float]]:
     """Per mirror: (mm along the normal at the object, > 0 away from the camera; degrees) from the
     truth."""
-    return [(1e3 * (offset_at(planes[j], centre) - offset_at(m.plane, centre)), planes[j].angle_to(m.plane))
+    return [(1e3 * (offset_at(planes[j], centre) - offset_at(m.plane, centre)),
+             planes[j].angle_to(m.plane))
             for j, m in enumerate(rig.mirrors, start=1)]
 
 
@@ -57,7 +59,8 @@ def test_the_centres_give_the_planes_once_the_noise_bias_is_taken_off(kinect_sph
     readings, start = _view_readings(rig, depths[0], masks[0], [0, 1, 2], 0)
     plain = _joint_fit([r * z[:, None] for r, z in readings], start)
     assert plain[-1] < 0.1140
-    plain_planes = {j: _bisector(plain[:3], plain[3 * j:3 * j + 3], rig.mirrors[j - 1].plane) for j in (1, 2)}
+    plain_planes = {j: _bisector(plain[:3], plain[3 * j:3 * j + 3], rig.mirrors[j - 1].plane)
+                    for j in (1, 2)}
     assert all(offset < -1.0 for offset, _ in errors_mm(plain_planes, rig, centre))
 
 
@@ -71,7 +74,8 @@ def test_exact_readings_need_no_correction():
 def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
     scene, rig, depths, masks = kinect_sphere
     centre = np.asarray(scene.objects[0].centre)
-    start = Rig(rig.intrinsics, tuple(replace(m, plane=moved_plane(m.plane, centre, np.array([0.003, 0.0, -0.003])))
+    start = Rig(rig.intrinsics,
+                tuple(replace(m, plane=moved_plane(m.plane, centre, np.array([0.003, 0.0, -0.003])))
                                       for m in rig.mirrors))
     fractions = []
     result = refine_planes(start, depths, masks, progress=fractions.append)
@@ -82,7 +86,8 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
     refined = {i + 1: plane for i, plane in result.planes.items()}
     for (offset, angle), report in zip(errors_mm(refined, rig, centre), result.mirrors):
         assert abs(offset) < 0.4 and angle < 0.05
-        assert 2.5 < report.shift_mm < 3.5 and report.sphere_radius_mm == pytest.approx(115.0, abs=0.4)
+        assert 2.5 < report.shift_mm < 3.5 and report.sphere_radius_mm == pytest.approx(115.0,
+                                                                                        abs=0.4)
         assert report.agreement_after_mm < report.agreement_before_mm
         assert "(1σ; from the centres of the sphere (radius 115." in report.summary()
         assert "points seen both ways" not in report.summary()
@@ -93,7 +98,8 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
 
 def test_what_is_not_a_sphere_is_refused_by_name_and_auto_compares_the_surfaces():
     scene, rig, depths, masks = frames("figure", SensorModel.kinect_v1(), 1)
-    with pytest.raises(NotASphere, match=r"^frame 0: the object is not a sphere in the view of the camera"):
+    with pytest.raises(NotASphere,
+                       match=r"^frame 0: the object is not a sphere in the view of the camera"):
         sphere_planes(rig, depths, masks, [1, 2], np.random.default_rng(0))
     with pytest.raises(CalibrationError, match="frame 0: the object is not a sphere"):
         refine_planes(rig, depths, masks, with_="sphere")
@@ -105,7 +111,8 @@ def test_what_is_not_a_sphere_is_refused_by_name_and_auto_compares_the_surfaces(
 def test_a_mirror_that_does_not_see_the_sphere_is_named(kinect_sphere):
     _, rig, depths, masks = kinect_sphere
     hidden = masks & (rig.inside_bits != 2)
-    with pytest.raises(NotASphere, match=r"frame 0: mirror 2 sees 0 readings of the object, 300 are needed"):
+    with pytest.raises(NotASphere,
+                       match=r"frame 0: mirror 2 sees 0 readings of the object, 300 are needed"):
         sphere_planes(rig, depths[:1], hidden[:1], [1, 2], np.random.default_rng(0))
 
 

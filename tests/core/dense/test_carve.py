@@ -124,7 +124,8 @@ def test_progress_reaches_one(scene):
 @pytest.mark.parametrize("kind", ["event", "callable"])
 def test_cancel_stops_early_and_frees_memory(scene, volume, kind):
     chunks = []
-    carve(scene.rig, scene.depth, scene.truth.object_mask, volume, progress=chunks.append, workers=1)
+    carve(scene.rig, scene.depth, scene.truth.object_mask, volume, progress=chunks.append,
+          workers=1)
     event, calls = threading.Event(), []
 
     def progress(fraction):
@@ -134,7 +135,8 @@ def test_cancel_stops_early_and_frees_memory(scene, volume, kind):
     tracemalloc.start()
     before = tracemalloc.get_traced_memory()[0]
     with pytest.raises(Cancelled):
-        carve(scene.rig, scene.depth, scene.truth.object_mask, volume, progress=progress, cancel=cancel, workers=1)
+        carve(scene.rig, scene.depth, scene.truth.object_mask, volume, progress=progress,
+              cancel=cancel, workers=1)
     after = tracemalloc.get_traced_memory()[0]
     tracemalloc.stop()
     # one worker: stopped before the second chunk

@@ -79,7 +79,8 @@ def test_carving_uses_the_views_through_two_mirrors(kaleidoscope, bounces):
     multi = seen_source >= 33
     assert multi.mean() > 0.2
     if bounces == 3:
-        assert near.mean() > 0.98 and near[multi].mean() > 0.97 and {33, 34} <= set(sources.tolist())
+        assert near.mean() > 0.98 and near[multi].mean() > 0.97 and {33,
+                                                                     34} <= set(sources.tolist())
     else:
         assert near[multi].mean() < 0.7 and sources.max() <= 2
 
@@ -99,7 +100,8 @@ def test_fusion_uses_the_views_through_two_mirrors(kaleidoscope):
 # around its raw cloud, its depth not smoothed (OpenCV's bilateral filter changes its last bits
 # between releases), recorded before the views through several mirrors were added (commit a4c18a3;
 # the same on OpenCV 5.0 and 5.1), the fusion computing every voxel ('tsdf', now Blocks.all).
-DEMO_DENSE_DIGESTS = {"carve": "b2da67d49d164cbb", "paper": "06482df27eac37fb", "tsdf": "b40231bbb1a7a0b7"}
+DEMO_DENSE_DIGESTS = {"carve": "b2da67d49d164cbb", "paper": "06482df27eac37fb",
+                      "tsdf": "b40231bbb1a7a0b7"}
 
 
 def test_where_no_ray_meets_two_mirrors_dense_results_do_not_change():

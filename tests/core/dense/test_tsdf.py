@@ -29,7 +29,8 @@ from tests.dense_scene import sphere_scene
 
 
 def rmse_to_sphere(points, scene) -> float:
-    return float(np.sqrt(np.mean((np.linalg.norm(points - scene.centre, axis=1) - scene.radius) ** 2)))
+    return float(np.sqrt(np.mean((np.linalg.norm(points - scene.centre,
+                                                 axis=1) - scene.radius) ** 2)))
 
 
 @pytest.fixture(scope="module", params=[0, 1])
@@ -39,7 +40,8 @@ def noisy(request):
     scene = sphere_scene(1.0, SensorModel.kinect_v1(), seed=request.param)
     depth, mask = prepare_frame(scene.rig, scene.depth, scene.background)
     volume = dense_volume(scene.rig, depth, mask, DenseOptions())
-    return scene, depth, mask, reconstruct_raw(scene.rig, depth, mask), fuse(scene.rig, depth, mask, volume)
+    return scene, depth, mask, reconstruct_raw(scene.rig, depth, mask), fuse(scene.rig, depth, mask,
+                                                                             volume)
 
 
 def test_mesh_is_no_less_accurate_than_the_raw_cloud(noisy):
@@ -111,9 +113,11 @@ def lorensen_on_observed_edges(values, observed):
     its corner was found on); the grids below have no such vertex beside an unobserved voxel."""
     verts, faces, _, _ = marching_cubes(values, 0.0, method="lorensen", allow_degenerate=True)
     made = len(faces)
-    lower, upper = (tuple(np.minimum(r(verts), np.array(values.shape) - 1).astype(int).T) for r in (np.floor, np.ceil))
+    lower, upper = (tuple(np.minimum(r(verts), np.array(values.shape) - 1).astype(int).T)
+                    for r in (np.floor, np.ceil))
     faces = faces[(observed[lower] & observed[upper])[faces].all(axis=1)]
-    _, first, same = np.unique(np.round(verts.astype(np.float64), 6), axis=0, return_index=True, return_inverse=True)
+    _, first, same = np.unique(np.round(verts.astype(np.float64), 6), axis=0, return_index=True,
+                               return_inverse=True)
     faces = same.reshape(-1)[faces]
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
     used = np.zeros(len(first), bool)
@@ -139,7 +143,8 @@ def assert_same_mesh(mesh, volume, verts, faces):
     assert len(mesh.vertices) == len(expected)
     np.testing.assert_allclose(np.sort(mesh.vertices, axis=0), np.sort(expected, axis=0), atol=1e-6)
     pairs = cKDTree(expected).query_pairs(1e-6, output_type="ndarray")
-    _, place = connected_components(coo_matrix((np.ones(len(pairs)), tuple(pairs.T)), (len(expected),) * 2))
+    _, place = connected_components(coo_matrix((np.ones(len(pairs)), tuple(pairs.T)),
+                                               (len(expected),) * 2))
     assert len(pairs) <= len(expected) // 1000
     distance, match = cKDTree(expected).query(mesh.vertices)
     assert distance.max() < 1e-6
@@ -154,7 +159,8 @@ def in_blocks(volume, values, mask, source, keep=None):
     those with a voxel in the mask) and their values, mask and source as (m, B, B, B)."""
     b = BLOCK
     shape = tuple(n // b for n in values.shape)
-    cut = [g.reshape(shape[0], b, shape[1], b, shape[2], b).transpose(0, 2, 4, 1, 3, 5) for g in (values, mask, source)]
+    cut = [g.reshape(shape[0], b, shape[1], b, shape[2], b).transpose(0, 2, 4, 1, 3, 5)
+           for g in (values, mask, source)]
     blocks = Blocks.marked(volume, cut[1].any(axis=(3, 4, 5)) if keep is None else keep, b)
     return blocks, *(g[tuple(blocks.ijk.T)] for g in cut)
 
@@ -183,7 +189,8 @@ def test_a_surface_across_blocks_is_the_whole_grids():
     x, y, z = np.meshgrid(*(np.arange(12.0),) * 3, indexing="ij")
     plane = (0.6 * x + 0.3 * y + 0.2 * z - 5.25) / 2                  # no value exactly 0
     sphere = (np.sqrt((x - 8.2) ** 2 + (y - 3.1) ** 2 + (z - 7.6) ** 2) - 2.7) / 2
-    values = np.clip(np.minimum(np.abs(plane), np.abs(sphere)) * np.sign(plane * sphere), -1, 1).astype(np.float32)
+    values = np.clip(np.minimum(np.abs(plane), np.abs(sphere)) * np.sign(plane * sphere), -1,
+                     1).astype(np.float32)
     mask = np.ones(values.shape, bool)
     near = np.abs(values).reshape(3, 4, 3, 4, 3, 4).min(axis=(1, 3, 5)) < 0.7
     assert 3 <= np.count_nonzero(~near) <= 10 and near[1, 1, 1]
@@ -209,7 +216,8 @@ def test_vertices_on_grid_points_are_one_vertex_and_their_degenerate_faces_go():
     mask, source = np.ones(values.shape, bool), np.zeros(values.shape, np.uint8)
     mesh = block_marching_cubes(*in_blocks(volume, values, mask, source))
     grid = (mesh.vertices - np.asarray(volume.origin)) / volume.voxel
-    assert len(grid) == 10 and np.array_equal(grid, np.round(grid)) and (grid.sum(axis=1) == 3).all()
+    assert len(grid) == 10 and np.array_equal(grid,
+                                              np.round(grid)) and (grid.sum(axis=1) == 3).all()
     a, b, c = (grid[mesh.faces[:, k]] for k in range(3))
     assert len(mesh.faces) > 0 and (np.linalg.norm(np.cross(b - a, c - a), axis=1) > 0.5).all()
     assert_same_mesh(mesh, volume, *lorensen_on_observed_edges(values, mask)[:2])
@@ -217,7 +225,8 @@ def test_vertices_on_grid_points_are_one_vertex_and_their_degenerate_faces_go():
     lone[1, 1, 1], lone[3, 3, 3] = 0.0, -1.0
     mesh = block_marching_cubes(*in_blocks(volume, lone, mask, source))
     grid = (mesh.vertices - np.asarray(volume.origin)) / volume.voxel
-    assert len(mesh.faces) == 1 and sorted(map(tuple, grid)) == [(2.5, 3, 3), (3, 2.5, 3), (3, 3, 2.5)]
+    assert len(mesh.faces) == 1 and sorted(map(tuple, grid)) == [(2.5, 3, 3), (3, 2.5, 3),
+                                                                 (3, 3, 2.5)]
 
 
 def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
@@ -236,7 +245,9 @@ def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
     mesh = block_marching_cubes(*in_blocks(volume, values, np.ones(values.shape, bool), source))
     grid = (mesh.vertices - np.asarray(volume.origin)) / volume.voxel
     assert len(grid) == 16
-    np.testing.assert_allclose(grid[:, 0], 1 + np.array([0.75, 0.25, 0.5, 0.25])[grid[:, 1].astype(int)], atol=1e-6)
+    np.testing.assert_allclose(grid[:, 0],
+                               1 + np.array([0.75, 0.25, 0.5, 0.25])[grid[:, 1].astype(int)],
+                               atol=1e-6)
     expected = np.where(grid[:, 2] == 3, NO_SOURCE, np.array([2, 1, 1, 2])[grid[:, 1].astype(int)])
     np.testing.assert_array_equal(mesh.sources, expected)
 
@@ -253,7 +264,8 @@ def test_a_large_box_with_little_surface_fits_the_budget(half):
     set_memory_budget(256 << 20)
     try:
         mesh = reconstruct_dense(scene.rig, depth[None], mask[None], volume, "tsdf").mesh()
-        assert len(mesh.faces) > 200_000 and rmse_to_sphere(mesh.vertices, scene) <= rmse_to_sphere(raw, scene)
+        assert len(mesh.faces) > 200_000 and rmse_to_sphere(mesh.vertices,
+                                                            scene) <= rmse_to_sphere(raw, scene)
         with pytest.raises(MemoryBudgetError, match="carving's state and source grids"):
             reconstruct_dense(scene.rig, depth[None], mask[None], volume, "carve")
         set_memory_budget(8 << 20)

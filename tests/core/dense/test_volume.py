@@ -24,7 +24,8 @@ def test_the_box_of_a_grid_gives_the_grid_back():
     """The box a grid covers, made into a grid again (the browser's Dense fields after a run), keeps
     its shape: a box a whole number of voxels wide, up to rounding, does not gain a voxel (it did,
     by rounding up 26.000000000004)."""
-    for lo, voxel in (([1.9179862439359936, 1.1744999658616915, 2.740289695151073], 0.004), ([0, 0, 1], 0.01)):
+    for lo, voxel in (([1.9179862439359936, 1.1744999658616915, 2.740289695151073], 0.004),
+                      ([0, 0, 1], 0.01)):
         grid = Volume.from_bounds(lo, np.add(lo, [0.836, 0.104, 0.872]), voxel)
         for _ in range(3):
             low = np.asarray(grid.origin) - voxel / 2
@@ -44,7 +45,8 @@ def test_around_a_cloud_with_margin():
 
 @pytest.mark.parametrize("args, match", [(((0, 0, 0), 0.0, (1, 1, 1)), "voxel size"),
                                          (((0, 0, 0), 0.01, (0, 1, 1)), "at least one voxel"),
-                                         (((0, 0, 0), 0.01, (100_000, 100_000, 10_000)), "more than")])
+                                         (((0, 0, 0), 0.01, (100_000, 100_000, 10_000)),
+                                          "more than")])
 def test_refusals(args, match):
     with pytest.raises(MirrorscanError, match=match):
         Volume(*args)

@@ -13,5 +13,6 @@ def test_burrus_disparity_round_trip_within_quantisation():
     # back
     assert np.all(np.abs(back - z) <= 0.5 * 0.0030711016 * z * back * 1.0001 + 1e-6)
     np.testing.assert_array_equal(depth_to_disparity(disparity_to_depth(counts)), counts)
-    assert depth_to_disparity(np.array([0.0, 0.1, np.nan]).tolist()).tolist() == [DISPARITY_INVALID] * 3
+    assert depth_to_disparity(np.array([0.0, 0.1,
+                                        np.nan]).tolist()).tolist() == [DISPARITY_INVALID] * 3
     assert disparity_to_depth(np.array([DISPARITY_INVALID, 1200])).tolist() == [0.0, 0.0]

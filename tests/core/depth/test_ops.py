@@ -6,7 +6,8 @@ import pytest
 from helpers import plane_depth, sphere_depth
 
 from mirrorcore.depth import ops as depthops
-from mirrorcore.depth.ops import local_quadratic_depth, robust_mean_depth, smooth_depth, without_occluders
+from mirrorcore.depth.ops import (local_quadratic_depth, robust_mean_depth, smooth_depth,
+                                  without_occluders)
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.depth.noise import axial_sigma
@@ -52,12 +53,15 @@ def test_noise_is_reduced_more_than_by_the_average_without_bias():
     average as its reference, leaves less noise than that average does."""
     rng = np.random.default_rng(5)
     truth = sphere_depth(CAMERA, [0.1, 0.0, 2.865], 0.115)
-    depth = np.where(truth > 0, truth + rng.normal(size=truth.shape) * axial_sigma(truth), 0).astype(np.float32)
+    depth = np.where(truth > 0, truth + rng.normal(size=truth.shape) * axial_sigma(truth),
+                     0).astype(np.float32)
     interior, mask = inner(truth > 0, 3), truth > 0
     reference = smooth_depth(depth, mask)            # as the pipeline gives it
-    error = (local_quadratic_depth(depth, reference, np.flatnonzero(mask), mask.astype(np.int32)) - truth)[interior]
+    error = (local_quadratic_depth(depth, reference, np.flatnonzero(mask),
+                                   mask.astype(np.int32)) - truth)[interior]
     rms = {name: np.sqrt(np.mean(e[interior] ** 2)) for name, e in (("raw", depth - truth),
-                                                                     ("average", reference - truth))}
+                                                                     ("average",
+                                                                      reference - truth))}
     # 0.24 and 0.74 times
     assert np.sqrt(np.mean(error ** 2)) < min(0.3 * rms["raw"], 0.8 * rms["average"])
     # 0.17 mm
@@ -93,7 +97,8 @@ def test_only_the_chosen_pixels_change_and_a_lone_pixel_keeps_its_reference():
 def test_pixels_are_fitted_in_chunks_with_the_same_result(monkeypatch):
     rng = np.random.default_rng(2)
     truth = sphere_depth(CAMERA, [0.0, 0.0, 2.0], 0.3)
-    depth = np.where(truth > 0, truth + rng.normal(size=truth.shape) * axial_sigma(truth), 0).astype(np.float32)
+    depth = np.where(truth > 0, truth + rng.normal(size=truth.shape) * axial_sigma(truth),
+                     0).astype(np.float32)
     whole = fit_all(depth)
     monkeypatch.setattr(depthops, "QUADRATIC_CHUNK", 1000)
     # the matrix products block differently
@@ -111,7 +116,8 @@ def test_the_robust_mean_of_frames_averages_the_disparity_steps_and_leaves_out_w
     stack[:3, :100, :100] = 1.2                                   # someone passed in front
     median = np.median(stack, axis=0)
     mean = robust_mean_depth(stack)
-    assert abs(np.mean(mean[100:, 100:]) - 2.004) < 0.3e-3 < abs(np.mean(median[100:, 100:]) - 2.004)
+    assert abs(np.mean(mean[100:, 100:]) - 2.004) < 0.3e-3 < abs(np.mean(median[100:,
+                                                                                100:]) - 2.004)
     assert abs(np.mean(mean[:100, :100]) - 2.004) < 0.5e-3
 
 
@@ -141,4 +147,5 @@ def test_what_passes_in_front_of_the_background_in_most_frames_is_left_out():
     assert dropped < 1e-4
     # the median: the person
     assert abs(np.median(np.stack([*stack, background])[:, :100, :100]) - 3.0) < 0.02
-    assert abs(np.mean(robust_mean_depth(np.stack([*kept, background])[:, :100, :100])) - 3.5) < 0.01
+    assert abs(np.mean(robust_mean_depth(np.stack([*kept, background])[:, :100,
+                                                                       :100])) - 3.5) < 0.01

@@ -12,7 +12,8 @@ CAMERA = Intrinsics.primesense()
 
 
 def noisy(depth: np.ndarray, rng) -> np.ndarray:
-    return np.where(depth > 0, depth + rng.normal(size=depth.shape) * axial_sigma(depth), 0).astype(np.float32)
+    return np.where(depth > 0, depth + rng.normal(size=depth.shape) * axial_sigma(depth),
+                    0).astype(np.float32)
 
 
 def scene(rng, wall=4.0):
@@ -76,7 +77,8 @@ def test_flying_pixels_follow_their_definition():
     mask = rng.random((60, 80)) < 0.8
     sel = Selection()
     padded = np.pad(np.where(mask, depth, np.inf), 1, mode="edge")
-    nearest = np.min([padded[1 + dv:61 + dv, 1 + du:81 + du] for dv in (-1, 0, 1) for du in (-1, 0, 1)], axis=0)
+    nearest = np.min([padded[1 + dv:61 + dv, 1 + du:81 + du] for dv in (-1, 0, 1)
+                      for du in (-1, 0, 1)], axis=0)
     gap = np.maximum(sel.flying_sigmas * axial_sigma(depth), sel.flying_gap * depth)
     expected = mask & (depth - nearest > gap)
     assert 100 < expected.sum() < mask.sum()
@@ -99,7 +101,9 @@ def test_selection_json_errors():
 
     from mirrorcore.base.errors import FileFormatError
     assert Selection.from_json({"depth_max": 5}).depth_max == 5
-    assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0), (5, 0), (0, 5))
+    assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0),
+                                                                                          (5, 0),
+                                                                                          (0, 5))
     with pytest.raises(FileFormatError, match="unknown key\\(s\\) colour"):
         Selection.from_json({"colour": 1})
     with pytest.raises(FileFormatError, match="depth_min < depth_max"):

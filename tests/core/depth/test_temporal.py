@@ -62,7 +62,8 @@ def test_a_surface_moving_by_less_than_the_noise_is_seen_moving():
     """Each frame of a recording's end is 2 sigma nearer than the one before, everywhere: every
     single pixel difference is within the per-pixel tolerance, but the patch's mean is not, so the
     last frame stays as it is (averaging would pull it 4 sigma back)."""
-    frames = np.stack([np.full(SHAPE, 1 / (0.4 + 2 * k * SIGMA_W)) for k in range(5)]).astype(np.float32)
+    frames = np.stack([np.full(SHAPE, 1 / (0.4 + 2 * k * SIGMA_W))
+                       for k in range(5)]).astype(np.float32)
     out = temporal_smooth(frames, 4)
     np.testing.assert_allclose(out, frames[4], rtol=1e-6)
 

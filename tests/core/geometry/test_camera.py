@@ -84,7 +84,8 @@ def test_opencv_yaml_round_trip(tmp_path):
 
 def test_broken_intrinsics_files(tmp_path):
     (tmp_path / "bad.json").write_text("{\"width\": 640}")
-    with pytest.raises(FileFormatError, match="bad.json: not an Open3D PinholeCameraIntrinsic JSON"):
+    with pytest.raises(FileFormatError,
+                       match="bad.json: not an Open3D PinholeCameraIntrinsic JSON"):
         load_open3d_json(tmp_path / "bad.json")
     with pytest.raises(FileFormatError, match="no such file"):
         load_opencv_yaml(tmp_path / "none.yaml")

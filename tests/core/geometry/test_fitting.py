@@ -43,7 +43,8 @@ def _sphere_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
     center = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), rng.uniform(1.5, 2.5)])
     radius = rng.uniform(0.05, 0.3)
     directions = _unit(rng.normal(size=(n, 3)))
-    points, sources = _visible(center + radius * directions, directions, _viewpoints(center, mirrors))
+    points, sources = _visible(center + radius * directions, directions,
+                               _viewpoints(center, mirrors))
     return Sphere(tuple(center), radius), points, sources
 
 
@@ -65,7 +66,8 @@ def _cylinder_scan(rng: np.random.Generator, mirrors: int, n: int = 6000):
     return Cylinder(tuple(axis_point), tuple(direction), radius), points, sources
 
 
-def _corrupt(rng: np.random.Generator, points: np.ndarray, sources: np.ndarray, sigma: float, outlier_ratio: float):
+def _corrupt(rng: np.random.Generator, points: np.ndarray, sources: np.ndarray, sigma: float,
+             outlier_ratio: float):
     """Gaussian noise (sigma metres, every axis) and uniform outliers in the cloud's box grown by 50
     % (outlier_ratio of the returned points, labelled direct)."""
     noisy = points + rng.normal(scale=sigma, size=points.shape)
@@ -82,7 +84,8 @@ def _assert_cylinder_close(got: Cylinder, want: Cylinder, tol: float) -> None:
     d_got, d_want = np.array(got.axis_direction), np.array(want.axis_direction)
     assert np.linalg.norm(np.cross(d_got, d_want)) < tol / want.radius
     assert np.linalg.norm(d_got) == pytest.approx(1.0, abs=1e-12)
-    assert abs(Cylinder(want.axis_point, want.axis_direction, 0.0).deviations(np.array(got.axis_point))[0]) < tol
+    assert abs(Cylinder(want.axis_point, want.axis_direction,
+                        0.0).deviations(np.array(got.axis_point))[0]) < tol
     assert got.radius == pytest.approx(want.radius, abs=tol)
 
 
@@ -108,7 +111,8 @@ def test_error_figures_by_hand():
     assert errors.rmse == pytest.approx(np.sqrt(0.035))
     assert errors.mean_error == pytest.approx(0.05)
     assert errors.mean_abs_error == pytest.approx(0.15)
-    assert errors.to_json() == pytest.approx({"points": 4, "rmse_mm": 1e3 * np.sqrt(0.035), "mean_error_mm": 50.0,
+    assert errors.to_json() == pytest.approx({"points": 4, "rmse_mm": 1e3 * np.sqrt(0.035),
+                                              "mean_error_mm": 50.0,
                                               "mean_abs_error_mm": 150.0})
 
 
@@ -122,7 +126,8 @@ def test_per_source_errors_by_hand():
     # no mirror 2 points: no entry
     assert list(per_source) == [0, 1, 3]
     assert per_source[0] == FitErrors(2, pytest.approx(0.1), pytest.approx(0.0), pytest.approx(0.1))
-    assert per_source[1] == FitErrors(2, pytest.approx(np.sqrt(0.02)), pytest.approx(-0.1), pytest.approx(0.1))
+    assert per_source[1] == FitErrors(2, pytest.approx(np.sqrt(0.02)), pytest.approx(-0.1),
+                                      pytest.approx(0.1))
     assert per_source[3] == FitErrors(1, pytest.approx(0.3), pytest.approx(0.3), pytest.approx(0.3))
     with pytest.raises(ValueError, match="5 deviations but 4 source labels"):
         per_source_errors(np.zeros(5), np.zeros(4))
@@ -131,7 +136,8 @@ def test_per_source_errors_by_hand():
 def test_shape_fit_json_over_all_points_inliers_and_sources():
     sphere = Sphere((0.0, 0.0, 2.0), 0.1)
     deviations = np.array([0.001, -0.003, 0.05, 0.002])
-    fit = ShapeFit(sphere, np.abs(deviations) < 0.01, deviations, np.array([0, 0, 1, 2], np.uint8), 0.01)
+    fit = ShapeFit(sphere, np.abs(deviations) < 0.01, deviations, np.array([0, 0, 1, 2], np.uint8),
+                   0.01)
     out = fit.to_json()
     assert out["shape"] == "sphere" and out["center"] == [0.0, 0.0, 2.0]
     assert out["radius_mm"] == pytest.approx(100.0)
@@ -187,7 +193,8 @@ SIGMA, OUTLIERS, THRESHOLD, TOL = 0.002, 0.2, 0.006, 0.002
 @pytest.mark.parametrize("seed", range(3))
 def test_shapes_with_noise_and_outliers(kind, seed, mirrors):
     rng = np.random.default_rng((100 if kind == "sphere" else 200) + seed)
-    scan, fitter = (_sphere_scan, fit_sphere) if kind == "sphere" else (_cylinder_scan, fit_cylinder)
+    scan, fitter = (_sphere_scan, fit_sphere) if kind == "sphere" else (_cylinder_scan,
+                                                                        fit_cylinder)
     truth, points, sources = scan(rng, mirrors, n=4000)
     points, sources = _corrupt(rng, points, sources, SIGMA, OUTLIERS)
     fit = fitter(points, np.random.default_rng(seed), threshold=THRESHOLD, sources=sources)
@@ -245,19 +252,22 @@ def test_same_seed_same_fit_and_seeds_agree():
     rng = np.random.default_rng(3)
     _, points, sources = _cylinder_scan(rng, mirrors=1, n=3000)
     points, sources = _corrupt(rng, points, sources, SIGMA, OUTLIERS)
-    fits = [fit_cylinder(points, np.random.default_rng(seed), threshold=THRESHOLD) for seed in (5, 5, 6)]
+    fits = [fit_cylinder(points, np.random.default_rng(seed), threshold=THRESHOLD)
+            for seed in (5, 5, 6)]
     assert fits[0].shape == fits[1].shape and np.array_equal(fits[0].deviations, fits[1].deviations)
     assert fits[2].shape.radius == pytest.approx(fits[0].shape.radius, abs=1e-4)
 
 
 def test_given_normals_are_used():
     truth, points, sources = _cylinder_scan(np.random.default_rng(11), mirrors=0)
-    good = _outward_normals(truth, points) * np.random.default_rng(0).choice([-1.0, 2.0], size=(len(points), 1))
+    good = _outward_normals(truth, points) * np.random.default_rng(0).choice([-1.0, 2.0],
+                                                                             size=(len(points), 1))
     fit = fit_cylinder(points, np.random.default_rng(0), normals=good)
     _assert_cylinder_close(fit.shape, truth, 1e-6 * truth.radius)
     # all normals parallel: every sample degenerate
     with pytest.raises(MirrorscanError, match="no cylinder found"):
-        fit_cylinder(points, np.random.default_rng(0), normals=np.tile([0.0, 0.0, 1.0], (len(points), 1)))
+        fit_cylinder(points, np.random.default_rng(0),
+                     normals=np.tile([0.0, 0.0, 1.0], (len(points), 1)))
     with pytest.raises(MirrorscanError, match=rf"{len(points)} points but normals of shape \(3,\)"):
         fit_cylinder(points, np.random.default_rng(0), normals=np.ones(3))
 
@@ -269,7 +279,8 @@ def test_estimate_normals_of_a_plane():
     np.testing.assert_allclose(np.abs(normals[:, 2]), 1.0, atol=1e-9)
 
 
-@pytest.mark.parametrize("fit_shape, scan", [(fit_sphere, _sphere_scan), (fit_cylinder, _cylinder_scan)])
+@pytest.mark.parametrize("fit_shape, scan",
+                         [(fit_sphere, _sphere_scan), (fit_cylinder, _cylinder_scan)])
 def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
     """The fraction rises to 1 by the samples RANSAC will draw (batches of them, with 90 %
     outliers); the same fit is the one without progress; a cancel request stops it at the next
@@ -288,15 +299,18 @@ def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
         calls.append(0.0)
         return len(calls) > 3
     with pytest.raises(Cancelled, match=r"^scan\.ply: the fit was cancelled$"):
-        fit_shape(cloud, np.random.default_rng(0), threshold=THRESHOLD, where="scan.ply", cancel=cancel_after_three)
+        fit_shape(cloud, np.random.default_rng(0), threshold=THRESHOLD, where="scan.ply",
+                  cancel=cancel_after_three)
     assert len(calls) == 4
 
 
 # ------------------------------------------------------------------------------------------------ bad input
 def test_too_few_points():
-    with pytest.raises(MirrorscanError, match=r"^scan\.ply: a sphere fit needs at least 4 points, got 3$"):
+    with pytest.raises(MirrorscanError,
+                       match=r"^scan\.ply: a sphere fit needs at least 4 points, got 3$"):
         fit_sphere(np.eye(3), np.random.default_rng(0), where="scan.ply")
-    with pytest.raises(MirrorscanError, match=r"^cloud: a cylinder fit needs at least 5 points, got 0$"):
+    with pytest.raises(MirrorscanError,
+                       match=r"^cloud: a cylinder fit needs at least 5 points, got 0$"):
         fit_cylinder(np.empty((0, 3)), np.random.default_rng(0))
 
 
@@ -323,6 +337,8 @@ def test_plane_is_no_sphere_or_cylinder():
 def test_radius_range_rejects_models():
     truth, points, _ = _sphere_scan(np.random.default_rng(1), 0)
     with pytest.raises(MirrorscanError, match="no sphere found"):
-        fit_sphere(points, np.random.default_rng(0), radius_range=(2 * truth.radius, 3 * truth.radius))
-    fit = fit_sphere(points, np.random.default_rng(0), radius_range=(0.9 * truth.radius, 1.1 * truth.radius))
+        fit_sphere(points, np.random.default_rng(0),
+                   radius_range=(2 * truth.radius, 3 * truth.radius))
+    fit = fit_sphere(points, np.random.default_rng(0),
+                     radius_range=(0.9 * truth.radius, 1.1 * truth.radius))
     assert fit.shape.radius == pytest.approx(truth.radius, rel=1e-6)

@@ -25,18 +25,22 @@ def test_reflection_is_an_involution_and_an_isometry(normal, d, p):
     plane = Plane.from_abcd([*normal, d])
     once = plane.reflect(p)
     np.testing.assert_allclose(plane.reflect(once), p, atol=1e-9 * (1 + np.abs(p).max()))
-    np.testing.assert_allclose(plane.signed_distance(once), -plane.signed_distance(p), atol=1e-9 * (1 + d + np.abs(p).max()))
+    np.testing.assert_allclose(plane.signed_distance(once), -plane.signed_distance(p),
+                               atol=1e-9 * (1 + d + np.abs(p).max()))
     pairwise = np.linalg.norm(p[:, None] - p[None], axis=-1)
-    np.testing.assert_allclose(np.linalg.norm(once[:, None] - once[None], axis=-1), pairwise, atol=1e-8 * (1 + pairwise.max()))
+    np.testing.assert_allclose(np.linalg.norm(once[:, None] - once[None], axis=-1), pairwise,
+                               atol=1e-8 * (1 + pairwise.max()))
     M = plane.reflection_matrix()
-    np.testing.assert_allclose((M[:3, :3] @ p.T).T + M[:3, 3], once, atol=1e-9 * (1 + np.abs(p).max()))
+    np.testing.assert_allclose((M[:3, :3] @ p.T).T + M[:3, 3], once,
+                               atol=1e-9 * (1 + np.abs(p).max()))
     assert np.linalg.det(M[:3, :3]) == np.float64(-1.0) or abs(np.linalg.det(M[:3, :3]) + 1) < 1e-12
 
 
 @st.composite
 def cameras(draw) -> Intrinsics:
     w, h = draw(st.integers(8, 2000)), draw(st.integers(8, 2000))
-    return Intrinsics(w, h, draw(st.floats(50, 3000)), draw(st.floats(50, 3000)), draw(st.floats(0, w - 1)),
+    return Intrinsics(w, h, draw(st.floats(50, 3000)), draw(st.floats(50, 3000)),
+                      draw(st.floats(0, w - 1)),
                       draw(st.floats(0, h - 1)))
 
 
@@ -49,7 +53,8 @@ def test_projection_inverts_reprojection(camera, data):
     z = data.draw(arrays(np.float64, n, elements=st.floats(0.1, 10.0)))
     uv, depth = project_points(camera, reproject_pixels(camera, u, v, z))
     np.testing.assert_allclose(depth, z, rtol=1e-6)
-    np.testing.assert_allclose(uv, np.stack([u, v], -1), atol=2e-3 * (1 + max(camera.width, camera.height) / 500))
+    np.testing.assert_allclose(uv, np.stack([u, v], -1),
+                               atol=2e-3 * (1 + max(camera.width, camera.height) / 500))
 
 
 @EXAMPLES
@@ -92,7 +97,8 @@ def test_any_numbers_as_a_plane_are_a_plane_or_our_error(values):
 
 
 @EXAMPLES
-@given(st.lists(st.tuples(any_float, any_float), max_size=8), st.tuples(st.integers(1, 600), st.integers(1, 600)))
+@given(st.lists(st.tuples(any_float, any_float), max_size=8),
+       st.tuples(st.integers(1, 600), st.integers(1, 600)))
 def test_any_points_as_a_polygon_are_a_polygon_or_our_error(vertices, shape):
     try:
         poly = validate_polygon(vertices, shape)

@@ -27,16 +27,21 @@ from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
 from mirrorcore.sources.files import open_npz
 
-EXAMPLES = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+EXAMPLES = settings(max_examples=120, deadline=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
 CAMERA = Intrinsics(64, 48, 50.0, 50.0, 31.5, 23.5)
-SESSION = Session(Path("."), CAMERA, (SessionMirror("m", ((5.0, 5.0), (20.0, 6.0), (8.0, 30.0)), ((0, 0), (40, 0), (0, 40))),),
+SESSION = Session(Path("."), CAMERA,
+                  (SessionMirror("m", ((5.0, 5.0), (20.0, 6.0), (8.0, 30.0)),
+                                                    ((0, 0), (40, 0), (0, 40))),),
                   None, ("frames/000000.png",)).to_json()
 SCENE = paper_scene(object="sphere").to_json()
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True, allow_infinity=True)
+    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True,
+                                                                       allow_infinity=True)
     | st.text(max_size=12),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
+                                                                max_size=4),
     max_leaves=12)
 
 
@@ -120,14 +125,17 @@ png_headers = st.builds(lambda n, rest: PNG[:n] + rest, st.integers(8, 33), st.b
 
 
 @EXAMPLES
-@given(st.one_of(st.binary(max_size=300), damaged_bytes(PNG), png_headers), st.sampled_from([None, CAMERA.shape]))
+@given(st.one_of(st.binary(max_size=300), damaged_bytes(PNG), png_headers),
+       st.sampled_from([None, CAMERA.shape]))
 def test_depth_png_bytes(folder, raw, shape):
     (folder / "d.png").write_bytes(raw)
     depth = ends_cleanly(read_depth_png, folder / "d.png", 0.001, shape)
-    assert depth is None or (depth.dtype == np.float32 and depth.ndim == 2 and np.isfinite(depth).all())
+    assert depth is None or (depth.dtype == np.float32 and depth.ndim == 2
+                             and np.isfinite(depth).all())
 
 
-PLY = encode_ply(np.random.default_rng(1).normal(size=(20, 3)), np.arange(20) % 3, np.arange(18).reshape(6, 3))
+PLY = encode_ply(np.random.default_rng(1).normal(size=(20, 3)), np.arange(20) % 3,
+                 np.arange(18).reshape(6, 3))
 
 
 @EXAMPLES
@@ -146,7 +154,8 @@ def npz_bytes(arrays: dict) -> bytes:
     return buf.getvalue()
 
 
-NPZ = npz_bytes({"depth": np.full((2, 6, 8), 1000, np.uint16), "K": np.array([[5.0, 0, 3.5], [0, 5, 2.5], [0, 0, 1]]),
+NPZ = npz_bytes({"depth": np.full((2, 6, 8), 1000, np.uint16),
+                 "K": np.array([[5.0, 0, 3.5], [0, 5, 2.5], [0, 0, 1]]),
                  "depth_scale": np.array(0.001)})
 dtypes = st.sampled_from(["u1", "u2", "i4", "f4", "f8", "c8", "?", "U3", "M8[s]"])
 
@@ -156,12 +165,15 @@ def npz_arrays(draw) -> bytes:
     """An archive of arrays named like ours (or not), of random dtypes and shapes, values including
     NaN and inf."""
     arrays = {}
-    for name in draw(st.sets(st.sampled_from(["depth", "K", "depth_scale", "timestamps", "colour", "other"]))):
+    for name in draw(st.sets(st.sampled_from(["depth", "K", "depth_scale", "timestamps", "colour",
+                                              "other"]))):
         shape = tuple(draw(st.lists(st.integers(0, 4), max_size=4)))
         dtype = np.dtype(draw(dtypes))
-        values = np.array([np.nan, np.inf, -1, 0, 1.5, 3e9])[np.arange(int(np.prod(shape))) % 6].reshape(shape)
+        values = np.array([np.nan, np.inf, -1, 0, 1.5,
+                           3e9])[np.arange(int(np.prod(shape))) % 6].reshape(shape)
         with np.errstate(invalid="ignore", over="ignore"):
-            arrays[name] = values.astype(dtype) if dtype.kind not in "UM" else np.zeros(shape, dtype)
+            arrays[name] = values.astype(dtype) if dtype.kind not in "UM" else np.zeros(shape,
+                                                                                        dtype)
     return npz_bytes(arrays)
 
 
@@ -193,8 +205,10 @@ def intrinsics_bytes(save, name: str, folder: Path) -> bytes:
 @EXAMPLES
 @given(st.data())
 def test_intrinsics_files(folder, data):
-    for save, load, name in [(save_open3d_json, load_open3d_json, "k.json"), (save_opencv_yaml, load_opencv_yaml, "k.yaml")]:
-        raw = data.draw(st.one_of(st.binary(max_size=120), damaged_bytes(intrinsics_bytes(save, name, folder))))
+    for save, load, name in [(save_open3d_json, load_open3d_json, "k.json"),
+                             (save_opencv_yaml, load_opencv_yaml, "k.yaml")]:
+        raw = data.draw(st.one_of(st.binary(max_size=120),
+                                  damaged_bytes(intrinsics_bytes(save, name, folder))))
         (folder / name).write_bytes(raw)
         camera = ends_cleanly(load, folder / name)
         # what was accepted is a camera that saves and loads to itself

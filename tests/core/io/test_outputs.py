@@ -36,7 +36,8 @@ def refused(capsys, folder, argv, message="would write over"):
     assert snapshot(folder) == before
 
 
-@pytest.mark.parametrize("target", ["session.json", "session.json.bak", "background.png", "truth.json",
+@pytest.mark.parametrize("target",
+                         ["session.json", "session.json.bak", "background.png", "truth.json",
                                     "frames/000000.png", "frames/new.png", "exports/../session.json", "."])
 def test_reconstruct_never_writes_over_a_session_file(session, capsys, target):
     (session / "session.json.bak").write_bytes((session / "session.json").read_bytes())
@@ -62,9 +63,11 @@ def test_a_symbolic_link_to_a_session_file_is_refused(session, tmp_path, capsys)
 
 
 def test_dense_and_every_frame_outputs_are_guarded_too(session, capsys):
-    refused(capsys, session, ["reconstruct", session, "-o", session / "background.png", "--method", "carve",
+    refused(capsys, session,
+            ["reconstruct", session, "-o", session / "background.png", "--method", "carve",
                               "--voxel", "0.01"])
-    refused(capsys, session, ["reconstruct", session, "-o", session, "--frame", "all"], "is a session folder")
+    refused(capsys, session, ["reconstruct", session, "-o", session, "--frame", "all"],
+            "is a session folder")
 
 
 def test_outputs_beside_or_inside_exports_are_written(session, tmp_path, capsys):
@@ -77,7 +80,8 @@ def test_outputs_beside_or_inside_exports_are_written(session, tmp_path, capsys)
 
 def test_experiment_refuses_before_its_minutes_of_work(session, capsys):
     t0 = time.perf_counter()
-    refused(capsys, session, ["experiment", "angle", "-o", session / "frames" / "000000", "--quiet"])
+    refused(capsys, session,
+            ["experiment", "angle", "-o", session / "frames" / "000000", "--quiet"])
     assert time.perf_counter() - t0 < 5
 
 
@@ -111,10 +115,12 @@ def test_one_frame_is_not_written_over_a_batch_record(session, tmp_path, capsys)
     """A helper wrote a frame's PLY over a batch folder's manifest.json: the next run of the batch
     failed on it."""
     out = tmp_path / "frames"
-    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers", "1"]) == 0
+    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers",
+                 "1"]) == 0
     for name in ("manifest.json", ".mirrorscan-batch.lock"):
         if (out / name).exists():
             refused(capsys, out, ["reconstruct", session, "-o", out / name, "--frame", 0],
                     f"would write over the record of the batch in {out}")
     assert (out / "manifest.json").exists()
-    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers", "1"]) == 0
+    assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers",
+                 "1"]) == 0

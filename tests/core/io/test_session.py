@@ -25,10 +25,12 @@ def make_session(root) -> Session:
     write_depth_png(root / "background.png", np.full(CAMERA.shape, 3.0), 0.001)
     (root / "frames").mkdir(parents=True, exist_ok=True)
     write_depth_png(root / "frames/000000.png", np.full(CAMERA.shape, 2.5), 0.001)
-    mirrors = (SessionMirror("mirror 1", ((10.0, 20.0), (30.5, 40.0), (50.0, 20.0)), ((0, 0), (100, 0), (100, 100)),
+    mirrors = (SessionMirror("mirror 1", ((10.0, 20.0), (30.5, 40.0), (50.0, 20.0)),
+                             ((0, 0), (100, 0), (100, 100)),
                           Plane.from_abcd([0.3, 0, -1, 2.5])),
                SessionMirror("mirror 2", extra={"note": "kept"}))
-    return Session(root, CAMERA, mirrors, "background.png", ("frames/000000.png",), Selection(depth_max=5.0),
+    return Session(root, CAMERA, mirrors, "background.png", ("frames/000000.png",),
+                   Selection(depth_max=5.0),
                    extra={"note": "kept too"})
 
 
@@ -36,14 +38,16 @@ def test_session_round_trip(tmp_path):
     session = make_session(tmp_path)
     save_session(session)
     loaded = load_session(tmp_path)
-    np.testing.assert_allclose(loaded.mirrors[0].plane.abcd, session.mirrors[0].plane.abcd, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(loaded.mirrors[0].plane.abcd, session.mirrors[0].plane.abcd, rtol=0,
+                               atol=1e-15)
     assert loaded.with_mirror(0, session.mirrors[0]) == session
     assert loaded.mirrors[1].extra == {"note": "kept"} and loaded.extra == {"note": "kept too"}
     assert loaded.selection == Selection(depth_max=5.0) and [m.id for m in loaded.mirrors] == [1, 2]
     assert loaded.read_frame(0)[0, 0] == pytest.approx(2.5)
     assert loaded.read_background()[5, 5] == pytest.approx(3.0)
     data = json.loads((tmp_path / "session.json").read_text())
-    assert set(data) >= {"version", "camera", "mirrors", "background", "frames"} and data["version"] == 1
+    assert set(data) >= {"version", "camera", "mirrors", "background",
+                         "frames"} and data["version"] == 1
     assert data["mirrors"][1]["plane"] is None
     # written only when the markers are off the silver
     assert "marker_offset" not in data["mirrors"][1]
@@ -72,7 +76,8 @@ def test_a_glass_uncertainty_that_is_not_metres_is_refused_by_name(tmp_path, bad
     data = json.loads((tmp_path / "session.json").read_text())
     data["mirrors"][0]["marker_offset_std"] = bad
     (tmp_path / "session.json").write_text(json.dumps(data))
-    with pytest.raises(FileFormatError, match=r"mirrors\[0\].*'marker_offset_std' must be the metres"):
+    with pytest.raises(FileFormatError,
+                       match=r"mirrors\[0\].*'marker_offset_std' must be the metres"):
         load_session(tmp_path)
 
 
@@ -108,7 +113,8 @@ def test_failed_save_leaves_the_session_intact(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="No space left"):
         save_session(session.with_mirror(0, SessionMirror("changed")))
     assert (tmp_path / "session.json").read_bytes() == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["background.png", "frames", "session.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["background.png", "frames",
+                                                          "session.json"]
 
 
 def edit(tmp_path, change):
@@ -122,18 +128,24 @@ def edit(tmp_path, change):
     (lambda d: d.pop("camera"), "missing key\\(s\\) camera"),
     (lambda d: d.update(version=7), "unknown version 7"),
     (lambda d: d["camera"].pop("fx"), "camera: missing key\\(s\\) fx"),
-    (lambda d: d["mirrors"][0].update(markers=[[700, 3]]), r"mirrors\[0\] \(mirror 1\): markers\[0\]: pixel \(700, 3\) is outside"),
-    (lambda d: d["mirrors"][0].update(markers=[[1, "a"]]), r"markers\[0\]: must be a pair of numbers"),
+    (lambda d: d["mirrors"][0].update(markers=[[700, 3]]),
+     r"mirrors\[0\] \(mirror 1\): markers\[0\]: pixel \(700, 3\) is outside"),
+    (lambda d: d["mirrors"][0].update(markers=[[1, "a"]]),
+     r"markers\[0\]: must be a pair of numbers"),
     (lambda d: d["mirrors"][0].update(boundary=[[0, 0], [9, 9], [9, 0], [0, 9]]), "crosses itself"),
     (lambda d: d["mirrors"][0].update(boundary=[[0, 0], [9, 9]]), "at least 3 vertices"),
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 0, 1]), "normal .* is zero"),
     (lambda d: d["mirrors"][0].update(plane=[0, 0, 1, -2]), "camera behind the mirror"),
     (lambda d: d["mirrors"][0].update(name=""), "name: must be a non-empty string"),
-    (lambda d: d["mirrors"][0].update(marker_offset=0.3), r"mirrors\[0\] \(mirror 1\): 'marker_offset' must be metres"),
-    (lambda d: d["mirrors"][0].update(marker_offset="3 mm"), "'marker_offset' must be metres .* got '3 mm'"),
+    (lambda d: d["mirrors"][0].update(marker_offset=0.3),
+     r"mirrors\[0\] \(mirror 1\): 'marker_offset' must be metres"),
+    (lambda d: d["mirrors"][0].update(marker_offset="3 mm"),
+     "'marker_offset' must be metres .* got '3 mm'"),
     (lambda d: d["mirrors"][0].update(marker_offset=True), "'marker_offset' must be metres"),
-    (lambda d: d.update(frames=["../../etc/passwd"]), r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
-    (lambda d: d.update(background="/etc/passwd"), "background: path '/etc/passwd' leaves the session folder"),
+    (lambda d: d.update(frames=["../../etc/passwd"]),
+     r"frames\[0\]: path '../../etc/passwd' leaves the session folder"),
+    (lambda d: d.update(background="/etc/passwd"),
+     "background: path '/etc/passwd' leaves the session folder"),
     (lambda d: d.update(bounces=4), "bounces: must be a whole number from 1 to 3, got 4"),
     (lambda d: d.update(bounces=2.0), "bounces: must be a whole number from 1 to 3, got 2.0"),
     (lambda d: d.update(bounces=True), "bounces: must be a whole number from 1 to 3, got True"),
@@ -163,7 +175,8 @@ def test_depth_png_round_trip_and_bad_images(tmp_path):
     assert np.abs(back - depth).max() <= 0.0005 + 1e-6
     import cv2
     cv2.imwrite(str(tmp_path / "8bit.png"), np.zeros((480, 640), np.uint8))
-    with pytest.raises(FileFormatError, match="8bit.png: a depth image is 16-bit, this one is uint8"):
+    with pytest.raises(FileFormatError,
+                       match="8bit.png: a depth image is 16-bit, this one is uint8"):
         read_depth_png(tmp_path / "8bit.png", 0.001)
     with pytest.raises(FileFormatError, match="size 640x480 does not match the camera's 320x240"):
         read_depth_png(tmp_path / "d.png", 0.001, (240, 320))
@@ -195,7 +208,8 @@ def test_ply_layout_and_readers(tmp_path):
 
 def test_ascii_ply_from_another_tool(tmp_path):
     pts = np.random.default_rng(2).normal(size=(20, 3))
-    o3d.io.write_point_cloud(str(tmp_path / "a.ply"), o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts)),
+    o3d.io.write_point_cloud(str(tmp_path / "a.ply"),
+                             o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts)),
                              write_ascii=True)
     p, s = read_ply(tmp_path / "a.ply")
     np.testing.assert_allclose(p, pts, atol=1e-5)

@@ -37,7 +37,8 @@ def scanned(request, tmp_path_factory):
     noise, angle = request.param
     root = tmp_path_factory.mktemp(f"kaleidoscope-{noise}-{angle}")
     session = root / "session"
-    run_ok("simulate", session, "--kaleidoscope", "--angle", angle, "--noise", noise, "--frames", 3, "--seed", 3,
+    run_ok("simulate", session, "--kaleidoscope", "--angle", angle, "--noise", noise, "--frames", 3,
+           "--seed", 3,
            "--quiet")
     run_ok("calibrate", session)
     run_ok("reconstruct", session, "-o", root / "three.ply", "--frame", 1)
@@ -68,7 +69,8 @@ def test_the_views_through_two_mirrors_are_used(scanned):
     assert len(points) >= 1.2 * one_bounce
     multi = sorted(set(sources.tolist()) - {0, 1, 2})
     assert multi and all(len(source_sequence(s)) in (2, 3) for s in multi)
-    assert {f"mirror {' then '.join(map(str, source_sequence(s)))}" for s in multi} <= set(fit["per_source"])
+    assert {f"mirror {' then '.join(map(str, source_sequence(s)))}"
+            for s in multi} <= set(fit["per_source"])
     # the image through 3 mirrors
     assert (angle == 60) == any(len(source_sequence(s)) == 3 for s in multi)
 
@@ -84,7 +86,8 @@ def test_the_views_through_two_mirrors_are_as_good_as_those_through_one(scanned)
     for name, errors in fit["per_source"].items():
         order = 0 if name == "direct" else len(name.split(" then "))
         per_order.setdefault(order, []).append((errors["points"], errors["rmse_mm"]))
-    rmse = {k: np.sqrt(sum(n * e ** 2 for n, e in v) / sum(n for n, _ in v)) for k, v in per_order.items()}
+    rmse = {k: np.sqrt(sum(n * e ** 2 for n, e in v) / sum(n for n, _ in v)) for k,
+            v in per_order.items()}
     assert rmse[2] <= 1.5 * rmse[1], rmse
 
 

@@ -30,7 +30,8 @@ def corner(bounces: int = 3) -> Rig:
     the side mirror is met at height y = 8/3 y' (y' = y/z of the row), which the camera sees in row
     2 (v - 2.5) + 2.5: inside the image, so on its outline, for rows 1 to 3 only. Column 4 (x/z =
     0.125) would meet the side mirror's plane behind the camera: it never does."""
-    return Rig(CAMERA, (Mirror("glass", GLASS, COLUMNS_4_5), Mirror("side", SIDE, COLUMNS_6_7)), bounces)
+    return Rig(CAMERA, (Mirror("glass", GLASS, COLUMNS_4_5), Mirror("side", SIDE, COLUMNS_6_7)),
+               bounces)
 
 
 def test_the_corner_by_hand():
@@ -68,13 +69,15 @@ def test_one_bounce_leaves_out_what_came_through_a_second_mirror():
     # rows 1-3: the side mirror begins at 8/3 = 2.67
     depth[:, 5] = [3.0, 2.5, 2.6, 2.7, 2.9, 1.9]
     cloud = reconstruct_raw(corner(bounces=1), depth)
-    assert cloud.pixels[:, 1].tolist() == [0, 1, 2, 4, 5] and cloud.sources.tolist() == [1, 1, 1, 1, 0]
+    assert cloud.pixels[:, 1].tolist() == [0, 1, 2, 4, 5] and cloud.sources.tolist() == [1, 1, 1, 1,
+                                                                                         0]
     assert reconstruct_raw(corner(bounces=2), depth).sources.tolist() == [1, 1, 1, 33, 1, 0]
 
 
 def test_bounces_out_of_range_are_refused():
     for bounces in (0, 4, 2.5, True):
-        with pytest.raises(MirrorscanError, match="--bounces: the reflections followed must be 1 to 3"):
+        with pytest.raises(MirrorscanError,
+                           match="--bounces: the reflections followed must be 1 to 3"):
             corner(bounces)
 
 

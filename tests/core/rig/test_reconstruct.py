@@ -114,7 +114,8 @@ def test_a_window_off_the_corner_keeps_pixel_indices():
     mask[4, 6] = True
     cloud = reconstruct_raw(rig(Mirror("m", PLANE, LEFT)), depth, mask)
     assert cloud.pixels.tolist() == [[6, 4]]
-    np.testing.assert_allclose(cloud.points[0], [(6 - 3.5) / 4 * 3, (4 - 2.5) / 4 * 3, 3.0], atol=1e-6)
+    np.testing.assert_allclose(cloud.points[0], [(6 - 3.5) / 4 * 3, (4 - 2.5) / 4 * 3, 3.0],
+                               atol=1e-6)
 
 
 # sha256 (first 16 hex digits) of points, sources and pixel indices of the demo session's frames 0-4

@@ -9,7 +9,8 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
 from mirrorcore.sim.export import visible_markers
-from mirrorcore.sim.layouts import arc_mirrors, arc_scene, kaleidoscope_scene, object_extent, paper_scene
+from mirrorcore.sim.layouts import (arc_mirrors, arc_scene, kaleidoscope_scene, object_extent,
+                                    paper_scene)
 from mirrorcore.sim.placement import SPACING as MARKER_SPACING
 from mirrorcore.sim.render import MARKER, MAX_BOUNCES, NONE, Renderer
 
@@ -72,7 +73,8 @@ def test_object_windows_lose_no_pixel(monkeypatch):
     monkeypatch.setattr(render, "_pixel_window", lambda camera, points: (slice(None), slice(None)))
     everywhere = Renderer(scene).render(0.3)
     for name in ("depth", "surface", "first_mirror", "second_mirror", "object_index"):
-        np.testing.assert_array_equal(getattr(windowed, name), getattr(everywhere, name), err_msg=name)
+        np.testing.assert_array_equal(getattr(windowed, name), getattr(everywhere, name),
+                                      err_msg=name)
 
 
 def test_marker_pixels_lie_on_the_true_mirror_planes(paper):
@@ -147,7 +149,8 @@ def test_the_bounce_budget_cuts_longer_paths(kaleidoscope):
 
 @pytest.mark.parametrize("bounces", [0, MAX_BOUNCES + 1])
 def test_bounce_budget_out_of_range(bounces):
-    with pytest.raises(MirrorscanError, match="--bounces: the simulator renders 1 to 3 reflections"):
+    with pytest.raises(MirrorscanError,
+                       match="--bounces: the simulator renders 1 to 3 reflections"):
         Renderer(paper_scene(camera=CAMERA), bounces=bounces)
 
 

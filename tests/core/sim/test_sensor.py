@@ -18,7 +18,8 @@ def _wall(z: float) -> np.ndarray:
 def test_axial_std_matches_khoshelham(z):
     # many depths around z so the quantisation offset is averaged as on a real wall
     depth = _wall(z) + np.linspace(-0.02, 0.02, CAMERA.width, dtype=np.float32)[None, :] * z
-    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, depth, np.random.default_rng(1))
+    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, depth,
+                                                             np.random.default_rng(1))
     err = (out - depth)[out > 0] / depth[out > 0] ** 2          # normalised to Z^2
     assert np.std(err) == pytest.approx(1.425e-3, rel=0.10)
     assert abs(np.mean(err)) < 1e-4
@@ -26,7 +27,8 @@ def test_axial_std_matches_khoshelham(z):
 
 @pytest.mark.parametrize("z", [1.0, 2.0, 3.0])
 def test_axial_std_on_a_flat_wall_facing_the_camera(z):
-    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, _wall(z), np.random.default_rng(2))
+    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, _wall(z),
+                                                             np.random.default_rng(2))
     assert np.std(out[out > 0]) == pytest.approx(1.425e-3 * z * z, rel=0.10)
 
 
@@ -46,7 +48,8 @@ def test_noiseless_mode_is_exact():
 
 
 def test_noiseless_kinect_shows_the_disparity_steps():
-    depth = np.linspace(1.9, 2.1, CAMERA.width * CAMERA.height, dtype=np.float32).reshape(CAMERA.shape)
+    depth = np.linspace(1.9, 2.1, CAMERA.width * CAMERA.height,
+                        dtype=np.float32).reshape(CAMERA.shape)
     out = SensorModel.kinect_v1(noise=False).apply(CAMERA, depth, np.random.default_rng(0))
     fb = CAMERA.fx * 0.075
     steps = fb / np.unique(out[out > 0]) * 8                      # disparity in 1/8 pixels
@@ -92,5 +95,6 @@ def test_ir_shadow_equals_a_running_minimum_over_whole_rows():
     right_min = np.minimum.accumulate(xp[:, ::-1], axis=1)[:, ::-1]
     beyond = np.concatenate([right_min[:, 1:], np.full((CAMERA.height, 1), np.inf)], axis=1)
     for tolerance in (0.0, 0.1, 3.0):
-        np.testing.assert_array_equal(ir_shadow(depth, fb, tolerance), (depth > 0) & (beyond < xp - tolerance))
+        np.testing.assert_array_equal(ir_shadow(depth, fb, tolerance),
+                                      (depth > 0) & (beyond < xp - tolerance))
     assert not ir_shadow(np.zeros(CAMERA.shape, np.float32), fb).any()

@@ -46,20 +46,25 @@ def write_fakenect(folder: Path, raws: list[np.ndarray], period: float, padding:
     (folder / "INDEX.txt").write_text("\n".join(names) + "\n")
 
 
-@pytest.mark.skipif(not FAKENECT or not shutil.which("gcc"), reason="needs libfreenect's fakenect (Debian "
+@pytest.mark.skipif(not FAKENECT or not shutil.which("gcc"),
+                    reason="needs libfreenect's fakenect (Debian "
                     "libfreenect-dev) and gcc for the freenect_camera_to_world shim")
 def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
-    pytest.importorskip("freenect", reason="needs PyPI freenect (pip install 'mirrorscan[devices]')")
+    pytest.importorskip("freenect",
+                        reason="needs PyPI freenect (pip install 'mirrorscan[devices]')")
     rig = Simulator(paper_scene(object="sphere", distance=2.0), seed=3)
     truth = np.stack([rig.frame(i).depth for i in range(4)])
     raws = [depth_to_disparity(d) for d in truth]
     write_fakenect(tmp_path / "rec", raws, period=0.2, padding=60)
     (tmp_path / "shim.c").write_text(SHIM)
-    subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "shim.so"), str(tmp_path / "shim.c")], check=True)
-    env = {**os.environ, "FAKENECT_PATH": str(tmp_path / "rec"), "LD_PRELOAD": str(tmp_path / "shim.so"),
+    subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "shim.so"),
+                    str(tmp_path / "shim.c")], check=True)
+    env = {**os.environ, "FAKENECT_PATH": str(tmp_path / "rec"),
+           "LD_PRELOAD": str(tmp_path / "shim.so"),
            "LD_LIBRARY_PATH": str(Path(FAKENECT[0]).parent), "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
     out = tmp_path / "out.npz"
-    run = subprocess.run([sys.executable, "-c", READER, str(out), "4"], env=env, capture_output=True, text=True,
+    run = subprocess.run([sys.executable, "-c", READER, str(out), "4"], env=env,
+                         capture_output=True, text=True,
                          timeout=60)
     assert run.returncode == 0, run.stderr[-2000:]
     got = np.load(out, allow_pickle=False)
@@ -115,7 +120,8 @@ def test_realsense_bag_written_here_reads_back_exactly(tmp_path):
     frames = rng.integers(0, 6000, (3, 480, 640), dtype=np.uint16)
     write_bag(tmp_path / "scan.bag", frames, 0.001)
     with open_source(str(tmp_path / "scan.bag")) as source:
-        assert source.frame_count == 3 and (source.intrinsics.fx, source.intrinsics.fy) == (580.0, 581.0)
+        assert source.frame_count == 3 and (source.intrinsics.fx, source.intrinsics.fy) == (580.0,
+                                                                                            581.0)
         got = [source.read(i) for i in (2, 0, 1)]                       # seekable: any order
     for frame, expected in zip(got, frames[[2, 0, 1]]):
         np.testing.assert_array_equal(frame.units, expected)
@@ -126,12 +132,14 @@ def test_realsense_bag_written_here_reads_back_exactly(tmp_path):
 
 
 def test_a_missing_library_is_named_with_what_to_install():
-    with pytest.raises(MirrorscanError, match="cannot import no_such_camera_lib .*; install Debian's libfoo"):
+    with pytest.raises(MirrorscanError,
+                       match="cannot import no_such_camera_lib .*; install Debian's libfoo"):
         require("no_such_camera_lib", "foo:0", "Debian's libfoo")
 
 
 def test_realsense_recordings_that_are_missing_or_broken_are_named(tmp_path):
-    pytest.importorskip("pyrealsense2", reason="needs PyPI pyrealsense2 (pip install 'mirrorscan[devices]')")
+    pytest.importorskip("pyrealsense2",
+                        reason="needs PyPI pyrealsense2 (pip install 'mirrorscan[devices]')")
     with pytest.raises(FileFormatError, match="nope.bag: no such .bag recording"):
         open_source(f"bag:{tmp_path / 'nope.bag'}")
     (tmp_path / "junk.bag").write_bytes(b"junk")

@@ -14,7 +14,8 @@ from mirrorcore.geometry.camera import Intrinsics, reproject_depth
 from mirrorcore.sources import Frame, StackSource, open_source, parse_spec
 
 REAL = Path(__file__).resolve().parents[4] / "shared" / "data" / "real"
-needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"no real frames at {REAL} (shared/ beside the clone)")
+needs_real = pytest.mark.skipif(not REAL.is_dir(),
+                                reason=f"no real frames at {REAL} (shared/ beside the clone)")
 
 
 @needs_real
@@ -22,7 +23,8 @@ def test_png_folder_reads_the_kinect_room_in_millimetres(tmp_path):
     for k in (1, 2, 3):
         shutil.copy(REAL / f"kinect_room_depth_{k}.png", tmp_path / f"{k:06d}.png")
     (tmp_path / "camera.json").write_text(json.dumps(
-        {"width": 640, "height": 480, "fx": 518.0, "fy": 519.0, "cx": 325.5, "cy": 253.5, "depth_scale": 0.001}))
+        {"width": 640, "height": 480, "fx": 518.0, "fy": 519.0, "cx": 325.5, "cy": 253.5,
+         "depth_scale": 0.001}))
     with open_source(f"dir:{tmp_path}") as source:
         assert source.frame_count == 3 and not source.live and source.intrinsics.fx == 518.0
         frames = list(source)
@@ -66,9 +68,11 @@ def test_tum_folder_finds_the_globe_at_2_2_m_with_its_colour(tmp_path):
 def test_npz_stack_integer_and_float_with_no_readings(tmp_path):
     depth = np.array([[[1000, 0], [2000, 65535]], [[1500, 1], [2, 3]]], np.uint16)
     K = np.array([[500.0, 0, 0.5], [0, 500.0, 0.5], [0, 0, 1]])
-    np.savez(tmp_path / "u.npz", depth=depth, K=K, depth_scale=0.001, timestamps=np.array([5.0, 5.5]))
+    np.savez(tmp_path / "u.npz", depth=depth, K=K, depth_scale=0.001,
+             timestamps=np.array([5.0, 5.5]))
     source = open_source(str(tmp_path / "u.npz"))
-    assert isinstance(source, StackSource) and source.intrinsics == Intrinsics(2, 2, 500, 500, 0.5, 0.5, 0.001)
+    assert isinstance(source, StackSource) and source.intrinsics == Intrinsics(2, 2, 500, 500, 0.5,
+                                                                               0.5, 0.001)
     frame = source.read(0)
     assert isinstance(frame, Frame) and frame.timestamp == 5.0 and frame.colour is None
     np.testing.assert_array_equal(frame.units, depth[0])
@@ -86,9 +90,11 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
     np.savez(tmp_path / "nok.npz", depth=np.zeros((1, 2, 2), np.uint16), depth_scale=0.001)
     np.savez(tmp_path / "noscale.npz", depth=np.zeros((1, 2, 2), np.uint16), K=K)
     np.savez(tmp_path / "badk.npz", depth=np.zeros((1, 2, 2), np.float32), K=np.eye(2))
-    np.savez(tmp_path / "complex.npz", depth=np.zeros((1, 2, 2), np.uint8), K=K, depth_scale=np.complex64(1j))
+    np.savez(tmp_path / "complex.npz", depth=np.zeros((1, 2, 2), np.uint8), K=K,
+             depth_scale=np.complex64(1j))
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
-    cases = {"pickled": "holds pickled \\(object\\) arrays, which mirrorscan never loads", "nok": "missing array 'K'",
+    cases = {"pickled": "holds pickled \\(object\\) arrays, which mirrorscan never loads",
+             "nok": "missing array 'K'",
              "noscale": "an integer depth stack needs 'depth_scale'",
              "badk": "'K' must be integer or floating of shape \\(3, 3\\)", "junk": "not a .npz archive",
              # a TypeError,
@@ -101,9 +107,11 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
 
 def test_png_folder_and_tum_errors(tmp_path):
     cv2.imwrite(str(tmp_path / "a.png"), np.zeros((4, 4), np.uint16))
-    with pytest.raises(FileFormatError, match="no camera.json or intrinsic.json; give the camera as"):
+    with pytest.raises(FileFormatError,
+                       match="no camera.json or intrinsic.json; give the camera as"):
         open_source(f"dir:{tmp_path}")
-    with pytest.raises(FileFormatError, match=r"a.png: size 4x4 does not match the camera's 640x480"):
+    with pytest.raises(FileFormatError,
+                       match=r"a.png: size 4x4 does not match the camera's 640x480"):
         open_source(f"dir:{tmp_path}?camera=kinect_v1").read(0)
     (tmp_path / "depth.txt").write_text("1.0\n")
     with pytest.raises(FileFormatError, match=r"depth.txt: line 1 is not 'timestamp path'"):
@@ -113,7 +121,8 @@ def test_png_folder_and_tum_errors(tmp_path):
 def test_spec_strings():
     assert parse_spec("freenect:0") == ("freenect", "0", {})
     assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x",
-                                                                      {"scale": "0.0002", "camera": "cam.yaml"})
+                                                                      {"scale": "0.0002",
+                                                                       "camera": "cam.yaml"})
     assert parse_spec("session") == ("session", "", {})
     with pytest.raises(MirrorscanError, match="unknown option\\(s\\) speed"):
         parse_spec("sim?speed=2")

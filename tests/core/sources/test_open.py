@@ -19,7 +19,8 @@ def test_shipped_demo_session_is_calibrated_and_scans_the_sphere():
     assert len(session.mirrors) == 2 and all(m.plane is not None for m in session.mirrors)
     source = open_source(None, session)
     assert isinstance(source, SessionSource) and source.frame_count == len(session.frames) == 5
-    cloud, _ = object_cloud(Rig.from_session(session), source.read(0).depth, source.background(), session.selection)
+    cloud, _ = object_cloud(Rig.from_session(session), source.read(0).depth, source.background(),
+                            session.selection)
     assert (np.bincount(cloud.sources, minlength=3) > 1000).all()
     fit = fit_sphere(cloud.points, np.random.default_rng(0))
     assert abs(fit.shape.radius - 0.115) < 0.002
