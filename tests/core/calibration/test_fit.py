@@ -4,14 +4,18 @@ import numpy as np
 import pytest
 from helpers import plane_depth
 
-from mirrorcore.calibration.fit import (calibrate_from_markers, calibrate_from_pairs,
-                                        calibrate_from_region,
-                                    calibrate_session, calibration_depth)
 from mirrorcore.base.errors import CalibrationError
+from mirrorcore.calibration.fit import (
+    calibrate_from_markers,
+    calibrate_from_pairs,
+    calibrate_from_region,
+    calibrate_session,
+    calibration_depth,
+)
 from mirrorcore.calibration.markers import review_fit
+from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.io.session import SessionMirror, load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene

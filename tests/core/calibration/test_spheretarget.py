@@ -9,17 +9,24 @@ import pytest
 from helpers import GLOBE_DEPTH, globe_points
 
 from mirrorcore.base.errors import CalibrationError
-from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.calibration.planestep import moved_plane, offset_at
 from mirrorcore.calibration.refine import refine_planes
+from mirrorcore.calibration.spheretarget import (
+    SCATTER_AUTO,
+    NotASphere,
+    _bisector,
+    _joint_fit,
+    _on_sphere,
+    _plain_fit,
+    _view_readings,
+    sphere_planes,
+)
 from mirrorcore.rig.model import Rig
+from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.calibration.spheretarget import (SCATTER_AUTO, NotASphere, _bisector, _joint_fit,
-                                                 _on_sphere, _plain_fit,
-                                     _view_readings, sphere_planes)
 
 
 def frames(obj: str, sensor: SensorModel, count: int, seed: int = 2):
