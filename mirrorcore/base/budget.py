@@ -32,7 +32,8 @@ def parse_size(text: str, where: str = ENV) -> int:
     `where` otherwise."""
     match = _SIZE.match(str(text))
     if not match:
-        raise MirrorscanError(f"{where}: {text!r} is not a size (write e.g. 8G, 512M or a number of bytes)")
+        raise MirrorscanError(
+            f"{where}: {text!r} is not a size (write e.g. 8G, 512M or a number of bytes)")
     size = int(float(match.group(1)) * _UNITS[match.group(2).upper()])
     if size < 1 << 20:
         raise MirrorscanError(f"{where}: {text!r} is less than 1 MiB; nothing useful fits in it")
@@ -61,7 +62,8 @@ def set_memory_budget(size: int | str | None) -> None:
     """Set the budget for this process (bytes, or a size such as '8G'); None goes back to the
     environment/default."""
     global _override
-    _override = None if size is None else parse_size(size, "--memory") if isinstance(size, str) else int(size)
+    _override = None if size is None else parse_size(size, "--memory") if isinstance(
+        size, str) else int(size)
 
 
 def check_memory(nbytes: float, what: str) -> None:
@@ -72,7 +74,8 @@ def check_memory(nbytes: float, what: str) -> None:
     depth'). Raises MemoryBudgetError with one line naming `what`, the need and the budget."""
     budget = memory_budget()
     if not nbytes <= budget:       # also refuses NaN
-        raise MemoryBudgetError(f"{what}: needs {format_bytes(nbytes)}, more than the memory budget of "
+        raise MemoryBudgetError(
+            f"{what}: needs {format_bytes(nbytes)}, more than the memory budget of "
                                 f"{format_bytes(budget)} (set {ENV} or --memory to change it)")
 
 

@@ -21,13 +21,15 @@ def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BY
         raise FileFormatError(f"{path}: no such {what}")
     size = path.stat().st_size
     if size > max_bytes:
-        raise FileFormatError(f"{path}: {size:,} bytes, more than the {max_bytes:,} such a file may have")
+        raise FileFormatError(
+            f"{path}: {size:,} bytes, more than the {max_bytes:,} such a file may have")
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except UnicodeDecodeError:
         raise FileFormatError(f"{path}: not UTF-8 text") from None
     except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+        raise FileFormatError(
+            f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     except RecursionError:
         raise FileFormatError(f"{path}: nested too deeply to read") from None
     except ValueError as exc:      # an integer of more than 4300 digits

@@ -182,6 +182,6 @@ def heat_map_colours(distances: np.ndarray, sources: np.ndarray, limit: float) -
     direct grey for the camera's own points, HEAT_UNCOMPARED (dark grey) for the mirrors' points the
     camera does not see."""
     colours = heat_colours(distances, limit)
-    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(distances,
-                                                             dtype=np.float64))] = HEAT_UNCOMPARED
+    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(
+        distances, dtype=np.float64))] = HEAT_UNCOMPARED
     return colours

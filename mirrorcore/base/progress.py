@@ -31,8 +31,8 @@ class Ratchet:
 
     def __call__(self, fraction: float) -> None:
         now = time.monotonic()
-        if self.progress is not None and fraction > self.shown and (now - self.when >= self.seconds or
-                                                                     fraction >= 1.0):
+        if self.progress is not None and fraction > self.shown and (
+            now - self.when >= self.seconds or fraction >= 1.0):
             self.shown, self.when = fraction, now
             self.progress(fraction)
 

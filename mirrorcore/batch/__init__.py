@@ -16,5 +16,6 @@ from mirrorcore.batch.manifest import MANIFEST_FILE, FrameRecord, Manifest, Outp
 
 __all__ = ["BATCH_METHODS", "MANIFEST_FILE", "BatchJob", "BatchProgress", "BatchReport", "BatchRun",
            "FrameContext",
-           "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task", "exports_folder",
+           "FrameRecord", "Manifest", "OutputFolder", "Where", "default_frames_per_task",
+           "exports_folder",
            "read_depth", "reconstruct_frames", "run_batch"]

@@ -55,7 +55,8 @@ class ContextPlugin(WorkerPlugin):
     def setup(self, worker) -> None:
         for folder in (Path(self.context.session.root), Path(self.context.job.out)):
             if not folder.is_dir():
-                raise MirrorscanError(f"worker {worker.address}: {folder} is not there; the session and the output "
+                raise MirrorscanError(
+                    f"worker {worker.address}: {folder} is not there; the session and the output "
                                       "folder must be on a file system that every worker sees at the same path")
         cv2.setNumThreads(1)
         if self.ignore_ctrl_c and threading.current_thread() is threading.main_thread():
@@ -77,7 +78,8 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
         try:
             client = Client(scheduler, timeout=CONNECT_SECONDS)
         except (OSError, ValueError) as exc:
-            raise MirrorscanError(f"--scheduler {scheduler}: no Dask scheduler answered ({exc})") from None
+            raise MirrorscanError(
+                f"--scheduler {scheduler}: no Dask scheduler answered ({exc})") from None
         try:
             client.wait_for_workers(1, timeout=CONNECT_SECONDS)
         except TimeoutError:
@@ -133,9 +135,10 @@ class DaskExecutor:
             client.register_plugin(ContextPlugin(context, ignore_ctrl_c=local), name=self.plugin)
         except MirrorscanError:
             raise
-        # noqa: BLE001 (whatever a worker raised loading the context: one line for the user)
-        except Exception as exc:
-            raise MirrorscanError(f"the Dask workers could not load the batch ({type(exc).__name__}: {exc}); is "
+        # whatever a worker raised loading the context: one line for the user
+        except Exception as exc:  # noqa: BLE001
+            raise MirrorscanError(
+                f"the Dask workers could not load the batch ({type(exc).__name__}: {exc}); is "
                                   "mirrorscan installed on every worker?") from None
         client.subscribe_topic("all", self._events.put)
 

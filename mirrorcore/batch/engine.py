@@ -234,8 +234,8 @@ class _InProcess:
         try:
             records, failures = reconstruct_frames(self.context, chunk,
                                                    lambda: cancel_requested(self.cancel))
-        # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
-        except Exception as exc:
+        # a frame's bug or MemoryError must not end hours of work
+        except Exception as exc:  # noqa: BLE001
             records, failures = [], {i: task_error(exc) for i in chunk}
         return [(chunk, records, failures)]
 

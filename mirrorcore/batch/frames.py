@@ -42,8 +42,8 @@ class FrameContext:
         """Refuses (MirrorscanError) an uncalibrated session or frames whose output names
         collide."""
         rig = calibrated_rig(session, job.bounces)
-        # noqa: B018 (computed once, here)
-        rig.reflection_table, rig.inside_bits, rig.intrinsics.rays
+        # computed once, here
+        rig.reflection_table, rig.inside_bits, rig.intrinsics.rays  # noqa: B018
         return cls(session, rig, session.read_background(), job, output_names(session), threads)
 
 
@@ -88,8 +88,7 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         try:
             data, sources, faces = _frame_ply(context,
                                               read_depth(context.session, index,
-                                                                  context.job.temporal,
-                                                                   cache))
+                                                         context.job.temporal, cache))
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
         except (MirrorscanError, OSError) as exc:
@@ -116,10 +115,8 @@ def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndar
         faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
     else:
         volume = dense_volume(rig, depth, mask, job.options)
-        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[None],
-                                                                   volume, job.method,
-                                                                   job.options,
-                                                                   workers=context.threads))
+        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[
+            None], volume, job.method, job.options, workers=context.threads))
     return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
 
 

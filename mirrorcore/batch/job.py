@@ -40,9 +40,10 @@ class BatchJob:
         if self.method not in BATCH_METHODS:
             raise MirrorscanError(f"--method: unknown method {self.method!r} (expected one of "
                                   f"{', '.join(BATCH_METHODS)})")
-        if isinstance(self.temporal, bool) or not isinstance(self.temporal,
-                                                             int) or self.temporal < 0:
-            raise MirrorscanError(f"--temporal: expected a whole number of neighbour frames >= 0, got "
+        if isinstance(self.temporal, bool) or not isinstance(
+            self.temporal, int) or self.temporal < 0:
+            raise MirrorscanError(
+                f"--temporal: expected a whole number of neighbour frames >= 0, got "
                                   f"{self.temporal!r}")
         object.__setattr__(self, "session", Path(self.session))
         object.__setattr__(self, "out", Path(self.out))
@@ -54,8 +55,8 @@ class BatchJob:
         if self.method != "raw":
             o = self.options
             options.update(voxel=o.voxel, margin=o.margin, threshold=o.threshold,
-                           bounds=None if o.bounds is None else [list(o.bounds[0]),
-                                                                 list(o.bounds[1])])
+                           bounds=None if o.bounds is None else [list(o.bounds[0]), list(o.bounds[
+                               1])])
             if self.method == "tsdf":
                 options.update(truncation=o.truncation)
         options["temporal"] = self.temporal
@@ -67,8 +68,8 @@ class BatchJob:
 def exports_folder(session_root: str | Path, method: str = "raw", temporal: int = 0) -> Path:
     """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD
     (with '-temporalN' when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
-    return Path(session_root) / "exports" / (f"frames-{method}" + (f"-temporal{temporal}"
-                                                                   if temporal else ""))
+    return Path(session_root) / "exports" / (f"frames-{method}" + (
+        f"-temporal{temporal}" if temporal else ""))
 
 
 def output_names(session: Session) -> tuple[str, ...]:
@@ -79,7 +80,8 @@ def output_names(session: Session) -> tuple[str, ...]:
         seen: dict[str, str] = {}
         for frame, name in zip(session.frames, names):
             if name in seen:
-                raise MirrorscanError(f"{session.path}: frames {seen[name]} and {frame} would both be written as "
+                raise MirrorscanError(
+                    f"{session.path}: frames {seen[name]} and {frame} would both be written as "
                                       f"{name}")
             seen[name] = frame
     return names

@@ -56,7 +56,8 @@ class FrameRecord:
         except (TypeError, KeyError) as exc:
             raise FileFormatError(f"{where}: not a frame record ({exc})") from None
         if Path(record.file).name != record.file or not record.file.endswith(".ply"):
-            raise FileFormatError(f"{where}: file {record.file!r} is not a PLY file name of this folder")
+            raise FileFormatError(
+                f"{where}: file {record.file!r} is not a PLY file name of this folder")
         return record
 
     def intact(self, folder: Path) -> bool:
@@ -96,7 +97,8 @@ class Manifest:
         made once and kept: 18,000 frames are rewritten in a few tens of milliseconds)."""
         head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings,
                 "inputs": self.inputs,
-                "total": self.total, "complete": self.complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "total": self.total, "complete": self.complete,
+                "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "failed": [{"index": i, "error": self.failed[i]} for i in sorted(self.failed)]}
         for i, record in self.done.items():
             if self._lines.get(i, (None,))[0] is not record:
@@ -109,7 +111,8 @@ class Manifest:
         if not isinstance(data, dict) or data.get("kind") != KIND:
             raise FileFormatError(f"{where}: not the manifest of a batch reconstruction")
         if data.get("version") != VERSION:
-            raise FileFormatError(f"{where}: unknown version {data.get('version')!r}; this mirrorscan writes "
+            raise FileFormatError(
+                f"{where}: unknown version {data.get('version')!r}; this mirrorscan writes "
                                   f"version {VERSION}")
         try:
             settings = {"method": str(data["method"]), "options": dict(data["options"])}
@@ -119,7 +122,8 @@ class Manifest:
             return cls(str(data["session"]), settings, dict(data["inputs"]), int(data["total"]),
                        {r.index: r for r in records}, failed)
         except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(f"{where}: missing or malformed key ({type(exc).__name__}: {exc})") from None
+            raise FileFormatError(
+                f"{where}: missing or malformed key ({type(exc).__name__}: {exc})") from None
 
 
 class OutputFolder:
@@ -159,12 +163,14 @@ class OutputFolder:
         if not file.exists():
             others = [p.name for p in self.path.iterdir() if p.name != LOCK_FILE]
             if others:
-                raise MirrorscanError(f"{self.path}: already holds files ({others[0]}...) and no {MANIFEST_FILE}; "
+                raise MirrorscanError(
+                    f"{self.path}: already holds files ({others[0]}...) and no {MANIFEST_FILE}; "
                                       "choose a new or empty folder")
             return None
         return Manifest.from_json(read_json(file, "manifest"), str(file))
 
-    def _keep(self, old: Manifest | None, names: tuple[str, ...], overwrite: bool) -> dict[int, FrameRecord]:
+    def _keep(self, old: Manifest | None, names: tuple[str, ...], overwrite: bool) -> dict[
+        int, FrameRecord]:
         """The frames of the old manifest that this run keeps (see the class docstring)."""
         if old is None:
             return {}
@@ -230,7 +236,8 @@ def _lock(folder: Path) -> int:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise MirrorscanError(f"{folder}: another mirrorscan run is writing into this folder") from None
+        raise MirrorscanError(
+            f"{folder}: another mirrorscan run is writing into this folder") from None
     return fd
 
 

@@ -126,20 +126,23 @@ class TargetView:
         velocity = self._velocity(mapped, index)
         agree = ((np.abs(offset) <= AGREE_SIGMAS * ANCHOR_NOISE * sigma + gate)
                  & (~target.rim[reading]
-                    | (np.sqrt(mapped.anchor_var[index]) * np.hypot(*velocity.T) <= RIM_LANDING_PX)))
+                    | (np.sqrt(mapped.anchor_var[index]) * np.hypot(
+                        *velocity.T) <= RIM_LANDING_PX)))
         index, normal, reading, uv, surface, velocity = (
             a[agree] for a in (index, normal, reading, uv, surface, velocity))
         residual = np.einsum("ij,ij->i", normal, mapped.points[index] - surface)
-        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(reading, uv, surface, normal,
-                                                                     velocity)
+        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(
+            reading, uv, surface, normal, velocity)
         return Comparison(index, residual, sigma[agree], normal)
 
     def _velocity(self, mapped: ViewPoints, index: np.ndarray) -> np.ndarray:
         """(m, 2) pixels per metre: how fast the anchors of points `index` (m,) of `mapped` move
         across the image as they move along their rays."""
         anchors, rays = mapped.anchors[index], mapped.rays[index]
-        return np.column_stack([self.intrinsics.fx * (rays[:, 0] * anchors[:, 2] - anchors[:, 0] * rays[:, 2]),
-                                self.intrinsics.fy * (rays[:, 1] * anchors[:, 2] - anchors[:, 1] * rays[:, 2])]
+        return np.column_stack([self.intrinsics.fx * (rays[:, 0] * anchors[:, 2] - anchors[
+            :, 0] * rays[:, 2]),
+                                self.intrinsics.fy * (rays[:, 1] * anchors[:, 2] - anchors[
+                                    :, 1] * rays[:, 2])]
                                ) / anchors[:, 2:] ** 2
 
     def _curvature(self, reading: np.ndarray, uv: np.ndarray, surface: np.ndarray,
@@ -159,7 +162,8 @@ def _along(view: ViewPoints, index: np.ndarray, normal: np.ndarray) -> np.ndarra
     """The noise (metres) along unit `normal` (m, 3) of readings `index` of `view`: their depth
     noise along their rays and their lateral uncertainty across them."""
     cosine = np.einsum("ij,ij->i", normal, view.rays[index])
-    return np.sqrt((view.sigma[index] * cosine) ** 2 + view.lateral[index] ** 2 * np.maximum(1 - cosine ** 2, 0))
+    return np.sqrt((view.sigma[index] * cosine) ** 2 + view.lateral[index] ** 2 * np.maximum(
+        1 - cosine ** 2, 0))
 
 
 @dataclass(frozen=True, eq=False)

@@ -65,7 +65,8 @@ class Calibration:
                 name = marker_names[worst] if marker_names else str(worst + 1)
                 text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
                          f"{ratio[worst]:.1f}σ)")
-            text += (f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
+            text += (
+                f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
                      if self.marker_offset else "; plane on the markers' faces (glass 0 mm)")
         return text
 
@@ -94,12 +95,14 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     if sum(usable) < 3:
         dead = [i + 1 for i, ok in enumerate(usable) if not ok]
         detail = f"; marker(s) {', '.join(map(str, dead))} have no depth reading within {window} px" if dead else ""
-        raise CalibrationError(f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
+        raise CalibrationError(
+            f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
     centres = np.array([np.median(g, axis=0) for g, ok in zip(groups, usable) if ok])
     spread = _distance_to_best_line(centres).max()
     if spread < MIN_MARKER_SPREAD:
         used = [i + 1 for i, ok in enumerate(usable) if ok]
-        raise CalibrationError(f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
+        raise CalibrationError(
+            f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
                                f"(all within {spread * 1000:.0f} mm of one line); place one off that line")
     points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
@@ -123,7 +126,8 @@ def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.
     inside = polygon_mask(polygon, intr.shape) & (depth > 0)
     v, u = np.nonzero(inside)
     if len(u) < MIN_REGION_PIXELS:
-        raise CalibrationError(f"{name}: the region has {len(u)} pixels with depth, {MIN_REGION_PIXELS} are needed")
+        raise CalibrationError(
+            f"{name}: the region has {len(u)} pixels with depth, {MIN_REGION_PIXELS} are needed")
     points = reproject_pixels(intr, u, v, depth[v, u])
     if _distance_to_best_line(points).max() < MIN_MARKER_SPREAD:
         raise CalibrationError(f"{name}: the region is too thin to define a plane")
@@ -147,18 +151,21 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
     real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
     virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)
     if len(real) == 0 or real.shape != virtual.shape:
-        raise CalibrationError(f"{name}: pairs need as many real points as virtual ones, at least one "
+        raise CalibrationError(
+            f"{name}: pairs need as many real points as virtual ones, at least one "
                                f"(got {len(real)} and {len(virtual)})")
     diff = real - virtual
     length = np.linalg.norm(diff, axis=1)
     if np.any(length < 1e-6):
-        raise CalibrationError(f"{name}: pair(s) {', '.join(str(i + 1) for i in np.nonzero(length < 1e-6)[0])} "
+        raise CalibrationError(
+            f"{name}: pair(s) {', '.join(str(i + 1) for i in np.nonzero(length < 1e-6)[0])} "
                                "have the real and virtual point in the same place")
     n = (diff / length[:, None]).mean(axis=0)
     n /= np.linalg.norm(n)
     d = -float(np.mean((real + virtual) / 2 @ n))
     if d <= 0:
-        raise CalibrationError(f"{name}: these pairs put the camera behind the mirror; are the real and virtual "
+        raise CalibrationError(
+            f"{name}: these pairs put the camera behind the mirror; are the real and virtual "
                                "points swapped?")
     plane = Plane.from_abcd([*n, d])
     _check_camera_side(plane, name)
@@ -211,7 +218,8 @@ def _distance_to_best_line(points: np.ndarray) -> np.ndarray:
 
 def _check_camera_side(plane: Plane, name: str) -> None:
     if plane.d < MIN_CAMERA_DISTANCE:
-        raise CalibrationError(f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
+        raise CalibrationError(
+            f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
                                "must face the mirror, not lie in its plane")
 
 
@@ -237,6 +245,5 @@ def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> n
     if background is None:
         return None if frames is None else np.asarray(frames, dtype=np.float32)
     background = np.asarray(background, dtype=np.float32)[None]
-    return background if frames is None else np.concatenate([without_occluders(frames,
-                                                                               background[0]),
-                                                             background])
+    return background if frames is None else np.concatenate([without_occluders(frames, background[
+        0]), background])

@@ -129,7 +129,8 @@ def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, a
         at = np.asarray(at, float)
         shift = abs(float(previous.signed_distance(at) - new.signed_distance(at))) * 1e3
         if tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM:
-            concerns.append(f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
+            concerns.append(
+                f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
                             f"{MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)")
     poor = residuals.poor()
     if poor:

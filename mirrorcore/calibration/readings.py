@@ -106,7 +106,8 @@ class ViewPoints:
         v0, u0 = np.divmod(self.pixels[index], intr.width)
         du, dv = uv[:, 0] - u0, uv[:, 1] - v0
         c = self.surface[index]
-        w = c[:, 0] + c[:, 1] * du + c[:, 2] * dv + c[:, 3] * du * du + c[:, 4] * du * dv + c[:, 5] * dv * dv
+        w = c[:, 0] + c[:, 1] * du + c[:, 2] * dv + c[:, 3] * du * du + c[:, 4] * du * dv + c[
+            :, 5] * dv * dv
         z = 1.0 / np.maximum(w, 1e-6)
         return np.column_stack([(uv[:, 0] - intr.cx) / intr.fx * z,
                                 (uv[:, 1] - intr.cy) / intr.fy * z, z])
@@ -149,8 +150,8 @@ def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray,
                       (v + win[0].start) * intr.width + u + win[1].start, coef[v, u])
 
 
-def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[np.ndarray,
-                                                                                    ...]:
+def _neighbour_surfaces(z: np.ndarray, rays: np.ndarray, intr: Intrinsics) -> tuple[
+    np.ndarray, ...]:
     """The surface through each reading's neighbours (see the module docstring), for every reading
     at once.
 

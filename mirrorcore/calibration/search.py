@@ -94,13 +94,15 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
     virtual = reproject_depth(rig.intrinsics, depth, here)[0].astype(np.float64)
     if len(direct) < MIN_POINTS:
         within = int(np.count_nonzero(mask & (rig.inside_bits != 0) & (depth > 0)))
-        raise CalibrationError(f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
+        raise CalibrationError(
+            f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
                                f"frame ({len(direct)} readings there, {MIN_POINTS} needed; {within} more inside the "
                                "outlines, where the search cannot tell the object from its images): move the object "
                                "so that the camera sees part of it beside the mirrors, or click markers on this mirror",
                                (mirror.name,))
     if len(virtual) < MIN_POINTS:
-        raise CalibrationError(f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
+        raise CalibrationError(
+            f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
                                f"readings inside its outline beyond what the camera sees directly, {MIN_POINTS} "
                                "needed): move the object so that the mirror shows it, or check the mirror's outline",
                                (mirror.name,))
@@ -126,7 +128,8 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
     try:
         return Found(Plane.from_abcd(abcd - [0, 0, 0, NEARER], mirror.name), float(support))
     except CalibrationError:
-        raise CalibrationError(f"{mirror.name}: no plane found that puts the camera in front of the mirror",
+        raise CalibrationError(
+            f"{mirror.name}: no plane found that puts the camera in front of the mirror",
                                (mirror.name,)) from None
 
 
@@ -161,7 +164,8 @@ def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
     would be taken for the object seen directly."""
     spilled = int(np.count_nonzero(beyond & near_outline(inside)))
     if spilled >= MIN_POINTS:
-        raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the "
+        raise CalibrationError(
+            f"{name}: {spilled} readings just outside its outline lie beyond the "
                                "object seen directly: its image spills over the outline; draw the "
                                "outline along the glass's edge", (name,))
 
@@ -247,8 +251,8 @@ class _Scorer:
             for view in self.views:
                 out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch,
                                                            tolerance, view)
-                                             + self._one_way(view.points[:points], batch, tolerance,
-                                                             self.mirror))
+                                             + self._one_way(view.points[
+                                                 :points], batch, tolerance, self.mirror))
             if progress is not None:
                 progress(min(start + BATCH, len(planes)) / len(planes))
         return out
@@ -262,7 +266,8 @@ class _Scorer:
         # (k, m, 3)
         reflected = points[None] - 2 * (points[None] @ n.transpose(0, 2, 1) + d[..., None]) * n
         if view.plane is not None:
-            reflected = reflected - 2 * (reflected @ view.plane[:3] + view.plane[3])[..., None] * view.plane[:3]
+            reflected = reflected - 2 * (reflected @ view.plane[:3] + view.plane[3])[
+                ..., None] * view.plane[:3]
         z = reflected[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.round(self.intr.fx * reflected[..., 0] / z + self.intr.cx)

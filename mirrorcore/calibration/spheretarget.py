@@ -151,7 +151,8 @@ def _view_readings(rig: Rig, depth: np.ndarray, mask: np.ndarray, views: list[in
         spheres.append(sphere)
     radii = [s.radius for s in spheres]
     if max(radii) > (1 + RADII_AGREE) * min(radii):
-        raise NotASphere(f"frame {frame}: the views see spheres of different radii ({1e3 * min(radii):.0f} to "
+        raise NotASphere(
+            f"frame {frame}: the views see spheres of different radii ({1e3 * min(radii):.0f} to "
                          f"{1e3 * max(radii):.0f} mm): not one sphere")
     return out, np.concatenate([*(s.centre for s in spheres), [np.median(radii)]])
 
@@ -168,10 +169,12 @@ def _on_sphere(points: np.ndarray, z: np.ndarray, refusal: str) -> tuple[np.ndar
                             max_iterations=RANSAC_ITERATIONS).shape
     except MirrorscanError:
         low, high = (round(1e3 * r) for r in RADIUS_RANGE)
-        raise NotASphere(f"{refusal} (no sphere of radius {low} to {high} mm fits its readings)") from None
+        raise NotASphere(
+            f"{refusal} (no sphere of radius {low} to {high} mm fits its readings)") from None
     on = np.abs(sphere.deviations(points)) <= threshold
     if on.mean() < ON_SPHERE:
-        raise NotASphere(f"{refusal} (only {100 * on.mean():.0f} % of its readings lie on the best sphere, "
+        raise NotASphere(
+            f"{refusal} (only {100 * on.mean():.0f} % of its readings lie on the best sphere, "
                          f"{100 * ON_SPHERE:.0f} % are needed)")
     return on, sphere
 
@@ -289,8 +292,8 @@ def _mean_plane(planes: list[Plane], centre: np.ndarray) -> Plane:
     return Plane.from_abcd([*n, offset - float(n @ centre)])
 
 
-def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[float,
-                                                                                            float]:
+def _plane_std(planes: list[Plane], spreads: list[np.ndarray], centre: np.ndarray) -> tuple[
+    float, float]:
     """How well the mean plane is known: (metres along its normal at `centre`, degrees), the larger
     of the frames' own noise (their SIMEX repeats' spread) and, from SCATTER_FRAMES frames on, the
     spread of their planes, over the square root of the number of frames."""

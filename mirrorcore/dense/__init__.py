@@ -100,8 +100,8 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
                  workers)
 
 
-def result_geometry(result: CarveResult | TsdfResult) -> tuple[np.ndarray, np.ndarray,
-                                                               np.ndarray | None]:
+def result_geometry(result: CarveResult | TsdfResult) -> tuple[
+    np.ndarray, np.ndarray, np.ndarray | None]:
     """What a PLY file holds of a dense result: the surface voxels' centres of a carving, the mesh
     of a fusion.
 

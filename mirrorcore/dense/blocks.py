@@ -81,9 +81,8 @@ class Blocks:
         ((B, B, B, m), the block layout, or a scalar)."""
         a, b, c = self.ijk.T
         s = self.size
-        grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[a, :, b,
-                                                                                          :, c,
-                                                                                          :] = \
+        grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[
+            a, :, b, :, c, :] = \
             np.moveaxis(values, -1, 0) if np.ndim(values) else values
 
 

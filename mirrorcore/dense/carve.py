@@ -89,7 +89,8 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
     threshold, MemoryBudgetError when the grids would not fit in the memory budget.
     """
     if method not in METHODS:
-        raise MirrorscanError(f"carve: unknown method {method!r} (expected one of {', '.join(METHODS)})")
+        raise MirrorscanError(
+            f"carve: unknown method {method!r} (expected one of {', '.join(METHODS)})")
     th = volume.voxel if threshold is None else float(threshold)
     if not th > 0:
         raise MirrorscanError(f"carve: the threshold must be positive, got {threshold}")

@@ -106,7 +106,8 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
     depths = np.asarray(depths, np.float32)
     depths = depths[None] if depths.ndim == 2 else depths
     if np.size(masks) != depths.size:
-        raise MirrorscanError(f"fuse: masks of shape {np.shape(masks)} for depth frames of shape {depths.shape}")
+        raise MirrorscanError(
+            f"fuse: masks of shape {np.shape(masks)} for depth frames of shape {depths.shape}")
     masks = np.asarray(masks, bool).reshape(depths.shape)
     trunc = 3 * volume.voxel if truncation is None else float(truncation)
     if not trunc > 0:
@@ -193,7 +194,8 @@ def _covered(volume: Volume, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     # + and - corners
     corners = [[], []]
     for a, b, c in np.ndindex(2, 2, 2):
-        corners[(a + b + c) % 2].append((ends[a][:, 0] * shape[1] + ends[b][:, 1]) * shape[2] + ends[c][:, 2])
+        corners[(a + b + c) % 2].append((ends[a][:, 0] * shape[1] + ends[b][:, 1]) * shape[
+            2] + ends[c][:, 2])
     size = int(np.prod(shape))
     count = np.bincount(np.concatenate(corners[0]), minlength=size).astype(np.int32) - \
         np.bincount(np.concatenate(corners[1]), minlength=size).astype(np.int32)

@@ -52,7 +52,8 @@ class Volume:
         if not (np.isfinite(self.voxel) and self.voxel > 0):
             raise MirrorscanError(f"volume: the voxel size must be positive, got {self.voxel}")
         if len(self.shape) != 3 or min(self.shape) < 1:
-            raise MirrorscanError(f"volume: the grid needs at least one voxel per axis, got {self.shape}")
+            raise MirrorscanError(
+                f"volume: the grid needs at least one voxel per axis, got {self.shape}")
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "shape", tuple(int(s) for s in self.shape))
         check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK),
@@ -66,7 +67,8 @@ class Volume:
         gives the same grid back."""
         lo, hi = np.asarray(lo, float).reshape(3), np.asarray(hi, float).reshape(3)
         if not np.all(hi > lo):
-            raise MirrorscanError(f"volume: the box's upper corner {hi.tolist()} must exceed its lower {lo.tolist()}")
+            raise MirrorscanError(
+                f"volume: the box's upper corner {hi.tolist()} must exceed its lower {lo.tolist()}")
         shape = np.maximum(np.ceil((hi - lo) / voxel - WHOLE_VOXELS).astype(int), 1)
         return cls(tuple(lo + voxel / 2), voxel, tuple(shape))
 
@@ -76,7 +78,8 @@ class Volume:
         side. Raises MirrorscanError when there are no points."""
         points = np.asarray(points, float).reshape(-1, 3)
         if not len(points):
-            raise MirrorscanError("volume: no points to take a bounding box of (is the object in view?)")
+            raise MirrorscanError(
+                "volume: no points to take a bounding box of (is the object in view?)")
         return cls.from_bounds(points.min(0) - margin, points.max(0) + margin, voxel)
 
     @property
@@ -124,7 +127,8 @@ class Volume:
     def nearest_index(self, points: np.ndarray) -> np.ndarray:
         """points (n, 3) metres -> (n,) int64 C-order index of the nearest voxel (clipped to the
         grid)."""
-        ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(np.int64)
+        ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(
+            np.int64)
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
     def _what(self) -> str:
@@ -165,7 +169,8 @@ def run_chunks(items: Sequence[Item], work: Callable[[Item], None],
             todo = iter(items)
             try:
                 while True:
-                    while len(pending) < QUEUED_PER_WORKER * workers and not cancel_requested(cancel):
+                    while len(pending) < QUEUED_PER_WORKER * workers and not cancel_requested(
+                        cancel):
                         item = next(todo, None)
                         if item is None:
                             break

@@ -98,7 +98,8 @@ class Window:
             first = np.floor(f * np.minimum(lo / z_near, lo / z_far) + c) - 1
             last = np.floor(f * np.maximum(hi / z_near, hi / z_far) + c) + 2      # each side
             middle = np.floor((first + last) / 2)
-            fits = fits & (middle - first <= self.half) & (last - middle <= self.half) & (middle >= 0) & (middle < size)
+            fits = fits & (middle - first <= self.half) & (last - middle <= self.half) & (
+                middle >= 0) & (middle < size)
             centre.append(middle)
         pixel = np.where(fits, centre[1] * intr.width + centre[0], 0).astype(np.intp)
         free, behind = np.zeros(len(fits), bool), np.zeros(len(fits), bool)

@@ -35,7 +35,8 @@ def read_depth_png(path: str | Path, depth_scale: float,
                              str(path)) or (shape[0] * shape[1] if shape is not None else None)
         limit = max_file_bytes(pixels) if pixels is not None else None
         if limit is not None and size > limit:
-            raise FileFormatError(f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
+            raise FileFormatError(
+                f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
                                   f"hold (at most {limit:,}); the file is damaged or not a depth image")
         check_memory(size, f"{path}: reading the file")
         f.seek(0)
@@ -63,12 +64,14 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
     if raw is None:
         raise FileFormatError(f"{where}: not a readable image (corrupt or not a PNG)")
     if raw.ndim != 2:
-        raise FileFormatError(f"{where}: a depth image has one channel, this one has {raw.shape[2]}")
+        raise FileFormatError(
+            f"{where}: a depth image has one channel, this one has {raw.shape[2]}")
     if raw.dtype != np.uint16:
         raise FileFormatError(f"{where}: a depth image is 16-bit, this one is {raw.dtype} "
                               "(8-bit images cannot hold depth)")
     if shape is not None and raw.shape != tuple(shape):
-        raise FileFormatError(f"{where}: size {raw.shape[1]}x{raw.shape[0]} does not match the camera's "
+        raise FileFormatError(
+            f"{where}: size {raw.shape[1]}x{raw.shape[0]} does not match the camera's "
                               f"{shape[1]}x{shape[0]}")
     return raw.astype(np.float32) * np.float32(depth_scale)
 
@@ -84,7 +87,8 @@ def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int |
         raise FileFormatError(f"{where}: size {width}x{height} is too large for a depth image "
                               f"(at most {MAX_IMAGE_SIDE} pixels a side)")
     if shape is not None and (height, width) != tuple(shape):
-        raise FileFormatError(f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
+        raise FileFormatError(
+            f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
     check_memory(width * height * DECODED_BYTES, f"{where}: decoding a {width}x{height} image")
     return width * height
 
@@ -94,7 +98,8 @@ def require_readings(depth: np.ndarray, where: str) -> np.ndarray:
     `where` when every pixel is 0 (or not finite): a covered or unplugged camera, or a blank file,
     has nothing to calibrate or scan."""
     if not np.any(np.isfinite(depth) & (depth > 0)):
-        raise MirrorscanError(f"{where}: no depth reading at all (every pixel is 0); is the camera covered or "
+        raise MirrorscanError(
+            f"{where}: no depth reading at all (every pixel is 0); is the camera covered or "
                               "the file blank?")
     return depth
 

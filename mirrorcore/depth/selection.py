@@ -62,7 +62,7 @@ class Selection:
             try:
                 values["roi"] = tuple(map(tuple,
                                           validate_polygon(values["roi"], None,
-                                                                  f"{where}: roi").tolist()))
+                                                           f"{where}: roi").tolist()))
             except MirrorscanError as exc:
                 raise FileFormatError(str(exc)) from None
         try:
@@ -103,7 +103,8 @@ class Backdrop:
     def of(cls, background: np.ndarray, selection: "Selection" = None) -> "Backdrop":
         selection = Selection() if selection is None else selection
         depth = np.asarray(background, np.float32)
-        tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(depth),
+        tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(
+            depth),
                                np.float32(selection.min_gap))
         return cls(depth,
                    np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))

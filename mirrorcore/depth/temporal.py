@@ -41,7 +41,8 @@ def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIG
     """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim != 3 or not 0 <= centre < len(frames):
-        raise ValueError(f"temporal_smooth: expected (k, H, W) frames and 0 <= centre < k, got {frames.shape}, "
+        raise ValueError(
+            f"temporal_smooth: expected (k, H, W) frames and 0 <= centre < k, got {frames.shape}, "
                          f"{centre}")
     valid = np.isfinite(frames) & (frames > 0)
     w = np.where(valid, 1.0 / np.where(valid, frames, 1.0), 0.0).astype(np.float32)
@@ -60,7 +61,8 @@ def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIG
                               borderType=cv2.BORDER_CONSTANT)
         # the mean of n differences has 1/sqrt(n) of one difference's deviation: |sum| < tolerance *
         # sqrt(n)
-        static = both & (np.abs(diff) <= tolerance) & (np.abs(local) <= tolerance * np.sqrt(np.maximum(pairs, 1.0)))
+        static = both & (np.abs(diff) <= tolerance) & (np.abs(local) <= tolerance * np.sqrt(
+            np.maximum(pairs, 1.0)))
         total += np.where(static, w[k], 0.0)
         count += static
     out = np.zeros(w0.shape, np.float32)

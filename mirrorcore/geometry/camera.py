@@ -70,7 +70,8 @@ class Intrinsics:
         except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
         if not (values["width"].is_integer() and values["height"].is_integer()):
-            raise FileFormatError(f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
+            raise FileFormatError(
+                f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
         try:
             return cls(**values)
         except FileFormatError as exc:
@@ -240,7 +241,8 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
     if path.stat().st_size > MAX_YAML_BYTES:
-        raise FileFormatError(f"{path}: {path.stat().st_size:,} bytes is too large for a camera file")
+        raise FileFormatError(
+            f"{path}: {path.stat().st_size:,} bytes is too large for a camera file")
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
         body = "\n".join(lines[1:] if lines and lines[0].startswith("%YAML") else lines)

@@ -37,7 +37,8 @@ class Plane:
         except (TypeError, ValueError, OverflowError):
             p = np.full(0, np.nan)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
-            raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
+            raise CalibrationError(
+                f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
         # components near the float limit would overflow the norm
         p = p / max(1.0, np.abs(p[:3]).max())
         norm = np.linalg.norm(p[:3])
@@ -49,7 +50,8 @@ class Plane:
             raise CalibrationError(f"{where}: the plane passes through the camera")
         if p[3] < 0:
             if not orient:
-                raise CalibrationError(f"{where}: d < 0 puts the camera behind the mirror; a plane's normal must "
+                raise CalibrationError(
+                    f"{where}: d < 0 puts the camera behind the mirror; a plane's normal must "
                                        "point to the camera's side (d > 0)")
             p = -p
         return cls((float(p[0]), float(p[1]), float(p[2])), float(p[3]))
@@ -129,11 +131,13 @@ def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(points) < 3:
-        raise CalibrationError(f"{where}: at least 3 points are needed to fit a plane, got {len(points)}")
+        raise CalibrationError(
+            f"{where}: at least 3 points are needed to fit a plane, got {len(points)}")
     centroid = points.mean(axis=0)
     _, s, vt = np.linalg.svd(points - centroid, full_matrices=False)
     if s[1] <= 1e-6 * max(s[0], 1e-12) or s[1] < 1e-9:
-        raise CalibrationError(f"{where}: the points are collinear; a plane needs points spread in two directions")
+        raise CalibrationError(
+            f"{where}: the points are collinear; a plane needs points spread in two directions")
     return Plane.from_point_normal(centroid, vt[2])
 
 

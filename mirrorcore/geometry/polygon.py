@@ -26,24 +26,29 @@ def validate_polygon(points, shape: tuple[int, int] | None = None,
     except (TypeError, ValueError, OverflowError):
         raise MirrorscanError(f"{where}: vertices must be [u, v] pairs of numbers") from None
     if poly.ndim != 2 or poly.shape[1] != 2:
-        raise MirrorscanError(f"{where}: vertices must be [u, v] pairs, got an array of shape {poly.shape}")
+        raise MirrorscanError(
+            f"{where}: vertices must be [u, v] pairs, got an array of shape {poly.shape}")
     if len(poly) < MIN_VERTICES:
-        raise MirrorscanError(f"{where}: a polygon needs at least {MIN_VERTICES} vertices, got {len(poly)}")
+        raise MirrorscanError(
+            f"{where}: a polygon needs at least {MIN_VERTICES} vertices, got {len(poly)}")
     if len(poly) > MAX_VERTICES:
-        raise MirrorscanError(f"{where}: {len(poly):,} vertices, more than the {MAX_VERTICES:,} a polygon may have")
+        raise MirrorscanError(
+            f"{where}: {len(poly):,} vertices, more than the {MAX_VERTICES:,} a polygon may have")
     if not np.all(np.isfinite(poly)):
         raise MirrorscanError(f"{where}: vertices must be finite numbers")
     if shape is not None:
-        outside = np.nonzero((poly[:, 0] < -0.5) | (poly[:, 1] < -0.5) | (poly[:,
-                                                                               0] > shape[1] - 0.5)
+        outside = np.nonzero((poly[:, 0] < -0.5) | (poly[:, 1] < -0.5) | (poly[:, 0] > shape[
+            1] - 0.5)
                              | (poly[:, 1] > shape[0] - 0.5))[0]
         if len(outside):
             i = int(outside[0])
-            raise MirrorscanError(f"{where}: vertex {i + 1} ({poly[i, 0]:g}, {poly[i, 1]:g}) is outside the "
+            raise MirrorscanError(
+                f"{where}: vertex {i + 1} ({poly[i, 0]:g}, {poly[i, 1]:g}) is outside the "
                                   f"{shape[1]}x{shape[0]} image")
     crossing = first_crossing(poly)
     if crossing is not None:
-        raise MirrorscanError(f"{where}: the polygon crosses itself (edges {crossing[0] + 1} and {crossing[1] + 1})")
+        raise MirrorscanError(
+            f"{where}: the polygon crosses itself (edges {crossing[0] + 1} and {crossing[1] + 1})")
     if abs(polygon_area(poly)) < 1e-9:
         raise MirrorscanError(f"{where}: the polygon has no area (its vertices are collinear)")
     return poly
@@ -85,13 +90,14 @@ def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
 def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> np.ndarray:
     """(k,) bool: segment p1-q1 meets segment p2-q2 (touching included); all inputs (k, 2) float."""
     def orient(p, q, r):
-        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0]))
+        return np.sign((q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[
+            :, 0] - p[:, 0]))
 
     def on_segment(p, q, r):  # r collinear with p-q lies within its bounding box
-        return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0],
-                                                                                   q[:, 0]))
-                & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1],
-                                                                                     q[:, 1])))
+        return ((np.minimum(p[:, 0], q[:, 0]) <= r[:, 0]) & (r[:, 0] <= np.maximum(p[:, 0], q[
+            :, 0]))
+                & (np.minimum(p[:, 1], q[:, 1]) <= r[:, 1]) & (r[:, 1] <= np.maximum(p[:, 1], q[
+                    :, 1])))
 
     o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
     hit = (o1 != o2) & (o3 != o4) & (o1 != 0) & (o2 != 0) & (o3 != 0) & (o4 != 0)

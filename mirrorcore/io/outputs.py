@@ -27,12 +27,14 @@ def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
         if (folder / SESSION_FILE).is_file():
             rel = target.relative_to(folder).as_posix()
             if rel in session_files(folder) or rel.split("/")[0] == FRAMES_FOLDER:
-                raise MirrorscanError(f"{path}: would write over {rel} of the session {folder}; write the output "
+                raise MirrorscanError(
+                    f"{path}: would write over {rel} of the session {folder}; write the output "
                                       f"elsewhere (e.g. {folder / 'exports'}/)")
             break
     for given in inputs:
         if target == Path(given).resolve():
-            raise MirrorscanError(f"{path}: is this command's own input; write the output elsewhere")
+            raise MirrorscanError(
+                f"{path}: is this command's own input; write the output elsewhere")
     return Path(path)
 
 

@@ -115,5 +115,6 @@ def ply_element_counts(path: str | Path) -> dict[str, int]:
     except FileNotFoundError:
         raise FileFormatError(f"{path}: no such file") from None
     except ValueError:
-        raise FileFormatError(f"{path}: broken PLY header (an element count is not a number)") from None
+        raise FileFormatError(
+            f"{path}: broken PLY header (an element count is not a number)") from None
     raise FileFormatError(f"{path}: broken PLY header (no end_header)")

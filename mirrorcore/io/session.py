@@ -191,7 +191,8 @@ class Session:
         if not self.frames:
             raise MirrorscanError(f"{self.path}: the session has no frames")
         if not -len(self.frames) <= index < len(self.frames):
-            raise MirrorscanError(f"{self.path}: no frame {index}; the session has {len(self.frames)} "
+            raise MirrorscanError(
+                f"{self.path}: no frame {index}; the session has {len(self.frames)} "
                                   f"(0 to {len(self.frames) - 1})")
         return self._read(self.frames[index])
 
@@ -242,7 +243,8 @@ def session_from_json(data, folder: Path) -> Session:
     if missing:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
     if data["version"] != VERSION:
-        raise FileFormatError(f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
+        raise FileFormatError(
+            f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
                               f"{VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
     mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
@@ -261,10 +263,12 @@ def session_from_json(data, folder: Path) -> Session:
     if colour_frames is not None:
         colour_frames = read_paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
         if len(colour_frames) != len(frames):
-            raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
+            raise FileFormatError(
+                f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
     bounces = data.get("bounces", MAX_ORDER)
     if isinstance(bounces, bool) or not isinstance(bounces, int) or not 1 <= bounces <= MAX_ORDER:
-        raise FileFormatError(f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
+        raise FileFormatError(
+            f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
     return Session(Path(folder), camera, mirrors, background, frames,
                    Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps,
@@ -283,7 +287,8 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     mirror_id = data.get("id", 0)                # none yet: the session gives it one
     if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int)
                          or not 1 <= mirror_id < 2**31):
-        raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
+        raise FileFormatError(
+            f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
     markers = read_pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
     boundary = read_polygon(data.get("boundary", []), camera, f"{where}: boundary")
     region = data.get("region")
@@ -298,7 +303,8 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     offset = data.get("marker_offset", 0.0)
     if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
             or abs(offset) > MAX_MARKER_OFFSET):
-        raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
+        raise FileFormatError(
+            f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
                               f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
     std = data.get("marker_offset_std")
     if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
@@ -335,7 +341,8 @@ def session_folder(sessions_dir: str | Path, name: str) -> Path:
     or could leave the folder (separators, '..', leading dots)."""
     name = name.strip()
     if not _NAME.match(name) or ".." in name:
-        raise MirrorscanError(f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
+        raise MirrorscanError(
+            f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
                               "at most 100 characters, starting with a letter, digit or '_'")
     return Path(sessions_dir) / name
 

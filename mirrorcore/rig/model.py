@@ -65,8 +65,8 @@ class Rig:
         """Whether `other` traces the same rays (same camera, mirrors with their names, planes and
         boundaries, and bounces): then its per-pixel tables serve this rig too (rigs compare by
         identity, as they hold caches)."""
-        return (self.intrinsics, self.mirrors, self.bounces) == (other.intrinsics, other.mirrors,
-                                                                 other.bounces)
+        return (self.intrinsics, self.mirrors, self.bounces) == (
+            other.intrinsics, other.mirrors, other.bounces)
 
     @classmethod
     def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
@@ -120,8 +120,10 @@ class Rig:
 def check_bounces(bounces: int) -> int:
     """`bounces` when it is a whole number from 1 to MAX_ORDER, else MirrorscanError naming
     --bounces."""
-    if isinstance(bounces, bool) or not isinstance(bounces, (int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
-        raise MirrorscanError(f"--bounces: the reflections followed must be 1 to {MAX_ORDER}, got {bounces!r}")
+    if isinstance(bounces, bool) or not isinstance(bounces, (
+        int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
+        raise MirrorscanError(
+            f"--bounces: the reflections followed must be 1 to {MAX_ORDER}, got {bounces!r}")
     return int(bounces)
 
 
@@ -133,7 +135,8 @@ def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
         raise MirrorscanError(f"{session.path}: the session has no mirrors")
     for m in session.mirrors:
         if m.plane is None:
-            raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
+            raise MirrorscanError(
+                f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
         if not m.boundary:
             raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
     return Rig.from_session(session, bounces)

@@ -52,12 +52,14 @@ def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int,
     camera sees directly (the ideal render shows that mirror's marker face at the rounded pixel)."""
     uv, z = project_points(camera, mirror.marker_centres())
     pix = np.round(uv[z > 0]).astype(int)
-    inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
+    inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[
+        :, 1] < camera.height)
     uv, pix = uv[z > 0][inside], pix[inside]
-    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1],
-                                                                                 pix[:, 0]] == 0)
+    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1], pix[
+        :, 0]] == 0)
     points = truth.points[pix[:, 1], pix[:, 0]]
-    on_this = np.abs(mirror.plane.signed_distance(points.astype(np.float64)) - mirror.marker_lift) < 1e-3
+    on_this = np.abs(mirror.plane.signed_distance(points.astype(
+        np.float64)) - mirror.marker_lift) < 1e-3
     return uv[seen & on_this]
 
 
@@ -98,7 +100,8 @@ def truth_json(rig: Simulator, noise: str) -> dict:
     return {"version": 1, "seed": rig.seed, "fps": rig.fps, "noise": noise,
             "object": objects[0] if objects else None, "objects": objects,
             "planes": [p.to_list() for p in rig.planes],
-            "mirrors": [{"name": m.name, "plane": m.plane.to_list(), "corners": m.corners().tolist(),
+            "mirrors": [{"name": m.name, "plane": m.plane.to_list(),
+                         "corners": m.corners().tolist(),
                          "markers": m.marker_centres().tolist(), "marker_offset": m.marker_offset}
                         for m in scene.mirrors],
             "scene": scene.to_json()}

@@ -64,7 +64,8 @@ def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
                            gait_hz=gait_hz)
     if spec.startswith("mesh:") and len(spec) > 5:
         return SceneObject("mesh", centre, path=spec[5:])
-    raise MirrorscanError(f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
+    raise MirrorscanError(
+        f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
 
 
 def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
@@ -99,7 +100,8 @@ def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_
     towards the camera's side. The V's bisector points from the camera to the target, turned by
     `turn_deg` about the vertical (positive: apex to +x)."""
     if not 10.0 <= angle_deg <= 175.0:
-        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
+        raise MirrorscanError(
+            f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
                               f"got {angle_deg:g}")
     half, turn = np.radians(angle_deg) / 2, np.radians(turn_deg)
     toward = target * [1.0, 0.0, 1.0]                  # horizontal: the mirrors stand vertical
@@ -161,7 +163,8 @@ def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: flo
         centre = target + radius * np.array([np.sin(phi), 0.0, np.cos(phi)])
         if abs(phi) < np.radians(25.0):
             centre = centre + _UP * clearance
-        normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(target - centre)
+        normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(
+            target - centre)
         mirrors.append(_mirror(f"mirror {j + 1}", centre, normal / np.linalg.norm(normal), size))
     return tuple(mirrors)
 

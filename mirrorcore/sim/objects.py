@@ -74,8 +74,8 @@ class WalkingFigure:
         self.animated = obj.animated
         limbs = [trimesh.creation.capsule(height=length, radius=r, count=[10, 10]).apply_transform(
             trimesh.transformations.rotation_matrix(-np.pi / 2,
-                                                    [1, 0, 0])).apply_translation([0, length / 2,
-                                                                                               0])
+                                                    [1, 0,
+                                                     0])).apply_translation([0, length / 2, 0])
             for _, _, _, length, r in _LIMBS]
         feet = [trimesh.creation.box(_FOOT).apply_translation([0, _FOOT[1] / 2, -_FOOT[2] / 4])] * 2
         body = trimesh.util.concatenate([
@@ -134,8 +134,8 @@ def object_geometry(obj: SceneObject) -> StaticMesh | WalkingFigure:
         mesh = trimesh.creation.icosphere(SPHERE_SUBDIVISIONS, obj.radius)
     elif obj.type == "cylinder":
         mesh = trimesh.creation.cylinder(obj.radius, obj.height, sections=CYLINDER_SECTIONS,
-                                         transform=trimesh.geometry.align_vectors([0, 0, 1],
-                                                                                  obj.axis))
+                                         transform=trimesh.geometry.align_vectors([
+                                             0, 0, 1], obj.axis))
     elif obj.type == "box":
         mesh = trimesh.creation.box(obj.size)
     elif obj.type == "mesh":
@@ -151,7 +151,8 @@ def _load_mesh(path: str) -> trimesh.Trimesh:
     try:
         mesh = trimesh.load(path, force="mesh")
     except Exception as exc:  # trimesh raises many types for unreadable files
-        raise FileFormatError(f"{path}: not a mesh file trimesh can read ({type(exc).__name__}: {exc})") from None
+        raise FileFormatError(
+            f"{path}: not a mesh file trimesh can read ({type(exc).__name__}: {exc})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise FileFormatError(f"{path}: the file holds no triangles")
     return mesh

@@ -61,7 +61,8 @@ def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
 
 
 def _positive(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
+        value) or value <= 0:
         raise FileFormatError(f"{where}: must be a positive number, got {value!r}")
     return float(value)
 
@@ -98,7 +99,8 @@ class SceneMirror:
         object.__setattr__(self, "normal", tuple(float(x) for x in n))
         object.__setattr__(self, "up", tuple(float(x) for x in up / np.linalg.norm(up)))
         if np.dot(n, -np.asarray(self.centre)) <= 0:
-            raise FileFormatError(f"{self.name}: the reflective side (normal) faces away from the camera")
+            raise FileFormatError(
+                f"{self.name}: the reflective side (normal) faces away from the camera")
 
     @property
     def axes(self) -> np.ndarray:
@@ -137,7 +139,8 @@ class SceneMirror:
     def to_json(self) -> dict:
         return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal),
                 "up": list(self.up),
-                "width": self.width, "height": self.height, "markers": [list(m) for m in self.markers],
+                "width": self.width, "height": self.height,
+                "markers": [list(m) for m in self.markers],
                 "marker_size": self.marker_size, "marker_offset": self.marker_offset}
 
 
@@ -207,8 +210,10 @@ class Scene:
 
     def to_json(self) -> dict:
         return {"version": SCENE_VERSION, "camera": self.camera.to_dict(),
-                "mirrors": [m.to_json() for m in self.mirrors], "objects": [o.to_json() for o in self.objects],
-                "room": None if self.room is None else self.room.to_json(), "click_jitter_px": self.click_jitter_px}
+                "mirrors": [m.to_json() for m in self.mirrors],
+                "objects": [o.to_json() for o in self.objects],
+                "room": None if self.room is None else self.room.to_json(),
+                "click_jitter_px": self.click_jitter_px}
 
     def with_markers(self, marker_offset: float | None = None,
                      click_jitter_px: float | None = None) -> "Scene":
@@ -216,8 +221,8 @@ class Scene:
         replaced (None keeps)."""
         mirrors = self.mirrors if marker_offset is None else tuple(
             replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
-        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px,
-                                                                              "click jitter")
+        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(
+            click_jitter_px, "click jitter")
         return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
@@ -230,11 +235,13 @@ def scene_from_json(data, where: str = "scene") -> Scene:
         if key not in data:
             raise FileFormatError(f"{where}: missing key '{key}'")
     if data.get("version", SCENE_VERSION) != SCENE_VERSION:
-        raise FileFormatError(f"{where}: unknown version {data['version']!r}; this reads version {SCENE_VERSION}")
+        raise FileFormatError(
+            f"{where}: unknown version {data['version']!r}; this reads version {SCENE_VERSION}")
     cam = data["camera"]
     if isinstance(cam, str):
         if cam not in _CAMERA_PRESETS:
-            raise FileFormatError(f"{where}: camera: unknown preset {cam!r} (use {', '.join(_CAMERA_PRESETS)})")
+            raise FileFormatError(
+                f"{where}: camera: unknown preset {cam!r} (use {', '.join(_CAMERA_PRESETS)})")
         camera = _CAMERA_PRESETS[cam]()
     else:
         camera = Intrinsics.from_dict(cam, f"{where}: camera")
@@ -260,14 +267,16 @@ def _offset(value, where: str) -> float:
     otherwise."""
     if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
             or not 0 <= value <= MAX_MARKER_OFFSET):
-        raise FileFormatError(f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
+        raise FileFormatError(
+            f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
                               f"reflecting surface), got {value!r}")
     return float(value)
 
 
 def _jitter(value, where: str) -> float:
     """A click jitter in pixels, 0 to 50; FileFormatError naming `where` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or not 0 <= value <= 50:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
+        value) or not 0 <= value <= 50:
         raise FileFormatError(f"{where}: must be 0 to 50 pixels, got {value!r}")
     return float(value)
 
@@ -295,7 +304,8 @@ def _mirror(data, where: str) -> SceneMirror:
         if not np.all(np.isfinite(st)) or (len(markers) and np.asarray(markers).ndim != 2):
             raise ValueError
     except (TypeError, ValueError):
-        raise FileFormatError(f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
+        raise FileFormatError(
+            f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
     name = data.get("name", where.rsplit("[", 1)[-1].rstrip("]"))
     return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"),
                        _vec(data["normal"], f"{where}.normal", True),
@@ -310,7 +320,8 @@ def _object(data, where: str) -> SceneObject:
     _require(data, ("type", "centre"), where)
     kind = data["type"]
     if kind not in OBJECT_TYPES:
-        raise FileFormatError(f"{where}.type: unknown object type {kind!r} (use {', '.join(OBJECT_TYPES)})")
+        raise FileFormatError(
+            f"{where}.type: unknown object type {kind!r} (use {', '.join(OBJECT_TYPES)})")
     if kind == "mesh" and not isinstance(data.get("path"), str):
         raise FileFormatError(f"{where}.path: a mesh object needs the path of a mesh file")
     gait = _number(data, "gait_hz", where, 0.0)

@@ -45,7 +45,8 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
     scene's order, as `mirrorcore.sim.export` writes it); the offsets at the first object's middle
     (the origin without objects)."""
     if len(session.mirrors) != len(scene.mirrors):
-        raise MirrorscanError(f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
+        raise MirrorscanError(
+            f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
                               "mirror was added or removed since it was simulated")
     at = object_extent(scene.objects[0])[0] if scene.objects else np.zeros(3)
     out = []
@@ -53,7 +54,8 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
         plane = mirror.plane
         out.append(PlaneError(
             mirror.name,
-            None if plane is None else 1e3 * float(plane.signed_distance(at) - true.plane.signed_distance(at)),
+            None if plane is None else 1e3 * float(plane.signed_distance(
+                at) - true.plane.signed_distance(at)),
             None if plane is None else plane.angle_to(true.plane),
             1e3 * mirror.marker_offset, 1e3 * true.marker_offset))
     return out
@@ -72,8 +74,8 @@ def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceEr
         vertices, faces = object_geometry(obj).mesh_at(t)
         raycasting.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
                                  o3d.core.Tensor(np.asarray(faces, np.uint32)))
-    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(points,
-                                                                             np.float32))).numpy()
+    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(
+        points, np.float32))).numpy()
     return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))),
                         float(distances.mean()),
                         float(np.percentile(distances, 95)))

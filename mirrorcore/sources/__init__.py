@@ -44,7 +44,8 @@ class SourceKind:
 
 
 def _library(module: str, install: str) -> Callable[[], str | None]:
-    return lambda: None if importlib.util.find_spec(module.split(".")[0]) else f"needs {module}: install {install}"
+    return lambda: None if importlib.util.find_spec(module.split(".")[
+        0]) else f"needs {module}: install {install}"
 
 
 def _freenect_devices() -> str | None:
@@ -107,7 +108,8 @@ def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
     options = dict(parse_qsl(query, keep_blank_values=True))
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
-        raise MirrorscanError(f"source {spec!r}: unknown option(s) {', '.join(unknown)}; use {', '.join(_OPTIONS)}")
+        raise MirrorscanError(
+            f"source {spec!r}: unknown option(s) {', '.join(unknown)}; use {', '.join(_OPTIONS)}")
     kind, colon, target = body.partition(":")
     if colon and kind in {k.name for k in KINDS}:
         return kind, target, options
@@ -121,7 +123,8 @@ def _guess_kind(path: Path, spec: str) -> str:
     if path.is_file() and suffix in (".npz", ".bag", ".oni"):
         return {".npz": "npz", ".bag": "bag", ".oni": "openni2"}[suffix]
     if path.is_dir():
-        return "session" if (path / SESSION_FILE).is_file() else "tum" if (path / "depth.txt").is_file() else "dir"
+        return "session" if (path / SESSION_FILE).is_file() else "tum" if (
+            path / "depth.txt").is_file() else "dir"
     raise MirrorscanError(f"unknown source {spec!r}: use one of {', '.join(k.spec for k in KINDS)} "
                           "(`mirrorscan sources` lists them)")
 
@@ -147,7 +150,8 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
                "tum": lambda: open_tum(target, camera, scale),
                "npz": lambda: open_npz(target, fps), "bag": lambda: open_bag(target),
                "freenect": lambda: FreenectSource(_index(target, spec), camera),
-               "openni2": lambda: OpenNI2Source(target), "realsense": lambda: RealSenseSource(target)}
+               "openni2": lambda: OpenNI2Source(target),
+               "realsense": lambda: RealSenseSource(target)}
     return openers[kind]()
 
 
@@ -159,7 +163,8 @@ def _number(options: dict[str, str], key: str, spec: str) -> float | None:
     except ValueError:
         value = float("nan")
     if not (value > 0 and value != float("inf")):
-        raise MirrorscanError(f"source {spec!r}: {key} must be a positive number, got {options[key]!r}")
+        raise MirrorscanError(
+            f"source {spec!r}: {key} must be a positive number, got {options[key]!r}")
     return value
 
 

@@ -111,4 +111,5 @@ def require(module: str, what: str, install: str) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ImportError as exc:
-        raise MirrorscanError(f"{what}: cannot import {module} ({exc}); install {install}") from None
+        raise MirrorscanError(
+            f"{what}: cannot import {module} ({exc}); install {install}") from None

@@ -28,7 +28,8 @@ class RealSenseSource(DepthSource):
         self.name = f"realsense:{serial}"
         rs = require("pyrealsense2", self.name, REALSENSE_INSTALL)
         if not rs.context().query_devices().size():
-            raise MirrorscanError(f"{self.name}: no RealSense camera found (plugged in to a USB 3 port?)")
+            raise MirrorscanError(
+                f"{self.name}: no RealSense camera found (plugged in to a USB 3 port?)")
         config = rs.config()
         if serial:
             config.enable_device(serial)
@@ -159,7 +160,8 @@ class _Playback:
             self.sensor.open(self.profile)
             self.sensor.start(self._take)
         except RuntimeError as exc:
-            raise FileFormatError(f"{self.path}: not a readable RealSense recording ({exc})") from None
+            raise FileFormatError(
+                f"{self.path}: not a readable RealSense recording ({exc})") from None
         self._started, self._start_time = True, time.monotonic()
         return self
 
@@ -191,7 +193,8 @@ class _Playback:
             if stopped and self._queue.empty() and (self._delivered or waited > BAG_START_S):
                 return None
             if waited > BAG_TIMEOUT_S:
-                raise FileFormatError(f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
+                raise FileFormatError(
+                    f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
 
     def close(self) -> None:
         self._stopping.set()

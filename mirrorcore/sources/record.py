@@ -105,7 +105,8 @@ class _Take:
         session = Session(self.folder, self.source.intrinsics, (), self.background,
                           tuple(self.names),
                           timestamps=tuple(self.stamps),
-                          colour_frames=tuple(self.colours) if self.colours and len(self.colours) == len(self.names)
+                          colour_frames=tuple(self.colours) if self.colours and len(
+                              self.colours) == len(self.names)
                           else None)
         save_session(session)
         self._saved_at = time.monotonic()
@@ -171,7 +172,8 @@ class Recorder:
         if self.error is not None:
             raise self.error
         if self.session is None:
-            raise MirrorscanError(f"{self.folder}: the recording did not end within {timeout:g} s (its source is "
+            raise MirrorscanError(
+                f"{self.folder}: the recording did not end within {timeout:g} s (its source is "
                                   f"not delivering frames); {self.frames} frames are saved there")
         return self.session
 

@@ -1,7 +1,7 @@
-"""Sizes and counts that a user or a file chooses (issue 15, points 6 and 7): the memory budget is
-checked before the work (voxel grids, image headers, frame files, .npz shapes), the boundary
-crossing test stays small, and a session holds only what the tool can hold: refused by name,
-quickly, where it is read and where it is edited."""
+"""Sizes and counts that a user or a file chooses: the memory budget is checked before the work
+(voxel grids, image headers, frame files, .npz shapes), the boundary crossing test stays small,
+and a session holds only what the tool can hold: refused by name, quickly, where it is read and
+where it is edited."""
 from __future__ import annotations
 
 import io
@@ -189,8 +189,8 @@ def _meet(p1, q1, p2, q2) -> bool:
         return np.sign((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
 
     def on(p, q, r):
-        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[1],
-                                                                                             q[1])
+        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[
+            1], q[1])
 
     o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
     if o1 * o2 < 0 and o3 * o4 < 0:

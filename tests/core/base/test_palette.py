@@ -19,7 +19,8 @@ from mirrorcore.base.palette import (
 
 
 def test_direct_and_single_mirrors_keep_their_labels_names_and_colours():
-    assert source_name(0) == "direct" and source_name(1) == "mirror 1" and source_name(32) == "mirror 32"
+    assert source_name(0) == "direct" and source_name(1) == "mirror 1" and source_name(
+        32) == "mirror 32"
     assert sequence_label(()) == 0 and sequence_label((1,)) == 1 and sequence_label((7,)) == 7
     assert source_sequence(0) == () and source_sequence(5) == (5,)
     np.testing.assert_array_equal(source_colours(np.arange(9)),

@@ -45,7 +45,8 @@ def test_readings_beside_a_depth_edge_are_left_out():
     square[200:260, 290:350] = True
     view = view_points(CAMERA, depth, np.flatnonzero(square), np.zeros(CAMERA.shape, bool))
     columns = view.pixels % CAMERA.width
-    assert len(view) and not np.any((columns >= 320 - NEIGHBOURS_RADIUS) & (columns < 320 + NEIGHBOURS_RADIUS))
+    assert len(view) and not np.any((columns >= 320 - NEIGHBOURS_RADIUS) & (
+        columns < 320 + NEIGHBOURS_RADIUS))
     assert columns.min() < 300 and columns.max() > 340
 
 
@@ -121,16 +122,17 @@ def test_a_point_is_compared_with_the_other_views_rim_only_when_it_surely_falls_
     sure, unsure = (target.compare(replace(exact, anchor_var=np.full(n, s ** 2)))
                     for s in (1e-3, 8e-3))
     uv, _ = project_points(CAMERA, points)
-    falls = target.index[np.round(uv[:, 1]).astype(int) * CAMERA.width + np.round(uv[:, 0]).astype(int)]
+    falls = target.index[np.round(uv[:, 1]).astype(int) * CAMERA.width + np.round(uv[:, 0]).astype(
+        int)]
     on_rim = target.view.rim[falls[sure.index]]
     assert on_rim.sum() > 20 and not target.view.rim[falls[unsure.index]].any()
     np.testing.assert_array_equal(sure.index[~on_rim], unsure.index)
 
 
 def test_the_heat_map_colours_a_point_by_its_views_local_mean():
-    """One point's distance scatters by the depth noise (correct planes looked mottled: a helper):
-    the mean of the finite distances of its own view within the window about it; other views and NaN
-    (not compared) stay out."""
+    """One point's distance scatters by the depth noise, so a point is coloured by the mean of the
+    finite distances of its own view within the window about it; other views and NaN (not
+    compared) stay out."""
     shape = (5, 6)
     pixels = np.ravel_multi_index(([0, 0, 0, 0, 1, 4], [0, 1, 2, 3, 3, 5]), shape)
     values = np.array([1.0, 2.0, np.nan, 10.0, 4.0, 7.0])

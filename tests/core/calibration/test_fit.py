@@ -38,7 +38,8 @@ def mirror_frame(rng=None, virtual_extra=0.8) -> np.ndarray:
     for u, v in MARKERS.astype(int):
         depth[v - 4:v + 5, u - 4:u + 5] = glass[v - 4:v + 5, u - 4:u + 5]
     if rng is not None:
-        depth = depth + rng.normal(size=depth.shape).astype(np.float32) * axial_sigma(depth).astype(np.float32)
+        depth = depth + rng.normal(size=depth.shape).astype(np.float32) * axial_sigma(depth).astype(
+            np.float32)
     return depth
 
 
@@ -73,9 +74,8 @@ def test_markers_in_front_of_the_silver_are_moved_back_by_their_offset():
 
 
 def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
-    """The review measured the old plane's distance to the markers' faces: refitting markers on 3 mm
-    of glass over the plane a refinement left said 'moved 3.0 mm' (a helper saw 4.1 mm for a plane
-    that moved 0.6)."""
+    """The review measures the old plane's distance to the markers' faces, so that refitting
+    markers on 3 mm of glass over the plane a refinement left does not read as a 3 mm move."""
     stickers = Plane(GLASS.normal, GLASS.d - 0.003)
     depth = mirror_frame()
     for u, v in MARKERS.astype(int):
@@ -93,8 +93,8 @@ def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
 
 def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothing():
     """A poor marker makes a fit a proposal, once: the same markers fitted again, within a refit's
-    noise, are applied with the marker named (a helper was asked to apply 'turned 0.00°, moved 0.0
-    mm'); a larger change still asks."""
+    noise, are applied with the marker named, not proposed again as a change of nothing; a larger
+    change still asks."""
     depth = mirror_frame()
     u, v = MARKERS[2].astype(int)
     depth[v - 4:v + 5, u - 4:u + 5] += 0.3
@@ -105,7 +105,8 @@ def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothin
     assert first.needs_confirmation and not first.refit
     again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names,
                        same_markers=True)
-    assert again.refit and not again.needs_confirmation and again.poor == (2,) and again.concerns == first.concerns
+    assert again.refit and not again.needs_confirmation and again.poor == (
+        2,) and again.concerns == first.concerns
     moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers,
                        np.asarray(cal.centre), names,
                        # 2.5 mm: more than other frames move it
@@ -142,7 +143,8 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     assert cal.summary().endswith("; plane on the markers' faces (glass 0 mm)")
     # which side, and so why
     review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
-    assert review.concerns == ("marker(s) 2.3 (285 mm, 23σ, behind: off the glass?) lie off the plane beyond the "
+    assert review.concerns == (
+        "marker(s) 2.3 (285 mm, 23σ, behind: off the glass?) lie off the plane beyond the "
                                "depth noise",)
     depth[v - 4:v + 5, u - 4:u + 5] -= 0.6                      # something in front of it
     hidden = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
@@ -237,9 +239,8 @@ def test_a_stray_marker_far_behind_the_glass_does_not_tilt_the_plane():
 
 def test_markers_a_person_walks_in_front_of_are_read_behind_him(tmp_path):
     """A walking figure between the mirrors covers three of their markers in most frames: read on
-    the median of the frames and the background, they were 0.4 to 0.55 m off the glass and every fit
-    of a gait session was a proposal (a helper); the frames without what passes in front of the
-    background read them on the glass."""
+    the median of the frames and the background, they would lie 0.4 to 0.55 m off the glass; the
+    frames without what passes in front of the background read them on the glass."""
     scene = paper_scene(object="figure")
     session = load_session(write_session(Simulator(scene, SensorModel.kinect_v1(), seed=0),
                                          tmp_path / "gait", 5,

@@ -26,7 +26,7 @@ def test_markers_read_behind_the_silver_give_no_glass():
     tilted = Plane.from_point_normal([0.0, 0.0, 2.0], [0.02, 0.0, -1.0])
     assert marker_offset(CAMERA, depth, markers, tilted).spread > 1e-3
     # a person in front of a fourth marker (0.6 m nearer): that marker is left out, not read as 600
-    # mm of glass (a helper saw "glass 1.0 ± 109.8 mm (saved as its glass)" on the walking figure)
+    # mm of glass
     hidden = depth.copy()
     hidden[290:311, 90:111] = 1.4
     glass = marker_offset(CAMERA, hidden, [*markers, (100.0, 300.0)],

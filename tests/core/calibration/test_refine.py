@@ -39,7 +39,8 @@ def test_true_planes_agree_and_a_plane_too_near_puts_its_points_outside(sphere):
         seen = in_view(views.points(a), rig.mirrors[a - 1].plane if a else None)
         found = views.targets[b].compare(in_view(seen, rig.mirrors[b - 1].plane if b else None))
         agree = found.residual
-        assert len(agree) > 100 and abs(np.median(agree)) < 0.5e-3 and np.sqrt(np.mean(agree ** 2)) < 0.8e-3
+        assert len(agree) > 100 and abs(np.median(agree)) < 0.5e-3 and np.sqrt(np.mean(
+            agree ** 2)) < 0.8e-3
     centre = np.asarray(scene.objects[0].centre)
     # mirror 1 tilted by 0.3 degrees: its points, 0.37 m from the glass, move about 4 mm, across the
     # direct surface where both see it; an offset moves them along the mirror's normal, almost along
@@ -59,8 +60,8 @@ def test_true_planes_agree_and_a_plane_too_near_puts_its_points_outside(sphere):
 
 
 def test_the_progress_keeps_moving_through_each_frames_own_planes(sphere):
-    """A helper saw the bar of Find the planes stand at 99.5 % for 5 to 25 s: the last iterations
-    and the spread of each frame's own planes all reported 99 %."""
+    """The bar moves through the last iterations and through the spread of each frame's own
+    planes, not standing at 99 %."""
     _, rig, depths, masks = sphere
     fractions = []
     refine_planes(rig, np.concatenate([depths, depths[:1]]), np.concatenate([masks, masks[:1]]),
@@ -141,25 +142,29 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
     mask = prepare_frame(rig, frame.depth, sim.background().depth)[1]
     refined, result = refine_session(session, frame.depth[None], mask[None])
     for mirror, report, truth in zip(refined.mirrors, result.mirrors, sim.planes):
-        assert mirror.plane == report.after and abs(offset_at(mirror.plane, centre) - offset_at(truth, centre)) < 1e-3
-        assert mirror.marker_offset == pytest.approx(0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
+        assert mirror.plane == report.after and abs(offset_at(mirror.plane, centre) - offset_at(
+            truth, centre)) < 1e-3
+        assert mirror.marker_offset == pytest.approx(
+            0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
         # ideal readings: the plane's own uncertainty
         assert 0 < report.marker_offset_std < 1e-3
         assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm in front of the "
                 "silver (saved as its glass)") in report.summary()
         assert mirror.marker_offset_std == report.marker_offset_std and report.glass_typed is None
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
-    # a glass typed in stays, the reading beside it (a helper typed 3 mm as advised, and the next
-    # refinement put back its 0.5); a glass measured before is measured again
+    # a glass typed in stays, with the reading beside it; a glass measured before is measured again
     typed = session.with_mirror(0, replace(session.mirrors[0], marker_offset=0.003))
     typed = typed.with_mirror(1,
                               replace(typed.mirrors[1], marker_offset=0.002,
                                          marker_offset_std=0.0009))
     again, result = refine_session(typed, frame.depth[None], mask[None])
     assert again.mirrors[0].marker_offset == 0.003 and again.mirrors[0].marker_offset_std is None
-    assert result.mirrors[0].glass_typed == 0.003 and result.mirrors[0].marker_offset == pytest.approx(0.004, abs=1e-3)
-    assert "in front of the refined plane (its glass stays 3.0 mm, as typed in)" in result.mirrors[0].summary()
-    assert again.mirrors[1].marker_offset == pytest.approx(0.004, abs=1e-3) and result.mirrors[1].glass_typed is None
+    assert result.mirrors[0].glass_typed == 0.003 and result.mirrors[
+        0].marker_offset == pytest.approx(0.004, abs=1e-3)
+    assert "in front of the refined plane (its glass stays 3.0 mm, as typed in)" in result.mirrors[
+        0].summary()
+    assert again.mirrors[1].marker_offset == pytest.approx(0.004, abs=1e-3) and result.mirrors[
+        1].glass_typed is None
     assert again.mirrors[1].marker_offset_std == result.mirrors[1].marker_offset_std
 
 
@@ -240,7 +245,8 @@ def test_the_agreement_is_measured_against_the_depth_noise():
     # shows it; the
     assert abs(slightly[0].camera_mean_mm) > 2 * CAMERA_MEAN_EXPLAINS * slightly[0].camera_noise_mm
     # camera's
-    assert abs(slightly[1].camera_mean_mm) < 0.5 * CAMERA_MEAN_EXPLAINS * slightly[1].camera_noise_mm
+    assert abs(slightly[1].camera_mean_mm) < 0.5 * CAMERA_MEAN_EXPLAINS * slightly[
+        1].camera_noise_mm
     # mean singles it out, the other
     for found in good.values():
         # mirror as good
@@ -275,7 +281,8 @@ def test_how_well_a_plane_is_known_comes_from_the_frames_spread(monkeypatch):
     for mine, fits, truth in zip(reported.mirrors, own.mirrors, rig.mirrors):
         assert mine.after == fits.after
         assert mine.shift_std_mm > 1.5 * fits.shift_std_mm
-        assert abs(1e3 * (offset_at(mine.after, centre) - offset_at(truth.plane, centre))) < 3 * mine.shift_std_mm
+        assert abs(1e3 * (offset_at(mine.after, centre) - offset_at(
+            truth.plane, centre))) < 3 * mine.shift_std_mm
 
 
 def test_the_error_budget_experiment_on_noiseless_frames():

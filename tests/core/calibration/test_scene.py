@@ -51,10 +51,8 @@ def test_scene_search_then_refinement_without_markers(sphere):
 
 def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_found(sphere):
     """Mirror 1's outline 80 px narrower on its left: part of its image of the sphere lies outside
-    every outline, where it was taken for the object seen directly, and the cut beyond which a
-    mirror's readings are its image rose above all of them ('the object is not seen in the mirror',
-    for either mirror: a helper). Its search now says that its image spills over its outline; mirror
-    2's is found as with the right outline."""
+    every outline, where it could be taken for the object seen directly. Its search says that its
+    image spills over its outline; mirror 2's is found as with the right outline."""
     scene, rig, depths, masks = sphere
     boundary = np.array(rig.mirrors[0].boundary, float)
     boundary[boundary[:, 0] < boundary[:, 0].mean(), 0] += 80.0
@@ -72,8 +70,8 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
     centre = np.asarray(scene.objects[0].centre)
     assert -0.1 < offset_at(found, centre) - offset_at(rig.mirrors[1].plane, centre) < 0.0
     assert found.angle_to(rig.mirrors[1].plane) < 5.0
-    # calibrated without markers, mirror 2 is found and written, mirror 1 named with why (before,
-    # the refusal of one mirror dropped all: a helper on an arc of three)
+    # calibrated without markers, mirror 2 is found and written, mirror 1 named with why (the
+    # refusal of one mirror does not drop the others)
     sim = Simulator(scene, SensorModel.ideal())
     mirrors = [replace(m, markers=(), plane=None) for m in session_mirrors(sim, sim.frame(0).truth)]
     mirrors[0] = replace(mirrors[0], boundary=tuple(map(tuple, boundary)))
@@ -81,6 +79,7 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
                                          masks,
                                          np.random.default_rng(0))
     assert [m.index for m in result.mirrors] == [1] and calibrated.mirrors[0].plane is None
-    assert [i for i, _ in result.refused] == [0] and "its image spills over the outline" in result.refused[0][1]
-    assert abs(offset_at(calibrated.mirrors[1].plane, centre) - offset_at(rig.mirrors[1].plane,
-                                                                          centre)) < 1e-3
+    assert [i for i, _ in result.refused] == [
+        0] and "its image spills over the outline" in result.refused[0][1]
+    assert abs(offset_at(calibrated.mirrors[1].plane, centre) - offset_at(rig.mirrors[
+        1].plane, centre)) < 1e-3

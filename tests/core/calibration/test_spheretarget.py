@@ -93,14 +93,15 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
     refined = {i + 1: plane for i, plane in result.planes.items()}
     for (offset, angle), report in zip(errors_mm(refined, rig, centre), result.mirrors):
         assert abs(offset) < 0.4 and angle < 0.05
-        assert 2.5 < report.shift_mm < 3.5 and report.sphere_radius_mm == pytest.approx(115.0,
-                                                                                        abs=0.4)
+        assert 2.5 < report.shift_mm < 3.5 and report.sphere_radius_mm == pytest.approx(
+            115.0, abs=0.4)
         assert report.agreement_after_mm < report.agreement_before_mm
         assert "(1σ; from the centres of the sphere (radius 115." in report.summary()
         assert "points seen both ways" not in report.summary()
     surfaces = refine_planes(start, depths, masks, with_="surfaces")
     assert surfaces.compared == "surfaces" and surfaces.iterations > 0
-    assert surfaces.mirrors[0].sphere_radius_mm is None and "points seen both ways" in surfaces.mirrors[0].summary()
+    assert surfaces.mirrors[
+        0].sphere_radius_mm is None and "points seen both ways" in surfaces.mirrors[0].summary()
 
 
 def test_what_is_not_a_sphere_is_refused_by_name_and_auto_compares_the_surfaces():
@@ -129,7 +130,9 @@ def test_auto_takes_only_a_round_ball(kinect_sphere, monkeypatch):
     scatter at most SCATTER_AUTO times what the depth noise explains (1.0 to 1.03 here); asked for,
     the sphere is taken anyway."""
     _, rig, depths, masks = kinect_sphere
-    with pytest.raises(NotASphere, match=r"frame 0: the readings of the camera scatter about the sphere 1\.0\d times "
+    with pytest.raises(
+        NotASphere,
+        match=r"frame 0: the readings of the camera scatter about the sphere 1\.0\d times "
                                          r"what the depth noise explains \(at most 0\.9\): not a round ball"):
         sphere_planes(rig, depths[:1], masks[:1], [1, 2], np.random.default_rng(0), max_scatter=0.9)
     monkeypatch.setattr("mirrorcore.calibration.refine.SCATTER_AUTO", 0.9)

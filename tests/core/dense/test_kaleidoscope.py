@@ -79,8 +79,8 @@ def test_carving_uses_the_views_through_two_mirrors(kaleidoscope, bounces):
     multi = seen_source >= 33
     assert multi.mean() > 0.2
     if bounces == 3:
-        assert near.mean() > 0.98 and near[multi].mean() > 0.97 and {33,
-                                                                     34} <= set(sources.tolist())
+        assert near.mean() > 0.98 and near[multi].mean() > 0.97 and {33, 34} <= set(
+            sources.tolist())
     else:
         assert near[multi].mean() < 0.7 and sources.max() <= 2
 
@@ -125,7 +125,8 @@ def test_where_no_ray_meets_two_mirrors_dense_results_do_not_change():
     computed = sparse[1] > 0
     for a, b in zip(sparse, whole):
         np.testing.assert_array_equal(a[computed], b[computed])
-    assert np.all(whole[0][~computed & (whole[1] > 0)] == 1.0) and (~computed & (whole[1] > 0)).sum() > 10_000
+    assert np.all(whole[0][~computed & (whole[1] > 0)] == 1.0) and (~computed & (whole[
+        1] > 0)).sum() > 10_000
 
 
 def _digest(*arrays) -> str:

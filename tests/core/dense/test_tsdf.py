@@ -253,8 +253,7 @@ def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
 
 
 def test_a_large_box_with_little_surface_fits_the_budget(half):
-    """60 cm at 1 mm: 216 million voxels (4.3 GB at the 20 bytes a voxel fusion used to need). Its
-    blocks near the sphere fit in 256 MiB and its mesh is as accurate as the raw cloud; carving,
+    """60 cm at 1 mm: 216 million voxels (4.3 GB at 20 bytes a voxel). Its blocks near the sphere fit in 256 MiB and its mesh is as accurate as the raw cloud; carving,
     which holds two bytes a voxel, is refused before any work, and so is a fusion whose blocks do
     not fit."""
     scene, depth, mask, _ = half

@@ -60,7 +60,8 @@ def volume():
 
 def test_blocks_cover_the_grid_and_lay_out_their_voxels(volume):
     blocks = Blocks.all(volume, 4)
-    assert volume.block_shape(4) == (3, 2, 3) and volume.padded_shape(4) == (12, 8, 12) and len(blocks) == 18
+    assert volume.block_shape(4) == (3, 2, 3) and volume.padded_shape(4) == (12, 8, 12) and len(
+        blocks) == 18
     assert blocks.voxels == 18 * 64 and blocks.keys.tolist() == list(range(18))
     x, y, z = blocks.axes()
     assert x.shape == (4, 1, 1, 18) and y.shape == (1, 4, 1, 18) and z.shape == (1, 1, 4, 18)
@@ -71,7 +72,8 @@ def test_blocks_cover_the_grid_and_lay_out_their_voxels(volume):
     np.testing.assert_array_equal(x[:2, 0, 0, r], xs[8:10])
     np.testing.assert_array_equal(y[0, :2, 0, r], ys[4:6])
     np.testing.assert_array_equal(z[0, 0, :1, r], zs[8:9])
-    assert np.isnan(x[2:, 0, 0, r]).all() and np.isnan(y[0, 2:, 0, r]).all() and np.isnan(z[0, 0, 1:, r]).all()
+    assert np.isnan(x[2:, 0, 0, r]).all() and np.isnan(y[0, 2:, 0, r]).all() and np.isnan(z[
+        0, 0, 1:, r]).all()
     # the box of its voxel centres inside the grid
     centre, half = blocks.bounds()
     np.testing.assert_allclose(centre[:, r] - half[:, r], [0.08, 0.04, 1.08])

@@ -59,9 +59,8 @@ def test_noise_is_reduced_more_than_by_the_average_without_bias():
     reference = smooth_depth(depth, mask)            # as the pipeline gives it
     error = (local_quadratic_depth(depth, reference, np.flatnonzero(mask),
                                    mask.astype(np.int32)) - truth)[interior]
-    rms = {name: np.sqrt(np.mean(e[interior] ** 2)) for name, e in (("raw", depth - truth),
-                                                                     ("average",
-                                                                      reference - truth))}
+    rms = {name: np.sqrt(np.mean(e[interior] ** 2)) for name,
+           e in (("raw", depth - truth), ("average", reference - truth))}
     # 0.24 and 0.74 times
     assert np.sqrt(np.mean(error ** 2)) < min(0.3 * rms["raw"], 0.8 * rms["average"])
     # 0.17 mm
@@ -116,8 +115,8 @@ def test_the_robust_mean_of_frames_averages_the_disparity_steps_and_leaves_out_w
     stack[:3, :100, :100] = 1.2                                   # someone passed in front
     median = np.median(stack, axis=0)
     mean = robust_mean_depth(stack)
-    assert abs(np.mean(mean[100:, 100:]) - 2.004) < 0.3e-3 < abs(np.mean(median[100:,
-                                                                                100:]) - 2.004)
+    assert abs(np.mean(mean[100:, 100:]) - 2.004) < 0.3e-3 < abs(np.mean(median[
+        100:, 100:]) - 2.004)
     assert abs(np.mean(mean[:100, :100]) - 2.004) < 0.5e-3
 
 
@@ -147,5 +146,5 @@ def test_what_passes_in_front_of_the_background_in_most_frames_is_left_out():
     assert dropped < 1e-4
     # the median: the person
     assert abs(np.median(np.stack([*stack, background])[:, :100, :100]) - 3.0) < 0.02
-    assert abs(np.mean(robust_mean_depth(np.stack([*kept, background])[:, :100,
-                                                                       :100])) - 3.5) < 0.01
+    assert abs(np.mean(robust_mean_depth(np.stack([*kept, background])[
+        :, :100, :100])) - 3.5) < 0.01

@@ -93,7 +93,8 @@ def test_roi_and_depth_range():
     assert mask[:, 320:].sum() == 0 and mask[:, :320].sum() > 0.45 * truth.sum()
     assert not object_mask(CAMERA, frame, None, Selection(depth_min=2.5, depth_max=3.0)).any()
     no_background = object_mask(CAMERA, frame, None, Selection(depth_max=2.5))
-    assert (no_background & ~truth).sum() == 0 and (no_background & truth).sum() > 0.97 * truth.sum()
+    assert (no_background & ~truth).sum() == 0 and (
+        no_background & truth).sum() > 0.97 * truth.sum()
 
 
 def test_selection_json_errors():
@@ -101,9 +102,8 @@ def test_selection_json_errors():
 
     from mirrorcore.base.errors import FileFormatError
     assert Selection.from_json({"depth_max": 5}).depth_max == 5
-    assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0),
-                                                                                          (5, 0),
-                                                                                          (0, 5))
+    assert Selection.from_json(Selection(roi=((0, 0), (5, 0), (0, 5))).to_json()).roi == ((0, 0), (
+        5, 0), (0, 5))
     with pytest.raises(FileFormatError, match="unknown key\\(s\\) colour"):
         Selection.from_json({"colour": 1})
     with pytest.raises(FileFormatError, match="depth_min < depth_max"):

@@ -69,8 +69,8 @@ def test_svd_fit_is_exact_on_exact_points():
 def test_ransac_ignores_outliers_and_is_reproducible():
     plane = mirror_2m()
     rng = np.random.default_rng(3)
-    pts = plane.project(rng.uniform(-0.5, 0.5, (300, 3)) + [0, 0, 2]) + rng.normal(0, 0.001,
-                                                                                   (300, 3))
+    pts = plane.project(rng.uniform(-0.5, 0.5, (300, 3)) + [0, 0, 2]) + rng.normal(0, 0.001, (
+        300, 3))
     pts[:90] += rng.uniform(0.05, 0.5, (90, 3))                    # 30 % gross outliers
     a = fit_plane_ransac(pts, 0.004, np.random.default_rng(7))
     b = fit_plane_ransac(pts, 0.004, np.random.default_rng(7))

@@ -37,11 +37,11 @@ SESSION = Session(Path("."), CAMERA,
 SCENE = paper_scene(object="sphere").to_json()
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True,
-                                                                       allow_infinity=True)
+    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(
+        allow_nan=True, allow_infinity=True)
     | st.text(max_size=12),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner,
-                                                                max_size=4),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(
+        max_size=8), inner, max_size=4),
     max_leaves=12)
 
 
@@ -172,8 +172,8 @@ def npz_arrays(draw) -> bytes:
         values = np.array([np.nan, np.inf, -1, 0, 1.5,
                            3e9])[np.arange(int(np.prod(shape))) % 6].reshape(shape)
         with np.errstate(invalid="ignore", over="ignore"):
-            arrays[name] = values.astype(dtype) if dtype.kind not in "UM" else np.zeros(shape,
-                                                                                        dtype)
+            arrays[name] = values.astype(dtype) if dtype.kind not in "UM" else np.zeros(
+                shape, dtype)
     return npz_bytes(arrays)
 
 

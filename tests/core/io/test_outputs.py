@@ -1,6 +1,5 @@
-"""No command writes over a file that belongs to a session, or over its own input (issue 15, point
-1): before, `reconstruct -o SESSION/session.json` replaced the session with a PLY (exit 0) and the
-next `calibrate` lost the calibration."""
+"""No command writes over a file that belongs to a session, or over its own input: `reconstruct
+-o SESSION/session.json` is refused, the session and its calibration stay whole."""
 from __future__ import annotations
 
 import json
@@ -38,7 +37,8 @@ def refused(capsys, folder, argv, message="would write over"):
 
 @pytest.mark.parametrize("target",
                          ["session.json", "session.json.bak", "background.png", "truth.json",
-                                    "frames/000000.png", "frames/new.png", "exports/../session.json", "."])
+                                    "frames/000000.png", "frames/new.png",
+                                    "exports/../session.json", "."])
 def test_reconstruct_never_writes_over_a_session_file(session, capsys, target):
     (session / "session.json.bak").write_bytes((session / "session.json").read_bytes())
     (session / "exports").mkdir()
@@ -112,8 +112,8 @@ def test_a_frame_listed_outside_frames_is_protected(session):
 
 
 def test_one_frame_is_not_written_over_a_batch_record(session, tmp_path, capsys):
-    """A helper wrote a frame's PLY over a batch folder's manifest.json: the next run of the batch
-    failed on it."""
+    """A frame's PLY is not written over a batch folder's manifest.json or lock, which the next
+    run of the batch needs."""
     out = tmp_path / "frames"
     assert main(["reconstruct", str(session), "-o", str(out), "--frame", "all", "--workers",
                  "1"]) == 0

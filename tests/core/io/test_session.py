@@ -57,14 +57,17 @@ def test_marker_offset_round_trip(tmp_path):
     session = make_session(tmp_path)
     session = session.with_mirror(0, replace(session.mirrors[0], marker_offset=0.0042))
     save_session(session)
-    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset"] == 0.0042
+    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0][
+        "marker_offset"] == 0.0042
     assert load_session(tmp_path).mirrors[0].marker_offset == 0.0042
     # typed
-    assert "marker_offset_std" not in json.loads((tmp_path / "session.json").read_text())["mirrors"][0]
+    assert "marker_offset_std" not in json.loads((tmp_path / "session.json").read_text())[
+        "mirrors"][0]
     assert load_session(tmp_path).mirrors[0].glass_typed
     # measured
     save_session(session.with_mirror(0, replace(session.mirrors[0], marker_offset_std=0.0008)))
-    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0]["marker_offset_std"] == 0.0008
+    assert json.loads((tmp_path / "session.json").read_text())["mirrors"][0][
+        "marker_offset_std"] == 0.0008
     loaded = load_session(tmp_path).mirrors[0]
     assert loaded.marker_offset_std == 0.0008 and not loaded.glass_typed
 

@@ -69,8 +69,8 @@ def test_one_bounce_leaves_out_what_came_through_a_second_mirror():
     # rows 1-3: the side mirror begins at 8/3 = 2.67
     depth[:, 5] = [3.0, 2.5, 2.6, 2.7, 2.9, 1.9]
     cloud = reconstruct_raw(corner(bounces=1), depth)
-    assert cloud.pixels[:, 1].tolist() == [0, 1, 2, 4, 5] and cloud.sources.tolist() == [1, 1, 1, 1,
-                                                                                         0]
+    assert cloud.pixels[:, 1].tolist() == [0, 1, 2, 4, 5] and cloud.sources.tolist() == [
+        1, 1, 1, 1, 0]
     assert reconstruct_raw(corner(bounces=2), depth).sources.tolist() == [1, 1, 1, 33, 1, 0]
 
 

@@ -29,7 +29,7 @@ def test_behind_the_glass_inside_the_boundary_is_reflected():
     u = cloud.pixels[:, 0]
     # boundary edge u = 3 inside
     assert (cloud.sources[u <= 3] == 1).all() and (cloud.sources[u >= 4] == 0).all()
-    # z = 3 reflected through z = 2 -> 1
+    # z = 3 reflected through z = 2 gives z = 1
     np.testing.assert_allclose(cloud.points[u <= 3, 2], 1.0, atol=1e-6)
     np.testing.assert_allclose(cloud.points[u >= 4, 2], 3.0)
     # x and y are reflected too: through z = 2 they keep their value

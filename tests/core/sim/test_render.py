@@ -82,7 +82,8 @@ def test_marker_pixels_lie_on_the_true_mirror_planes(paper):
     virtual = _virtual_points(truth)
     for j, mirror in enumerate(scene.mirrors, start=1):
         # a direct marker pixel's point is on the glass of exactly one mirror
-        d = np.abs(mirror.plane.signed_distance(virtual[(truth.surface == MARKER) & (truth.bounces == 0)]))
+        d = np.abs(mirror.plane.signed_distance(virtual[(truth.surface == MARKER) & (
+            truth.bounces == 0)]))
         on = d < TOL
         assert on.sum() > 6 * 20, f"mirror {j}: {on.sum()} marker pixels"
         # every marker centre is seen directly (not occluded)
@@ -184,7 +185,8 @@ def test_an_arc_around_the_figure_has_its_markers_where_the_camera_sees_them():
     scene = arc_scene(3, object="figure")
     layout = arc_mirrors(3, *object_extent(scene.objects[0])[:1], 0.75, 120.0, 0.9,
                          (scene.mirrors[0].width, scene.mirrors[0].height))
-    assert scene.mirrors[0].markers == layout[0].markers and scene.mirrors[2].markers == layout[2].markers
+    assert scene.mirrors[0].markers == layout[0].markers and scene.mirrors[2].markers == layout[
+        2].markers
     middle = scene.mirrors[1]
     assert middle.markers != layout[1].markers and len(middle.markers) == 6
     r = Renderer(scene)

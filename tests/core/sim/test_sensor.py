@@ -18,8 +18,8 @@ def _wall(z: float) -> np.ndarray:
 def test_axial_std_matches_khoshelham(z):
     # many depths around z so the quantisation offset is averaged as on a real wall
     depth = _wall(z) + np.linspace(-0.02, 0.02, CAMERA.width, dtype=np.float32)[None, :] * z
-    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, depth,
-                                                             np.random.default_rng(1))
+    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, depth, np.random.default_rng(
+        1))
     err = (out - depth)[out > 0] / depth[out > 0] ** 2          # normalised to Z^2
     assert np.std(err) == pytest.approx(1.425e-3, rel=0.10)
     assert abs(np.mean(err)) < 1e-4
@@ -27,8 +27,8 @@ def test_axial_std_matches_khoshelham(z):
 
 @pytest.mark.parametrize("z", [1.0, 2.0, 3.0])
 def test_axial_std_on_a_flat_wall_facing_the_camera(z):
-    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, _wall(z),
-                                                             np.random.default_rng(2))
+    out = SensorModel(lateral_sigma=0.0, shadow=False).apply(CAMERA, _wall(
+        z), np.random.default_rng(2))
     assert np.std(out[out > 0]) == pytest.approx(1.425e-3 * z * z, rel=0.10)
 
 

@@ -154,8 +154,8 @@ def test_a_missing_oni_recording_is_named(tmp_path):
 
 
 def test_a_bag_is_read_one_frame_at_a_time(tmp_path):
-    """A .bag is streamed, not loaded: reading 40 frames of 640x480 holds a few frames at most (the
-    whole bag was 1.2 MB of memory a frame before: a 10-minute bag needed about 22 GB)."""
+    """A .bag is streamed, not loaded: reading 40 frames of 640x480 holds a few frames at most (a
+    whole bag in memory takes 1.2 MB a frame: about 22 GB for 10 minutes)."""
     import tracemalloc
     frames = np.random.default_rng(1).integers(0, 6000, (40, 480, 640), dtype=np.uint16)
     write_bag(tmp_path / "long.bag", frames, 0.001)

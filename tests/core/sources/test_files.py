@@ -45,7 +45,8 @@ def test_tum_folder_finds_the_globe_at_2_2_m_with_its_colour(tmp_path):
     (tmp_path / "rgb").mkdir()
     shutil.copy(REAL / "tum_globe_depth.png", tmp_path / "depth" / "1305031102.160407.png")
     shutil.copy(REAL / "tum_globe_color.png", tmp_path / "rgb" / "1305031102.175304.png")
-    (tmp_path / "depth.txt").write_text("# depth maps\n1305031102.160407 depth/1305031102.160407.png\n")
+    (tmp_path / "depth.txt").write_text(
+        "# depth maps\n1305031102.160407 depth/1305031102.160407.png\n")
     (tmp_path / "rgb.txt").write_text("# colour\n1305031102.175304 rgb/1305031102.175304.png\n"
                                       "1305031109.0 rgb/missing.png\n")
     source = open_source(f"tum:{tmp_path}")
@@ -71,8 +72,8 @@ def test_npz_stack_integer_and_float_with_no_readings(tmp_path):
     np.savez(tmp_path / "u.npz", depth=depth, K=K, depth_scale=0.001,
              timestamps=np.array([5.0, 5.5]))
     source = open_source(str(tmp_path / "u.npz"))
-    assert isinstance(source, StackSource) and source.intrinsics == Intrinsics(2, 2, 500, 500, 0.5,
-                                                                               0.5, 0.001)
+    assert isinstance(source, StackSource) and source.intrinsics == Intrinsics(
+        2, 2, 500, 500, 0.5, 0.5, 0.001)
     frame = source.read(0)
     assert isinstance(frame, Frame) and frame.timestamp == 5.0 and frame.colour is None
     np.testing.assert_array_equal(frame.units, depth[0])
@@ -96,7 +97,8 @@ def test_npz_errors_name_the_file_and_never_unpickle(tmp_path):
     cases = {"pickled": "holds pickled \\(object\\) arrays, which mirrorscan never loads",
              "nok": "missing array 'K'",
              "noscale": "an integer depth stack needs 'depth_scale'",
-             "badk": "'K' must be integer or floating of shape \\(3, 3\\)", "junk": "not a .npz archive",
+             "badk": "'K' must be integer or floating of shape \\(3, 3\\)",
+             "junk": "not a .npz archive",
              # a TypeError,
              "complex": "'depth_scale' must be integer or floating of shape \\(\\), got complex64"}
     # found by the fuzzing (tests/core/io/test_fuzz_loaders.py)
@@ -120,9 +122,8 @@ def test_png_folder_and_tum_errors(tmp_path):
 
 def test_spec_strings():
     assert parse_spec("freenect:0") == ("freenect", "0", {})
-    assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x",
-                                                                      {"scale": "0.0002",
-                                                                       "camera": "cam.yaml"})
+    assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x", {
+        "scale": "0.0002", "camera": "cam.yaml"})
     assert parse_spec("session") == ("session", "", {})
     with pytest.raises(MirrorscanError, match="unknown option\\(s\\) speed"):
         parse_spec("sim?speed=2")
