@@ -1,11 +1,21 @@
 """Polygons: validation (too few vertices, self-crossing, outside the image) and rasterisation at
 the edges."""
+from __future__ import annotations
+
+import tracemalloc
+
 import cv2
 import numpy as np
 import pytest
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.geometry.polygon import edge_distance, polygon_mask, validate_polygon
+from mirrorcore.geometry.polygon import (
+    MAX_VERTICES,
+    edge_distance,
+    first_crossing,
+    polygon_mask,
+    validate_polygon,
+)
 
 
 def test_square_mask_includes_its_edges_only():
@@ -64,3 +74,55 @@ def test_edge_distance_is_signed_and_nothing_is_inside_no_polygon():
     assert edge_distance(square, (103, 50)) == pytest.approx(-3.0)         # outside
     assert edge_distance(square, (100, 50)) == 0.0                         # on it
     assert edge_distance(square[:2], (50, 10)) == -np.inf
+
+
+# --------------------------------------------------------------------- polygons
+def test_the_crossing_test_of_a_large_polygon_stays_small_in_memory():
+    angles = np.linspace(0, 2 * np.pi, 8000, endpoint=False)
+    circle = np.c_[320 + 200 * np.cos(angles), 240 + 200 * np.sin(angles)]
+    tracemalloc.start()
+    assert first_crossing(circle) is None                           # 32 M edge pairs: 4.3 GB before
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 50 << 20
+    bowtie = circle.copy()
+    # two vertices swapped: it crosses itself
+    bowtie[[10, 4000]] = bowtie[[4000, 10]]
+    assert first_crossing(bowtie) is not None
+    with pytest.raises(MirrorscanError,
+                       match=f"boundary: 8,000 vertices, more than the {MAX_VERTICES:,}"):
+        validate_polygon(circle, (480, 640), "boundary")
+
+
+def test_the_first_crossing_is_the_same_pair_as_the_exhaustive_test():
+    rng = np.random.default_rng(3)
+
+    def exhaustive(poly):
+        n = len(poly)
+        for i in range(n):
+            for j in range(i + 2, n):
+                if i == 0 and j == n - 1:
+                    continue
+                if _meet(poly[i], poly[(i + 1) % n], poly[j], poly[(j + 1) % n]):
+                    return i, j
+        return None
+
+    for _ in range(300):
+        poly = rng.integers(0, 6, (int(rng.integers(4, 12)), 2)).astype(float)
+        assert first_crossing(poly) == exhaustive(poly)
+
+
+def _meet(p1, q1, p2, q2) -> bool:
+    """Segment p1-q1 meets p2-q2, touching included (a plain scalar test to compare with)."""
+    def orient(p, q, r):
+        return np.sign((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
+
+    def on(p, q, r):
+        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(p[
+            1], q[1])
+
+    o1, o2, o3, o4 = orient(p1, q1, p2), orient(p1, q1, q2), orient(p2, q2, p1), orient(p2, q2, q1)
+    if o1 * o2 < 0 and o3 * o4 < 0:
+        return True
+    return any(o == 0 and on(a, b, c) for o, a, b, c in
+               ((o1, p1, q1, p2), (o2, p1, q1, q2), (o3, p2, q2, p1), (o4, p2, q2, q1)))
