@@ -1,21 +1,18 @@
-"""Session folders, depth PNGs and PLY files: round trips, clear errors, and nothing lost on
-failure."""
+"""The session folder (io/session.py): round trips, clear errors naming the file and the key,
+nothing lost on a failed save, files that follow the umask."""
 import dataclasses
 import json
 import os
 from dataclasses import replace
 
 import numpy as np
-import open3d as o3d
 import pytest
-import trimesh
 
-from mirrorcore.depth.files import read_depth_png, write_depth_png
 from mirrorcore.base.errors import FileFormatError
+from mirrorcore.depth.files import write_depth_png
+from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.ply import read_ply, write_ply
-from mirrorcore.depth.selection import Selection
 from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 
 CAMERA = Intrinsics.primesense()
@@ -167,66 +164,6 @@ def test_malformed_and_missing_session(tmp_path):
     (tmp_path / "session.json").write_text('{"version": 1, "camera": ')
     with pytest.raises(FileFormatError, match="invalid JSON at line 1"):
         load_session(tmp_path)
-
-
-def test_depth_png_round_trip_and_bad_images(tmp_path):
-    depth = np.random.default_rng(0).uniform(0.5, 4, CAMERA.shape)
-    depth[0, 0] = 0
-    write_depth_png(tmp_path / "d.png", depth, 0.001)
-    back = read_depth_png(tmp_path / "d.png", 0.001, CAMERA.shape)
-    assert back.dtype == np.float32 and back[0, 0] == 0
-    assert np.abs(back - depth).max() <= 0.0005 + 1e-6
-    import cv2
-    cv2.imwrite(str(tmp_path / "8bit.png"), np.zeros((480, 640), np.uint8))
-    with pytest.raises(FileFormatError,
-                       match="8bit.png: a depth image is 16-bit, this one is uint8"):
-        read_depth_png(tmp_path / "8bit.png", 0.001)
-    with pytest.raises(FileFormatError, match="size 640x480 does not match the camera's 320x240"):
-        read_depth_png(tmp_path / "d.png", 0.001, (240, 320))
-    (tmp_path / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage")
-    with pytest.raises(FileFormatError, match="corrupt.png: not a readable image"):
-        read_depth_png(tmp_path / "corrupt.png", 0.001)
-
-
-def test_ply_layout_and_readers(tmp_path):
-    pts = np.random.default_rng(1).normal(size=(50, 3)).astype(np.float32)
-    src = np.repeat([0, 1, 2, 1, 0], 10)
-    write_ply(tmp_path / "c.ply", pts, src)
-    raw = (tmp_path / "c.ply").read_bytes()
-    header = raw[:raw.index(b"end_header")].decode()
-    assert "format binary_little_endian 1.0" in header
-    assert [line.split()[-1] for line in header.splitlines() if line.startswith("property")] == \
-        ["x", "y", "z", "red", "green", "blue", "source"]
-    assert "float x" in header and "uchar source" in header and "face" not in header
-    p, s = read_ply(tmp_path / "c.ply")
-    np.testing.assert_array_equal(p, pts)
-    np.testing.assert_array_equal(s, src)
-    o3d_cloud = o3d.io.read_point_cloud(str(tmp_path / "c.ply"))
-    np.testing.assert_allclose(np.asarray(o3d_cloud.points), pts, atol=1e-7)
-    colours = (np.asarray(o3d_cloud.colors) * 255).round()
-    # colour by source
-    assert (colours[:10] == colours[0]).all() and not (colours[10] == colours[0]).all()
-    assert len(trimesh.load(tmp_path / "c.ply").vertices) == 50
-
-
-def test_ascii_ply_from_another_tool(tmp_path):
-    pts = np.random.default_rng(2).normal(size=(20, 3))
-    o3d.io.write_point_cloud(str(tmp_path / "a.ply"),
-                             o3d.geometry.PointCloud(o3d.utility.Vector3dVector(pts)),
-                             write_ascii=True)
-    p, s = read_ply(tmp_path / "a.ply")
-    np.testing.assert_allclose(p, pts, atol=1e-5)
-    assert s is None
-
-
-def test_broken_ply(tmp_path):
-    (tmp_path / "x.ply").write_bytes(b"not a ply")
-    with pytest.raises(FileFormatError, match="x.ply: not a PLY file"):
-        read_ply(tmp_path / "x.ply")
-    write_ply(tmp_path / "t.ply", np.zeros((10, 3)), np.zeros(10, int))
-    (tmp_path / "t.ply").write_bytes((tmp_path / "t.ply").read_bytes()[:-50])
-    with pytest.raises(FileFormatError, match="t.ply: broken PLY"):
-        read_ply(tmp_path / "t.ply")
 
 
 def test_saved_files_follow_the_umask_and_keep_their_mode(tmp_path):
