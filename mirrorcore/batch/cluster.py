@@ -57,7 +57,8 @@ class ContextPlugin(WorkerPlugin):
             if not folder.is_dir():
                 raise MirrorscanError(
                     f"worker {worker.address}: {folder} is not there; the session and the output "
-                                      "folder must be on a file system that every worker sees at the same path")
+                                      "folder must be on a file system that every worker sees at "
+                                      "the same path")
         cv2.setNumThreads(1)
         if self.ignore_ctrl_c and threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)

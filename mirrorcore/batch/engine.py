@@ -36,7 +36,8 @@ class Where:
         if self.workers is not None and self.workers < 1:
             raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
         if self.workers is not None and self.scheduler is not None:
-            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own workers; give one or "
+            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own "
+                                  "workers; give one or "
                                   "the other")
 
     @property

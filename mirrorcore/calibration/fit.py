@@ -103,7 +103,8 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
         used = [i + 1 for i, ok in enumerate(usable) if ok]
         raise CalibrationError(
             f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
-                               f"(all within {spread * 1000:.0f} mm of one line); place one off that line")
+                               f"(all within {spread * 1000:.0f} mm of one line); place one off "
+                               "that line")
     points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)

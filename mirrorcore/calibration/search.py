@@ -96,15 +96,20 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
         within = int(np.count_nonzero(mask & (rig.inside_bits != 0) & (depth > 0)))
         raise CalibrationError(
             f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
-                               f"frame ({len(direct)} readings there, {MIN_POINTS} needed; {within} more inside the "
-                               "outlines, where the search cannot tell the object from its images): move the object "
-                               "so that the camera sees part of it beside the mirrors, or click markers on this mirror",
+                               f"frame ({len(direct)} readings there, {MIN_POINTS} needed; "
+                               f"{within} more inside the "
+                               "outlines, where the search cannot tell the object from its "
+                               "images): move the object "
+                               "so that the camera sees part of it beside the mirrors, or click "
+                               "markers on this mirror",
                                (mirror.name,))
     if len(virtual) < MIN_POINTS:
         raise CalibrationError(
             f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
-                               f"readings inside its outline beyond what the camera sees directly, {MIN_POINTS} "
-                               "needed): move the object so that the mirror shows it, or check the mirror's outline",
+                               "readings inside its outline beyond what the camera sees directly, "
+                               f"{MIN_POINTS} "
+                               "needed): move the object so that the mirror shows it, or check the "
+                               "mirror's outline",
                                (mirror.name,))
     views = [_View(None, None, outside.reshape(-1), _subset(direct, rng))]
     views += _mirror_views(rig, depth, mask & (depth > far), index, rng)

@@ -108,8 +108,10 @@ def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list
         for j, scale in zip(views, scales):
             if scale > max_scatter ** 2:
                 name = "the camera" if j == 0 else rig.mirrors[j - 1].name
-                raise NotASphere(f"frame {k}: the readings of {name} scatter about the sphere {np.sqrt(scale):.2f} "
-                                 f"times what the depth noise explains (at most {max_scatter}): not a round ball, "
+                raise NotASphere(f"frame {k}: the readings of {name} scatter about the sphere "
+                                 f"{np.sqrt(scale):.2f} "
+                                 f"times what the depth noise explains (at most {max_scatter}): "
+                                 "not a round ball, "
                                  "or a camera noisier than the model")
         x, spread = _debiased_fit(readings, x0, scales, rng)
         fits.append((x, spread))
@@ -140,7 +142,8 @@ def _view_readings(rig: Rig, depth: np.ndarray, mask: np.ndarray, views: list[in
         pixels = cloud.pixel_index[cloud.sources == j]
         name = "the camera" if j == 0 else rig.mirrors[j - 1].name
         if len(pixels) < MIN_POINTS:
-            raise NotASphere(f"frame {frame}: {name} sees {len(pixels)} readings of the object, {MIN_POINTS} are "
+            raise NotASphere(f"frame {frame}: {name} sees {len(pixels)} readings of the object, "
+                             f"{MIN_POINTS} are "
                              "needed to find a sphere's centre")
         x_rays, y_rays = (r.reshape(-1)[pixels] for r in rig.intrinsics.rays)
         rays = np.column_stack([x_rays, y_rays, np.ones(len(pixels))]).astype(np.float64)

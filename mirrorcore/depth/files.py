@@ -37,7 +37,8 @@ def read_depth_png(path: str | Path, depth_scale: float,
         if limit is not None and size > limit:
             raise FileFormatError(
                 f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
-                                  f"hold (at most {limit:,}); the file is damaged or not a depth image")
+                                  f"hold (at most {limit:,}); the file is damaged or not a depth "
+                                  "image")
         check_memory(size, f"{path}: reading the file")
         f.seek(0)
         data = f.read()

@@ -50,7 +50,8 @@ class Intrinsics:
         values = np.array([self.fx, self.fy, self.cx, self.cy, self.depth_scale], dtype=float)
         if not np.all(np.isfinite(values)) or self.fx <= 0 or self.fy <= 0 or self.depth_scale <= 0:
             raise FileFormatError(
-                f"camera: fx, fy and depth_scale must be finite and positive, got fx={self.fx} fy={self.fy} "
+                f"camera: fx, fy and depth_scale must be finite and positive, got fx={self.fx} "
+                f"fy={self.fy} "
                 f"depth_scale={self.depth_scale}")
         object.__setattr__(self, "width", int(self.width))
         object.__setattr__(self, "height", int(self.height))
@@ -193,7 +194,8 @@ def check_depth_shape(intr: Intrinsics, depth: np.ndarray,
     depth = np.asarray(depth)
     if depth.shape != intr.shape:
         raise FileFormatError(
-            f"{where}: size {depth.shape[1] if depth.ndim > 1 else '?'}x{depth.shape[0] if depth.ndim else '?'} "
+            f"{where}: size "
+            f"{depth.shape[1] if depth.ndim > 1 else '?'}x{depth.shape[0] if depth.ndim else '?'} "
             f"does not match the camera's {intr.width}x{intr.height}")
     return depth
 
@@ -216,7 +218,8 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
     except (OSError, ValueError, KeyError, TypeError, OverflowError) as exc:
-        raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON ({type(exc).__name__}: {exc})") from None
+        raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON "
+                              f"({type(exc).__name__}: {exc})") from None
 
 
 def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:

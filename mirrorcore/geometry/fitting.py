@@ -100,13 +100,15 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
     errors."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(points) < _MIN_POINTS[kind]:
-        raise MirrorscanError(f"{where}: a {kind} fit needs at least {_MIN_POINTS[kind]} points, got {len(points)}")
+        raise MirrorscanError(f"{where}: a {kind} fit needs at least {_MIN_POINTS[kind]} points, "
+                              f"got {len(points)}")
     if not np.all(np.isfinite(points)):
         raise MirrorscanError(f"{where}: the cloud has non-finite coordinates")
     if not threshold > 0:
         raise MirrorscanError(f"{where}: the inlier threshold must be positive, got {threshold} m")
     if sources is not None and len(np.reshape(sources, -1)) != len(points):
-        raise MirrorscanError(f"{where}: {len(points)} points but {len(np.reshape(sources, -1))} source labels")
+        raise MirrorscanError(f"{where}: {len(points)} points but {len(np.reshape(sources, -1))} "
+                              "source labels")
     origin = points.mean(axis=0)
     centred = points - origin
     if kind == "sphere":
@@ -116,7 +118,8 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
         normals = estimate_normals(points) if normals is None else np.asarray(normals,
                                                                               dtype=np.float64)
         if normals.shape != points.shape:
-            raise MirrorscanError(f"{where}: {len(points)} points but normals of shape {normals.shape}")
+            raise MirrorscanError(f"{where}: {len(points)} points but normals of shape "
+                                  f"{normals.shape}")
         propose, distances, refine = _cylinder_propose(centred, normals), _cylinder_distances(centred), _cylinder_refine
         sample_size = 2
     min_points, radius_mm = _MIN_POINTS[kind], f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
@@ -127,13 +130,16 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
                     rng, radius_range,
                     confidence, max_iterations, tick)
     if model is None:
-        raise MirrorscanError(f"{where}: no {kind} found (no {kind} of radius {radius_mm} has {min_points} points "
+        raise MirrorscanError(f"{where}: no {kind} found (no {kind} of radius {radius_mm} has "
+                              f"{min_points} points "
                               f"within {1e3 * threshold:g} mm)")
     # the least-squares fit on the inliers (unchanged if RANSAC's best was one)
     model, count = optimise(model)
     if count < min_points or not _in_range(model[-1], radius_range):
-        raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} mm) has {count} points "
-                              f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is the cloud one plane?)")
+        raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} "
+                              f"mm) has {count} points "
+                              f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is "
+                              "the cloud one plane?)")
     shape = _sphere_shape(model, origin) if kind == "sphere" else _cylinder_shape(model, origin,
                                                                                   centred,
                                                                                    distances,

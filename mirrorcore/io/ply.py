@@ -37,8 +37,10 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
     colours = source_colours(sources)
     vertex["red"], vertex["green"], vertex["blue"] = colours.T
     vertex["source"] = sources
-    header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
-              "source 0 = direct, j = mirror j, 33 and up = through several mirrors in turn (docs/DESIGN.md)\n"
+    header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame "
+              "(OpenCV axes); "
+              "source 0 = direct, j = mirror j, 33 and up = through several mirrors in turn "
+              "(docs/DESIGN.md)\n"
               f"element vertex {len(points)}\n"
               + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n"
                         for n in _VERTEX.names)

@@ -310,7 +310,8 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
                             or not 0 <= std
                             <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
-        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to {MAX_MARKER_OFFSET:g}) to which "
+        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to "
+                              f"{MAX_MARKER_OFFSET:g}) to which "
                               f"a refinement measured the glass, got {std!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
     return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset),

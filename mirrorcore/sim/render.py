@@ -206,7 +206,8 @@ class Renderer:
 
     def __init__(self, scene: Scene, bounces: int = MAX_BOUNCES):
         if not 1 <= bounces <= MAX_BOUNCES:
-            raise MirrorscanError(f"--bounces: the simulator renders 1 to {MAX_BOUNCES} reflections, got {bounces}")
+            raise MirrorscanError(f"--bounces: the simulator renders 1 to {MAX_BOUNCES} "
+                                  f"reflections, got {bounces}")
         self.scene = scene
         self.max_bounces = int(bounces)
         room, glass, markers = _static_meshes(scene)

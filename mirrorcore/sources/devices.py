@@ -43,7 +43,8 @@ class FreenectSource(DepthSource):
     def _grab(self) -> Frame:
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
         if got is None:
-            raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and readable by this user?)")
+            raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and "
+                                  "readable by this user?)")
         counts = np.array(got[0], dtype=np.uint16)        # a copy: the binding reuses its buffer
         return Frame(self.disparity_model(counts), time.monotonic() - self._t0, units=counts)
 
@@ -81,7 +82,8 @@ class OpenNI2Source(DepthSource):
         mode = self._stream.get_video_mode()
         fmt = getattr(mode.pixelFormat, "name", str(mode.pixelFormat)).split(".")[-1]
         if fmt not in _OPENNI2_SCALES:
-            raise MirrorscanError(f"{self.name}: depth pixel format {fmt} is not one of {', '.join(_OPENNI2_SCALES)}")
+            raise MirrorscanError(f"{self.name}: depth pixel format {fmt} is not one of "
+                                  f"{', '.join(_OPENNI2_SCALES)}")
         w, h = int(mode.resolutionX), int(mode.resolutionY)
         fx = w / 2 / np.tan(self._stream.get_horizontal_fov() / 2)
         fy = h / 2 / np.tan(self._stream.get_vertical_fov() / 2)
@@ -115,7 +117,8 @@ def initialise_openni2(openni2, what: str) -> None:
         openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()]
                            or ["."])
     except Exception as exc:  # openni raises its own InitializationError, not an ImportError
-        raise MirrorscanError(f"{what}: cannot load libOpenNI2 ({str(exc).splitlines()[0].strip()}); "
+        raise MirrorscanError(f"{what}: cannot load libOpenNI2 "
+                              f"({str(exc).splitlines()[0].strip()}); "
                               f"install {OPENNI2_INSTALL}") from None
 
 

@@ -182,7 +182,8 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
     if bgr is None:
         raise FileFormatError(f"{path}: not a readable colour image")
     if bgr.shape[:2] != intr.shape:
-        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the depth camera's "
+        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the "
+                              "depth camera's "
                               f"{intr.width}x{intr.height}")
     return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
@@ -222,15 +223,18 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
     arrays = load_npz(path)
     for key in ("depth", "K"):
         if key not in arrays:
-            raise FileFormatError(f"{path}: missing array '{key}' (has {', '.join(sorted(arrays)) or 'none'})")
+            raise FileFormatError(f"{path}: missing array '{key}' (has "
+                                  f"{', '.join(sorted(arrays)) or 'none'})")
     depth = arrays["depth"][None] if arrays["depth"].ndim == 2 else arrays["depth"]
     integer = np.issubdtype(depth.dtype, np.integer)
     if depth.ndim != 3 or not (integer
                                or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
-        raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got {depth.dtype} "
+        raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got "
+                              f"{depth.dtype} "
                               f"{depth.shape}")
     if integer and "depth_scale" not in arrays:
-        raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per unit)")
+        raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per "
+                              "unit)")
     scale = float(_optional(path, arrays, "depth_scale", (), REAL, 1.0))
     if not (np.isfinite(scale) and scale > 0):
         raise FileFormatError(f"{path}: 'depth_scale' must be positive, got {scale:g}")
@@ -253,7 +257,8 @@ def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[typ
         return default
     value = arrays[key]
     if value.shape != shape or not any(np.issubdtype(value.dtype, kind) for kind in kinds):
-        raise FileFormatError(f"{path}: '{key}' must be {' or '.join(k.__name__ for k in kinds)} of shape {shape}, "
+        raise FileFormatError(f"{path}: '{key}' must be {' or '.join(k.__name__ for k in kinds)} "
+                              f"of shape {shape}, "
                               f"got {value.dtype} {value.shape}")
     return value
 
@@ -274,10 +279,12 @@ def load_npz(path: Path) -> dict[str, np.ndarray]:
                 return {key: data[key] for key in data.files}
     except ValueError as exc:
         if "allow_pickle" in str(exc):
-            raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
+            raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never "
+                                  "loads") from None
         raise FileFormatError(f"{path}: not a readable .npz file ({exc})") from None
     except (OSError, zipfile.BadZipFile, EOFError, NotImplementedError, zlib.error) as exc:
-        raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+        raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: "
+                              f"{exc})") from None
 
 
 def npz_declared_bytes(file) -> dict[str, int]:
@@ -292,7 +299,8 @@ def npz_declared_bytes(file) -> dict[str, int]:
             with archive.open(info) as member:
                 version = np.lib.format.read_magic(member)
                 if version not in _NPY_HEADERS:
-                    raise ValueError(f"{info.filename}: .npy format version {version} is not read here")
+                    raise ValueError(f"{info.filename}: .npy format version {version} is not read "
+                                     "here")
                 shape, _, dtype = _NPY_HEADERS[version](member, max_header_size=10_000)
             sizes[info.filename] = int(np.prod(shape, dtype=object)) * max(dtype.itemsize, 1)
     return sizes

@@ -100,7 +100,8 @@ def test_a_huge_frame_file_is_refused_by_its_size_before_it_is_read(tmp_path):
     # in a process of its own (this one's other threads allocate too): the refusal never holds the
     # file
     reader = ("import re, sys\nfrom mirrorcore.depth.files import read_depth_png\n"
-              "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    pass\n"
+              "try:\n    read_depth_png(sys.argv[1], 0.001, (480, 640))\nexcept Exception:\n    "
+              "pass\n"
               "print(re.search(r'VmHWM:\\s+(\\d+)', open('/proc/self/status').read()).group(1))")
     run = subprocess.run([sys.executable, "-c", reader, str(path)], capture_output=True, text=True,
                          timeout=120,

@@ -49,18 +49,24 @@ def test_a_mirror_is_fixed_by_the_camera_or_by_mirrors_fixed_themselves():
     assert fixed_by(arc, [2], ["middle"], 3, held_only=True) == {2: 620}
     with pytest.raises(CalibrationError,
                        match=r"^middle: .*\(20 readings agree over 3 frame\(s\), 200 are needed; a "
-                                               r"plane found without markers must be fixed by the camera or by "
-                                               r"mirrors calibrated before it\); click markers on it and fit it, then "
+                                               r"plane found without markers must be fixed by the "
+                                               r"camera or by "
+                                               r"mirrors calibrated before it\); click markers on "
+                                               r"it and fit it, then "
                                                r"refine from the object$") as refused:
         fixed_by(arc, [1, 2, 3], ["left", "middle", "right"], 3, held_only=True)
     assert refused.value.mirrors == ("middle",)
     box = _comparisons((1, 0, 18), (1, 2, 5000), (2, 3, 5000), (3, 0, 10))
     with pytest.raises(CalibrationError,
                        match=r"^left, middle and right: the camera and the mirrors see too little "
-                                               r"of the same surface to determine their planes \(left: 18, middle: 0 "
-                                               r"and right: 10 readings agree over 10 frame\(s\), 200 are needed; the "
-                                               r"readings they share with one another \(left: 5,000, middle: 10,000 "
-                                               r"and right: 5,000\) fix nothing, as the camera fixes none of them\); "
+                                               r"of the same surface to determine their planes "
+                                               r"\(left: 18, middle: 0 "
+                                               r"and right: 10 readings agree over 10 frame\(s\), "
+                                               r"200 are needed; the "
+                                               r"readings they share with one another \(left: "
+                                               r"5,000, middle: 10,000 "
+                                               r"and right: 5,000\) fix nothing, as the camera "
+                                               r"fixes none of them\); "
                                                r"refine on") as refused:
         # every mirror named, not the first
         fixed_by(box, [1, 2, 3], ["left", "middle", "right"], 10)

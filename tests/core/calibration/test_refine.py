@@ -113,14 +113,16 @@ def test_refusals_name_the_mirror(sphere, tmp_path):
     direct_only = masks & (rig.inside_bits == 0)
     with pytest.raises(CalibrationError,
                        match="mirror 1 and mirror 2: the camera and the mirrors see too little of "
-                                               r"the same surface .* \(mirror 1: 0 and mirror 2: 0 readings agree "
+                                               r"the same surface .* \(mirror 1: 0 and mirror 2: 0 "
+                                               r"readings agree "
                                                r"over 2 frame\(s\)"):
         refine_planes(rig, depths, direct_only)
     # a view that disagrees more than max_disagreement times what the depth noise explains (a
     # searched plane's limit)
     with pytest.raises(CalibrationError,
                        match=r"mirror 1: even refined, its view disagrees with the others \(.* mm "
-                                               r"RMS where the depth noise explains .* mm\): its plane was not found"):
+                                               r"RMS where the depth noise explains .* mm\): its "
+                                               r"plane was not found"):
         refine_planes(rig, depths, masks, with_="surfaces", leash=Leash(max_disagreement=0.01))
     # no such limit by default
     assert len(refine_planes(rig, depths, masks, with_="surfaces").mirrors) == 2
@@ -148,7 +150,8 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
             0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
         # ideal readings: the plane's own uncertainty
         assert 0 < report.marker_offset_std < 1e-3
-        assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} mm in front of the "
+        assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} "
+                "mm in front of the "
                 "silver (saved as its glass)") in report.summary()
         assert mirror.marker_offset_std == report.marker_offset_std and report.glass_typed is None
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was

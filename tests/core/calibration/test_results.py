@@ -14,19 +14,25 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     report = MirrorRefinement(0, "left", plane, plane, 5.43, 5.44, -0.73, 0.04, 3.41, 0.02, 0.5,
                               0.01, 900, 900, 7.94)
     assert report.summary() == (
-        "plane moved +3.41 mm (> 0: away from the camera) and 0.020°; its points agree with the other views as well "
-        "as the depth noise allows (RMS 5.43 mm before, 5.44 mm after, mean -0.73 mm before, +0.04 mm after over the "
-        "frames used, where the depth noise alone would give 7.94 mm RMS); the data fix it to ±0.50 mm and ±0.010° "
-        "(1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm; 900 points seen both ways with the "
+        "plane moved +3.41 mm (> 0: away from the camera) and 0.020°; its points agree with the "
+        "other views as well "
+        "as the depth noise allows (RMS 5.43 mm before, 5.44 mm after, mean -0.73 mm before, +0.04 "
+        "mm after over the "
+        "frames used, where the depth noise alone would give 7.94 mm RMS); the data fix it to "
+        "±0.50 mm and ±0.010° "
+        "(1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm; 900 points seen both "
+        "ways with the "
         "camera)")
     # an arc's middle mirror
     middle = replace(report, agreements=7565, camera_agreements=42)
     assert middle.summary().endswith(
         "(1σ; the method may add 1 to 2 mm, a ball in every view only 0.3 mm; 7,565 "
-                                     "points seen both ways with the camera and the mirrors that fix it, 42 with the "
+                                     "points seen both ways with the camera and the mirrors that "
+                                     "fix it, 42 with the "
                                      "camera)")
     assert report.summary(searched=True).startswith(
-        "its points agree with the other views as well as the depth noise allows (RMS 5.44 mm, mean +0.04 mm over")
+        "its points agree with the other views as well as the depth noise allows (RMS 5.44 mm, "
+        "mean +0.04 mm over")
     glass = replace(report, marker_offset=0.0032, marker_offset_std=0.0002)
     assert glass.summary().endswith(
         ", markers 3.2 ± 0.2 mm in front of the silver (saved as its glass)")

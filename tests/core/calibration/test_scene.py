@@ -44,7 +44,8 @@ def test_scene_search_then_refinement_without_markers(sphere):
                      np.random.default_rng(0))
     with pytest.raises(CalibrationError,
                        match=r"mirror 2: the object is not seen directly outside the mirrors' "
-                                               r"outlines in this frame \(0 readings there, 100 needed; [1-9]\d+ more"):
+                                               r"outlines in this frame \(0 readings there, 100 "
+                                               r"needed; [1-9]\d+ more"):
         search_plane(blind, depths[0], masks[0] & (rig.inside_bits != 0), 1,
                      np.random.default_rng(0))
 
@@ -64,7 +65,8 @@ def test_an_outline_drawn_too_narrow_is_named_and_the_other_mirror_is_still_foun
     assert np.count_nonzero(spilled) > 500
     with pytest.raises(CalibrationError,
                        match=r"^mirror 1: \d+ readings just outside its outline lie beyond the "
-                                               r"object seen directly: its image spills over the outline; draw"):
+                                               r"object seen directly: its image spills over the "
+                                               r"outline; draw"):
         search_plane(narrow, depths[0], masks[0], 0, np.random.default_rng(0))
     found = search_plane(narrow, depths[0], masks[0], 1, np.random.default_rng(0)).plane
     centre = np.asarray(scene.objects[0].centre)

@@ -133,7 +133,8 @@ def test_auto_takes_only_a_round_ball(kinect_sphere, monkeypatch):
     with pytest.raises(
         NotASphere,
         match=r"frame 0: the readings of the camera scatter about the sphere 1\.0\d times "
-                                         r"what the depth noise explains \(at most 0\.9\): not a round ball"):
+                                         r"what the depth noise explains \(at most 0\.9\): not a "
+                                         r"round ball"):
         sphere_planes(rig, depths[:1], masks[:1], [1, 2], np.random.default_rng(0), max_scatter=0.9)
     monkeypatch.setattr("mirrorcore.calibration.refine.SCATTER_AUTO", 0.9)
     assert refine_planes(rig, depths[:1], masks[:1]).compared == "surfaces"
