@@ -309,7 +309,8 @@ class BatchRun:
     def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
                  overwrite: bool = False,
                  on_progress: Callable[[BatchProgress], None] | None = None):
-        self.job, self.where, self.frames_per_task, self.overwrite = job, where, frames_per_task, overwrite
+        self.job, self.where = job, where
+        self.frames_per_task, self.overwrite = frames_per_task, overwrite
         self.on_progress = on_progress
         self.progress: BatchProgress | None = None
         self.report: BatchReport | None = None

@@ -94,7 +94,8 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     usable = [len(g) >= MIN_MARKER_PIXELS for g in groups]
     if sum(usable) < 3:
         dead = [i + 1 for i, ok in enumerate(usable) if not ok]
-        detail = f"; marker(s) {', '.join(map(str, dead))} have no depth reading within {window} px" if dead else ""
+        detail = (f"; marker(s) {', '.join(map(str, dead))} have no depth reading within "
+                  f"{window} px" if dead else "")
         raise CalibrationError(
             f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
     centres = np.array([np.median(g, axis=0) for g, ok in zip(groups, usable) if ok])

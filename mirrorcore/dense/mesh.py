@@ -125,7 +125,8 @@ def _cube_table() -> tuple[np.ndarray, np.ndarray]:
             for d, a in EDGES]
     # (256, 5): the corners to observe
     needs = np.bitwise_or.reduce(np.array(ends)[edges], axis=2)
-    keep = (np.arange(MAX_TRIANGLES) < counts[case][:, None]) & (seen[:, None] & needs[case] == needs[case])
+    keep = ((np.arange(MAX_TRIANGLES) < counts[case][:, None])
+            & (seen[:, None] & needs[case] == needs[case]))
     # the kept ones first, in order
     order = np.argsort(~keep, axis=1, kind="stable")
     kept = edges.astype(np.int8).reshape(-1, 3)[(case[:, None] * MAX_TRIANGLES + order).reshape(-1)]
@@ -212,7 +213,8 @@ def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: n
                     axis=0) + np.take(np.argwhere(np.ones((b + 1,) * 3, bool)), at,
                                                                      axis=0)).astype(np.float64)
     grid[np.arange(len(off)), axis[off]] += t[off]
-    return ids, grid, np.concatenate([labels[off], np.take(source, point[one] * span + row[len(off):])]), len(one)
+    sources = np.concatenate([labels[off], np.take(source, point[one] * span + row[len(off):])])
+    return ids, grid, sources, len(one)
 
 
 def _grid_points(rows: np.ndarray, row: np.ndarray, point: np.ndarray, b: int) -> tuple[np.ndarray,

@@ -216,8 +216,8 @@ class _Segments:
         measured point lies before the segment, the view knows nothing
         (NaN). mask : (H, W) bool, the object's pixels."""
         level, rows = np.nonzero(self.chains.label == label)
-        pixel, start, end, z = self.chains.pixel[rows], self.start[rows, level + 1], self.end[rows, level + 1], \
-            self.z[rows]
+        pixel, z = self.chains.pixel[rows], self.z[rows]
+        start, end = self.start[rows, level + 1], self.end[rows, level + 1]
         after = (z == 0) | (z > start)
         seen, _ = _padded(self.shape, np.nan, np.float32)
         surface, _ = _padded(self.shape, False, bool)

@@ -69,7 +69,8 @@ def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
     -> (k, H, W) float32."""
     frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background,
                                                                           dtype=np.float32)
-    front = (background > 0) & (frames < background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background))
+    nearest = background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background)
+    front = (background > 0) & (frames < nearest)
     return np.where(front, np.float32(0), frames)
 
 

@@ -38,7 +38,7 @@ Model = np.ndarray
 direction)."""
 
 
-# --------------------------------------------------------------------------------------------- public API
+# -------------------------------------------------------------------------------------- public API
 def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
                sources: np.ndarray | None = None,
                radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
@@ -86,12 +86,13 @@ def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float 
 def estimate_normals(points: np.ndarray, neighbours: int = _NORMAL_NEIGHBOURS) -> np.ndarray:
     """Unit normals (n, 3) float64 (sign arbitrary) of points (n, 3) metres, by PCA of each point's
     nearest neighbours."""
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64).reshape(-1, 3)))
+    xyz = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz))
     cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(neighbours))
     return np.asarray(cloud.normals)
 
 
-# --------------------------------------------------------------------------------------------- the shared pipeline
+# ----------------------------------------------------------------------------- the shared pipeline
 def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.ndarray | None,
          rng: np.random.Generator, threshold: float, radius_range: tuple[float, float],
          confidence: float,
@@ -112,7 +113,8 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
     origin = points.mean(axis=0)
     centred = points - origin
     if kind == "sphere":
-        propose, distances, refine = _sphere_propose(centred), _sphere_distances(centred), _sphere_refine
+        propose, distances = _sphere_propose(centred), _sphere_distances(centred)
+        refine = _sphere_refine
         sample_size = 4
     else:
         normals = estimate_normals(points) if normals is None else np.asarray(normals,
@@ -120,9 +122,11 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
         if normals.shape != points.shape:
             raise MirrorscanError(f"{where}: {len(points)} points but normals of shape "
                                   f"{normals.shape}")
-        propose, distances, refine = _cylinder_propose(centred, normals), _cylinder_distances(centred), _cylinder_refine
+        propose, distances = _cylinder_propose(centred, normals), _cylinder_distances(centred)
+        refine = _cylinder_refine
         sample_size = 2
-    min_points, radius_mm = _MIN_POINTS[kind], f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
+    min_points = _MIN_POINTS[kind]
+    radius_mm = f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
 
     def optimise(model: Model) -> tuple[Model, int]:
         return _local_optimum(centred, model, threshold, distances, refine, min_points)
@@ -239,7 +243,7 @@ def _gauss_newton(model: Model,
     return model
 
 
-# --------------------------------------------------------------------------------------------- sphere
+# ------------------------------------------------------------------------------------------ sphere
 def _sphere_propose(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """Closed-form sphere through 4 points: 2 (p_i - p_0).c = |p_i|^2 - |p_0|^2, i = 1..3, by
     Cramer's rule (rows of a 3x3 system, batched); NaN rows when the 4 points are (nearly)
@@ -292,7 +296,7 @@ def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
     return Sphere(tuple(float(x) for x in model[:3] + origin), float(model[3]))
 
 
-# --------------------------------------------------------------------------------------------- cylinder
+# ---------------------------------------------------------------------------------------- cylinder
 def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.ndarray],
                                                                            np.ndarray]:
     """Cylinder from 2 points with normals: direction n1 x n2; axis point = midpoint of the closest

@@ -86,7 +86,8 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
     for level in range(bounces):
         t, nxt = _next_mirror(intr, planes, inside_bits, point, direction, mirror)
         met = np.flatnonzero(nxt > 0)
-        rows, z, t, nxt, point, direction = rows[met], z[met] + t[met], t[met], nxt[met], point[met], direction[met]
+        rows, z, t, nxt = rows[met], z[met] + t[met], t[met], nxt[met]
+        point, direction = point[met], direction[met]
         label = _NEXT_LABEL[label[met], nxt] if level < levels else np.zeros(len(met), np.int64)
         # one mirror more than followed, or no label for it
         chains.cutoff[rows[label == 0]] = z[label == 0]

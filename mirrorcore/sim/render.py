@@ -227,7 +227,8 @@ class Renderer:
         self._dirs = rays / np.linalg.norm(rays, axis=1, keepdims=True)
         # (H*W,) their z: depth per path length
         self._dirs_z = np.ascontiguousarray(self._dirs[:, 2])
-        self._background, self._segments = self._trace_static(_raycasting_scene(room + glass + markers))
+        static = _raycasting_scene(room + glass + markers)
+        self._background, self._segments = self._trace_static(static)
 
     @property
     def animated(self) -> bool:
@@ -248,7 +249,8 @@ class Renderer:
         segments of the paths."""
         shape, m = self.scene.camera.shape, len(self._planes)
         n = shape[0] * shape[1]
-        length, surface, labels = np.zeros(n, np.float32), np.zeros(n, np.uint8), np.zeros((MAX_BOUNCES, n), np.uint8)
+        length, surface = np.zeros(n, np.float32), np.zeros(n, np.uint8)
+        labels = np.zeros((MAX_BOUNCES, n), np.uint8)
         pixels, start = np.arange(n), np.zeros(n, np.float32)
         origins, dirs = np.zeros_like(self._dirs), self._dirs
         mirror_paths, path = ((),), np.zeros(n, np.int64)

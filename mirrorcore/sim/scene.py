@@ -226,7 +226,7 @@ class Scene:
         return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
-# --------------------------------------------------------------------- JSON reading with one-line errors
+# --------------------------------------------------------------- JSON reading with one-line errors
 def scene_from_json(data, where: str = "scene") -> Scene:
     """Validate a parsed scene file; raises FileFormatError naming `where` and the offending key."""
     if not isinstance(data, dict):

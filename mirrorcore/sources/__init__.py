@@ -76,7 +76,9 @@ def _realsense_devices() -> str | None:
     if missing:
         return missing
     rs = require("pyrealsense2", "realsense", REALSENSE_INSTALL)
-    return None if rs.context().query_devices().size() else "pyrealsense2 is installed; no camera is plugged in"
+    if rs.context().query_devices().size():
+        return None
+    return "pyrealsense2 is installed; no camera is plugged in"
 
 
 KINDS = (

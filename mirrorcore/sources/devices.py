@@ -13,7 +13,8 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.depth.kinect import disparity_to_depth
 from mirrorcore.sources.base import DepthSource, Frame, require
 
-FREENECT_INSTALL = "Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' (PyPI freenect builds against it)"
+FREENECT_INSTALL = ("Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' "
+                    "(PyPI freenect builds against it)")
 OPENNI2_INSTALL = "Debian's libopenni2-dev, then pip install 'mirrorscan[devices]' (PyPI openni)"
 OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib",
                         "/usr/local/lib")
@@ -35,7 +36,8 @@ class FreenectSource(DepthSource):
                  disparity_model: Callable[[np.ndarray], np.ndarray] = disparity_to_depth):
         self.name, self.index = f"freenect:{index}", int(index)
         self._freenect = require("freenect", self.name, FREENECT_INSTALL)
-        self.intrinsics, self.fps, self.frame_count = intrinsics or Intrinsics.kinect_v1(), 30.0, None
+        self.intrinsics = intrinsics or Intrinsics.kinect_v1()
+        self.fps, self.frame_count = 30.0, None
         self.disparity_model, self._t0 = disparity_model, time.monotonic()
         # fails here, at open, when there is no Kinect
         self._first: Frame | None = self._grab()
@@ -73,8 +75,11 @@ class OpenNI2Source(DepthSource):
         if is_file and not Path(target).is_file():
             raise FileFormatError(f"{target}: no such .oni recording")
         try:
-            self._device = (openni2.Device.open_file(target.encode()) if is_file else
-                            openni2.Device.open_any() if not target else openni2.Device(target.encode()))
+            if is_file:
+                self._device = openni2.Device.open_file(target.encode())
+            else:
+                self._device = (openni2.Device(target.encode()) if target
+                                else openni2.Device.open_any())
             self._stream = self._device.create_depth_stream()
             self._stream.start()
         except openni2.OpenNIError as exc:
@@ -93,7 +98,8 @@ class OpenNI2Source(DepthSource):
         if self._playback is not None:
             # manual: one frame per read, no real-time pacing
             self._playback.set_speed(-1)
-        self.frame_count = None if self._playback is None else self._playback.get_number_of_frames(self._stream)
+        self.frame_count = (None if self._playback is None
+                            else self._playback.get_number_of_frames(self._stream))
 
     def read(self, i: int) -> Frame:
         if self._playback is not None:

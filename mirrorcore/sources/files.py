@@ -40,7 +40,8 @@ class ImageSequenceSource(DepthSource):
     def __init__(self, name: str, intrinsics: Intrinsics, paths: list[Path], timestamps: np.ndarray,
                  colour_paths: list[Path | None] | None = None, fps: float = 30.0):
         self.name, self.intrinsics, self.fps = name, intrinsics, float(fps)
-        self.paths, self.timestamps, self.colour_paths = list(paths), np.asarray(timestamps, float), colour_paths
+        self.paths, self.colour_paths = list(paths), colour_paths
+        self.timestamps = np.asarray(timestamps, float)
         self.frame_count = len(self.paths)
         if not self.frame_count:
             raise FileFormatError(f"{name}: no depth frames")
@@ -60,7 +61,9 @@ class SessionSource(ImageSequenceSource):
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
         root = Path(session.root)
-        stamps = session.timestamps if session.timestamps is not None else np.arange(len(session.frames)) / fps
+        stamps = session.timestamps
+        if stamps is None:
+            stamps = np.arange(len(session.frames)) / fps
         colour = None if session.colour_frames is None else [root / c
                                                              for c in session.colour_frames]
         super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
@@ -200,7 +203,8 @@ class StackSource(DepthSource):
     def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float,
                  timestamps: np.ndarray,
                  colour: np.ndarray | None = None, fps: float = 30.0):
-        self.name, self.intrinsics, self.fps, self.frame_count = name, intrinsics, float(fps), len(units)
+        self.name, self.intrinsics = name, intrinsics
+        self.fps, self.frame_count = float(fps), len(units)
         self.units, self.scale = units, np.float32(scale)
         self.timestamps, self.colour = np.asarray(timestamps, float), colour
 

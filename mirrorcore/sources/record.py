@@ -58,7 +58,8 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
         frames_in = iter(source)      # a recording's frames once, a live source's until it ends
         while len(take.names) < limit and not cancel():
             frame = next(frames_in, None)
-            if frame is None or seconds is not None and take.stamps and frame.timestamp - take.stamps[0] >= seconds:
+            if frame is None or (seconds is not None and take.stamps
+                                 and frame.timestamp - take.stamps[0] >= seconds):
                 break
             take.add(frame)
             progress(len(take.names), frame)

@@ -9,7 +9,7 @@ from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 
 
-# --------------------------------------------------------------------------------------------- the simulated rig
+# ------------------------------------------------------------------------------- the simulated rig
 @pytest.fixture(scope="module")
 def sphere():
     """(scene, rig of the true planes, depths (2, H, W), masks (2, H, W)) of the paper's sphere,

@@ -39,7 +39,8 @@ def test_the_report_leads_with_whether_the_views_agree_as_the_noise_allows():
     # a refinement that changed nothing
     assert glass.summary(saved=False).endswith("the silver (its glass already)")
     worse = replace(report, noise_mm=4.0)
-    assert "⚠ its points agree with the other views less well than the depth noise explains (RMS" in worse.summary()
+    assert ("⚠ its points agree with the other views less well than the depth noise explains (RMS"
+            in worse.summary())
     assert worse.summary().split("; the data fix")[0].endswith("4.00 mm RMS): check its boundary")
 
 

@@ -119,7 +119,8 @@ def lorensen_on_observed_edges(values, observed):
     _, first, same = np.unique(np.round(verts.astype(np.float64), 6), axis=0, return_index=True,
                                return_inverse=True)
     faces = same.reshape(-1)[faces]
-    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]
     used = np.zeros(len(first), bool)
     used[faces.reshape(-1)] = True
     return verts[first[used]].astype(np.float64), np.cumsum(used)[faces] - 1, made
@@ -128,7 +129,8 @@ def lorensen_on_observed_edges(values, observed):
 def oriented(faces):
     """(f, 3) vertex indices -> the faces without a repeated index, each rotated to start at its
     least index (the winding kept), in sorted order."""
-    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]
     start = np.argmin(faces, axis=1)[:, None]
     faces = np.take_along_axis(faces, (start + np.arange(3)) % 3, axis=1)
     return faces[np.lexsort(faces.T[::-1])]
@@ -253,9 +255,9 @@ def test_mesh_vertices_take_the_label_of_the_nearer_end_of_their_edge():
 
 
 def test_a_large_box_with_little_surface_fits_the_budget(half):
-    """60 cm at 1 mm: 216 million voxels (4.3 GB at 20 bytes a voxel). Its blocks near the sphere fit in 256 MiB and its mesh is as accurate as the raw cloud; carving,
-    which holds two bytes a voxel, is refused before any work, and so is a fusion whose blocks do
-    not fit."""
+    """60 cm at 1 mm: 216 million voxels (4.3 GB at 20 bytes a voxel). Its blocks near the sphere
+    fit in 256 MiB and its mesh is as accurate as the raw cloud; carving, which holds two bytes a
+    voxel, is refused before any work, and so is a fusion whose blocks do not fit."""
     scene, depth, mask, _ = half
     raw = reconstruct_raw(scene.rig, depth, mask).points
     volume = Volume.from_bounds(scene.centre - 0.3, scene.centre + 0.3, 0.001)

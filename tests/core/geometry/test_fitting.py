@@ -10,7 +10,7 @@ from mirrorcore.geometry.fitting import estimate_normals, fit_cylinder, fit_sphe
 from mirrorcore.geometry.shapes import Cylinder, FitErrors, ShapeFit, Sphere, per_source_errors
 
 
-# ------------------------------------------------------------------------------------------------ synthetic scans
+# --------------------------------------------------------------------------------- synthetic scans
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
@@ -89,7 +89,7 @@ def _assert_cylinder_close(got: Cylinder, want: Cylinder, tol: float) -> None:
     assert got.radius == pytest.approx(want.radius, abs=tol)
 
 
-# ------------------------------------------------------------------------------------------------ error measures
+# ---------------------------------------------------------------------------------- error measures
 def test_sphere_deviations_by_hand():
     sphere = Sphere((1.0, 2.0, 3.0), 0.5)
     points = np.array([[1.0, 2.0, 3.6], [1.0, 2.3, 3.0], [1.5, 2.0, 3.0], [1.0, 2.0, 3.0]])
@@ -152,7 +152,7 @@ def test_shape_fit_json_over_all_points_inliers_and_sources():
     assert out["per_source"]["mirror 1"]["mean_error_mm"] == pytest.approx(50.0)
 
 
-# ------------------------------------------------------------------------------------------------ exact shapes
+# ------------------------------------------------------------------------------------ exact shapes
 @pytest.mark.parametrize("mirrors", [0, 2])
 @pytest.mark.parametrize("seed", range(4))
 def test_sphere_exact_partial_views_recovered(seed, mirrors):
@@ -173,18 +173,20 @@ def test_cylinder_exact_partial_views_any_orientation_recovered(seed, mirrors):
     _assert_cylinder_close(fit.shape, truth, 1e-6 * truth.radius)
     assert fit.inliers.all() and fit.errors.rmse < 1e-6 * truth.radius
     # the canonical axis point is the foot of the points' centroid on the axis
-    along = (points.mean(axis=0) - np.array(fit.shape.axis_point)) @ np.array(fit.shape.axis_direction)
+    offset = points.mean(axis=0) - np.array(fit.shape.axis_point)
+    along = offset @ np.array(fit.shape.axis_direction)
     assert abs(along) < 1e-9
     assert max(fit.shape.axis_direction, key=abs) > 0
 
 
-# ------------------------------------------------------------------------------------------------ noise and outliers
-# Gaussian noise sigma = 2 mm on every axis and 20 % uniform outliers, threshold 3 sigma = 6 mm. Measured over 30 other
-# seeds: radius error std 0.15 mm (sphere, camera only), 0.27 mm (cylinder, camera only), 0.04 mm (three views); worst
-# 0.9 mm; centre error < 0.5 mm, axis direction error < 1e-3 rad. TOL = 2 mm is 7 std of the worst case and still
-# catches any bias as large as sigma. Inlier RMSE measured 1.93-2.10 mm (the 3-sigma truncation keeps ~ sigma); over
-# all points the outliers dominate it. The inliers' mean error is 0 at a least-squares optimum (d cost / dR = 0), so
-# it checks that the refinement converged.
+# ------------------------------------------------------------------------------ noise and outliers
+# Gaussian noise sigma = 2 mm on every axis and 20 % uniform outliers, threshold 3 sigma = 6 mm.
+# Measured over 30 other seeds: radius error std 0.15 mm (sphere, camera only), 0.27 mm (cylinder,
+# camera only), 0.04 mm (three views); worst 0.9 mm; centre error < 0.5 mm, axis direction error <
+# 1e-3 rad. TOL = 2 mm is 7 std of the worst case and still catches any bias as large as sigma.
+# Inlier RMSE measured 1.93-2.10 mm (the 3-sigma truncation keeps ~ sigma); over all points the
+# outliers dominate it. The inliers' mean error is 0 at a least-squares optimum (d cost / dR = 0),
+# so it checks that the refinement converged.
 SIGMA, OUTLIERS, THRESHOLD, TOL = 0.002, 0.2, 0.006, 0.002
 
 
@@ -209,7 +211,7 @@ def test_shapes_with_noise_and_outliers(kind, seed, mirrors):
     assert abs(fit.inlier_errors.mean_error) < 1e-9
 
 
-# ------------------------------------------------------------------------------------------------ signs and sources
+# ------------------------------------------------------------------------------- signs and sources
 @pytest.mark.parametrize("kind", ["sphere", "cylinder"])
 def test_per_source_errors_and_their_sign(kind):
     """Mirror 1's points pushed 3 mm outwards, mirror 2's 3 mm inwards (mis-calibrated mirrors),
@@ -232,7 +234,8 @@ def test_per_source_errors_and_their_sign(kind):
     direct, mirror1, mirror2 = (fit.per_source[s] for s in (0, 1, 2))
     assert direct.rmse < 1e-9 and direct.points == np.count_nonzero(sources == 0)
     assert mirror1.mean_error == pytest.approx(0.003) and mirror1.rmse == pytest.approx(0.003)
-    assert mirror2.mean_error == pytest.approx(-0.003) and mirror2.mean_abs_error == pytest.approx(0.003)
+    assert mirror2.mean_error == pytest.approx(-0.003)
+    assert mirror2.mean_abs_error == pytest.approx(0.003)
     n1, n2 = mirror1.points, mirror2.points
     assert fit.errors.mean_error == pytest.approx(0.003 * (n1 - n2) / len(points))
     assert fit.errors.rmse == pytest.approx(0.003 * np.sqrt((n1 + n2) / len(points)))
@@ -304,7 +307,7 @@ def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
     assert len(calls) == 4
 
 
-# ------------------------------------------------------------------------------------------------ bad input
+# --------------------------------------------------------------------------------------- bad input
 def test_too_few_points():
     with pytest.raises(MirrorscanError,
                        match=r"^scan\.ply: a sphere fit needs at least 4 points, got 3$"):

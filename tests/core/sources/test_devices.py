@@ -27,8 +27,8 @@ READER = """import sys, numpy as np
 from mirrorcore.sources import open_source
 with open_source("freenect:0") as source:
     frames = [source.read(i) for i in range(int(sys.argv[2]))]
-np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]), raw=np.stack([f.units for f in frames]),
-         t=np.array([f.timestamp for f in frames]))
+np.savez(sys.argv[1], depth=np.stack([f.depth for f in frames]),
+         raw=np.stack([f.units for f in frames]), t=np.array([f.timestamp for f in frames]))
 """
 
 
@@ -61,7 +61,8 @@ def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
                     str(tmp_path / "shim.c")], check=True)
     env = {**os.environ, "FAKENECT_PATH": str(tmp_path / "rec"),
            "LD_PRELOAD": str(tmp_path / "shim.so"),
-           "LD_LIBRARY_PATH": str(Path(FAKENECT[0]).parent), "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
+           "LD_LIBRARY_PATH": str(Path(FAKENECT[0]).parent),
+           "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
     out = tmp_path / "out.npz"
     run = subprocess.run([sys.executable, "-c", READER, str(out), "4"], env=env,
                          capture_output=True, text=True,
@@ -107,7 +108,8 @@ def write_bag(path: Path, frames: np.ndarray, units: float) -> None:
         frame = rs.software_video_frame()
         frame.pixels, frame.stride, frame.bpp = units_frame, 2 * w, 2
         frame.timestamp, frame.frame_number = n * 1000 / 30, n
-        frame.domain, frame.profile = rs.timestamp_domain.hardware_clock, profile.as_video_stream_profile()
+        frame.domain = rs.timestamp_domain.hardware_clock
+        frame.profile = profile.as_video_stream_profile()
         sensor.on_video_frame(frame)
         queue.wait_for_frame()
     sensor.stop()
