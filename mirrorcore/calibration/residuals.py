@@ -163,10 +163,8 @@ def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int,
     Parameters
     ----------
     rig : Rig
-    depths : (F, H, W) or (H, W) float
-        Metres, as measured.
-    masks : (F, H, W) or (H, W) bool
-        Each frame's object pixels.
+    depths, masks : (F, H, W) or (H, W) float metres and bool
+        The frames as measured and their object pixels, as for refine.refine_planes.
 
     Returns
     -------
