@@ -185,7 +185,7 @@ def test_plane_through_the_camera_is_refused():
         calibrate_from_pairs(real, virtual, "mirror 1")
 
 
-def test_region_calibration():
+def test_a_region_of_the_frame_gives_the_plane():
     depth = plane_depth(CAMERA, GLASS)
     frame = [[410, 90], [600, 90], [600, 110], [410, 110]]   # a strip of the mirror's frame
     cal = calibrate_from_region(CAMERA, depth, frame, np.random.default_rng(0))
@@ -195,7 +195,7 @@ def test_region_calibration():
         calibrate_from_region(CAMERA, depth, frame, np.random.default_rng(0))
 
 
-def test_pairs_calibration():
+def test_pairs_of_real_and_virtual_points_give_the_plane():
     rng = np.random.default_rng(2)
     real = rng.uniform([-0.3, -0.3, 1.8], [0.3, 0.3, 2.2], (6, 3))
     virtual = GLASS.reflect(real)

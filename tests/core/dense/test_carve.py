@@ -144,7 +144,7 @@ def test_cancel_stops_early_and_frees_memory(scene, volume, kind):
     assert after - before < 1e6           # the 2 x 2.7 MB grids are gone
 
 
-def test_bad_requests(scene, volume):
+def test_an_unknown_method_or_a_bad_threshold_is_refused(scene, volume):
     with pytest.raises(MirrorscanError, match="unknown method"):
         carve(scene.rig, scene.depth, scene.truth.object_mask, volume, method="sculpt")
     with pytest.raises(MirrorscanError, match="threshold"):

@@ -66,7 +66,7 @@ def test_mesh_ply_is_readable(noisy, tmp_path):
     assert np.array_equal(np.asarray(o3d_mesh.triangles), mesh.faces)
 
 
-def test_several_frames_fuse(noisy):
+def test_a_frame_fused_twice_keeps_the_surface_and_doubles_the_weight(noisy):
     scene, depth, mask, _, fused = noisy
     twice = fuse(scene.rig, np.stack([depth, depth]), np.stack([mask, mask]), fused.volume)
     (tsdf, weight, _), (tsdf2, weight2, _) = fused.grids(), twice.grids()
@@ -276,7 +276,7 @@ def test_a_large_box_with_little_surface_fits_the_budget(half):
         set_memory_budget(None)
 
 
-def test_progress_and_cancel(noisy):
+def test_fusion_reports_progress_and_stops_when_cancelled(noisy):
     scene, depth, mask, _, fused = noisy
     fractions, stop = [], threading.Event()
     fuse(scene.rig, depth, mask, fused.volume, progress=fractions.append)

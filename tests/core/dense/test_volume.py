@@ -47,7 +47,7 @@ def test_around_a_cloud_with_margin():
                                          (((0, 0, 0), 0.01, (0, 1, 1)), "at least one voxel"),
                                          (((0, 0, 0), 0.01, (100_000, 100_000, 10_000)),
                                           "more than")])
-def test_refusals(args, match):
+def test_a_bad_volume_is_refused_by_name(args, match):
     with pytest.raises(MirrorscanError, match=match):
         Volume(*args)
 

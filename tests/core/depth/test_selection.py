@@ -97,7 +97,7 @@ def test_roi_and_depth_range():
         no_background & truth).sum() > 0.97 * truth.sum()
 
 
-def test_selection_json_errors():
+def test_a_selection_reads_its_json_and_refuses_bad_keys_by_name():
     import pytest
 
     from mirrorcore.base.errors import FileFormatError

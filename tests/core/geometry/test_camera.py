@@ -82,7 +82,7 @@ def test_opencv_yaml_round_trip(tmp_path):
     assert load_opencv_yaml(tmp_path / "k.yaml") == intr
 
 
-def test_broken_intrinsics_files(tmp_path):
+def test_broken_intrinsics_files_are_refused_naming_the_file(tmp_path):
     (tmp_path / "bad.json").write_text("{\"width\": 640}")
     with pytest.raises(FileFormatError,
                        match="bad.json: not an Open3D PinholeCameraIntrinsic JSON"):

@@ -308,7 +308,7 @@ def test_progress_follows_the_samples_and_cancel_stops_the_fit(fit_shape, scan):
 
 
 # --------------------------------------------------------------------------------------- bad input
-def test_too_few_points():
+def test_too_few_points_are_refused_naming_the_file():
     with pytest.raises(MirrorscanError,
                        match=r"^scan\.ply: a sphere fit needs at least 4 points, got 3$"):
         fit_sphere(np.eye(3), np.random.default_rng(0), where="scan.ply")

@@ -86,7 +86,7 @@ def test_ransac_ignores_outliers_and_is_reproducible():
     ([[0, 0, 1], [1, 0, 1]], "at least 3 points"),
     ([[0, 0, 1], [1, 0, 1], [2, 0, 1], [3, 0, 1]], "collinear"),
 ])
-def test_degenerate_fits(pts, message):
+def test_degenerate_points_are_refused_naming_the_mirror(pts, message):
     with pytest.raises(CalibrationError, match=message):
         fit_plane_svd(pts, "mirror 1")
 

@@ -57,7 +57,7 @@ def test_pixel_centres_on_an_edge_are_inside():
     ([[0, 0], [700, 0], [0, 10]], r"vertex 2 \(700, 0\) is outside the 640x480 image"),
     ([[0, 0], [np.nan, 0], [0, 10]], "finite"),
 ])
-def test_bad_polygons(poly, message):
+def test_bad_polygons_are_refused_naming_the_boundary(poly, message):
     with pytest.raises(MirrorscanError, match=message):
         validate_polygon(poly, (480, 640), "mirror 1: boundary")
 

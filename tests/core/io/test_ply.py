@@ -40,7 +40,7 @@ def test_ascii_ply_from_another_tool(tmp_path):
     assert s is None
 
 
-def test_broken_ply(tmp_path):
+def test_a_broken_ply_is_refused_naming_the_file(tmp_path):
     (tmp_path / "x.ply").write_bytes(b"not a ply")
     with pytest.raises(FileFormatError, match="x.ply: not a PLY file"):
         read_ply(tmp_path / "x.ply")

@@ -150,7 +150,7 @@ def edit(tmp_path, change):
     (lambda d: d.update(bounces=2.0), "bounces: must be a whole number from 1 to 3, got 2.0"),
     (lambda d: d.update(bounces=True), "bounces: must be a whole number from 1 to 3, got True"),
 ])
-def test_bad_session_files(tmp_path, change, message):
+def test_bad_session_files_are_refused_by_name_and_left_unchanged(tmp_path, change, message):
     edit(tmp_path, change)
     before = (tmp_path / "session.json").read_bytes()
     with pytest.raises(FileFormatError, match=message):

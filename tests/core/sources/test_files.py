@@ -120,7 +120,7 @@ def test_png_folder_and_tum_errors(tmp_path):
         open_source(f"tum:{tmp_path}")
 
 
-def test_spec_strings():
+def test_spec_strings_split_into_kind_target_and_options():
     assert parse_spec("freenect:0") == ("freenect", "0", {})
     assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x", {
         "scale": "0.0002", "camera": "cam.yaml"})

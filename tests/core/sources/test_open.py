@@ -36,7 +36,7 @@ def test_session_replay_loops_and_sim_follows_the_sessions_scene():
     assert sim.read(0).depth.shape == (480, 640)
 
 
-def test_bad_source_specs(tmp_path):
+def test_bad_source_specs_are_refused_by_name(tmp_path):
     with pytest.raises(MirrorscanError, match="unknown source 'kinect'"):
         open_source("kinect", None)
     with pytest.raises(MirrorscanError, match="--source session: give a SESSION folder"):
