@@ -225,8 +225,22 @@ def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
 
 # --------------------------------------------------------------------- reading
 def load_session(folder: str | Path) -> Session:
-    """Read and validate SESSION/session.json; raises FileFormatError with the file and the
-    offending key."""
+    """Read and validate a session folder's session.json.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The session folder.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the offending key.
+    """
     folder = Path(folder)
     return session_from_json(read_json(folder / SESSION_FILE,
                                        f"file (is {folder} a session folder?)",
@@ -328,7 +342,14 @@ def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
 
 # --------------------------------------------------------------------- writing
 def save_session(session: Session) -> None:
-    """Write session.json atomically; the previous version is kept as session.json.bak."""
+    """Write the session's session.json atomically, creating its folder.
+
+    The previous version is kept as session.json.bak.
+
+    Parameters
+    ----------
+    session : Session
+    """
     Path(session.root).mkdir(parents=True, exist_ok=True)
     text = json.dumps(session.to_json(), indent=2) + "\n"
     write_atomic(session.path, text.encode("utf-8"), backup=True)

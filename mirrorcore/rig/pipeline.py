@@ -14,9 +14,25 @@ from mirrorcore.depth.selection import Backdrop, Selection, object_mask
 
 def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                   selection: Selection = Selection()) -> tuple[np.ndarray, np.ndarray]:
-    """The object's pixels and the depth the reconstruction uses: depth (H, W) float metres,
-    background (H, W) float metres or its Backdrop or None -> (depth (H, W) float32 metres, smoothed
-    on the object when selection.smooth; mask (H, W) bool)."""
+    """The object's pixels and the depth the reconstruction uses.
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float
+        Metres, as measured.
+    background : (H, W) float, Backdrop or None
+        Metres, the scene without the object, or its Backdrop.
+    selection : Selection
+        How the object is found.
+
+    Returns
+    -------
+    depth : (H, W) float32
+        Metres, smoothed on the object when selection.smooth.
+    mask : (H, W) bool
+        The object's pixels.
+    """
     mask = object_mask(rig.intrinsics, depth, background, selection)
     if selection.smooth:
         smoothed = smooth_depth(depth, mask)
@@ -47,7 +63,15 @@ def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop 
                  selection: Selection = Selection()) -> tuple[Cloud, np.ndarray]:
     """The object's source-labelled cloud of one frame, and the object mask it came from.
 
-    depth : (H, W) float metres; background as for prepare_frame -> (Cloud, (H, W) bool mask)
+    Parameters
+    ----------
+    rig, depth, background, selection
+        As for prepare_frame.
+
+    Returns
+    -------
+    cloud : Cloud
+    mask : (H, W) bool
     """
     depth, mask = prepare_frame(rig, depth, background, selection)
     return reconstruct_raw(rig, depth, mask), mask

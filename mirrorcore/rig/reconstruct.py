@@ -26,16 +26,26 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     and labelled with the sequence (palette.sequence_label); a point beyond the last mirror followed
     (rig.bounces) is left out.
 
-    depth : (H, W) float metres, 0 = no reading; mask : optional (H, W) bool, the pixels to use (the
-    object) returns the Cloud of the used pixels with a reading, in row-major pixel order.
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float
+        Metres, 0 = no reading.
+    mask : (H, W) bool, optional
+        The pixels to use (the object).
+
+    Returns
+    -------
+    Cloud
+        The used pixels with a reading, in row-major pixel order.
     """
     intr, table = rig.intrinsics, rig.reflection_table
     depth = check_depth_shape(intr, depth).astype(np.float32, copy=False)
     if mask is not None:
         mask = check_depth_shape(intr, mask, "object mask")
-    # the pixels used, in row-major order: every step
+    # the pixels used, in row-major order; every step below reads only them
     index = np.flatnonzero(depth > 0 if mask is None else mask)
-    z = np.take(depth.reshape(-1), index)                          # below reads them only
+    z = np.take(depth.reshape(-1), index)
     if mask is not None and not np.all(z > 0):
         index, z = index[z > 0], z[z > 0]
     behind = z > np.take(table.threshold.reshape(-1), index)
