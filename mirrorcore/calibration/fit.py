@@ -76,16 +76,36 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
                            marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
-    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel robust
-    mean, inside the markers' windows only: markers.marker_points)
-    markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window`
-    pixels.
-    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the
-    glass): the plane fitted to the markers is moved this far away from the camera, along its
-    normal. The residuals stay those of the markers' own plane. The inlier threshold is
-    INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the mirror and
-    the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
-    through the camera.
+    The inlier threshold is INLIER_SIGMAS times the depth noise at each point.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float
+        Metres; several frames are reduced to their per-pixel robust mean, inside the markers'
+        windows only (markers.marker_points).
+    markers : (m, 2) float
+        Clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
+    rng : numpy.random.Generator
+        RANSAC's only source of randomness.
+    name : str
+        The mirror, named in errors.
+    window : int
+        Pixels.
+    marker_offset : float
+        Metres from the markers' faces to the reflecting surface (the silver behind the glass):
+        the plane fitted to the markers is moved this far away from the camera, along its normal.
+        The residuals stay those of the markers' own plane.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    CalibrationError
+        Naming the mirror and the markers when fewer than 3 markers have depth, the markers are
+        collinear, or the plane passes through the camera.
     """
     depth = np.asarray(depth)
     check_depth_shape(intr, depth[-1] if depth.ndim == 3 else depth, f"{name}: depth image")
