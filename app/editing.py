@@ -17,7 +17,8 @@ from dataclasses import replace
 from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import Session, SessionMirror, check_limits, save_session
+from mirrorcore.io.session import Session, SessionMirror, save_session
+from mirrorcore.io.limits import check_limits
 
 from .sessionfile import SessionFile
 from .undo import SESSION_SCOPE, History, Step, inverse, restore

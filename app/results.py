@@ -11,7 +11,8 @@ import numpy as np
 
 from mirrorcore.calibration.fit import Calibration
 from mirrorcore.calibration.markers import FitReview
-from mirrorcore.calibration.refine import MirrorRefinement, ViewAgreement
+from mirrorcore.calibration.refine import MirrorRefinement
+from mirrorcore.calibration.residuals import ViewAgreement
 from mirrorcore.io.session import SessionMirror
 
 

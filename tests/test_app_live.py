@@ -71,7 +71,7 @@ from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
 from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.calibration.refine import ViewAgreement
+from mirrorcore.calibration.residuals import ViewAgreement
 from mirrorcore.io.session import Session, SessionMirror, load_session
 from mirrorcore.sources import StackSource
 

@@ -52,7 +52,7 @@ from mirrorcore.base.palette import SOURCE_COLOURS
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.io.ply import read_ply
-from mirrorcore.calibration.refine import view_agreement
+from mirrorcore.calibration.residuals import view_agreement
 from mirrorcore.io.session import SessionMirror, load_session, save_session
 from mirrorcore.sim.export import session_mirrors, write_session
 from mirrorcore.sim.layouts import paper_scene

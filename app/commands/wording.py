@@ -18,13 +18,8 @@ from mirrorcore.base.words import listed
 from mirrorcore.batch import BatchReport
 from mirrorcore.calibration.fit import Calibration
 from mirrorcore.calibration.markers import GRADES
-from mirrorcore.calibration.refine import (
-    METHOD_BIAS,
-    NOISE_EXPLAINS,
-    SAME_GLASS_MM,
-    SAME_PLANE,
-    MirrorRefinement,
-)
+from mirrorcore.calibration.results import METHOD_BIAS, NOISE_EXPLAINS, SAME_GLASS_MM, SAME_PLANE
+from mirrorcore.calibration.refine import MirrorRefinement
 from mirrorcore.geometry.shapes import FitErrors, ShapeFit
 from mirrorcore.sim.truth import PlaneError, SurfaceError
 

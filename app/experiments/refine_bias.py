@@ -18,7 +18,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mirrorcore.rig.pipeline import prepare_frame
-from mirrorcore.calibration.refine import offset_at, refine_planes
+from mirrorcore.calibration.planestep import offset_at
+from mirrorcore.calibration.refine import refine_planes
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import object_extent, paper_scene
 from mirrorcore.sim.sensor import SensorModel

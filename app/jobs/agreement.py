@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.calibration.refine import view_agreement
+from mirrorcore.calibration.residuals import view_agreement
 from mirrorcore.rig.pipeline import prepare_frame
 
 from ..results import AgreementReport, Checking, MirrorAgreement

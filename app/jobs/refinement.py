@@ -13,7 +13,7 @@ import numpy as np
 from mirrorcore.base.errors import CalibrationError, MirrorscanError
 from mirrorcore.calibration.fit import calibration_depth, static_frames
 from mirrorcore.calibration.refine import REFINE_FRAMES, refine_session
-from mirrorcore.calibration.search import calibrate_scene
+from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.session import Session
 from mirrorcore.rig.pipeline import prepare_frame

@@ -6,15 +6,12 @@ from __future__ import annotations
 import numpy as np
 
 from mirrorcore.base.words import listed
-from mirrorcore.calibration.refine import (
-    CAMERA_MEAN_EXPLAINS,
-    MEAN_EXPLAINS,
-    METHOD_BIAS,
-    MIN_AGREEMENTS,
-    NOISE_EXPLAINS,
-    MirrorRefinement,
-    ViewAgreement,
+from mirrorcore.calibration.results import (
+    CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, METHOD_BIAS, NOISE_EXPLAINS,
 )
+from mirrorcore.calibration.fixing import MIN_AGREEMENTS
+from mirrorcore.calibration.refine import MirrorRefinement
+from mirrorcore.calibration.residuals import ViewAgreement
 
 from ..results import (
     AgreementReport,

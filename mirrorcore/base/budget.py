@@ -1,11 +1,12 @@
-"""The memory budget: the most that one piece of work may allocate when its size comes from a user's or a file's
-numbers (a voxel grid, an image's header, an .npz's declared shapes, a frame file, an upload, a recording's backlog).
-Every such path calls check_memory() with its estimate before allocating, so that an absurd number is one line of
-refusal instead of a MemoryError, a swapping machine or a killed process.
+"""The memory budget: the most that one piece of work may allocate when its size comes from a user's
+or a file's numbers (a voxel grid, an image's header, an .npz's declared shapes, a frame file, an
+upload, a recording's backlog). Every such path calls check_memory() with its estimate before
+allocating, so that an absurd number is one line of refusal instead of a MemoryError, a swapping
+machine or a killed process.
 
 The budget is, in order: set_memory_budget() (the command line's --memory), the environment variable
-MIRRORSCAN_MEMORY (e.g. '8G', '512M', '1.5GiB', or bytes), else DEFAULT_BUDGET or half the machine's memory,
-whichever is smaller.
+MIRRORSCAN_MEMORY (e.g. '8G', '512M', '1.5GiB', or bytes), else DEFAULT_BUDGET or half the machine's
+memory, whichever is smaller.
 """
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ import re
 from mirrorcore.base.errors import MirrorscanError
 
 ENV = "MIRRORSCAN_MEMORY"
-DEFAULT_BUDGET = 4 << 30            # bytes: 4 GiB (a 2 mm TSDF of 200^3 voxels needs 130 MB; 1 mm over 60 cm, 3.5 GB)
+# bytes: 4 GiB (a 2 mm TSDF of 200^3 voxels needs 130 MB; 1 mm over 60 cm, 3.5 GB)
+DEFAULT_BUDGET = 4 << 30
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 _SIZE = re.compile(r"^\s*([0-9]*\.?[0-9]+)\s*([KMGT]?)(?:I?B)?\s*$", re.IGNORECASE)
 _override: int | None = None
@@ -26,10 +28,12 @@ class MemoryBudgetError(MirrorscanError):
 
 
 def parse_size(text: str, where: str = ENV) -> int:
-    """'4G', '512M', '1.5GiB', '2048' (bytes) -> bytes (powers of 1024). MirrorscanError naming `where` otherwise."""
+    """'4G', '512M', '1.5GiB', '2048' (bytes) -> bytes (powers of 1024). MirrorscanError naming
+    `where` otherwise."""
     match = _SIZE.match(str(text))
     if not match:
-        raise MirrorscanError(f"{where}: {text!r} is not a size (write e.g. 8G, 512M or a number of bytes)")
+        raise MirrorscanError(
+            f"{where}: {text!r} is not a size (write e.g. 8G, 512M or a number of bytes)")
     size = int(float(match.group(1)) * _UNITS[match.group(2).upper()])
     if size < 1 << 20:
         raise MirrorscanError(f"{where}: {text!r} is less than 1 MiB; nothing useful fits in it")
@@ -46,7 +50,8 @@ def default_budget() -> int:
 
 
 def memory_budget() -> int:
-    """The budget in bytes now (see the module docstring); MirrorscanError when MIRRORSCAN_MEMORY is not a size."""
+    """The budget in bytes now (see the module docstring); MirrorscanError when MIRRORSCAN_MEMORY is
+    not a size."""
     if _override is not None:
         return _override
     text = os.environ.get(ENV, "").strip()
@@ -54,19 +59,23 @@ def memory_budget() -> int:
 
 
 def set_memory_budget(size: int | str | None) -> None:
-    """Set the budget for this process (bytes, or a size such as '8G'); None goes back to the environment/default."""
+    """Set the budget for this process (bytes, or a size such as '8G'); None goes back to the
+    environment/default."""
     global _override
-    _override = None if size is None else parse_size(size, "--memory") if isinstance(size, str) else int(size)
+    _override = None if size is None else parse_size(size, "--memory") if isinstance(
+        size, str) else int(size)
 
 
 def check_memory(nbytes: float, what: str) -> None:
-    """Refuse work that needs `nbytes` (an estimate made before allocating) when it exceeds the budget.
+    """Refuse work that needs `nbytes` (an estimate made before allocating) when it exceeds the
+    budget.
 
-    what : the work and where it comes from, for the message ('volume 400x400x300', 'scan.npz: depth').
-    Raises MemoryBudgetError with one line naming `what`, the need and the budget."""
+    what : the work and where it comes from, for the message ('volume 400x400x300', 'scan.npz:
+    depth'). Raises MemoryBudgetError with one line naming `what`, the need and the budget."""
     budget = memory_budget()
     if not nbytes <= budget:       # also refuses NaN
-        raise MemoryBudgetError(f"{what}: needs {format_bytes(nbytes)}, more than the memory budget of "
+        raise MemoryBudgetError(
+            f"{what}: needs {format_bytes(nbytes)}, more than the memory budget of "
                                 f"{format_bytes(budget)} (set {ENV} or --memory to change it)")
 
 

@@ -6,8 +6,9 @@ class MirrorscanError(Exception):
 
 
 class CalibrationError(MirrorscanError):
-    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid markers...). `mirrors`: the
-    names of the mirrors it refuses, when it is about some (its message then starts with them)."""
+    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid
+    markers...). `mirrors`: the names of the mirrors it refuses, when it is about some (its message
+    then starts with them)."""
 
     def __init__(self, message: str, mirrors: tuple[str, ...] = ()):
         super().__init__(message)
@@ -19,4 +20,5 @@ class FileFormatError(MirrorscanError):
 
 
 class Cancelled(MirrorscanError):
-    """A long computation (carving, fusion) was stopped by its caller's cancel request; nothing was returned."""
+    """A long computation (carving, fusion) was stopped by its caller's cancel request; nothing was
+    returned."""

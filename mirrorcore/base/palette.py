@@ -1,12 +1,14 @@
-"""Source labels and their one palette (viewer, exports, plots): 0 = direct view, j = through mirror j, and labels from
-FIRST_MULTI_LABEL up for views through several mirrors in turn (docs/DESIGN.md, Conventions).
+"""Source labels and their one palette (viewer, exports, plots): 0 = direct view, j = through mirror
+j, and labels from FIRST_MULTI_LABEL up for views through several mirrors in turn (docs/DESIGN.md,
+Conventions).
 
-A multi-bounce source is the sequence of mirrors its camera ray meets, in the order it meets them (the pixel lies in the
-first one's outline; the last one faces the object). Labels FIRST_MULTI_LABEL.. enumerate the sequences of 2 and 3
-mirrors (no mirror twice in a row) grouped by their highest mirror, then by length, then in lexicographic order:
-33 = (1, 2), 34 = (2, 1), 35 = (1, 2, 1), 36 = (2, 1, 2), 37 = (1, 3), ... The order does not depend on the rig, so
-a label reads the same in every file; whole groups are numbered while they fit under 255 (NO_SOURCE in dense grids):
-every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6.
+A multi-bounce source is the sequence of mirrors its camera ray meets, in the order it meets them
+(the pixel lies in the first one's outline; the last one faces the object). Labels
+FIRST_MULTI_LABEL.. enumerate the sequences of 2 and 3 mirrors (no mirror twice in a row) grouped by
+their highest mirror, then by length, then in lexicographic order: 33 = (1, 2), 34 = (2, 1), 35 =
+(1, 2, 1), 36 = (2, 1, 2), 37 = (1, 3), ... The order does not depend on the rig, so a label reads
+the same in every file; whole groups are numbered while they fit under 255 (NO_SOURCE in dense
+grids): every sequence of 2 mirrors among mirrors 1-7 and of 3 mirrors among mirrors 1-6.
 
 The heat map of a calibration (points coloured by their distance to the direct surface) is here too.
 """
@@ -23,7 +25,8 @@ FIRST_MULTI_LABEL = MAX_MIRRORS + 1
 MAX_ORDER = 3               # the most mirrors a label can name in turn
 LAST_LABEL = 254            # 255 is reserved (dense grids' NO_SOURCE)
 
-# Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats past 7 mirrors.
+# Direct view first, then one colour per mirror (Okabe-Ito, readable by colour-blind users); repeats
+# past 7 mirrors.
 SOURCE_COLOURS = np.array([
     [150, 150, 150],   # 0: direct, grey
     [230, 159, 0],     # mirror 1: orange
@@ -55,8 +58,9 @@ _LABEL_OF = {s: FIRST_MULTI_LABEL + i for i, s in enumerate(MULTI_SEQUENCES)}
 
 
 def source_sequence(source: int) -> tuple[int, ...]:
-    """The mirrors (1-based, in the order the camera's ray meets them) of a label: () direct, (j,) mirror j, (a, b, ...)
-    a multi-bounce view. Raises ValueError for a label that names no source."""
+    """The mirrors (1-based, in the order the camera's ray meets them) of a label: () direct, (j,)
+    mirror j, (a, b, ...) a multi-bounce view. Raises ValueError for a label that names no
+    source."""
     source = int(source)
     if 0 <= source <= MAX_MIRRORS:
         return (source,) if source else ()
@@ -66,9 +70,9 @@ def source_sequence(source: int) -> tuple[int, ...]:
 
 
 def sequence_label(sequence) -> int | None:
-    """The label of a sequence of mirrors (1-based, ray order): 0 for (), j for (j,), FIRST_MULTI_LABEL.. for longer
-    ones; None when the encoding has no label for it (more than MAX_ORDER mirrors, a mirror twice in a row, or a
-    mirror beyond what the labels cover)."""
+    """The label of a sequence of mirrors (1-based, ray order): 0 for (), j for (j,),
+    FIRST_MULTI_LABEL.. for longer ones; None when the encoding has no label for it (more than
+    MAX_ORDER mirrors, a mirror twice in a row, or a mirror beyond what the labels cover)."""
     sequence = tuple(int(j) for j in sequence)
     if len(sequence) <= 1:
         return (sequence[0] if 1 <= sequence[0] <= MAX_MIRRORS else None) if sequence else 0
@@ -86,15 +90,16 @@ _ORDERS = np.array([_order(s) for s in range(256)], np.int8)
 
 
 def source_orders(sources: np.ndarray) -> np.ndarray:
-    """sources : (n,) integer labels 0..255 -> (n,) int8 how many mirrors each view looks through in turn (0 direct,
-    1 a mirror, 2 or 3 a sequence), -1 for a label that names no view."""
+    """sources : (n,) integer labels 0..255 -> (n,) int8 how many mirrors each view looks through in
+    turn (0 direct, 1 a mirror, 2 or 3 a sequence), -1 for a label that names no view."""
     return _ORDERS[np.asarray(sources, dtype=np.int64)]
 
 
 def source_name(source: int, names: Sequence[str] | None = None) -> str:
-    """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b (...); 'source N' for a
-    label that names no view. names : optional, the mirrors' names in label order (a session's): 'left', 'left then
-    right' (a label beyond them keeps its number)."""
+    """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b
+    (...); 'source N' for a
+    label that names no view. names : optional, the mirrors' names in label order (a session's):
+    'left', 'left then right' (a label beyond them keeps its number)."""
     try:
         sequence = source_sequence(source)
     except ValueError:
@@ -112,9 +117,10 @@ def _mirror_colour(j: int) -> np.ndarray:
 
 
 def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
-    """(3,) float64 RGB of a label. A mirror's colour follows its label j, or its id mirror_ids[j - 1] when given. A
-    multi-bounce view is a shade of its last mirror's colour (the mirror that faces the object), tinted by the mirrors
-    before it (each weighing a quarter of the next), a quarter darker with each further mirror."""
+    """(3,) float64 RGB of a label. A mirror's colour follows its label j, or its id mirror_ids[j -
+    1] when given. A multi-bounce view is a shade of its last mirror's colour (the mirror that faces
+    the object), tinted by the mirrors before it (each weighing a quarter of the next), a quarter
+    darker with each further mirror."""
     try:
         sequence = source_sequence(source)
     except ValueError:
@@ -122,23 +128,26 @@ def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
     if not sequence:
         return SOURCE_COLOURS[0].astype(np.float64)
     colours = [_mirror_colour(mirror_ids[j - 1] if j <= len(mirror_ids) else j) for j in sequence]
-    weights = 0.25 ** np.arange(len(sequence))[::-1]           # last mirror 1, the one before 0.25, ...
+    # last mirror 1, the one before 0.25, ...
+    weights = 0.25 ** np.arange(len(sequence))[::-1]
     mix = sum(w * c for w, c in zip(weights, colours)) / weights.sum()
     return mix * 0.75 ** (len(sequence) - 1)
 
 
 @lru_cache(maxsize=32)
 def _lookup(mirror_ids: tuple[int, ...]) -> np.ndarray:
-    """(256, 3) uint8 RGB of every label, for mirrors whose colours follow `mirror_ids` (() : their labels)."""
+    """(256, 3) uint8 RGB of every label, for mirrors whose colours follow `mirror_ids` (() : their
+    labels)."""
     table = np.array([_label_colour(s, mirror_ids) for s in range(256)]).round().astype(np.uint8)
     table.flags.writeable = False
     return table
 
 
 def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
-    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB; the one colour lookup of the project. A mirror's
-    colour follows its label j, or, given the ids of the mirrors in session order (mirror_ids[j - 1] for label j), its
-    id: a mirror keeps its colour when another one is removed. Views through several mirrors take shades of theirs."""
+    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB; the one colour lookup of the
+    project. A mirror's colour follows its label j, or, given the ids of the mirrors in session
+    order (mirror_ids[j - 1] for label j), its id: a mirror keeps its colour when another one is
+    removed. Views through several mirrors take shades of theirs."""
     ids = () if mirror_ids is None else tuple(int(i) for i in mirror_ids)
     return _lookup(ids)[np.asarray(sources, dtype=np.int64)]
 
@@ -151,22 +160,28 @@ def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.nd
 HEAT_NEGATIVE = np.array([33, 102, 172])    # inside the direct surface: blue
 HEAT_ZERO = np.array([247, 247, 247])       # on it: white
 HEAT_POSITIVE = np.array([178, 24, 43])     # outside it: red
-HEAT_UNCOMPARED = np.array([70, 70, 70])    # a mirror's point with nothing to compare with: dark grey
+# a mirror's point with nothing to compare with: dark grey
+HEAT_UNCOMPARED = np.array([70, 70, 70])
 
 
 def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) -> np.ndarray:
-    """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at 0, blue at
-    -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN (the direct grey)."""
-    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0, 1.0)[:, None]
-    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t, HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
+    """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at
+    0, blue at -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN
+    (the direct grey)."""
+    t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0,
+                1.0)[:, None]
+    rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t,
+                   HEAT_ZERO + (HEAT_POSITIVE - HEAT_ZERO) * t)
     rgb[np.isnan(np.asarray(values, dtype=np.float64))] = missing
     return np.round(rgb).astype(np.uint8)
 
 
 def heat_map_colours(distances: np.ndarray, sources: np.ndarray, limit: float) -> np.ndarray:
-    """The heat map of a cloud: distances (n,) float mm to the direct surface (NaN for none), sources (n,) labels ->
-    (n, 3) uint8 RGB: heat_colours for the mirrors' points compared, the direct grey for the camera's own points,
-    HEAT_UNCOMPARED (dark grey) for the mirrors' points the camera does not see."""
+    """The heat map of a cloud: distances (n,) float mm to the direct surface (NaN for none),
+    sources (n,) labels -> (n, 3) uint8 RGB: heat_colours for the mirrors' points compared, the
+    direct grey for the camera's own points, HEAT_UNCOMPARED (dark grey) for the mirrors' points the
+    camera does not see."""
     colours = heat_colours(distances, limit)
-    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(distances, dtype=np.float64))] = HEAT_UNCOMPARED
+    colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(
+        distances, dtype=np.float64))] = HEAT_UNCOMPARED
     return colours

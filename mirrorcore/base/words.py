@@ -7,4 +7,5 @@ from collections.abc import Iterable
 def listed(words: Iterable[str], conjunction: str = "and") -> str:
     """'a', 'a and b', 'a, b and c' ('' for none); 'a, b or c' with conjunction 'or'."""
     words = list(words)
-    return ", ".join(words[:-1]) + f" {conjunction} " + words[-1] if len(words) > 1 else "".join(words)
+    return ", ".join(words[:-1]) + f" {conjunction} " + words[-1] if len(words) > 1 else "".join(
+        words)

@@ -1,8 +1,9 @@
-"""Running a batch on Dask (distributed): a local cluster of worker processes on this machine, or an existing cluster
-by its scheduler's address. The frame context is built once and shipped once to each worker as a WorkerPlugin, which
-a restarted or late-joining worker receives too; each task reconstructs a few frames; a worker that dies is noticed
-from the scheduler's 'remove-worker' event, and the frames it was running are reported (Dask runs them again on
-another worker, up to its `allowed-failures`, then the task fails with KilledWorker).
+"""Running a batch on Dask (distributed): a local cluster of worker processes on this machine, or an
+existing cluster by its scheduler's address. The frame context is built once and shipped once to
+each worker as a WorkerPlugin, which a restarted or late-joining worker receives too; each task
+reconstructs a few frames; a worker that dies is noticed from the scheduler's 'remove-worker' event,
+and the frames it was running are reported (Dask runs them again on another worker, up to its
+`allowed-failures`, then the task fails with KilledWorker).
 
 Imported only when a batch runs on Dask: importing distributed takes a second.
 """
@@ -30,20 +31,22 @@ from mirrorcore.batch.manifest import FrameRecord
 CONNECT_SECONDS = 20.0     # to reach a scheduler and see a first worker
 DASHBOARD = ":8787"        # Dask's usual dashboard port (another free one if it is taken)
 _SPAWN_ENVIRON = "distributed.nanny.pre-spawn-environ"
-# A local cluster's housekeeping, measured on 2 cores with 2 idle workers: 180 CPU ms a second with Dask's defaults,
-# 60 with these (most of it the 20 ms tick that only watches for a blocked event loop, and the sampling profiler
-# that costs a worker ~2 ms a frame). Work stealing has nothing to do with one queue of equal tasks.
-LEAN_LOCAL_CLUSTER = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+# A local cluster's housekeeping, measured on 2 cores with 2 idle workers: 180 CPU ms a second with
+# Dask's defaults, 60 with these (most of it the 20 ms tick that only watches for a blocked event
+# loop, and the sampling profiler that costs a worker ~2 ms a frame). Work stealing has nothing to
+# do with one queue of equal tasks.
+LEAN_LOCAL_CLUSTER = {"distributed.worker.profile.enabled": False,
+                      "distributed.admin.tick.interval": "1s",
                       "distributed.scheduler.work-stealing": False}
 
 ChunkResult = tuple[tuple[int, ...], list[FrameRecord], dict[int, str]]
 
 
 class ContextPlugin(WorkerPlugin):
-    """Holds a batch's FrameContext on a worker, and keeps OpenCV to one thread per task there as Dask does with
-    OpenMP and BLAS (each worker thread runs a task; the cores are shared out by the workers). On a local cluster it
-    also makes the worker ignore Ctrl-C: the terminal sends SIGINT to every process of the command, and the command
-    stops its workers itself."""
+    """Holds a batch's FrameContext on a worker, and keeps OpenCV to one thread per task there as
+    Dask does with OpenMP and BLAS (each worker thread runs a task; the cores are shared out by the
+    workers). On a local cluster it also makes the worker ignore Ctrl-C: the terminal sends SIGINT
+    to every process of the command, and the command stops its workers itself."""
 
     def __init__(self, context: FrameContext, ignore_ctrl_c: bool):
         self.context = context
@@ -52,27 +55,32 @@ class ContextPlugin(WorkerPlugin):
     def setup(self, worker) -> None:
         for folder in (Path(self.context.session.root), Path(self.context.job.out)):
             if not folder.is_dir():
-                raise MirrorscanError(f"worker {worker.address}: {folder} is not there; the session and the output "
-                                      "folder must be on a file system that every worker sees at the same path")
+                raise MirrorscanError(
+                    f"worker {worker.address}: {folder} is not there; the session and the output "
+                                      "folder must be on a file system that every worker sees at "
+                                      "the same path")
         cv2.setNumThreads(1)
         if self.ignore_ctrl_c and threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def run_task(plugin: str, indices: tuple[int, ...]) -> tuple[list[FrameRecord], dict[int, str]]:
-    """A Dask task: reconstruct `indices` with the context that plugin `plugin` holds on this worker."""
+    """A Dask task: reconstruct `indices` with the context that plugin `plugin` holds on this
+    worker."""
     return reconstruct_frames(get_worker().plugins[plugin].context, indices)
 
 
 @contextmanager
 def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterator[Client]:
-    """A client of the cluster at `scheduler` ('tcp://HOST:8786'), or of a new local cluster of `workers` processes
-    of one thread each, listening on 127.0.0.1 only, closed (processes, ports, scratch folder) on the way out."""
+    """A client of the cluster at `scheduler` ('tcp://HOST:8786'), or of a new local cluster of
+    `workers` processes of one thread each, listening on 127.0.0.1 only, closed (processes, ports,
+    scratch folder) on the way out."""
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=CONNECT_SECONDS)
         except (OSError, ValueError) as exc:
-            raise MirrorscanError(f"--scheduler {scheduler}: no Dask scheduler answered ({exc})") from None
+            raise MirrorscanError(
+                f"--scheduler {scheduler}: no Dask scheduler answered ({exc})") from None
         try:
             client.wait_for_workers(1, timeout=CONNECT_SECONDS)
         except TimeoutError:
@@ -82,12 +90,15 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
             yield client
         return
     scratch = tempfile.mkdtemp(prefix="mirrorscan-dask-")
-    config = {**LEAN_LOCAL_CLUSTER, _SPAWN_ENVIRON: worker_environment(), "temporary-directory": scratch}
+    config = {**LEAN_LOCAL_CLUSTER, _SPAWN_ENVIRON: worker_environment(),
+              "temporary-directory": scratch}
     try:
         # the scheduler's HTTP server runs even without the dashboard: on a free port then
         with dask.config.set(config), LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1", local_directory=scratch,
-                dashboard_address=DASHBOARD if dashboard else ":0", scheduler_kwargs={"dashboard": dashboard},
+                n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                local_directory=scratch,
+                dashboard_address=DASHBOARD if dashboard else ":0",
+                scheduler_kwargs={"dashboard": dashboard},
                 silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
             yield client
     finally:
@@ -95,16 +106,24 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
 
 
 def worker_environment() -> dict:
-    """Dask's environment for new worker processes without MALLOC_TRIM_THRESHOLD_: Dask sets it to 64 kB so that
-    workers give memory back sooner, which makes every large numpy array a fresh mmap and a frame 3 to 4 times
-    slower here (measured: a TSDF frame 1.25 s instead of 0.38 s)."""
-    return {k: v for k, v in dask.config.get(_SPAWN_ENVIRON).items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    """Dask's environment for new worker processes without MALLOC_TRIM_THRESHOLD_: Dask sets it to
+    64 kB so that workers give memory back sooner, which makes every large numpy array a fresh mmap
+    and a frame 3 to 4 times slower here (measured: a TSDF frame 1.25 s instead of 0.38 s)."""
+    return {k: v for k,
+            v in dask.config.get(_SPAWN_ENVIRON).items() if k != "MALLOC_TRIM_THRESHOLD_"}
 
 
 class DaskExecutor:
-    """Runs chunks of frames on a Dask cluster: submit() them all, then wait() for those that finish; deaths()
-    gives the frames whose worker died while it had them (they are run again elsewhere). local : the cluster is this
-    command's own; dashboard : give the dashboard's address."""
+    """Runs chunks of frames on a Dask cluster: submit() them all, then wait() for those that
+    finish; deaths() gives the frames whose worker died with them (they are run again elsewhere).
+
+    Parameters
+    ----------
+    local : bool
+        The cluster is this command's own.
+    dashboard : bool
+        Give the dashboard's address.
+    """
 
     def __init__(self, client: Client, context: FrameContext, local: bool, dashboard: bool):
         self.client = client
@@ -117,8 +136,10 @@ class DaskExecutor:
             client.register_plugin(ContextPlugin(context, ignore_ctrl_c=local), name=self.plugin)
         except MirrorscanError:
             raise
-        except Exception as exc:  # noqa: BLE001 (whatever a worker raised loading the context: one line for the user)
-            raise MirrorscanError(f"the Dask workers could not load the batch ({type(exc).__name__}: {exc}); is "
+        # whatever a worker raised loading the context: one line for the user
+        except Exception as exc:  # noqa: BLE001
+            raise MirrorscanError(
+                f"the Dask workers could not load the batch ({type(exc).__name__}: {exc}); is "
                                   "mirrorscan installed on every worker?") from None
         client.subscribe_topic("all", self._events.put)
 
@@ -138,12 +159,14 @@ class DaskExecutor:
             self._pending.add(self.client.submit(run_task, self.plugin, chunk, key=key, pure=False))
 
     def wait(self, timeout: float) -> list[ChunkResult]:
-        """The chunks that finished within `timeout` seconds (possibly none). A task that raised (KilledWorker after
-        its workers died, a bug) gives every frame of its chunk as failed with that one-line error."""
+        """The chunks that finished within `timeout` seconds (possibly none). A task that raised
+        (KilledWorker after its workers died, a bug) gives every frame of its chunk as failed with
+        that one-line error."""
         if not self._pending:
             return []
         try:
-            finished = wait(list(self._pending), timeout=timeout, return_when="FIRST_COMPLETED").done
+            finished = wait(list(self._pending), timeout=timeout,
+                            return_when="FIRST_COMPLETED").done
         except TimeoutError:
             return []
         results = []
@@ -159,8 +182,8 @@ class DaskExecutor:
         return results
 
     def deaths(self) -> dict[int, str]:
-        """{frame: worker address} of the frames that a worker was running when it left the cluster, since the last
-        call."""
+        """{frame: worker address} of the frames that a worker was running when it left the cluster,
+        since the last call."""
         found: dict[int, str] = {}
         while True:
             try:
@@ -174,7 +197,8 @@ class DaskExecutor:
 
     def close(self) -> None:
         """Cancel what is still pending, stop listening and drop the context from the workers."""
-        if self.client.status != "running":        # the cluster is gone already: nothing is left to drop
+        # the cluster is gone already: nothing is left to drop
+        if self.client.status != "running":
             return
         if self._pending:
             self.client.cancel(list(self._pending))

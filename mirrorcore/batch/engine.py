@@ -1,6 +1,6 @@
-"""Running a batch: the frames still to do, split into tasks of a few frames, run in this process or on Dask (a local
-cluster, or an existing one), the manifest kept up to date, progress reported, stopped cleanly on cancel.
-`run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
+"""Running a batch: the frames still to do, split into tasks of a few frames, run in this process or
+on Dask (a local cluster, or an existing one), the manifest kept up to date, progress reported,
+stopped cleanly on cancel. `run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
 from __future__ import annotations
 
 import os
@@ -18,14 +18,15 @@ from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
 
-POLL_SECONDS = 0.25         # how often a Dask run looks at the cancel request and the cluster's events
+# how often a Dask run looks at the cancel request and the cluster's events
+POLL_SECONDS = 0.25
 
 
 @dataclass(frozen=True)
 class Where:
-    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this process, without
-    Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786') instead; dashboard : serve the Dask
-    dashboard of a local cluster."""
+    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this
+    process, without Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786')
+    instead; dashboard : serve the Dask dashboard of a local cluster."""
 
     workers: int | None = None
     scheduler: str | None = None
@@ -35,7 +36,8 @@ class Where:
         if self.workers is not None and self.workers < 1:
             raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
         if self.workers is not None and self.scheduler is not None:
-            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own workers; give one or "
+            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own "
+                                  "workers; give one or "
                                   "the other")
 
     @property
@@ -47,15 +49,34 @@ class Where:
         """The local worker processes: `workers`, or the cores this process may use."""
         if self.workers:
             return self.workers
-        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+        if hasattr(os, "sched_getaffinity"):
+            return len(os.sched_getaffinity(0))
+        return os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
 class BatchProgress:
-    """Where a batch stands. total : the session's frames; done : frames done (kept + written); kept : frames an
-    earlier run had done; failed : frames that failed in this run; fps : frames written per second by this run;
-    seconds_left : at that rate (None before the first frame); retried : frames run again after their worker died;
-    dashboard : the Dask dashboard's address (None in process or without one)."""
+    """Where a batch stands.
+
+    Attributes
+    ----------
+    total : int
+        The session's frames.
+    done : int
+        Frames done (kept + written).
+    kept : int
+        Frames found done in the output folder when this run started.
+    failed : int
+        Frames that failed in this run.
+    fps : float
+        Frames written per second by this run.
+    seconds_left : float or None
+        At that rate (None before the first frame).
+    retried : int
+        Frames run again after their worker died.
+    dashboard : str or None
+        The Dask dashboard's address (None in process or without one).
+    """
 
     total: int
     done: int
@@ -73,10 +94,26 @@ class BatchProgress:
 
 @dataclass(frozen=True)
 class BatchReport:
-    """How a batch ended. out : the output folder; kept, written : frames an earlier run had done / this run wrote;
-    failed : {frame: one-line error}; retried : {frame: address of the worker that died with it}; seconds : this
-    run's wall time from the first task to the last result (cluster start-up excluded, in `startup_seconds`);
-    fps : frames written per second; cancelled : stopped by a cancel request."""
+    """How a batch ended.
+
+    Attributes
+    ----------
+    out : Path
+        The output folder.
+    kept, written : int
+        Frames found done in the output folder when this run started, and frames this run wrote.
+    failed : dict
+        {frame: one-line error}.
+    retried : dict
+        {frame: address of the worker that died with it}.
+    seconds : float
+        This run's wall time from the first task to the last result (cluster start-up excluded, in
+        `startup_seconds`).
+    fps : float
+        Frames written per second.
+    cancelled : bool
+        Stopped by a cancel request.
+    """
 
     out: Path
     total: int
@@ -104,14 +141,16 @@ class BatchReport:
 
 
 def default_frames_per_task(method: str) -> int:
-    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense frame."""
+    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense
+    frame."""
     return 8 if method == "raw" else 1
 
 
 def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int, ...]]:
-    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most a 2 * `workers`-th
-    of the frames left (and at least one), so that the tasks shrink towards the end and the workers finish together
-    instead of one running a whole last task alone (guided self-scheduling). One worker: tasks of `per_task`."""
+    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most
+    a 2 * `workers`-th of the frames left (and at least one), so that the tasks shrink towards the
+    end and the workers finish together instead of one running a whole last task alone (guided
+    self-scheduling). One worker: tasks of `per_task`."""
     chunks, start = [], 0
     while start < len(todo):
         left = len(todo) - start
@@ -121,15 +160,18 @@ def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int,
     return chunks
 
 
-def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None, overwrite: bool = False,
+def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
+              overwrite: bool = False,
               progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
-    """Reconstruct every frame of job.session not yet done in job.out (see mirrorcore.batch.manifest) and return how
-    it went. Frames that cannot be read or reconstructed are reported in the report and the manifest, the others go
-    on; a rerun does only the frames still missing.
+    """Reconstruct every frame of job.session not yet done in job.out (see
+    mirrorcore.batch.manifest) and return how it went. Frames that cannot be read or reconstructed
+    are reported in the report and the manifest, the others go on; a rerun does only the frames
+    still missing.
 
-    progress(BatchProgress) is called after each task and when a worker dies; cancel (a threading.Event or a
-    callable returning True) stops the run: frames finished are kept and the manifest is written. Raises
-    MirrorscanError (one line) for a bad session, output folder or cluster.
+    progress(BatchProgress) is called after each task and when a worker dies; cancel (a
+    threading.Event or a callable returning True) stops the run: frames finished are kept and the
+    manifest is written. Raises MirrorscanError (one line) for a bad session, output folder or
+    cluster.
     """
     session = load_session(Path(job.session).resolve())
     job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
@@ -137,7 +179,8 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
     if per_task < 1:
         raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
     context = FrameContext.build(session, job, threads=None if where.in_process else 1)
-    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session), context.names,
+    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session),
+                          context.names,
                           overwrite)
     try:
         todo = [i for i in range(len(context.names)) if i not in folder.kept]
@@ -156,7 +199,8 @@ def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
     if where.in_process:
         yield _InProcess(context, cancel)
         return
-    from mirrorcore.batch.cluster import DaskExecutor, dask_client  # distributed is imported only when used
+    # distributed is imported only when used
+    from mirrorcore.batch.cluster import DaskExecutor, dask_client
     with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
         local = where.scheduler is None
         executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
@@ -185,11 +229,14 @@ class _InProcess:
         self.chunks.extend(chunks)
 
     def wait(self, timeout: float) -> list:
-        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the others go on)."""
+        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the
+        others go on)."""
         chunk = self.chunks.pop(0)
         try:
-            records, failures = reconstruct_frames(self.context, chunk, lambda: cancel_requested(self.cancel))
-        except Exception as exc:         # noqa: BLE001 (a frame's bug or MemoryError must not end hours of work)
+            records, failures = reconstruct_frames(self.context, chunk,
+                                                   lambda: cancel_requested(self.cancel))
+        # a frame's bug or MemoryError must not end hours of work
+        except Exception as exc:  # noqa: BLE001
             records, failures = [], {i: task_error(exc) for i in chunk}
         return [(chunk, records, failures)]
 
@@ -198,9 +245,11 @@ class _InProcess:
 
 
 class _Run:
-    """The client's side of one run: results into the manifest, progress, the figures of the report."""
+    """The client's side of one run: results into the manifest, progress, the figures of the
+    report."""
 
-    def __init__(self, folder: OutputFolder, total: int, progress: Callable[[BatchProgress], None] | None):
+    def __init__(self, folder: OutputFolder, total: int,
+                 progress: Callable[[BatchProgress], None] | None):
         self.folder, self.total, self.progress = folder, total, progress
         self.kept = len(folder.kept)
         self.written = 0
@@ -233,8 +282,10 @@ class _Run:
             return
         fps = self._fps()
         left = self.total - self.kept - self.written - len(self.failed)
-        self.progress(BatchProgress(self.total, self.kept + self.written, self.kept, len(self.failed), fps,
-                                    left / fps if fps > 0 else None, tuple(sorted(self.retried)), self.dashboard))
+        self.progress(BatchProgress(self.total, self.kept + self.written, self.kept,
+                                    len(self.failed), fps,
+                                    left / fps if fps > 0 else None, tuple(sorted(self.retried)),
+                                    self.dashboard))
 
     def _fps(self) -> float:
         seconds = (self.finished or 0.0) - (self.started or 0.0)
@@ -243,18 +294,23 @@ class _Run:
     def report(self, out: Path, cancelled: bool) -> BatchReport:
         seconds = (self.finished - self.started) if self.started and self.finished else 0.0
         startup = (self.started - self.created) if self.started else 0.0
-        return BatchReport(out, self.total, self.kept, self.written, dict(sorted(self.failed.items())),
-                           dict(sorted(self.retried.items())), seconds, startup, cancelled, self.dashboard)
+        return BatchReport(out, self.total, self.kept, self.written,
+                           dict(sorted(self.failed.items())),
+                           dict(sorted(self.retried.items())), seconds, startup, cancelled,
+                           self.dashboard)
 
 
 class BatchRun:
-    """A batch in a background thread, for a UI: start() it, read `progress` (the latest BatchProgress, None before
-    the first) or pass `on_progress`, cancel() it, wait() for its BatchReport. `error` holds the exception that
-    ended it (a MirrorscanError: show its one line) and wait() re-raises it."""
+    """A batch in a background thread, for a UI: start() it, read `progress` (the latest
+    BatchProgress, None before the first) or pass `on_progress`, cancel() it, wait() for its
+    BatchReport. `error` holds the exception that ended it (a MirrorscanError: show its one line)
+    and wait() re-raises it."""
 
     def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
-                 overwrite: bool = False, on_progress: Callable[[BatchProgress], None] | None = None):
-        self.job, self.where, self.frames_per_task, self.overwrite = job, where, frames_per_task, overwrite
+                 overwrite: bool = False,
+                 on_progress: Callable[[BatchProgress], None] | None = None):
+        self.job, self.where = job, where
+        self.frames_per_task, self.overwrite = frames_per_task, overwrite
         self.on_progress = on_progress
         self.progress: BatchProgress | None = None
         self.report: BatchReport | None = None
@@ -267,7 +323,8 @@ class BatchRun:
         return self
 
     def cancel(self) -> None:
-        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait() returns."""
+        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait()
+        returns."""
         self._cancel.set()
 
     @property
@@ -275,7 +332,8 @@ class BatchRun:
         return self._thread.is_alive()
 
     def wait(self, timeout: float | None = None) -> BatchReport | None:
-        """The report once the run has ended (None if it is still running after `timeout` seconds)."""
+        """The report once the run has ended (None if it is still running after `timeout`
+        seconds)."""
         self._thread.join(timeout)
         if self._thread.is_alive():
             return None
@@ -290,7 +348,8 @@ class BatchRun:
 
     def _run(self) -> None:
         try:
-            self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite, self._progress,
+            self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite,
+                                    self._progress,
                                     self._cancel)
         except BaseException as exc:       # noqa: BLE001 (kept for wait() and the UI)
             self.error = exc

@@ -1,5 +1,6 @@
-"""The worker's side of a batch: the context built once (rig with its per-pixel tables, background, job) and shipped
-to every worker, and the reconstruction of a run of frames into PLY files, each written atomically."""
+"""The worker's side of a batch: the context built once (rig with its per-pixel tables, background,
+job) and shipped to every worker, and the reconstruction of a run of frames into PLY files, each
+written atomically."""
 from __future__ import annotations
 
 import time
@@ -24,9 +25,10 @@ from mirrorcore.batch.manifest import FrameRecord
 
 @dataclass(frozen=True, eq=False)
 class FrameContext:
-    """What every frame of a batch shares, built once by the client: the session (root an absolute path), its
-    calibrated rig with the per-pixel tables already computed (they travel with it), the background (H, W) float32
-    metres or None, the job, each frame's output file name, and the threads a dense frame may use (None: all)."""
+    """What every frame of a batch shares, built once by the client: the session (root an absolute
+    path), its calibrated rig with the per-pixel tables already computed (they travel with it), the
+    background (H, W) float32 metres or None, the job, each frame's output file name, and the
+    threads a dense frame may use (None: all)."""
 
     session: Session
     rig: Rig
@@ -37,17 +39,20 @@ class FrameContext:
 
     @classmethod
     def build(cls, session: Session, job: BatchJob, threads: int | None = None) -> FrameContext:
-        """Refuses (MirrorscanError) an uncalibrated session or frames whose output names collide."""
+        """Refuses (MirrorscanError) an uncalibrated session or frames whose output names
+        collide."""
         rig = calibrated_rig(session, job.bounces)
-        rig.reflection_table, rig.inside_bits, rig.intrinsics.rays   # noqa: B018 (computed once, here)
+        # computed once, here
+        rig.reflection_table, rig.inside_bits, rig.intrinsics.rays  # noqa: B018
         return cls(session, rig, session.read_background(), job, output_names(session), threads)
 
 
-def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int, np.ndarray] | None = None
+def read_depth(session: Session, index: int, temporal: int = 0,
+               cache: dict[int, np.ndarray] | None = None
                ) -> np.ndarray:
-    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its `temporal`
-    neighbours on each side where the scene is static (mirrorcore.depth.temporal; 0: as read). `cache` (frame index ->
-    depth) keeps the frames read for the next call."""
+    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its
+    `temporal` neighbours on each side where the scene is static (mirrorcore.depth.temporal; 0: as
+    read). `cache` (frame index -> depth) keeps the frames read for the next call."""
     count = len(session.frames)
     if not -count <= index < count:
         session.read_frame(index)              # refuses it, naming the frames there are
@@ -64,13 +69,14 @@ def read_depth(session: Session, index: int, temporal: int = 0, cache: dict[int,
 
 def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=None
                        ) -> tuple[list[FrameRecord], dict[int, str]]:
-    """Reconstruct frames `indices` (in order) into context.job.out, one PLY file each, written atomically but not
-    flushed to the disk: the client does that before the manifest lists them (OutputFolder.flush), so that no worker
-    waits for the disk (an fsync a frame in the workers held two workers to 1.3x one).
+    """Reconstruct frames `indices` (in order) into context.job.out, one PLY file each, written
+    atomically but not flushed to the disk: the client does that before the manifest lists them
+    (OutputFolder.flush), so that no worker waits for the disk (an fsync a frame in the workers held
+    two workers to 1.3x one).
 
-    Returns the records of the frames written and {index: one-line error} of the frames that could not be read or
-    reconstructed (MirrorscanError, OSError: the others go on). `cancel` (None or a callable returning True) is
-    asked before each frame: the frames done so far are returned.
+    Returns the records of the frames written and {index: one-line error} of the frames that could
+    not be read or reconstructed (MirrorscanError, OSError: the others go on). `cancel` (None or a
+    callable returning True) is asked before each frame: the frames done so far are returned.
     """
     records, failures, cache = [], {}, {}
     for index in indices:
@@ -80,22 +86,25 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         for old in [i for i in cache if i < index - context.job.temporal]:
             del cache[old]                                   # keep only the frames still needed
         try:
-            data, sources, faces = _frame_ply(context, read_depth(context.session, index, context.job.temporal,
-                                                                   cache))
+            data, sources, faces = _frame_ply(context,
+                                              read_depth(context.session, index,
+                                                         context.job.temporal, cache))
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
         except (MirrorscanError, OSError) as exc:
             failures[index] = _one_line(exc)
             continue
         counts = np.bincount(sources, minlength=len(context.rig.mirrors) + 1)
-        records.append(FrameRecord(index, context.names[index], len(sources), faces, tuple(int(c) for c in counts),
+        records.append(FrameRecord(index, context.names[index], len(sources), faces,
+                                   tuple(int(c) for c in counts),
                                    len(data), round(time.perf_counter() - start, 4)))
     return records, failures
 
 
 def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndarray, int | None]:
-    """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds). A dense frame
-    with no object pixels (and no fixed box) gives an empty file rather than an error: the person left the view."""
+    """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds).
+    A dense frame with no object pixels (and no fixed box) gives an empty file rather than an error:
+    the person left the view."""
     rig, job = context.rig, context.job
     depth, mask = prepare_frame(rig, depth, context.background, context.session.selection)
     if job.method == "raw":
@@ -106,8 +115,8 @@ def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndar
         faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
     else:
         volume = dense_volume(rig, depth, mask, job.options)
-        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[None], volume, job.method,
-                                                                   job.options, workers=context.threads))
+        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[
+            None], volume, job.method, job.options, workers=context.threads))
     return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
 
 
@@ -119,6 +128,7 @@ def _one_line(exc: BaseException) -> str:
 
 
 def task_error(exc: BaseException) -> str:
-    """An unexpected error of a whole task (a bug, KilledWorker after its workers died) as one line with its type."""
+    """An unexpected error of a whole task (a bug, KilledWorker after its workers died) as one line
+    with its type."""
     return f"{type(exc).__name__}: {_one_line(exc)}"
 

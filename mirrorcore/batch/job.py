@@ -1,5 +1,6 @@
-"""What a batch reconstruction computes: the job (session, output folder, method, its options, temporal smoothing),
-each frame's output file name, and the fingerprint of everything the output files depend on."""
+"""What a batch reconstruction computes: the job (session, output folder, method, its options,
+temporal smoothing), each frame's output file name, and the fingerprint of everything the output
+files depend on."""
 from __future__ import annotations
 
 import hashlib
@@ -18,11 +19,14 @@ class BatchJob:
     """One PLY file per frame of a session's recording.
 
     session : the session folder (calibrated); out : the output folder (created when missing)
-    method : 'raw' (Algorithm 1, a cloud), 'paper' / 'carve' (a carved cloud), 'tsdf' (a mesh); each frame alone
+    method : 'raw' (Algorithm 1, a cloud), 'paper' / 'carve' (a carved cloud), 'tsdf' (a mesh); each
+    frame alone
     options : the dense methods' voxel, margin, bounds, threshold and truncation (unused by 'raw')
-    temporal : N > 0 smooths each frame's depth with its N neighbours on each side where the scene is static
+    temporal : N > 0 smooths each frame's depth with its N neighbours on each side where the scene
+    is static
         (mirrorcore.depth.temporal); 0 = off
-    bounces : the most mirrors in turn a camera ray is followed through (None: the session's setting)
+    bounces : the most mirrors in turn a camera ray is followed through (None: the session's
+    setting)
     """
 
     session: Path
@@ -36,20 +40,23 @@ class BatchJob:
         if self.method not in BATCH_METHODS:
             raise MirrorscanError(f"--method: unknown method {self.method!r} (expected one of "
                                   f"{', '.join(BATCH_METHODS)})")
-        if isinstance(self.temporal, bool) or not isinstance(self.temporal, int) or self.temporal < 0:
-            raise MirrorscanError(f"--temporal: expected a whole number of neighbour frames >= 0, got "
+        if isinstance(self.temporal, bool) or not isinstance(
+            self.temporal, int) or self.temporal < 0:
+            raise MirrorscanError(
+                f"--temporal: expected a whole number of neighbour frames >= 0, got "
                                   f"{self.temporal!r}")
         object.__setattr__(self, "session", Path(self.session))
         object.__setattr__(self, "out", Path(self.out))
 
     def settings(self) -> dict:
-        """The choices that shape the output, as JSON: {'method': ..., 'options': {the dense options the method
-        uses, 'temporal'}}."""
+        """The choices that shape the output, as JSON: {'method': ..., 'options': {the dense options
+        the method uses, 'temporal'}}."""
         options: dict = {}
         if self.method != "raw":
             o = self.options
             options.update(voxel=o.voxel, margin=o.margin, threshold=o.threshold,
-                           bounds=None if o.bounds is None else [list(o.bounds[0]), list(o.bounds[1])])
+                           bounds=None if o.bounds is None else [list(o.bounds[0]), list(o.bounds[
+                               1])])
             if self.method == "tsdf":
                 options.update(truncation=o.truncation)
         options["temporal"] = self.temporal
@@ -59,30 +66,34 @@ class BatchJob:
 
 
 def exports_folder(session_root: str | Path, method: str = "raw", temporal: int = 0) -> Path:
-    """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD (with '-temporalN'
-    when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
-    return Path(session_root) / "exports" / (f"frames-{method}" + (f"-temporal{temporal}" if temporal else ""))
+    """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD
+    (with '-temporalN' when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
+    return Path(session_root) / "exports" / (f"frames-{method}" + (
+        f"-temporal{temporal}" if temporal else ""))
 
 
 def output_names(session: Session) -> tuple[str, ...]:
-    """Each frame's PLY file name, its image's stem + '.ply' ('frames/000123.png' -> '000123.ply'); MirrorscanError
-    when two frames share a stem (their files would collide)."""
+    """Each frame's PLY file name, its image's stem + '.ply' ('frames/000123.png' -> '000123.ply');
+    MirrorscanError when two frames share a stem (their files would collide)."""
     names = tuple(f"{Path(f).stem}.ply" for f in session.frames)
     if len(set(names)) != len(names):
         seen: dict[str, str] = {}
         for frame, name in zip(session.frames, names):
             if name in seen:
-                raise MirrorscanError(f"{session.path}: frames {seen[name]} and {frame} would both be written as "
+                raise MirrorscanError(
+                    f"{session.path}: frames {seen[name]} and {frame} would both be written as "
                                       f"{name}")
             seen[name] = frame
     return names
 
 
 def session_inputs(session: Session) -> dict:
-    """What the output depends on in the session, as JSON: the calibration (the camera; each mirror's plane and
-    boundary, in session order; the mirrors followed in turn), the object selection, the background image's SHA-256 and the frames' paths (their
-    count and a SHA-256 of the list)."""
-    mirrors = [{"plane": None if m.plane is None else m.plane.to_list(), "boundary": [list(p) for p in m.boundary]}
+    """What the output depends on in the session, as JSON: the calibration (the camera; each
+    mirror's plane and boundary, in session order; the mirrors followed in turn), the object
+    selection, the background image's SHA-256 and the frames' paths (their count and a SHA-256 of
+    the list)."""
+    mirrors = [{"plane": None if m.plane is None else m.plane.to_list(),
+                "boundary": [list(p) for p in m.boundary]}
                for m in session.mirrors]
     background = None
     if session.background is not None:
@@ -91,15 +102,16 @@ def session_inputs(session: Session) -> dict:
             raise FileFormatError(f"{path}: no such depth image")
         background = hashlib.sha256(path.read_bytes()).hexdigest()
     frames = hashlib.sha256("\n".join(session.frames).encode("utf-8")).hexdigest()
-    return {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors, "bounces": session.bounces},
+    return {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors,
+                            "bounces": session.bounces},
             "selection": session.selection.to_json(), "background_sha256": background,
             "frames": {"count": len(session.frames), "sha256": frames}}
 
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
-    """The keys (dotted paths) whose values differ between two JSON objects, with the old and new values when they
-    are single numbers or strings (None as 'none'; a helper read "(0.02 -> None)"): ['method (raw -> tsdf)',
-    'options.voxel (0.002 -> 0.004)', 'calibration.mirrors']."""
+    """The keys (dotted paths) whose values differ between two JSON objects, with the old and new
+    values when they are single numbers or strings (None as 'none'), for example
+    ['method (raw -> tsdf)', 'calibration.mirrors']."""
     found = []
     for key in sorted(set(old) | set(new)):
         a, b = old.get(key), new.get(key)

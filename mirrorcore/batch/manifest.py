@@ -1,10 +1,12 @@
-"""The output folder of a batch: one PLY file per frame and manifest.json (the session, the method and its options,
-what the output depends on in the session, every frame done with its counts and time, the frames that failed),
-written atomically; a lock so that one run at a time writes into it; the frames of an earlier run that can be kept.
+"""The output folder of a batch: one PLY file per frame and manifest.json (the session, the method
+and its options, what the output depends on in the session, every frame done with its counts and
+time, the frames that failed), written atomically; a lock so that one run at a time writes into it;
+the frames of an earlier run that can be kept.
 
-A frame is done when the manifest lists it and its file is there with the size and the element counts the manifest
-gives (a file is only ever replaced whole, so this finds files removed or replaced since). Frames written by a run
-that was killed before it wrote them into the manifest are simply done again.
+A frame is done when the manifest lists it and its file is there with the size and the element
+counts the manifest gives (a file is only ever replaced whole, so this finds files removed or
+replaced since). Frames written by a run that was killed before it wrote them into the manifest are
+simply done again.
 """
 from __future__ import annotations
 
@@ -23,18 +25,21 @@ from mirrorcore.batch.job import differences
 
 MANIFEST_FILE = "manifest.json"
 LOCK_FILE = ".mirrorscan-batch.lock"
-FLUSH_SHARE = 0.05          # the manifest is rewritten at most this share of the time (it grows with the frames)
+# the manifest is rewritten at most this share of the time (it grows with the frames)
+FLUSH_SHARE = 0.05
 MIN_FLUSH_SECONDS = 0.1
-MAX_FLUSH_SECONDS = 2.0     # ...but never further apart than this, however long one write took (a busy disk)
+# ...but never further apart than this, however long one write took (a busy disk)
+MAX_FLUSH_SECONDS = 2.0
 VERSION = 1
 KIND = "mirrorscan batch reconstruction"
 
 
 @dataclass(frozen=True)
 class FrameRecord:
-    """One frame done: its index in the session (0-based), its file name in the folder, the PLY's vertex count
-    (points of a cloud, vertices of a mesh), face count (None for clouds), vertices per source (direct, mirror 1,
-    ...), the file's size in bytes and the seconds it took (read, reconstruct, write)."""
+    """One frame done: its index in the session (0-based), its file name in the folder, the PLY's
+    vertex count (points of a cloud, vertices of a mesh), face count (None for clouds), vertices per
+    source (direct, mirror 1, ...), the file's size in bytes and the seconds it took (read,
+    reconstruct, write)."""
 
     index: int
     file: str
@@ -51,7 +56,8 @@ class FrameRecord:
         except (TypeError, KeyError) as exc:
             raise FileFormatError(f"{where}: not a frame record ({exc})") from None
         if Path(record.file).name != record.file or not record.file.endswith(".ply"):
-            raise FileFormatError(f"{where}: file {record.file!r} is not a PLY file name of this folder")
+            raise FileFormatError(
+                f"{where}: file {record.file!r} is not a PLY file name of this folder")
         return record
 
     def intact(self, folder: Path) -> bool:
@@ -68,8 +74,9 @@ class FrameRecord:
 
 @dataclass
 class Manifest:
-    """manifest.json in memory. settings : {'method', 'options'} of the job (BatchJob.settings); inputs : what the
-    output depends on in the session (job.session_inputs); total : the session's frame count; done : index -> record;
+    """manifest.json in memory. settings : {'method', 'options'} of the job (BatchJob.settings);
+    inputs : what the output depends on in the session (job.session_inputs); total : the session's
+    frame count; done : index -> record;
     failed : index -> one-line error of the last attempt."""
 
     session: str
@@ -78,17 +85,20 @@ class Manifest:
     total: int
     done: dict[int, FrameRecord] = field(default_factory=dict)
     failed: dict[int, str] = field(default_factory=dict)
-    _lines: dict[int, tuple[FrameRecord, str]] = field(default_factory=dict, repr=False, compare=False)
+    _lines: dict[int, tuple[FrameRecord, str]] = field(default_factory=dict, repr=False,
+                                                       compare=False)
 
     @property
     def complete(self) -> bool:
         return len(self.done) == self.total
 
     def text(self) -> str:
-        """manifest.json's text: the settings indented, then one line per frame done (each line is made once and kept:
-        18,000 frames are rewritten in a few tens of milliseconds)."""
-        head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings, "inputs": self.inputs,
-                "total": self.total, "complete": self.complete, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        """manifest.json's text: the settings indented, then one line per frame done (each line is
+        made once and kept: 18,000 frames are rewritten in a few tens of milliseconds)."""
+        head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings,
+                "inputs": self.inputs,
+                "total": self.total, "complete": self.complete,
+                "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "failed": [{"index": i, "error": self.failed[i]} for i in sorted(self.failed)]}
         for i, record in self.done.items():
             if self._lines.get(i, (None,))[0] is not record:
@@ -101,37 +111,45 @@ class Manifest:
         if not isinstance(data, dict) or data.get("kind") != KIND:
             raise FileFormatError(f"{where}: not the manifest of a batch reconstruction")
         if data.get("version") != VERSION:
-            raise FileFormatError(f"{where}: unknown version {data.get('version')!r}; this mirrorscan writes "
+            raise FileFormatError(
+                f"{where}: unknown version {data.get('version')!r}; this mirrorscan writes "
                                   f"version {VERSION}")
         try:
             settings = {"method": str(data["method"]), "options": dict(data["options"])}
-            records = [FrameRecord.from_json(r, f"{where}: frames[{k}]") for k, r in enumerate(data["frames"])]
+            records = [FrameRecord.from_json(r, f"{where}: frames[{k}]") for k,
+                       r in enumerate(data["frames"])]
             failed = {int(f["index"]): str(f["error"]) for f in data["failed"]}
             return cls(str(data["session"]), settings, dict(data["inputs"]), int(data["total"]),
                        {r.index: r for r in records}, failed)
         except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(f"{where}: missing or malformed key ({type(exc).__name__}: {exc})") from None
+            raise FileFormatError(
+                f"{where}: missing or malformed key ({type(exc).__name__}: {exc})") from None
 
 
 class OutputFolder:
-    """A batch's output folder, held for one run: created when missing, locked against a second run, stale temporary
-    files of a killed run removed, the manifest read and checked against this run's settings and inputs.
+    """A batch's output folder, held for one run: created when missing, locked against a second run,
+    stale temporary files of a killed run removed, the manifest read and checked against this run's
+    settings and inputs.
 
-    Refuses (MirrorscanError, one line) a folder that holds other files and no manifest, a folder another run is
-    writing into, and a manifest made with other settings or inputs unless `overwrite` (then every frame is done
-    again, and the files of frames the session no longer has are removed).
+    Refuses (MirrorscanError, one line) a folder that holds other files and no manifest, a folder
+    another run is writing into, and a manifest made with other settings or inputs unless
+    `overwrite` (then every frame is done again, and the files of frames that are not in the
+    session are removed).
     """
 
-    def __init__(self, path: Path, session: str, settings: dict, inputs: dict, names: tuple[str, ...],
+    def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
+                 names: tuple[str, ...],
                  overwrite: bool = False):
         self.path = Path(path)
         self._flushed = self._flush_seconds = 0.0
-        self._unflushed: list[FrameRecord] = []        # frames added since the last write of the manifest
+        # frames added since the last write of the manifest
+        self._unflushed: list[FrameRecord] = []
         self._lock = _lock(self.path)
         try:
             _remove_stale_temporaries(self.path)
             old = self._read_old()
-            settings, inputs = json.loads(json.dumps(settings)), json.loads(json.dumps(inputs))   # as read back
+            # as read back
+            settings, inputs = json.loads(json.dumps(settings)), json.loads(json.dumps(inputs))
             self.manifest = Manifest(session, settings, inputs, len(names))
             self.kept = self._keep(old, names, overwrite)
             self.manifest.done.update(self.kept)
@@ -145,32 +163,39 @@ class OutputFolder:
         if not file.exists():
             others = [p.name for p in self.path.iterdir() if p.name != LOCK_FILE]
             if others:
-                raise MirrorscanError(f"{self.path}: already holds files ({others[0]}...) and no {MANIFEST_FILE}; "
+                raise MirrorscanError(
+                    f"{self.path}: already holds files ({others[0]}...) and no {MANIFEST_FILE}; "
                                       "choose a new or empty folder")
             return None
         return Manifest.from_json(read_json(file, "manifest"), str(file))
 
-    def _keep(self, old: Manifest | None, names: tuple[str, ...], overwrite: bool) -> dict[int, FrameRecord]:
+    def _keep(self, old: Manifest | None, names: tuple[str, ...], overwrite: bool) -> dict[
+        int, FrameRecord]:
         """The frames of the old manifest that this run keeps (see the class docstring)."""
         if old is None:
             return {}
-        changed = differences({**old.settings, **old.inputs}, {**self.manifest.settings, **self.manifest.inputs})
+        changed = differences({**old.settings, **old.inputs},
+                              {**self.manifest.settings, **self.manifest.inputs})
         if changed and not overwrite:
-            said = ", ".join(change.removeprefix("options.") for change in changed)    # "a different options.voxel"
-            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with other settings ({said}); "
-                                  "use --overwrite to redo every frame, or another folder")     # had read oddly
+            said = ", ".join(change.removeprefix("options.") for change in changed)
+            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames were made with other "
+                                  f"settings ({said}); use --overwrite to redo every frame, or "
+                                  "another folder")
         if overwrite:
             for record in old.done.values():
                 if record.file not in names:
                     (self.path / record.file).unlink(missing_ok=True)
             return {}
-        return {i: r for i, r in old.done.items() if i < len(names) and r.file == names[i] and r.intact(self.path)}
+        return {i: r for i,
+                r in old.done.items() if i < len(names) and r.file == names[i]
+                and r.intact(self.path)}
 
     def add(self, records: list[FrameRecord], failures: dict[int, str]) -> None:
-        """Record frames done and frames failed. The manifest is written when the time since the last write is at
-        least MIN_FLUSH_SECONDS and 1 / FLUSH_SHARE times what that write took, and at most MAX_FLUSH_SECONDS: often
-        for a short recording, every 0.6 s or so for 18,000 frames (a 2.6 MB manifest written in 30 ms), never a large
-        share of the run; a write slowed by a busy disk does not leave the next one far behind the frames."""
+        """Record frames done and frames failed. The manifest is written when the time since the
+        last write is at least MIN_FLUSH_SECONDS and 1 / FLUSH_SHARE times what that write took, and
+        at most MAX_FLUSH_SECONDS: often for a short recording, every 0.6 s or so for 18,000 frames
+        (a 2.6 MB manifest written in 30 ms), never a large share of the run; a write slowed by a
+        busy disk does not leave the next one far behind the frames."""
         for r in records:
             self.manifest.done[r.index] = r
             self.manifest.failed.pop(r.index, None)
@@ -181,9 +206,10 @@ class OutputFolder:
             self.flush()
 
     def flush(self) -> None:
-        """Flush the frames' files added since the last write to the disk (the workers write them without), then
-        write the manifest (atomically): it lists a frame only once its file is on the disk. Raises OSError naming
-        the file that could not be flushed or written (the manifest on the disk is then the last one written)."""
+        """Flush the frames' files added since the last write to the disk (the workers write them
+        without), then write the manifest (atomically): it lists a frame only once its file is on
+        the disk. Raises OSError naming the file that could not be flushed or written (the manifest
+        on the disk is then the last one written)."""
         start = time.monotonic()
         for record in self._unflushed:
             make_durable(self.path / record.file)
@@ -200,8 +226,8 @@ class OutputFolder:
 
 
 def _lock(folder: Path) -> int:
-    """Create `folder` if needed and take its lock (a file descriptor, released by os.close); MirrorscanError when
-    another process holds it."""
+    """Create `folder` if needed and take its lock (a file descriptor, released by os.close);
+    MirrorscanError when another process holds it."""
     if folder.exists() and not folder.is_dir():
         raise MirrorscanError(f"{folder}: exists and is not a folder")
     folder.mkdir(parents=True, exist_ok=True)
@@ -210,12 +236,14 @@ def _lock(folder: Path) -> int:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         os.close(fd)
-        raise MirrorscanError(f"{folder}: another mirrorscan run is writing into this folder") from None
+        raise MirrorscanError(
+            f"{folder}: another mirrorscan run is writing into this folder") from None
     return fd
 
 
 def _remove_stale_temporaries(folder: Path) -> None:
-    """Remove the temporary files that atomic writes leave when their process is killed ('.NAME.XXXX.tmp')."""
+    """Remove the temporary files that atomic writes leave when their process is killed
+    ('.NAME.XXXX.tmp')."""
     for path in folder.glob(".*.tmp"):
         if path.name.startswith(f".{MANIFEST_FILE}.") or ".ply." in path.name:
             path.unlink(missing_ok=True)

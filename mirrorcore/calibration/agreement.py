@@ -1,27 +1,30 @@
-"""The agreement of the views of a rig in one frame: how a point of one view compares with what another view saw where
-the point would be; and, for a labelled cloud, each mirror point's distance to the direct surface (the heat map of a
-calibration's quality).
+"""The agreement of the views of a rig in one frame: how a point of one view compares with what
+another view saw where the point would be; and, for a labelled cloud, each mirror point's distance
+to the direct surface (the heat map of a calibration's quality).
 
-A point P of view a, mapped into view b's space (reflected through mirror b's plane when b is a mirror), falls on a
-pixel of the image. Where b has a reading there whose surface is P's (their normals agree, P faces b, and the two
-surfaces are within a few standard deviations), the residual is P's distance to the surface of that reading's
-neighbours (readings.py), along its normal, evaluated where P falls: depth noise only when the planes are right.
-Anything else says nothing: b saw nearer (P is hidden behind another part), cannot see there (outside the image or the
-mirror's boundary, the real object in front of the glass, no reading), or saw a different surface (the front of a part
-and its back).
+A point P of view a, mapped into view b's space (reflected through mirror b's plane when b is a
+mirror), falls on a pixel of the image. Where b has a reading there whose surface is P's (their
+normals agree, P faces b, and the two surfaces are within a few standard deviations), the residual
+is P's distance to the surface of that reading's neighbours (readings.py), along its normal,
+evaluated where P falls: depth noise only when the planes are right. Anything else says nothing: b
+saw nearer (P is hidden behind another part), cannot see there (outside the image or the mirror's
+boundary, the real object in front of the glass, no reading), or saw a different surface (the front
+of a part and its back).
 
-A point falls where its neighbours' surface (its anchor) falls, so whether it is compared does not depend on its own
-reading's noise. The anchor's error along P's ray moves that place along the surface where the ray is oblique, and
-there the tangent of a curved surface passes beside P: on average by -k sin^2(t) var / 2 (k the surface's curvature
-along the way, t the ray's incidence, var the anchor's variance along its ray), inside a convex surface. That part is
-removed (CURVATURE_STEP): it was 0.2 to 0.9 mm for each pair of views of the walking figure, whose limbs are 4 to 6 cm
-across, and is within +-0.2 mm after. Where P falls on a reading on the rim of the other view's silhouette, the
-anchor's error may be all that puts it there, beside a surface the other view does not see: such a comparison counts
-only when the anchor falls there within RIM_LANDING_PX (its standard deviation along the ray, in pixels of the image).
+A point falls where its neighbours' surface (its anchor) falls, so whether it is compared does not
+depend on its own reading's noise. The anchor's error along P's ray moves that place along the
+surface where the ray is oblique, and there the tangent of a curved surface passes beside P: on
+average by -k sin^2(t) var / 2 (k the surface's curvature along the way, t the ray's incidence, var
+the anchor's variance along its ray), inside a convex surface. That part is removed
+(CURVATURE_STEP): it was 0.2 to 0.9 mm for each pair of views of the walking figure, whose limbs are
+4 to 6 cm across, and is within +-0.2 mm after. Where P falls on a reading on the rim of the other
+view's silhouette, the anchor's error may be all that puts it there, beside a surface the other view
+does not see: such a comparison counts only when the anchor falls there within RIM_LANDING_PX (its
+standard deviation along the ray, in pixels of the image).
 
-Points are matched by pixel (projective association, as KinectFusion does), never with their nearest neighbour in 3D,
-which prefers the readings that noise moved towards them and matches a point beside the other view's silhouette with
-the silhouette.
+Points are matched by pixel (projective association, as KinectFusion does), never with their nearest
+neighbour in 3D, which prefers the readings that noise moved towards them and matches a point beside
+the other view's silhouette with the silhouette.
 """
 from __future__ import annotations
 
@@ -33,26 +36,33 @@ import numpy as np
 from mirrorcore.rig.cloud import Cloud
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.calibration.readings import MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints, view_points
+from mirrorcore.calibration.readings import (MAX_INCIDENCE_DEG, MIN_NEIGHBOURS, ViewPoints,
+                                             view_points)
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig
 
-MIN_NORMAL_COSINE = 0.7      # a point agrees with a reading when their normals are within 45 degrees...
-AGREE_SIGMAS = 3.0           # ... and their surfaces within this many standard deviations of each other,
-ANCHOR_NOISE = 0.3           # a neighbours' surface having this share of a reading's noise (wider windows let the
-                             # walking figure's limbs compare with the wrong surfaces: 1.5 mm more bias at 0.5)
-SHOWN_GATE = 0.03            # metres: distances shown (heat map, reports) count surfaces this far apart as the same
-HEAT_WINDOW = 7              # pixels: the heat map colours a point by the mean distance of its view's compared points
-                             # in this window about it (one point's scatters with the depth noise: correct planes
-                             # looked mottled red and blue at a 10 mm scale, a helper; on the sphere's true planes the
-                             # share beyond 5 mm went from 3-8 % to 0-3 %)
-CURVATURE_STEP = 0.005       # metres along a point's ray: the step of the second difference that measures the target
-                             # surface's curvature where the anchor's error moves it (its quadratic: any step < 2 cm)
-RIM_LANDING_PX = 1.0         # pixels: how surely a point must fall on a reading on the rim of the other view to be
-                             # compared with it (on the walking figure, noisy anchors admitted 12 % more comparisons
-                             # than exact ones, 60 % of them there, 0.3 to 3 mm inside the surface; the planes from
-                             # the truth -1.9 -> -1.4 mm, the sphere's unchanged; 0.75 px: -0.8 mm, but the sphere's
-                             # +0.1 mm and the scatter 1.6 times larger)
+# a point agrees with a reading when their normals are within 45 degrees...
+MIN_NORMAL_COSINE = 0.7
+# ... and their surfaces within this many standard deviations of each other,
+AGREE_SIGMAS = 3.0
+# a neighbours' surface having this share of a reading's noise (wider windows let the walking
+# figure's limbs compare with the wrong surfaces: 1.5 mm more bias at 0.5)
+ANCHOR_NOISE = 0.3
+# metres: distances shown (heat map, reports) count surfaces this far apart as the same
+SHOWN_GATE = 0.03
+# pixels: the heat map colours a point by the mean distance of its view's compared points in this
+# window about it (one point's distance scatters with the depth noise, which would mottle correct
+# planes red and blue at a 10 mm scale; on the sphere's true planes the window leaves 0 to 3 % of
+# the points beyond 5 mm, single points 3 to 8 %)
+HEAT_WINDOW = 7
+# metres along a point's ray: the step of the second difference that measures the target surface's
+# curvature where the anchor's error moves it (its quadratic: any step < 2 cm)
+CURVATURE_STEP = 0.005
+# pixels: how surely a point must fall on a reading on the rim of the other view to be compared with
+# it (on the walking figure, noisy anchors admitted 12 % more comparisons than exact ones, 60 % of
+# them there, 0.3 to 3 mm inside the surface; the planes from the truth -1.9 -> -1.4 mm, the
+# sphere's unchanged; 0.75 px: -0.8 mm, but the sphere's +0.1 mm and the scatter 1.6 times larger)
+RIM_LANDING_PX = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,9 +70,11 @@ class Comparison:
     """Points of one view that agree with readings of another view.
 
     index : (m,) int64 into the points
-    residual : (m,) float64 metres, each point's signed distance to the other view's surface (> 0 outside it)
+    residual : (m,) float64 metres, each point's signed distance to the other view's surface (> 0
+    outside it)
     sigma : (m,) float64 metres, the noise of the residual
-    direction : (m, 3) float64, the residual's gradient with respect to the point, in the other view's space (the
+    direction : (m, 3) float64, the residual's gradient with respect to the point, in the other
+    view's space (the
         normal of its surface)
     """
 
@@ -76,15 +88,15 @@ class Comparison:
 
 
 def in_view(seen: ViewPoints, plane: Plane | None) -> ViewPoints:
-    """Real points into the space of a view: reflected through the mirror's plane, or as they are for the camera
-    (plane None)."""
+    """Real points into the space of a view: reflected through the mirror's plane, or as they are
+    for the camera (plane None)."""
     return seen if plane is None else seen.reflected(plane)
 
 
 class TargetView:
-    """What one view saw in a frame, as points of other views are compared with it, in its own space (the camera
-    frame for the camera, its mirror image for a mirror: `in_view` maps points there): its readings, and per pixel of
-    the image the reading there (-1 for none)."""
+    """What one view saw in a frame, as points of other views are compared with it, in its own space
+    (the camera frame for the camera, its mirror image for a mirror: `in_view` maps points there):
+    its readings, and per pixel of the image the reading there (-1 for none)."""
 
     def __init__(self, intrinsics: Intrinsics, view: ViewPoints):
         self.intrinsics, self.view = intrinsics, view
@@ -92,8 +104,9 @@ class TargetView:
         self.index[view.pixels] = np.arange(len(view))
 
     def compare(self, mapped: ViewPoints, gate: float = 0.0) -> Comparison:
-        """Points in this view's space (`in_view`), normals out of the object, compared with its readings (see the
-        module); `gate` (metres) widens what counts as the same surface while the planes may still be far off."""
+        """Points in this view's space (`in_view`), normals out of the object, compared with its
+        readings (see the module); `gate` (metres) widens what counts as the same surface while the
+        planes may still be far off."""
         uv, z = project_points(self.intrinsics, mapped.anchors)
         u, v = np.round(np.nan_to_num(uv, nan=-1.0)).T.astype(np.int64)
         inside = np.flatnonzero((z > 0) & (u >= 0) & (u < self.intrinsics.width) & (v >= 0)
@@ -103,51 +116,61 @@ class TargetView:
         target = self.view
         normal, theirs = target.normals[reading], mapped.normals[index]
         facing = ((np.einsum("ij,ij->i", normal, theirs) > MIN_NORMAL_COSINE)
-                  & (-np.einsum("ij,ij->i", theirs, target.rays[reading]) > np.cos(np.radians(MAX_INCIDENCE_DEG))))
+                  & (-np.einsum("ij,ij->i", theirs,
+                                target.rays[reading]) > np.cos(np.radians(MAX_INCIDENCE_DEG))))
         index, reading, uv, normal = index[facing], reading[facing], uv[facing], normal[facing]
         surface = target.surface_points(self.intrinsics, reading, uv)
         sigma = np.hypot(_along(target, reading, normal), _along(mapped, index, normal))
-        offset = np.einsum("ij,ij->i", normal, mapped.anchors[index] - surface)   # > 0: in front of the surface
+        # > 0: in front of the surface
+        offset = np.einsum("ij,ij->i", normal, mapped.anchors[index] - surface)
         velocity = self._velocity(mapped, index)
         agree = ((np.abs(offset) <= AGREE_SIGMAS * ANCHOR_NOISE * sigma + gate)
                  & (~target.rim[reading]
-                    | (np.sqrt(mapped.anchor_var[index]) * np.hypot(*velocity.T) <= RIM_LANDING_PX)))
+                    | (np.sqrt(mapped.anchor_var[index]) * np.hypot(
+                        *velocity.T) <= RIM_LANDING_PX)))
         index, normal, reading, uv, surface, velocity = (
             a[agree] for a in (index, normal, reading, uv, surface, velocity))
         residual = np.einsum("ij,ij->i", normal, mapped.points[index] - surface)
-        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(reading, uv, surface, normal, velocity)
+        residual -= 0.5 * mapped.anchor_var[index] * self._curvature(
+            reading, uv, surface, normal, velocity)
         return Comparison(index, residual, sigma[agree], normal)
 
     def _velocity(self, mapped: ViewPoints, index: np.ndarray) -> np.ndarray:
-        """(m, 2) pixels per metre: how fast the anchors of points `index` (m,) of `mapped` move across the image as
-        they move along their rays."""
+        """(m, 2) pixels per metre: how fast the anchors of points `index` (m,) of `mapped` move
+        across the image as they move along their rays."""
         anchors, rays = mapped.anchors[index], mapped.rays[index]
-        return np.column_stack([self.intrinsics.fx * (rays[:, 0] * anchors[:, 2] - anchors[:, 0] * rays[:, 2]),
-                                self.intrinsics.fy * (rays[:, 1] * anchors[:, 2] - anchors[:, 1] * rays[:, 2])]
+        return np.column_stack([self.intrinsics.fx * (rays[:, 0] * anchors[:, 2] - anchors[
+            :, 0] * rays[:, 2]),
+                                self.intrinsics.fy * (rays[:, 1] * anchors[:, 2] - anchors[
+                                    :, 1] * rays[:, 2])]
                                ) / anchors[:, 2:] ** 2
 
-    def _curvature(self, reading: np.ndarray, uv: np.ndarray, surface: np.ndarray, normal: np.ndarray,
+    def _curvature(self, reading: np.ndarray, uv: np.ndarray, surface: np.ndarray,
+                   normal: np.ndarray,
                    velocity: np.ndarray) -> np.ndarray:
-        """(m,) 1/metres: the second derivative, along `normal` (m, 3), of the surface of readings `reading` (m,) where
-        points' anchors would fall if they moved along their rays from where they fall now (uv (m, 2) pixels, on
-        `surface` (m, 3) metres; `velocity` (m, 2) pixels per metre, _velocity): the residual's curvature in the
-        anchor's error."""
+        """(m,) 1/metres: the second derivative, along `normal` (m, 3), of the surface of readings
+        `reading` (m,) where points' anchors would fall if they moved along their rays from where
+        they fall now (uv (m, 2) pixels, on `surface` (m, 3) metres; `velocity` (m, 2) pixels per
+        metre, _velocity): the residual's curvature in the anchor's error."""
         step = CURVATURE_STEP * velocity                                  # pixels
-        ahead, behind = (self.view.surface_points(self.intrinsics, reading, uv + sign * step) for sign in (1, -1))
+        ahead, behind = (self.view.surface_points(self.intrinsics, reading, uv + sign * step)
+                         for sign in (1, -1))
         return np.einsum("ij,ij->i", normal, ahead + behind - 2 * surface) / CURVATURE_STEP ** 2
 
 
 def _along(view: ViewPoints, index: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """The noise (metres) along unit `normal` (m, 3) of readings `index` of `view`: their depth noise along their
-    rays and their lateral uncertainty across them."""
+    """The noise (metres) along unit `normal` (m, 3) of readings `index` of `view`: their depth
+    noise along their rays and their lateral uncertainty across them."""
     cosine = np.einsum("ij,ij->i", normal, view.rays[index])
-    return np.sqrt((view.sigma[index] * cosine) ** 2 + view.lateral[index] ** 2 * np.maximum(1 - cosine ** 2, 0))
+    return np.sqrt((view.sigma[index] * cosine) ** 2 + view.lateral[index] ** 2 * np.maximum(
+        1 - cosine ** 2, 0))
 
 
 @dataclass(frozen=True, eq=False)
 class FrameViews:
-    """The views of one frame: `targets` {0: the camera, j: mirror j} for every view with readings; `centre` (3,)
-    metres, the median of the direct readings (of all the object's points without any)."""
+    """The views of one frame: `targets` {0: the camera, j: mirror j} for every view with readings;
+    `centre` (3,) metres, the median of the direct readings (of all the object's points without
+    any)."""
 
     targets: dict[int, TargetView]
     centre: np.ndarray
@@ -157,9 +180,9 @@ class FrameViews:
 
 
 def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
-    """A frame's views: depth (H, W) float metres as measured (not smoothed), mask (H, W) bool the object's pixels
-    (mirrorcore.rig.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says which view each of the object's pixels
-    belongs to; mirrors without a plane have no view."""
+    """A frame's views: depth (H, W) float metres as measured (not smoothed), mask (H, W) bool the
+    object's pixels (mirrorcore.rig.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says
+    which view each of the object's pixels belongs to; mirrors without a plane have no view."""
     depth = np.asarray(depth, dtype=np.float32)
     mask = np.asarray(mask, bool) & (depth > 0)
     cloud = reconstruct_raw(rig, depth, mask)
@@ -181,12 +204,14 @@ def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
 
 
 def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
-    """For the heat map of a calibration: each point's signed distance (mm) to the surface the camera sees directly.
+    """For the heat map of a calibration: each point's signed distance (mm) to the surface the
+    camera sees directly.
 
-    rig : the rig whose planes made `cloud` (Algorithm 1) from `depth` (H, W) float metres -> (n,) float32 mm: > 0
-    where a mirror's point lies outside the direct surface (in front of it, along its normal), < 0 inside; NaN for the
-    direct points themselves and for mirror points with nothing to compare with (parts of the object that the camera
-    does not see, readings too oblique or at a depth edge).
+    rig : the rig whose planes made `cloud` (Algorithm 1) from `depth` (H, W) float metres -> (n,)
+    float32 mm: > 0 where a mirror's point lies outside the direct surface (in front of it, along
+    its normal), < 0 inside; NaN for the direct points themselves and for mirror points with nothing
+    to compare with (parts of the object that the camera does not see, readings too oblique or at a
+    depth edge).
     """
     out = np.full(len(cloud), np.nan, dtype=np.float32)
     mask = np.zeros(rig.intrinsics.shape, bool)
@@ -196,17 +221,19 @@ def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
         return out
     for j in views.targets:
         if j:
-            found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane), SHOWN_GATE)
+            found = views.targets[0].compare(views.points(j).reflected(rig.mirrors[j - 1].plane),
+                                             SHOWN_GATE)
             pixels = views.points(j).pixels[found.index]
             out[np.searchsorted(cloud.pixel_index, pixels)] = 1e3 * found.residual
     return out
 
 
-def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray, shape: tuple[int, int],
+def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray,
+                shape: tuple[int, int],
                 size: int = HEAT_WINDOW) -> np.ndarray:
-    """(n,) float32: each finite value replaced by the mean of the finite values of its own source within the size x
-    size pixels about its pixel; NaN stays NaN. values (n,) float, pixel_index (n,) flat indices into an image of
-    `shape` (H, W) (one point a pixel), sources (n,) labels."""
+    """(n,) float32: each finite value replaced by the mean of the finite values of its own source
+    within the size x size pixels about its pixel; NaN stays NaN. values (n,) float, pixel_index
+    (n,) flat indices into an image of `shape` (H, W) (one point a pixel), sources (n,) labels."""
     values, sources = np.asarray(values, np.float32), np.asarray(sources)
     out = np.full(len(values), np.nan, np.float32)
     finite = np.isfinite(values)
@@ -215,20 +242,22 @@ def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray
         pixels = np.asarray(pixel_index)[pick]
         total, count = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
         total.reshape(-1)[pixels], count.reshape(-1)[pixels] = values[pick], 1.0
-        total, count = (cv2.boxFilter(image, -1, (size, size), normalize=False, borderType=cv2.BORDER_CONSTANT)
+        total, count = (cv2.boxFilter(image, -1, (size, size), normalize=False,
+                                      borderType=cv2.BORDER_CONSTANT)
                         for image in (total, count))
         out[pick] = total.reshape(-1)[pixels] / count.reshape(-1)[pixels]
     return out
 
 
 def heat_figures(distances: np.ndarray, sources: np.ndarray) -> dict[int, tuple[float, float]]:
-    """Per view seen in a mirror, what the heat map shows: {source label: (median distance mm to the direct surface,
-    NaN when none is compared; the share of its points compared, 0 to 1)}. distances (n,) float mm as
-    surface_distances gives them, sources (n,) their labels."""
+    """Per view seen in a mirror, what the heat map shows: {source label: (median distance mm to the
+    direct surface, NaN when none is compared; the share of its points compared, 0 to 1)}. distances
+    (n,) float mm as surface_distances gives them, sources (n,) their labels."""
     distances, sources = np.asarray(distances, dtype=np.float64), np.asarray(sources)
     figures = {}
     for label in np.unique(sources[sources != 0]):
         mine = distances[sources == label]
         compared = mine[np.isfinite(mine)]
-        figures[int(label)] = (float(np.median(compared)) if len(compared) else float("nan"), len(compared) / len(mine))
+        figures[int(label)] = (float(np.median(compared)) if len(compared) else float("nan"),
+                               len(compared) / len(mine))
     return figures

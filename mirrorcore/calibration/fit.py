@@ -1,5 +1,5 @@
-"""Mirror calibration, the three ways of the paper's section 3: from markers on the glass, from the mirror's frame (a
-region), and from pairs of real and virtual points of a calibration object."""
+"""Mirror calibration, the three ways of the paper's section 3: from markers on the glass, from the
+mirror's frame (a region), and from pairs of real and virtual points of a calibration object."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
@@ -13,27 +13,33 @@ from mirrorcore.base.errors import CalibrationError
 from mirrorcore.geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from mirrorcore.geometry.plane import Plane, fit_plane_ransac
 from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
-from mirrorcore.calibration.markers import GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS, MarkerResiduals, marker_points, marker_residuals
+from mirrorcore.calibration.markers import (GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS,
+                                            MarkerResiduals, marker_points, marker_residuals)
 from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.io.session import Session, SessionMirror
 
 MIN_MARKER_SPREAD = 0.03   # metres: marker centres closer than this to one line are collinear
 MIN_REGION_PIXELS = 50     # a region calibration needs at least this many valid pixels
-INLIER_SIGMAS = 3.0        # RANSAC inlier threshold in standard deviations of the depth noise at each point
-MIN_CAMERA_DISTANCE = 0.05  # metres: a mirror plane passing closer to the camera than this is refused
-MAX_MARKER_FRAMES = 30     # a session's markers and regions are read on its background and up to this many of its
-                           # frames, evenly spaced (per pixel, the regions on their median, the markers on their
-                           # robust mean: markers.marker_points)
+# RANSAC inlier threshold in standard deviations of the depth noise at each point
+INLIER_SIGMAS = 3.0
+# metres: a mirror plane passing closer to the camera than this is refused
+MIN_CAMERA_DISTANCE = 0.05
+# a session's markers and regions are read on its background and up to this many of its frames,
+# evenly spaced (per pixel, the regions on their median, the markers on their robust mean:
+# markers.marker_points)
+MAX_MARKER_FRAMES = 30
 
 
 @dataclass(frozen=True)
 class Calibration:
     """A fitted mirror plane and how well the data support it.
 
-    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used / kept by RANSAC;
-    markers : for a markers fit, how far each marker's centre lies from the plane against the noise there (None for
-    region and pair calibrations); centre : (3,) metres, the middle of the points used (where a change of the plane
-    is measured); marker_offset : metres, the glass the markers fit put between its markers and the plane.
+    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used
+    / kept by RANSAC;
+    markers : for a markers fit, how far each marker's centre lies from the plane against the noise
+    there (None for region and pair calibrations); centre : (3,) metres, the middle of the points
+    used (where a change of the plane is measured); marker_offset : metres, the glass the markers
+    fit put between its markers and the plane.
     """
 
     plane: Plane
@@ -45,19 +51,22 @@ class Calibration:
     marker_offset: float = 0.0
 
     def summary(self, marker_names: list[str] | None = None) -> str:
-        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor, the farthest (by
-        its name in `marker_names`, else its number from 1) and the glass taken between the markers and the plane."""
+        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor,
+        the farthest (by its name in `marker_names`, else its number from 1) and the glass taken
+        between the markers and the plane."""
         text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
         if self.markers is not None:
             grades = self.markers.grades
-            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES if grades.count(g))
+            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES
+                                              if grades.count(g))
             ratio = np.asarray(self.markers.distance_mm) / np.asarray(self.markers.sigma_mm)
             if np.any(np.isfinite(ratio)):
                 worst = int(np.nanargmax(ratio))
                 name = marker_names[worst] if marker_names else str(worst + 1)
                 text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
                          f"{ratio[worst]:.1f}σ)")
-            text += (f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
+            text += (
+                f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
                      if self.marker_offset else "; plane on the markers' faces (glass 0 mm)")
         return text
 
@@ -67,15 +76,36 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
                            marker_offset: float = 0.0) -> Calibration:
     """Fit a mirror plane to the markers stuck on its glass (RANSAC, then SVD on the inliers).
 
-    depth : (H, W) or (k, H, W) float metres (several frames are reduced to their per-pixel robust mean, inside the
-    markers' windows only: markers.marker_points)
-    markers : (m, 2) clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
-    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass): the plane
-    fitted to the markers is moved this far away from the camera, along its normal. The residuals stay those of the
-    markers' own plane.
-    The inlier threshold is INLIER_SIGMAS times the depth noise at each point. Raises CalibrationError naming the
-    mirror and the markers when fewer than 3 markers have depth, the markers are collinear, or the plane passes
-    through the camera.
+    The inlier threshold is INLIER_SIGMAS times the depth noise at each point.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float
+        Metres; several frames are reduced to their per-pixel robust mean, inside the markers'
+        windows only (markers.marker_points).
+    markers : (m, 2) float
+        Clicked pixels (u, v); each contributes the valid pixels within `window` pixels.
+    rng : numpy.random.Generator
+        RANSAC's only source of randomness.
+    name : str
+        The mirror, named in errors.
+    window : int
+        Pixels.
+    marker_offset : float
+        Metres from the markers' faces to the reflecting surface (the silver behind the glass):
+        the plane fitted to the markers is moved this far away from the camera, along its normal.
+        The residuals stay those of the markers' own plane.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    CalibrationError
+        Naming the mirror and the markers when fewer than 3 markers have depth, the markers are
+        collinear, or the plane passes through the camera.
     """
     depth = np.asarray(depth)
     check_depth_shape(intr, depth[-1] if depth.ndim == 3 else depth, f"{name}: depth image")
@@ -84,67 +114,80 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
     usable = [len(g) >= MIN_MARKER_PIXELS for g in groups]
     if sum(usable) < 3:
         dead = [i + 1 for i, ok in enumerate(usable) if not ok]
-        detail = f"; marker(s) {', '.join(map(str, dead))} have no depth reading within {window} px" if dead else ""
-        raise CalibrationError(f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
+        detail = (f"; marker(s) {', '.join(map(str, dead))} have no depth reading within "
+                  f"{window} px" if dead else "")
+        raise CalibrationError(
+            f"{name}: {sum(usable)} usable marker(s) of {len(markers)}, 3 are needed{detail}")
     centres = np.array([np.median(g, axis=0) for g, ok in zip(groups, usable) if ok])
     spread = _distance_to_best_line(centres).max()
     if spread < MIN_MARKER_SPREAD:
         used = [i + 1 for i, ok in enumerate(usable) if ok]
-        raise CalibrationError(f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
-                               f"(all within {spread * 1000:.0f} mm of one line); place one off that line")
+        raise CalibrationError(
+            f"{name}: markers {', '.join(map(str, used))} are (nearly) collinear "
+                               f"(all within {spread * 1000:.0f} mm of one line); place one off "
+                               "that line")
     points = np.concatenate([g for g, ok in zip(groups, usable) if ok])
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
     silver = Plane(fit.plane.normal, fit.plane.d + float(marker_offset))
     _check_camera_side(silver, name)
     return Calibration(silver, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
-                       marker_residuals(intr, depth, markers, fit.plane, window), _centre(points[fit.inliers]),
+                       marker_residuals(intr, depth, markers, fit.plane, window),
+                       _centre(points[fit.inliers]),
                        float(marker_offset))
 
 
 def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,
                           name: str = "mirror") -> Calibration:
-    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper: "if it is large
-    enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u, v).
-    Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too thin for a plane."""
+    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper:
+    "if it is large enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u,
+    v). Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too
+    thin for a plane."""
     depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
     polygon = validate_polygon(polygon, intr.shape, f"{name}: region")
     inside = polygon_mask(polygon, intr.shape) & (depth > 0)
     v, u = np.nonzero(inside)
     if len(u) < MIN_REGION_PIXELS:
-        raise CalibrationError(f"{name}: the region has {len(u)} pixels with depth, {MIN_REGION_PIXELS} are needed")
+        raise CalibrationError(
+            f"{name}: the region has {len(u)} pixels with depth, {MIN_REGION_PIXELS} are needed")
     points = reproject_pixels(intr, u, v, depth[v, u])
     if _distance_to_best_line(points).max() < MIN_MARKER_SPREAD:
         raise CalibrationError(f"{name}: the region is too thin to define a plane")
     fit = fit_plane_ransac(points, INLIER_SIGMAS * axial_sigma(points[:, 2]), rng, where=name)
     _check_camera_side(fit.plane, name)
-    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()), centre=_centre(points))
+    return Calibration(fit.plane, fit.rms * 1e3, len(points), int(fit.inliers.sum()),
+                       centre=_centre(points))
 
 
 def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
-    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its virtual image).
+    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its
+    virtual image).
 
-    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a calibration
-    object seen directly and behind the mirror. The normal is the mean of the unit directions virtual -> real
-    (towards the camera's side); d makes the plane pass through the pairs' midpoints on average.
-    rms_mm reports the RMS of |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where
-    the plane puts it. Raises CalibrationError for no pairs, coincident pairs, or a camera behind the resulting plane.
+    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a
+    calibration object seen directly and behind the mirror. The normal is the mean of the unit
+    directions virtual -> real (towards the camera's side); d makes the plane pass through the
+    pairs' midpoints on average. rms_mm reports the RMS of |reflect(virtual) - real| / 2, the
+    distance of each virtual point's reflection to where the plane puts it. Raises CalibrationError
+    for no pairs, coincident pairs, or a camera behind the resulting plane.
     """
     real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
     virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)
     if len(real) == 0 or real.shape != virtual.shape:
-        raise CalibrationError(f"{name}: pairs need as many real points as virtual ones, at least one "
+        raise CalibrationError(
+            f"{name}: pairs need as many real points as virtual ones, at least one "
                                f"(got {len(real)} and {len(virtual)})")
     diff = real - virtual
     length = np.linalg.norm(diff, axis=1)
     if np.any(length < 1e-6):
-        raise CalibrationError(f"{name}: pair(s) {', '.join(str(i + 1) for i in np.nonzero(length < 1e-6)[0])} "
+        raise CalibrationError(
+            f"{name}: pair(s) {', '.join(str(i + 1) for i in np.nonzero(length < 1e-6)[0])} "
                                "have the real and virtual point in the same place")
     n = (diff / length[:, None]).mean(axis=0)
     n /= np.linalg.norm(n)
     d = -float(np.mean((real + virtual) / 2 @ n))
     if d <= 0:
-        raise CalibrationError(f"{name}: these pairs put the camera behind the mirror; are the real and virtual "
+        raise CalibrationError(
+            f"{name}: these pairs put the camera behind the mirror; are the real and virtual "
                                "points swapped?")
     plane = Plane.from_abcd([*n, d])
     _check_camera_side(plane, name)
@@ -155,14 +198,17 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
 
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
                       method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
-    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their markers (moved back by
-    each mirror's marker_offset), or with method 'region' from each mirror's region polygon; all or nothing: the first
-    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float metres.
-    returns the session with the new planes, and (index, Calibration) for each mirror calibrated."""
+    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their
+    markers (moved back by each mirror's marker_offset), or with method 'region' from each mirror's
+    region polygon; all or nothing: the first
+    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float
+    metres. returns the session with the new planes, and (index, Calibration) for each mirror
+    calibrated."""
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
         raise CalibrationError(f"{session.path}: the session has no mirrors")
-    results = [(i, _calibrate_mirror(session, session.mirrors[i], depth, method, rng)) for i in indices]
+    results = [(i, _calibrate_mirror(session, session.mirrors[i], depth, method, rng))
+               for i in indices]
     for i, result in results:
         session = session.with_mirror(i, replace(session.mirrors[i], plane=result.plane))
     return session, results
@@ -194,17 +240,19 @@ def _distance_to_best_line(points: np.ndarray) -> np.ndarray:
 
 def _check_camera_side(plane: Plane, name: str) -> None:
     if plane.d < MIN_CAMERA_DISTANCE:
-        raise CalibrationError(f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
+        raise CalibrationError(
+            f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
                                "must face the mirror, not lie in its plane")
 
 
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
-    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked for, or its
-    background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in front of the background in
-    them (static_frames). Raises CalibrationError without any, and MirrorscanError naming them when no
-    pixel of theirs has a reading."""
+    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked
+    for, or its background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in
+    front of the background in them (static_frames). Raises CalibrationError without any, and
+    MirrorscanError naming them when no pixel of theirs has a reading."""
     if frame is not None:
-        return require_readings(session.read_frame(frame)[None], str(Path(session.root) / session.frames[frame]))
+        return require_readings(session.read_frame(frame)[None],
+                                str(Path(session.root) / session.frames[frame]))
     frames = [session.read_frame(int(i)) for i in session.spread_frames(MAX_MARKER_FRAMES)]
     stack = static_frames(np.stack(frames) if frames else None, session.read_background())
     if stack is None:
@@ -213,10 +261,11 @@ def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
 
 
 def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> np.ndarray | None:
-    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front of the
-    background in them (depthops.without_occluders), then the background (H, W) itself; either alone when the other
-    is None; None without both. -> (k + 1, H, W) float32."""
+    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front
+    of the background in them (depthops.without_occluders), then the background (H, W) itself;
+    either alone when the other is None; None without both. -> (k + 1, H, W) float32."""
     if background is None:
         return None if frames is None else np.asarray(frames, dtype=np.float32)
     background = np.asarray(background, dtype=np.float32)[None]
-    return background if frames is None else np.concatenate([without_occluders(frames, background[0]), background])
+    return background if frames is None else np.concatenate([without_occluders(frames, background[
+        0]), background])

@@ -1,6 +1,7 @@
-"""Markers on a mirror's glass: the depth pixels around a clicked marker, each marker's centre, how far each lies from
-a plane against the depth noise there (graded good, fair, poor), and the review of a new fit against the plane it
-would replace (a large move, or markers that disagree, asks the user to confirm)."""
+"""Markers on a mirror's glass: the depth pixels around a clicked marker, each marker's centre, how
+far each lies from a plane against the depth noise there (graded good, fair, poor), and the review
+of a new fit against the plane it would replace (a large move, or markers that disagree, asks the
+user to confirm)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,23 +13,28 @@ from mirrorcore.geometry.camera import Intrinsics, reproject_pixels
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.depth.noise import axial_sigma
 
-MARKER_WINDOW = 2          # a marker contributes the valid pixels within this many pixels of its click (5x5)
+# a marker contributes the valid pixels within this many pixels of its click (5x5)
+MARKER_WINDOW = 2
 MIN_MARKER_PIXELS = 3      # ... and is usable when at least this many of them have a reading
 GOOD_SIGMAS = 2.0          # a marker's centre within this many noise sigmas of the plane is good,
 FAIR_SIGMAS = 3.0          # within this many fair (the fit's inlier threshold), beyond it poor
 MAX_TILT_DEG = 3.0         # a fit that turns a calibrated plane by more than this...
 MAX_SHIFT_MM = 20.0        # ... or moves it by more than this at the markers asks for confirmation
-REFIT_TILT_DEG = 0.25      # the same markers fitted again on other frames turn their plane by less than this...
-REFIT_SHIFT_MM = 2.0       # ... and move it by less than this (the demo's live frames: up to 0.07° and 0.2 mm)
+# the same markers fitted again on other frames turn their plane by less than this...
+REFIT_TILT_DEG = 0.25
+# ... and move it by less than this (the demo's live frames: up to 0.07° and 0.2 mm)
+REFIT_SHIFT_MM = 2.0
 GRADES = ("good", "fair", "poor", "unknown")
 
 
 def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
                   window: int = MARKER_WINDOW) -> np.ndarray:
-    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker pixel (u, v).
-    depth : (H, W), or (k, H, W) frames reduced inside the window only to their per-pixel robust mean
-    (depthops.robust_mean_depth: a median snaps to the camera's disparity steps; exact markers read on it gave planes
-    up to 1.1 mm and 0.14 degrees off, 0.6 mm and 0.07 degrees on the robust mean, seeds 0 to 3)."""
+    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker
+    pixel (u, v).
+    depth : (H, W), or (k, H, W) frames reduced inside the window only to their per-pixel robust
+    mean (depthops.robust_mean_depth: a median snaps to the camera's disparity steps; exact markers
+    read on it gave planes up to 1.1 mm and 0.14 degrees off, 0.6 mm and 0.07 degrees on the robust
+    mean, seeds 0 to 3)."""
     u0, v0 = int(round(marker[0])), int(round(marker[1]))
     u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
     v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
@@ -39,10 +45,10 @@ def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, floa
 
 @dataclass(frozen=True)
 class MarkerResiduals:
-    """Per marker (k,) float64: signed_mm, the signed distance of the marker's centre (the median of its points) to
-    a plane (> 0 on the camera's side: something in front of the glass hides it; < 0 behind: the click missed the
-    marker and the glass shows a virtual point); sigma_mm, the depth noise there; both NaN for a marker without
-    MIN_MARKER_PIXELS readings."""
+    """Per marker (k,) float64: signed_mm, the signed distance of the marker's centre (the median of
+    its points) to a plane (> 0 on the camera's side: something in front of the glass hides it; < 0
+    behind: the click missed the marker and the glass shows a virtual point); sigma_mm, the depth
+    noise there; both NaN for a marker without MIN_MARKER_PIXELS readings."""
 
     signed_mm: tuple[float, ...]
     sigma_mm: tuple[float, ...]
@@ -54,9 +60,11 @@ class MarkerResiduals:
 
     @property
     def grades(self) -> tuple[str, ...]:
-        """'good' (within GOOD_SIGMAS), 'fair' (within FAIR_SIGMAS), 'poor' or 'unknown' (no depth), per marker."""
+        """'good' (within GOOD_SIGMAS), 'fair' (within FAIR_SIGMAS), 'poor' or 'unknown' (no depth),
+        per marker."""
         ratio = np.asarray(self.distance_mm) / np.asarray(self.sigma_mm)
-        grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS], [0, 1, 2], 3)
+        grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS],
+                          [0, 1, 2], 3)
         return tuple(GRADES[g] for g in grade)
 
     def poor(self) -> tuple[int, ...]:
@@ -64,8 +72,10 @@ class MarkerResiduals:
         return tuple(i for i, g in enumerate(self.grades) if g == "poor")
 
 
-def marker_centres(intr: Intrinsics, depth: np.ndarray, markers, window: int = MARKER_WINDOW) -> np.ndarray:
-    """(k, 3) float64 metres: the median point of each marker's window, NaN rows for markers without depth."""
+def marker_centres(intr: Intrinsics, depth: np.ndarray, markers,
+                   window: int = MARKER_WINDOW) -> np.ndarray:
+    """(k, 3) float64 metres: the median point of each marker's window, NaN rows for markers without
+    depth."""
     centres = np.full((len(markers), 3), np.nan)
     for i, marker in enumerate(markers):
         points = marker_points(intr, depth, marker, window)
@@ -76,19 +86,21 @@ def marker_centres(intr: Intrinsics, depth: np.ndarray, markers, window: int = M
 
 def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
                      window: int = MARKER_WINDOW) -> MarkerResiduals:
-    """How far each marker lies from `plane` against the depth noise at it. depth : (H, W) or (k, H, W) metres."""
+    """How far each marker lies from `plane` against the depth noise at it. depth : (H, W) or (k, H,
+    W) metres."""
     centres = marker_centres(intr, depth, markers, window)
     with np.errstate(invalid="ignore"):
         signed = plane.signed_distance(centres) * 1e3
         sigma = axial_sigma(centres[:, 2]) * 1e3
-    return MarkerResiduals(tuple(signed.tolist()), tuple(np.where(np.isnan(centres[:, 2]), np.nan, sigma).tolist()))
+    return MarkerResiduals(tuple(signed.tolist()),
+                           tuple(np.where(np.isnan(centres[:, 2]), np.nan, sigma).tolist()))
 
 
 @dataclass(frozen=True)
 class FitReview:
-    """A new plane against the one it would replace: tilt_deg and shift_mm between them (along the normal, at the
-    markers' centre; NaN without a previous plane), the poor markers (0-based) and, in words, why the user should
-    look before applying it (empty: apply at once)."""
+    """A new plane against the one it would replace: tilt_deg and shift_mm between them (along the
+    normal, at the markers' centre; NaN without a previous plane), the poor markers (0-based) and,
+    in words, why the user should look before applying it (empty: apply at once)."""
 
     tilt_deg: float
     shift_mm: float
@@ -98,16 +110,18 @@ class FitReview:
 
     @property
     def needs_confirmation(self) -> bool:
-        """A concern about a plane the user has not taken yet: `refit` (the same markers, fitted before and applied,
-        fitted again within a refit's noise) has none to confirm, its poor markers still named."""
+        """A concern about a plane the user has not taken yet: `refit` (the same markers, fitted
+        before and applied, fitted again within a refit's noise) has none to confirm, its poor
+        markers still named."""
         return bool(self.concerns) and not self.refit
 
 
 def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, at: np.ndarray,
                marker_names: list[str], same_markers: bool = False) -> FitReview:
-    """Review a fit: at (3,) metres, where the shift between the two planes is measured (the markers' centre, on
-    their faces: in front of the new plane by its glass); marker_names label the markers in the concerns ('2.3');
-    same_markers: `previous` was fitted on these markers and applied (a proposal asked about them then)."""
+    """Review a fit: at (3,) metres, where the shift between the two planes is measured (the
+    markers' centre, on their faces: in front of the new plane by its glass); marker_names label the
+    markers in the concerns ('2.3'); same_markers: `previous` was fitted on these markers and
+    applied (a proposal asked about them then)."""
     tilt = shift = float("nan")
     concerns = []
     if previous is not None:
@@ -115,7 +129,8 @@ def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, a
         at = np.asarray(at, float)
         shift = abs(float(previous.signed_distance(at) - new.signed_distance(at))) * 1e3
         if tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM:
-            concerns.append(f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
+            concerns.append(
+                f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
                             f"{MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)")
     poor = residuals.poor()
     if poor:
@@ -128,5 +143,6 @@ def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, a
 
 
 def _why_off(signed_mm: float) -> str:
-    """Why a marker reads off its plane, by the side (MarkerResiduals.signed_mm: > 0 on the camera's side)."""
+    """Why a marker reads off its plane, by the side (MarkerResiduals.signed_mm: > 0 on the camera's
+    side)."""
     return "in front: hidden by something?" if signed_mm > 0 else "behind: off the glass?"

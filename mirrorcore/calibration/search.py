@@ -1,17 +1,16 @@
-"""Mirror planes without markers (`calibrate --method scene`): in one frame where something is seen both directly and
-in a mirror, search for the plane that makes the two views consistent, then refine (refine.py).
+"""The search for a mirror's plane without markers: in one frame where something is seen both
+directly and in a mirror, the plane that makes the two views consistent (scene.py then refines it).
 
-A candidate plane reflects the mirror's view of the object (its virtual points) into the room, and the camera's view
-into the mirror's: a reflected point agrees when the other view measured about its depth where it falls, and
-contradicts it when that view saw farther (it would have seen the point). The score is agreements minus
-contradictions; the search tries a cone of normals around the direction from the virtual object to the real one
-(their medians: the plane is about their perpendicular bisector) and a range of offsets, coarse then fine. Mirrors
-calibrated already are views like the camera's; calibrate_scene finds the mirrors in rounds, the best supported
-first, so that a mirror the camera hardly shares anything with is found against those beside it.
+A candidate plane reflects the mirror's view of the object (its virtual points) into the room, and
+the camera's view into the mirror's: a reflected point agrees when the other view measured about its
+depth where it falls, and contradicts it when that view saw farther (it would have seen the point).
+The score is agreements minus contradictions; the search tries a cone of normals around the
+direction from the virtual object to the real one (their medians: the plane is about their
+perpendicular bisector) and a range of offsets, coarse then fine. Mirrors calibrated already are
+views like the camera's (scene.calibrate_scene finds the mirrors in rounds).
 """
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import NamedTuple
 
 import cv2
@@ -21,89 +20,96 @@ from mirrorcore.base.errors import CalibrationError, Cancelled
 from mirrorcore.geometry.camera import reproject_depth
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.depth.noise import axial_sigma
-from mirrorcore.base.progress import RATCHET_SECONDS, Progress, Ratchet, cancel_requested
-from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, Refinement, refine_session
-from mirrorcore.rig.model import Mirror, Rig
-from mirrorcore.io.session import Session
+from mirrorcore.base.progress import Progress, Ratchet, cancel_requested
+from mirrorcore.rig.model import Rig
 
 SEARCH_POINTS = 800                  # points of each view scored (a random subset)
 MIN_POINTS = 100                     # the object's readings needed in each view
 CONE_DEG = 20.0                      # normals tried, around the bisector's
 OFFSETS = 0.15                       # metres tried either side of the bisector
-WIDE = (35.0, 0.5, 300)              # a wide search (a mirror searched again, against the mirrors found before it):
-                                     # degrees and metres tried, and its coarse candidates scored on this many points
-                                     # of each view (the first of SEARCH_POINTS). An arc's middle mirror sees the upper
-                                     # back of the walking figure, the camera all of its front: the bisector of their
-                                     # medians is 18 to 20 degrees and 0.2 to 0.27 m off its plane
-COARSE = (2.0, 0.02, 0.03)           # degrees between normals, metres between offsets, tolerance of agreement (m)
+# a wide search (a mirror searched again, against the mirrors found before it): degrees and metres
+# tried, and its coarse candidates scored on this many points of each view (the first of
+# SEARCH_POINTS). An arc's middle mirror sees the upper back of the walking figure, the camera all
+# of its front: the bisector of their medians is 18 to 20 degrees and 0.2 to 0.27 m off its plane
+WIDE = (35.0, 0.5, 300)
+# degrees between normals, metres between offsets, tolerance of agreement (m)
+COARSE = (2.0, 0.02, 0.03)
 FINE = (0.5, 0.005, 0.01)
 KEEP = 5                             # coarse candidates refined finely
-COARSE_PART = 0.6                    # of a search's progress: the coarse candidates (about 0.6 of its time)
+# of a search's progress: the coarse candidates (about 0.6 of its time)
+COARSE_PART = 0.6
 BATCH = 256                          # candidates scored at once
-FAR_MARGIN = 0.02                    # metres beyond the direct object's depth where its mirror image starts
-SPILL_PX = 15                        # pixels around a mirror's outline where readings beyond the direct object are
-                                     # its image spilling over the outline
-IMAGE_GAP = 0.1                      # metres: a gap in the depths seen outside the outlines beyond which an image
-                                     # lies (an outline drawn too narrow leaves part of it outside; the Kinect's
-                                     # depth steps are 25 to 35 mm at 3 to 3.5 m)
-AGREE_SIGMAS = 3.0                   # a reflected point agrees within this many standard deviations of depth noise
+# metres beyond the direct object's depth where its mirror image starts
+FAR_MARGIN = 0.02
+# pixels around a mirror's outline where readings beyond the direct object are its image spilling
+# over the outline
+SPILL_PX = 15
+# metres: a gap in the depths seen outside the outlines beyond which an image lies (an outline drawn
+# too narrow leaves part of it outside; the Kinect's depth steps are 25 to 35 mm at 3 to 3.5 m)
+IMAGE_GAP = 0.1
+# a reflected point agrees within this many standard deviations of depth noise
+AGREE_SIGMAS = 3.0
 CONTRADICTION_WEIGHT = 2.0             # a contradiction counts as much as two agreements
-SEARCH_GATE = 0.03                   # metres: the refinement after a search starts with this wide agreement...
-NEARER = 0.02                        # ... from the found plane moved this much towards the camera: with that gate it
-                                     # came back from planes 4 cm too near and 2 cm too far, not 4 cm too far (the
-                                     # mirror's points then hide behind the object)
-SEARCH_CHANGE = (0.2, 15.0)          # metres, degrees: how far the refinement may move a searched plane
-LEAD_SHARE = 0.5                     # a round of calibrate_scene refines the mirrors whose search scores at least
-                                     # this share of the best's; the others are searched again once these are
-                                     # calibrated, against them too (an arc's middle mirror, against the camera alone:
-                                     # 0.2 where the mirrors beside it scored 0.76 and 0.91; its plane came out 17
-                                     # degrees off, and was written)
-FROM_SEARCH = Leash(SEARCH_GATE, SEARCH_CHANGE, MAX_DISAGREEMENT, held_only=True)   # the refinement after it
-
+# Metres: a found plane is moved this much towards the camera before the refinement, which comes
+# back with scene.SEARCH_GATE from planes 4 cm too near and 2 cm too far, not from 4 cm too far
+# (the mirror's points then hide behind the object).
+NEARER = 0.02
 
 class Found(NamedTuple):
-    """A searched plane, and how well it explains the frame: `support`, the best candidate's score (_Scorer.scores:
-    the share of the points scored that agree, less twice the share contradicted, summed over the ways compared)."""
+    """A searched plane, and how well it explains the frame: `support`, the best candidate's score
+    (_Scorer.scores: the share of the points scored that agree, less twice the share contradicted,
+    summed over the ways compared)."""
 
     plane: Plane
     support: float
 
 
-def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng: np.random.Generator,
+def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
+                 rng: np.random.Generator,
                  cancel=None, wide: bool = False, progress: Progress | None = None) -> Found:
-    """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best explains one frame.
+    """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best
+    explains one frame.
 
-    depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The candidates are scored
-    against the camera's view (the object's pixels outside every mirror's boundary) and the views of the rig's other
-    mirrors that have a plane (an arc's middle mirror sees the person's back, which the camera does not see, and the
-    sides that the mirrors beside it see); `wide`: over a wider range of planes (WIDE); progress(fraction) as the
-    candidates are scored (the coarse ones COARSE_PART of it). Raises CalibrationError
-    naming the mirror when it has no boundary or the object is not seen both directly and in it.
+    depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The
+    candidates are scored against the camera's view (the object's pixels outside every mirror's
+    boundary) and the views of the rig's other mirrors that have a plane (an arc's middle mirror
+    sees the person's back, which the camera does not see, and the sides that the mirrors beside it
+    see); `wide`: over a wider range of planes (WIDE); progress(fraction) as the candidates are
+    scored (the coarse ones COARSE_PART of it). Raises CalibrationError naming the mirror when it
+    has no boundary or the object is not seen both directly and in it.
     """
     mirror = rig.mirrors[index]
     if mirror.boundary is None:
-        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first", (mirror.name,))
+        raise CalibrationError(f"{mirror.name}: no boundary; draw the mirror's outline first",
+                               (mirror.name,))
     depth = np.asarray(depth, np.float32)
-    far = _direct_far(depth[mask & (rig.inside_bits == 0)])
+    far = direct_far(depth[mask & (rig.inside_bits == 0)])
     outside = mask & (rig.inside_bits == 0) & (depth <= far)
     inside = _inside(rig, index)
     _check_outline(mirror.name, inside, mask & (rig.inside_bits == 0) & (depth > far))
     direct = reproject_depth(rig.intrinsics, depth, outside)[0].astype(np.float64)
-    # in the mirror's outline, the object's readings beyond everything seen directly are its image (the real object
-    # in front of the glass is as near as the rest of it)
+    # in the mirror's outline, the object's readings beyond everything seen directly are its image
+    # (the real object in front of the glass is as near as the rest of it)
     here = mask & inside & (depth > far)
     virtual = reproject_depth(rig.intrinsics, depth, here)[0].astype(np.float64)
     if len(direct) < MIN_POINTS:
         within = int(np.count_nonzero(mask & (rig.inside_bits != 0) & (depth > 0)))
-        raise CalibrationError(f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
-                               f"frame ({len(direct)} readings there, {MIN_POINTS} needed; {within} more inside the "
-                               "outlines, where the search cannot tell the object from its images): move the object "
-                               "so that the camera sees part of it beside the mirrors, or click markers on this mirror",
+        raise CalibrationError(
+            f"{mirror.name}: the object is not seen directly outside the mirrors' outlines in this "
+                               f"frame ({len(direct)} readings there, {MIN_POINTS} needed; "
+                               f"{within} more inside the "
+                               "outlines, where the search cannot tell the object from its "
+                               "images): move the object "
+                               "so that the camera sees part of it beside the mirrors, or click "
+                               "markers on this mirror",
                                (mirror.name,))
     if len(virtual) < MIN_POINTS:
-        raise CalibrationError(f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
-                               f"readings inside its outline beyond what the camera sees directly, {MIN_POINTS} "
-                               "needed): move the object so that the mirror shows it, or check the mirror's outline",
+        raise CalibrationError(
+            f"{mirror.name}: the object is not seen in the mirror in this frame ({len(virtual)} "
+                               "readings inside its outline beyond what the camera sees directly, "
+                               f"{MIN_POINTS} "
+                               "needed): move the object so that the mirror shows it, or check the "
+                               "mirror's outline",
                                (mirror.name,))
     views = [_View(None, None, outside.reshape(-1), _subset(direct, rng))]
     views += _mirror_views(rig, depth, mask & (depth > far), index, rng)
@@ -127,7 +133,8 @@ def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int, rng:
     try:
         return Found(Plane.from_abcd(abcd - [0, 0, 0, NEARER], mirror.name), float(support))
     except CalibrationError:
-        raise CalibrationError(f"{mirror.name}: no plane found that puts the camera in front of the mirror",
+        raise CalibrationError(
+            f"{mirror.name}: no plane found that puts the camera in front of the mirror",
                                (mirror.name,)) from None
 
 
@@ -136,10 +143,12 @@ def _inside(rig: Rig, index: int) -> np.ndarray:
     return ((rig.inside_bits >> np.uint32(index)) & np.uint32(1)).astype(bool)
 
 
-def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int, rng: np.random.Generator
+def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int,
+                  rng: np.random.Generator
                   ) -> list["_View"]:
-    """The views of the rig's mirrors other than `index` that have a plane and a boundary, each with at least
-    MIN_POINTS of the object's readings `beyond` (H, W) bool (beyond what the camera sees directly) inside it."""
+    """The views of the rig's mirrors other than `index` that have a plane and a boundary, each with
+    at least MIN_POINTS of the object's readings `beyond` (H, W) bool (beyond what the camera sees
+    directly) inside it."""
     views = []
     for k, other in enumerate(rig.mirrors):
         if k == index or other.plane is None or other.boundary is None:
@@ -154,28 +163,31 @@ def _mirror_views(rig: Rig, depth: np.ndarray, beyond: np.ndarray, index: int, r
 
 
 def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
-    """Refuse, naming the mirror, when MIN_POINTS of the object's readings beyond the direct object (beyond: (H, W)
-    bool, outside every outline) lie within SPILL_PX of the mirror's outline (inside: (H, W) bool): its image spills
-    over an outline drawn too narrow, and those readings would be taken for the object seen directly (a helper's
-    outline a third too narrow: the search said the mirror did not show the object)."""
-    spilled = int(np.count_nonzero(beyond & _near(inside)))
+    """Refuse, naming the mirror, when MIN_POINTS of the object's readings beyond the direct object
+    (beyond: (H, W) bool, outside every outline) lie within SPILL_PX of the mirror's outline
+    (inside: (H, W) bool): its image spills over an outline drawn too narrow, and those readings
+    would be taken for the object seen directly."""
+    spilled = int(np.count_nonzero(beyond & near_outline(inside)))
     if spilled >= MIN_POINTS:
-        raise CalibrationError(f"{name}: {spilled} readings just outside its outline lie beyond the object seen "
-                               "directly: its image spills over the outline; draw the outline along the glass's edge",
-                               (name,))
+        raise CalibrationError(
+            f"{name}: {spilled} readings just outside its outline lie beyond the "
+                               "object seen directly: its image spills over the outline; draw the "
+                               "outline along the glass's edge", (name,))
 
 
-def _near(inside: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the pixels within SPILL_PX of `inside` (H, W) bool, and those pixels themselves."""
+def near_outline(inside: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels within SPILL_PX of `inside` (H, W) bool, and those pixels
+    themselves."""
     kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
     return cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)
 
 
-def _direct_far(z: np.ndarray) -> float:
-    """Metres: the depth beyond which the object's readings outside every outline (z (n,) metres) are an image, not
-    the object seen directly: FAR_MARGIN beyond the 99th percentile of those up to the first gap of IMAGE_GAP above
-    their median (an outline drawn too narrow leaves part of the mirror's image outside: it had raised the cut above
-    the whole image, and the search said the mirror did not show the object: a helper); inf without readings."""
+def direct_far(z: np.ndarray) -> float:
+    """Metres: the depth beyond which the object's readings outside every outline (z (n,) metres)
+    are an image, not the object seen directly: FAR_MARGIN beyond the 99th percentile of those up to
+    the first gap of IMAGE_GAP above their median (an outline drawn too narrow leaves part of the
+    mirror's image outside, which must not raise the cut above the whole image); inf without
+    readings."""
     z = np.sort(z[z > 0])
     if not len(z):
         return np.inf
@@ -185,12 +197,15 @@ def _direct_far(z: np.ndarray) -> float:
 
 
 def _subset(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return points[rng.choice(len(points), SEARCH_POINTS, replace=False)] if len(points) > SEARCH_POINTS else points
+    return points[rng.choice(len(points), SEARCH_POINTS,
+                             replace=False)] if len(points) > SEARCH_POINTS else points
 
 
-def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: float, step: tuple) -> np.ndarray:
-    """(k, 4) planes [n, d]: unit normals within cone_deg of `axis` (a square grid of tilts, step[0] degrees apart)
-    and, for each, offsets every step[1] metres within `offsets` of the plane through `point` (3,)."""
+def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: float,
+                step: tuple) -> np.ndarray:
+    """(k, 4) planes [n, d]: unit normals within cone_deg of `axis` (a square grid of tilts, step[0]
+    degrees apart) and, for each, offsets every step[1] metres within `offsets` of the plane through
+    `point` (3,)."""
     e1 = np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
@@ -205,9 +220,10 @@ def _candidates(axis: np.ndarray, point: np.ndarray, cone_deg: float, offsets: f
 
 
 class _View(NamedTuple):
-    """A calibrated view a candidate plane is scored against: `plane` (4,) [n, d], the mirror that shows it (None:
-    the camera itself); `field` (H * W,) bool, its pixels (None: the whole image); `objects` (H * W,) bool, the
-    object's pixels in it; `points` (m, 3) metres, a subset of its readings of the object, in the room."""
+    """A calibrated view a candidate plane is scored against: `plane` (4,) [n, d], the mirror that
+    shows it (None: the camera itself); `field` (H * W,) bool, its pixels (None: the whole image);
+    `objects` (H * W,) bool, the object's pixels in it; `points` (m, 3) metres, a subset of its
+    readings of the object, in the room."""
 
     plane: np.ndarray | None
     field: np.ndarray | None
@@ -216,8 +232,9 @@ class _View(NamedTuple):
 
 
 class _Scorer:
-    """Scores candidate planes of one mirror against one frame (see the module docstring): its points (the object's
-    images in the mirror) against each calibrated view, and each view's points against the mirror's readings."""
+    """Scores candidate planes of one mirror against one frame (see the module docstring): its
+    points (the object's images in the mirror) against each calibrated view, and each view's points
+    against the mirror's readings."""
 
     def __init__(self, intr, depth: np.ndarray, inside: np.ndarray, virtual: np.ndarray,
                  virtual_points: np.ndarray, views: list[_View]):
@@ -228,28 +245,34 @@ class _Scorer:
 
     def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS,
                progress: Progress | None = None) -> np.ndarray:
-        """(k,) agreements minus twice the contradictions, both ways with each view, as a share of the points
-        scored: the first `points` of each view's; progress(fraction) after each BATCH of candidates."""
+        """(k,) agreements minus twice the contradictions, both ways with each view, as a share of
+        the points scored: the first `points` of each view's; progress(fraction) after each BATCH of
+        candidates."""
         out = np.zeros(len(planes))
         for start in range(0, len(planes), BATCH):
             if cancel_requested(cancel):
                 raise Cancelled("search cancelled")
             batch = planes[start:start + BATCH]
             for view in self.views:
-                out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch, tolerance, view)
-                                             + self._one_way(view.points[:points], batch, tolerance, self.mirror))
+                out[start:start + BATCH] += (self._one_way(self.mirror.points[:points], batch,
+                                                           tolerance, view)
+                                             + self._one_way(view.points[
+                                                 :points], batch, tolerance, self.mirror))
             if progress is not None:
                 progress(min(start + BATCH, len(planes)) / len(planes))
         return out
 
-    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float, view: _View) -> np.ndarray:
-        """points (m, 3) reflected through each plane (k, 4) and seen in `view` (through its mirror, if any), compared
-        with the depth where they fall: agreeing on its object's pixels, contradicted where it (its field of pixels)
-        saw farther."""
+    def _one_way(self, points: np.ndarray, planes: np.ndarray, tolerance: float,
+                 view: _View) -> np.ndarray:
+        """points (m, 3) reflected through each plane (k, 4) and seen in `view` (through its mirror,
+        if any), compared with the depth where they fall: agreeing on its object's pixels,
+        contradicted where it (its field of pixels) saw farther."""
         n, d = planes[:, None, :3], planes[:, None, 3]
-        reflected = points[None] - 2 * (points[None] @ n.transpose(0, 2, 1) + d[..., None]) * n   # (k, m, 3)
+        # (k, m, 3)
+        reflected = points[None] - 2 * (points[None] @ n.transpose(0, 2, 1) + d[..., None]) * n
         if view.plane is not None:
-            reflected = reflected - 2 * (reflected @ view.plane[:3] + view.plane[3])[..., None] * view.plane[:3]
+            reflected = reflected - 2 * (reflected @ view.plane[:3] + view.plane[3])[
+                ..., None] * view.plane[:3]
         z = reflected[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             u = np.round(self.intr.fx * reflected[..., 0] / z + self.intr.cx)
@@ -262,121 +285,3 @@ class _Scorer:
         agree = seen & view.objects[pixel] & (np.abs(measured - z) < margin)
         contradict = seen & (measured > z + margin)
         return (agree.sum(axis=1) - CONTRADICTION_WEIGHT * contradict.sum(axis=1)) / points.shape[0]
-
-
-def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray, rng: np.random.Generator,
-                    indices=None, progress: Progress | None = None, cancel=None, with_: str = "auto"
-                    ) -> tuple[Session, Refinement]:
-    """Calibrate a session's mirrors (all, or those at `indices`, 0-based) without markers, in rounds. Each round
-    searches the planes still to find in the first frame (search_plane, against the camera and the mirrors calibrated
-    so far; a mirror's own plane is ignored), then refines those the search supports best (at least LEAD_SHARE of the
-    best's support) over every frame (refine.refine_session, comparing `with_`, each fixed by the views calibrated
-    before: FROM_SEARCH); a mirror the refinement refuses waits with the others for the next round, which searches
-    them against these too (an arc's middle mirror, which the camera sees from the front and it from the back, is
-    found through the mirrors beside it). depths (F, H, W) float metres as measured; masks (F, H, W) bool, the
-    object's pixels.
-    Returns the session with the planes found and one Refinement of them all; a mirror no round could calibrate keeps
-    its plane and is named, with why, in the Refinement's `refused`. CalibrationError (naming them) when none can
-    be."""
-    indices = list(range(len(session.mirrors)) if indices is None else indices)
-    if not indices:
-        raise CalibrationError(f"{session.path}: the session has no mirrors")
-    depths, masks = np.asarray(depths), np.asarray(masks, bool)
-    if depths.ndim == 2:
-        depths, masks = depths[None], masks[None]
-    direct = _without_spill(Rig.from_session(session), depths, masks)         # for the refinements
-    bar = Ratchet(progress, RATCHET_SECONDS)
-    calibrated, todo, rounds, refused = session, list(indices), [], {}
-    while todo:
-        done = 1.0 - len(todo) / len(indices)
-        found, failed = _search_round(calibrated, depths[0], masks[0], todo, rng, cancel,
-                                      bar.part(done, done + (1.0 - done) / 3), wide=bool(rounds))
-        refused.update(failed)
-        todo = [i for i in todo if i in found]
-        result = _refine_round(calibrated, found, depths, direct, with_, cancel, bar, done, len(indices), refused)
-        if result is None:
-            break
-        calibrated, round_result = result
-        rounds.append(round_result)
-        todo = [i for i in todo if i not in round_result.planes]
-    if not rounds:
-        names = tuple(session.mirrors[i].name for i in sorted(refused))
-        raise CalibrationError(sentences(refused[i] for i in sorted(refused)), names)
-    for i in refused:                                       # a mirror not found keeps the plane it had
-        calibrated = calibrated.with_mirror(i, replace(calibrated.mirrors[i], plane=session.mirrors[i].plane))
-    bar(1.0)
-    first = rounds[0]
-    return calibrated, replace(first, mirrors=tuple(sorted((m for r in rounds for m in r.mirrors),
-                                                           key=lambda m: m.index)),
-                               iterations=sum(r.iterations for r in rounds),
-                               refused=tuple(sorted(refused.items())))
-
-
-def sentences(reasons) -> str:
-    """Refusals (one-line strings) as one line of sentences, each once, in order."""
-    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))
-
-
-def _without_spill(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> np.ndarray:
-    """masks (F, H, W) bool without a mirror's image spilling over an outline drawn too narrow: in the frames of
-    depths (F, H, W) metres where the search would see one (_check_outline: MIN_POINTS of the object's readings beyond
-    what the camera sees directly, _direct_far, within SPILL_PX outside an outline), all the readings outside every
-    outline beyond what the camera sees directly (an outline 80 px too narrow leaves its image up to 80 px wide). It
-    had also been the camera's view in the other mirrors' refinement, and they were refused with it (45 readings
-    agreed: a helper); frames without one keep their masks whole."""
-    outside = rig.inside_bits == 0
-    near = _near(~outside) & outside
-    out = masks.copy()
-    for k, (depth, mask) in enumerate(zip(depths, masks)):
-        beyond = mask & outside & (depth > _direct_far(depth[mask & outside]))
-        if np.count_nonzero(beyond & near) >= MIN_POINTS:
-            out[k] &= ~beyond
-    return out
-
-
-def _search_round(session: Session, depth: np.ndarray, mask: np.ndarray, todo: list[int], rng: np.random.Generator,
-                  cancel, progress: Progress, wide: bool) -> tuple[dict[int, Found], dict[int, str]]:
-    """Search the planes of the mirrors at `todo` (0-based) in one frame, against the camera and the mirrors with a
-    plane that are not searched (`wide`: search_plane's) -> ({index: Found}, {index: why it was not found})."""
-    rig = Rig.from_session(session)
-    blind = Rig(rig.intrinsics, tuple(Mirror(m.name, None if i in todo else m.plane, m.boundary)
-                                      for i, m in enumerate(rig.mirrors)))
-    found, failed = {}, {}
-    for k, i in enumerate(todo):
-        try:
-            found[i] = search_plane(blind, depth, mask, i, rng, cancel, wide,
-                                    lambda f, k=k: progress((k + f) / len(todo)))
-        except CalibrationError as exc:
-            failed[i] = str(exc)
-        progress((k + 1) / len(todo))
-    return found, failed
-
-
-def _refine_round(session: Session, found: dict[int, Found], depths: np.ndarray, masks: np.ndarray, with_: str,
-                  cancel, bar: Ratchet, done: float, total: int, refused: dict[int, str]
-                  ) -> tuple[Session, Refinement] | None:
-    """Refine the best-supported of the planes `found` (LEAD_SHARE), held to the views calibrated before; a mirror
-    the refinement names is set aside (its refusal in `refused`, until a later round calibrates it) and the others
-    refined again, then the next best. -> (the session with the planes refined, their Refinement), or None when
-    none of them could be refined."""
-    waiting = dict(found)
-    while waiting:
-        best = max(waiting, key=lambda i: waiting[i].support)
-        lead = sorted(i for i, f in waiting.items() if i == best or f.support >= LEAD_SHARE * waiting[best].support)
-        trial = session
-        for i in lead:
-            trial = trial.with_mirror(i, replace(trial.mirrors[i], plane=waiting[i].plane))
-        start = done + (1.0 - done) / 3
-        part = bar.part(start, max(start, done + len(lead) / total))
-        try:
-            calibrated, result = refine_session(trial, depths, masks, lead, part, cancel, with_, FROM_SEARCH)
-        except CalibrationError as exc:
-            named = [i for i in lead if session.mirrors[i].name in exc.mirrors] or lead
-            for i in named:
-                refused[i] = str(exc)
-                del waiting[i]
-            continue
-        for i in lead:
-            refused.pop(i, None)
-        return calibrated, result
-    return None

@@ -1,6 +1,12 @@
-"""Dense reconstruction of frames of a static object: frames prepared as for Algorithm 1 (mirrorcore.rig.pipeline.
-prepare_frame), a volume around the raw cloud, then space carving (methods 'paper', 'carve') or volumetric fusion
-('tsdf')."""
+"""Floor 7, dense reconstruction of frames of a static object: frames prepared as for Algorithm 1
+(mirrorcore.rig.pipeline.prepare_frame), a volume around the raw cloud (volume, blocks), then
+space carving (methods 'paper', 'carve'; carve) or volumetric fusion ('tsdf'; tsdf, mesh), with
+the views through the mirrors as virtual cameras (views, sampling, windows).
+
+    volume = dense_volume(rig, depths[0], masks[0], DenseOptions(voxel=0.004))
+    result = reconstruct_dense(rig, depths, masks, volume, "tsdf")
+    points, sources, faces = result_geometry(result)
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,14 +20,29 @@ from mirrorcore.dense.carve import CarveResult, carve
 from mirrorcore.dense.tsdf import TsdfResult, fuse
 from mirrorcore.dense.volume import Progress, Volume
 
+__all__ = ["METHODS", "CarveResult", "DenseOptions", "TsdfResult", "Volume", "carve",
+           "dense_volume", "fuse", "reconstruct_dense", "result_geometry"]
+
 METHODS = ("paper", "carve", "tsdf")
 
 
 @dataclass(frozen=True)
 class DenseOptions:
-    """voxel : edge in metres; margin : metres added around the raw cloud's bounding box; bounds : ((3,), (3,)) the
-    box's corners in metres (camera frame) instead of the automatic box; threshold : carving's th in metres (default
-    the voxel); truncation : the TSDF's in metres (default 3 voxels)."""
+    """The options of a dense reconstruction.
+
+    Attributes
+    ----------
+    voxel : float
+        Edge in metres.
+    margin : float
+        Metres added around the raw cloud's bounding box.
+    bounds : ((3,), (3,)) float or None
+        The box's corners in metres (camera frame) instead of the automatic box.
+    threshold : float or None
+        Carving's th in metres (default the voxel).
+    truncation : float or None
+        The TSDF's in metres (default 3 voxels).
+    """
 
     voxel: float = 0.002
     margin: float = 0.02
@@ -31,7 +52,9 @@ class DenseOptions:
 
 
 def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOptions) -> Volume:
-    """options.bounds, or the bounding box of the raw cloud (Algorithm 1) of one prepared frame grown by the margin."""
+    """The volume to reconstruct in: options.bounds, or the bounding box of the raw cloud
+    (Algorithm 1) of one prepared frame, depth (H, W) metres and mask (H, W) bool, grown by the
+    margin."""
     if options.bounds is not None:
         return Volume.from_bounds(*options.bounds, options.voxel)
     return Volume.around(reconstruct_raw(rig, depth, mask).points, options.voxel, options.margin)
@@ -40,23 +63,60 @@ def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOp
 def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, method: str,
                       options: DenseOptions = DenseOptions(), progress: Progress | None = None,
                       cancel=None, workers: int | None = None) -> CarveResult | TsdfResult:
-    """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames (see
-    mirrorcore.rig.pipeline.prepare_frame).
+    """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames.
 
-    depths, masks : (F, H, W) float metres / bool; workers : threads for the chunks (default the CPU count). Raises
-    MirrorscanError for an unknown method, Cancelled when `cancel` (a threading.Event or a callable returning True)
-    asks to stop."""
+    Parameters
+    ----------
+    rig : Rig
+    depths, masks : (F, H, W) float metres / bool
+        Frames prepared by mirrorcore.rig.pipeline.prepare_frame.
+    volume : Volume
+    method : str
+        One of METHODS.
+    options : DenseOptions
+    progress : callable, optional
+    cancel : threading.Event or callable, optional
+        Asks to stop when set or when it returns True.
+    workers : int, optional
+        Threads for the chunks (default the CPU count).
+
+    Returns
+    -------
+    CarveResult or TsdfResult
+
+    Raises
+    ------
+    MirrorscanError
+        For an unknown method.
+    Cancelled
+        When `cancel` asks to stop.
+    """
     if method not in METHODS:
-        raise MirrorscanError(f"--method: unknown dense method {method!r} (expected one of {', '.join(METHODS)})")
+        raise MirrorscanError(f"--method: unknown dense method {method!r} (expected one of "
+                              f"{', '.join(METHODS)})")
     if method == "tsdf":
         return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers)
-    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel, workers)
+    return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel,
+                 workers)
 
 
-def result_geometry(result: CarveResult | TsdfResult) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """What a PLY file holds of a dense result: points (n, 3) float32 metres, camera frame, their sources (n,) uint8
-    and faces (m, 3) int32 or None: the surface voxels' centres of a carving, the mesh of a fusion (MirrorscanError
-    when the volume holds no surface)."""
+def result_geometry(result: CarveResult | TsdfResult) -> tuple[
+    np.ndarray, np.ndarray, np.ndarray | None]:
+    """What a PLY file holds of a dense result: the surface voxels' centres of a carving, the mesh
+    of a fusion.
+
+    Returns
+    -------
+    points : (n, 3) float32
+        Metres, camera frame.
+    sources : (n,) uint8
+    faces : (m, 3) int32 or None
+
+    Raises
+    ------
+    MirrorscanError
+        When the volume holds no surface.
+    """
     if isinstance(result, CarveResult):
         return (*result.surface_points(), None)
     mesh = result.mesh()

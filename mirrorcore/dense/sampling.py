@@ -1,14 +1,17 @@
-"""Where points fall in a view and what depth the view measured there (the views: mirrorcore.dense.views).
+"""Where points fall in a view and what depth the view measured there (the views:
+mirrorcore.dense.views).
 
-A view's depth image is read by quads, the 2x2 pixels around a point's projection, named by their top-left pixel.
-`Quads` holds the image on a grid padded with BORDER pixels of NaN (nothing known) and, per quad, whether it shows the
-surface (its four pixels do, within BILINEAR_GAP of each other: the depth is then their bilinear interpolation) and
-its least depth (NaN ignored; the depth read everywhere else: the ray is empty up to there whichever of the four the
-point's own ray is closest to). A point beyond one pixel outside the image reads a quad of padding: nothing known.
+A view's depth image is read by quads, the 2x2 pixels around a point's projection, named by their
+top-left pixel. `Quads` holds the image on a grid padded with BORDER pixels of NaN (nothing known)
+and, per quad, whether it shows the surface (its four pixels do, within BILINEAR_GAP of each other:
+the depth is then their bilinear interpolation) and its least depth (NaN ignored; the depth read
+everywhere else: the ray is empty up to there whichever of the four the point's own ray is closest
+to). A point beyond one pixel outside the image reads a quad of padding: nothing known.
 
-Voxel centres come in the block layout (mirrorcore.dense.blocks): x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m),
-so a view's transform is two full-size operations per coordinate, and the camera's own projection (u from x and z,
-v from y and z) is computed on (B, 1, B, m) and (1, B, B, m) values only.
+Voxel centres come in the block layout (mirrorcore.dense.blocks): x (B, 1, 1, m), y (1, B, 1, m), z
+(1, 1, B, m), so a view's transform is two full-size operations per coordinate, and the camera's own
+projection (u from x and z, v from y and z) is computed on (B, 1, B, m) and (1, B, B, m) values
+only.
 """
 from __future__ import annotations
 
@@ -20,18 +23,21 @@ import numpy as np
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.model import Rig
 
-BILINEAR_GAP = 0.03   # metres: four neighbours spread wider than this are a depth edge (their least depth is read)
+# metres: four neighbours spread wider than this are a depth edge (their least depth is read)
+BILINEAR_GAP = 0.03
 BORDER = 2            # pixels of padding around a view's image in Quads
 
 
 @dataclass(frozen=True, eq=False)
 class Quads:
-    """A view's depth read by quads. Quads are named by the flat index of their top-left pixel on the padded grid
-    ((H + 2 BORDER) rows of `width` = W + 2 BORDER pixels, the image at row and column BORDER).
-    image : (H, W) float32 metres, the view's depth as in mirrorcore.dense.views (finite, +inf empty ray, NaN nothing
-    known); index : (k,) intp, ascending, the quads that show the surface (their four pixels do, within BILINEAR_GAP
-    of each other); corners : (k, 4) float32 their depths: top-left d0, right d1, below d2, below right d3.
-    Made on first use, for carving: `padded` and `low`, each quad's least depth."""
+    """A view's depth read by quads. Quads are named by the flat index of their top-left pixel on
+    the padded grid ((H + 2 BORDER) rows of `width` = W + 2 BORDER pixels, the image at row and
+    column BORDER).
+    image : (H, W) float32 metres, the view's depth as in mirrorcore.dense.views (finite, +inf empty
+    ray, NaN nothing known); index : (k,) intp, ascending, the quads that show the surface (their
+    four pixels do, within BILINEAR_GAP of each other); corners : (k, 4) float32 their depths:
+    top-left d0, right d1, below d2, below right d3. Made on first use, for carving: `padded` and
+    `low`, each quad's least depth."""
 
     width: int
     image: np.ndarray
@@ -40,8 +46,8 @@ class Quads:
 
     @classmethod
     def of(cls, depth: np.ndarray, surface: np.ndarray) -> "Quads":
-        """depth (H, W) float32 metres, surface (H, W) bool (a view's pixels showing the object's surface). Only the
-        box around the surface pixels is looked at."""
+        """depth (H, W) float32 metres, surface (H, W) bool (a view's pixels showing the object's
+        surface). Only the box around the surface pixels is looked at."""
         width = depth.shape[1] + 2 * BORDER
         rows, cols = np.flatnonzero(surface.any(axis=1)), np.flatnonzero(surface.any(axis=0))
         if len(rows) < 2 or len(cols) < 2:
@@ -50,9 +56,11 @@ class Quads:
         shows, d = surface[box], depth[box]
         r, c = np.nonzero(shows[:-1, :-1] & shows[:-1, 1:] & shows[1:, :-1] & shows[1:, 1:])
         corners = np.stack([d[r, c], d[r, c + 1], d[r + 1, c], d[r + 1, c + 1]], axis=1)
-        spread = np.fmax(np.fmax(corners[:, 0], corners[:, 1]), np.fmax(corners[:, 2], corners[:, 3])) - \
+        spread = np.fmax(np.fmax(corners[:, 0], corners[:, 1]),
+                         np.fmax(corners[:, 2], corners[:, 3])) - \
             np.fmin(np.fmin(corners[:, 0], corners[:, 1]), np.fmin(corners[:, 2], corners[:, 3]))
-        ok = spread < BILINEAR_GAP                                # four surface pixels with no depth edge between
+        # four surface pixels with no depth edge between
+        ok = spread < BILINEAR_GAP
         index = (r[ok] + rows[0] + BORDER) * width + (c[ok] + cols[0] + BORDER)
         return cls(width, depth, index.astype(np.intp), corners[ok])
 
@@ -66,7 +74,8 @@ class Quads:
 
     @cached_property
     def low(self) -> np.ndarray:
-        """Each quad's least depth, NaN ignored (NaN when all four are): float32, flat like `padded`."""
+        """Each quad's least depth, NaN ignored (NaN when all four are): float32, flat like
+        `padded`."""
         w, depth = self.width, self.padded
         low = np.full(len(depth), np.nan, np.float32)
         d0, d1, d2, d3 = (depth[i:len(depth) - w - 1 + i] for i in (0, 1, w, w + 1))
@@ -77,12 +86,12 @@ class Quads:
 
 @dataclass(frozen=True, eq=False)
 class QuadTable:
-    """One virtual camera's surface quads in one or more frames, for reading the bilinear depth at projected points
-    with small tables: index (k,) intp, ascending, the quads that show the surface in some frame; near, far (k,)
-    float32, the least and greatest depth of their pixels over the frames where they do; lookup (Hp*Wp,) int32, each
-    quad's row (1 + its place in index; 0 for the others); rows (F, k + 1, 4) float32, per frame and row d0, d1 - d0,
-    d2, d3 - d2 of the quad's pixels (Quads.corners), NaN in row 0 and where that frame's quad does not show the
-    surface."""
+    """One virtual camera's surface quads in one or more frames, for reading the bilinear depth at
+    projected points with small tables: index (k,) intp, ascending, the quads that show the surface
+    in some frame; near, far (k,) float32, the least and greatest depth of their pixels over the
+    frames where they do; lookup (Hp*Wp,) int32, each quad's row (1 + its place in index; 0 for the
+    others); rows (F, k + 1, 4) float32, per frame and row d0, d1 - d0, d2, d3 - d2 of the quad's
+    pixels (Quads.corners), NaN in row 0 and where that frame's quad does not show the surface."""
 
     index: np.ndarray
     near: np.ndarray
@@ -93,15 +102,18 @@ class QuadTable:
     @classmethod
     def of(cls, quads: list[Quads]) -> "QuadTable":
         """The table of one view's Quads in each frame."""
-        index = quads[0].index if len(quads) == 1 else np.unique(np.concatenate([q.index for q in quads]))
+        index = quads[0].index if len(quads) == 1 else np.unique(np.concatenate([q.index
+                                                                                 for q in quads]))
         h, w = quads[0].image.shape
         lookup = np.zeros((h + 2 * BORDER) * (w + 2 * BORDER), np.int32)
         lookup[index] = np.arange(1, len(index) + 1, dtype=np.int32)
         rows = np.full((len(quads), len(index) + 1, 4), np.nan, np.float32)
-        near, far = np.full(len(index), np.inf, np.float32), np.full(len(index), -np.inf, np.float32)
+        near, far = np.full(len(index), np.inf, np.float32), np.full(len(index), -np.inf,
+                                                                     np.float32)
         for frame, q in zip(rows, quads):
             d, at = q.corners, np.searchsorted(index, q.index)
-            frame[at + 1] = np.stack([d[:, 0], d[:, 1] - d[:, 0], d[:, 2], d[:, 3] - d[:, 2]], axis=1)
+            frame[at + 1] = np.stack([d[:, 0], d[:, 1] - d[:, 0], d[:, 2], d[:, 3] - d[:, 2]],
+                                     axis=1)
             near[at] = np.minimum(near[at], d.min(axis=1))
             far[at] = np.maximum(far[at], d.max(axis=1))
         return cls(index, near, far, lookup, rows)
@@ -111,8 +123,8 @@ class QuadTable:
         return np.take(self.lookup, projection.index).astype(np.intp)
 
     def surface_depth(self, frame: int, slots: np.ndarray, projection: "Projection") -> np.ndarray:
-        """The bilinear depth (n,) float32 in frame `frame` at the projected points, whose rows are `slots`; NaN where
-        their quad does not show the surface."""
+        """The bilinear depth (n,) float32 in frame `frame` at the projected points, whose rows are
+        `slots`; NaN where their quad does not show the surface."""
         items = self.rows[frame].view(np.dtype((np.void, 16))).reshape(-1)
         d = np.take(items, slots).view(np.float32).reshape(-1, 4)
         top = d[:, 0] + projection.fu * d[:, 1]
@@ -125,9 +137,9 @@ class QuadTable:
 
 @dataclass(frozen=True, eq=False)
 class Projection:
-    """Points seen in one view, flat (n,) in the block layout's C order: z float32 metres, their depth in the view's
-    frame; index intp, their quad (Quads); fu, fv float32, their offset from the quad's top-left pixel in [0, 1]
-    (meaningless where the quad is padding)."""
+    """Points seen in one view, flat (n,) in the block layout's C order: z float32 metres, their
+    depth in the view's frame; index intp, their quad (Quads); fu, fv float32, their offset from the
+    quad's top-left pixel in [0, 1] (meaningless where the quad is padding)."""
 
     z: np.ndarray
     index: np.ndarray
@@ -137,9 +149,10 @@ class Projection:
 
 def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.ndarray,
                    z: np.ndarray) -> Projection:
-    """Voxel centres in the block layout (float32 x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m), camera frame) seen
-    by a view with extrinsic to_view (3, 4) float64 (View.to_view): the same float32 values as transforming each
-    centre (`transform`) and projecting it (`project`), by broadcasting, with the temporaries reused."""
+    """Voxel centres in the block layout (float32 x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m),
+    camera frame) seen by a view with extrinsic to_view (3, 4) float64 (View.to_view): the same
+    float32 values as transforming each centre (`transform`) and projecting it (`project`), by
+    broadcasting, with the temporaries reused."""
     shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
     if np.array_equal(to_view, np.eye(3, 4)):
         p = (x, y, z)                             # the camera: u depends on x and z, v on y and z
@@ -155,9 +168,11 @@ def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.n
         np.copyto(inv, np.float32(np.nan), where=p[2] <= 0)
     width = intr.width + 2 * BORDER
     cells, fractions = [], []
-    for f, c, coordinate, size in ((intr.fx, intr.cx, p[0], intr.width), (intr.fy, intr.cy, p[1], intr.height)):
+    for f, c, coordinate, size in ((intr.fx, intr.cx, p[0], intr.width),
+                                   (intr.fy, intr.cy, p[1], intr.height)):
         t = coordinate * np.float32(f)
-        t = np.multiply(t, inv, out=t if t.shape == np.broadcast_shapes(t.shape, inv.shape) else None)
+        t = np.multiply(t, inv,
+                        out=t if t.shape == np.broadcast_shapes(t.shape, inv.shape) else None)
         t += np.float32(c)
         low = np.fmax(t, np.float32(-BORDER))
         np.fmin(low, np.float32(size), out=low)
@@ -167,20 +182,22 @@ def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.n
         np.minimum(t, 1, out=t)
         fractions.append(t)
         cells.append(low)
-    if (intr.height + 2 * BORDER) * width < 1 << 24:            # whole numbers below 2^24 are exact in float32
+    # whole numbers below 2^24 are exact in float32
+    if (intr.height + 2 * BORDER) * width < 1 << 24:
         cells[1] *= np.float32(width)
         index = cells[1] + cells[0]
     else:
         index = cells[1].astype(np.float64) * width + cells[0]
     index += BORDER * width + BORDER
-    flat = [np.broadcast_to(a, shape).reshape(-1) for a in (p[2], index.astype(np.intp), *fractions)]
+    flat = [np.broadcast_to(a, shape).reshape(-1)
+            for a in (p[2], index.astype(np.intp), *fractions)]
     return Projection(*flat)
 
 
 def nearest_pixels(intr: Intrinsics, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """(B, B, B, m) intp flat index of the camera's pixel nearest to each voxel centre of the block layout (see
-    project_blocks), H*W (the pad cell of View's flat images) off the image or behind the camera. u depends on x and
-    z only, v on y and z: the full-size work is one sum."""
+    """(B, B, B, m) intp flat index of the camera's pixel nearest to each voxel centre of the block
+    layout (see project_blocks), H*W (the pad cell of View's flat images) off the image or behind
+    the camera. u depends on x and z only, v on y and z: the full-size work is one sum."""
     inv_z = np.where(z > 0, np.float32(1) / np.maximum(z, np.float32(1e-9)), np.float32(np.nan))
     pad = intr.width * intr.height
     with np.errstate(invalid="ignore"):
@@ -192,8 +209,8 @@ def nearest_pixels(intr: Intrinsics, x: np.ndarray, y: np.ndarray, z: np.ndarray
 
 
 def in_front_of_mirrors(rig: Rig, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Points (float32 arrays that broadcast together, camera frame) -> bool of their broadcast shape: in front of
-    every calibrated mirror plane (the volume the algorithms carve)."""
+    """Points (float32 arrays that broadcast together, camera frame) -> bool of their broadcast
+    shape: in front of every calibrated mirror plane (the volume the algorithms carve)."""
     ok = np.ones(np.broadcast_shapes(x.shape, y.shape, z.shape), bool)
     for m in rig.mirrors:
         if m.plane is not None:
@@ -203,15 +220,17 @@ def in_front_of_mirrors(rig: Rig, x: np.ndarray, y: np.ndarray, z: np.ndarray) -
 
 
 def transform(to_view: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """points (3, n) float32 rows x, y, z, camera frame -> (3, n) float32 in the frame of the view with extrinsic
-    to_view (3, 4); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is several times slower)."""
+    """points (3, n) float32 rows x, y, z, camera frame -> (3, n) float32 in the frame of the view
+    with extrinsic to_view (3, 4); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is
+    several times slower)."""
     m = to_view.astype(np.float32)
-    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3] for r in range(3)])
+    return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3]
+                     for r in range(3)])
 
 
 def project(intr: Intrinsics, p) -> tuple[np.ndarray, np.ndarray]:
-    """Points p (three float32 arrays x, y, z that broadcast together, in a view's frame) -> u, v float32 pixel
-    coordinates, NaN where z <= 0."""
+    """Points p (three float32 arrays x, y, z that broadcast together, in a view's frame) -> u, v
+    float32 pixel coordinates, NaN where z <= 0."""
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = np.where(p[2] > 0, np.float32(1) / p[2], np.float32(np.nan))
     return (np.float32(intr.fx) * p[0] * inv + np.float32(intr.cx),
@@ -219,8 +238,8 @@ def project(intr: Intrinsics, p) -> tuple[np.ndarray, np.ndarray]:
 
 
 def pixel_index(intr: Intrinsics, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Nearest pixel of real coordinates u, v (any broadcastable shapes; NaN allowed) -> int64 flat index v*W + u,
-    H*W (the pad cell) off the image."""
+    """Nearest pixel of real coordinates u, v (any broadcastable shapes; NaN allowed) -> int64 flat
+    index v*W + u, H*W (the pad cell) off the image."""
     iu, iv = np.rint(u), np.rint(v)
     ok = (iu >= 0) & (iu < intr.width) & (iv >= 0) & (iv < intr.height)
     with np.errstate(invalid="ignore"):

@@ -1,25 +1,28 @@
-"""Volumetric fusion: a truncated signed distance (TSDF) volume fusing the camera's view and every mirror's view of
-one or more depth frames of a static object, and its surface mesh.
+"""Volumetric fusion: a truncated signed distance (TSDF) volume fusing the camera's view and every
+mirror's view of one or more depth frames of a static object, and its surface mesh.
 
-Each mirror is a virtual camera whose extrinsic is the reflection through its plane (det -1): a voxel v is seen by
-mirror j at the reflected point v_j, projected with the camera's intrinsics and compared with the measured (virtual)
-depth there; a sequence of mirrors the camera sees through in turn is one more, with the composition of their
-reflections as its extrinsic (mirrorcore.dense.views). Open3D's TSDF integration takes a 4x4 extrinsic, but it is not
-used here: fusing in numpy keeps the bilinear depth, the per-view weights and the per-voxel source of the best view
-(`mirrorscan bench` times Open3D's VoxelBlockGrid on the same views beside it).
+Each mirror is a virtual camera whose extrinsic is the reflection through its plane (det -1): a
+voxel v is seen by mirror j at the reflected point v_j, projected with the camera's intrinsics and
+compared with the measured (virtual) depth there; a sequence of mirrors the camera sees through in
+turn is one more, with the composition of their reflections as its extrinsic
+(mirrorcore.dense.views). Open3D's TSDF integration takes a 4x4 extrinsic, but it is not used here:
+fusing in numpy keeps the bilinear depth, the per-view weights and the per-voxel source of the best
+view (`mirrorscan bench` times Open3D's VoxelBlockGrid on the same views beside it).
 
-Per view, only the object's pixels of that view count (the camera's object pixels that no mirror claims; a mirror's
-object pixels inside its boundary and behind its plane, see mirrorcore.views). A voxel at depth z (in the view's
-frame) on a pixel with depth d gets sdf = d - z, used when sdf > -truncation and clipped to truncation, with the
-weight (1 m / z)^4: the inverse variance of a structured-light camera, whose noise grows with z^2 (mirror views are
-farther, hence noisier). Voxels the camera sees empty by more than the truncation even in its 3x3 neighbourhood, and
-voxels behind a mirror, are not computed (weight 0).
+Per view, only the object's pixels of that view count (the camera's object pixels that no mirror
+claims; a mirror's object pixels inside its boundary and behind its plane, see mirrorcore.views). A
+voxel at depth z (in the view's frame) on a pixel with depth d gets sdf = d - z, used when sdf >
+-truncation and clipped to truncation, with the weight (1 m / z)^4: the inverse variance of a
+structured-light camera, whose noise grows with z^2 (mirror views are farther, hence noisier).
+Voxels the camera sees empty by more than the truncation even in its 3x3 neighbourhood, and voxels
+behind a mirror, are not computed (weight 0).
 
-The fusion is sparse: only the blocks of BLOCK^3 voxels (mirrorcore.dense.blocks) that hold a voxel within the
-truncation of some view's measurement are allocated and computed (`surface_blocks`): per quad of pixels that shows the
-surface (mirrorcore.dense.sampling), the box around the part of its frustum between its least depth minus the
-truncation and its greatest plus the truncation. Every voxel whose value some view sets below 1 is in them, with the
-value a fusion of the whole grid gives it; the voxels left out are those every view sees empty (or not at all).
+The fusion is sparse: only the blocks of BLOCK^3 voxels (mirrorcore.dense.blocks) that hold a voxel
+within the truncation of some view's measurement are allocated and computed (`surface_blocks`): per
+quad of pixels that shows the surface (mirrorcore.dense.sampling), the box around the part of its
+frustum between its least depth minus the truncation and its greatest plus the truncation. Every
+voxel whose value some view sets below 1 is in them, with the value a fusion of the whole grid gives
+it; the voxels left out are those every view sees empty (or not at all).
 """
 from __future__ import annotations
 
@@ -33,24 +36,31 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
 from mirrorcore.dense.mesh import Mesh, block_marching_cubes
-from mirrorcore.dense.sampling import BORDER, QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
+from mirrorcore.dense.sampling import (BORDER, QuadTable, in_front_of_mirrors, nearest_pixels,
+                                       project_blocks)
 from mirrorcore.dense.views import View, cull_depth, rig_views
-from mirrorcore.dense.volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume, run_chunks
+from mirrorcore.dense.volume import (CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK, Progress, Volume,
+                                     run_chunks)
 from mirrorcore.dense.windows import Window, mirror_sides, window_half
 
-BLOCK = SMALLEST_BLOCK     # voxels along a block's edge: small blocks follow the surface's band closely
-TSDF_VOXEL_BYTES = 12      # bytes per allocated voxel: tsdf, weight, source, and their copy when empty blocks go
-PIXEL_MARGIN = 0.01        # pixels, and voxels: the float32 rounding of a voxel's projection and centre
-Z_TINY = 1e-6              # metres: the least depth a weight is computed at (the voxels that near are not seen)
+# voxels along a block's edge: small blocks follow the surface's band closely
+BLOCK = SMALLEST_BLOCK
+# bytes per allocated voxel: tsdf, weight, source, and their copy when empty blocks go
+TSDF_VOXEL_BYTES = 12
+# pixels, and voxels: the float32 rounding of a voxel's projection and centre
+PIXEL_MARGIN = 0.01
+# metres: the least depth a weight is computed at (the voxels that near are not seen)
+Z_TINY = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
 class TsdfResult:
-    """The fused blocks of `volume`. tsdf : (m, B, B, B) float32 in [-1, 1] (signed distance / truncation, > 0 in
-    front of the surface; 1 where weight is 0); weight : (m, B, B, B) float32 sum of the weights; source : (m, B, B, B)
-    uint8 the view (0 camera, j mirror j, from 33 a sequence of mirrors) of the largest single weight, NO_SOURCE where
-    weight is 0; truncation in metres. Block r holds the voxels of blocks.ijk[r] in the block layout
-    (mirrorcore.dense.blocks); every block has a voxel of weight > 0."""
+    """The fused blocks of `volume`. tsdf : (m, B, B, B) float32 in [-1, 1] (signed distance /
+    truncation, > 0 in front of the surface; 1 where weight is 0); weight : (m, B, B, B) float32 sum
+    of the weights; source : (m, B, B, B) uint8 the view (0 camera, j mirror j, from 33 a sequence
+    of mirrors) of the largest single weight, NO_SOURCE where weight is 0; truncation in metres.
+    Block r holds the voxels of blocks.ijk[r] in the block layout (mirrorcore.dense.blocks); every
+    block has a voxel of weight > 0."""
 
     volume: Volume
     blocks: Blocks
@@ -60,15 +70,15 @@ class TsdfResult:
     truncation: float
 
     def mesh(self) -> Mesh:
-        """The zero level set by marching cubes (mirrorcore.dense.mesh) on the edges between voxels with weight > 0;
-        each vertex takes the source of the nearer end of its edge. Raises MirrorscanError when there is no surface in
-        the volume."""
+        """The zero level set by marching cubes (mirrorcore.dense.mesh) on the edges between voxels
+        with weight > 0; each vertex takes the source of the nearer end of its edge. Raises
+        MirrorscanError when there is no surface in the volume."""
         return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
 
     def grids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The whole grids (nx, ny, nz): tsdf float32 (1 outside the blocks), weight float32 (0 outside), source
-        uint8 (NO_SOURCE outside). 9 bytes a voxel of the volume: for small volumes and checks.
-        Raises MemoryBudgetError when they would not fit in the memory budget."""
+        """The whole grids (nx, ny, nz): tsdf float32 (1 outside the blocks), weight float32 (0
+        outside), source uint8 (NO_SOURCE outside). 9 bytes a voxel of the volume: for small volumes
+        and checks. Raises MemoryBudgetError when they would not fit in the memory budget."""
         self.volume.check_grids(9, "the fused grids, whole", BLOCK)
         grids = []
         for values, fill in ((self.tsdf, 1.0), (self.weight, 0.0), (self.source, NO_SOURCE)):
@@ -78,21 +88,26 @@ class TsdfResult:
         return tuple(grids)
 
 
-def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, truncation: float | None = None,
+def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
+         truncation: float | None = None,
          progress: Progress | None = None, cancel=None, workers: int | None = None,
          blocks: Blocks | None = None) -> TsdfResult:
-    """Fuse the views of one or more frames of a static object into a TSDF volume (see the module docstring).
+    """Fuse the views of one or more frames of a static object into a TSDF volume (see the module
+    docstring).
 
-    depths : (H, W) or (F, H, W) float metres, 0 = no reading; masks : the same shape, bool, the object's pixels;
-    truncation : metres (default 3 voxels); progress(fraction) after each chunk of blocks; cancel : a threading.Event or
-    a callable returning True to stop; blocks : the blocks of BLOCK^3 voxels to compute (default `surface_blocks`;
-    Blocks.all(volume, BLOCK) computes every voxel). Raises Cancelled when stopped, MirrorscanError on mismatched
-    inputs, MemoryBudgetError when the blocks would not fit in the memory budget.
+    depths : (H, W) or (F, H, W) float metres, 0 = no reading; masks : the same shape, bool, the
+    object's pixels;
+    truncation : metres (default 3 voxels); progress(fraction) after each chunk of blocks; cancel :
+    a threading.Event or a callable returning True to stop; blocks : the blocks of BLOCK^3 voxels to
+    compute (default `surface_blocks`; Blocks.all(volume, BLOCK) computes every voxel). Raises
+    Cancelled when stopped, MirrorscanError on mismatched inputs, MemoryBudgetError when the blocks
+    would not fit in the memory budget.
     """
     depths = np.asarray(depths, np.float32)
     depths = depths[None] if depths.ndim == 2 else depths
     if np.size(masks) != depths.size:
-        raise MirrorscanError(f"fuse: masks of shape {np.shape(masks)} for depth frames of shape {depths.shape}")
+        raise MirrorscanError(
+            f"fuse: masks of shape {np.shape(masks)} for depth frames of shape {depths.shape}")
     masks = np.asarray(masks, bool).reshape(depths.shape)
     trunc = 3 * volume.voxel if truncation is None else float(truncation)
     if not trunc > 0:
@@ -114,34 +129,40 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, trunca
 
     def work(item: tuple[slice, int]) -> None:
         rows, code = item
-        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code, tsdf[rows],
+        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code,
+                     tsdf[rows],
                      weight[rows], source[rows])
 
     run_chunks(plan.items(), work, progress, cancel, workers)
     kept = np.flatnonzero(weight.reshape(len(blocks), BLOCK ** 3).max(axis=1, initial=0) > 0)
-    kept = kept[np.argsort(blocks.take(kept).keys)]                                                  # C order
+    # C order
+    kept = kept[np.argsort(blocks.take(kept).keys)]
     return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc)
 
 
-def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray], volume: Volume,
+def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray],
+                   volume: Volume,
                    truncation: float) -> Blocks:
-    """The blocks of `volume` holding a voxel that some view (its QuadTable over the frames and its extrinsic) may
-    see within `truncation` metres of its measured surface: for each quad of pixels that shows the surface
-    (sampling.Quads), the axis-aligned box (camera frame) of the part of its pixels' frustum between its least depth
+    """The blocks of `volume` holding a voxel that some view (its QuadTable over the frames and its
+    extrinsic) may see within `truncation` metres of its measured surface: for each quad of pixels
+    that shows the surface (sampling.Quads), the axis-aligned box (camera frame) of the part of its
+    pixels' frustum between its least depth
     - truncation and its greatest + truncation over the frames."""
-    boxes = [_quad_boxes(intr, table, to_view, truncation) for table, to_view in zip(tables, to_views)]
+    boxes = [_quad_boxes(intr, table, to_view, truncation) for table,
+             to_view in zip(tables, to_views)]
     return Blocks.marked(volume, _covered(volume, np.concatenate([b[0] for b in boxes]),
                                           np.concatenate([b[1] for b in boxes])), BLOCK)
 
 
 def _quad_boxes(intr: Intrinsics, table: QuadTable, to_view: np.ndarray,
                 truncation: float) -> tuple[np.ndarray, np.ndarray]:
-    """(k, 3) float64 lower and upper corners, camera frame, of the boxes of `surface_blocks` for the quads of a
-    view's table (seen through extrinsic to_view (3, 4)).
+    """(k, 3) float64 lower and upper corners, camera frame, of the boxes of `surface_blocks` for
+    the quads of a view's table (seen through extrinsic to_view (3, 4)).
 
-    A corner of the frustum piece is z (a, b, 1) in the view's frame, a and b the pixel edges' (x/z, y/z), z the
-    near or the far depth; in the camera frame its coordinate i is z (R_i0 a + R_i1 b + R_i2) + t_i, (R | t) the
-    inverse of the view's extrinsic: least and greatest over the four (a, b) and the two depths (z > 0)."""
+    A corner of the frustum piece is z (a, b, 1) in the view's frame, a and b the pixel edges' (x/z,
+    y/z), z the near or the far depth; in the camera frame its coordinate i is z (R_i0 a + R_i1 b +
+    R_i2) + t_i, (R | t) the inverse of the view's extrinsic: least and greatest over the four (a,
+    b) and the two depths (z > 0)."""
     near, far = np.maximum(table.near - truncation, 1e-6), table.far + np.float64(truncation)
     row, col = np.divmod(table.index, intr.width + 2 * BORDER)
     a = [(col - BORDER + du - intr.cx) / intr.fx for du in (-PIXEL_MARGIN, 1 + PIXEL_MARGIN)]
@@ -158,19 +179,23 @@ def _quad_boxes(intr: Intrinsics, table: QuadTable, to_view: np.ndarray,
 
 
 def _covered(volume: Volume, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(volume.block_shape(BLOCK)) bool: the blocks holding a voxel centre inside some box lo..hi (n, 3) metres. Each
-    box covers a range of blocks; their union is counted on a grid of differences (+1 and -1 at the corners of each
-    range, inclusion-exclusion) summed along the three axes."""
+    """(volume.block_shape(BLOCK)) bool: the blocks holding a voxel centre inside some box lo..hi
+    (n, 3) metres. Each box covers a range of blocks; their union is counted on a grid of
+    differences (+1 and -1 at the corners of each range, inclusion-exclusion) summed along the three
+    axes."""
     origin, top = np.asarray(volume.origin), np.asarray(volume.shape) - 1
     first = np.ceil((lo - origin) / volume.voxel - PIXEL_MARGIN).astype(np.int64)
     last = np.floor((hi - origin) / volume.voxel + PIXEL_MARGIN).astype(np.int64)
     first, last = np.maximum(first, 0), np.minimum(last, top)
     inside = (first <= last).all(axis=1)
-    ends = (first[inside] // BLOCK, last[inside] // BLOCK + 1)                          # [start, stop) per axis
+    # [start, stop) per axis
+    ends = (first[inside] // BLOCK, last[inside] // BLOCK + 1)
     shape = tuple(b + 1 for b in volume.block_shape(BLOCK))
-    corners = [[], []]                                                                  # + and - corners
+    # + and - corners
+    corners = [[], []]
     for a, b, c in np.ndindex(2, 2, 2):
-        corners[(a + b + c) % 2].append((ends[a][:, 0] * shape[1] + ends[b][:, 1]) * shape[2] + ends[c][:, 2])
+        corners[(a + b + c) % 2].append((ends[a][:, 0] * shape[1] + ends[b][:, 1]) * shape[
+            2] + ends[c][:, 2])
     size = int(np.prod(shape))
     count = np.bincount(np.concatenate(corners[0]), minlength=size).astype(np.int32) - \
         np.bincount(np.concatenate(corners[1]), minlength=size).astype(np.int32)
@@ -178,16 +203,18 @@ def _covered(volume: Volume, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return count[:-1, :-1, :-1] > 0
 
 
-CUT, STRADDLE, SEEN = 1, 2, 4      # _Plan codes: cull voxel by voxel; test the mirror planes; view k sees: SEEN << k
+# _Plan codes: cull voxel by voxel; test the mirror planes; view k sees: SEEN << k
+CUT, STRADDLE, SEEN = 1, 2, 4
 
 
 @dataclass(frozen=True, eq=False)
 class _Plan:
-    """What fusion computes in some blocks, decided for whole blocks first (mirrorcore.dense.windows): rows (k,) int,
-    the blocks that hold a voxel the camera does not see empty beyond the truncation and that are not behind a mirror,
-    ordered by their code (k,) int: CUT when some voxel may be culled by the camera (tested voxel by voxel),
-    STRADDLE when some voxel may be behind a mirror, and SEEN << v when view v may see some voxel within the
-    truncation of its surface or in front of it. Blocks of one code are fused together, all alike."""
+    """What fusion computes in some blocks, decided for whole blocks first
+    (mirrorcore.dense.windows): rows (k,) int, the blocks that hold a voxel the camera does not see
+    empty beyond the truncation and that are not behind a mirror, ordered by their code (k,) int:
+    CUT when some voxel may be culled by the camera (tested voxel by voxel), STRADDLE when some
+    voxel may be behind a mirror, and SEEN << v when view v may see some voxel within the truncation
+    of its surface or in front of it. Blocks of one code are fused together, all alike."""
 
     rows: np.ndarray
     codes: np.ndarray
@@ -195,14 +222,16 @@ class _Plan:
     @classmethod
     def of(cls, rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, blocks: Blocks,
            trunc: float) -> "_Plan":
-        """The plan for `blocks` of the views of `frames`, cull the camera's cull depth over the frames."""
+        """The plan for `blocks` of the views of `frames`, cull the camera's cull depth over the
+        frames."""
         intr, volume = rig.intrinsics, blocks.volume
         extent = (BLOCK - 1) * volume.voxel
         halves = [window_half(intr, view.to_view, volume.corners(), extent) for view in frames[0]]
         box = blocks.bounds()
         camera = Window.for_cull(cull, frames[0][0].shape, halves[0])
         culled, _ = camera.test(intr, box, trunc)
-        _, uncut = camera.test(intr, box, -trunc)             # every voxel at or beyond the camera's depth - trunc
+        # every voxel at or beyond the camera's depth - trunc
+        _, uncut = camera.test(intr, box, -trunc)
         behind_a_mirror, front = mirror_sides(rig, box)
         culled |= behind_a_mirror
         rows = np.flatnonzero(~culled)
@@ -215,20 +244,25 @@ class _Plan:
         return cls(rows[order], codes[order])
 
     def items(self, max_voxels: int = CHUNK_VOXELS) -> list[tuple[slice, int]]:
-        """The work: (rows of self.rows, their code) for runs of one code, at most max_voxels voxels each."""
+        """The work: (rows of self.rows, their code) for runs of one code, at most max_voxels voxels
+        each."""
         step = max(1, max_voxels // BLOCK ** 3)
         starts = np.flatnonzero(np.diff(self.codes, prepend=-1))
         ends = np.append(starts[1:], len(self.codes))
-        return [(slice(i, min(i + step, end)), int(self.codes[start])) for start, end in zip(starts, ends)
+        return [(slice(i, min(i + step, end)), int(self.codes[start])) for start,
+                end in zip(starts, ends)
                 for i in range(start, end, step)]
 
 
-def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], views: tuple[View, ...],
-                 cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray, weight: np.ndarray,
+def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
+                 views: tuple[View, ...],
+                 cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray,
+                 weight: np.ndarray,
                  source: np.ndarray) -> None:
-    """Fuse the views that `code` (_Plan) names (their tables over the frames, extrinsics, and the views of one frame
-    for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B) float32 and source uint8 (as they start:
-    1, 0, NO_SOURCE). A view is projected once for every frame (they share the rig)."""
+    """Fuse the views that `code` (_Plan) names (their tables over the frames, extrinsics, and the
+    views of one frame for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B)
+    float32 and source uint8 (as they start: 1, 0, NO_SOURCE). A view is projected once for every
+    frame (they share the rig)."""
     intr = rig.intrinsics
     x, y, z = blocks.axes()
     keep = None
@@ -245,7 +279,8 @@ def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], 
             continue
         projection = project_blocks(intr, to_views[k], x, y, z)
         clipped, count = _sampled_sdf(tables[k], projection, trunc)
-        w = np.fmax(projection.z, np.float32(Z_TINY))              # finite weights: voxels past the volume are NaN
+        # finite weights: voxels past the volume are NaN
+        w = np.fmax(projection.z, np.float32(Z_TINY))
         np.square(w, out=w)
         np.square(w, out=w)
         np.divide(np.float32(1), w, out=w)                         # (1 m / z)^4
@@ -255,9 +290,11 @@ def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], 
         total += clipped
         count *= w
         sum_w += count
-        w *= count > 0                                             # the weight of a view counts where it is used
+        # the weight of a view counts where it is used
+        w *= count > 0
         better = w > best_w
-        best_source += better * (np.uint8(view.source) - best_source)     # uint8: the view's label where better
+        # uint8: the view's label where better
+        best_source += better * (np.uint8(view.source) - best_source)
         np.maximum(best_w, w, out=best_w)
     unseen = sum_w == 0
     values = (total + unseen) / (sum_w + unseen)                   # 1 where no view weighs in
@@ -266,9 +303,9 @@ def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray], 
 
 
 def _sampled_sdf(table: QuadTable, projection, trunc: float) -> tuple[np.ndarray, np.ndarray]:
-    """One view of every frame (its QuadTable) sampled at the projected voxels -> (n,) float32 each: the sum over the
-    frames of the sdf / truncation clipped to 1, where the voxel's quad shows the surface and sdf > -truncation, and
-    how many frames that is."""
+    """One view of every frame (its QuadTable) sampled at the projected voxels -> (n,) float32 each:
+    the sum over the frames of the sdf / truncation clipped to 1, where the voxel's quad shows the
+    surface and sdf > -truncation, and how many frames that is."""
     slots = table.slots(projection)
     clipped = count = None
     with np.errstate(invalid="ignore"):

@@ -1,17 +1,20 @@
-"""The views of a rig for dense reconstruction: the camera, each mirror's virtual camera and those of the sequences of
-mirrors the camera sees through in turn, each with the depth it measures and which of its pixels show the object's
-surface (what is sampled where points fall in a view: mirrorcore.dense.sampling).
+"""The views of a rig for dense reconstruction: the camera, each mirror's virtual camera and those
+of the sequences of mirrors the camera sees through in turn, each with the depth it measures and
+which of its pixels show the object's surface (what is sampled where points fall in a view:
+mirrorcore.dense.sampling).
 
-A mirror's view is the camera seen through the mirror: a point P is seen by mirror j where its reflection
-P_j = reflect(P, plane j) projects into mirror j's boundary, at the measured (virtual, unfolded) depth of that pixel.
-The reflection is the view's extrinsic (det -1); projecting P_j with the camera's intrinsics is the whole model. A
-sequence of mirrors (a, b, ...) is a view the same way, with the extrinsic M_a M_b ... (det +1 for two mirrors), on
-the pixels whose ray meets those mirrors in turn (mirrorcore.rig.raypaths), between the depths where it meets them.
+A mirror's view is the camera seen through the mirror: a point P is seen by mirror j where its
+reflection P_j = reflect(P, plane j) projects into mirror j's boundary, at the measured (virtual,
+unfolded) depth of that pixel. The reflection is the view's extrinsic (det -1); projecting P_j with
+the camera's intrinsics is the whole model. A sequence of mirrors (a, b, ...) is a view the same
+way, with the extrinsic M_a M_b ... (det +1 for two mirrors), on the pixels whose ray meets those
+mirrors in turn (mirrorcore.rig.raypaths), between the depths where it meets them.
 
 Per view and per pixel, `depth` (float32 metres, z of the unfolded point) reads:
-  finite : the ray is empty up to this depth (and, where `surface` is set, meets the object's surface there)
-  +inf   : the ray is empty all the way (a pixel off the object mask with no reading)
-  NaN    : the view knows nothing along this ray (a mirror view outside its boundary, or something in front of the
+  finite : the ray is empty up to this depth (and, where `surface` is set, meets the object's
+  surface there) +inf   : the ray is empty all the way (a pixel off the object mask with no reading)
+  NaN    : the view knows nothing along this ray (a mirror view outside its boundary, or something
+  in front of the
            glass hides the mirror there)
 """
 from __future__ import annotations
@@ -32,13 +35,17 @@ from mirrorcore.dense.sampling import Quads
 
 @dataclass(frozen=True, eq=False)
 class View:
-    """One view of the rig. source : 0 camera, j mirror j, from 33 a sequence of mirrors (mirrorcore.base.palette).
-    to_view : (3, 4) float64 [R | t] mapping camera-frame points to the points this view projects (identity, the
-    reflection through mirror j's plane, or the composition M_1 M_2 ... of a sequence's: mirrorcore.rig.raypaths).
-    depth : (H*W + 1,) float32 flat depth per pixel as in the module docstring, its last cell NaN (off-image reads).
+    """One view of the rig. source : 0 camera, j mirror j, from 33 a sequence of mirrors
+    (mirrorcore.base.palette).
+    to_view : (3, 4) float64 [R | t] mapping camera-frame points to the points this view projects
+    (identity, the reflection through mirror j's plane, or the composition M_1 M_2 ... of a
+    sequence's: mirrorcore.rig.raypaths).
+    depth : (H*W + 1,) float32 flat depth per pixel as in the module docstring, its last cell NaN
+    (off-image reads).
     surface : (H*W + 1,) bool, the pixel shows the object in this view (False in the last cell).
-    outline : (H*W + 1,) bool, the pixels this view sees through (a mirror's boundary; for a sequence, the pixels
-    whose ray meets its mirrors in turn; every pixel for the camera), False in the last cell.
+    outline : (H*W + 1,) bool, the pixels this view sees through (a mirror's boundary; for a
+    sequence, the pixels whose ray meets its mirrors in turn; every pixel for the camera), False in
+    the last cell.
     shape : (H, W). The tables derived from these (`cull_depth`, `quads`) are made on first use."""
 
     source: int
@@ -50,50 +57,57 @@ class View:
 
     @cached_property
     def cull_depth(self) -> np.ndarray:
-        """(H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf; +inf in the last cell): a point nearer
-        than cull_depth - th is empty in this view even with bilinear sampling."""
+        """(H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf; +inf in the last cell): a
+        point nearer than cull_depth - th is empty in this view even with bilinear sampling."""
         return cull_depth(self.depth, self.shape)
 
     @cached_property
     def quads(self) -> Quads:
-        """The depth read by quads of pixels, for sampling at points (mirrorcore.dense.sampling.Quads)."""
+        """The depth read by quads of pixels, for sampling at points
+        (mirrorcore.dense.sampling.Quads)."""
         return Quads.of(self.depth[:-1].reshape(self.shape), self.surface[:-1].reshape(self.shape))
 
 
 def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]:
-    """The camera's view, one view per calibrated mirror with a boundary (session order), then one per sequence of
-    mirrors that some pixel's ray follows (mirrorcore.rig.raypaths; label order): the virtual cameras of the rig.
+    """The camera's view, one view per calibrated mirror with a boundary (session order), then one
+    per sequence of mirrors that some pixel's ray follows (mirrorcore.rig.raypaths; label order):
+    the virtual cameras of the rig.
 
-    depth : (H, W) float metres, 0 = no reading (typically smoothed as for Algorithm 1); mask : (H, W) bool, the
-    object's pixels (direct or in a mirror). A pixel inside mirror j's boundary is mirror j's when its point lies
-    behind plane j (the Algorithm 1 test) and, where its ray goes on to another mirror, before the depth where it
-    meets that one; beyond it the pixel belongs to the sequence's view, up to the next mirror. The object pixels that
-    no mirror claims are the camera's.
+    depth : (H, W) float metres, 0 = no reading (typically smoothed as for Algorithm 1); mask : (H,
+    W) bool, the object's pixels (direct or in a mirror). A pixel inside mirror j's boundary is
+    mirror j's when its point lies behind plane j (the Algorithm 1 test) and, where its ray goes on
+    to another mirror, before the depth where it meets that one; beyond it the pixel belongs to the
+    sequence's view, up to the next mirror. The object pixels that no mirror claims are the
+    camera's.
     """
     intr = rig.intrinsics
     z = check_depth_shape(intr, depth).astype(np.float32)
     mask = np.asarray(mask, bool) & (z > 0)
     empty, empty_image = _padded(intr.shape, np.nan, np.float32)
     empty_image[:] = z
-    np.copyto(empty_image, np.float32(np.inf), where=~(z > 0))     # off-mask pixels with no reading: empty rays
+    # off-mask pixels with no reading: empty rays
+    np.copyto(empty_image, np.float32(np.inf), where=~(z > 0))
     segments = _Segments.of(rig.reflection_table, z)
     views, claimed = [], np.zeros(intr.shape, bool)
     for j, (mirror, tables) in enumerate(zip(rig.mirrors, _mirror_tables(rig)), start=1):
         if tables is None:
             continue
         inside, behind, outline = tables
-        through = (z > behind) | ((z == 0) & inside)               # the reflected ray exists: behind, or no reading
+        # the reflected ray exists: behind, or no reading
+        through = (z > behind) | ((z == 0) & inside)
         seen, seen_image = _padded(intr.shape, np.nan, np.float32)
         np.copyto(seen_image, empty_image, where=through)
         surface, surface_image = _padded(intr.shape, False, bool)
         np.logical_and(through, mask, out=surface_image)
         segments.end_first(j, seen_image, surface_image)
         claimed |= surface_image
-        views.append(View(j, mirror.plane.reflection_matrix()[:3], seen, surface, outline, intr.shape))
+        views.append(View(j, mirror.plane.reflection_matrix()[:3], seen, surface, outline,
+                          intr.shape))
     for label, sequence in segments.sequences():
         seen, surface, outline = segments.view_of(label, empty, mask)
         claimed |= surface[:-1].reshape(intr.shape)
-        views.append(View(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface, outline, intr.shape))
+        views.append(View(label, sequence_reflection(rig.planes, sequence)[:3], seen, surface,
+                          outline, intr.shape))
     surface, surface_image = _padded(intr.shape, False, bool)
     np.logical_and(mask, ~claimed, out=surface_image)
     direct = View(0, np.eye(3, 4), empty, surface, _everywhere(intr.shape), intr.shape)
@@ -101,15 +115,18 @@ def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]
 
 
 def cull_depth(depth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """View.cull_depth of a flat depth (H*W + 1,) float32 (View.depth) of shape (H, W). The least of several views'
-    cull depths is the cull depth of their least depth (erosion and the minimum commute)."""
+    """View.cull_depth of a flat depth (H*W + 1,) float32 (View.depth) of shape (H, W). The least of
+    several views' cull depths is the cull depth of their least depth (erosion and the minimum
+    commute)."""
     image = depth[:-1].reshape(shape)
-    cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image), np.ones((3, 3), np.uint8))
+    cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image),
+                     np.ones((3, 3), np.uint8))
     return padded_flat(cull, np.inf)
 
 
 def _padded(shape: tuple[int, int], fill, dtype) -> tuple[np.ndarray, np.ndarray]:
-    """A flat (H*W + 1,) array filled with `fill` (View's layout: the last cell is the pad), and its (H, W) view."""
+    """A flat (H*W + 1,) array filled with `fill` (View's layout: the last cell is the pad), and its
+    (H, W) view."""
     flat = np.full(shape[0] * shape[1] + 1, fill, dtype)
     return flat, flat[:-1].reshape(shape)
 
@@ -125,11 +142,12 @@ def _everywhere(shape: tuple[int, int]) -> np.ndarray:
 
 @lru_cache(maxsize=8)
 def _mirror_tables(rig: Rig) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]:
-    """Per mirror of the rig (made once per rig), None when it has no plane or no boundary, else: inside (H, W) bool,
-    the pixels of its boundary; behind (H, W) float32, the depth beyond which a pixel's point is behind its plane
-    (+inf outside the boundary or where the ray never gets behind it); outline (H*W + 1,) bool, inside padded as
-    View.outline. A float32 depth z is behind exactly when z > behind: z (n . ray) + d < 0 in float64 for
-    ray = (x/z, y/z, 1), with the float64 threshold -d / (n . ray) rounded down to float32."""
+    """Per mirror of the rig (made once per rig), None when it has no plane or no boundary, else:
+    inside (H, W) bool, the pixels of its boundary; behind (H, W) float32, the depth beyond which a
+    pixel's point is behind its plane (+inf outside the boundary or where the ray never gets behind
+    it); outline (H*W + 1,) bool, inside padded as View.outline. A float32 depth z is behind exactly
+    when z > behind: z (n . ray) + d < 0 in float64 for ray = (x/z, y/z, 1), with the float64
+    threshold -d / (n . ray) rounded down to float32."""
     rays = rig.intrinsics.rays
     tables = []
     for m in rig.mirrors:
@@ -152,8 +170,9 @@ def _mirror_tables(rig: Rig) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray] 
 
 @dataclass(frozen=True, eq=False)
 class _Segments:
-    """Where the rays of the chains' pixels (ReflectionTable.chains) go on through further mirrors, as depth segments
-    along each pixel's ray: segment k (k = 0: the first mirror's) spans z in (start[:, k], end[:, k]).
+    """Where the rays of the chains' pixels (ReflectionTable.chains) go on through further mirrors,
+    as depth segments along each pixel's ray: segment k (k = 0: the first mirror's) spans z in
+    (start[:, k], end[:, k]).
     chains : the table's chains; z : (c,) float32 their measured depth (0: no reading)."""
 
     chains: Chains
@@ -168,29 +187,37 @@ class _Segments:
         chains = table.chains
         flat_threshold = table.threshold.reshape(-1)[chains.pixel]
         start = np.concatenate([flat_threshold[:, None], chains.threshold.T], axis=1)
-        end = np.minimum(np.concatenate([chains.threshold.T, chains.cutoff[:, None]], axis=1), chains.cutoff[:, None])
-        return cls(chains, table.label.reshape(-1)[chains.pixel], start, end, z.reshape(-1)[chains.pixel], z.shape)
+        end = np.minimum(np.concatenate([chains.threshold.T, chains.cutoff[:, None]], axis=1),
+                         chains.cutoff[:, None])
+        return cls(chains, table.label.reshape(-1)[chains.pixel], start, end,
+                   z.reshape(-1)[chains.pixel], z.shape)
 
     def end_first(self, mirror: int, seen: np.ndarray, surface: np.ndarray) -> None:
-        """Mirror `mirror`'s view (seen : (H, W) float32 depth, surface : (H, W) bool, in place) knows its pixels'
-        rays only up to where they meet their second mirror."""
+        """Mirror `mirror`'s view (seen : (H, W) float32 depth, surface : (H, W) bool, in place)
+        knows its pixels' rays only up to where they meet their second mirror."""
         rows = np.flatnonzero(self.first == mirror)
         pixel, end = self.chains.pixel[rows], self.end[rows, 0]
-        seen.reshape(-1)[pixel] = np.minimum(seen.reshape(-1)[pixel], end)       # NaN (nothing known) stays NaN
+        # NaN (nothing known) stays NaN
+        seen.reshape(-1)[pixel] = np.minimum(seen.reshape(-1)[pixel], end)
         surface.reshape(-1)[pixel] &= self.z[rows] < end
 
     def sequences(self) -> list[tuple[int, tuple[int, ...]]]:
-        """(label, sequence) of every sequence of two or more mirrors that some pixel follows, in label order."""
-        return [(int(s), source_sequence(int(s))) for s in np.unique(self.chains.label[self.chains.label > 0])]
+        """(label, sequence) of every sequence of two or more mirrors that some pixel follows, in
+        label order."""
+        return [(int(s), source_sequence(int(s)))
+                for s in np.unique(self.chains.label[self.chains.label > 0])]
 
-    def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the sequence `label`'s view:
-        its pixels see the ray's segment after that sequence (empty up to the measured depth (empty (H*W + 1,)), or up
-        to the next mirror); elsewhere, and where the measured point lies before the segment, the view knows nothing
+    def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray,
+                                                                                np.ndarray,
+                                                                                np.ndarray]:
+        """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the
+        sequence `label`'s view: its pixels see the ray's segment after that sequence (empty up to
+        the measured depth (empty (H*W + 1,)), or up to the next mirror); elsewhere, and where the
+        measured point lies before the segment, the view knows nothing
         (NaN). mask : (H, W) bool, the object's pixels."""
         level, rows = np.nonzero(self.chains.label == label)
-        pixel, start, end, z = self.chains.pixel[rows], self.start[rows, level + 1], self.end[rows, level + 1], \
-            self.z[rows]
+        pixel, z = self.chains.pixel[rows], self.z[rows]
+        start, end = self.start[rows, level + 1], self.end[rows, level + 1]
         after = (z == 0) | (z > start)
         seen, _ = _padded(self.shape, np.nan, np.float32)
         surface, _ = _padded(self.shape, False, bool)
@@ -202,5 +229,6 @@ class _Segments:
 
 
 def padded_flat(image: np.ndarray, pad) -> np.ndarray:
-    """(H, W) image -> (H*W + 1,) of its dtype with `pad` in the last cell: index H*W (see pixel_index) reads `pad`."""
+    """(H, W) image -> (H*W + 1,) of its dtype with `pad` in the last cell: index H*W (see
+    pixel_index) reads `pad`."""
     return np.append(image.ravel(), np.array(pad, image.dtype))

@@ -1,6 +1,7 @@
-"""The voxel grid of dense reconstruction: an axis-aligned volume in the camera frame, its bounding box from a cloud,
-its blocks (cubes of b^3 voxels, the unit of sparse work; each method picks b), and the runner that processes chunks
-of work in parallel with a progress callback and cancellation."""
+"""The voxel grid of dense reconstruction: an axis-aligned volume in the camera frame, its bounding
+box from a cloud, its blocks (cubes of b^3 voxels, the unit of sparse work; each method picks b),
+and the runner that processes chunks of work in parallel with a progress callback and
+cancellation."""
 from __future__ import annotations
 
 import os
@@ -15,27 +16,32 @@ from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.progress import Progress, cancel_requested
 
-SMALLEST_BLOCK = 4                # voxels along the edge of the smallest blocks a method uses (fusion)
-CHUNK_VOXELS = 1 << 16            # voxels per chunk of work: temporaries stay in the CPU caches, memory bounded
+# voxels along the edge of the smallest blocks a method uses (fusion)
+SMALLEST_BLOCK = 4
+# voxels per chunk of work: temporaries stay in the CPU caches, memory bounded
+CHUNK_VOXELS = 1 << 16
 QUEUED_PER_WORKER = 2             # chunks submitted at a time per worker thread
-BLOCK_GRID_BYTES = 24             # bytes per smallest block of the whole grid a method may hold (coordinates, marks)
+# bytes per smallest block of the whole grid a method may hold (coordinates, marks)
+BLOCK_GRID_BYTES = 24
 
-WHOLE_VOXELS = 1e-6               # a box this little (in voxels) over a whole number of voxels is that number of voxels
+# a box this little (in voxels) over a whole number of voxels is that number of voxels
+WHOLE_VOXELS = 1e-6
 NO_SOURCE = 255   # the source grids' value for voxels that no view labels
 Item = TypeVar("Item")
 
 
 @dataclass(frozen=True)
 class Volume:
-    """Voxel (i, j, k) has its centre at origin + voxel * (i, j, k): x along i, y along j, z along k (camera frame,
-    metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k]. With blocks of b^3 voxels, block (p, q, r)
-    holds the voxels [p b, (p + 1) b) x [q b, (q + 1) b) x [r b, (r + 1) b); the blocks on the far faces reach past
-    the grid.
+    """Voxel (i, j, k) has its centre at origin + voxel * (i, j, k): x along i, y along j, z along k
+    (camera frame, metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k]. With
+    blocks of b^3 voxels, block (p, q, r) holds the voxels [p b, (p + 1) b) x [q b, (q + 1) b) x [r
+    b, (r + 1) b); the blocks on the far faces reach past the grid.
 
     origin : (3,) metres, centre of voxel (0, 0, 0); voxel : edge in metres; shape : (nx, ny, nz).
-    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when the grid's smallest
-    blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget (mirrorcore.base.budget). Each method checks what
-    it allocates besides (`check_grids`, the TSDF's blocks), before allocating it.
+    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when
+    the grid's smallest blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget
+    (mirrorcore.base.budget). Each method checks what it allocates besides (`check_grids`, the
+    TSDF's blocks), before allocating it.
     """
 
     origin: tuple[float, float, float]
@@ -46,29 +52,34 @@ class Volume:
         if not (np.isfinite(self.voxel) and self.voxel > 0):
             raise MirrorscanError(f"volume: the voxel size must be positive, got {self.voxel}")
         if len(self.shape) != 3 or min(self.shape) < 1:
-            raise MirrorscanError(f"volume: the grid needs at least one voxel per axis, got {self.shape}")
+            raise MirrorscanError(
+                f"volume: the grid needs at least one voxel per axis, got {self.shape}")
         object.__setattr__(self, "origin", tuple(float(o) for o in self.origin))
         object.__setattr__(self, "shape", tuple(int(s) for s in self.shape))
-        check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK), float))) * BLOCK_GRID_BYTES,
+        check_memory(float(np.prod(np.asarray(self.block_shape(SMALLEST_BLOCK),
+                                              float))) * BLOCK_GRID_BYTES,
                      self._what())
 
     @classmethod
     def from_bounds(cls, lo, hi, voxel: float) -> "Volume":
-        """The grid of `voxel`-sized cells covering the box lo..hi ((3,) metres, camera frame). A box a whole number
-        of voxels wide, up to rounding, keeps that number: the box of a grid gives the same grid back."""
+        """The grid of `voxel`-sized cells covering the box lo..hi ((3,) metres, camera frame). A
+        box a whole number of voxels wide, up to rounding, keeps that number: the box of a grid
+        gives the same grid back."""
         lo, hi = np.asarray(lo, float).reshape(3), np.asarray(hi, float).reshape(3)
         if not np.all(hi > lo):
-            raise MirrorscanError(f"volume: the box's upper corner {hi.tolist()} must exceed its lower {lo.tolist()}")
+            raise MirrorscanError(
+                f"volume: the box's upper corner {hi.tolist()} must exceed its lower {lo.tolist()}")
         shape = np.maximum(np.ceil((hi - lo) / voxel - WHOLE_VOXELS).astype(int), 1)
         return cls(tuple(lo + voxel / 2), voxel, tuple(shape))
 
     @classmethod
     def around(cls, points: np.ndarray, voxel: float, margin: float) -> "Volume":
-        """The bounding box of points (n, 3) metres, camera frame, grown by `margin` metres on every side.
-        Raises MirrorscanError when there are no points."""
+        """The bounding box of points (n, 3) metres, camera frame, grown by `margin` metres on every
+        side. Raises MirrorscanError when there are no points."""
         points = np.asarray(points, float).reshape(-1, 3)
         if not len(points):
-            raise MirrorscanError("volume: no points to take a bounding box of (is the object in view?)")
+            raise MirrorscanError(
+                "volume: no points to take a bounding box of (is the object in view?)")
         return cls.from_bounds(points.min(0) - margin, points.max(0) + margin, voxel)
 
     @property
@@ -85,8 +96,9 @@ class Volume:
         return tuple(block * b for b in self.block_shape(block))
 
     def check_grids(self, voxel_bytes: float, what: str, block: int) -> None:
-        """Refuse (MemoryBudgetError naming the volume and `what`) grids of `voxel_bytes` a voxel of the grid padded
-        to whole blocks of block^3 voxels that would not fit in the memory budget."""
+        """Refuse (MemoryBudgetError naming the volume and `what`) grids of `voxel_bytes` a voxel of
+        the grid padded to whole blocks of block^3 voxels that would not fit in the memory
+        budget."""
         check_memory(float(np.prod(np.asarray(self.padded_shape(block), float))) * voxel_bytes,
                      f"{self._what()}: {what}")
 
@@ -95,8 +107,8 @@ class Volume:
         return tuple(o + self.voxel * np.arange(n) for o, n in zip(self.origin, self.shape))
 
     def padded_axes(self, block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The voxel centres along x, y, z of the grid padded to whole blocks of block^3 voxels: float32 metres, NaN
-        past the volume."""
+        """The voxel centres along x, y, z of the grid padded to whole blocks of block^3 voxels:
+        float32 metres, NaN past the volume."""
         return tuple(np.concatenate([a.astype(np.float32), np.full(p - len(a), np.nan, np.float32)])
                      for a, p in zip(self.axes(), self.padded_shape(block)))
 
@@ -107,28 +119,35 @@ class Volume:
         return np.stack(np.meshgrid(*np.stack([lo, hi]).T, indexing="ij"), axis=-1).reshape(-1, 3)
 
     def centres(self, flat_index: np.ndarray) -> np.ndarray:
-        """flat_index : (n,) int, C-order indices into the (nx, ny, nz) grid -> (n, 3) float32 centres, metres."""
+        """flat_index : (n,) int, C-order indices into the (nx, ny, nz) grid -> (n, 3) float32
+        centres, metres."""
         ijk = np.stack(np.unravel_index(flat_index, self.shape), axis=-1)
         return (np.asarray(self.origin) + self.voxel * ijk).astype(np.float32)
 
     def nearest_index(self, points: np.ndarray) -> np.ndarray:
-        """points (n, 3) metres -> (n,) int64 C-order index of the nearest voxel (clipped to the grid)."""
-        ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(np.int64)
+        """points (n, 3) metres -> (n,) int64 C-order index of the nearest voxel (clipped to the
+        grid)."""
+        ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(
+            np.int64)
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
     def _what(self) -> str:
-        return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of {self.voxel * 1e3:g} mm "
+        return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of "
+                f"{self.voxel * 1e3:g} mm "
                 "(use larger voxels or a smaller box)")
 
 
-def run_chunks(items: Sequence[Item], work: Callable[[Item], None], progress: Progress | None = None,
+def run_chunks(items: Sequence[Item], work: Callable[[Item], None],
+               progress: Progress | None = None,
                cancel=None, workers: int | None = None) -> None:
-    """Call work(item) for every item, in this thread for one worker, else on `workers` threads (default: the CPU
-    count; numpy releases the GIL in its array operations) with at most QUEUED_PER_WORKER items per thread submitted
-    at a time, so that memory stays bounded and no thread waits for the next item.
+    """Call work(item) for every item, in this thread for one worker, else on `workers` threads
+    (default: the CPU count; numpy releases the GIL in its array operations) with at most
+    QUEUED_PER_WORKER items per thread submitted at a time, so that memory stays bounded and no
+    thread waits for the next item.
 
-    progress(fraction) is called in this thread after each item (0 < fraction <= 1). cancel is polled before each
-    item starts (is submitted): the running items finish, then Cancelled is raised. Exceptions of `work` propagate.
+    progress(fraction) is called in this thread after each item (0 < fraction <= 1). cancel is
+    polled before each item starts (is submitted): the running items finish, then Cancelled is
+    raised. Exceptions of `work` propagate.
     """
     workers = max(1, workers or os.cpu_count() or 1)
     done = 0
@@ -151,7 +170,8 @@ def run_chunks(items: Sequence[Item], work: Callable[[Item], None], progress: Pr
             todo = iter(items)
             try:
                 while True:
-                    while len(pending) < QUEUED_PER_WORKER * workers and not cancel_requested(cancel):
+                    while len(pending) < QUEUED_PER_WORKER * workers and not cancel_requested(
+                        cancel):
                         item = next(todo, None)
                         if item is None:
                             break

@@ -1,4 +1,5 @@
-"""Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading (docs/DESIGN.md)."""
+"""Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading
+(docs/DESIGN.md)."""
 from __future__ import annotations
 
 import os
@@ -15,23 +16,29 @@ from mirrorcore.geometry.camera import MAX_IMAGE_SIDE
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 DECODED_BYTES = 6         # a decoded pixel: uint16 as read, then float32 metres
-FILE_SLACK = 1 << 20      # bytes a depth file may hold beyond twice its raw pixels (headers, text chunks)
+# bytes a depth file may hold beyond twice its raw pixels (headers, text chunks)
+FILE_SLACK = 1 << 20
 
 
-def read_depth_png(path: str | Path, depth_scale: float, shape: tuple[int, int] | None = None) -> np.ndarray:
-    """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file when it is missing,
-    or when it is larger than an image of its size can be (checked before reading it: see max_file_bytes)."""
+def read_depth_png(path: str | Path, depth_scale: float,
+                   shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file
+    when it is missing, or when it is larger than an image of its size can be (checked before
+    reading it: see max_file_bytes)."""
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such depth image")
     with open(path, "rb") as f:
         head = f.read(24)
         size = os.fstat(f.fileno()).st_size
-        pixels = _png_pixels(head, shape, str(path)) or (shape[0] * shape[1] if shape is not None else None)
+        pixels = _png_pixels(head, shape,
+                             str(path)) or (shape[0] * shape[1] if shape is not None else None)
         limit = max_file_bytes(pixels) if pixels is not None else None
         if limit is not None and size > limit:
-            raise FileFormatError(f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
-                                  f"hold (at most {limit:,}); the file is damaged or not a depth image")
+            raise FileFormatError(
+                f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
+                                  f"hold (at most {limit:,}); the file is damaged or not a depth "
+                                  "image")
         check_memory(size, f"{path}: reading the file")
         f.seek(0)
         data = f.read()
@@ -39,8 +46,9 @@ def read_depth_png(path: str | Path, depth_scale: float, shape: tuple[int, int] 
 
 
 def max_file_bytes(pixels: int) -> int:
-    """The largest file a 16-bit depth image of `pixels` pixels may be: twice its raw size (PNG's worst case, stored
-    without compression, is the raw size plus a byte a row and a few bytes a block), plus FILE_SLACK."""
+    """The largest file a 16-bit depth image of `pixels` pixels may be: twice its raw size (PNG's
+    worst case, stored without compression, is the raw size plus a byte a row and a few bytes a
+    block), plus FILE_SLACK."""
     return 4 * pixels + FILE_SLACK
 
 
@@ -48,29 +56,31 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
                      where: str = "depth image") -> np.ndarray:
     """Decode a 16-bit depth image (PNG, or another format OpenCV reads) from its bytes.
 
-    depth_scale : metres per unit; shape : expected (H, W), checked when given (for a PNG, from its header before
-    decoding: a small file can hold an image of gigabytes). returns (H, W) float32 metres, 0 = no reading.
-    Raises FileFormatError naming `where` (the file) and what is wrong.
+    depth_scale : metres per unit; shape : expected (H, W), checked when given (for a PNG, from its
+    header before decoding: a small file can hold an image of gigabytes). returns (H, W) float32
+    metres, 0 = no reading. Raises FileFormatError naming `where` (the file) and what is wrong.
     """
     _png_pixels(data[:24], shape, where)
     raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if raw is None:
         raise FileFormatError(f"{where}: not a readable image (corrupt or not a PNG)")
     if raw.ndim != 2:
-        raise FileFormatError(f"{where}: a depth image has one channel, this one has {raw.shape[2]}")
+        raise FileFormatError(
+            f"{where}: a depth image has one channel, this one has {raw.shape[2]}")
     if raw.dtype != np.uint16:
         raise FileFormatError(f"{where}: a depth image is 16-bit, this one is {raw.dtype} "
                               "(8-bit images cannot hold depth)")
     if shape is not None and raw.shape != tuple(shape):
-        raise FileFormatError(f"{where}: size {raw.shape[1]}x{raw.shape[0]} does not match the camera's "
+        raise FileFormatError(
+            f"{where}: size {raw.shape[1]}x{raw.shape[0]} does not match the camera's "
                               f"{shape[1]}x{shape[0]}")
     return raw.astype(np.float32) * np.float32(depth_scale)
 
 
 def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int | None:
-    """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W), a side above MAX_IMAGE_SIDE, or an image
-    whose decoding would not fit in the memory budget; return its number of pixels. Other formats pass (None: they
-    are checked after decoding)."""
+    """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W), a side above
+    MAX_IMAGE_SIDE, or an image whose decoding would not fit in the memory budget; return its number
+    of pixels. Other formats pass (None: they are checked after decoding)."""
     if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
         return None
     width, height = struct.unpack(">II", head[16:24])
@@ -78,16 +88,19 @@ def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int |
         raise FileFormatError(f"{where}: size {width}x{height} is too large for a depth image "
                               f"(at most {MAX_IMAGE_SIDE} pixels a side)")
     if shape is not None and (height, width) != tuple(shape):
-        raise FileFormatError(f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
+        raise FileFormatError(
+            f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
     check_memory(width * height * DECODED_BYTES, f"{where}: decoding a {width}x{height} image")
     return width * height
 
 
 def require_readings(depth: np.ndarray, where: str) -> np.ndarray:
-    """Return `depth` ((..., H, W) metres) when any pixel has a reading; MirrorscanError naming `where` when every
-    pixel is 0 (or not finite): a covered or unplugged camera, or a blank file, has nothing to calibrate or scan."""
+    """Return `depth` ((..., H, W) metres) when any pixel has a reading; MirrorscanError naming
+    `where` when every pixel is 0 (or not finite): a covered or unplugged camera, or a blank file,
+    has nothing to calibrate or scan."""
     if not np.any(np.isfinite(depth) & (depth > 0)):
-        raise MirrorscanError(f"{where}: no depth reading at all (every pixel is 0); is the camera covered or "
+        raise MirrorscanError(
+            f"{where}: no depth reading at all (every pixel is 0); is the camera covered or "
                               "the file blank?")
     return depth
 
@@ -95,7 +108,8 @@ def require_readings(depth: np.ndarray, where: str) -> np.ndarray:
 def encode_depth_png(depth: np.ndarray, depth_scale: float) -> bytes:
     """depth : (H, W) float metres (0 or non-finite = no reading) -> PNG bytes of uint16 units.
 
-    Depths beyond the uint16 range (65535 * depth_scale) become 0: a reading that cannot be stored is no reading.
+    Depths beyond the uint16 range (65535 * depth_scale) become 0: a reading that cannot be stored
+    is no reading.
     """
     depth = np.asarray(depth, dtype=np.float64)
     units = np.where(np.isfinite(depth), np.round(depth / depth_scale), 0)

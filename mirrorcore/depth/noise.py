@@ -1,18 +1,20 @@
 """Depth noise of a structured-light camera (Kinect v1 class), used for noise-aware thresholds.
 
-Axial noise grows with the square of the depth (Khoshelham & Elberink 2012): sigma(z) = 1.425e-3 * z^2 metres.
+Axial noise grows with the square of the depth (Khoshelham & Elberink 2012): sigma(z) = 1.425e-3 *
+z^2 metres.
 """
 from __future__ import annotations
 
 import numpy as np
 
 KINECT_AXIAL_COEF = 1.425e-3   # metres of axial standard deviation per metre^2 of depth
-MIN_SIGMA = 0.5e-3             # a floor (metres) so that thresholds never collapse to zero near the camera
+# a floor (metres) so that thresholds never collapse to zero near the camera
+MIN_SIGMA = 0.5e-3
 
 
 def axial_sigma(z: np.ndarray | float) -> np.ndarray:
-    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored at MIN_SIGMA.
-    float32 input gives float32 (per-pixel images), anything else float64."""
+    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored
+    at MIN_SIGMA. float32 input gives float32 (per-pixel images), anything else float64."""
     z = np.asarray(z)
     z = z if z.dtype == np.float32 else z.astype(np.float64)
     return np.maximum(z.dtype.type(KINECT_AXIAL_COEF) * np.square(z), z.dtype.type(MIN_SIGMA))

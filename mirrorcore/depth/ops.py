@@ -1,5 +1,5 @@
-"""Operations on depth images (metres, 0 = no reading): median and robust mean of several frames, edge-aware
-smoothing, and local quadratic fits of chosen pixels."""
+"""Operations on depth images (metres, 0 = no reading): median and robust mean of several frames,
+edge-aware smoothing, and local quadratic fits of chosen pixels."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -13,19 +13,24 @@ from mirrorcore.depth.noise import KINECT_AXIAL_COEF, axial_sigma
 
 QUADRATIC_RADIUS = 4        # pixels: local_quadratic_depth fits the 9 x 9 pixels around each pixel
 QUADRATIC_SIGMA = 3.0       # pixels: the spatial Gaussian's sigma
-QUADRATIC_STRENGTH = 2.0    # the range Gaussian's sigma, in units of the sensor's disparity noise (1.425e-3 / m)
+# the range Gaussian's sigma, in units of the sensor's disparity noise (1.425e-3 / m)
+QUADRATIC_STRENGTH = 2.0
 QUADRATIC_CHUNK = 16384     # pixels fitted at once: 16384 x 81 neighbours, about 5 MB an array
-RIDGE = 1e-4                # a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
-NO_READING = np.float32(1e3)   # the disparity (1/m) given to pixels that must not count: its range weight is 0
-MEAN_SIGMAS = 3.0           # robust_mean_depth averages the readings within this many depth-noise sigmas of the median
-OCCLUDER_SIGMAS = 5.0       # without_occluders leaves out readings this many depth-noise sigmas in front of the
-                            # background's
+# a ridge of RIDGE x the total weight keeps a fit on a strip of pixels solvable
+RIDGE = 1e-4
+# the disparity (1/m) given to pixels that must not count: its range weight is 0
+NO_READING = np.float32(1e3)
+# robust_mean_depth averages the readings within this many depth-noise sigmas of the median
+MEAN_SIGMAS = 3.0
+# without_occluders leaves out readings this many depth-noise sigmas in front of the background's
+OCCLUDER_SIGMAS = 5.0
 
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
     """Per-pixel median of the readings of several frames, ignoring frames with no reading there.
 
-    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame has a reading.
+    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame
+    has a reading.
     """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim == 2:
@@ -38,54 +43,64 @@ def median_depth(frames: np.ndarray) -> np.ndarray:
 
 
 def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
-    """Per-pixel mean of the readings of several frames within MEAN_SIGMAS of the depth noise (noise.axial_sigma) of
-    their median: what passed in front in a few frames is left out as by the median, and the mean of the rest averages
-    the camera's disparity steps, where the median snaps to one of them (11 mm apart at 2 m: markers read on the
-    median of 10 frames of a static mirror came out up to 1 mm off the glass).
-    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame has a reading."""
+    """Per-pixel mean of the readings of several frames within MEAN_SIGMAS of the depth noise
+    (noise.axial_sigma) of their median: what passed in front in a few frames is left out as by the
+    median, and the mean of the rest averages the camera's disparity steps, where the median snaps
+    to one of them (11 mm apart at 2 m: markers read on the median of 10 frames of a static mirror
+    came out up to 1 mm off the glass).
+    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame
+    has a reading."""
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim == 2:
         return frames
     median = median_depth(frames)
     keep = (frames > 0) & (np.abs(frames - median) <= np.float32(MEAN_SIGMAS) * axial_sigma(median))
     count = keep.sum(axis=0)
-    return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1), 0).astype(np.float32)
+    return np.where(count > 0, np.where(keep, frames, 0).sum(axis=0) / np.maximum(count, 1),
+                    0).astype(np.float32)
 
 
 def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """The frames with no reading (0) where they read more than OCCLUDER_SIGMAS depth-noise sigmas in front of the
-    background's reading: what passes in front of a static surface (a person walking past a mirror's markers in
-    most frames, whose median then read the person, 0.4 to 0.55 m off the glass) is left out of it; pixels where
-    the background has no reading keep theirs. frames : (k, H, W) float metres; background : (H, W) -> (k, H, W)
-    float32."""
-    frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background, dtype=np.float32)
-    front = (background > 0) & (frames < background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background))
+    """The frames with no reading (0) where they read more than OCCLUDER_SIGMAS depth-noise sigmas
+    in front of the background's reading: what passes in front of a static surface (a person walking
+    past a mirror's markers in most frames, whose median then read the person, 0.4 to 0.55 m off the
+    glass) is left out of it; pixels where
+    the background has no reading keep theirs. frames : (k, H, W) float metres; background : (H, W)
+    -> (k, H, W) float32."""
+    frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background,
+                                                                          dtype=np.float32)
+    nearest = background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background)
+    front = (background > 0) & (frames < nearest)
     return np.where(front, np.float32(0), frames)
 
 
 def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:
-    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `mask`, grown by `pad`
-    pixels on each side within the image (empty slices when the mask is empty)."""
+    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `mask`,
+    grown by `pad` pixels on each side within the image (empty slices when the mask is empty)."""
     u, v, w, h = cv2.boundingRect(mask.view(np.uint8))
     if w == 0:
         return slice(0, 0), slice(0, 0)
     rows, cols = mask.shape
-    return slice(max(v - pad, 0), min(v + h + pad, rows)), slice(max(u - pad, 0), min(u + w + pad, cols))
+    return slice(max(v - pad, 0), min(v + h + pad, rows)), slice(max(u - pad, 0),
+                                                                 min(u + w + pad, cols))
 
 
-def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength: float = 3.0) -> np.ndarray:
+def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2,
+                 strength: float = 3.0) -> np.ndarray:
     """Edge-aware smoothing of the masked pixels of a depth image, in inverse depth (disparity).
 
-    A structured-light camera's noise is constant in disparity (sigma_z = 1.425e-3 z^2 is sigma_w = 1.425e-3 in
-    w = 1/z), so a bilateral filter on w with a range sigma of `strength` * 1.425e-3 averages a pixel with neighbours
-    of the same surface and ignores those across a depth edge, at every depth. Pixels outside `mask` neither change
-    nor contribute.
+    A structured-light camera's noise is constant in disparity (sigma_z = 1.425e-3 z^2 is sigma_w =
+    1.425e-3 in w = 1/z), so a bilateral filter on w with a range sigma of `strength` * 1.425e-3
+    averages a pixel with neighbours of the same surface and ignores those across a depth edge, at
+    every depth. Pixels outside `mask` neither change nor contribute.
 
-    depth : (H, W) float metres; mask : (H, W) bool -> (H, W) float32 metres (unmasked pixels as they were)
+    depth : (H, W) float metres; mask : (H, W) bool -> (H, W) float32 metres (unmasked pixels as
+    they were)
     """
     depth = np.asarray(depth, dtype=np.float32)
     out = depth.copy()
-    win = bounding_window(mask, radius)          # the filter only needs the masked pixels and their neighbours
+    # the filter only needs the masked pixels and their neighbours
+    win = bounding_window(mask, radius)
     use = mask[win] & (depth[win] > 0)
     if not use.size:
         return out
@@ -97,24 +112,28 @@ def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2, strength:
     return out
 
 
-def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.ndarray, labels: np.ndarray,
+def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.ndarray,
+                          labels: np.ndarray,
                           radius: int = QUADRATIC_RADIUS, sigma: float = QUADRATIC_SIGMA,
                           strength: float = QUADRATIC_STRENGTH) -> np.ndarray:
-    """Edge-aware smoothing that follows curvature: at each of `pixels`, a weighted least-squares quadratic surface
-    in disparity w = 1/z (six coefficients in the pixel offsets; a plane's disparity is linear in them, so planes
-    are fitted exactly and curved surfaces to second order) through the readings of the (2 radius + 1)^2 pixels
-    around it that carry the same label, evaluated at the pixel.
+    """Edge-aware smoothing that follows curvature: at each of `pixels`, a weighted least-squares
+    quadratic surface in disparity w = 1/z (six coefficients in the pixel offsets; a plane's
+    disparity is linear in them, so planes are fitted exactly and curved surfaces to second order)
+    through the readings of the (2 radius + 1)^2 pixels around it that carry the same label,
+    evaluated at the pixel.
 
-    The weights are a spatial Gaussian (sigma pixels) times a range Gaussian of the neighbour's disparity against the
-    pixel's `reference` (sigma `strength` * 1.425e-3 / m, the sensor's disparity noise): readings of another surface
-    across a depth edge drop out, as in smooth_depth. Unlike an average (smooth_depth), the fit does not sag on a
-    curved surface, so it can span more pixels. A pixel with less neighbours' weight than coefficients, or whose fit
-    lands more than one range sigma from its reference, keeps its reference; a small ridge keeps the fit on a strip
-    one or two pixels wide solvable (it then tends to a fit of lower degree).
+    The weights are a spatial Gaussian (sigma pixels) times a range Gaussian of the neighbour's
+    disparity against the pixel's `reference` (sigma `strength` * 1.425e-3 / m, the sensor's
+    disparity noise): readings of another surface across a depth edge drop out, as in smooth_depth.
+    Unlike an average (smooth_depth), the fit does not sag on a curved surface, so it can span more
+    pixels. A pixel with less neighbours' weight than coefficients, or whose fit lands more than one
+    range sigma from its reference, keeps its reference; a small ridge keeps the fit on a strip one
+    or two pixels wide solvable (it then tends to a fit of lower degree).
 
-    depth : (H, W) float metres, the readings (0 = none); reference : (H, W) float metres, e.g. smooth_depth's result,
-    > 0 at `pixels`; pixels : (n,) int flat indices v * W + u; labels : (H, W) int, neighbours count only where equal
-    to the pixel's -> (H, W) float32 metres: `reference` with `pixels` replaced by their fits.
+    depth : (H, W) float metres, the readings (0 = none); reference : (H, W) float metres, e.g.
+    smooth_depth's result, > 0 at `pixels`; pixels : (n,) int flat indices v * W + u; labels : (H,
+    W) int, neighbours count only where equal to the pixel's -> (H, W) float32 metres: `reference`
+    with `pixels` replaced by their fits.
     """
     out = np.asarray(reference, np.float32).copy()
     pixels = np.asarray(pixels, np.int64)
@@ -127,7 +146,8 @@ def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.n
 
 def _fit_labels(depth: np.ndarray, labels: np.ndarray, pixels: np.ndarray, pixel_labels: np.ndarray,
                 window: _QuadraticWindow, flat: np.ndarray) -> None:
-    """local_quadratic_depth's fits, label by label and in chunks, written into `flat` (H * W,) float32 metres."""
+    """local_quadratic_depth's fits, label by label and in chunks, written into `flat` (H * W,)
+    float32 metres."""
     for label in np.unique(pixel_labels):
         chosen = pixels[pixel_labels == label]
         rows, cols = np.divmod(chosen, np.shape(depth)[1])
@@ -136,23 +156,26 @@ def _fit_labels(depth: np.ndarray, labels: np.ndarray, pixels: np.ndarray, pixel
         for start in range(0, len(chosen), QUADRATIC_CHUNK):
             part = slice(start, start + QUADRATIC_CHUNK)
             at = chosen[part]
-            readings = neighbours[rows[part] - box[0].start, cols[part] - box[1].start].reshape(len(at), -1)
+            readings = neighbours[rows[part] - box[0].start,
+                                  cols[part] - box[1].start].reshape(len(at), -1)
             flat[at] = window.fit(readings, flat[at])
 
 
 @cache
 def _blas() -> ThreadpoolController:
-    """The process's BLAS thread pools. The fits' matrix products are tall and thin (n x 81 by 81 x 21), and after a
-    multi-threaded product OpenBLAS's idle threads spin: a live loop fitting 13,600 pixels took a whole core more
-    at 10 frames a second with no tab open (1.2 cores against 0.25), for products 0.5 ms faster."""
+    """The process's BLAS thread pools. The fits' matrix products are tall and thin (n x 81 by 81 x
+    21), and after a multi-threaded product OpenBLAS's idle threads spin: a live loop fitting 13,600
+    pixels took a whole core more at 10 frames a second with no tab open (1.2 cores against 0.25),
+    for products 0.5 ms faster."""
     return ThreadpoolController()
 
 
 @dataclass(frozen=True)
 class _QuadraticWindow:
-    """local_quadratic_depth's window of k = (2 radius + 1)^2 pixels: its design matrix (k, 6) in the pixel offsets
-    (x, y, x^2, xy, y^2, 1: the constant last, which elimination then leaves for last), the products of its columns
-    (k, 21, the upper triangle), the spatial weights (k,) and the range sigma (1/m)."""
+    """local_quadratic_depth's window of k = (2 radius + 1)^2 pixels: its design matrix (k, 6) in
+    the pixel offsets (x, y, x^2, xy, y^2, 1: the constant last, which elimination then leaves for
+    last), the products of its columns (k, 21, the upper triangle), the spatial weights (k,) and the
+    range sigma (1/m)."""
 
     radius: int
     design: np.ndarray
@@ -167,16 +190,20 @@ class _QuadraticWindow:
         design = np.stack([dx, dy, dx * dx, dx * dy, dy * dy, np.ones_like(dx)], axis=1)
         upper = np.triu_indices(6)
         return cls(radius, design, design[:, upper[0]] * design[:, upper[1]],
-                   np.exp(-(dx * dx + dy * dy) / np.float32(2 * sigma * sigma)), strength * KINECT_AXIAL_COEF)
+                   np.exp(-(dx * dx + dy * dy) / np.float32(2 * sigma * sigma)),
+                   strength * KINECT_AXIAL_COEF)
 
-    def neighbours(self, depth: np.ndarray, same: np.ndarray, box: tuple[slice, slice]) -> np.ndarray:
-        """The windows around the pixels of `box` (h, w): depth (H, W) metres and same (H, W) bool, the pixels whose
-        readings count -> (h, w, 2 radius + 1, 2 radius + 1) float32 view of their disparities, NO_READING where a
-        reading does not count or is missing or lies outside the image."""
+    def neighbours(self, depth: np.ndarray, same: np.ndarray,
+                   box: tuple[slice, slice]) -> np.ndarray:
+        """The windows around the pixels of `box` (h, w): depth (H, W) metres and same (H, W) bool,
+        the pixels whose readings count -> (h, w, 2 radius + 1, 2 radius + 1) float32 view of their
+        disparities, NO_READING where a reading does not count or is missing or lies outside the
+        image."""
         r, (height, width) = self.radius, np.shape(depth)
         grow = (slice(max(box[0].start - r, 0), min(box[0].stop + r, height)),
                 slice(max(box[1].start - r, 0), min(box[1].stop + r, width)))
-        w = np.full((box[0].stop - box[0].start + 2 * r, box[1].stop - box[1].start + 2 * r), NO_READING, np.float32)
+        w = np.full((box[0].stop - box[0].start + 2 * r, box[1].stop - box[1].start + 2 * r),
+                    NO_READING, np.float32)
         inside = w[grow[0].start - box[0].start + r:grow[0].stop - box[0].start + r,
                    grow[1].start - box[1].start + r:grow[1].stop - box[1].start + r]
         values = np.asarray(depth[grow], np.float32)
@@ -185,26 +212,32 @@ class _QuadraticWindow:
         return np.lib.stride_tricks.sliding_window_view(w, (2 * r + 1, 2 * r + 1))
 
     def fit(self, readings: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,) float32 metres ->
-        (n,) float32 metres, the fitted depths, or the reference where the fit is not determined or lands more than a
-        range sigma from it."""
+        """readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,)
+        float32 metres -> (n,) float32 metres, the fitted depths, or the reference where the fit is
+        not determined or lands more than a range sigma from it."""
         ref_w = inverse(reference)
         residual = readings - ref_w[:, None]
-        # exp(-80) is 2e-35, no weight; the clamp keeps cv2.exp off its slow path for arguments below float32's range
-        weight = cv2.exp(cv2.max(cv2.multiply(residual, residual, scale=-0.5 / self.range_sigma ** 2), -80.0))
+        # exp(-80) is 2e-35, no weight; the clamp keeps cv2.exp off its slow path for arguments
+        # below float32's range
+        weight = cv2.exp(cv2.max(cv2.multiply(residual, residual,
+                                              scale=-0.5 / self.range_sigma ** 2), -80.0))
         weight *= self.spatial
         total = weight.sum(axis=1)
-        offset = _eliminate(weight @ self.products, (weight * residual) @ self.design, RIDGE * total)
+        offset = _eliminate(weight @ self.products, (weight * residual) @ self.design,
+                            RIDGE * total)
         ok = (total >= self.design.shape[1]) & (np.abs(offset) <= self.range_sigma)
         return np.where(ok, inverse(ref_w + offset), reference)
 
 
 def _eliminate(products: np.ndarray, rhs: np.ndarray, ridge: np.ndarray) -> np.ndarray:
-    """The last unknown of n symmetric positive 6 x 6 systems (M + ridge I) x = rhs, by Gaussian elimination
-    vectorised over the systems (5 steps; numpy's batched solve takes 10 times as long for 6 x 6 systems).
-    products : (n, 21) the upper triangle of M, row by row; rhs : (n, 6); ridge : (n,) -> (n,) float32."""
+    """The last unknown of n symmetric positive 6 x 6 systems (M + ridge I) x = rhs, by Gaussian
+    elimination vectorised over the systems (5 steps; numpy's batched solve takes 10 times as long
+    for 6 x 6 systems).
+    products : (n, 21) the upper triangle of M, row by row; rhs : (n, 6); ridge : (n,) -> (n,)
+    float32."""
     upper = np.triu_indices(6)
-    system = np.empty((6, 7, len(rhs)), np.float32)       # systems last: each step is a few whole-array operations
+    # systems last: each step is a few whole-array operations
+    system = np.empty((6, 7, len(rhs)), np.float32)
     system[upper[0], upper[1]] = system[upper[1], upper[0]] = products.T
     system[:, 6] = rhs.T
     system[np.arange(6), np.arange(6)] += ridge
@@ -221,7 +254,7 @@ def inverse(values: np.ndarray) -> np.ndarray:
 
 
 def masked_copy(source: np.ndarray, mask: np.ndarray, target: np.ndarray) -> None:
-    """target[mask] = source[mask], in place: (H, W) arrays of one dtype, mask (H, W) bool; target may be a window
-    of a larger image (rows apart, pixels contiguous). OpenCV's masked copy: 3-8x faster than numpy's `where=`
-    writes on the live loop's windows, the same values."""
+    """target[mask] = source[mask], in place: (H, W) arrays of one dtype, mask (H, W) bool; target
+    may be a window of a larger image (rows apart, pixels contiguous). OpenCV's masked copy: 3-8x
+    faster than numpy's `where=` writes on the live loop's windows, the same values."""
     cv2.copyTo(source, mask.view(np.uint8), target)

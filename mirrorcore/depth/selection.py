@@ -1,5 +1,5 @@
-"""Object selection: which pixels of a depth frame are the object (background subtraction with a depth-dependent
-tolerance, depth range, region of interest, removal of specks and flying pixels)."""
+"""Object selection: which pixels of a depth frame are the object (background subtraction with a
+depth-dependent tolerance, depth range, region of interest, removal of specks and flying pixels)."""
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
@@ -18,16 +18,21 @@ from mirrorcore.depth.noise import axial_sigma
 class Selection:
     """How to find the object in a frame. Distances in metres.
 
-    depth_min, depth_max : readings outside [depth_min, depth_max] are not the object (mirror views read the virtual
+    depth_min, depth_max : readings outside [depth_min, depth_max] are not the object (mirror views
+    read the virtual
         depth, farther than the object itself: leave room for it)
-    background_sigmas : a pixel is the object when it is closer than the background by more than this many standard
+    background_sigmas : a pixel is the object when it is closer than the background by more than
+    this many standard
         deviations of the difference of two readings (sqrt(2) * sigma(z)), and at least min_gap
     min_gap : metres, the smallest difference that counts as the object
-    flying_sigmas, flying_gap : a pixel whose depth is farther than the nearest object neighbour by more than
-        max(flying_sigmas * sigma(z), flying_gap * z) is a flying pixel at a depth edge and is dropped
+    flying_sigmas, flying_gap : a pixel whose depth is farther than the nearest object neighbour by
+    more than
+        max(flying_sigmas * sigma(z), flying_gap * z) is a flying pixel at a depth edge and is
+        dropped
     min_blob : connected pieces of the object with fewer pixels than this are specks and are dropped
     roi : optional polygon (u, v) pixels; only pixels inside it (or on its edge) can be the object
-    smooth : smooth the object's depth (edge-aware, in disparity; pipeline.prepare_frame) before reconstruction
+    smooth : smooth the object's depth (edge-aware, in disparity; pipeline.prepare_frame) before
+    reconstruction
     """
 
     depth_min: float = 0.4
@@ -42,7 +47,8 @@ class Selection:
 
     @classmethod
     def from_json(cls, data, where: str = "selection") -> "Selection":
-        """From a session.json 'selection' object; unknown keys are refused, missing ones take the defaults."""
+        """From a session.json 'selection' object; unknown keys are refused, missing ones take the
+        defaults."""
         if data is None:
             return cls()
         if not isinstance(data, dict):
@@ -54,12 +60,15 @@ class Selection:
         values = dict(data)
         if values.get("roi") is not None:
             try:
-                values["roi"] = tuple(map(tuple, validate_polygon(values["roi"], None, f"{where}: roi").tolist()))
+                values["roi"] = tuple(map(tuple,
+                                          validate_polygon(values["roi"], None,
+                                                           f"{where}: roi").tolist()))
             except MirrorscanError as exc:
                 raise FileFormatError(str(exc)) from None
         try:
             sel = cls(**values)
-            numbers = [float(getattr(sel, f.name)) for f in fields(cls) if f.name not in ("roi", "smooth")]
+            numbers = [float(getattr(sel, f.name)) for f in fields(cls)
+                       if f.name not in ("roi", "smooth")]
         except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: {exc}") from None
         if not all(np.isfinite(numbers)) or sel.depth_min < 0 or sel.depth_max <= sel.depth_min:
@@ -72,17 +81,19 @@ class Selection:
         return data
 
 
-CORE_MARGIN = 16   # pixels: the clean-up looks this far around the candidates that have a solid 3x3 core
+# pixels: the clean-up looks this far around the candidates that have a solid 3x3 core
+CORE_MARGIN = 16
 
 
 @dataclass(frozen=True, eq=False)
 class Backdrop:
-    """The scene without the object, ready for subtraction: a pixel is the object where its depth is below `limit`.
+    """The scene without the object, ready for subtraction: a pixel is the object where its depth is
+    below `limit`.
 
-    depth : (H, W) float32 metres, 0 = no reading; limit : (H, W) float32 metres, the background's depth less the
-    tolerance max(background_sigmas * sqrt(2) * sigma(z), min_gap) (the noise of the difference of two readings), +inf
-    where the background has no reading (any reading there counts as the object). Made once per background and
-    selection (Backdrop.of), not per frame.
+    depth : (H, W) float32 metres, 0 = no reading; limit : (H, W) float32 metres, the background's
+    depth less the tolerance max(background_sigmas * sqrt(2) * sigma(z), min_gap) (the noise of the
+    difference of two readings), +inf where the background has no reading (any reading there counts
+    as the object). Made once per background and selection (Backdrop.of), not per frame.
     """
 
     depth: np.ndarray
@@ -92,21 +103,24 @@ class Backdrop:
     def of(cls, background: np.ndarray, selection: "Selection" = None) -> "Backdrop":
         selection = Selection() if selection is None else selection
         depth = np.asarray(background, np.float32)
-        tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(depth),
+        tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(
+            depth),
                                np.float32(selection.min_gap))
-        return cls(depth, np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))
+        return cls(depth,
+                   np.where(depth > 0, depth - tolerance, np.float32(np.inf)).astype(np.float32))
 
 
 def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                 selection: Selection = Selection()) -> np.ndarray:
     """The object's pixels in a depth frame.
 
-    depth : (H, W) float metres, 0 = no reading; background : the scene without the object, (H, W) float metres (0 =
-    no reading there) or a Backdrop made once for it, or None to select by depth range and region only.
-    returns (H, W) bool. A pixel with no background reading counts as the object when it has a reading now. The
-    clean-up (flying pixels, specks) looks only within CORE_MARGIN pixels of the candidates that have a solid 3x3 core:
-    the scattered single pixels that background subtraction leaves are dropped without a pass over the whole frame
-    (a piece with no 3x3 core reaching farther than that would be dropped too).
+    depth : (H, W) float metres, 0 = no reading; background : the scene without the object, (H, W)
+    float metres (0 = no reading there) or a Backdrop made once for it, or None to select by depth
+    range and region only. returns (H, W) bool. A pixel with no background reading counts as the
+    object when it has a reading now. The clean-up (flying pixels, specks) looks only within
+    CORE_MARGIN pixels of the candidates that have a solid 3x3 core: the scattered single pixels
+    that background subtraction leaves are dropped without a pass over the whole frame (a piece with
+    no 3x3 core reaching farther than that would be dropped too).
     """
     depth = check_depth_shape(intr, depth)
     mask = (depth >= selection.depth_min) & (depth <= selection.depth_max)
@@ -118,18 +132,21 @@ def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Ba
     if selection.roi is not None:
         mask &= polygon_mask(np.asarray(selection.roi), intr.shape)
     cores = cv2.erode(mask.view(np.uint8), np.ones((3, 3), np.uint8))
-    win = bounding_window(cores.view(bool), CORE_MARGIN)   # beyond, a piece with no 3x3 core is a speck
+    # beyond, a piece with no 3x3 core is a speck
+    win = bounding_window(cores.view(bool), CORE_MARGIN)
     cleaned = np.zeros_like(mask)
     if mask[win].size:
-        cleaned[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection), selection.min_blob)
+        cleaned[win] = remove_specks(mask[win] & ~flying_pixels(depth[win], mask[win], selection),
+                                     selection.min_blob)
     return cleaned
 
 
-def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Selection()) -> np.ndarray:
-    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings at depth edges),
-    by more than max(flying_sigmas * sigma(z), flying_gap * z). The depth-dependent gap is computed only where the
-    pixel is behind by more than its part flying_gap * z (a few hundred pixels of a frame): twice as fast on the live
-    loop's windows, with the same bits."""
+def flying_pixels(depth: np.ndarray, mask: np.ndarray,
+                  selection: Selection = Selection()) -> np.ndarray:
+    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings
+    at depth edges), by more than max(flying_sigmas * sigma(z), flying_gap * z). The depth-dependent
+    gap is computed only where the pixel is behind by more than its part flying_gap * z (a few
+    hundred pixels of a frame): twice as fast on the live loop's windows, with the same bits."""
     depth = np.asarray(depth, dtype=np.float32)
     nearest = np.full(depth.shape, np.inf, np.float32)
     masked_copy(depth, mask, nearest)
@@ -138,19 +155,23 @@ def flying_pixels(depth: np.ndarray, mask: np.ndarray, selection: Selection = Se
     beyond = np.float32(selection.flying_gap) * depth.reshape(-1)
     candidates = np.flatnonzero(np.greater(behind, beyond) & mask.reshape(-1))
     z = np.take(depth.reshape(-1), candidates)
-    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(z), np.take(beyond, candidates))
+    gap = np.maximum(np.float32(selection.flying_sigmas) * axial_sigma(z),
+                     np.take(beyond, candidates))
     flying = np.zeros(depth.shape, bool)
     flying.reshape(-1)[candidates[np.take(behind, candidates) > gap]] = True
     return flying
 
 
 def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
-    """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool -> (H, W) bool."""
+    """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool ->
+    (H, W) bool."""
     count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
-    keep = np.bincount(labels[mask], minlength=count) >= min_blob   # (its ...WithStats is 4x slower here)
+    # (its ...WithStats is 4x slower here)
+    keep = np.bincount(labels[mask], minlength=count) >= min_blob
     keep[0] = False
     if count > 256:
         return np.take(keep, labels)
-    table = np.zeros(256, np.uint8)          # few pieces (the usual case): OpenCV's 8-bit lookup, 2x faster
+    # few pieces (the usual case): OpenCV's 8-bit lookup, 2x faster
+    table = np.zeros(256, np.uint8)
     table[:count] = keep
     return cv2.LUT(labels.astype(np.uint8), table).view(bool)

@@ -1,14 +1,17 @@
-"""Temporal smoothing of depth frames for people in motion: each pixel is averaged with the same pixel of its
-neighbouring frames where the scene is static there (motion-aware, edge-preserving), in disparity.
+"""Temporal smoothing of depth frames for people in motion: each pixel is averaged with the same
+pixel of its neighbouring frames where the scene is static there (motion-aware, edge-preserving), in
+disparity.
 
-A structured-light camera's noise is constant in disparity w = 1/z (sigma_w = 1.425e-3 per metre, mirrorcore.depth.noise),
-so the difference of two readings of a static surface has the standard deviation sqrt(2) sigma_w at every depth. A
-neighbour frame k is used at a pixel when (1) its own difference to the centre frame is within `sigmas` of that, and
-(2) the mean difference over a `patch` x `patch` window around the pixel (the pixels where both frames read) is within
-`sigmas` of its own, smaller, standard deviation: a surface that moved by less than the noise of one reading, but
-moved everywhere around the pixel, is still seen as moving. A limb crossing the pixel, the edge of a moving arm or a
-surface sliding along its depth is left out; the static torso, head and background are averaged over 2N + 1 frames.
-Pixels without a reading in the centre frame stay without one (no hole is filled from another moment).
+A structured-light camera's noise is constant in disparity w = 1/z (sigma_w = 1.425e-3 per metre,
+mirrorcore.depth.noise), so the difference of two readings of a static surface has the standard
+deviation sqrt(2) sigma_w at every depth. A neighbour frame k is used at a pixel when (1) its own
+difference to the centre frame is within `sigmas` of that, and (2) the mean difference over a
+`patch` x `patch` window around the pixel (the pixels where both frames read) is within `sigmas` of
+its own, smaller, standard deviation: a surface that moved by less than the noise of one reading,
+but moved everywhere around the pixel, is still seen as moving. A limb crossing the pixel, the edge
+of a moving arm or a surface sliding along its depth is left out; the static torso, head and
+background are averaged over 2N + 1 frames. Pixels without a reading in the centre frame stay
+without one (no hole is filled from another moment).
 """
 from __future__ import annotations
 
@@ -22,26 +25,30 @@ DEFAULT_PATCH = 5      # pixels: side of the window whose mean difference tells 
 
 
 def frame_window(index: int, radius: int, count: int) -> range:
-    """The frames index - radius .. index + radius of a recording of `count` frames, clipped to 0 .. count - 1."""
+    """The frames index - radius .. index + radius of a recording of `count` frames, clipped to 0 ..
+    count - 1."""
     return range(max(index - radius, 0), min(index + radius + 1, count))
 
 
 def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIGMAS,
                     patch: int = DEFAULT_PATCH) -> np.ndarray:
-    """The centre frame of a stack of consecutive frames, each pixel averaged (in disparity) with the neighbour
-    frames that are static there (see the module docstring).
+    """The centre frame of a stack of consecutive frames, each pixel averaged (in disparity) with
+    the neighbour frames that are static there (see the module docstring).
 
-    frames : (k, H, W) float metres, 0 (or not finite) = no reading, consecutive frames of one camera; centre : the
-    index in the stack of the frame to filter. returns (H, W) float32 metres, 0 where the centre frame has no reading.
+    frames : (k, H, W) float metres, 0 (or not finite) = no reading, consecutive frames of one
+    camera; centre : the index in the stack of the frame to filter. returns (H, W) float32 metres, 0
+    where the centre frame has no reading.
     """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim != 3 or not 0 <= centre < len(frames):
-        raise ValueError(f"temporal_smooth: expected (k, H, W) frames and 0 <= centre < k, got {frames.shape}, "
+        raise ValueError(
+            f"temporal_smooth: expected (k, H, W) frames and 0 <= centre < k, got {frames.shape}, "
                          f"{centre}")
     valid = np.isfinite(frames) & (frames > 0)
     w = np.where(valid, 1.0 / np.where(valid, frames, 1.0), 0.0).astype(np.float32)
     w0, v0 = w[centre], valid[centre]
-    tolerance = np.float32(sigmas * np.sqrt(2.0) * KINECT_AXIAL_COEF)   # one pixel's difference, 1/metres
+    # one pixel's difference, 1/metres
+    tolerance = np.float32(sigmas * np.sqrt(2.0) * KINECT_AXIAL_COEF)
     total, count = w0.copy(), v0.astype(np.float32)
     for k in range(len(frames)):
         if k == centre:
@@ -50,9 +57,12 @@ def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIG
         diff = np.where(both, w[k] - w0, 0.0).astype(np.float32)
         pairs = cv2.boxFilter(both.astype(np.float32), -1, (patch, patch), normalize=False,
                               borderType=cv2.BORDER_CONSTANT)
-        local = cv2.boxFilter(diff, -1, (patch, patch), normalize=False, borderType=cv2.BORDER_CONSTANT)
-        # the mean of n differences has 1/sqrt(n) of one difference's deviation: |sum| < tolerance * sqrt(n)
-        static = both & (np.abs(diff) <= tolerance) & (np.abs(local) <= tolerance * np.sqrt(np.maximum(pairs, 1.0)))
+        local = cv2.boxFilter(diff, -1, (patch, patch), normalize=False,
+                              borderType=cv2.BORDER_CONSTANT)
+        # the mean of n differences has 1/sqrt(n) of one difference's deviation: |sum| < tolerance *
+        # sqrt(n)
+        static = both & (np.abs(diff) <= tolerance) & (np.abs(local) <= tolerance * np.sqrt(
+            np.maximum(pairs, 1.0)))
         total += np.where(static, w[k], 0.0)
         count += static
     out = np.zeros(w0.shape, np.float32)

@@ -1,7 +1,8 @@
-"""Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and projection.
+"""Pinhole depth camera: intrinsics, presets, their file formats, reprojection (paper eq. 1) and
+projection.
 
-Conventions (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth camera's centre,
-pixel (u, v) = (column, row) with integer coordinates at pixel centres.
+Conventions (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the depth
+camera's centre, pixel (u, v) = (column, row) with integer coordinates at pixel centres.
 """
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ from mirrorcore.base.jsonfile import finite_number
 
 _FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "depth_scale")
 MAX_YAML_BYTES = 1 << 20   # a camera file is a few hundred bytes
-MAX_IMAGE_SIDE = 16384   # pixels: no depth camera comes near; a larger size in a file is damage, not a camera
+# pixels: no depth camera comes near; a larger size in a file is damage, not a camera
+MAX_IMAGE_SIDE = 16384
 
 
 @dataclass(frozen=True)
@@ -48,7 +50,8 @@ class Intrinsics:
         values = np.array([self.fx, self.fy, self.cx, self.cy, self.depth_scale], dtype=float)
         if not np.all(np.isfinite(values)) or self.fx <= 0 or self.fy <= 0 or self.depth_scale <= 0:
             raise FileFormatError(
-                f"camera: fx, fy and depth_scale must be finite and positive, got fx={self.fx} fy={self.fy} "
+                f"camera: fx, fy and depth_scale must be finite and positive, got fx={self.fx} "
+                f"fy={self.fy} "
                 f"depth_scale={self.depth_scale}")
         object.__setattr__(self, "width", int(self.width))
         object.__setattr__(self, "height", int(self.height))
@@ -56,8 +59,8 @@ class Intrinsics:
     # ----------------------------------------------------------------- constructors and presets
     @classmethod
     def from_dict(cls, data: dict, where: str = "camera") -> "Intrinsics":
-        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md); raises FileFormatError
-        naming `where`."""
+        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md);
+        raises FileFormatError naming `where`."""
         if not isinstance(data, dict):
             raise FileFormatError(f"{where}: expected an object with {', '.join(_FIELDS)}")
         missing = [k for k in _FIELDS[:6] if k not in data]
@@ -68,7 +71,8 @@ class Intrinsics:
         except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{where}: camera values must be numbers ({exc})") from None
         if not (values["width"].is_integer() and values["height"].is_integer()):
-            raise FileFormatError(f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
+            raise FileFormatError(
+                f"{where}: width and height must be integers, got {data['width']}x{data['height']}")
         try:
             return cls(**values)
         except FileFormatError as exc:
@@ -80,15 +84,18 @@ class Intrinsics:
     @classmethod
     def kinect_v1(cls) -> "Intrinsics":
         """Kinect v1 depth (IR) camera, Nicolas Burrus' calibration, 640x480."""
-        return cls(640, 480, 594.21434211923247, 591.04053696870778, 339.30780975300314, 242.73913761751615)
+        return cls(640, 480, 594.21434211923247, 591.04053696870778, 339.30780975300314,
+                   242.73913761751615)
 
     @classmethod
     def primesense(cls) -> "Intrinsics":
-        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault), 640x480."""
+        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault),
+        640x480."""
         return cls(640, 480, 525.0, 525.0, 319.5, 239.5)
 
     def scaled(self, factor: float) -> "Intrinsics":
-        """The same camera at `factor` times the resolution (pixel centres stay at integer coordinates)."""
+        """The same camera at `factor` times the resolution (pixel centres stay at integer
+        coordinates)."""
         w, h = round(self.width * factor), round(self.height * factor)
         return replace(self, width=w, height=h, fx=self.fx * factor, fy=self.fy * factor,
                        cx=(self.cx + 0.5) * factor - 0.5, cy=(self.cy + 0.5) * factor - 0.5)
@@ -106,8 +113,9 @@ class Intrinsics:
 
     @cached_property
     def rays(self) -> np.ndarray:
-        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z reprojects to
-        (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that gathers and products stay contiguous."""
+        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z
+        reprojects to (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that
+        gathers and products stay contiguous."""
         table = np.empty((2, self.height, self.width), dtype=np.float32)
         table[0] = ((np.arange(self.width) - self.cx) / self.fx)[None, :]
         table[1] = ((np.arange(self.height) - self.cy) / self.fy)[:, None]
@@ -116,8 +124,8 @@ class Intrinsics:
 
     @cached_property
     def axis_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables small enough to
-        stay in cache)."""
+        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables
+        small enough to stay in cache)."""
         x, y = np.array(self.rays[0, 0]), np.array(self.rays[1, :, 0])
         x.flags.writeable = y.flags.writeable = False
         return x, y
@@ -152,10 +160,13 @@ def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None
 
 
 def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
-    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres, camera frame
-    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a mirrorcore.plane.Plane."""
+    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres,
+    camera frame
+    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a
+    mirrorcore.plane.Plane."""
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy, np.ones(len(uv))], axis=-1)
+    rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy,
+                     np.ones(len(uv))], axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = -plane.d / (rays @ plane.n)
     t[~(t > 0)] = np.nan
@@ -176,12 +187,15 @@ def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray
     return uv, z
 
 
-def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth image") -> np.ndarray:
-    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the intrinsics."""
+def check_depth_shape(intr: Intrinsics, depth: np.ndarray,
+                      where: str = "depth image") -> np.ndarray:
+    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the
+    intrinsics."""
     depth = np.asarray(depth)
     if depth.shape != intr.shape:
         raise FileFormatError(
-            f"{where}: size {depth.shape[1] if depth.ndim > 1 else '?'}x{depth.shape[0] if depth.ndim else '?'} "
+            f"{where}: size "
+            f"{depth.shape[1] if depth.ndim > 1 else '?'}x{depth.shape[0] if depth.ndim else '?'} "
             f"does not match the camera's {intr.width}x{intr.height}")
     return depth
 
@@ -189,7 +203,8 @@ def check_depth_shape(intr: Intrinsics, depth: np.ndarray, where: str = "depth i
 # --------------------------------------------------------------------- intrinsics files
 def save_open3d_json(intr: Intrinsics, path: str | Path) -> None:
     """Write Open3D's PinholeCameraIntrinsic JSON (column-major intrinsic_matrix)."""
-    data = {"width": intr.width, "height": intr.height, "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
+    data = {"width": intr.width, "height": intr.height,
+            "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
     Path(path).write_text(json.dumps(data, indent=2))
 
 
@@ -198,15 +213,18 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
     try:
         data = json.loads(Path(path).read_text())
         K = np.asarray(data["intrinsic_matrix"], dtype=float).reshape(3, 3).T
-        return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2], K[1, 2], depth_scale)
+        return Intrinsics(int(data["width"]), int(data["height"]), K[0, 0], K[1, 1], K[0, 2],
+                          K[1, 2], depth_scale)
     except FileFormatError as exc:
         raise FileFormatError(f"{path}: {exc}") from None
     except (OSError, ValueError, KeyError, TypeError, OverflowError) as exc:
-        raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON ({type(exc).__name__}: {exc})") from None
+        raise FileFormatError(f"{path}: not an Open3D PinholeCameraIntrinsic JSON "
+                              f"({type(exc).__name__}: {exc})") from None
 
 
 def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
-    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with cv2.FileStorage."""
+    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with
+    cv2.FileStorage."""
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
     try:
         fs.write("image_width", intr.width)
@@ -218,14 +236,16 @@ def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
 
 
 def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
-    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional depth_scale); raises
-    FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's '%YAML:1.0' line and '!!opencv-matrix' tags are
-    set aside), not with OpenCV's own parser: damaged bytes made that one abort the whole process."""
+    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional
+    depth_scale); raises FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's
+    '%YAML:1.0' line and '!!opencv-matrix' tags are set aside), not with OpenCV's own parser:
+    damaged bytes made that one abort the whole process."""
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
     if path.stat().st_size > MAX_YAML_BYTES:
-        raise FileFormatError(f"{path}: {path.stat().st_size:,} bytes is too large for a camera file")
+        raise FileFormatError(
+            f"{path}: {path.stat().st_size:,} bytes is too large for a camera file")
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
         body = "\n".join(lines[1:] if lines and lines[0].startswith("%YAML") else lines)
@@ -249,7 +269,8 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
 
 
 def _opencv_matrix(node) -> np.ndarray | None:
-    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64, or None."""
+    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64,
+    or None."""
     if not isinstance(node, dict) or node.get("rows") != 3 or node.get("cols") != 3:
         return None
     values = node.get("data")

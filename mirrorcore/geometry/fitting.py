@@ -1,10 +1,12 @@
-"""Sphere and cylinder fitting to a cloud: RANSAC on minimal samples, then least squares on the inliers (paper section 5).
+"""Sphere and cylinder fitting to a cloud: RANSAC on minimal samples, then least squares on the
+inliers (paper section 5).
 
-Sphere: 4-point samples solved in closed form; refined by an algebraic then a geometric (Gauss-Newton) least-squares fit.
-Cylinder: 2 points with normals (axis direction = n1 x n2, axis through the closest points of the normal lines); refined
-by geometric least squares over axis direction, axis point and radius. Both share one batched LO-RANSAC loop (each new
-best sample is replaced by its least-squares local optimum) and one Gauss-Newton loop. Metres, camera frame; models are
-flat float64 vectors internally, radius last.
+Sphere: 4-point samples solved in closed form; refined by an algebraic then a geometric
+(Gauss-Newton) least-squares fit. Cylinder: 2 points with normals (axis direction = n1 x n2, axis
+through the closest points of the normal lines); refined by geometric least squares over axis
+direction, axis point and radius. Both share one batched LO-RANSAC loop (each new best sample is
+replaced by its least-squares local optimum) and one Gauss-Newton loop. Metres, camera frame; models
+are flat float64 vectors internally, radius last.
 """
 from __future__ import annotations
 
@@ -19,123 +21,157 @@ from mirrorcore.base.progress import Progress, cancel_requested
 from mirrorcore.geometry.shapes import Cylinder, ShapeFit, Sphere
 
 DEFAULT_THRESHOLD = 0.02
-"""Inlier distance, metres: about 3 sigma of Kinect v1 depth noise at 2 m (5.7 mm axial noise and 11.5 mm depth steps:
-sigma ~ 6.6 mm). A threshold near 1 sigma truncates the noise and biases the radius (TUM globe: 232.5 mm with 10 mm,
-225.6 mm with 20 mm, same pixels)."""
+"""Inlier distance, metres: about 3 sigma of Kinect v1 depth noise at 2 m (5.7 mm axial noise and
+11.5 mm depth steps: sigma ~ 6.6 mm). A threshold near 1 sigma truncates the noise and biases the
+radius (TUM globe: 232.5 mm with 10 mm, 225.6 mm with 20 mm, same pixels)."""
 DEFAULT_RADIUS_RANGE = (0.005, 5.0)
-"""Radii (metres) outside which a RANSAC model is absurd for a depth-camera scene and is rejected."""
+"""Radii (metres) outside which a RANSAC model is absurd for a depth-camera scene and is
+rejected."""
 _SCORE_BUDGET = 4_000_000
-"""Point-model distances evaluated per RANSAC batch (bounds memory to ~32 MB whatever the cloud size)."""
+"""Point-model distances evaluated per RANSAC batch (bounds memory to ~32 MB whatever the cloud
+size)."""
 _NORMAL_NEIGHBOURS = 24
 _MIN_POINTS = {"sphere": 4, "cylinder": 5}
 
 Model = np.ndarray
-"""(p,) float64: a sphere [cx, cy, cz, R]; a cylinder [ax, ay, az, dx, dy, dz, R] (axis point, unit direction)."""
+"""(p,) float64: a sphere [cx, cy, cz, R]; a cylinder [ax, ay, az, dx, dy, dz, R] (axis point, unit
+direction)."""
 
 
-# --------------------------------------------------------------------------------------------- public API
+# -------------------------------------------------------------------------------------- public API
 def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
-               sources: np.ndarray | None = None, radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
+               sources: np.ndarray | None = None,
+               radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
                confidence: float = 0.999, max_iterations: int = 20_000, where: str = "cloud",
                progress: Progress | None = None, cancel=None) -> ShapeFit:
     """Fit a sphere by RANSAC (4-point closed-form samples) and least squares on the inliers.
 
-    points : (n, 3) float, metres, camera frame; rng : the only source of randomness (same seed, same fit);
-    threshold : inlier distance |dist(P, c) - R| in metres; sources : optional (n,) labels (0 direct, j mirror j) for
-    per-source errors; radius_range : (min, max) metres, samples outside are rejected and so is a refined model.
-    Errors in the result are over ALL points (paper eq. 4) and also over the inliers only.
-    progress(fraction) follows RANSAC's samples (up to 20,000 on a cloud that is not one sphere: 1.8 s for a walking
-    person's 41,000 points); cancel (an Event or callable, progress.cancel_requested) stops it with Cancelled.
-    Raises MirrorscanError naming `where` for non-finite or too few points (< 4) and when no sphere is found.
+    points : (n, 3) float, metres, camera frame; rng : the only source of randomness (same seed,
+    same fit);
+    threshold : inlier distance |dist(P, c) - R| in metres; sources : optional (n,) labels (0
+    direct, j mirror j) for per-source errors; radius_range : (min, max) metres, samples outside are
+    rejected and so is a refined model. Errors in the result are over ALL points (paper eq. 4) and
+    also over the inliers only. progress(fraction) follows RANSAC's samples (up to 20,000 on a cloud
+    that is not one sphere: 1.8 s for a walking person's 41,000 points); cancel (an Event or
+    callable, progress.cancel_requested) stops it with Cancelled. Raises MirrorscanError naming
+    `where` for non-finite or too few points (< 4) and when no sphere is found.
     """
-    return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence, max_iterations, where,
+    return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence,
+                max_iterations, where,
                 _ticker(progress, cancel, where))
 
 
 def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
                  sources: np.ndarray | None = None, normals: np.ndarray | None = None,
-                 radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE, confidence: float = 0.999,
-                 max_iterations: int = 20_000, where: str = "cloud", progress: Progress | None = None,
+                 radius_range: tuple[float, float] = DEFAULT_RADIUS_RANGE,
+                 confidence: float = 0.999,
+                 max_iterations: int = 20_000, where: str = "cloud",
+                 progress: Progress | None = None,
                  cancel=None) -> ShapeFit:
     """Fit a cylinder by RANSAC (2 points with normals) and geometric least squares on the inliers.
 
-    points : (n, 3) float, metres, camera frame; normals : optional (n, 3) (any sign, any length > 0); estimated from the
-    nearest neighbours with Open3D when None. Other parameters and the errors as in fit_sphere (paper eq. 5). The axis
-    point is the point of the axis closest to the inliers' centroid; the direction's largest component is positive.
-    Estimated normals make rough 2-point samples: keep the threshold above a few mm (a few times the noise).
-    Raises MirrorscanError naming `where` for non-finite or too few points (< 5), normals of the wrong shape, and when
-    no cylinder is found.
+    points : (n, 3) float, metres, camera frame; normals : optional (n, 3) (any sign, any length >
+    0); estimated from the nearest neighbours with Open3D when None. Other parameters and the errors
+    as in fit_sphere (paper eq. 5). The axis point is the point of the axis closest to the inliers'
+    centroid; the direction's largest component is positive. Estimated normals make rough 2-point
+    samples: keep the threshold above a few mm (a few times the noise). Raises MirrorscanError
+    naming `where` for non-finite or too few points (< 5), normals of the wrong shape, and when no
+    cylinder is found.
     """
-    return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence, max_iterations, where,
+    return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence,
+                max_iterations, where,
                 _ticker(progress, cancel, where))
 
 
 def estimate_normals(points: np.ndarray, neighbours: int = _NORMAL_NEIGHBOURS) -> np.ndarray:
-    """Unit normals (n, 3) float64 (sign arbitrary) of points (n, 3) metres, by PCA of each point's nearest neighbours."""
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.asarray(points, dtype=np.float64).reshape(-1, 3)))
+    """Unit normals (n, 3) float64 (sign arbitrary) of points (n, 3) metres, by PCA of each point's
+    nearest neighbours."""
+    xyz = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz))
     cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(neighbours))
     return np.asarray(cloud.normals)
 
 
-# --------------------------------------------------------------------------------------------- the shared pipeline
+# ----------------------------------------------------------------------------- the shared pipeline
 def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.ndarray | None,
-         rng: np.random.Generator, threshold: float, radius_range: tuple[float, float], confidence: float,
+         rng: np.random.Generator, threshold: float, radius_range: tuple[float, float],
+         confidence: float,
          max_iterations: int, where: str, tick: Callable[[float], None]) -> ShapeFit:
-    """Check the input, centre it (for conditioning), run RANSAC and the refinement, and measure the errors."""
+    """Check the input, centre it (for conditioning), run RANSAC and the refinement, and measure the
+    errors."""
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(points) < _MIN_POINTS[kind]:
-        raise MirrorscanError(f"{where}: a {kind} fit needs at least {_MIN_POINTS[kind]} points, got {len(points)}")
+        raise MirrorscanError(f"{where}: a {kind} fit needs at least {_MIN_POINTS[kind]} points, "
+                              f"got {len(points)}")
     if not np.all(np.isfinite(points)):
         raise MirrorscanError(f"{where}: the cloud has non-finite coordinates")
     if not threshold > 0:
         raise MirrorscanError(f"{where}: the inlier threshold must be positive, got {threshold} m")
     if sources is not None and len(np.reshape(sources, -1)) != len(points):
-        raise MirrorscanError(f"{where}: {len(points)} points but {len(np.reshape(sources, -1))} source labels")
+        raise MirrorscanError(f"{where}: {len(points)} points but {len(np.reshape(sources, -1))} "
+                              "source labels")
     origin = points.mean(axis=0)
     centred = points - origin
     if kind == "sphere":
-        propose, distances, refine = _sphere_propose(centred), _sphere_distances(centred), _sphere_refine
+        propose, distances = _sphere_propose(centred), _sphere_distances(centred)
+        refine = _sphere_refine
         sample_size = 4
     else:
-        normals = estimate_normals(points) if normals is None else np.asarray(normals, dtype=np.float64)
+        normals = estimate_normals(points) if normals is None else np.asarray(normals,
+                                                                              dtype=np.float64)
         if normals.shape != points.shape:
-            raise MirrorscanError(f"{where}: {len(points)} points but normals of shape {normals.shape}")
-        propose, distances, refine = _cylinder_propose(centred, normals), _cylinder_distances(centred), _cylinder_refine
+            raise MirrorscanError(f"{where}: {len(points)} points but normals of shape "
+                                  f"{normals.shape}")
+        propose, distances = _cylinder_propose(centred, normals), _cylinder_distances(centred)
+        refine = _cylinder_refine
         sample_size = 2
-    min_points, radius_mm = _MIN_POINTS[kind], f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
+    min_points = _MIN_POINTS[kind]
+    radius_mm = f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
 
     def optimise(model: Model) -> tuple[Model, int]:
         return _local_optimum(centred, model, threshold, distances, refine, min_points)
-    model = _ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold, rng, radius_range,
+    model = _ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold,
+                    rng, radius_range,
                     confidence, max_iterations, tick)
     if model is None:
-        raise MirrorscanError(f"{where}: no {kind} found (no {kind} of radius {radius_mm} has {min_points} points "
+        raise MirrorscanError(f"{where}: no {kind} found (no {kind} of radius {radius_mm} has "
+                              f"{min_points} points "
                               f"within {1e3 * threshold:g} mm)")
-    model, count = optimise(model)   # the least-squares fit on the inliers (unchanged if RANSAC's best was one)
+    # the least-squares fit on the inliers (unchanged if RANSAC's best was one)
+    model, count = optimise(model)
     if count < min_points or not _in_range(model[-1], radius_range):
-        raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} mm) has {count} points "
-                              f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is the cloud one plane?)")
-    shape = _sphere_shape(model, origin) if kind == "sphere" else _cylinder_shape(model, origin, centred,
-                                                                                   distances, threshold)
+        raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} "
+                              f"mm) has {count} points "
+                              f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is "
+                              "the cloud one plane?)")
+    shape = _sphere_shape(model, origin) if kind == "sphere" else _cylinder_shape(model, origin,
+                                                                                  centred,
+                                                                                   distances,
+                                                                                   threshold)
     deviations = shape.deviations(points)
     return ShapeFit(shape, np.abs(deviations) < threshold, deviations,
-                    None if sources is None else np.asarray(sources).reshape(-1).astype(np.uint8), float(threshold))
+                    None if sources is None else np.asarray(sources).reshape(-1).astype(np.uint8),
+                    float(threshold))
 
 
 def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.ndarray], np.ndarray],
-            distances: Callable[[np.ndarray], np.ndarray], optimise: Callable[[Model], tuple[Model, int]],
-            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float], confidence: float,
+            distances: Callable[[np.ndarray], np.ndarray],
+            optimise: Callable[[Model], tuple[Model, int]],
+            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float],
+            confidence: float,
             max_iterations: int, tick: Callable[[float], None]) -> Model | None:
-    """Batched LO-RANSAC: `propose` maps samples (m, sample_size) int to models (m, p) (NaN rows = degenerate sample);
-    `distances` maps models (m, p) to signed point-model deviations (n, m); each new best sample is replaced by its
-    local optimum `optimise(model) -> (model, inlier count)` when that has as many inliers and a radius in range.
-    Returns the model with most inliers (at least min_inliers), or None. Stops by ransac_iterations' rule or after
-    max_iterations samples; tick(fraction of the samples it will draw) after each batch."""
+    """Batched LO-RANSAC: `propose` maps samples (m, sample_size) int to models (m, p) (NaN rows =
+    degenerate sample); `distances` maps models (m, p) to signed point-model deviations (n, m); each
+    new best sample is replaced by its local optimum `optimise(model) -> (model, inlier count)` when
+    that has as many inliers and a radius in range. Returns the model with most inliers (at least
+    min_inliers), or None. Stops by ransac_iterations' rule or after max_iterations samples;
+    tick(fraction of the samples it will draw) after each batch."""
     batch = int(np.clip(_SCORE_BUDGET // n, 1, 64))
     best, best_count, needed, drawn = None, min_inliers - 1, max_iterations, 0
     while drawn < min(needed, max_iterations):
         models = propose(rng.integers(0, n, size=(batch, sample_size)))
-        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1], radius_range)]
+        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1],
+                                                                        radius_range)]
         if len(models):
             counts = np.count_nonzero(np.abs(distances(models)) < threshold, axis=0)
             k = int(np.argmax(counts))
@@ -151,7 +187,8 @@ def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.nd
 
 
 def _ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], None]:
-    """tick(fraction): report the fraction done to `progress`, and raise Cancelled when `cancel` asks to stop."""
+    """tick(fraction): report the fraction done to `progress`, and raise Cancelled when `cancel`
+    asks to stop."""
     def tick(fraction: float) -> None:
         if cancel_requested(cancel):
             raise Cancelled(f"{where}: the fit was cancelled")
@@ -164,10 +201,13 @@ def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> 
     return (radius >= radius_range[0]) & (radius <= radius_range[1])
 
 
-def _local_optimum(points: np.ndarray, model: Model, threshold: float, distances: Callable[[np.ndarray], np.ndarray],
-                   refine: Callable[[np.ndarray, Model], Model], min_points: int) -> tuple[Model, int]:
-    """Least-squares refit on the inliers, repeated with the refit's inliers until they stop changing (at most 10
-    refits) -> (model, its inlier count). Stops, keeping the last model, when fewer than min_points are inliers."""
+def _local_optimum(points: np.ndarray, model: Model, threshold: float,
+                   distances: Callable[[np.ndarray], np.ndarray],
+                   refine: Callable[[np.ndarray, Model], Model],
+                   min_points: int) -> tuple[Model, int]:
+    """Least-squares refit on the inliers, repeated with the refit's inliers until they stop
+    changing (at most 10 refits) -> (model, its inlier count). Stops, keeping the last model, when
+    fewer than min_points are inliers."""
     inliers = np.abs(distances(model[None])[:, 0]) < threshold
     for _ in range(10):
         if np.count_nonzero(inliers) < min_points:
@@ -180,11 +220,12 @@ def _local_optimum(points: np.ndarray, model: Model, threshold: float, distances
     return model, int(np.count_nonzero(np.abs(distances(model[None])[:, 0]) < threshold))
 
 
-def _gauss_newton(model: Model, residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
+def _gauss_newton(model: Model,
+                  residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
                   step: Callable[[Model, np.ndarray], Model], iterations: int = 100) -> Model:
-    """Minimise sum(r^2) from `model`: residuals_jacobian(model) -> r (n,), J (n, k); step(model, delta (k,)) -> model.
-    Halves a step that does not lower the cost; stops when the cost stops falling (relative 1e-15) or after
-    `iterations` steps."""
+    """Minimise sum(r^2) from `model`: residuals_jacobian(model) -> r (n,), J (n, k); step(model,
+    delta (k,)) -> model. Halves a step that does not lower the cost; stops when the cost stops
+    falling (relative 1e-15) or after `iterations` steps."""
     r, J = residuals_jacobian(model)
     cost = r @ r
     for _ in range(iterations):
@@ -202,16 +243,18 @@ def _gauss_newton(model: Model, residuals_jacobian: Callable[[Model], tuple[np.n
     return model
 
 
-# --------------------------------------------------------------------------------------------- sphere
+# ------------------------------------------------------------------------------------------ sphere
 def _sphere_propose(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """Closed-form sphere through 4 points: 2 (p_i - p_0).c = |p_i|^2 - |p_0|^2, i = 1..3, by Cramer's rule (rows of a
-    3x3 system, batched); NaN rows when the 4 points are (nearly) coplanar."""
+    """Closed-form sphere through 4 points: 2 (p_i - p_0).c = |p_i|^2 - |p_0|^2, i = 1..3, by
+    Cramer's rule (rows of a 3x3 system, batched); NaN rows when the 4 points are (nearly)
+    coplanar."""
     def propose(samples: np.ndarray) -> np.ndarray:
         p = points[samples]                                    # (m, 4, 3)
         rows = 2.0 * (p[:, 1:] - p[:, :1])                     # (m, 3, 3)
         rhs = np.sum(p[:, 1:] ** 2, axis=2) - np.sum(p[:, :1] ** 2, axis=2)   # (m, 3)
         cof = np.stack([np.cross(rows[:, 1], rows[:, 2]), np.cross(rows[:, 2], rows[:, 0]),
-                        np.cross(rows[:, 0], rows[:, 1])], axis=1)             # (m, 3, 3), det = rows[0] . cof[0]
+                        # (m, 3, 3), det = rows[0] . cof[0]
+                        np.cross(rows[:, 0], rows[:, 1])], axis=1)
         det = np.einsum("ij,ij->i", rows[:, 0], cof[:, 0])
         scale = np.prod(np.linalg.norm(rows, axis=2), axis=1)
         det = np.where(np.abs(det) > 1e-9 * scale, det, np.nan)
@@ -221,7 +264,8 @@ def _sphere_propose(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def _sphere_distances(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """models (m, 4) -> (n, m) signed deviations |P - c| - R, via |P|^2 - 2 P.c + |c|^2 (one matrix product)."""
+    """models (m, 4) -> (n, m) signed deviations |P - c| - R, via |P|^2 - 2 P.c + |c|^2 (one matrix
+    product)."""
     sq = np.sum(points ** 2, axis=1)[:, None]
 
     def distances(models: np.ndarray) -> np.ndarray:
@@ -232,9 +276,10 @@ def _sphere_distances(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
 
 
 def _sphere_refine(points: np.ndarray, model: Model) -> Model:
-    """Algebraic least squares ([2P, 1] [c, R^2 - |c|^2] = |P|^2), then geometric least squares (Gauss-Newton on
-    |P - c| - R) from it. The RANSAC model only chose the inliers."""
-    solution = np.linalg.lstsq(np.column_stack([2.0 * points, np.ones(len(points))]), np.sum(points ** 2, axis=1),
+    """Algebraic least squares ([2P, 1] [c, R^2 - |c|^2] = |P|^2), then geometric least squares
+    (Gauss-Newton on |P - c| - R) from it. The RANSAC model only chose the inliers."""
+    solution = np.linalg.lstsq(np.column_stack([2.0 * points, np.ones(len(points))]),
+                               np.sum(points ** 2, axis=1),
                                rcond=None)[0]
     center = solution[:3]
     start = np.append(center, np.sqrt(max(solution[3] + center @ center, 0.0)))
@@ -242,7 +287,8 @@ def _sphere_refine(points: np.ndarray, model: Model) -> Model:
     def residuals_jacobian(m: Model) -> tuple[np.ndarray, np.ndarray]:
         q = points - m[:3]
         dist = np.linalg.norm(q, axis=1)
-        return dist - m[3], np.column_stack([-q / np.maximum(dist, 1e-300)[:, None], -np.ones(len(points))])
+        return dist - m[3], np.column_stack([-q / np.maximum(dist, 1e-300)[:, None],
+                                             -np.ones(len(points))])
     return _gauss_newton(start, residuals_jacobian, lambda m, delta: m + delta)
 
 
@@ -250,23 +296,27 @@ def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
     return Sphere(tuple(float(x) for x in model[:3] + origin), float(model[3]))
 
 
-# --------------------------------------------------------------------------------------------- cylinder
-def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """Cylinder from 2 points with normals: direction n1 x n2; axis point = midpoint of the closest points of the lines
-    p_i + t n_i; radius = mean distance of the two points to that axis. NaN rows for (nearly) parallel normals."""
+# ---------------------------------------------------------------------------------------- cylinder
+def _cylinder_propose(points: np.ndarray, normals: np.ndarray) -> Callable[[np.ndarray],
+                                                                           np.ndarray]:
+    """Cylinder from 2 points with normals: direction n1 x n2; axis point = midpoint of the closest
+    points of the lines p_i + t n_i; radius = mean distance of the two points to that axis. NaN rows
+    for (nearly) parallel normals."""
     def propose(samples: np.ndarray) -> np.ndarray:
         p1, p2 = points[samples[:, 0]], points[samples[:, 1]]
         n1, n2 = normals[samples[:, 0]], normals[samples[:, 1]]
         direction = np.cross(n1, n2)
         b, a, c = (np.einsum("ij,ij->i", x, y) for x, y in ((n1, n2), (n1, n1), (n2, n2)))
         denom = a * c - b * b                                  # = |n1 x n2|^2
-        denom = np.where(denom > 1e-6 * a * c, denom, np.nan)  # normals within ~0.06 degrees: degenerate
+        # normals within ~0.06 degrees: degenerate
+        denom = np.where(denom > 1e-6 * a * c, denom, np.nan)
         w = p1 - p2
         d, e = np.einsum("ij,ij->i", n1, w), np.einsum("ij,ij->i", n2, w)
         t, s = (b * e - c * d) / denom, (a * e - b * d) / denom
         axis_point = 0.5 * (p1 + t[:, None] * n1 + p2 + s[:, None] * n2)
         direction /= np.sqrt(denom)[:, None]
-        radius = 0.5 * (_line_distance(p1, axis_point, direction) + _line_distance(p2, axis_point, direction))
+        radius = 0.5 * (_line_distance(p1, axis_point, direction) + _line_distance(p2, axis_point,
+                                                                                   direction))
         return np.column_stack([axis_point, direction, radius])
     return propose
 
@@ -278,7 +328,8 @@ def _line_distance(p: np.ndarray, point: np.ndarray, direction: np.ndarray) -> n
 
 
 def _cylinder_distances(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
-    """models (m, 7) -> (n, m) signed deviations dist(P, axis) - R, via |P - a|^2 - ((P - a).d)^2 as matrix products."""
+    """models (m, 7) -> (n, m) signed deviations dist(P, axis) - R, via |P - a|^2 - ((P - a).d)^2 as
+    matrix products."""
     sq = np.sum(points ** 2, axis=1)[:, None]
 
     def distances(models: np.ndarray) -> np.ndarray:
@@ -290,7 +341,8 @@ def _cylinder_distances(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray
 
 
 def _perpendicular_basis(direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (3,) making a right-handed orthonormal basis with the unit `direction` (3,)."""
+    """Two unit vectors (3,) making a right-handed orthonormal basis with the unit `direction`
+    (3,)."""
     helper = np.eye(3)[np.argmin(np.abs(direction))]
     u = np.cross(direction, helper)
     u /= np.linalg.norm(u)
@@ -298,31 +350,36 @@ def _perpendicular_basis(direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def _cylinder_refine(points: np.ndarray, model: Model) -> Model:
-    """Geometric least squares (Gauss-Newton) on dist(P, axis) - R over 5 parameters: the direction tilted by
-    (alpha u + beta v), the axis point moved by (gamma u + delta v), the radius; u, v perpendicular to the direction."""
+    """Geometric least squares (Gauss-Newton) on dist(P, axis) - R over 5 parameters: the direction
+    tilted by (alpha u + beta v), the axis point moved by (gamma u + delta v), the radius; u, v
+    perpendicular to the direction."""
     def residuals_jacobian(m: Model) -> tuple[np.ndarray, np.ndarray]:
         d = m[3:6]
         u, v = _perpendicular_basis(d)
         q = points - m[:3]
         along = q @ d
-        w = q - along[:, None] * d                             # perpendicular part, |w| = distance to the axis
+        # perpendicular part, |w| = distance to the axis
+        w = q - along[:, None] * d
         dist = np.linalg.norm(w, axis=1)
         e = w / np.maximum(dist, 1e-300)[:, None]
         eu, ev = e @ u, e @ v
-        # d(dist)/d(tilt along u) = -(q.d)(e.u); d(dist)/d(shift along u) = -(e.u); same for v; d/dR = -1
+        # d(dist)/d(tilt along u) = -(q.d)(e.u); d(dist)/d(shift along u) = -(e.u); same for v; d/dR
+        # = -1
         J = np.column_stack([-along * eu, -along * ev, -eu, -ev, -np.ones(len(points))])
         return dist - m[6], J
 
     def step(m: Model, delta: np.ndarray) -> Model:
         u, v = _perpendicular_basis(m[3:6])
         d = m[3:6] + delta[0] * u + delta[1] * v
-        return np.concatenate([m[:3] + delta[2] * u + delta[3] * v, d / np.linalg.norm(d), [m[6] + delta[4]]])
+        return np.concatenate([m[:3] + delta[2] * u + delta[3] * v, d / np.linalg.norm(d),
+                               [m[6] + delta[4]]])
     return _gauss_newton(model, residuals_jacobian, step)
 
 
 def _cylinder_shape(model: Model, origin: np.ndarray, points: np.ndarray,
                     distances: Callable[[np.ndarray], np.ndarray], threshold: float) -> Cylinder:
-    """The canonical cylinder: axis point closest to the inliers' centroid, direction's largest component positive."""
+    """The canonical cylinder: axis point closest to the inliers' centroid, direction's largest
+    component positive."""
     a, d = model[:3], model[3:6]
     d = d if d[np.argmax(np.abs(d))] > 0 else -d
     centroid = points[np.abs(distances(model[None])[:, 0]) < threshold].mean(axis=0)

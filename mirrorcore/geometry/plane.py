@@ -1,7 +1,9 @@
-"""Planes, signed distances and reflection through a mirror plane (paper eq. 2 and 3), plane fitting by SVD and RANSAC.
+"""Planes, signed distances and reflection through a mirror plane (paper eq. 2 and 3), plane fitting
+by SVD and RANSAC.
 
-Convention (docs/DESIGN.md): a plane is (a, b, c, d) with a unit normal n = (a, b, c) pointing to the camera's side, so
-that n.P + d > 0 in front of the mirror (the camera's side; d > 0 because the camera is at the origin) and < 0 behind it.
+Convention (docs/DESIGN.md): a plane is (a, b, c, d) with a unit normal n = (a, b, c) pointing to
+the camera's side, so that n.P + d > 0 in front of the mirror (the camera's side; d > 0 because the
+camera is at the origin) and < 0 behind it.
 """
 from __future__ import annotations
 
@@ -15,25 +17,30 @@ from mirrorcore.geometry.ransac import ransac_iterations
 
 @dataclass(frozen=True)
 class Plane:
-    """An oriented plane n.P + d = 0 with |n| = 1 and the camera (origin) on the positive side (d > 0)."""
+    """An oriented plane n.P + d = 0 with |n| = 1 and the camera (origin) on the positive side (d >
+    0)."""
 
     normal: tuple[float, float, float]
     d: float
 
     @classmethod
     def from_abcd(cls, abcd, where: str = "plane", orient: bool = True) -> "Plane":
-        """Normalise (a, b, c, d); raises CalibrationError for a zero normal or a plane through the camera (d = 0).
+        """Normalise (a, b, c, d); raises CalibrationError for a zero normal or a plane through the
+        camera (d = 0).
 
-        orient : True flips a plane given with d < 0 to the camera's side; False refuses it (the convention says the
-        camera is in front, d > 0: a stored plane with d < 0 would put the camera behind the mirror).
+        orient : True flips a plane given with d < 0 to the camera's side; False refuses it (the
+        convention says the camera is in front, d > 0: a stored plane with d < 0 would put the
+        camera behind the mirror).
         """
         try:
             p = np.asarray(abcd, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError, OverflowError):
             p = np.full(0, np.nan)
         if p.shape != (4,) or not np.all(np.isfinite(p)):
-            raise CalibrationError(f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
-        p = p / max(1.0, np.abs(p[:3]).max())   # components near the float limit would overflow the norm
+            raise CalibrationError(
+                f"{where}: a plane needs 4 finite numbers [a, b, c, d], got {str(abcd)[:80]}")
+        # components near the float limit would overflow the norm
+        p = p / max(1.0, np.abs(p[:3]).max())
         norm = np.linalg.norm(p[:3])
         if norm < 1e-12:
             raise CalibrationError(f"{where}: the plane's normal (a, b, c) is zero")
@@ -43,14 +50,16 @@ class Plane:
             raise CalibrationError(f"{where}: the plane passes through the camera")
         if p[3] < 0:
             if not orient:
-                raise CalibrationError(f"{where}: d < 0 puts the camera behind the mirror; a plane's normal must "
+                raise CalibrationError(
+                    f"{where}: d < 0 puts the camera behind the mirror; a plane's normal must "
                                        "point to the camera's side (d > 0)")
             p = -p
         return cls((float(p[0]), float(p[1]), float(p[2])), float(p[3]))
 
     @classmethod
     def from_point_normal(cls, point, normal) -> "Plane":
-        """The plane through `point` (3,) with normal `normal` (3,), oriented to the camera's side."""
+        """The plane through `point` (3,) with normal `normal` (3,), oriented to the camera's
+        side."""
         n = np.asarray(normal, dtype=np.float64)
         return cls.from_abcd([*n, -float(np.dot(n, point))])
 
@@ -68,12 +77,15 @@ class Plane:
         return [float(x) for x in self.abcd]
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
-        """points : (..., 3) metres -> (...,) metres, > 0 on the camera's side, < 0 behind the mirror."""
+        """points : (..., 3) metres -> (...,) metres, > 0 on the camera's side, < 0 behind the
+        mirror."""
         points = np.asarray(points)
-        return points @ self.n.astype(points.dtype if points.dtype == np.float32 else np.float64) + self.d
+        return points @ self.n.astype(points.dtype if points.dtype == np.float32
+                                      else np.float64) + self.d
 
     def reflect(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 3: P_r = P - 2 (n.P + d) n. points : (..., 3) -> (..., 3), same float dtype (float32 stays float32)."""
+        """Paper eq. 3: P_r = P - 2 (n.P + d) n. points : (..., 3) -> (..., 3), same float dtype
+        (float32 stays float32)."""
         points = np.asarray(points)
         dtype = points.dtype if points.dtype in (np.float32, np.float64) else np.float64
         points = points.astype(dtype, copy=False)
@@ -81,7 +93,8 @@ class Plane:
         return points - (2 * (points @ n + dtype.type(self.d)))[..., None] * n
 
     def reflection_matrix(self) -> np.ndarray:
-        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1]. It is its own inverse, det = -1."""
+        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1]. It is its own
+        inverse, det = -1."""
         n = self.n
         M = np.eye(4)
         M[:3, :3] -= 2.0 * np.outer(n, n)
@@ -89,9 +102,10 @@ class Plane:
         return M
 
     def virtual_camera_pose(self) -> np.ndarray:
-        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image, as a proper rigid
-        transform: the reflection of the camera's axes with its x axis flipped back (images seen through a mirror are
-        flipped left-right). Its origin is the camera reflected through the plane, -2 d n."""
+        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image,
+        as a proper rigid transform: the reflection of the camera's axes with its x axis flipped
+        back (images seen through a mirror are flipped left-right). Its origin is the camera
+        reflected through the plane, -2 d n."""
         M = self.reflection_matrix()
         M[:3, 0] = -M[:3, 0]
         return M
@@ -102,28 +116,35 @@ class Plane:
         return points - self.signed_distance(points)[..., None] * self.n
 
     def angle_to(self, other: "Plane") -> float:
-        """Angle between the two normals, degrees (atan2 of the cross and dot products: exact near 0 and 180)."""
-        return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)), np.dot(self.n, other.n))))
+        """Angle between the two normals, degrees (atan2 of the cross and dot products: exact near 0
+        and 180)."""
+        return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)),
+                                           np.dot(self.n, other.n))))
 
 
 def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
-    """Least-squares plane through points (n >= 3, not collinear), paper eq. 2 solved by SVD of the centred points.
+    """Least-squares plane through points (n >= 3, not collinear), paper eq. 2 solved by SVD of the
+    centred points.
 
-    points : (n, 3) metres, camera frame. Raises CalibrationError when fewer than 3 points or they are collinear.
+    points : (n, 3) metres, camera frame. Raises CalibrationError when fewer than 3 points or they
+    are collinear.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(points) < 3:
-        raise CalibrationError(f"{where}: at least 3 points are needed to fit a plane, got {len(points)}")
+        raise CalibrationError(
+            f"{where}: at least 3 points are needed to fit a plane, got {len(points)}")
     centroid = points.mean(axis=0)
     _, s, vt = np.linalg.svd(points - centroid, full_matrices=False)
     if s[1] <= 1e-6 * max(s[0], 1e-12) or s[1] < 1e-9:
-        raise CalibrationError(f"{where}: the points are collinear; a plane needs points spread in two directions")
+        raise CalibrationError(
+            f"{where}: the points are collinear; a plane needs points spread in two directions")
     return Plane.from_point_normal(centroid, vt[2])
 
 
 @dataclass(frozen=True)
 class PlaneFit:
-    """A RANSAC + SVD plane fit: the plane, which points are inliers, and residuals (metres, signed) of all points."""
+    """A RANSAC + SVD plane fit: the plane, which points are inliers, and residuals (metres, signed)
+    of all points."""
 
     plane: Plane
     inliers: np.ndarray
@@ -136,13 +157,16 @@ class PlaneFit:
 
 
 def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
-                     confidence: float = 0.999, max_iterations: int = 2000, where: str = "plane") -> PlaneFit:
-    """RANSAC on 3-point samples scored by MSAC (squared distances in units of each point's threshold, capped at 1,
-    summed: every outlier costs the same wherever it lies, and among planes with as many inliers the closest wins),
-    then an SVD refit on the inliers, repeated until they settle.
+                     confidence: float = 0.999, max_iterations: int = 2000,
+                     where: str = "plane") -> PlaneFit:
+    """RANSAC on 3-point samples scored by MSAC (squared distances in units of each point's
+    threshold, capped at 1, summed: every outlier costs the same wherever it lies, and among planes
+    with as many inliers the closest wins), then an SVD refit on the inliers, repeated until they
+    settle.
 
-    points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for depth-dependent noise).
-    Degenerate (collinear) samples are skipped. Raises CalibrationError when no plane can be fitted.
+    points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for
+    depth-dependent noise). Degenerate (collinear) samples are skipped. Raises CalibrationError when
+    no plane can be fitted.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     fit_plane_svd(points, where)  # refuses fewer than 3 or collinear points with a clear message
@@ -159,7 +183,8 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
         ds = -np.einsum("ij,ij->i", normals, a[ok])
         if len(normals):
             sq = (points @ normals.T + ds) ** 2                     # (n, k)
-            costs = np.minimum(sq / cap, 1.0).sum(axis=0)     # a far (noisy) outlier weighs no more than a near one
+            # a far (noisy) outlier weighs no more than a near one
+            costs = np.minimum(sq / cap, 1.0).sum(axis=0)
             k = int(np.argmin(costs))
             if costs[k] < best_cost:
                 best_cost, best = costs[k], (normals[k], ds[k])
@@ -168,7 +193,8 @@ def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.
     if best is None:
         raise CalibrationError(f"{where}: no three points define a plane")
     inliers = np.abs(points @ best[0] + best[1]) < threshold
-    plane = fit_plane_svd(points[inliers], where) if inliers.sum() >= 3 else Plane.from_point_normal(
+    plane = fit_plane_svd(points[inliers],
+                          where) if inliers.sum() >= 3 else Plane.from_point_normal(
         -best[1] * best[0], best[0])
     for _ in range(5):
         refit = np.abs(plane.signed_distance(points)) < threshold

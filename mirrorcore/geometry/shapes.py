@@ -1,7 +1,9 @@
-"""Fitted shapes (sphere, cylinder) and the paper's error measures of a cloud against them (eq. 4 and 5, mean error).
+"""Fitted shapes (sphere, cylinder) and the paper's error measures of a cloud against them (eq. 4
+and 5, mean error).
 
-The deviation of a point P is signed: dist(P, centre) - R for a sphere (eq. 4), dist(P, axis line) - R for a cylinder
-(eq. 5); > 0 outside the surface, < 0 inside. Metres everywhere; millimetres only in the reported JSON figures (`*_mm`).
+The deviation of a point P is signed: dist(P, centre) - R for a sphere (eq. 4), dist(P, axis line) -
+R for a cylinder (eq. 5); > 0 outside the surface, < 0 inside. Metres everywhere; millimetres only
+in the reported JSON figures (`*_mm`).
 """
 from __future__ import annotations
 
@@ -27,7 +29,8 @@ class Sphere:
     kind = "sphere"
 
     def deviations(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 4's terms: points (n, 3) metres -> (n,) float64 signed dist(P, centre) - R, metres."""
+        """Paper eq. 4's terms: points (n, 3) metres -> (n,) float64 signed dist(P, centre) - R,
+        metres."""
         return np.linalg.norm(_as_points(points) - np.array(self.centre), axis=1) - self.radius
 
     def to_json(self) -> dict:
@@ -36,7 +39,8 @@ class Sphere:
 
 @dataclass(frozen=True)
 class Cylinder:
-    """axis_point : (3,) metres, camera frame, a point of the axis; axis_direction : (3,) unit vector; radius : metres."""
+    """axis_point : (3,) metres, camera frame, a point of the axis; axis_direction : (3,) unit
+    vector; radius : metres."""
 
     axis_point: tuple[float, float, float]
     axis_direction: tuple[float, float, float]
@@ -45,13 +49,15 @@ class Cylinder:
     kind = "cylinder"
 
     def deviations(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 5's terms: points (n, 3) metres -> (n,) float64 signed dist(P, axis line) - R, metres."""
+        """Paper eq. 5's terms: points (n, 3) metres -> (n,) float64 signed dist(P, axis line) - R,
+        metres."""
         q = _as_points(points) - np.array(self.axis_point)
         direction = np.array(self.axis_direction)
         return np.linalg.norm(q - np.outer(q @ direction, direction), axis=1) - self.radius
 
     def to_json(self) -> dict:
-        return {"shape": self.kind, "radius_mm": 1e3 * self.radius, "axis_point": list(self.axis_point),
+        return {"shape": self.kind, "radius_mm": 1e3 * self.radius,
+                "axis_point": list(self.axis_point),
                 "axis_direction": list(self.axis_direction)}
 
 
@@ -59,8 +65,9 @@ class Cylinder:
 class FitErrors:
     """The error figures of a set of points against a fitted shape, metres.
 
-    rmse : paper eq. 4 / 5, sqrt(mean(dev^2)); mean_error : the paper's "mean error", mean(dev) (signed: > 0 when the
-    points lie outside the fitted surface on average); mean_abs_error : mean(|dev|). NaN for an empty set.
+    rmse : paper eq. 4 / 5, sqrt(mean(dev^2)); mean_error : the paper's "mean error", mean(dev)
+    (signed: > 0 when the points lie outside the fitted surface on average); mean_abs_error :
+    mean(|dev|). NaN for an empty set.
     """
 
     points: int
@@ -76,13 +83,16 @@ class FitErrors:
 
     def to_json(self) -> dict:
         """{"points", "rmse_mm", "mean_error_mm", "mean_abs_error_mm"} (NaN becomes null)."""
-        mm = [None if np.isnan(x) else 1e3 * x for x in (self.rmse, self.mean_error, self.mean_abs_error)]
-        return {"points": self.points, "rmse_mm": mm[0], "mean_error_mm": mm[1], "mean_abs_error_mm": mm[2]}
+        mm = [None if np.isnan(x) else 1e3 * x
+              for x in (self.rmse, self.mean_error, self.mean_abs_error)]
+        return {"points": self.points, "rmse_mm": mm[0], "mean_error_mm": mm[1],
+                "mean_abs_error_mm": mm[2]}
 
 
 def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, FitErrors]:
-    """FitErrors of each source present: deviations (n,) signed metres, sources (n,) int labels (0 direct, j mirror j)
-    -> {source: FitErrors}, sorted by source. Raises ValueError when the lengths differ or a label is negative."""
+    """FitErrors of each source present: deviations (n,) signed metres, sources (n,) int labels (0
+    direct, j mirror j) -> {source: FitErrors}, sorted by source. Raises ValueError when the lengths
+    differ or a label is negative."""
     deviations = np.asarray(deviations, dtype=np.float64).reshape(-1)
     sources = np.asarray(sources).reshape(-1).astype(np.int64)
     if len(sources) != len(deviations):
@@ -90,8 +100,10 @@ def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, 
     if len(sources) and sources.min() < 0:
         raise ValueError("source labels must be >= 0")
     counts = np.bincount(sources)
-    sq, total, absolute = (np.bincount(sources, weights=w) for w in (deviations ** 2, deviations, np.abs(deviations)))
-    return {int(s): FitErrors(int(counts[s]), float(np.sqrt(sq[s] / counts[s])), float(total[s] / counts[s]),
+    sq, total, absolute = (np.bincount(sources, weights=w)
+                           for w in (deviations ** 2, deviations, np.abs(deviations)))
+    return {int(s): FitErrors(int(counts[s]), float(np.sqrt(sq[s] / counts[s])),
+                              float(total[s] / counts[s]),
                               float(absolute[s] / counts[s]))
             for s in np.flatnonzero(counts)}
 
@@ -100,8 +112,10 @@ def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, 
 class ShapeFit:
     """A fitted shape and how the cloud deviates from it.
 
-    shape : Sphere or Cylinder; inliers : (n,) bool, points within the RANSAC threshold of the final shape;
-    deviations : (n,) float64 signed metres of ALL points (eq. 4 / 5 terms); sources : (n,) uint8 labels or None;
+    shape : Sphere or Cylinder; inliers : (n,) bool, points within the RANSAC threshold of the final
+    shape;
+    deviations : (n,) float64 signed metres of ALL points (eq. 4 / 5 terms); sources : (n,) uint8
+    labels or None;
     threshold : the inlier distance used, metres.
     """
 
@@ -127,9 +141,11 @@ class ShapeFit:
         return {} if self.sources is None else per_source_errors(self.deviations, self.sources)
 
     def to_json(self) -> dict:
-        """The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres, camera frame), the figures over all
-        points (points, rmse_mm, mean_error_mm, mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source
-        {"direct": {...}, "mirror 1": {...}}."""
-        return {**self.shape.to_json(), **self.errors.to_json(), "inliers": int(np.count_nonzero(self.inliers)),
+        """The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres,
+        camera frame), the figures over all points (points, rmse_mm, mean_error_mm,
+        mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source {"direct": {...},
+        "mirror 1": {...}}."""
+        return {**self.shape.to_json(), **self.errors.to_json(),
+                "inliers": int(np.count_nonzero(self.inliers)),
                 "threshold_mm": 1e3 * self.threshold, "inlier_errors": self.inlier_errors.to_json(),
                 "per_source": {source_name(s): e.to_json() for s, e in self.per_source.items()}}

@@ -1,6 +1,6 @@
-"""What a command may write over: never a file that belongs to a session (docs/DESIGN.md, 'Session folder'), nor one
-of the command's own inputs. Every command that writes a file a user named calls check_output first; so should the
-browser tool's exports."""
+"""What a command may write over: never a file that belongs to a session (docs/DESIGN.md, 'Session
+folder'), nor one of the command's own inputs. Every command that writes a file a user named calls
+check_output first; so should the browser tool's exports."""
 from __future__ import annotations
 
 import json
@@ -11,13 +11,14 @@ from mirrorcore.io.session import BACKGROUND_FILE, FRAMES_FOLDER, SESSION_FILE, 
 
 
 def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
-    """Refuse to write `path` when that would replace a file that belongs to a session, or one of the command's own
-    `inputs` (files or folders it reads). Every command that writes a file a user named calls this first.
+    """Refuse to write `path` when that would replace a file that belongs to a session, or one of
+    the command's own `inputs` (files or folders it reads). Every command that writes a file a user
+    named calls this first.
 
-    A file belongs to the session of the nearest folder above it that holds session.json when it is that session.json,
-    its .bak, its background, its truth.json, a frame or colour frame it lists, or its frames/ folder and anything in
-    it.
-    Paths are compared after resolving symbolic links and '..'. Returns `path`; MirrorscanError naming it otherwise.
+    A file belongs to the session of the nearest folder above it that holds session.json when it is
+    that session.json, its .bak, its background, its truth.json, a frame or colour frame it lists,
+    or its frames/ folder and anything in it. Paths are compared after resolving symbolic links and
+    '..'. Returns `path`; MirrorscanError naming it otherwise.
     """
     target = Path(path).resolve()
     if (target / SESSION_FILE).is_file():
@@ -26,19 +27,22 @@ def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
         if (folder / SESSION_FILE).is_file():
             rel = target.relative_to(folder).as_posix()
             if rel in session_files(folder) or rel.split("/")[0] == FRAMES_FOLDER:
-                raise MirrorscanError(f"{path}: would write over {rel} of the session {folder}; write the output "
+                raise MirrorscanError(
+                    f"{path}: would write over {rel} of the session {folder}; write the output "
                                       f"elsewhere (e.g. {folder / 'exports'}/)")
             break
     for given in inputs:
         if target == Path(given).resolve():
-            raise MirrorscanError(f"{path}: is this command's own input; write the output elsewhere")
+            raise MirrorscanError(
+                f"{path}: is this command's own input; write the output elsewhere")
     return Path(path)
 
 
 def session_files(folder: str | Path) -> set[str]:
-    """The files (POSIX paths relative to `folder`) that belong to the session there: session.json and its .bak,
-    background.png and truth.json, and the background, frames and colour frames that its session.json lists (read
-    leniently: a damaged session.json still protects its files by their usual names)."""
+    """The files (POSIX paths relative to `folder`) that belong to the session there: session.json
+    and its .bak, background.png and truth.json, and the background, frames and colour frames that
+    its session.json lists (read leniently: a damaged session.json still protects its files by their
+    usual names)."""
     files = {SESSION_FILE, SESSION_FILE + ".bak", BACKGROUND_FILE, TRUTH_FILE}
     try:
         data = json.loads((Path(folder) / SESSION_FILE).read_text(encoding="utf-8"))
@@ -48,5 +52,6 @@ def session_files(folder: str | Path) -> set[str]:
         return files
     listed = [data.get("background")] + [p for key in ("frames", "colour_frames")
                                          if isinstance(data.get(key), list) for p in data[key]]
-    files.update(PurePosixPath(p.replace("\\", "/")).as_posix() for p in listed if isinstance(p, str) and p)
+    files.update(PurePosixPath(p.replace("\\", "/")).as_posix() for p in listed
+                 if isinstance(p, str) and p)
     return files

@@ -1,6 +1,6 @@
-"""PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y z float32 (metres,
-camera frame), red green blue uchar (source colour), source uchar; faces (vertex_indices, uchar count + int32) for
-meshes."""
+"""PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y
+z float32 (metres, camera frame), red green blue uchar (source colour), source uchar; faces
+(vertex_indices, uchar count + int32) for meshes."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,15 +15,17 @@ from mirrorcore.base.palette import source_colours
 
 _VERTEX = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
                     ("red", "u1"), ("green", "u1"), ("blue", "u1"), ("source", "u1")])
-READ_COPIES = 4     # trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
+# trimesh holds the file, its parsed vertices and our float32 copy: about 4 times the file
+READ_COPIES = 4
 _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
-_HEADER_LINES, _HEADER_LINE = 200, 1024   # a PLY header longer than this (lines, bytes a line) is damage
+# a PLY header longer than this (lines, bytes a line) is damage
+_HEADER_LINES, _HEADER_LINE = 200, 1024
 
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
-    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j, 33.. several
-    mirrors in turn: mirrorcore.base.palette); faces : optional
-    (m, 3) int vertex indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
+    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j,
+    33.. several mirrors in turn: mirrorcore.base.palette); faces : optional (m, 3) int vertex
+    indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)
     if len(sources) != len(points):
@@ -35,13 +37,18 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
     colours = source_colours(sources)
     vertex["red"], vertex["green"], vertex["blue"] = colours.T
     vertex["source"] = sources
-    header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame (OpenCV axes); "
-              "source 0 = direct, j = mirror j, 33 and up = through several mirrors in turn (docs/DESIGN.md)\n"
+    header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame "
+              "(OpenCV axes); "
+              "source 0 = direct, j = mirror j, 33 and up = through several mirrors in turn "
+              "(docs/DESIGN.md)\n"
               f"element vertex {len(points)}\n"
-              + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n" for n in _VERTEX.names)
-              + ("" if faces is None else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")
+              + "".join(f"property {'float' if n in 'xyz' else 'uchar'} {n}\n"
+                        for n in _VERTEX.names)
+              + ("" if faces is None
+                 else f"element face {len(faces)}\nproperty list uchar int vertex_indices\n")
               + "end_header\n")
-    return header.encode("ascii") + vertex.tobytes() + (b"" if faces is None else _face_bytes(faces, len(points)))
+    return header.encode("ascii") + vertex.tobytes() + (b"" if faces is None
+                                                        else _face_bytes(faces, len(points)))
 
 
 def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
@@ -55,7 +62,8 @@ def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
     return face.tobytes()
 
 
-def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> None:
+def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray,
+              faces: np.ndarray | None = None) -> None:
     """Write a labelled cloud, or a mesh with `faces`, atomically (see encode_ply)."""
     write_atomic(path, encode_ply(points, sources, faces))
 
@@ -63,8 +71,8 @@ def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray, faces: 
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Read the vertices of any PLY (ours, Open3D's, MeshLab's...).
 
-    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source` property.
-    Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
+    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source`
+    property. Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
     """
     path = Path(path)
     if not path.is_file():
@@ -76,19 +84,24 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     try:
         geometry = trimesh.load(path, file_type="ply", process=False)
         vertex = geometry.metadata["_ply_raw"]["vertex"]["data"]
-    except Exception as exc:  # trimesh raises many kinds on broken files; all mean the same to the user
+    # trimesh raises many kinds on broken files; all mean the same to the user
+    except Exception as exc:
         raise FileFormatError(f"{path}: broken PLY ({type(exc).__name__}: {exc})") from None
-    names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())  # ASCII: dict of columns
+    # ASCII: dict of columns
+    names = set(vertex) if isinstance(vertex, dict) else set(vertex.dtype.names or ())
     if not {"x", "y", "z"} <= names:
         raise FileFormatError(f"{path}: the PLY's vertices have no x, y, z")
-    points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float32).reshape(-1, 3)
-    sources = np.asarray(vertex["source"], dtype=np.uint8).reshape(-1) if "source" in names else None
+    points = np.stack([vertex["x"], vertex["y"], vertex["z"]],
+                      axis=-1).astype(np.float32).reshape(-1, 3)
+    sources = np.asarray(vertex["source"],
+                         dtype=np.uint8).reshape(-1) if "source" in names else None
     return points, sources
 
 
 def ply_element_counts(path: str | Path) -> dict[str, int]:
-    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading the data.
-    Raises FileFormatError naming the file when it is missing or its header is not a PLY header."""
+    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading
+    the data. Raises FileFormatError naming the file when it is missing or its header is not a PLY
+    header."""
     path = Path(path)
     counts: dict[str, int] = {}
     try:
@@ -104,5 +117,6 @@ def ply_element_counts(path: str | Path) -> dict[str, int]:
     except FileNotFoundError:
         raise FileFormatError(f"{path}: no such file") from None
     except ValueError:
-        raise FileFormatError(f"{path}: broken PLY header (an element count is not a number)") from None
+        raise FileFormatError(
+            f"{path}: broken PLY header (an element count is not a number)") from None
     raise FileFormatError(f"{path}: broken PLY header (no end_header)")

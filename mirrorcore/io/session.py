@@ -1,66 +1,74 @@
-"""The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated here in one place
-(camera, mirrors, background, frames, and the extensions selection, bounces, timestamps, colour_frames, a mirror's
-id, region and marker_offset), saved atomically with one backup (session.json.bak). Keys this version does not know
-are kept as they were."""
+"""The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated
+here in one place (camera, mirrors, background, frames, and the extensions selection, bounces,
+timestamps, colour_frames, a mirror's id, region and marker_offset), saved atomically with one
+backup (session.json.bak). Keys that this mirrorscan does not read are kept as they were."""
 from __future__ import annotations
 
 import json
 import re
 import shutil
-import unicodedata
 from dataclasses import dataclass, field, replace
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 import numpy as np
 
 from mirrorcore.base.atomic import new_folder, write_atomic
-from mirrorcore.depth.files import read_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.base.jsonfile import read_json
+from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER
+from mirrorcore.depth.files import read_depth_png
+from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.geometry.polygon import MAX_VERTICES, validate_polygon
-from mirrorcore.base.jsonfile import finite_number, read_json
-from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER
-from mirrorcore.depth.selection import Selection
+from mirrorcore.io.fields import (Pixels, read_list, read_paths, read_pixels, read_polygon,
+                                  read_relative_path, read_timestamps)
+from mirrorcore.io.limits import (MAX_FRAMES, MAX_MARKERS, MAX_SESSION_BYTES, check_name)
 
 VERSION = 1
 SESSION_FILE = "session.json"
-BACKGROUND_FILE = "background.png"   # where a captured or rendered background is saved
-TRUTH_FILE = "truth.json"            # the simulator's scene and true planes, beside its session.json
-FRAMES_FOLDER = "frames"             # every file in it belongs to the session (a recording lists frames as they land)
-# Limits of what a session may hold: checked where a session is read (session_from_json) and where it is edited
-# (check_limits, which the browser's editor calls before it saves), so that a session that was saved always opens.
-MAX_MARKERS = 500                   # per mirror; a calibration needs 3 and uses a 5x5 window around each
-MAX_POLYGON_VERTICES = MAX_VERTICES  # per boundary or region (mirrorcore.geometry.polygon)
-MAX_NAME_LENGTH = 100               # characters of a mirror's name
-MAX_FRAMES = 1_000_000              # frames of a session: 9 hours at 30 fps
-MAX_SESSION_BYTES = 64 << 20        # session.json itself; a million frames listed take about 30 MB
-_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps", "colour_frames",
-             "bounces")
-_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset", "marker_offset_std")
-MAX_MARKER_OFFSET = 0.05   # metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake
-
-Pixels = tuple[tuple[float, float], ...]
+# Where a captured or rendered background is saved.
+BACKGROUND_FILE = "background.png"
+# The simulator's scene and true planes, beside its session.json.
+TRUTH_FILE = "truth.json"
+# Every file in it belongs to the session (a recording lists frames as they land).
+FRAMES_FOLDER = "frames"
+_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps",
+             "colour_frames", "bounces")
+_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset",
+                "marker_offset_std")
+# Metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake.
+MAX_MARKER_OFFSET = 0.05
 
 
 @dataclass(frozen=True)
 class SessionMirror:
     """One mirror as the user set it up.
 
-    name : shown to people, unique in the session
-    markers : (k, 2) pixel coordinates (u, v) clicked on the mirror's markers
-    boundary : (b, 2) pixel polygon of the mirror's outline in the image (empty until drawn)
-    plane : the calibrated plane, or None
-    id : a stable identity (>= 1, unique in the session), kept when other mirrors are removed or reordered; 0 until
-        the session gives it one (Session.__post_init__)
-    region : optional (r, 2) pixel polygon on the mirror's frame, for calibration by region
-    marker_offset : metres from the markers' faces to the reflecting surface (the silver behind the glass), along the
-        normal away from the camera; 0 when the markers lie on the reflecting surface. |marker_offset| <=
-        MAX_MARKER_OFFSET.
-    marker_offset_std : metres, 1 sigma of a marker_offset that a refinement measured; None when it was typed in
-        (or is unset: 0). A refinement measures and replaces an unset or measured glass, never one typed in
-        (glass_typed: a helper followed the advice to type 3 mm, and the next refinement put back 0.5).
-    extra : keys of the mirror's JSON object that this version does not know, kept as they were
+    Attributes
+    ----------
+    name : str
+        Shown to people, unique in the session.
+    markers : (k, 2) float
+        Pixel coordinates (u, v) clicked on the mirror's markers.
+    boundary : (b, 2) float
+        Pixel polygon of the mirror's outline in the image (empty until drawn).
+    plane : Plane or None
+        The calibrated plane (the reflecting surface).
+    id : int
+        A stable identity (>= 1, unique in the session), kept when other mirrors are removed or
+        reordered; 0 until the session gives it one (Session.__post_init__).
+    region : (r, 2) float or None
+        Pixel polygon on the mirror's frame, for calibration by region.
+    marker_offset : float
+        Metres from the markers' faces to the reflecting surface (the silver behind the glass),
+        along the normal away from the camera; 0 when the markers lie on the reflecting surface.
+        |marker_offset| <= MAX_MARKER_OFFSET.
+    extra : dict
+        Keys of the mirror's JSON object that this mirrorscan does not read, kept as they were.
+    marker_offset_std : float or None
+        Metres, 1 sigma of a marker_offset that a refinement measured; None when it was typed in
+        (or is unset: 0). A refinement measures and replaces an unset or measured glass, never
+        one typed in (glass_typed).
     """
 
     name: str
@@ -75,7 +83,8 @@ class SessionMirror:
 
     @property
     def glass_set(self) -> bool:
-        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is not)."""
+        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is
+        not)."""
         return self.marker_offset != 0.0 or self.marker_offset_std is not None
 
     @property
@@ -84,7 +93,8 @@ class SessionMirror:
         return self.marker_offset != 0.0 and self.marker_offset_std is None
 
     def marker_name(self, k: int) -> str:
-        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the mirror's id)."""
+        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the
+        mirror's id)."""
         return f"{self.id}.{k + 1}"
 
     @property
@@ -93,8 +103,8 @@ class SessionMirror:
 
     @property
     def marker_plane(self) -> Plane | None:
-        """The plane of the markers' faces: the calibrated reflecting surface moved towards the camera by
-        marker_offset (the stickers sit on the glass), or None while uncalibrated."""
+        """The plane of the markers' faces: the calibrated reflecting surface moved towards the
+        camera by marker_offset (the stickers sit on the glass), or None while uncalibrated."""
         if self.plane is None:
             return None
         return Plane(self.plane.normal, self.plane.d - self.marker_offset)
@@ -114,16 +124,19 @@ class SessionMirror:
 
 @dataclass(frozen=True)
 class Session:
-    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative to `root`
-    (POSIX style).
+    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative
+    to `root` (POSIX style).
 
     selection : how the object is found in a frame (the defaults unless the file says otherwise)
-    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i / fps)
+    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i /
+    fps)
     colour_frames : n colour PNG paths, one per frame, or None
-    extra : top-level keys this version does not know, kept as they were
-    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER (mirrorcore.rig.model)
+    extra : top-level keys this mirrorscan does not read, kept as they were
+    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to
+    MAX_ORDER (mirrorcore.rig.model)
 
-    Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a stable identity.
+    Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a
+    stable identity.
     """
 
     root: Path
@@ -146,7 +159,8 @@ class Session:
         return Path(self.root) / SESSION_FILE
 
     def to_json(self) -> dict:
-        data = {"version": VERSION, "camera": self.camera.to_dict(), "mirrors": [m.to_json() for m in self.mirrors],
+        data = {"version": VERSION, "camera": self.camera.to_dict(),
+                "mirrors": [m.to_json() for m in self.mirrors],
                 "background": self.background, "frames": list(self.frames)}
         if self.selection != Selection():
             data["selection"] = self.selection.to_json()
@@ -165,7 +179,8 @@ class Session:
         return replace(self, mirrors=tuple(mirrors))
 
     def mirror_index(self, mirror_id: int) -> int:
-        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when there is none."""
+        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when
+        there is none."""
         for i, m in enumerate(self.mirrors):
             if m.id == mirror_id:
                 return i
@@ -176,15 +191,18 @@ class Session:
         if not self.frames:
             raise MirrorscanError(f"{self.path}: the session has no frames")
         if not -len(self.frames) <= index < len(self.frames):
-            raise MirrorscanError(f"{self.path}: no frame {index}; the session has {len(self.frames)} "
+            raise MirrorscanError(
+                f"{self.path}: no frame {index}; the session has {len(self.frames)} "
                                   f"(0 to {len(self.frames) - 1})")
         return self._read(self.frames[index])
 
     def spread_frames(self, most: int) -> np.ndarray:
-        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none without frames)."""
+        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none
+        without frames)."""
         if not self.frames:
             return np.zeros(0, int)
-        return np.unique(np.linspace(0, len(self.frames) - 1, min(len(self.frames), most)).astype(int))
+        return np.unique(np.linspace(0, len(self.frames) - 1,
+                                     min(len(self.frames), most)).astype(int))
 
     def read_frames(self, indices) -> np.ndarray:
         """Frames `indices` (k,) as (k, H, W) float32 metres (read_frame each)."""
@@ -207,15 +225,31 @@ def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
 
 # --------------------------------------------------------------------- reading
 def load_session(folder: str | Path) -> Session:
-    """Read and validate SESSION/session.json; raises FileFormatError with the file and the offending key."""
+    """Read and validate a session folder's session.json.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The session folder.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the offending key.
+    """
     folder = Path(folder)
-    return session_from_json(read_json(folder / SESSION_FILE, f"file (is {folder} a session folder?)",
+    return session_from_json(read_json(folder / SESSION_FILE,
+                                       f"file (is {folder} a session folder?)",
                                        MAX_SESSION_BYTES), folder)
 
 
 def session_from_json(data, folder: Path) -> Session:
-    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that paths are relative
-    to. Raises FileFormatError naming the file and the key."""
+    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that
+    paths are relative to. Raises FileFormatError naming the file and the key."""
     where = str(Path(folder) / SESSION_FILE)
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
@@ -223,30 +257,36 @@ def session_from_json(data, folder: Path) -> Session:
     if missing:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
     if data["version"] != VERSION:
-        raise FileFormatError(f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
+        raise FileFormatError(
+            f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
                               f"{VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
     mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
-                    for i, m in enumerate(_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS, "mirrors")))
+                    for i,
+                    m in enumerate(read_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS,
+                                                    "mirrors")))
     _check_ids(mirrors, where)
     background = data.get("background")
     if background is not None:
-        background = _relative_path(background, folder, f"{where}: background")
-    frames = _paths(data["frames"], folder, f"{where}: frames", MAX_FRAMES)
+        background = read_relative_path(background, folder, f"{where}: background")
+    frames = read_paths(data["frames"], folder, f"{where}: frames", MAX_FRAMES)
     timestamps = data.get("timestamps")
     if timestamps is not None:
-        timestamps = _timestamps(timestamps, len(frames), f"{where}: timestamps")
+        timestamps = read_timestamps(timestamps, len(frames), f"{where}: timestamps")
     colour_frames = data.get("colour_frames")
     if colour_frames is not None:
-        colour_frames = _paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
+        colour_frames = read_paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
         if len(colour_frames) != len(frames):
-            raise FileFormatError(f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
+            raise FileFormatError(
+                f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
     bounces = data.get("bounces", MAX_ORDER)
     if isinstance(bounces, bool) or not isinstance(bounces, int) or not 1 <= bounces <= MAX_ORDER:
-        raise FileFormatError(f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
+        raise FileFormatError(
+            f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
     extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
     return Session(Path(folder), camera, mirrors, background, frames,
-                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps, colour_frames, extra,
+                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps,
+                   colour_frames, extra,
                    bounces)
 
 
@@ -259,13 +299,15 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
         raise FileFormatError(str(exc)) from None
     where = f"{where} ({data['name']})"
     mirror_id = data.get("id", 0)                # none yet: the session gives it one
-    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int) or not 1 <= mirror_id < 2**31):
-        raise FileFormatError(f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
-    markers = _pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
-    boundary = _polygon(data.get("boundary", []), camera, f"{where}: boundary")
+    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int)
+                         or not 1 <= mirror_id < 2**31):
+        raise FileFormatError(
+            f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
+    markers = read_pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
+    boundary = read_polygon(data.get("boundary", []), camera, f"{where}: boundary")
     region = data.get("region")
     if region is not None:
-        region = _polygon(region, camera, f"{where}: region")
+        region = read_polygon(region, camera, f"{where}: region")
     plane = data.get("plane")
     if plane is not None:
         try:
@@ -275,15 +317,19 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     offset = data.get("marker_offset", 0.0)
     if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
             or abs(offset) > MAX_MARKER_OFFSET):
-        raise FileFormatError(f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
+        raise FileFormatError(
+            f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
                               f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
     std = data.get("marker_offset_std")
-    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float)) or not 0 <= std
+    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
+                            or not 0 <= std
                             <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
-        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to {MAX_MARKER_OFFSET:g}) to which "
+        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to "
+                              f"{MAX_MARKER_OFFSET:g}) to which "
                               f"a refinement measured the glass, got {std!r}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset), extra,
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset),
+                         extra,
                          None if std is None else float(std))
 
 
@@ -294,116 +340,16 @@ def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
         raise FileFormatError(f"{where}: mirrors: id {twice[0]} is given to more than one mirror")
 
 
-def _list(value, where: str, limit: int | None = None, what: str = "items") -> list:
-    """`value` when it is a list of at most `limit` items; FileFormatError naming `where` otherwise."""
-    if not isinstance(value, list):
-        raise FileFormatError(f"{where}: must be a list")
-    if limit is not None and len(value) > limit:
-        raise FileFormatError(f"{where}: {len(value):,} {what}, more than the {limit:,} a session may hold")
-    return value
-
-
-def _pixels(value, camera: Intrinsics, where: str, limit: int = MAX_POLYGON_VERTICES) -> Pixels:
-    """A list of at most `limit` [u, v] inside the image -> tuple of (u, v) floats."""
-    out = []
-    for i, p in enumerate(_list(value, where, limit, "points")):
-        uv = [finite_number(c) for c in p] if isinstance(p, (list, tuple)) and len(p) == 2 else [None]
-        if None in uv:
-            raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got {str(p)[:80]}")
-        u, v = uv
-        if not (-0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
-            raise FileFormatError(f"{where}[{i}]: pixel ({u:g}, {v:g}) is outside the "
-                                  f"{camera.width}x{camera.height} image")
-        out.append((u, v))
-    return tuple(out)
-
-
-def _polygon(value, camera: Intrinsics, where: str) -> Pixels:
-    """A polygon of pixels (empty allowed), checked by validate_polygon when it has vertices."""
-    pixels = _pixels(value, camera, where)
-    if pixels:
-        try:
-            validate_polygon(pixels, camera.shape, where)
-        except MirrorscanError as exc:
-            raise FileFormatError(str(exc)) from None
-    return pixels
-
-
-def _paths(value, folder: Path, where: str, limit: int) -> tuple[str, ...]:
-    return tuple(_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(_list(value, where, limit, "paths")))
-
-
-def _relative_path(value, folder: Path, where: str) -> str:
-    """A path relative to the session folder that stays inside it; returned in POSIX form."""
-    if not isinstance(value, str) or not value or not _encodable(value) or "\0" in value:
-        raise FileFormatError(f"{where}: must be a path relative to the session folder")
-    rel = PurePosixPath(value.replace("\\", "/"))
-    if rel.is_absolute() or ".." in rel.parts or (len(value) > 1 and value[1] == ":"):
-        raise FileFormatError(f"{where}: path {value!r} leaves the session folder")
-    return str(rel)
-
-
-def _timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
-    stamps = _list(value, where)
-    if len(stamps) != n_frames:
-        raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
-    out = tuple(finite_number(t) for t in stamps)
-    if None in out:
-        i = out.index(None)
-        raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got {str(stamps[i])[:80]}")
-    return out
-
-
-def _encodable(text: str) -> bool:
-    """True when `text` can be written as UTF-8 (a JSON string may hold lone surrogates, which cannot)."""
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        return False
-    return True
-
-
-# --------------------------------------------------------------------- limits
-def check_name(name, where: str = "mirror name") -> str:
-    """A mirror's name: a string of 1 to MAX_NAME_LENGTH characters (not only spaces), writable as UTF-8, without
-    control characters. Returns it; MirrorscanError naming `where` otherwise."""
-    if not isinstance(name, str) or not name.strip():
-        raise MirrorscanError(f"{where}: must be a non-empty string")
-    if len(name) > MAX_NAME_LENGTH:
-        raise MirrorscanError(f"{where}: {len(name):,} characters, more than the {MAX_NAME_LENGTH} a name may have")
-    if not _encodable(name) or any(unicodedata.category(c) == "Cc" for c in name):
-        raise MirrorscanError(f"{where}: {name[:40]!r} holds characters that cannot be shown or saved "
-                              "(control characters or lone surrogates)")
-    return name
-
-
-def check_limits(session: Session) -> Session:
-    """Check a session against the limits that session_from_json applies when it is read (MAX_MIRRORS, MAX_MARKERS,
-    MAX_POLYGON_VERTICES, names, MAX_FRAMES), so that an edit that would make a session unreadable is refused before
-    it is saved. Returns the session; MirrorscanError naming the session file, the mirror and the limit."""
-    where = str(session.path)
-    if len(session.mirrors) > MAX_MIRRORS:
-        raise MirrorscanError(f"{where}: {len(session.mirrors)} mirrors, more than the {MAX_MIRRORS} a session may "
-                              "hold")
-    for i, m in enumerate(session.mirrors):
-        at = f"{where}: mirrors[{i}]"
-        check_name(m.name, f"{at}: name")
-        if len(m.markers) > MAX_MARKERS:
-            raise MirrorscanError(f"{at} ({m.name}): {len(m.markers)} markers, more than the {MAX_MARKERS} a mirror "
-                                  "may have")
-        for key, polygon in (("boundary", m.boundary), ("region", m.region or ())):
-            if len(polygon) > MAX_POLYGON_VERTICES:
-                raise MirrorscanError(f"{at} ({m.name}): {key}: {len(polygon):,} vertices, more than the "
-                                      f"{MAX_POLYGON_VERTICES:,} a polygon may have")
-    if len(session.frames) > MAX_FRAMES:
-        raise MirrorscanError(f"{where}: {len(session.frames):,} frames, more than the {MAX_FRAMES:,} a session may "
-                              "hold")
-    return session
-
-
 # --------------------------------------------------------------------- writing
 def save_session(session: Session) -> None:
-    """Write session.json atomically; the previous version is kept as session.json.bak."""
+    """Write the session's session.json atomically, creating its folder.
+
+    The previous version is kept as session.json.bak.
+
+    Parameters
+    ----------
+    session : Session
+    """
     Path(session.root).mkdir(parents=True, exist_ok=True)
     text = json.dumps(session.to_json(), indent=2) + "\n"
     write_atomic(session.path, text.encode("utf-8"), backup=True)
@@ -413,18 +359,20 @@ _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_ .-]{0,99}$")
 
 
 def session_folder(sessions_dir: str | Path, name: str) -> Path:
-    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long, or could leave the
-    folder (separators, '..', leading dots)."""
+    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long,
+    or could leave the folder (separators, '..', leading dots)."""
     name = name.strip()
     if not _NAME.match(name) or ".." in name:
-        raise MirrorscanError(f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
+        raise MirrorscanError(
+            f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
                               "at most 100 characters, starting with a letter, digit or '_'")
     return Path(sessions_dir) / name
 
 
 def copy_session(session: Session, folder: str | Path) -> Session:
-    """Save a session under a new folder with its background, frames and colour frames; all or nothing. Refuses an
-    existing folder that is not empty. Returns the session as it now lives in `folder`."""
+    """Save a session under a new folder with its background, frames and colour frames; all or
+    nothing. Refuses an existing folder that is not empty. Returns the session as it now lives in
+    `folder`."""
     folder = Path(folder)
     with new_folder(folder) as work:
         for rel in ([session.background] if session.background else []) + list(session.frames) \

@@ -1,4 +1,5 @@
-"""A source-labelled point cloud: points in the camera frame, the source of each point, the pixel it came from."""
+"""A source-labelled point cloud: points in the camera frame, the source of each point, the pixel it
+came from."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -10,10 +11,11 @@ from mirrorcore.base.palette import source_colours, source_name
 
 @dataclass(frozen=True, eq=False)
 class Cloud:
-    """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray before handing its
-    buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
+    """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray
+    before handing its buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
     several mirrors in turn (mirrorcore.base.palette);
-    pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width : image width."""
+    pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width
+    : image width."""
 
     points: np.ndarray
     sources: np.ndarray
@@ -39,15 +41,17 @@ class Cloud:
         return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
 
     def counts(self, n_mirrors: int) -> dict[str, int]:
-        """Points per source name of the direct view and every mirror, listed even when absent: {'direct': n0,
-        'mirror 1': n1, ...}. The views through several mirrors are in `source_counts`."""
+        """Points per source name of the direct view and every mirror, listed even when absent:
+        {'direct': n0, 'mirror 1': n1, ...}. The views through several mirrors are in
+        `source_counts`."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         return {source_name(j): int(counts[j]) for j in range(n_mirrors + 1)}
 
     def source_counts(self, n_mirrors: int) -> dict[int, int]:
-        """Points per source label: the direct view and every mirror listed even when absent, then each view through
-        several mirrors in turn that has points, in label order: {0: n0, 1: n1, ..., 33: n33, ...} (name and colour
-        of a label: mirrorcore.base.palette.source_name, source_colour)."""
+        """Points per source label: the direct view and every mirror listed even when absent, then
+        each view through several mirrors in turn that has points, in label order: {0: n0, 1: n1,
+        ..., 33: n33, ...} (name and colour of a label: mirrorcore.base.palette.source_name,
+        source_colour)."""
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         listed = [*range(n_mirrors + 1), *(int(s) for s in np.flatnonzero(counts) if s > n_mirrors)]
         return {j: int(counts[j]) for j in listed}

@@ -1,6 +1,6 @@
-"""The rig: the depth camera's intrinsics and the mirrors (plane + image boundary), how many reflections a ray is
-followed through, and the per-pixel tables of Algorithm 1 (boundary masks, the first mirror, the paths through further
-mirrors), built once."""
+"""The rig: the depth camera's intrinsics and the mirrors (plane + image boundary), how many
+reflections a ray is followed through, and the per-pixel tables of Algorithm 1 (boundary masks, the
+first mirror, the paths through further mirrors), built once."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,20 +17,24 @@ from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER, source_sequence
 from mirrorcore.rig.raypaths import Chains, VirtualCamera, trace_chains
 from mirrorcore.io.session import Session
 
-DEFAULT_BOUNCES = MAX_ORDER   # reflections followed unless the session or the command says otherwise
-PIXEL_BYTES = 64   # the rig's per-pixel tables and one frame through Algorithm 1: 47 bytes a pixel measured at 640x480
+# reflections followed unless the session or the command says otherwise
+DEFAULT_BOUNCES = MAX_ORDER
+# the rig's per-pixel tables and one frame through Algorithm 1: 47 bytes a pixel measured at 640x480
+PIXEL_BYTES = 64
 
 
 @dataclass(frozen=True)
 class Mirror:
-    """One mirror: its name, its plane (None until calibrated) and its boundary polygon (m, 2) pixels (u, v), or None."""
+    """One mirror: its name, its plane (None until calibrated) and its boundary polygon (m, 2)
+    pixels (u, v), or None."""
 
     name: str
     plane: Plane | None
     boundary: np.ndarray | None
 
     def __hash__(self) -> int:
-        return hash((self.name, self.plane, None if self.boundary is None else self.boundary.tobytes()))
+        return hash((self.name, self.plane,
+                     None if self.boundary is None else self.boundary.tobytes()))
 
     def __eq__(self, other: object) -> bool:
         return (isinstance(other, Mirror) and self.name == other.name and self.plane == other.plane
@@ -39,17 +43,18 @@ class Mirror:
 
 @dataclass(frozen=True, eq=False)
 class Rig:
-    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]); bounces : the most
-    mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths; at 1, Algorithm 1 as the paper writes it,
-    with the points seen through a second mirror left out rather than misplaced)."""
+    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]);
+    bounces : the most mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths;
+    at 1, Algorithm 1 as the paper writes it, with the points seen through a second mirror left out
+    rather than misplaced)."""
 
     intrinsics: Intrinsics
     mirrors: tuple[Mirror, ...]
     bounces: int = DEFAULT_BOUNCES
 
     def __post_init__(self) -> None:
-        """Raises MirrorscanError for more than MAX_MIRRORS mirrors, MemoryBudgetError for a camera whose per-pixel
-        work (PIXEL_BYTES a pixel) would not fit in the memory budget."""
+        """Raises MirrorscanError for more than MAX_MIRRORS mirrors, MemoryBudgetError for a camera
+        whose per-pixel work (PIXEL_BYTES a pixel) would not fit in the memory budget."""
         if len(self.mirrors) > MAX_MIRRORS:
             raise MirrorscanError(f"rig: at most {MAX_MIRRORS} mirrors, got {len(self.mirrors)}")
         w, h = self.intrinsics.width, self.intrinsics.height
@@ -57,16 +62,20 @@ class Rig:
         check_bounces(self.bounces)
 
     def same_rays(self, other: "Rig") -> bool:
-        """Whether `other` traces the same rays (same camera, mirrors with their names, planes and boundaries, and
-        bounces): then its per-pixel tables serve this rig too (rigs compare by identity, as they hold caches)."""
-        return (self.intrinsics, self.mirrors, self.bounces) == (other.intrinsics, other.mirrors, other.bounces)
+        """Whether `other` traces the same rays (same camera, mirrors with their names, planes and
+        boundaries, and bounces): then its per-pixel tables serve this rig too (rigs compare by
+        identity, as they hold caches)."""
+        return (self.intrinsics, self.mirrors, self.bounces) == (
+            other.intrinsics, other.mirrors, other.bounces)
 
     @classmethod
     def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
-        """The session's rig, followed through `bounces` reflections (default: the session's setting)."""
+        """The session's rig, followed through `bounces` reflections (default: the session's
+        setting)."""
         mirrors = tuple(
             Mirror(m.name, m.plane,
-                   validate_polygon(m.boundary, session.camera.shape, f"{m.name}: boundary") if m.boundary else None)
+                   validate_polygon(m.boundary, session.camera.shape,
+                                    f"{m.name}: boundary") if m.boundary else None)
             for m in session.mirrors)
         return cls(session.camera, mirrors, session.bounces if bounces is None else bounces)
 
@@ -77,7 +86,8 @@ class Rig:
 
     @cached_property
     def inside_bits(self) -> np.ndarray:
-        """(H, W) uint32: bit j-1 set where the pixel is inside (or on the edge of) mirror j's boundary."""
+        """(H, W) uint32: bit j-1 set where the pixel is inside (or on the edge of) mirror j's
+        boundary."""
         bits = np.zeros(self.intrinsics.shape, dtype=np.uint32)
         for j, mirror in enumerate(self.mirrors):
             if mirror.boundary is not None:
@@ -91,35 +101,42 @@ class Rig:
         return ReflectionTable.from_rig(self)
 
     def virtual_cameras(self) -> tuple[VirtualCamera, ...]:
-        """The views of the rig up to `bounces` mirrors: the camera, each calibrated mirror with a boundary, then each
-        sequence of mirrors that some pixel's ray follows (mirrorcore.rig.raypaths), in label order. A mirror's `pixels` are
-        those Algorithm 1 gives it first; a sequence's, those whose ray meets its mirrors in turn."""
+        """The views of the rig up to `bounces` mirrors: the camera, each calibrated mirror with a
+        boundary, then each sequence of mirrors that some pixel's ray follows
+        (mirrorcore.rig.raypaths), in label order. A mirror's `pixels` are those Algorithm 1 gives
+        it first; a sequence's, those whose ray meets its mirrors in turn."""
         table = self.reflection_table
         counts = np.bincount(table.label.reshape(-1), minlength=len(self.mirrors) + 1)
         views = [VirtualCamera.of(self.planes, (), self.intrinsics.width * self.intrinsics.height)]
-        views += [VirtualCamera.of(self.planes, (j,), counts[j]) for j, m in enumerate(self.mirrors, start=1)
+        views += [VirtualCamera.of(self.planes, (j,), counts[j]) for j,
+                  m in enumerate(self.mirrors, start=1)
                   if m.plane is not None and m.boundary is not None]
         labels, pixels = np.unique(table.chains.label[table.chains.label > 0], return_counts=True)
-        views += [VirtualCamera.of(self.planes, source_sequence(int(s)), n) for s, n in zip(labels, pixels)]
+        views += [VirtualCamera.of(self.planes, source_sequence(int(s)), n) for s,
+                  n in zip(labels, pixels)]
         return tuple(views)
 
 
 def check_bounces(bounces: int) -> int:
-    """`bounces` when it is a whole number from 1 to MAX_ORDER, else MirrorscanError naming --bounces."""
-    if isinstance(bounces, bool) or not isinstance(bounces, (int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
-        raise MirrorscanError(f"--bounces: the reflections followed must be 1 to {MAX_ORDER}, got {bounces!r}")
+    """`bounces` when it is a whole number from 1 to MAX_ORDER, else MirrorscanError naming
+    --bounces."""
+    if isinstance(bounces, bool) or not isinstance(bounces, (
+        int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
+        raise MirrorscanError(
+            f"--bounces: the reflections followed must be 1 to {MAX_ORDER}, got {bounces!r}")
     return int(bounces)
 
 
 def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
-    """The session's rig followed through `bounces` mirrors in turn (default: the session's setting), refusing
-    (MirrorscanError naming session.json) a session without mirrors or with a mirror that cannot reconstruct (no
-    plane or no boundary)."""
+    """The session's rig followed through `bounces` mirrors in turn (default: the session's
+    setting), refusing (MirrorscanError naming session.json) a session without mirrors or with a
+    mirror that cannot reconstruct (no plane or no boundary)."""
     if not session.mirrors:
         raise MirrorscanError(f"{session.path}: the session has no mirrors")
     for m in session.mirrors:
         if m.plane is None:
-            raise MirrorscanError(f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
+            raise MirrorscanError(
+                f"{session.path}: {m.name} has no plane; run `mirrorscan calibrate {session.root}`")
         if not m.boundary:
             raise MirrorscanError(f"{session.path}: {m.name} has no boundary polygon")
     return Rig.from_session(session, bounces)
@@ -127,20 +144,23 @@ def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
 
 @dataclass(frozen=True, eq=False)
 class ReflectionTable:
-    """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first calibrated mirror whose
-    boundary holds it (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
-    z (n . ray) + d < 0. The per-pixel arrays are (H, W); all are read-only. `chains` holds the few pixels whose ray
-    then meets further mirrors (mirrorcore.rig.raypaths), followed up to the rig's `bounces`.
+    """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first
+    calibrated mirror whose boundary holds it (`label`) exactly when z > threshold, since its point
+    z * ray is behind plane (n, d) when z (n . ray) + d < 0. The per-pixel arrays are (H, W); all
+    are read-only. `chains` holds the few pixels whose ray then meets further mirrors
+    (mirrorcore.rig.raypaths), followed up to the rig's `bounces`.
 
     label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
-    threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray leaves the glass)
+    threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray
+    leaves the glass)
     ray_dot : float32, n . (x/z, y/z, 1) of the pixel's ray, n that mirror's normal (0 for label 0)
-    overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are tried there too)
+    overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are
+    tried there too)
     uncalibrated : bool, inside the boundary of a mirror that has no plane yet
-    planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (row 0 and uncalibrated mirrors
-    zeros): a frame reads a reflected pixel's plane from this small table by its label, and only ray_dot per pixel (a
-    fifth of the bytes that per-pixel rows of all five took: the object's 2.7 -> 2.35 ms in the bench, where the
-    tables come from memory each call; the same values bit for bit)
+    planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (row 0 and
+    uncalibrated mirrors zeros): a frame reads a reflected pixel's plane from this small table by
+    its label, and only ray_dot per pixel (a fifth of the bytes of per-pixel rows of all five,
+    with the same values bit for bit)
     """
 
     label: np.ndarray
@@ -188,10 +208,13 @@ class ReflectionTable:
         offset, nx, ny, nz = (np.take(planes[:, k], label) for k in range(4))      # (H, W) each
         ray_dot = nx * rays[0] + ny * rays[1] + nz
         with np.errstate(divide="ignore", invalid="ignore"):
-            threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot, np.inf).astype(np.float32)
+            threshold = np.where((label > 0) & (ray_dot < 0), -offset / ray_dot,
+                                 np.inf).astype(np.float32)
         arrays = dict(label=label, threshold=threshold, ray_dot=ray_dot, overlap=count > 1,
                       uncalibrated=uncalibrated, planes=planes)
-        chains = trace_chains(rig.intrinsics, tuple(m.plane if m.boundary is not None else None for m in rig.mirrors),
+        chains = trace_chains(rig.intrinsics,
+                              tuple(m.plane if m.boundary is not None else None
+                                                    for m in rig.mirrors),
                               rig.inside_bits, label, threshold, rig.bounces)
         for a in (*arrays.values(), *vars(chains).values()):
             a.flags.writeable = False

@@ -1,5 +1,5 @@
-"""From a depth frame to the object's merged cloud: select the object, smooth its depth (prepare_frame, which the
-dense methods share), then Algorithm 1."""
+"""From a depth frame to the object's merged cloud: select the object, smooth its depth
+(prepare_frame, which the dense methods share), then Algorithm 1."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,23 +14,42 @@ from mirrorcore.depth.selection import Backdrop, Selection, object_mask
 
 def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                   selection: Selection = Selection()) -> tuple[np.ndarray, np.ndarray]:
-    """The object's pixels and the depth the reconstruction uses: depth (H, W) float metres, background (H, W) float
-    metres or its Backdrop or None -> (depth (H, W) float32 metres, smoothed on the object when selection.smooth;
-    mask (H, W) bool)."""
+    """The object's pixels and the depth the reconstruction uses.
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float
+        Metres, as measured.
+    background : (H, W) float, Backdrop or None
+        Metres, the scene without the object, or its Backdrop.
+    selection : Selection
+        How the object is found.
+
+    Returns
+    -------
+    depth : (H, W) float32
+        Metres, smoothed on the object when selection.smooth.
+    mask : (H, W) bool
+        The object's pixels.
+    """
     mask = object_mask(rig.intrinsics, depth, background, selection)
     if selection.smooth:
         smoothed = smooth_depth(depth, mask)
-        depth = _smooth_through_mirrors(rig, depth, smoothed, mask) if len(rig.reflection_table.chains) else smoothed
+        depth = _smooth_through_mirrors(rig, depth, smoothed,
+                                        mask) if len(rig.reflection_table.chains) else smoothed
     return np.asarray(depth, np.float32), mask
 
 
-def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over the pixels of
-    their own view (depthops.local_quadratic_depth), the others as smoothed: their (virtual) depths are longer, so a
-    structured-light camera's noise is larger there (1.3 to 1.6 times at 60 to 90 degrees between two mirrors), and a
-    fit over 9 x 9 pixels brings them to the error of the views through one mirror where an average over as many
-    would sag on curved surfaces. depth, smoothed : (H, W) float metres, raw and smooth_depth's; mask : (H, W) bool
-    -> (H, W) float32 metres."""
+def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray,
+                            mask: np.ndarray) -> np.ndarray:
+    """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over
+    the pixels of their own view (depthops.local_quadratic_depth), the others as smoothed: their
+    (virtual) depths are longer, so a structured-light camera's noise is larger there (1.3 to 1.6
+    times at 60 to 90 degrees between two mirrors), and a fit over 9 x 9 pixels brings them to the
+    error of the views through one mirror where an average over as many
+    would sag on curved surfaces. depth, smoothed : (H, W) float metres, raw and smooth_depth's;
+    mask : (H, W) bool -> (H, W) float32 metres."""
     cloud = reconstruct_raw(rig, smoothed, mask)
     through = source_orders(cloud.sources) >= 2
     if not through.any():
@@ -44,7 +63,15 @@ def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop 
                  selection: Selection = Selection()) -> tuple[Cloud, np.ndarray]:
     """The object's source-labelled cloud of one frame, and the object mask it came from.
 
-    depth : (H, W) float metres; background as for prepare_frame -> (Cloud, (H, W) bool mask)
+    Parameters
+    ----------
+    rig, depth, background, selection
+        As for prepare_frame.
+
+    Returns
+    -------
+    cloud : Cloud
+    mask : (H, W) bool
     """
     depth, mask = prepare_frame(rig, depth, background, selection)
     return reconstruct_raw(rig, depth, mask), mask

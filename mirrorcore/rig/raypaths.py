@@ -1,13 +1,15 @@
-"""Paths of the camera's rays through several mirrors in turn (the kaleidoscope), traced once per rig, and the virtual
-cameras they make.
+"""Paths of the camera's rays through several mirrors in turn (the kaleidoscope), traced once per
+rig, and the virtual cameras they make.
 
-A pixel's ray first meets the mirror Algorithm 1 gives it (the first calibrated mirror whose boundary holds it) at the
-depth where it crosses that plane. Reflected there, it may meet another mirror: where its reflected ray crosses a
-mirror's plane from the front at a point that the camera sees inside that mirror's boundary (the boundary polygon
-lifted onto its plane), and so on. A depth camera measures along the unfolded ray, so each mirror met is a depth
-threshold along the pixel's own ray: a point measured beyond the k-th threshold came back through k mirrors, and its
-real place is X = M_k (... M_2 (M_1 (V))), V the measured (virtual) point, M_i the reflection through the i-th mirror
-met. Seen the other way, the pixels of a sequence form a virtual camera whose extrinsic is M_1 M_2 ... M_k.
+A pixel's ray first meets the mirror Algorithm 1 gives it (the first calibrated mirror whose
+boundary holds it) at the depth where it crosses that plane. Reflected there, it may meet another
+mirror: where its reflected ray crosses a mirror's plane from the front at a point that the camera
+sees inside that mirror's boundary (the boundary polygon lifted onto its plane), and so on. A depth
+camera measures along the unfolded ray, so each mirror met is a depth threshold along the pixel's
+own ray: a point measured beyond the k-th threshold came back through k mirrors, and its real place
+is X = M_k (... M_2 (M_1 (V))), V the measured (virtual) point, M_i the reflection through the i-th
+mirror met. Seen the other way, the pixels of a sequence form a virtual camera whose extrinsic is
+M_1 M_2 ... M_k.
 """
 from __future__ import annotations
 
@@ -19,21 +21,26 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.base.palette import MAX_MIRRORS, sequence_label, source_name, source_sequence
 
-MIN_PATH = 1e-6    # metres: a reflected ray meets a mirror at least this far along (never the mirror it left)
+# metres: a reflected ray meets a mirror at least this far along (never the mirror it left)
+MIN_PATH = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
 class Chains:
-    """The c pixels whose ray, after its first mirror, meets another one (sorted by pixel), for a rig followed up to
-    K reflections. Depths are z in metres along the pixel's own (unfolded) ray. Row k of the per-level arrays is about
-    the (k + 2)-th mirror the rays meet (level-major, so that a frame reads each level contiguously).
+    """The c pixels whose ray, after its first mirror, meets another one (sorted by pixel), for a
+    rig followed up to K reflections. Depths are z in metres along the pixel's own (unfolded) ray.
+    Row k of the per-level arrays is about the (k + 2)-th mirror the rays meet (level-major, so that
+    a frame reads each level contiguously).
 
     pixel : (c,) int64 flat index v * W + u
-    threshold : (K - 1, c) float32, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no more, or the
+    threshold : (K - 1, c) float32, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no
+    more, or the
         encoding has no label for the sequence; see cutoff)
-    label : (K - 1, c) uint8, the source label of a point beyond that threshold (palette.sequence_label)
+    label : (K - 1, c) uint8, the source label of a point beyond that threshold
+    (palette.sequence_label)
     normal : (K - 1, c, 3) float32 and offset : (K - 1, c) float32, that mirror's plane (n, d)
-    cutoff : (c,) float32, beyond this depth a point came through more mirrors than are followed (or a sequence that
+    cutoff : (c,) float32, beyond this depth a point came through more mirrors than are followed (or
+    a sequence that
         no label names): its place is not known and it is left out; inf when it never is
     """
 
@@ -48,33 +55,46 @@ class Chains:
         return len(self.pixel)
 
 
-def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray, first: np.ndarray,
+def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray,
+                 first: np.ndarray,
                  threshold: np.ndarray, bounces: int) -> Chains:
-    """Follow every pixel's ray past its first mirror, up to `bounces` reflections in all (see the module docstring).
+    """Follow every pixel's ray past its first mirror, up to `bounces` reflections in all (see the
+    module docstring).
 
-    planes : each mirror's plane in session order (None: uncalibrated, never met); inside_bits : (H, W) uint32, bit
-    j - 1 set inside mirror j's boundary; first : (H, W) uint8 the first mirror (1-based, 0 none) and threshold : (H, W)
-    float32 the depth where the ray meets it (inf: never), as ReflectionTable holds them.
+    planes : each mirror's plane in session order (None: uncalibrated, never met); inside_bits : (H,
+    W) uint32, bit j - 1 set inside mirror j's boundary; first : (H, W) uint8 the first mirror
+    (1-based, 0 none) and threshold : (H, W) float32 the depth where the ray meets it (inf: never),
+    as ReflectionTable holds them.
     """
     pixel = np.flatnonzero(np.isfinite(threshold))
     levels = bounces - 1
-    chains = Chains(pixel, np.full((levels, len(pixel)), np.inf, np.float32), np.zeros((levels, len(pixel)), np.uint8),
-                    np.zeros((levels, len(pixel), 3), np.float32), np.zeros((levels, len(pixel)), np.float32),
+    chains = Chains(pixel, np.full((levels, len(pixel)), np.inf, np.float32),
+                    np.zeros((levels, len(pixel)), np.uint8),
+                    np.zeros((levels, len(pixel), 3), np.float32),
+                    np.zeros((levels, len(pixel)), np.float32),
                     np.full(len(pixel), np.inf, np.float32))
-    rows = np.arange(len(pixel))                              # the rays still followed: rows of `chains`
+    # the rays still followed: rows of `chains`
+    rows = np.arange(len(pixel))
     z = threshold.reshape(-1)[pixel].astype(np.float64)
-    rays = np.stack([intr.rays[0].reshape(-1)[pixel], intr.rays[1].reshape(-1)[pixel], np.ones(len(pixel))], axis=1)
-    point = rays * z[:, None]                                 # where each ray meets its first mirror
-    mirror = first.reshape(-1)[pixel].astype(np.int64)        # 1-based: the mirror each ray last met
+    rays = np.stack([intr.rays[0].reshape(-1)[pixel], intr.rays[1].reshape(-1)[pixel],
+                     np.ones(len(pixel))], axis=1)
+    # where each ray meets its first mirror
+    point = rays * z[:, None]
+    # 1-based: the mirror each ray last met
+    mirror = first.reshape(-1)[pixel].astype(np.int64)
     direction, label = _reflect_directions(rays, planes, mirror), mirror
     for level in range(bounces):
         t, nxt = _next_mirror(intr, planes, inside_bits, point, direction, mirror)
         met = np.flatnonzero(nxt > 0)
-        rows, z, t, nxt, point, direction = rows[met], z[met] + t[met], t[met], nxt[met], point[met], direction[met]
+        rows, z, t, nxt = rows[met], z[met] + t[met], t[met], nxt[met]
+        point, direction = point[met], direction[met]
         label = _NEXT_LABEL[label[met], nxt] if level < levels else np.zeros(len(met), np.int64)
-        chains.cutoff[rows[label == 0]] = z[label == 0]       # one mirror more than followed, or no label for it
+        # one mirror more than followed, or no label for it
+        chains.cutoff[rows[label == 0]] = z[label == 0]
         named = np.flatnonzero(label)
-        rows, z, t, nxt, point, direction, label = (a[named] for a in (rows, z, t, nxt, point, direction, label))
+        rows, z, t, nxt, point, direction, label = (a[named]
+                                                    for a in (rows, z, t, nxt, point, direction,
+                                                                       label))
         if not len(rows):
             break
         _record(chains, level, rows, z, label, nxt, planes)
@@ -82,14 +102,16 @@ def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
         direction, mirror = _reflect_directions(direction, planes, nxt), nxt
     keep = np.isfinite(chains.cutoff) | np.isfinite(chains.threshold).any(axis=0)
     return Chains(chains.pixel[keep], *(np.ascontiguousarray(a[:, keep]) for a in
-                                        (chains.threshold, chains.label, chains.normal, chains.offset)),
+                                        (chains.threshold, chains.label, chains.normal,
+                                         chains.offset)),
                   chains.cutoff[keep])
 
 
-def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: np.ndarray, mirror: np.ndarray,
+def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: np.ndarray,
+            mirror: np.ndarray,
             planes: tuple[Plane | None, ...]) -> None:
-    """Write, for rows `rows` of `chains`, the depth z where the ray meets its (level + 2)-th mirror `mirror`
-    (1-based), that mirror's plane and the label of the sequence so far."""
+    """Write, for rows `rows` of `chains`, the depth z where the ray meets its (level + 2)-th mirror
+    `mirror` (1-based), that mirror's plane and the label of the sequence so far."""
     chains.threshold[level, rows] = z
     chains.label[level, rows] = label
     for j in np.unique(mirror):
@@ -97,8 +119,10 @@ def _record(chains: Chains, level: int, rows: np.ndarray, z: np.ndarray, label: 
         chains.offset[level, rows[mirror == j]] = planes[j - 1].d
 
 
-def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...], mirror: np.ndarray) -> np.ndarray:
-    """(n, 3) directions reflected off mirror[i] (1-based; 0 leaves the row as it is) -> (n, 3) float64."""
+def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...],
+                        mirror: np.ndarray) -> np.ndarray:
+    """(n, 3) directions reflected off mirror[i] (1-based; 0 leaves the row as it is) -> (n, 3)
+    float64."""
     out = np.array(directions, np.float64)
     for j in np.unique(mirror[mirror > 0]):
         rows = mirror == j
@@ -107,11 +131,12 @@ def _reflect_directions(directions: np.ndarray, planes: tuple[Plane | None, ...]
     return out
 
 
-def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray, point: np.ndarray,
+def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray,
+                 point: np.ndarray,
                  direction: np.ndarray, mirror: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For rays point + t * direction ((n, 3) float64 each) that left mirror `mirror` (n,) 1-based: the nearest
-    mirror met from the front inside its boundary as the camera sees it -> t (n,) float64 (inf: none) and that
-    mirror (n,) int64, 1-based, 0 for none."""
+    """For rays point + t * direction ((n, 3) float64 each) that left mirror `mirror` (n,) 1-based:
+    the nearest mirror met from the front inside its boundary as the camera sees it -> t (n,)
+    float64 (inf: none) and that mirror (n,) int64, 1-based, 0 for none."""
     best_t = np.full(len(point), np.inf)
     best = np.zeros(len(point), np.int64)
     for j, plane in enumerate(planes, start=1):
@@ -128,9 +153,10 @@ def _next_mirror(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits
     return best_t, best
 
 
-def _in_boundary(intr: Intrinsics, inside_bits: np.ndarray, points: np.ndarray, j: int) -> np.ndarray:
-    """(n, 3) points (camera frame, metres) -> (n,) bool: the camera sees them inside mirror j's boundary (their
-    nearest pixel is in its rasterised polygon)."""
+def _in_boundary(intr: Intrinsics, inside_bits: np.ndarray, points: np.ndarray,
+                 j: int) -> np.ndarray:
+    """(n, 3) points (camera frame, metres) -> (n,) bool: the camera sees them inside mirror j's
+    boundary (their nearest pixel is in its rasterised polygon)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         u = np.rint(intr.fx * points[:, 0] / points[:, 2] + intr.cx)
         v = np.rint(intr.fy * points[:, 1] / points[:, 2] + intr.cy)
@@ -141,7 +167,8 @@ def _in_boundary(intr: Intrinsics, inside_bits: np.ndarray, points: np.ndarray, 
 
 
 def _next_labels() -> np.ndarray:
-    """(256, MAX_MIRRORS + 1) int64: the label of a label's sequence followed by mirror j, 0 where none names it."""
+    """(256, MAX_MIRRORS + 1) int64: the label of a label's sequence followed by mirror j, 0 where
+    none names it."""
     table = np.zeros((256, MAX_MIRRORS + 1), np.int64)
     for label in range(1, 255):
         try:
@@ -157,8 +184,9 @@ _NEXT_LABEL = _next_labels()
 
 
 def sequence_reflection(planes: tuple[Plane | None, ...], sequence: tuple[int, ...]) -> np.ndarray:
-    """(4, 4) float64 M_1 M_2 ... M_k for mirrors `sequence` (1-based, ray order): camera-frame real points -> the
-    virtual points the camera measures through them (det (-1)^k; the identity for ())."""
+    """(4, 4) float64 M_1 M_2 ... M_k for mirrors `sequence` (1-based, ray order): camera-frame real
+    points -> the virtual points the camera measures through them (det (-1)^k; the identity for
+    ())."""
     matrix = np.eye(4)
     for j in sequence:
         matrix = matrix @ planes[j - 1].reflection_matrix()
@@ -169,11 +197,12 @@ def sequence_reflection(planes: tuple[Plane | None, ...], sequence: tuple[int, .
 class VirtualCamera:
     """One view of the rig: the camera itself (source 0) or the camera seen through mirrors in turn.
 
-    source : its label (palette); name : palette.source_name; sequence : the mirrors (1-based, session order) its rays
-    meet, in order; to_view : (4, 4) float64 camera-frame points -> the points this view measures (M_1 M_2 ... M_k,
-    det (-1)^k); pose : (4, 4) float64 proper rigid pose (camera frame <- virtual camera frame): the inverse of
-    to_view with its x axis flipped back after an odd number of mirrors (an image seen through a mirror is flipped
-    left-right), as Plane.virtual_camera_pose; pixels : how many pixels of the image see through it.
+    source : its label (palette); name : palette.source_name; sequence : the mirrors (1-based,
+    session order) its rays meet, in order; to_view : (4, 4) float64 camera-frame points -> the
+    points this view measures (M_1 M_2 ... M_k, det (-1)^k); pose : (4, 4) float64 proper rigid pose
+    (camera frame <- virtual camera frame): the inverse of to_view with its x axis flipped back
+    after an odd number of mirrors (an image seen through a mirror is flipped left-right), as
+    Plane.virtual_camera_pose; pixels : how many pixels of the image see through it.
     """
 
     source: int
@@ -184,7 +213,8 @@ class VirtualCamera:
     pixels: int
 
     @classmethod
-    def of(cls, planes: tuple[Plane | None, ...], sequence: tuple[int, ...], pixels: int) -> "VirtualCamera":
+    def of(cls, planes: tuple[Plane | None, ...], sequence: tuple[int, ...],
+           pixels: int) -> "VirtualCamera":
         to_view = sequence_reflection(planes, sequence)
         pose = np.linalg.inv(to_view)
         if len(sequence) % 2:

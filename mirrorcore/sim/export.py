@@ -1,7 +1,7 @@
-"""Writing a simulated rig to disk: a session folder (docs/DESIGN.md: markers and mirror outlines in pixels,
-background, frames) plus truth.json with the true objects and planes, all or nothing (built in a temporary folder,
-then renamed); `session_mirrors` gives the session's mirrors in memory and `true_rig` the rig of a perfect
-calibration."""
+"""Writing a simulated rig to disk: a session folder (docs/DESIGN.md: markers and mirror outlines in
+pixels, background, frames) plus truth.json with the true objects and planes, all or nothing (built
+in a temporary folder, then renamed); `session_mirrors` gives the session's mirrors in memory and
+`true_rig` the rig of a perfect calibration."""
 from __future__ import annotations
 
 import json
@@ -24,8 +24,9 @@ from mirrorcore.sim.simulator import Simulator
 
 
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
-    """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a convex simple
-    polygon. Raises MirrorscanError when a corner is behind the camera or the mirror is out of view."""
+    """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a
+    convex simple polygon. Raises MirrorscanError when a corner is behind the camera or the mirror
+    is out of view."""
     uv, z = project_points(camera, mirror.corners())
     if np.any(z <= 0):
         raise MirrorscanError(f"{mirror.name}: part of the mirror is behind the camera")
@@ -38,38 +39,46 @@ def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
 
 
 def true_rig(scene: Scene) -> Rig:
-    """The rig of a scene as a perfect calibration would give it: the true planes and each mirror's outline in the
-    image (mirror_outline), in session order."""
-    return Rig(scene.camera, tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m)) for m in scene.mirrors))
+    """The rig of a scene as a perfect calibration would give it: the true planes and each mirror's
+    outline in the image (mirror_outline), in session order."""
+    return Rig(scene.camera,
+               tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m))
+                                   for m in scene.mirrors))
 
 
-def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int, truth: GroundTruth) -> np.ndarray:
-    """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the camera sees directly
-    (the ideal render shows that mirror's marker face at the rounded pixel)."""
+def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int,
+                    truth: GroundTruth) -> np.ndarray:
+    """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the
+    camera sees directly (the ideal render shows that mirror's marker face at the rounded pixel)."""
     uv, z = project_points(camera, mirror.marker_centres())
     pix = np.round(uv[z > 0]).astype(int)
-    inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[:, 1] < camera.height)
+    inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[
+        :, 1] < camera.height)
     uv, pix = uv[z > 0][inside], pix[inside]
-    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1], pix[:, 0]] == 0)
+    seen = (truth.surface[pix[:, 1], pix[:, 0]] == MARKER) & (truth.first_mirror[pix[:, 1], pix[
+        :, 0]] == 0)
     points = truth.points[pix[:, 1], pix[:, 0]]
-    on_this = np.abs(mirror.plane.signed_distance(points.astype(np.float64)) - mirror.marker_lift) < 1e-3
+    on_this = np.abs(mirror.plane.signed_distance(points.astype(
+        np.float64)) - mirror.marker_lift) < 1e-3
     return uv[seen & on_this]
 
 
-def jitter_clicks(camera: Intrinsics, uv: np.ndarray, jitter_px: float, rng: np.random.Generator) -> np.ndarray:
-    """Clicks as a person makes them: uv (k, 2) float64 pixels, each moved by a Gaussian offset of radial RMS
-    `jitter_px` pixels (std jitter_px / sqrt(2) per axis) drawn from `rng`, kept inside the image."""
+def jitter_clicks(camera: Intrinsics, uv: np.ndarray, jitter_px: float,
+                  rng: np.random.Generator) -> np.ndarray:
+    """Clicks as a person makes them: uv (k, 2) float64 pixels, each moved by a Gaussian offset of
+    radial RMS `jitter_px` pixels (std jitter_px / sqrt(2) per axis) drawn from `rng`, kept inside
+    the image."""
     moved = uv + rng.normal(0.0, jitter_px / np.sqrt(2.0), np.shape(uv))
     return np.clip(moved, -0.5, [camera.width - 0.5, camera.height - 0.5])
 
 
 def session_mirrors(rig: Simulator, truth: GroundTruth, rng: np.random.Generator | None = None
                     ) -> tuple[SessionMirror, ...]:
-    """The rig's mirrors as a session holds them (session order): the pixels (u, v) of the marker centres that `truth`
-    shows directly (see `visible_markers`), clicked with the scene's click_jitter_px (`jitter_clicks`, drawn from
-    `rng`, by default np.random.default_rng([rig.seed, 3])), and each mirror's outline in the image
-    (`mirror_outline`); no planes, and marker_offset 0 (the glass is the user's unknown). Raises MirrorscanError when a
-    mirror is out of view."""
+    """The rig's mirrors as a session holds them (session order): the pixels (u, v) of the marker
+    centres that `truth` shows directly (see `visible_markers`), clicked with the scene's
+    click_jitter_px (`jitter_clicks`, drawn from `rng`, by default np.random.default_rng([rig.seed,
+    3])), and each mirror's outline in the image (`mirror_outline`); no planes, and marker_offset 0
+    (the glass is the user's unknown). Raises MirrorscanError when a mirror is out of view."""
     camera, jitter = rig.intrinsics, rig.scene.click_jitter_px
     rng = np.random.default_rng([rig.seed, 3]) if rng is None else rng
     mirrors = []
@@ -83,14 +92,16 @@ def session_mirrors(rig: Simulator, truth: GroundTruth, rng: np.random.Generator
 
 
 def truth_json(rig: Simulator, noise: str) -> dict:
-    """The truth.json object: scene, true planes [a, b, c, d] (docs/DESIGN.md convention; the reflecting surfaces),
-    objects, seed, fps, noise; per mirror its plane, corners, marker face centres and marker_offset (metres)."""
+    """The truth.json object: scene, true planes [a, b, c, d] (docs/DESIGN.md convention; the
+    reflecting surfaces), objects, seed, fps, noise; per mirror its plane, corners, marker face
+    centres and marker_offset (metres)."""
     scene = rig.scene
     objects = [o.to_json() for o in scene.objects]
     return {"version": 1, "seed": rig.seed, "fps": rig.fps, "noise": noise,
             "object": objects[0] if objects else None, "objects": objects,
             "planes": [p.to_list() for p in rig.planes],
-            "mirrors": [{"name": m.name, "plane": m.plane.to_list(), "corners": m.corners().tolist(),
+            "mirrors": [{"name": m.name, "plane": m.plane.to_list(),
+                         "corners": m.corners().tolist(),
                          "markers": m.marker_centres().tolist(), "marker_offset": m.marker_offset}
                         for m in scene.mirrors],
             "scene": scene.to_json()}
@@ -98,11 +109,12 @@ def truth_json(rig: Simulator, noise: str) -> dict:
 
 def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "kinect",
                   progress: bool = True, true_planes: bool = False) -> Path:
-    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with truth.json; with
-    `true_planes`, the mirrors' planes are the true ones (a perfect calibration), otherwise they are left to calibrate.
+    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with
+    truth.json; with `true_planes`, the mirrors' planes are the true ones (a perfect calibration),
+    otherwise they are left to calibrate.
 
-    `out` must not exist or be an empty folder; nothing is left behind on error (MirrorscanError, OSError).
-    Returns the folder's path.
+    `out` must not exist or be an empty folder; nothing is left behind on error (MirrorscanError,
+    OSError). Returns the folder's path.
     """
     out = Path(out)
     if n_frames < 1:
@@ -112,7 +124,8 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
     return out
 
 
-def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool, true_planes: bool) -> None:
+def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool,
+           true_planes: bool) -> None:
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)
@@ -127,4 +140,5 @@ def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bo
     if true_planes:
         mirrors = tuple(replace(m, plane=plane) for m, plane in zip(mirrors, rig.planes))
     save_session(Session(folder, camera, mirrors, BACKGROUND_FILE, tuple(frames)))
-    (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n", encoding="utf-8")
+    (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n",
+                                     encoding="utf-8")

@@ -1,6 +1,7 @@
-"""Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`), a hinged pair that meets at
-the apex (`kaleidoscope_scene`: views through several mirrors in turn), and three or more mirrors on an arc around it
-(`arc_scene`); `make_object` turns a command-line object name into a SceneObject."""
+"""Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`), a hinged
+pair that meets at the apex (`kaleidoscope_scene`: views through several mirrors in turn), and three
+or more mirrors on an arc around it (`arc_scene`); `make_object` turns a command-line object name
+into a SceneObject."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -19,72 +20,88 @@ FIGURE_HEIGHT = 1.75
 MIRROR_SIZE = (0.6, 1.0)    # width, height, metres
 MARKER_SIZE = 0.04
 APEX_GAP = 0.02             # clearance between a V mirror's inner edge and the apex, metres
-HINGE_GAP = 0.002           # between the inner edges of a hinged pair (kaleidoscope_scene) and their apex, metres
-HINGED_WIDTH = 1.4          # width of each mirror of a hinged pair, metres: past the object's images in it
-HINGED_CLEARANCE = 0.135    # default gap between the object and each mirror of a hinged pair, metres
-HINGED_MARKER_SIZE = 0.08   # a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
+# between the inner edges of a hinged pair (kaleidoscope_scene) and their apex, metres
+HINGE_GAP = 0.002
+# width of each mirror of a hinged pair, metres: past the object's images in it
+HINGED_WIDTH = 1.4
+# default gap between the object and each mirror of a hinged pair, metres
+HINGED_CLEARANCE = 0.135
+# a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
+HINGED_MARKER_SIZE = 0.08
 OBJECT_DISTANCE = 2.0       # metres from the camera to the object by default: the paper's...
-FIGURE_DISTANCE = 3.0       # ... and to the figure, which a Kinect sees whole, feet to head, only from about 3 m
+# ... and to the figure, which a Kinect sees whole, feet to head, only from about 3 m
+FIGURE_DISTANCE = 3.0
 _UP = np.array([0.0, -1.0, 0.0])
 
 
 def default_distance(spec: str) -> float:
-    """Metres from the camera to an object of that name when none is given: FIGURE_DISTANCE for the figure (nearer, its
-    head or feet leave the image and the mirrors' markers with them), else OBJECT_DISTANCE."""
+    """Metres from the camera to an object of that name when none is given: FIGURE_DISTANCE for the
+    figure (nearer, its head or feet leave the image and the mirrors' markers with them), else
+    OBJECT_DISTANCE."""
     return FIGURE_DISTANCE if spec == "figure" else OBJECT_DISTANCE
 
 
-def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0, gait_hz: float = 1.0) -> SceneObject:
-    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis at `distance` m
-    (default_distance when None).
+def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
+                gait_hz: float = 1.0) -> SceneObject:
+    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis
+    at `distance` m (default_distance when None).
 
-    The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box is a 0.3 m cube;
-    the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at y = floor_y.
-    Raises MirrorscanError for an unknown name.
+    The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box
+    is a 0.3 m cube; the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at y =
+    floor_y. Raises MirrorscanError for an unknown name.
     """
     distance = default_distance(spec) if distance is None else distance
     centre = (0.0, 0.0, float(distance))
     if spec == "sphere":
         return SceneObject("sphere", centre, radius=SPHERE_RADIUS)
     if spec == "cylinder":
-        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6, axis=(0.0, 1.0, 0.0))
+        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6,
+                           axis=(0.0, 1.0, 0.0))
     if spec == "box":
         return SceneObject("box", centre, size=(0.3, 0.3, 0.3))
     if spec == "figure":
-        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT, gait_hz=gait_hz)
+        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT,
+                           gait_hz=gait_hz)
     if spec.startswith("mesh:") and len(spec) > 5:
         return SceneObject("mesh", centre, path=spec[5:])
-    raise MirrorscanError(f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
+    raise MirrorscanError(
+        f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
 
 
 def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
-    """The middle (3,) of an object, its horizontal half-size and its height, metres (a mesh counts as 0.3 m wide)."""
+    """The middle (3,) of an object, its horizontal half-size and its height, metres (a mesh counts
+    as 0.3 m wide)."""
     centre = np.asarray(obj.centre, dtype=np.float64)
     if obj.type == "figure":
         return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
-    half = {"sphere": obj.radius, "cylinder": obj.radius, "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
+    half = {"sphere": obj.radius, "cylinder": obj.radius,
+            "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
     tall = {"sphere": 2 * obj.radius, "cylinder": obj.height, "box": obj.size[1]}.get(obj.type, 0.3)
     return centre, half, tall
 
 
 def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
-    """Six markers near the corners and the middles of the top and bottom edges (spread, not collinear)."""
+    """Six markers near the corners and the middles of the top and bottom edges (spread, not
+    collinear)."""
     s, t = 0.42 * width, 0.42 * height
     return ((-s, -t), (0.0, -t), (s, -t), (-s, t), (0.0, t), (s, t))
 
 
 def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
             marker_size: float = MARKER_SIZE) -> SceneMirror:
-    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()), size[0], size[1],
+    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()),
+                       size[0], size[1],
                   _markers(*size), marker_size)
 
 
 def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_deg: float = 0.0):
-    """The V of two vertical mirrors behind `target`: its apex (3,) and, per mirror (left, right), the unit normal to
-    its reflective side and the unit direction `along` its glass from the apex towards the camera's side. The V's
-    bisector points from the camera to the target, turned by `turn_deg` about the vertical (positive: apex to +x)."""
+    """The V of two vertical mirrors behind `target`: its apex (3,) and, per mirror (left, right),
+    the unit normal to its reflective side and the unit direction `along` its glass from the apex
+    towards the camera's side. The V's bisector points from the camera to the target, turned by
+    `turn_deg` about the vertical (positive: apex to +x)."""
     if not 10.0 <= angle_deg <= 175.0:
-        raise MirrorscanError(f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
+        raise MirrorscanError(
+            f"--angle: the angle between the mirrors must be within 10 to 175 degrees, "
                               f"got {angle_deg:g}")
     half, turn = np.radians(angle_deg) / 2, np.radians(turn_deg)
     toward = target * [1.0, 0.0, 1.0]                  # horizontal: the mirrors stand vertical
@@ -102,55 +119,65 @@ def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_
 
 def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
               size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, SceneMirror]:
-    """Two vertical mirrors in a V behind `target` (3,), apex on the far side, `angle_deg` between their surfaces.
+    """Two vertical mirrors in a V behind `target` (3,), apex on the far side, `angle_deg` between
+    their surfaces.
 
-    Each plane is `mirror_distance` metres from the target; each mirror is centred where the camera's ray to the
-    target's virtual image crosses its plane (kept clear of the apex). Mirror 1 is on the left (-x), mirror 2 right.
+    Each plane is `mirror_distance` metres from the target; each mirror is centred where the
+    camera's ray to the target's virtual image crosses its plane (kept clear of the apex). Mirror 1
+    is on the left (-x), mirror 2 right.
     """
     apex, sides = _v_frame(angle_deg, target, mirror_distance)
     mirrors = []
     for j, (normal, along) in enumerate(sides):
-        image = target - 2 * mirror_distance * normal                     # virtual image of the target
+        # virtual image of the target
+        image = target - 2 * mirror_distance * normal
         crossing = image * np.dot(normal, apex) / np.dot(normal, image)
         s = max(float(np.dot(crossing - apex, along)), size[0] / 2 + APEX_GAP)
         mirrors.append(_mirror(f"mirror {j + 1}", apex + s * along, normal, size))
     return tuple(mirrors)
 
 
-def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float, size: tuple[float, float],
+def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
+                   size: tuple[float, float],
                    turn_deg: float) -> tuple[SceneMirror, SceneMirror]:
-    """Two vertical mirrors that meet at the apex of a V behind `target` (a hinged pair: the kaleidoscope), each
-    `size` = (width, height) metres from HINGE_GAP off the apex outwards, `mirror_distance` m from the target, the V
-    turned by `turn_deg` about the vertical (see _v_frame). Mirror 1 is on the left, mirror 2 right."""
+    """Two vertical mirrors that meet at the apex of a V behind `target` (a hinged pair: the
+    kaleidoscope), each `size` = (width, height) metres from HINGE_GAP off the apex outwards,
+    `mirror_distance` m from the target, the V turned by `turn_deg` about the vertical (see
+    _v_frame). Mirror 1 is on the left, mirror 2 right."""
     apex, sides = _v_frame(angle_deg, target, mirror_distance, turn_deg)
     return tuple(_mirror(f"mirror {j + 1}", apex + (HINGE_GAP + size[0] / 2) * along, normal, size,
                          HINGED_MARKER_SIZE) for j, (normal, along) in enumerate(sides))
 
 
-def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float, clearance: float,
+def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float,
+                clearance: float,
                 size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, ...]:
-    """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over `span_deg` degrees
-    centred on the far side, left to right. Each faces the half-way direction between the camera and the target, so
-    the camera sees the target's image in the mirror's middle. A mirror whose image would hide behind the real object
-    (within 25 deg of straight behind) is raised by `clearance` m and tilted down to it.
+    """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over
+    `span_deg` degrees centred on the far side, left to right. Each faces the half-way direction
+    between the camera and the target, so the camera sees the target's image in the mirror's middle.
+    A mirror whose image would hide behind the real object (within 25 deg of straight behind) is
+    raised by `clearance` m and tilted down to it.
     """
     mirrors = []
     for j, phi in enumerate(np.radians(np.linspace(-span_deg / 2, span_deg / 2, n_mirrors))):
         centre = target + radius * np.array([np.sin(phi), 0.0, np.cos(phi)])
         if abs(phi) < np.radians(25.0):
             centre = centre + _UP * clearance
-        normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(target - centre)
+        normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(
+            target - centre)
         mirrors.append(_mirror(f"mirror {j + 1}", centre, normal / np.linalg.norm(normal), size))
     return tuple(mirrors)
 
 
-def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere", distance: float | None = None,
-                mirror_distance: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sphere",
+                distance: float | None = None,
+                mirror_distance: float | None = None, camera: Intrinsics | None = None,
+                room: Room | None = Room(),
                 gait_hz: float = 1.0) -> Scene:
-    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis `distance` m away
-    (default_distance when None), two mirrors in a V at `angle_deg` behind it, `mirror_distance` m from the object's
-    middle (default: its half-width + 0.25 m), a floor 1 m below the camera and a back wall. n_mirrors > 2 gives
-    `arc_scene` instead.
+    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis
+    `distance` m away (default_distance when None), two mirrors in a V at `angle_deg` behind it,
+    `mirror_distance` m from the object's middle (default: its half-width + 0.25 m), a floor 1 m
+    below the camera and a back wall. n_mirrors > 2 gives `arc_scene` instead.
     """
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
@@ -160,47 +187,57 @@ def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sph
     target, half, tall = object_extent(obj)
     md = half + 0.25 if mirror_distance is None else mirror_distance
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,), room)
+    return Scene(camera or Intrinsics.kinect_v1(), v_mirrors(angle_deg, target, md, size), (obj,),
+                 room)
 
 
-def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None = None, radius: float | None = None,
-              span_deg: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None = None,
+              radius: float | None = None,
+              span_deg: float | None = None, camera: Intrinsics | None = None,
+              room: Room | None = Room(),
               gait_hz: float = 1.0) -> Scene:
-    """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the object's
-    half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg). A mirror of which the camera
-    sees fewer than 3 markers has the hidden ones moved to where it sees them (placement.markers_in_view)."""
+    """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the
+    object's half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg). A
+    mirror of which the camera sees fewer than 3 markers has the hidden ones moved to where it sees
+    them (placement.markers_in_view)."""
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
     target, half, tall = object_extent(obj)
     span = min(60.0 * (n_mirrors - 1), 200.0) if span_deg is None else span_deg
     size = (max(MIRROR_SIZE[0], 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span, 3 * half, size)
+    mirrors = arc_mirrors(n_mirrors, target, half + 0.45 if radius is None else radius, span,
+                          3 * half, size)
     return markers_in_view(Scene(camera or Intrinsics.kinect_v1(), mirrors, (obj,), room),
                            SensorModel.kinect_v1().max_range)
 
 
 def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, float]:
-    """Where the object stands in a hinged pair by default: (turn_deg, offset metres). When 180 / angle is a whole
-    number, an image of the object through several mirrors lies straight behind it, hidden from the camera; then,
-    from 90 degrees up, the object moves sideways by its half-width (offset), and below, the V is turned by a quarter
-    of the angle (turning a 90-degree V shows one mirror so obliquely that its markers calibrate it poorly, and moving
-    the object at 60 degrees hides its images through two mirrors instead). Otherwise neither."""
+    """Where the object stands in a hinged pair by default: (turn_deg, offset metres). When 180 /
+    angle is a whole number, an image of the object through several mirrors lies straight behind it,
+    hidden from the camera; then, from 90 degrees up, the object moves sideways by its half-width
+    (offset), and below, the V is turned by a quarter of the angle (turning a 90-degree V shows one
+    mirror so obliquely that its markers calibrate it poorly, and moving the object at 60 degrees
+    hides its images through two mirrors instead). Otherwise neither."""
     ratio = 180.0 / angle_deg
     if abs(ratio - round(ratio)) > 1e-9:
         return 0.0, 0.0
     return (0.0, half_width) if angle_deg >= 90.0 else (angle_deg / 4, 0.0)
 
 
-def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance: float | None = None,
+def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere",
+                       distance: float | None = None,
                        mirror_distance: float | None = None, turn_deg: float | None = None,
-                       offset: float | None = None, camera: Intrinsics | None = None, room: Room | None = Room(),
+                       offset: float | None = None, camera: Intrinsics | None = None,
+                       room: Room | None = Room(),
                        gait_hz: float = 1.0) -> Scene:
-    """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the mirrors meet at the
-    apex, so that below about 90 degrees the camera sees the object through two and three mirrors in turn (the
-    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width +
-    HINGED_CLEARANCE; turn_deg : the V turned about the vertical; offset : metres the object stands to the side of
-    the V's bisector (+x: towards mirror 2); both default to `kaleidoscope_placement`."""
+    """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the
+    mirrors meet at the apex, so that below about 90 degrees the camera sees the object through two
+    and three mirrors in turn (the
+    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width
+    + HINGED_CLEARANCE; turn_deg : the V turned about the vertical; offset : metres the object
+    stands to the side of the V's bisector (+x: towards mirror 2); both default to
+    `kaleidoscope_placement`."""
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
     target, half, tall = object_extent(obj)
     md = half + HINGED_CLEARANCE if mirror_distance is None else mirror_distance
@@ -209,4 +246,5 @@ def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere", distance
     shift = np.array([default_offset if offset is None else offset, 0.0, 0.0])
     obj = replace(obj, centre=tuple((np.asarray(obj.centre) + shift).tolist()))
     size = (max(HINGED_WIDTH, 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
-    return Scene(camera or Intrinsics.kinect_v1(), hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)
+    return Scene(camera or Intrinsics.kinect_v1(),
+                 hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)

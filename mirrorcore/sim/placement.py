@@ -1,8 +1,9 @@
-"""Where a technician sticks a mirror's markers: where the camera sees them. A layout puts six markers near each
-mirror's corners and edges' middles; on some rigs most of them are hidden (an arc of three around the walking figure:
-the middle mirror, raised above the figure, had its upper markers out of the image and its lower ones behind the
-mirrors beside it and the figure), and the mirror could not be fitted from its markers. `markers_in_view` moves the
-hidden ones of such a mirror to places on its glass that the camera sees, in every moment of the object's motion."""
+"""Where a technician sticks a mirror's markers: where the camera sees them. A layout puts six
+markers near each mirror's corners and edges' middles; on some rigs most of them are hidden (an arc
+of three around the walking figure: the middle mirror, raised above the figure, has its upper
+markers out of the image and its lower ones behind the mirrors beside it and the figure), and
+such a mirror cannot be fitted from its markers. `markers_in_view` moves the hidden ones of such a
+mirror to places on its glass that the camera sees, in every moment of the object's motion."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -13,31 +14,39 @@ from mirrorcore.geometry.camera import project_points
 from mirrorcore.sim.render import MARKER, GroundTruth, Renderer
 from mirrorcore.sim.scene import Scene, SceneMirror
 
-MIN_SEEN = 3           # markers a mirror needs in view for a fit: where fewer of a layout's are seen, the hidden move
+# markers a mirror needs in view for a fit: where fewer of a layout's are seen, the hidden move
+MIN_SEEN = 3
 SPACING = 0.25         # ... this share of the mirror's smaller side from the other markers,
-GRID = 12              # ... to the nearest of GRID x GRID places over its glass (inset by INSET of each half-side)
-INSET = 0.9            # that the camera sees whole (the pixels within WINDOW of the place all show its glass)
+# ... to the nearest of GRID x GRID places over its glass (inset by INSET of each half-side)
+GRID = 12
+# that the camera sees whole (the pixels within WINDOW of the place all show its glass)
+INSET = 0.9
 WINDOW = 2
-MOMENTS = 4            # an animated object is rendered at this many moments of one second (a stride at 1 Hz)
+# an animated object is rendered at this many moments of one second (a stride at 1 Hz)
+MOMENTS = 4
 
 
 def markers_in_view(scene: Scene, max_range: float) -> Scene:
-    """The scene with each mirror's markers where the camera sees them: a mirror of which fewer than MIN_SEEN markers
-    are seen (within max_range metres, in every moment) has each hidden one moved to the nearest place on its glass
-    that is seen, SPACING of its smaller side from the others (where none is left, it stays). The other mirrors keep
-    their markers."""
+    """The scene with each mirror's markers where the camera sees them: a mirror of which fewer than
+    MIN_SEEN markers are seen (within max_range metres, in every moment) has each hidden one moved
+    to the nearest place on its glass that is seen, SPACING of its smaller side from the others
+    (where none is left, it stays). The other mirrors keep their markers."""
     renderer = Renderer(scene, 1)
     moments = np.arange(MOMENTS) / MOMENTS if renderer.animated else np.zeros(1)
     views = [renderer.render(float(t)) for t in moments]
-    mirrors = tuple(_placed(scene, j, mirror, views, max_range) for j, mirror in enumerate(scene.mirrors))
+    mirrors = tuple(_placed(scene, j, mirror, views, max_range) for j,
+                    mirror in enumerate(scene.mirrors))
     return replace(scene, mirrors=mirrors)
 
 
-def _placed(scene: Scene, j: int, mirror: SceneMirror, views: list[GroundTruth], max_range: float) -> SceneMirror:
+def _placed(scene: Scene, j: int, mirror: SceneMirror, views: list[GroundTruth],
+            max_range: float) -> SceneMirror:
     """Mirror j (0-based) with its hidden markers moved, when fewer than MIN_SEEN are seen."""
     markers = np.asarray(mirror.markers, float).reshape(-1, 2)
-    seen = _seen(scene, mirror.marker_centres(), views, max_range, 0, lambda v: (v.surface == MARKER)
-                 & (v.first_mirror == 0))                     # at its centre's pixel, as a session's clicks are
+    seen = _seen(scene, mirror.marker_centres(), views, max_range, 0,
+                 lambda v: (v.surface == MARKER)
+                 # at its centre's pixel, as a session's clicks are
+                 & (v.first_mirror == 0))
     if np.count_nonzero(seen) >= MIN_SEEN:
         return mirror
     half = INSET * np.array([mirror.width, mirror.height]) / 2
@@ -56,8 +65,9 @@ def _placed(scene: Scene, j: int, mirror: SceneMirror, views: list[GroundTruth],
 
 def _seen(scene: Scene, points: np.ndarray, views: list[GroundTruth], max_range: float, window: int,
           shows) -> np.ndarray:
-    """(k,) bool: which points (k, 3) metres, camera frame, lie within max_range metres of depth, with the pixels
-    within `window` of theirs inside the image and showing them in every view (shows(view) -> (H, W) bool)."""
+    """(k,) bool: which points (k, 3) metres, camera frame, lie within max_range metres of depth,
+    with the pixels within `window` of theirs inside the image and showing them in every view
+    (shows(view) -> (H, W) bool)."""
     camera = scene.camera
     uv, z = project_points(camera, points)
     pix = np.round(uv).astype(int)

@@ -1,22 +1,25 @@
-"""Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their JSON file.
+"""Simulated scenes: frozen dataclasses for mirrors (with markers), objects and the room, and their
+JSON file.
 
-Everything is in the camera frame (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z forward), origin at the
-depth camera. "Up" in the room is -y. A scene file is JSON:
+Everything is in the camera frame (docs/DESIGN.md): metres, OpenCV axes (x right, y down, z
+forward), origin at the depth camera. "Up" in the room is -y. A scene file is JSON:
 
     {"version": 1,
-     "camera": {"width": 640, ...} or "kinect_v1" or "primesense",
-     "mirrors": [{"name": "mirror 1", "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
-                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04, "marker_offset": 0.0}],
+     "camera": {"width": 640, ...} or "kinect_v1" or "primesense", "mirrors": [{"name": "mirror 1",
+     "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
+                  "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04,
+                  "marker_offset": 0.0}],
      "objects": [{"type": "sphere", "centre": [0, 0, 2], "radius": 0.115}, ...],
      "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null,
      "click_jitter_px": 0.0}
 
-A mirror's `centre` and `normal` give its reflecting surface (the silver), whose `normal` points to the reflective
-side, which must face the camera; `up` is the direction of its height (made orthogonal to the normal); marker (s, t)
-are offsets in metres from the mirror's centre along its right (up x normal) and up axes; markers are matte squares of
-side `marker_size` whose faces are `marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on
-the glass of a back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error of
-each marker click in the session made from the scene (sim/export.py).
+A mirror's `centre` and `normal` give its reflecting surface (the silver), whose `normal` points to
+the reflective side, which must face the camera; `up` is the direction of its height (made
+orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its
+right (up x normal) and up axes; markers are matte squares of side `marker_size` whose faces are
+`marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on the glass of a
+back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error
+of each marker click in the session made from the scene (sim/export.py).
 """
 from __future__ import annotations
 
@@ -35,12 +38,14 @@ from mirrorcore.base.jsonfile import read_json
 SCENE_VERSION = 1
 OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
 _CAMERA_PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
-MARKER_LIFT = 1e-4            # metres: the least a marker's face stands in front of the glass (no coplanar faces)
+# metres: the least a marker's face stands in front of the glass (no coplanar faces)
+MARKER_LIFT = 1e-4
 MAX_MARKER_OFFSET = 0.05      # metres
 
 
 def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
-    """A 3-vector of finite floats (normalised when `unit`); raises FileFormatError naming `where`."""
+    """A 3-vector of finite floats (normalised when `unit`); raises FileFormatError naming
+    `where`."""
     try:
         v = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
@@ -56,7 +61,8 @@ def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
 
 
 def _positive(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
+        value) or value <= 0:
         raise FileFormatError(f"{where}: must be a positive number, got {value!r}")
     return float(value)
 
@@ -67,8 +73,10 @@ class SceneMirror:
 
     centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
     up : (3,) unit, the direction of `height` (orthogonal to normal); width, height : metres;
-    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a marker, metres;
-    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>= 0).
+    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a
+    marker, metres;
+    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>=
+    0).
     """
 
     name: str
@@ -91,7 +99,8 @@ class SceneMirror:
         object.__setattr__(self, "normal", tuple(float(x) for x in n))
         object.__setattr__(self, "up", tuple(float(x) for x in up / np.linalg.norm(up)))
         if np.dot(n, -np.asarray(self.centre)) <= 0:
-            raise FileFormatError(f"{self.name}: the reflective side (normal) faces away from the camera")
+            raise FileFormatError(
+                f"{self.name}: the reflective side (normal) faces away from the camera")
 
     @property
     def axes(self) -> np.ndarray:
@@ -101,7 +110,8 @@ class SceneMirror:
 
     @property
     def plane(self) -> Plane:
-        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d > 0)."""
+        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d
+        > 0)."""
         return Plane.from_point_normal(self.centre, self.normal)
 
     def local_to_camera(self, st: np.ndarray) -> np.ndarray:
@@ -116,18 +126,21 @@ class SceneMirror:
 
     @property
     def marker_lift(self) -> float:
-        """Metres from the reflecting surface to the markers' faces: marker_offset, at least MARKER_LIFT."""
+        """Metres from the reflecting surface to the markers' faces: marker_offset, at least
+        MARKER_LIFT."""
         return max(self.marker_offset, MARKER_LIFT)
 
     def marker_centres(self) -> np.ndarray:
-        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting surface), camera
-        frame."""
+        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting
+        surface), camera frame."""
         st = np.asarray(self.markers, dtype=np.float64).reshape(-1, 2)
         return self.local_to_camera(st) + self.marker_lift * np.asarray(self.normal)
 
     def to_json(self) -> dict:
-        return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal), "up": list(self.up),
-                "width": self.width, "height": self.height, "markers": [list(m) for m in self.markers],
+        return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal),
+                "up": list(self.up),
+                "width": self.width, "height": self.height,
+                "markers": [list(m) for m in self.markers],
                 "marker_size": self.marker_size, "marker_offset": self.marker_offset}
 
 
@@ -135,11 +148,13 @@ class SceneMirror:
 class SceneObject:
     """An object in front of the mirrors.
 
-    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle of a cylinder's
-    axis, a box's centre, where a mesh's bounding-box centre goes, the point on the floor between a figure's feet.
+    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle
+    of a cylinder's axis, a box's centre, where a mesh's bounding-box centre goes, the point on the
+    floor between a figure's feet.
     radius : sphere/cylinder radius, metres. height : cylinder length or figure height, metres.
     axis : (3,) unit cylinder axis. size : (3,) box edges along x, y, z, metres.
-    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale : metres per unit.
+    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale :
+    metres per unit.
     gait_hz : strides per second of a figure walking in place (0 = standing still).
     """
 
@@ -162,13 +177,15 @@ class SceneObject:
         keys = {"sphere": ("radius",), "cylinder": ("radius", "height", "axis"), "box": ("size",),
                 "mesh": ("path", "scale"), "figure": ("height", "gait_hz")}[self.type]
         out = {"type": self.type, "centre": list(self.centre)}
-        out.update({k: (list(v) if isinstance(v, tuple) else v) for k in keys for v in [getattr(self, k)]})
+        out.update({k: (list(v) if isinstance(v, tuple) else v) for k in keys
+                    for v in [getattr(self, k)]})
         return out
 
 
 @dataclass(frozen=True)
 class Room:
-    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2 * half_width wide."""
+    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2
+    * half_width wide."""
 
     floor_y: float = 1.0
     back_z: float = 4.2
@@ -180,8 +197,10 @@ class Room:
 
 @dataclass(frozen=True)
 class Scene:
-    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the room (or None);
-    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the scene."""
+    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the
+    room (or None);
+    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the
+    scene."""
 
     camera: Intrinsics
     mirrors: tuple[SceneMirror, ...]
@@ -191,18 +210,23 @@ class Scene:
 
     def to_json(self) -> dict:
         return {"version": SCENE_VERSION, "camera": self.camera.to_dict(),
-                "mirrors": [m.to_json() for m in self.mirrors], "objects": [o.to_json() for o in self.objects],
-                "room": None if self.room is None else self.room.to_json(), "click_jitter_px": self.click_jitter_px}
+                "mirrors": [m.to_json() for m in self.mirrors],
+                "objects": [o.to_json() for o in self.objects],
+                "room": None if self.room is None else self.room.to_json(),
+                "click_jitter_px": self.click_jitter_px}
 
-    def with_markers(self, marker_offset: float | None = None, click_jitter_px: float | None = None) -> "Scene":
-        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels) replaced (None keeps)."""
+    def with_markers(self, marker_offset: float | None = None,
+                     click_jitter_px: float | None = None) -> "Scene":
+        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels)
+        replaced (None keeps)."""
         mirrors = self.mirrors if marker_offset is None else tuple(
             replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
-        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(click_jitter_px, "click jitter")
+        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(
+            click_jitter_px, "click jitter")
         return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
-# --------------------------------------------------------------------- JSON reading with one-line errors
+# --------------------------------------------------------------- JSON reading with one-line errors
 def scene_from_json(data, where: str = "scene") -> Scene:
     """Validate a parsed scene file; raises FileFormatError naming `where` and the offending key."""
     if not isinstance(data, dict):
@@ -211,11 +235,13 @@ def scene_from_json(data, where: str = "scene") -> Scene:
         if key not in data:
             raise FileFormatError(f"{where}: missing key '{key}'")
     if data.get("version", SCENE_VERSION) != SCENE_VERSION:
-        raise FileFormatError(f"{where}: unknown version {data['version']!r}; this reads version {SCENE_VERSION}")
+        raise FileFormatError(
+            f"{where}: unknown version {data['version']!r}; this reads version {SCENE_VERSION}")
     cam = data["camera"]
     if isinstance(cam, str):
         if cam not in _CAMERA_PRESETS:
-            raise FileFormatError(f"{where}: camera: unknown preset {cam!r} (use {', '.join(_CAMERA_PRESETS)})")
+            raise FileFormatError(
+                f"{where}: camera: unknown preset {cam!r} (use {', '.join(_CAMERA_PRESETS)})")
         camera = _CAMERA_PRESETS[cam]()
     else:
         camera = Intrinsics.from_dict(cam, f"{where}: camera")
@@ -228,24 +254,29 @@ def scene_from_json(data, where: str = "scene") -> Scene:
     if room is not None:
         if not isinstance(room, dict):
             raise FileFormatError(f"{where}: room: must be an object or null")
-        room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k)) for k in ("floor_y", "back_z")},
-                    half_width=_positive(room.get("half_width", Room.half_width), f"{where}: room.half_width"))
+        room = Room(**{k: _number(room, k, f"{where}: room", getattr(Room, k))
+                       for k in ("floor_y", "back_z")},
+                    half_width=_positive(room.get("half_width", Room.half_width),
+                                         f"{where}: room.half_width"))
     return Scene(camera, mirrors, objects, room,
                  _jitter(data.get("click_jitter_px", 0.0), f"{where}: click_jitter_px"))
 
 
 def _offset(value, where: str) -> float:
-    """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where` otherwise."""
+    """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where`
+    otherwise."""
     if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
             or not 0 <= value <= MAX_MARKER_OFFSET):
-        raise FileFormatError(f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
+        raise FileFormatError(
+            f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
                               f"reflecting surface), got {value!r}")
     return float(value)
 
 
 def _jitter(value, where: str) -> float:
     """A click jitter in pixels, 0 to 50; FileFormatError naming `where` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or not 0 <= value <= 50:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
+        value) or not 0 <= value <= 50:
         raise FileFormatError(f"{where}: must be 0 to 50 pixels, got {value!r}")
     return float(value)
 
@@ -273,12 +304,15 @@ def _mirror(data, where: str) -> SceneMirror:
         if not np.all(np.isfinite(st)) or (len(markers) and np.asarray(markers).ndim != 2):
             raise ValueError
     except (TypeError, ValueError):
-        raise FileFormatError(f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
+        raise FileFormatError(
+            f"{where}.markers: must be a list of [s, t] pairs of numbers") from None
     name = data.get("name", where.rsplit("[", 1)[-1].rstrip("]"))
-    return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"), _vec(data["normal"], f"{where}.normal", True),
+    return SceneMirror(str(name), _vec(data["centre"], f"{where}.centre"),
+                       _vec(data["normal"], f"{where}.normal", True),
                   _vec(data["up"], f"{where}.up", True), _positive(data["width"], f"{where}.width"),
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
-                  _positive(data.get("marker_size", SceneMirror.marker_size), f"{where}.marker_size"),
+                  _positive(data.get("marker_size", SceneMirror.marker_size),
+                            f"{where}.marker_size"),
                   _offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
 
 
@@ -286,7 +320,8 @@ def _object(data, where: str) -> SceneObject:
     _require(data, ("type", "centre"), where)
     kind = data["type"]
     if kind not in OBJECT_TYPES:
-        raise FileFormatError(f"{where}.type: unknown object type {kind!r} (use {', '.join(OBJECT_TYPES)})")
+        raise FileFormatError(
+            f"{where}.type: unknown object type {kind!r} (use {', '.join(OBJECT_TYPES)})")
     if kind == "mesh" and not isinstance(data.get("path"), str):
         raise FileFormatError(f"{where}.path: a mesh object needs the path of a mesh file")
     gait = _number(data, "gait_hz", where, 0.0)
@@ -297,8 +332,10 @@ def _object(data, where: str) -> SceneObject:
         radius=_positive(data.get("radius", SceneObject.radius), f"{where}.radius"),
         height=_positive(data.get("height", SceneObject.height), f"{where}.height"),
         axis=_vec(data.get("axis", SceneObject.axis), f"{where}.axis", unit=True),
-        size=tuple(_positive(s, f"{where}.size") for s in _vec(data.get("size", SceneObject.size), f"{where}.size")),
-        path=data.get("path"), scale=_positive(data.get("scale", 1.0), f"{where}.scale"), gait_hz=gait)
+        size=tuple(_positive(s, f"{where}.size")
+                   for s in _vec(data.get("size", SceneObject.size), f"{where}.size")),
+        path=data.get("path"), scale=_positive(data.get("scale", 1.0), f"{where}.scale"),
+        gait_hz=gait)
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -1,21 +1,23 @@
-"""Kinect v1 sensor model applied to an ideal depth image (range, IR shadow, lateral and axial noise, 1/8-pixel
-disparity quantisation).
+"""Kinect v1 sensor model applied to an ideal depth image (range, IR shadow, lateral and axial
+noise, 1/8-pixel disparity quantisation).
 
-Axial noise: Khoshelham & Elberink (2012) give a total depth std sigma_z = k Z^2 with k = 1.425e-3 / m. In disparity
-D = f b / Z (f = fx pixels, b = baseline) that is a constant sigma_D = k f b pixels, so the model adds Gaussian noise in
-disparity with variance sigma_D^2 - q^2 / 12 and then rounds to the step q = 1/8 pixel: noise + quantisation together
-give sigma_z = k Z^2 (Sheppard's correction; checked at 1, 2 and 3 m in the tests). The quantisation is applied even
-without the noise when `quantise` is set: `SensorModel.kinect_v1(noise=False)` shows the depth steps (f b / (n q)).
+Axial noise: Khoshelham & Elberink (2012) give a total depth std sigma_z = k Z^2 with k = 1.425e-3 /
+m. In disparity D = f b / Z (f = fx pixels, b = baseline) that is a constant sigma_D = k f b pixels,
+so the model adds Gaussian noise in disparity with variance sigma_D^2 - q^2 / 12 and then rounds to
+the step q = 1/8 pixel: noise + quantisation together give sigma_z = k Z^2 (Sheppard's correction;
+checked at 1, 2 and 3 m in the tests). The quantisation is applied even without the noise when
+`quantise` is set: `SensorModel.kinect_v1(noise=False)` shows the depth steps (f b / (n q)).
 
-The Gaussian draws come from a table of its 65536 equiprobable quantiles (`standard_normal`): every probability is
-within 1/65536 of the exact Gaussian's (tails stop at 4.33 std), and drawing is about five times faster than with
-rng.standard_normal.
+The Gaussian draws come from a table of its 65536 equiprobable quantiles (`standard_normal`): every
+probability is within 1/65536 of the exact Gaussian's (tails stop at 4.33 std), and drawing is about
+five times faster than with rng.standard_normal.
 
-IR shadow (an image-space approximation, exact for a rectified horizontal baseline): the projector sits `baseline`
-metres along +x. A point at pixel column u with disparity D lies on the projector ray x_p = u - D; along an image row
-that ray passes in front of a pixel u' > u whose x_p(u') < x_p(u), so pixel u is in shadow when the smallest x_p to its
-right is smaller (by `shadow_tolerance` px). Unfolded (virtual) points work the same way, because the projector's
-light reaches a point through the same mirror the camera sees it by (paper section 2); the approximation ignores light
+IR shadow (an image-space approximation, exact for a rectified horizontal baseline): the projector
+sits `baseline` metres along +x. A point at pixel column u with disparity D lies on the projector
+ray x_p = u - D; along an image row that ray passes in front of a pixel u' > u whose x_p(u') <
+x_p(u), so pixel u is in shadow when the smallest x_p to its right is smaller (by `shadow_tolerance`
+px). Unfolded (virtual) points work the same way, because the projector's light reaches a point
+through the same mirror the camera sees it by (paper section 2); the approximation ignores light
 that would pass beside a mirror's edge.
 """
 from __future__ import annotations
@@ -35,10 +37,12 @@ from mirrorcore.geometry.camera import Intrinsics
 class SensorModel:
     """What the sensor does to the ideal depth; every stage can be switched off.
 
-    axial_k : total axial std = axial_k * Z^2 (1/m); 0 = no noise. quantise : round disparity to `disparity_step` px.
-    baseline : projector-camera distance along +x, metres. lateral_sigma : std of the lateral jitter in pixels (each
-    pixel reads the depth of a neighbour at a rounded Gaussian offset); 0 = none.
-    min_range, max_range : metres; pixels whose true depth is outside read 0. shadow : zero the IR shadow.
+    axial_k : total axial std = axial_k * Z^2 (1/m); 0 = no noise. quantise : round disparity to
+    `disparity_step` px.
+    baseline : projector-camera distance along +x, metres. lateral_sigma : std of the lateral jitter
+    in pixels (each pixel reads the depth of a neighbour at a rounded Gaussian offset); 0 = none.
+    min_range, max_range : metres; pixels whose true depth is outside read 0. shadow : zero the IR
+    shadow.
     """
 
     axial_k: float = 1.425e-3
@@ -54,17 +58,21 @@ class SensorModel:
     @classmethod
     def ideal(cls) -> "SensorModel":
         """The exact ideal depth: no noise, no quantisation, no range limits, no shadow."""
-        return cls(axial_k=0.0, quantise=False, lateral_sigma=0.0, min_range=0.0, max_range=np.inf, shadow=False)
+        return cls(axial_k=0.0, quantise=False, lateral_sigma=0.0, min_range=0.0, max_range=np.inf,
+                   shadow=False)
 
     @classmethod
     def kinect_v1(cls, noise: bool = True) -> "SensorModel":
-        """Kinect v1; noise=False keeps the range, the shadow and the disparity quantisation but adds no noise."""
+        """Kinect v1; noise=False keeps the range, the shadow and the disparity quantisation but
+        adds no noise."""
         return cls() if noise else cls(axial_k=0.0, lateral_sigma=0.0)
 
     @classmethod
     def from_name(cls, name: str) -> "SensorModel":
-        """'none' -> ideal(), 'kinect' -> kinect_v1(), 'kinect-noiseless' -> kinect_v1(noise=False)."""
-        return {"none": cls.ideal, "kinect": cls.kinect_v1, "kinect-noiseless": lambda: cls.kinect_v1(False)}[name]()
+        """'none' -> ideal(), 'kinect' -> kinect_v1(), 'kinect-noiseless' ->
+        kinect_v1(noise=False)."""
+        return {"none": cls.ideal, "kinect": cls.kinect_v1,
+                "kinect-noiseless": lambda: cls.kinect_v1(False)}[name]()
 
     def disparity_noise_std(self, fx: float) -> float:
         """Std (pixels) of the Gaussian added to the disparity, before quantisation."""
@@ -73,7 +81,8 @@ class SensorModel:
         return float(np.sqrt(max(total ** 2 - quant, 0.0)))
 
     def apply(self, camera: Intrinsics, depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """depth : (H, W) float32 ideal metres (0 = nothing) -> (H, W) float32 measured metres, 0 = no reading."""
+        """depth : (H, W) float32 ideal metres (0 = nothing) -> (H, W) float32 measured metres, 0 =
+        no reading."""
         depth = np.asarray(depth, dtype=np.float32)
         fb = np.float32(camera.fx * self.baseline)
         valid = (depth >= self.min_range) & (depth <= self.max_range)
@@ -86,7 +95,8 @@ class SensorModel:
         if sigma == 0 and not self.quantise:
             return out
         with np.errstate(divide="ignore"):
-            disparity = np.divide(fb, out)                              # inf where there is no reading
+            # inf where there is no reading
+            disparity = np.divide(fb, out)
         if sigma > 0:
             disparity += np.float32(sigma) * standard_normal(rng, out.shape)
         if self.quantise:
@@ -99,23 +109,27 @@ class SensorModel:
 
 @cache
 def _normal_quantiles() -> np.ndarray:
-    """(65536,) float32 quantiles of N(0, 1) at probabilities (i + 0.5) / 65536: from -4.33 to 4.33, std 0.99999."""
+    """(65536,) float32 quantiles of N(0, 1) at probabilities (i + 0.5) / 65536: from -4.33 to 4.33,
+    std 0.99999."""
     inv_cdf = NormalDist().inv_cdf
     return np.array([inv_cdf((i + 0.5) / 65536) for i in range(65536)], dtype=np.float32)
 
 
 def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
-    """`shape` float32 draws of N(0, 1): quantiles of 16-bit uniform integers from `rng` (see `_normal_quantiles`),
-    so the probability of any interval is within 1/65536 of the Gaussian's; tails stop at 4.33 std."""
+    """`shape` float32 draws of N(0, 1): quantiles of 16-bit uniform integers from `rng` (see
+    `_normal_quantiles`), so the probability of any interval is within 1/65536 of the Gaussian's;
+    tails stop at 4.33 std."""
     return np.take(_normal_quantiles(), rng.integers(0, 65536, shape, dtype=np.uint16))
 
 
 def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarray:
-    """(H, W) bool: pixels the projector (at +x, f*b = `fb` pixel-metres) cannot light (see the module docstring).
+    """(H, W) bool: pixels the projector (at +x, f*b = `fb` pixel-metres) cannot light (see the
+    module docstring).
 
     depth : (H, W) float32 metres, 0 = nothing there (never an occluder). tolerance : pixels, >= 0.
-    A pixel u can only be shadowed by a pixel u' < u + D_max (D_max = the largest disparity f b / z in the image),
-    since x_p(u') >= u' - D_max and x_p(u) < u: a running minimum over that window (an erosion) is enough.
+    A pixel u can only be shadowed by a pixel u' < u + D_max (D_max = the largest disparity f b / z
+    in the image), since x_p(u') >= u' - D_max and x_p(u) < u: a running minimum over that window
+    (an erosion) is enough.
     """
     depth = np.asarray(depth, dtype=np.float32)
     cols = np.arange(depth.shape[1], dtype=np.float32)
@@ -126,29 +140,37 @@ def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarra
     if not np.isfinite(d_max):
         return np.zeros(depth.shape, bool)
     xp = cols - disparity
-    window = np.ones((1, min(int(np.ceil(d_max)) + 2, depth.shape[1])), np.uint8)   # u' in [u, u + D_max + 1]
-    right_min = cv2.erode(xp, window, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
-    return (depth > 0) & (right_min < xp - tolerance)          # u' = u itself never passes (tolerance >= 0)
+    # u' in [u, u + D_max + 1]
+    window = np.ones((1, min(int(np.ceil(d_max)) + 2, depth.shape[1])), np.uint8)
+    right_min = cv2.erode(xp, window, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT,
+                          borderValue=np.inf)
+    # u' = u itself never passes (tolerance >= 0)
+    return (depth > 0) & (right_min < xp - tolerance)
 
 
 def lateral_jitter(depth: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    """Each pixel reads the pixel at an offset of a Gaussian (std `sigma` px) rounded to -1, 0 or +1 per axis
-    (probabilities to 1/256; offsets of 2 px, 0.3 % at sigma = 0.5, are left out).
+    """Each pixel reads the pixel at an offset of a Gaussian (std `sigma` px) rounded to -1, 0 or +1
+    per axis (probabilities to 1/256; offsets of 2 px, 0.3 % at sigma = 0.5, are left out).
 
     depth : (H, W) float32 -> (H, W) float32; outside the image reads 0.
     """
     h, w = depth.shape
-    k = round(256 * 0.5 * erfc(0.5 / (sigma * np.sqrt(2.0))))       # 256 * P(N(0, sigma) > 0.5): rounds to +1
-    step = np.zeros(256, np.int16)                                   # random byte -> offset -1, 0 or +1
+    # 256 * P(N(0, sigma) > 0.5): rounds to +1
+    k = round(256 * 0.5 * erfc(0.5 / (sigma * np.sqrt(2.0))))
+    # random byte -> offset -1, 0 or +1
+    step = np.zeros(256, np.int16)
     step[:k], step[256 - k:] = -1, 1
-    offset = cv2.LUT(rng.integers(0, 256, (h, w, 2), dtype=np.uint8), step)   # (u, v) offsets, probabilities to 1/256
+    # (u, v) offsets, probabilities to 1/256
+    offset = cv2.LUT(rng.integers(0, 256, (h, w, 2), dtype=np.uint8), step)
     offset += _pixel_grid(h, w)
-    return cv2.remap(depth, offset, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return cv2.remap(depth, offset, None, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                     borderValue=0)
 
 
 @cache
 def _pixel_grid(h: int, w: int) -> np.ndarray:
     """(h, w, 2) int16 read-only (u, v) of every pixel: an OpenCV CV_16SC2 map."""
-    grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)), axis=-1)
+    grid = np.stack(np.meshgrid(np.arange(w, dtype=np.int16), np.arange(h, dtype=np.int16)),
+                    axis=-1)
     grid.flags.writeable = False
     return grid

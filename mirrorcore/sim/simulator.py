@@ -1,4 +1,5 @@
-"""The simulated rig as a depth source: Simulator renders frames (30 fps, animated objects) with the sensor model."""
+"""The simulated rig as a depth source: Simulator renders frames (30 fps, animated objects) with the
+sensor model."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -16,8 +17,9 @@ FPS = 30.0
 
 @dataclass(frozen=True)
 class SimFrame:
-    """One simulated frame: `depth` (H, W) float32 metres as the sensor reports it (0 = no reading), the ideal
-    `truth` behind it (GroundTruth: ideal depth, surfaces, mirrors, real points) and its time `t` in seconds."""
+    """One simulated frame: `depth` (H, W) float32 metres as the sensor reports it (0 = no reading),
+    the ideal `truth` behind it (GroundTruth: ideal depth, surfaces, mirrors, real points) and its
+    time `t` in seconds."""
 
     depth: np.ndarray
     truth: GroundTruth
@@ -25,14 +27,17 @@ class SimFrame:
 
 
 class Simulator:
-    """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a sensor model.
+    """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a
+    sensor model.
 
-    scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its noise from
-    np.random.default_rng([seed, i]), so frames are reproducible in any order; bounces : the most reflections a
-    rendered ray may make (1 to MAX_BOUNCES, see Renderer); fps : frame rate of `frame(i)` (time i / fps).
+    scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its
+    noise from np.random.default_rng([seed, i]), so frames are reproducible in any order; bounces :
+    the most reflections a rendered ray may make (1 to MAX_BOUNCES, see Renderer); fps : frame rate
+    of `frame(i)` (time i / fps).
     """
 
-    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0, bounces: int = MAX_BOUNCES,
+    def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0,
+                 bounces: int = MAX_BOUNCES,
                  fps: float = FPS):
         self.scene = scene
         self.sensor = SensorModel.kinect_v1() if sensor is None else sensor
@@ -55,7 +60,8 @@ class Simulator:
         return self._renderer.animated
 
     def render(self, t: float, rng: np.random.Generator, with_objects: bool = True) -> SimFrame:
-        """The frame at time t seconds with noise drawn from `rng`; without the objects when `with_objects` is False."""
+        """The frame at time t seconds with noise drawn from `rng`; without the objects when
+        `with_objects` is False."""
         truth = self._renderer.render(t, with_objects)
         return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t))
 
@@ -64,5 +70,6 @@ class Simulator:
         return self.render(i / self.fps, np.random.default_rng([self.seed, 0, int(i)]))
 
     def background(self) -> SimFrame:
-        """The scene without its objects (for background subtraction), reproducible from the seed."""
+        """The scene without its objects (for background subtraction), reproducible from the
+        seed."""
         return self.render(0.0, np.random.default_rng([self.seed, 1]), with_objects=False)

@@ -1,6 +1,6 @@
-"""How far a simulated session's calibration, and a cloud of one of its frames, lie from the simulator's truth (the
-scene its truth.json holds): the figures the README's accuracy tables give, for any session `mirrorscan simulate`
-wrote (`mirrorscan truth`)."""
+"""How far a simulated session's calibration, and a cloud of one of its frames, lie from the
+simulator's truth (the scene its truth.json holds): the figures the README's accuracy tables give,
+for any session `mirrorscan simulate` wrote (`mirrorscan truth`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,10 +17,10 @@ from mirrorcore.sim.scene import Scene
 
 @dataclass(frozen=True)
 class PlaneError:
-    """One mirror's plane against its true plane, at the object's middle (layouts.object_extent: a figure's is half
-    its height above the floor point between its feet): offset_mm along the normal (> 0: the plane too far from the
-    camera) and tilt_deg, both None while it has no plane; its glass (the session's marker_offset) beside the true
-    one, mm."""
+    """One mirror's plane against its true plane, at the object's middle (layouts.object_extent: a
+    figure's is half its height above the floor point between its feet): offset_mm along the normal
+    (> 0: the plane too far from the camera) and tilt_deg, both None while it has no plane; its
+    glass (the session's marker_offset) beside the true one, mm."""
 
     name: str
     offset_mm: float | None
@@ -31,8 +31,8 @@ class PlaneError:
 
 @dataclass(frozen=True)
 class SurfaceError:
-    """A cloud's distances to the true surfaces of the scene's objects, mm: RMSE, mean and 95th percentile, over
-    `points` points."""
+    """A cloud's distances to the true surfaces of the scene's objects, mm: RMSE, mean and 95th
+    percentile, over `points` points."""
 
     points: int
     rmse_mm: float
@@ -41,10 +41,12 @@ class SurfaceError:
 
 
 def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
-    """Each mirror of `session` against the scene's mirror in the same place (session order is the scene's order, as
-    `mirrorcore.sim.export` writes it); the offsets at the first object's middle (the origin without objects)."""
+    """Each mirror of `session` against the scene's mirror in the same place (session order is the
+    scene's order, as `mirrorcore.sim.export` writes it); the offsets at the first object's middle
+    (the origin without objects)."""
     if len(session.mirrors) != len(scene.mirrors):
-        raise MirrorscanError(f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
+        raise MirrorscanError(
+            f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
                               "mirror was added or removed since it was simulated")
     at = object_extent(scene.objects[0])[0] if scene.objects else np.zeros(3)
     out = []
@@ -52,16 +54,17 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
         plane = mirror.plane
         out.append(PlaneError(
             mirror.name,
-            None if plane is None else 1e3 * float(plane.signed_distance(at) - true.plane.signed_distance(at)),
+            None if plane is None else 1e3 * float(plane.signed_distance(
+                at) - true.plane.signed_distance(at)),
             None if plane is None else plane.angle_to(true.plane),
             1e3 * mirror.marker_offset, 1e3 * true.marker_offset))
     return out
 
 
 def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceError:
-    """The distances of `points` (n, 3) metres to the nearest surface of the scene's objects as they are at `t`
-    seconds (a walking figure moves), by Open3D's raycasting scene over their meshes (the sphere's icosphere lies
-    within 0.1 mm of the true sphere)."""
+    """The distances of `points` (n, 3) metres to the nearest surface of the scene's objects as they
+    are at `t` seconds (a walking figure moves), by Open3D's raycasting scene over their meshes (the
+    sphere's icosphere lies within 0.1 mm of the true sphere)."""
     if not scene.objects:
         raise MirrorscanError("the scene has no object to compare with")
     if len(points) == 0:
@@ -71,6 +74,8 @@ def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceEr
         vertices, faces = object_geometry(obj).mesh_at(t)
         raycasting.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
                                  o3d.core.Tensor(np.asarray(faces, np.uint32)))
-    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(points, np.float32))).numpy()
-    return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))), float(distances.mean()),
+    distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(
+        points, np.float32))).numpy()
+    return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))),
+                        float(distances.mean()),
                         float(np.percentile(distances, 95)))

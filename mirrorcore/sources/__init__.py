@@ -1,8 +1,10 @@
-"""Depth sources behind one interface (Frame, DepthSource), chosen by a short spec string: open_source(spec) and the
-table of kinds with what each needs on this machine (`mirrorscan sources`).
+"""Floor 8, depth sources behind one interface (Frame, DepthSource), chosen by a short spec string:
+open_source(spec) and the table of kinds with what each needs on this machine (`mirrorscan
+sources`).
 
-Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.
-A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz, .bag or .oni file.
+Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT,
+fps=N. A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz,
+.bag or .oni file.
 """
 from __future__ import annotations
 
@@ -15,22 +17,25 @@ from urllib.parse import parse_qsl
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import SESSION_FILE, Session, load_session
 from mirrorcore.sources.base import DepthSource, Frame, require
-from mirrorcore.sources.devices import FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource, OpenNI2Source, initialise_openni2
-from mirrorcore.sources.files import ImageSequenceSource, SessionSource, StackSource, load_camera, open_npz, open_png_folder, open_tum
+from mirrorcore.sources.devices import (FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource,
+                                        OpenNI2Source, initialise_openni2)
+from mirrorcore.sources.files import (ImageSequenceSource, SessionSource, StackSource, load_camera,
+                                      open_npz, open_png_folder, open_tum)
 from mirrorcore.sources.realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
 from mirrorcore.sources.record import Recorder, new_recording_folder, record
 from mirrorcore.sources.sim import SimulatedSource, open_simulated, session_scene, session_truth
 
-__all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS", "OpenNI2Source",
-           "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource", "SourceKind", "StackSource",
-           "new_recording_folder", "open_source", "parse_spec", "record", "session_scene", "session_truth"]
+__all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KINDS",
+           "OpenNI2Source", "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource",
+           "SourceKind", "StackSource", "new_recording_folder", "open_source", "parse_spec",
+           "record", "session_scene", "session_truth"]
 _OPTIONS = ("camera", "scale", "fps")
 
 
 @dataclass(frozen=True)
 class SourceKind:
-    """One kind of source: its spec form, what it reads, and a check that returns None when it can be used here or
-    a one-line reason why not."""
+    """One kind of source: its spec form, what it reads, and a check that returns None when it can
+    be used here or a one-line reason why not."""
 
     name: str
     spec: str
@@ -39,7 +44,8 @@ class SourceKind:
 
 
 def _library(module: str, install: str) -> Callable[[], str | None]:
-    return lambda: None if importlib.util.find_spec(module.split(".")[0]) else f"needs {module}: install {install}"
+    return lambda: None if importlib.util.find_spec(module.split(".")[
+        0]) else f"needs {module}: install {install}"
 
 
 def _freenect_devices() -> str | None:
@@ -70,31 +76,42 @@ def _realsense_devices() -> str | None:
     if missing:
         return missing
     rs = require("pyrealsense2", "realsense", REALSENSE_INSTALL)
-    return None if rs.context().query_devices().size() else "pyrealsense2 is installed; no camera is plugged in"
+    if rs.context().query_devices().size():
+        return None
+    return "pyrealsense2 is installed; no camera is plugged in"
 
 
 KINDS = (
-    SourceKind("sim", "sim | sim:SCENE.json", "the simulated rig (live, Kinect v1 noise)", lambda: None),
-    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None),
-    SourceKind("dir", "dir:FOLDER", "16-bit depth PNGs; camera.json or intrinsic.json beside them, or ?camera=",
+    SourceKind("sim", "sim | sim:SCENE.json", "the simulated rig (live, Kinect v1 noise)",
                lambda: None),
-    SourceKind("tum", "tum:FOLDER", "a TUM RGB-D folder (depth.txt, rgb.txt, metres x 5000)", lambda: None),
-    SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]", lambda: None),
-    SourceKind("bag", "bag:FILE", "a RealSense .bag recording", _library("pyrealsense2", REALSENSE_INSTALL)),
-    SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)", _freenect_devices),
-    SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording", _openni2_devices),
+    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None),
+    SourceKind("dir", "dir:FOLDER",
+               "16-bit depth PNGs; camera.json or intrinsic.json beside them, or ?camera=",
+               lambda: None),
+    SourceKind("tum", "tum:FOLDER", "a TUM RGB-D folder (depth.txt, rgb.txt, metres x 5000)",
+               lambda: None),
+    SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]",
+               lambda: None),
+    SourceKind("bag", "bag:FILE", "a RealSense .bag recording",
+               _library("pyrealsense2", REALSENSE_INSTALL)),
+    SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)",
+               _freenect_devices),
+    SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording",
+               _openni2_devices),
     SourceKind("realsense", "realsense:SERIAL", "a RealSense camera (live)", _realsense_devices),
 )
 
 
 def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
-    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a path; its kind is
-    guessed from what is there (see the module docstring). Raises MirrorscanError for an unknown kind or option."""
+    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a
+    path; its kind is guessed from what is there (see the module docstring). Raises MirrorscanError
+    for an unknown kind or option."""
     body, _, query = spec.partition("?")
     options = dict(parse_qsl(query, keep_blank_values=True))
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
-        raise MirrorscanError(f"source {spec!r}: unknown option(s) {', '.join(unknown)}; use {', '.join(_OPTIONS)}")
+        raise MirrorscanError(
+            f"source {spec!r}: unknown option(s) {', '.join(unknown)}; use {', '.join(_OPTIONS)}")
     kind, colon, target = body.partition(":")
     if colon and kind in {k.name for k in KINDS}:
         return kind, target, options
@@ -108,15 +125,17 @@ def _guess_kind(path: Path, spec: str) -> str:
     if path.is_file() and suffix in (".npz", ".bag", ".oni"):
         return {".npz": "npz", ".bag": "bag", ".oni": "openni2"}[suffix]
     if path.is_dir():
-        return "session" if (path / SESSION_FILE).is_file() else "tum" if (path / "depth.txt").is_file() else "dir"
+        return "session" if (path / SESSION_FILE).is_file() else "tum" if (
+            path / "depth.txt").is_file() else "dir"
     raise MirrorscanError(f"unknown source {spec!r}: use one of {', '.join(k.spec for k in KINDS)} "
                           "(`mirrorscan sources` lists them)")
 
 
 def open_source(spec: str | None, session: Session | None = None) -> DepthSource:
-    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a session with
-    frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to. Raises MirrorscanError (a
-    missing library or device: what to install or plug in) or FileFormatError (a bad file: which and why)."""
+    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a
+    session with frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to.
+    Raises MirrorscanError (a missing library or device: what to install or plug in) or
+    FileFormatError (a bad file: which and why)."""
     if spec is None:
         spec = "session" if session is not None and session.frames else "sim"
     kind, target, options = parse_spec(spec)
@@ -133,7 +152,8 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
                "tum": lambda: open_tum(target, camera, scale),
                "npz": lambda: open_npz(target, fps), "bag": lambda: open_bag(target),
                "freenect": lambda: FreenectSource(_index(target, spec), camera),
-               "openni2": lambda: OpenNI2Source(target), "realsense": lambda: RealSenseSource(target)}
+               "openni2": lambda: OpenNI2Source(target),
+               "realsense": lambda: RealSenseSource(target)}
     return openers[kind]()
 
 
@@ -145,7 +165,8 @@ def _number(options: dict[str, str], key: str, spec: str) -> float | None:
     except ValueError:
         value = float("nan")
     if not (value > 0 and value != float("inf")):
-        raise MirrorscanError(f"source {spec!r}: {key} must be a positive number, got {options[key]!r}")
+        raise MirrorscanError(
+            f"source {spec!r}: {key} must be a positive number, got {options[key]!r}")
     return value
 
 

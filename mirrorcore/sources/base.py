@@ -1,4 +1,5 @@
-"""The depth source interface: Frame (one depth image with its time, colour and the sensor's own units) and DepthSource."""
+"""The depth source interface: Frame (one depth image with its time, colour and the sensor's own
+units) and DepthSource."""
 from __future__ import annotations
 
 import importlib
@@ -18,9 +19,11 @@ class Frame:
     """One frame of a depth source.
 
     depth : (H, W) float32, metres, 0 = no reading (never NaN or inf)
-    timestamp : float, seconds on the source's clock (a recording's own times, or seconds since a live source opened)
+    timestamp : float, seconds on the source's clock (a recording's own times, or seconds since a
+    live source opened)
     colour : (H, W, 3) uint8 RGB registered to the depth image, or None
-    units : (H, W) uint16, the sensor's own values before conversion to metres (Kinect v1: 11-bit disparity,
+    units : (H, W) uint16, the sensor's own values before conversion to metres (Kinect v1: 11-bit
+    disparity,
           2047 = no reading; RealSense: z16 units), or None
     """
 
@@ -33,12 +36,15 @@ class Frame:
 class DepthSource(ABC):
     """Frames of one depth camera, live or recorded.
 
-    name : str, for people; intrinsics : the depth camera's Intrinsics (depth_scale = the units its recording uses);
-    fps : float, nominal frame rate; frame_count : int for a seekable source (a recording), None for a live one.
+    name : str, for people; intrinsics : the depth camera's Intrinsics (depth_scale = the units its
+    recording uses);
+    fps : float, nominal frame rate; frame_count : int for a seekable source (a recording), None for
+    a live one.
 
-    read(i): a seekable source returns frame i modulo frame_count (so playing i = 0, 1, 2... loops and any i seeks);
-    a live source ignores i and returns its next frame, blocking until it arrives. Use a source as a context manager
-    (close() releases the device or the file) and as an iterator (a recording's frames once; a live source's forever).
+    read(i): a seekable source returns frame i modulo frame_count (so playing i = 0, 1, 2... loops
+    and any i seeks); a live source ignores i and returns its next frame, blocking until it arrives.
+    Use a source as a context manager (close() releases the device or the file) and as an iterator
+    (a recording's frames once; a live source's forever).
     """
 
     name: str
@@ -58,14 +64,17 @@ class DepthSource(ABC):
 
     @abstractmethod
     def read(self, i: int) -> Frame:
-        """Frame i (see the class docstring); raises MirrorscanError or FileFormatError with a one-line message."""
+        """Frame i (see the class docstring); raises MirrorscanError or FileFormatError with a
+        one-line message."""
 
     def background(self) -> np.ndarray | None:
-        """The scene without the object as (H, W) float32 metres, or None when the source has none."""
+        """The scene without the object as (H, W) float32 metres, or None when the source has
+        none."""
         return None
 
     def close(self) -> None:
-        """Release the device or files; reading after close is an error. Closing twice does nothing."""
+        """Release the device or files; reading after close is an error. Closing twice does
+        nothing."""
 
     def __enter__(self) -> "DepthSource":
         return self
@@ -80,23 +89,27 @@ class DepthSource(ABC):
             i += 1
 
     def _wrap(self, i: int) -> int:
-        """i modulo frame_count for a seekable source (looping); MirrorscanError for an empty one."""
+        """i modulo frame_count for a seekable source (looping); MirrorscanError for an empty
+        one."""
         if not self.frame_count:
             raise MirrorscanError(f"{self.name}: no frames to read")
         return int(i) % self.frame_count
 
 
 def checked_depth(depth: np.ndarray, intr: Intrinsics, where: str) -> np.ndarray:
-    """A depth image checked against the camera and cleaned: (H, W) float32 metres with NaN, inf and negative
-    values set to 0 (no reading). Raises FileFormatError naming `where` when the size does not match."""
+    """A depth image checked against the camera and cleaned: (H, W) float32 metres with NaN, inf and
+    negative values set to 0 (no reading). Raises FileFormatError naming `where` when the size does
+    not match."""
     depth = np.asarray(check_depth_shape(intr, depth, where), dtype=np.float32)
     return np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(0))
 
 
 def require(module: str, what: str, install: str) -> ModuleType:
-    """Import an optional library when a source needs it; MirrorscanError saying what to install when it is missing.
+    """Import an optional library when a source needs it; MirrorscanError saying what to install
+    when it is missing.
     what : the source, for the message ('freenect:0'); install : how to get the library."""
     try:
         return importlib.import_module(module)
     except ImportError as exc:
-        raise MirrorscanError(f"{what}: cannot import {module} ({exc}); install {install}") from None
+        raise MirrorscanError(
+            f"{what}: cannot import {module} ({exc}); install {install}") from None

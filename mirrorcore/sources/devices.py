@@ -1,5 +1,5 @@
-"""Live depth cameras through optional libraries, imported only when used: Kinect v1 (libfreenect) and OpenNI2
-devices and .oni recordings (PrimeSense, Xtion)."""
+"""Live depth cameras through optional libraries, imported only when used: Kinect v1 (libfreenect)
+and OpenNI2 devices and .oni recordings (PrimeSense, Xtion)."""
 from __future__ import annotations
 
 import time
@@ -13,34 +13,40 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.depth.kinect import disparity_to_depth
 from mirrorcore.sources.base import DepthSource, Frame, require
 
-FREENECT_INSTALL = "Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' (PyPI freenect builds against it)"
+FREENECT_INSTALL = ("Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' "
+                    "(PyPI freenect builds against it)")
 OPENNI2_INSTALL = "Debian's libopenni2-dev, then pip install 'mirrorscan[devices]' (PyPI openni)"
-OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib", "/usr/local/lib")
+OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib",
+                        "/usr/local/lib")
 _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM": 0.0001}
 
 
 class FreenectSource(DepthSource):
     """A Kinect v1 through libfreenect's sync wrapper, live.
 
-    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres by `disparity_model`
-    ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default Nicolas Burrus' calibration
-    z = 1 / (counts * -0.0030711016 + 3.3309495161) (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
-    use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1() (Burrus).
-    Timestamps are seconds since the source opened, on the host's clock.
+    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres
+    by `disparity_model` ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default
+    Nicolas Burrus' calibration z = 1 / (counts * -0.0030711016 + 3.3309495161)
+    (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
+    use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1()
+    (Burrus). Timestamps are seconds since the source opened, on the host's clock.
     """
 
     def __init__(self, index: int = 0, intrinsics: Intrinsics | None = None,
                  disparity_model: Callable[[np.ndarray], np.ndarray] = disparity_to_depth):
         self.name, self.index = f"freenect:{index}", int(index)
         self._freenect = require("freenect", self.name, FREENECT_INSTALL)
-        self.intrinsics, self.fps, self.frame_count = intrinsics or Intrinsics.kinect_v1(), 30.0, None
+        self.intrinsics = intrinsics or Intrinsics.kinect_v1()
+        self.fps, self.frame_count = 30.0, None
         self.disparity_model, self._t0 = disparity_model, time.monotonic()
-        self._first: Frame | None = self._grab()       # fails here, at open, when there is no Kinect
+        # fails here, at open, when there is no Kinect
+        self._first: Frame | None = self._grab()
 
     def _grab(self) -> Frame:
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
         if got is None:
-            raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and readable by this user?)")
+            raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and "
+                                  "readable by this user?)")
         counts = np.array(got[0], dtype=np.uint16)        # a copy: the binding reuses its buffer
         return Frame(self.disparity_model(counts), time.monotonic() - self._t0, units=counts)
 
@@ -53,11 +59,12 @@ class FreenectSource(DepthSource):
 
 
 class OpenNI2Source(DepthSource):
-    """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording (seekable).
+    """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording
+    (seekable).
 
-    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units holds those units);
-    intrinsics from the stream's fields of view (principal point at the image centre); timestamps from the device,
-    seconds.
+    Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units
+    holds those units); intrinsics from the stream's fields of view (principal point at the image
+    centre); timestamps from the device, seconds.
     """
 
     def __init__(self, target: str = ""):
@@ -68,8 +75,11 @@ class OpenNI2Source(DepthSource):
         if is_file and not Path(target).is_file():
             raise FileFormatError(f"{target}: no such .oni recording")
         try:
-            self._device = (openni2.Device.open_file(target.encode()) if is_file else
-                            openni2.Device.open_any() if not target else openni2.Device(target.encode()))
+            if is_file:
+                self._device = openni2.Device.open_file(target.encode())
+            else:
+                self._device = (openni2.Device(target.encode()) if target
+                                else openni2.Device.open_any())
             self._stream = self._device.create_depth_stream()
             self._stream.start()
         except openni2.OpenNIError as exc:
@@ -77,7 +87,8 @@ class OpenNI2Source(DepthSource):
         mode = self._stream.get_video_mode()
         fmt = getattr(mode.pixelFormat, "name", str(mode.pixelFormat)).split(".")[-1]
         if fmt not in _OPENNI2_SCALES:
-            raise MirrorscanError(f"{self.name}: depth pixel format {fmt} is not one of {', '.join(_OPENNI2_SCALES)}")
+            raise MirrorscanError(f"{self.name}: depth pixel format {fmt} is not one of "
+                                  f"{', '.join(_OPENNI2_SCALES)}")
         w, h = int(mode.resolutionX), int(mode.resolutionY)
         fx = w / 2 / np.tan(self._stream.get_horizontal_fov() / 2)
         fy = h / 2 / np.tan(self._stream.get_vertical_fov() / 2)
@@ -85,8 +96,10 @@ class OpenNI2Source(DepthSource):
         self.fps = float(mode.fps or 30)
         self._playback = self._device.playback if is_file else None
         if self._playback is not None:
-            self._playback.set_speed(-1)                    # manual: one frame per read, no real-time pacing
-        self.frame_count = None if self._playback is None else self._playback.get_number_of_frames(self._stream)
+            # manual: one frame per read, no real-time pacing
+            self._playback.set_speed(-1)
+        self.frame_count = (None if self._playback is None
+                            else self._playback.get_number_of_frames(self._stream))
 
     def read(self, i: int) -> Frame:
         if self._playback is not None:
@@ -94,7 +107,8 @@ class OpenNI2Source(DepthSource):
         frame = self._stream.read_frame()
         h, w = self.intrinsics.shape
         units = np.frombuffer(frame.get_buffer_as_uint16(), np.uint16, h * w).reshape(h, w).copy()
-        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), frame.timestamp * 1e-6,
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                     frame.timestamp * 1e-6,
                      units=units)
 
     def close(self) -> None:
@@ -103,15 +117,19 @@ class OpenNI2Source(DepthSource):
 
 
 def initialise_openni2(openni2, what: str) -> None:
-    """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when it is missing."""
+    """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when
+    it is missing."""
     try:
-        openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()] or ["."])
+        openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()]
+                           or ["."])
     except Exception as exc:  # openni raises its own InitializationError, not an ImportError
-        raise MirrorscanError(f"{what}: cannot load libOpenNI2 ({str(exc).splitlines()[0].strip()}); "
+        raise MirrorscanError(f"{what}: cannot load libOpenNI2 "
+                              f"({str(exc).splitlines()[0].strip()}); "
                               f"install {OPENNI2_INSTALL}") from None
 
 
 def _openni2_message(exc: Exception) -> str:
     """OpenNIError(status, b'message', ...) -> its message as one line."""
     detail = exc.args[1] if len(exc.args) > 1 else exc
-    return (detail.decode(errors="replace") if isinstance(detail, bytes) else str(detail)).strip().replace("\n", " ")
+    return (detail.decode(errors="replace") if isinstance(detail, bytes)
+            else str(detail)).strip().replace("\n", " ")

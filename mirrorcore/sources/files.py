@@ -1,5 +1,6 @@
-"""Recorded depth sources that users already have: session folders, folders of 16-bit PNG, TUM RGB-D folders and
-.npz stacks. All are seekable: frame_count frames, read(i) for any i (modulo frame_count: playing loops)."""
+"""Recorded depth sources that users already have: session folders, folders of 16-bit PNG, TUM RGB-D
+folders and .npz stacks. All are seekable: frame_count frames, read(i) for any i (modulo
+frame_count: playing loops)."""
 from __future__ import annotations
 
 import zipfile
@@ -21,22 +22,26 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
-REAL = (np.integer, np.floating)           # the dtypes of a .npz's numbers (np.number also takes complex ones)
-_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+# the dtypes of a .npz's numbers (np.number also takes complex ones)
+REAL = (np.integer, np.floating)
+_NPY_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0,
+                (2, 0): np.lib.format.read_array_header_2_0}
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
 class ImageSequenceSource(DepthSource):
-    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and optional colour.
+    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and
+    optional colour.
 
-    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or None entries), or
-    None for none.
+    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or
+    None entries), or None for none.
     """
 
     def __init__(self, name: str, intrinsics: Intrinsics, paths: list[Path], timestamps: np.ndarray,
                  colour_paths: list[Path | None] | None = None, fps: float = 30.0):
         self.name, self.intrinsics, self.fps = name, intrinsics, float(fps)
-        self.paths, self.timestamps, self.colour_paths = list(paths), np.asarray(timestamps, float), colour_paths
+        self.paths, self.colour_paths = list(paths), colour_paths
+        self.timestamps = np.asarray(timestamps, float)
         self.frame_count = len(self.paths)
         if not self.frame_count:
             raise FileFormatError(f"{name}: no depth frames")
@@ -44,18 +49,23 @@ class ImageSequenceSource(DepthSource):
     def read(self, i: int) -> Frame:
         i = self._wrap(i)
         depth = read_depth_png(self.paths[i], self.intrinsics.depth_scale, self.intrinsics.shape)
-        colour = None if self.colour_paths is None else read_colour(self.colour_paths[i], self.intrinsics)
+        colour = None if self.colour_paths is None else read_colour(self.colour_paths[i],
+                                                                    self.intrinsics)
         return Frame(depth, float(self.timestamps[i]), colour)
 
 
 class SessionSource(ImageSequenceSource):
-    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour frames."""
+    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour
+    frames."""
 
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
         root = Path(session.root)
-        stamps = session.timestamps if session.timestamps is not None else np.arange(len(session.frames)) / fps
-        colour = None if session.colour_frames is None else [root / c for c in session.colour_frames]
+        stamps = session.timestamps
+        if stamps is None:
+            stamps = np.arange(len(session.frames)) / fps
+        colour = None if session.colour_frames is None else [root / c
+                                                             for c in session.colour_frames]
         super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
                          np.asarray(stamps, float), colour, fps)
 
@@ -63,12 +73,14 @@ class SessionSource(ImageSequenceSource):
         return self.session.read_background()
 
 
-def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None,
+def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
+                    depth_scale: float | None = None,
                     fps: float = 30.0) -> ImageSequenceSource:
     """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
 
-    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object) or intrinsic.json
-    (Open3D). depth_scale (metres per unit): the argument, else camera.json's, else 0.001. Raises FileFormatError.
+    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object)
+    or intrinsic.json (Open3D). depth_scale (metres per unit): the argument, else camera.json's,
+    else 0.001. Raises FileFormatError.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -79,11 +91,13 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None, depth_
     camera = camera or folder_camera(folder)
     if depth_scale is not None:
         camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
-    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths, np.arange(len(paths)) / fps, fps=fps)
+    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths,
+                               np.arange(len(paths)) / fps, fps=fps)
 
 
 def folder_camera(folder: Path) -> Intrinsics:
-    """The camera described beside a folder's images: camera.json, else intrinsic.json; FileFormatError if neither."""
+    """The camera described beside a folder's images: camera.json, else intrinsic.json;
+    FileFormatError if neither."""
     if (folder / CAMERA_SIDECAR).is_file():
         path = folder / CAMERA_SIDECAR
         return Intrinsics.from_dict(read_json(path, "camera file"), str(path))
@@ -94,8 +108,8 @@ def folder_camera(folder: Path) -> Intrinsics:
 
 
 def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
-    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json (the session's camera
-    object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
+    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json
+    (the session's camera object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
     if value in PRESETS:
         return Intrinsics(**{**PRESETS[value]().to_dict(), "depth_scale": depth_scale})
     path = Path(value)
@@ -104,14 +118,15 @@ def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
     data = read_json(path, "camera file")
     if isinstance(data, dict) and "intrinsic_matrix" in data:
         return load_open3d_json(path, depth_scale)
-    return Intrinsics.from_dict({"depth_scale": depth_scale, **data} if isinstance(data, dict) else data, str(path))
+    return Intrinsics.from_dict({"depth_scale": depth_scale, **data} if isinstance(data, dict)
+                                else data, str(path))
 
 
 def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None
              ) -> ImageSequenceSource:
-    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x 5000, colour
-    from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera defaults to TUM's recommended
-    525 / 525 / 319.5 / 239.5 at 640x480."""
+    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x
+    5000, colour from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera
+    defaults to TUM's recommended 525 / 525 / 319.5 / 239.5 at 640x480."""
     folder = Path(folder)
     depth_stamps, depth_paths = read_tum_list(folder / "depth.txt")
     scale = TUM_DEPTH_SCALE if depth_scale is None else depth_scale
@@ -122,12 +137,14 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
         nearest = nearest_stamps(colour_stamps, depth_stamps)
         ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
         colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
-    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0], 1e-9) if len(depth_stamps) > 1 else 30.0
+    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0],
+                                        1e-9) if len(depth_stamps) > 1 else 30.0
     return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
 
 
 def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
-    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's folder."""
+    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's
+    folder."""
     if not path.is_file():
         raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
     stamps, paths = [], []
@@ -153,7 +170,8 @@ def _parses(text: str) -> bool:
 
 
 def nearest_stamps(stamps: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float -> (m,) int."""
+    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float ->
+    (m,) int."""
     right = np.searchsorted(stamps, queries).clip(0, len(stamps) - 1)
     left = (right - 1).clip(0)
     return np.where(np.abs(stamps[left] - queries) <= np.abs(stamps[right] - queries), left, right)
@@ -167,7 +185,8 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
     if bgr is None:
         raise FileFormatError(f"{path}: not a readable colour image")
     if bgr.shape[:2] != intr.shape:
-        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the depth camera's "
+        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the "
+                              "depth camera's "
                               f"{intr.width}x{intr.height}")
     return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
@@ -175,14 +194,17 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
 class StackSource(DepthSource):
     """Frames held in memory as a stack of sensor units.
 
-    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float seconds;
+    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float
+    seconds;
     colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.units (uint16).
     NaN, inf and values <= 0 read as no reading.
     """
 
-    def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float, timestamps: np.ndarray,
+    def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float,
+                 timestamps: np.ndarray,
                  colour: np.ndarray | None = None, fps: float = 30.0):
-        self.name, self.intrinsics, self.fps, self.frame_count = name, intrinsics, float(fps), len(units)
+        self.name, self.intrinsics = name, intrinsics
+        self.fps, self.frame_count = float(fps), len(units)
         self.units, self.scale = units, np.float32(scale)
         self.timestamps, self.colour = np.asarray(timestamps, float), colour
 
@@ -192,25 +214,31 @@ class StackSource(DepthSource):
         with np.errstate(invalid="ignore", over="ignore"):
             depth = checked_depth(units.astype(np.float32) * self.scale, self.intrinsics, self.name)
         sensor_units = units.astype(np.uint16) if np.issubdtype(units.dtype, np.integer) else None
-        return Frame(depth, float(self.timestamps[i]), None if self.colour is None else self.colour[i], sensor_units)
+        return Frame(depth, float(self.timestamps[i]),
+                     None if self.colour is None else self.colour[i], sensor_units)
 
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
-    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale` metres (integer
-    stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3) camera matrix, optional
-    `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3) uint8 RGB. Raises FileFormatError."""
+    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale`
+    metres (integer stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3)
+    camera matrix, optional `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3)
+    uint8 RGB. Raises FileFormatError."""
     path = Path(path)
     arrays = load_npz(path)
     for key in ("depth", "K"):
         if key not in arrays:
-            raise FileFormatError(f"{path}: missing array '{key}' (has {', '.join(sorted(arrays)) or 'none'})")
+            raise FileFormatError(f"{path}: missing array '{key}' (has "
+                                  f"{', '.join(sorted(arrays)) or 'none'})")
     depth = arrays["depth"][None] if arrays["depth"].ndim == 2 else arrays["depth"]
     integer = np.issubdtype(depth.dtype, np.integer)
-    if depth.ndim != 3 or not (integer or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
-        raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got {depth.dtype} "
+    if depth.ndim != 3 or not (integer
+                               or np.issubdtype(depth.dtype, np.floating)) or not depth.size:
+        raise FileFormatError(f"{path}: 'depth' must be a non-empty (N, H, W) numeric stack, got "
+                              f"{depth.dtype} "
                               f"{depth.shape}")
     if integer and "depth_scale" not in arrays:
-        raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per unit)")
+        raise FileFormatError(f"{path}: an integer depth stack needs 'depth_scale' (metres per "
+                              "unit)")
     scale = float(_optional(path, arrays, "depth_scale", (), REAL, 1.0))
     if not (np.isfinite(scale) and scale > 0):
         raise FileFormatError(f"{path}: 'depth_scale' must be positive, got {scale:g}")
@@ -227,20 +255,22 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
 
 
 def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[type, ...], default):
-    """arrays[key] checked for shape and dtype, one of `kinds` (REAL, (np.uint8,)...), or `default` when absent."""
+    """arrays[key] checked for shape and dtype, one of `kinds` (REAL, (np.uint8,)...), or `default`
+    when absent."""
     if key not in arrays:
         return default
     value = arrays[key]
     if value.shape != shape or not any(np.issubdtype(value.dtype, kind) for kind in kinds):
-        raise FileFormatError(f"{path}: '{key}' must be {' or '.join(k.__name__ for k in kinds)} of shape {shape}, "
+        raise FileFormatError(f"{path}: '{key}' must be {' or '.join(k.__name__ for k in kinds)} "
+                              f"of shape {shape}, "
                               f"got {value.dtype} {value.shape}")
     return value
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt or pickled, and
-    MemoryBudgetError when the arrays' declared shapes (read from their .npy headers first) would not fit in the
-    memory budget."""
+    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt
+    or pickled, and MemoryBudgetError when the arrays' declared shapes (read from their .npy headers
+    first) would not fit in the memory budget."""
     if not path.is_file():
         raise FileFormatError(f"{path}: no such .npz file")
     if not zipfile.is_zipfile(path):
@@ -253,15 +283,18 @@ def load_npz(path: Path) -> dict[str, np.ndarray]:
                 return {key: data[key] for key in data.files}
     except ValueError as exc:
         if "allow_pickle" in str(exc):
-            raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never loads") from None
+            raise FileFormatError(f"{path}: holds pickled (object) arrays, which mirrorscan never "
+                                  "loads") from None
         raise FileFormatError(f"{path}: not a readable .npz file ({exc})") from None
     except (OSError, zipfile.BadZipFile, EOFError, NotImplementedError, zlib.error) as exc:
-        raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+        raise FileFormatError(f"{path}: not a readable .npz file ({type(exc).__name__}: "
+                              f"{exc})") from None
 
 
 def npz_declared_bytes(file) -> dict[str, int]:
-    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item size), read without
-    loading any array: {member name: bytes}. Raises ValueError for a member that is not an .npy array."""
+    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item
+    size), read without loading any array: {member name: bytes}. Raises ValueError for a member that
+    is not an .npy array."""
     sizes = {}
     with zipfile.ZipFile(file) as archive:
         for info in archive.infolist():
@@ -270,7 +303,8 @@ def npz_declared_bytes(file) -> dict[str, int]:
             with archive.open(info) as member:
                 version = np.lib.format.read_magic(member)
                 if version not in _NPY_HEADERS:
-                    raise ValueError(f"{info.filename}: .npy format version {version} is not read here")
+                    raise ValueError(f"{info.filename}: .npy format version {version} is not read "
+                                     "here")
                 shape, _, dtype = _NPY_HEADERS[version](member, max_header_size=10_000)
             sizes[info.filename] = int(np.prod(shape, dtype=object)) * max(dtype.itemsize, 1)
     return sizes

@@ -1,4 +1,5 @@
-"""Intel RealSense through pyrealsense2 (optional, imported only when used): live cameras and .bag recordings."""
+"""Intel RealSense through pyrealsense2 (optional, imported only when used): live cameras and .bag
+recordings."""
 from __future__ import annotations
 
 import queue
@@ -14,18 +15,21 @@ from mirrorcore.sources.base import DepthSource, Frame, require
 
 REALSENSE_INSTALL = "pip install 'mirrorscan[devices]' (PyPI pyrealsense2)"
 BAG_TIMEOUT_S = 600.0           # a bag's playback that has not ended by then is reported as broken
-BAG_START_S = 5.0               # a playback still stopped this long after its start delivers nothing
+# a playback still stopped this long after its start delivers nothing
+BAG_START_S = 5.0
 
 
 class RealSenseSource(DepthSource):
-    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units (Frame.units holds
-    the z16 values), intrinsics from the depth stream's profile, timestamps from the device in seconds."""
+    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units
+    (Frame.units holds the z16 values), intrinsics from the depth stream's profile, timestamps from
+    the device in seconds."""
 
     def __init__(self, serial: str = ""):
         self.name = f"realsense:{serial}"
         rs = require("pyrealsense2", self.name, REALSENSE_INSTALL)
         if not rs.context().query_devices().size():
-            raise MirrorscanError(f"{self.name}: no RealSense camera found (plugged in to a USB 3 port?)")
+            raise MirrorscanError(
+                f"{self.name}: no RealSense camera found (plugged in to a USB 3 port?)")
         config = rs.config()
         if serial:
             config.enable_device(serial)
@@ -41,7 +45,8 @@ class RealSenseSource(DepthSource):
     def read(self, i: int) -> Frame:
         depth = self._pipe.wait_for_frames().get_depth_frame()
         units = np.asanyarray(depth.get_data()).copy()
-        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), depth.get_timestamp() * 1e-3,
+        return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                     depth.get_timestamp() * 1e-3,
                      units=units)
 
     def close(self) -> None:
@@ -49,9 +54,11 @@ class RealSenseSource(DepthSource):
 
 
 def profile_camera(rs, profile) -> tuple[Intrinsics, float]:
-    """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth units) and fps."""
+    """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth
+    units) and fps."""
     stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
-    return _camera(stream, profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
+    return _camera(stream,
+                   profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
 
 
 def _camera(stream, units: float) -> Intrinsics:
@@ -61,19 +68,21 @@ def _camera(stream, units: float) -> Intrinsics:
 
 
 def open_bag(path: str | Path) -> "BagSource":
-    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a time (see BagSource).
-    Raises FileFormatError for a missing or unreadable bag."""
+    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a
+    time (see BagSource). Raises FileFormatError for a missing or unreadable bag."""
     return BagSource(path)
 
 
 class BagSource(DepthSource):
-    """A .bag played from its file one frame at a time, so that memory does not grow with its length: depth frames as
-    z16 units (Frame.units) times the recorded depth units, device timestamps in seconds.
+    """A .bag played from its file one frame at a time, so that memory does not grow with its
+    length: depth frames as z16 units (Frame.units) times the recorded depth units, device
+    timestamps in seconds.
 
-    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the next frame takes
-    it from the playback; any other i restarts the playback from the start and skips to it (seeking costs a replay).
-    The depth sensor is read through a callback with real-time playback off, so the playback waits for each frame
-    (a pipeline drops frames on a busy machine); the callback hands frames over through a queue of BAG_QUEUE."""
+    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the
+    next frame takes it from the playback; any other i restarts the playback from the start and
+    skips to it (seeking costs a replay). The depth sensor is read through a callback with real-time
+    playback off, so the playback waits for each frame (a pipeline drops frames on a busy machine);
+    the callback hands frames over through a queue of BAG_QUEUE."""
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -105,7 +114,8 @@ class BagSource(DepthSource):
             self._next += 1
             if self._next > i:
                 units, stamp = item
-                return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale), stamp, units=units)
+                return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
+                             stamp, units=units)
 
     def close(self) -> None:
         if self._player is not None:
@@ -117,8 +127,9 @@ BAG_QUEUE = 2           # frames decoded ahead of the reader
 
 
 class _Playback:
-    """One pass over a bag's depth frames: start(), then next() -> (units (H, W) uint16 or None, seconds) until None
-    at the end; close() (or the with block) stops it, even while the callback waits for room in the queue."""
+    """One pass over a bag's depth frames: start(), then next() -> (units (H, W) uint16 or None,
+    seconds) until None at the end; close() (or the with block) stops it, even while the callback
+    waits for room in the queue."""
 
     def __init__(self, rs, path: Path, keep_data: bool = True):
         self.rs, self.path, self.keep_data = rs, path, keep_data
@@ -127,7 +138,8 @@ class _Playback:
         self._started, self._delivered = False, 0
         try:
             self.playback = rs.context().load_device(str(path)).as_playback()
-            self.sensor = next((s for s in self.playback.query_sensors() if _depth_profile(rs, s) is not None), None)
+            self.sensor = next((s for s in self.playback.query_sensors()
+                                if _depth_profile(rs, s) is not None), None)
             if self.sensor is None:
                 raise FileFormatError(f"{path}: the recording has no depth stream")
             self.profile = _depth_profile(rs, self.sensor)
@@ -148,13 +160,16 @@ class _Playback:
             self.sensor.open(self.profile)
             self.sensor.start(self._take)
         except RuntimeError as exc:
-            raise FileFormatError(f"{self.path}: not a readable RealSense recording ({exc})") from None
+            raise FileFormatError(
+                f"{self.path}: not a readable RealSense recording ({exc})") from None
         self._started, self._start_time = True, time.monotonic()
         return self
 
     def _take(self, frame) -> None:
-        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits too."""
-        item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None, frame.get_timestamp() * 1e-3)
+        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits
+        too."""
+        item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None,
+                frame.get_timestamp() * 1e-3)
         while not self._stopping.is_set():
             try:
                 self._queue.put(item, timeout=0.05)
@@ -163,8 +178,9 @@ class _Playback:
                 continue
 
     def next(self) -> tuple | None:
-        """The next frame, or None once the playback has stopped after delivering its frames (it reads 'stopped'
-        before it starts too: BAG_START_S). Raises FileFormatError when it has not ended within BAG_TIMEOUT_S."""
+        """The next frame, or None once the playback has stopped after delivering its frames (it
+        reads 'stopped' before it starts too: BAG_START_S). Raises FileFormatError when it has not
+        ended within BAG_TIMEOUT_S."""
         while True:
             try:
                 item = self._queue.get(timeout=0.02)
@@ -177,7 +193,8 @@ class _Playback:
             if stopped and self._queue.empty() and (self._delivered or waited > BAG_START_S):
                 return None
             if waited > BAG_TIMEOUT_S:
-                raise FileFormatError(f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
+                raise FileFormatError(
+                    f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
 
     def close(self) -> None:
         self._stopping.set()

@@ -1,12 +1,14 @@
-"""Recording any depth source into a session folder (docs/DESIGN.md's format: uint16 PNG frames, session.json with
-'timestamps' and, when the source has colour, 'colour_frames'): record() and the threaded Recorder.
+"""Recording any depth source into a session folder (docs/DESIGN.md's format: uint16 PNG frames,
+session.json with 'timestamps' and, when the source has colour, 'colour_frames'): record() and the
+threaded Recorder.
 
-A recording is a valid session at every moment: session.json is written (atomically) before the first frame and
-rewritten every SAVE_EVERY_S seconds with the frames that have landed, so a process killed mid-recording (SIGKILL, a
-crash, the power) leaves a session that opens with all its frames but the last second's.
+A recording is a valid session at every moment: session.json is written (atomically) before the
+first frame and rewritten every SAVE_EVERY_S seconds with the frames that have landed, so a process
+killed mid-recording (SIGKILL, a crash, the power) leaves a session that opens with all its frames
+but the last second's.
 
-For the browser tool: Recorder(source, new_recording_folder(sessions_dir)).start(); .frames counts what is written;
-.stop() returns the Session and never waits longer than its timeout.
+For the browser tool: Recorder(source, new_recording_folder(sessions_dir)).start(); .frames counts
+what is written; .stop() returns the Session and never waits longer than its timeout.
 """
 from __future__ import annotations
 
@@ -30,16 +32,18 @@ COLOUR_NAME = "frames/{:06d}_colour.png"
 SAVE_EVERY_S = 1.0          # session.json is rewritten this often while recording (and at the end)
 
 
-def record(source: DepthSource, folder: str | Path, seconds: float | None = None, frames: int | None = None,
+def record(source: DepthSource, folder: str | Path, seconds: float | None = None,
+           frames: int | None = None,
            progress: Callable[[int, Frame], None] = lambda n, frame: None,
            cancel: Callable[[], bool] = lambda: False) -> Session:
     """Record `source` into a new session folder and return its Session.
 
-    Stops at the first of: `frames` frames; a frame whose timestamp is `seconds` or more after the first one; the end
-    of the source's iteration (one pass of a recording); cancel() returning True; Ctrl-C. session.json is valid from
-    the start and rewritten every SAVE_EVERY_S seconds and at the end (see the module docstring). Ctrl-C, or an error
-    after the first frame (a camera unplugged), keeps what was recorded as a valid session and is raised again; an
-    error before any frame removes the folder. progress(n, frame) is called after frame n (1-based) is written.
+    Stops at the first of: `frames` frames; a frame whose timestamp is `seconds` or more after the
+    first one; the end of the source's iteration (one pass of a recording); cancel() returning True;
+    Ctrl-C. session.json is valid from the start and rewritten every SAVE_EVERY_S seconds and at the
+    end (see the module docstring). Ctrl-C, or an error after the first frame (a camera unplugged),
+    keeps what was recorded as a valid session and is raised again; an error before any frame
+    removes the folder. progress(n, frame) is called after frame n (1-based) is written.
     folder : must not exist, or be empty. Raises MirrorscanError, FileFormatError, OSError.
     """
     folder = Path(folder)
@@ -54,7 +58,8 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
         frames_in = iter(source)      # a recording's frames once, a live source's until it ends
         while len(take.names) < limit and not cancel():
             frame = next(frames_in, None)
-            if frame is None or seconds is not None and take.stamps and frame.timestamp - take.stamps[0] >= seconds:
+            if frame is None or (seconds is not None and take.stamps
+                                 and frame.timestamp - take.stamps[0] >= seconds):
                 break
             take.add(frame)
             progress(len(take.names), frame)
@@ -68,7 +73,8 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
 
 
 class _Take:
-    """The frames of one recording as they land, and its session.json saved at most every SAVE_EVERY_S seconds."""
+    """The frames of one recording as they land, and its session.json saved at most every
+    SAVE_EVERY_S seconds."""
 
     def __init__(self, source: DepthSource, folder: Path):
         self.source, self.folder = source, folder
@@ -83,9 +89,11 @@ class _Take:
         self._saved_at = time.monotonic()
 
     def add(self, frame: Frame) -> None:
-        """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S old."""
+        """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S
+        old."""
         n = len(self.names)
-        write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth, self.source.intrinsics.depth_scale)
+        write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth,
+                        self.source.intrinsics.depth_scale)
         if frame.colour is not None:
             write_colour_png(self.folder / COLOUR_NAME.format(n), frame.colour)
             self.colours.append(COLOUR_NAME.format(n))
@@ -95,9 +103,11 @@ class _Take:
             self.save()
 
     def save(self) -> Session:
-        session = Session(self.folder, self.source.intrinsics, (), self.background, tuple(self.names),
+        session = Session(self.folder, self.source.intrinsics, (), self.background,
+                          tuple(self.names),
                           timestamps=tuple(self.stamps),
-                          colour_frames=tuple(self.colours) if self.colours and len(self.colours) == len(self.names)
+                          colour_frames=tuple(self.colours) if self.colours and len(
+                              self.colours) == len(self.names)
                           else None)
         save_session(session)
         self._saved_at = time.monotonic()
@@ -105,8 +115,9 @@ class _Take:
 
 
 def new_recording_folder(parent: str | Path, prefix: str = "recording") -> Path:
-    """Create and return a new empty folder `parent`/PREFIX-YYYYmmdd-HHMMSS (with -2, -3... when that name is taken):
-    made with an exclusive mkdir, so two recordings started in the same second never share a folder."""
+    """Create and return a new empty folder `parent`/PREFIX-YYYYmmdd-HHMMSS (with -2, -3... when
+    that name is taken): made with an exclusive mkdir, so two recordings started in the same second
+    never share a folder."""
     parent = Path(parent)
     parent.mkdir(parents=True, exist_ok=True)
     stem = f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}"
@@ -129,11 +140,12 @@ def write_colour_png(path: Path, colour) -> None:
 
 
 class Recorder:
-    """record() on a background thread, for a UI: start(), then stop() (or wait for the limit) to get the Session.
+    """record() on a background thread, for a UI: start(), then stop() (or wait for the limit) to
+    get the Session.
 
-    frames : int, frames written so far; done : bool; error : the exception that ended it, or None. stop() returns
-    within its timeout whatever the source does (a source blocked in a read is left to end on its own; the
-    recording's session.json is valid all along).
+    frames : int, frames written so far; done : bool; error : the exception that ended it, or None.
+    stop() returns within its timeout whatever the source does (a source blocked in a read is left
+    to end on its own; the recording's session.json is valid all along).
     """
 
     def __init__(self, source: DepthSource, folder: str | Path, seconds: float | None = None,
@@ -152,21 +164,24 @@ class Recorder:
         return self
 
     def stop(self, timeout: float = 10.0) -> Session:
-        """Stop recording, wait (at most `timeout` seconds) for the session to be written and return it; raises the
-        error that ended it, or MirrorscanError when the recording has not ended in time."""
+        """Stop recording, wait (at most `timeout` seconds) for the session to be written and return
+        it; raises the error that ended it, or MirrorscanError when the recording has not ended in
+        time."""
         self._cancel.set()
         if self._thread.ident is not None:
             self._thread.join(timeout)
         if self.error is not None:
             raise self.error
         if self.session is None:
-            raise MirrorscanError(f"{self.folder}: the recording did not end within {timeout:g} s (its source is "
+            raise MirrorscanError(
+                f"{self.folder}: the recording did not end within {timeout:g} s (its source is "
                                   f"not delivering frames); {self.frames} frames are saved there")
         return self.session
 
     def _run(self) -> None:
         try:
-            self.session = record(self.source, self.folder, self.seconds, self.limit, self._count, self._cancel.is_set)
+            self.session = record(self.source, self.folder, self.seconds, self.limit, self._count,
+                                  self._cancel.is_set)
         except Exception as exc:  # handed to the caller of stop()
             self.error = exc
 

@@ -1,4 +1,5 @@
-"""Simulated depth sources: the simulated rig as a live camera, and the scene a simulated session was made from."""
+"""Simulated depth sources: the simulated rig as a live camera, and the scene a simulated session
+was made from."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,9 +16,10 @@ from mirrorcore.sources.base import DepthSource, Frame
 
 
 class SimulatedSource(DepthSource):
-    """The simulated rig as a live source: read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise
-    reproducible from the rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view`
-    False renders the scene without its objects, as when the person steps out to capture the background."""
+    """The simulated rig as a live source: read(i) renders frame i at time i / fps (animated
+    objects, Kinect v1 noise reproducible from the rig's seed), so it has no frame count but any
+    frame can be asked for. `objects_in_view` False renders the scene without its objects, as when
+    the person steps out to capture the background."""
 
     def __init__(self, rig: Simulator, name: str = "simulated rig"):
         self.rig, self.name = rig, name
@@ -30,7 +32,8 @@ class SimulatedSource(DepthSource):
 
     def read(self, i: int) -> Frame:
         if not self.objects_in_view:
-            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]), False).depth,
+            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
+                                         False).depth,
                          i / self.fps)
         frame = self.rig.frame(i)
         return Frame(frame.depth, frame.t)
@@ -40,11 +43,12 @@ class SimulatedSource(DepthSource):
 
 
 def open_simulated(target: str, session: Session | None) -> SimulatedSource:
-    """'sim' (target ''): the session's simulated scene when it has a truth.json, else the paper's rig with a walking
-    figure at 3 m; 'sim:SCENE.json': a scene file."""
+    """'sim' (target ''): the session's simulated scene when it has a truth.json, else the paper's
+    rig with a walking figure at 3 m; 'sim:SCENE.json': a scene file."""
     if target:
         return SimulatedSource(Simulator(load_scene(target)), f"simulated {Path(target).name}")
-    return SimulatedSource(Simulator(session_scene(session) or paper_scene(object="figure", distance=3.0)))
+    return SimulatedSource(Simulator(session_scene(session)
+                                     or paper_scene(object="figure", distance=3.0)))
 
 
 def session_scene(session: Session | None) -> Scene | None:
@@ -54,8 +58,8 @@ def session_scene(session: Session | None) -> Scene | None:
 
 
 def session_truth(session: Session | None) -> tuple[Scene, float] | None:
-    """(the simulated scene a session was made from, its frames per second: frame i shows the scene at i / fps),
-    from its truth.json, or None without one."""
+    """(the simulated scene a session was made from, its frames per second: frame i shows the scene
+    at i / fps), from its truth.json, or None without one."""
     if session is None or not (Path(session.root) / TRUTH_FILE).is_file():
         return None
     path = Path(session.root) / TRUTH_FILE

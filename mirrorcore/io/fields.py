@@ -1,0 +1,101 @@
+"""The typed fields of session.json: lists, pixels, polygons, relative paths and timestamps, each
+read with a FileFormatError that names the file and the key."""
+from __future__ import annotations
+
+from pathlib import Path, PurePosixPath
+
+from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.base.jsonfile import finite_number
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.polygon import MAX_VERTICES, validate_polygon
+
+Pixels = tuple[tuple[float, float], ...]
+
+
+def read_list(value, where: str, limit: int | None = None, what: str = "items") -> list:
+    """`value` when it is a list of at most `limit` items.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where` and, beyond the limit, how many `what` it holds.
+    """
+    if not isinstance(value, list):
+        raise FileFormatError(f"{where}: must be a list")
+    if limit is not None and len(value) > limit:
+        raise FileFormatError(f"{where}: {len(value):,} {what}, more than the {limit:,} a session "
+                              "may hold")
+    return value
+
+
+def read_pixels(value, camera: Intrinsics, where: str, limit: int = MAX_VERTICES) -> Pixels:
+    """A list of at most `limit` [u, v] inside the image, as a tuple of (u, v) float pixels.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where` and the item.
+    """
+    out = []
+    for i, p in enumerate(read_list(value, where, limit, "points")):
+        pair = isinstance(p, (list, tuple)) and len(p) == 2
+        uv = [finite_number(c) for c in p] if pair else [None]
+        if None in uv:
+            raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got "
+                                  f"{str(p)[:80]}")
+        u, v = uv
+        if not (-0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
+            raise FileFormatError(f"{where}[{i}]: pixel ({u:g}, {v:g}) is outside the "
+                                  f"{camera.width}x{camera.height} image")
+        out.append((u, v))
+    return tuple(out)
+
+
+def read_polygon(value, camera: Intrinsics, where: str) -> Pixels:
+    """A polygon of pixels (empty allowed), checked by validate_polygon when it has vertices."""
+    pixels = read_pixels(value, camera, where)
+    if pixels:
+        try:
+            validate_polygon(pixels, camera.shape, where)
+        except MirrorscanError as exc:
+            raise FileFormatError(str(exc)) from None
+    return pixels
+
+
+def read_paths(value, folder: Path, where: str, limit: int) -> tuple[str, ...]:
+    """A list of at most `limit` paths, each read by read_relative_path."""
+    items = read_list(value, where, limit, "paths")
+    return tuple(read_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(items))
+
+
+def read_relative_path(value, folder: Path, where: str) -> str:
+    """A path relative to the session folder that stays inside it, in POSIX form."""
+    if not isinstance(value, str) or not value or not encodable(value) or "\0" in value:
+        raise FileFormatError(f"{where}: must be a path relative to the session folder")
+    rel = PurePosixPath(value.replace("\\", "/"))
+    if rel.is_absolute() or ".." in rel.parts or (len(value) > 1 and value[1] == ":"):
+        raise FileFormatError(f"{where}: path {value!r} leaves the session folder")
+    return str(rel)
+
+
+def read_timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
+    """One number of seconds per frame, as a tuple of n_frames floats."""
+    stamps = read_list(value, where)
+    if len(stamps) != n_frames:
+        raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
+    out = tuple(finite_number(t) for t in stamps)
+    if None in out:
+        i = out.index(None)
+        raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got "
+                              f"{str(stamps[i])[:80]}")
+    return out
+
+
+def encodable(text: str) -> bool:
+    """True when `text` can be written as UTF-8 (a JSON string may hold lone surrogates, which
+    cannot)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
