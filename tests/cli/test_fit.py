@@ -8,7 +8,7 @@ import json
 import numpy as np
 import open3d as o3d
 import pytest
-from helpers import GLOBE_DEPTH, globe_points
+from tests.helpers import GLOBE_DEPTH, globe_points
 
 from mirrorscan.cli import main
 from tests.cli.output import details, headlines

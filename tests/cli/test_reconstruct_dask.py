@@ -12,8 +12,8 @@ import threading
 
 import pytest
 
-from batch_scene import FRAMES, OPTIONS, child_processes, ply_files
-from batch_scene import recording_fixture, reference_fixture  # noqa: F401
+from tests.batch_scene import FRAMES, OPTIONS, child_processes, ply_files
+from tests.batch_scene import recording_fixture, reference_fixture  # noqa: F401
 
 from mirrorscan.cli import main
 from tests.cli.output import headlines

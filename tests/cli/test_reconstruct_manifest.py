@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files
-from batch_scene import recording_fixture, reference_fixture  # noqa: F401
+from tests.batch_scene import FRAMES, IN_PROCESS, OPTIONS, ply_files
+from tests.batch_scene import recording_fixture, reference_fixture  # noqa: F401
 
 from tests.waiting import wait_for
 from mirrorcore.batch import (

@@ -6,7 +6,7 @@ from dataclasses import replace
 import cv2
 import numpy as np
 import pytest
-from helpers import plane_depth, sphere_depth
+from tests.helpers import plane_depth, sphere_depth
 
 from mirrorcore.calibration.agreement import TargetView, local_means
 from mirrorcore.calibration.readings import NEIGHBOURS_RADIUS, ViewPoints, view_points

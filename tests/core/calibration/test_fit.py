@@ -2,7 +2,7 @@
 name."""
 import numpy as np
 import pytest
-from helpers import plane_depth
+from tests.helpers import plane_depth
 
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.calibration.fit import (

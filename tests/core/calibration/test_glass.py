@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from helpers import plane_depth
+from tests.helpers import plane_depth
 
 from mirrorcore.calibration.glass import marker_offset
 from mirrorcore.geometry.camera import Intrinsics

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from helpers import GLOBE_DEPTH, globe_points
+from tests.helpers import GLOBE_DEPTH, globe_points
 
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.calibration.planestep import moved_plane, offset_at

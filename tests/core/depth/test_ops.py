@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 import pytest
-from helpers import plane_depth, sphere_depth
+from tests.helpers import plane_depth, sphere_depth
 
 from mirrorcore.depth import ops as depthops
 from mirrorcore.depth.ops import (local_quadratic_depth, robust_mean_depth, smooth_depth,

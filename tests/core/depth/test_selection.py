@@ -1,7 +1,7 @@
 """Object selection: background subtraction with a depth-dependent tolerance, flying pixels, specks,
 ROI, range."""
 import numpy as np
-from helpers import sphere_depth
+from tests.helpers import sphere_depth
 
 from mirrorcore.depth.ops import median_depth, smooth_depth
 from mirrorcore.geometry.camera import Intrinsics

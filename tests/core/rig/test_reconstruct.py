@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import sphere_depth
+from tests.helpers import sphere_depth
 
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
