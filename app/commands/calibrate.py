@@ -11,7 +11,7 @@ import argparse
 import numpy as np
 
 from mirrorcore.base.errors import CalibrationError
-from mirrorcore.base.words import listed
+from mirrorcore.base.words import listed, sentences
 from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
 from mirrorcore.calibration.scene import calibrate_scene
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         names = listed(session.mirrors[i].name for i, _ in result.refused)
         raise CalibrationError(
             f"{names} not calibrated (the planes found are written): "
-            f"{wording.sentences(why for _, why in result.refused)}"
+            f"{sentences(why for _, why in result.refused)}"
         )
     return 0
 

@@ -6,7 +6,6 @@ figures behind it, which the commands print indented under it with `-v/--verbose
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -161,11 +160,6 @@ def unchanged(path: Path) -> Message:
         f"{path} not written.",
         (f"within {SAME_PLANE[0]} mm, {SAME_PLANE[1]}° and {SAME_GLASS_MM} mm of glass",),
     )
-
-
-def sentences(reasons: Iterable[str]) -> str:
-    """One-line refusals as one line of sentences, each once, in order."""
-    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))
 
 
 def markers_unused(names: list[str]) -> Message:

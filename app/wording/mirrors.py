@@ -53,11 +53,10 @@ def concerns(fit: Fit) -> list[str]:
     replaces."""
     review, markers, names = fit.review, fit.calibration.markers, fit.mirror.marker_names
     said = []
-    if review.tilt_deg > MAX_TILT_DEG or review.shift_mm > MAX_SHIFT_MM:
+    if review.moved:
         said.append(
             f"it turns the plane by {review.tilt_deg:.1f}° and moves it {review.shift_mm:.0f} mm "
-            "(more "
-            f"than {MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)"
+            f"(more than {MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)"
         )
     if review.poor and markers is not None:
         worst = ", ".join(

@@ -32,6 +32,17 @@ CANCELLED = Message("Cancelled: the planes are as they were.")
 GLASS_WHERE = "Mirrors › Rename, glass, remove, clear"
 
 
+
+def method_bias(compared: str, better: bool = True) -> str:
+    """What a way of comparing ("surfaces" or "sphere") may add beyond the planes' 1σ, and, for the
+    surfaces, what does better."""
+    bias = METHOD_BIAS[compared]
+    if compared == "sphere":
+        return f"the method may add {1e3 * bias.shift:.1f} mm and {bias.tilt_deg:.2f}°"
+    ball = f", a ball in every view only {1e3 * METHOD_BIAS['sphere'].shift:.1f} mm" if better else ""
+    return f"the method may add {1e3 * bias.shift_low:.0f} to {1e3 * bias.shift:.0f} mm{ball}"
+
+
 def frames_used(used: FramesUsed) -> str:
     """The frames a calibration read, in words: 'the last 5 live frames', 'frames 0, 4 and 9 of the
     recording's 10 (numbered as in the header)'."""
@@ -76,7 +87,7 @@ def headline(report: CalibrationReport) -> Message:
             (used, "Undo still takes back the step before."),
         )
     sphere = " from the sphere's centres" if report.compared == "sphere" else ""
-    bias = f"Beyond the 1σ of each plane, {METHOD_BIAS[report.compared].reported}."
+    bias = f"Beyond the 1σ of each plane, {method_bias(report.compared)}."
     if report.search:
         head = f"Planes found{sphere} (no markers): check the agreement below. Undo takes them back"
         if report.not_found:
@@ -99,7 +110,7 @@ def headline(report: CalibrationReport) -> Message:
         glass = " Glass measured: type it in if you know it (how: in the details)."
         details.append(
             f"Type it in under {GLASS_WHERE}. The glass is measured on these planes, which "
-            f"{METHOD_BIAS['surfaces'].words.removeprefix('the method ')}: an ordinary mirror's is "
+            f"{method_bias('surfaces', better=False).removeprefix('the method ')}: an ordinary mirror's is "
             "3 to 6 mm. Typed in, the markers fit uses it; a refinement keeps it, and its planes "
             "do "
             "not depend on it."
@@ -140,12 +151,12 @@ def mirror_line(r: MirrorRefinement, search: bool, saved: bool = True) -> Messag
             else f"the camera and the mirrors that fix it, {r.camera_agreements:,} with the camera"
         )
         seen = f"{r.agreements:,} points seen both ways with {whom}"
-        how = f"{METHOD_BIAS['surfaces'].reported}; {seen}"
+        how = f"{method_bias('surfaces')}; {seen}"
     else:
         how = (
             f"from the centres of the sphere (radius {r.sphere_radius_mm:.1f} mm) seen directly "
             "and in it; "
-            f"{METHOD_BIAS['sphere'].words}"
+            f"{method_bias('sphere')}"
         )
     details.append(
         f"The data fix it to ±{r.shift_std_mm:.2f} mm and ±{r.tilt_std_deg:.3f}° (1σ; {how})."

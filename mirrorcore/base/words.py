@@ -9,3 +9,8 @@ def listed(words: Iterable[str], conjunction: str = "and") -> str:
     words = list(words)
     return ", ".join(words[:-1]) + f" {conjunction} " + words[-1] if len(words) > 1 else "".join(
         words)
+
+
+def sentences(reasons: Iterable[str]) -> str:
+    """One-line reasons as one line of sentences, each once, in order: 'a. b.'"""
+    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))

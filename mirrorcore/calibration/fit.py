@@ -13,7 +13,7 @@ from mirrorcore.base.errors import CalibrationError
 from mirrorcore.geometry.camera import Intrinsics, check_depth_shape, reproject_pixels
 from mirrorcore.geometry.plane import Plane, fit_plane_ransac
 from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
-from mirrorcore.calibration.markers import (GRADES, MARKER_WINDOW, MIN_MARKER_PIXELS,
+from mirrorcore.calibration.markers import (MARKER_WINDOW, MIN_MARKER_PIXELS,
                                             MarkerResiduals, marker_points, marker_residuals)
 from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.io.session import Session, SessionMirror
@@ -49,26 +49,6 @@ class Calibration:
     markers: MarkerResiduals | None = None
     centre: tuple[float, float, float] = (0.0, 0.0, 0.0)
     marker_offset: float = 0.0
-
-    def summary(self, marker_names: list[str] | None = None) -> str:
-        """One line: the RMS, the points kept and, for markers, how many are good, fair and poor,
-        the farthest (by its name in `marker_names`, else its number from 1) and the glass taken
-        between the markers and the plane."""
-        text = f"RMS {self.rms_mm:.2f} mm over {self.n_inliers}/{self.n_points} points"
-        if self.markers is not None:
-            grades = self.markers.grades
-            text += "; markers: " + ", ".join(f"{grades.count(g)} {g}" for g in GRADES
-                                              if grades.count(g))
-            ratio = np.asarray(self.markers.distance_mm) / np.asarray(self.markers.sigma_mm)
-            if np.any(np.isfinite(ratio)):
-                worst = int(np.nanargmax(ratio))
-                name = marker_names[worst] if marker_names else str(worst + 1)
-                text += (f" (farthest: marker {name}, {self.markers.distance_mm[worst]:.1f} mm, "
-                         f"{ratio[worst]:.1f}σ)")
-            text += (
-                f"; plane {1e3 * self.marker_offset:.1f} mm behind the markers (the mirror's glass)"
-                     if self.marker_offset else "; plane on the markers' faces (glass 0 mm)")
-        return text
 
 
 def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np.random.Generator,

@@ -98,51 +98,59 @@ def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
 
 @dataclass(frozen=True)
 class FitReview:
-    """A new plane against the one it would replace: tilt_deg and shift_mm between them (along the
-    normal, at the markers' centre; NaN without a previous plane), the poor markers (0-based) and,
-    in words, why the user should look before applying it (empty: apply at once)."""
+    """A new plane against the one it would replace.
+
+    Attributes
+    ----------
+    tilt_deg, shift_mm : float
+        The angle between the two planes, degrees, and the shift along the normal at the markers'
+        centre, mm; NaN without a previous plane.
+    poor : tuple of int
+        The poor markers (0-based).
+    moved : bool
+        The plane turns by more than MAX_TILT_DEG or moves by more than MAX_SHIFT_MM.
+    refit : bool
+        The same markers, fitted before and applied, fitted again within a refit's noise.
+    """
 
     tilt_deg: float
     shift_mm: float
     poor: tuple[int, ...]
-    concerns: tuple[str, ...]
+    moved: bool = False
     refit: bool = False
 
     @property
     def needs_confirmation(self) -> bool:
-        """A concern about a plane the user has not taken yet: `refit` (the same markers, fitted
-        before and applied, fitted again within a refit's noise) has none to confirm, its poor
-        markers still named."""
-        return bool(self.concerns) and not self.refit
+        """The user should look before the plane is applied: it moved far, or a marker is poor,
+        unless it is a refit (its poor markers are still named, nothing is asked)."""
+        return (self.moved or bool(self.poor)) and not self.refit
 
 
 def review_fit(previous: Plane | None, new: Plane, residuals: MarkerResiduals, at: np.ndarray,
-               marker_names: list[str], same_markers: bool = False) -> FitReview:
-    """Review a fit: at (3,) metres, where the shift between the two planes is measured (the
-    markers' centre, on their faces: in front of the new plane by its glass); marker_names label the
-    markers in the concerns ('2.3'); same_markers: `previous` was fitted on these markers and
-    applied (a proposal asked about them then)."""
+               same_markers: bool = False) -> FitReview:
+    """Review a fit against the plane it would replace.
+
+    Parameters
+    ----------
+    previous : Plane or None
+        The mirror's plane now (None: the first fit).
+    new : Plane
+        The plane just fitted.
+    residuals : MarkerResiduals
+        The markers against the new plane.
+    at : (3,) float
+        Metres: where the shift between the two planes is measured (the markers' centre, on their
+        faces: in front of the new plane by its glass).
+    same_markers : bool
+        `previous` was fitted on these markers and applied (a proposal asked about them then).
+    """
     tilt = shift = float("nan")
-    concerns = []
     if previous is not None:
         tilt = previous.angle_to(new)
         at = np.asarray(at, float)
         shift = abs(float(previous.signed_distance(at) - new.signed_distance(at))) * 1e3
-        if tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM:
-            concerns.append(
-                f"it turns the plane by {tilt:.1f}° and moves it {shift:.0f} mm (more than "
-                            f"{MAX_TILT_DEG:g}° or {MAX_SHIFT_MM:g} mm)")
-    poor = residuals.poor()
-    if poor:
-        worst = ", ".join(f"{marker_names[i]} ({residuals.distance_mm[i]:.0f} mm, "
-                          f"{residuals.distance_mm[i] / residuals.sigma_mm[i]:.0f}σ, "
-                          f"{_why_off(residuals.signed_mm[i])})" for i in poor)
-        concerns.append(f"marker(s) {worst} lie off the plane beyond the depth noise")
+    moved = bool(tilt > MAX_TILT_DEG or shift > MAX_SHIFT_MM)
     refit = same_markers and tilt < REFIT_TILT_DEG and shift < REFIT_SHIFT_MM
-    return FitReview(tilt, shift, poor, tuple(concerns), bool(refit))
+    return FitReview(tilt, shift, residuals.poor(), moved, bool(refit))
 
 
-def _why_off(signed_mm: float) -> str:
-    """Why a marker reads off its plane, by the side (MarkerResiduals.signed_mm: > 0 on the camera's
-    side)."""
-    return "in front: hidden by something?" if signed_mm > 0 else "behind: off the glass?"

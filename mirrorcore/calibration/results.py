@@ -37,30 +37,20 @@ class MethodBias(NamedTuple):
 
     Attributes
     ----------
-    words : str
-        For the reports.
-    shift, tilt_deg : float
-        At most this many metres at the object and degrees, which the glass's 1 sigma takes in
-        (glass.glass_std).
-    better : str
-        What does better, said after the words in a plane's report, so that the planes' 1 sigma
-        is not read as their error.
+    shift_low, shift : float
+        Metres at the object: what the method may add, from shift_low up to shift (the glass's
+        1 sigma takes in `shift`: glass.glass_std).
+    tilt_deg : float
+        Degrees: at most this much tilt.
     """
 
-    words: str
+    shift_low: float
     shift: float
     tilt_deg: float
-    better: str = ""
-
-    @property
-    def reported(self) -> str:
-        """The words as a plane's report says them: with what does better."""
-        return self.words + self.better
 
 
-METHOD_BIAS = {"surfaces": MethodBias("the method may add 1 to 2 mm", 2e-3, 0.05,
-                                      ", a ball in every view only 0.3 mm"),
-               "sphere": MethodBias("the method may add 0.3 mm and 0.04°", 0.3e-3, 0.04)}
+METHOD_BIAS = {"surfaces": MethodBias(1e-3, 2e-3, 0.05),
+               "sphere": MethodBias(0.3e-3, 0.3e-3, 0.04)}
 
 
 @dataclass(frozen=True)
@@ -127,55 +117,6 @@ class MirrorRefinement:
     marker_offset_std: float | None = None
     sphere_radius_mm: float | None = None
     glass_typed: float | None = None
-
-    def summary(self, searched: bool = False, saved: bool = True) -> str:
-        """One line: how far the plane moved (not for a plane a search found, `searched`: its
-        start was a guess), whether its points now agree with the other views as well as the depth
-        noise allows (NOISE_EXPLAINS), their RMS and mean distance before and after against the
-        noise's RMS, and how well the data fix the plane. A plane's offset hardly shows in the
-        agreement (it moves the points along the surface where the views overlap), so the verdict
-        leads. The glass is said to be saved unless `saved` is False (it was in the session
-        already)."""
-        if searched:
-            # its start was the search's guess: nothing before worth saying
-            figures = f"RMS {self.agreement_after_mm:.2f} mm, mean {self.offset_after_mm:+.2f} mm"
-        else:
-            figures = (f"RMS {self.agreement_before_mm:.2f} mm before, "
-                       f"{self.agreement_after_mm:.2f} mm after, mean "
-                       f"{self.offset_before_mm:+.2f} mm before, "
-                       f"{self.offset_after_mm:+.2f} mm after")
-        figures += (" over the frames used, where the depth noise alone would give "
-                    f"{self.noise_mm:.2f} mm RMS")
-        if self.agreement_after_mm <= NOISE_EXPLAINS * self.noise_mm:
-            text = ("its points agree with the other views as well as the depth noise allows "
-                    f"({figures})")
-        else:
-            text = ("⚠ its points agree with the other views less well than the depth noise "
-                    f"explains ({figures}): check its boundary")
-        if not searched:
-            text = (f"plane moved {self.shift_mm:+.2f} mm (> 0: away from the camera) and "
-                    f"{self.tilt_deg:.3f}°; {text}")
-        if self.sphere_radius_mm is None:
-            whom = ("the camera" if self.agreements == self.camera_agreements else
-                    "the camera and the mirrors that fix it, "
-                    f"{self.camera_agreements:,} with the camera")
-            how = (f"{METHOD_BIAS['surfaces'].reported}; {self.agreements:,} points seen both "
-                   f"ways with {whom}")
-        else:
-            how = (f"from the centres of the sphere (radius {self.sphere_radius_mm:.1f} mm) seen "
-                   f"directly and in it; {METHOD_BIAS['sphere'].words}")
-        text += (f"; the data fix it to ±{self.shift_std_mm:.2f} mm and "
-                 f"±{self.tilt_std_deg:.3f}° (1σ; {how})")
-        if self.marker_offset is not None:
-            markers = (f", markers {1e3 * self.marker_offset:.1f} ± "
-                       f"{1e3 * self.marker_offset_std:.1f} mm in front of ")
-        if self.glass_typed is not None:
-            text += (markers + f"the refined plane (its glass stays {1e3 * self.glass_typed:.1f} "
-                     "mm, as typed in)")
-        elif self.marker_offset is not None:
-            glass = "saved as its glass" if saved else "its glass already"
-            text += markers + f"the silver ({glass})"
-        return text
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from mirrorcore.base.words import sentences
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.base.progress import RATCHET_SECONDS, Progress, Ratchet
 from mirrorcore.calibration.refine import MAX_DISAGREEMENT, Leash, refine_session
@@ -103,11 +104,6 @@ def calibrate_scene(session: Session, depths: np.ndarray, masks: np.ndarray,
     return calibrated, replace(rounds[0], mirrors=mirrors,
                                iterations=sum(r.iterations for r in rounds),
                                refused=tuple(sorted(refused.items())))
-
-
-def sentences(reasons) -> str:
-    """Refusals (one-line strings) as one line of sentences, each once, in order."""
-    return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))
 
 
 def _without_spill(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> np.ndarray:

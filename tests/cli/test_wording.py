@@ -193,8 +193,3 @@ def test_fit_and_truth_lines(capsys):
 )
 def test_every_headline_is_short(message, capsys):
     headlines(printed(message, capsys, verbose=False))
-
-
-def test_refusals_are_one_line_of_sentences_each_once():
-    reasons = ["mirror 1: too little seen", "mirror 2: not a sphere.", "mirror 1: too little seen"]
-    assert wording.sentences(reasons) == "mirror 1: too little seen. mirror 2: not a sphere."

@@ -71,7 +71,6 @@ class MirrorFits:
                 calibration.plane,
                 calibration.markers,
                 np.asarray(calibration.centre),
-                mirror.marker_names,
                 self.services.editor.fitted_on_its_markers(mirror.id),
             )
             fits[mirror.id] = Fit(

@@ -82,13 +82,13 @@ def test_a_refit_over_the_same_glass_is_reviewed_as_not_moving_it():
         depth[v - 4:v + 5, u - 4:u + 5] = plane_depth(CAMERA, stickers)[v - 4:v + 5, u - 4:u + 5]
     cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0), "mirror 1",
                                  marker_offset=0.003)
-    names = [f"1.{k + 1}" for k in range(len(MARKERS))]
-    same = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
+    same = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre))
     assert same.shift_mm < 0.01 and same.tilt_deg < 1e-3 and not same.needs_confirmation
+    assert not same.moved
     farther = review_fit(Plane(GLASS.normal, GLASS.d + 0.025), cal.plane, cal.markers,
-                         np.asarray(cal.centre), names)
+                         np.asarray(cal.centre))
     assert farther.shift_mm == pytest.approx(25.0, abs=0.01) and farther.needs_confirmation
-    assert "moves it 25 mm" in farther.concerns[0]
+    assert farther.moved and farther.poor == ()
 
 
 def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothing():
@@ -99,18 +99,14 @@ def test_a_refit_of_markers_applied_before_names_its_poor_marker_but_asks_nothin
     u, v = MARKERS[2].astype(int)
     depth[v - 4:v + 5, u - 4:u + 5] += 0.3
     cal = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
-    names = [f"2.{k + 1}" for k in range(len(MARKERS))]
-    first = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
+    first = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre))
     # not fitted on these markers before
-    assert first.needs_confirmation and not first.refit
-    again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names,
-                       same_markers=True)
-    assert again.refit and not again.needs_confirmation and again.poor == (
-        2,) and again.concerns == first.concerns
+    assert first.needs_confirmation and not first.refit and first.poor == (2,)
+    again = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), same_markers=True)
+    assert again.refit and not again.needs_confirmation and again.poor == (2,)
+    # 2.5 mm: more than other frames move it
     moved = review_fit(Plane(GLASS.normal, GLASS.d + 0.0025), cal.plane, cal.markers,
-                       np.asarray(cal.centre), names,
-                       # 2.5 mm: more than other frames move it
-                       same_markers=True)
+                       np.asarray(cal.centre), same_markers=True)
     assert moved.needs_confirmation and not moved.refit
 
 
@@ -136,24 +132,21 @@ def test_a_marker_off_the_glass_is_graded_poor_and_named():
     # ...and the report points at it
     assert cal.markers.poor() == (2,) and cal.markers.distance_mm[2] > 250
     assert cal.markers.grades.count("good") == 7
-    assert "markers: 7 good, 1 poor (farthest: marker 3, 285.4 mm, 23.3σ)" in cal.summary()
-    # as the depth frame labels mirror 2's
-    names = [f"2.{k + 1}" for k in range(len(MARKERS))]
-    assert "(farthest: marker 2.3, 285.4 mm" in cal.summary(names)
-    assert cal.summary().endswith("; plane on the markers' faces (glass 0 mm)")
-    # which side, and so why
-    review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre), names)
-    assert review.concerns == (
-        "marker(s) 2.3 (285 mm, 23σ, behind: off the glass?) lie off the plane beyond the "
-                               "depth noise",)
-    depth[v - 4:v + 5, u - 4:u + 5] -= 0.6                      # something in front of it
+    ratio = np.asarray(cal.markers.distance_mm) / np.asarray(cal.markers.sigma_mm)
+    assert int(np.nanargmax(ratio)) == 2
+    assert cal.markers.distance_mm[2] == pytest.approx(285.4, abs=0.05)
+    assert ratio[2] == pytest.approx(23.3, abs=0.05) and cal.marker_offset == 0.0
+    # which side, and so why: behind the plane (off the glass)
+    review = review_fit(GLASS, cal.plane, cal.markers, np.asarray(cal.centre))
+    assert review.poor == (2,) and not review.moved and cal.markers.signed_mm[2] < 0
+    # something in front of it
+    depth[v - 4:v + 5, u - 4:u + 5] -= 0.6
     hidden = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0))
-    assert "in front: hidden by something?" in review_fit(GLASS, hidden.plane, hidden.markers,
-                                                          np.asarray(hidden.centre),
-                                                          names).concerns[0]
+    assert review_fit(GLASS, hidden.plane, hidden.markers, np.asarray(hidden.centre)).poor == (2,)
+    assert hidden.markers.signed_mm[2] > 0
     glass = calibrate_from_markers(CAMERA, depth, MARKERS, np.random.default_rng(0),
                                    marker_offset=0.0054)
-    assert glass.summary().endswith("; plane 5.4 mm behind the markers (the mirror's glass)")
+    assert glass.marker_offset == pytest.approx(0.0054)
 
 
 def test_markers_on_invalid_depth_are_named():

@@ -98,7 +98,7 @@ def test_refinement_recovers_planes_from_markers_off_the_glass(sphere):
         assert report.agreement_before_mm > 1.0 and report.agreement_after_mm < 0.5
         assert abs(report.offset_after_mm) < 0.2
         assert report.shift_std_mm < 0.5 and report.tilt_std_deg < 0.05 and report.agreements > 200
-        assert "moved +" in report.summary() and report.name in ("mirror 1", "mirror 2")
+        assert report.shift_mm > 0 and report.name in ("mirror 1", "mirror 2")
 
 
 def test_refusals_name_the_mirror(sphere, tmp_path):
@@ -150,9 +150,6 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
             0.004, abs=1e-3) and mirror.marker_offset == report.marker_offset
         # ideal readings: the plane's own uncertainty
         assert 0 < report.marker_offset_std < 1e-3
-        assert (f"markers {1e3 * report.marker_offset:.1f} ± {1e3 * report.marker_offset_std:.1f} "
-                "mm in front of the "
-                "silver (saved as its glass)") in report.summary()
         assert mirror.marker_offset_std == report.marker_offset_std and report.glass_typed is None
     assert session.mirrors[0].marker_offset == 0.0          # the input is left as it was
     # a glass typed in stays, with the reading beside it; a glass measured before is measured again
@@ -164,8 +161,6 @@ def test_refine_session_sets_planes_and_estimates_the_glass(tmp_path):
     assert again.mirrors[0].marker_offset == 0.003 and again.mirrors[0].marker_offset_std is None
     assert result.mirrors[0].glass_typed == 0.003 and result.mirrors[
         0].marker_offset == pytest.approx(0.004, abs=1e-3)
-    assert "in front of the refined plane (its glass stays 3.0 mm, as typed in)" in result.mirrors[
-        0].summary()
     assert again.mirrors[1].marker_offset == pytest.approx(0.004, abs=1e-3) and result.mirrors[
         1].glass_typed is None
     assert again.mirrors[1].marker_offset_std == result.mirrors[1].marker_offset_std

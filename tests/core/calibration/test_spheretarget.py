@@ -96,12 +96,9 @@ def test_refinement_from_markers_on_glass_uses_the_sphere(kinect_sphere):
         assert 2.5 < report.shift_mm < 3.5 and report.sphere_radius_mm == pytest.approx(
             115.0, abs=0.4)
         assert report.agreement_after_mm < report.agreement_before_mm
-        assert "(1σ; from the centres of the sphere (radius 115." in report.summary()
-        assert "points seen both ways" not in report.summary()
     surfaces = refine_planes(start, depths, masks, with_="surfaces")
     assert surfaces.compared == "surfaces" and surfaces.iterations > 0
-    assert surfaces.mirrors[
-        0].sphere_radius_mm is None and "points seen both ways" in surfaces.mirrors[0].summary()
+    assert surfaces.mirrors[0].sphere_radius_mm is None and surfaces.mirrors[0].agreements > 0
 
 
 def test_what_is_not_a_sphere_is_refused_by_name_and_auto_compares_the_surfaces():
