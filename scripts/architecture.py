@@ -63,11 +63,18 @@ def node(module: str) -> str | None:
 
 
 def imports(path: Path) -> set[str]:
-    """The mirrorcore and mirrorscan modules a source file imports, relative imports resolved."""
+    """The mirrorcore and mirrorscan modules a source file imports when it runs, relative imports
+    resolved (imports for type checkers only, under `if TYPE_CHECKING:`, are left out)."""
     name = module_name(path)
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    tree = ast.parse(path.read_text())
+    typing_only = {id(item) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and ast.unparse(block.test).endswith("TYPE_CHECKING")
+                   for statement in block.body for item in ast.walk(statement)}
     found = set()
-    for item in ast.walk(ast.parse(path.read_text())):
+    for item in ast.walk(tree):
+        if id(item) in typing_only:
+            continue
         if isinstance(item, ast.ImportFrom):
             if item.level:
                 base = package.split(".")[: len(package.split(".")) - item.level + 1]

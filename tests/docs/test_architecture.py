@@ -20,6 +20,11 @@ def test_import_graph_has_no_circle():
     assert arch.circles(arch.graph()) == []
 
 
+def test_no_two_modules_import_each_other():
+    """Within a package too: no module imports, through others, the module that imports it."""
+    assert arch.circles(arch.module_graph()) == []
+
+
 def test_every_module_belongs_to_a_node():
     for folder in arch.FOLDERS:
         for path in (arch.ROOT / folder).rglob("*.py"):
