@@ -1,9 +1,10 @@
-"""Shared fixtures: the browser tool on the simulated sphere rig (an empty session in a temporary folder, frames at
-15 fps) and on the built-in demo (calibrated, kept in memory), each with a headless tab connected; the
-notifications a test's actions raise; a headless Chromium per test module (skipped without Playwright or Chromium);
-and the `steps(fixture)` mark of a module whose tests on that module-scoped fixture are the steps of one session, in
-order: after a step fails, the later steps are reported as not run because of it (xfail naming it), not as failures
-of their own; and the server's own warning filter in every test."""
+"""Shared fixtures: the browser tool on the simulated sphere rig (an empty session in a temporary
+folder, frames at 15 fps) and on the built-in demo (calibrated, kept in memory), each with a
+headless tab connected; the notifications a test's actions raise; a headless Chromium per test
+module (skipped without Playwright or Chromium); and the `steps(fixture)` mark of a module whose
+tests on that module-scoped fixture are the steps of one session, in order: after a step fails, the
+later steps are reported as not run because of it (xfail naming it), not as failures of their own;
+and the server's own warning filter in every test."""
 from __future__ import annotations
 
 import logging
@@ -23,8 +24,8 @@ from mirrorcore.sources import SimulatedSource
 
 
 def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
-    """The browser tool on the simulated paper rig (sphere at 2 m, mirrors at 120 deg, seed 1), editing a new empty
-    session saved in `root`, its sessions folder the one above; not started."""
+    """The browser tool on the simulated paper rig (sphere at 2 m, mirrors at 120 deg, seed 1),
+    editing a new empty session saved in `root`, its sessions folder the one above; not started."""
     rig = Simulator(paper_scene(object="sphere"), seed=1, fps=fps)
     session = Session(root, rig.intrinsics)
     save_session(session)
@@ -33,18 +34,21 @@ def sphere_app(root: Path, fps: float = 15.0) -> MirrorscanApp:
 
 @pytest.fixture(autouse=True)
 def servers_warning_filter():
-    """mirrorscan.server silences viser's warning for messages to a tab that has gone, once on import; pytest restores the
-    warning filters around every test, so each test gets it again (a module's server outlives the test that made it)."""
+    """mirrorscan.server silences viser's warning for messages to a tab that has gone, once on
+    import; pytest restores the warning filters around every test, so each test gets it again (a
+    module's server outlives the test that made it)."""
     quiet_closed_connections()
 
 
 def pytest_configure(config) -> None:
-    config.addinivalue_line("markers", "steps(fixture): the module's tests on this module-scoped fixture are the "
+    config.addinivalue_line("markers", "steps(fixture): the module's tests on this module-scoped "
+                                       "fixture are the "
                                        "steps of one session, each needing those before it")
 
 
 def is_step(item) -> bool:
-    """Whether a test is a step of its module's session (it uses the fixture its module's `steps` mark names)."""
+    """Whether a test is a step of its module's session (it uses the fixture its module's `steps`
+    mark names)."""
     mark = item.get_closest_marker("steps")
     return mark is not None and mark.args[0] in item.fixturenames
 
@@ -65,7 +69,8 @@ def pytest_runtest_setup(item) -> None:
 
 @pytest.fixture(scope="module")
 def sphere(tmp_path_factory):
-    """(app, HeadlessTab) on the simulated sphere rig, the live loop running, a frame already processed."""
+    """(app, HeadlessTab) on the simulated sphere rig, the live loop running, a frame already
+    processed."""
     app = sphere_app(tmp_path_factory.mktemp("sphere") / "scan")
     app.start()
     wait_for(lambda: app.last_frame is not None, what="the first frame")
@@ -76,7 +81,8 @@ def sphere(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def demo():
-    """(app, HeadlessTab) on the built-in demo (calibrated, not saved), the live loop not started."""
+    """(app, HeadlessTab) on the built-in demo (calibrated, not saved), the live loop not
+    started."""
     source = demo_source()
     app = MirrorscanApp(calibrated_session(source, Path("unused")), source, port=0, autosave=False)
     with HeadlessTab(app) as tab:
@@ -86,9 +92,10 @@ def demo():
 
 @pytest.fixture
 def notes(monkeypatch):
-    """A function that starts recording the notifications of an app: notes(app) -> the list their messages land
-    in, notes(app, kinds) also each one's (kind, stay) in `kinds`, notes(app, kinds, shown) each one (a
-    SimpleNamespace whose `removed` says whether the app took it away) in `shown`."""
+    """A function that starts recording the notifications of an app: notes(app) -> the list their
+    messages land in, notes(app, kinds) also each one's (kind, stay) in `kinds`, notes(app, kinds,
+    shown) each one (a SimpleNamespace whose `removed` says whether the app took it away) in
+    `shown`."""
     def record(app, kinds: list | None = None, shown: list | None = None) -> list[str]:
         said: list[str] = []
 

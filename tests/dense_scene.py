@@ -1,5 +1,5 @@
-"""Shared scenes for the dense-reconstruction tests: the paper's sphere (r = 115 mm at 2 m, two mirrors at 120 deg)
-on the simulator with its true planes and the mirrors' outlines."""
+"""Shared scenes for the dense-reconstruction tests: the paper's sphere (r = 115 mm at 2 m, two
+mirrors at 120 deg) on the simulator with its true planes and the mirrors' outlines."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -31,4 +31,6 @@ def sphere_scene(scale: float, sensor: SensorModel, seed: int = 0) -> SphereScen
     rig = true_rig(scene)
     frame = sim.frame(0)
     obj = scene.objects[0]
-    return SphereScene(rig, frame.depth, sim.background().depth, frame.truth, np.asarray(obj.centre), obj.radius)
+    return SphereScene(
+        rig, frame.depth, sim.background().depth, frame.truth, np.asarray(obj.centre), obj.radius
+    )

@@ -18,5 +18,5 @@ def wait_for(condition: Callable[[], T], seconds: float = 30.0, what: str = "con
     deadline = time.monotonic() + seconds
     while not (value := condition()):
         assert time.monotonic() < deadline, f"timed out after {seconds:g} s waiting for {what}"
-        time.sleep(0.02)
+        time.sleep(0.02)   # the polling interval
     return value

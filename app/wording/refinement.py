@@ -39,7 +39,9 @@ def method_bias(compared: str, better: bool = True) -> str:
     bias = METHOD_BIAS[compared]
     if compared == "sphere":
         return f"the method may add {1e3 * bias.shift:.1f} mm and {bias.tilt_deg:.2f}°"
-    ball = f", a ball in every view only {1e3 * METHOD_BIAS['sphere'].shift:.1f} mm" if better else ""
+    ball = (
+        f", a ball in every view only {1e3 * METHOD_BIAS['sphere'].shift:.1f} mm" if better else ""
+    )
     return f"the method may add {1e3 * bias.shift_low:.0f} to {1e3 * bias.shift:.0f} mm{ball}"
 
 
@@ -110,7 +112,8 @@ def headline(report: CalibrationReport) -> Message:
         glass = " Glass measured: type it in if you know it (how: in the details)."
         details.append(
             f"Type it in under {GLASS_WHERE}. The glass is measured on these planes, which "
-            f"{method_bias('surfaces', better=False).removeprefix('the method ')}: an ordinary mirror's is "
+            f"{method_bias('surfaces', better=False).removeprefix('the method ')}: an ordinary "
+            "mirror's is "
             "3 to 6 mm. Typed in, the markers fit uses it; a refinement keeps it, and its planes "
             "do "
             "not depend on it."

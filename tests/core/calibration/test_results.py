@@ -1,4 +1,5 @@
-"""What a refinement reports (results.py): each mirror's figures, and no change when nothing moved."""
+"""What a refinement reports (results.py): each mirror's figures, and no change when nothing
+moved."""
 from types import SimpleNamespace
 
 from mirrorcore.calibration.results import NOISE_EXPLAINS, MirrorRefinement, Refinement
