@@ -2,12 +2,15 @@
 its own floor or those below, and the library never imports the app."""
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
 import pytest
 
+from tests.docs.scripts import load
+
 ROOT = Path(__file__).resolve().parents[1] / "mirrorcore"
+# the imports a module makes when it runs, as the architecture page draws them
+ARCHITECTURE = load("architecture")
 FLOORS = {
     "base": 0, "geometry": 1, "depth": 2, "io": 3, "rig": 4, "sim": 5,
     "calibration": 6, "dense": 7, "sources": 8, "batch": 9,
@@ -19,23 +22,6 @@ NOT_IN_SIM = ("mirrorcore.geometry.shapes", "mirrorcore.geometry.fitting")
 def unit(module: str) -> str:
     """The package a module belongs to: 'mirrorcore.dense.tsdf' -> 'dense'; 'mirrorcore' -> ''."""
     return module.split(".")[1] if module.count(".") else ""
-
-
-def imported_modules(path: Path) -> set[str]:
-    """The mirrorcore and mirrorscan modules that a source file imports, relative imports
-    resolved."""
-    package = ".".join(path.relative_to(ROOT.parent).with_suffix("").parts[:-1])
-    found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                found.add(".".join(base + ([node.module] if node.module else [])))
-            elif node.module:
-                found.add(node.module)
-        elif isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-    return {m for m in found if m.split(".")[0] in ("mirrorcore", "mirrorscan")}
 
 
 def floor_of(module: str) -> int:
@@ -52,7 +38,7 @@ def module_name(path: Path) -> str:
 def test_each_module_imports_only_its_floor_and_below(path):
     module = module_name(path)
     own = floor_of(module) if unit(module) else float("inf")
-    for imported in imported_modules(path):
+    for imported in ARCHITECTURE.imports(path):
         assert not imported.startswith("mirrorscan"), (
             f"{module} imports {imported}: the library never imports the app"
         )
