@@ -1,0 +1,40 @@
+"""The session states the panels' tests start from, each module with an app of its own: on the
+simulated sphere rig, `background` (the background captured with the object out of view) and
+`calibrated` (then both mirrors calibrated by clicking their outlines and markers, and fitted); on
+the demo, `demo_refined` (its planes refined from the object)."""
+import pytest
+
+from tests.app.panels.support import calibrate_by_clicking, capture_background
+from tests.waiting import wait_for
+
+
+@pytest.fixture(scope="module")
+def background(sphere):
+    """(app, HeadlessTab) on the sphere rig, the background captured with the object out of view."""
+    app, headless = sphere
+    capture_background(app, headless, objects_in_view=False)
+    wait_for(lambda: app.snapshot.background is not None and app.snapshot.session.background)
+    wait_for(lambda: app.last_frame.mask.sum() > 5000, what="the sphere selected")
+    return sphere
+
+
+@pytest.fixture(scope="module")
+def calibrated(background):
+    """(app, HeadlessTab) on the sphere rig, the background captured and both mirrors calibrated
+    by clicking and fitting."""
+    app, headless = background
+    calibrate_by_clicking(app, headless.tab)
+    for fitted, true in zip(app.editor.session.mirrors, app.source.rig.planes):
+        assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
+    return background
+
+
+@pytest.fixture(scope="module")
+def demo_refined(demo):
+    """(app, HeadlessTab) on the built-in demo, a frame processed and its planes refined from the
+    object (so a markers fit replaces planes from the object)."""
+    app, _ = demo
+    app.loop.run_once()
+    app.jobs.start_refine(app.editor).join(120)
+    assert all(app.jobs.from_object(m.id, m.plane) for m in app.editor.session.mirrors)
+    return demo
