@@ -159,11 +159,12 @@ def test_removing_asks_and_can_be_undone(app, tab):
         lambda: page.get_by_role("button", name="Bring back mirror 1").is_visible(),
         what="its own button",
     )
-    button(page, "Undo: remove mirror 1")  # the main Undo offers it too (it had offered
+    # the main Undo offers it too, and brings mirror 1 back with its own plane
+    button(page, "Undo: remove mirror 1")
     wait_for(
         lambda: [m.id for m in app.editor.session.mirrors] == [1, 2], what="mirror 1 back"
-    )  # mirror 2's
-    assert app.editor.mirror(1).plane is not None  # plane: a helper)
+    )
+    assert app.editor.mirror(1).plane is not None
 
 
 def test_two_tabs_keep_their_own_mode(app, browser, tab):
@@ -247,15 +248,13 @@ def test_the_layout_fits_1024x600(app, browser):
         left, top = canvas_point(
             page, server_tab.client, server_tab.screen.world_of_pixel(-0.5, -0.5)
         )
-        assert (
-            canvas["x"] - 1 <= left and right <= panel_left and bottom <= 600 and top >= 0
-        )  # never under it
+        # never under the panel
+        assert canvas["x"] - 1 <= left and right <= panel_left and bottom <= 600 and top >= 0
         page.screenshot(path=ARTIFACTS / "browser-1024x600.png")
-        mirrors = next(
-            p for p in server_tab.panels if isinstance(p, MirrorsPanel)
-        )  # a proposal: its Apply in
-        server_tab.state.mirror_id = 2  # view (a helper saw a
-        floor = max(app.editor.mirror(2).boundary, key=lambda p: p[1])  # sliver at the bottom)
+        # a proposal: its Apply in view
+        mirrors = next(p for p in server_tab.panels if isinstance(p, MirrorsPanel))
+        server_tab.state.mirror_id = 2
+        floor = max(app.editor.mirror(2).boundary, key=lambda p: p[1])
         app.editor.add_marker(2, (floor[0] - 10, floor[1] - 6))
         mirrors.fit_planes([2])
         apply = page.get_by_role("button", name="Apply the new plane(s)")
