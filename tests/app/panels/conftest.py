@@ -1,10 +1,12 @@
 """The session states the panels' tests start from, each module with an app of its own: on the
-simulated sphere rig, `background` (the background captured with the object out of view) and
-`calibrated` (then both mirrors calibrated by clicking their outlines and markers, and fitted); on
-the demo, `demo_refined` (its planes refined from the object)."""
+simulated sphere rig, `background` (the background captured with the object out of view),
+`calibrated` (then both mirrors calibrated by clicking their outlines and markers, and fitted) and
+`dense_shown` (then a dense result shown); on the demo, `demo_refined` (its planes refined from
+the object)."""
 import pytest
+from mirrorscan.panels.dense import DensePanel
 
-from tests.app.panels.support import calibrate_by_clicking, capture_background
+from tests.app.panels.support import calibrate_by_clicking, capture_background, panel
 from tests.waiting import wait_for
 
 
@@ -21,12 +23,27 @@ def background(sphere):
 @pytest.fixture(scope="module")
 def calibrated(background):
     """(app, HeadlessTab) on the sphere rig, the background captured and both mirrors calibrated
-    by clicking and fitting."""
+    by clicking and fitting, the tab showing the 3D view."""
     app, headless = background
     calibrate_by_clicking(app, headless.tab)
     for fitted, true in zip(app.editor.session.mirrors, app.source.rig.planes):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
+    headless.tab.look("3d")
     return background
+
+
+@pytest.fixture(scope="module")
+def dense_shown(calibrated):
+    """(app, HeadlessTab) on the sphere rig, calibrated, then a dense result (carving, 4 mm voxels)
+    run and shown."""
+    app, headless = calibrated
+    dense = panel(headless.tab, DensePanel)
+    dense.method.value, dense.voxel.value = "carve (consistent)", 4.0
+    dense.box_around_cloud()
+    dense.start()
+    wait_for(lambda: app.jobs.dense_result is not None, 180, "the dense result")
+    wait_for(lambda: headless.tab.scene._dense, what="the result drawn")
+    return calibrated
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,6 @@
-"""The Record panel (mirrorscan.panels.record) on the simulated sphere rig, its mirrors calibrated:
-record and replay, batches, recording a recording, mirrors calibrated from a recording."""
+"""The Record panel (mirrorscan.panels.record) on the simulated sphere rig, its mirrors calibrated
+and a dense result shown: record and replay, batches, recording a recording, mirrors calibrated
+from a recording."""
 import re
 import time
 from dataclasses import replace
@@ -29,11 +30,11 @@ from mirrorcore.sources import SessionSource
 from tests.app.panels.support import panel
 from tests.waiting import wait_for
 
-pytestmark = pytest.mark.steps("calibrated")
+pytestmark = pytest.mark.steps("dense_shown")
 
 
-def test_record_then_replay_with_the_calibration(calibrated):
-    app, headless = calibrated
+def test_record_then_replay_with_the_calibration(dense_shown):
+    app, headless = dense_shown
     record = panel(headless.tab, RecordPanel)
     # the source served from the start is playing
     assert not headless.tab.header.back.visible
@@ -127,11 +128,11 @@ def test_record_then_replay_with_the_calibration(calibrated):
     assert headless.tab.scene._dense[0].visible
 
 
-def test_a_batch_reconstructs_every_frame_of_the_recording(calibrated):
+def test_a_batch_reconstructs_every_frame_of_the_recording(dense_shown):
     """After the replay, the session being edited is the recording: the Record step's batch writes
     one PLY per frame and a manifest into its exports/ folder, with progress on the bus, in this
     process (1 worker)."""
-    app, headless = calibrated
+    app, headless = dense_shown
     record = panel(headless.tab, RecordPanel)
     session = app.editor.session
     assert session.frames and session.root == record.recorded.root
@@ -168,11 +169,11 @@ def test_a_batch_reconstructs_every_frame_of_the_recording(calibrated):
     )
 
 
-def test_a_batch_being_cancelled_says_so(calibrated):
+def test_a_batch_being_cancelled_says_so(dense_shown):
     """Cancel says at once that the batch is stopping (the frame under way finishes) and is not
     offered twice; the batch's last word replaces it, and Cancel is offered again to the next batch.
     """
-    app, headless = calibrated
+    app, headless = dense_shown
     record = panel(headless.tab, RecordPanel)
     ended: list[str] = []
     app.bus.subscribe(
@@ -191,10 +192,10 @@ def test_a_batch_being_cancelled_says_so(calibrated):
     record.method.value = "raw"
 
 
-def test_a_tab_opened_while_a_batch_runs_shows_it(calibrated, monkeypatch):
+def test_a_tab_opened_while_a_batch_runs_shows_it(dense_shown, monkeypatch):
     """A tab opened during a TSDF batch shows the batch's settings and that it runs, and the next
     step says where."""
-    app, _ = calibrated
+    app, _ = dense_shown
     running = app.jobs.running
     monkeypatch.setattr(app.jobs, "running", lambda kind: kind == "batch" or running(kind))
     monkeypatch.setattr(app.jobs, "batch_settings", ("tsdf", 3, 1))
@@ -210,8 +211,8 @@ def test_a_tab_opened_while_a_batch_runs_shows_it(calibrated, monkeypatch):
         assert "A batch reconstructs every frame (0% done)" in opened.tab.header.hint.content
 
 
-def test_recording_a_recording_that_plays_ends_at_its_last_frame(calibrated):
-    app, headless = calibrated
+def test_recording_a_recording_that_plays_ends_at_its_last_frame(dense_shown):
+    app, headless = dense_shown
     # the recording of the test above plays
     assert app.source.frame_count
     record = panel(headless.tab, RecordPanel)
