@@ -105,7 +105,7 @@ def carve_around_the_sphere(app, voxel: float):
 def test_a_tab_closing_during_carving_does_not_stop_the_server(sphere):
     app, _ = sphere
     connected: list[int] = []
-    # viser also calls a new callback for the tabs already in
+    # viser also calls a new callback for the tabs already connected
     already = set(app.server.get_clients())
     app.server.on_client_connect(
         lambda client: client.client_id in already or connected.append(client.client_id))

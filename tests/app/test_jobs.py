@@ -114,16 +114,15 @@ def test_a_refused_refinement_is_not_offered_again_for_the_glass(demo, monkeypat
     )
     app_.jobs.start_refine(app_.editor).join(60)
     ids = [m.id for m in app_.editor.session.mirrors]
-    # the mirror it names (a search refused on
+    # the mirror it names
     assert app_.jobs.refused == {ids[0]: "refine"}
     headless.tab.header.refresh_hint()
     assert "this object could not measure it" in hint.content
     assert app_.jobs.refusals(app_.editor.session) == {ids[0]: "refine"}
     # its outline drawn again: refused no more
     corner = app_.editor.mirror(ids[0]).boundary[0]
-    # (a search refused for an outline too
+    # (a search refused for an outline too narrow is not offered again until it changes)
     app_.editor.move_vertex(ids[0], 0, (corner[0] + 3.0, corner[1]))
-    # narrow was not offered once it was
     assert app_.jobs.refusals(app_.editor.session) == {}
     app_.editor.undo(ids[0])
     assert app_.jobs.refusals(app_.editor.session) == {ids[0]: "refine"}
@@ -172,8 +171,7 @@ def test_a_mirror_held_while_the_others_are_found_keeps_its_plane_from_its_marke
 def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, monkeypatch):
     """Find the planes from the object where one mirror cannot be found: the others' planes are
     applied and the one not found is named with why, in the headline and its details, and its Find
-    is not offered again until its outline or markers change (before, one refusal dropped every
-    plane found)."""
+    is not offered again until its outline or markers change."""
     import mirrorscan.jobs.refinement as jobs_module
 
     app_, headless = demo
@@ -218,13 +216,11 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
         "again once an "
         "outline or a marker changes"
     ) in mirrors.greyed.content
-    # nothing to undo on it (the shared demo's
+    # nothing to undo on it (steps of other tests aside): the found plane is on the other
     label = app_.editor.undo_label
-    # earlier tests left steps): the found plane
     monkeypatch.setattr(
         app_.editor,
         "undo_label",
-        # is on the other
         lambda scope: None if scope in (first.id, 0) else label(scope),
     )
     mirrors.refresh()
@@ -302,22 +298,22 @@ def test_the_heat_maps_figures_pool_the_recent_frames_of_the_same_planes():
     for k in range(HEAT_POOL + 3):
         pooled = jobs._pool_heat(first, k, np.full(2, float(k)), np.ones(2, int))
     assert len(pooled) == HEAT_POOL and pooled[-1][0][0] == HEAT_POOL + 2 and pooled[0][0][0] == 3
-    # a replay's frame 5 again: in its
+    # a replay's frame 5 again: in its place anew, not twice
     pooled = jobs._pool_heat(first, 5, np.full(2, 50.0), np.ones(2, int))
-    # place anew, not twice (it pooled
     assert len(pooled) == HEAT_POOL and pooled[-1][0][0] == 50.0
     assert sum(p[0][0] in (5.0, 50.0) for p in pooled) == 1
     # other planes: a new pool
     assert len(jobs._pool_heat(second, 0, np.zeros(2), np.ones(2, int))) == 1
     text = heat_legend_html({1: (-0.44, 0.07)}, HEAT_POOL, {1: "left"}.get)
     replay = Jobs(SimpleNamespace(source=SimpleNamespace(frame_count=12)), lambda: None, EventBus())
-    # noqa: E731
-    frame = lambda index, rig=first: SimpleNamespace(index=index, snapshot=SimpleNamespace(rig=rig))
+
+    def frame(index, rig=first):
+        return SimpleNamespace(index=index, snapshot=SimpleNamespace(rig=rig))
+
     assert replay.heat_wanted(frame(3))  # nothing pooled yet
     replay._pool_heat(first, 3, np.zeros(2), np.ones(2, int))
-    # frame 3 again (the loop's 2nd
+    # frame 3 again (the loop's 2nd round), not other planes
     assert not replay.heat_wanted(frame(3)) and not replay.heat_wanted(frame(15))
-    # round), not other planes
     assert replay.heat_wanted(frame(4)) and replay.heat_wanted(frame(3, second))
     for k in range(HEAT_POOL):
         replay._pool_heat(first, k, np.zeros(2), np.ones(2, int))

@@ -24,9 +24,8 @@ def test_demo_planes_are_calibrated_close_to_the_truth(demo):
 
 
 def test_the_loop_gives_the_cores_to_a_calibration_from_the_object(demo):
-    """Find the planes took 23 to 70 s on 2 cores with the recording playing at 30 fps, 12.6 s
-    paused: while it runs (or a dense reconstruction, or a batch) the loop runs at
-    BUSY_FPS, the header saying why."""
+    """While a calibration from the object runs (or a dense reconstruction, or a batch) the loop
+    runs at BUSY_FPS, the header saying why."""
     app, headless = demo
     tab, loop = headless.tab, app.loop
     assert tab.shows_cloud and app.fps_wanted() is None

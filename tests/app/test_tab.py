@@ -222,9 +222,8 @@ def test_hiding_labels_while_the_box_and_mirrors_are_redrawn_is_safe(demo):
 
     errors = storm(redraw, restyle, rounds=300)
     assert not errors, errors
-    # drawn by its 12 edges (a
+    # drawn by its 12 edges, no face diagonals
     np.testing.assert_allclose(scene._box.position, (0.0, 0.0, 2.0), atol=1e-9)
-    # wireframe box drew its faces' diagonals too,
     edges = np.asarray(scene._box.points)
     along = np.abs(edges[:, 1] - edges[:, 0])
     assert edges.shape == (12, 2, 3) and np.all(np.count_nonzero(along > 1e-6, axis=1) == 1)

@@ -77,9 +77,8 @@ def test_calibrate_both_mirrors_by_clicking(app, tab):
         )
         for k, uv in enumerate(corners, start=1):
             click_pixel(page, server_tab, uv, lambda: len(server_tab.state.drafts.get(j, ())) >= k)
-        click_pixel(
-            page, server_tab, corners[0], lambda: app.editor.mirror(j).boundary
-        )  # closes it
+        # the first corner again closes it
+        click_pixel(page, server_tab, corners[0], lambda: app.editor.mirror(j).boundary)
         np.testing.assert_allclose(np.array(app.editor.mirror(j).boundary), corners, atol=1.0)
         wait_for(lambda: server_tab.state.mode == "markers", what="markers mode after the boundary")
         for k, uv in enumerate(mirror.markers, start=1):
@@ -101,7 +100,7 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_waits_for_confirmation(app, tab
     page, server_tab = tab
     before = app.editor.mirror(2)
     assert server_tab.state.mirror_id == 2 and server_tab.state.mode == "markers"
-    click_pixel(page, server_tab, (630, 470))  # off mirror 2, where the panel used to cover
+    click_pixel(page, server_tab, (630, 470))  # off mirror 2, beside the panel
     wait_for(lambda: "outside its boundary" in text(page), what="the refusal")
     assert app.editor.mirror(2).markers == before.markers
     bottom = max(before.boundary, key=lambda p: p[1])  # the floor seen through the glass

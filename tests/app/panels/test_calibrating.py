@@ -45,7 +45,7 @@ def test_calibrate_both_mirrors_by_clicking_and_measure(background, notes, monke
         "in it."
     ) and kinds[-1] == ("warning", False)
     assert "⚠ mirror 1 and mirror 2 have no plane yet" in files.exported.content
-    # and so do a fit and a dense result (a
+    # and so do a fit and a dense result
     measure, dense = panel(tab, MeasurePanel), panel(tab, DensePanel)
     measure.fit_current()
     assert measure.report.content.startswith(
@@ -147,8 +147,8 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(background, 
         "**Markers** mode: click a marker's centre on **mirror 2**"
     )
     # a marker inside the outline but clicked on the floor seen through the glass: the fit moves
-    # little, but the
-    # marker disagrees with the plane beyond the noise, so the new plane waits for confirmation
+    # little, but the marker disagrees with the plane beyond the noise, so the new plane waits
+    # for confirmation
     bottom = max(before.boundary, key=lambda p: p[1])
     click(tab, (bottom[0] - 10, bottom[1] - 6))
     assert re.fullmatch(
@@ -177,12 +177,10 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(background, 
     assert "A new plane for mirror 2 waits" in tab.header.hint.content
     assert mirrors.review.visible and "⚠" in mirrors.review.content
     stray = (2, app.editor.mirror(2).markers[-1])
-    # crossed on the image,
+    # crossed on the image, whichever mirror is selected
     assert tab.state.flagged_markers == (stray,)
-    # whichever mirror is selected
     drawn: list = []
     tab.state.mirror_id = 1
-    # once it was selected)
     with monkeypatch.context() as patch:
         patch.setattr(tab.overlay, "draw", lambda marks, region: drawn.append(marks))
         tab._redraw_overlay()
@@ -198,9 +196,9 @@ def test_a_stray_marker_is_refused_and_a_bad_fit_is_only_a_proposal(background, 
     # one proposal at a time
     assert mirrors.fit.disabled
     waiting = shown[-1]
-    # the flagged marker deleted while the proposal is up: the
+    # the flagged marker deleted while the proposal is up: the proposal, fitted with it, goes,
+    # and Fit plane comes back
     tab.state.picked_marker = len(before.markers)
-    # proposal, fitted with it, goes, and Fit plane comes back
     mirrors._delete_marker()
     assert (
         mirrors.proposal is None

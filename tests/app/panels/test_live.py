@@ -74,8 +74,7 @@ def test_the_header_names_the_session_edited_where_another_plays(tmp_path):
 
 
 def test_the_legend_says_which_mirrors_leave_their_part_out():
-    """Before its plane a mirror's part of the frame is left out: the figure looked cut to a sliver
-."""
+    """Before its plane a mirror's part of the frame is left out, and the legend says so."""
     name = {0: "direct", 1: "left", 2: "right"}.get
     assert "no plane yet" not in legend_html({0: 1350, 1: 0}, name, (1, 2))
     one = legend_html({0: 1350, 1: 0}, name, (1, 2), ("left",))

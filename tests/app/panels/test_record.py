@@ -64,10 +64,9 @@ def test_record_then_replay_with_the_calibration(dense_shown):
         f"{result.source}: hidden while "
         f"{app.source.name} plays (Show the dense result shows it)"
     )
-    # a fit from the markers reads what `mirrorscan calibrate` reads, whenever it is clicked (it
-    # read the last
+    # a fit from the markers reads what `mirrorscan calibrate` reads, whenever it is clicked
     np.testing.assert_array_equal(app.jobs.marker_frames(), calibration_depth(recorded))
-    # and each marker's grade reads them too (the list said
+    # and each marker's grade reads them too
     read = calibration_depth(recorded)
     wait_for(
         lambda: (
@@ -112,7 +111,7 @@ def test_record_then_replay_with_the_calibration(dense_shown):
     # its frames' source again
     assert dense.show.value and dense.status.content == dense_message(result).markdown()
     assert not app.paused and not record.replay.disabled and not headless.tab.header.back.visible
-    # the edits still go to the recording's session, and
+    # the edits still go to the recording's session
     assert app.editor.session.root == recorded.root
     wait_for(
         lambda: header.title.content.endswith(
@@ -124,7 +123,7 @@ def test_record_then_replay_with_the_calibration(dense_shown):
     # (the steps below use the recording)
     app.use_source(playing)
     assert not dense.show.value
-    dense.show.value = True  # shown by hand over the replay: it is
+    dense.show.value = True  # shown by hand over the replay
     assert headless.tab.scene._dense[0].visible
 
 
@@ -219,10 +218,9 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(dense_shown):
     count = app.source.frame_count
     app.pause(True)
     time.sleep(0.3)  # a frame in progress finishes
-    # near its end: the Record step says how to take all of it (a
+    # near its end: the Record step says how to take all of it
     app.seek(count - 2)
     wait_for(lambda: app.last_frame.index == count - 2 and app.loop.index == count - 1)
-    # its index already
     record.start()
     assert (
         f"The recording that plays is at frame {count - 2} of {count}: it is taken up to its "
@@ -240,9 +238,8 @@ def test_recording_a_recording_that_plays_ends_at_its_last_frame(dense_shown):
         10,
         "the header saying so (it is written at most once a second)",
     )
-    # one count of the take everywhere (the header, the Record
+    # one count of the take everywhere: the header, the Record step and the session
     taken = app.jobs._tap.taken
-    # step and the
     assert headless.tab.header.rate.content.startswith(f"● **recording ended** at {taken} frames")
     assert f"came to its last frame: {taken} frames taken into " in record.status.content
     again = record.stop()
@@ -326,8 +323,7 @@ def test_mirrors_with_boundaries_and_no_markers_are_calibrated_from_a_recording(
             assert [m.plane for m in app.editor.session.mirrors] == found
             report = mirrors.result.content
             # refined from there, the sphere's centres give them again: said so, no undo step, and
-            # Undo still takes
-            # back the planes found
+            # Undo still takes back the planes found
             app.jobs.start_refine(app.editor)
             wait_for(
                 lambda: not app.jobs.running("refine") and "refined:" in mirrors.result.content,

@@ -225,7 +225,7 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got -5 mm"):
         mirrors._set_glass()
     assert mirrors.glass.value == 3.0 and app.editor.mirror(1).marker_offset == 0.003
-    # the glass typed in is said as typed (the
+    # the glass typed in is said as typed
     mirrors.fit_planes([m.id for m in app.editor.session.mirrors])
     concerns = {i: " ".join(mirror_words.concerns(fit)) for i, fit in mirrors.proposal.items()}
     assert "(the refinement moved it; the markers fit uses the glass typed in)" in concerns[1]
@@ -282,7 +282,7 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     tab.show_heat(False)
     assert "/heat" not in tab.client.scene._handle_from_node_name
     wait_for(lambda: "direct <b>" in tab.header.legend.content, 10, "the sources' legend back")
-    # paused, no frame comes: the map of the frame shown, at once (the
+    # paused, no frame comes: the map of the frame shown, at once
     app.pause(True)
     time.sleep(0.3)  # a frame in progress finishes
     tab.show_heat(True)
@@ -290,7 +290,7 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
         lambda: "/heat" in tab.client.scene._handle_from_node_name, 10, "the heat map while paused"
     )
     wait_for(lambda: not app.jobs.running(HEAT) and tab._heat_event, 10, "the paused frame's map")
-    # one mirror's points alone (which strip was whose could
+    # one mirror's points alone
     header = tab.header
     header._heat_choices()
     assert header.heat_of.visible and header.heat_of.options == (

@@ -1,6 +1,6 @@
 """The Session panel (mirrorscan.panels.session) on the simulated sphere rig, its mirrors
-calibrated: exports never overwrite, refusals as notifications, two tabs, save as and open, a
-session file written by calibrate reaching the open tabs."""
+calibrated: the view framed on the object, exports never overwrite, refusals as notifications, two
+tabs, save as and open, a session file written by calibrate reaching the open tabs."""
 import re
 from dataclasses import replace
 from pathlib import Path

@@ -88,8 +88,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     ).endswith(
         "**Back to session gait** (above) when done."
     )
-    # 'the live source' while a
-    # session played)
+    # 'the live source' while a session played
     marked = replace(done.mirrors[0], plane=None)
     assert start_hint(
         Session(tmp_path, session.camera, mirrors=(marked,)), TabState(mirror_id=1), True, True
@@ -132,11 +131,10 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
     assert start_hint(done, TabState(mirror_id=1), True, True, recording=True).startswith(
         "Recording (see above)"
     )
-    # calibrate --method
+    # no markers, as for calibrate --method scene
     unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))
-    # scene: no markers
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")
-    # flagged mirrors before "Ready" (it read so under three flagged mirrors, their note closed: a
+    # flagged mirrors before "Ready"
     assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left", "right")) == (
         "⚠ left and right: their views disagree with the others (why: under *Mirrors*): "
         "**Mirrors › Refine from the object**, or fit again."

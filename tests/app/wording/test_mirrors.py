@@ -37,8 +37,8 @@ def test_a_fit_that_most_points_miss_is_flagged():
 
 
 def test_a_markers_fit_without_glass_says_how_to_measure_it():
-    """Markers on 3 mm of glass gave a quiet all-clear: the planes were 2.4 and 4.3 mm
-    too near."""
+    """A markers fit with no glass set ends with the note on how to measure it; one with glass set
+    (0 measured included) does not."""
 
     def fit(name: str, glass: float, std: float | None = None, mirror_id: int = 1) -> Fit:
         mirror = SessionMirror(
