@@ -3,6 +3,7 @@ simulated sphere rig, `background` (the background captured with the object out 
 `calibrated` (then both mirrors calibrated by clicking their outlines and markers, and fitted) and
 `dense_shown` (then a dense result shown); on the demo, `demo_refined` (its planes refined from
 the object)."""
+import numpy as np
 import pytest
 from mirrorscan.panels.dense import DensePanel
 
@@ -23,11 +24,19 @@ def background(sphere):
 @pytest.fixture(scope="module")
 def calibrated(background):
     """(app, HeadlessTab) on the sphere rig, the background captured and both mirrors calibrated
-    by clicking and fitting, the tab showing the 3D view."""
+    by clicking and fitting, the live cloud through both mirrors, the tab showing the 3D view."""
     app, headless = background
     calibrate_by_clicking(app, headless.tab)
     for fitted, true in zip(app.editor.session.mirrors, app.source.rig.planes):
         assert fitted.plane.angle_to(true) < 1.0 and abs(fitted.plane.d - true.d) < 0.01
+
+    def through_the_fitted_mirrors() -> bool:
+        frame = app.last_frame
+        return frame.snapshot.session.mirrors == app.editor.session.mirrors and set(
+            np.unique(frame.cloud.sources)
+        ) == {0, 1, 2}
+
+    wait_for(through_the_fitted_mirrors, 30, "a cloud through both fitted mirrors")
     headless.tab.look("3d")
     return background
 
