@@ -10,9 +10,9 @@ import time
 
 import pytest
 import viser
-
 from mirrorscan.security import new_token
 from mirrorscan.server import MirrorscanApp
+
 from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

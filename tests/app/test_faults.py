@@ -16,22 +16,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
+from mirrorscan.bench.soak import listen
+from mirrorscan.bench.soak import run as soak
 from mirrorscan.events import JobProgress
 from mirrorscan.jobs import DENSE
 from mirrorscan.server import MirrorscanApp
-from mirrorscan.bench.soak import listen
-from mirrorscan.bench.soak import run as soak
-from tests.waiting import wait_for
-from mirrorcore.dense import DenseOptions
+
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.dense import DenseOptions
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import DepthSource, Frame, SimulatedSource
+from tests.waiting import wait_for
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 KILLS = 12
 SAVER = textwrap.dedent("""
     import sys
@@ -105,7 +105,7 @@ def carve_around_the_sphere(app, voxel: float):
 def test_a_tab_closing_during_carving_does_not_stop_the_server(sphere):
     app, _ = sphere
     connected: list[int] = []
-    # viser also calls a new callback for the tabs already in
+    # viser also calls a new callback for the tabs already connected
     already = set(app.server.get_clients())
     app.server.on_client_connect(
         lambda client: client.client_id in already or connected.append(client.client_id))

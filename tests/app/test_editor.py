@@ -7,12 +7,12 @@ import os
 from dataclasses import replace
 
 import pytest
-
 from mirrorscan.editor import SESSION_SCOPE, SessionEditor
+
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.depth.selection import Selection
 from mirrorcore.io.session import Session, load_session, save_session
 
 SQUARE = [(10, 10), (100, 10), (100, 100), (10, 100)]

@@ -9,13 +9,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.server import MirrorscanApp
-from tests.waiting import wait_for
-from tests.browser import click_pixel, look_at_the_depth_frame, open_tab
 
-ARTIFACTS = Path(__file__).parent / "artifacts"
+from tests.browser import click_pixel, look_at_the_depth_frame, open_tab
+from tests.waiting import wait_for
+
+ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
 
 # ms: the figure this test is for. Headless Chromium draws with SwiftShader on the machine's two
 # cores, which the demo's simulator and live loop share; the bound leaves room for a loaded 2-core

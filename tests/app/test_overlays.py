@@ -3,9 +3,15 @@ the object tinted, no reading dark) and a tab's overlay over it, checked pixel b
 plain definitions."""
 import cv2
 import numpy as np
-
-from mirrorscan.overlays import (NO_READING, OBJECT_TINT, MarkerMark, MirrorMarks, Overlay,
-                                 _overlap, depth_layer)
+from mirrorscan.overlays import (
+    NO_READING,
+    OBJECT_TINT,
+    MarkerMark,
+    MirrorMarks,
+    Overlay,
+    _overlap,
+    depth_layer,
+)
 
 
 def test_the_depth_layer_is_grey_by_depth_with_the_object_tinted_and_no_reading_dark():

@@ -14,15 +14,15 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-
 from mirrorscan.recording import LiveTap
+
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.io.session import load_session
 from mirrorcore.sources import DepthSource, Frame, Recorder, new_recording_folder
 from tests.waiting import wait_for
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CAMERA = Intrinsics(64, 48, 60.0, 60.0, 31.5, 23.5)
 
 RECORDER_SCRIPT = """

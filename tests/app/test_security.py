@@ -17,13 +17,13 @@ import pytest
 import viser
 import websockets.asyncio.client
 import websockets.exceptions
-from viser import _messages
-
+from mirrorscan.bench.tabs import HeadlessTab
 from mirrorscan.panels.mirrors import MirrorsPanel
 from mirrorscan.panels.session import SessionPanel
 from mirrorscan.security import MAX_MESSAGE_BYTES, install_log_filter, new_token, protect
 from mirrorscan.server import MirrorscanApp
-from mirrorscan.bench.tabs import HeadlessTab
+from viser import _messages
+
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
@@ -305,7 +305,7 @@ def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(t
     import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     token = new_token()
     command = [sys.executable, "-m", "mirrorscan.cli", "serve", str(tmp_path / "new"),
                "--port", "0", "--token", token]
