@@ -148,9 +148,11 @@ class MirrorscanApp(Notifier):
 
     @property
     def port(self) -> int:
+        """The port the viser server listens on."""
         return self.server.get_port()
 
     def start(self) -> None:
+        """Start the live loop and the thread that polls the tabs and the session file."""
         self.loop.start()
         self._poller.start()
 
@@ -209,7 +211,17 @@ class MirrorscanApp(Notifier):
             tab.close()
 
     def tab(self, client: viser.ClientHandle) -> Tab:
-        """The Tab of a connected client."""
+        """The Tab of a connected client.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle
+            A connected tab.
+
+        Returns
+        -------
+        Tab
+        """
         with self._tabs_lock:
             return self.tabs[client.client_id]
 
@@ -250,23 +262,41 @@ class MirrorscanApp(Notifier):
 
     @property
     def source(self) -> DepthSource:
+        """The depth source the live loop takes its frames from."""
         return self._source
 
     @property
     def paused(self) -> bool:
+        """Whether the live loop is paused."""
         return self.loop.paused
 
     def pause(self, paused: bool) -> None:
+        """Pause or resume the live loop, and publish LoopChanged.
+
+        Parameters
+        ----------
+        paused : bool
+            Pause it (True) or let it play (False).
+        """
         self.loop.pause(paused)
         self.bus.publish(LoopChanged(paused, self._source))
 
     def step(self) -> None:
+        """Process exactly one more frame while paused."""
         self.loop.step()
 
     def seek(self, index: int) -> None:
+        """Play on from frame `index` (see LiveLoop.seek).
+
+        Parameters
+        ----------
+        index : int
+            The frame's index in the source.
+        """
         self.loop.seek(index)
 
     def fps(self) -> float:
+        """The live loop's measured rate, frames per second."""
         return self.loop.rate.fps
 
     def fps_wanted(self) -> float | None:
@@ -299,6 +329,13 @@ class MirrorscanApp(Notifier):
         Its recorded frames play when `play`, or when it has some and no camera is live, as
         `mirrorscan serve SESSION` does (its mirrors belong to them, not to the simulator or
         recording playing before); a live camera stays, to be used with the session's calibration.
+
+        Parameters
+        ----------
+        session : Session
+            The session to edit.
+        play : bool, optional
+            Play its recorded frames even when a camera is live.
         """
         if session.frames and (play or not self._source.camera):
             # the session served from the start is not a replay
@@ -313,7 +350,18 @@ class MirrorscanApp(Notifier):
         self.editor.replace_session(session)
 
     def use_source(self, source: DepthSource) -> None:
-        """Take frames from another source of the same camera (a recording to replay)."""
+        """Take frames from another source of the same camera (a recording to replay).
+
+        Parameters
+        ----------
+        source : DepthSource
+            The new source.
+
+        Raises
+        ------
+        MirrorscanError
+            When its frames' size differs from this session's camera.
+        """
         if source.intrinsics.shape != self._source.intrinsics.shape:
             size = f"{source.intrinsics.width}x{source.intrinsics.height}"
             raise MirrorscanError(f"{source.name}: its {size} frames do not fit this session's "
@@ -330,10 +378,15 @@ class MirrorscanApp(Notifier):
         self.pause(False)
 
     def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth`, (H, W) metres, as the background.
+        """Use `depth` as the background.
 
         Saved beside a saved session as background.png, held in memory for one that is not saved
         (Save as writes it).
+
+        Parameters
+        ----------
+        depth : np.ndarray, shape (H, W)
+            Depth in metres.
         """
         if self.editor.autosave:
             root = Path(self.editor.session.root)
