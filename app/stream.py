@@ -45,6 +45,7 @@ class SourcePart:
 
     @property
     def key(self) -> tuple[int, int]:
+        """(source, half): the part's node."""
         return self.source, self.half
 
 
@@ -57,8 +58,21 @@ class Anchors:
         self._centres: dict[int, np.ndarray] = {}
 
     def centre(self, source: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-        """The centre for a source's part whose points span the box [low, high] ((3,) float32 each):
-        the kept one while it reaches the whole box, else the box's middle (kept from now on)."""
+        """The centre for a source's part whose points span the box [low, high].
+
+        The kept one while it reaches the whole box, else the box's middle (kept from now on).
+
+        Parameters
+        ----------
+        source : int
+            The source label.
+        low, high : np.ndarray, shape (3,), float32
+            The box's corners (metres).
+
+        Returns
+        -------
+        np.ndarray, shape (3,), float32
+        """
         kept = self._centres.get(source)
         if kept is not None and float(np.maximum(high - kept, kept - low).max()) < FLOAT16_EXTENT:
             return kept
@@ -67,18 +81,46 @@ class Anchors:
 
 
 def downsample(cloud: Cloud, max_points: int) -> Cloud:
-    """Every k-th point so that at most max_points remain (the order is row-major, so this thins
-    evenly)."""
+    """Every k-th point so that at most `max_points` remain.
+
+    The order is row-major, so this thins evenly.
+
+    Parameters
+    ----------
+    cloud : Cloud
+    max_points : int
+
+    Returns
+    -------
+    Cloud
+    """
     step = max(1, int(np.ceil(len(cloud) / max_points)))
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
 def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES),
                  anchors: Anchors | None = None) -> list[SourcePart]:
-    """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones
-    included, so that a source that left the view is cleared). A part's centre is the middle of its
-    points' box, or the one `anchors` kept for its source. A live frame asks for the one half it
-    sends: half the gathering and conversion."""
+    """The `halves` of the sources `labels`, downsampled to at most `max_points`.
+
+    A part's centre is the middle of its points' box, or the one `anchors` kept for its source. A
+    live frame asks for the one half it sends: half the gathering and conversion.
+
+    Parameters
+    ----------
+    cloud : Cloud
+        The frame's cloud (metres).
+    labels : iterable of int
+        Source labels, in order; empty ones included, so that a source that left the view is
+        cleared.
+    max_points : int, optional
+    halves : iterable of int, optional
+        All by default.
+    anchors : Anchors, optional
+
+    Returns
+    -------
+    list of SourcePart
+    """
     cloud = downsample(cloud, max_points)
     # (3, n): numpy gathers and reduces rows about 30 times faster than columns
     rows = cloud.points.T
