@@ -34,11 +34,18 @@ class AgreementJob(Runner):
     disagreeing: tuple[str, ...] = ()
 
     def start_agreement(self, depths: np.ndarray | None = None) -> None:
-        """How well each mirror's view agrees with the others over frames (view_agreement; depths
-        (k, H, W) or (H, W) metres, the last AGREEMENT_FRAMES of them; None: the last live frames),
-        with the current session's planes and selection. While one runs, none is started: the
+        """How well each mirror's view agrees with the others over frames (view_agreement).
+
+        With the current session's planes and selection. While one runs, none is started: the
         running one checks again when the rig or the background changed meanwhile, so that its
-        report is always the current planes'. Safe from any thread."""
+        report is always the current planes'. Safe from any thread.
+
+        Parameters
+        ----------
+        depths : np.ndarray, shape (k, H, W) or (H, W), optional
+            Metres; the last AGREEMENT_FRAMES of them are used. None: the last live frames (nothing
+            is started before the first).
+        """
         depths = self.loop.recent_depths() if depths is None else np.asarray(depths)
         if depths is None:
             return
