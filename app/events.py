@@ -102,8 +102,18 @@ class EventBus:
         self._subscribers: dict[type, list[Callable[[Any], None]]] = {}
 
     def subscribe(self, kind: type[E], callback: Callable[[E], None]) -> Callable[[], None]:
-        """Call callback(event) for every published event of type `kind`; returns the function that
-        unsubscribes."""
+        """Call callback(event) for every published event of type `kind`.
+
+        Parameters
+        ----------
+        kind : type
+        callback : callable
+
+        Returns
+        -------
+        callable
+            The function that unsubscribes.
+        """
         with self._lock:
             self._subscribers.setdefault(kind, []).append(callback)
 
@@ -115,6 +125,14 @@ class EventBus:
         return unsubscribe
 
     def publish(self, event: object) -> None:
+        """Call the subscribers of the event's type, in order, on the calling thread.
+
+        One that raises is logged and the others still run.
+
+        Parameters
+        ----------
+        event : object
+        """
         with self._lock:
             callbacks = list(self._subscribers.get(type(event), []))
         for callback in callbacks:

@@ -45,8 +45,14 @@ class TabFraming:
             self._frame(points, OBJECT_MARGIN)
 
     def look_at_dense(self, result) -> None:
-        """Fill this tab's canvas with the object's cloud and a dense result, where this tab draws
-        it (beside the cloud or in place), seen as from home."""
+        """Fill this tab's canvas with the object's cloud and a dense result, seen as from home.
+
+        Where this tab draws the result: beside the cloud or in place.
+
+        Parameters
+        ----------
+        result : DenseResult
+        """
         offset = beside_offset(result) if self.dense_beside else 0.0
         corners = np.array([result.low, result.high], float) + offset
         self._frame(np.concatenate([self._object_points(), corners]), OBJECT_MARGIN)

@@ -25,8 +25,20 @@ LABEL_STEP = 8
 
 
 def depth_range(depth: np.ndarray) -> tuple[float, float]:
-    """(near, far) metres: the 1st and 99th percentiles of the readings of (H, W) `depth` (a 1-in-16
-    sample), or (0.5, 4.5) without readings."""
+    """The depth frame's grey scale: the 1st and 99th percentiles of its readings.
+
+    Read on a 1-in-16 sample.
+
+    Parameters
+    ----------
+    depth : np.ndarray, shape (H, W)
+        Metres; 0 where there is no reading.
+
+    Returns
+    -------
+    near, far : float
+        Metres; (0.5, 4.5) without readings. `far` is at least 1 cm beyond `near`.
+    """
     sample = depth[::4, ::4]
     valid = sample[sample > 0]
     if not len(valid):
@@ -101,8 +113,20 @@ class MirrorMarks:
 
 
 class Overlay:
-    """A tab's overlay image (H, W, 4) RGBA, drawn from its marks; labels are placed so that they do
-    not cover each other or a marker."""
+    """A tab's overlay image, drawn from its marks.
+
+    Labels are placed so that they do not cover each other or a marker.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W) of the depth frame.
+
+    Attributes
+    ----------
+    image : np.ndarray, shape (H, W, 4), uint8
+        RGBA.
+    """
 
     def __init__(self, shape: tuple[int, int]):
         self.image = np.zeros((*shape, 4), np.uint8)
@@ -112,16 +136,33 @@ class Overlay:
         self._drawn = np.zeros(shape, np.uint8)
 
     def over(self, base: np.ndarray) -> np.ndarray:
-        """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (the drawn pixels
-        copied over)."""
+        """The overlay over the base image: the drawn pixels copied over.
+
+        Parameters
+        ----------
+        base : np.ndarray, shape (H, W, 3), uint8
+
+        Returns
+        -------
+        np.ndarray, shape (H, W, 3), uint8
+            A new image.
+        """
         out = base.copy()
         cv2.copyTo(self._rgb, self._drawn, out)
         return out
 
     def draw(self, mirrors: list[MirrorMarks],
              region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
-        """Redraw everything: the mirrors (selected last, on top) and the region of interest
-        (vertices, closed)."""
+        """Redraw everything: the mirrors (selected last, on top) and the region of interest.
+
+        Markers are drawn above every outline, labels last of all.
+
+        Parameters
+        ----------
+        mirrors : list of MirrorMarks
+        region : (vertices, closed) or None
+            The region of interest: its vertices (pixels) and whether it is closed.
+        """
         self.image[:] = 0
         self._labels = []
         ordered = sorted(mirrors, key=lambda m: m.selected)

@@ -20,6 +20,17 @@ class QuietProbes(logging.Filter):
         self._lock = threading.Lock()
 
     def filter(self, record: logging.LogRecord) -> bool:
+        """Drop a probe's record (counted in `probes`); make a malformed request's one line.
+
+        Parameters
+        ----------
+        record : logging.LogRecord
+
+        Returns
+        -------
+        bool
+            Whether the record is logged.
+        """
         exc = record.exc_info[1] if record.exc_info else None
         if exc is None:
             return True

@@ -78,8 +78,18 @@ class Guard:
 
     # ------------------------------------------------------------------ the checks, on one request
     def check(self, request: Request) -> Response | None:
-        """None when `request` may go on; otherwise the 403 response that refuses it (with a
-        one-line reason)."""
+        """Whether `request` may go on: its Host, its Origin (a websocket's) and the token.
+
+        Parameters
+        ----------
+        request : Request
+
+        Returns
+        -------
+        Response or None
+            None when it may go on; otherwise the 403 response that refuses it (with a one-line
+            reason).
+        """
         headers = request.headers
         hosts, origins = headers.get_all("Host"), headers.get_all("Origin")
         host = hosts[0] if len(hosts) == 1 else ""
@@ -99,7 +109,17 @@ class Guard:
         return None
 
     def host_allowed(self, host_header: str) -> bool:
-        """True for an IP address, localhost, or an allowed name, with or without a port."""
+        """True for an IP address, localhost, or an allowed name, with or without a port.
+
+        Parameters
+        ----------
+        host_header : str
+            The Host header ('' when missing).
+
+        Returns
+        -------
+        bool
+        """
         name = urlsplit(f"//{host_header}").hostname if host_header else None
         if not name:
             return False
@@ -110,8 +130,16 @@ class Guard:
             return name.lower() in self.allowed_hosts
 
     def token_given(self, request: Request) -> bool:
-        """True when the query string, the cookie or an Authorization: Bearer header carries the
-        token."""
+        """True when the query string, the cookie or an Authorization: Bearer header has the token.
+
+        Parameters
+        ----------
+        request : Request
+
+        Returns
+        -------
+        bool
+        """
         given = parse_qs(urlsplit(request.path).query).get("token", [])
         try:
             cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
@@ -126,6 +154,7 @@ class Guard:
                    for t in given if t.isascii())
 
     def _refuse(self, reason: str) -> Response:
+        """Count, log and return the 403 response with `reason`."""
         with self._lock:
             self.refused += 1
         log.warning("refused a connection: %s", reason)
@@ -150,8 +179,18 @@ def new_token() -> str:
 
 
 def is_loopback(host: str) -> bool:
-    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can
-    connect."""
+    """True for localhost and the loopback addresses (127.0.0.0/8, ::1).
+
+    Only this machine can connect to them.
+
+    Parameters
+    ----------
+    host : str
+
+    Returns
+    -------
+    bool
+    """
     try:
         return host == "localhost" or ipaddress.ip_address(host).is_loopback
     except ValueError:
