@@ -31,6 +31,13 @@ METHODS = {
 
 
 class DensePanel:
+    """Step 4, "Dense": carve or fuse the object, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -164,9 +171,20 @@ class DensePanel:
         self.tab.show_dense(self.services.jobs.dense_result)
 
     def _box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box's corners as the fields hold them, metres."""
         return np.array(self.low.value, float), np.array(self.high.value, float)
 
     def options(self) -> DenseOptions:
+        """The dense options as the fields hold them.
+
+        The voxel, margin and threshold are typed in mm; the box is used only when `high` is above
+        `low` on every axis.
+
+        Returns
+        -------
+        DenseOptions
+            Metres.
+        """
         low, high = self._box()
         bounds = (tuple(low), tuple(high)) if np.all(high > low) else None
         return DenseOptions(

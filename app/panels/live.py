@@ -57,13 +57,39 @@ def _from_object(jobs: Jobs, session: Session) -> bool:
 
 
 def source_root(source) -> Path | None:
-    """The folder of the session a source plays (a SessionSource), else None."""
+    """The folder of the session a source plays (a SessionSource), else None.
+
+    Parameters
+    ----------
+    source : DepthSource
+
+    Returns
+    -------
+    Path or None
+    """
     return Path(source.session.root) if isinstance(source, SessionSource) else None
 
 
 def source_title(source: str, played: Path | None, edited: Path | None) -> str:
-    """The header's title: the source's name, then the folder of the session being edited (saved:
-    `edited`) when it is not the one the source plays (`played`)."""
+    """The header's title: the source's name, then the session being edited when it is another.
+
+    The folder of the session being edited is named when it is saved and not the one the source
+    plays.
+
+    Parameters
+    ----------
+    source : str
+        The source's name.
+    played : Path or None
+        The folder of the session the source plays.
+    edited : Path or None
+        The folder of the session being edited, when it is saved.
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
     if edited is None or (played is not None and played.resolve() == Path(edited).resolve()):
         return f"**{source}**"
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
@@ -83,6 +109,13 @@ def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
 
 
 class LivePanel:
+    """The status header above the steps, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
         self.title = gui.add_markdown("")
@@ -210,6 +243,7 @@ class LivePanel:
         )
 
     def refresh_hint(self) -> None:
+        """Rewrite the 'Start here' line for the state of the work."""
         services = self.tab.services
         snapshot = services.snapshot
         playback = (
@@ -244,7 +278,12 @@ class LivePanel:
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
-        """Refresh the figures at STATS_HZ (every frame while paused)."""
+        """Refresh the figures at STATS_HZ (every frame while paused).
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        """
         now = time.perf_counter()
         self._process_ms.append(frame.process_ms)
         if now - self._last_stats < 1 / STATS_HZ and not self.tab.services.paused:
@@ -326,6 +365,15 @@ class LivePanel:
         return next((m.id for m in session.mirrors if m.name == self.heat_of.value), None)
 
     def show_pixel(self, u: float, v: float) -> None:
+        """Show the depth read at a clicked pixel, in the header and in a notification.
+
+        One reading shows at a time: the clicks' notifications do not stack.
+
+        Parameters
+        ----------
+        u, v : float
+            Pixels.
+        """
         frame = self.tab.services.last_frame
         if frame is None:
             return

@@ -39,10 +39,22 @@ CANCELLED_NOTE = "Cancelled: the report below is the fit before."
 
 
 def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
-    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by
-    name(label)), mm; a warning first when fewer than MIN_FITTING of the points lie within the
-    threshold of the shape, or when their RMSE reaches MAX_SPREAD of it (the points fill the band
-    instead of lying on the shape: a cylinder fitted to a sphere)."""
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source, mm.
+
+    A warning comes first when fewer than MIN_FITTING of the points lie within the threshold of
+    the shape, or when their RMSE reaches MAX_SPREAD of it (the points fill the band instead of
+    lying on the shape: a cylinder fitted to a sphere).
+
+    Parameters
+    ----------
+    fit : ShapeFit
+    name : callable
+        A source's name from its label.
+
+    Returns
+    -------
+    str
+    """
     e = fit.errors
     share = float(np.mean(fit.inliers)) if len(fit.inliers) else 0.0
     shape, band = fit.shape.kind, f"{fit.threshold * 1e3:.0f} mm"
@@ -82,6 +94,13 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
 
 
 class MeasurePanel:
+    """Step 3, "Measure": fit a sphere or a cylinder to the cloud (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -136,7 +155,25 @@ class MeasurePanel:
         progress: Callable[[float], None] | None = None,
         cancel: threading.Event | None = None,
     ) -> ShapeFit:
-        """The shape chosen, fitted to the frame's cloud (with fit_sphere's progress and cancel)."""
+        """The shape chosen, fitted to the frame's cloud.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        progress : callable, optional
+            Called with the fraction done (as fit_sphere's).
+        cancel : threading.Event, optional
+            Stops the fit when set.
+
+        Returns
+        -------
+        ShapeFit
+
+        Raises
+        ------
+        MirrorscanError
+            When the cloud has fewer than 10 points.
+        """
         cloud = frame.cloud
         if len(cloud) < 10:
             raise MirrorscanError(f"the current cloud has {len(cloud)} points; a fit needs more")
@@ -153,7 +190,24 @@ class MeasurePanel:
     def fit_current(
         self, progress: Callable[[float], None] | None = None, cancel: threading.Event | None = None
     ) -> ShapeFit:
-        """Fit the last frame's cloud, report it and add it to the plot."""
+        """Fit the last frame's cloud, report it and add it to the plot.
+
+        Parameters
+        ----------
+        progress : callable, optional
+            Called with the fraction done.
+        cancel : threading.Event, optional
+            Stops the fit when set.
+
+        Returns
+        -------
+        ShapeFit
+
+        Raises
+        ------
+        MirrorscanError
+            Before the first frame, or when the cloud is too small.
+        """
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no frame yet")
@@ -212,8 +266,12 @@ class MeasurePanel:
             self.run.disabled, self.cancel.visible, self.progress.visible = False, False, False
 
     def on_frame(self, frame: "LiveFrame") -> None:
-        """While tracking, start a fit of this frame on a worker thread at most TRACK_HZ times a
-        second."""
+        """While tracking, start a fit of this frame on a worker thread, at most TRACK_HZ a second.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        """
         now = time.monotonic()
         if (
             not self.track.value

@@ -30,6 +30,13 @@ HIDDEN_SHARE = 0.5
 
 
 class ObjectPanel:
+    """Step 2, "Object": which pixels are the object, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -100,6 +107,7 @@ class ObjectPanel:
             unsubscribe()
 
     def refresh(self) -> None:
+        """Show the selection as it is: background, depth range, region and bounces."""
         snapshot, state = self.services.snapshot, self.tab.state
         selection = snapshot.session.selection
         source = (

@@ -38,14 +38,31 @@ BATCH_TEMPORAL = 2
 
 
 def batch_label(session: Session) -> str:
-    """The batch button names the session whose frames it reconstructs (after a replay and Back to,
-    that is the recording's, not the session that plays)."""
+    """The batch button's label: it names the session whose frames it reconstructs.
+
+    After a replay and Back to, that is the recording's, not the session that plays.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    str
+    """
     count = len(session.frames)
     frames = f"{count} frame{'s' if count != 1 else ''}"
     return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
 
 
 class RecordPanel:
+    """Step 5, "Record": record, replay and reconstruct every frame (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -102,6 +119,7 @@ class RecordPanel:
             unsubscribe()
 
     def start(self) -> None:
+        """Start recording the live frames into a new session folder."""
         self.services.jobs.start_recording(self.services.sessions_dir)
 
     def stop(self) -> Session:

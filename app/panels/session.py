@@ -25,6 +25,13 @@ MAX_UPLOAD_MB = 20  # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncomp
 
 
 class SessionPanel:
+    """The "Session" step of one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -60,6 +67,7 @@ class SessionPanel:
         self._unsubscribe()
 
     def refresh(self) -> None:
+        """Show where the session lives and whether it is saved; refresh the Open list."""
         editor = self.services.editor
         state = (
             "autosaved after every change"
@@ -118,10 +126,21 @@ class SessionPanel:
         self.new_name.value = ""
 
     def upload_background(self, name: str, data: bytes) -> None:
-        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the
-        session's background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB,
-        a name not ending in .png, an image that is not 16-bit or not the camera's size, and one
-        with no reading at all."""
+        """Use an uploaded depth PNG as the background, saved as the session's background.png.
+
+        Parameters
+        ----------
+        name : str
+            The file's name.
+        data : bytes
+            The file's bytes.
+
+        Raises
+        ------
+        MirrorscanError
+            Naming the file: more than MAX_UPLOAD_MB, a name not ending in .png, an image that is
+            not 16-bit or not the camera's size, and one with no reading at all.
+        """
         if len(data) > MAX_UPLOAD_MB * 2**20:
             raise MirrorscanError(
                 f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "

@@ -16,7 +16,20 @@ from ...wording.mirrors import marker_off_note, no_depth_note
 
 
 def nearest(points, uv) -> int | None:
-    """The index of the point (u, v) within PICK_RADIUS pixels of uv, or None."""
+    """The index of the point within PICK_RADIUS pixels of `uv`, or None.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        (u, v) pixels.
+    uv : array_like, shape (2,)
+        Pixels.
+
+    Returns
+    -------
+    int or None
+        The nearest such point's index.
+    """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not len(points):
         return None

@@ -18,8 +18,20 @@ from ...wording.mirrors import CROSSED, PROPOSAL_HEAD, fit_note, fit_report, pro
 
 
 def flags(fits: dict[int, Fit]) -> tuple[tuple[int, tuple[float, float]], ...]:
-    """(mirror id, marker's pixel (u, v)) of every poor marker of the fits: crossed on the depth
-    frame whichever mirror is selected, until that marker is moved or deleted."""
+    """Every poor marker of the fits, crossed on the depth frame whichever mirror is selected.
+
+    They stay crossed until that marker is moved or deleted.
+
+    Parameters
+    ----------
+    fits : dict of int to Fit
+        By mirror id.
+
+    Returns
+    -------
+    tuple of (int, (float, float))
+        (mirror id, marker's pixel (u, v)).
+    """
     return tuple((f.mirror.id, f.mirror.markers[k]) for f in fits.values() for k in f.review.poor)
 
 
@@ -40,12 +52,24 @@ class MirrorFits:
         )
 
     def fit_planes(self, mirror_ids: list[int], without_markers: tuple[str, ...] = ()) -> None:
-        """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A
-        fit that
-        needs a look (Fit.needs_confirmation) becomes a proposal; the others are applied at once.
-        Refused while
-        a calibration from the object runs: it applies what it computed on the planes as they were.
-        without_markers : the names of the mirrors Fit all left out, for the note."""
+        """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing.
+
+        A fit that needs a look (Fit.needs_confirmation) becomes a proposal; the others are applied
+        at once.
+
+        Parameters
+        ----------
+        mirror_ids : list of int
+        without_markers : tuple of str, optional
+            The names of the mirrors Fit all left out, for the note.
+
+        Raises
+        ------
+        MirrorscanError
+            While a calibration from the object runs (it applies what it computed on the planes as
+            they were), before the first frame, or when a mirror with a boundary and no plane has no
+            markers.
+        """
         jobs = self.services.jobs
         if jobs.running(REFINE):
             raise MirrorscanError(

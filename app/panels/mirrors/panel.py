@@ -37,8 +37,16 @@ GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
 class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
-    """Step 1: add and select mirrors, click their boundaries and markers on the depth frame, fit
-    their planes, calibrate them from the object; undo and redo per mirror."""
+    """Step 1: add and select mirrors, click their boundaries and markers, fit and calibrate them.
+
+    Their boundaries and markers are clicked on the depth frame, their planes fitted to the
+    markers or calibrated from the object; undo and redo go per mirror.
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
 
     TITLE = TITLE
 
@@ -119,6 +127,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     @proposal.setter
     def proposal(self, fits: dict[int, Fit] | None) -> None:
+        """Set the fits waiting; the tab's proposal_for follows and the waiting note goes."""
         self._proposal = fits
         self.tab.state.proposal_for = tuple(f.mirror.name for f in fits.values()) if fits else ()
         if self._proposal_note is not None:  # its "... waits, not applied" is over
