@@ -54,10 +54,23 @@ class BiasRow:
 
 
 def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.ndarray:
-    """(len(frames), 2 mirrors, 2) float.
+    """Each frame's refinement from the true planes: the offset error and the reported 1-sigma.
 
-    Each frame's refinement from the true planes -> (offset error mm, reported 1-sigma mm) per
-    mirror.
+    Parameters
+    ----------
+    obj : str
+        The scene's object, a key of DISTANCE.
+    sensor : str
+        A key of SENSORS.
+    seed : int
+        The simulator's seed.
+    frames : range
+        The frames, one refinement each.
+
+    Returns
+    -------
+    np.ndarray, shape (len(frames), 2, 2)
+        Per frame and mirror: (offset error mm, reported 1-sigma mm).
     """
     scene = paper_scene(object=obj, distance=DISTANCE[obj])
     sim, rig = Simulator(scene, SENSORS[sensor], seed=seed), true_rig(scene)
@@ -80,6 +93,22 @@ def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.nda
 
 
 def bias_row(obj: str, sensor: str, seed: int, frames: int) -> BiasRow:
+    """One sensor's refinements from the truth, one frame each, as a BiasRow.
+
+    Parameters
+    ----------
+    obj : str
+        The scene's object.
+    sensor : str
+    seed : int
+        The simulator's seed.
+    frames : int
+
+    Returns
+    -------
+    BiasRow
+        Spread NaN for one frame, correlation NaN for two or fewer.
+    """
     found = errors_from_truth(obj, sensor, seed, range(frames))
     spread = found[:, :, 0].std(axis=0, ddof=1) if frames > 1 else np.full(2, np.nan)
     correlation = (
@@ -96,6 +125,13 @@ def bias_row(obj: str, sensor: str, seed: int, frames: int) -> BiasRow:
 
 
 def main(argv=None) -> None:
+    """The command line: print a BiasRow per sensor.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; sys.argv's by default.
+    """
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--object", choices=sorted(DISTANCE), default="sphere")
     p.add_argument("--seed", type=int, default=1)
