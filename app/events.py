@@ -24,21 +24,38 @@ E = TypeVar("E")
 
 @dataclass(frozen=True, eq=False)
 class FrameReady:
-    """The live loop processed a frame (on the loop's thread: subscribers must be quick)."""
+    """The live loop processed a frame (on the loop's thread: subscribers must be quick).
+
+    Attributes
+    ----------
+    frame : LiveFrame
+    """
 
     frame: "LiveFrame"
 
 
 @dataclass(frozen=True, eq=False)
 class SessionChanged:
-    """The session (or its background) changed; `snapshot` is the new consistent state."""
+    """The session (or its background) changed.
+
+    Attributes
+    ----------
+    snapshot : Snapshot
+        The new consistent state.
+    """
 
     snapshot: "Snapshot"
 
 
 @dataclass(frozen=True, eq=False)
 class LoopChanged:
-    """The live loop was paused, resumed or moved to another frame or source."""
+    """The live loop was paused, resumed or moved to another frame or source.
+
+    Attributes
+    ----------
+    paused : bool
+    source : DepthSource
+    """
 
     paused: bool
     source: "DepthSource"
@@ -46,15 +63,20 @@ class LoopChanged:
 
 @dataclass(frozen=True, eq=False)
 class JobProgress:
-    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT,
-    HEAT) moved on.
+    """A long job shared by every tab moved on.
+
+    The jobs are jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT and HEAT.
 
     Attributes
     ----------
-    job : the job's kind.
-    fraction : done, in [0, 1], or None when it is not running.
-    status : Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
-    result : the typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide
+    job : str
+        The job's kind.
+    fraction : float or None
+        Done, in [0, 1], or None when it is not running.
+    status : str
+        Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
+    result : object
+        The typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide
         on.
     """
 
@@ -72,18 +94,36 @@ class JobProgress:
 
 @dataclass(frozen=True, eq=False)
 class DenseChanged:
-    """A dense reconstruction finished (or was cleared: result None)."""
+    """A dense reconstruction finished (or was cleared).
+
+    Attributes
+    ----------
+    result : DenseResult or None
+        None when cleared.
+    """
 
     result: "DenseResult | None"
 
 
 @dataclass(frozen=True, eq=False)
 class HeatChanged:
-    """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3)
-    uint8, and per view seen in a mirror (source label) the median distance (mm) and the share of
-    its points compared (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the
-    last `frames` frames with the same planes; `sources` (n,) uint8: each point's source label, 0
-    the camera's (None: not told apart)."""
+    """The heat map of a live frame.
+
+    Attributes
+    ----------
+    index : int
+        The live frame's index.
+    points : np.ndarray, shape (n, 3), float32
+        Metres.
+    colours : np.ndarray, shape (n, 3), uint8
+    figures : dict
+        Per view seen in a mirror (source label): the median distance (mm) and the share of its
+        points compared (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the
+        last `frames` frames with the same planes.
+    frames : int
+    sources : np.ndarray, shape (n,), uint8, or None
+        Each point's source label, 0 the camera's; None: not told apart.
+    """
 
     index: int
     points: "np.ndarray"

@@ -88,9 +88,21 @@ def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) ->
 
 @dataclass(frozen=True)
 class MarkerMark:
-    """A marker as drawn: pixel (u, v), label ('2.3'), the quality that colours its centre ('good',
-    'fair', 'poor', 'unknown'), and whether it is picked (ringed) or flagged by a fit proposal
-    (crossed)."""
+    """A marker as drawn.
+
+    Attributes
+    ----------
+    uv : tuple of float
+        Its pixel (u, v).
+    label : str
+        '2.3'.
+    quality : str
+        What colours its centre: 'good', 'fair', 'poor' or 'unknown'.
+    picked : bool
+        Ringed.
+    flagged : bool
+        Crossed: flagged by a fit proposal.
+    """
 
     uv: tuple[float, float]
     label: str
@@ -101,8 +113,21 @@ class MarkerMark:
 
 @dataclass(frozen=True)
 class MirrorMarks:
-    """One mirror as drawn: its colour, its outline (closed, or an open draft), the picked corner,
-    its markers."""
+    """One mirror as drawn.
+
+    Attributes
+    ----------
+    colour : tuple of int
+        RGB.
+    outline : tuple of (float, float)
+        Its vertices, pixels.
+    closed : bool
+        False for an open draft.
+    markers : tuple of MarkerMark
+    picked_corner : int or None
+    selected : bool
+        Drawn wider, on top.
+    """
 
     colour: tuple[int, int, int]
     outline: tuple[tuple[float, float], ...]

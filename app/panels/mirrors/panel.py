@@ -127,7 +127,13 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     @proposal.setter
     def proposal(self, fits: dict[int, Fit] | None) -> None:
-        """Set the fits waiting; the tab's proposal_for follows and the waiting note goes."""
+        """Set the fits waiting; the tab's proposal_for follows and the waiting note goes.
+
+        Parameters
+        ----------
+        fits : dict of int to Fit or None
+            By mirror id; None when nothing waits.
+        """
         self._proposal = fits
         self.tab.state.proposal_for = tuple(f.mirror.name for f in fits.values()) if fits else ()
         if self._proposal_note is not None:  # its "... waits, not applied" is over
