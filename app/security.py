@@ -58,8 +58,22 @@ TOKEN_COOKIE = "mirrorscan-token-{port}"
 
 @dataclass
 class Guard:
-    """The checks protect() installed: the token (None when not required), the counters, and the
-    address to open."""
+    """The checks protect() installed, the counters, and the address to open.
+
+    Attributes
+    ----------
+    host : str
+        The address the server listens on.
+    port : int
+    token : str or None
+        None when not required.
+    allowed_hosts : frozenset of str
+        Host names a browser may use besides IP addresses.
+    max_upload_bytes : int
+        The largest upload.
+    refused : int
+        Requests refused by Host, Origin or token.
+    """
 
     host: str
     port: int

@@ -39,11 +39,30 @@ LATE_CLIENT_S = 3.0  # the tab opened at the end listens this long
 class SoakReport:
     """What a soak run measured.
 
-    rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB, at the
-    'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps =
-    frames / seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits
-    / edits_on_disk: session renames made / found in session.json at the end; late_messages: what a
-    tab opened at the end received (the whole current state); errors: live loop errors.
+    Attributes
+    ----------
+    seconds : float
+        How long it streamed.
+    clients : int
+        The simulated tabs.
+    frames : int
+    fps : float
+        frames / seconds.
+    rss_mb : dict of str to float
+        Memory of the whole process (server, live loop and the simulated tabs), MB, at the
+        'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm.
+    messages : list of int
+        Per tab, in order.
+    max_gap_s : float
+        The longest silence any tab saw.
+    edits : int
+        Session renames made.
+    edits_on_disk : bool
+        The last rename is found in session.json at the end.
+    late_messages : int
+        What a tab opened at the end received (the whole current state).
+    errors : list of str
+        Live loop errors.
     """
 
     seconds: float

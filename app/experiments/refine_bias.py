@@ -40,9 +40,17 @@ DISTANCE = {"sphere": 2.0, "figure": 3.0}  # metres, as in tests/cli/test_calibr
 class BiasRow:
     """One sensor's refinements from the truth, one frame each.
 
-    Per mirror (two), the mean and the spread (std over frames) of the plane's error at the object
-    (mm, > 0 away from the camera), the 1-sigma the refinement reported (mean over frames, mm), and
-    the correlation of the two mirrors' errors over frames.
+    Attributes
+    ----------
+    sensor : str
+    frames : int
+    mean_mm, spread_mm : tuple of float
+        Per mirror (two), the mean and the spread (std over frames) of the plane's error at the
+        object (mm, > 0 away from the camera).
+    reported_mm : float
+        The 1-sigma the refinement reported (mean over frames, mm).
+    correlation : float
+        The correlation of the two mirrors' errors over frames.
     """
 
     sensor: str
