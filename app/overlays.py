@@ -208,9 +208,11 @@ class Overlay:
         self._drawn[:] = self.image[..., 3]
 
     def _rgba(self, colour) -> tuple[int, int, int, int]:
+        """An RGB colour as opaque RGBA."""
         return (int(colour[0]), int(colour[1]), int(colour[2]), 255)
 
     def _polygon(self, vertices, colour, closed: bool, picked: int | None, thickness: int) -> None:
+        """Draw an outline (closed or open) with its corners, the picked one ringed."""
         if not len(vertices):
             return
         pts = np.round(np.asarray(vertices, float)).astype(np.int32).reshape(-1, 1, 2)
@@ -224,6 +226,7 @@ class Overlay:
                 cv2.circle(self.image, (int(u), int(v)), 9, self._rgba(WHITE), 2, cv2.LINE_AA)
 
     def _marker(self, marker: MarkerMark, colour) -> None:
+        """Draw a marker: centre coloured by its quality, ringed if picked, crossed if flagged."""
         centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
         cv2.circle(self.image, centre, MARKER_HALO, self._rgba(HALO), -1, cv2.LINE_AA)
         cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)

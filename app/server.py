@@ -178,6 +178,7 @@ class MirrorscanApp(Notifier):
 
     # ------------------------------------------------------------------ tabs
     def _connect(self, client: viser.ClientHandle) -> None:
+        """Make a Tab for a new client and find out which page it is."""
         tab = Tab(client, self)
         with self._tabs_lock:
             # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
@@ -203,6 +204,7 @@ class MirrorscanApp(Notifier):
             tab.take_up(left[1])
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
+        """Close a client's Tab, keeping its work for a reload of its page."""
         with self._tabs_lock:
             tab = self.tabs.pop(client.client_id, None)
             if tab is not None and tab.page is not None:
@@ -227,6 +229,7 @@ class MirrorscanApp(Notifier):
 
     def _poll_tabs(self) -> None:
         # time.monotonic() when the tabs were last asked
+        """Ask the tabs whether they are hidden or lag, and reload a changed session file."""
         asked = -math.inf
         while not self._stop.wait(FILE_POLL_S):
             if time.monotonic() - asked >= self._visibility_poll_s():
@@ -248,6 +251,7 @@ class MirrorscanApp(Notifier):
         return next((what for job, what in BUSY_JOBS.items() if self.jobs.running(job)), None)
 
     def _reload_if_changed(self) -> None:
+        """Reload session.json when another program changed it, and say so."""
         message = self.editor.reload_if_changed()
         if message:
             self.notify(None, "Session file changed", message, "info")
@@ -406,6 +410,7 @@ class MirrorscanApp(Notifier):
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:
+        """Build the new state of the session and its background, and publish it."""
         with self._session_lock:
             session = self.editor.session
             try:
@@ -423,6 +428,7 @@ class MirrorscanApp(Notifier):
         self.bus.publish(SessionChanged(snapshot))
 
     def _on_frame(self, frame: LiveFrame) -> None:
+        """Keep and publish a processed frame; after RECENT_FRAMES, grade the markers."""
         self.last_frame = frame
         self._last_error = ""
         # enough frames to grade the markers of the session as opened
@@ -436,6 +442,7 @@ class MirrorscanApp(Notifier):
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:
+        """Tell every tab of a failed live frame, once per message."""
         message = f"{type(exc).__name__}: {exc}"
         # said once, not thirty times a second
         if message != self._last_error:

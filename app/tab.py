@@ -402,6 +402,7 @@ class Tab(TabPresence, TabFraming):
         self.changed()
 
     def _clicked(self, u: float, v: float) -> None:
+        """Route a click on the depth frame to the current mode's handler, as an action."""
         handler = self._click_handlers.get(self.state.mode)
         if handler is not None:
             self.act(lambda: handler(u, v))

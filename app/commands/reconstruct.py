@@ -418,6 +418,7 @@ def _summary(report: BatchReport, verbose: bool) -> int:
 
 
 def _dense_options(args: argparse.Namespace) -> DenseOptions:
+    """The dense options of the command line (metres)."""
     return DenseOptions(
         args.voxel,
         args.margin,

@@ -100,6 +100,7 @@ def session_and_source(
 
 
 def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
+    """The session, source and autosave of a folder (or the demo without one)."""
     if folder is None:
         source = demo_source() if spec in (None, "sim") else open_source(spec, None)
         return calibrated_session(source, Path("sessions") / "untitled"), source, False

@@ -79,6 +79,7 @@ class DenseJob(Runner):
         options: DenseOptions,
         cancel: threading.Event,
     ) -> DenseResult:
+        """Carve or fuse the frames with the snapshot's rig; keep and publish the result."""
         self.progress(DENSE, 0.0, DenseWork(method, len(depths)))
         prepared = [
             prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection)

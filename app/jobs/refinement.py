@@ -201,6 +201,7 @@ class RefinementJob(Runner):
         return self._live_marker_frames()
 
     def _live_marker_frames(self) -> np.ndarray | None:
+        """The last live frames without what passes in front of the background, or None."""
         recent = self.loop.recent_depths()
         return None if recent is None else static_frames(recent, self.snapshot().background)
 

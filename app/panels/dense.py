@@ -120,6 +120,7 @@ class DensePanel:
             self.box_around_cloud()
 
     def _session_changed(self, event: SessionChanged) -> None:
+        """Fit the box to the next frame's cloud again, while the box follows the cloud."""
         self._refit = self._follow
 
     def _source_changed(self, event: LoopChanged) -> None:
@@ -162,6 +163,7 @@ class DensePanel:
         self.threshold.disabled, self.frames.disabled = fuse, not fuse
 
     def _layer(self) -> None:
+        """Show the dense result as the Show and Beside boxes say."""
         if self.show.value:
             self._hidden_elsewhere = False
         self.tab.dense_visible, self.tab.dense_beside = (
@@ -234,6 +236,7 @@ class DensePanel:
             raise
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the dense job: buttons, progress bar and status."""
         if event.job != DENSE:
             return
         running = event.fraction is not None
@@ -244,6 +247,7 @@ class DensePanel:
         self.status.content = event.status
 
     def _on_result(self, event: DenseChanged) -> None:
+        """Show a dense result: its box, its message, and the view on it in the tab that ran it."""
         result = event.result
         self.export.disabled = result is None
         if result is not None:

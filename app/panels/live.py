@@ -215,6 +215,7 @@ class LivePanel:
             self.refresh_hint()
 
     def _on_loop(self, event: LoopChanged) -> None:
+        """Follow the live loop: pause, step, the source's title and the hint."""
         self.pause.value = event.paused
         self.step.disabled = not event.paused
         self._follow(event.source)

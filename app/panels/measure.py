@@ -238,6 +238,7 @@ class MeasurePanel:
             cancel.set()
 
     def _fit_in_background(self, cancel: threading.Event) -> None:
+        """Fit the last frame's cloud on the job's thread, with a progress bar."""
         shown = [0.0]
 
         def progress(fraction: float) -> None:
@@ -283,6 +284,7 @@ class MeasurePanel:
         threading.Thread(target=self._track, args=(frame,), daemon=True).start()
 
     def _track(self, frame: "LiveFrame") -> None:
+        """Fit and show one tracked frame; a refusal becomes the report's line."""
         try:
             self._show(frame, self.fit(frame))
         except MirrorscanError as exc:

@@ -132,11 +132,13 @@ class ObjectPanel:
         self.close.disabled = len(state.region_draft) < MIN_VERTICES
 
     def _set(self, **changes) -> None:
+        """Change fields of the session's object selection."""
         self.services.editor.set_selection(
             replace(self.services.snapshot.session.selection, **changes)
         )
 
     def _set_range(self) -> None:
+        """Set the depth range from the slider; at least 5 cm wide."""
         low, high = self.range.value
         if high - low < 0.05:
             raise MirrorscanError("the depth range must be at least 5 cm wide")
@@ -144,12 +146,14 @@ class ObjectPanel:
 
     # ------------------------------------------------------------------ region of interest
     def _start_region(self) -> None:
+        """Start drawing a region of interest on the depth frame."""
         state = self.tab.state
         state.mode, state.region_draft = "region", ()
         self.tab.look("depth")
         self.tab.changed()
 
     def _region_click(self, u: float, v: float) -> None:
+        """A click in Region mode: close the draft at its first corner, else add a corner."""
         state = self.tab.state
         if len(state.region_draft) >= 3 and nearest(state.region_draft[:1], (u, v)) == 0:
             self._close_region()
@@ -158,6 +162,7 @@ class ObjectPanel:
         self.tab.changed()
 
     def _close_region(self) -> None:
+        """Make the draft the region of interest."""
         state = self.tab.state
         roi = validate_polygon(
             state.region_draft, self.services.snapshot.session.camera.shape, "region of interest"
@@ -167,6 +172,7 @@ class ObjectPanel:
         self.tab.changed()
 
     def _clear_region(self) -> None:
+        """Drop the draft and the region of interest."""
         state = self.tab.state
         state.region_draft = ()
         if state.mode == "region":
@@ -177,6 +183,7 @@ class ObjectPanel:
 
     # ------------------------------------------------------------------ background
     def _capture(self) -> None:
+        """Capture the background over the frames asked for."""
         self.services.jobs.capture_background(int(self.frames.value), self._captured)
 
     def _captured(self, depth: np.ndarray) -> bool:
@@ -219,10 +226,12 @@ class ObjectPanel:
         self.status.content = "Background: captured, used on confirmation."
 
     def _keep_background(self) -> None:
+        """Keep the background as it was: the capture is not used."""
         self.pending_background = None
         self.status.content = "Background: kept as it was (the capture was not used)."
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the background capture: buttons, progress bar and status."""
         if event.job != BACKGROUND:
             return
         running = event.fraction is not None

@@ -186,6 +186,7 @@ class RecordPanel:
         return Message(said.headline + (CANCELLING if cancelling else ""), said.details).markdown()
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the recording and the batch: buttons, progress bars and status."""
         if event.job == BATCH:
             running = event.fraction is not None
             self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = (

@@ -50,9 +50,11 @@ class MirrorClicks:
         return self.tab.state.mirror_id
 
     def _mirror(self) -> SessionMirror:
+        """The selected mirror; MirrorscanError when there is none."""
         return self.services.editor.mirror(self._id())
 
     def _marker_click(self, u: float, v: float) -> None:
+        """A click in Markers mode: move the picked marker, pick one near, or add one."""
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
         if state.moving_marker and state.picked_marker is not None:
             editor.move_marker(mirror.id, state.picked_marker, (u, v))
@@ -98,6 +100,7 @@ class MirrorClicks:
         )
 
     def _boundary_click(self, u: float, v: float) -> None:
+        """A click in Boundary mode: start, extend or close the draft, or pick or move a corner."""
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
         draft = state.drafts.get(mirror.id)
         if draft is not None:
@@ -120,6 +123,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _close_boundary(self) -> None:
+        """Make the selected mirror's draft its boundary, then go on to its markers."""
         mirror_id = self._id()
         draft = self.tab.state.drafts.get(mirror_id)
         if not draft:
@@ -130,6 +134,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _clear_boundary(self) -> None:
+        """Drop the selected mirror's draft, or else clear its boundary."""
         mirror_id = self._id()
         if self.tab.state.drafts.pop(mirror_id, None) is None:
             self.services.editor.clear_boundary(mirror_id)
@@ -137,6 +142,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _delete_corner(self) -> None:
+        """Delete the picked corner of the selected mirror's boundary."""
         self._delete_picked(
             "picked_corner",
             self.services.editor.delete_vertex,
@@ -144,12 +150,14 @@ class MirrorClicks:
         )
 
     def _start_move(self) -> None:
+        """Move the picked marker to the next click."""
         if self.tab.state.picked_marker is None:
             raise MirrorscanError("pick a marker first: in Markers mode, click it")
         self.tab.state.moving_marker = True
         self.tab.changed()
 
     def _delete_marker(self) -> None:
+        """Delete the picked marker of the selected mirror."""
         self._delete_picked(
             "picked_marker",
             self.services.editor.delete_marker,

@@ -208,6 +208,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
+        """Connect the panel's controls to their actions."""
         editor, act, jobs = self.services.editor, self.tab.act, self.services.jobs
         self.mirror.on_update(lambda e: e.client is not None and self._select(self.mirror.value))
         self.mode.on_click(lambda e: self._set_mode(CLICK_MODES[e.target.value]))
@@ -238,6 +239,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     # ------------------------------------------------------------------ the selected mirror
     def _select(self, name: str) -> None:
+        """Select the mirror named `name` (none when no mirror has it), dropping the picks."""
         mirror = next((m for m in self.services.editor.session.mirrors if m.name == name), None)
         state = self.tab.state
         state.mirror_id = None if mirror is None else mirror.id
@@ -249,6 +251,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.tab.changed()
 
     def _set_mode(self, mode: str) -> None:
+        """Set the click mode, dropping the picks; a mode of clicks shows the depth frame."""
         state = self.tab.state
         state.mode, state.picked_marker, state.picked_corner, state.moving_marker = (
             mode,
@@ -261,6 +264,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.tab.changed()
 
     def _add(self) -> None:
+        """Add a mirror, select it and start its boundary."""
         mirror_id = self.services.editor.add_mirror()
         self.tab.state.mirror_id = mirror_id
         self._set_mode("boundary")
@@ -390,5 +394,6 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     @staticmethod
     def _label(button, verb: str, what: str | None) -> None:
+        """Label an undo or redo button with what it does; grey it out when nothing."""
         button.disabled = what is None
         button.label = f"{verb}: {what}" if what else verb

@@ -100,6 +100,7 @@ class MirrorReports:
         return joined([step, *(fit_report(fit) if fit else [])])
 
     def _confirm_remove(self) -> None:
+        """Ask before removing the selected mirror."""
         mirror = self._mirror()
         self.tab.ask(
             f"Remove {mirror.name}?",
