@@ -87,8 +87,10 @@ class JobProgress:
 
     @property
     def percent(self) -> float:
-        """The fraction done as a progress bar's value, to 0.1 % (a screen reader reads out every
-        digit)."""
+        """The fraction done as a progress bar's value, to 0.1 %.
+
+        Rounded because a screen reader reads out every digit.
+        """
         return round(100.0 * (self.fraction or 0.0), 1)
 
 
@@ -134,8 +136,11 @@ class HeatChanged:
 
 
 class EventBus:
-    """Publish / subscribe by event type. publish() calls the subscribers of the event's type on the
-    calling thread, in order of subscription; one that raises is logged and the others still run."""
+    """Publish / subscribe by event type.
+
+    publish() calls the subscribers of the event's type on the calling thread, in order of
+    subscription; one that raises is logged and the others still run.
+    """
 
     def __init__(self):
         self._lock = threading.Lock()

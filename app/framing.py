@@ -36,8 +36,10 @@ class TabFraming:
         self._home_pose = self._frame(points)
 
     def look_at_object(self) -> None:
-        """Fill this tab's canvas with the object's cloud (the last frame's, all its views), seen
-        as from home; the whole rig when there is no object in view."""
+        """Fill this tab's canvas with the object's cloud, seen as from home.
+
+        The cloud is the last frame's, all its views; the whole rig when there is no object in view.
+        """
         points = self._object_points()
         if len(points) < 2:
             self.look_home()

@@ -72,8 +72,10 @@ class LiveFrame:
 
     @cached_property
     def counts(self) -> dict[int, int]:
-        """Points per source label: the direct view and every mirror, then each view through several
-        mirrors that has points (Cloud.source_counts)."""
+        """Points per source label (Cloud.source_counts).
+
+        The direct view and every mirror, then each view through several mirrors that has points.
+        """
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
     def parts(self, half: int | None = None) -> list[SourcePart]:
@@ -289,11 +291,14 @@ class LiveLoop:
             return False
 
     def run_once(self) -> LiveFrame:
-        """Read and process the next frame on the calling thread (also what the thread does each
-        turn).
+        """Read and process the next frame on the calling thread (what the thread does each turn).
 
         The frame after it is read meanwhile on a reader thread, so reading (ray casting, file or
         device I/O) and processing share two cores.
+
+        Returns
+        -------
+        LiveFrame
         """
         with self._turn:
             source_frame = self._read(self.index)
@@ -353,8 +358,15 @@ class LiveLoop:
         return self.source.read(index)
 
     def recent_depths(self) -> np.ndarray | None:
-        """(k, H, W) metres: the last RECENT_FRAMES distinct depth frames, oldest first (for
-        calibration over their median), or None."""
+        """The last RECENT_FRAMES distinct depth frames, oldest first.
+
+        For calibration over their median.
+
+        Returns
+        -------
+        np.ndarray, shape (k, H, W), or None
+            Metres; None before the first frame.
+        """
         with self._recent_lock:
             frames = list(self._recent.values())
         return np.stack(frames) if frames else None
@@ -445,8 +457,11 @@ class LiveLoop:
             self._stop.wait(min(left, PACE_CHECK_S))
 
     def pace(self) -> float:
-        """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks
-        for fewer and no collect() is waiting for frames."""
+        """The frames per second the thread runs at.
+
+        The source's, or fewer when fps_wanted() asks for fewer and no collect() is waiting for
+        frames.
+        """
         with self._recent_lock:
             collecting = bool(self._collectors)
         wanted = None if collecting else self.fps_wanted()

@@ -19,8 +19,10 @@ RESULT_NOTE_SECONDS = 45.0
 
 
 class Notifier:
-    """The notifications of the app; mixed into `mirrorscan.server.MirrorscanApp`, whose `server`
-    it uses."""
+    """The notifications of the app.
+
+    Mixed into `mirrorscan.server.MirrorscanApp`, whose `server` it uses.
+    """
 
     server: viser.ViserServer
 

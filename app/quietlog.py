@@ -9,9 +9,16 @@ import traceback
 
 
 class QuietProbes(logging.Filter):
-    """On the 'websockets.server' logger: a connection closed before its request (a probe) is not
-    logged; a malformed request, or a malformed message from a client (its connection is closed), is
-    one line."""
+    """A filter on the 'websockets.server' logger that keeps strangers out of the log.
+
+    A connection closed before its request (a probe) is not logged; a malformed request, or a
+    malformed message from a client (its connection is closed), is one line.
+
+    Attributes
+    ----------
+    probes : int
+        Connections closed before their request, in this process.
+    """
 
     def __init__(self):
         super().__init__("")

@@ -159,8 +159,10 @@ class LiveTap(DepthSource):
         return self._background
 
     def close(self) -> None:
-        """Stop tapping; the frames already taken are still delivered, then iteration ends. Never
-        blocks; closing twice does nothing."""
+        """Stop tapping; the frames already taken are still delivered, then iteration ends.
+
+        Never blocks; closing twice does nothing.
+        """
         with _taps_lock:
             unsubscribe, self._unsubscribe = self._unsubscribe, None
             if unsubscribe is None:

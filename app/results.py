@@ -361,8 +361,11 @@ class Fit:
 
     @property
     def needs_confirmation(self) -> bool:
-        """Whether it waits for Apply or Discard: a concern of the review, or a plane from the
-        object it replaces, unless it is a refit of markers taken before."""
+        """Whether it waits for Apply or Discard.
+
+        A concern of the review, or a plane from the object it replaces, unless it is a refit of
+        markers taken before.
+        """
         return (self.review.needs_confirmation or self.replaces_object) and not self.review.refit
 
 

@@ -184,8 +184,10 @@ class Guard:
 
 
 def new_token() -> str:
-    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (`--token` would read
-    such a token as an option where a user pastes it)."""
+    """A secret token: 32 random bytes, URL-safe, never beginning with '-'.
+
+    `--token` would read such a token as an option where a user pastes it.
+    """
     token = secrets.token_urlsafe(32)
     while token.startswith("-"):
         token = secrets.token_urlsafe(32)

@@ -157,8 +157,7 @@ class MirrorscanApp(Notifier):
         self._poller.start()
 
     def stop(self) -> None:
-        """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the
-        server.
+        """End a recording (its frames are kept), then the loop, the jobs (cancelled), the server.
 
         Waits up to GRADING_WAIT_S for the first frames' grading of the markers, so that the
         process exits with its own status.
@@ -309,11 +308,13 @@ class MirrorscanApp(Notifier):
         return None if paced is None else paced[0]
 
     def pacing(self) -> tuple[float, str] | None:
-        """(frames per second, why) when the live loop runs slower than its source, else None (the
-        source's rate): never while a recording runs; BUSY_FPS while a job of BUSY_JOBS runs (it
-        needs the cores more than the live cloud does); IDLE_FPS while every tab looks at the depth
-        frame (sent at most 8 times a second) or is hidden, as processing 30 frames a second would
-        only take the cores from the browser on the same laptop."""
+        """(frames per second, why) when the live loop runs slower than its source, else None.
+
+        None means the source's rate: never slower while a recording runs; BUSY_FPS while a job of
+        BUSY_JOBS runs (it needs the cores more than the live cloud does); IDLE_FPS while every tab
+        looks at the depth frame (sent at most 8 times a second) or is hidden, as processing 30
+        frames a second would only take the cores from the browser on the same laptop.
+        """
         if self.jobs.running(RECORD):
             return None
         busy = self._busy()
@@ -375,9 +376,11 @@ class MirrorscanApp(Notifier):
         self.bus.publish(LoopChanged(self.loop.paused, source))
 
     def back_to_start_source(self) -> None:
-        """After a recording played (Record's replay, or a session opened over the simulator), take
-        frames from the source served from the start again, playing (not paused), keeping the
-        session being edited (its calibration is this rig's)."""
+        """Take frames from the source served from the start again, playing (not paused).
+
+        After a recording played (Record's replay, or a session opened over the simulator); the
+        session being edited stays (its calibration is this rig's).
+        """
         self.use_source(self.start_source)
         self.pause(False)
 
@@ -404,8 +407,10 @@ class MirrorscanApp(Notifier):
 
     @property
     def background_captured(self) -> bool:
-        """Whether the background in use was captured (or read from the session's file), not the
-        source's own."""
+        """Whether the background in use was captured, not the source's own.
+
+        One read from the session's file counts as captured.
+        """
         return self._background[0] is not None
 
     # ------------------------------------------------------------------ reactions

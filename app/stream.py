@@ -50,9 +50,12 @@ class SourcePart:
 
 
 class Anchors:
-    """Each source's centre (3,) float32 metres, kept from one frame to the next while every point
-    of the part at hand lies within FLOAT16_EXTENT of it along each axis (the walking person's box
-    moves, but rarely out of reach): the halves of a source then share it too."""
+    """Each source's centre, kept from one frame to the next while the source's points stay near it.
+
+    A centre, (3,) float32 metres, is kept while every point of the part at hand lies within
+    FLOAT16_EXTENT of it along each axis (the walking person's box moves, but rarely out of
+    reach): the halves of a source then share it too.
+    """
 
     def __init__(self) -> None:
         self._centres: dict[int, np.ndarray] = {}

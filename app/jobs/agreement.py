@@ -27,8 +27,15 @@ MARKERS_FIT = 3  # the markers a plane from markers has
 
 
 class AgreementJob(Runner):
-    """The views' agreement (Jobs mixes it in): `agreement` the last report (a tab opening later
-    shows it), `disagreeing` the names of the mirrors it flags."""
+    """The views' agreement (Jobs mixes it in).
+
+    Attributes
+    ----------
+    agreement : AgreementReport or None
+        The last report (a tab opening later shows it).
+    disagreeing : tuple of str
+        The names of the mirrors it flags.
+    """
 
     agreement: AgreementReport | None = None
     disagreeing: tuple[str, ...] = ()

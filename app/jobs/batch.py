@@ -18,8 +18,13 @@ POLL_S = 0.2  # seconds between two looks at a cancel request
 
 
 class BatchJob(Runner):
-    """Batch reconstruction (Jobs mixes it in); `batch_settings`: the last batch's method, temporal,
-    workers."""
+    """Batch reconstruction (Jobs mixes it in).
+
+    Attributes
+    ----------
+    batch_settings : tuple or None
+        The last batch's method, temporal and workers.
+    """
 
     batch_settings: tuple[str, int, int] | None = None
 

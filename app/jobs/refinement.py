@@ -180,11 +180,18 @@ class RefinementJob(Runner):
         )
 
     def marker_frames(self) -> np.ndarray | None:
-        """The frames the markers are read on: the background and MAX_MARKER_FRAMES frames spread
-        over the recording that plays (the same whenever it is clicked, as `mirrorscan calibrate`
-        reads them; read once per recording), else the last live frames with the background in use,
-        both without what passes in front of it (static_frames), or None before the first. (k, H, W)
-        float32 metres."""
+        """The frames the markers are read on.
+
+        The background and MAX_MARKER_FRAMES frames spread over the recording that plays (the same
+        whenever it is clicked, as `mirrorscan calibrate` reads them; read once per recording), else
+        the last live frames with the background in use, both without what passes in front of it
+        (static_frames).
+
+        Returns
+        -------
+        np.ndarray, shape (k, H, W), float32, or None
+            Metres; None before the first frame.
+        """
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             session = source.session
@@ -206,9 +213,17 @@ class RefinementJob(Runner):
         return None if recent is None else static_frames(recent, self.snapshot().background)
 
     def object_frames(self) -> tuple[np.ndarray, FramesUsed]:
-        """The frames a calibration from the object uses, and which they are: REFINE_FRAMES spread
-        over the recording that plays (as `mirrorscan calibrate` picks them), else the last live
-        frames. (k, H, W) float32 metres."""
+        """The frames a calibration from the object uses, and which they are.
+
+        REFINE_FRAMES spread over the recording that plays (as `mirrorscan calibrate` picks them),
+        else the last live frames.
+
+        Returns
+        -------
+        depths : np.ndarray, shape (k, H, W), float32
+            Metres.
+        used : FramesUsed
+        """
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)

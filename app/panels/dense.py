@@ -150,8 +150,15 @@ class DensePanel:
         self._show_box()
 
     def follow_cloud(self) -> Volume:
-        """'Box around the current cloud': the box is put around the live cloud, follows it again,
-        and is shown."""
+        """'Box around the current cloud': put the box around the live cloud; it follows it again.
+
+        The box is shown.
+
+        Returns
+        -------
+        Volume
+            The box.
+        """
         self._follow = True
         self.show_box.value = True
         return self.box_around_cloud()
@@ -217,9 +224,11 @@ class DensePanel:
             self.tab.scene.show_box(low, high)
 
     def start(self) -> None:
-        """Run the chosen method on the shared worker (one run at a time) in the box shown: around
-        the current cloud while it follows the cloud (or is empty), as the technician put it
-        otherwise; the box is shown from now on."""
+        """Run the chosen method on the shared worker (one run at a time) in the box shown.
+
+        The box is around the current cloud while it follows the cloud (or is empty), as the
+        technician put it otherwise; it is shown from now on.
+        """
         self.show_box.value = True
         if self._follow or not np.all(self._box()[1] > self._box()[0]):
             self.box_around_cloud()
@@ -259,8 +268,10 @@ class DensePanel:
             self._look = False
 
     def export_result(self) -> None:
-        """The last dense result (carved voxels, or the fused mesh with its faces) as PLY, under a
-        new name."""
+        """Export the last dense result as PLY, under a new name.
+
+        Carved voxels, or the fused mesh with its faces.
+        """
         result = self.services.jobs.dense_result
         if result is None:
             raise MirrorscanError("no dense result yet: Run one first")

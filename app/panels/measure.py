@@ -216,10 +216,13 @@ class MeasurePanel:
         return result
 
     def start_fit(self) -> threading.Thread:
-        """The button: fit_current on a thread, the button disabled, a progress bar and Cancel shown
-        until it ends (a sphere fitted to a walking person's cloud draws RANSAC's 20,000 samples:
-        seconds on a busy machine, during which the tab's panel stays usable).
-        Cancelled, the last fit's report stays under CANCELLED_NOTE; failed, the report says so."""
+        """The button: fit_current on a thread, until it ends.
+
+        The button is disabled, a progress bar and Cancel shown until it ends (a sphere fitted to a
+        walking person's cloud draws RANSAC's 20,000 samples: seconds on a busy machine, during
+        which the tab's panel stays usable). Cancelled, the last fit's report stays under
+        CANCELLED_NOTE; failed, the report says so.
+        """
         if self._cancel is not None:
             raise MirrorscanError("a fit runs: wait for it, or cancel it")
         cancel = self._cancel = threading.Event()

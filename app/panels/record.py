@@ -138,15 +138,19 @@ class RecordPanel:
         self.replay.disabled = self.recorded is None or playing
 
     def play_recording(self) -> None:
-        """Edit the recorded session and play its frames (header › Playback: pause and the frame
-        slider)."""
+        """Edit the recorded session and play its frames.
+
+        Header › Playback has the pause button and the frame slider.
+        """
         if self.recorded is None:
             raise MirrorscanError("nothing recorded yet")
         self.services.open_session(self.recorded, play=True)
 
     def start_batch(self) -> None:
-        """Every frame of the session being edited (a saved recording, say), with the chosen method,
-        on the chosen number of worker processes (1: in this process; more: a local Dask cluster).
+        """Reconstruct every frame of the session being edited (a saved recording, say).
+
+        With the chosen method, on the chosen number of worker processes (1: in this process; more:
+        a local Dask cluster).
         """
         self.services.jobs.start_batch(
             self.services.editor.session,
@@ -174,8 +178,10 @@ class RecordPanel:
         self._on_job(JobProgress(BATCH, 0.0, status(starting), starting))
 
     def cancel_batch(self) -> None:
-        """Ask the batch to stop: the frame under way finishes, every frame written stays (a new
-        start goes on)."""
+        """Ask the batch to stop.
+
+        The frame under way finishes; every frame written stays (a new start goes on).
+        """
         self.services.jobs.cancel(BATCH)
         self.batch_cancel.disabled = True
         self.batch_status.content = self._batch_line(self._batch_said, cancelling=True)

@@ -155,8 +155,15 @@ class SessionPanel:
         self.services.set_background(depth)
 
     def export_cloud(self) -> Path | None:
-        """The current cloud as PLY, downloaded and (for a saved session) kept under a new name in
-        exports/."""
+        """Export the current cloud as PLY.
+
+        Downloaded and, for a saved session, kept under a new name in exports/.
+
+        Returns
+        -------
+        Path or None
+            The file kept, if any.
+        """
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no cloud yet to export")

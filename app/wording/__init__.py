@@ -47,8 +47,10 @@ class Message:
     details: tuple[str, ...] = ()
 
     def markdown(self) -> str:
-        """The headline, then the details in a collapsed fold (markup.fold); any HTML in the text
-        shown as text."""
+        """The headline, then the details in a collapsed fold (markup.fold).
+
+        Any HTML in the text is shown as text.
+        """
         return fold(markdown(self.headline), [markdown(line) for line in self.details])
 
     @property

@@ -39,8 +39,15 @@ class MirrorFits:
     """The markers fits of the Mirrors panel (MirrorsPanel mixes it in)."""
 
     def fit_all_planes(self) -> None:
-        """Fit every mirror that has markers (fit_planes); those without are left as they are and
-        named in the note."""
+        """Fit every mirror that has markers (fit_planes).
+
+        Those without are left as they are and named in the note.
+
+        Raises
+        ------
+        MirrorscanError
+            When no mirror has markers.
+        """
         mirrors = self.services.editor.session.mirrors
         if not any(m.markers for m in mirrors):
             raise MirrorscanError(

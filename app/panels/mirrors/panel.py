@@ -292,8 +292,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     # ------------------------------------------------------------------ what the panel shows
     def refresh(self) -> None:
-        """Follow the session and the tab's state: the mirror list, the mode, the buttons, the
-        markers."""
+        """Follow the session and the tab's state.
+
+        The mirror list, the mode, the buttons, the markers.
+        """
         session, state, editor = self.services.editor.session, self.tab.state, self.services.editor
         jobs = self.services.jobs
         names = tuple(m.name for m in session.mirrors) or (NO_MIRROR,)
