@@ -153,8 +153,9 @@ class EditorCore:
         self._file.written(session)
 
     def _reload_external(self) -> tuple[str, bool]:
-        """Reload an autosaved session's session.json when another program changed it, dropping
-        the undo history (which describes the file before).
+        """Reload an autosaved session's session.json when another program changed it.
+
+        The undo history, which describes the file before, is dropped.
 
         Returns
         -------
@@ -304,8 +305,10 @@ class EditorCore:
         return self._travel(scope, redo=True)
 
     def _travel(self, scope: int, redo: bool) -> str:
-        """Move the last step of `scope`, with its group, to the other history and put back its
-        `after` (redo) or `before` (undo)."""
+        """Move the last step of `scope`, with its group, to the other history.
+
+        Its `after` (redo) or `before` (undo) is put back.
+        """
         label = self._label(scope, redo)
         moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
         if not moved:
@@ -333,13 +336,17 @@ class EditorCore:
                      self._session.with_mirror(index, after), save)
 
     def _change(self, label: str, change: tuple, session: Session) -> None:
-        """Make a change of the session's own (SESSION_SCOPE); `change` is (kind, a, b), see
-        `undo.restore` and `undo.inverse`."""
+        """Make a change of the session's own (SESSION_SCOPE).
+
+        `change` is (kind, a, b), see `undo.restore` and `undo.inverse`.
+        """
         self._commit(SESSION_SCOPE, Step(label, inverse(change), change), session)
 
     def _commit(self, scope: int, step: Step, session: Session, save: bool = True) -> None:
-        """Record an undo step and take the session, saving it unless `save` is False (one of
-        several steps that the last saves)."""
+        """Record an undo step and take the session, saving it unless `save` is False.
+
+        `save` is False for one of several steps that the last saves.
+        """
         # the limits of a session that is read: past them it would not reopen
         check_limits(session)
         self._history.record(scope, step)

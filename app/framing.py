@@ -60,8 +60,7 @@ class TabFraming:
         self._frame(np.concatenate([self._object_points(), corners]), OBJECT_MARGIN)
 
     def _object_points(self) -> np.ndarray:
-        """(k, 3) metres: about 500 of the last frame's object points (none before the first
-        frame)."""
+        """About 500 of the last frame's object points, (k, 3) metres; none before the first."""
         frame = self.services.last_frame
         if frame is None or not len(frame.cloud):
             return np.zeros((0, 3))
@@ -97,8 +96,10 @@ class TabFraming:
         return position, target
 
     def _still_home(self) -> bool:
-        """Whether this tab's camera is where look_home last put it, within HOME_TOLERANCE: not
-        turned or zoomed since."""
+        """Whether this tab's camera is where look_home last put it, within HOME_TOLERANCE.
+
+        Not turned or zoomed since.
+        """
         if self._home_pose is None:
             return False
         try:

@@ -448,8 +448,10 @@ class LiveLoop:
             self._rest(started)
 
     def _rest(self, started: float) -> None:
-        """Wait until the next frame is due at the pace (time.perf_counter() `started` the last),
-        looking at the pace every PACE_CHECK_S: a job that ends brings the next frame at once."""
+        """Wait until the next frame is due at the pace, the last one `started` at perf_counter().
+
+        The pace is looked at every PACE_CHECK_S: a job that ends brings the next frame at once.
+        """
         while not self._stop.is_set():
             left = 1.0 / self.pace() - (time.perf_counter() - started)
             if left <= 0:

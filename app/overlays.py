@@ -241,9 +241,12 @@ class Overlay:
                          self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
-        """A label on a dark box beside its marker, at the first of eight places around it, then
-        eight a little farther (LABEL_STEP), that covers no other label and no marker, else at the
-        one that covers least of them (two mirrors' markers meet at a hinge)."""
+        """A label on a dark box beside its marker, where it covers no other label and no marker.
+
+        At the first of eight places around it, then eight a little farther (LABEL_STEP), that
+        covers no other label and no marker, else at the one that covers least of them (two mirrors'
+        markers meet at a hinge).
+        """
         (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
         u, v = int(round(uv[0])), int(round(uv[1]))
         rows, cols = self.image.shape[:2]
@@ -265,8 +268,10 @@ class Overlay:
 
 
 def _marker_box(uv) -> tuple[int, int, int, int]:
-    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers (its ring's halo,
-    Overlay._marker)."""
+    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers.
+
+    Its ring's halo, as Overlay._marker draws it.
+    """
     u, v = int(round(uv[0])), int(round(uv[1]))
     return (u - MARKER_HALO, v - MARKER_HALO, u + MARKER_HALO + 1, v + MARKER_HALO + 1)
 

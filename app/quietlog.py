@@ -55,8 +55,10 @@ class QuietProbes(logging.Filter):
 
 
 def _is_probe(exc: BaseException) -> bool:
-    """True when the connection ended before a whole request came in (EOFError, a reset, somewhere
-    in the chain)."""
+    """True when the connection ended before a whole request came in.
+
+    EOFError or a reset, somewhere in the chain.
+    """
     while exc is not None:
         if isinstance(exc, (EOFError, ConnectionError)):
             return True
@@ -65,8 +67,10 @@ def _is_probe(exc: BaseException) -> bool:
 
 
 def _from_a_message(exc: BaseException) -> bool:
-    """True when the exception was raised while reading or decoding a client's message (viser's
-    consumer loop)."""
+    """True when the exception was raised while reading or decoding a client's message.
+
+    In viser's consumer loop.
+    """
     return any(frame.name == "_message_consumer"
                for frame in traceback.extract_tb(exc.__traceback__))
 

@@ -101,8 +101,10 @@ class LiveTap(DepthSource):
             self.dropped += 1
 
     def _in_order(self, index: int) -> bool:
-        """Whether the frame of live index `index` is the next of a replay (always, for a live
-        source); a replay that starts over ends the tap's intake (replay_ended)."""
+        """Whether the frame of live index `index` is a replay's next (always for a live source).
+
+        A replay that starts over ends the tap's intake (replay_ended).
+        """
         if not self._loop_length:
             return True
         number = index % self._loop_length
@@ -114,8 +116,10 @@ class LiveTap(DepthSource):
         return False
 
     def _next(self) -> Frame | None:
-        """The next frame, waiting for it; None once the tap is closed and every frame taken before
-        was delivered."""
+        """The next frame, waiting for it.
+
+        None once the tap is closed and every frame taken before was delivered.
+        """
         while True:
             try:
                 frame = self._frames.get(timeout=POLL_S)

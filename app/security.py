@@ -271,8 +271,7 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
 
 
 async def _install(websock, guard: Guard) -> None:
-    """On the server's event loop: wrap the websockets server's process_request with the guard's
-    checks."""
+    """Wrap the websockets server's process_request with the guard's checks (on its event loop)."""
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
 
@@ -294,8 +293,10 @@ async def _install(websock, guard: Guard) -> None:
 
 
 def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
-    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for
-    the stop)."""
+    """The websockets Server that viser's serving task holds.
+
+    A local of its coroutine, waiting for the stop.
+    """
     for task in asyncio.all_tasks(loop):
         frame = getattr(task.get_coro(), "cr_frame", None)
         for value in (frame.f_locals.values() if frame is not None else ()):
@@ -306,8 +307,7 @@ def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
 
 # ---------------------------------------------------------------------- uploads
 def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
-    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it
-    declared.
+    """Refuse an upload by its declared size as it starts; drop one whose parts pass it.
 
     viser keeps an upload's parts in the upload state of the GUI that owns its button (the server's,
     or a tab's own, whose handlers may run before or after these), so a refused transfer is

@@ -192,8 +192,10 @@ class MirrorscanApp(Notifier):
         tab.close()
 
     def _resume(self, tab: Tab) -> None:
-        """Which page the tab is (tab.identify); a reload of a page closed within RESUME_S takes up
-        its work."""
+        """Which page the tab is (tab.identify).
+
+        A reload of a page closed within RESUME_S takes up its work.
+        """
         page = tab.identify()
         with self._tabs_lock:
             now = time.monotonic()
@@ -240,9 +242,11 @@ class MirrorscanApp(Notifier):
             self.act(None, self._reload_if_changed)
 
     def _visibility_poll_s(self) -> float:
-        """Seconds between two questions to the tabs: VISIBILITY_POLL_S while the live cloud plays,
-        else QUIET_POLL_S (nothing is streamed that a hidden or lagging tab should be spared, and
-        each question costs the page a draw)."""
+        """Seconds between two questions to the tabs.
+
+        VISIBILITY_POLL_S while the live cloud plays, else QUIET_POLL_S (nothing is streamed that a
+        hidden or lagging tab should be spared, and each question costs the page a draw).
+        """
         return QUIET_POLL_S if self.paused or self._busy() is not None else VISIBILITY_POLL_S
 
     def _busy(self) -> str | None:

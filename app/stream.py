@@ -136,8 +136,10 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
 
 
 def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:
-    """The part of (3, k) float32 rows of points: float16 offsets where they reach every point, else
-    float32."""
+    """The part of (3, k) float32 rows of points.
+
+    Float16 offsets where they reach every point, else float32.
+    """
     if not columns.shape[1]:
         return SourcePart(source, half, np.zeros(3), np.zeros((0, 3), np.float16))
     low, high = columns.min(axis=1), columns.max(axis=1)
@@ -148,9 +150,9 @@ def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) 
 
 
 def _offsets(columns: np.ndarray, centre: np.ndarray, dtype) -> np.ndarray:
-    """The (k, 3) C-ordered offsets in `dtype` of (3, k) float32 rows of points from their (3,)
-    float32 centre.
+    """The offsets of points from their centre, C-ordered, in `dtype`.
 
+    `columns` are (3, k) float32 rows of points, `centre` (3,) float32; the result is (k, 3).
     Subtracted and converted along the rows, then transposed by OpenCV (float16 as its bits):
     about 3 times faster than numpy writing the transposed result, with the same bits.
     """

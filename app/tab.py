@@ -142,9 +142,11 @@ class Tab(TabPresence, TabFraming):
         return Resume(state, self.heat)
 
     def _first_view(self, _) -> None:
-        """Once the tab has reported its canvas, frame what it looks at: the rig and the cloud, the
-        object under a heat map (a reload), or the depth frame when the tab was switched to it
-        before the report."""
+        """Once the tab has reported its canvas, frame what it looks at.
+
+        The rig and the cloud, the object under a heat map (a reload), or the depth frame when the
+        tab was switched to it before the report.
+        """
         if not self._framed:
             self._framed = True
             if self.state.view == "depth":
@@ -326,8 +328,10 @@ class Tab(TabPresence, TabFraming):
                 self._draw_heat()
 
     def _draw_heat(self) -> None:
-        """Draw the last heat map (under _heat_lock): the camera's points, and those of the mirrors
-        not chosen (heat_of), small and grey."""
+        """Draw the last heat map (under _heat_lock).
+
+        The camera's points, and those of the mirrors not chosen (heat_of), small and grey.
+        """
         event = self._heat_event
         if event.sources is None:
             self.scene.show_heat(event.points, event.colours)

@@ -99,10 +99,12 @@ class TabScene:
 
     def _show_virtual_cameras(self, rig: Rig, mirror_ids: tuple[int, ...], fov: float,
                               aspect: float) -> None:
-        """The camera as each mirror, and each sequence of mirrors, shows it (rig.virtual_cameras):
-        the views Algorithm 1 and the dense methods use, in their source's colour, those through
+        """Draw the camera as each mirror and sequence of mirrors shows it (rig.virtual_cameras).
+
+        The views Algorithm 1 and the dense methods use, in their source's colour, those through
         several mirrors smaller, each named after its view ('camera in left', 'camera in left then
-        right')."""
+        right').
+        """
         self.scene.remove_by_name("/virtual")
         self.scene.remove_by_name("/virtual_labels")
         self._virtual, self._virtual_labels = [], []

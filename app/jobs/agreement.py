@@ -92,15 +92,19 @@ class AgreementJob(Runner):
             pass
 
     def _by_markers(self, mirror) -> bool:
-        """Whether a mirror's plane comes from its markers (3 or more, and not a plane this app
-        found or refined from the object): what the agreement's advice may send the technician back
-        to."""
+        """Whether a mirror's plane comes from its markers (what the advice may send one back to).
+
+        From 3 or more markers, and not a plane this app found or refined from the object.
+        """
         return len(mirror.markers) >= MARKERS_FIT and not self.from_object(mirror.id, mirror.plane)
 
 
 def _same_views(a: "Snapshot", b: "Snapshot") -> bool:
-    """Whether two snapshots give the same clouds: the same rig (a Snapshot keeps the one before
-    when the camera and the mirrors are unchanged), background and selection."""
+    """Whether two snapshots give the same clouds.
+
+    The same rig (a Snapshot keeps the one before when the camera and the mirrors are unchanged),
+    background and selection.
+    """
     return (
         a.rig is b.rig and a.backdrop is b.backdrop and a.session.selection == b.session.selection
     )

@@ -235,8 +235,10 @@ class RefinementJob(Runner):
         return depths, FramesUsed(tuple(range(len(depths))))
 
     def _refuse(self, session: Session, ids: list[int], kind: str) -> None:
-        """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are
-        (refusals)."""
+        """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are.
+
+        See refusals.
+        """
         self.refused.update(dict.fromkeys(ids, kind))
         self._refused_on.update(
             {m.id: (m.boundary, m.markers) for m in session.mirrors if m.id in ids}
@@ -252,8 +254,10 @@ class RefinementJob(Runner):
         cancel: threading.Event,
         search: list[int] | None,
     ) -> CalibrationReport | CalibrationRefused:
-        """Refine the calibrated planes (search None), or find those of the mirrors at `search`
-        (0-based)."""
+        """Refine the calibrated planes, or find those of the mirrors at `search`.
+
+        `search` is None for a refinement, else 0-based mirror indices.
+        """
         self.progress(REFINE, 0.0, CalibrationWork(search is not None, used))
         masks = np.stack(
             [

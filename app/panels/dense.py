@@ -112,9 +112,11 @@ class DensePanel:
             unsubscribe()
 
     def _around_frame(self, event: FrameReady) -> None:
-        """While the box follows the cloud, put it around the first frame's cloud, and around the
-        next one after the calibration changed (the mirrors' points come into place: the box shrinks
-        to the object)."""
+        """While the box follows the cloud, put it around the cloud at the right frames.
+
+        Around the first frame's cloud, and around the next one after the calibration changed (the
+        mirrors' points come into place: the box shrinks to the object).
+        """
         if self._follow and self._refit and len(event.frame.cloud):
             self._refit = False
             self.box_around_cloud()
@@ -124,8 +126,10 @@ class DensePanel:
         self._refit = self._follow
 
     def _source_changed(self, event: LoopChanged) -> None:
-        """A dense result is hidden while another source than the one whose frames it was made of
-        plays, said under Run, and shown again when its source plays again."""
+        """Hide a dense result while another source than its own plays, and show it again after.
+
+        Its own source is the one whose frames it was made of; the hiding is said under Run.
+        """
         result = self.services.jobs.dense_result
         if result is None:
             return
@@ -142,8 +146,10 @@ class DensePanel:
             self.status.content = dense_message(result).markdown()
 
     def _box_edited(self, event) -> None:
-        """A corner typed in by the technician: the box stays where it is put from now on, and is
-        shown."""
+        """A corner typed in by the technician.
+
+        The box stays where it is put from now on, and is shown.
+        """
         if event.client is not None:
             self._follow = False
             self.show_box.value = True
@@ -164,8 +170,10 @@ class DensePanel:
         return self.box_around_cloud()
 
     def _method_options(self) -> None:
-        """Offer what the chosen method uses: the carving threshold to carving, several frames to
-        the fusion."""
+        """Offer what the chosen method uses.
+
+        The carving threshold to carving, several frames to the fusion.
+        """
         fuse = METHODS[self.method.value] == "tsdf"
         self.threshold.disabled, self.frames.disabled = fuse, not fuse
 
@@ -217,8 +225,11 @@ class DensePanel:
         return volume
 
     def _show_box(self) -> None:
-        """Draw the box the fields hold now (one callback at a time: the last one draws both fields'
-        last values), once Dense is used (show_box): not over the scene of one who never uses it."""
+        """Draw the box the fields hold now, once Dense is used (show_box).
+
+        One callback at a time: the last one draws both fields' last values. Not drawn over the
+        scene of one who never uses Dense.
+        """
         with self._box_lock:
             low, high = self._box() if self.show_box.value else (None, None)
             self.tab.scene.show_box(low, high)

@@ -296,17 +296,22 @@ class MeasurePanel:
             self._busy.release()
 
     def _show(self, frame: "LiveFrame", result: ShapeFit) -> None:
-        """The report of a fit of the frame's cloud, first what the cloud leaves out (a fit before
-        any plane measures the object seen directly alone), and the fit
-        in the plot."""
+        """Show the report of a fit of the frame's cloud, and the fit in the plot.
+
+        The report says first what the cloud leaves out (a fit before any plane measures the object
+        seen directly alone).
+        """
         self.report.content = markdown(
             _left_out(frame) + fit_report(result, source_names(frame.snapshot.session))
         )
         self._record(result)
 
     def _record(self, result: ShapeFit) -> None:
-        """Add a fit to the plot: seconds since the plot's first fit, RMSE and radius; a fit of
-        another shape starts a new plot (a cylinder's radius is not a sphere's)."""
+        """Add a fit to the plot.
+
+        Seconds since the plot's first fit, RMSE and radius; a fit of another shape starts a new
+        plot (a cylinder's radius is not a sphere's).
+        """
         now = time.monotonic()
         with self._history_lock:
             if self.history and self._kind != result.shape.kind:

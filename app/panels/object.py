@@ -187,9 +187,11 @@ class ObjectPanel:
         self.services.jobs.capture_background(int(self.frames.value), self._captured)
 
     def _captured(self, depth: np.ndarray) -> bool:
-        """Use a captured background (H, W) metres; but when it would hide most of the object seen
-        in the last frame (the object was in view while it was captured), only once the user
-        confirms. Returns whether it waits for that."""
+        """Use a captured background, (H, W) metres, at once or once the user confirms.
+
+        When it would hide most of the object seen in the last frame (the object was in view while
+        it was captured), it is used only once the user confirms. Returns whether it waits for that.
+        """
         frame, snapshot = self.services.last_frame, self.services.snapshot
         seen = (
             0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))

@@ -169,8 +169,11 @@ class RecordPanel:
         self.batch.label = batch_label(event.snapshot.session)
 
     def _show_batch(self) -> None:
-        """The batch that runs, as its tab started it: its settings (once they are set, just after
-        it starts) and a running status until its next progress."""
+        """The batch that runs, as its tab started it.
+
+        Its settings (once they are set, just after it starts) and a running status until its next
+        progress.
+        """
         settings = self.services.jobs.batch_settings
         if settings is not None:
             self.method.value, self.temporal.value, self.workers.value = settings

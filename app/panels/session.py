@@ -89,8 +89,11 @@ class SessionPanel:
             self.open_choice.options = names
 
     def _open(self) -> None:
-        """Open the chosen session; while the current one is not saved (the built-in demo), only
-        once the user has confirmed that its calibration goes."""
+        """Open the chosen session.
+
+        While the current one is not saved (the built-in demo), only once the user has confirmed
+        that its calibration goes.
+        """
         name = self.open_choice.value
         if name == CHOOSE:
             raise MirrorscanError(
@@ -111,8 +114,10 @@ class SessionPanel:
         )
 
     def _save_as(self) -> None:
-        """Save the session as a new one in the sessions folder and go on editing that one; a
-        background captured while the session was not saved (held in memory) is written with it."""
+        """Save the session as a new one in the sessions folder and go on editing that one.
+
+        A background captured while the session was not saved (held in memory) is written with it.
+        """
         folder = session_folder(self.services.sessions_dir, self.new_name.value)
         services = self.services
         held = (

@@ -69,9 +69,11 @@ class MirrorClicks:
         self.tab.changed()
 
     def _warn_if_off(self, mirror_id: int, k: int) -> None:
-        """A marker just added with no depth under it (on the frames a fit reads), or far off its
-        mirror's plane (a click on the object seen in the mirror, or beside the sticker), is told at
-        once: the next fit would refuse it, or show it crossed, as a proposal."""
+        """Tell at once of a marker just added with no depth under it, or far off its plane.
+
+        No depth on the frames a fit reads; far off: a click on the object seen in the mirror, or
+        beside the sticker. The next fit would refuse it, or show it crossed, as a proposal.
+        """
         mirror = self.services.editor.mirror(mirror_id)
         frames = self.services.jobs.marker_frames()
         if (
@@ -174,10 +176,12 @@ class MirrorClicks:
         self.tab.changed()
 
     def _outline_buttons(self, shown: bool, closed: bool, drafted: int, picked: int | None) -> None:
-        """Boundary mode's buttons, each only where it can act: Close boundary while an outline is
-        drawn (greyed, with the corners still needed, below MIN_VERTICES), Delete the picked corner
-        once it is closed (greyed until a corner is picked), Clear boundary whenever there is
-        something to clear."""
+        """Boundary mode's buttons, each only where it can act.
+
+        Close boundary while an outline is drawn (greyed, with the corners still needed, below
+        MIN_VERTICES), Delete the picked corner once it is closed (greyed until a corner is picked),
+        Clear boundary whenever there is something to clear.
+        """
         self.close.visible, self.delete_corner.visible = shown and not closed, shown and closed
         self.clear_boundary.visible = shown
         self.close.disabled = drafted < MIN_VERTICES

@@ -135,8 +135,10 @@ class MirrorFits:
         self.tab.changed()
 
     def _apply_fits(self, fits: dict[int, Fit], applied: FitsApplied) -> None:
-        """Markers fits' planes into the session, their report shown and kept by the planes they
-        leave (Jobs.fits: an undo brings it back), the views' agreement checked."""
+        """Put markers fits' planes into the session, show their report, check the agreement.
+
+        The report is kept by the planes they leave (Jobs.fits: an undo brings it back).
+        """
         editor = self.services.editor
         editor.set_planes(
             {mirror_id: (f.calibration.plane, f.mirror) for mirror_id, f in fits.items()}
@@ -146,8 +148,10 @@ class MirrorFits:
         self._check_agreement()
 
     def _discard(self) -> None:
-        """The proposal discarded; the planes of the same fit applied at once stay, and their
-        report."""
+        """The proposal discarded.
+
+        The planes of the same fit applied at once stay, and their report.
+        """
         waiting = tuple(f.mirror.name for f in (self.proposal or {}).values())
         self.proposal = None
         self.tab.state.flagged_markers = ()
@@ -162,8 +166,10 @@ class MirrorFits:
         self.tab.changed()
 
     def _drop_stale_proposal(self) -> None:
-        """A proposal for a mirror whose markers, boundary, glass or plane changed since the fit
-        cannot be applied: drop it, so that Fit plane is offered again."""
+        """Drop a proposal whose mirror's markers, boundary, glass or plane changed since the fit.
+
+        It cannot be applied; Fit plane is offered again.
+        """
         if self.proposal is None:
             return
         current = {m.id: m for m in self.services.editor.session.mirrors}
@@ -186,8 +192,11 @@ class MirrorFits:
             self.tab.changed()
 
     def _show_proposal(self) -> None:
-        """The proposal's head, lines and buttons while one waits; the fits and the calibration from
-        the object greyed out meanwhile (they would act on the planes it replaces)."""
+        """The proposal's head, lines and buttons while one waits.
+
+        The fits and the calibration from the object greyed out meanwhile (they would act on the
+        planes it replaces).
+        """
         fits = self.proposal
         for handle in (self.proposal_head, self.review, self.apply, self.discard):
             handle.visible = fits is not None

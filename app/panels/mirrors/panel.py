@@ -154,9 +154,11 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
                 self._warn_disagreement(event.result, event.status)
 
     def _on_calibration(self, event: JobProgress) -> None:
-        """A calibration from the object moved on or ended: the buttons, its progress, its report;
-        its end in a notification (in view whatever the panel's scroll) until the planes change
-        again."""
+        """A calibration from the object moved on or ended.
+
+        The buttons, its progress, its report; its end in a notification (in view whatever the
+        panel's scroll) until the planes change again.
+        """
         running, result = event.fraction is not None, event.result
         self.refine.disabled, self.refine_cancel.visible = running, running
         self.scene.disabled = self.undo.disabled = self.redo.disabled = running
@@ -186,16 +188,20 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
             self.refresh()
 
     def _cancelled(self) -> str:
-        """A calibration from the object cancelled: the planes are as they were, and so is their
-        report."""
+        """A calibration from the object cancelled.
+
+        The planes are as they were, and so is their report.
+        """
         before = report_markdown(
             self.services.jobs.report(planes_key(self.services.editor.session))
         )
         return words.CANCELLED.markdown() + (f"\n\n{before}" if before else "")
 
     def _warn_disagreement(self, report: AgreementReport, lines: str) -> None:
-        """A notification naming the mirrors the agreement lines flag (they may be out of view), not
-        again for the same lines."""
+        """Notify of the mirrors the agreement lines flag (they may be out of view).
+
+        Not again for the same lines.
+        """
         flagged = tuple(m.name for m in report.mirrors if words.disagrees(m.found))
         if flagged and lines != self._flagged:
             self.services.notify(
@@ -270,8 +276,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self._set_mode("boundary")
 
     def _set_glass(self) -> None:
-        """The glass typed in for the selected mirror; refused (not 0 to 50 mm), the field shows the
-        mirror's glass again."""
+        """The glass typed in for the selected mirror.
+
+        Refused (not 0 to 50 mm), the field shows the mirror's glass again.
+        """
         editor = self.services.editor
         try:
             editor.set_marker_offset(self._id(), self.glass.value / 1e3)
@@ -280,8 +288,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
             raise
 
     def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
-        """Start a calibration from the object (Jobs.start_refine or start_scene), but not over a
-        proposal: it would refine the planes the proposal replaces."""
+        """Start a calibration from the object (start_refine or start_scene), not over a proposal.
+
+        It would refine the planes the proposal replaces.
+        """
         if self.proposal is not None:
             raise MirrorscanError("a fit from the markers waits: apply or discard it first")
         start(self.services.editor)
@@ -373,8 +383,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.markers.content = marker_list(selected, residuals, state.picked_marker, GRADE_CSS)
 
     def _mode_help(self, selected) -> None:
-        """The click mode's help and its buttons (markers: move, delete; boundary: close, delete,
-        clear)."""
+        """Show the click mode's help and its buttons.
+
+        Markers: move, delete; boundary: close, delete, clear.
+        """
         state = self.tab.state
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         name = selected.name if selected is not None else "the mirror"
