@@ -53,8 +53,10 @@ TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0
 
 
 def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
-    """The depth frame as the tab shows it: grey from white (near) to dark (far), the object's
-    pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black.
+    """The depth frame as the tab shows it: grey from white (near) to dark (far).
+
+    The object's pixels are tinted (looked up in TINTED, only where the mask holds); no reading is
+    dark blue-black.
 
     Made channel by channel with OpenCV's look-up and masked copy, about 3 times faster than
     numpy's assignment of RGB rows.

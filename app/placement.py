@@ -244,8 +244,10 @@ def beside_offset(result: DenseResult) -> np.ndarray:
 
 def home_pose(points: np.ndarray, fov: float, aspect: float,
               margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
-    """The camera pose that frames `points`, looking from HOME_DIRECTION at the middle of their
-    bounding box, up -y, as near as keeps every point inside the view's middle 1 / `margin`.
+    """The camera pose that frames `points`, looking from HOME_DIRECTION.
+
+    It looks at the middle of their bounding box, up -y, as near as keeps every point inside the
+    view's middle 1 / `margin`.
 
     Parameters
     ----------

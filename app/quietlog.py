@@ -92,11 +92,15 @@ _filter = QuietProbes()
 
 
 def install_log_filter() -> QuietProbes:
-    """Put the QuietProbes filter first on the websockets server logger (once per process) and
-    return it.
+    """Put the QuietProbes filter first on the websockets server logger, once per process.
 
     First, because viser adds a filter of its own there (on its first page request) that drops every
     failed handshake silently, malformed requests included.
+
+    Returns
+    -------
+    QuietProbes
+        The filter.
     """
     logger = logging.getLogger("websockets.server")
     if _filter in logger.filters:

@@ -61,8 +61,9 @@ GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading o
 
 
 def quiet_closed_connections() -> None:
-    """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a
-    closed connection").
+    """Silence viser's warning that something was queued for a tab that has gone.
+
+    The warning reads "Queued a ... on a closed connection".
 
     A tab can close at any moment, also between the server's check and its send, and viser then
     drops the message, which is what is wanted (the Tab is closed when viser reports the
