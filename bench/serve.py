@@ -1,8 +1,8 @@
 """Benchmark of the browser tool's live loop with one tab attached.
 
 The tab is bench.tabs.HeadlessTab, a websocket client that reads what a browser would; the built-in
-demo (walking figure, two mirrors,
-Kinect noise), its frames rendered beforehand so that reading the source costs nothing.
+demo (walking figure, two mirrors, Kinect noise), its frames rendered beforehand so that reading
+the source costs nothing.
 
 serve_loop_fps : frames per second as fast as the loop goes, the tab looking at the 3D scene (the
     cloud each frame)
