@@ -50,7 +50,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command of `argv` (default sys.argv[1:]); returns the exit status."""
+    """Run the command of `argv`.
+
+    An error of the tool or a file is one line on stderr, without a traceback.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Default sys.argv[1:].
+
+    Returns
+    -------
+    int
+        The exit status: the command's, 2 after an error, 130 after Ctrl-C.
+    """
     args = build_parser().parse_args(argv)
     try:
         if args.memory is not None:

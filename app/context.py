@@ -33,51 +33,139 @@ class Services(Protocol):
     start_source: DepthSource
 
     @property
-    def snapshot(self) -> "Snapshot": ...
+    def snapshot(self) -> "Snapshot":
+        """The current state (replaced whole on every change of the session or its background)."""
 
     @property
-    def source(self) -> DepthSource: ...
+    def source(self) -> DepthSource:
+        """The depth source the live loop takes its frames from."""
 
     @property
-    def last_frame(self) -> "LiveFrame | None": ...
+    def last_frame(self) -> "LiveFrame | None":
+        """The live loop's last processed frame, or None before the first."""
 
     @property
-    def paused(self) -> bool: ...
+    def paused(self) -> bool:
+        """Whether the live loop is paused."""
 
-    def pause(self, paused: bool) -> None: ...
+    def pause(self, paused: bool) -> None:
+        """Pause or resume the live loop, and tell the tabs (LoopChanged).
 
-    def step(self) -> None: ...
+        Parameters
+        ----------
+        paused : bool
+            Pause it (True) or let it play (False).
+        """
 
-    def seek(self, index: int) -> None: ...
+    def step(self) -> None:
+        """Process the next frame while paused."""
 
-    def fps(self) -> float: ...
+    def seek(self, index: int) -> None:
+        """Go to a frame of the source.
 
-    def fps_wanted(self) -> float | None: ...
+        Parameters
+        ----------
+        index : int
+            The frame's index in the source.
+        """
 
-    def pacing(self) -> tuple[float, str] | None: ...
+    def fps(self) -> float:
+        """The live loop's measured rate, frames per second."""
 
-    def open_session(self, session, play: bool = False) -> None: ...
+    def fps_wanted(self) -> float | None:
+        """The live loop's rate when it should be lower than the source's (pacing), else None."""
 
-    def use_source(self, source: DepthSource) -> None: ...
+    def pacing(self) -> tuple[float, str] | None:
+        """(frames per second, why) when the live loop runs slower than its source, else None."""
 
-    def back_to_start_source(self) -> None: ...
+    def open_session(self, session, play: bool = False) -> None:
+        """Edit another session, autosaved in its folder from now on.
 
-    def set_background(self, depth: np.ndarray) -> None: ...
+        Parameters
+        ----------
+        session : Session
+            The session to edit.
+        play : bool, optional
+            Play its recorded frames even when a camera is live.
+        """
+
+    def use_source(self, source: DepthSource) -> None:
+        """Take frames from another source of the same camera (a recording to replay).
+
+        Parameters
+        ----------
+        source : DepthSource
+            The new source.
+
+        Raises
+        ------
+        MirrorscanError
+            When its frames' size differs from the camera's.
+        """
+
+    def back_to_start_source(self) -> None:
+        """Take frames from the source served from the start again, playing."""
+
+    def set_background(self, depth: np.ndarray) -> None:
+        """Use `depth` as the background.
+
+        Parameters
+        ----------
+        depth : np.ndarray, shape (H, W)
+            Depth in metres.
+        """
 
     @property
-    def background_captured(self) -> bool: ...
+    def background_captured(self) -> bool:
+        """Whether the background in use was captured, not the source's own."""
 
     def notify(self, client: viser.ClientHandle | None, title: str, message: str,
                kind: str = "error", stay: bool = False,
-               logged: bool = True) -> viser.NotificationHandle | None: ...
+               logged: bool = True) -> viser.NotificationHandle | None:
+        """Show a notification on one tab, or on every tab when `client` is None.
 
-    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None: ...
+        Parameters
+        ----------
+        client : viser.ClientHandle or None
+            The tab, or None for all.
+        title, message : str
+            The headline and its text.
+        kind : str, optional
+            The notification's kind, which sets its colour (NOTE_COLOURS).
+        stay : bool, optional
+            Close it after RESULT_NOTE_SECONDS (the result of long work) instead of NOTE_SECONDS.
+        logged : bool, optional
+            Also write it to the log.
+
+        Returns
+        -------
+        viser.NotificationHandle or None
+            The one tab's notification, else None.
+        """
+
+    def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
+        """Run a user's action; a refusal, file error or bug becomes a notification on the tab.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle or None
+            The tab the action came from (None: every tab).
+        action : callable
+            The action, called with no arguments.
+        """
 
 
 @dataclass(frozen=True)
 class Question:
-    """A question on a tab (TabContext.ask): its modal, and its two answers as the buttons give
-    them."""
+    """A question on a tab (TabContext.ask): its modal, and its two answers.
+
+    Attributes
+    ----------
+    modal : object
+        The modal shown.
+    yes, no : callable
+        What the two buttons run.
+    """
 
     modal: object
     yes: Callable[[], None]
@@ -86,9 +174,29 @@ class Question:
 
 @dataclass
 class TabState:
-    """What belongs to one browser tab: the click mode, the selected mirror (by id), the drafts
-    being drawn (a boundary per mirror id, the region of interest), the picked corner or marker, the
-    markers a proposal flags and the mirrors it is for, and the view ('3d' or 'depth')."""
+    """What belongs to one browser tab.
+
+    Attributes
+    ----------
+    mode : str
+        The click mode, one of MODES.
+    mirror_id : int or None
+        The selected mirror.
+    drafts : dict
+        {mirror id: boundary being drawn, as (u, v) pixels}.
+    region_draft : tuple of (float, float)
+        The region of interest being drawn (pixels).
+    picked_corner, picked_marker : int or None
+        The picked boundary corner or marker.
+    moving_marker : bool
+        The picked marker moves with the next click.
+    flagged_markers : tuple
+        (mirror id, marker's pixel) that a proposal flags, crossed on the depth frame.
+    proposal_for : tuple of str
+        The mirrors whose fitted plane waits for Apply or Discard.
+    view : str
+        '3d' or 'depth'.
+    """
 
     mode: str = "inspect"
     mirror_id: int | None = None
@@ -117,25 +225,70 @@ class TabContext(Protocol):
     lagged_at: float
 
     @property
-    def gui(self): ...
+    def gui(self):
+        """The tab's GUI."""
 
     def changed(self) -> None:
-        """The tab's state changed: redraw what shows it (overlay, hints) and tell the tab's panels.
-        """
+        """The tab's state changed: redraw what shows it (overlay, hints) and tell its panels."""
 
     def on_state(self, callback: Callable[[TabState], None]) -> None:
-        """Call callback(state) after every change of the tab's state."""
+        """Call callback(state) after every change of the tab's state.
+
+        Parameters
+        ----------
+        callback : callable
+            Called with the TabState.
+        """
 
     def on_click(self, mode: str, handler: Callable[[float, float], None]) -> None:
-        """Route clicks on the depth frame in `mode` to handler(u, v)."""
+        """Route clicks on the depth frame in `mode` to handler(u, v).
+
+        Parameters
+        ----------
+        mode : str
+            One of MODES.
+        handler : callable
+            Called with the clicked pixel's column and row.
+        """
 
     def look(self, view: str) -> None:
-        """Show the 3D scene ('3d') or the depth frame ('depth') in this tab."""
+        """Show the 3D scene or the depth frame in this tab.
+
+        Parameters
+        ----------
+        view : str
+            '3d' or 'depth'.
+        """
 
     def act(self, action: Callable[[], object]) -> None:
-        """Run a user's action of this tab; a refusal becomes a notification on this tab."""
+        """Run a user's action of this tab; a refusal becomes a notification on this tab.
+
+        Parameters
+        ----------
+        action : callable
+            The action, called with no arguments.
+        """
 
     def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
             on_no: Callable[[], object] = lambda: None) -> "Question":
-        """Ask before an action that loses something: a modal with `text` (markdown) and two
-        buttons; `yes` runs on_yes as a user's action (act), `no` on_no; either closes it."""
+        """Ask before an action that loses something: a modal with two buttons; either closes it.
+
+        Parameters
+        ----------
+        title : str
+            The modal's title.
+        text : str
+            The question (markdown).
+        yes : str
+            The first button's label; it runs `on_yes` as a user's action (act).
+        on_yes : callable
+            What `yes` does.
+        no : str
+            The second button's label.
+        on_no : callable, optional
+            What `no` does (nothing by default).
+
+        Returns
+        -------
+        Question
+        """

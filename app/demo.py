@@ -17,14 +17,27 @@ CALIBRATION_FRAMES = 5
 
 
 def demo_source() -> SimulatedSource:
+    """The simulated rig: a person walking, two mirrors at 120°."""
     return SimulatedSource(Simulator(paper_scene(object="figure", distance=3.0), seed=0),
                            "simulated rig (person walking, two mirrors at 120°)")
 
 
 def calibrated_session(source: SimulatedSource, root: Path) -> Session:
-    """A session for a simulated source: markers and boundaries where the simulator draws them,
-    planes calibrated from the markers over the median of the background and a few frames (RANSAC +
-    SVD, as for a real rig)."""
+    """A session for a simulated source, with its planes calibrated.
+
+    Markers and boundaries where the simulator draws them, planes calibrated from the markers over
+    the median of the background and a few frames (RANSAC + SVD, as for a real rig).
+
+    Parameters
+    ----------
+    source : SimulatedSource
+    root : Path
+        The session's folder.
+
+    Returns
+    -------
+    Session
+    """
     rig = source.rig
     background = rig.background()
     depth = np.stack([background.depth] + [rig.frame(i).depth for i in range(CALIBRATION_FRAMES)])

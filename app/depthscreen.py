@@ -17,12 +17,19 @@ MARGIN = 1.04           # the frame fills the free area but for this much room a
 
 
 class DepthScreen:
-    """Shows an RGB rendering of the depth frame in one tab and reports its clicks as pixel
-    coordinates.
+    """Shows an RGB rendering of the depth frame in one tab and reports its clicks as pixels.
 
     The image's local x runs with u and its local y with v (viser draws row 0 at local -y); with the
     identity rotation at (0, 0, -SCREEN_DISTANCE), it is seen unmirrored from behind, looking along
     +z like the depth camera.
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+    intr : Intrinsics
+        The depth camera's.
+    on_pixel : callable
+        Called with (u, v) of each click on the screen.
     """
 
     def __init__(self, client: viser.ClientHandle, intr: Intrinsics,
@@ -38,18 +45,39 @@ class DepthScreen:
         self.handle.on_click(self._clicked)
 
     def set_visible(self, visible: bool) -> None:
-        """Show the screen while the tab looks at it; hidden in the 3D view, where it would stand
-        behind the camera when zoomed out. Its image is still refreshed, so that it is current when
-        looked at."""
+        """Show the screen while the tab looks at it.
+
+        Hidden in the 3D view, where it would stand behind the camera when zoomed out. Its image is
+        still refreshed, so that it is current when looked at.
+
+        Parameters
+        ----------
+        visible : bool
+        """
         self.handle.visible = visible
 
     def show(self, rgb: np.ndarray) -> None:
-        """rgb : (H, W, 3) uint8."""
+        """Show an image on the screen.
+
+        Parameters
+        ----------
+        rgb : np.ndarray, shape (H, W, 3), uint8
+        """
         self.handle.image = rgb
 
     def pixel_of_ray(self, origin, direction) -> tuple[float, float] | None:
-        """Where a ray (world frame) meets the screen, as pixel coordinates (u, v), or None when it
-        misses."""
+        """Where a ray meets the screen, as pixel coordinates.
+
+        Parameters
+        ----------
+        origin, direction : array_like, shape (3,)
+            The ray, world frame.
+
+        Returns
+        -------
+        tuple of float or None
+            (u, v), or None when it misses.
+        """
         origin, direction = np.asarray(origin, float), np.asarray(direction, float)
         if abs(direction[2]) < 1e-12:
             return None
@@ -64,14 +92,35 @@ class DepthScreen:
         return float(u), float(v)
 
     def world_of_pixel(self, u: float, v: float) -> np.ndarray:
-        """(3,) world point of pixel (u, v) on the screen (the inverse of pixel_of_ray)."""
+        """The world point of a pixel on the screen (the inverse of pixel_of_ray).
+
+        Parameters
+        ----------
+        u, v : float
+            Pixels.
+
+        Returns
+        -------
+        np.ndarray, shape (3,)
+            Metres.
+        """
         x = ((u + 0.5) / self.intr.width - 0.5) * self.width
         y = ((v + 0.5) / self.intr.height - 0.5) * self.height
         return self.centre + np.array([x, y, 0.0])
 
     def view_pose(self, aspect: float) -> tuple[np.ndarray, np.ndarray]:
-        """(camera position, look-at point), metres: squarely behind the screen, the whole depth
-        frame in a view of VIEW_FOV_DEG and `aspect` (the tab's canvas, width / height), centred."""
+        """Where the tab's camera sees the whole depth frame: squarely behind the screen, centred.
+
+        Parameters
+        ----------
+        aspect : float
+            The tab's canvas, width / height; the view is VIEW_FOV_DEG high.
+
+        Returns
+        -------
+        position, look_at : np.ndarray, shape (3,)
+            Metres.
+        """
         tan_half = np.tan(np.radians(VIEW_FOV_DEG) / 2)
         distance = MARGIN * max(self.height / 2 / tan_half, self.width / 2 / (tan_half * aspect))
         return self.centre - np.array([0.0, 0.0, distance]), self.centre.copy()
@@ -92,6 +141,7 @@ class DepthScreen:
             camera.look_at = tuple(target)
 
     def _clicked(self, event) -> None:
+        """Report a click on the screen as a pixel, when the ray meets it."""
         pixel = self.pixel_of_ray(event.ray_origin, event.ray_direction)
         if pixel is not None:
             self.on_pixel(*pixel)

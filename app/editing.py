@@ -25,12 +25,21 @@ from .undo import SESSION_SCOPE, History, Step, inverse, restore
 
 
 def edits(method):
-    """Run an editing method under the editor's lock, then tell the listeners when it changed
-    something.
+    """Run an editing method under the editor's lock; tell the listeners when it changed something.
 
     The listeners are called outside the lock, so that a listener may take its own locks in any
-    order. The edit is refused (MirrorscanError), and the session reloaded, when another program
-    changed session.json since the editor read or wrote it.
+    order.
+
+    Parameters
+    ----------
+    method : callable
+        A method of EditorCore.
+
+    Returns
+    -------
+    callable
+        The wrapped method. It raises MirrorscanError, and the session is reloaded, when another
+        program changed session.json since the editor read or wrote it.
     """
 
     @functools.wraps(method)
@@ -52,7 +61,24 @@ def edits(method):
 
 
 class EditorCore:
-    """A session under edit: its lock, undo history, autosave and listeners."""
+    """A session under edit: its lock, undo history, autosave and listeners.
+
+    Parameters
+    ----------
+    session : Session
+        The session to edit.
+    autosave : bool, optional
+        Save it after every change.
+
+    Attributes
+    ----------
+    autosave : bool
+        Save it after every change.
+    listeners : list of callable
+        Called with the session after every change.
+    last_save_error : str or None
+        Why the last save failed (the previous file is intact), else None.
+    """
 
     def __init__(self, session: Session, autosave: bool = True):
         self._lock = threading.RLock()
@@ -66,16 +92,36 @@ class EditorCore:
 
     @property
     def session(self) -> Session:
+        """The session as it now is."""
         with self._lock:
             return self._session
 
     def mirror(self, mirror_id: int) -> SessionMirror:
-        """The mirror with this id; MirrorscanError when it is gone."""
+        """The mirror with this id.
+
+        Parameters
+        ----------
+        mirror_id : int
+
+        Returns
+        -------
+        SessionMirror
+
+        Raises
+        ------
+        MirrorscanError
+            When it is no longer in the session.
+        """
         with self._lock:
             return self._session.mirrors[self._index(mirror_id)]
 
     def replace_session(self, session: Session) -> None:
-        """Open another session (the undo history is dropped)."""
+        """Open another session (the undo history is dropped) and tell the listeners.
+
+        Parameters
+        ----------
+        session : Session
+        """
         with self._lock:
             self._open(session)
             self._changed = False
@@ -97,16 +143,19 @@ class EditorCore:
         return message
 
     def _tell(self, session: Session) -> None:
+        """Call every listener with the session."""
         for listener in list(self.listeners):
             listener(session)
 
     def _open(self, session: Session) -> None:
+        """Take the session with a new undo history, as the file holds it."""
         self._session, self._history = session, History()
         self._file.written(session)
 
     def _reload_external(self) -> tuple[str, bool]:
-        """Reload an autosaved session's session.json when another program changed it, dropping
-        the undo history (which describes the file before).
+        """Reload an autosaved session's session.json when another program changed it.
+
+        The undo history, which describes the file before, is dropped.
 
         Returns
         -------
@@ -127,53 +176,139 @@ class EditorCore:
 
     # ------------------------------------------------------------------ undo and redo
     def travel_scope(self, mirror_id: int | None, redo: bool = False) -> int:
-        """Where undo (or redo) acts for the selected mirror: its own history or the session's
-        (see `History.scope`)."""
+        """Where undo (or redo) acts for the selected mirror: its own history or the session's.
+
+        Parameters
+        ----------
+        mirror_id : int or None
+            The selected mirror.
+        redo : bool, optional
+            For redo rather than undo.
+
+        Returns
+        -------
+        int
+            A mirror id, or SESSION_SCOPE (see `History.scope`).
+        """
         with self._lock:
             return self._history.scope(mirror_id, redo)
 
     def undo_label(self, scope: int) -> str | None:
-        """What undo in this scope (a mirror id, or SESSION_SCOPE) would take back, or None."""
+        """What undo in this scope would take back.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror id, or SESSION_SCOPE.
+
+        Returns
+        -------
+        str or None
+            None when there is nothing to undo.
+        """
         with self._lock:
             return self._label(scope, redo=False)
 
     def redo_label(self, scope: int) -> str | None:
-        """What redo in this scope (a mirror id, or SESSION_SCOPE) would put back, or None."""
+        """What redo in this scope would put back.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror id, or SESSION_SCOPE.
+
+        Returns
+        -------
+        str or None
+            None when there is nothing to redo.
+        """
         with self._lock:
             return self._label(scope, redo=True)
 
     def _label(self, scope: int, redo: bool) -> str | None:
+        """What undo or redo in `scope` would move, or None."""
         ids = [m.id for m in self._session.mirrors]
         return self._history.label(scope, redo, ids, lambda i: self.mirror(i).name)
 
     def glass_unused(self, mirror_id: int) -> bool:
         """Whether the mirror's glass was typed in after its plane was set (History.glass_unused).
+
+        Parameters
+        ----------
+        mirror_id : int
+
+        Returns
+        -------
+        bool
         """
         with self._lock:
             return self._history.glass_unused(mirror_id)
 
     def fitted_on_its_markers(self, mirror_id: int) -> bool:
-        """Whether the mirror's plane was set by a markers fit of this editor on the markers,
-        boundary, region and glass it has now: a fit of them again only refits them on other
-        frames."""
+        """Whether the mirror's plane was set by a markers fit of this editor on what it has now.
+
+        On the markers, boundary, region and glass it has now: a fit of them again only refits them
+        on other frames.
+
+        Parameters
+        ----------
+        mirror_id : int
+
+        Returns
+        -------
+        bool
+        """
         with self._lock:
             now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
             return self._history.fitted_on(mirror_id, now)
 
     @edits
     def undo(self, scope: int) -> str:
-        """Take back the last change in a scope (a mirror id, or SESSION_SCOPE); returns its
-        label."""
+        """Take back the last change in a scope.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror id, or SESSION_SCOPE.
+
+        Returns
+        -------
+        str
+            The change's label.
+
+        Raises
+        ------
+        MirrorscanError
+            When there is nothing to undo.
+        """
         return self._travel(scope, redo=False)
 
     @edits
     def redo(self, scope: int) -> str:
-        """Make again the last change undone in a scope; returns its label."""
+        """Make again the last change undone in a scope.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror id, or SESSION_SCOPE.
+
+        Returns
+        -------
+        str
+            The change's label.
+
+        Raises
+        ------
+        MirrorscanError
+            When there is nothing to redo.
+        """
         return self._travel(scope, redo=True)
 
     def _travel(self, scope: int, redo: bool) -> str:
-        """Move the last step of `scope`, with its group, to the other history and put back its
-        `after` (redo) or `before` (undo)."""
+        """Move the last step of `scope`, with its group, to the other history.
+
+        Its `after` (redo) or `before` (undo) is put back.
+        """
         label = self._label(scope, redo)
         moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
         if not moved:
@@ -184,6 +319,7 @@ class EditorCore:
         return label
 
     def _index(self, mirror_id: int) -> int:
+        """The mirror's position in the session; MirrorscanError when it is gone."""
         for i, m in enumerate(self._session.mirrors):
             if m.id == mirror_id:
                 return i
@@ -192,6 +328,7 @@ class EditorCore:
 
     def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "",
                     save: bool = True, **changes) -> None:
+        """Change fields of one mirror as an undo step of its own scope."""
         index = self._index(mirror_id)
         before = self._session.mirrors[index]
         after = replace(before, **changes)
@@ -199,13 +336,17 @@ class EditorCore:
                      self._session.with_mirror(index, after), save)
 
     def _change(self, label: str, change: tuple, session: Session) -> None:
-        """Make a change of the session's own (SESSION_SCOPE); `change` is (kind, a, b), see
-        `undo.restore` and `undo.inverse`."""
+        """Make a change of the session's own (SESSION_SCOPE).
+
+        `change` is (kind, a, b), see `undo.restore` and `undo.inverse`.
+        """
         self._commit(SESSION_SCOPE, Step(label, inverse(change), change), session)
 
     def _commit(self, scope: int, step: Step, session: Session, save: bool = True) -> None:
-        """Record an undo step and take the session, saving it unless `save` is False (one of
-        several steps that the last saves)."""
+        """Record an undo step and take the session, saving it unless `save` is False.
+
+        `save` is False for one of several steps that the last saves.
+        """
         # the limits of a session that is read: past them it would not reopen
         check_limits(session)
         self._history.record(scope, step)
@@ -213,6 +354,7 @@ class EditorCore:
         self._save_and_notify(save)
 
     def _save_and_notify(self, save: bool = True) -> None:
+        """Autosave (unless `save` is False) and mark the session changed."""
         self.last_save_error = None
         if self.autosave and save:
             try:

@@ -48,7 +48,23 @@ class SessionEditor(EditorCore):
     # ------------------------------------------------------------------ mirrors
     @edits
     def add_mirror(self, name: str | None = None) -> int:
-        """Append a mirror (named 'mirror N' by default, N its id); returns its id."""
+        """Append a mirror.
+
+        Parameters
+        ----------
+        name : str, optional
+            Its name; 'mirror N' by default, N its id.
+
+        Returns
+        -------
+        int
+            Its id.
+
+        Raises
+        ------
+        MirrorscanError
+            When the session holds MAX_MIRRORS already, or the name is not valid or taken.
+        """
         mirrors = self._session.mirrors
         if len(mirrors) >= MAX_MIRRORS:
             raise MirrorscanError(f"a session holds at most {MAX_MIRRORS} mirrors; remove one to "
@@ -66,14 +82,35 @@ class SessionEditor(EditorCore):
 
     @edits
     def rename_mirror(self, mirror_id: int, name: str) -> None:
+        """Rename a mirror.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        name : str
+            The new name, stripped of surrounding spaces.
+
+        Raises
+        ------
+        MirrorscanError
+            When the name is not valid or another mirror holds it.
+        """
         name = name.strip()
         unused_name(self._session, name, mirror_id)
         self._set_mirror(mirror_id, f"name of {self.mirror(mirror_id).name}", name=name)
 
     @edits
     def remove_mirror(self, mirror_id: int) -> None:
-        """Remove a mirror; undo (in the session's scope) puts it back where it was, with its id
-        and history."""
+        """Remove a mirror.
+
+        Undo (in the session's scope) puts it back where it was, with its id and history.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        """
         index = self._index(mirror_id)
         mirror = self._session.mirrors[index]
         mirrors = self._session.mirrors[:index] + self._session.mirrors[index + 1:]
@@ -83,10 +120,22 @@ class SessionEditor(EditorCore):
     # ------------------------------------------------------------------ markers
     @edits
     def add_marker(self, mirror_id: int, uv: tuple[float, float]) -> int:
-        """Add a marker at pixel `uv` (u, v); returns its index (0-based).
+        """Add a marker at pixel `uv`.
 
         Refused outside the image and, once the mirror has a boundary, outside it: a stray click
         under the panel or on another mirror must not reach the fit.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        uv : tuple of float
+            (u, v), pixels.
+
+        Returns
+        -------
+        int
+            The marker's index (0-based).
         """
         mirror = self.mirror(mirror_id)
         uv = on_mirror(self._session, mirror, uv)
@@ -96,6 +145,17 @@ class SessionEditor(EditorCore):
 
     @edits
     def move_marker(self, mirror_id: int, k: int, uv: tuple[float, float]) -> None:
+        """Move marker `k` to pixel `uv`, refused where add_marker refuses it.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        k : int
+            The marker's index (0-based).
+        uv : tuple of float
+            (u, v), pixels.
+        """
         mirror = self.mirror(mirror_id)
         has_marker(mirror, k)
         uv = on_mirror(self._session, mirror, uv)
@@ -104,6 +164,15 @@ class SessionEditor(EditorCore):
 
     @edits
     def delete_marker(self, mirror_id: int, k: int) -> None:
+        """Delete marker `k`.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        k : int
+            The marker's index (0-based).
+        """
         mirror = self.mirror(mirror_id)
         has_marker(mirror, k)
         self._set_mirror(mirror_id, f"delete marker {mirror.marker_name(k)}",
@@ -111,13 +180,27 @@ class SessionEditor(EditorCore):
 
     @edits
     def clear_markers(self, mirror_id: int) -> None:
+        """Delete every marker of the mirror (refused when it has none).
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        """
         self._clear(mirror_id, "markers")
 
     # ------------------------------------------------------------------ boundaries
     @edits
     def set_boundary(self, mirror_id: int, vertices: Pixels) -> None:
-        """Make a drawn polygon the mirror's boundary: at least 3 vertices (pixels) in the image,
-        not crossing itself."""
+        """Make a drawn polygon the mirror's boundary.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        vertices : sequence of (float, float)
+            At least 3 vertices (pixels) in the image, not crossing itself.
+        """
         mirror = self.mirror(mirror_id)
         vertices = tuple(pixel(self._session.camera, uv) for uv in vertices)
         validate_polygon(vertices, self._session.camera.shape, f"{mirror.name}: boundary")
@@ -125,6 +208,17 @@ class SessionEditor(EditorCore):
 
     @edits
     def move_vertex(self, mirror_id: int, vertex: int, uv: tuple[float, float]) -> None:
+        """Move a corner of the mirror's boundary; the polygon must stay valid.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        vertex : int
+            The corner's index (0-based).
+        uv : tuple of float
+            (u, v), pixels.
+        """
         mirror = self.mirror(mirror_id)
         has_vertex(mirror, vertex)
         moved = pixel(self._session.camera, uv)
@@ -134,6 +228,15 @@ class SessionEditor(EditorCore):
 
     @edits
     def delete_vertex(self, mirror_id: int, vertex: int) -> None:
+        """Delete a corner of the mirror's boundary; the polygon must stay valid.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        vertex : int
+            The corner's index (0-based).
+        """
         mirror = self.mirror(mirror_id)
         has_vertex(mirror, vertex)
         edited = mirror.boundary[:vertex] + mirror.boundary[vertex + 1:]
@@ -142,6 +245,13 @@ class SessionEditor(EditorCore):
 
     @edits
     def clear_boundary(self, mirror_id: int) -> None:
+        """Delete the mirror's boundary (refused when it has none).
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        """
         self._clear(mirror_id, "boundary")
 
     # ------------------------------------------------------------------ calibration, selection,
@@ -190,10 +300,16 @@ class SessionEditor(EditorCore):
 
     @edits
     def set_marker_offset(self, mirror_id: int, metres: float) -> None:
-        """Set how far the mirror's markers stand in front of its reflecting surface (the glass),
-        0 to MAX_MARKER_OFFSET metres, as typed in.
+        """Set how far the mirror's markers stand in front of its reflecting surface (the glass).
 
         The plane stays where it is until the next fit (see `glass_unused`).
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+        metres : float
+            0 to MAX_MARKER_OFFSET, as typed in.
         """
         mirror = self.mirror(mirror_id)
         if not (np.isfinite(metres) and 0 <= metres <= MAX_MARKER_OFFSET):
@@ -204,19 +320,37 @@ class SessionEditor(EditorCore):
 
     @edits
     def set_selection(self, selection: Selection) -> None:
+        """Set the object selection (a step of the session's scope).
+
+        Parameters
+        ----------
+        selection : Selection
+        """
         self._change("object selection", ("selection", self._session.selection, selection),
                      replace(self._session, selection=selection))
 
     @edits
     def set_bounces(self, bounces: int) -> None:
-        """Set how many mirrors in turn a camera ray is followed through (1 to 3;
-        mirrorcore.rig.model)."""
+        """Set how many mirrors in turn a camera ray is followed through (mirrorcore.rig.model).
+
+        Parameters
+        ----------
+        bounces : int
+            1 to 3.
+        """
         self._change("mirrors followed in turn",
                      ("bounces", self._session.bounces, check_bounces(bounces)),
                      replace(self._session, bounces=check_bounces(bounces)))
 
     @edits
     def set_background(self, relative_path: str | None) -> None:
+        """Set the session's background file.
+
+        Parameters
+        ----------
+        relative_path : str or None
+            Relative to the session's folder; None for no background.
+        """
         self._change("background", ("background", self._session.background, relative_path),
                      replace(self._session, background=relative_path))
 

@@ -24,21 +24,38 @@ E = TypeVar("E")
 
 @dataclass(frozen=True, eq=False)
 class FrameReady:
-    """The live loop processed a frame (on the loop's thread: subscribers must be quick)."""
+    """The live loop processed a frame (on the loop's thread: subscribers must be quick).
+
+    Attributes
+    ----------
+    frame : LiveFrame
+    """
 
     frame: "LiveFrame"
 
 
 @dataclass(frozen=True, eq=False)
 class SessionChanged:
-    """The session (or its background) changed; `snapshot` is the new consistent state."""
+    """The session (or its background) changed.
+
+    Attributes
+    ----------
+    snapshot : Snapshot
+        The new consistent state.
+    """
 
     snapshot: "Snapshot"
 
 
 @dataclass(frozen=True, eq=False)
 class LoopChanged:
-    """The live loop was paused, resumed or moved to another frame or source."""
+    """The live loop was paused, resumed or moved to another frame or source.
+
+    Attributes
+    ----------
+    paused : bool
+    source : DepthSource
+    """
 
     paused: bool
     source: "DepthSource"
@@ -46,15 +63,20 @@ class LoopChanged:
 
 @dataclass(frozen=True, eq=False)
 class JobProgress:
-    """A long job shared by every tab (jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT,
-    HEAT) moved on.
+    """A long job shared by every tab moved on.
+
+    The jobs are jobs.DENSE, BACKGROUND, RECORD, BATCH, REFINE, AGREEMENT and HEAT.
 
     Attributes
     ----------
-    job : the job's kind.
-    fraction : done, in [0, 1], or None when it is not running.
-    status : Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
-    result : the typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide
+    job : str
+        The job's kind.
+    fraction : float or None
+        Done, in [0, 1], or None when it is not running.
+    status : str
+        Markdown for a panel (mirrorscan.wording.jobs.status of `result`).
+    result : object
+        The typed progress or result (mirrorscan.results, mirrorcore.batch), what panels decide
         on.
     """
 
@@ -65,25 +87,45 @@ class JobProgress:
 
     @property
     def percent(self) -> float:
-        """The fraction done as a progress bar's value, to 0.1 % (a screen reader reads out every
-        digit)."""
+        """The fraction done as a progress bar's value, to 0.1 %.
+
+        Rounded because a screen reader reads out every digit.
+        """
         return round(100.0 * (self.fraction or 0.0), 1)
 
 
 @dataclass(frozen=True, eq=False)
 class DenseChanged:
-    """A dense reconstruction finished (or was cleared: result None)."""
+    """A dense reconstruction finished (or was cleared).
+
+    Attributes
+    ----------
+    result : DenseResult or None
+        None when cleared.
+    """
 
     result: "DenseResult | None"
 
 
 @dataclass(frozen=True, eq=False)
 class HeatChanged:
-    """The heat map of live frame `index`: its points (n, 3) float32 metres, their colours (n, 3)
-    uint8, and per view seen in a mirror (source label) the median distance (mm) and the share of
-    its points compared (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the
-    last `frames` frames with the same planes; `sources` (n,) uint8: each point's source label, 0
-    the camera's (None: not told apart)."""
+    """The heat map of a live frame.
+
+    Attributes
+    ----------
+    index : int
+        The live frame's index.
+    points : np.ndarray, shape (n, 3), float32
+        Metres.
+    colours : np.ndarray, shape (n, 3), uint8
+    figures : dict
+        Per view seen in a mirror (source label): the median distance (mm) and the share of its
+        points compared (mirrorcore.calibration.agreement.heat_figures) over the heat maps of the
+        last `frames` frames with the same planes.
+    frames : int
+    sources : np.ndarray, shape (n,), uint8, or None
+        Each point's source label, 0 the camera's; None: not told apart.
+    """
 
     index: int
     points: "np.ndarray"
@@ -94,16 +136,29 @@ class HeatChanged:
 
 
 class EventBus:
-    """Publish / subscribe by event type. publish() calls the subscribers of the event's type on the
-    calling thread, in order of subscription; one that raises is logged and the others still run."""
+    """Publish / subscribe by event type.
+
+    publish() calls the subscribers of the event's type on the calling thread, in order of
+    subscription; one that raises is logged and the others still run.
+    """
 
     def __init__(self):
         self._lock = threading.Lock()
         self._subscribers: dict[type, list[Callable[[Any], None]]] = {}
 
     def subscribe(self, kind: type[E], callback: Callable[[E], None]) -> Callable[[], None]:
-        """Call callback(event) for every published event of type `kind`; returns the function that
-        unsubscribes."""
+        """Call callback(event) for every published event of type `kind`.
+
+        Parameters
+        ----------
+        kind : type
+        callback : callable
+
+        Returns
+        -------
+        callable
+            The function that unsubscribes.
+        """
         with self._lock:
             self._subscribers.setdefault(kind, []).append(callback)
 
@@ -115,6 +170,14 @@ class EventBus:
         return unsubscribe
 
     def publish(self, event: object) -> None:
+        """Call the subscribers of the event's type, in order, on the calling thread.
+
+        One that raises is logged and the others still run.
+
+        Parameters
+        ----------
+        event : object
+        """
         with self._lock:
             callbacks = list(self._subscribers.get(type(event), []))
         for callback in callbacks:

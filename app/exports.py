@@ -16,11 +16,25 @@ EXPORTS = "exports"
 
 
 def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
-    """A new file's path: folder/stem-YYYYmmdd-HHMMSS.ply, or with -2, -3... when that file exists
-    already.
+    """A new file's path: folder/stem-YYYYmmdd-HHMMSS.ply, or with -2, -3... when that file exists.
 
     The name is reserved by creating the file empty, exclusively, so that two exports in the same
-    second never share a name.
+    second never share a name. The folder is made when missing.
+
+    Parameters
+    ----------
+    folder : Path
+    stem : str
+    suffix : str, optional
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    FileExistsError
+        When no free name is found.
     """
     folder.mkdir(parents=True, exist_ok=True)
     base = f"{stem}-{time.strftime('%Y%m%d-%H%M%S')}"
@@ -36,8 +50,24 @@ def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
 
 def export_ply(session_root: Path | None, stem: str, data: bytes,
                client: viser.ClientHandle | None) -> Path | None:
-    """Send PLY bytes to `client` as a download and, when the session has a folder (session_root),
-    keep them in its exports/ folder; returns the path written, or None."""
+    """Send PLY bytes to `client` as a download and keep them in the session's exports/ folder.
+
+    Parameters
+    ----------
+    session_root : Path or None
+        The session's folder; None keeps nothing.
+    stem : str
+        The file name's start.
+    data : bytes
+        The PLY file.
+    client : viser.ClientHandle or None
+        The tab to send the download to, if any.
+
+    Returns
+    -------
+    Path or None
+        The path written, or None.
+    """
     saved = None
     if session_root is not None:
         saved = check_output(free_name(Path(session_root) / EXPORTS, stem))

@@ -36,8 +36,10 @@ class TabFraming:
         self._home_pose = self._frame(points)
 
     def look_at_object(self) -> None:
-        """Fill this tab's canvas with the object's cloud (the last frame's, all its views), seen
-        as from home; the whole rig when there is no object in view."""
+        """Fill this tab's canvas with the object's cloud, seen as from home.
+
+        The cloud is the last frame's, all its views; the whole rig when there is no object in view.
+        """
         points = self._object_points()
         if len(points) < 2:
             self.look_home()
@@ -45,15 +47,20 @@ class TabFraming:
             self._frame(points, OBJECT_MARGIN)
 
     def look_at_dense(self, result) -> None:
-        """Fill this tab's canvas with the object's cloud and a dense result, where this tab draws
-        it (beside the cloud or in place), seen as from home."""
+        """Fill this tab's canvas with the object's cloud and a dense result, seen as from home.
+
+        Where this tab draws the result: beside the cloud or in place.
+
+        Parameters
+        ----------
+        result : DenseResult
+        """
         offset = beside_offset(result) if self.dense_beside else 0.0
         corners = np.array([result.low, result.high], float) + offset
         self._frame(np.concatenate([self._object_points(), corners]), OBJECT_MARGIN)
 
     def _object_points(self) -> np.ndarray:
-        """(k, 3) metres: about 500 of the last frame's object points (none before the first
-        frame)."""
+        """About 500 of the last frame's object points, (k, 3) metres; none before the first."""
         frame = self.services.last_frame
         if frame is None or not len(frame.cloud):
             return np.zeros((0, 3))
@@ -89,8 +96,10 @@ class TabFraming:
         return position, target
 
     def _still_home(self) -> bool:
-        """Whether this tab's camera is where look_home last put it, within HOME_TOLERANCE: not
-        turned or zoomed since."""
+        """Whether this tab's camera is where look_home last put it, within HOME_TOLERANCE.
+
+        Not turned or zoomed since.
+        """
         if self._home_pose is None:
             return False
         try:

@@ -17,6 +17,10 @@ ON_EDGE = 1.5            # pixels: a marker this close outside its mirror's boun
 def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
     """What a plane computed for a mirror depends on.
 
+    Parameters
+    ----------
+    mirror : SessionMirror or None
+
     Returns
     -------
     tuple or None
@@ -29,7 +33,23 @@ def fit_inputs(mirror: SessionMirror | None) -> tuple | None:
 
 
 def pixel(camera: Intrinsics, uv) -> tuple[float, float]:
-    """Pixel `uv` (u, v) rounded to 0.01 pixel; refused outside the image."""
+    """Pixel `uv` rounded to 0.01 pixel.
+
+    Parameters
+    ----------
+    camera : Intrinsics
+    uv : sequence of float
+        (u, v), pixels.
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    MirrorscanError
+        Outside the image.
+    """
     u, v = float(uv[0]), float(uv[1])
     if not (np.isfinite(u) and np.isfinite(v)
             and -0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
@@ -39,8 +59,26 @@ def pixel(camera: Intrinsics, uv) -> tuple[float, float]:
 
 
 def on_mirror(session: Session, mirror: SessionMirror, uv) -> tuple[float, float]:
-    """A marker's pixel (u, v), refused outside the image or, when the mirror has a boundary, more
-    than ON_EDGE pixels outside it; the refusal names the mirror the pixel is on, if any."""
+    """A marker's pixel, refused outside the image or outside its mirror.
+
+    Parameters
+    ----------
+    session : Session
+    mirror : SessionMirror
+    uv : sequence of float
+        (u, v), pixels.
+
+    Returns
+    -------
+    tuple of float
+        Rounded as by `pixel`.
+
+    Raises
+    ------
+    MirrorscanError
+        Outside the image or, when the mirror has a boundary, more than ON_EDGE pixels outside
+        it; the refusal names the mirror the pixel is on, if any.
+    """
     uv = pixel(session.camera, uv)
     if mirror.boundary and edge_distance(mirror.boundary, uv) < -ON_EDGE:
         other = next((m.name for m in session.mirrors
@@ -53,20 +91,54 @@ def on_mirror(session: Session, mirror: SessionMirror, uv) -> tuple[float, float
 
 
 def has_marker(mirror: SessionMirror, k: int) -> None:
-    """Refuse marker index `k` (0-based) that the mirror does not have."""
+    """Refuse marker index `k` that the mirror does not have.
+
+    Parameters
+    ----------
+    mirror : SessionMirror
+    k : int
+        0-based.
+
+    Raises
+    ------
+    MirrorscanError
+    """
     if not 0 <= k < len(mirror.markers):
         raise MirrorscanError(f"{mirror.name}: no marker {mirror.marker_name(k)}")
 
 
 def has_vertex(mirror: SessionMirror, vertex: int) -> None:
-    """Refuse boundary vertex `vertex` (0-based) that the mirror does not have."""
+    """Refuse boundary vertex `vertex` that the mirror does not have.
+
+    Parameters
+    ----------
+    mirror : SessionMirror
+    vertex : int
+        0-based.
+
+    Raises
+    ------
+    MirrorscanError
+    """
     if not 0 <= vertex < len(mirror.boundary):
         raise MirrorscanError(f"{mirror.name}: no corner {vertex + 1}")
 
 
 def unused_name(session: Session, name: str, mirror_id: int | None) -> None:
-    """Refuse a mirror name that is not valid (check_name) or that another mirror than
-    `mirror_id` holds."""
+    """Refuse a mirror name that is not valid or that another mirror holds.
+
+    Parameters
+    ----------
+    session : Session
+    name : str
+    mirror_id : int or None
+        The mirror being named (None: a new one).
+
+    Raises
+    ------
+    MirrorscanError
+        When check_name refuses it or another mirror than `mirror_id` holds it.
+    """
     check_name(name)
     if any(m.name == name for m in session.mirrors if m.id != mirror_id):
         raise MirrorscanError(f"there is already a mirror named {name!r}; choose another name")

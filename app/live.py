@@ -72,13 +72,26 @@ class LiveFrame:
 
     @cached_property
     def counts(self) -> dict[int, int]:
-        """Points per source label: the direct view and every mirror, then each view through several
-        mirrors that has points (Cloud.source_counts)."""
+        """Points per source label (Cloud.source_counts).
+
+        The direct view and every mirror, then each view through several mirrors that has points.
+        """
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
     def parts(self, half: int | None = None) -> list[SourcePart]:
-        """The cloud as it is streamed (see mirrorscan.stream): one half's parts, or both halves'
-        (None); each half made once, by the first tab that asks for it."""
+        """The cloud as it is streamed (see mirrorscan.stream).
+
+        Each half is made once, by the first tab that asks for it.
+
+        Parameters
+        ----------
+        half : int or None, optional
+            One half's parts, or both halves' (None).
+
+        Returns
+        -------
+        list of SourcePart
+        """
         if half is None:
             return [part for h in range(HALVES) for part in self.parts(h)]
         if half not in self._parts:
@@ -88,6 +101,7 @@ class LiveFrame:
 
     @cached_property
     def _parts(self) -> dict[int, list[SourcePart]]:
+        """The halves' parts made so far, by half."""
         return {}
 
     @cached_property
@@ -102,14 +116,43 @@ class LiveFrame:
 
 
 def frame_number(index: int, frame_count: int | None) -> int:
-    """A live frame's number as the technician sees it: its place in the recording that plays (which
-    loops; from 0, as the frame slider and the recording's files count), or its running index for a
-    live source."""
+    """A live frame's number as the technician sees it.
+
+    Parameters
+    ----------
+    index : int
+        The loop's running index.
+    frame_count : int or None
+        The recording's frame count; None (or 0) for a live source.
+
+    Returns
+    -------
+    int
+        Its place in the recording that plays (which loops; from 0, as the frame slider and the
+        recording's files count), or its running index for a live source.
+    """
     return index % frame_count if frame_count else index
 
 
 def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors) -> LiveFrame:
-    """Select the object in a source frame and run Algorithm 1 on it with the snapshot's rig."""
+    """Select the object in a source frame and run Algorithm 1 on it with the snapshot's rig.
+
+    Parameters
+    ----------
+    snapshot : Snapshot
+        The state the frame is processed with.
+    index : int
+        The loop's running index.
+    frame : Frame
+        The source's frame (depth in metres).
+    anchors : Anchors
+        The stream's centres, kept from frame to frame.
+
+    Returns
+    -------
+    LiveFrame
+        With the processing time (ms).
+    """
     t0 = time.perf_counter()
     prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop,
                                    snapshot.session.selection)
@@ -119,11 +162,16 @@ def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors
 
 
 class RateMeter:
-    """Frames per second over the frame times of the last `seconds` (at least the last two), at most
-    `window` of them.
+    """Frames per second over the frame times of the last `seconds` (at least the last two).
 
     The time bound makes the rate follow a loop that slows down for a job (1 fps) within
     `seconds`, where a window of frames alone would still hold the faster ones.
+
+    Parameters
+    ----------
+    window : int, optional
+        At most this many frame times are kept.
+    seconds : float, optional
     """
 
     def __init__(self, window: int = 30, seconds: float = 2.0):
@@ -131,10 +179,18 @@ class RateMeter:
         self.seconds = seconds
 
     def tick(self, now: float) -> None:
+        """Count a frame.
+
+        Parameters
+        ----------
+        now : float
+            Its time (time.perf_counter(), seconds).
+        """
         self._times.append(now)
 
     @property
     def fps(self) -> float:
+        """The rate, frames per second; 0.0 before two frames."""
         times = list(self._times)
         recent = [t for t in times if t >= times[-1] - self.seconds] if times else []
         recent = recent if len(recent) >= 2 else times[-2:]
@@ -144,14 +200,25 @@ class RateMeter:
 
 
 class LiveLoop:
-    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's frame
-    rate, with the snapshot that snapshot() gives at each frame.
+    """Runs source -> process_frame -> on_frame on a daemon thread, at most at the source's rate.
 
-    The thread runs at the source's frame rate, or at fps_wanted() frames per second when that is
-    given and lower (the app asks for fewer while no tab shows the cloud: see
-    MirrorscanApp.fps_wanted). on_frame(LiveFrame) is called on the loop's thread; an exception
-    there or in the source is passed to on_error and the loop goes on with the next frame after a
-    short pause (a camera may come back).
+    The snapshot that snapshot() gives is used at each frame. The thread runs at the source's frame
+    rate, or at fps_wanted() frames per second when that is given and lower (the app asks for fewer
+    while no tab shows the cloud: see MirrorscanApp.fps_wanted). on_frame(LiveFrame) is called on
+    the loop's thread; an exception there or in the source is passed to on_error and the loop goes
+    on with the next frame after a short pause (a camera may come back).
+
+    Parameters
+    ----------
+    source : DepthSource
+    snapshot : callable
+        Returns the Snapshot to process a frame with.
+    on_frame : callable
+        Called with each LiveFrame.
+    on_error : callable, optional
+        Called with an exception of the source or of on_frame.
+    fps_wanted : callable, optional
+        Returns the rate asked for, or None.
     """
 
     def __init__(self, source: DepthSource, snapshot: Callable[[], Snapshot],
@@ -183,9 +250,11 @@ class LiveLoop:
         self._thread = threading.Thread(target=self._run, name="mirrorscan-live", daemon=True)
 
     def start(self) -> None:
+        """Start the loop's thread."""
         self._thread.start()
 
     def stop(self) -> None:
+        """Stop the thread (waiting up to 5 s) and the reader."""
         self._stop.set()
         self._wake.set()
         if self._thread.is_alive():
@@ -194,9 +263,16 @@ class LiveLoop:
 
     @property
     def paused(self) -> bool:
+        """Whether the loop is paused."""
         return self._paused.is_set()
 
     def pause(self, paused: bool) -> None:
+        """Pause or resume the loop.
+
+        Parameters
+        ----------
+        paused : bool
+        """
         (self._paused.set if paused else self._paused.clear)()
         self._wake.set()
 
@@ -207,6 +283,7 @@ class LiveLoop:
         self._wake.set()
 
     def _take_step(self) -> bool:
+        """Take one step asked for while paused, if any."""
         with self._step_lock:
             if self._steps:
                 self._steps -= 1
@@ -214,11 +291,14 @@ class LiveLoop:
             return False
 
     def run_once(self) -> LiveFrame:
-        """Read and process the next frame on the calling thread (also what the thread does each
-        turn).
+        """Read and process the next frame on the calling thread (what the thread does each turn).
 
         The frame after it is read meanwhile on a reader thread, so reading (ray casting, file or
         device I/O) and processing share two cores.
+
+        Returns
+        -------
+        LiveFrame
         """
         with self._turn:
             source_frame = self._read(self.index)
@@ -240,16 +320,28 @@ class LiveLoop:
         return frame
 
     def use_source(self, source: DepthSource) -> None:
-        """Play another source of the same camera from its first frame (the recent frames were the
-        other's)."""
+        """Play another source of the same camera from its first frame.
+
+        The recent frames are dropped: they were the other's.
+
+        Parameters
+        ----------
+        source : DepthSource
+        """
         with self._turn:
             self.source, self.index, self._ahead = source, 0, None
             with self._recent_lock:
                 self._recent.clear()
 
     def seek(self, index: int) -> None:
-        """Play on from frame `index` (a seekable source); while paused, that frame is processed at
-        once (shown)."""
+        """Play on from frame `index` (a seekable source).
+
+        While paused, that frame is processed at once (shown).
+
+        Parameters
+        ----------
+        index : int
+        """
         with self._turn:
             self.index, self._ahead = int(index), None
         if self.paused:
@@ -259,14 +351,22 @@ class LiveLoop:
             self._wake.set()
 
     def _read(self, index: int) -> Frame:
+        """Frame `index`: the one read ahead when it is that one, else read now."""
         ahead, self._ahead = self._ahead, None
         if ahead is not None and ahead[0] == index:
             return ahead[1].result()
         return self.source.read(index)
 
     def recent_depths(self) -> np.ndarray | None:
-        """(k, H, W) metres: the last RECENT_FRAMES distinct depth frames, oldest first (for
-        calibration over their median), or None."""
+        """The last RECENT_FRAMES distinct depth frames, oldest first.
+
+        For calibration over their median.
+
+        Returns
+        -------
+        np.ndarray, shape (k, H, W), or None
+            Metres; None before the first frame.
+        """
         with self._recent_lock:
             frames = list(self._recent.values())
         return np.stack(frames) if frames else None
@@ -275,8 +375,18 @@ class LiveLoop:
                 timeout: float = 60.0, cancel: threading.Event | None = None) -> list[np.ndarray]:
         """The depth of `n` frames read after this call; blocks, calling progress(k) after each.
 
-        The frame already read ahead is skipped, so a scene changed just before the call (the
-        object taken out) is what is collected. While paused, frames are stepped one by one.
+        The frame already read ahead is skipped, so a scene changed just before the call (the object
+        taken out) is what is collected. While paused, frames are stepped one by one.
+
+        Parameters
+        ----------
+        n : int
+            Frames to collect.
+        progress : callable, optional
+            Called with the count collected so far.
+        timeout : float, optional
+            Seconds the source may go without delivering.
+        cancel : threading.Event, optional
 
         Returns
         -------
@@ -321,6 +431,7 @@ class LiveLoop:
         return frames
 
     def _run(self) -> None:
+        """The thread: process frames at the pace, or wait while paused."""
         while not self._stop.is_set():
             if self._paused.is_set() and not self._take_step():
                 self._wake.wait()
@@ -337,8 +448,10 @@ class LiveLoop:
             self._rest(started)
 
     def _rest(self, started: float) -> None:
-        """Wait until the next frame is due at the pace (time.perf_counter() `started` the last),
-        looking at the pace every PACE_CHECK_S: a job that ends brings the next frame at once."""
+        """Wait until the next frame is due at the pace, the last one `started` at perf_counter().
+
+        The pace is looked at every PACE_CHECK_S: a job that ends brings the next frame at once.
+        """
         while not self._stop.is_set():
             left = 1.0 / self.pace() - (time.perf_counter() - started)
             if left <= 0:
@@ -346,8 +459,11 @@ class LiveLoop:
             self._stop.wait(min(left, PACE_CHECK_S))
 
     def pace(self) -> float:
-        """The frames per second the thread runs at: the source's, or fewer when fps_wanted() asks
-        for fewer and no collect() is waiting for frames."""
+        """The frames per second the thread runs at.
+
+        The source's, or fewer when fps_wanted() asks for fewer and no collect() is waiting for
+        frames.
+        """
         with self._recent_lock:
             collecting = bool(self._collectors)
         wanted = None if collecting else self.fps_wanted()

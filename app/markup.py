@@ -14,15 +14,38 @@ FOLD_TITLE = "Details"
 
 
 def markdown(text: str) -> str:
-    """Markdown `text` (the tool's own has no HTML) with any HTML tag in it shown as text: '<' as an
-    entity, so that no tag (and no autolink) starts; the rest of the Markdown stays."""
+    """Markdown `text` with any HTML tag in it shown as text.
+
+    '<' becomes an entity, so that no tag (and no autolink) starts; the rest of the Markdown stays.
+
+    Parameters
+    ----------
+    text : str
+        Markdown (the tool's own has no HTML).
+
+    Returns
+    -------
+    str
+    """
     return text.replace("<", "&lt;")
 
 
 def fold(headline: str, details: list[str]) -> str:
-    """Markdown: `headline`, then `details` (Markdown paragraphs, already passed through `markdown`)
-    in a collapsed HTML <details> fold, which viser's Markdown renders; the headline alone without
-    details."""
+    """Markdown: `headline`, then `details` in a collapsed HTML <details> fold.
+
+    viser's Markdown renders the fold.
+
+    Parameters
+    ----------
+    headline : str
+    details : list of str
+        Markdown paragraphs, already passed through `markdown`.
+
+    Returns
+    -------
+    str
+        The headline alone without details.
+    """
     if not details:
         return headline
     body = "\n\n".join(details)

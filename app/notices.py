@@ -19,14 +19,25 @@ RESULT_NOTE_SECONDS = 45.0
 
 
 class Notifier:
-    """The notifications of the app; mixed into `mirrorscan.server.MirrorscanApp`, whose `server`
-    it uses."""
+    """The notifications of the app.
+
+    Mixed into `mirrorscan.server.MirrorscanApp`, whose `server` it uses.
+    """
 
     server: viser.ViserServer
 
     def act(self, client: viser.ClientHandle | None, action: Callable[[], object]) -> None:
-        """Run a user's action; a refusal (MirrorscanError) or a file error becomes a notification
-        on that tab, and so does a bug (logged with its traceback): a click never fails in silence.
+        """Run a user's action; a refusal, a file error or a bug becomes a notification on that tab.
+
+        A refusal is MirrorscanError; a bug is logged with its traceback: a click never fails in
+        silence.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle or None
+            The tab the action came from (None: every tab).
+        action : callable
+            Called with no arguments.
         """
         try:
             action()
@@ -41,12 +52,21 @@ class Notifier:
     def notify(self, client: viser.ClientHandle | None, title: str, message: str,
                kind: str = "error", stay: bool = False,
                logged: bool = True) -> viser.NotificationHandle | None:
-        """Show a notification on one tab (client None: on every tab) in its kind's colour
-        (NOTE_COLOURS), and log it.
+        """Show a notification on one tab or every tab in its kind's colour (NOTE_COLOURS); log it.
 
-        It closes after NOTE_SECONDS, or RESULT_NOTE_SECONDS when `stay` (the result of long
-        work, whose report may be out of view). It is logged unless `logged` is False (each tab's
-        note of a shared job's end, which the job logs once).
+        It closes after NOTE_SECONDS, or RESULT_NOTE_SECONDS when `stay` (the result of long work,
+        whose report may be out of view).
+
+        Parameters
+        ----------
+        client : viser.ClientHandle or None
+            The tab; None for every tab.
+        title, message : str
+        kind : str, optional
+            A key of NOTE_COLOURS.
+        stay : bool, optional
+        logged : bool, optional
+            False for each tab's note of a shared job's end, which the job logs once.
 
         Returns
         -------

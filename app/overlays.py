@@ -25,8 +25,20 @@ LABEL_STEP = 8
 
 
 def depth_range(depth: np.ndarray) -> tuple[float, float]:
-    """(near, far) metres: the 1st and 99th percentiles of the readings of (H, W) `depth` (a 1-in-16
-    sample), or (0.5, 4.5) without readings."""
+    """The depth frame's grey scale: the 1st and 99th percentiles of its readings.
+
+    Read on a 1-in-16 sample.
+
+    Parameters
+    ----------
+    depth : np.ndarray, shape (H, W)
+        Metres; 0 where there is no reading.
+
+    Returns
+    -------
+    near, far : float
+        Metres; (0.5, 4.5) without readings. `far` is at least 1 cm beyond `near`.
+    """
     sample = depth[::4, ::4]
     valid = sample[sample > 0]
     if not len(valid):
@@ -41,8 +53,10 @@ TINTED = np.clip(np.rint(0.45 * np.arange(256)[:, None] + 0.55 * OBJECT_TINT), 0
 
 
 def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) -> np.ndarray:
-    """The depth frame as the tab shows it: grey from white (near) to dark (far), the object's
-    pixels tinted (looked up in TINTED, only where the mask holds), no reading dark blue-black.
+    """The depth frame as the tab shows it: grey from white (near) to dark (far).
+
+    The object's pixels are tinted (looked up in TINTED, only where the mask holds); no reading is
+    dark blue-black.
 
     Made channel by channel with OpenCV's look-up and masked copy, about 3 times faster than
     numpy's assignment of RGB rows.
@@ -76,9 +90,21 @@ def depth_layer(depth: np.ndarray, mask: np.ndarray, near: float, far: float) ->
 
 @dataclass(frozen=True)
 class MarkerMark:
-    """A marker as drawn: pixel (u, v), label ('2.3'), the quality that colours its centre ('good',
-    'fair', 'poor', 'unknown'), and whether it is picked (ringed) or flagged by a fit proposal
-    (crossed)."""
+    """A marker as drawn.
+
+    Attributes
+    ----------
+    uv : tuple of float
+        Its pixel (u, v).
+    label : str
+        '2.3'.
+    quality : str
+        What colours its centre: 'good', 'fair', 'poor' or 'unknown'.
+    picked : bool
+        Ringed.
+    flagged : bool
+        Crossed: flagged by a fit proposal.
+    """
 
     uv: tuple[float, float]
     label: str
@@ -89,8 +115,21 @@ class MarkerMark:
 
 @dataclass(frozen=True)
 class MirrorMarks:
-    """One mirror as drawn: its colour, its outline (closed, or an open draft), the picked corner,
-    its markers."""
+    """One mirror as drawn.
+
+    Attributes
+    ----------
+    colour : tuple of int
+        RGB.
+    outline : tuple of (float, float)
+        Its vertices, pixels.
+    closed : bool
+        False for an open draft.
+    markers : tuple of MarkerMark
+    picked_corner : int or None
+    selected : bool
+        Drawn wider, on top.
+    """
 
     colour: tuple[int, int, int]
     outline: tuple[tuple[float, float], ...]
@@ -101,8 +140,20 @@ class MirrorMarks:
 
 
 class Overlay:
-    """A tab's overlay image (H, W, 4) RGBA, drawn from its marks; labels are placed so that they do
-    not cover each other or a marker."""
+    """A tab's overlay image, drawn from its marks.
+
+    Labels are placed so that they do not cover each other or a marker.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W) of the depth frame.
+
+    Attributes
+    ----------
+    image : np.ndarray, shape (H, W, 4), uint8
+        RGBA.
+    """
 
     def __init__(self, shape: tuple[int, int]):
         self.image = np.zeros((*shape, 4), np.uint8)
@@ -112,16 +163,33 @@ class Overlay:
         self._drawn = np.zeros(shape, np.uint8)
 
     def over(self, base: np.ndarray) -> np.ndarray:
-        """The overlay over the base (H, W, 3) uint8 -> a new (H, W, 3) uint8 (the drawn pixels
-        copied over)."""
+        """The overlay over the base image: the drawn pixels copied over.
+
+        Parameters
+        ----------
+        base : np.ndarray, shape (H, W, 3), uint8
+
+        Returns
+        -------
+        np.ndarray, shape (H, W, 3), uint8
+            A new image.
+        """
         out = base.copy()
         cv2.copyTo(self._rgb, self._drawn, out)
         return out
 
     def draw(self, mirrors: list[MirrorMarks],
              region: tuple[tuple[tuple[float, float], ...], bool] | None) -> None:
-        """Redraw everything: the mirrors (selected last, on top) and the region of interest
-        (vertices, closed)."""
+        """Redraw everything: the mirrors (selected last, on top) and the region of interest.
+
+        Markers are drawn above every outline, labels last of all.
+
+        Parameters
+        ----------
+        mirrors : list of MirrorMarks
+        region : (vertices, closed) or None
+            The region of interest: its vertices (pixels) and whether it is closed.
+        """
         self.image[:] = 0
         self._labels = []
         ordered = sorted(mirrors, key=lambda m: m.selected)
@@ -142,9 +210,11 @@ class Overlay:
         self._drawn[:] = self.image[..., 3]
 
     def _rgba(self, colour) -> tuple[int, int, int, int]:
+        """An RGB colour as opaque RGBA."""
         return (int(colour[0]), int(colour[1]), int(colour[2]), 255)
 
     def _polygon(self, vertices, colour, closed: bool, picked: int | None, thickness: int) -> None:
+        """Draw an outline (closed or open) with its corners, the picked one ringed."""
         if not len(vertices):
             return
         pts = np.round(np.asarray(vertices, float)).astype(np.int32).reshape(-1, 1, 2)
@@ -158,6 +228,7 @@ class Overlay:
                 cv2.circle(self.image, (int(u), int(v)), 9, self._rgba(WHITE), 2, cv2.LINE_AA)
 
     def _marker(self, marker: MarkerMark, colour) -> None:
+        """Draw a marker: centre coloured by its quality, ringed if picked, crossed if flagged."""
         centre = (int(round(marker.uv[0])), int(round(marker.uv[1])))
         cv2.circle(self.image, centre, MARKER_HALO, self._rgba(HALO), -1, cv2.LINE_AA)
         cv2.circle(self.image, centre, 7, self._rgba(colour), 2, cv2.LINE_AA)
@@ -172,9 +243,12 @@ class Overlay:
                          self._rgba(QUALITY_COLOURS["poor"]), 3, cv2.LINE_AA)
 
     def _label(self, uv, text: str) -> None:
-        """A label on a dark box beside its marker, at the first of eight places around it, then
-        eight a little farther (LABEL_STEP), that covers no other label and no marker, else at the
-        one that covers least of them (two mirrors' markers meet at a hinge)."""
+        """A label on a dark box beside its marker, where it covers no other label and no marker.
+
+        At the first of eight places around it, then eight a little farther (LABEL_STEP), that
+        covers no other label and no marker, else at the one that covers least of them (two mirrors'
+        markers meet at a hinge).
+        """
         (w, h), base = cv2.getTextSize(text, FONT, 0.45, 1)
         u, v = int(round(uv[0])), int(round(uv[1]))
         rows, cols = self.image.shape[:2]
@@ -196,8 +270,10 @@ class Overlay:
 
 
 def _marker_box(uv) -> tuple[int, int, int, int]:
-    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers (its ring's halo,
-    Overlay._marker)."""
+    """The box (x0, y0, x1, y1) pixels that a marker drawn at uv covers.
+
+    Its ring's halo, as Overlay._marker draws it.
+    """
     u, v = int(round(uv[0])), int(round(uv[1]))
     return (u - MARKER_HALO, v - MARKER_HALO, u + MARKER_HALO + 1, v + MARKER_HALO + 1)
 

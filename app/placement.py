@@ -32,13 +32,35 @@ SEQUENCE_FONT = 0.85
 
 
 def frustum_angles(intr: Intrinsics) -> tuple[float, float]:
-    """(vertical field of view in radians, aspect ratio) of a camera."""
+    """A camera's vertical field of view and aspect ratio.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+
+    Returns
+    -------
+    fov : float
+        Radians.
+    aspect : float
+        Width / height.
+    """
     return 2 * np.arctan2(intr.height / 2, intr.fy), intr.width / intr.height
 
 
 def same_place(cameras: list) -> list[list]:
-    """Virtual cameras (rig.virtual_cameras' items) grouped by place: each group those within
-    SAME_PLACE of its first, in the given order."""
+    """Virtual cameras grouped by place: each group those within SAME_PLACE of its first.
+
+    Parameters
+    ----------
+    cameras : list
+        rig.virtual_cameras' items.
+
+    Returns
+    -------
+    list of list
+        The groups, in the given order.
+    """
     groups: list[list] = []
     for camera in cameras:
         for group in groups:
@@ -51,13 +73,35 @@ def same_place(cameras: list) -> list[list]:
 
 
 def frustum_scale(camera) -> float:
-    """Metres: a virtual camera through one mirror drawn as large as the depth camera, through
-    several smaller."""
+    """A virtual camera's frustum size: the depth camera's through one mirror, else smaller.
+
+    Parameters
+    ----------
+    camera
+        A rig.virtual_cameras item.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return FRUSTUM_SCALE * (1.0 if len(camera.sequence) == 1 else 0.7)
 
 
 def mirror_outline(intr: Intrinsics, mirror) -> np.ndarray | None:
-    """(b, 3) metres: a calibrated mirror's boundary lifted onto its plane, or None."""
+    """A calibrated mirror's boundary lifted onto its plane.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    mirror
+        A rig mirror, with its plane and boundary (pixels).
+
+    Returns
+    -------
+    np.ndarray, shape (b, 3), or None
+        Metres; None without a plane or a boundary, or when a corner's ray misses the plane.
+    """
     if mirror.plane is None or mirror.boundary is None:
         return None
     outline = pixels_on_plane(intr, mirror.boundary, mirror.plane)
@@ -84,11 +128,21 @@ def label_anchor(outline: np.ndarray) -> np.ndarray:
 
 
 def virtual_label_anchor(camera) -> np.ndarray:
-    """(3,) metres: where a virtual camera's name goes (rig.virtual_cameras' item).
+    """Where a virtual camera's name goes.
 
     VIRTUAL_LABEL_RISE of its frustum's size above it (along -y of its pose, the camera's up: a
     vertical mirror keeps it the world's), or as far below it for a camera through several mirrors,
     so that their names do not stack on those of the cameras through one mirror beside them.
+
+    Parameters
+    ----------
+    camera
+        A rig.virtual_cameras item.
+
+    Returns
+    -------
+    np.ndarray, shape (3,)
+        Metres.
     """
     rise = VIRTUAL_LABEL_RISE * frustum_scale(camera) * (-1.0 if len(camera.sequence) > 1 else 1.0)
     # up is -y
@@ -96,12 +150,22 @@ def virtual_label_anchor(camera) -> np.ndarray:
 
 
 def virtual_label_sides(cameras: list) -> list[str]:
-    """Which corner of each virtual camera's name sits at its anchor (viser's label anchor, see
-    virtual_label_anchor).
+    """Which corner of each virtual camera's name sits at its anchor (viser's label anchor).
 
     Centred on the camera, but the leftmost's runs right and the rightmost's left, towards the rig,
     so that no name runs off the 3D view and the names of the cameras between do not run into each
-    other. `cameras` are rig.virtual_cameras' items.
+    other. See virtual_label_anchor.
+
+    Parameters
+    ----------
+    cameras : list
+        rig.virtual_cameras' items.
+
+    Returns
+    -------
+    list of str
+        'top-...' for a camera through several mirrors, else 'bottom-...', then 'left', 'center'
+        or 'right'.
     """
     xs = [float(camera.pose[0, 3]) for camera in cameras]
     sides = ["center"] * len(xs)
@@ -116,9 +180,21 @@ def virtual_label_sides(cameras: list) -> list[str]:
 
 
 def scene_points(rig: Rig) -> np.ndarray:
-    """(k, 3) metres: the points the first view must show, the camera and its name, the mirrors'
-    corners, where the object is expected (in front of the mirrors, on the optical axis at 2 m
-    without them), and the virtual cameras with their names' anchors."""
+    """The points the first view must show.
+
+    The camera and its name, the mirrors' corners, where the object is expected (in front of the
+    mirrors, on the optical axis at 2 m without them), and the virtual cameras with their names'
+    anchors.
+
+    Parameters
+    ----------
+    rig : Rig
+
+    Returns
+    -------
+    np.ndarray, shape (k, 3)
+        Metres.
+    """
     outlines = [o for o in (mirror_outline(rig.intrinsics, m) for m in rig.mirrors)
                 if o is not None]
     points = [np.array([(0.0, 0.0, 0.0), CAMERA_LABEL])] + outlines
@@ -130,8 +206,18 @@ def scene_points(rig: Rig) -> np.ndarray:
 
 
 def box_edges(half: np.ndarray) -> np.ndarray:
-    """(12, 2, 3) float32: the edges of a box centred at the origin with half-sizes `half` (3,)
-    metres."""
+    """The edges of a box centred at the origin.
+
+    Parameters
+    ----------
+    half : np.ndarray, shape (3,)
+        Its half-sizes (metres).
+
+    Returns
+    -------
+    np.ndarray, shape (12, 2, 3), float32
+        Each edge's two ends (metres).
+    """
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
     pairs = [(i, j) for i in range(8) for j in range(i + 1, 8)
              if np.count_nonzero(corners[i] != corners[j]) == 1]
@@ -139,16 +225,29 @@ def box_edges(half: np.ndarray) -> np.ndarray:
 
 
 def beside_offset(result: DenseResult) -> np.ndarray:
-    """(3,) metres: where the dense result is drawn beside the live cloud, one box width to the left
-    (-x) and one box depth towards the camera (-z), with 10 cm between."""
+    """Where the dense result is drawn beside the live cloud.
+
+    One box width to the left (-x) and one box depth towards the camera (-z), with 10 cm between.
+
+    Parameters
+    ----------
+    result : DenseResult
+
+    Returns
+    -------
+    np.ndarray, shape (3,)
+        The shift, metres.
+    """
     size = np.asarray(result.high) - np.asarray(result.low)
     return np.array([-(size[0] + 0.1), 0.0, -(size[2] + 0.1)])
 
 
 def home_pose(points: np.ndarray, fov: float, aspect: float,
               margin: float = 1.1) -> tuple[np.ndarray, np.ndarray]:
-    """The camera pose that frames `points`, looking from HOME_DIRECTION at the middle of their
-    bounding box, up -y, as near as keeps every point inside the view's middle 1 / `margin`.
+    """The camera pose that frames `points`, looking from HOME_DIRECTION.
+
+    It looks at the middle of their bounding box, up -y, as near as keeps every point inside the
+    view's middle 1 / `margin`.
 
     Parameters
     ----------

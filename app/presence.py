@@ -39,7 +39,14 @@ VISIBILITY_JS = """(() => {{
 
 
 def run_js(client: viser.ClientHandle, source: str) -> None:
-    """Run JavaScript `source` in the client's page (viser's own way, as it loads plotly)."""
+    """Run JavaScript `source` in the client's page (viser's own way, as it loads plotly).
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+    source : str
+        The script.
+    """
     client._websock_connection.queue_message(_messages.RunJavascriptMessage(source=source))
 
 
@@ -55,6 +62,7 @@ class TabPresence:
     _stale: bool
 
     def _init_presence(self) -> None:
+        """Start as a page not yet identified, in view and keeping up."""
         self.page: str | None = None      # which browser page this is, once identify() asked it
         self.hidden = False
         self.lagging = False              # see MAX_LAG_S
@@ -64,6 +72,11 @@ class TabPresence:
 
     def identify(self, timeout: float = 10.0) -> str | None:
         """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs).
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Seconds.
 
         Returns
         -------
@@ -88,8 +101,13 @@ class TabPresence:
     def poll_visibility(self, timeout: float = 2.0) -> None:
         """Read whether the tab is hidden, and whether it lags.
 
-        It lags when its answer took longer than MAX_LAG_S or did not come within `timeout`
-        seconds. A tab that comes back, or catches up, gets the current state.
+        It lags when its answer took longer than MAX_LAG_S or did not come within `timeout` seconds.
+        A tab that comes back, or catches up, gets the current state.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Seconds.
         """
         # polled from a list of the tabs taken before it went away
         if self.closed:
@@ -112,6 +130,7 @@ class TabPresence:
 
     def _keeps_up(self, keeps_up: bool) -> None:
         # a lag while the page first builds is not reported
+        """Note whether the tab keeps up; one that catches up is sent the depth frame."""
         if not keeps_up and time.perf_counter() - self._opened > SETTLING_S:
             self.lagged_at = time.perf_counter()
         if keeps_up == self.lagging:

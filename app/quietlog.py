@@ -9,9 +9,16 @@ import traceback
 
 
 class QuietProbes(logging.Filter):
-    """On the 'websockets.server' logger: a connection closed before its request (a probe) is not
-    logged; a malformed request, or a malformed message from a client (its connection is closed), is
-    one line."""
+    """A filter on the 'websockets.server' logger that keeps strangers out of the log.
+
+    A connection closed before its request (a probe) is not logged; a malformed request, or a
+    malformed message from a client (its connection is closed), is one line.
+
+    Attributes
+    ----------
+    probes : int
+        Connections closed before their request, in this process.
+    """
 
     def __init__(self):
         super().__init__("")
@@ -20,6 +27,17 @@ class QuietProbes(logging.Filter):
         self._lock = threading.Lock()
 
     def filter(self, record: logging.LogRecord) -> bool:
+        """Drop a probe's record (counted in `probes`); make a malformed request's one line.
+
+        Parameters
+        ----------
+        record : logging.LogRecord
+
+        Returns
+        -------
+        bool
+            Whether the record is logged.
+        """
         exc = record.exc_info[1] if record.exc_info else None
         if exc is None:
             return True
@@ -37,8 +55,10 @@ class QuietProbes(logging.Filter):
 
 
 def _is_probe(exc: BaseException) -> bool:
-    """True when the connection ended before a whole request came in (EOFError, a reset, somewhere
-    in the chain)."""
+    """True when the connection ended before a whole request came in.
+
+    EOFError or a reset, somewhere in the chain.
+    """
     while exc is not None:
         if isinstance(exc, (EOFError, ConnectionError)):
             return True
@@ -47,8 +67,10 @@ def _is_probe(exc: BaseException) -> bool:
 
 
 def _from_a_message(exc: BaseException) -> bool:
-    """True when the exception was raised while reading or decoding a client's message (viser's
-    consumer loop)."""
+    """True when the exception was raised while reading or decoding a client's message.
+
+    In viser's consumer loop.
+    """
     return any(frame.name == "_message_consumer"
                for frame in traceback.extract_tb(exc.__traceback__))
 
@@ -70,11 +92,15 @@ _filter = QuietProbes()
 
 
 def install_log_filter() -> QuietProbes:
-    """Put the QuietProbes filter first on the websockets server logger (once per process) and
-    return it.
+    """Put the QuietProbes filter first on the websockets server logger, once per process.
 
     First, because viser adds a filter of its own there (on its first page request) that drops every
     failed handshake silently, malformed requests included.
+
+    Returns
+    -------
+    QuietProbes
+        The filter.
     """
     logger = logging.getLogger("websockets.server")
     if _filter in logger.filters:

@@ -24,21 +24,50 @@ _tapped: set[int] = set()    # id() of the sources with an open tap
 
 
 def backlog_frames(shape: tuple[int, int]) -> int:
-    """BACKLOG, or fewer when a quarter of the memory budget cannot hold that many float32 frames of
-    `shape`."""
+    """BACKLOG, or fewer when a quarter of the memory budget cannot hold that many frames.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        (H, W) of a float32 frame.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
     return int(max(1, min(BACKLOG, memory_budget() // 4 // (4 * shape[0] * shape[1]))))
 
 
 class LiveTap(DepthSource):
-    """The live frames of `source` from now on, in order, as a live source; iteration ends at
-    close().
+    """The live frames of `source` from now on, in order, as a live source.
 
-    subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the
-    function that stops it. A recording that plays (a finite source, which loops) is taken up to its
-    last frame: from the first frame that starts it over (or goes back, after a seek) the tap takes
-    nothing more and `replay_ended` is True, so that no frame is recorded twice and the recording's
-    time never runs backwards. The same frame again (processed again while paused) is taken once.
-    Raises MirrorscanError when the source already has an open tap (one recording at a time).
+    Iteration ends at close(). A recording that plays (a finite source, which loops) is taken up to
+    its last frame: from the first frame that starts it over (or goes back, after a seek) the tap
+    takes nothing more and `replay_ended` is True, so that no frame is recorded twice and the
+    recording's time never runs backwards. The same frame again (processed again while paused) is
+    taken once.
+
+    Parameters
+    ----------
+    source : DepthSource
+        The live loop's source.
+    subscribe : callable
+        subscribe(take) starts calling take(LiveFrame) for every processed frame and returns the
+        function that stops it.
+
+    Attributes
+    ----------
+    taken : int
+        Frames taken for the recording (the recorder writes them behind: Recorder.frames).
+    dropped : int
+        Frames dropped because the backlog was full.
+    replay_ended : bool
+
+    Raises
+    ------
+    MirrorscanError
+        When the source already has an open tap (one recording at a time).
     """
 
     def __init__(self, source: DepthSource,
@@ -62,6 +91,7 @@ class LiveTap(DepthSource):
         self._unsubscribe: Callable[[], None] | None = subscribe(self._take)
 
     def _take(self, frame: LiveFrame) -> None:
+        """Queue a processed frame when it is the next in order; count it dropped when full."""
         if self._closed.is_set() or self.replay_ended or not self._in_order(frame.index):
             return
         try:
@@ -71,8 +101,10 @@ class LiveTap(DepthSource):
             self.dropped += 1
 
     def _in_order(self, index: int) -> bool:
-        """Whether the frame of live index `index` is the next of a replay (always, for a live
-        source); a replay that starts over ends the tap's intake (replay_ended)."""
+        """Whether the frame of live index `index` is a replay's next (always for a live source).
+
+        A replay that starts over ends the tap's intake (replay_ended).
+        """
         if not self._loop_length:
             return True
         number = index % self._loop_length
@@ -84,8 +116,10 @@ class LiveTap(DepthSource):
         return False
 
     def _next(self) -> Frame | None:
-        """The next frame, waiting for it; None once the tap is closed and every frame taken before
-        was delivered."""
+        """The next frame, waiting for it.
+
+        None once the tap is closed and every frame taken before was delivered.
+        """
         while True:
             try:
                 frame = self._frames.get(timeout=POLL_S)
@@ -99,7 +133,22 @@ class LiveTap(DepthSource):
                 return None
 
     def read(self, i: int) -> Frame:
-        """The next live frame (blocks until the loop delivers it)."""
+        """The next live frame (blocks until the loop delivers it).
+
+        Parameters
+        ----------
+        i : int
+            Not used: the frames come in order.
+
+        Returns
+        -------
+        Frame
+
+        Raises
+        ------
+        MirrorscanError
+            Once the recording has ended.
+        """
         frame = self._next()
         if frame is None:
             raise MirrorscanError(f"{self.name}: the recording has ended")
@@ -110,11 +159,14 @@ class LiveTap(DepthSource):
             yield frame
 
     def background(self) -> np.ndarray | None:
+        """The source's background when the tap opened."""
         return self._background
 
     def close(self) -> None:
-        """Stop tapping; the frames already taken are still delivered, then iteration ends. Never
-        blocks; closing twice does nothing."""
+        """Stop tapping; the frames already taken are still delivered, then iteration ends.
+
+        Never blocks; closing twice does nothing.
+        """
         with _taps_lock:
             unsubscribe, self._unsubscribe = self._unsubscribe, None
             if unsubscribe is None:

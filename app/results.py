@@ -18,15 +18,28 @@ from mirrorcore.io.session import SessionMirror
 
 @dataclass(frozen=True)
 class Refused:
-    """A job refused what it was asked (a MirrorscanError or an OSError): `reason` is the error's
-    one line."""
+    """A job refused what it was asked (a MirrorscanError or an OSError).
+
+    Attributes
+    ----------
+    reason : str
+        The error's one line.
+    """
 
     reason: str
 
 
 @dataclass(frozen=True)
 class Failed:
-    """A job stopped on a bug: the exception's type name and message."""
+    """A job stopped on a bug.
+
+    Attributes
+    ----------
+    error : str
+        The exception's type name.
+    message : str
+        Its message.
+    """
 
     error: str
     message: str
@@ -43,15 +56,24 @@ class DenseResult:
 
     Attributes
     ----------
-    vertices : (n, 3) float32 metres, camera frame.
-    sources : (n,) uint8, each vertex's source label.
-    faces : (m, 3) int32, or None for a carved cloud.
-    method : "carve", "paper" or "tsdf".
-    low, high : (3,) metres, the box's corners.
-    voxel : metres.
-    made : when it was made (time.time()).
-    source : the name of the source whose frames it was made of.
-    left_out : the mirrors with an outline and no plane, whose view is not in it (names).
+    vertices : np.ndarray, shape (n, 3), float32
+        Metres, camera frame.
+    sources : np.ndarray, shape (n,), uint8
+        Each vertex's source label.
+    faces : np.ndarray, shape (m, 3), int32, or None
+        None for a carved cloud.
+    method : str
+        "carve", "paper" or "tsdf".
+    low, high : np.ndarray, shape (3,)
+        The box's corners, metres.
+    voxel : float
+        Metres.
+    made : float
+        When it was made (time.time()).
+    source : str
+        The name of the source whose frames it was made of.
+    left_out : tuple of str
+        The names of the mirrors with an outline and no plane, whose view is not in it.
     """
 
     vertices: np.ndarray
@@ -68,8 +90,16 @@ class DenseResult:
 
 @dataclass(frozen=True)
 class DenseWork:
-    """A dense reconstruction under way: its method, the frames prepared, the volume's shape (None
-    while the frames are prepared)."""
+    """A dense reconstruction under way.
+
+    Attributes
+    ----------
+    method : str
+    frames : int
+        The frames prepared.
+    shape : tuple of int or None
+        The volume's shape; None while the frames are prepared.
+    """
 
     method: str
     frames: int
@@ -78,8 +108,15 @@ class DenseWork:
 
 @dataclass(frozen=True)
 class FramesUsed:
-    """The frames a calibration from the object read: `picks` of a recording of `count` frames
-    (numbered as in the header), or the last `len(picks)` live frames (`count` None)."""
+    """The frames a calibration from the object read.
+
+    Attributes
+    ----------
+    picks : tuple of int
+        The frames of a recording (numbered as in the header), or as many live frames.
+    count : int or None
+        The recording's frame count; None for the last `len(picks)` live frames.
+    """
 
     picks: tuple[int, ...]
     count: int | None = None
@@ -87,8 +124,16 @@ class FramesUsed:
 
 @dataclass(frozen=True)
 class CalibrationWork:
-    """A calibration from the object under way: a search (`search`) or a refinement, over `used`;
-    `started` once the frames are prepared."""
+    """A calibration from the object under way.
+
+    Attributes
+    ----------
+    search : bool
+        A search (no markers) rather than a refinement.
+    used : FramesUsed
+    started : bool
+        The frames are prepared.
+    """
 
     search: bool
     used: FramesUsed
@@ -97,8 +142,14 @@ class CalibrationWork:
 
 @dataclass(frozen=True)
 class NotFound:
-    """A mirror a search could not find while it found others: its name and the library's one-line
-    why."""
+    """A mirror a search could not find while it found others.
+
+    Attributes
+    ----------
+    name : str
+    why : str
+        The library's one-line why.
+    """
 
     name: str
     why: str
@@ -110,12 +161,18 @@ class CalibrationReport:
 
     Attributes
     ----------
-    mirrors : each mirror refined or found, in session order.
-    search : the planes were searched for (no markers) rather than refined.
-    compared : "surfaces" or "sphere" (Refinement.compared).
-    changed : a plane or a glass moved (an undo step was made).
-    used : the frames it read.
-    not_found : the mirrors a search could not find.
+    mirrors : tuple of MirrorRefinement
+        Each mirror refined or found, in session order.
+    search : bool
+        The planes were searched for (no markers) rather than refined.
+    compared : str
+        "surfaces" or "sphere" (Refinement.compared).
+    changed : bool
+        A plane or a glass moved (an undo step was made).
+    used : FramesUsed
+        The frames it read.
+    not_found : tuple of NotFound
+        The mirrors a search could not find.
     """
 
     mirrors: tuple[MirrorRefinement, ...]
@@ -128,8 +185,17 @@ class CalibrationReport:
 
 @dataclass(frozen=True)
 class CalibrationRefused:
-    """A calibration from the object refused: the error's line, the mirrors it is about (names), and
-    whether it was a search."""
+    """A calibration from the object refused.
+
+    Attributes
+    ----------
+    reason : str
+        The error's line.
+    mirrors : tuple of str
+        The names of the mirrors it is about.
+    search : bool
+        It was a search.
+    """
 
     reason: str
     mirrors: tuple[str, ...]
@@ -138,8 +204,16 @@ class CalibrationRefused:
 
 @dataclass(frozen=True)
 class MirrorAgreement:
-    """One mirror's view against the others: its name, the figures, and whether its plane comes from
-    its markers (what the advice may send the technician back to)."""
+    """One mirror's view against the others.
+
+    Attributes
+    ----------
+    name : str
+    found : ViewAgreement
+        The figures.
+    by_markers : bool
+        Its plane comes from its markers (what the advice may send the technician back to).
+    """
 
     name: str
     found: ViewAgreement
@@ -148,8 +222,13 @@ class MirrorAgreement:
 
 @dataclass(frozen=True)
 class AgreementReport:
-    """How the mirrors' views agree with the planes as they are: one entry per mirror with a plane
-    (empty when no mirror has one)."""
+    """How the mirrors' views agree with the planes as they are.
+
+    Attributes
+    ----------
+    mirrors : tuple of MirrorAgreement
+        One per mirror with a plane; empty when no mirror has one.
+    """
 
     mirrors: tuple[MirrorAgreement, ...]
 
@@ -161,7 +240,13 @@ class Checking:
 
 @dataclass(frozen=True)
 class Collecting:
-    """A background capture under way: `done` of `total` frames collected."""
+    """A background capture under way.
+
+    Attributes
+    ----------
+    done, total : int
+        Frames collected, of all.
+    """
 
     done: int
     total: int
@@ -169,8 +254,15 @@ class Collecting:
 
 @dataclass(frozen=True)
 class BackgroundCaptured:
-    """A background captured from `frames` frames; `waiting`: it is used only once the technician
-    confirms."""
+    """A background captured.
+
+    Attributes
+    ----------
+    frames : int
+        The frames it is the median of.
+    waiting : bool
+        It is used only once the technician confirms.
+    """
 
     frames: int
     waiting: bool = False
@@ -178,7 +270,13 @@ class BackgroundCaptured:
 
 @dataclass(frozen=True)
 class Replay:
-    """Where a recording that plays stands while it is recorded: frame `at` of `count`."""
+    """Where a recording that plays stands while it is recorded.
+
+    Attributes
+    ----------
+    at, count : int
+        Frame `at` of `count`.
+    """
 
     at: int
     count: int
@@ -190,11 +288,18 @@ class RecordingState:
 
     Attributes
     ----------
-    folder : where it is written.
-    taken : frames taken; written : frames on disk so far.
-    replay : the recording that plays, or None for a live source.
-    replay_ended : the recording that plays came to its last frame.
-    error : why the recorder stopped, or None.
+    folder : Path
+        Where it is written.
+    taken : int
+        Frames taken.
+    written : int
+        Frames on disk so far.
+    replay : Replay or None
+        The recording that plays, or None for a live source.
+    replay_ended : bool
+        The recording that plays came to its last frame.
+    error : str or None
+        Why the recorder stopped, or None.
     """
 
     folder: Path
@@ -207,7 +312,16 @@ class RecordingState:
 
 @dataclass(frozen=True)
 class Recorded:
-    """A recording saved: its frames, its folder, and the frames dropped for a slow disk."""
+    """A recording saved.
+
+    Attributes
+    ----------
+    frames : int
+    root : Path
+        Its folder.
+    dropped : int
+        Frames dropped for a slow disk.
+    """
 
     frames: int
     root: Path
@@ -216,15 +330,29 @@ class Recorded:
 
 @dataclass(frozen=True)
 class BatchStarting:
-    """A batch starting with `method`."""
+    """A batch starting.
+
+    Attributes
+    ----------
+    method : str
+    """
 
     method: str
 
 
 @dataclass(frozen=True, eq=False)
 class Fit:
-    """A markers fit of one mirror: the Calibration, the SessionMirror as fitted, its FitReview, and
-    whether it replaces a plane found from the object (the markers alone are less accurate)."""
+    """A markers fit of one mirror.
+
+    Attributes
+    ----------
+    calibration : Calibration
+    mirror : SessionMirror
+        The mirror as fitted.
+    review : FitReview
+    replaces_object : bool
+        It replaces a plane found from the object (the markers alone are less accurate).
+    """
 
     calibration: Calibration
     mirror: SessionMirror
@@ -233,15 +361,26 @@ class Fit:
 
     @property
     def needs_confirmation(self) -> bool:
-        """Whether it waits for Apply or Discard: a concern of the review, or a plane from the
-        object it replaces, unless it is a refit of markers taken before."""
+        """Whether it waits for Apply or Discard.
+
+        A concern of the review, or a plane from the object it replaces, unless it is a refit of
+        markers taken before.
+        """
         return (self.review.needs_confirmation or self.replaces_object) and not self.review.refit
 
 
 @dataclass(frozen=True, eq=False)
 class FitsApplied:
-    """Markers fits applied (Fit each); the ids of those applied on confirmation; the names of the
-    mirrors whose proposed planes were discarded."""
+    """Markers fits applied.
+
+    Attributes
+    ----------
+    fits : tuple of Fit
+    confirmed : tuple of int
+        The ids of those applied on confirmation.
+    discarded : tuple of str
+        The names of the mirrors whose proposed planes were discarded.
+    """
 
     fits: tuple[Fit, ...]
     confirmed: tuple[int, ...] = ()

@@ -58,8 +58,22 @@ TOKEN_COOKIE = "mirrorscan-token-{port}"
 
 @dataclass
 class Guard:
-    """The checks protect() installed: the token (None when not required), the counters, and the
-    address to open."""
+    """The checks protect() installed, the counters, and the address to open.
+
+    Attributes
+    ----------
+    host : str
+        The address the server listens on.
+    port : int
+    token : str or None
+        None when not required.
+    allowed_hosts : frozenset of str
+        Host names a browser may use besides IP addresses.
+    max_upload_bytes : int
+        The largest upload.
+    refused : int
+        Requests refused by Host, Origin or token.
+    """
 
     host: str
     port: int
@@ -78,8 +92,18 @@ class Guard:
 
     # ------------------------------------------------------------------ the checks, on one request
     def check(self, request: Request) -> Response | None:
-        """None when `request` may go on; otherwise the 403 response that refuses it (with a
-        one-line reason)."""
+        """Whether `request` may go on: its Host, its Origin (a websocket's) and the token.
+
+        Parameters
+        ----------
+        request : Request
+
+        Returns
+        -------
+        Response or None
+            None when it may go on; otherwise the 403 response that refuses it (with a one-line
+            reason).
+        """
         headers = request.headers
         hosts, origins = headers.get_all("Host"), headers.get_all("Origin")
         host = hosts[0] if len(hosts) == 1 else ""
@@ -99,7 +123,17 @@ class Guard:
         return None
 
     def host_allowed(self, host_header: str) -> bool:
-        """True for an IP address, localhost, or an allowed name, with or without a port."""
+        """True for an IP address, localhost, or an allowed name, with or without a port.
+
+        Parameters
+        ----------
+        host_header : str
+            The Host header ('' when missing).
+
+        Returns
+        -------
+        bool
+        """
         name = urlsplit(f"//{host_header}").hostname if host_header else None
         if not name:
             return False
@@ -110,8 +144,16 @@ class Guard:
             return name.lower() in self.allowed_hosts
 
     def token_given(self, request: Request) -> bool:
-        """True when the query string, the cookie or an Authorization: Bearer header carries the
-        token."""
+        """True when the query string, the cookie or an Authorization: Bearer header has the token.
+
+        Parameters
+        ----------
+        request : Request
+
+        Returns
+        -------
+        bool
+        """
         given = parse_qs(urlsplit(request.path).query).get("token", [])
         try:
             cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
@@ -126,6 +168,7 @@ class Guard:
                    for t in given if t.isascii())
 
     def _refuse(self, reason: str) -> Response:
+        """Count, log and return the 403 response with `reason`."""
         with self._lock:
             self.refused += 1
         log.warning("refused a connection: %s", reason)
@@ -141,8 +184,10 @@ class Guard:
 
 
 def new_token() -> str:
-    """A secret token: 32 random bytes, URL-safe, never beginning with '-' (`--token` would read
-    such a token as an option where a user pastes it)."""
+    """A secret token: 32 random bytes, URL-safe, never beginning with '-'.
+
+    `--token` would read such a token as an option where a user pastes it.
+    """
     token = secrets.token_urlsafe(32)
     while token.startswith("-"):
         token = secrets.token_urlsafe(32)
@@ -150,8 +195,18 @@ def new_token() -> str:
 
 
 def is_loopback(host: str) -> bool:
-    """True for localhost and the loopback addresses (127.0.0.0/8, ::1): only this machine can
-    connect."""
+    """True for localhost and the loopback addresses (127.0.0.0/8, ::1).
+
+    Only this machine can connect to them.
+
+    Parameters
+    ----------
+    host : str
+
+    Returns
+    -------
+    bool
+    """
     try:
         return host == "localhost" or ipaddress.ip_address(host).is_loopback
     except ValueError:
@@ -216,8 +271,7 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
 
 
 async def _install(websock, guard: Guard) -> None:
-    """On the server's event loop: wrap the websockets server's process_request with the guard's
-    checks."""
+    """Wrap the websockets server's process_request with the guard's checks (on its event loop)."""
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
 
@@ -239,8 +293,10 @@ async def _install(websock, guard: Guard) -> None:
 
 
 def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
-    """The websockets Server that viser's serving task holds (a local of its coroutine, waiting for
-    the stop)."""
+    """The websockets Server that viser's serving task holds.
+
+    A local of its coroutine, waiting for the stop.
+    """
     for task in asyncio.all_tasks(loop):
         frame = getattr(task.get_coro(), "cr_frame", None)
         for value in (frame.f_locals.values() if frame is not None else ()):
@@ -251,8 +307,7 @@ def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
 
 # ---------------------------------------------------------------------- uploads
 def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
-    """Refuse an upload from its declared size as it starts, and drop one whose parts pass what it
-    declared.
+    """Refuse an upload by its declared size as it starts; drop one whose parts pass it.
 
     viser keeps an upload's parts in the upload state of the GUI that owns its button (the server's,
     or a tab's own, whose handlers may run before or after these), so a refused transfer is

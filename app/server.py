@@ -61,8 +61,9 @@ GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading o
 
 
 def quiet_closed_connections() -> None:
-    """Silence viser's warning that something was queued for a tab that has gone ("Queued a ... on a
-    closed connection").
+    """Silence viser's warning that something was queued for a tab that has gone.
+
+    The warning reads "Queued a ... on a closed connection".
 
     A tab can close at any moment, also between the server's check and its send, and viser then
     drops the message, which is what is wanted (the Tab is closed when viser reports the
@@ -148,15 +149,16 @@ class MirrorscanApp(Notifier):
 
     @property
     def port(self) -> int:
+        """The port the viser server listens on."""
         return self.server.get_port()
 
     def start(self) -> None:
+        """Start the live loop and the thread that polls the tabs and the session file."""
         self.loop.start()
         self._poller.start()
 
     def stop(self) -> None:
-        """End a recording (its frames are kept), then the loop, the jobs (cancelled) and the
-        server.
+        """End a recording (its frames are kept), then the loop, the jobs (cancelled), the server.
 
         Waits up to GRADING_WAIT_S for the first frames' grading of the markers, so that the
         process exits with its own status.
@@ -176,6 +178,7 @@ class MirrorscanApp(Notifier):
 
     # ------------------------------------------------------------------ tabs
     def _connect(self, client: viser.ClientHandle) -> None:
+        """Make a Tab for a new client and find out which page it is."""
         tab = Tab(client, self)
         with self._tabs_lock:
             # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
@@ -190,8 +193,10 @@ class MirrorscanApp(Notifier):
         tab.close()
 
     def _resume(self, tab: Tab) -> None:
-        """Which page the tab is (tab.identify); a reload of a page closed within RESUME_S takes up
-        its work."""
+        """Which page the tab is (tab.identify).
+
+        A reload of a page closed within RESUME_S takes up its work.
+        """
         page = tab.identify()
         with self._tabs_lock:
             now = time.monotonic()
@@ -201,6 +206,7 @@ class MirrorscanApp(Notifier):
             tab.take_up(left[1])
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
+        """Close a client's Tab, keeping its work for a reload of its page."""
         with self._tabs_lock:
             tab = self.tabs.pop(client.client_id, None)
             if tab is not None and tab.page is not None:
@@ -209,12 +215,23 @@ class MirrorscanApp(Notifier):
             tab.close()
 
     def tab(self, client: viser.ClientHandle) -> Tab:
-        """The Tab of a connected client."""
+        """The Tab of a connected client.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle
+            A connected tab.
+
+        Returns
+        -------
+        Tab
+        """
         with self._tabs_lock:
             return self.tabs[client.client_id]
 
     def _poll_tabs(self) -> None:
         # time.monotonic() when the tabs were last asked
+        """Ask the tabs whether they are hidden or lag, and reload a changed session file."""
         asked = -math.inf
         while not self._stop.wait(FILE_POLL_S):
             if time.monotonic() - asked >= self._visibility_poll_s():
@@ -226,9 +243,11 @@ class MirrorscanApp(Notifier):
             self.act(None, self._reload_if_changed)
 
     def _visibility_poll_s(self) -> float:
-        """Seconds between two questions to the tabs: VISIBILITY_POLL_S while the live cloud plays,
-        else QUIET_POLL_S (nothing is streamed that a hidden or lagging tab should be spared, and
-        each question costs the page a draw)."""
+        """Seconds between two questions to the tabs.
+
+        VISIBILITY_POLL_S while the live cloud plays, else QUIET_POLL_S (nothing is streamed that a
+        hidden or lagging tab should be spared, and each question costs the page a draw).
+        """
         return QUIET_POLL_S if self.paused or self._busy() is not None else VISIBILITY_POLL_S
 
     def _busy(self) -> str | None:
@@ -236,6 +255,7 @@ class MirrorscanApp(Notifier):
         return next((what for job, what in BUSY_JOBS.items() if self.jobs.running(job)), None)
 
     def _reload_if_changed(self) -> None:
+        """Reload session.json when another program changed it, and say so."""
         message = self.editor.reload_if_changed()
         if message:
             self.notify(None, "Session file changed", message, "info")
@@ -250,23 +270,41 @@ class MirrorscanApp(Notifier):
 
     @property
     def source(self) -> DepthSource:
+        """The depth source the live loop takes its frames from."""
         return self._source
 
     @property
     def paused(self) -> bool:
+        """Whether the live loop is paused."""
         return self.loop.paused
 
     def pause(self, paused: bool) -> None:
+        """Pause or resume the live loop, and publish LoopChanged.
+
+        Parameters
+        ----------
+        paused : bool
+            Pause it (True) or let it play (False).
+        """
         self.loop.pause(paused)
         self.bus.publish(LoopChanged(paused, self._source))
 
     def step(self) -> None:
+        """Process exactly one more frame while paused."""
         self.loop.step()
 
     def seek(self, index: int) -> None:
+        """Play on from frame `index` (see LiveLoop.seek).
+
+        Parameters
+        ----------
+        index : int
+            The frame's index in the source.
+        """
         self.loop.seek(index)
 
     def fps(self) -> float:
+        """The live loop's measured rate, frames per second."""
         return self.loop.rate.fps
 
     def fps_wanted(self) -> float | None:
@@ -275,11 +313,13 @@ class MirrorscanApp(Notifier):
         return None if paced is None else paced[0]
 
     def pacing(self) -> tuple[float, str] | None:
-        """(frames per second, why) when the live loop runs slower than its source, else None (the
-        source's rate): never while a recording runs; BUSY_FPS while a job of BUSY_JOBS runs (it
-        needs the cores more than the live cloud does); IDLE_FPS while every tab looks at the depth
-        frame (sent at most 8 times a second) or is hidden, as processing 30 frames a second would
-        only take the cores from the browser on the same laptop."""
+        """(frames per second, why) when the live loop runs slower than its source, else None.
+
+        None means the source's rate: never slower while a recording runs; BUSY_FPS while a job of
+        BUSY_JOBS runs (it needs the cores more than the live cloud does); IDLE_FPS while every tab
+        looks at the depth frame (sent at most 8 times a second) or is hidden, as processing 30
+        frames a second would only take the cores from the browser on the same laptop.
+        """
         if self.jobs.running(RECORD):
             return None
         busy = self._busy()
@@ -299,6 +339,13 @@ class MirrorscanApp(Notifier):
         Its recorded frames play when `play`, or when it has some and no camera is live, as
         `mirrorscan serve SESSION` does (its mirrors belong to them, not to the simulator or
         recording playing before); a live camera stays, to be used with the session's calibration.
+
+        Parameters
+        ----------
+        session : Session
+            The session to edit.
+        play : bool, optional
+            Play its recorded frames even when a camera is live.
         """
         if session.frames and (play or not self._source.camera):
             # the session served from the start is not a replay
@@ -313,7 +360,18 @@ class MirrorscanApp(Notifier):
         self.editor.replace_session(session)
 
     def use_source(self, source: DepthSource) -> None:
-        """Take frames from another source of the same camera (a recording to replay)."""
+        """Take frames from another source of the same camera (a recording to replay).
+
+        Parameters
+        ----------
+        source : DepthSource
+            The new source.
+
+        Raises
+        ------
+        MirrorscanError
+            When its frames' size differs from this session's camera.
+        """
         if source.intrinsics.shape != self._source.intrinsics.shape:
             size = f"{source.intrinsics.width}x{source.intrinsics.height}"
             raise MirrorscanError(f"{source.name}: its {size} frames do not fit this session's "
@@ -323,17 +381,24 @@ class MirrorscanApp(Notifier):
         self.bus.publish(LoopChanged(self.loop.paused, source))
 
     def back_to_start_source(self) -> None:
-        """After a recording played (Record's replay, or a session opened over the simulator), take
-        frames from the source served from the start again, playing (not paused), keeping the
-        session being edited (its calibration is this rig's)."""
+        """Take frames from the source served from the start again, playing (not paused).
+
+        After a recording played (Record's replay, or a session opened over the simulator); the
+        session being edited stays (its calibration is this rig's).
+        """
         self.use_source(self.start_source)
         self.pause(False)
 
     def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth`, (H, W) metres, as the background.
+        """Use `depth` as the background.
 
         Saved beside a saved session as background.png, held in memory for one that is not saved
         (Save as writes it).
+
+        Parameters
+        ----------
+        depth : np.ndarray, shape (H, W)
+            Depth in metres.
         """
         if self.editor.autosave:
             root = Path(self.editor.session.root)
@@ -347,12 +412,15 @@ class MirrorscanApp(Notifier):
 
     @property
     def background_captured(self) -> bool:
-        """Whether the background in use was captured (or read from the session's file), not the
-        source's own."""
+        """Whether the background in use was captured, not the source's own.
+
+        One read from the session's file counts as captured.
+        """
         return self._background[0] is not None
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:
+        """Build the new state of the session and its background, and publish it."""
         with self._session_lock:
             session = self.editor.session
             try:
@@ -370,6 +438,7 @@ class MirrorscanApp(Notifier):
         self.bus.publish(SessionChanged(snapshot))
 
     def _on_frame(self, frame: LiveFrame) -> None:
+        """Keep and publish a processed frame; after RECENT_FRAMES, grade the markers."""
         self.last_frame = frame
         self._last_error = ""
         # enough frames to grade the markers of the session as opened
@@ -383,6 +452,7 @@ class MirrorscanApp(Notifier):
         self.bus.publish(FrameReady(frame))
 
     def _on_error(self, exc: Exception) -> None:
+        """Tell every tab of a failed live frame, once per message."""
         message = f"{type(exc).__name__}: {exc}"
         # said once, not thirty times a second
         if message != self._last_error:

@@ -12,10 +12,19 @@ Stamp = tuple[int, int, int]
 
 
 def stamp(path: str | Path) -> Stamp | None:
-    """What tells a file's versions apart: (inode, modification time in ns, size in bytes).
+    """What tells a file's versions apart.
 
-    None when the file does not exist. An atomic write replaces the inode, so two versions written
-    within one tick of the clock still differ.
+    An atomic write replaces the inode, so two versions written within one tick of the clock still
+    differ.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    tuple of int or None
+        (inode, modification time in ns, size in bytes); None when the file does not exist.
     """
     try:
         st = os.stat(path)
@@ -25,20 +34,41 @@ def stamp(path: str | Path) -> Stamp | None:
 
 
 class SessionFile:
-    """session.json as the editor last read or wrote it."""
+    """session.json as the editor last read or wrote it.
+
+    Parameters
+    ----------
+    session : Session
+        The session whose file is stamped now.
+
+    Attributes
+    ----------
+    stamp : tuple of int or None
+        The file's stamp (see `stamp`) when the editor last read or wrote it.
+    """
 
     def __init__(self, session: Session):
         self.stamp = stamp(session.path)
 
     def written(self, session: Session) -> None:
-        """Take the file as it is now as the editor's own (after it read or wrote it)."""
+        """Take the file as it is now as the editor's own (after it read or wrote it).
+
+        Parameters
+        ----------
+        session : Session
+        """
         self.stamp = stamp(session.path)
 
     def external_change(self, session: Session) -> tuple[str, Session | None]:
         """Read session.json again when it is not as the editor left it.
 
-        An unreadable or removed file is not read: the editor keeps its own session and writes it
-        at the next change (save_session keeps what was there as session.json.bak).
+        An unreadable or removed file is not read: the editor keeps its own session and writes it at
+        the next change (save_session keeps what was there as session.json.bak).
+
+        Parameters
+        ----------
+        session : Session
+            The session under edit.
 
         Returns
         -------

@@ -15,10 +15,21 @@ from mirrorcore.io.session import Session
 
 @dataclass(frozen=True, eq=False)
 class Snapshot:
-    """One consistent state: the session, its rig (reflection tables built once), the background
-    depth (H, W) metres or None and its Backdrop (the subtraction's limit map, made once), and for
-    each calibrated mirror (by id) how far each marker lies from its plane
-    (mirrorcore.calibration.markers)."""
+    """One consistent state.
+
+    Attributes
+    ----------
+    session : Session
+    rig : Rig
+        Its reflection tables are built once.
+    background : np.ndarray, shape (H, W), or None
+        Depth in metres.
+    backdrop : Backdrop or None
+        The subtraction's limit map, made once.
+    marker_residuals : dict of int to MarkerResiduals
+        For each calibrated mirror (by id), how far each marker lies from its plane
+        (mirrorcore.calibration.markers).
+    """
 
     session: Session
     rig: Rig

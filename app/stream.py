@@ -45,20 +45,37 @@ class SourcePart:
 
     @property
     def key(self) -> tuple[int, int]:
+        """(source, half): the part's node."""
         return self.source, self.half
 
 
 class Anchors:
-    """Each source's centre (3,) float32 metres, kept from one frame to the next while every point
-    of the part at hand lies within FLOAT16_EXTENT of it along each axis (the walking person's box
-    moves, but rarely out of reach): the halves of a source then share it too."""
+    """Each source's centre, kept from one frame to the next while the source's points stay near it.
+
+    A centre, (3,) float32 metres, is kept while every point of the part at hand lies within
+    FLOAT16_EXTENT of it along each axis (the walking person's box moves, but rarely out of
+    reach): the halves of a source then share it too.
+    """
 
     def __init__(self) -> None:
         self._centres: dict[int, np.ndarray] = {}
 
     def centre(self, source: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-        """The centre for a source's part whose points span the box [low, high] ((3,) float32 each):
-        the kept one while it reaches the whole box, else the box's middle (kept from now on)."""
+        """The centre for a source's part whose points span the box [low, high].
+
+        The kept one while it reaches the whole box, else the box's middle (kept from now on).
+
+        Parameters
+        ----------
+        source : int
+            The source label.
+        low, high : np.ndarray, shape (3,), float32
+            The box's corners (metres).
+
+        Returns
+        -------
+        np.ndarray, shape (3,), float32
+        """
         kept = self._centres.get(source)
         if kept is not None and float(np.maximum(high - kept, kept - low).max()) < FLOAT16_EXTENT:
             return kept
@@ -67,18 +84,46 @@ class Anchors:
 
 
 def downsample(cloud: Cloud, max_points: int) -> Cloud:
-    """Every k-th point so that at most max_points remain (the order is row-major, so this thins
-    evenly)."""
+    """Every k-th point so that at most `max_points` remain.
+
+    The order is row-major, so this thins evenly.
+
+    Parameters
+    ----------
+    cloud : Cloud
+    max_points : int
+
+    Returns
+    -------
+    Cloud
+    """
     step = max(1, int(np.ceil(len(cloud) / max_points)))
     return cloud if step == 1 else cloud.select(slice(None, None, step))
 
 
 def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES),
                  anchors: Anchors | None = None) -> list[SourcePart]:
-    """The `halves` (all by default) of the sources `labels` (source labels, in order; empty ones
-    included, so that a source that left the view is cleared). A part's centre is the middle of its
-    points' box, or the one `anchors` kept for its source. A live frame asks for the one half it
-    sends: half the gathering and conversion."""
+    """The `halves` of the sources `labels`, downsampled to at most `max_points`.
+
+    A part's centre is the middle of its points' box, or the one `anchors` kept for its source. A
+    live frame asks for the one half it sends: half the gathering and conversion.
+
+    Parameters
+    ----------
+    cloud : Cloud
+        The frame's cloud (metres).
+    labels : iterable of int
+        Source labels, in order; empty ones included, so that a source that left the view is
+        cleared.
+    max_points : int, optional
+    halves : iterable of int, optional
+        All by default.
+    anchors : Anchors, optional
+
+    Returns
+    -------
+    list of SourcePart
+    """
     cloud = downsample(cloud, max_points)
     # (3, n): numpy gathers and reduces rows about 30 times faster than columns
     rows = cloud.points.T
@@ -91,8 +136,10 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
 
 
 def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:
-    """The part of (3, k) float32 rows of points: float16 offsets where they reach every point, else
-    float32."""
+    """The part of (3, k) float32 rows of points.
+
+    Float16 offsets where they reach every point, else float32.
+    """
     if not columns.shape[1]:
         return SourcePart(source, half, np.zeros(3), np.zeros((0, 3), np.float16))
     low, high = columns.min(axis=1), columns.max(axis=1)
@@ -103,9 +150,9 @@ def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) 
 
 
 def _offsets(columns: np.ndarray, centre: np.ndarray, dtype) -> np.ndarray:
-    """The (k, 3) C-ordered offsets in `dtype` of (3, k) float32 rows of points from their (3,)
-    float32 centre.
+    """The offsets of points from their centre, C-ordered, in `dtype`.
 
+    `columns` are (3, k) float32 rows of points, `centre` (3,) float32; the result is (k, 3).
     Subtracted and converted along the rows, then transposed by OpenCV (float16 as its bits):
     about 3 times faster than numpy writing the transposed result, with the same bits.
     """

@@ -56,7 +56,15 @@ class Resume:
 
 
 class Tab(TabPresence, TabFraming):
-    """Everything of one connected browser tab (see the module docstring)."""
+    """Everything of one connected browser tab (see the module docstring).
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+        The tab's connection.
+    services : Services
+        What the app shares with every tab.
+    """
 
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
@@ -104,8 +112,14 @@ class Tab(TabPresence, TabFraming):
         self._watch_visibility()
 
     def take_up(self, resume: Resume) -> None:
-        """Go on with the work the page's tab before it left (a reload): its state, view and heat
-        map."""
+        """Go on with the work of the page's tab before (a reload): its state, view and heat map.
+
+        Nothing is taken up when this tab was closed meanwhile.
+
+        Parameters
+        ----------
+        resume : Resume
+        """
         with self._lock:
             # closed meanwhile (reloaded again at once): too late
             if self.closed:
@@ -128,9 +142,11 @@ class Tab(TabPresence, TabFraming):
         return Resume(state, self.heat)
 
     def _first_view(self, _) -> None:
-        """Once the tab has reported its canvas, frame what it looks at: the rig and the cloud, the
-        object under a heat map (a reload), or the depth frame when the tab was switched to it
-        before the report."""
+        """Once the tab has reported its canvas, frame what it looks at.
+
+        The rig and the cloud, the object under a heat map (a reload), or the depth frame when the
+        tab was switched to it before the report.
+        """
         if not self._framed:
             self._framed = True
             if self.state.view == "depth":
@@ -143,6 +159,7 @@ class Tab(TabPresence, TabFraming):
     # ------------------------------------------------------------------ the TabContext protocol
     @property
     def gui(self):
+        """The tab's GUI (the client's)."""
         return self.client.gui
 
     def changed(self) -> None:
@@ -153,17 +170,59 @@ class Tab(TabPresence, TabFraming):
             listener(self.state)
 
     def on_state(self, callback: Callable[[TabState], None]) -> None:
+        """Call callback(state) after every change of the tab's state.
+
+        Parameters
+        ----------
+        callback : callable
+            Called with the TabState.
+        """
         self._state_listeners.append(callback)
 
     def on_click(self, mode: str, handler: Callable[[float, float], None]) -> None:
+        """Route clicks on the depth frame in `mode` to handler(u, v).
+
+        Parameters
+        ----------
+        mode : str
+            One of MODES.
+        handler : callable
+            Called with the clicked pixel's column and row.
+        """
         assert mode in MODES, mode
         self._click_handlers[mode] = handler
 
     def act(self, action: Callable[[], object]) -> None:
+        """Run a user's action of this tab; a refusal becomes a notification on this tab.
+
+        Parameters
+        ----------
+        action : callable
+            The action, called with no arguments.
+        """
         self.services.act(self.client, action)
 
     def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
             on_no: Callable[[], object] = lambda: None) -> Question:
+        """Ask before an action that loses something: a modal with two buttons; either closes it.
+
+        Parameters
+        ----------
+        title : str
+            The modal's title.
+        text : str
+            The question (markdown, any HTML shown as text).
+        yes : str
+            The first button's label (red); it runs `on_yes` as a user's action (act).
+        on_yes : callable
+        no : str
+            The second button's label; it runs `on_no` as a user's action.
+        on_no : callable, optional
+
+        Returns
+        -------
+        Question
+        """
         gui = self.client.gui
         modal = gui.add_modal(title)
         with modal:
@@ -180,11 +239,16 @@ class Tab(TabPresence, TabFraming):
         return question
 
     def look(self, view: str) -> None:
-        """Show the 3D scene or the depth frame ('3d' or 'depth').
+        """Show the 3D scene or the depth frame.
 
         Clouds and labels are hidden, and not sent, while the depth frame is in view; the depth
         frame fills the free area. Back in the 3D scene with the heat map on, the view frames the
         object, whose rims carry its colours.
+
+        Parameters
+        ----------
+        view : str
+            '3d' or 'depth'.
         """
         with self._lock:
             self.state.view = view
@@ -211,11 +275,15 @@ class Tab(TabPresence, TabFraming):
         return self.state.view == "3d" and not self.hidden
 
     def show_heat(self, on: bool) -> None:
-        """Show the heat map of HEAT_HZ frames a second instead of the live cloud, or go back to
-        the live cloud.
+        """Show the heat map of HEAT_HZ frames a second instead of the live cloud, or go back.
 
-        The first heat map is of the last frame, at once: while paused no new frame comes. The
-        view frames the object, whose rims carry the heat map's colours.
+        The first heat map is of the last frame, at once: while paused no new frame comes. The view
+        frames the object, whose rims carry the heat map's colours.
+
+        Parameters
+        ----------
+        on : bool
+            Show the heat map (True) or go back to the live cloud (False).
         """
         with self._heat_lock:
             self.heat, self._stale, self._last_heat = on, True, 0.0
@@ -237,6 +305,7 @@ class Tab(TabPresence, TabFraming):
 
     def _on_heat(self, event: HeatChanged) -> None:
         # a map whose check passed before a switch-off must not be drawn after it
+        """Draw a heat map that came, unless the heat map was switched off meanwhile."""
         with self._heat_lock:
             if self.heat and not self.closed:
                 self._heat_event = event
@@ -244,16 +313,25 @@ class Tab(TabPresence, TabFraming):
                 self.heat_figures, self.heat_frames = event.figures, event.frames
 
     def heat_only(self, mirror_id: int | None) -> None:
-        """Colour only this mirror's points on the heat map (None: every mirror's); the others' are
-        grey and small, as the camera's, so that each strip can be told apart."""
+        """Colour only this mirror's points on the heat map.
+
+        The others' are grey and small, as the camera's, so that each strip can be told apart.
+
+        Parameters
+        ----------
+        mirror_id : int or None
+            The mirror; None colours every mirror's.
+        """
         with self._heat_lock:
             self.heat_of = mirror_id
             if self.heat and self._heat_event is not None and not self.closed:
                 self._draw_heat()
 
     def _draw_heat(self) -> None:
-        """Draw the last heat map (under _heat_lock): the camera's points, and those of the mirrors
-        not chosen (heat_of), small and grey."""
+        """Draw the last heat map (under _heat_lock).
+
+        The camera's points, and those of the mirrors not chosen (heat_of), small and grey.
+        """
         event = self._heat_event
         if event.sources is None:
             self.scene.show_heat(event.points, event.colours)
@@ -266,14 +344,21 @@ class Tab(TabPresence, TabFraming):
         self.scene.show_heat(event.points, colours.astype(np.uint8), small)
 
     def show_dense(self, result) -> None:
-        """Show the shared dense result in this tab's scene as the tab's Dense step says (shown,
-        beside the cloud)."""
+        """Show the shared dense result in this tab's scene as the tab's Dense step says.
+
+        Shown or not, and beside the cloud or not; never while the depth frame is in view.
+
+        Parameters
+        ----------
+        result : DenseResult or None
+        """
         self.scene.show_dense(result, self.dense_visible and self.state.view == "3d",
                               self.dense_beside)
 
     # ------------------------------------------------------------------ events
     def _on_frame(self, event: FrameReady) -> None:
         # a frame in flight while the tab went away
+        """Send a frame: its cloud (or a heat map) when the tab shows it, and the depth frame."""
         if self.closed:
             return
         frame = event.frame
@@ -321,6 +406,7 @@ class Tab(TabPresence, TabFraming):
         self.changed()
 
     def _clicked(self, u: float, v: float) -> None:
+        """Route a click on the depth frame to the current mode's handler, as an action."""
         handler = self._click_handlers.get(self.state.mode)
         if handler is not None:
             self.act(lambda: handler(u, v))
@@ -368,6 +454,7 @@ class Tab(TabPresence, TabFraming):
         self.screen.show(rgb)
 
     def close(self) -> None:
+        """Stop listening to the app's events and detach the panels; the tab is closed."""
         self.closed = True
         for unsubscribe in self._unsubscribe:
             unsubscribe()

@@ -56,6 +56,16 @@ def inverse(change: tuple) -> tuple:
     """The session change that undoes `change`.
 
     An added mirror is removed, a removed one put back, any other value swapped back.
+
+    Parameters
+    ----------
+    change : tuple
+        (kind, a, b), as `restore` reads it.
+
+    Returns
+    -------
+    tuple
+        (kind, a, b).
     """
     kind, a, b = change
     if kind == "add":
@@ -77,6 +87,10 @@ def restore(session: Session, scope: int, state) -> Session:
         In a mirror's scope, its record; in the session's, a change (kind, a, b):
         ("add", index, mirror) puts the mirror back at `index`, ("remove", index, mirror) takes it
         out, any other kind sets that field of the session to `b`.
+
+    Returns
+    -------
+    Session
     """
     if scope != SESSION_SCOPE:
         index = next(i for i, m in enumerate(session.mirrors) if m.id == scope)
@@ -90,7 +104,13 @@ def restore(session: Session, scope: int, state) -> Session:
 
 
 class History:
-    """The undo and redo stacks of every scope, capped at UNDO_DEPTH steps a scope."""
+    """The undo and redo stacks of every scope, capped at UNDO_DEPTH steps a scope.
+
+    Attributes
+    ----------
+    undo, redo : dict of int to list of Step
+        By scope (a mirror's id, or SESSION_SCOPE), oldest step first.
+    """
 
     def __init__(self) -> None:
         self.undo: dict[int, list[Step]] = {}
@@ -99,7 +119,16 @@ class History:
         self._orders = itertools.count(1)
 
     def stacks(self, redo: bool) -> dict[int, list[Step]]:
-        """The redo stacks when `redo`, else the undo stacks."""
+        """The redo stacks when `redo`, else the undo stacks.
+
+        Parameters
+        ----------
+        redo : bool
+
+        Returns
+        -------
+        dict of int to list of Step
+        """
         return self.redo if redo else self.undo
 
     def new_group(self) -> int:
@@ -107,7 +136,15 @@ class History:
         return next(self._groups)
 
     def record(self, scope: int, step: Step) -> None:
-        """Push a new step on the undo stack of `scope`; its redo stack is dropped."""
+        """Push a new step on the undo stack of `scope`; its redo stack is dropped.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror's id, or SESSION_SCOPE.
+        step : Step
+            The change; its `order` is set here.
+        """
         step = replace(step, order=next(self._orders))
         self.undo[scope] = (self.undo.get(scope, []) + [step])[-UNDO_DEPTH:]
         self.redo.pop(scope, None)
@@ -116,9 +153,21 @@ class History:
         """Where undo (or redo) acts for the selected mirror.
 
         The mirror's own history, or the session's when the mirror's holds nothing or the
-        session's last step is a removal made, undone or redone after the mirror's last. An
-        added mirror is not taken back over the selected one's steps: its undo would take the
-        new mirror's work with it.
+        session's last step is a removal made, undone or redone after the mirror's last. An added
+        mirror is not taken back over the selected one's steps: its undo would take the new
+        mirror's work with it.
+
+        Parameters
+        ----------
+        mirror_id : int or None
+            The selected mirror.
+        redo : bool, optional
+            For redo rather than undo.
+
+        Returns
+        -------
+        int
+            `mirror_id`, or SESSION_SCOPE.
         """
         source = self.stacks(redo)
         own = source.get(mirror_id) if mirror_id else None
@@ -158,8 +207,23 @@ class History:
               name: Callable[[int], str]) -> str | None:
         """The label of the last step of `scope`, or None when there is none.
 
-        A group's step of which some mirrors changed since names only the mirrors it would move,
-        and those that changed ('refined plane of mirror 2 only: mirror 1 changed since').
+        A group's step of which some mirrors changed since names only the mirrors it would move, and
+        those that changed ('refined plane of mirror 2 only: mirror 1 changed since').
+
+        Parameters
+        ----------
+        scope : int
+            A mirror's id, or SESSION_SCOPE.
+        redo : bool
+            Read the redo stacks instead of the undo stacks.
+        mirror_ids : iterable of int
+            The mirrors present, in session order.
+        name : callable
+            A mirror's name from its id.
+
+        Returns
+        -------
+        str or None
         """
         steps = self.stacks(redo).get(scope)
         if not steps:
@@ -173,8 +237,18 @@ class History:
         return f"{label}{PARTIAL}{listed([name(i) for i in left])} changed since" if left else label
 
     def travel(self, scope: int, redo: bool, mirror_ids: Iterable[int]) -> list[tuple[int, Step]]:
-        """Move the last step of `scope`, with the rest of its group that is still last in its
-        scope, to the other history.
+        """Move the last step of `scope` to the other history.
+
+        The rest of its group that is still last in its scope moves with it.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror's id, or SESSION_SCOPE.
+        redo : bool
+            Move from the redo stacks to the undo stacks (else the other way).
+        mirror_ids : iterable of int
+            The mirrors present, in session order.
 
         Returns
         -------
@@ -198,6 +272,14 @@ class History:
 
         Its undo steps, newest first, change the glass before they change the plane: the plane
         stands where the last fit put it until the next fit.
+
+        Parameters
+        ----------
+        mirror_id : int
+
+        Returns
+        -------
+        bool
         """
         for step in reversed(self.undo.get(mirror_id, [])):
             if step.before.plane != step.after.plane:
@@ -207,8 +289,21 @@ class History:
         return False
 
     def fitted_on(self, mirror_id: int, now: SessionMirror | None) -> bool:
-        """Whether the newest step that set the mirror's plane is a markers fit ('plane') made on
-        the markers, boundary, region, plane and glass that `now` (the mirror as it is) has."""
+        """Whether the newest step that set the mirror's plane is a markers fit on what it has now.
+
+        A markers fit is a step whose `what` is 'plane'; it must have been made on the markers,
+        boundary, region, plane and glass that `now` has.
+
+        Parameters
+        ----------
+        mirror_id : int
+        now : SessionMirror or None
+            The mirror as it is.
+
+        Returns
+        -------
+        bool
+        """
         step = next((s for s in reversed(self.undo.get(mirror_id, []))
                      if s.before.plane != s.after.plane), None)
         return (step is not None and step.what == "plane" and now is not None

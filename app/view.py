@@ -29,7 +29,15 @@ BOX_COLOUR = (90, 90, 90)
 
 
 class TabScene:
-    """Owns one tab's scene nodes: /camera, /mirrors/<id>/..., /cloud/<source>, /dense/..."""
+    """Owns one tab's scene nodes: /camera, /mirrors/<id>/..., /cloud/<source>, /dense/...
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+        The tab.
+    point_size : float, optional
+        The live cloud's point size (metres).
+    """
 
     def __init__(self, client: viser.ClientHandle, point_size: float = 0.006):
         self.client, self.scene = client, client.scene
@@ -54,8 +62,15 @@ class TabScene:
         self.scene.set_up_direction("-y")
 
     def show_rig(self, rig: Rig, mirror_ids: tuple[int, ...]) -> None:
-        """(Re)draw the camera and the calibrated mirrors, each in the colour of its id; the clouds
-        are kept."""
+        """(Re)draw the camera and the calibrated mirrors, each in its id's colour; clouds are kept.
+
+        Parameters
+        ----------
+        rig : Rig
+            The camera and the mirrors' planes.
+        mirror_ids : tuple of int
+            The ids of `rig.mirrors`, in order.
+        """
         intr = rig.intrinsics
         fov, aspect = frustum_angles(intr)
         # The camera too: viser's add_* writes a node's pose after registering it, so two threads
@@ -84,10 +99,12 @@ class TabScene:
 
     def _show_virtual_cameras(self, rig: Rig, mirror_ids: tuple[int, ...], fov: float,
                               aspect: float) -> None:
-        """The camera as each mirror, and each sequence of mirrors, shows it (rig.virtual_cameras):
-        the views Algorithm 1 and the dense methods use, in their source's colour, those through
+        """Draw the camera as each mirror and sequence of mirrors shows it (rig.virtual_cameras).
+
+        The views Algorithm 1 and the dense methods use, in their source's colour, those through
         several mirrors smaller, each named after its view ('camera in left', 'camera in left then
-        right')."""
+        right').
+        """
         self.scene.remove_by_name("/virtual")
         self.scene.remove_by_name("/virtual_labels")
         self._virtual, self._virtual_labels = [], []
@@ -111,14 +128,27 @@ class TabScene:
                 visible=self.virtual_visible and self.labels_visible))
 
     def show_virtual_cameras(self, visible: bool) -> None:
+        """Show or hide the virtual cameras' frusta and names (shown only while the labels are).
+
+        Parameters
+        ----------
+        visible : bool
+        """
         with self._marks_lock:
             self.virtual_visible = visible
             for handle in self._virtual + self._virtual_labels:
                 handle.visible = visible and self.labels_visible
 
     def show_labels(self, visible: bool) -> None:
-        """Show or hide the names of the camera, the mirrors, the virtual cameras (those shown, and
-        their frusta) and the dense box; they are hidden while the depth frame is in view."""
+        """Show or hide the names of the camera, the mirrors, the virtual cameras and the dense box.
+
+        The virtual cameras' frusta go with their names (those shown); they are hidden while the
+        depth frame is in view.
+
+        Parameters
+        ----------
+        visible : bool
+        """
         with self._marks_lock:
             self.labels_visible = visible
             for label in self._labels + ([self._box_label] if self._box_label is not None else []):
@@ -128,8 +158,18 @@ class TabScene:
 
     def show_cloud(self, parts: list[SourcePart], mirror_ids: tuple[int, ...],
                    half: int | None = None) -> None:
-        """Update the live cloud's nodes (one per source and half, placed at the part's centre) from
-        `parts`: only the given half, or both (None); nodes of sources beyond the parts are removed.
+        """Update the live cloud's nodes, one per source and half, placed at the part's centre.
+
+        Nodes of sources beyond the parts are removed.
+
+        Parameters
+        ----------
+        parts : list of SourcePart
+            The live cloud's parts.
+        mirror_ids : tuple of int
+            The mirrors' ids, which set the sources' colours.
+        half : int or None, optional
+            Update only this half, or both (None).
         """
         # always in this order: never a deadlock
         with self._clouds_lock, self.client.atomic():
@@ -141,6 +181,7 @@ class TabScene:
                 self._clouds.pop(key).remove()
 
     def _show_part(self, part: SourcePart, mirror_ids: tuple[int, ...]) -> None:
+        """Update one part's node in place, or add it (again, when its precision changed)."""
         handle = self._clouds.get(part.key)
         precision = "float16" if part.offsets.dtype == np.float16 else "float32"
         if handle is not None and handle.precision == precision:
@@ -183,31 +224,61 @@ class TabScene:
                                    precision="float32", point_shape="circle")
 
     def recolour(self, mirror_ids: tuple[int, ...]) -> None:
-        """Colour each cloud node by its mirror's id (after mirrors were removed or reordered)."""
+        """Colour each cloud node by its mirror's id (after mirrors were removed or reordered).
+
+        Parameters
+        ----------
+        mirror_ids : tuple of int
+            The mirrors' ids in session order.
+        """
         with self._clouds_lock:
             for (source, _), handle in self._clouds.items():
                 handle.colors = source_colour(source, mirror_ids)
 
     def show_clouds(self, visible: bool) -> None:
+        """Show or hide the live cloud.
+
+        Parameters
+        ----------
+        visible : bool
+        """
         self.clouds_visible = visible
         with self._clouds_lock:
             for handle in self._clouds.values():
                 handle.visible = visible
 
     def set_point_size(self, size: float) -> None:
+        """Set the live cloud's point size.
+
+        Parameters
+        ----------
+        size : float
+            Metres.
+        """
         self.point_size = size
         with self._clouds_lock:
             for handle in self._clouds.values():
                 handle.point_size = size
 
     def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
-        """The dense result in its own colour, with a label: at its place, or beside the live cloud
-        (towards the camera and to the left, clear of the mirrors); or nothing."""
+        """The dense result in its own colour, with a label, or nothing.
+
+        Parameters
+        ----------
+        result : DenseResult or None
+            None removes it.
+        visible : bool
+            Whether it is shown.
+        beside : bool
+            Place it beside the live cloud (towards the camera and to the left, clear of the
+            mirrors) rather than at its place.
+        """
         # a DenseChanged event and a GUI callback may both call it
         with self._dense_lock:
             self._replace_dense(result, visible, beside)
 
     def _replace_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
+        """Remove the dense result's nodes and draw `result`, if any."""
         if self._dense:
             # the frame, and the result and label under it
             self._dense[0].remove()
@@ -229,15 +300,28 @@ class TabScene:
         self._dense = [frame, node, label]
 
     def show_dense_layer(self, visible: bool) -> None:
-        """Show or hide the dense result (and its label)."""
+        """Show or hide the dense result (and its label).
+
+        Parameters
+        ----------
+        visible : bool
+        """
         with self._dense_lock:
             if self._dense:
                 self._dense[0].visible = visible
 
     def show_box(self, low: np.ndarray | None, high: np.ndarray | None) -> None:
-        """The dense reconstruction's box as a wireframe, named at its bottom corner nearest the
-        camera on the left (the mirrors' and virtual cameras' names stand above the cloud, the
-        result's own label at the middle of its top), or none."""
+        """The dense reconstruction's box as a wireframe, or none.
+
+        Named at its bottom corner nearest the camera on the left (the mirrors' and virtual cameras'
+        names stand above the cloud, the result's own label at the middle of its top).
+
+        Parameters
+        ----------
+        low, high : np.ndarray, shape (3,), or None
+            Its opposite corners (metres); None, or `high` not above `low` on every axis, removes
+            it.
+        """
         with self._marks_lock:
             if self._box is not None:
                 # the box, with its label under it

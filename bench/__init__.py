@@ -21,7 +21,19 @@ MODULES = [
 
 
 def median_ms(fn: Callable[[], object], repeat: int = 30, warmup: int = 3) -> float:
-    """Median wall-clock milliseconds of fn() over `repeat` runs after `warmup` runs."""
+    """Median wall-clock milliseconds of fn() over `repeat` runs after `warmup` runs.
+
+    Parameters
+    ----------
+    fn : callable
+        Called with no arguments.
+    repeat : int, optional
+    warmup : int, optional
+
+    Returns
+    -------
+    float
+    """
     for _ in range(warmup):
         fn()
     times = []
@@ -39,6 +51,18 @@ def interleaved_ms(
     """Median wall-clock milliseconds of each fn() over `repeat` rounds, after `warmup` rounds.
 
     Each round calls every fn in turn, so that a busy machine slows them alike.
+
+    Parameters
+    ----------
+    fns : dict of str to callable
+        By figure name; each called with no arguments.
+    repeat : int, optional
+    warmup : int, optional
+
+    Returns
+    -------
+    dict of str to float
+        By figure name.
     """
     for _ in range(warmup):
         for fn in fns.values():
@@ -53,7 +77,18 @@ def interleaved_ms(
 
 
 def run_all(progress: Callable[[str], None] | None = None) -> dict[str, float]:
-    """Run every benchmark module; returns the merged figures."""
+    """Run every benchmark module of MODULES.
+
+    Parameters
+    ----------
+    progress : callable, optional
+        Called with each module's name before it runs.
+
+    Returns
+    -------
+    dict of str to float
+        The modules' figures, merged.
+    """
     figures: dict[str, float] = {}
     for name in MODULES:
         if progress:

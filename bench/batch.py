@@ -33,7 +33,19 @@ ROUNDS = 3
 
 
 def recording(folder: Path, frames: int = FRAMES) -> Path:
-    """The benchmark's recording, calibrated with the true planes."""
+    """The benchmark's recording, calibrated with the true planes.
+
+    Parameters
+    ----------
+    folder : Path
+        The session folder to write.
+    frames : int, optional
+
+    Returns
+    -------
+    Path
+        The session folder.
+    """
     sim = Simulator(paper_scene(object="figure", distance=3.0), seed=0)
     return write_session(sim, folder, frames, progress=False, true_planes=True)
 
@@ -52,10 +64,23 @@ def cpu_seconds() -> float:
 
 
 def throughput(session: Path, out: Path, workers: int) -> tuple[float, float]:
-    """(frames written per second, CPU milliseconds per frame) of a fresh run.
+    """Frames written per second and CPU milliseconds per frame of a fresh run.
 
     On a new local cluster of `workers` processes (0: in this process), from the first task on
     (cluster start-up and shipping the rig excluded).
+
+    Parameters
+    ----------
+    session : Path
+        The recording.
+    out : Path
+        The output folder (removed first).
+    workers : int
+
+    Returns
+    -------
+    fps : float
+    cpu_ms : float
     """
     shutil.rmtree(out, ignore_errors=True)
     started: list[float] = []
@@ -80,6 +105,13 @@ def throughput(session: Path, out: Path, workers: int) -> tuple[float, float]:
 
 
 def run() -> dict[str, float]:
+    """The batch's frame rate in this process and on 1 and 2 local workers (median of ROUNDS runs).
+
+    Returns
+    -------
+    dict of str to float
+        {figure name: value}; names ending in _ms are median milliseconds.
+    """
     with tempfile.TemporaryDirectory(prefix="mirrorscan-bench-batch-") as tmp:
         session = recording(Path(tmp) / "walk")
         runs: dict[int, list[tuple[float, float]]] = {0: [], 1: [], 2: []}

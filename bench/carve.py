@@ -31,8 +31,16 @@ BOX = 0.4  # metres: the edge of the cube around the sphere
 class SphereFrames:
     """Prepared frames of the simulated sphere.
 
-    Depths, masks (F, H, W) float metres / bool; the sphere's centre (3,) and radius, metres, camera
-    frame.
+    Attributes
+    ----------
+    rig : Rig
+    depths : np.ndarray, shape (F, H, W)
+        Metres.
+    masks : np.ndarray, shape (F, H, W), bool
+    centre : np.ndarray, shape (3,)
+        The sphere's centre, metres, camera frame.
+    radius : float
+        Metres.
     """
 
     rig: Rig
@@ -42,11 +50,31 @@ class SphereFrames:
     radius: float
 
     def volume(self, n: int) -> Volume:
-        """n^3 voxels over the box of edge BOX around the sphere."""
+        """n^3 voxels over the box of edge BOX around the sphere.
+
+        Parameters
+        ----------
+        n : int
+
+        Returns
+        -------
+        Volume
+        """
         return Volume.from_bounds(self.centre - BOX / 2, self.centre + BOX / 2, BOX / n)
 
     def rmse_mm(self, points: np.ndarray) -> float:
-        """RMS distance of points (n, 3) metres to the true sphere, mm."""
+        """RMS distance of points to the true sphere.
+
+        Parameters
+        ----------
+        points : np.ndarray, shape (n, 3)
+            Metres.
+
+        Returns
+        -------
+        float
+            mm.
+        """
         return (
             1e3
             * FitErrors.from_deviations(
@@ -56,7 +84,19 @@ class SphereFrames:
 
 
 def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
-    """`count` frames of the paper's sphere scene, simulated with `seed`, ready for Algorithm 1."""
+    """Frames of the paper's sphere scene, ready for Algorithm 1.
+
+    Parameters
+    ----------
+    count : int, optional
+        Frames to simulate.
+    seed : int, optional
+        The simulator's seed.
+
+    Returns
+    -------
+    SphereFrames
+    """
     sim = Simulator(paper_scene(object="sphere"), seed=seed)
     rig = true_rig(sim.scene)
     background = sim.background().depth
@@ -72,7 +112,18 @@ def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
 
 
 def peak_mb(fn: Callable[[], object]) -> float:
-    """Peak of the memory traced (numpy arrays included) while fn() runs, MB."""
+    """Peak of the memory traced (numpy arrays included) while fn() runs.
+
+    Parameters
+    ----------
+    fn : callable
+        Called with no arguments.
+
+    Returns
+    -------
+    float
+        MB.
+    """
     tracemalloc.start()
     try:
         fn()
@@ -82,6 +133,13 @@ def peak_mb(fn: Callable[[], object]) -> float:
 
 
 def run() -> dict[str, float]:
+    """Carving one frame of the sphere in 300^3 and 200^3 voxels: times and peak memory.
+
+    Returns
+    -------
+    dict of str to float
+        {figure name: value}; names ending in _ms are median milliseconds.
+    """
     frames = sphere_frames()
     rig, depth, mask = frames.rig, frames.depths[0], frames.masks[0]
     small, large = frames.volume(200), frames.volume(300)

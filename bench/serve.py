@@ -1,8 +1,8 @@
 """Benchmark of the browser tool's live loop with one tab attached.
 
 The tab is bench.tabs.HeadlessTab, a websocket client that reads what a browser would; the built-in
-demo (walking figure, two mirrors,
-Kinect noise), its frames rendered beforehand so that reading the source costs nothing.
+demo (walking figure, two mirrors, Kinect noise), its frames rendered beforehand so that reading
+the source costs nothing.
 
 serve_loop_fps : frames per second as fast as the loop goes, the tab looking at the 3D scene (the
     cloud each frame)
@@ -37,7 +37,17 @@ FPS = 30.0
 
 
 def demo_frames(n: int) -> StackSource:
-    """The demo's first n frames, in memory."""
+    """The demo's first n frames, in memory.
+
+    Parameters
+    ----------
+    n : int
+
+    Returns
+    -------
+    StackSource
+        At FPS frames a second, with the demo's background.
+    """
     source = demo_source()
     depth = np.stack([source.read(i).depth for i in range(n)])
     replay = StackSource("demo frames", source.intrinsics, depth, 1.0, np.arange(n) / FPS, fps=FPS)
@@ -46,9 +56,21 @@ def demo_frames(n: int) -> StackSource:
 
 
 def paced(app: MirrorscanApp, tab: HeadlessTab | None, frames: int) -> tuple[float, float]:
-    """Run `frames` frames at FPS.
+    """Run `frames` frames of the app's live loop at FPS.
 
-    (mean CPU ms of the loop's thread per frame, kB the tab received per frame, 0 without a tab).
+    Parameters
+    ----------
+    app : MirrorscanApp
+    tab : HeadlessTab or None
+        The tab whose received bytes are counted.
+    frames : int
+
+    Returns
+    -------
+    cpu_ms : float
+        Mean CPU ms of the loop's thread per frame.
+    kb : float
+        kB the tab received per frame; 0 without a tab.
     """
     cpu, received = 0.0, tab.bytes if tab else 0
     for _ in range(frames):
@@ -63,6 +85,13 @@ def paced(app: MirrorscanApp, tab: HeadlessTab | None, frames: int) -> tuple[flo
 
 
 def run() -> dict[str, float]:
+    """The served app with one headless tab: the loop's rate, CPU and bytes per frame, and click_ms.
+
+    Returns
+    -------
+    dict of str to float
+        {figure name: value}.
+    """
     source = demo_frames(FRAMES)
     demo = demo_source()
     app = MirrorscanApp(calibrated_session(demo, Path("unused")), source, port=0, autosave=False)
@@ -102,6 +131,17 @@ def click_ms(app: MirrorscanApp, tab, clicks: int = 10) -> float:
 
     The tab is in its markers mode on mirror 1, looking at the depth frame, while another thread
     runs the live loop at FPS.
+
+    Parameters
+    ----------
+    app : MirrorscanApp
+    tab : Tab
+        The app's Tab of a connected HeadlessTab.
+    clicks : int, optional
+
+    Returns
+    -------
+    float
     """
     target: list[tuple[int, int]] = []  # the pixel clicked last
     sent: list[float] = []  # when a depth frame showing it was sent

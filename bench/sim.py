@@ -13,6 +13,13 @@ from mirrorcore.sim.simulator import Simulator
 
 
 def run() -> dict[str, float]:
+    """The simulator's time to render one frame of the walking figure at 3 m.
+
+    Returns
+    -------
+    dict of str to float
+        {figure name: value}; names ending in _ms are median milliseconds.
+    """
     rig = Simulator(paper_scene(object="figure", distance=3.0), seed=0)
     frames = itertools.count()
     return {"sim_frame_ms": median_ms(lambda: rig.frame(next(frames)), repeat=30)}

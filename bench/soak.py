@@ -39,11 +39,30 @@ LATE_CLIENT_S = 3.0  # the tab opened at the end listens this long
 class SoakReport:
     """What a soak run measured.
 
-    rss_mb: memory of the whole process (server, live loop and the simulated tabs), MB, at the
-    'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm; fps =
-    frames / seconds; messages: per tab, in order; max_gap_s: the longest silence any tab saw; edits
-    / edits_on_disk: session renames made / found in session.json at the end; late_messages: what a
-    tab opened at the end received (the whole current state); errors: live loop errors.
+    Attributes
+    ----------
+    seconds : float
+        How long it streamed.
+    clients : int
+        The simulated tabs.
+    frames : int
+    fps : float
+        frames / seconds.
+    rss_mb : dict of str to float
+        Memory of the whole process (server, live loop and the simulated tabs), MB, at the
+        'start', after the warm-up ('warm'), at the 'end', its 'max' and 'growth' = end - warm.
+    messages : list of int
+        Per tab, in order.
+    max_gap_s : float
+        The longest silence any tab saw.
+    edits : int
+        Session renames made.
+    edits_on_disk : bool
+        The last rename is found in session.json at the end.
+    late_messages : int
+        What a tab opened at the end received (the whole current state).
+    errors : list of str
+        Live loop errors.
     """
 
     seconds: float
@@ -60,7 +79,16 @@ class SoakReport:
 
 
 def describe(exc: BaseException) -> str:
-    """'Type: message' and the innermost frames (file:line) where it was raised, for the report."""
+    """'Type: message' and the innermost frames (file:line) where it was raised, for the report.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    str
+    """
     where = "; ".join(
         f"{Path(f.filename).name}:{f.lineno}" for f in traceback.extract_tb(exc.__traceback__)[-4:]
     )
@@ -76,9 +104,22 @@ def rss_mb() -> float:
 async def listen(url: str, until: float) -> tuple[int, float]:
     """One simulated tab.
 
-    Connect with viser's protocol, report a camera view (viser counts a tab as connected from then
-    on), read every message until time.monotonic() >= until. Returns (messages received, longest gap
-    between two messages in seconds).
+    Connect with viser's protocol, report a camera view (viser counts a tab as connected from
+    then on), read every message until time.monotonic() >= until.
+
+    Parameters
+    ----------
+    url : str
+        The server's websocket address.
+    until : float
+        time.monotonic() at which to stop.
+
+    Returns
+    -------
+    messages : int
+        Messages received.
+    gap : float
+        The longest gap between two messages, seconds.
     """
     count, gap, last = 0, 0.0, time.monotonic()
     async with websockets.asyncio.client.connect(
@@ -96,14 +137,25 @@ async def listen(url: str, until: float) -> tuple[int, float]:
 
 
 async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
+    """Run `n` simulated tabs (listen) side by side until `until`."""
     return list(await asyncio.gather(*(listen(url, until) for _ in range(n))))
 
 
 def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
     """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`.
 
-    A mirror is renamed every EDIT_EVERY_S; the session is autosaved in `folder` (a temporary folder
-    by default). Stops by itself.
+    A mirror is renamed every EDIT_EVERY_S; the session is autosaved in `folder`. Stops by itself.
+
+    Parameters
+    ----------
+    seconds : float
+    clients : int, optional
+    folder : str or Path, optional
+        A temporary folder by default.
+
+    Returns
+    -------
+    SoakReport
     """
     report = SoakReport(seconds, clients, rss_mb={"start": rss_mb()})
     with tempfile.TemporaryDirectory() as tmp:
@@ -160,6 +212,18 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line: run the soak and print its report as JSON.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; sys.argv's by default.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+    """
     parser = argparse.ArgumentParser(
         prog="python -m mirrorscan.bench.soak", description=__doc__.splitlines()[0]
     )

@@ -38,7 +38,26 @@ CAMERA_MESSAGE = msgspec.msgpack.encode(
 
 
 def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
-    """Poll condition() until it returns something true (returned), or fail after `seconds`."""
+    """Poll condition() until it returns something true, or fail after `seconds`.
+
+    Parameters
+    ----------
+    condition : callable
+        Called with no arguments every 20 ms.
+    seconds : float, optional
+    what : str, optional
+        Named in the failure.
+
+    Returns
+    -------
+    object
+        What condition() returned.
+
+    Raises
+    ------
+    AssertionError
+        When `seconds` pass first.
+    """
     deadline = time.monotonic() + seconds
     while True:
         value = condition()
@@ -51,10 +70,25 @@ def wait_for(condition, seconds: float = 30.0, what: str = "condition"):
 class HeadlessTab:
     """Connect to `app` as a tab.
 
-    .tab is the app's Tab for it; .bytes and .messages count what it received. Set .answer_delay
-    (seconds) to answer the server's localStorage reads that much later, as a browser that draws
-    more slowly than frames come (the messages before a read wait to be drawn). `page`: the name the
-    page gives when asked which it is (the same for a reload of it; by default a new page's own).
+    Set .answer_delay (seconds) to answer the server's localStorage reads that much later, as a
+    browser that draws more slowly than frames come (the messages before a read wait to be drawn).
+
+    Parameters
+    ----------
+    app : MirrorscanApp
+        A started app.
+    page : str, optional
+        The name the page gives when asked which it is (the same for a reload of it; by default
+        a new page's own).
+
+    Attributes
+    ----------
+    tab : Tab
+        The app's Tab for it.
+    bytes, messages : int
+        What it received.
+    answer_delay : float
+        Seconds.
     """
 
     def __init__(self, app, page: str | None = None):
@@ -77,6 +111,7 @@ class HeadlessTab:
         self.tab = app.tabs[new.pop()]
 
     def _read(self) -> None:
+        """Receive messages until closed, counting them and answering the reads."""
         try:
             while not self._closed.is_set():
                 message = self.ws.recv()
@@ -113,6 +148,7 @@ class HeadlessTab:
                 )
 
     def close(self) -> None:
+        """Close the connection and stop reading (waiting up to 5 s)."""
         self._closed.set()
         self.ws.close()
         self._reader.join(timeout=5)

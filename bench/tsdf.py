@@ -31,7 +31,22 @@ def open3d_tsdf(frames: SphereFrames, volume: Volume, count: int, mesh: bool = T
     """Open3D's VoxelBlockGrid fusing the views of the first `count` frames, then its mesh.
 
     Each view's depth where it shows the object, 0 elsewhere; voxels of volume.voxel, depth up to
-    4 m; the mesh in the camera frame, metres. Without `mesh`, the grid.
+    4 m.
+
+    Parameters
+    ----------
+    frames : SphereFrames
+    volume : Volume
+        Its voxel size is used.
+    count : int
+        Frames to fuse.
+    mesh : bool, optional
+        Extract the mesh; without it, the grid.
+
+    Returns
+    -------
+    open3d.t.geometry.TriangleMesh or VoxelBlockGrid
+        The mesh in the camera frame, metres.
     """
     intr = frames.rig.intrinsics
     intrinsic = o3c.Tensor([[intr.fx, 0, intr.cx], [0, intr.fy, intr.cy], [0, 0, 1]], o3c.float64)
@@ -63,7 +78,18 @@ def open3d_tsdf(frames: SphereFrames, volume: Volume, count: int, mesh: bool = T
 def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
     """The sparse fusion's mesh of the first `count` frames (truncation TRUNCATION_VOXELS voxels).
 
-    Without `mesh`, the fused result.
+    Parameters
+    ----------
+    frames : SphereFrames
+    volume : Volume
+    count : int
+        Frames to fuse.
+    mesh : bool, optional
+        Extract the mesh; without it, the fused result.
+
+    Returns
+    -------
+    Mesh or the fused result
     """
     fused = fuse(
         frames.rig,
@@ -76,6 +102,13 @@ def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
 
 
 def run() -> dict[str, float]:
+    """The sparse fusion beside Open3D's on the sphere: times, peak memory and RMSE.
+
+    Returns
+    -------
+    dict of str to float
+        {figure name: value}; names ending in _ms are median milliseconds.
+    """
     frames = sphere_frames(5)
     small, large = frames.volume(200), frames.volume(300)
     times = interleaved_ms(

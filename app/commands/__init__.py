@@ -15,9 +15,21 @@ from mirrorcore.base.progress import Progress
 
 @contextmanager
 def percent_bar(desc: str, disable: bool = False) -> Iterator[Progress]:
-    """A tqdm bar (stderr) of the fraction done; yields progress(fraction).
+    """A tqdm bar (stderr) of the fraction done.
 
     The bar shows after half a second and is cleared at the end, so that a refusal stays one line.
+
+    Parameters
+    ----------
+    desc : str
+        The bar's label.
+    disable : bool, optional
+        Show no bar.
+
+    Yields
+    ------
+    Progress
+        progress(fraction), fraction from 0 to 1.
     """
     with tqdm(
         total=100,

@@ -23,6 +23,13 @@ from . import percent_bar, wording
 
 
 def register(sub) -> None:
+    """Add `mirrorscan calibrate` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser(
         "calibrate",
         help="fit every mirror's plane (from its markers, its frame, or the object), optionally "
@@ -96,6 +103,24 @@ def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.n
 
 
 def run(args: argparse.Namespace) -> int:
+    """Calibrate the session's mirrors and write their planes into session.json.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    CalibrationError
+        When the session has no mirrors, --refine-with is given without --refine or --method
+        scene, or mirrors could not be calibrated (the planes found are written first).
+    """
     session = load_session(args.session)
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")

@@ -21,6 +21,13 @@ from mirrorcore.io.outputs import check_output
 
 
 def register(sub) -> None:
+    """Add `mirrorscan experiment` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser(
         "experiment",
         help="the paper's error-vs-angle (fig. 4a) or error-vs-distance (fig. 5a) experiment on "
@@ -48,6 +55,23 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run an experiment on the simulated rig and write its CSV and PNG beside --out.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    MirrorscanError
+        When --seeds is below 1 or --out's folder does not exist.
+    """
     if args.seeds < 1:
         raise MirrorscanError(f"--seeds: at least 1, got {args.seeds}")
     prefix = Path(args.out or f"experiment-{args.name}")
@@ -70,6 +94,25 @@ def run(args: argparse.Namespace) -> int:
 
 
 def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
+    """Run the temporal experiment, write its CSV and PNG, and print its summary per part.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    prefix : Path
+        The output files' path without suffix.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    MirrorscanError
+        When --neighbours or --frames is below 1.
+    """
     if args.neighbours < 1 or args.frames < 1:
         raise MirrorscanError(
             f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}"
@@ -90,6 +133,16 @@ def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
 
 
 def write_csv(path: Path, columns: tuple[str, ...], rows: list[dict]) -> None:
+    """Write `rows` as CSV with a header, atomically.
+
+    Parameters
+    ----------
+    path : Path
+    columns : tuple of str
+        The header, in order.
+    rows : list of dict
+        One per line, keyed by column.
+    """
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=columns)
     writer.writeheader()

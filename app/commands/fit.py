@@ -25,6 +25,13 @@ _FITS = {"sphere": fit_sphere, "cylinder": fit_cylinder}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add `mirrorscan fit` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     parser = subparsers.add_parser(
         "fit",
         help="fit a sphere or a cylinder to a cloud; radius, RMSE and mean error as in the paper",
@@ -68,6 +75,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Fit a sphere or a cylinder to a PLY cloud and print the fit (one JSON object with --json).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    FileFormatError
+        When the PLY has no points.
+    """
     points, sources = read_ply(args.cloud)
     if len(points) == 0:
         raise FileFormatError(f"{args.cloud}: the PLY has no points")

@@ -35,6 +35,13 @@ from . import wording
 
 
 def register(sub) -> None:
+    """Add `mirrorscan reconstruct` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser("reconstruct", help="the object's merged cloud (Algorithm 1) as PLY")
     p.add_argument("session", help="session folder (calibrated: run `mirrorscan calibrate` first)")
     p.add_argument(
@@ -121,10 +128,23 @@ def register(sub) -> None:
 
 
 def read_scan_frame(session: Session, index: int, temporal: int = 0) -> np.ndarray:
-    """Frame `index` as (H, W) metres, smoothed with `temporal` neighbours (batch.read_depth).
+    """Frame `index` as depth, smoothed with `temporal` neighbours (batch.read_depth).
 
     Refused when it has no reading at all (nothing to scan in it). `--frame all` reads frames as
     they are: a recording may begin with blank frames while the camera starts.
+
+    Parameters
+    ----------
+    session : Session
+    index : int
+        The frame's index.
+    temporal : int, optional
+        Neighbours on each side to smooth with.
+
+    Returns
+    -------
+    np.ndarray, shape (H, W)
+        Metres.
 
     Raises
     ------
@@ -137,7 +157,12 @@ def read_scan_frame(session: Session, index: int, temporal: int = 0) -> np.ndarr
 
 
 def add_bounces_option(p) -> None:
-    """--bounces, for the commands that reconstruct (reconstruct, serve)."""
+    """Add --bounces, for the commands that reconstruct (reconstruct, serve).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+    """
     p.add_argument(
         "--bounces",
         type=int,
@@ -147,6 +172,23 @@ def add_bounces_option(p) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Reconstruct one frame (a merged cloud, or a dense result) or every frame, as PLY.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0; see run_all for --frame all.
+
+    Raises
+    ------
+    MirrorscanError
+        When --frame is neither an integer nor 'all', or the output is a batch's record.
+    """
     session = load_session(args.session)
     rig = calibrated_rig(session, args.bounces)
     selection = session.selection
@@ -194,6 +236,31 @@ def run_dense(
     """Carve or fuse the frames from `index` on (mirrorcore.dense) with a progress bar.
 
     Ctrl-C cancels; nothing is written then.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    rig : Rig
+    session : Session
+    index : int
+        The first frame (negative: from the end).
+    background : np.ndarray, shape (H, W), or None
+        Metres.
+    selection : Selection
+        The object's selection.
+    out : Path
+        The PLY file to write.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    MirrorscanError
+        When --frames is below 1 or runs past the session's end.
     """
     count = args.frames if args.method == "tsdf" else 1
     if count < 1:
@@ -251,8 +318,25 @@ def run_dense(
 def run_all(args: argparse.Namespace, out: Path) -> int:
     """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar.
 
-    Ctrl-C stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and exits
-    with 130.
+    Ctrl-C stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and
+    exits with 130.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    int
+        The exit status (see _summary).
+
+    Raises
+    ------
+    MirrorscanError
+        When --frames is not 1.
     """
     if args.frames != 1:
         raise MirrorscanError(
@@ -334,6 +418,7 @@ def _summary(report: BatchReport, verbose: bool) -> int:
 
 
 def _dense_options(args: argparse.Namespace) -> DenseOptions:
+    """The dense options of the command line (metres)."""
     return DenseOptions(
         args.voxel,
         args.margin,

@@ -20,6 +20,13 @@ STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 
 
 def register(sub) -> None:
+    """Add `mirrorscan record` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser(
         "record",
         help="record a depth source (camera, recording, simulator) into a session folder",
@@ -70,6 +77,24 @@ def stop_signals() -> Iterator[list[int]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Record the source into the session folder until Ctrl-C, --seconds or --frames.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0; 130 after Ctrl-C, 128 + the signal after SIGTERM or SIGHUP (the frames
+        recorded are kept).
+
+    Raises
+    ------
+    MirrorscanError
+        When --seconds or --frames is not positive.
+    """
     for name in ("seconds", "frames"):
         if getattr(args, name) is not None and not getattr(args, name) > 0:
             raise MirrorscanError(f"--{name}: must be positive, got {getattr(args, name):g}")

@@ -25,6 +25,13 @@ log = logging.getLogger("mirrorscan")
 
 
 def register(sub) -> None:
+    """Add `mirrorscan serve` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser("serve", help="the browser tool (no arguments: the simulated rig)")
     p.add_argument(
         "session",
@@ -57,9 +64,30 @@ def register(sub) -> None:
 def session_and_source(
     folder: str | None, spec: str | None, bounces: int | None = None
 ) -> tuple[Session, DepthSource, bool]:
-    """(session, source, autosave) for the command's arguments.
+    """The session, the depth source and whether to autosave, for the command's arguments.
 
-    `bounces` (--bounces) becomes the session's setting (saved with its next change).
+    Without a folder: the demo (or `spec`'s source) with a calibrated session kept in memory. A
+    folder with session.json is loaded; an empty or missing one starts an empty session there.
+
+    Parameters
+    ----------
+    folder : str or None
+        The session folder.
+    spec : str or None
+        The depth source spec (--source).
+    bounces : int, optional
+        --bounces: becomes the session's setting (saved with its next change).
+
+    Returns
+    -------
+    session : Session
+    source : DepthSource
+    autosave : bool
+
+    Raises
+    ------
+    MirrorscanError
+        When `folder` is neither a session folder nor empty, or `bounces` is out of range.
     """
     if bounces is not None:
         check_bounces(bounces)
@@ -72,6 +100,7 @@ def session_and_source(
 
 
 def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, DepthSource, bool]:
+    """The session, source and autosave of a folder (or the demo without one)."""
     if folder is None:
         source = demo_source() if spec in (None, "sim") else open_source(spec, None)
         return calibrated_session(source, Path("sessions") / "untitled"), source, False
@@ -89,6 +118,18 @@ def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, 
 
 
 def run(args: argparse.Namespace) -> int:
+    """Serve the browser tool until Ctrl-C, SIGTERM or SIGHUP, then stop the app.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 130 when stopped.
+    """
     logging.basicConfig(
         level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s"
     )

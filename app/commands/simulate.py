@@ -17,6 +17,13 @@ _LAYOUT_OPTIONS = ("object", "angle", "mirrors", "distance", "kaleidoscope")
 
 
 def register(sub) -> None:
+    """Add `mirrorscan simulate` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser(
         "simulate", help="render a session folder with the simulated rig (and truth.json)"
     )
@@ -79,6 +86,23 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Render a session folder with the simulated rig, plus truth.json.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    MirrorscanError
+        When an option is out of range or options contradict each other.
+    """
     mesh = (
         args.object.removeprefix("mesh:")
         if args.object and args.object.startswith("mesh:")

@@ -8,6 +8,13 @@ from mirrorcore.sources import KINDS
 
 
 def register(sub) -> None:
+    """Add `mirrorscan sources` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     p = sub.add_parser(
         "sources",
         help="list the depth sources, their specs, and which are available here",
@@ -18,6 +25,18 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Print each kind of depth source: its spec, what it is, and whether it works here.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+    """
     width = max(len(k.spec) for k in KINDS)
     for kind in KINDS:
         reason = kind.unavailable()

@@ -19,6 +19,13 @@ from . import wording
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add `mirrorscan truth` to the command line; its parser's `run` default is `run`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The `mirrorscan` parser's subcommands.
+    """
     parser = subparsers.add_parser(
         "truth",
         help="compare a simulated session's planes, and a cloud of it, with the simulator's truth",
@@ -47,6 +54,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Print (or with --json write one JSON object of) a simulated session's errors from its truth.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status: 0.
+
+    Raises
+    ------
+    MirrorscanError
+        When the session has no truth file, or no frame --frame.
+    """
     session = load_session(args.session)
     truth = session_truth(session)
     if truth is None:

@@ -28,29 +28,85 @@ INDENT = "  "
 
 @dataclass(frozen=True)
 class Message:
-    """A headline (at most HEADLINE_WORDS words) and the lines of figures behind it."""
+    """A headline (at most HEADLINE_WORDS words) and the lines of figures behind it.
+
+    Attributes
+    ----------
+    headline : str
+        What happened and what to do.
+    details : tuple of str
+        The figures behind it, printed under `-v/--verbose`.
+    """
 
     headline: str
     details: tuple[str, ...] = ()
 
     def lines(self, verbose: bool) -> list[str]:
-        """The headline, then with `verbose` each detail indented by INDENT."""
+        """The headline, then with `verbose` each detail indented by INDENT.
+
+        Parameters
+        ----------
+        verbose : bool
+            Add the details after the headline.
+
+        Returns
+        -------
+        list of str
+            The lines to print.
+        """
         return [self.headline, *(INDENT + d for d in self.details if verbose)]
 
 
 def show(message: Message, verbose: bool, file: TextIO | None = None) -> None:
-    """Print the message's lines (see Message.lines) to `file` (default stdout)."""
+    """Print the message's lines (see Message.lines) to `file`.
+
+    Parameters
+    ----------
+    message : Message
+        What to print.
+    verbose : bool
+        Print its details too.
+    file : TextIO, optional
+        Where to print; stdout by default. Flushed after writing.
+    """
     print("\n".join(message.lines(verbose)), file=file or sys.stdout, flush=True)
 
 
 def plane_figures(abcd) -> str:
-    """The plane's coefficients a, b, c, d (ax + by + cz + d = 0, metres), rounded to 5 decimals."""
+    """The plane's coefficients a, b, c, d, rounded to 5 decimals.
+
+    Parameters
+    ----------
+    abcd : array_like, shape (4,)
+        The plane ax + by + cz + d = 0 (metres).
+
+    Returns
+    -------
+    str
+        The list of the four rounded figures.
+    """
     return str(np.round(np.asarray(abcd, dtype=float), 5).tolist())
 
 
 # ------------------------------------------------------------------------------------- calibrate
 def fitted(name: str, fit: Calibration, marker_names: list[str] | None = None) -> Message:
-    """A plane fitted to a mirror's markers or its region (calibrate --method markers|region)."""
+    """A plane fitted to a mirror's markers or its region (calibrate --method markers|region).
+
+    Parameters
+    ----------
+    name : str
+        The mirror's name.
+    fit : Calibration
+        The fit; without markers it was fitted to the region.
+    marker_names : list of str, optional
+        The markers' names; by default they are numbered from 1.
+
+    Returns
+    -------
+    Message
+        The headline names a marker lying off the plane; the details give the plane, its RMS
+        (mm), the markers' grades, the farthest marker (mm and σ) and the glass (mm).
+    """
     details = [
         f"plane {plane_figures(fit.plane.abcd)}",
         f"RMS {fit.rms_mm:.2f} mm over {fit.n_inliers} of {fit.n_points} points",
@@ -83,9 +139,22 @@ def fitted(name: str, fit: Calibration, marker_names: list[str] | None = None) -
 
 
 def refined(report: MirrorRefinement, searched: bool, saved: bool) -> Message:
-    """A plane refined (or, `searched`, found by calibrate --method scene).
+    """A plane refined, or found by calibrate --method scene.
 
-    `saved`: the glass measured is written (False: the session holds it already).
+    Parameters
+    ----------
+    report : MirrorRefinement
+        What the refinement did to the mirror.
+    searched : bool
+        The plane was found (calibrate --method scene) rather than refined.
+    saved : bool
+        The glass measured is written (False: the session holds it already).
+
+    Returns
+    -------
+    Message
+        Whether the view agrees with the others within the depth noise, then the plane, its move,
+        the agreement before and after (mm), the noise, the 1σ, what was compared and the glass.
     """
     verdict = (
         "it agrees with the other views as well as the depth noise allows."
@@ -154,7 +223,17 @@ def _glass(report: MirrorRefinement, saved: bool) -> str | None:
 
 
 def unchanged(path: Path) -> Message:
-    """A refinement that moved no plane and no glass by more than nothing (Refinement.changed)."""
+    """A refinement that moved no plane and no glass by more than nothing (Refinement.changed).
+
+    Parameters
+    ----------
+    path : Path
+        The session file, not written.
+
+    Returns
+    -------
+    Message
+    """
     return Message(
         "nothing changed: the planes and the glass are already where this object puts them; "
         f"{path} not written.",
@@ -163,9 +242,16 @@ def unchanged(path: Path) -> Message:
 
 
 def markers_unused(names: list[str]) -> Message:
-    """After calibrate --method scene.
+    """After calibrate --method scene: the mirrors found with markers, which set only their glass.
 
-    The mirrors found that have markers, which set only their glass.
+    Parameters
+    ----------
+    names : list of str
+        Those mirrors' names.
+
+    Returns
+    -------
+    Message
     """
     planes = "its plane was" if len(names) == 1 else "their planes were"
     return Message(
@@ -176,7 +262,21 @@ def markers_unused(names: list[str]) -> Message:
 
 # ------------------------------------------------------------------------------------- reconstruct
 def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
-    """One frame's merged cloud (Algorithm 1); counts: {source: points}."""
+    """One frame's merged cloud (Algorithm 1).
+
+    Parameters
+    ----------
+    out : Path
+        The PLY file written.
+    points : int
+        Points in it.
+    counts : dict of int to int
+        {source: points}; source 0 is the direct view, > 0 the mirror views.
+
+    Returns
+    -------
+    Message
+    """
     mirrors = sum(1 for source, points in counts.items() if source > 0 and points)
     return Message(
         f"wrote {out}: {points} points seen directly and in {mirrors} "
@@ -186,7 +286,23 @@ def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
 
 
 def carved_written(out: Path, voxels: int, shape: tuple[int, ...], voxel: float) -> Message:
-    """A carved cloud (reconstruct --method paper|carve)."""
+    """A carved cloud (reconstruct --method paper|carve).
+
+    Parameters
+    ----------
+    out : Path
+        The PLY file written.
+    voxels : int
+        Voxels on the carved surface.
+    shape : tuple of int
+        The volume's shape in voxels.
+    voxel : float
+        A voxel's edge (metres).
+
+    Returns
+    -------
+    Message
+    """
     return Message(
         f"wrote {out}: the carved surface, {voxels} voxels.",
         (f"volume {'x'.join(map(str, shape))} voxels of {voxel * 1e3:g} mm",),
@@ -196,7 +312,25 @@ def carved_written(out: Path, voxels: int, shape: tuple[int, ...], voxel: float)
 def mesh_written(
     out: Path, vertices: int, faces: int, frames: int, shape: tuple[int, ...], voxel: float
 ) -> Message:
-    """A fused mesh (reconstruct --method tsdf)."""
+    """A fused mesh (reconstruct --method tsdf).
+
+    Parameters
+    ----------
+    out : Path
+        The PLY file written.
+    vertices, faces : int
+        The mesh's size.
+    frames : int
+        Frames fused.
+    shape : tuple of int
+        The volume's shape in voxels.
+    voxel : float
+        A voxel's edge (metres).
+
+    Returns
+    -------
+    Message
+    """
     return Message(
         f"wrote {out}: a mesh of {vertices} vertices fused from {frames} frame(s).",
         (f"{faces} faces", f"volume {'x'.join(map(str, shape))} voxels of {voxel * 1e3:g} mm"),
@@ -204,7 +338,19 @@ def mesh_written(
 
 
 def batch_done(report: BatchReport) -> Message:
-    """How a batch (reconstruct --frame all) ended, its failures aside."""
+    """How a batch (reconstruct --frame all) ended, its failures aside.
+
+    Parameters
+    ----------
+    report : BatchReport
+        The batch's outcome.
+
+    Returns
+    -------
+    Message
+        Nothing to do when every frame was there already; else the files written, whether every
+        frame is done, the frame rate and the manifest.
+    """
     if report.complete and not report.written:
         return Message(
             f"nothing to do: the {report.total} frames are in {report.out} already.",
@@ -230,7 +376,19 @@ def batch_done(report: BatchReport) -> Message:
 
 
 def retried(worker: str, frames: list[int]) -> Message:
-    """Frames run again after their worker left the cluster."""
+    """Frames run again after their worker left the cluster.
+
+    Parameters
+    ----------
+    worker : str
+        The worker's address.
+    frames : list of int
+        The frames run again.
+
+    Returns
+    -------
+    Message
+    """
     return Message(
         f"worker {worker} left the cluster: its {len(frames)} frame(s) were run again.",
         ("frames run again: " + ", ".join(map(str, frames)),),
@@ -238,7 +396,19 @@ def retried(worker: str, frames: list[int]) -> Message:
 
 
 def frame_list(frames: list[int], most: int = 10) -> str:
-    """'3, 4, 9' (at most `most`, then '... and N more')."""
+    """'3, 4, 9': at most `most` frames, then ' and N more'.
+
+    Parameters
+    ----------
+    frames : list of int
+        The frame numbers.
+    most : int, optional
+        How many to list.
+
+    Returns
+    -------
+    str
+    """
     shown = ", ".join(map(str, frames[:most]))
     return shown + (f" and {len(frames) - most} more" if len(frames) > most else "")
 
@@ -247,7 +417,18 @@ def frame_list(frames: list[int], most: int = 10) -> str:
 def shape_fitted(fit: ShapeFit, name: str) -> Message:
     """A sphere or a cylinder fitted to a cloud (mirrorscan fit).
 
-    Radius and RMSE, then the errors over all points, the inliers and each source.
+    Parameters
+    ----------
+    fit : ShapeFit
+        The fit.
+    name : str
+        The cloud's name for the headline.
+
+    Returns
+    -------
+    Message
+        Radius and RMSE (mm), then where the shape lies and the errors over all points, the
+        inliers and each source.
     """
     shape = fit.shape
     where = (
@@ -274,6 +455,7 @@ def shape_fitted(fit: ShapeFit, name: str) -> Message:
 
 
 def _errors(errors: FitErrors) -> str:
+    """One row of errors: points, RMSE, mean error and mean absolute error (mm)."""
     return (
         f"{errors.points:>7} points  RMSE {1e3 * errors.rmse:7.2f} mm  mean error "
         f"{1e3 * errors.mean_error:+7.2f} mm  mean |error| {1e3 * errors.mean_abs_error:6.2f} mm"
@@ -281,7 +463,18 @@ def _errors(errors: FitErrors) -> str:
 
 
 def plane_error(error: PlaneError) -> Message:
-    """A plane against the simulator's truth (mirrorscan truth)."""
+    """A plane against the simulator's truth (mirrorscan truth).
+
+    Parameters
+    ----------
+    error : PlaneError
+        The plane's offset (mm) and tilt (degrees) from the true plane and its glass; no offset
+        when the mirror has no plane yet.
+
+    Returns
+    -------
+    Message
+    """
     glass = f"glass {error.glass_mm:.1f} mm (true {error.true_glass_mm:.1f} mm)"
     if error.offset_mm is None:
         return Message(f"{error.name}: no plane yet; {glass}.")
@@ -293,7 +486,19 @@ def plane_error(error: PlaneError) -> Message:
 
 
 def surface_error(error: SurfaceError, cloud: str) -> Message:
-    """A cloud's distances to the objects' true surfaces (mirrorscan truth --cloud)."""
+    """A cloud's distances to the objects' true surfaces (mirrorscan truth --cloud).
+
+    Parameters
+    ----------
+    error : SurfaceError
+        RMSE, mean and 95th percentile (mm) over the points.
+    cloud : str
+        The cloud's name for the headline.
+
+    Returns
+    -------
+    Message
+    """
     return Message(
         f"{cloud}: RMSE {error.rmse_mm:.2f} mm to the true surface over {error.points:,} points.",
         (f"mean {error.mean_mm:.2f} mm, 95 % within {error.p95_mm:.2f} mm",),

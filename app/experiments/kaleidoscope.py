@@ -71,8 +71,19 @@ def experiment_scenes() -> list[tuple[float, Scene]]:
 def run_trial(scene: Scene, seed: int, noise: str = "kinect") -> dict[str, float]:
     """One frame of `scene` through the whole pipeline, through 3 and through 1 mirror.
 
-    Returns the figures of COLUMNS (besides parameter and seed); errors in mm, NaN for a kind of
-    view with no point.
+    Parameters
+    ----------
+    scene : Scene
+    seed : int
+        The simulator's seed.
+    noise : str, optional
+        The sensor model's name.
+
+    Returns
+    -------
+    dict of str to float
+        The figures of COLUMNS (besides parameter and seed); errors in mm, NaN for a kind of view
+        with no point.
     """
     sim = Simulator(scene, SensorModel.from_name(noise), seed)
     frame, background = sim.frame(0), sim.background().depth
@@ -104,11 +115,24 @@ def run_trial(scene: Scene, seed: int, noise: str = "kinect") -> dict[str, float
 
 
 def _rms_mm(deviations: np.ndarray) -> float:
+    """RMS of deviations (metres) in mm; NaN for none."""
     return float(1e3 * np.sqrt(np.mean(deviations**2))) if len(deviations) else float("nan")
 
 
 def run_kaleidoscope(seeds: int, progress: bool = True) -> list[dict[str, float]]:
-    """Rows (one per angle and seed, keys COLUMNS) of the experiment."""
+    """The experiment's rows, one per angle and seed, keys COLUMNS.
+
+    Parameters
+    ----------
+    seeds : int
+        Seeds per angle.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    list of dict
+    """
     trials = [(p, scene, s) for p, scene in experiment_scenes() for s in range(seeds)]
     return [
         {"parameter": p, "seed": float(s), **run_trial(scene, s)}
@@ -131,6 +155,12 @@ def plot_kaleidoscope(rows: list[dict[str, float]], path) -> None:
     standard deviation band over seeds; a value far above the others is written at the top); right,
     the share of points seen through several mirrors, the cloud's growth against one bounce and the
     ghosts.
+
+    Parameters
+    ----------
+    rows : list of dict
+        As run_kaleidoscope gives them.
+    path : str or Path
     """
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend

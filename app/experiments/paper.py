@@ -77,14 +77,34 @@ REFINE_FRAMES = 3
 
 
 def true_shape(obj: SceneObject) -> Sphere | Cylinder:
-    """The analytic shape of a scene's sphere or cylinder."""
+    """The analytic shape of a scene's sphere or cylinder.
+
+    Parameters
+    ----------
+    obj : SceneObject
+
+    Returns
+    -------
+    Sphere or Cylinder
+    """
     if obj.type == "sphere":
         return Sphere(tuple(obj.centre), obj.radius)
     return Cylinder(tuple(obj.centre), tuple(obj.axis), obj.radius)
 
 
 def run_trial(scene: Scene, seed: int) -> dict[str, float]:
-    """The fit's figures of one noisy Kinect frame of `scene` (a sphere or a cylinder)."""
+    """The fit's figures of one noisy Kinect frame of `scene` (a sphere or a cylinder).
+
+    Parameters
+    ----------
+    scene : Scene
+    seed : int
+        The simulator's seed.
+
+    Returns
+    -------
+    dict of str to float
+    """
     sim = Simulator(scene, SensorModel.kinect_v1(), seed)
     frame, background = sim.frame(0), sim.background().depth
     rng = np.random.default_rng(seed)
@@ -129,6 +149,16 @@ def glass_trial(scene: Scene, seed: int) -> dict[str, float]:
     The raw cloud's RMSE to the true shape (mm) from the markers alone, then after the refinement
     (NaN when the refinement refuses: at 140 degrees and more the sphere hides what the mirrors and
     the camera would both see).
+
+    Parameters
+    ----------
+    scene : Scene
+    seed : int
+        The simulator's seed.
+
+    Returns
+    -------
+    dict of str to float
     """
     sim = Simulator(scene.with_markers(*GLASS), SensorModel.kinect_v1(), seed)
     frames, background = [sim.frame(i).depth for i in range(REFINE_FRAMES)], sim.background().depth
@@ -153,9 +183,16 @@ def glass_trial(scene: Scene, seed: int) -> dict[str, float]:
 
 
 def experiment_scenes(name: str) -> list[tuple[float, Scene]]:
-    """'angle' -> (angle, sphere scene) pairs.
+    """The scenes of an experiment.
 
-    'distance' -> (mirror distance, cylinder scene) pairs.
+    Parameters
+    ----------
+    name : str
+        'angle': (angle, sphere scene) pairs; 'distance': (mirror distance, cylinder scene) pairs.
+
+    Returns
+    -------
+    list of (float, Scene)
     """
     if name == "angle":
         return [(float(a), paper_scene(angle_deg=a, object="sphere", distance=2.0)) for a in ANGLES]
@@ -166,7 +203,21 @@ def experiment_scenes(name: str) -> list[tuple[float, Scene]]:
 
 
 def run_experiment(name: str, seeds: int, progress: bool = True) -> list[dict[str, float]]:
-    """Rows (one per parameter and seed, keys COLUMNS) of experiment 'angle' or 'distance'."""
+    """The rows of experiment 'angle' or 'distance', one per parameter and seed, keys COLUMNS.
+
+    Parameters
+    ----------
+    name : str
+        'angle' or 'distance'.
+    seeds : int
+        Seeds per parameter.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    list of dict
+    """
     trials = [(p, scene, s) for p, scene in experiment_scenes(name) for s in range(seeds)]
     return [
         {"parameter": p, "seed": float(s), **run_trial(scene, s)}
@@ -178,6 +229,14 @@ def plot_experiment(name: str, rows: list[dict[str, float]], path) -> None:
     """Write the PNG of the PLOTTED errors against the parameter to `path`.
 
     Each error is drawn as its mean over seeds (line) and standard deviation (band).
+
+    Parameters
+    ----------
+    name : str
+        'angle' or 'distance'.
+    rows : list of dict
+        As run_experiment gives them.
+    path : str or Path
     """
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend

@@ -40,9 +40,17 @@ DISTANCE = {"sphere": 2.0, "figure": 3.0}  # metres, as in tests/cli/test_calibr
 class BiasRow:
     """One sensor's refinements from the truth, one frame each.
 
-    Per mirror (two), the mean and the spread (std over frames) of the plane's error at the object
-    (mm, > 0 away from the camera), the 1-sigma the refinement reported (mean over frames, mm), and
-    the correlation of the two mirrors' errors over frames.
+    Attributes
+    ----------
+    sensor : str
+    frames : int
+    mean_mm, spread_mm : tuple of float
+        Per mirror (two), the mean and the spread (std over frames) of the plane's error at the
+        object (mm, > 0 away from the camera).
+    reported_mm : float
+        The 1-sigma the refinement reported (mean over frames, mm).
+    correlation : float
+        The correlation of the two mirrors' errors over frames.
     """
 
     sensor: str
@@ -54,10 +62,23 @@ class BiasRow:
 
 
 def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.ndarray:
-    """(len(frames), 2 mirrors, 2) float.
+    """Each frame's refinement from the true planes: the offset error and the reported 1-sigma.
 
-    Each frame's refinement from the true planes -> (offset error mm, reported 1-sigma mm) per
-    mirror.
+    Parameters
+    ----------
+    obj : str
+        The scene's object, a key of DISTANCE.
+    sensor : str
+        A key of SENSORS.
+    seed : int
+        The simulator's seed.
+    frames : range
+        The frames, one refinement each.
+
+    Returns
+    -------
+    np.ndarray, shape (len(frames), 2, 2)
+        Per frame and mirror: (offset error mm, reported 1-sigma mm).
     """
     scene = paper_scene(object=obj, distance=DISTANCE[obj])
     sim, rig = Simulator(scene, SENSORS[sensor], seed=seed), true_rig(scene)
@@ -80,6 +101,22 @@ def errors_from_truth(obj: str, sensor: str, seed: int, frames: range) -> np.nda
 
 
 def bias_row(obj: str, sensor: str, seed: int, frames: int) -> BiasRow:
+    """One sensor's refinements from the truth, one frame each, as a BiasRow.
+
+    Parameters
+    ----------
+    obj : str
+        The scene's object.
+    sensor : str
+    seed : int
+        The simulator's seed.
+    frames : int
+
+    Returns
+    -------
+    BiasRow
+        Spread NaN for one frame, correlation NaN for two or fewer.
+    """
     found = errors_from_truth(obj, sensor, seed, range(frames))
     spread = found[:, :, 0].std(axis=0, ddof=1) if frames > 1 else np.full(2, np.nan)
     correlation = (
@@ -96,6 +133,13 @@ def bias_row(obj: str, sensor: str, seed: int, frames: int) -> BiasRow:
 
 
 def main(argv=None) -> None:
+    """The command line: print a BiasRow per sensor.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; sys.argv's by default.
+    """
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--object", choices=sorted(DISTANCE), default="sphere")
     p.add_argument("--seed", type=int, default=1)

@@ -79,7 +79,21 @@ def run_temporal_experiment(
 ) -> list[dict]:
     """Rows (keys COLUMNS), one per frame and part, of `frames` frames (30: one stride).
 
-    Each frame is smoothed with `neighbours` frames on each side; the camera is 640x480 * scale.
+    Parameters
+    ----------
+    neighbours : int, optional
+        Each frame is smoothed with this many frames on each side.
+    frames : int, optional
+    scale : float, optional
+        The camera is 640x480 * scale.
+    seed : int
+        The simulator's seed.
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    list of dict
     """
     scene = paper_scene(object="figure", distance=3.0, camera=Intrinsics.kinect_v1().scaled(scale))
     sim = Simulator(scene, seed=seed)
@@ -108,7 +122,18 @@ def run_temporal_experiment(
 
 
 def summary(rows: list[dict]) -> dict[str, dict[str, float]]:
-    """Per part: the median RMSE over frames without and with smoothing (mm), its change (%)."""
+    """Per part: the median RMSE over frames without and with smoothing (mm), and its change (%).
+
+    Parameters
+    ----------
+    rows : list of dict
+        As run_temporal_experiment gives them.
+
+    Returns
+    -------
+    dict of str to dict
+        {part: {'rmse_mm', 'temporal_rmse_mm', 'change_pct'}}.
+    """
     out = {}
     for part in PARTS:
         before = np.median([r["rmse_mm"] for r in rows if r["part"] == part])
@@ -122,7 +147,16 @@ def summary(rows: list[dict]) -> dict[str, dict[str, float]]:
 
 
 def plot_temporal(rows: list[dict], neighbours: int, path: str | Path) -> None:
-    """PNG of the per-frame RMSE with and without smoothing, still and moving parts."""
+    """Write the PNG of the per-frame RMSE with and without smoothing, still and moving parts.
+
+    Parameters
+    ----------
+    rows : list of dict
+        As run_temporal_experiment gives them.
+    neighbours : int
+        The smoothing's neighbours, for the legend.
+    path : str or Path
+    """
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # after choosing the headless backend
 

@@ -44,8 +44,17 @@ __all__ = [
 class Jobs(
     DenseJob, BackgroundJob, RecordingJob, BatchJob, RefinementJob, AgreementJob, HeatJob, Runner
 ):
-    """The shared jobs of one app: `loop` gives the frames, `snapshot()` the consistent state, `bus`
-    carries their progress and results."""
+    """The shared jobs of one app.
+
+    Parameters
+    ----------
+    loop : LiveLoop
+        Gives the frames.
+    snapshot : callable
+        Returns the consistent state (Snapshot).
+    bus : EventBus
+        Carries their progress and results.
+    """
 
     def __init__(self, loop: "LiveLoop", snapshot: Callable[[], "Snapshot"], bus: EventBus):
         Runner.__init__(self, bus)

@@ -27,18 +27,32 @@ MARKERS_FIT = 3  # the markers a plane from markers has
 
 
 class AgreementJob(Runner):
-    """The views' agreement (Jobs mixes it in): `agreement` the last report (a tab opening later
-    shows it), `disagreeing` the names of the mirrors it flags."""
+    """The views' agreement (Jobs mixes it in).
+
+    Attributes
+    ----------
+    agreement : AgreementReport or None
+        The last report (a tab opening later shows it).
+    disagreeing : tuple of str
+        The names of the mirrors it flags.
+    """
 
     agreement: AgreementReport | None = None
     disagreeing: tuple[str, ...] = ()
 
     def start_agreement(self, depths: np.ndarray | None = None) -> None:
-        """How well each mirror's view agrees with the others over frames (view_agreement; depths
-        (k, H, W) or (H, W) metres, the last AGREEMENT_FRAMES of them; None: the last live frames),
-        with the current session's planes and selection. While one runs, none is started: the
+        """How well each mirror's view agrees with the others over frames (view_agreement).
+
+        With the current session's planes and selection. While one runs, none is started: the
         running one checks again when the rig or the background changed meanwhile, so that its
-        report is always the current planes'. Safe from any thread."""
+        report is always the current planes'. Safe from any thread.
+
+        Parameters
+        ----------
+        depths : np.ndarray, shape (k, H, W) or (H, W), optional
+            Metres; the last AGREEMENT_FRAMES of them are used. None: the last live frames (nothing
+            is started before the first).
+        """
         depths = self.loop.recent_depths() if depths is None else np.asarray(depths)
         if depths is None:
             return
@@ -78,15 +92,19 @@ class AgreementJob(Runner):
             pass
 
     def _by_markers(self, mirror) -> bool:
-        """Whether a mirror's plane comes from its markers (3 or more, and not a plane this app
-        found or refined from the object): what the agreement's advice may send the technician back
-        to."""
+        """Whether a mirror's plane comes from its markers (what the advice may send one back to).
+
+        From 3 or more markers, and not a plane this app found or refined from the object.
+        """
         return len(mirror.markers) >= MARKERS_FIT and not self.from_object(mirror.id, mirror.plane)
 
 
 def _same_views(a: "Snapshot", b: "Snapshot") -> bool:
-    """Whether two snapshots give the same clouds: the same rig (a Snapshot keeps the one before
-    when the camera and the mirrors are unchanged), background and selection."""
+    """Whether two snapshots give the same clouds.
+
+    The same rig (a Snapshot keeps the one before when the camera and the mirrors are unchanged),
+    background and selection.
+    """
     return (
         a.rig is b.rig and a.backdrop is b.backdrop and a.session.selection == b.session.selection
     )

@@ -19,8 +19,20 @@ class BackgroundJob(Runner):
     def capture_background(
         self, n_frames: int, on_done: Callable[[np.ndarray], bool]
     ) -> threading.Thread:
-        """The per-pixel median of the next n_frames frames, handed to on_done(depth (H, W) metres),
-        which returns whether it waits for the technician's confirmation."""
+        """The per-pixel median of the next `n_frames` frames, handed to on_done.
+
+        Parameters
+        ----------
+        n_frames : int
+        on_done : callable
+            Called with the median depth, (H, W) metres; returns whether it waits for the
+            technician's confirmation.
+
+        Returns
+        -------
+        threading.Thread
+            The job's thread.
+        """
 
         def work(cancel: threading.Event) -> BackgroundCaptured:
             frames = self.loop.collect(

@@ -18,18 +18,46 @@ POLL_S = 0.2  # seconds between two looks at a cancel request
 
 
 class BatchJob(Runner):
-    """Batch reconstruction (Jobs mixes it in); `batch_settings`: the last batch's method, temporal,
-    workers."""
+    """Batch reconstruction (Jobs mixes it in).
+
+    Attributes
+    ----------
+    batch_settings : tuple or None
+        The last batch's method, temporal and workers.
+    """
 
     batch_settings: tuple[str, int, int] | None = None
 
     def start_batch(
         self, session: Session, method: str, options: DenseOptions, temporal: int, workers: int
     ) -> Path:
-        """Reconstruct every frame of a saved recording into SESSION/exports/frames-
-        METHOD[-temporalN] (one PLY per frame and a manifest), on `workers` local processes (1: in
-        this process); a second start of the same job goes on where it stopped. Returns the output
-        folder."""
+        """Reconstruct every frame of a saved recording, as a job of its own.
+
+        Into SESSION/exports/frames-METHOD[-temporalN], one PLY per frame and a manifest; a second
+        start of the same job goes on where it stopped.
+
+        Parameters
+        ----------
+        session : Session
+            A saved session with frames.
+        method : str
+            The dense method.
+        options : DenseOptions
+        temporal : int
+            Neighbours each frame is smoothed with.
+        workers : int
+            Local processes (1: in this process).
+
+        Returns
+        -------
+        Path
+            The output folder.
+
+        Raises
+        ------
+        MirrorscanError
+            When the session is not saved or has no frames, or a batch is running.
+        """
         if not session.frames or not (Path(session.root) / SESSION_FILE).is_file():
             raise MirrorscanError(
                 "a batch reads a saved session with frames: record one (or Save as) first"
@@ -46,6 +74,7 @@ class BatchJob(Runner):
         return out
 
     def _batch(self, job: LibraryBatch, where: Where, cancel: threading.Event) -> BatchReport:
+        """Run the batch, publishing its progress, until it ends or `cancel` is set."""
         self.progress(BATCH, 0.0, BatchStarting(job.method))
         run = BatchRun(job, where, on_progress=lambda p: self.progress(BATCH, p.fraction, p))
         run.start()

@@ -19,8 +19,18 @@ from .runner import DENSE, Runner
 
 
 def unplaned(session: Session) -> tuple[str, ...]:
-    """The names of the mirrors with an outline and no plane: a cloud of the session leaves out what
-    is seen inside their outlines."""
+    """The names of the mirrors with an outline and no plane.
+
+    A cloud of the session leaves out what is seen inside their outlines.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    tuple of str
+    """
     return tuple(m.name for m in session.mirrors if m.boundary and m.plane is None)
 
 
@@ -30,7 +40,26 @@ class DenseJob(Runner):
     dense_result: DenseResult | None = None
 
     def start_dense(self, method: str, options: DenseOptions, frames: int) -> threading.Thread:
-        """Carve or fuse the last `frames` frames (1 for carving) with the current calibration."""
+        """Carve or fuse the last `frames` frames with the current calibration.
+
+        Parameters
+        ----------
+        method : str
+            The dense method.
+        options : DenseOptions
+        frames : int
+            1 for carving.
+
+        Returns
+        -------
+        threading.Thread
+            The job's thread.
+
+        Raises
+        ------
+        MirrorscanError
+            Before the first frame, or while a dense reconstruction runs.
+        """
         depths = self.loop.recent_depths()
         if depths is None:
             raise MirrorscanError("no frame yet")
@@ -50,6 +79,7 @@ class DenseJob(Runner):
         options: DenseOptions,
         cancel: threading.Event,
     ) -> DenseResult:
+        """Carve or fuse the frames with the snapshot's rig; keep and publish the result."""
         self.progress(DENSE, 0.0, DenseWork(method, len(depths)))
         prepared = [
             prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection)

@@ -20,8 +20,8 @@ if TYPE_CHECKING:
 
 HEAT_LIMIT_MM = 10.0  # the heat map's colours saturate at this distance to the direct surface
 # heat maps whose distances the legend's figures pool: on the sphere at the true planes one frame's
-# median
-# spreads by 0.5 mm, ten frames' by 0.1 to 0.2 mm (tests/test_app_live.py, the heat map's pool)
+# median spreads by 0.5 mm, ten frames' by 0.1 to 0.2 mm (tests/test_app_live.py, the heat map's
+# pool)
 HEAT_POOL = 10
 
 
@@ -33,10 +33,17 @@ class HeatJob(Runner):
     _heat_pool: dict[int, tuple[np.ndarray, np.ndarray]]
 
     def start_heat(self, frame: "LiveFrame") -> None:
-        """The heat map of one live frame, on a worker: its points, grey for the direct view and
-        coloured by their distance to the direct surface for the mirrors' (white on it, red outside,
-        blue inside, HEAT_LIMIT_MM and beyond saturated; dark grey where the camera does not see
-        them), and each mirror view's figures, published as HeatChanged; skipped while one runs."""
+        """The heat map of one live frame, on a worker; skipped while one runs.
+
+        Its points, grey for the direct view and coloured by their distance to the direct surface
+        for the mirrors' (white on it, red outside, blue inside, HEAT_LIMIT_MM and beyond saturated;
+        dark grey where the camera does not see them), and each mirror view's figures, published as
+        HeatChanged.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        """
         if self.running(HEAT):
             return
 
@@ -61,8 +68,19 @@ class HeatJob(Runner):
         self._start(HEAT, work, "")
 
     def heat_wanted(self, frame: "LiveFrame") -> bool:
-        """Whether a heat map of `frame` adds to the legend's pool: not when the pool, not yet full,
-        has this frame of a replay with these planes. A live camera's frames are all new."""
+        """Whether a heat map of `frame` adds to the legend's pool.
+
+        Not when the pool, not yet full, has this frame of a replay with these planes. A live
+        camera's frames are all new.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+
+        Returns
+        -------
+        bool
+        """
         count = self.loop.source.frame_count
         if not count or frame.snapshot.rig is not self._heat_rig:
             return True
@@ -73,9 +91,11 @@ class HeatJob(Runner):
     def _pool_heat(
         self, rig, number: int, distances: np.ndarray, sources: np.ndarray
     ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The (distances, sources) of the heat maps of the last HEAT_POOL frames with the same
-        planes, this one (frame `number`, as the header counts it) last. A frame met again takes its
-        place anew; a new calibration starts a new pool."""
+        """The (distances, sources) of the last HEAT_POOL frames' heat maps with the same planes.
+
+        This one (frame `number`, as the header counts it) last. A frame met again takes its place
+        anew; a new calibration starts a new pool.
+        """
         if self._heat_rig is not rig:
             self._heat_rig, self._heat_pool = rig, {}
         self._heat_pool.pop(number, None)

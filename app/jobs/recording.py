@@ -26,9 +26,25 @@ class RecordingJob(Runner):
     _tap: LiveTap | None = None
 
     def start_recording(self, sessions_dir: Path) -> Path:
-        """Record the live frames into a new session folder in `sessions_dir` (a name of its own
-        even when two recordings start in the same second); stop_recording() saves it with the
-        session's mirrors and selection as they are then. Returns the folder."""
+        """Record the live frames into a new session folder in `sessions_dir`.
+
+        The folder gets a name of its own even when two recordings start in the same second;
+        stop_recording() saves it with the session's mirrors and selection as they are then.
+
+        Parameters
+        ----------
+        sessions_dir : Path
+
+        Returns
+        -------
+        Path
+            The folder.
+
+        Raises
+        ------
+        MirrorscanError
+            While a recording runs.
+        """
         with self._lock:
             if RECORD in self._running:
                 raise MirrorscanError("already recording; stop first")
@@ -73,7 +89,23 @@ class RecordingJob(Runner):
         )
 
     def stop_recording(self, current: Session) -> Session:
-        """End the recording and save it with the `current` session's mirrors and selection."""
+        """End the recording and save it with the `current` session's mirrors and selection.
+
+        Parameters
+        ----------
+        current : Session
+            The session being edited.
+
+        Returns
+        -------
+        Session
+            The recording, saved.
+
+        Raises
+        ------
+        MirrorscanError
+            When no recording runs.
+        """
         with self._lock:
             if RECORD not in self._running or self.recorder is None or self._tap is None:
                 raise MirrorscanError("not recording")

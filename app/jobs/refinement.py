@@ -37,7 +37,17 @@ BUSY = "a refinement is already running"
 
 
 def planes_key(session: Session) -> tuple:
-    """What a calibration leaves: each mirror's id and plane (undo and redo find reports by it)."""
+    """What a calibration leaves: each mirror's id and plane (undo and redo find reports by it).
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    tuple
+        ((mirror id, plane), ...) in session order.
+    """
     return tuple((m.id, m.plane) for m in session.mirrors)
 
 
@@ -46,9 +56,12 @@ class RefinementJob(Runner):
 
     Attributes
     ----------
-    refinements : each calibration's report, by the planes it left (planes_key).
-    fits : each markers fit's report, by the planes it left.
-    refused : mirror id -> "refine" or "scene", refused on it until one succeeds.
+    refinements : dict of tuple to CalibrationReport
+        Each calibration's report, by the planes it left (planes_key).
+    fits : dict of tuple to FitsApplied
+        Each markers fit's report, by the planes it left.
+    refused : dict of int to str
+        Mirror id -> "refine" or "scene", refused on it until one succeeds.
     """
 
     refinements: dict[tuple, CalibrationReport]
@@ -60,27 +73,68 @@ class RefinementJob(Runner):
     _refused_on: dict[int, tuple]
 
     def from_object(self, mirror_id: int, plane: Plane | None) -> bool:
-        """Whether a refinement or search of this app gave mirror `mirror_id` this plane, or left it
-        as it was (a mirror held while the others were found keeps its own)."""
+        """Whether a refinement or search of this app gave the mirror this plane, or left it.
+
+        A mirror held as it was while the others were found keeps its own.
+
+        Parameters
+        ----------
+        mirror_id : int
+        plane : Plane or None
+
+        Returns
+        -------
+        bool
+        """
         return plane is not None and (mirror_id, plane) in self._object_planes
 
     def refusals(self, session: Session) -> dict[int, str]:
-        """{mirror id: 'refine' or 'scene'}: what was refused lately on a mirror whose boundary and
-        markers are still as they were then."""
+        """What was refused lately on mirrors whose boundary and markers are as they were then.
+
+        Parameters
+        ----------
+        session : Session
+            The session as it is.
+
+        Returns
+        -------
+        dict of int to str
+            {mirror id: 'refine' or 'scene'}.
+        """
         now = {m.id: (m.boundary, m.markers) for m in session.mirrors}
         return {
             i: kind for i, kind in self.refused.items() if now.get(i) == self._refused_on.get(i)
         }
 
     def report(self, key: tuple) -> CalibrationReport | FitsApplied | None:
-        """The report of the calibration or markers fit that left the planes `key` (planes_key), or
-        None."""
+        """The report of the calibration or markers fit that left the planes `key`.
+
+        Parameters
+        ----------
+        key : tuple
+            As planes_key gives it.
+
+        Returns
+        -------
+        CalibrationReport, FitsApplied or None
+        """
         return self.refinements.get(key) or self.fits.get(key)
 
     def start_refine(self, editor: "SessionEditor") -> threading.Thread:
-        """Refine the planes of the session's calibrated mirrors from the agreement of the views
-        (refine_session) over object_frames, then apply the planes and marker offsets (one undo step
-        per mirror); the job's result is a CalibrationReport."""
+        """Refine the planes of the session's calibrated mirrors from the agreement of the views.
+
+        refine_session over object_frames, then the planes and marker offsets are applied (one undo
+        step per mirror); the job's result is a CalibrationReport.
+
+        Parameters
+        ----------
+        editor : SessionEditor
+
+        Returns
+        -------
+        threading.Thread
+            The job's thread.
+        """
         depths, used = self.object_frames()
         session, snapshot = editor.session, self.snapshot()
         return self._start(
@@ -90,10 +144,26 @@ class RefinementJob(Runner):
         )
 
     def start_scene(self, editor: "SessionEditor") -> threading.Thread:
-        """Find the planes of the mirrors that have a boundary and no plane, without markers
-        (calibrate_scene: a search in the first of object_frames, then the refinement over all of
-        them, the other calibrated mirrors taking part as they are), and apply them as start_refine
-        does."""
+        """Find the planes of the mirrors that have a boundary and no plane, without markers.
+
+        calibrate_scene: a search in the first of object_frames, then the refinement over all of
+        them, the other calibrated mirrors taking part as they are; the planes are applied as
+        start_refine does.
+
+        Parameters
+        ----------
+        editor : SessionEditor
+
+        Returns
+        -------
+        threading.Thread
+            The job's thread.
+
+        Raises
+        ------
+        MirrorscanError
+            When no mirror has a boundary and no plane.
+        """
         session = editor.session
         todo = [i for i, m in enumerate(session.mirrors) if m.boundary and m.plane is None]
         if not todo:
@@ -110,11 +180,18 @@ class RefinementJob(Runner):
         )
 
     def marker_frames(self) -> np.ndarray | None:
-        """The frames the markers are read on: the background and MAX_MARKER_FRAMES frames spread
-        over the recording that plays (the same whenever it is clicked, as `mirrorscan calibrate`
-        reads them; read once per recording), else the last live frames with the background in use,
-        both without what passes in front of it (static_frames), or None before the first. (k, H, W)
-        float32 metres."""
+        """The frames the markers are read on.
+
+        The background and MAX_MARKER_FRAMES frames spread over the recording that plays (the same
+        whenever it is clicked, as `mirrorscan calibrate` reads them; read once per recording), else
+        the last live frames with the background in use, both without what passes in front of it
+        (static_frames).
+
+        Returns
+        -------
+        np.ndarray, shape (k, H, W), float32, or None
+            Metres; None before the first frame.
+        """
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             session = source.session
@@ -131,13 +208,22 @@ class RefinementJob(Runner):
         return self._live_marker_frames()
 
     def _live_marker_frames(self) -> np.ndarray | None:
+        """The last live frames without what passes in front of the background, or None."""
         recent = self.loop.recent_depths()
         return None if recent is None else static_frames(recent, self.snapshot().background)
 
     def object_frames(self) -> tuple[np.ndarray, FramesUsed]:
-        """The frames a calibration from the object uses, and which they are: REFINE_FRAMES spread
-        over the recording that plays (as `mirrorscan calibrate` picks them), else the last live
-        frames. (k, H, W) float32 metres."""
+        """The frames a calibration from the object uses, and which they are.
+
+        REFINE_FRAMES spread over the recording that plays (as `mirrorscan calibrate` picks them),
+        else the last live frames.
+
+        Returns
+        -------
+        depths : np.ndarray, shape (k, H, W), float32
+            Metres.
+        used : FramesUsed
+        """
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)
@@ -149,8 +235,10 @@ class RefinementJob(Runner):
         return depths, FramesUsed(tuple(range(len(depths))))
 
     def _refuse(self, session: Session, ids: list[int], kind: str) -> None:
-        """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are
-        (refusals)."""
+        """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are.
+
+        See refusals.
+        """
         self.refused.update(dict.fromkeys(ids, kind))
         self._refused_on.update(
             {m.id: (m.boundary, m.markers) for m in session.mirrors if m.id in ids}
@@ -166,8 +254,10 @@ class RefinementJob(Runner):
         cancel: threading.Event,
         search: list[int] | None,
     ) -> CalibrationReport | CalibrationRefused:
-        """Refine the calibrated planes (search None), or find those of the mirrors at `search`
-        (0-based)."""
+        """Refine the calibrated planes, or find those of the mirrors at `search`.
+
+        `search` is None for a refinement, else 0-based mirror indices.
+        """
         self.progress(REFINE, 0.0, CalibrationWork(search is not None, used))
         masks = np.stack(
             [

@@ -21,7 +21,13 @@ REFINE, AGREEMENT, HEAT = "refine", "agreement", "heat"
 
 
 class Runner:
-    """Runs one job of each kind at a time; starting a kind while one runs is refused by name."""
+    """Runs one job of each kind at a time; starting a kind while one runs is refused by name.
+
+    Parameters
+    ----------
+    bus : EventBus
+        Carries the jobs' progress and results.
+    """
 
     def __init__(self, bus: EventBus):
         self.bus = bus
@@ -31,27 +37,54 @@ class Runner:
         self._lock = threading.Lock()
 
     def running(self, kind: str) -> bool:
-        """Whether a job of `kind` runs."""
+        """Whether a job of `kind` runs.
+
+        Parameters
+        ----------
+        kind : str
+
+        Returns
+        -------
+        bool
+        """
         with self._lock:
             return kind in self._running
 
     def cancel(self, kind: str) -> None:
-        """Ask the job of `kind` that runs, if any, to stop."""
+        """Ask the job of `kind` that runs, if any, to stop.
+
+        Parameters
+        ----------
+        kind : str
+        """
         with self._lock:
             event = self._running.get(kind)
         if event is not None:
             event.set()
 
     def progress(self, kind: str, fraction: float | None, result: object) -> None:
-        """Publish how a job stands: `result` typed, its words (wording.jobs.status) beside it."""
+        """Publish how a job stands (JobProgress): `result` typed, and its words beside it.
+
+        The words are wording.jobs.status of the result.
+
+        Parameters
+        ----------
+        kind : str
+        fraction : float or None
+            The fraction done, if known.
+        result : object
+            The typed progress or result.
+        """
         self.bus.publish(JobProgress(kind, fraction, status(result), result))
 
     def _start(
         self, kind: str, work: Callable[[threading.Event], object], busy: str
     ) -> threading.Thread:
-        """Run work(cancel) on a thread of its own. Its typed result (or Refused, Failed, Cancelled)
-        is published once the job is over, so that a button enabled by it can start the next one at
-        once; a result of None publishes nothing. `busy`: the refusal while one of `kind` runs."""
+        """Run work(cancel) on a thread of its own; refused with `busy` while one of `kind` runs.
+
+        Its typed result (or Refused, Failed, Cancelled) is published once the job is over, so that
+        a button enabled by it can start the next one at once; a result of None publishes nothing.
+        """
         with self._lock:
             if kind in self._running:
                 raise MirrorscanError(busy)
@@ -82,8 +115,14 @@ class Runner:
         return thread
 
     def stop(self, timeout: float = 10.0) -> None:
-        """Cancel every running job and wait up to `timeout` seconds in all for them to end (a job
-        left in native code when the process exits aborts it)."""
+        """Cancel every running job and wait up to `timeout` seconds in all for them to end.
+
+        A job left in native code when the process exits aborts it.
+
+        Parameters
+        ----------
+        timeout : float, optional
+        """
         with self._lock:
             events, threads = list(self._running.values()), list(self._threads.values())
         for event in events:

@@ -31,6 +31,13 @@ METHODS = {
 
 
 class DensePanel:
+    """Step 4, "Dense": carve or fuse the object, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -105,19 +112,24 @@ class DensePanel:
             unsubscribe()
 
     def _around_frame(self, event: FrameReady) -> None:
-        """While the box follows the cloud, put it around the first frame's cloud, and around the
-        next one after the calibration changed (the mirrors' points come into place: the box shrinks
-        to the object)."""
+        """While the box follows the cloud, put it around the cloud at the right frames.
+
+        Around the first frame's cloud, and around the next one after the calibration changed (the
+        mirrors' points come into place: the box shrinks to the object).
+        """
         if self._follow and self._refit and len(event.frame.cloud):
             self._refit = False
             self.box_around_cloud()
 
     def _session_changed(self, event: SessionChanged) -> None:
+        """Fit the box to the next frame's cloud again, while the box follows the cloud."""
         self._refit = self._follow
 
     def _source_changed(self, event: LoopChanged) -> None:
-        """A dense result is hidden while another source than the one whose frames it was made of
-        plays, said under Run, and shown again when its source plays again."""
+        """Hide a dense result while another source than its own plays, and show it again after.
+
+        Its own source is the one whose frames it was made of; the hiding is said under Run.
+        """
         result = self.services.jobs.dense_result
         if result is None:
             return
@@ -134,27 +146,39 @@ class DensePanel:
             self.status.content = dense_message(result).markdown()
 
     def _box_edited(self, event) -> None:
-        """A corner typed in by the technician: the box stays where it is put from now on, and is
-        shown."""
+        """A corner typed in by the technician.
+
+        The box stays where it is put from now on, and is shown.
+        """
         if event.client is not None:
             self._follow = False
             self.show_box.value = True
         self._show_box()
 
     def follow_cloud(self) -> Volume:
-        """'Box around the current cloud': the box is put around the live cloud, follows it again,
-        and is shown."""
+        """'Box around the current cloud': put the box around the live cloud; it follows it again.
+
+        The box is shown.
+
+        Returns
+        -------
+        Volume
+            The box.
+        """
         self._follow = True
         self.show_box.value = True
         return self.box_around_cloud()
 
     def _method_options(self) -> None:
-        """Offer what the chosen method uses: the carving threshold to carving, several frames to
-        the fusion."""
+        """Offer what the chosen method uses.
+
+        The carving threshold to carving, several frames to the fusion.
+        """
         fuse = METHODS[self.method.value] == "tsdf"
         self.threshold.disabled, self.frames.disabled = fuse, not fuse
 
     def _layer(self) -> None:
+        """Show the dense result as the Show and Beside boxes say."""
         if self.show.value:
             self._hidden_elsewhere = False
         self.tab.dense_visible, self.tab.dense_beside = (
@@ -164,9 +188,20 @@ class DensePanel:
         self.tab.show_dense(self.services.jobs.dense_result)
 
     def _box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box's corners as the fields hold them, metres."""
         return np.array(self.low.value, float), np.array(self.high.value, float)
 
     def options(self) -> DenseOptions:
+        """The dense options as the fields hold them.
+
+        The voxel, margin and threshold are typed in mm; the box is used only when `high` is above
+        `low` on every axis.
+
+        Returns
+        -------
+        DenseOptions
+            Metres.
+        """
         low, high = self._box()
         bounds = (tuple(low), tuple(high)) if np.all(high > low) else None
         return DenseOptions(
@@ -190,16 +225,21 @@ class DensePanel:
         return volume
 
     def _show_box(self) -> None:
-        """Draw the box the fields hold now (one callback at a time: the last one draws both fields'
-        last values), once Dense is used (show_box): not over the scene of one who never uses it."""
+        """Draw the box the fields hold now, once Dense is used (show_box).
+
+        One callback at a time: the last one draws both fields' last values. Not drawn over the
+        scene of one who never uses Dense.
+        """
         with self._box_lock:
             low, high = self._box() if self.show_box.value else (None, None)
             self.tab.scene.show_box(low, high)
 
     def start(self) -> None:
-        """Run the chosen method on the shared worker (one run at a time) in the box shown: around
-        the current cloud while it follows the cloud (or is empty), as the technician put it
-        otherwise; the box is shown from now on."""
+        """Run the chosen method on the shared worker (one run at a time) in the box shown.
+
+        The box is around the current cloud while it follows the cloud (or is empty), as the
+        technician put it otherwise; it is shown from now on.
+        """
         self.show_box.value = True
         if self._follow or not np.all(self._box()[1] > self._box()[0]):
             self.box_around_cloud()
@@ -216,6 +256,7 @@ class DensePanel:
             raise
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the dense job: buttons, progress bar and status."""
         if event.job != DENSE:
             return
         running = event.fraction is not None
@@ -226,6 +267,7 @@ class DensePanel:
         self.status.content = event.status
 
     def _on_result(self, event: DenseChanged) -> None:
+        """Show a dense result: its box, its message, and the view on it in the tab that ran it."""
         result = event.result
         self.export.disabled = result is None
         if result is not None:
@@ -237,8 +279,10 @@ class DensePanel:
             self._look = False
 
     def export_result(self) -> None:
-        """The last dense result (carved voxels, or the fused mesh with its faces) as PLY, under a
-        new name."""
+        """Export the last dense result as PLY, under a new name.
+
+        Carved voxels, or the fused mesh with its faces.
+        """
         result = self.services.jobs.dense_result
         if result is None:
             raise MirrorscanError("no dense result yet: Run one first")

@@ -35,10 +35,12 @@ EVERY_MIRROR = "every mirror"  # the heat map of every mirror's points (Heat map
 
 
 def _from_markers(jobs: Jobs, editor, session: Session) -> tuple[str, ...]:
-    """The names of the mirrors whose planes a markers fit of this editor
-    (SessionEditor.fitted_on_its_markers) set behind the glass typed in: a refinement then still
+    """The names of the mirrors whose planes a markers fit set behind the glass typed in.
+
+    A markers fit of this editor (SessionEditor.fitted_on_its_markers); a refinement then still
     makes them more accurate (on the walking figure at 3 m, 2 px clicks: tilts of 0.08 to 0.28
-    degrees from the markers, 0.01 to 0.02 refined)."""
+    degrees from the markers, 0.01 to 0.02 refined).
+    """
     return tuple(
         m.name
         for m in session.mirrors
@@ -50,28 +52,58 @@ def _from_markers(jobs: Jobs, editor, session: Session) -> tuple[str, ...]:
 
 
 def _from_object(jobs: Jobs, session: Session) -> bool:
-    """Whether every plane of the session came from a refinement or search of this app (and there is
-    one)."""
+    """Whether every plane of the session came from a refinement or search of this app.
+
+    False when there is no plane.
+    """
     planes = [(m.id, m.plane) for m in session.mirrors if m.plane is not None]
     return bool(planes) and all(jobs.from_object(*plane) for plane in planes)
 
 
 def source_root(source) -> Path | None:
-    """The folder of the session a source plays (a SessionSource), else None."""
+    """The folder of the session a source plays (a SessionSource), else None.
+
+    Parameters
+    ----------
+    source : DepthSource
+
+    Returns
+    -------
+    Path or None
+    """
     return Path(source.session.root) if isinstance(source, SessionSource) else None
 
 
 def source_title(source: str, played: Path | None, edited: Path | None) -> str:
-    """The header's title: the source's name, then the folder of the session being edited (saved:
-    `edited`) when it is not the one the source plays (`played`)."""
+    """The header's title: the source's name, then the session being edited when it is another.
+
+    The folder of the session being edited is named when it is saved and not the one the source
+    plays.
+
+    Parameters
+    ----------
+    source : str
+        The source's name.
+    played : Path or None
+        The folder of the session the source plays.
+    edited : Path or None
+        The folder of the session being edited, when it is saved.
+
+    Returns
+    -------
+    str
+        Markdown.
+    """
     if edited is None or (played is not None and played.resolve() == Path(edited).resolve()):
         return f"**{source}**"
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
 
 
 def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
-    """The names of the mirrors whose planes come from their markers (not from the object) with no
-    glass set: on an ordinary mirror the markers stand 3 to 6 mm in front of the silver."""
+    """The names of the mirrors whose planes come from their markers, with no glass set.
+
+    Not from the object; on an ordinary mirror the markers stand 3 to 6 mm in front of the silver.
+    """
     return tuple(
         m.name
         for m in session.mirrors
@@ -83,6 +115,13 @@ def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
 
 
 class LivePanel:
+    """The status header above the steps, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
         self.title = gui.add_markdown("")
@@ -160,9 +199,12 @@ class LivePanel:
             unsubscribe()
 
     def _on_job(self, event: JobProgress) -> None:
-        """A calibration from the object, a batch or a recording began or ended: the hint says so
-        (for the first two, how far they are, by 5 %: at 1024x600 the calibration's progress bar is
-        below the fold, the batch's in a folder of another step), then what comes next."""
+        """A calibration from the object, a batch or a recording began or ended.
+
+        The hint says so (for the first two, how far they are, by 5 %: at 1024x600 the calibration's
+        progress bar is below the fold, the batch's in a folder of another step), then what comes
+        next.
+        """
         done = (
             None
             if event.fraction is None
@@ -182,14 +224,18 @@ class LivePanel:
             self.refresh_hint()
 
     def _on_loop(self, event: LoopChanged) -> None:
+        """Follow the live loop: pause, step, the source's title and the hint."""
         self.pause.value = event.paused
         self.step.disabled = not event.paused
         self._follow(event.source)
         self.refresh_hint()
 
     def _follow(self, source) -> None:
-        """Name the source; show the frame slider for a recording (seekable), hide it for a live
-        camera; offer the way back to the source served from the start while another plays."""
+        """Name the source.
+
+        Show the frame slider for a recording (seekable), hide it for a live camera; offer the way
+        back to the source served from the start while another plays.
+        """
         self._name()
         self.back.visible = source is not self.tab.services.start_source
         if source.frame_count:
@@ -197,9 +243,11 @@ class LivePanel:
         self.seek.visible = bool(source.frame_count)
 
     def _name(self, event: SessionChanged | None = None) -> None:
-        """The header's title: the source, and the session being edited where it is saved and is not
-        the one that plays (after Record's replay and Back to, the edits go to the recording's
-        session)."""
+        """The header's title.
+
+        The source, and the session being edited where it is saved and is not the one that plays
+        (after Record's replay and Back to, the edits go to the recording's session).
+        """
         services = self.tab.services
         self.title.content = markdown(
             source_title(
@@ -210,6 +258,7 @@ class LivePanel:
         )
 
     def refresh_hint(self) -> None:
+        """Rewrite the 'Start here' line for the state of the work."""
         services = self.tab.services
         snapshot = services.snapshot
         playback = (
@@ -244,7 +293,12 @@ class LivePanel:
         self.hint.content = "➜ " + markdown(hint)
 
     def show(self, frame: LiveFrame) -> None:
-        """Refresh the figures at STATS_HZ (every frame while paused)."""
+        """Refresh the figures at STATS_HZ (every frame while paused).
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        """
         now = time.perf_counter()
         self._process_ms.append(frame.process_ms)
         if now - self._last_stats < 1 / STATS_HZ and not self.tab.services.paused:
@@ -296,9 +350,11 @@ class LivePanel:
             self.refresh_hint()
 
     def _show_heat(self, ticked: bool = False) -> None:
-        """The heat map on or off as the box says; `ticked` by the technician while the depth frame
-        is in view, the view goes to the 3D scene, where it is drawn (a reload taking up a heat map
-        keeps its view)."""
+        """The heat map on or off as the box says.
+
+        `ticked` by the technician while the depth frame is in view, the view goes to the 3D scene,
+        where it is drawn (a reload taking up a heat map keeps its view).
+        """
         on = bool(self.heat.value)
         if on and ticked and self.tab.state.view == "depth":
             self.tab.look("3d")
@@ -306,9 +362,11 @@ class LivePanel:
         self._heat_choices()
 
     def _heat_choices(self) -> None:
-        """Offer, while the heat map shows, to colour one mirror's points alone: every mirror with a
-        plane, when there are two or more; a mirror chosen and since removed (or its plane cleared)
-        goes back to all."""
+        """Offer, while the heat map shows, to colour one mirror's points alone.
+
+        Every mirror with a plane, when there are two or more; a mirror chosen and since removed (or
+        its plane cleared) goes back to all.
+        """
         names = tuple(
             m.name for m in self.tab.services.snapshot.session.mirrors if m.plane is not None
         )
@@ -326,6 +384,15 @@ class LivePanel:
         return next((m.id for m in session.mirrors if m.name == self.heat_of.value), None)
 
     def show_pixel(self, u: float, v: float) -> None:
+        """Show the depth read at a clicked pixel, in the header and in a notification.
+
+        One reading shows at a time: the clicks' notifications do not stack.
+
+        Parameters
+        ----------
+        u, v : float
+            Pixels.
+        """
         frame = self.tab.services.last_frame
         if frame is None:
             return

@@ -39,10 +39,22 @@ CANCELLED_NOTE = "Cancelled: the report below is the fit before."
 
 
 def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
-    """Markdown: radius, RMSE, mean error and mean |error| overall and per source (named by
-    name(label)), mm; a warning first when fewer than MIN_FITTING of the points lie within the
-    threshold of the shape, or when their RMSE reaches MAX_SPREAD of it (the points fill the band
-    instead of lying on the shape: a cylinder fitted to a sphere)."""
+    """Markdown: radius, RMSE, mean error and mean |error| overall and per source, mm.
+
+    A warning comes first when fewer than MIN_FITTING of the points lie within the threshold of
+    the shape, or when their RMSE reaches MAX_SPREAD of it (the points fill the band instead of
+    lying on the shape: a cylinder fitted to a sphere).
+
+    Parameters
+    ----------
+    fit : ShapeFit
+    name : callable
+        A source's name from its label.
+
+    Returns
+    -------
+    str
+    """
     e = fit.errors
     share = float(np.mean(fit.inliers)) if len(fit.inliers) else 0.0
     shape, band = fit.shape.kind, f"{fit.threshold * 1e3:.0f} mm"
@@ -82,6 +94,13 @@ def fit_report(fit: ShapeFit, name: Callable[[int], str]) -> str:
 
 
 class MeasurePanel:
+    """Step 3, "Measure": fit a sphere or a cylinder to the cloud (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -136,7 +155,25 @@ class MeasurePanel:
         progress: Callable[[float], None] | None = None,
         cancel: threading.Event | None = None,
     ) -> ShapeFit:
-        """The shape chosen, fitted to the frame's cloud (with fit_sphere's progress and cancel)."""
+        """The shape chosen, fitted to the frame's cloud.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        progress : callable, optional
+            Called with the fraction done (as fit_sphere's).
+        cancel : threading.Event, optional
+            Stops the fit when set.
+
+        Returns
+        -------
+        ShapeFit
+
+        Raises
+        ------
+        MirrorscanError
+            When the cloud has fewer than 10 points.
+        """
         cloud = frame.cloud
         if len(cloud) < 10:
             raise MirrorscanError(f"the current cloud has {len(cloud)} points; a fit needs more")
@@ -153,7 +190,24 @@ class MeasurePanel:
     def fit_current(
         self, progress: Callable[[float], None] | None = None, cancel: threading.Event | None = None
     ) -> ShapeFit:
-        """Fit the last frame's cloud, report it and add it to the plot."""
+        """Fit the last frame's cloud, report it and add it to the plot.
+
+        Parameters
+        ----------
+        progress : callable, optional
+            Called with the fraction done.
+        cancel : threading.Event, optional
+            Stops the fit when set.
+
+        Returns
+        -------
+        ShapeFit
+
+        Raises
+        ------
+        MirrorscanError
+            Before the first frame, or when the cloud is too small.
+        """
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no frame yet")
@@ -162,10 +216,13 @@ class MeasurePanel:
         return result
 
     def start_fit(self) -> threading.Thread:
-        """The button: fit_current on a thread, the button disabled, a progress bar and Cancel shown
-        until it ends (a sphere fitted to a walking person's cloud draws RANSAC's 20,000 samples:
-        seconds on a busy machine, during which the tab's panel stays usable).
-        Cancelled, the last fit's report stays under CANCELLED_NOTE; failed, the report says so."""
+        """The button: fit_current on a thread, until it ends.
+
+        The button is disabled, a progress bar and Cancel shown until it ends (a sphere fitted to a
+        walking person's cloud draws RANSAC's 20,000 samples: seconds on a busy machine, during
+        which the tab's panel stays usable). Cancelled, the last fit's report stays under
+        CANCELLED_NOTE; failed, the report says so.
+        """
         if self._cancel is not None:
             raise MirrorscanError("a fit runs: wait for it, or cancel it")
         cancel = self._cancel = threading.Event()
@@ -184,6 +241,7 @@ class MeasurePanel:
             cancel.set()
 
     def _fit_in_background(self, cancel: threading.Event) -> None:
+        """Fit the last frame's cloud on the job's thread, with a progress bar."""
         shown = [0.0]
 
         def progress(fraction: float) -> None:
@@ -212,8 +270,12 @@ class MeasurePanel:
             self.run.disabled, self.cancel.visible, self.progress.visible = False, False, False
 
     def on_frame(self, frame: "LiveFrame") -> None:
-        """While tracking, start a fit of this frame on a worker thread at most TRACK_HZ times a
-        second."""
+        """While tracking, start a fit of this frame on a worker thread, at most TRACK_HZ a second.
+
+        Parameters
+        ----------
+        frame : LiveFrame
+        """
         now = time.monotonic()
         if (
             not self.track.value
@@ -225,6 +287,7 @@ class MeasurePanel:
         threading.Thread(target=self._track, args=(frame,), daemon=True).start()
 
     def _track(self, frame: "LiveFrame") -> None:
+        """Fit and show one tracked frame; a refusal becomes the report's line."""
         try:
             self._show(frame, self.fit(frame))
         except MirrorscanError as exc:
@@ -233,17 +296,22 @@ class MeasurePanel:
             self._busy.release()
 
     def _show(self, frame: "LiveFrame", result: ShapeFit) -> None:
-        """The report of a fit of the frame's cloud, first what the cloud leaves out (a fit before
-        any plane measures the object seen directly alone), and the fit
-        in the plot."""
+        """Show the report of a fit of the frame's cloud, and the fit in the plot.
+
+        The report says first what the cloud leaves out (a fit before any plane measures the object
+        seen directly alone).
+        """
         self.report.content = markdown(
             _left_out(frame) + fit_report(result, source_names(frame.snapshot.session))
         )
         self._record(result)
 
     def _record(self, result: ShapeFit) -> None:
-        """Add a fit to the plot: seconds since the plot's first fit, RMSE and radius; a fit of
-        another shape starts a new plot (a cylinder's radius is not a sphere's)."""
+        """Add a fit to the plot.
+
+        Seconds since the plot's first fit, RMSE and radius; a fit of another shape starts a new
+        plot (a cylinder's radius is not a sphere's).
+        """
         now = time.monotonic()
         with self._history_lock:
             if self.history and self._kind != result.shape.kind:

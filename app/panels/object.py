@@ -30,6 +30,13 @@ HIDDEN_SHARE = 0.5
 
 
 class ObjectPanel:
+    """Step 2, "Object": which pixels are the object, in one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -100,6 +107,7 @@ class ObjectPanel:
             unsubscribe()
 
     def refresh(self) -> None:
+        """Show the selection as it is: background, depth range, region and bounces."""
         snapshot, state = self.services.snapshot, self.tab.state
         selection = snapshot.session.selection
         source = (
@@ -124,11 +132,13 @@ class ObjectPanel:
         self.close.disabled = len(state.region_draft) < MIN_VERTICES
 
     def _set(self, **changes) -> None:
+        """Change fields of the session's object selection."""
         self.services.editor.set_selection(
             replace(self.services.snapshot.session.selection, **changes)
         )
 
     def _set_range(self) -> None:
+        """Set the depth range from the slider; at least 5 cm wide."""
         low, high = self.range.value
         if high - low < 0.05:
             raise MirrorscanError("the depth range must be at least 5 cm wide")
@@ -136,12 +146,14 @@ class ObjectPanel:
 
     # ------------------------------------------------------------------ region of interest
     def _start_region(self) -> None:
+        """Start drawing a region of interest on the depth frame."""
         state = self.tab.state
         state.mode, state.region_draft = "region", ()
         self.tab.look("depth")
         self.tab.changed()
 
     def _region_click(self, u: float, v: float) -> None:
+        """A click in Region mode: close the draft at its first corner, else add a corner."""
         state = self.tab.state
         if len(state.region_draft) >= 3 and nearest(state.region_draft[:1], (u, v)) == 0:
             self._close_region()
@@ -150,6 +162,7 @@ class ObjectPanel:
         self.tab.changed()
 
     def _close_region(self) -> None:
+        """Make the draft the region of interest."""
         state = self.tab.state
         roi = validate_polygon(
             state.region_draft, self.services.snapshot.session.camera.shape, "region of interest"
@@ -159,6 +172,7 @@ class ObjectPanel:
         self.tab.changed()
 
     def _clear_region(self) -> None:
+        """Drop the draft and the region of interest."""
         state = self.tab.state
         state.region_draft = ()
         if state.mode == "region":
@@ -169,12 +183,15 @@ class ObjectPanel:
 
     # ------------------------------------------------------------------ background
     def _capture(self) -> None:
+        """Capture the background over the frames asked for."""
         self.services.jobs.capture_background(int(self.frames.value), self._captured)
 
     def _captured(self, depth: np.ndarray) -> bool:
-        """Use a captured background (H, W) metres; but when it would hide most of the object seen
-        in the last frame (the object was in view while it was captured), only once the user
-        confirms. Returns whether it waits for that."""
+        """Use a captured background, (H, W) metres, at once or once the user confirms.
+
+        When it would hide most of the object seen in the last frame (the object was in view while
+        it was captured), it is used only once the user confirms. Returns whether it waits for that.
+        """
         frame, snapshot = self.services.last_frame, self.services.snapshot
         seen = (
             0 if frame is None or snapshot.background is None else int(np.count_nonzero(frame.mask))
@@ -211,10 +228,12 @@ class ObjectPanel:
         self.status.content = "Background: captured, used on confirmation."
 
     def _keep_background(self) -> None:
+        """Keep the background as it was: the capture is not used."""
         self.pending_background = None
         self.status.content = "Background: kept as it was (the capture was not used)."
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the background capture: buttons, progress bar and status."""
         if event.job != BACKGROUND:
             return
         running = event.fraction is not None

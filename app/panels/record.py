@@ -38,14 +38,31 @@ BATCH_TEMPORAL = 2
 
 
 def batch_label(session: Session) -> str:
-    """The batch button names the session whose frames it reconstructs (after a replay and Back to,
-    that is the recording's, not the session that plays)."""
+    """The batch button's label: it names the session whose frames it reconstructs.
+
+    After a replay and Back to, that is the recording's, not the session that plays.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    str
+    """
     count = len(session.frames)
     frames = f"{count} frame{'s' if count != 1 else ''}"
     return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
 
 
 class RecordPanel:
+    """Step 5, "Record": record, replay and reconstruct every frame (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -102,6 +119,7 @@ class RecordPanel:
             unsubscribe()
 
     def start(self) -> None:
+        """Start recording the live frames into a new session folder."""
         self.services.jobs.start_recording(self.services.sessions_dir)
 
     def stop(self) -> Session:
@@ -120,15 +138,19 @@ class RecordPanel:
         self.replay.disabled = self.recorded is None or playing
 
     def play_recording(self) -> None:
-        """Edit the recorded session and play its frames (header › Playback: pause and the frame
-        slider)."""
+        """Edit the recorded session and play its frames.
+
+        Header › Playback has the pause button and the frame slider.
+        """
         if self.recorded is None:
             raise MirrorscanError("nothing recorded yet")
         self.services.open_session(self.recorded, play=True)
 
     def start_batch(self) -> None:
-        """Every frame of the session being edited (a saved recording, say), with the chosen method,
-        on the chosen number of worker processes (1: in this process; more: a local Dask cluster).
+        """Reconstruct every frame of the session being edited (a saved recording, say).
+
+        With the chosen method, on the chosen number of worker processes (1: in this process; more:
+        a local Dask cluster).
         """
         self.services.jobs.start_batch(
             self.services.editor.session,
@@ -147,8 +169,11 @@ class RecordPanel:
         self.batch.label = batch_label(event.snapshot.session)
 
     def _show_batch(self) -> None:
-        """The batch that runs, as its tab started it: its settings (once they are set, just after
-        it starts) and a running status until its next progress."""
+        """The batch that runs, as its tab started it.
+
+        Its settings (once they are set, just after it starts) and a running status until its next
+        progress.
+        """
         settings = self.services.jobs.batch_settings
         if settings is not None:
             self.method.value, self.temporal.value, self.workers.value = settings
@@ -156,8 +181,10 @@ class RecordPanel:
         self._on_job(JobProgress(BATCH, 0.0, status(starting), starting))
 
     def cancel_batch(self) -> None:
-        """Ask the batch to stop: the frame under way finishes, every frame written stays (a new
-        start goes on)."""
+        """Ask the batch to stop.
+
+        The frame under way finishes; every frame written stays (a new start goes on).
+        """
         self.services.jobs.cancel(BATCH)
         self.batch_cancel.disabled = True
         self.batch_status.content = self._batch_line(self._batch_said, cancelling=True)
@@ -168,6 +195,7 @@ class RecordPanel:
         return Message(said.headline + (CANCELLING if cancelling else ""), said.details).markdown()
 
     def _on_job(self, event: JobProgress) -> None:
+        """Follow the recording and the batch: buttons, progress bars and status."""
         if event.job == BATCH:
             running = event.fraction is not None
             self.batch.disabled, self.batch_cancel.visible, self.batch_progress.visible = (

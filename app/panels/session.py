@@ -25,6 +25,13 @@ MAX_UPLOAD_MB = 20  # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncomp
 
 
 class SessionPanel:
+    """The "Session" step of one tab (see the module docstring).
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
     TITLE = TITLE
 
     def __init__(self, tab: TabContext):
@@ -60,6 +67,7 @@ class SessionPanel:
         self._unsubscribe()
 
     def refresh(self) -> None:
+        """Show where the session lives and whether it is saved; refresh the Open list."""
         editor = self.services.editor
         state = (
             "autosaved after every change"
@@ -81,8 +89,11 @@ class SessionPanel:
             self.open_choice.options = names
 
     def _open(self) -> None:
-        """Open the chosen session; while the current one is not saved (the built-in demo), only
-        once the user has confirmed that its calibration goes."""
+        """Open the chosen session.
+
+        While the current one is not saved (the built-in demo), only once the user has confirmed
+        that its calibration goes.
+        """
         name = self.open_choice.value
         if name == CHOOSE:
             raise MirrorscanError(
@@ -103,8 +114,10 @@ class SessionPanel:
         )
 
     def _save_as(self) -> None:
-        """Save the session as a new one in the sessions folder and go on editing that one; a
-        background captured while the session was not saved (held in memory) is written with it."""
+        """Save the session as a new one in the sessions folder and go on editing that one.
+
+        A background captured while the session was not saved (held in memory) is written with it.
+        """
         folder = session_folder(self.services.sessions_dir, self.new_name.value)
         services = self.services
         held = (
@@ -118,10 +131,21 @@ class SessionPanel:
         self.new_name.value = ""
 
     def upload_background(self, name: str, data: bytes) -> None:
-        """Use an uploaded depth PNG (`data`, the file's bytes) as the background, saved as the
-        session's background.png. Refuses (MirrorscanError naming the file) more than MAX_UPLOAD_MB,
-        a name not ending in .png, an image that is not 16-bit or not the camera's size, and one
-        with no reading at all."""
+        """Use an uploaded depth PNG as the background, saved as the session's background.png.
+
+        Parameters
+        ----------
+        name : str
+            The file's name.
+        data : bytes
+            The file's bytes.
+
+        Raises
+        ------
+        MirrorscanError
+            Naming the file: more than MAX_UPLOAD_MB, a name not ending in .png, an image that is
+            not 16-bit or not the camera's size, and one with no reading at all.
+        """
         if len(data) > MAX_UPLOAD_MB * 2**20:
             raise MirrorscanError(
                 f"{name}: {len(data) / 2**20:.1f} MB is more than the {MAX_UPLOAD_MB} MB an "
@@ -136,8 +160,15 @@ class SessionPanel:
         self.services.set_background(depth)
 
     def export_cloud(self) -> Path | None:
-        """The current cloud as PLY, downloaded and (for a saved session) kept under a new name in
-        exports/."""
+        """Export the current cloud as PLY.
+
+        Downloaded and, for a saved session, kept under a new name in exports/.
+
+        Returns
+        -------
+        Path or None
+            The file kept, if any.
+        """
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no cloud yet to export")

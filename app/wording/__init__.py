@@ -16,22 +16,41 @@ _WORD = re.compile(r"[\w±.+-]*[A-Za-z0-9][\w±.,+-]*")
 
 
 def words(text: str) -> int:
-    """The words of `text` a reader counts: runs holding a letter or a digit (Markdown marks, arrows
-    and '⚠' are not words)."""
+    """The words of `text` a reader counts: runs holding a letter or a digit.
+
+    Markdown marks, arrows and '⚠' are not words.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    int
+    """
     return len(_WORD.findall(text))
 
 
 @dataclass(frozen=True)
 class Message:
-    """A headline (Markdown, at most HEADLINE_WORDS words) and the details behind it (Markdown
-    lines)."""
+    """A headline and the details behind it.
+
+    Attributes
+    ----------
+    headline : str
+        Markdown, at most HEADLINE_WORDS words.
+    details : tuple of str
+        Markdown lines.
+    """
 
     headline: str
     details: tuple[str, ...] = ()
 
     def markdown(self) -> str:
-        """The headline, then the details in a collapsed fold (markup.fold); any HTML in the text
-        shown as text."""
+        """The headline, then the details in a collapsed fold (markup.fold).
+
+        Any HTML in the text is shown as text.
+        """
         return fold(markdown(self.headline), [markdown(line) for line in self.details])
 
     @property
@@ -41,14 +60,36 @@ class Message:
 
 
 def joined(messages: list[Message]) -> str:
-    """Several messages as one panel's Markdown, a paragraph each."""
+    """Several messages as one panel's Markdown, a paragraph each.
+
+    Parameters
+    ----------
+    messages : list of Message
+
+    Returns
+    -------
+    str
+    """
     return "\n\n".join(m.markdown() for m in messages)
 
 
 def refusal(reason: str, where: str = "") -> Message:
-    """A refused action: its reason as the headline when short enough, else the words before its
-    first parenthesis, semicolon or colon (the whole reason in the details); `where`: where more is
-    said."""
+    """A refused action: its reason as the headline when short enough.
+
+    Otherwise the headline is the words before the reason's first parenthesis, semicolon or colon
+    (cut at HEADLINE_WORDS), and the whole reason goes in the details.
+
+    Parameters
+    ----------
+    reason : str
+        Why the action was refused.
+    where : str, optional
+        Where more is said, appended to the headline.
+
+    Returns
+    -------
+    Message
+    """
     if words(reason) <= HEADLINE_WORDS:
         return Message(reason)
     head = reason

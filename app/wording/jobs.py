@@ -30,8 +30,19 @@ CANCELLED = Message("cancelled")
 
 
 def left_out(names: tuple[str, ...]) -> str:
-    """What a cloud leaves out: 'mirror 1 and mirror 2 have no plane yet: what is seen inside their
-    outlines is not in it', '' for none."""
+    """What a cloud leaves out.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The mirrors with no plane yet.
+
+    Returns
+    -------
+    str
+        'mirror 1 and mirror 2 have no plane yet: what is seen inside their outlines is not in
+        it', '' for none.
+    """
     if not names:
         return ""
     one = len(names) == 1
@@ -42,7 +53,16 @@ def left_out(names: tuple[str, ...]) -> str:
 
 
 def dense(result: DenseResult) -> Message:
-    """A dense reconstruction done: what it made; a warning of the mirrors left out."""
+    """A dense reconstruction done: what it made; a warning of the mirrors left out.
+
+    Parameters
+    ----------
+    result : DenseResult
+
+    Returns
+    -------
+    Message
+    """
     if result.faces is None:
         voxel = f"{result.voxel * 1e3:.1f} mm"
         made = f"{result.method}: {len(result.vertices):,} surface voxels of {voxel}"
@@ -53,17 +73,47 @@ def dense(result: DenseResult) -> Message:
 
 
 def dense_work(work: DenseWork) -> Message:
-    """A dense reconstruction under way."""
+    """A dense reconstruction under way.
+
+    Parameters
+    ----------
+    work : DenseWork
+        Frames being prepared, or the volume's shape once known.
+
+    Returns
+    -------
+    Message
+    """
     if work.shape is None:
         return Message(f"{work.method}: preparing {work.frames} frame(s)")
     return Message(f"{work.method}: {'x'.join(map(str, work.shape))} voxels")
 
 
 def collecting(work: Collecting) -> Message:
+    """Frames collected of all.
+
+    Parameters
+    ----------
+    work : Collecting
+
+    Returns
+    -------
+    Message
+    """
     return Message(f"{work.done} of {work.total} frames")
 
 
 def captured(result: BackgroundCaptured) -> Message:
+    """A background captured, or waiting for the answer when the object was in view.
+
+    Parameters
+    ----------
+    result : BackgroundCaptured
+
+    Returns
+    -------
+    Message
+    """
     if result.waiting:
         return Message(
             "captured: the object was in view, so it is used only once you answer the question"
@@ -72,8 +122,17 @@ def captured(result: BackgroundCaptured) -> Message:
 
 
 def batch_status(p: BatchProgress) -> Message:
-    """A batch under way: frames done of all, the time left, failures; the rate and the dashboard
-    link in the details."""
+    """A batch under way: frames done of all, the time left, failures.
+
+    Parameters
+    ----------
+    p : BatchProgress
+
+    Returns
+    -------
+    Message
+        The rate and the dashboard link in the details.
+    """
     left = "" if p.seconds_left is None else f", {p.seconds_left:.0f} s left"
     extra = "".join(
         f", {n} {what}" for n, what in ((p.failed, "failed"), (len(p.retried), "retried")) if n
@@ -83,7 +142,17 @@ def batch_status(p: BatchProgress) -> Message:
 
 
 def batch_summary(report: BatchReport) -> Message:
-    """How a batch ended and where its files are; the frames that failed in the details."""
+    """How a batch ended and where its files are.
+
+    Parameters
+    ----------
+    report : BatchReport
+
+    Returns
+    -------
+    Message
+        The frames that failed in the details.
+    """
     how = "stopped" if report.cancelled else "done"
     failed = (
         (f"failed: frames {', '.join(map(str, sorted(report.failed)))}",) if report.failed else ()
@@ -97,11 +166,32 @@ def batch_summary(report: BatchReport) -> Message:
 
 
 def batch_starting(work: BatchStarting) -> Message:
+    """A batch starting.
+
+    Parameters
+    ----------
+    work : BatchStarting
+
+    Returns
+    -------
+    Message
+    """
     return Message(f"starting {work.method} on every frame…")
 
 
 def recording(state: RecordingState) -> Message:
-    """How a recording stands; where the recording that plays is, in the details."""
+    """How a recording stands.
+
+    Parameters
+    ----------
+    state : RecordingState
+
+    Returns
+    -------
+    Message
+        Its error, or the end of the recording that plays, or the frames taken; where the
+        recording that plays is, in the details.
+    """
     behind = f" ({state.written} written so far)" if state.written < state.taken else ""
     if state.error is not None:
         return Message(f"the recording stopped: {state.error}")
@@ -127,19 +217,52 @@ def recording(state: RecordingState) -> Message:
 
 
 def recording_headline(state: RecordingState) -> str:
-    """The header's word on a recording (Markdown, short: it is in view from every step)."""
+    """The header's word on a recording (Markdown, short: it is in view from every step).
+
+    Parameters
+    ----------
+    state : RecordingState
+
+    Returns
+    -------
+    str
+    """
     if state.replay_ended or state.error is not None:
         return f"● **recording ended** at {state.taken} frames: *Record › Stop recording* saves it"
     return f"● **recording** {state.taken} frames"
 
 
 def recorded(result: Recorded) -> Message:
+    """A recording saved, with the frames dropped because the disk was too slow.
+
+    Parameters
+    ----------
+    result : Recorded
+
+    Returns
+    -------
+    Message
+    """
     dropped = f" ({result.dropped} dropped: the disk was too slow)" if result.dropped else ""
     return Message(f"recorded {result.frames} frames into `{result.root}`{dropped}")
 
 
 def ended(result: object) -> Message:
-    """How any job ended other than with its own result: refused, failed on a bug, or cancelled."""
+    """How any job ended other than with its own result: refused, failed on a bug, or cancelled.
+
+    Parameters
+    ----------
+    result : Refused, Failed or Cancelled
+
+    Returns
+    -------
+    Message
+
+    Raises
+    ------
+    TypeError
+        For any other result.
+    """
     if isinstance(result, Refused):
         return refusal(f"not done: {result.reason}")
     if isinstance(result, Failed):
@@ -167,7 +290,17 @@ REPORTS = {CalibrationReport: refinement.report, AgreementReport: refinement.agr
 
 
 def say(result: object) -> list[Message]:
-    """The messages of a job's typed result or progress (a report has several, a line each)."""
+    """The messages of a job's typed result or progress (a report has several, a line each).
+
+    Parameters
+    ----------
+    result : object
+        A result or progress of SAYS or REPORTS, or how the job ended (see ended).
+
+    Returns
+    -------
+    list of Message
+    """
     if type(result) in REPORTS:
         return REPORTS[type(result)](result)
     said = SAYS.get(type(result))
@@ -175,5 +308,15 @@ def say(result: object) -> list[Message]:
 
 
 def status(result: object) -> str:
-    """A job's typed result or progress as a panel's Markdown (JobProgress.status)."""
+    """A job's typed result or progress as a panel's Markdown (JobProgress.status).
+
+    Parameters
+    ----------
+    result : object
+        As for say.
+
+    Returns
+    -------
+    str
+    """
     return joined(say(result))

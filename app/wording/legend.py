@@ -28,7 +28,17 @@ LEGEND_STYLE = "font-size:0.85em;line-height:1.5;padding:0 12px"
 
 
 def source_names(session: Session) -> Callable[[int], str]:
-    """A source label's name with the session's mirror names: 'direct', 'left then right'."""
+    """A source label's name with the session's mirror names: 'direct', 'left then right'.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    callable
+        The name of a source label.
+    """
     names = [m.name for m in session.mirrors]
     return lambda label: source_name(label, names)
 
@@ -39,9 +49,26 @@ def legend_html(
     mirror_ids: tuple[int, ...],
     unplaned: tuple[str, ...] = (),
 ) -> str:
-    """One line: a swatch in each source's colour, its name and its point count; counts {label:
-    points}; then the mirrors with no plane yet (unplaned: their names), whose part of the frame is
-    left out."""
+    """One line: a swatch in each source's colour, its name and its point count.
+
+    Then the mirrors with no plane yet, whose part of the frame is left out.
+
+    Parameters
+    ----------
+    counts : dict of int to int
+        {label: points}.
+    name : callable
+        A source label's name.
+    mirror_ids : tuple of int
+        The mirrors' ids, which set the sources' colours.
+    unplaned : tuple of str, optional
+        The names of the mirrors with no plane yet.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
     items = "".join(
         _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
         for j, count in counts.items()
@@ -91,13 +118,34 @@ def heat_legend_html(
     planes: bool = True,
     no_glass: bool = True,
 ) -> str:
-    """The heat map's key (its colours) and, per view seen in a mirror, the median distance to the
-    direct surface and the share of its points compared over the heat maps of the last `frames`
-    frames (figures as in HeatChanged; empty until the first map arrives), against the camera's
-    surface (the agreement lines beside it compare every view); then what the map can show
-    (HEAT_READS) and what measures the glass: the refinement, while `no_glass` (a plane from markers
-    has none set), or (`refined`: every plane came from it) that it did; without `planes` (no
-    mirror has one) what to do first."""
+    """The heat map's key (its colours) and, per view seen in a mirror, its figures.
+
+    Per view, the median distance to the direct surface and the share of its points compared over
+    the heat maps of the last `frames` frames, against the camera's surface (the agreement lines
+    beside it compare every view); then what the map can show (HEAT_READS) and what measures the
+    glass.
+
+    Parameters
+    ----------
+    figures : dict of int to (float, float)
+        As in HeatChanged: {label: (median mm, share compared)}; empty until the first map
+        arrives.
+    frames : int
+        The heat maps pooled.
+    name : callable
+        A source label's name.
+    refined : bool, optional
+        Every plane came from the refinement: say that it measured the glass.
+    planes : bool, optional
+        False when no mirror has a plane: say what to do first instead.
+    no_glass : bool, optional
+        A plane from markers has no glass set: say that the refinement measures it.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
     if not planes:
         return (
             f'<div style="{LEGEND_STYLE}">No mirror has a plane yet: the heat map compares the '
@@ -135,6 +183,7 @@ def _share(share: float) -> str:
 
 
 def _swatch(colour, text: str) -> str:
+    """A square in `colour` before `text`, kept on one line (HTML)."""
     r, g, b = (int(c) for c in colour)
     return (
         '<span style="white-space:nowrap;margin-right:0.8em"><span '

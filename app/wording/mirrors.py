@@ -45,12 +45,23 @@ SMALL_TEXT = "font-size:0.8em;line-height:1.45;padding:0 12px"
 
 
 def _why_off(signed_mm: float) -> str:
+    """Which way a marker lies off its plane: in front (> 0) or behind."""
     return "in front: hidden by something?" if signed_mm > 0 else "behind: off the glass?"
 
 
 def concerns(fit: Fit) -> list[str]:
-    """Why a fit asks for a look: a large turn or move, the poor markers, a plane from the object it
-    replaces."""
+    """Why a fit asks for a look.
+
+    Parameters
+    ----------
+    fit : Fit
+        A markers fit and its review.
+
+    Returns
+    -------
+    list of str
+        A large turn or move, the poor markers, a plane from the object it replaces.
+    """
     review, markers, names = fit.review, fit.calibration.markers, fit.mirror.marker_names
     said = []
     if review.moved:
@@ -82,8 +93,19 @@ def concerns(fit: Fit) -> list[str]:
 
 
 def fit_line(fit: Fit, confirmed: bool = False) -> Message:
-    """One mirror's markers fit: its RMS and the markers' grades (⚠ the poor ones); the points kept,
-    the farthest marker, the glass and the concerns in the details."""
+    """One mirror's markers fit: its RMS and the markers' grades (⚠ the poor ones).
+
+    Parameters
+    ----------
+    fit : Fit
+    confirmed : bool, optional
+        The fit is applied on confirmation.
+
+    Returns
+    -------
+    Message
+        The points kept, the farthest marker, the glass and the concerns in the details.
+    """
     c, m = fit.calibration, fit.mirror
     head = f"**{m.name}**: plane fitted, {c.rms_mm:.1f} mm RMS"
     details = [f"RMS {c.rms_mm:.2f} mm over {c.n_inliers}/{c.n_points} points."]
@@ -117,8 +139,18 @@ def fit_line(fit: Fit, confirmed: bool = False) -> Message:
 
 
 def fit_report(applied: FitsApplied) -> list[Message]:
-    """The report of markers fits: a line per mirror, what was discarded, then how to get the glass
-    when a mirror has none set."""
+    """The report of markers fits.
+
+    Parameters
+    ----------
+    applied : FitsApplied
+
+    Returns
+    -------
+    list of Message
+        A line per mirror, how to get the glass when a mirror has none set, then what was
+        discarded.
+    """
     lines = [fit_line(f, f.mirror.id in applied.confirmed) for f in applied.fits]
     if any(not f.mirror.glass_set for f in applied.fits):
         lines.append(NO_GLASS_NOTE)
@@ -133,7 +165,16 @@ def fit_report(applied: FitsApplied) -> list[Message]:
 
 
 def proposal(fits: list[Fit]) -> list[Message]:
-    """The proposal's lines: each plane against the one it replaces, and why it asks for a look."""
+    """The proposal's lines: each plane against the one it replaces, and why it asks for a look.
+
+    Parameters
+    ----------
+    fits : list of Fit
+
+    Returns
+    -------
+    list of Message
+    """
     lines = []
     for fit in fits:
         old = (
@@ -149,9 +190,22 @@ def proposal(fits: list[Fit]) -> list[Message]:
 def fit_note(
     applied: list[Fit], waiting: list[Fit], without_markers: tuple[str, ...] = ()
 ) -> Message:
-    """A markers fit's notification: the planes applied (⚠ those with poor markers), the proposal
-    waiting, the mirrors left out for want of markers; the RMS, the glass and the poor markers in
-    the details."""
+    """A markers fit's notification.
+
+    Parameters
+    ----------
+    applied : list of Fit
+        The planes applied (⚠ those with poor markers).
+    waiting : list of Fit
+        The proposal waiting for Apply or Discard.
+    without_markers : tuple of str, optional
+        The mirrors left out for want of markers.
+
+    Returns
+    -------
+    Message
+        The RMS, the glass and the poor markers in the details.
+    """
     heads, details = [], []
     if applied:
         poor = [f for f in applied if f.review.poor]
@@ -199,10 +253,23 @@ def fit_note(
 def mirror_status(
     mirror: SessionMirror | None, from_object: bool, glass_unused: bool = False
 ) -> str:
-    """One line (Markdown) on a mirror: where its plane stands (none yet, calibrated, or from the
-    object), its markers' glass (mm in front of the silver: typed in, or measured by a refinement
-    with its 1 sigma; none without markers; glass_unused: typed in after the plane was set, which it
-    does not move) and how many markers it has."""
+    """One line (Markdown) on a mirror: its plane, its markers' glass and how many markers it has.
+
+    Parameters
+    ----------
+    mirror : SessionMirror or None
+        The mirror; None gives ''.
+    from_object : bool
+        Its plane is from the object (else calibrated, or none yet).
+    glass_unused : bool, optional
+        Its glass was typed in after the plane was set, which it does not move.
+
+    Returns
+    -------
+    str
+        The glass is mm in front of the silver: typed in, or measured by a refinement with its
+        1 sigma; none without markers.
+    """
     if mirror is None:
         return ""
     plane = (
@@ -235,7 +302,16 @@ def mirror_status(
 
 
 def removal_question(mirror: SessionMirror) -> str:
-    """What removing a mirror takes out of the session, as much as it has, and how to undo it."""
+    """What removing a mirror takes out of the session, as much as it has, and how to undo it.
+
+    Parameters
+    ----------
+    mirror : SessionMirror
+
+    Returns
+    -------
+    str
+    """
     count = len(mirror.markers)
     has = (
         ([f"{count} marker{'s' if count != 1 else ''}"] if count else [])
@@ -260,10 +336,25 @@ def greyed_out(
     refused: dict[int, str],
     undo_elsewhere: tuple[str, ...] = (),
 ) -> str:
-    """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out, as small
-    print (HTML, names escaped), '' when none is. The fits' reasons only while a plane is missing;
-    `refused` as Jobs.refusals; undo_elsewhere: the other mirrors with a change to undo while the
-    selected one has none."""
+    """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out.
+
+    The fits' reasons only while a plane is missing.
+
+    Parameters
+    ----------
+    session : Session
+    selected : SessionMirror or None
+        The selected mirror.
+    refused : dict of int to str
+        As Jobs.refusals.
+    undo_elsewhere : tuple of str, optional
+        The other mirrors with a change to undo while the selected one has none.
+
+    Returns
+    -------
+    str
+        Small print (HTML, names escaped), '' when nothing is greyed out.
+    """
     if not session.mirrors:
         return ""
     reasons = []
@@ -308,7 +399,21 @@ def no_depth_note() -> Message:
 
 
 def marker_off_note(mirror: str, signed_mm: float, sigma_mm: float) -> Message:
-    """A marker clicked far off its mirror's plane: how far (mm and σ) and on which side."""
+    """A marker clicked far off its mirror's plane: how far (mm and σ) and on which side.
+
+    Parameters
+    ----------
+    mirror : str
+        The mirror's name.
+    signed_mm : float
+        Its distance to the plane (mm); > 0: in front of it, behind something.
+    sigma_mm : float
+        The depth noise there (mm).
+
+    Returns
+    -------
+    Message
+    """
     where = (
         "behind something in front of the mirror"
         if signed_mm > 0
@@ -322,6 +427,7 @@ def marker_off_note(mirror: str, signed_mm: float, sigma_mm: float) -> Message:
 
 
 def _dot(grade: str, colours: dict[str, str]) -> str:
+    """A round dot in the grade's colour (HTML)."""
     return (
         '<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 '
         "0.25em;"
@@ -332,9 +438,26 @@ def _dot(grade: str, colours: dict[str, str]) -> str:
 def marker_list(
     mirror: SessionMirror | None, residuals, picked: int | None, colours: dict[str, str]
 ) -> str:
-    """Every marker of the mirror with its distance to the plane and the noise there (HTML), in its
-    grade's colour (`colours`: grade -> CSS colour, as its centre on the depth frame); a poor one
-    says which way it is off; `picked` (0-based) in bold; residuals: MarkerResiduals or None."""
+    """Every marker of the mirror with its distance to the plane and the noise there (HTML).
+
+    Each in its grade's colour, as its centre on the depth frame; a poor one says which way it is
+    off.
+
+    Parameters
+    ----------
+    mirror : SessionMirror or None
+    residuals : MarkerResiduals or None
+        The markers' grades and distances; None lists their pixels.
+    picked : int or None
+        The picked marker (0-based), in bold.
+    colours : dict of str to str
+        Grade -> CSS colour.
+
+    Returns
+    -------
+    str
+        '' when the mirror has no markers.
+    """
     if mirror is None or not mirror.markers:
         return ""
     rows = []
@@ -366,8 +489,17 @@ def marker_list(
 
 
 def report_markdown(report) -> str:
-    """The report of what left the planes as they are (Jobs.report: a CalibrationReport or
-    FitsApplied, or None) as a panel's Markdown."""
+    """The report of what left the planes as they are, as a panel's Markdown.
+
+    Parameters
+    ----------
+    report : CalibrationReport, FitsApplied or None
+        As Jobs.report.
+
+    Returns
+    -------
+    str
+    """
     if report is None:
         return ""
     if isinstance(report, FitsApplied):

@@ -34,8 +34,19 @@ GLASS_WHERE = "Mirrors › Rename, glass, remove, clear"
 
 
 def method_bias(compared: str, better: bool = True) -> str:
-    """What a way of comparing ("surfaces" or "sphere") may add beyond the planes' 1σ, and, for the
-    surfaces, what does better."""
+    """What a way of comparing may add beyond the planes' 1σ.
+
+    Parameters
+    ----------
+    compared : str
+        "surfaces" or "sphere".
+    better : bool, optional
+        For the surfaces, also say what does better.
+
+    Returns
+    -------
+    str
+    """
     bias = METHOD_BIAS[compared]
     if compared == "sphere":
         return f"the method may add {1e3 * bias.shift:.1f} mm and {bias.tilt_deg:.2f}°"
@@ -46,8 +57,19 @@ def method_bias(compared: str, better: bool = True) -> str:
 
 
 def frames_used(used: FramesUsed) -> str:
-    """The frames a calibration read, in words: 'the last 5 live frames', 'frames 0, 4 and 9 of the
-    recording's 10 (numbered as in the header)'."""
+    """The frames a calibration read, in words.
+
+    Parameters
+    ----------
+    used : FramesUsed
+        The frames picked, and the recording's frame count (None: live frames).
+
+    Returns
+    -------
+    str
+        'the last 5 live frames', 'frames 0, 4 and 9 of the recording's 10 (numbered as in the
+        header)'.
+    """
     if used.count is None:
         return (
             "the last live frame"
@@ -65,23 +87,51 @@ def frames_used(used: FramesUsed) -> str:
 
 
 def working(work: CalibrationWork) -> Message:
-    """A calibration from the object under way."""
+    """A calibration from the object under way.
+
+    Parameters
+    ----------
+    work : CalibrationWork
+
+    Returns
+    -------
+    Message
+    """
     doing = "Finding the planes" if work.search else "Refining the planes"
     return Message(f"{doing} from the object…", (f"Over {frames_used(work.used)}.",))
 
 
 def signed(mm: float) -> str:
-    """mm to 0.1 with its sign, '0.0' when it rounds to nothing."""
+    """Millimetres to 0.1 with their sign, '0.0' when they round to nothing.
+
+    Parameters
+    ----------
+    mm : float
+
+    Returns
+    -------
+    str
+    """
     return f"{mm:+.1f}" if round(mm, 1) != 0 else "0.0"
 
 
 def _glass_measured(report: CalibrationReport) -> bool:
+    """Whether a mirror's glass was measured from its markers, not typed in."""
     return any(r.marker_offset is not None and r.glass_typed is None for r in report.mirrors)
 
 
 def headline(report: CalibrationReport) -> Message:
-    """The calibration's headline: what it did and what to do now (Undo, the glass); the frames, the
-    sign convention and the method's bias in the details."""
+    """The calibration's headline: what it did and what to do now (Undo, the glass).
+
+    Parameters
+    ----------
+    report : CalibrationReport
+
+    Returns
+    -------
+    Message
+        The frames, the sign convention and the method's bias in the details.
+    """
     used = f"Over {frames_used(report.used)}."
     if not report.changed:
         return Message(
@@ -124,9 +174,22 @@ def headline(report: CalibrationReport) -> Message:
 
 
 def mirror_line(r: MirrorRefinement, search: bool, saved: bool = True) -> Message:
-    """One refined (or found) mirror: its move and whether its view now agrees as well as the depth
-    noise allows; the figures before and after, how well the data fix it and its glass in the
-    details."""
+    """One refined (or found) mirror: its move and whether its view agrees within the noise.
+
+    Parameters
+    ----------
+    r : MirrorRefinement
+        What the calibration did to the mirror.
+    search : bool
+        The plane was found (no markers) rather than refined.
+    saved : bool, optional
+        The glass read from the markers is saved as the mirror's glass.
+
+    Returns
+    -------
+    Message
+        The figures before and after, how well the data fix it and its glass in the details.
+    """
     agrees = r.agreement_after_mm <= NOISE_EXPLAINS * r.noise_mm
     moved = "" if search else f" moved {signed(r.shift_mm)} mm and {r.tilt_deg:.2f}°;"
     verdict = (
@@ -177,7 +240,17 @@ def mirror_line(r: MirrorRefinement, search: bool, saved: bool = True) -> Messag
 
 
 def not_found_line(missing: NotFound) -> Message:
-    """A mirror a search could not find: its plane stays; the library's why in the details."""
+    """A mirror a search could not find: its plane stays.
+
+    Parameters
+    ----------
+    missing : NotFound
+
+    Returns
+    -------
+    Message
+        The library's why in the details.
+    """
     return Message(
         f"**{missing.name}** ⚠ not found: its plane is as it was (why in the details).",
         (missing.why,),
@@ -185,7 +258,17 @@ def not_found_line(missing: NotFound) -> Message:
 
 
 def report(result: CalibrationReport) -> list[Message]:
-    """The report of a calibration from the object: its headline, then a line per mirror."""
+    """The report of a calibration from the object: its headline, then a line per mirror.
+
+    Parameters
+    ----------
+    result : CalibrationReport
+
+    Returns
+    -------
+    list of Message
+        The headline, a line per mirror calibrated, then one per mirror not found.
+    """
     lines = [headline(result)]
     lines += [mirror_line(r, result.search, result.changed) for r in result.mirrors]
     lines += [not_found_line(m) for m in result.not_found]
@@ -193,20 +276,54 @@ def report(result: CalibrationReport) -> list[Message]:
 
 
 def note(result: CalibrationReport) -> Message:
-    """The calibration's notification: its headline, and where the report is."""
+    """The calibration's notification: its headline, and where the report is.
+
+    Parameters
+    ----------
+    result : CalibrationReport
+
+    Returns
+    -------
+    Message
+    """
     head = headline(result).headline
     return Message(f"{head} The report is under Mirrors.")
 
 
 def undone(result: CalibrationReport, verb: str) -> Message:
-    """After an undo or redo of the calibration `result`: what was undone or redone."""
+    """After an undo or redo of the calibration `result`: what was undone or redone.
+
+    Parameters
+    ----------
+    result : CalibrationReport
+    verb : str
+        'Undone' or 'Redone', the headline's first word.
+
+    Returns
+    -------
+    Message
+    """
     what = "found" if result.search else "refined"
     names = listed(r.name for r in result.mirrors)
     return Message(f"{verb}: the planes {what} from the object for {names}.")
 
 
 def calibration_refused(reason: str, mirrors: tuple[str, ...], search: bool) -> Message:
-    """A calibration from the object refused; `mirrors`: the names the refusal is about."""
+    """A calibration from the object refused.
+
+    Parameters
+    ----------
+    reason : str
+        The library's reason.
+    mirrors : tuple of str
+        The names the refusal is about; empty for a refusal of the whole.
+    search : bool
+        The calibration was a search (no markers).
+
+    Returns
+    -------
+    Message
+    """
     if mirrors:
         what = "not found from the object" if search else "not refined from the object"
         return Message(
@@ -220,11 +337,24 @@ def calibration_refused(reason: str, mirrors: tuple[str, ...], search: bool) -> 
 # ------------------------------------------------------------------------------------------
 # agreement
 def doubt(found: ViewAgreement) -> str:
-    """'camera' when a mirror's comparisons with the camera (MIN_AGREEMENTS or more) go beyond the
-    noise (their RMS beyond NOISE_EXPLAINS times it, or their mean beyond CAMERA_MEAN_EXPLAINS
-    times), 'mirrors' when only all its comparisons together do (MEAN_EXPLAINS for their mean), else
-    ''. The camera's alone single out a tilted plane: the comparisons between two mirrors put a tilt
-    or an offset of one on both."""
+    """Which comparisons of a mirror go beyond the depth noise.
+
+    The camera's alone single out a tilted plane: the comparisons between two mirrors put a tilt
+    or an offset of one on both.
+
+    Parameters
+    ----------
+    found : ViewAgreement
+        The mirror's comparisons with the other views.
+
+    Returns
+    -------
+    str
+        'camera' when its comparisons with the camera (MIN_AGREEMENTS or more) go beyond the noise
+        (their RMS beyond NOISE_EXPLAINS times it, or their mean beyond CAMERA_MEAN_EXPLAINS
+        times), 'mirrors' when only all its comparisons together do (MEAN_EXPLAINS for their
+        mean), else ''.
+    """
 
     def beyond(rms: float, mean: float, noise: float, share: float) -> bool:
         return rms > NOISE_EXPLAINS * noise or abs(mean) > share * noise
@@ -237,11 +367,21 @@ def doubt(found: ViewAgreement) -> str:
 
 
 def disagrees(found: ViewAgreement) -> bool:
-    """Whether an agreement line warns of the mirror (enough comparisons, beyond the noise)."""
+    """Whether an agreement line warns of the mirror (enough comparisons, beyond the noise).
+
+    Parameters
+    ----------
+    found : ViewAgreement
+
+    Returns
+    -------
+    bool
+    """
     return found.points >= MIN_AGREEMENTS and bool(doubt(found))
 
 
 def _over(found: ViewAgreement) -> str:
+    """'on one frame' or 'over N frames'."""
     return "on one frame" if found.frames == 1 else f"over {found.frames} frames"
 
 
@@ -252,11 +392,21 @@ def _apart(value: float, limit: float) -> tuple[str, str]:
 
 
 def agreement_line(line: MirrorAgreement) -> Message:
-    """One mirror's agreement with the other views against what the depth noise explains. A mirror
-    that disagrees with the camera may be tilted or have its boundary off; one that agrees with the
-    camera but not with another mirror has a plane off along its normal (its own or another's).
-    Fewer than MIN_AGREEMENTS comparisons judge nothing. The advice names the markers and the glass
-    only for a plane from markers."""
+    """One mirror's agreement with the other views against what the depth noise explains.
+
+    A mirror that disagrees with the camera may be tilted or have its boundary off; one that
+    agrees with the camera but not with another mirror has a plane off along its normal (its own
+    or another's). Fewer than MIN_AGREEMENTS comparisons judge nothing. The advice names the
+    markers and the glass only for a plane from markers.
+
+    Parameters
+    ----------
+    line : MirrorAgreement
+
+    Returns
+    -------
+    Message
+    """
     name, found = line.name, line.found
     if not found.points or not np.isfinite(found.rms_mm):
         return Message(
@@ -331,12 +481,30 @@ def agreement_line(line: MirrorAgreement) -> Message:
 
 
 def agreement(report: AgreementReport) -> list[Message]:
-    """The agreement lines, a mirror each; NO_AGREEMENT when no mirror has a plane."""
+    """The agreement lines, a mirror each; NO_AGREEMENT when no mirror has a plane.
+
+    Parameters
+    ----------
+    report : AgreementReport
+
+    Returns
+    -------
+    list of Message
+    """
     return [agreement_line(m) for m in report.mirrors] or [NO_AGREEMENT]
 
 
 def disagreement_note(names: tuple[str, ...]) -> Message:
-    """The notification naming the mirrors the agreement lines flag."""
+    """The notification naming the mirrors the agreement lines flag.
+
+    Parameters
+    ----------
+    names : tuple of str
+
+    Returns
+    -------
+    Message
+    """
     views = "its view disagrees" if len(names) == 1 else "their views disagree"
     return Message(
         f"{listed(names)}: ⚠ {views} with the others beyond the depth noise; why and what to do "

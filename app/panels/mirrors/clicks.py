@@ -16,7 +16,20 @@ from ...wording.mirrors import marker_off_note, no_depth_note
 
 
 def nearest(points, uv) -> int | None:
-    """The index of the point (u, v) within PICK_RADIUS pixels of uv, or None."""
+    """The index of the point within PICK_RADIUS pixels of `uv`, or None.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        (u, v) pixels.
+    uv : array_like, shape (2,)
+        Pixels.
+
+    Returns
+    -------
+    int or None
+        The nearest such point's index.
+    """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not len(points):
         return None
@@ -37,9 +50,11 @@ class MirrorClicks:
         return self.tab.state.mirror_id
 
     def _mirror(self) -> SessionMirror:
+        """The selected mirror; MirrorscanError when there is none."""
         return self.services.editor.mirror(self._id())
 
     def _marker_click(self, u: float, v: float) -> None:
+        """A click in Markers mode: move the picked marker, pick one near, or add one."""
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
         if state.moving_marker and state.picked_marker is not None:
             editor.move_marker(mirror.id, state.picked_marker, (u, v))
@@ -54,9 +69,11 @@ class MirrorClicks:
         self.tab.changed()
 
     def _warn_if_off(self, mirror_id: int, k: int) -> None:
-        """A marker just added with no depth under it (on the frames a fit reads), or far off its
-        mirror's plane (a click on the object seen in the mirror, or beside the sticker), is told at
-        once: the next fit would refuse it, or show it crossed, as a proposal."""
+        """Tell at once of a marker just added with no depth under it, or far off its plane.
+
+        No depth on the frames a fit reads; far off: a click on the object seen in the mirror, or
+        beside the sticker. The next fit would refuse it, or show it crossed, as a proposal.
+        """
         mirror = self.services.editor.mirror(mirror_id)
         frames = self.services.jobs.marker_frames()
         if (
@@ -85,6 +102,7 @@ class MirrorClicks:
         )
 
     def _boundary_click(self, u: float, v: float) -> None:
+        """A click in Boundary mode: start, extend or close the draft, or pick or move a corner."""
         editor, state, mirror = self.services.editor, self.tab.state, self._mirror()
         draft = state.drafts.get(mirror.id)
         if draft is not None:
@@ -107,6 +125,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _close_boundary(self) -> None:
+        """Make the selected mirror's draft its boundary, then go on to its markers."""
         mirror_id = self._id()
         draft = self.tab.state.drafts.get(mirror_id)
         if not draft:
@@ -117,6 +136,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _clear_boundary(self) -> None:
+        """Drop the selected mirror's draft, or else clear its boundary."""
         mirror_id = self._id()
         if self.tab.state.drafts.pop(mirror_id, None) is None:
             self.services.editor.clear_boundary(mirror_id)
@@ -124,6 +144,7 @@ class MirrorClicks:
         self.tab.changed()
 
     def _delete_corner(self) -> None:
+        """Delete the picked corner of the selected mirror's boundary."""
         self._delete_picked(
             "picked_corner",
             self.services.editor.delete_vertex,
@@ -131,12 +152,14 @@ class MirrorClicks:
         )
 
     def _start_move(self) -> None:
+        """Move the picked marker to the next click."""
         if self.tab.state.picked_marker is None:
             raise MirrorscanError("pick a marker first: in Markers mode, click it")
         self.tab.state.moving_marker = True
         self.tab.changed()
 
     def _delete_marker(self) -> None:
+        """Delete the picked marker of the selected mirror."""
         self._delete_picked(
             "picked_marker",
             self.services.editor.delete_marker,
@@ -153,10 +176,12 @@ class MirrorClicks:
         self.tab.changed()
 
     def _outline_buttons(self, shown: bool, closed: bool, drafted: int, picked: int | None) -> None:
-        """Boundary mode's buttons, each only where it can act: Close boundary while an outline is
-        drawn (greyed, with the corners still needed, below MIN_VERTICES), Delete the picked corner
-        once it is closed (greyed until a corner is picked), Clear boundary whenever there is
-        something to clear."""
+        """Boundary mode's buttons, each only where it can act.
+
+        Close boundary while an outline is drawn (greyed, with the corners still needed, below
+        MIN_VERTICES), Delete the picked corner once it is closed (greyed until a corner is picked),
+        Clear boundary whenever there is something to clear.
+        """
         self.close.visible, self.delete_corner.visible = shown and not closed, shown and closed
         self.clear_boundary.visible = shown
         self.close.disabled = drafted < MIN_VERTICES

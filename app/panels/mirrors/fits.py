@@ -18,8 +18,20 @@ from ...wording.mirrors import CROSSED, PROPOSAL_HEAD, fit_note, fit_report, pro
 
 
 def flags(fits: dict[int, Fit]) -> tuple[tuple[int, tuple[float, float]], ...]:
-    """(mirror id, marker's pixel (u, v)) of every poor marker of the fits: crossed on the depth
-    frame whichever mirror is selected, until that marker is moved or deleted."""
+    """Every poor marker of the fits, crossed on the depth frame whichever mirror is selected.
+
+    They stay crossed until that marker is moved or deleted.
+
+    Parameters
+    ----------
+    fits : dict of int to Fit
+        By mirror id.
+
+    Returns
+    -------
+    tuple of (int, (float, float))
+        (mirror id, marker's pixel (u, v)).
+    """
     return tuple((f.mirror.id, f.mirror.markers[k]) for f in fits.values() for k in f.review.poor)
 
 
@@ -27,8 +39,15 @@ class MirrorFits:
     """The markers fits of the Mirrors panel (MirrorsPanel mixes it in)."""
 
     def fit_all_planes(self) -> None:
-        """Fit every mirror that has markers (fit_planes); those without are left as they are and
-        named in the note."""
+        """Fit every mirror that has markers (fit_planes).
+
+        Those without are left as they are and named in the note.
+
+        Raises
+        ------
+        MirrorscanError
+            When no mirror has markers.
+        """
         mirrors = self.services.editor.session.mirrors
         if not any(m.markers for m in mirrors):
             raise MirrorscanError(
@@ -40,12 +59,24 @@ class MirrorFits:
         )
 
     def fit_planes(self, mirror_ids: list[int], without_markers: tuple[str, ...] = ()) -> None:
-        """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing. A
-        fit that
-        needs a look (Fit.needs_confirmation) becomes a proposal; the others are applied at once.
-        Refused while
-        a calibration from the object runs: it applies what it computed on the planes as they were.
-        without_markers : the names of the mirrors Fit all left out, for the note."""
+        """Calibrate the given mirrors from their markers (on Jobs.marker_frames), all or nothing.
+
+        A fit that needs a look (Fit.needs_confirmation) becomes a proposal; the others are applied
+        at once.
+
+        Parameters
+        ----------
+        mirror_ids : list of int
+        without_markers : tuple of str, optional
+            The names of the mirrors Fit all left out, for the note.
+
+        Raises
+        ------
+        MirrorscanError
+            While a calibration from the object runs (it applies what it computed on the planes as
+            they were), before the first frame, or when a mirror with a boundary and no plane has no
+            markers.
+        """
         jobs = self.services.jobs
         if jobs.running(REFINE):
             raise MirrorscanError(
@@ -104,8 +135,10 @@ class MirrorFits:
         self.tab.changed()
 
     def _apply_fits(self, fits: dict[int, Fit], applied: FitsApplied) -> None:
-        """Markers fits' planes into the session, their report shown and kept by the planes they
-        leave (Jobs.fits: an undo brings it back), the views' agreement checked."""
+        """Put markers fits' planes into the session, show their report, check the agreement.
+
+        The report is kept by the planes they leave (Jobs.fits: an undo brings it back).
+        """
         editor = self.services.editor
         editor.set_planes(
             {mirror_id: (f.calibration.plane, f.mirror) for mirror_id, f in fits.items()}
@@ -115,8 +148,10 @@ class MirrorFits:
         self._check_agreement()
 
     def _discard(self) -> None:
-        """The proposal discarded; the planes of the same fit applied at once stay, and their
-        report."""
+        """The proposal discarded.
+
+        The planes of the same fit applied at once stay, and their report.
+        """
         waiting = tuple(f.mirror.name for f in (self.proposal or {}).values())
         self.proposal = None
         self.tab.state.flagged_markers = ()
@@ -131,8 +166,10 @@ class MirrorFits:
         self.tab.changed()
 
     def _drop_stale_proposal(self) -> None:
-        """A proposal for a mirror whose markers, boundary, glass or plane changed since the fit
-        cannot be applied: drop it, so that Fit plane is offered again."""
+        """Drop a proposal whose mirror's markers, boundary, glass or plane changed since the fit.
+
+        It cannot be applied; Fit plane is offered again.
+        """
         if self.proposal is None:
             return
         current = {m.id: m for m in self.services.editor.session.mirrors}
@@ -155,8 +192,11 @@ class MirrorFits:
             self.tab.changed()
 
     def _show_proposal(self) -> None:
-        """The proposal's head, lines and buttons while one waits; the fits and the calibration from
-        the object greyed out meanwhile (they would act on the planes it replaces)."""
+        """The proposal's head, lines and buttons while one waits.
+
+        The fits and the calibration from the object greyed out meanwhile (they would act on the
+        planes it replaces).
+        """
         fits = self.proposal
         for handle in (self.proposal_head, self.review, self.apply, self.discard):
             handle.visible = fits is not None

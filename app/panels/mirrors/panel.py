@@ -37,8 +37,16 @@ GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
 class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
-    """Step 1: add and select mirrors, click their boundaries and markers on the depth frame, fit
-    their planes, calibrate them from the object; undo and redo per mirror."""
+    """Step 1: add and select mirrors, click their boundaries and markers, fit and calibrate them.
+
+    Their boundaries and markers are clicked on the depth frame, their planes fitted to the
+    markers or calibrated from the object; undo and redo go per mirror.
+
+    Parameters
+    ----------
+    tab : TabContext
+        The tab it is built in.
+    """
 
     TITLE = TITLE
 
@@ -119,6 +127,13 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     @proposal.setter
     def proposal(self, fits: dict[int, Fit] | None) -> None:
+        """Set the fits waiting; the tab's proposal_for follows and the waiting note goes.
+
+        Parameters
+        ----------
+        fits : dict of int to Fit or None
+            By mirror id; None when nothing waits.
+        """
         self._proposal = fits
         self.tab.state.proposal_for = tuple(f.mirror.name for f in fits.values()) if fits else ()
         if self._proposal_note is not None:  # its "... waits, not applied" is over
@@ -139,9 +154,11 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
                 self._warn_disagreement(event.result, event.status)
 
     def _on_calibration(self, event: JobProgress) -> None:
-        """A calibration from the object moved on or ended: the buttons, its progress, its report;
-        its end in a notification (in view whatever the panel's scroll) until the planes change
-        again."""
+        """A calibration from the object moved on or ended.
+
+        The buttons, its progress, its report; its end in a notification (in view whatever the
+        panel's scroll) until the planes change again.
+        """
         running, result = event.fraction is not None, event.result
         self.refine.disabled, self.refine_cancel.visible = running, running
         self.scene.disabled = self.undo.disabled = self.redo.disabled = running
@@ -171,16 +188,20 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
             self.refresh()
 
     def _cancelled(self) -> str:
-        """A calibration from the object cancelled: the planes are as they were, and so is their
-        report."""
+        """A calibration from the object cancelled.
+
+        The planes are as they were, and so is their report.
+        """
         before = report_markdown(
             self.services.jobs.report(planes_key(self.services.editor.session))
         )
         return words.CANCELLED.markdown() + (f"\n\n{before}" if before else "")
 
     def _warn_disagreement(self, report: AgreementReport, lines: str) -> None:
-        """A notification naming the mirrors the agreement lines flag (they may be out of view), not
-        again for the same lines."""
+        """Notify of the mirrors the agreement lines flag (they may be out of view).
+
+        Not again for the same lines.
+        """
         flagged = tuple(m.name for m in report.mirrors if words.disagrees(m.found))
         if flagged and lines != self._flagged:
             self.services.notify(
@@ -193,6 +214,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
+        """Connect the panel's controls to their actions."""
         editor, act, jobs = self.services.editor, self.tab.act, self.services.jobs
         self.mirror.on_update(lambda e: e.client is not None and self._select(self.mirror.value))
         self.mode.on_click(lambda e: self._set_mode(CLICK_MODES[e.target.value]))
@@ -223,6 +245,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     # ------------------------------------------------------------------ the selected mirror
     def _select(self, name: str) -> None:
+        """Select the mirror named `name` (none when no mirror has it), dropping the picks."""
         mirror = next((m for m in self.services.editor.session.mirrors if m.name == name), None)
         state = self.tab.state
         state.mirror_id = None if mirror is None else mirror.id
@@ -234,6 +257,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.tab.changed()
 
     def _set_mode(self, mode: str) -> None:
+        """Set the click mode, dropping the picks; a mode of clicks shows the depth frame."""
         state = self.tab.state
         state.mode, state.picked_marker, state.picked_corner, state.moving_marker = (
             mode,
@@ -246,13 +270,16 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.tab.changed()
 
     def _add(self) -> None:
+        """Add a mirror, select it and start its boundary."""
         mirror_id = self.services.editor.add_mirror()
         self.tab.state.mirror_id = mirror_id
         self._set_mode("boundary")
 
     def _set_glass(self) -> None:
-        """The glass typed in for the selected mirror; refused (not 0 to 50 mm), the field shows the
-        mirror's glass again."""
+        """The glass typed in for the selected mirror.
+
+        Refused (not 0 to 50 mm), the field shows the mirror's glass again.
+        """
         editor = self.services.editor
         try:
             editor.set_marker_offset(self._id(), self.glass.value / 1e3)
@@ -261,8 +288,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
             raise
 
     def _from_object(self, start: Callable[[SessionEditor], object]) -> None:
-        """Start a calibration from the object (Jobs.start_refine or start_scene), but not over a
-        proposal: it would refine the planes the proposal replaces."""
+        """Start a calibration from the object (start_refine or start_scene), not over a proposal.
+
+        It would refine the planes the proposal replaces.
+        """
         if self.proposal is not None:
             raise MirrorscanError("a fit from the markers waits: apply or discard it first")
         start(self.services.editor)
@@ -273,8 +302,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     # ------------------------------------------------------------------ what the panel shows
     def refresh(self) -> None:
-        """Follow the session and the tab's state: the mirror list, the mode, the buttons, the
-        markers."""
+        """Follow the session and the tab's state.
+
+        The mirror list, the mode, the buttons, the markers.
+        """
         session, state, editor = self.services.editor.session, self.tab.state, self.services.editor
         jobs = self.services.jobs
         names = tuple(m.name for m in session.mirrors) or (NO_MIRROR,)
@@ -352,8 +383,10 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self.markers.content = marker_list(selected, residuals, state.picked_marker, GRADE_CSS)
 
     def _mode_help(self, selected) -> None:
-        """The click mode's help and its buttons (markers: move, delete; boundary: close, delete,
-        clear)."""
+        """Show the click mode's help and its buttons.
+
+        Markers: move, delete; boundary: close, delete, clear.
+        """
         state = self.tab.state
         closed = state.mode == "boundary" and selected is not None and bool(selected.boundary)
         name = selected.name if selected is not None else "the mirror"
@@ -375,5 +408,6 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
     @staticmethod
     def _label(button, verb: str, what: str | None) -> None:
+        """Label an undo or redo button with what it does; grey it out when nothing."""
         button.disabled = what is None
         button.label = f"{verb}: {what}" if what else verb

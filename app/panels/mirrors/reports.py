@@ -19,9 +19,10 @@ class MirrorReports:
     """The reports, undo and redo of the Mirrors panel (MirrorsPanel mixes it in)."""
 
     def _travel(self, move) -> None:
-        """Undo or redo in the selected mirror's scope, or in the session's when that holds the
-        newer step (SessionEditor.travel_scope); undo while an outline is drawn takes its last
-        corner back."""
+        """Undo or redo in the selected mirror's scope, or the session's if it holds the newer step.
+
+        See SessionEditor.travel_scope; undo while an outline is drawn takes its last corner back.
+        """
         editor, state = self.services.editor, self.tab.state
         draft = state.drafts.get(state.mirror_id)
         if move == editor.undo and draft:
@@ -43,9 +44,11 @@ class MirrorReports:
         self.tab.changed()
 
     def _report(self, text: str, gone: tuple[str, ...] = ()) -> None:
-        """Show a report (Markdown) for the planes as they are now, and the mirrors it names that
-        were removed since; the notification of the last calibration from the object goes (one told
-        after it would stack under it)."""
+        """Show a report (Markdown) for the planes as they are, and the mirrors since removed.
+
+        It names the mirrors of the report that were removed since. The notification of the last
+        calibration from the object goes (one told after it would stack under it).
+        """
         self._result_planes, self._result_text, self._gone = (
             planes_key(self.services.editor.session),
             text,
@@ -61,9 +64,12 @@ class MirrorReports:
             self._result_note = None
 
     def _follow_planes(self, session: Session) -> None:
-        """The planes changed other than by this panel: the report of the calibration or fit that
-        left them so, else the report shown while it still describes every plane (mirrors only added
-        without a plane, or removed), naming those removed, else none."""
+        """The planes changed other than by this panel.
+
+        The report of the calibration or fit that left them so, else the report shown while it still
+        describes every plane (mirrors only added without a plane, or removed), naming those
+        removed, else none.
+        """
         key = planes_key(session)
         known = self.services.jobs.report(key)
         if known is not None:
@@ -81,10 +87,12 @@ class MirrorReports:
         self._report(self._result_text, self._gone + gone)
 
     def _report_after_travel(self, before: tuple, after: tuple, label: str, undone: bool) -> str:
-        """After an undo or redo (of the step `label`): the report of the calibration whose planes
-        are back, or what was undone (the step's label when no calibration changed these planes, or
-        only a part of the step was taken back), then the report of the markers fit whose planes are
-        back; nothing when the planes stayed."""
+        """The report to show after an undo or redo of the step `label`.
+
+        The report of the calibration whose planes are back, or what was undone (the step's label
+        when no calibration changed these planes, or only a part of the step was taken back), then
+        the report of the markers fit whose planes are back; nothing when the planes stayed.
+        """
         jobs, verb = self.services.jobs, "Undone" if undone else "Redone"
         if after in jobs.refinements:
             return report_markdown(jobs.refinements[after])
@@ -100,6 +108,7 @@ class MirrorReports:
         return joined([step, *(fit_report(fit) if fit else [])])
 
     def _confirm_remove(self) -> None:
+        """Ask before removing the selected mirror."""
         mirror = self._mirror()
         self.tab.ask(
             f"Remove {mirror.name}?",
