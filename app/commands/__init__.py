@@ -5,6 +5,8 @@ Each has register(subparsers) that sets the parser's `run` default. Here: what s
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -41,3 +43,17 @@ def percent_bar(desc: str, disable: bool = False) -> Iterator[Progress]:
         disable=disable,
     ) as bar:
         yield lambda fraction: bar.update(100 * fraction - bar.n)
+
+
+@contextmanager
+def ctrl_c_cancels() -> Iterator[threading.Event]:
+    """While inside, Ctrl-C sets the yielded threading.Event instead of interrupting.
+
+    The computation stops at its next chunk; the previous handler is restored on the way out.
+    """
+    event = threading.Event()
+    previous = signal.signal(signal.SIGINT, lambda *_: event.set())
+    try:
+        yield event
+    finally:
+        signal.signal(signal.SIGINT, previous)

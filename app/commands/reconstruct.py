@@ -10,9 +10,6 @@ cores or a Dask cluster (mirrorcore.batch).
 from __future__ import annotations
 
 import argparse
-import signal
-import threading
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +17,7 @@ from tqdm import tqdm
 
 from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
-from mirrorcore.batch import BatchJob, BatchProgress, BatchReport, Where, read_depth, run_batch
+from mirrorcore.batch import read_depth
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
@@ -31,7 +28,8 @@ from mirrorcore.io.session import Session, load_session
 from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 
-from . import wording
+from . import ctrl_c_cancels, wording
+from .reconstruct_batch import run_all
 
 
 def register(sub) -> None:
@@ -212,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         counts = cloud.source_counts(len(rig.mirrors))
         wording.show(wording.cloud_written(out, len(cloud), counts), args.verbose)
         return 0
-    return run_all(args, out)
+    return run_all(args, out, _dense_options(args))
 
 
 def _not_over_a_batch_record(out: Path) -> None:
@@ -286,7 +284,7 @@ def run_dense(
         tqdm(
             total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}"
         ) as bar,
-        _ctrl_c_cancels() as cancel,
+        ctrl_c_cancels() as cancel,
     ):
         try:
             result = reconstruct_dense(
@@ -315,108 +313,6 @@ def run_dense(
     return 0
 
 
-def run_all(args: argparse.Namespace, out: Path) -> int:
-    """Every frame into the folder `out` (mirrorcore.batch.run_batch) with a progress bar.
-
-    Ctrl-C stops cleanly (the frames finished and the manifest are kept; a rerun goes on) and
-    exits with 130.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed command line.
-    out : Path
-        The output folder.
-
-    Returns
-    -------
-    int
-        The exit status (see _summary).
-
-    Raises
-    ------
-    MirrorscanError
-        When --frames is not 1.
-    """
-    if args.frames != 1:
-        raise MirrorscanError(
-            "--frames: with --frame all each frame is reconstructed alone (people move); --frames "
-            "fuses several frames into one result"
-        )
-    job = BatchJob(
-        Path(args.session), out, args.method, _dense_options(args), args.temporal, args.bounces
-    )
-    where = Where(args.workers, args.scheduler)
-    if where.scheduler:
-        print(f"connecting to the Dask cluster at {where.scheduler}...", flush=True)
-    elif not where.in_process:
-        print(f"starting {where.local_workers} local Dask workers...", flush=True)
-    with _ProgressBar(args.method) as bar, _ctrl_c_cancels() as cancel:
-        report = run_batch(job, where, args.frames_per_task, args.overwrite, bar.show, cancel)
-    return _summary(report, args.verbose)
-
-
-class _ProgressBar:
-    """A tqdm bar of the frames done, with their rate and the time left; failures and retries after.
-
-    It is made at the first progress report; the frames kept from an earlier run count as done, not
-    in the rate.
-    """
-
-    def __init__(self, desc: str):
-        self.desc = desc
-        self.bar: tqdm | None = None
-
-    def __enter__(self) -> _ProgressBar:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-    def show(self, progress: BatchProgress) -> None:
-        if self.bar is None:
-            if progress.dashboard:
-                print(f"Dask dashboard: {progress.dashboard}", flush=True)
-            self.bar = tqdm(
-                total=progress.total, initial=progress.kept, desc=self.desc, unit="frame"
-            )
-        self.bar.set_postfix(
-            {
-                k: v
-                for k, v in (("failed", progress.failed), ("retried", len(progress.retried)))
-                if v
-            },
-            refresh=False,
-        )
-        self.bar.update(progress.done - self.bar.n)
-
-
-def _summary(report: BatchReport, verbose: bool) -> int:
-    """Print how the batch went.
-
-    Raises
-    ------
-    MirrorscanError
-        When frames failed (exit 2).
-    KeyboardInterrupt
-        When cancelled (exit 130).
-    """
-    wording.show(wording.batch_done(report), verbose)
-    for worker in sorted(set(report.retried.values())):
-        frames = [i for i, w in report.retried.items() if w == worker]
-        wording.show(wording.retried(worker, frames), verbose)
-    if report.cancelled:
-        raise KeyboardInterrupt
-    if report.failed:
-        first, message = next(iter(report.failed.items()))
-        raise MirrorscanError(
-            f"{len(report.failed)} frame(s) failed ({wording.frame_list(list(report.failed))}; see "
-            f"{report.manifest}), frame {first}: {message}"
-        )
-    return 0
-
-
 def _dense_options(args: argparse.Namespace) -> DenseOptions:
     """The dense options of the command line (metres)."""
     return DenseOptions(
@@ -426,17 +322,3 @@ def _dense_options(args: argparse.Namespace) -> DenseOptions:
         args.threshold,
         args.truncation,
     )
-
-
-@contextmanager
-def _ctrl_c_cancels():
-    """While inside, Ctrl-C sets the yielded threading.Event instead of interrupting.
-
-    The computation stops at its next chunk; the previous handler is restored on the way out.
-    """
-    event = threading.Event()
-    previous = signal.signal(signal.SIGINT, lambda *_: event.set())
-    try:
-        yield event
-    finally:
-        signal.signal(signal.SIGINT, previous)

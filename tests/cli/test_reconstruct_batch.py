@@ -340,7 +340,7 @@ def test_the_browser_tools_folder_is_in_the_sessions_exports(tmp_path):
 
 
 def test_the_commands_summary_names_retried_and_failed_frames(tmp_path, capsys):
-    from mirrorscan.commands.reconstruct import _summary
+    from mirrorscan.commands.reconstruct_batch import _summary
     from mirrorcore.batch import BatchReport
 
     report = BatchReport(

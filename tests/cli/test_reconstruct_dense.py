@@ -3,6 +3,7 @@ mirrors, Kinect noise): PLY files of the docs/DESIGN.md layout, a cancelled run 
 requests exit 2 with one line."""
 
 import threading
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def test_cancelled_run_writes_nothing(tmp_path, monkeypatch, capsys):
         event.set()
         yield event
 
-    monkeypatch.setattr(command, "_ctrl_c_cancels", command.contextmanager(cancelled_at_once))
+    monkeypatch.setattr(command, "ctrl_c_cancels", contextmanager(cancelled_at_once))
     out = tmp_path / "mesh.ply"
     assert main(["reconstruct", DEMO, "-o", str(out), "--method", "tsdf"]) == 130
     assert not out.exists() and list(tmp_path.iterdir()) == []
