@@ -34,8 +34,19 @@ _OPTIONS = ("camera", "scale", "fps")
 
 @dataclass(frozen=True)
 class SourceKind:
-    """One kind of source: its spec form, what it reads, and a check that returns None when it can
-    be used here or a one-line reason why not."""
+    """One kind of source.
+
+    Attributes
+    ----------
+    name : str
+        The kind.
+    spec : str
+        Its spec form.
+    what : str
+        What it reads.
+    unavailable : callable
+        Returns None when the kind can be used here, or a one-line reason why not.
+    """
 
     name: str
     spec: str
@@ -103,9 +114,26 @@ KINDS = (
 
 
 def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
-    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a
-    path; its kind is guessed from what is there (see the module docstring). Raises MirrorscanError
-    for an unknown kind or option."""
+    """Split a spec 'KIND:TARGET?key=value&...' into its kind, target and options.
+
+    A spec without a known kind is a path; its kind is guessed from what is there (see the module
+    docstring).
+
+    Parameters
+    ----------
+    spec : str
+
+    Returns
+    -------
+    kind : str
+    target : str
+    options : dict of str to str
+
+    Raises
+    ------
+    MirrorscanError
+        An unknown kind or option.
+    """
     body, _, query = spec.partition("?")
     options = dict(parse_qsl(query, keep_blank_values=True))
     unknown = sorted(set(options) - set(_OPTIONS))
@@ -132,10 +160,26 @@ def _guess_kind(path: Path, spec: str) -> str:
 
 
 def open_source(spec: str | None, session: Session | None = None) -> DepthSource:
-    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a
-    session with frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to.
-    Raises MirrorscanError (a missing library or device: what to install or plug in) or
-    FileFormatError (a bad file: which and why)."""
+    """Open the source a spec names (see the module docstring and KINDS).
+
+    Parameters
+    ----------
+    spec : str or None
+        None picks 'session' for a session with frames, else 'sim'.
+    session : Session, optional
+        The session that 'session' and 'sim' refer to.
+
+    Returns
+    -------
+    DepthSource
+
+    Raises
+    ------
+    MirrorscanError
+        A missing library or device: what to install or plug in.
+    FileFormatError
+        A bad file: which and why.
+    """
     if spec is None:
         spec = "session" if session is not None and session.frames else "sim"
     kind, target, options = parse_spec(spec)
