@@ -33,5 +33,7 @@ class FileFormatError(MirrorscanError):
 
 
 class Cancelled(MirrorscanError):
-    """A long computation (carving, fusion) was stopped by its caller's cancel request; nothing was
-    returned."""
+    """A long computation (carving, fusion) was stopped by its caller's cancel request.
+
+    Nothing was returned.
+    """

@@ -253,8 +253,13 @@ class DaskExecutor:
         return results
 
     def deaths(self) -> dict[int, str]:
-        """{frame: worker address} of the frames that a worker was running when it left the cluster,
-        since the last call."""
+        """Return the frames a worker was running when it left the cluster, since the last call.
+
+        Returns
+        -------
+        dict of int to str
+            {frame: worker address}.
+        """
         found: dict[int, str] = {}
         while True:
             try:

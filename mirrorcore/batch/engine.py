@@ -394,8 +394,10 @@ class BatchRun:
         return self
 
     def cancel(self) -> None:
-        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait()
-        returns."""
+        """Ask the run to stop: the frames finished are kept, the manifest is written.
+
+        Then wait() returns.
+        """
         self._cancel.set()
 
     @property

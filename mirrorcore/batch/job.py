@@ -56,8 +56,10 @@ class BatchJob:
         object.__setattr__(self, "out", Path(self.out))
 
     def settings(self) -> dict:
-        """The choices that shape the output, as JSON: {'method': ..., 'options': {the dense options
-        the method uses, 'temporal'}}."""
+        """Return the choices that shape the output, as JSON.
+
+        {'method': ..., 'options': {the dense options the method uses, 'temporal'}}.
+        """
         options: dict = {}
         if self.method != "raw":
             o = self.options

@@ -304,10 +304,17 @@ class OutputFolder:
             self.flush()
 
     def flush(self) -> None:
-        """Flush the frames' files added since the last write to the disk (the workers write them
-        without), then write the manifest (atomically): it lists a frame only once its file is on
-        the disk. Raises OSError naming the file that could not be flushed or written (the manifest
-        on the disk is then the last one written)."""
+        """Flush the frames' files added since the last write to the disk, then write the manifest.
+
+        The workers write the files without flushing them; the manifest is written atomically and
+        lists a frame only once its file is on the disk.
+
+        Raises
+        ------
+        OSError
+            Naming the file that could not be flushed or written (the manifest on the disk is then
+            the last one written).
+        """
         start = time.monotonic()
         for record in self._unflushed:
             make_durable(self.path / record.file)

@@ -174,8 +174,11 @@ class FitReview:
 
     @property
     def needs_confirmation(self) -> bool:
-        """The user should look before the plane is applied: it moved far, or a marker is poor,
-        unless it is a refit (its poor markers are still named, nothing is asked)."""
+        """Whether the user should look before the plane is applied.
+
+        The plane moved far, or a marker is poor, unless it is a refit (its poor markers are still
+        named, nothing is asked).
+        """
         return (self.moved or bool(self.poor)) and not self.refit
 
 

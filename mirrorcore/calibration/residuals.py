@@ -91,8 +91,9 @@ class Residuals:
 
 def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[int],
               centre: np.ndarray, gate: float = 0.0) -> Residuals:
-    """Compare, in each frame, every view's points (a mirror's reflected through its plane) with
-    every other view.
+    """Compare, in each frame, every view's points with every other view.
+
+    A mirror's points are reflected through its plane.
 
     Parameters
     ----------
@@ -223,8 +224,9 @@ class ViewAgreement(NamedTuple):
 
 
 def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, ViewAgreement]:
-    """How well each calibrated mirror's view agrees with the others now, without changing
-    anything (the report after a markers fit).
+    """Measure how well each calibrated mirror's view agrees with the others now.
+
+    Without changing anything (the report after a markers fit).
 
     Parameters
     ----------

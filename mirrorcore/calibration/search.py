@@ -293,9 +293,11 @@ class _Scorer:
 
     def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS,
                progress: Progress | None = None) -> np.ndarray:
-        """(k,) agreements minus twice the contradictions, both ways with each view, as a share of
-        the points scored: the first `points` of each view's; progress(fraction) after each BATCH of
-        candidates."""
+        """Score candidate planes: agreements minus twice the contradictions, as a share.
+
+        Both ways with each view, as a share of the points scored: the first `points` of each
+        view's; progress(fraction) after each BATCH of candidates. Returns (k,) scores.
+        """
         out = np.zeros(len(planes))
         for start in range(0, len(planes), BATCH):
             if cancel_requested(cancel):

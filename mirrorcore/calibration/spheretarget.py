@@ -63,8 +63,10 @@ FIT_SETTLED = 1e-8           # metres
 
 
 class NotASphere(CalibrationError):
-    """The object is not a sphere that every view sees (the refinement then compares the views'
-    surfaces)."""
+    """The object is not a sphere that every view sees.
+
+    The refinement then compares the views' surfaces.
+    """
 
 
 @dataclass(frozen=True)

@@ -117,11 +117,18 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
 
 @cache
 def case_table() -> tuple[np.ndarray, np.ndarray]:
-    """Classic marching cubes' triangles per case, from scikit-image's Lorensen method: counts
-    (256,) int64, the triangles of each case, and edges (256, MAX_TRIANGLES, 3) int64, the EDGES
-    index of each triangle's corners, in scikit-image's order and winding (its default
-    gradient_direction, 'descent'). Bit k of a case: CORNERS[k] is at or below the level
-    (scikit-image's side for a value equal to it)."""
+    """Return classic marching cubes' triangles per case, from scikit-image's Lorensen method.
+
+    In scikit-image's order and winding (its default gradient_direction, 'descent'). Bit k of a
+    case: CORNERS[k] is at or below the level (scikit-image's side for a value equal to it).
+
+    Returns
+    -------
+    counts : (256,) int64 array
+        The triangles of each case.
+    edges : (256, MAX_TRIANGLES, 3) int64 array
+        The EDGES index of each triangle's corners.
+    """
     counts, edges = np.zeros(256, np.int64), np.zeros((256, MAX_TRIANGLES, 3), np.int64)
     number = {(d, a): e for e, (d, a) in enumerate(EDGES)}
     for case in range(1, 255):

@@ -76,8 +76,7 @@ class View:
 
     @cached_property
     def quads(self) -> Quads:
-        """The depth read by quads of pixels, for sampling at points
-        (mirrorcore.dense.sampling.Quads)."""
+        """The depth read by quads of pixels, for sampling at points (sampling.Quads)."""
         return Quads.of(self.depth[:-1].reshape(self.shape), self.surface[:-1].reshape(self.shape))
 
 
@@ -230,8 +229,10 @@ class _Segments:
                    z.reshape(-1)[chains.pixel], z.shape)
 
     def end_first(self, mirror: int, seen: np.ndarray, surface: np.ndarray) -> None:
-        """Mirror `mirror`'s view (seen : (H, W) float32 depth, surface : (H, W) bool, in place)
-        knows its pixels' rays only up to where they meet their second mirror."""
+        """Cut mirror `mirror`'s view at where its pixels' rays meet their second mirror.
+
+        seen : (H, W) float32 depth, surface : (H, W) bool, both changed in place.
+        """
         rows = np.flatnonzero(self.first == mirror)
         pixel, end = self.chains.pixel[rows], self.end[rows, 0]
         # NaN (nothing known) stays NaN
@@ -239,19 +240,20 @@ class _Segments:
         surface.reshape(-1)[pixel] &= self.z[rows] < end
 
     def sequences(self) -> list[tuple[int, tuple[int, ...]]]:
-        """(label, sequence) of every sequence of two or more mirrors that some pixel follows, in
-        label order."""
+        """(label, sequence) of every sequence of 2+ mirrors some pixel follows, label order."""
         return [(int(s), source_sequence(int(s)))
                 for s in np.unique(self.chains.label[self.chains.label > 0])]
 
     def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray,
                                                                                 np.ndarray,
                                                                                 np.ndarray]:
-        """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the
-        sequence `label`'s view: its pixels see the ray's segment after that sequence (empty up to
-        the measured depth (empty (H*W + 1,)), or up to the next mirror); elsewhere, and where the
-        measured point lies before the segment, the view knows nothing
-        (NaN). mask : (H, W) bool, the object's pixels."""
+        """Return the depth, surface and outline of the sequence `label`'s view.
+
+        (H*W + 1,) float32, bool, bool as in View. Its pixels see the ray's segment after that
+        sequence (empty up to the measured depth (empty (H*W + 1,)), or up to the next mirror);
+        elsewhere, and where the measured point lies before the segment, the view knows nothing
+        (NaN). mask : (H, W) bool, the object's pixels.
+        """
         level, rows = np.nonzero(self.chains.label == label)
         pixel, z = self.chains.pixel[rows], self.z[rows]
         start, end = self.start[rows, level + 1], self.end[rows, level + 1]

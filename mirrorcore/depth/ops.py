@@ -267,10 +267,12 @@ class _QuadraticWindow:
 
     def neighbours(self, depth: np.ndarray, same: np.ndarray,
                    box: tuple[slice, slice]) -> np.ndarray:
-        """The windows around the pixels of `box` (h, w): depth (H, W) metres and same (H, W) bool,
-        the pixels whose readings count -> (h, w, 2 radius + 1, 2 radius + 1) float32 view of their
-        disparities, NO_READING where a reading does not count or is missing or lies outside the
-        image."""
+        """Return a view of the disparities in the windows around the pixels of `box` (h, w).
+
+        depth (H, W) metres and same (H, W) bool, the pixels whose readings count -> (h, w, 2 radius
+        + 1, 2 radius + 1) float32, NO_READING where a reading does not count or is missing or lies
+        outside the image.
+        """
         r, (height, width) = self.radius, np.shape(depth)
         grow = (slice(max(box[0].start - r, 0), min(box[0].stop + r, height)),
                 slice(max(box[1].start - r, 0), min(box[1].stop + r, width)))
@@ -284,9 +286,11 @@ class _QuadraticWindow:
         return np.lib.stride_tricks.sliding_window_view(w, (2 * r + 1, 2 * r + 1))
 
     def fit(self, readings: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,)
-        float32 metres -> (n,) float32 metres, the fitted depths, or the reference where the fit is
-        not determined or lands more than a range sigma from it."""
+        """Fit the pixels' windows and return the fitted depths, (n,) float32 metres.
+
+        readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,) float32
+        metres, returned where the fit is not determined or lands more than a range sigma from it.
+        """
         ref_w = inverse(reference)
         residual = readings - ref_w[:, None]
         # exp(-80) is 2e-35, no weight; the clamp keeps cv2.exp off its slow path for arguments

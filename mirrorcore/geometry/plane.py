@@ -154,8 +154,10 @@ class Plane:
         return points - (2 * (points @ n + dtype.type(self.d)))[..., None] * n
 
     def reflection_matrix(self) -> np.ndarray:
-        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1]. It is its own
-        inverse, det = -1."""
+        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1].
+
+        It is its own inverse, det = -1.
+        """
         n = self.n
         M = np.eye(4)
         M[:3, :3] -= 2.0 * np.outer(n, n)
@@ -163,10 +165,12 @@ class Plane:
         return M
 
     def virtual_camera_pose(self) -> np.ndarray:
-        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image,
-        as a proper rigid transform: the reflection of the camera's axes with its x axis flipped
-        back (images seen through a mirror are flipped left-right). Its origin is the camera
-        reflected through the plane, -2 d n."""
+        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image.
+
+        A proper rigid transform: the reflection of the camera's axes with its x axis flipped back
+        (images seen through a mirror are flipped left-right). Its origin is the camera reflected
+        through the plane, -2 d n.
+        """
         M = self.reflection_matrix()
         M[:3, 0] = -M[:3, 0]
         return M

@@ -221,10 +221,13 @@ class ShapeFit:
         return {} if self.sources is None else per_source_errors(self.deviations, self.sources)
 
     def to_json(self) -> dict:
-        """The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres,
+        """Return the fit as JSON.
+
+        The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres,
         camera frame), the figures over all points (points, rmse_mm, mean_error_mm,
         mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source {"direct": {...},
-        "mirror 1": {...}}."""
+        "mirror 1": {...}}.
+        """
         return {**self.shape.to_json(), **self.errors.to_json(),
                 "inliers": int(np.count_nonzero(self.inliers)),
                 "threshold_mm": 1e3 * self.threshold, "inlier_errors": self.inlier_errors.to_json(),

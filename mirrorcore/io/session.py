@@ -117,8 +117,11 @@ class SessionMirror:
 
     @property
     def marker_plane(self) -> Plane | None:
-        """The plane of the markers' faces: the calibrated reflecting surface moved towards the
-        camera by marker_offset (the stickers sit on the glass), or None while uncalibrated."""
+        """The plane of the markers' faces, or None while uncalibrated.
+
+        The calibrated reflecting surface moved towards the camera by marker_offset (the stickers
+        sit on the glass).
+        """
         if self.plane is None:
             return None
         return Plane(self.plane.normal, self.plane.d - self.marker_offset)

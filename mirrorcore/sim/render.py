@@ -89,9 +89,11 @@ class GroundTruth:
 
     @property
     def source(self) -> np.ndarray:
-        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette): 0 = direct, j =
-        through mirror j, the label of the sequence for several mirrors; -1 where no surface (or a
-        sequence the labels do not cover)."""
+        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette).
+
+        0 = direct, j = through mirror j, the label of the sequence for several mirrors; -1 where no
+        surface (or a sequence the labels do not cover).
+        """
         keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1,
                                   return_inverse=True)
         labels = np.array([_label(tuple(int(j) for j in key if j)) for key in keys.T], np.int16)

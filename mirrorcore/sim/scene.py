@@ -147,8 +147,7 @@ class SceneMirror:
 
     @property
     def marker_lift(self) -> float:
-        """Metres from the reflecting surface to the markers' faces: marker_offset, at least
-        MARKER_LIFT."""
+        """Metres from the silver to the marker faces: max(marker_offset, MARKER_LIFT)."""
         return max(self.marker_offset, MARKER_LIFT)
 
     def marker_centres(self) -> np.ndarray:

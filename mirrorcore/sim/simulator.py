@@ -109,6 +109,5 @@ class Simulator:
         return self.render(i / self.fps, np.random.default_rng([self.seed, 0, int(i)]))
 
     def background(self) -> SimFrame:
-        """The scene without its objects (for background subtraction), reproducible from the
-        seed."""
+        """The scene without its objects (for background subtraction), reproducible from seed."""
         return self.render(0.0, np.random.default_rng([self.seed, 1]), with_objects=False)

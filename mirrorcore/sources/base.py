@@ -93,13 +93,14 @@ class DepthSource(ABC):
         """
 
     def background(self) -> np.ndarray | None:
-        """The scene without the object as (H, W) float32 metres, or None when the source has
-        none."""
+        """The scene without the object as (H, W) float32 metres, or None if the source has none."""
         return None
 
     def close(self) -> None:
-        """Release the device or files; reading after close is an error. Closing twice does
-        nothing."""
+        """Release the device or files; reading after close is an error.
+
+        Closing twice does nothing.
+        """
 
     def __enter__(self) -> "DepthSource":
         return self

@@ -259,9 +259,15 @@ class _Playback:
                 continue
 
     def next(self) -> tuple | None:
-        """The next frame, or None once the playback has stopped after delivering its frames (it
-        reads 'stopped' before it starts too: BAG_START_S). Raises FileFormatError when it has not
-        ended within BAG_TIMEOUT_S."""
+        """Return the next frame, or None once the playback has stopped after delivering its frames.
+
+        It reads 'stopped' before it starts too (BAG_START_S).
+
+        Raises
+        ------
+        FileFormatError
+            The playback has not ended within BAG_TIMEOUT_S.
+        """
         while True:
             try:
                 item = self._queue.get(timeout=0.02)

@@ -108,8 +108,10 @@ class _Take:
         self._saved_at = time.monotonic()
 
     def add(self, frame: Frame) -> None:
-        """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S
-        old."""
+        """Write one frame (atomically), then list it.
+
+        session.json follows when it is SAVE_EVERY_S old.
+        """
         n = len(self.names)
         write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth,
                         self.source.intrinsics.depth_scale)
