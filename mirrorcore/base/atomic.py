@@ -67,6 +67,7 @@ def make_durable(path: str | Path) -> None:
 
 
 def _write_beside(path: Path, data: bytes, backup: bool, durable: bool) -> None:
+    """Write `data` to a temporary file beside `path`, then rename it over `path`."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:

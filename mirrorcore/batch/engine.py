@@ -253,6 +253,7 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
 
 @contextmanager
 def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
+    """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
     if where.in_process:
         yield _InProcess(context, cancel)
         return
@@ -334,6 +335,7 @@ class _Run:
                 self._report()
 
     def _report(self) -> None:
+        """Pass the figures so far to `progress` as a BatchProgress."""
         if self.progress is None:
             return
         fps = self._fps()
@@ -344,6 +346,7 @@ class _Run:
                                     self.dashboard))
 
     def _fps(self) -> float:
+        """Frames written per second between the first task and the last result (0 before)."""
         seconds = (self.finished or 0.0) - (self.started or 0.0)
         return self.written / seconds if self.started and seconds > 0 else 0.0
 
@@ -431,11 +434,13 @@ class BatchRun:
         return self.report
 
     def _progress(self, progress: BatchProgress) -> None:
+        """Keep the latest BatchProgress and pass it to `on_progress`."""
         self.progress = progress
         if self.on_progress is not None:
             self.on_progress(progress)
 
     def _run(self) -> None:
+        """Run the batch; keep its report, or the exception that ended it."""
         try:
             self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite,
                                     self._progress,

@@ -249,6 +249,7 @@ class OutputFolder:
             raise
 
     def _read_old(self) -> Manifest | None:
+        """Read the folder's manifest; None for a folder with none and no other files."""
         file = self.path / MANIFEST_FILE
         if not file.exists():
             others = [p.name for p in self.path.iterdir() if p.name != LOCK_FILE]

@@ -260,6 +260,7 @@ def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Genera
 
 def _calibrate_mirror(session: Session, mirror: SessionMirror, depth: np.ndarray, method: str,
                       rng: np.random.Generator) -> Calibration:
+    """Fit one session mirror's plane from its markers or, with 'region', its region."""
     if method == "region":
         if not mirror.region:
             raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
@@ -283,6 +284,7 @@ def _distance_to_best_line(points: np.ndarray) -> np.ndarray:
 
 
 def _check_camera_side(plane: Plane, name: str) -> None:
+    """Refuse a plane that passes nearer than MIN_CAMERA_DISTANCE to the camera."""
     if plane.d < MIN_CAMERA_DISTANCE:
         raise CalibrationError(
             f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "

@@ -245,6 +245,7 @@ def direct_far(z: np.ndarray) -> float:
 
 
 def _subset(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """At most SEARCH_POINTS of `points`, drawn without replacement."""
     return points[rng.choice(len(points), SEARCH_POINTS,
                              replace=False)] if len(points) > SEARCH_POINTS else points
 

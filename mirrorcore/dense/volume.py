@@ -236,6 +236,7 @@ class Volume:
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
     def _what(self) -> str:
+        """The volume in words, for a memory budget message."""
         return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of "
                 f"{self.voxel * 1e3:g} mm "
                 "(use larger voxels or a smaller box)")

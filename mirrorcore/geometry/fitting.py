@@ -270,6 +270,7 @@ def _ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], 
 
 
 def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> np.ndarray | bool:
+    """Whether each radius lies within radius_range (min, max), metres."""
     return (radius >= radius_range[0]) & (radius <= radius_range[1])
 
 
@@ -365,6 +366,7 @@ def _sphere_refine(points: np.ndarray, model: Model) -> Model:
 
 
 def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
+    """The Sphere of a centred model [cx, cy, cz, R], moved back by `origin`."""
     return Sphere(tuple(float(x) for x in model[:3] + origin), float(model[3]))
 
 

@@ -311,6 +311,7 @@ class Session:
         return None if self.background is None else self._read(self.background)
 
     def _read(self, rel: str) -> np.ndarray:
+        """Read the depth PNG at a path relative to the session folder, in metres."""
         return read_depth_png(Path(self.root) / rel, self.camera.depth_scale, self.camera.shape)
 
 
@@ -405,6 +406,7 @@ def session_from_json(data, folder: Path) -> Session:
 
 
 def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
+    """Validate one mirror object of session.json."""
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: a mirror must be a JSON object")
     try:
@@ -448,6 +450,7 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
+    """Refuse an id given to more than one mirror."""
     ids = [m.id for m in mirrors if m.id]
     if len(set(ids)) != len(ids):
         twice = sorted({i for i in ids if ids.count(i) > 1})

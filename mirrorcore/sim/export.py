@@ -237,6 +237,7 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
 
 def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool,
            true_planes: bool) -> None:
+    """Write the background, frames, session.json and truth.json into `folder`."""
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)

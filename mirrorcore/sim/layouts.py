@@ -135,6 +135,7 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
 
 def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
             marker_size: float = MARKER_SIZE) -> SceneMirror:
+    """A vertical SceneMirror of `size` at `centre`, facing `normal`, with markers."""
     return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()),
                        size[0], size[1],
                   _markers(*size), marker_size)

@@ -206,6 +206,7 @@ def object_geometry(obj: SceneObject) -> StaticMesh | WalkingFigure:
 
 
 def _load_mesh(path: str) -> trimesh.Trimesh:
+    """Load a mesh file with trimesh; FileFormatError if unreadable or without triangles."""
     try:
         mesh = trimesh.load(path, force="mesh")
     except Exception as exc:  # trimesh raises many types for unreadable files

@@ -61,6 +61,7 @@ def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
 
 
 def _positive(value, where: str) -> float:
+    """`value` as a positive finite float; FileFormatError naming `where` otherwise."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
         value) or value <= 0:
         raise FileFormatError(f"{where}: must be a positive number, got {value!r}")
@@ -366,6 +367,7 @@ def _jitter(value, where: str) -> float:
 
 
 def _number(data: dict, key: str, where: str, default: float) -> float:
+    """data[key] (or `default`) as a finite float; FileFormatError otherwise."""
     value = data.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         raise FileFormatError(f"{where}.{key}: must be a number, got {value!r}")
@@ -373,6 +375,7 @@ def _number(data: dict, key: str, where: str, default: float) -> float:
 
 
 def _require(data, keys: tuple[str, ...], where: str) -> None:
+    """Refuse `data` that is not an object or misses one of `keys`."""
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: must be a JSON object")
     missing = [k for k in keys if k not in data]
@@ -381,6 +384,7 @@ def _require(data, keys: tuple[str, ...], where: str) -> None:
 
 
 def _mirror(data, where: str) -> SceneMirror:
+    """Validate one mirror object of a scene file."""
     _require(data, ("centre", "normal", "up", "width", "height"), where)
     markers = data.get("markers", [])
     try:
@@ -401,6 +405,7 @@ def _mirror(data, where: str) -> SceneMirror:
 
 
 def _object(data, where: str) -> SceneObject:
+    """Validate one object of a scene file."""
     _require(data, ("type", "centre"), where)
     kind = data["type"]
     if kind not in OBJECT_TYPES:

@@ -55,11 +55,13 @@ class SourceKind:
 
 
 def _library(module: str, install: str) -> Callable[[], str | None]:
+    """A check that names what to install when `module` is missing."""
     return lambda: None if importlib.util.find_spec(module.split(".")[
         0]) else f"needs {module}: install {install}"
 
 
 def _freenect_devices() -> str | None:
+    """Why freenect cannot be used here (library missing, no Kinect v1), or None."""
     missing = _library("freenect", FREENECT_INSTALL)()
     if missing:
         return missing
@@ -69,6 +71,7 @@ def _freenect_devices() -> str | None:
 
 
 def _openni2_devices() -> str | None:
+    """Why OpenNI2 cannot be used here (library missing, no device), or None."""
     missing = _library("openni", OPENNI2_INSTALL)()
     if missing:
         return missing
@@ -83,6 +86,7 @@ def _openni2_devices() -> str | None:
 
 
 def _realsense_devices() -> str | None:
+    """Why RealSense cannot be used here (library missing, no camera), or None."""
     missing = _library("pyrealsense2", REALSENSE_INSTALL)()
     if missing:
         return missing
@@ -149,6 +153,7 @@ def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
 
 
 def _guess_kind(path: Path, spec: str) -> str:
+    """The kind of a spec that names a path, from what is there."""
     suffix = path.suffix.lower()
     if path.is_file() and suffix in (".npz", ".bag", ".oni"):
         return {".npz": "npz", ".bag": "bag", ".oni": "openni2"}[suffix]
@@ -202,6 +207,7 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
 
 
 def _number(options: dict[str, str], key: str, spec: str) -> float | None:
+    """Option `key` as a positive finite number, None when absent."""
     if key not in options:
         return None
     try:
@@ -215,6 +221,7 @@ def _number(options: dict[str, str], key: str, spec: str) -> float | None:
 
 
 def _index(target: str, spec: str) -> int:
+    """A freenect device index."""
     if not target.strip().isdigit():
         raise MirrorscanError(f"source {spec!r}: freenect needs a device index (freenect:0)")
     return int(target)

@@ -56,6 +56,7 @@ class FreenectSource(DepthSource):
         self._first: Frame | None = self._grab()
 
     def _grab(self) -> Frame:
+        """Read the next frame from the device."""
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
         if got is None:
             raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and "

@@ -269,6 +269,7 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
 
 
 def _parses(text: str) -> bool:
+    """Whether `text` is a finite number."""
     try:
         return bool(np.isfinite(float(text)))
     except ValueError:

@@ -253,6 +253,7 @@ class Recorder:
         return self.session
 
     def _run(self) -> None:
+        """Record; keep the session, or the exception that ended it."""
         try:
             self.session = record(self.source, self.folder, self.seconds, self.limit, self._count,
                                   self._cancel.is_set)
@@ -260,4 +261,5 @@ class Recorder:
             self.error = exc
 
     def _count(self, n: int, frame: Frame) -> None:
+        """Keep the number of frames written."""
         self.frames = n
