@@ -13,17 +13,28 @@ from mirrorcore.base.errors import MirrorscanError
 
 
 def write_atomic(path: str | Path, data: bytes, backup: bool = False, durable: bool = True) -> None:
-    """Replace `path` with `data` so that a reader sees either the old file or the new one, never a
-    partial one.
+    """Replace a file so that a reader sees either the old file or the new one, never a partial one.
 
-    backup : keep the previous version as `path` + '.bak' (itself replaced atomically, before the
-    rename).
-    durable : flush the data to the disk (fsync) before the rename, so that a power cut cannot leave
-    a partial file under the name. False leaves that to the caller (make_durable), who may rely on
-    the file surviving a power cut only once that returned; it is atomic for every process that
-    reads it either way (a batch's frames are flushed by the manifest's writer, just before the
-    manifest lists them). Raises OSError (full disk, read-only folder...) naming `path`, with the
-    target left untouched.
+    Parameters
+    ----------
+    path : str or Path
+        The file to replace.
+    data : bytes
+        Its new content.
+    backup : bool
+        Keep the previous version as `path` + '.bak' (itself replaced atomically, before the
+        rename).
+    durable : bool
+        Flush the data to the disk (fsync) before the rename, so that a power cut cannot leave a
+        partial file under the name. False leaves that to the caller (`make_durable`), who may rely
+        on the file surviving a power cut only once that returned; the write is atomic for every
+        process that reads it either way (a batch's frames are flushed by the manifest's writer,
+        just before the manifest lists them).
+
+    Raises
+    ------
+    OSError
+        Full disk, read-only folder...; names `path`, with the target left untouched.
     """
     path = Path(path)
     try:
@@ -33,8 +44,18 @@ def write_atomic(path: str | Path, data: bytes, backup: bool = False, durable: b
 
 
 def make_durable(path: str | Path) -> None:
-    """Flush a file written with write_atomic(durable=False) to the disk. Raises OSError naming
-    `path`."""
+    """Flush a file written with ``write_atomic(durable=False)`` to the disk.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to flush.
+
+    Raises
+    ------
+    OSError
+        Naming `path`.
+    """
     try:
         fd = os.open(path, os.O_RDONLY)
         try:
@@ -46,6 +67,7 @@ def make_durable(path: str | Path) -> None:
 
 
 def _write_beside(path: Path, data: bytes, backup: bool, durable: bool) -> None:
+    """Write `data` to a temporary file beside `path`, then rename it over `path`."""
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
@@ -66,9 +88,12 @@ def _write_beside(path: Path, data: bytes, backup: bool, durable: bool) -> None:
 
 
 def _link_or_copy(source: Path, target: str) -> None:
-    """A second name for `source` (a hard link: instant, and the old version once `source` is
-    replaced), or a copy where the file system has no hard links. The backup is then renamed into
-    place: a process killed while making it leaves the previous backup, never a partial one."""
+    """Make a second name for `source`: a hard link, or a copy where there are no hard links.
+
+    A hard link is instant and keeps the old version once `source` is replaced. The backup is then
+    renamed into place: a process killed while making it leaves the previous backup, never a
+    partial one.
+    """
     try:
         os.link(source, target)
     except OSError:
@@ -84,9 +109,24 @@ def current_umask() -> int:
 
 @contextmanager
 def new_folder(path: str | Path) -> Iterator[Path]:
-    """Build a folder all or nothing: yields a hidden temporary folder beside `path`, renamed to
-    `path` when the block ends normally and removed when it raises (Ctrl-C included). `path` must
-    not exist or be an empty folder (MirrorscanError otherwise)."""
+    """Build a folder all or nothing.
+
+    Parameters
+    ----------
+    path : str or Path
+        The folder to build; it must not exist or be an empty folder.
+
+    Yields
+    ------
+    Path
+        A hidden temporary folder beside `path`, renamed to `path` when the block ends normally and
+        removed when it raises (Ctrl-C included).
+
+    Raises
+    ------
+    MirrorscanError
+        `path` exists and is not an empty folder.
+    """
     path = Path(path)
     if path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise MirrorscanError(f"{path}: already exists and is not an empty folder")

@@ -28,8 +28,25 @@ class MemoryBudgetError(MirrorscanError):
 
 
 def parse_size(text: str, where: str = ENV) -> int:
-    """'4G', '512M', '1.5GiB', '2048' (bytes) -> bytes (powers of 1024). MirrorscanError naming
-    `where` otherwise."""
+    """Read a size such as '4G', '512M', '1.5GiB' or '2048' (bytes) in bytes (powers of 1024).
+
+    Parameters
+    ----------
+    text : str
+        The size.
+    where : str
+        Where it comes from, for the message.
+
+    Returns
+    -------
+    int
+        The size in bytes.
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `where`, when `text` is not a size or is less than 1 MiB.
+    """
     match = _SIZE.match(str(text))
     if not match:
         raise MirrorscanError(
@@ -50,8 +67,18 @@ def default_budget() -> int:
 
 
 def memory_budget() -> int:
-    """The budget in bytes now (see the module docstring); MirrorscanError when MIRRORSCAN_MEMORY is
-    not a size."""
+    """Return the budget in bytes now (see the module docstring).
+
+    Returns
+    -------
+    int
+        The budget in bytes.
+
+    Raises
+    ------
+    MirrorscanError
+        MIRRORSCAN_MEMORY is not a size.
+    """
     if _override is not None:
         return _override
     text = os.environ.get(ENV, "").strip()
@@ -59,19 +86,39 @@ def memory_budget() -> int:
 
 
 def set_memory_budget(size: int | str | None) -> None:
-    """Set the budget for this process (bytes, or a size such as '8G'); None goes back to the
-    environment/default."""
+    """Set the memory budget for this process.
+
+    Parameters
+    ----------
+    size : int, str or None
+        Bytes, or a size such as '8G'; None goes back to the environment/default.
+
+    Raises
+    ------
+    MirrorscanError
+        `size` is a string that is not a size.
+    """
     global _override
     _override = None if size is None else parse_size(size, "--memory") if isinstance(
         size, str) else int(size)
 
 
 def check_memory(nbytes: float, what: str) -> None:
-    """Refuse work that needs `nbytes` (an estimate made before allocating) when it exceeds the
-    budget.
+    """Refuse work whose estimated need exceeds the memory budget.
 
-    what : the work and where it comes from, for the message ('volume 400x400x300', 'scan.npz:
-    depth'). Raises MemoryBudgetError with one line naming `what`, the need and the budget."""
+    Parameters
+    ----------
+    nbytes : float
+        The bytes the work needs, estimated before allocating (NaN is refused).
+    what : str
+        The work and where it comes from, for the message ('volume 400x400x300',
+        'scan.npz: depth').
+
+    Raises
+    ------
+    MemoryBudgetError
+        One line naming `what`, the need and the budget.
+    """
     budget = memory_budget()
     if not nbytes <= budget:       # also refuses NaN
         raise MemoryBudgetError(
@@ -80,7 +127,18 @@ def check_memory(nbytes: float, what: str) -> None:
 
 
 def format_bytes(nbytes: float) -> str:
-    """1536 -> '1.5 KiB', 5e9 -> '4.7 GiB'."""
+    """Write a number of bytes for a reader: 1536 -> '1.5 KiB', 5e9 -> '4.7 GiB'.
+
+    Parameters
+    ----------
+    nbytes : float
+        The number of bytes.
+
+    Returns
+    -------
+    str
+        Bytes below 1024, else KiB, MiB, GiB or TiB with one decimal.
+    """
     value = float(nbytes)
     if value < 1024:
         return f"{value:.0f} bytes"

@@ -6,9 +6,22 @@ class MirrorscanError(Exception):
 
 
 class CalibrationError(MirrorscanError):
-    """A mirror plane cannot be fitted from what was given (too few, collinear or invalid
-    markers...). `mirrors`: the names of the mirrors it refuses, when it is about some (its message
-    then starts with them)."""
+    """A mirror plane cannot be fitted from what was given.
+
+    Too few, collinear or invalid markers...
+
+    Parameters
+    ----------
+    message : str
+        One line for the user; it starts with the mirrors' names when it is about some.
+    mirrors : tuple of str
+        The names of the mirrors it refuses, when it is about some.
+
+    Attributes
+    ----------
+    mirrors : tuple of str
+        As given.
+    """
 
     def __init__(self, message: str, mirrors: tuple[str, ...] = ()):
         super().__init__(message)
@@ -20,5 +33,7 @@ class FileFormatError(MirrorscanError):
 
 
 class Cancelled(MirrorscanError):
-    """A long computation (carving, fusion) was stopped by its caller's cancel request; nothing was
-    returned."""
+    """A long computation (carving, fusion) was stopped by its caller's cancel request.
+
+    Nothing was returned.
+    """

@@ -12,10 +12,28 @@ MAX_JSON_BYTES = 64 << 20
 
 
 def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BYTES) -> object:
-    """The parsed content of a JSON file; FileFormatError naming the file when it is missing, larger
-    than `max_bytes` (checked before reading), not UTF-8, invalid, nested too deeply or holding a
-    number too long to read.
-    what : how the file is called in the 'no such ...' message ('session file', 'scene file'...)."""
+    """Read and parse a JSON file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        How the file is called in the 'no such ...' message ('session file', 'scene file'...).
+    max_bytes : int
+        The largest file read, checked before reading.
+
+    Returns
+    -------
+    object
+        The parsed content.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file when it is missing, larger than `max_bytes`, not UTF-8, invalid, nested too
+        deeply or holding a number too long to read.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such {what}")
@@ -37,8 +55,19 @@ def read_json(path: str | Path, what: str = "file", max_bytes: int = MAX_JSON_BY
 
 
 def finite_number(value) -> float | None:
-    """A parsed JSON (or YAML) number as a finite float, or None: not a number, a boolean, infinite,
-    NaN, or an integer too large for a float."""
+    """Return a parsed JSON (or YAML) number as a finite float, or None.
+
+    Parameters
+    ----------
+    value : object
+        The parsed value.
+
+    Returns
+    -------
+    float or None
+        None for what is not a number, a boolean, infinite, NaN, or an integer too large for a
+        float.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return None
     try:

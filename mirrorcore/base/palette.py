@@ -58,9 +58,23 @@ _LABEL_OF = {s: FIRST_MULTI_LABEL + i for i, s in enumerate(MULTI_SEQUENCES)}
 
 
 def source_sequence(source: int) -> tuple[int, ...]:
-    """The mirrors (1-based, in the order the camera's ray meets them) of a label: () direct, (j,)
-    mirror j, (a, b, ...) a multi-bounce view. Raises ValueError for a label that names no
-    source."""
+    """Return the mirrors a label names, in the order the camera's ray meets them.
+
+    Parameters
+    ----------
+    source : int
+        A source label.
+
+    Returns
+    -------
+    tuple of int
+        1-based mirrors: () direct, (j,) mirror j, (a, b, ...) a multi-bounce view.
+
+    Raises
+    ------
+    ValueError
+        The label names no source.
+    """
     source = int(source)
     if 0 <= source <= MAX_MIRRORS:
         return (source,) if source else ()
@@ -70,9 +84,20 @@ def source_sequence(source: int) -> tuple[int, ...]:
 
 
 def sequence_label(sequence) -> int | None:
-    """The label of a sequence of mirrors (1-based, ray order): 0 for (), j for (j,),
-    FIRST_MULTI_LABEL.. for longer ones; None when the encoding has no label for it (more than
-    MAX_ORDER mirrors, a mirror twice in a row, or a mirror beyond what the labels cover)."""
+    """Return the label of a sequence of mirrors.
+
+    Parameters
+    ----------
+    sequence : iterable of int
+        1-based mirrors in ray order.
+
+    Returns
+    -------
+    int or None
+        0 for (), j for (j,), FIRST_MULTI_LABEL.. for longer ones; None when the encoding has no
+        label for it (more than MAX_ORDER mirrors, a mirror twice in a row, or a mirror beyond what
+        the labels cover).
+    """
     sequence = tuple(int(j) for j in sequence)
     if len(sequence) <= 1:
         return (sequence[0] if 1 <= sequence[0] <= MAX_MIRRORS else None) if sequence else 0
@@ -80,6 +105,7 @@ def sequence_label(sequence) -> int | None:
 
 
 def _order(source: int) -> int:
+    """The number of mirrors a label looks through in turn, -1 if it names no view."""
     try:
         return len(source_sequence(source))
     except ValueError:
@@ -90,16 +116,37 @@ _ORDERS = np.array([_order(s) for s in range(256)], np.int8)
 
 
 def source_orders(sources: np.ndarray) -> np.ndarray:
-    """sources : (n,) integer labels 0..255 -> (n,) int8 how many mirrors each view looks through in
-    turn (0 direct, 1 a mirror, 2 or 3 a sequence), -1 for a label that names no view."""
+    """Count how many mirrors each view looks through in turn.
+
+    Parameters
+    ----------
+    sources : (n,) integer array
+        Labels 0..255.
+
+    Returns
+    -------
+    (n,) int8 array
+        0 direct, 1 a mirror, 2 or 3 a sequence, -1 for a label that names no view.
+    """
     return _ORDERS[np.asarray(sources, dtype=np.int64)]
 
 
 def source_name(source: int, names: Sequence[str] | None = None) -> str:
-    """'direct', 'mirror j', or 'mirror a then b[ then c]' for a view through mirror a, then b
-    (...); 'source N' for a
-    label that names no view. names : optional, the mirrors' names in label order (a session's):
-    'left', 'left then right' (a label beyond them keeps its number)."""
+    """Name a source: 'direct', 'mirror j', or 'mirror a then b[ then c]'.
+
+    Parameters
+    ----------
+    source : int
+        A source label.
+    names : sequence of str, optional
+        The mirrors' names in label order (a session's): gives 'left', 'left then right' (a label
+        beyond them keeps its number).
+
+    Returns
+    -------
+    str
+        The name; 'source N' for a label that names no view.
+    """
     try:
         sequence = source_sequence(source)
     except ValueError:
@@ -117,10 +164,13 @@ def _mirror_colour(j: int) -> np.ndarray:
 
 
 def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
-    """(3,) float64 RGB of a label. A mirror's colour follows its label j, or its id mirror_ids[j -
-    1] when given. A multi-bounce view is a shade of its last mirror's colour (the mirror that faces
-    the object), tinted by the mirrors before it (each weighing a quarter of the next), a quarter
-    darker with each further mirror."""
+    """Return the (3,) float64 RGB of a label.
+
+    A mirror's colour follows its label j, or its id mirror_ids[j - 1] when given. A multi-bounce
+    view is a shade of its last mirror's colour (the mirror that faces the object), tinted by the
+    mirrors before it (each weighing a quarter of the next), a quarter darker with each further
+    mirror.
+    """
     try:
         sequence = source_sequence(source)
     except ValueError:
@@ -136,24 +186,49 @@ def _label_colour(source: int, mirror_ids: tuple[int, ...]) -> np.ndarray:
 
 @lru_cache(maxsize=32)
 def _lookup(mirror_ids: tuple[int, ...]) -> np.ndarray:
-    """(256, 3) uint8 RGB of every label, for mirrors whose colours follow `mirror_ids` (() : their
-    labels)."""
+    """Return the (256, 3) uint8 RGB of every label, coloured by `mirror_ids` (() : by label)."""
     table = np.array([_label_colour(s, mirror_ids) for s in range(256)]).round().astype(np.uint8)
     table.flags.writeable = False
     return table
 
 
 def source_colours(sources: np.ndarray, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
-    """sources : (n,) integer labels 0..255 -> (n, 3) uint8 RGB; the one colour lookup of the
-    project. A mirror's colour follows its label j, or, given the ids of the mirrors in session
-    order (mirror_ids[j - 1] for label j), its id: a mirror keeps its colour when another one is
-    removed. Views through several mirrors take shades of theirs."""
+    """Colour sources by label: the one colour lookup of the project.
+
+    A mirror's colour follows its label j, or, given the ids of the mirrors, its id: a mirror keeps
+    its colour when another one is removed. Views through several mirrors take shades of theirs.
+
+    Parameters
+    ----------
+    sources : (n,) integer array
+        Labels 0..255.
+    mirror_ids : sequence of int, optional
+        The ids of the mirrors in session order (mirror_ids[j - 1] for label j).
+
+    Returns
+    -------
+    (n, 3) uint8 array
+        RGB.
+    """
     ids = () if mirror_ids is None else tuple(int(i) for i in mirror_ids)
     return _lookup(ids)[np.asarray(sources, dtype=np.int64)]
 
 
 def source_colour(source: int, mirror_ids: Sequence[int] | None = None) -> np.ndarray:
-    """(3,) uint8 RGB of one source (see source_colours)."""
+    """Return the colour of one source (see `source_colours`).
+
+    Parameters
+    ----------
+    source : int
+        A source label.
+    mirror_ids : sequence of int, optional
+        The ids of the mirrors in session order.
+
+    Returns
+    -------
+    (3,) uint8 array
+        RGB.
+    """
     return source_colours(np.array([source]), mirror_ids)[0]
 
 
@@ -165,9 +240,24 @@ HEAT_UNCOMPARED = np.array([70, 70, 70])
 
 
 def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) -> np.ndarray:
-    """values : (n,) float signed distances (any unit, NaN for none) -> (n, 3) uint8 RGB: white at
-    0, blue at -limit and below, red at +limit and above, linear between; `missing` (3,) for NaN
-    (the direct grey)."""
+    """Colour signed distances: white at 0, blue at -limit and below, red at +limit and above.
+
+    Linear between.
+
+    Parameters
+    ----------
+    values : (n,) float array
+        Signed distances (any unit), NaN for none.
+    limit : float
+        The distance of full colour, in the unit of `values`.
+    missing : (3,) array
+        The colour of NaN (the direct grey).
+
+    Returns
+    -------
+    (n, 3) uint8 array
+        RGB.
+    """
     t = np.clip(np.nan_to_num(np.asarray(values, dtype=np.float64), nan=0.0) / limit, -1.0,
                 1.0)[:, None]
     rgb = np.where(t < 0, HEAT_ZERO + (HEAT_ZERO - HEAT_NEGATIVE) * t,
@@ -177,10 +267,23 @@ def heat_colours(values: np.ndarray, limit: float, missing=SOURCE_COLOURS[0]) ->
 
 
 def heat_map_colours(distances: np.ndarray, sources: np.ndarray, limit: float) -> np.ndarray:
-    """The heat map of a cloud: distances (n,) float mm to the direct surface (NaN for none),
-    sources (n,) labels -> (n, 3) uint8 RGB: heat_colours for the mirrors' points compared, the
-    direct grey for the camera's own points, HEAT_UNCOMPARED (dark grey) for the mirrors' points the
-    camera does not see."""
+    """Colour the heat map of a cloud.
+
+    Parameters
+    ----------
+    distances : (n,) float array
+        mm to the direct surface, NaN for none.
+    sources : (n,) integer array
+        Source labels.
+    limit : float
+        mm of full colour.
+
+    Returns
+    -------
+    (n, 3) uint8 array
+        RGB: `heat_colours` for the mirrors' points compared, the direct grey for the camera's own
+        points, HEAT_UNCOMPARED (dark grey) for the mirrors' points the camera does not see.
+    """
     colours = heat_colours(distances, limit)
     colours[(np.asarray(sources) != 0) & np.isnan(np.asarray(
         distances, dtype=np.float64))] = HEAT_UNCOMPARED

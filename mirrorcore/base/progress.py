@@ -9,8 +9,18 @@ Progress = Callable[[float], None]   # called with the fraction done, 0 < fracti
 
 
 def cancel_requested(cancel) -> bool:
-    """True when `cancel` (None, a threading.Event-like object with is_set(), or a callable) asks to
-    stop."""
+    """Tell whether `cancel` asks to stop.
+
+    Parameters
+    ----------
+    cancel : None, threading.Event-like or callable
+        An object with ``is_set()``, or a callable returning a truth value.
+
+    Returns
+    -------
+    bool
+        True when it asks to stop; False for None.
+    """
     if cancel is None:
         return False
     return bool(cancel.is_set() if hasattr(cancel, "is_set") else cancel())
@@ -21,10 +31,25 @@ RATCHET_SECONDS = 0.1
 
 
 class Ratchet:
-    """`progress` (or None) that never goes back, for work that guesses its parts' shares: a part
-    that took longer than its share holds the bar until the work catches up, where the bar would
-    have gone back. Throttled (`seconds`), it passes on at most one fraction that often, and the end
-    (a search's candidates reported 380 times in 17 s)."""
+    """A progress callback that never goes back, for work that guesses its parts' shares.
+
+    A part that took longer than its share holds the bar until the work catches up, where the bar
+    would have gone back. Throttled, it passes on at most one fraction every `seconds`, and the end.
+
+    Parameters
+    ----------
+    progress : Progress or None
+        The callback passed on to.
+    seconds : float
+        The least time between two fractions passed on, in seconds (0: no throttle).
+
+    Attributes
+    ----------
+    shown : float
+        The last fraction passed on.
+    when : float
+        When it was passed on (time.monotonic seconds).
+    """
 
     def __init__(self, progress: Progress | None, seconds: float = 0.0):
         self.progress, self.seconds, self.shown, self.when = progress, seconds, 0.0, float("-inf")
@@ -37,5 +62,16 @@ class Ratchet:
             self.progress(fraction)
 
     def part(self, start: float, end: float) -> Progress:
-        """A Progress of a part of the work that runs from `start` to `end` of the whole."""
+        """Return the Progress of a part of the work.
+
+        Parameters
+        ----------
+        start, end : float
+            The fractions of the whole at which the part starts and ends.
+
+        Returns
+        -------
+        Progress
+            Called with the part's fraction done.
+        """
         return lambda f: self(start + (end - start) * f)

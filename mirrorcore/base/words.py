@@ -5,12 +5,36 @@ from collections.abc import Iterable
 
 
 def listed(words: Iterable[str], conjunction: str = "and") -> str:
-    """'a', 'a and b', 'a, b and c' ('' for none); 'a, b or c' with conjunction 'or'."""
+    """List words in a phrase: 'a', 'a and b', 'a, b and c' ('' for none).
+
+    Parameters
+    ----------
+    words : iterable of str
+        The words.
+    conjunction : str
+        The last joint: 'a, b or c' with 'or'.
+
+    Returns
+    -------
+    str
+        The phrase.
+    """
     words = list(words)
     return ", ".join(words[:-1]) + f" {conjunction} " + words[-1] if len(words) > 1 else "".join(
         words)
 
 
 def sentences(reasons: Iterable[str]) -> str:
-    """One-line reasons as one line of sentences, each once, in order: 'a. b.'"""
+    """Join one-line reasons as one line of sentences, each once, in order: 'a. b.'
+
+    Parameters
+    ----------
+    reasons : iterable of str
+        The reasons, with or without a final full stop.
+
+    Returns
+    -------
+    str
+        The sentences.
+    """
     return " ".join(f"{reason.rstrip('.')}." for reason in dict.fromkeys(reasons))

@@ -43,16 +43,35 @@ ChunkResult = tuple[tuple[int, ...], list[FrameRecord], dict[int, str]]
 
 
 class ContextPlugin(WorkerPlugin):
-    """Holds a batch's FrameContext on a worker, and keeps OpenCV to one thread per task there as
-    Dask does with OpenMP and BLAS (each worker thread runs a task; the cores are shared out by the
-    workers). On a local cluster it also makes the worker ignore Ctrl-C: the terminal sends SIGINT
-    to every process of the command, and the command stops its workers itself."""
+    """Hold a batch's FrameContext on a worker, and keep OpenCV to one thread per task there.
+
+    As Dask does with OpenMP and BLAS (each worker thread runs a task; the cores are shared out by
+    the workers). On a local cluster it also makes the worker ignore Ctrl-C: the terminal sends
+    SIGINT to every process of the command, and the command stops its workers itself.
+
+    Parameters
+    ----------
+    context : FrameContext
+    ignore_ctrl_c : bool
+        Ignore SIGINT on the worker (a local cluster).
+    """
 
     def __init__(self, context: FrameContext, ignore_ctrl_c: bool):
         self.context = context
         self.ignore_ctrl_c = ignore_ctrl_c
 
     def setup(self, worker) -> None:
+        """Set the worker up.
+
+        Parameters
+        ----------
+        worker : distributed.Worker
+
+        Raises
+        ------
+        MirrorscanError
+            The session or the output folder is not there on the worker.
+        """
         for folder in (Path(self.context.session.root), Path(self.context.job.out)):
             if not folder.is_dir():
                 raise MirrorscanError(
@@ -65,16 +84,42 @@ class ContextPlugin(WorkerPlugin):
 
 
 def run_task(plugin: str, indices: tuple[int, ...]) -> tuple[list[FrameRecord], dict[int, str]]:
-    """A Dask task: reconstruct `indices` with the context that plugin `plugin` holds on this
-    worker."""
+    """Run a Dask task: reconstruct frames with the context a plugin holds on this worker.
+
+    Parameters
+    ----------
+    plugin : str
+        The plugin's name.
+    indices : tuple of int
+        The frames.
+
+    Returns
+    -------
+    records : list of FrameRecord
+    failures : dict of int to str
+        {frame: one-line error}.
+    """
     return reconstruct_frames(get_worker().plugins[plugin].context, indices)
 
 
 @contextmanager
 def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterator[Client]:
-    """A client of the cluster at `scheduler` ('tcp://HOST:8786'), or of a new local cluster of
-    `workers` processes of one thread each, listening on 127.0.0.1 only, closed (processes, ports,
-    scratch folder) on the way out."""
+    """Connect to a Dask cluster, or start a local one, closed on the way out.
+
+    Parameters
+    ----------
+    workers : int
+        Processes of a new local cluster, one thread each, listening on 127.0.0.1 only.
+    scheduler : str or None
+        The address of an existing cluster ('tcp://HOST:8786').
+    dashboard : bool
+        Serve the dashboard of a local cluster.
+
+    Yields
+    ------
+    distributed.Client
+        Closed (processes, ports, scratch folder) on the way out.
+    """
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=CONNECT_SECONDS)
@@ -106,19 +151,26 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
 
 
 def worker_environment() -> dict:
-    """Dask's environment for new worker processes without MALLOC_TRIM_THRESHOLD_: Dask sets it to
-    64 kB so that workers give memory back sooner, which makes every large numpy array a fresh mmap
-    and a frame 3 to 4 times slower here (measured: a TSDF frame 1.25 s instead of 0.38 s)."""
+    """Return Dask's environment for new worker processes without MALLOC_TRIM_THRESHOLD_.
+
+    Dask sets it to 64 kB so that workers give memory back sooner, which makes every large numpy
+    array a fresh mmap and a frame 3 to 4 times slower.
+    """
     return {k: v for k,
             v in dask.config.get(_SPAWN_ENVIRON).items() if k != "MALLOC_TRIM_THRESHOLD_"}
 
 
 class DaskExecutor:
-    """Runs chunks of frames on a Dask cluster: submit() them all, then wait() for those that
-    finish; deaths() gives the frames whose worker died with them (they are run again elsewhere).
+    """Run chunks of frames on a Dask cluster.
+
+    submit() them all, then wait() for those that finish; deaths() gives the frames whose worker
+    died with them (they are run again elsewhere).
 
     Parameters
     ----------
+    client : distributed.Client
+    context : FrameContext
+        Handed to the workers.
     local : bool
         The cluster is this command's own.
     dashboard : bool
@@ -145,6 +197,7 @@ class DaskExecutor:
 
     @property
     def pending(self) -> int:
+        """The tasks submitted and not yet finished."""
         return len(self._pending)
 
     @property
@@ -153,15 +206,33 @@ class DaskExecutor:
         return max(1, sum(self.client.nthreads().values()))
 
     def submit(self, chunks: list[tuple[int, ...]]) -> None:
+        """Submit a task per chunk.
+
+        Parameters
+        ----------
+        chunks : list of tuple of int
+            The frames of each task.
+        """
         for chunk in chunks:
             key = f"mirrorscan-frames-{chunk[0]:06d}-{self.plugin[-12:]}"
             self._chunks[key] = chunk
             self._pending.add(self.client.submit(run_task, self.plugin, chunk, key=key, pure=False))
 
     def wait(self, timeout: float) -> list[ChunkResult]:
-        """The chunks that finished within `timeout` seconds (possibly none). A task that raised
-        (KilledWorker after its workers died, a bug) gives every frame of its chunk as failed with
-        that one-line error."""
+        """Return the chunks that finished within a time (possibly none).
+
+        A task that raised (KilledWorker after its workers died, a bug) gives every frame of its
+        chunk as failed with that one-line error.
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds.
+
+        Returns
+        -------
+        list of ChunkResult
+        """
         if not self._pending:
             return []
         try:
@@ -182,8 +253,13 @@ class DaskExecutor:
         return results
 
     def deaths(self) -> dict[int, str]:
-        """{frame: worker address} of the frames that a worker was running when it left the cluster,
-        since the last call."""
+        """Return the frames a worker was running when it left the cluster, since the last call.
+
+        Returns
+        -------
+        dict of int to str
+            {frame: worker address}.
+        """
         found: dict[int, str] = {}
         while True:
             try:

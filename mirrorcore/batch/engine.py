@@ -24,9 +24,17 @@ POLL_SECONDS = 0.25
 
 @dataclass(frozen=True)
 class Where:
-    """Where a batch runs. workers : local worker processes (default: one per core; 1 runs in this
-    process, without Dask); scheduler : the address of an existing Dask cluster ('tcp://HOST:8786')
-    instead; dashboard : serve the Dask dashboard of a local cluster."""
+    """Where a batch runs.
+
+    Attributes
+    ----------
+    workers : int or None
+        Local worker processes (default: one per core; 1 runs in this process, without Dask).
+    scheduler : str or None
+        The address of an existing Dask cluster ('tcp://HOST:8786') instead.
+    dashboard : bool
+        Serve the Dask dashboard of a local cluster.
+    """
 
     workers: int | None = None
     scheduler: str | None = None
@@ -42,6 +50,7 @@ class Where:
 
     @property
     def in_process(self) -> bool:
+        """True when the batch runs in this process (one local worker, no scheduler)."""
         return self.scheduler is None and self.local_workers == 1
 
     @property
@@ -72,7 +81,7 @@ class BatchProgress:
         Frames written per second by this run.
     seconds_left : float or None
         At that rate (None before the first frame).
-    retried : int
+    retried : tuple of int
         Frames run again after their worker died.
     dashboard : str or None
         The Dask dashboard's address (None in process or without one).
@@ -89,6 +98,7 @@ class BatchProgress:
 
     @property
     def fraction(self) -> float:
+        """(done + failed) / total; 1 for a session without frames."""
         return (self.done + self.failed) / self.total if self.total else 1.0
 
 
@@ -100,19 +110,22 @@ class BatchReport:
     ----------
     out : Path
         The output folder.
+    total : int
+        The session's frames.
     kept, written : int
         Frames found done in the output folder when this run started, and frames this run wrote.
-    failed : dict
+    failed : dict of int to str
         {frame: one-line error}.
-    retried : dict
+    retried : dict of int to str
         {frame: address of the worker that died with it}.
     seconds : float
-        This run's wall time from the first task to the last result (cluster start-up excluded, in
-        `startup_seconds`).
-    fps : float
-        Frames written per second.
+        This run's wall time from the first task to the last result (cluster start-up excluded).
+    startup_seconds : float
+        The cluster's start-up.
     cancelled : bool
         Stopped by a cancel request.
+    dashboard : str or None
+        The Dask dashboard's address.
     """
 
     out: Path
@@ -133,24 +146,49 @@ class BatchReport:
 
     @property
     def fps(self) -> float:
+        """Frames written per second (0 without time)."""
         return self.written / self.seconds if self.seconds > 0 else 0.0
 
     @property
     def manifest(self) -> Path:
+        """The output folder's manifest file."""
         return self.out / MANIFEST_FILE
 
 
 def default_frames_per_task(method: str) -> int:
-    """Frames per task: enough raw frames that a task lasts a few tenths of a second; one dense
-    frame."""
+    """Return the frames per task of a method.
+
+    Enough raw frames that a task lasts a few tenths of a second; one dense frame.
+
+    Parameters
+    ----------
+    method : str
+
+    Returns
+    -------
+    int
+    """
     return 8 if method == "raw" else 1
 
 
 def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int, ...]]:
-    """The frames `todo` in tasks of `per_task` frames, but for the last ones: a task takes at most
-    a 2 * `workers`-th of the frames left (and at least one), so that the tasks shrink towards the
-    end and the workers finish together instead of one running a whole last task alone (guided
-    self-scheduling). One worker: tasks of `per_task`."""
+    """Split frames into tasks that shrink towards the end (guided self-scheduling).
+
+    Tasks of `per_task` frames, but for the last ones: a task takes at most a 2 * `workers`-th of
+    the frames left (and at least one), so that the workers finish together instead of one running
+    a whole last task alone. One worker: tasks of `per_task`.
+
+    Parameters
+    ----------
+    todo : list of int
+        The frames.
+    per_task : int
+    workers : int
+
+    Returns
+    -------
+    list of tuple of int
+    """
     chunks, start = [], 0
     while start < len(todo):
         left = len(todo) - start
@@ -163,15 +201,34 @@ def task_chunks(todo: list[int], per_task: int, workers: int) -> list[tuple[int,
 def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
               overwrite: bool = False,
               progress: Callable[[BatchProgress], None] | None = None, cancel=None) -> BatchReport:
-    """Reconstruct every frame of job.session not yet done in job.out (see
-    mirrorcore.batch.manifest) and return how it went. Frames that cannot be read or reconstructed
-    are reported in the report and the manifest, the others go on; a rerun does only the frames
-    still missing.
+    """Reconstruct every frame of job.session not yet done in job.out.
 
-    progress(BatchProgress) is called after each task and when a worker dies; cancel (a
-    threading.Event or a callable returning True) stops the run: frames finished are kept and the
-    manifest is written. Raises MirrorscanError (one line) for a bad session, output folder or
-    cluster.
+    What is done is listed in the manifest (see mirrorcore.batch.manifest). Frames that cannot be
+    read or reconstructed are reported in the report and the manifest, the others go on; a rerun
+    does only the frames still missing.
+
+    Parameters
+    ----------
+    job : BatchJob
+    where : Where
+    frames_per_task : int, optional
+        Default `default_frames_per_task`.
+    overwrite : bool
+        Do every frame again when the manifest was made with other settings or inputs.
+    progress : callable, optional
+        progress(BatchProgress) is called after each task and when a worker dies.
+    cancel : threading.Event or callable, optional
+        Stops the run (a callable returning True): frames finished are kept and the manifest is
+        written.
+
+    Returns
+    -------
+    BatchReport
+
+    Raises
+    ------
+    MirrorscanError
+        One line, for a bad session, output folder or cluster.
     """
     session = load_session(Path(job.session).resolve())
     job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
@@ -196,6 +253,7 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
 
 @contextmanager
 def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
+    """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
     if where.in_process:
         yield _InProcess(context, cancel)
         return
@@ -229,8 +287,7 @@ class _InProcess:
         self.chunks.extend(chunks)
 
     def wait(self, timeout: float) -> list:
-        """The next chunk, run now. An unexpected error fails its frames as a Dask task's would (the
-        others go on)."""
+        """Run the next chunk now; an unexpected error fails its frames (others go on)."""
         chunk = self.chunks.pop(0)
         try:
             records, failures = reconstruct_frames(self.context, chunk,
@@ -278,6 +335,7 @@ class _Run:
                 self._report()
 
     def _report(self) -> None:
+        """Pass the figures so far to `progress` as a BatchProgress."""
         if self.progress is None:
             return
         fps = self._fps()
@@ -288,6 +346,7 @@ class _Run:
                                     self.dashboard))
 
     def _fps(self) -> float:
+        """Frames written per second between the first task and the last result (0 before)."""
         seconds = (self.finished or 0.0) - (self.started or 0.0)
         return self.written / seconds if self.started and seconds > 0 else 0.0
 
@@ -301,10 +360,24 @@ class _Run:
 
 
 class BatchRun:
-    """A batch in a background thread, for a UI: start() it, read `progress` (the latest
-    BatchProgress, None before the first) or pass `on_progress`, cancel() it, wait() for its
-    BatchReport. `error` holds the exception that ended it (a MirrorscanError: show its one line)
-    and wait() re-raises it."""
+    """A batch in a background thread, for a UI.
+
+    start() it, read `progress` or pass `on_progress`, cancel() it, wait() for its BatchReport.
+
+    Parameters
+    ----------
+    job, where, frames_per_task, overwrite
+        As for `run_batch`.
+    on_progress : callable, optional
+        Called with each BatchProgress.
+
+    Attributes
+    ----------
+    progress : BatchProgress or None
+        The latest, None before the first.
+    error : Exception or None
+        The exception that ended it (a MirrorscanError: show its one line); wait() re-raises it.
+    """
 
     def __init__(self, job: BatchJob, where: Where = Where(), frames_per_task: int | None = None,
                  overwrite: bool = False,
@@ -319,21 +392,40 @@ class BatchRun:
         self._thread = threading.Thread(target=self._run, name="mirrorscan-batch", daemon=True)
 
     def start(self) -> BatchRun:
+        """Start the run's thread; returns self."""
         self._thread.start()
         return self
 
     def cancel(self) -> None:
-        """Ask the run to stop: the frames finished are kept, the manifest is written, then wait()
-        returns."""
+        """Ask the run to stop: the frames finished are kept, the manifest is written.
+
+        Then wait() returns.
+        """
         self._cancel.set()
 
     @property
     def running(self) -> bool:
+        """True while the run's thread is alive."""
         return self._thread.is_alive()
 
     def wait(self, timeout: float | None = None) -> BatchReport | None:
-        """The report once the run has ended (None if it is still running after `timeout`
-        seconds)."""
+        """Wait for the report once the run has ended.
+
+        Parameters
+        ----------
+        timeout : float, optional
+            Seconds.
+
+        Returns
+        -------
+        BatchReport or None
+            None if it is still running after `timeout`.
+
+        Raises
+        ------
+        Exception
+            The error that ended the run.
+        """
         self._thread.join(timeout)
         if self._thread.is_alive():
             return None
@@ -342,11 +434,13 @@ class BatchRun:
         return self.report
 
     def _progress(self, progress: BatchProgress) -> None:
+        """Keep the latest BatchProgress and pass it to `on_progress`."""
         self.progress = progress
         if self.on_progress is not None:
             self.on_progress(progress)
 
     def _run(self) -> None:
+        """Run the batch; keep its report, or the exception that ended it."""
         try:
             self.report = run_batch(self.job, self.where, self.frames_per_task, self.overwrite,
                                     self._progress,

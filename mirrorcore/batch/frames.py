@@ -25,10 +25,22 @@ from mirrorcore.batch.manifest import FrameRecord
 
 @dataclass(frozen=True, eq=False)
 class FrameContext:
-    """What every frame of a batch shares, built once by the client: the session (root an absolute
-    path), its calibrated rig with the per-pixel tables already computed (they travel with it), the
-    background (H, W) float32 metres or None, the job, each frame's output file name, and the
-    threads a dense frame may use (None: all)."""
+    """What every frame of a batch shares, built once by the client.
+
+    Attributes
+    ----------
+    session : Session
+        Its root an absolute path.
+    rig : Rig
+        The calibrated rig, its per-pixel tables already computed (they travel with it).
+    background : (H, W) float32 array or None
+        Metres.
+    job : BatchJob
+    names : tuple of str
+        Each frame's output file name.
+    threads : int or None
+        The threads a dense frame may use (None: all).
+    """
 
     session: Session
     rig: Rig
@@ -39,8 +51,23 @@ class FrameContext:
 
     @classmethod
     def build(cls, session: Session, job: BatchJob, threads: int | None = None) -> FrameContext:
-        """Refuses (MirrorscanError) an uncalibrated session or frames whose output names
-        collide."""
+        """Build the context of a batch.
+
+        Parameters
+        ----------
+        session : Session
+        job : BatchJob
+        threads : int, optional
+
+        Returns
+        -------
+        FrameContext
+
+        Raises
+        ------
+        MirrorscanError
+            An uncalibrated session, or frames whose output names collide.
+        """
         rig = calibrated_rig(session, job.bounces)
         # computed once, here
         rig.reflection_table, rig.inside_bits, rig.intrinsics.rays  # noqa: B018
@@ -50,9 +77,23 @@ class FrameContext:
 def read_depth(session: Session, index: int, temporal: int = 0,
                cache: dict[int, np.ndarray] | None = None
                ) -> np.ndarray:
-    """Frame `index` (0-based, negative from the end) as (H, W) float32 metres, smoothed with its
-    `temporal` neighbours on each side where the scene is static (mirrorcore.depth.temporal; 0: as
-    read). `cache` (frame index -> depth) keeps the frames read for the next call."""
+    """Read a frame, smoothed with its neighbours where the scene is static.
+
+    Parameters
+    ----------
+    session : Session
+    index : int
+        0-based, negative from the end.
+    temporal : int
+        Neighbours on each side (mirrorcore.depth.temporal); 0: as read.
+    cache : dict of int to array, optional
+        Frame index -> depth; keeps the frames read for the next call.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres.
+    """
     count = len(session.frames)
     if not -count <= index < count:
         session.read_frame(index)              # refuses it, naming the frames there are
@@ -69,14 +110,25 @@ def read_depth(session: Session, index: int, temporal: int = 0,
 
 def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=None
                        ) -> tuple[list[FrameRecord], dict[int, str]]:
-    """Reconstruct frames `indices` (in order) into context.job.out, one PLY file each, written
-    atomically but not flushed to the disk: the client does that before the manifest lists them
-    (OutputFolder.flush), so that no worker waits for the disk (an fsync a frame in the workers held
-    two workers to 1.3x one).
+    """Reconstruct frames (in order) into context.job.out, one PLY file each.
 
-    Returns the records of the frames written and {index: one-line error} of the frames that could
-    not be read or reconstructed (MirrorscanError, OSError: the others go on). `cancel` (None or a
-    callable returning True) is asked before each frame: the frames done so far are returned.
+    Written atomically but not flushed to the disk: the client does that before the manifest lists
+    them (OutputFolder.flush), so that no worker waits for the disk.
+
+    Parameters
+    ----------
+    context : FrameContext
+    indices : iterable of int
+    cancel : callable, optional
+        Asked before each frame (returns True to stop): the frames done so far are returned.
+
+    Returns
+    -------
+    records : list of FrameRecord
+        The frames written.
+    failures : dict of int to str
+        {index: one-line error} of the frames that could not be read or reconstructed
+        (MirrorscanError, OSError: the others go on).
     """
     records, failures, cache = [], {}, {}
     for index in indices:
@@ -128,7 +180,17 @@ def _one_line(exc: BaseException) -> str:
 
 
 def task_error(exc: BaseException) -> str:
-    """An unexpected error of a whole task (a bug, KilledWorker after its workers died) as one line
-    with its type."""
+    """Write an unexpected error of a whole task as one line with its type.
+
+    A bug, or KilledWorker after its workers died.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    str
+    """
     return f"{type(exc).__name__}: {_one_line(exc)}"
 

@@ -18,15 +18,22 @@ BATCH_METHODS = ("raw", *METHODS)
 class BatchJob:
     """One PLY file per frame of a session's recording.
 
-    session : the session folder (calibrated); out : the output folder (created when missing)
-    method : 'raw' (Algorithm 1, a cloud), 'paper' / 'carve' (a carved cloud), 'tsdf' (a mesh); each
-    frame alone
-    options : the dense methods' voxel, margin, bounds, threshold and truncation (unused by 'raw')
-    temporal : N > 0 smooths each frame's depth with its N neighbours on each side where the scene
-    is static
-        (mirrorcore.depth.temporal); 0 = off
-    bounces : the most mirrors in turn a camera ray is followed through (None: the session's
-    setting)
+    Attributes
+    ----------
+    session : Path
+        The session folder (calibrated).
+    out : Path
+        The output folder (created when missing).
+    method : str
+        'raw' (Algorithm 1, a cloud), 'paper' / 'carve' (a carved cloud), 'tsdf' (a mesh); each
+        frame alone.
+    options : DenseOptions
+        The dense methods' voxel, margin, bounds, threshold and truncation (unused by 'raw').
+    temporal : int
+        N > 0 smooths each frame's depth with its N neighbours on each side where the scene is
+        static (mirrorcore.depth.temporal); 0 = off.
+    bounces : int or None
+        The most mirrors in turn a camera ray is followed through (None: the session's setting).
     """
 
     session: Path
@@ -49,8 +56,10 @@ class BatchJob:
         object.__setattr__(self, "out", Path(self.out))
 
     def settings(self) -> dict:
-        """The choices that shape the output, as JSON: {'method': ..., 'options': {the dense options
-        the method uses, 'temporal'}}."""
+        """Return the choices that shape the output, as JSON.
+
+        {'method': ..., 'options': {the dense options the method uses, 'temporal'}}.
+        """
         options: dict = {}
         if self.method != "raw":
             o = self.options
@@ -66,15 +75,43 @@ class BatchJob:
 
 
 def exports_folder(session_root: str | Path, method: str = "raw", temporal: int = 0) -> Path:
-    """The folder the browser tool writes a session's batch into: SESSION/exports/frames-METHOD
-    (with '-temporalN' when smoothed), beside its other exports (docs/DESIGN.md, session folder)."""
+    """Return the folder the browser tool writes a session's batch into.
+
+    SESSION/exports/frames-METHOD (with '-temporalN' when smoothed), beside its other exports
+    (docs/DESIGN.md, session folder).
+
+    Parameters
+    ----------
+    session_root : str or Path
+    method : str
+    temporal : int
+
+    Returns
+    -------
+    Path
+    """
     return Path(session_root) / "exports" / (f"frames-{method}" + (
         f"-temporal{temporal}" if temporal else ""))
 
 
 def output_names(session: Session) -> tuple[str, ...]:
-    """Each frame's PLY file name, its image's stem + '.ply' ('frames/000123.png' -> '000123.ply');
-    MirrorscanError when two frames share a stem (their files would collide)."""
+    """Return each frame's PLY file name: its image's stem + '.ply'.
+
+    'frames/000123.png' gives '000123.ply'.
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    MirrorscanError
+        Two frames share a stem (their files would collide).
+    """
     names = tuple(f"{Path(f).stem}.ply" for f in session.frames)
     if len(set(names)) != len(names):
         seen: dict[str, str] = {}
@@ -88,10 +125,20 @@ def output_names(session: Session) -> tuple[str, ...]:
 
 
 def session_inputs(session: Session) -> dict:
-    """What the output depends on in the session, as JSON: the calibration (the camera; each
-    mirror's plane and boundary, in session order; the mirrors followed in turn), the object
-    selection, the background image's SHA-256 and the frames' paths (their count and a SHA-256 of
-    the list)."""
+    """Return what the output depends on in the session, as JSON.
+
+    The calibration (the camera; each mirror's plane and boundary, in session order; the mirrors
+    followed in turn), the object selection, the background image's SHA-256 and the frames' paths
+    (their count and a SHA-256 of the list).
+
+    Parameters
+    ----------
+    session : Session
+
+    Returns
+    -------
+    dict
+    """
     mirrors = [{"plane": None if m.plane is None else m.plane.to_list(),
                 "boundary": [list(p) for p in m.boundary]}
                for m in session.mirrors]
@@ -109,9 +156,21 @@ def session_inputs(session: Session) -> dict:
 
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:
-    """The keys (dotted paths) whose values differ between two JSON objects, with the old and new
-    values when they are single numbers or strings (None as 'none'), for example
-    ['method (raw -> tsdf)', 'calibration.mirrors']."""
+    """List the keys (dotted paths) whose values differ between two JSON objects.
+
+    With the old and new values when they are single numbers or strings (None as 'none'), for
+    example ['method (raw -> tsdf)', 'calibration.mirrors'].
+
+    Parameters
+    ----------
+    old, new : dict
+    prefix : str
+        Prepended to the keys.
+
+    Returns
+    -------
+    list of str
+    """
     found = []
     for key in sorted(set(old) | set(new)):
         a, b = old.get(key), new.get(key)

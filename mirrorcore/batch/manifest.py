@@ -36,10 +36,25 @@ KIND = "mirrorscan batch reconstruction"
 
 @dataclass(frozen=True)
 class FrameRecord:
-    """One frame done: its index in the session (0-based), its file name in the folder, the PLY's
-    vertex count (points of a cloud, vertices of a mesh), face count (None for clouds), vertices per
-    source (direct, mirror 1, ...), the file's size in bytes and the seconds it took (read,
-    reconstruct, write)."""
+    """One frame done.
+
+    Attributes
+    ----------
+    index : int
+        Its index in the session (0-based).
+    file : str
+        Its file name in the folder.
+    vertices : int
+        The PLY's vertex count (points of a cloud, vertices of a mesh).
+    faces : int or None
+        Face count (None for clouds).
+    sources : tuple of int
+        Vertices per source (direct, mirror 1, ...).
+    bytes : int
+        The file's size.
+    seconds : float
+        The time it took (read, reconstruct, write).
+    """
 
     index: int
     file: str
@@ -51,6 +66,23 @@ class FrameRecord:
 
     @classmethod
     def from_json(cls, data, where: str) -> FrameRecord:
+        """Read a record of manifest.json.
+
+        Parameters
+        ----------
+        data : object
+            The parsed JSON.
+        where : str
+            For the messages.
+
+        Returns
+        -------
+        FrameRecord
+
+        Raises
+        ------
+        FileFormatError
+        """
         try:
             record = cls(**{**data, "sources": tuple(data["sources"])})
         except (TypeError, KeyError) as exc:
@@ -61,7 +93,16 @@ class FrameRecord:
         return record
 
     def intact(self, folder: Path) -> bool:
-        """True when the file is in `folder` with this record's size and element counts."""
+        """Tell whether the file is in `folder` with this record's size and element counts.
+
+        Parameters
+        ----------
+        folder : Path
+
+        Returns
+        -------
+        bool
+        """
         path = folder / self.file
         try:
             if path.stat().st_size != self.bytes:
@@ -74,10 +115,22 @@ class FrameRecord:
 
 @dataclass
 class Manifest:
-    """manifest.json in memory. settings : {'method', 'options'} of the job (BatchJob.settings);
-    inputs : what the output depends on in the session (job.session_inputs); total : the session's
-    frame count; done : index -> record;
-    failed : index -> one-line error of the last attempt."""
+    """manifest.json in memory.
+
+    Attributes
+    ----------
+    session : str
+    settings : dict
+        {'method', 'options'} of the job (BatchJob.settings).
+    inputs : dict
+        What the output depends on in the session (job.session_inputs).
+    total : int
+        The session's frame count.
+    done : dict of int to FrameRecord
+        Index -> record.
+    failed : dict of int to str
+        Index -> one-line error of the last attempt.
+    """
 
     session: str
     settings: dict
@@ -90,11 +143,14 @@ class Manifest:
 
     @property
     def complete(self) -> bool:
+        """True when every frame is done."""
         return len(self.done) == self.total
 
     def text(self) -> str:
-        """manifest.json's text: the settings indented, then one line per frame done (each line is
-        made once and kept: 18,000 frames are rewritten in a few tens of milliseconds)."""
+        """Return manifest.json's text: the settings indented, then one line per frame done.
+
+        Each line is made once and kept: 18,000 frames are rewritten in a few tens of milliseconds.
+        """
         head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings,
                 "inputs": self.inputs,
                 "total": self.total, "complete": self.complete,
@@ -108,6 +164,24 @@ class Manifest:
 
     @classmethod
     def from_json(cls, data, where: str) -> Manifest:
+        """Read a parsed manifest.json.
+
+        Parameters
+        ----------
+        data : object
+            The parsed JSON.
+        where : str
+            For the messages.
+
+        Returns
+        -------
+        Manifest
+
+        Raises
+        ------
+        FileFormatError
+            Not the manifest of a batch reconstruction, or a bad record.
+        """
         if not isinstance(data, dict) or data.get("kind") != KIND:
             raise FileFormatError(f"{where}: not the manifest of a batch reconstruction")
         if data.get("version") != VERSION:
@@ -127,14 +201,30 @@ class Manifest:
 
 
 class OutputFolder:
-    """A batch's output folder, held for one run: created when missing, locked against a second run,
-    stale temporary files of a killed run removed, the manifest read and checked against this run's
-    settings and inputs.
+    """A batch's output folder, held for one run.
 
-    Refuses (MirrorscanError, one line) a folder that holds other files and no manifest, a folder
-    another run is writing into, and a manifest made with other settings or inputs unless
-    `overwrite` (then every frame is done again, and the files of frames that are not in the
-    session are removed).
+    Created when missing, locked against a second run, stale temporary files of a killed run
+    removed, the manifest read and checked against this run's settings and inputs.
+
+    Parameters
+    ----------
+    path : Path
+    session : str
+    settings : dict
+        The job's settings (BatchJob.settings).
+    inputs : dict
+        What the output depends on (job.session_inputs).
+    names : tuple of str
+        Each frame's output file name.
+    overwrite : bool
+        Accept a manifest made with other settings or inputs: every frame is done again, and the
+        files of frames that are not in the session are removed.
+
+    Raises
+    ------
+    MirrorscanError
+        One line: a folder that holds other files and no manifest, a folder another run is writing
+        into, or a manifest made with other settings or inputs unless `overwrite`.
     """
 
     def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
@@ -159,6 +249,7 @@ class OutputFolder:
             raise
 
     def _read_old(self) -> Manifest | None:
+        """Read the folder's manifest; None for a folder with none and no other files."""
         file = self.path / MANIFEST_FILE
         if not file.exists():
             others = [p.name for p in self.path.iterdir() if p.name != LOCK_FILE]
@@ -191,11 +282,19 @@ class OutputFolder:
                 and r.intact(self.path)}
 
     def add(self, records: list[FrameRecord], failures: dict[int, str]) -> None:
-        """Record frames done and frames failed. The manifest is written when the time since the
-        last write is at least MIN_FLUSH_SECONDS and 1 / FLUSH_SHARE times what that write took, and
-        at most MAX_FLUSH_SECONDS: often for a short recording, every 0.6 s or so for 18,000 frames
-        (a 2.6 MB manifest written in 30 ms), never a large share of the run; a write slowed by a
-        busy disk does not leave the next one far behind the frames."""
+        """Record frames done and frames failed.
+
+        The manifest is written when the time since the last write is at least MIN_FLUSH_SECONDS and
+        1 / FLUSH_SHARE times what that write took, and at most MAX_FLUSH_SECONDS: often for a short
+        recording, every 0.6 s or so for 18,000 frames, never a large share of the run; a write
+        slowed by a busy disk does not leave the next one far behind the frames.
+
+        Parameters
+        ----------
+        records : list of FrameRecord
+        failures : dict of int to str
+            {frame: one-line error}.
+        """
         for r in records:
             self.manifest.done[r.index] = r
             self.manifest.failed.pop(r.index, None)
@@ -206,10 +305,17 @@ class OutputFolder:
             self.flush()
 
     def flush(self) -> None:
-        """Flush the frames' files added since the last write to the disk (the workers write them
-        without), then write the manifest (atomically): it lists a frame only once its file is on
-        the disk. Raises OSError naming the file that could not be flushed or written (the manifest
-        on the disk is then the last one written)."""
+        """Flush the frames' files added since the last write to the disk, then write the manifest.
+
+        The workers write the files without flushing them; the manifest is written atomically and
+        lists a frame only once its file is on the disk.
+
+        Raises
+        ------
+        OSError
+            Naming the file that could not be flushed or written (the manifest on the disk is then
+            the last one written).
+        """
         start = time.monotonic()
         for record in self._unflushed:
             make_durable(self.path / record.file)

@@ -69,13 +69,17 @@ RIM_LANDING_PX = 1.0
 class Comparison:
     """Points of one view that agree with readings of another view.
 
-    index : (m,) int64 into the points
-    residual : (m,) float64 metres, each point's signed distance to the other view's surface (> 0
-    outside it)
-    sigma : (m,) float64 metres, the noise of the residual
-    direction : (m, 3) float64, the residual's gradient with respect to the point, in the other
-    view's space (the
-        normal of its surface)
+    Attributes
+    ----------
+    index : (m,) int64 array
+        Into the points.
+    residual : (m,) float64 array
+        Metres, each point's signed distance to the other view's surface (> 0 outside it).
+    sigma : (m,) float64 array
+        Metres, the noise of the residual.
+    direction : (m, 3) float64 array
+        The residual's gradient with respect to the point, in the other view's space (the normal of
+        its surface).
     """
 
     index: np.ndarray
@@ -88,15 +92,35 @@ class Comparison:
 
 
 def in_view(seen: ViewPoints, plane: Plane | None) -> ViewPoints:
-    """Real points into the space of a view: reflected through the mirror's plane, or as they are
-    for the camera (plane None)."""
+    """Map real points into the space of a view.
+
+    Parameters
+    ----------
+    seen : ViewPoints
+        Real points.
+    plane : Plane or None
+        The mirror's plane the points are reflected through; None for the camera (as they are).
+
+    Returns
+    -------
+    ViewPoints
+    """
     return seen if plane is None else seen.reflected(plane)
 
 
 class TargetView:
-    """What one view saw in a frame, as points of other views are compared with it, in its own space
-    (the camera frame for the camera, its mirror image for a mirror: `in_view` maps points there):
-    its readings, and per pixel of the image the reading there (-1 for none)."""
+    """What one view saw in a frame, in its own space, for comparing other views' points with it.
+
+    Its space is the camera frame for the camera, its mirror image for a mirror (`in_view` maps
+    points there). It holds its readings and, per pixel of the image, the reading there (-1 for
+    none).
+
+    Parameters
+    ----------
+    intrinsics : Intrinsics
+    view : ViewPoints
+        The view's readings, in its own space.
+    """
 
     def __init__(self, intrinsics: Intrinsics, view: ViewPoints):
         self.intrinsics, self.view = intrinsics, view
@@ -104,9 +128,19 @@ class TargetView:
         self.index[view.pixels] = np.arange(len(view))
 
     def compare(self, mapped: ViewPoints, gate: float = 0.0) -> Comparison:
-        """Points in this view's space (`in_view`), normals out of the object, compared with its
-        readings (see the module); `gate` (metres) widens what counts as the same surface while the
-        planes may still be far off."""
+        """Compare points with this view's readings (see the module docstring).
+
+        Parameters
+        ----------
+        mapped : ViewPoints
+            Points in this view's space (`in_view`), normals out of the object.
+        gate : float
+            Metres that widen what counts as the same surface while the planes may still be far off.
+
+        Returns
+        -------
+        Comparison
+        """
         uv, z = project_points(self.intrinsics, mapped.anchors)
         u, v = np.round(np.nan_to_num(uv, nan=-1.0)).T.astype(np.int64)
         inside = np.flatnonzero((z > 0) & (u >= 0) & (u < self.intrinsics.width) & (v >= 0)
@@ -168,21 +202,52 @@ def _along(view: ViewPoints, index: np.ndarray, normal: np.ndarray) -> np.ndarra
 
 @dataclass(frozen=True, eq=False)
 class FrameViews:
-    """The views of one frame: `targets` {0: the camera, j: mirror j} for every view with readings;
-    `centre` (3,) metres, the median of the direct readings (of all the object's points without
-    any)."""
+    """The views of one frame.
+
+    Attributes
+    ----------
+    targets : dict of int to TargetView
+        {0: the camera, j: mirror j} for every view with readings.
+    centre : (3,) array
+        Metres, the median of the direct readings (of all the object's points without any).
+    """
 
     targets: dict[int, TargetView]
     centre: np.ndarray
 
     def points(self, j: int) -> ViewPoints:
+        """Return the readings of a view, in its own space.
+
+        Parameters
+        ----------
+        j : int
+            0 the camera, j mirror j.
+
+        Returns
+        -------
+        ViewPoints
+        """
         return self.targets[j].view
 
 
 def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
-    """A frame's views: depth (H, W) float metres as measured (not smoothed), mask (H, W) bool the
-    object's pixels (mirrorcore.rig.pipeline.prepare_frame's). Algorithm 1 (reconstruct_raw) says
-    which view each of the object's pixels belongs to; mirrors without a plane have no view."""
+    """Return a frame's views.
+
+    Algorithm 1 (reconstruct_raw) says which view each of the object's pixels belongs to; mirrors
+    without a plane have no view.
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float array
+        Metres as measured (not smoothed).
+    mask : (H, W) bool array
+        The object's pixels (mirrorcore.rig.pipeline.prepare_frame's).
+
+    Returns
+    -------
+    FrameViews
+    """
     depth = np.asarray(depth, dtype=np.float32)
     mask = np.asarray(mask, bool) & (depth > 0)
     cloud = reconstruct_raw(rig, depth, mask)
@@ -204,14 +269,23 @@ def frame_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> FrameViews:
 
 
 def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
-    """For the heat map of a calibration: each point's signed distance (mm) to the surface the
-    camera sees directly.
+    """Measure each point's signed distance to the surface the camera sees directly (the heat map).
 
-    rig : the rig whose planes made `cloud` (Algorithm 1) from `depth` (H, W) float metres -> (n,)
-    float32 mm: > 0 where a mirror's point lies outside the direct surface (in front of it, along
-    its normal), < 0 inside; NaN for the direct points themselves and for mirror points with nothing
-    to compare with (parts of the object that the camera does not see, readings too oblique or at a
-    depth edge).
+    Parameters
+    ----------
+    rig : Rig
+        The rig whose planes made `cloud` (Algorithm 1) from `depth`.
+    cloud : Cloud
+    depth : (H, W) float array
+        Metres.
+
+    Returns
+    -------
+    (n,) float32 array
+        mm: > 0 where a mirror's point lies outside the direct surface (in front of it, along its
+        normal), < 0 inside; NaN for the direct points themselves and for mirror points with nothing
+        to compare with (parts of the object that the camera does not see, readings too oblique or
+        at a depth edge).
     """
     out = np.full(len(cloud), np.nan, dtype=np.float32)
     mask = np.zeros(rig.intrinsics.shape, bool)
@@ -231,9 +305,26 @@ def surface_distances(rig: Rig, cloud: Cloud, depth: np.ndarray) -> np.ndarray:
 def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray,
                 shape: tuple[int, int],
                 size: int = HEAT_WINDOW) -> np.ndarray:
-    """(n,) float32: each finite value replaced by the mean of the finite values of its own source
-    within the size x size pixels about its pixel; NaN stays NaN. values (n,) float, pixel_index
-    (n,) flat indices into an image of `shape` (H, W) (one point a pixel), sources (n,) labels."""
+    """Replace each finite value by the mean of its own source's finite values around its pixel.
+
+    Over the size x size pixels about its pixel; NaN stays NaN.
+
+    Parameters
+    ----------
+    values : (n,) float array
+    pixel_index : (n,) integer array
+        Flat indices into an image of `shape` (one point a pixel).
+    sources : (n,) integer array
+        Labels.
+    shape : (int, int)
+        (H, W).
+    size : int
+        Pixels, the window's side.
+
+    Returns
+    -------
+    (n,) float32 array
+    """
     values, sources = np.asarray(values, np.float32), np.asarray(sources)
     out = np.full(len(values), np.nan, np.float32)
     finite = np.isfinite(values)
@@ -250,9 +341,21 @@ def local_means(values: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray
 
 
 def heat_figures(distances: np.ndarray, sources: np.ndarray) -> dict[int, tuple[float, float]]:
-    """Per view seen in a mirror, what the heat map shows: {source label: (median distance mm to the
-    direct surface, NaN when none is compared; the share of its points compared, 0 to 1)}. distances
-    (n,) float mm as surface_distances gives them, sources (n,) their labels."""
+    """Return, per view seen in a mirror, what the heat map shows.
+
+    Parameters
+    ----------
+    distances : (n,) float array
+        mm, as `surface_distances` gives them.
+    sources : (n,) integer array
+        Their labels.
+
+    Returns
+    -------
+    dict of int to (float, float)
+        {source label: (median distance mm to the direct surface, NaN when none is compared; the
+        share of its points compared, 0 to 1)}.
+    """
     distances, sources = np.asarray(distances, dtype=np.float64), np.asarray(sources)
     figures = {}
     for label in np.unique(sources[sources != 0]):

@@ -34,12 +34,20 @@ MAX_MARKER_FRAMES = 30
 class Calibration:
     """A fitted mirror plane and how well the data support it.
 
-    rms_mm : RMS distance of the inlier points to the plane, mm; n_points / n_inliers : points used
-    / kept by RANSAC;
-    markers : for a markers fit, how far each marker's centre lies from the plane against the noise
-    there (None for region and pair calibrations); centre : (3,) metres, the middle of the points
-    used (where a change of the plane is measured); marker_offset : metres, the glass the markers
-    fit put between its markers and the plane.
+    Attributes
+    ----------
+    plane : Plane
+    rms_mm : float
+        RMS distance of the inlier points to the plane, mm.
+    n_points, n_inliers : int
+        Points used / kept by RANSAC.
+    markers : MarkerResiduals or None
+        For a markers fit, how far each marker's centre lies from the plane against the noise there
+        (None for region and pair calibrations).
+    centre : (float, float, float)
+        Metres, the middle of the points used (where a change of the plane is measured).
+    marker_offset : float
+        Metres, the glass the markers fit put between its markers and the plane.
     """
 
     plane: Plane
@@ -119,10 +127,31 @@ def calibrate_from_markers(intr: Intrinsics, depth: np.ndarray, markers, rng: np
 
 def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.random.Generator,
                           name: str = "mirror") -> Calibration:
-    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame (paper:
-    "if it is large enough"). depth : (H, W) or (k, H, W) float metres; polygon : (b, 2) pixels (u,
-    v). Raises CalibrationError when the region has fewer than MIN_REGION_PIXELS readings or is too
-    thin for a plane."""
+    """Fit a mirror plane to all valid pixels inside a polygon drawn on the mirror's frame.
+
+    The paper's region calibration ("if it is large enough").
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float array
+        Metres.
+    polygon : (b, 2) array
+        Pixels (u, v).
+    rng : numpy.random.Generator
+        RANSAC's only source of randomness.
+    name : str
+        The mirror, named in errors.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    CalibrationError
+        The region has fewer than MIN_REGION_PIXELS readings or is too thin for a plane.
+    """
     depth = check_depth_shape(intr, median_depth(depth), f"{name}: depth image")
     polygon = validate_polygon(polygon, intr.shape, f"{name}: region")
     inside = polygon_mask(polygon, intr.shape) & (depth > 0)
@@ -140,15 +169,29 @@ def calibrate_from_region(intr: Intrinsics, depth: np.ndarray, polygon, rng: np.
 
 
 def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> Calibration:
-    """The mirror plane as the least-squares perpendicular bisector of pairs (real point, its
-    virtual image).
+    """Fit the mirror plane as the least-squares perpendicular bisector of pairs (real, virtual).
 
-    real_points, virtual_points : (k, 3) metres, camera frame, k >= 1; pair i is one feature of a
-    calibration object seen directly and behind the mirror. The normal is the mean of the unit
-    directions virtual -> real (towards the camera's side); d makes the plane pass through the
-    pairs' midpoints on average. rms_mm reports the RMS of |reflect(virtual) - real| / 2, the
-    distance of each virtual point's reflection to where the plane puts it. Raises CalibrationError
-    for no pairs, coincident pairs, or a camera behind the resulting plane.
+    The normal is the mean of the unit directions virtual -> real (towards the camera's side); d
+    makes the plane pass through the pairs' midpoints on average. rms_mm reports the RMS of
+    |reflect(virtual) - real| / 2, the distance of each virtual point's reflection to where the
+    plane puts it.
+
+    Parameters
+    ----------
+    real_points, virtual_points : (k, 3) array
+        Metres, camera frame, k >= 1; pair i is one feature of a calibration object seen directly
+        and behind the mirror.
+    name : str
+        The mirror, named in errors.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    CalibrationError
+        No pairs, coincident pairs, or a camera behind the resulting plane.
     """
     real = np.asarray(real_points, dtype=np.float64).reshape(-1, 3)
     virtual = np.asarray(virtual_points, dtype=np.float64).reshape(-1, 3)
@@ -178,12 +221,33 @@ def calibrate_from_pairs(real_points, virtual_points, name: str = "mirror") -> C
 
 def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Generator, indices=None,
                       method: str = "markers") -> tuple[Session, list[tuple[int, Calibration]]]:
-    """Fit the planes of a session's mirrors (all, or those at `indices`, 0-based) from their
-    markers (moved back by each mirror's marker_offset), or with method 'region' from each mirror's
-    region polygon; all or nothing: the first
-    refusal raises CalibrationError and nothing is returned. depth : (H, W) or (k, H, W) float
-    metres. returns the session with the new planes, and (index, Calibration) for each mirror
-    calibrated."""
+    """Fit the planes of a session's mirrors; all or nothing.
+
+    From their markers (moved back by each mirror's marker_offset), or with method 'region' from
+    each mirror's region polygon. The first refusal raises and nothing is returned.
+
+    Parameters
+    ----------
+    session : Session
+    depth : (H, W) or (k, H, W) float array
+        Metres.
+    rng : numpy.random.Generator
+    indices : iterable of int, optional
+        The mirrors to fit (0-based); default all.
+    method : str
+        'markers' or 'region'.
+
+    Returns
+    -------
+    session : Session
+        With the new planes.
+    calibrations : list of (int, Calibration)
+        (index, Calibration) for each mirror calibrated.
+
+    Raises
+    ------
+    CalibrationError
+    """
     indices = range(len(session.mirrors)) if indices is None else list(indices)
     if not len(indices):
         raise CalibrationError(f"{session.path}: the session has no mirrors")
@@ -196,6 +260,7 @@ def calibrate_session(session: Session, depth: np.ndarray, rng: np.random.Genera
 
 def _calibrate_mirror(session: Session, mirror: SessionMirror, depth: np.ndarray, method: str,
                       rng: np.random.Generator) -> Calibration:
+    """Fit one session mirror's plane from its markers or, with 'region', its region."""
     if method == "region":
         if not mirror.region:
             raise CalibrationError(f"{mirror.name}: no 'region' polygon in the session")
@@ -219,6 +284,7 @@ def _distance_to_best_line(points: np.ndarray) -> np.ndarray:
 
 
 def _check_camera_side(plane: Plane, name: str) -> None:
+    """Refuse a plane that passes nearer than MIN_CAMERA_DISTANCE to the camera."""
     if plane.d < MIN_CAMERA_DISTANCE:
         raise CalibrationError(
             f"{name}: the fitted plane passes {plane.d * 1000:.0f} mm from the camera; the camera "
@@ -226,10 +292,29 @@ def _check_camera_side(plane: Plane, name: str) -> None:
 
 
 def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
-    """(k, H, W) float32 metres a session's planes are fitted on (markers, region): the frame asked
-    for, or its background and up to MAX_MARKER_FRAMES evenly spaced frames, without what passes in
-    front of the background in them (static_frames). Raises CalibrationError without any, and
-    MirrorscanError naming them when no pixel of theirs has a reading."""
+    """Return the depth a session's planes are fitted on (markers, region).
+
+    The frame asked for, or its background and up to MAX_MARKER_FRAMES evenly spaced frames,
+    without what passes in front of the background in them (`static_frames`).
+
+    Parameters
+    ----------
+    session : Session
+    frame : int, optional
+        The frame (0-based).
+
+    Returns
+    -------
+    (k, H, W) float32 array
+        Metres.
+
+    Raises
+    ------
+    CalibrationError
+        Without any frame or background.
+    MirrorscanError
+        Naming them, when no pixel of theirs has a reading.
+    """
     if frame is not None:
         return require_readings(session.read_frame(frame)[None],
                                 str(Path(session.root) / session.frames[frame]))
@@ -241,9 +326,23 @@ def calibration_depth(session: Session, frame: int | None = None) -> np.ndarray:
 
 
 def static_frames(frames: np.ndarray | None, background: np.ndarray | None) -> np.ndarray | None:
-    """What markers and regions are read on: frames (k, H, W) float metres less what passes in front
-    of the background in them (depthops.without_occluders), then the background (H, W) itself;
-    either alone when the other is None; None without both. -> (k + 1, H, W) float32."""
+    """Return what markers and regions are read on.
+
+    The frames less what passes in front of the background in them (depth.ops.without_occluders),
+    then the background itself; either alone when the other is None.
+
+    Parameters
+    ----------
+    frames : (k, H, W) float array or None
+        Metres.
+    background : (H, W) float array or None
+        Metres.
+
+    Returns
+    -------
+    (k + 1, H, W) float32 array or None
+        None without both.
+    """
     if background is None:
         return None if frames is None else np.asarray(frames, dtype=np.float32)
     background = np.asarray(background, dtype=np.float32)[None]

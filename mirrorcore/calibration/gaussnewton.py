@@ -17,10 +17,23 @@ SETTLED = 0.1
 
 
 def progress_fraction(iterations: int, within: float = 1.0) -> float:
-    """Progress: the frames' views take a fifth; the iterations the next 55 %, ever slower but
-    never standing still (most settle in under 15; a second pass after relabelling the pixels goes
-    on counting); each frame's own planes (frames_scatter) the rest, so that the bar moves through
-    them."""
+    """Return the progress of a refinement after some iterations.
+
+    The frames' views take a fifth; the iterations the next 55 %, ever slower but never standing
+    still (most settle in under 15; a second pass after relabelling the pixels goes on counting);
+    each frame's own planes (`frames_scatter`) the rest, so that the bar moves through them.
+
+    Parameters
+    ----------
+    iterations : int
+        Iterations so far.
+    within : float
+        With 0 iterations, the fraction of the views done.
+
+    Returns
+    -------
+    float
+    """
     if iterations == 0:
         return 0.2 * within
     return 0.2 + 0.55 * (1.0 - float(np.exp(-iterations / 8.0)))
@@ -28,8 +41,36 @@ def progress_fraction(iterations: int, within: float = 1.0) -> float:
 
 def solve(frames, planes, refined, centre, gate, progress, cancel,
            iterations) -> tuple[dict[int, Plane], int]:
-    """Gauss-Newton until no step exceeds SETTLED of its std (at most MAX_ITERATIONS) -> (planes,
-    iterations so far); `progress` (or None) after each iteration."""
+    """Run Gauss-Newton until no step exceeds SETTLED of its std (at most MAX_ITERATIONS).
+
+    Parameters
+    ----------
+    frames : list of FrameViews
+    planes : dict of int to Plane
+        {mirror j: plane} at the start.
+    refined : list of int
+        The mirrors moved (1-based).
+    centre : (3,) array
+        Metres, where the steps' offsets are measured.
+    gate : float
+        Metres added to what counts as the same surface, halved at every iteration.
+    progress : Progress or None
+        Called after each iteration.
+    cancel : optional
+        Checked before each iteration.
+    iterations : int
+        Iterations so far.
+
+    Returns
+    -------
+    planes : dict of int to Plane
+    iterations : int
+        Iterations so far.
+
+    Raises
+    ------
+    Cancelled
+    """
     planes = dict(planes)
     for _ in range(MAX_ITERATIONS):
         if cancel_requested(cancel):
@@ -52,13 +93,30 @@ def solve(frames, planes, refined, centre, gate, progress, cancel,
 
 def frames_scatter(frames, planes, refined, centre, progress, cancel,
                     done: float) -> dict[int, tuple[float, float]]:
-    """How much the planes each frame alone gives scatter.
+    """Measure how much the planes each frame alone gives scatter.
 
-    With SCATTER_FRAMES frames or more: {mirror j: (metres, degrees)}, the spread of the planes
-    that each frame alone gives, refined from `planes`, over the square root of the number of
-    frames: along the normal at `centre` and in tilt (the larger of its two axes), each a robust
-    standard deviation (_spread: a frame that sees too little to give a plane of its own does not
-    count). Fewer frames: {}. `done`: the progress so far.
+    The planes of each frame alone are refined from `planes`; their spread, over the square root of
+    the number of frames, is measured along the normal at `centre` and in tilt (the larger of its
+    two axes), each a robust standard deviation (`_spread`: a frame that sees too little to give a
+    plane of its own does not count).
+
+    Parameters
+    ----------
+    frames : list of FrameViews
+    planes : dict of int to Plane
+    refined : list of int
+        1-based.
+    centre : (3,) array
+        Metres.
+    progress : Progress or None
+    cancel : optional
+    done : float
+        The progress so far.
+
+    Returns
+    -------
+    dict of int to (float, float)
+        {mirror j: (metres, degrees)} with SCATTER_FRAMES frames or more; {} with fewer.
     """
     if len(frames) < SCATTER_FRAMES:
         return {}

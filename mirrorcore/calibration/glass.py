@@ -82,11 +82,23 @@ def _trimmed_mean(distances: np.ndarray, z: np.ndarray) -> float:
 
 
 def glass_std(report: MirrorRefinement, glass: Glass, centre) -> float:
-    """Metres, 1 sigma of a mirror's glass.
+    """Return the 1 sigma of a mirror's glass, metres.
 
     Its markers' spread, the refined plane's own uncertainty where they are (its offset's at the
-    object, `centre` (3,) metres, and its tilt's over the way there) and, likewise, what the method
-    may add (METHOD_BIAS), since the planes' own 1 sigma alone understates it.
+    object and its tilt's over the way there) and, likewise, what the method may add (METHOD_BIAS),
+    since the planes' own 1 sigma alone understates it.
+
+    Parameters
+    ----------
+    report : MirrorRefinement
+    glass : Glass
+    centre : (3,) array
+        Metres, the object.
+
+    Returns
+    -------
+    float
+        Metres.
     """
     along = glass.centroid - np.asarray(centre)
     away = np.linalg.norm(along - (along @ report.after.n) * report.after.n)

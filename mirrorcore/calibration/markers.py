@@ -29,12 +29,24 @@ GRADES = ("good", "fair", "poor", "unknown")
 
 def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, float],
                   window: int = MARKER_WINDOW) -> np.ndarray:
-    """The 3D points (m, 3) float32 of the valid depth pixels within `window` pixels of a marker
-    pixel (u, v).
-    depth : (H, W), or (k, H, W) frames reduced inside the window only to their per-pixel robust
-    mean (depthops.robust_mean_depth: a median snaps to the camera's disparity steps; exact markers
-    read on it gave planes up to 1.1 mm and 0.14 degrees off, 0.6 mm and 0.07 degrees on the robust
-    mean, seeds 0 to 3)."""
+    """Return the 3D points of the valid depth pixels within `window` pixels of a marker pixel.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float array
+        Metres; frames are reduced inside the window only to their per-pixel robust mean
+        (depth.ops.robust_mean_depth: a median snaps to the camera's disparity steps).
+    marker : (float, float)
+        Pixel (u, v).
+    window : int
+        Pixels.
+
+    Returns
+    -------
+    (m, 3) float32 array
+        Metres, camera frame.
+    """
     u0, v0 = int(round(marker[0])), int(round(marker[1]))
     u1, u2 = max(u0 - window, 0), min(u0 + window + 1, intr.width)
     v1, v2 = max(v0 - window, 0), min(v0 + window + 1, intr.height)
@@ -45,10 +57,18 @@ def marker_points(intr: Intrinsics, depth: np.ndarray, marker: tuple[float, floa
 
 @dataclass(frozen=True)
 class MarkerResiduals:
-    """Per marker (k,) float64: signed_mm, the signed distance of the marker's centre (the median of
-    its points) to a plane (> 0 on the camera's side: something in front of the glass hides it; < 0
-    behind: the click missed the marker and the glass shows a virtual point); sigma_mm, the depth
-    noise there; both NaN for a marker without MIN_MARKER_PIXELS readings."""
+    """How far each marker lies from a plane against the depth noise at it.
+
+    Attributes
+    ----------
+    signed_mm : tuple of float
+        Per marker, the signed distance of the marker's centre (the median of its points) to a plane
+        (> 0 on the camera's side: something in front of the glass hides it; < 0 behind: the click
+        missed the marker and the glass shows a virtual point); NaN for a marker without
+        MIN_MARKER_PIXELS readings.
+    sigma_mm : tuple of float
+        Per marker, the depth noise there; NaN likewise.
+    """
 
     signed_mm: tuple[float, ...]
     sigma_mm: tuple[float, ...]
@@ -60,8 +80,11 @@ class MarkerResiduals:
 
     @property
     def grades(self) -> tuple[str, ...]:
-        """'good' (within GOOD_SIGMAS), 'fair' (within FAIR_SIGMAS), 'poor' or 'unknown' (no depth),
-        per marker."""
+        """Per marker, 'good', 'fair', 'poor' or 'unknown'.
+
+        'good' is within GOOD_SIGMAS, 'fair' within FAIR_SIGMAS; 'unknown' is a marker without
+        depth.
+        """
         ratio = np.asarray(self.distance_mm) / np.asarray(self.sigma_mm)
         grade = np.select([ratio <= GOOD_SIGMAS, ratio <= FAIR_SIGMAS, ratio > FAIR_SIGMAS],
                           [0, 1, 2], 3)
@@ -74,8 +97,23 @@ class MarkerResiduals:
 
 def marker_centres(intr: Intrinsics, depth: np.ndarray, markers,
                    window: int = MARKER_WINDOW) -> np.ndarray:
-    """(k, 3) float64 metres: the median point of each marker's window, NaN rows for markers without
-    depth."""
+    """Return the median point of each marker's window.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float array
+        Metres.
+    markers : sequence of (u, v)
+        Pixels.
+    window : int
+        Pixels.
+
+    Returns
+    -------
+    (k, 3) float64 array
+        Metres, camera frame; NaN rows for markers without depth.
+    """
     centres = np.full((len(markers), 3), np.nan)
     for i, marker in enumerate(markers):
         points = marker_points(intr, depth, marker, window)
@@ -86,8 +124,23 @@ def marker_centres(intr: Intrinsics, depth: np.ndarray, markers,
 
 def marker_residuals(intr: Intrinsics, depth: np.ndarray, markers, plane: Plane,
                      window: int = MARKER_WINDOW) -> MarkerResiduals:
-    """How far each marker lies from `plane` against the depth noise at it. depth : (H, W) or (k, H,
-    W) metres."""
+    """Measure how far each marker lies from a plane against the depth noise at it.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) or (k, H, W) float array
+        Metres.
+    markers : sequence of (u, v)
+        Pixels.
+    plane : Plane
+    window : int
+        Pixels.
+
+    Returns
+    -------
+    MarkerResiduals
+    """
     centres = marker_centres(intr, depth, markers, window)
     with np.errstate(invalid="ignore"):
         signed = plane.signed_distance(centres) * 1e3
@@ -121,8 +174,11 @@ class FitReview:
 
     @property
     def needs_confirmation(self) -> bool:
-        """The user should look before the plane is applied: it moved far, or a marker is poor,
-        unless it is a refit (its poor markers are still named, nothing is asked)."""
+        """Whether the user should look before the plane is applied.
+
+        The plane moved far, or a marker is poor, unless it is a refit (its poor markers are still
+        named, nothing is asked).
+        """
         return (self.moved or bool(self.poor)) and not self.refit
 
 

@@ -26,7 +26,19 @@ def tangent_basis(n: np.ndarray) -> np.ndarray:
 
 
 def offset_at(plane: Plane, point) -> float:
-    """The signed distance (metres) of `point` (3,) from the plane, > 0 on the camera's side."""
+    """Return the signed distance of a point from the plane, > 0 on the camera's side.
+
+    Parameters
+    ----------
+    plane : Plane
+    point : (3,) array
+        Metres, camera frame.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return float(plane.signed_distance(np.asarray(point, dtype=np.float64)))
 
 
@@ -81,6 +93,17 @@ def reflection_jacobian(plane: Plane, centre: np.ndarray, points: np.ndarray,
 
 
 def shift_at(before: Plane, after: Plane, point) -> float:
-    """How far (metres) the plane moved at `point` (3,), along its normal, > 0 away from the
-    camera."""
+    """Measure how far the plane moved at a point, along its normal, > 0 away from the camera.
+
+    Parameters
+    ----------
+    before, after : Plane
+    point : (3,) array
+        Metres, camera frame.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return offset_at(after, point) - offset_at(before, point)

@@ -54,26 +54,34 @@ _PATTERN_BITS = 2.0 ** np.arange(len(_OFFSETS))
 
 @dataclass(frozen=True, eq=False)
 class ViewPoints:
-    """Readings of one view of one frame; (n, 3) float64 metres in the camera frame unless said
-    otherwise.
+    """Readings of one view of one frame; metres in the camera frame unless said otherwise.
 
-    points : as measured (a mirror's are virtual, behind its glass, until `reflected`)
-    anchors : on the surface of each reading's neighbours, on the reading's ray
-    normals : unit normals of that surface, towards the camera that measured the reading
-    rays : unit directions of the readings' rays (from that camera)
-    sigma : (n,) float64 metres, each reading's depth noise (noise.axial_sigma of the anchor's
-    depth)
-    anchor_var : (n,) float64 square metres, the variance of each anchor's error along its ray (from
-    the scatter of
-        its neighbours about their surface: agreement.py removes the bias it brings through the
-        surface's curvature)
-    lateral : (n,) float64 metres, each reading's lateral uncertainty (LATERAL_PX or RIM_LATERAL_PX
-    at its depth)
-    rim : (n,) bool, the readings on the rim of the object (next to a pixel of no object)
-    pixels : (n,) int64 flat index v * width + u of each reading's pixel
-    surface : (n, 6) float64, the neighbours' surface: its disparity (1/metres) as the quadratic
+    Attributes
+    ----------
+    points : (n, 3) float64 array
+        As measured (a mirror's are virtual, behind its glass, until `reflected`).
+    anchors : (n, 3) float64 array
+        On the surface of each reading's neighbours, on the reading's ray.
+    normals : (n, 3) float64 array
+        Unit normals of that surface, towards the camera that measured the reading.
+    rays : (n, 3) float64 array
+        Unit directions of the readings' rays (from that camera).
+    sigma : (n,) float64 array
+        Metres, each reading's depth noise (noise.axial_sigma of the anchor's depth).
+    anchor_var : (n,) float64 array
+        Square metres, the variance of each anchor's error along its ray (from the scatter of its
+        neighbours about their surface: agreement.py removes the bias it brings through the
+        surface's curvature).
+    lateral : (n,) float64 array
+        Metres, each reading's lateral uncertainty (LATERAL_PX or RIM_LATERAL_PX at its depth).
+    rim : (n,) bool array
+        The readings on the rim of the object (next to a pixel of no object).
+    pixels : (n,) int64 array
+        Flat index v * width + u of each reading's pixel.
+    surface : (n, 6) float64 array
+        The neighbours' surface: its disparity (1/metres) as the quadratic
         [1, du, dv, du^2, du dv, dv^2] . surface in the pixel offsets (du, dv) from the reading's
-        pixel
+        pixel.
     """
 
     points: np.ndarray
@@ -91,18 +99,40 @@ class ViewPoints:
         return len(self.points)
 
     def reflected(self, plane: Plane) -> "ViewPoints":
-        """Through `plane` (paper eq. 3): a mirror's virtual readings become real points, with
-        normals towards the mirror's virtual camera (still out of the object). `surface` stays in
-        the view's own image."""
+        """Reflect the readings through a plane (paper eq. 3).
+
+        A mirror's virtual readings become real points, with normals towards the mirror's virtual
+        camera (still out of the object). `surface` stays in the view's own image.
+
+        Parameters
+        ----------
+        plane : Plane
+
+        Returns
+        -------
+        ViewPoints
+        """
         return ViewPoints(plane.reflect(self.points), plane.reflect(self.anchors),
                           reflect_directions(plane, self.normals),
                           reflect_directions(plane, self.rays), self.sigma,
                           self.anchor_var, self.lateral, self.rim, self.pixels, self.surface)
 
     def surface_points(self, intr: Intrinsics, index: np.ndarray, uv: np.ndarray) -> np.ndarray:
-        """(m, 3) metres, in the view's own space: where the rays through pixel positions uv (m, 2)
-        meet the neighbours' surface of readings `index` (m,) (uv within a pixel or so of those
-        readings' pixels)."""
+        """Find where rays through pixel positions meet the neighbours' surface of readings.
+
+        Parameters
+        ----------
+        intr : Intrinsics
+        index : (m,) integer array
+            The readings.
+        uv : (m, 2) array
+            Pixel positions, within a pixel or so of those readings' pixels.
+
+        Returns
+        -------
+        (m, 3) array
+            Metres, in the view's own space.
+        """
         v0, u0 = np.divmod(self.pixels[index], intr.width)
         du, dv = uv[:, 0] - u0, uv[:, 1] - v0
         c = self.surface[index]
@@ -114,20 +144,41 @@ class ViewPoints:
 
 
 def reflect_directions(plane: Plane, vectors: np.ndarray) -> np.ndarray:
-    """Directions (n, 3) reflected through the plane's normal (the linear part of the
-    reflection)."""
+    """Reflect directions through the plane's normal (the linear part of the reflection).
+
+    Parameters
+    ----------
+    plane : Plane
+    vectors : (n, 3) array
+
+    Returns
+    -------
+    (n, 3) array
+    """
     return vectors - 2 * (vectors @ plane.n)[:, None] * plane.n
 
 
 def view_points(intr: Intrinsics, depth: np.ndarray, pixels: np.ndarray,
                 rim: np.ndarray) -> ViewPoints:
-    """The readings of one view.
+    """Return the readings of one view.
 
-    depth : (H, W) float metres as measured (a mirror's pixels hold virtual depths); pixels : (n,)
-    int64 flat indices of the view's pixels; rim : (H, W) bool, pixels next to no object (their
-    readings are less sure laterally) -> ViewPoints of the readings whose neighbours give a surface
-    (enough of them, no depth edge near) seen at most MAX_INCIDENCE_DEG from the view, in row-major
-    pixel order.
+    Only the readings whose neighbours give a surface (enough of them, no depth edge near) seen at
+    most MAX_INCIDENCE_DEG from the view are kept.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    depth : (H, W) float array
+        Metres as measured (a mirror's pixels hold virtual depths).
+    pixels : (n,) int64 array
+        Flat indices of the view's pixels.
+    rim : (H, W) bool array
+        Pixels next to no object (their readings are less sure laterally).
+
+    Returns
+    -------
+    ViewPoints
+        In row-major pixel order.
     """
     mine = np.zeros(intr.shape, bool)
     mine.reshape(-1)[pixels] = True

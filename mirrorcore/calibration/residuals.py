@@ -41,17 +41,49 @@ class Residuals:
         return 1.0 / (1.0 + (self.residual / self.sigma / CAUCHY) ** 2) / self.sigma ** 2
 
     def involving(self, j: int, camera_only: bool = False) -> np.ndarray:
-        """(m,) bool: the comparisons of view j's readings with another view's, both ways (with
-        the camera's only, `camera_only`)."""
+        """Select the comparisons of view j's readings with another view's, both ways.
+
+        Parameters
+        ----------
+        j : int
+            The view (0 the camera, j mirror j).
+        camera_only : bool
+            Only those with the camera's.
+
+        Returns
+        -------
+        (m,) bool array
+        """
         pick = (self.pair[:, 0] == j) | (self.pair[:, 1] == j)
         return pick & ((self.pair[:, 0] == 0) | (self.pair[:, 1] == 0)) if camera_only else pick
 
     def with_camera(self, j: int) -> int:
-        """How many comparisons are between mirror j's readings and the camera's (both ways)."""
+        """Count the comparisons between mirror j's readings and the camera's (both ways).
+
+        Parameters
+        ----------
+        j : int
+            1-based.
+
+        Returns
+        -------
+        int
+        """
         return int(np.count_nonzero(self.involving(j, camera_only=True)))
 
     def shared(self, j: int, views: set[int]) -> int:
-        """How many comparisons are between mirror j's readings and those of `views` (both ways)."""
+        """Count the comparisons between mirror j's readings and those of `views` (both ways).
+
+        Parameters
+        ----------
+        j : int
+            1-based.
+        views : set of int
+
+        Returns
+        -------
+        int
+        """
         pair = self.pair
         other = np.where(pair[:, 0] == j, pair[:, 1], np.where(pair[:, 1] == j, pair[:, 0], j))
         return int(np.count_nonzero(np.isin(other, list(views - {j}))))
@@ -59,8 +91,9 @@ class Residuals:
 
 def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[int],
               centre: np.ndarray, gate: float = 0.0) -> Residuals:
-    """Compare, in each frame, every view's points (a mirror's reflected through its plane) with
-    every other view.
+    """Compare, in each frame, every view's points with every other view.
+
+    A mirror's points are reflected through its plane.
 
     Parameters
     ----------
@@ -110,8 +143,27 @@ def residuals(frames: list[FrameViews], planes: dict[int, Plane], refined: list[
 
 
 def agreement_mm(found: Residuals, j: int, camera_only: bool = False) -> tuple[float, float]:
-    """(RMS, mean) mm of the comparisons involving mirror j (and the camera, with `camera_only`),
-    signed so that > 0 means its points lie outside the other views' surfaces; NaN without any."""
+    """Measure the comparisons involving mirror j.
+
+    Parameters
+    ----------
+    found : Residuals
+    j : int
+        1-based.
+    camera_only : bool
+        Only those with the camera.
+
+    Returns
+    -------
+    rms : float
+        mm.
+    mean : float
+        mm, signed so that > 0 means its points lie outside the other views' surfaces.
+
+    Notes
+    -----
+    Both are NaN without any comparison.
+    """
     pick = found.involving(j, camera_only)
     signed = np.where(found.pair[pick, 0] == j, 1.0, -1.0) * found.residual[pick]
     if not len(signed):
@@ -120,8 +172,23 @@ def agreement_mm(found: Residuals, j: int, camera_only: bool = False) -> tuple[f
 
 
 def noise_mm(found: Residuals, j: int, camera_only: bool = False) -> float:
-    """The RMS (mm) that the depth noise of the readings compared would give alone, over the
-    comparisons involving mirror j (and the camera, with `camera_only`); NaN without any."""
+    """Return the RMS (mm) that the depth noise of the readings compared would give alone.
+
+    Over the comparisons involving mirror j.
+
+    Parameters
+    ----------
+    found : Residuals
+    j : int
+        1-based.
+    camera_only : bool
+        Only those with the camera.
+
+    Returns
+    -------
+    float
+        mm; NaN without any comparison.
+    """
     sigma = found.sigma[found.involving(j, camera_only)]
     return float(1e3 * np.sqrt(np.mean(sigma ** 2))) if len(sigma) else float("nan")
 
@@ -157,8 +224,9 @@ class ViewAgreement(NamedTuple):
 
 
 def view_agreement(rig: Rig, depths: np.ndarray, masks: np.ndarray) -> dict[int, ViewAgreement]:
-    """How well each calibrated mirror's view agrees with the others now, without changing
-    anything (the report after a markers fit).
+    """Measure how well each calibrated mirror's view agrees with the others now.
+
+    Without changing anything (the report after a markers fit).
 
     Parameters
     ----------

@@ -32,8 +32,9 @@ CAMERA_MEAN_EXPLAINS = 0.4
 
 
 class MethodBias(NamedTuple):
-    """What a way of comparing may leave on the planes beyond the 1 sigma it reports (README: the
-    walking figure, and the sphere at 1.2 to 3 m).
+    """What a way of comparing may leave on the planes beyond the 1 sigma it reports.
+
+    See the README: the walking figure, and the sphere at 1.2 to 3 m.
 
     Attributes
     ----------
@@ -153,9 +154,21 @@ class Refinement:
         return {m.index: m.after for m in self.mirrors}
 
     def changed(self, before: Session, after: Session) -> bool:
-        """Whether it moved a plane (SAME_PLANE) or a glass (SAME_GLASS_MM, from the session
-        `before` to `after`) by more than nothing; a refinement that changes nothing is neither an
-        undo step nor a save."""
+        """Tell whether it moved a plane or a glass by more than nothing.
+
+        More than SAME_PLANE for a plane, SAME_GLASS_MM for a glass.
+
+        A refinement that changes nothing is neither an undo step nor a save.
+
+        Parameters
+        ----------
+        before, after : Session
+            The session before and after.
+
+        Returns
+        -------
+        bool
+        """
         def glass_mm(r: MirrorRefinement) -> float:
             return abs(after.mirrors[r.index].marker_offset
                        - before.mirrors[r.index].marker_offset) * 1e3

@@ -56,9 +56,15 @@ CONTRADICTION_WEIGHT = 2.0             # a contradiction counts as much as two a
 NEARER = 0.02
 
 class Found(NamedTuple):
-    """A searched plane, and how well it explains the frame: `support`, the best candidate's score
-    (_Scorer.scores: the share of the points scored that agree, less twice the share contradicted,
-    summed over the ways compared)."""
+    """A searched plane, and how well it explains the frame.
+
+    Attributes
+    ----------
+    plane : Plane
+    support : float
+        The best candidate's score (_Scorer.scores: the share of the points scored that agree, less
+        twice the share contradicted, summed over the ways compared).
+    """
 
     plane: Plane
     support: float
@@ -67,16 +73,39 @@ class Found(NamedTuple):
 def search_plane(rig: Rig, depth: np.ndarray, mask: np.ndarray, index: int,
                  rng: np.random.Generator,
                  cancel=None, wide: bool = False, progress: Progress | None = None) -> Found:
-    """The plane of mirror `index` (0-based; its boundary drawn, its plane ignored) that best
-    explains one frame.
+    """Find the plane of a mirror that best explains one frame.
 
-    depth : (H, W) float metres; mask : (H, W) bool, the object's pixels (prepare_frame's). The
-    candidates are scored against the camera's view (the object's pixels outside every mirror's
+    The candidates are scored against the camera's view (the object's pixels outside every mirror's
     boundary) and the views of the rig's other mirrors that have a plane (an arc's middle mirror
     sees the person's back, which the camera does not see, and the sides that the mirrors beside it
-    see); `wide`: over a wider range of planes (WIDE); progress(fraction) as the candidates are
-    scored (the coarse ones COARSE_PART of it). Raises CalibrationError naming the mirror when it
-    has no boundary or the object is not seen both directly and in it.
+    see).
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float array
+        Metres.
+    mask : (H, W) bool array
+        The object's pixels (prepare_frame's).
+    index : int
+        The mirror (0-based); its boundary drawn, its plane ignored.
+    rng : numpy.random.Generator
+    cancel : optional
+        Stops the search with Cancelled when it asks to.
+    wide : bool
+        Search a wider range of planes (WIDE).
+    progress : Progress, optional
+        progress(fraction) as the candidates are scored (the coarse ones COARSE_PART of it).
+
+    Returns
+    -------
+    Found
+
+    Raises
+    ------
+    CalibrationError
+        Naming the mirror when it has no boundary or the object is not seen both directly and in
+        it.
     """
     mirror = rig.mirrors[index]
     if mirror.boundary is None:
@@ -176,18 +205,37 @@ def _check_outline(name: str, inside: np.ndarray, beyond: np.ndarray) -> None:
 
 
 def near_outline(inside: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the pixels within SPILL_PX of `inside` (H, W) bool, and those pixels
-    themselves."""
+    """Return the pixels within SPILL_PX of `inside`, and those pixels themselves.
+
+    Parameters
+    ----------
+    inside : (H, W) bool array
+
+    Returns
+    -------
+    (H, W) bool array
+    """
     kernel = np.ones((2 * SPILL_PX + 1, 2 * SPILL_PX + 1), np.uint8)
     return cv2.dilate(inside.astype(np.uint8), kernel).astype(bool)
 
 
 def direct_far(z: np.ndarray) -> float:
-    """Metres: the depth beyond which the object's readings outside every outline (z (n,) metres)
-    are an image, not the object seen directly: FAR_MARGIN beyond the 99th percentile of those up to
-    the first gap of IMAGE_GAP above their median (an outline drawn too narrow leaves part of the
-    mirror's image outside, which must not raise the cut above the whole image); inf without
-    readings."""
+    """Return the depth beyond which the object's readings outside every outline are an image.
+
+    That is FAR_MARGIN beyond the 99th percentile of the readings up to the first gap of IMAGE_GAP
+    above their median (an outline drawn too narrow leaves part of the mirror's image outside,
+    which must not raise the cut above the whole image).
+
+    Parameters
+    ----------
+    z : (n,) array
+        Metres, the readings outside every outline.
+
+    Returns
+    -------
+    float
+        Metres; inf without readings.
+    """
     z = np.sort(z[z > 0])
     if not len(z):
         return np.inf
@@ -197,6 +245,7 @@ def direct_far(z: np.ndarray) -> float:
 
 
 def _subset(points: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """At most SEARCH_POINTS of `points`, drawn without replacement."""
     return points[rng.choice(len(points), SEARCH_POINTS,
                              replace=False)] if len(points) > SEARCH_POINTS else points
 
@@ -245,9 +294,11 @@ class _Scorer:
 
     def scores(self, planes: np.ndarray, tolerance: float, cancel, points: int = SEARCH_POINTS,
                progress: Progress | None = None) -> np.ndarray:
-        """(k,) agreements minus twice the contradictions, both ways with each view, as a share of
-        the points scored: the first `points` of each view's; progress(fraction) after each BATCH of
-        candidates."""
+        """Score candidate planes: agreements minus twice the contradictions, as a share.
+
+        Both ways with each view, as a share of the points scored: the first `points` of each
+        view's; progress(fraction) after each BATCH of candidates. Returns (k,) scores.
+        """
         out = np.zeros(len(planes))
         for start in range(0, len(planes), BATCH):
             if cancel_requested(cancel):

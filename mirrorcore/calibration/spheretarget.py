@@ -63,16 +63,31 @@ FIT_SETTLED = 1e-8           # metres
 
 
 class NotASphere(CalibrationError):
-    """The object is not a sphere that every view sees (the refinement then compares the views'
-    surfaces)."""
+    """The object is not a sphere that every view sees.
+
+    The refinement then compares the views' surfaces.
+    """
 
 
 @dataclass(frozen=True)
 class SpherePlanes:
-    """Planes from the sphere's centres: planes {mirror j (1-based): plane}; shift_std {j: metres},
-    tilt_std {j: degrees}, how well each is known (1 sigma, along its normal at `centre` and in
-    tilt); radius metres; centre (3,) metres, the sphere's centre seen directly (mean over the
-    frames); frames used."""
+    """Planes from the sphere's centres.
+
+    Attributes
+    ----------
+    planes : dict of int to Plane
+        {mirror j (1-based): plane}.
+    shift_std : dict of int to float
+        {j: metres}, 1 sigma along its normal at `centre`.
+    tilt_std : dict of int to float
+        {j: degrees}, 1 sigma in tilt.
+    radius : float
+        Metres.
+    centre : (3,) array
+        Metres, the sphere's centre seen directly (mean over the frames).
+    frames : int
+        Frames used.
+    """
 
     planes: dict[int, Plane]
     shift_std: dict[int, float]
@@ -86,17 +101,40 @@ def sphere_planes(rig: Rig, depths: np.ndarray, masks: np.ndarray, mirrors: list
                   rng: np.random.Generator,
                   progress: Progress | None = None, cancel=None,
                   max_scatter: float = np.inf) -> SpherePlanes:
-    """The planes of `mirrors` (1-based) from the sphere seen directly and in each of them, over
-    frames.
+    """Find the planes of mirrors from the sphere seen directly and in each of them, over frames.
 
-    depths : (F, H, W) float metres as measured; masks : (F, H, W) bool, each frame's object. The
-    rig labels the pixels (its boundaries and its planes as they are); its planes give only the
+    The rig labels the pixels (its boundaries and its planes as they are); its planes give only the
     sides of the new ones.
-    max_scatter : the most a view's readings may scatter about the sphere, in RMS multiples of what
-    the depth noise explains (SCATTER_AUTO when the object was not said to be a sphere: a ball that
-    is not round). Raises NotASphere naming the frame and the view when a view sees too little of
-    the object, the object is not a sphere or scatters more than max_scatter; Cancelled when
-    `cancel` asks; progress(fraction) after each frame.
+
+    Parameters
+    ----------
+    rig : Rig
+    depths : (F, H, W) float array
+        Metres as measured.
+    masks : (F, H, W) bool array
+        Each frame's object.
+    mirrors : list of int
+        1-based.
+    rng : numpy.random.Generator
+    progress : Progress, optional
+        progress(fraction) after each frame.
+    cancel : optional
+        Stops it with Cancelled when it asks to.
+    max_scatter : float
+        The most a view's readings may scatter about the sphere, in RMS multiples of what the depth
+        noise explains (SCATTER_AUTO when the object was not said to be a sphere: a ball that is not
+        round).
+
+    Returns
+    -------
+    SpherePlanes
+
+    Raises
+    ------
+    NotASphere
+        Naming the frame and the view, when a view sees too little of the object, the object is not
+        a sphere, or it scatters more than max_scatter.
+    Cancelled
     """
     views = [0, *mirrors]
     fits, radii = [], []

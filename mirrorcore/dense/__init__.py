@@ -52,9 +52,31 @@ class DenseOptions:
 
 
 def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOptions) -> Volume:
-    """The volume to reconstruct in: options.bounds, or the bounding box of the raw cloud
-    (Algorithm 1) of one prepared frame, depth (H, W) metres and mask (H, W) bool, grown by the
-    margin."""
+    """Return the volume to reconstruct in.
+
+    options.bounds, or the bounding box of the raw cloud (Algorithm 1) of one prepared frame, grown
+    by the margin.
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float array
+        Metres.
+    mask : (H, W) bool array
+        The object's pixels.
+    options : DenseOptions
+
+    Returns
+    -------
+    Volume
+
+    Raises
+    ------
+    MirrorscanError
+        No bounds and no points.
+    MemoryBudgetError
+        The volume would not fit in the memory budget.
+    """
     if options.bounds is not None:
         return Volume.from_bounds(*options.bounds, options.voxel)
     return Volume.around(reconstruct_raw(rig, depth, mask).points, options.voxel, options.margin)
@@ -102,15 +124,20 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
 
 def result_geometry(result: CarveResult | TsdfResult) -> tuple[
     np.ndarray, np.ndarray, np.ndarray | None]:
-    """What a PLY file holds of a dense result: the surface voxels' centres of a carving, the mesh
-    of a fusion.
+    """Return what a PLY file holds of a dense result.
+
+    The surface voxels' centres of a carving, the mesh of a fusion.
+
+    Parameters
+    ----------
+    result : CarveResult or TsdfResult
 
     Returns
     -------
-    points : (n, 3) float32
+    points : (n, 3) float32 array
         Metres, camera frame.
-    sources : (n,) uint8
-    faces : (m, 3) int32 or None
+    sources : (n,) uint8 array
+    faces : (m, 3) int32 array or None
 
     Raises
     ------

@@ -18,8 +18,16 @@ from mirrorcore.dense.volume import CHUNK_VOXELS, Volume
 
 @dataclass(frozen=True, eq=False)
 class Blocks:
-    """Some blocks of `volume` of size^3 voxels each: ijk (m, 3) int64 block coordinates, unique (in
-    C order of the block grid unless said otherwise)."""
+    """Some blocks of a volume, of size^3 voxels each.
+
+    Attributes
+    ----------
+    volume : Volume
+    ijk : (m, 3) int64 array
+        Block coordinates, unique (in C order of the block grid unless said otherwise).
+    size : int
+        Voxels along a block's edge.
+    """
 
     volume: Volume
     ijk: np.ndarray
@@ -27,12 +35,35 @@ class Blocks:
 
     @classmethod
     def all(cls, volume: Volume, size: int) -> "Blocks":
-        """Every block of the volume."""
+        """Return every block of the volume.
+
+        Parameters
+        ----------
+        volume : Volume
+        size : int
+            Voxels along a block's edge.
+
+        Returns
+        -------
+        Blocks
+        """
         return cls.marked(volume, np.ones(volume.block_shape(size), bool), size)
 
     @classmethod
     def marked(cls, volume: Volume, marks: np.ndarray, size: int) -> "Blocks":
-        """The blocks where marks (volume.block_shape(size)) bool holds."""
+        """Return the blocks where `marks` holds.
+
+        Parameters
+        ----------
+        volume : Volume
+        marks : bool array of volume.block_shape(size)
+        size : int
+            Voxels along a block's edge.
+
+        Returns
+        -------
+        Blocks
+        """
         return cls(volume, np.argwhere(marks).astype(np.int64).reshape(-1, 3), size)
 
     def __len__(self) -> int:
@@ -49,18 +80,45 @@ class Blocks:
         return np.ravel_multi_index(tuple(self.ijk.T), self.volume.block_shape(self.size))
 
     def take(self, rows) -> "Blocks":
-        """The blocks at `rows` (a slice, (k,) int indices or (m,) bool)."""
+        """Return the blocks at `rows`.
+
+        Parameters
+        ----------
+        rows : slice, (k,) integer array or (m,) bool array
+
+        Returns
+        -------
+        Blocks
+        """
         return Blocks(self.volume, self.ijk[rows], self.size)
 
     def chunks(self, max_voxels: int = CHUNK_VOXELS) -> list[slice]:
-        """Consecutive row ranges of at most max(max_voxels, one block) voxels each, covering the
-        blocks."""
+        """Split the blocks into consecutive row ranges.
+
+        Parameters
+        ----------
+        max_voxels : int
+            The most voxels a range holds (at least one block).
+
+        Returns
+        -------
+        list of slice
+            Covering the blocks.
+        """
         step = max(1, max_voxels // self.size ** 3)
         return [slice(i, min(i + step, len(self))) for i in range(0, len(self), step)]
 
     def axes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The voxel centres, float32 metres (camera frame), NaN past the volume: x (B, 1, 1, m), y
-        (1, B, 1, m), z (1, 1, B, m), the same values as Volume.axes() cast to float32."""
+        """Return the voxel centres, float32 metres (camera frame), NaN past the volume.
+
+        The same values as Volume.axes() cast to float32.
+
+        Returns
+        -------
+        x : (B, 1, 1, m) float32 array
+        y : (1, B, 1, m) float32 array
+        z : (1, 1, B, m) float32 array
+        """
         b, m = self.size, len(self)
         local = np.arange(b)[:, None]
         x, y, z = (a[local + self.ijk[None, :, r] * b] for r,
@@ -68,8 +126,15 @@ class Blocks:
         return x.reshape(b, 1, 1, m), y.reshape(1, b, 1, m), z.reshape(1, 1, b, m)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """The box of each block's voxel centres inside the volume: centre (3, m) and half size (3,
-        m), float64 metres (x, y, z rows)."""
+        """Return the box of each block's voxel centres inside the volume.
+
+        Returns
+        -------
+        centre : (3, m) float64 array
+            Metres, rows x, y, z.
+        half : (3, m) float64 array
+            Half size, metres.
+        """
         volume = self.volume
         first = self.ijk * self.size
         last = np.minimum(first + self.size - 1, np.asarray(volume.shape) - 1)
@@ -77,8 +142,15 @@ class Blocks:
         return centre, volume.voxel * (last - first).T / 2
 
     def write(self, grid: np.ndarray, values) -> None:
-        """Set these blocks' voxels of `grid` (volume.padded_shape(size), C-contiguous) to values
-        ((B, B, B, m), the block layout, or a scalar)."""
+        """Set these blocks' voxels of a grid.
+
+        Parameters
+        ----------
+        grid : array of volume.padded_shape(size)
+            C-contiguous.
+        values : (B, B, B, m) array or scalar
+            In the block layout.
+        """
         a, b, c = self.ijk.T
         s = self.size
         grid.reshape(grid.shape[0] // s, s, grid.shape[1] // s, s, grid.shape[2] // s, s)[
@@ -87,11 +159,35 @@ class Blocks:
 
 
 def padded_grid(volume: Volume, fill, dtype, block: int) -> np.ndarray:
-    """A C-contiguous grid of volume.padded_shape(block) filled with `fill`."""
+    """Return a C-contiguous grid of volume.padded_shape(block) filled with `fill`.
+
+    Parameters
+    ----------
+    volume : Volume
+    fill : scalar
+    dtype : numpy dtype
+    block : int
+        Voxels along a block's edge.
+
+    Returns
+    -------
+    array
+    """
     return np.full(volume.padded_shape(block), fill, dtype)
 
 
 def cropped(volume: Volume, grid: np.ndarray) -> np.ndarray:
-    """The (nx, ny, nz) part of a padded grid (a view)."""
+    """Return the (nx, ny, nz) part of a padded grid (a view).
+
+    Parameters
+    ----------
+    volume : Volume
+    grid : array
+        Padded to whole blocks.
+
+    Returns
+    -------
+    (nx, ny, nz) array
+    """
     nx, ny, nz = volume.shape
     return grid[:nx, :ny, :nz]

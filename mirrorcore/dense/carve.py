@@ -58,10 +58,22 @@ DECIDE_BLOCKS = 1 << 16                  # blocks decided whole in one go
 
 @dataclass(frozen=True, eq=False)
 class CarveResult:
-    """state : (nx, ny, nz) uint8 FREE / SURFACE / HIDDEN; source : (nx, ny, nz) uint8, the view (0
-    camera, j mirror j, from 33 a sequence of mirrors) that sees a SURFACE voxel nearest to its
-    centre, NO_SOURCE elsewhere; threshold th in metres. The grids are views of grids over the
-    volume padded to whole blocks."""
+    """A carved volume.
+
+    The grids are views of grids over the volume padded to whole blocks.
+
+    Attributes
+    ----------
+    volume : Volume
+    state : (nx, ny, nz) uint8 array
+        FREE / SURFACE / HIDDEN.
+    source : (nx, ny, nz) uint8 array
+        The view (0 camera, j mirror j, from 33 a sequence of mirrors) that sees a SURFACE voxel
+        nearest to its centre, NO_SOURCE elsewhere.
+    method : str
+    threshold : float
+        th, metres.
+    """
 
     volume: Volume
     state: np.ndarray
@@ -70,8 +82,14 @@ class CarveResult:
     threshold: float
 
     def surface_points(self) -> tuple[np.ndarray, np.ndarray]:
-        """The SURFACE voxels' centres (n, 3) float32 metres, camera frame, and their sources (n,)
-        uint8."""
+        """Return the SURFACE voxels' centres and their sources.
+
+        Returns
+        -------
+        points : (n, 3) float32 array
+            Metres, camera frame.
+        sources : (n,) uint8 array
+        """
         index = np.flatnonzero(self.state.reshape(-1) == SURFACE)
         return self.volume.centres(index), self.source.reshape(-1)[index]
 
@@ -79,14 +97,38 @@ class CarveResult:
 def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method: str = "carve",
           threshold: float | None = None, progress: Progress | None = None, cancel=None,
           workers: int | None = None) -> CarveResult:
-    """Carve `volume` with one depth frame (see the module docstring for the methods).
+    """Carve a volume with one depth frame (see the module docstring for the methods).
 
-    depth : (H, W) float metres, 0 = no reading; mask : (H, W) bool, the object's pixels (direct and
-    in mirrors);
-    threshold : th in metres (default: the voxel size); progress(fraction) after each chunk of
-    blocks; cancel : a threading.Event or a callable returning True to stop. Raises Cancelled when
-    stopped (nothing is returned), MirrorscanError for an unknown method or a non-positive
-    threshold, MemoryBudgetError when the grids would not fit in the memory budget.
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float array
+        Metres, 0 = no reading.
+    mask : (H, W) bool array
+        The object's pixels (direct and in mirrors).
+    volume : Volume
+    method : str
+    threshold : float, optional
+        th, metres (default: the voxel size).
+    progress : Progress, optional
+        progress(fraction) after each chunk of blocks.
+    cancel : threading.Event or callable, optional
+        Asks to stop when set or when it returns True.
+    workers : int, optional
+        Threads (default the CPU count).
+
+    Returns
+    -------
+    CarveResult
+
+    Raises
+    ------
+    Cancelled
+        When stopped (nothing is returned).
+    MirrorscanError
+        An unknown method or a non-positive threshold.
+    MemoryBudgetError
+        The grids would not fit in the memory budget.
     """
     if method not in METHODS:
         raise MirrorscanError(

@@ -50,9 +50,18 @@ MAX_TRIANGLES = 5
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """vertices : (n, 3) float32 metres, camera frame; faces : (m, 3) int32 vertex indices; sources
-    : (n,) uint8, 0 = direct, j = mirror j, from 33 a sequence of mirrors (the view that saw each
-    vertex best)."""
+    """A triangle mesh with source labels.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float32 array
+        Metres, camera frame.
+    faces : (m, 3) int32 array
+        Vertex indices.
+    sources : (n,) uint8 array
+        0 = direct, j = mirror j, from 33 a sequence of mirrors (the view that saw each vertex
+        best).
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -61,15 +70,33 @@ class Mesh:
 
 def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
                          source: np.ndarray) -> Mesh:
-    """The surface values == 0 of the blocks' voxels ((m, B, B, B) float, one block after another,
-    in the order of `blocks`), on the edges with both ends where mask (m, B, B, B) bool holds: the
-    mesh of classic marching cubes on the whole grid with the voxels outside the blocks unobserved,
-    by the rules of the module docstring. Each vertex takes the label in `source` (m, B, B, B) uint8
-    of the nearer end of its edge (the lower end on ties), or of the other end when that one has
-    none (NO_SOURCE); NO_SOURCE when neither has one (a fusion labels every voxel it observes, so
-    not there); a vertex on a grid point takes that point's. Raises MirrorscanError when the masked
-    voxels have no zero crossing, MemoryBudgetError when the work would not fit in the memory
-    budget."""
+    """Extract the surface values == 0 of blocks' voxels by marching cubes.
+
+    On the edges with both ends where `mask` holds: the mesh of classic marching cubes on the whole
+    grid with the voxels outside the blocks unobserved, by the rules of the module docstring. Each
+    vertex takes the label in `source` of the nearer end of its edge (the lower end on ties), or of
+    the other end when that one has none (NO_SOURCE); NO_SOURCE when neither has one (a fusion
+    labels every voxel it observes, so not there); a vertex on a grid point takes that point's.
+
+    Parameters
+    ----------
+    blocks : Blocks
+    values : (m, B, B, B) float array
+        One block after another, in the order of `blocks`.
+    mask : (m, B, B, B) bool array
+    source : (m, B, B, B) uint8 array
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    MirrorscanError
+        The masked voxels have no zero crossing.
+    MemoryBudgetError
+        The work would not fit in the memory budget.
+    """
     seen = values[mask]
     if not (len(seen) and seen.min() < 0 < seen.max()):
         raise MirrorscanError("mesh: the volume holds no surface (is the object inside the box?)")
@@ -90,11 +117,18 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
 
 @cache
 def case_table() -> tuple[np.ndarray, np.ndarray]:
-    """Classic marching cubes' triangles per case, from scikit-image's Lorensen method: counts
-    (256,) int64, the triangles of each case, and edges (256, MAX_TRIANGLES, 3) int64, the EDGES
-    index of each triangle's corners, in scikit-image's order and winding (its default
-    gradient_direction, 'descent'). Bit k of a case: CORNERS[k] is at or below the level
-    (scikit-image's side for a value equal to it)."""
+    """Return classic marching cubes' triangles per case, from scikit-image's Lorensen method.
+
+    In scikit-image's order and winding (its default gradient_direction, 'descent'). Bit k of a
+    case: CORNERS[k] is at or below the level (scikit-image's side for a value equal to it).
+
+    Returns
+    -------
+    counts : (256,) int64 array
+        The triangles of each case.
+    edges : (256, MAX_TRIANGLES, 3) int64 array
+        The EDGES index of each triangle's corners.
+    """
     counts, edges = np.zeros(256, np.int64), np.zeros((256, MAX_TRIANGLES, 3), np.int64)
     number = {(d, a): e for e, (d, a) in enumerate(EDGES)}
     for case in range(1, 255):

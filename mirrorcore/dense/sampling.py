@@ -30,14 +30,25 @@ BORDER = 2            # pixels of padding around a view's image in Quads
 
 @dataclass(frozen=True, eq=False)
 class Quads:
-    """A view's depth read by quads. Quads are named by the flat index of their top-left pixel on
-    the padded grid ((H + 2 BORDER) rows of `width` = W + 2 BORDER pixels, the image at row and
-    column BORDER).
-    image : (H, W) float32 metres, the view's depth as in mirrorcore.dense.views (finite, +inf empty
-    ray, NaN nothing known); index : (k,) intp, ascending, the quads that show the surface (their
-    four pixels do, within BILINEAR_GAP of each other); corners : (k, 4) float32 their depths:
-    top-left d0, right d1, below d2, below right d3. Made on first use, for carving: `padded` and
-    `low`, each quad's least depth."""
+    """A view's depth read by quads of pixels.
+
+    Quads are named by the flat index of their top-left pixel on the padded grid ((H + 2 BORDER)
+    rows of `width` = W + 2 BORDER pixels, the image at row and column BORDER). Made on first use,
+    for carving: `padded` and `low`, each quad's least depth.
+
+    Attributes
+    ----------
+    width : int
+        W + 2 BORDER.
+    image : (H, W) float32 array
+        Metres, the view's depth as in mirrorcore.dense.views (finite, +inf empty ray, NaN nothing
+        known).
+    index : (k,) intp array
+        Ascending, the quads that show the surface (their four pixels do, within BILINEAR_GAP of
+        each other).
+    corners : (k, 4) float32 array
+        Their depths: top-left d0, right d1, below d2, below right d3.
+    """
 
     width: int
     image: np.ndarray
@@ -46,8 +57,19 @@ class Quads:
 
     @classmethod
     def of(cls, depth: np.ndarray, surface: np.ndarray) -> "Quads":
-        """depth (H, W) float32 metres, surface (H, W) bool (a view's pixels showing the object's
-        surface). Only the box around the surface pixels is looked at."""
+        """Read a view's depth by quads; only the box around the surface pixels is looked at.
+
+        Parameters
+        ----------
+        depth : (H, W) float32 array
+            Metres.
+        surface : (H, W) bool array
+            A view's pixels showing the object's surface.
+
+        Returns
+        -------
+        Quads
+        """
         width = depth.shape[1] + 2 * BORDER
         rows, cols = np.flatnonzero(surface.any(axis=1)), np.flatnonzero(surface.any(axis=0))
         if len(rows) < 2 or len(cols) < 2:
@@ -74,8 +96,7 @@ class Quads:
 
     @cached_property
     def low(self) -> np.ndarray:
-        """Each quad's least depth, NaN ignored (NaN when all four are): float32, flat like
-        `padded`."""
+        """Each quad's least depth, NaN ignored (NaN if all are): float32, flat like `padded`."""
         w, depth = self.width, self.padded
         low = np.full(len(depth), np.nan, np.float32)
         d0, d1, d2, d3 = (depth[i:len(depth) - w - 1 + i] for i in (0, 1, w, w + 1))
@@ -86,12 +107,22 @@ class Quads:
 
 @dataclass(frozen=True, eq=False)
 class QuadTable:
-    """One virtual camera's surface quads in one or more frames, for reading the bilinear depth at
-    projected points with small tables: index (k,) intp, ascending, the quads that show the surface
-    in some frame; near, far (k,) float32, the least and greatest depth of their pixels over the
-    frames where they do; lookup (Hp*Wp,) int32, each quad's row (1 + its place in index; 0 for the
-    others); rows (F, k + 1, 4) float32, per frame and row d0, d1 - d0, d2, d3 - d2 of the quad's
-    pixels (Quads.corners), NaN in row 0 and where that frame's quad does not show the surface."""
+    """One virtual camera's surface quads in one or more frames.
+
+    For reading the bilinear depth at projected points with small tables.
+
+    Attributes
+    ----------
+    index : (k,) intp array
+        Ascending, the quads that show the surface in some frame.
+    near, far : (k,) float32 array
+        Metres, the least and greatest depth of their pixels over the frames where they do.
+    lookup : (Hp*Wp,) int32 array
+        Each quad's row (1 + its place in index; 0 for the others).
+    rows : (F, k + 1, 4) float32 array
+        Per frame and row d0, d1 - d0, d2, d3 - d2 of the quad's pixels (Quads.corners), NaN in row
+        0 and where that frame's quad does not show the surface.
+    """
 
     index: np.ndarray
     near: np.ndarray
@@ -101,7 +132,16 @@ class QuadTable:
 
     @classmethod
     def of(cls, quads: list[Quads]) -> "QuadTable":
-        """The table of one view's Quads in each frame."""
+        """Return the table of one view's Quads in each frame.
+
+        Parameters
+        ----------
+        quads : list of Quads
+
+        Returns
+        -------
+        QuadTable
+        """
         index = quads[0].index if len(quads) == 1 else np.unique(np.concatenate([q.index
                                                                                  for q in quads]))
         h, w = quads[0].image.shape
@@ -119,12 +159,33 @@ class QuadTable:
         return cls(index, near, far, lookup, rows)
 
     def slots(self, projection: "Projection") -> np.ndarray:
-        """The rows (n,) intp of the quads the projected points fall in."""
+        """Return the rows of the quads the projected points fall in.
+
+        Parameters
+        ----------
+        projection : Projection
+
+        Returns
+        -------
+        (n,) intp array
+        """
         return np.take(self.lookup, projection.index).astype(np.intp)
 
     def surface_depth(self, frame: int, slots: np.ndarray, projection: "Projection") -> np.ndarray:
-        """The bilinear depth (n,) float32 in frame `frame` at the projected points, whose rows are
-        `slots`; NaN where their quad does not show the surface."""
+        """Return the bilinear depth in a frame at the projected points.
+
+        Parameters
+        ----------
+        frame : int
+        slots : (n,) intp array
+            The points' rows (`slots`).
+        projection : Projection
+
+        Returns
+        -------
+        (n,) float32 array
+            Metres; NaN where their quad does not show the surface.
+        """
         items = self.rows[frame].view(np.dtype((np.void, 16))).reshape(-1)
         d = np.take(items, slots).view(np.float32).reshape(-1, 4)
         top = d[:, 0] + projection.fu * d[:, 1]
@@ -137,9 +198,18 @@ class QuadTable:
 
 @dataclass(frozen=True, eq=False)
 class Projection:
-    """Points seen in one view, flat (n,) in the block layout's C order: z float32 metres, their
-    depth in the view's frame; index intp, their quad (Quads); fu, fv float32, their offset from the
-    quad's top-left pixel in [0, 1] (meaningless where the quad is padding)."""
+    """Points seen in one view, flat (n,) in the block layout's C order.
+
+    Attributes
+    ----------
+    z : (n,) float32 array
+        Metres, their depth in the view's frame.
+    index : (n,) intp array
+        Their quad (Quads).
+    fu, fv : (n,) float32 array
+        Their offset from the quad's top-left pixel in [0, 1] (meaningless where the quad is
+        padding).
+    """
 
     z: np.ndarray
     index: np.ndarray
@@ -149,10 +219,24 @@ class Projection:
 
 def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.ndarray,
                    z: np.ndarray) -> Projection:
-    """Voxel centres in the block layout (float32 x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m),
-    camera frame) seen by a view with extrinsic to_view (3, 4) float64 (View.to_view): the same
-    float32 values as transforming each centre (`transform`) and projecting it (`project`), by
-    broadcasting, with the temporaries reused."""
+    """Project voxel centres in the block layout into a view.
+
+    The same float32 values as transforming each centre (`transform`) and projecting it
+    (`project`), by broadcasting, with the temporaries reused.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    to_view : (3, 4) float64 array
+        The view's extrinsic (View.to_view).
+    x, y, z : float32 array
+        Voxel centres in the block layout, x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m), metres,
+        camera frame (`Blocks.axes`).
+
+    Returns
+    -------
+    Projection
+    """
     shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
     if np.array_equal(to_view, np.eye(3, 4)):
         p = (x, y, z)                             # the camera: u depends on x and z, v on y and z
@@ -195,9 +279,23 @@ def project_blocks(intr: Intrinsics, to_view: np.ndarray, x: np.ndarray, y: np.n
 
 
 def nearest_pixels(intr: Intrinsics, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """(B, B, B, m) intp flat index of the camera's pixel nearest to each voxel centre of the block
-    layout (see project_blocks), H*W (the pad cell of View's flat images) off the image or behind
-    the camera. u depends on x and z only, v on y and z: the full-size work is one sum."""
+    """Return the camera's pixel nearest to each voxel centre of the block layout.
+
+    u depends on x and z only, v on y and z: the full-size work is one sum.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    x, y, z : float32 array
+        Voxel centres in the block layout, x (B, 1, 1, m), y (1, B, 1, m), z (1, 1, B, m), metres,
+        camera frame (`Blocks.axes`).
+
+    Returns
+    -------
+    (B, B, B, m) intp array
+        Flat pixel index; H*W (the pad cell of View's flat images) off the image or behind the
+        camera.
+    """
     inv_z = np.where(z > 0, np.float32(1) / np.maximum(z, np.float32(1e-9)), np.float32(np.nan))
     pad = intr.width * intr.height
     with np.errstate(invalid="ignore"):
@@ -209,8 +307,21 @@ def nearest_pixels(intr: Intrinsics, x: np.ndarray, y: np.ndarray, z: np.ndarray
 
 
 def in_front_of_mirrors(rig: Rig, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Points (float32 arrays that broadcast together, camera frame) -> bool of their broadcast
-    shape: in front of every calibrated mirror plane (the volume the algorithms carve)."""
+    """Tell which points lie in front of every calibrated mirror plane.
+
+    That is the volume the algorithms carve.
+
+    Parameters
+    ----------
+    rig : Rig
+    x, y, z : float32 array
+        Metres, camera frame; they broadcast together.
+
+    Returns
+    -------
+    bool array
+        Of their broadcast shape.
+    """
     ok = np.ones(np.broadcast_shapes(x.shape, y.shape, z.shape), bool)
     for m in rig.mirrors:
         if m.plane is not None:
@@ -220,17 +331,40 @@ def in_front_of_mirrors(rig: Rig, x: np.ndarray, y: np.ndarray, z: np.ndarray) -
 
 
 def transform(to_view: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """points (3, n) float32 rows x, y, z, camera frame -> (3, n) float32 in the frame of the view
-    with extrinsic to_view (3, 4); one multiply-add per coefficient (a (n, 3) @ (3, 3) product is
-    several times slower)."""
+    """Map points into the frame of a view, one multiply-add per coefficient.
+
+    A (n, 3) @ (3, 3) product is several times slower.
+
+    Parameters
+    ----------
+    to_view : (3, 4) array
+        The view's extrinsic.
+    points : (3, n) float32 array
+        Rows x, y, z, camera frame.
+
+    Returns
+    -------
+    (3, n) float32 array
+    """
     m = to_view.astype(np.float32)
     return np.stack([m[r, 0] * points[0] + m[r, 1] * points[1] + m[r, 2] * points[2] + m[r, 3]
                      for r in range(3)])
 
 
 def project(intr: Intrinsics, p) -> tuple[np.ndarray, np.ndarray]:
-    """Points p (three float32 arrays x, y, z that broadcast together, in a view's frame) -> u, v
-    float32 pixel coordinates, NaN where z <= 0."""
+    """Project points in a view's frame to pixel coordinates.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    p : (x, y, z) float32 arrays
+        They broadcast together.
+
+    Returns
+    -------
+    u, v : float32 array
+        Pixels; NaN where z <= 0.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = np.where(p[2] > 0, np.float32(1) / p[2], np.float32(np.nan))
     return (np.float32(intr.fx) * p[0] * inv + np.float32(intr.cx),
@@ -238,8 +372,19 @@ def project(intr: Intrinsics, p) -> tuple[np.ndarray, np.ndarray]:
 
 
 def pixel_index(intr: Intrinsics, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Nearest pixel of real coordinates u, v (any broadcastable shapes; NaN allowed) -> int64 flat
-    index v*W + u, H*W (the pad cell) off the image."""
+    """Return the nearest pixel of real coordinates.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    u, v : array
+        Any broadcastable shapes; NaN allowed.
+
+    Returns
+    -------
+    int64 array
+        Flat index v*W + u; H*W (the pad cell) off the image.
+    """
     iu, iv = np.rint(u), np.rint(v)
     ok = (iu >= 0) & (iu < intr.width) & (iv >= 0) & (iv < intr.height)
     with np.errstate(invalid="ignore"):

@@ -55,12 +55,25 @@ Z_TINY = 1e-6
 
 @dataclass(frozen=True, eq=False)
 class TsdfResult:
-    """The fused blocks of `volume`. tsdf : (m, B, B, B) float32 in [-1, 1] (signed distance /
-    truncation, > 0 in front of the surface; 1 where weight is 0); weight : (m, B, B, B) float32 sum
-    of the weights; source : (m, B, B, B) uint8 the view (0 camera, j mirror j, from 33 a sequence
-    of mirrors) of the largest single weight, NO_SOURCE where weight is 0; truncation in metres.
+    """The fused blocks of a volume.
+
     Block r holds the voxels of blocks.ijk[r] in the block layout (mirrorcore.dense.blocks); every
-    block has a voxel of weight > 0."""
+    block has a voxel of weight > 0.
+
+    Attributes
+    ----------
+    volume : Volume
+    blocks : Blocks
+    tsdf : (m, B, B, B) float32 array
+        In [-1, 1]: signed distance / truncation, > 0 in front of the surface; 1 where weight is 0.
+    weight : (m, B, B, B) float32 array
+        Sum of the weights.
+    source : (m, B, B, B) uint8 array
+        The view (0 camera, j mirror j, from 33 a sequence of mirrors) of the largest single weight,
+        NO_SOURCE where weight is 0.
+    truncation : float
+        Metres.
+    """
 
     volume: Volume
     blocks: Blocks
@@ -70,15 +83,41 @@ class TsdfResult:
     truncation: float
 
     def mesh(self) -> Mesh:
-        """The zero level set by marching cubes (mirrorcore.dense.mesh) on the edges between voxels
-        with weight > 0; each vertex takes the source of the nearer end of its edge. Raises
-        MirrorscanError when there is no surface in the volume."""
+        """Extract the zero level set by marching cubes (mirrorcore.dense.mesh).
+
+        On the edges between voxels with weight > 0; each vertex takes the source of the nearer end
+        of its edge.
+
+        Returns
+        -------
+        Mesh
+
+        Raises
+        ------
+        MirrorscanError
+            There is no surface in the volume.
+        """
         return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
 
     def grids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The whole grids (nx, ny, nz): tsdf float32 (1 outside the blocks), weight float32 (0
-        outside), source uint8 (NO_SOURCE outside). 9 bytes a voxel of the volume: for small volumes
-        and checks. Raises MemoryBudgetError when they would not fit in the memory budget."""
+        """Return the whole grids (nx, ny, nz).
+
+        9 bytes a voxel of the volume: for small volumes and checks.
+
+        Returns
+        -------
+        tsdf : (nx, ny, nz) float32 array
+            1 outside the blocks.
+        weight : (nx, ny, nz) float32 array
+            0 outside.
+        source : (nx, ny, nz) uint8 array
+            NO_SOURCE outside.
+
+        Raises
+        ------
+        MemoryBudgetError
+            They would not fit in the memory budget.
+        """
         self.volume.check_grids(9, "the fused grids, whole", BLOCK)
         grids = []
         for values, fill in ((self.tsdf, 1.0), (self.weight, 0.0), (self.source, NO_SOURCE)):
@@ -92,16 +131,40 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
          truncation: float | None = None,
          progress: Progress | None = None, cancel=None, workers: int | None = None,
          blocks: Blocks | None = None) -> TsdfResult:
-    """Fuse the views of one or more frames of a static object into a TSDF volume (see the module
-    docstring).
+    """Fuse the views of frames of a static object into a TSDF volume (see the module docstring).
 
-    depths : (H, W) or (F, H, W) float metres, 0 = no reading; masks : the same shape, bool, the
-    object's pixels;
-    truncation : metres (default 3 voxels); progress(fraction) after each chunk of blocks; cancel :
-    a threading.Event or a callable returning True to stop; blocks : the blocks of BLOCK^3 voxels to
-    compute (default `surface_blocks`; Blocks.all(volume, BLOCK) computes every voxel). Raises
-    Cancelled when stopped, MirrorscanError on mismatched inputs, MemoryBudgetError when the blocks
-    would not fit in the memory budget.
+    Parameters
+    ----------
+    rig : Rig
+    depths : (H, W) or (F, H, W) float array
+        Metres, 0 = no reading.
+    masks : bool array of the same shape
+        The object's pixels.
+    volume : Volume
+    truncation : float, optional
+        Metres (default 3 voxels).
+    progress : Progress, optional
+        progress(fraction) after each chunk of blocks.
+    cancel : threading.Event or callable, optional
+        Asks to stop when set or when it returns True.
+    workers : int, optional
+        Threads (default the CPU count).
+    blocks : Blocks, optional
+        The blocks of BLOCK^3 voxels to compute (default `surface_blocks`; Blocks.all(volume, BLOCK)
+        computes every voxel).
+
+    Returns
+    -------
+    TsdfResult
+
+    Raises
+    ------
+    Cancelled
+        When stopped.
+    MirrorscanError
+        Mismatched inputs.
+    MemoryBudgetError
+        The blocks would not fit in the memory budget.
     """
     depths = np.asarray(depths, np.float32)
     depths = depths[None] if depths.ndim == 2 else depths
@@ -143,11 +206,27 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
 def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray],
                    volume: Volume,
                    truncation: float) -> Blocks:
-    """The blocks of `volume` holding a voxel that some view (its QuadTable over the frames and its
-    extrinsic) may see within `truncation` metres of its measured surface: for each quad of pixels
-    that shows the surface (sampling.Quads), the axis-aligned box (camera frame) of the part of its
-    pixels' frustum between its least depth
-    - truncation and its greatest + truncation over the frames."""
+    """Return the blocks holding a voxel some view may see within `truncation` of its surface.
+
+    For each quad of pixels that shows the surface (sampling.Quads), the axis-aligned box (camera
+    frame) of the part of its pixels' frustum between its least depth - truncation and its greatest
+    + truncation over the frames.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    tables : list of QuadTable
+        Each view's quads over the frames.
+    to_views : list of (3, 4) array
+        Each view's extrinsic.
+    volume : Volume
+    truncation : float
+        Metres.
+
+    Returns
+    -------
+    Blocks
+    """
     boxes = [_quad_boxes(intr, table, to_view, truncation) for table,
              to_view in zip(tables, to_views)]
     return Blocks.marked(volume, _covered(volume, np.concatenate([b[0] for b in boxes]),
@@ -222,8 +301,7 @@ class _Plan:
     @classmethod
     def of(cls, rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, blocks: Blocks,
            trunc: float) -> "_Plan":
-        """The plan for `blocks` of the views of `frames`, cull the camera's cull depth over the
-        frames."""
+        """The plan for `blocks` of the views of `frames`; `cull`, the camera's cull depth."""
         intr, volume = rig.intrinsics, blocks.volume
         extent = (BLOCK - 1) * volume.voxel
         halves = [window_half(intr, view.to_view, volume.corners(), extent) for view in frames[0]]
@@ -244,8 +322,7 @@ class _Plan:
         return cls(rows[order], codes[order])
 
     def items(self, max_voxels: int = CHUNK_VOXELS) -> list[tuple[slice, int]]:
-        """The work: (rows of self.rows, their code) for runs of one code, at most max_voxels voxels
-        each."""
+        """The work: (rows of self.rows, their code) for runs of one code, <= max_voxels each."""
         step = max(1, max_voxels // BLOCK ** 3)
         starts = np.flatnonzero(np.diff(self.codes, prepend=-1))
         ends = np.append(starts[1:], len(self.codes))

@@ -35,18 +35,29 @@ from mirrorcore.dense.sampling import Quads
 
 @dataclass(frozen=True, eq=False)
 class View:
-    """One view of the rig. source : 0 camera, j mirror j, from 33 a sequence of mirrors
-    (mirrorcore.base.palette).
-    to_view : (3, 4) float64 [R | t] mapping camera-frame points to the points this view projects
-    (identity, the reflection through mirror j's plane, or the composition M_1 M_2 ... of a
-    sequence's: mirrorcore.rig.raypaths).
-    depth : (H*W + 1,) float32 flat depth per pixel as in the module docstring, its last cell NaN
-    (off-image reads).
-    surface : (H*W + 1,) bool, the pixel shows the object in this view (False in the last cell).
-    outline : (H*W + 1,) bool, the pixels this view sees through (a mirror's boundary; for a
-    sequence, the pixels whose ray meets its mirrors in turn; every pixel for the camera), False in
-    the last cell.
-    shape : (H, W). The tables derived from these (`cull_depth`, `quads`) are made on first use."""
+    """One view of the rig.
+
+    The tables derived from these (`cull_depth`, `quads`) are made on first use.
+
+    Attributes
+    ----------
+    source : int
+        0 camera, j mirror j, from 33 a sequence of mirrors (mirrorcore.base.palette).
+    to_view : (3, 4) float64 array
+        [R | t] mapping camera-frame points to the points this view projects (identity, the
+        reflection through mirror j's plane, or the composition M_1 M_2 ... of a sequence's:
+        mirrorcore.rig.raypaths).
+    depth : (H*W + 1,) float32 array
+        Flat depth per pixel as in the module docstring, metres; its last cell NaN (off-image
+        reads).
+    surface : (H*W + 1,) bool array
+        The pixel shows the object in this view (False in the last cell).
+    outline : (H*W + 1,) bool array
+        The pixels this view sees through (a mirror's boundary; for a sequence, the pixels whose ray
+        meets its mirrors in turn; every pixel for the camera), False in the last cell.
+    shape : (int, int)
+        (H, W).
+    """
 
     source: int
     to_view: np.ndarray
@@ -57,28 +68,39 @@ class View:
 
     @cached_property
     def cull_depth(self) -> np.ndarray:
-        """(H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf; +inf in the last cell): a
-        point nearer than cull_depth - th is empty in this view even with bilinear sampling."""
+        """(H*W + 1,) float32, the 3x3 minimum of depth (NaN read as +inf; +inf in the last cell).
+
+        A point nearer than cull_depth - th is empty in this view even with bilinear sampling.
+        """
         return cull_depth(self.depth, self.shape)
 
     @cached_property
     def quads(self) -> Quads:
-        """The depth read by quads of pixels, for sampling at points
-        (mirrorcore.dense.sampling.Quads)."""
+        """The depth read by quads of pixels, for sampling at points (sampling.Quads)."""
         return Quads.of(self.depth[:-1].reshape(self.shape), self.surface[:-1].reshape(self.shape))
 
 
 def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]:
-    """The camera's view, one view per calibrated mirror with a boundary (session order), then one
-    per sequence of mirrors that some pixel's ray follows (mirrorcore.rig.raypaths; label order):
-    the virtual cameras of the rig.
+    """Return the virtual cameras of the rig as views of one frame.
 
-    depth : (H, W) float metres, 0 = no reading (typically smoothed as for Algorithm 1); mask : (H,
-    W) bool, the object's pixels (direct or in a mirror). A pixel inside mirror j's boundary is
-    mirror j's when its point lies behind plane j (the Algorithm 1 test) and, where its ray goes on
-    to another mirror, before the depth where it meets that one; beyond it the pixel belongs to the
-    sequence's view, up to the next mirror. The object pixels that no mirror claims are the
-    camera's.
+    The camera's view, one view per calibrated mirror with a boundary (session order), then one per
+    sequence of mirrors that some pixel's ray follows (mirrorcore.rig.raypaths; label order). A
+    pixel inside mirror j's boundary is mirror j's when its point lies behind plane j (the
+    Algorithm 1 test) and, where its ray goes on to another mirror, before the depth where it meets
+    that one; beyond it the pixel belongs to the sequence's view, up to the next mirror. The object
+    pixels that no mirror claims are the camera's.
+
+    Parameters
+    ----------
+    rig : Rig
+    depth : (H, W) float array
+        Metres, 0 = no reading (typically smoothed as for Algorithm 1).
+    mask : (H, W) bool array
+        The object's pixels (direct or in a mirror).
+
+    Returns
+    -------
+    tuple of View
     """
     intr = rig.intrinsics
     z = check_depth_shape(intr, depth).astype(np.float32)
@@ -115,9 +137,22 @@ def rig_views(rig: Rig, depth: np.ndarray, mask: np.ndarray) -> tuple[View, ...]
 
 
 def cull_depth(depth: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """View.cull_depth of a flat depth (H*W + 1,) float32 (View.depth) of shape (H, W). The least of
-    several views' cull depths is the cull depth of their least depth (erosion and the minimum
-    commute)."""
+    """Return View.cull_depth of a flat depth.
+
+    The least of several views' cull depths is the cull depth of their least depth (erosion and the
+    minimum commute).
+
+    Parameters
+    ----------
+    depth : (H*W + 1,) float32 array
+        Metres (View.depth).
+    shape : (int, int)
+        (H, W).
+
+    Returns
+    -------
+    (H*W + 1,) float32 array
+    """
     image = depth[:-1].reshape(shape)
     cull = cv2.erode(np.where(np.isnan(image), np.float32(np.inf), image),
                      np.ones((3, 3), np.uint8))
@@ -184,6 +219,7 @@ class _Segments:
 
     @classmethod
     def of(cls, table: ReflectionTable, z: np.ndarray) -> "_Segments":
+        """The segments of the table's chains, for their measured depths z (c,) float32."""
         chains = table.chains
         flat_threshold = table.threshold.reshape(-1)[chains.pixel]
         start = np.concatenate([flat_threshold[:, None], chains.threshold.T], axis=1)
@@ -193,8 +229,10 @@ class _Segments:
                    z.reshape(-1)[chains.pixel], z.shape)
 
     def end_first(self, mirror: int, seen: np.ndarray, surface: np.ndarray) -> None:
-        """Mirror `mirror`'s view (seen : (H, W) float32 depth, surface : (H, W) bool, in place)
-        knows its pixels' rays only up to where they meet their second mirror."""
+        """Cut mirror `mirror`'s view at where its pixels' rays meet their second mirror.
+
+        seen : (H, W) float32 depth, surface : (H, W) bool, both changed in place.
+        """
         rows = np.flatnonzero(self.first == mirror)
         pixel, end = self.chains.pixel[rows], self.end[rows, 0]
         # NaN (nothing known) stays NaN
@@ -202,19 +240,20 @@ class _Segments:
         surface.reshape(-1)[pixel] &= self.z[rows] < end
 
     def sequences(self) -> list[tuple[int, tuple[int, ...]]]:
-        """(label, sequence) of every sequence of two or more mirrors that some pixel follows, in
-        label order."""
+        """(label, sequence) of every sequence of 2+ mirrors some pixel follows, label order."""
         return [(int(s), source_sequence(int(s)))
                 for s in np.unique(self.chains.label[self.chains.label > 0])]
 
     def view_of(self, label: int, empty: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray,
                                                                                 np.ndarray,
                                                                                 np.ndarray]:
-        """The depth, surface and outline ((H*W + 1,) float32, bool, bool as in View) of the
-        sequence `label`'s view: its pixels see the ray's segment after that sequence (empty up to
-        the measured depth (empty (H*W + 1,)), or up to the next mirror); elsewhere, and where the
-        measured point lies before the segment, the view knows nothing
-        (NaN). mask : (H, W) bool, the object's pixels."""
+        """Return the depth, surface and outline of the sequence `label`'s view.
+
+        (H*W + 1,) float32, bool, bool as in View. Its pixels see the ray's segment after that
+        sequence (empty up to the measured depth (empty (H*W + 1,)), or up to the next mirror);
+        elsewhere, and where the measured point lies before the segment, the view knows nothing
+        (NaN). mask : (H, W) bool, the object's pixels.
+        """
         level, rows = np.nonzero(self.chains.label == label)
         pixel, z = self.chains.pixel[rows], self.z[rows]
         start, end = self.start[rows, level + 1], self.end[rows, level + 1]
@@ -229,6 +268,16 @@ class _Segments:
 
 
 def padded_flat(image: np.ndarray, pad) -> np.ndarray:
-    """(H, W) image -> (H*W + 1,) of its dtype with `pad` in the last cell: index H*W (see
-    pixel_index) reads `pad`."""
+    """Flatten an image with `pad` in an extra last cell: index H*W (see pixel_index) reads `pad`.
+
+    Parameters
+    ----------
+    image : (H, W) array
+    pad : scalar
+
+    Returns
+    -------
+    (H*W + 1,) array
+        Of the image's dtype.
+    """
     return np.append(image.ravel(), np.array(pad, image.dtype))

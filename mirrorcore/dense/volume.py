@@ -32,16 +32,30 @@ Item = TypeVar("Item")
 
 @dataclass(frozen=True)
 class Volume:
-    """Voxel (i, j, k) has its centre at origin + voxel * (i, j, k): x along i, y along j, z along k
-    (camera frame, metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k]. With
-    blocks of b^3 voxels, block (p, q, r) holds the voxels [p b, (p + 1) b) x [q b, (q + 1) b) x [r
-    b, (r + 1) b); the blocks on the far faces reach past the grid.
+    """A voxel grid in the camera frame.
 
-    origin : (3,) metres, centre of voxel (0, 0, 0); voxel : edge in metres; shape : (nx, ny, nz).
-    Raises MirrorscanError for a non-positive voxel size or an empty shape, MemoryBudgetError when
-    the grid's smallest blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget
-    (mirrorcore.base.budget). Each method checks what it allocates besides (`check_grids`, the
-    TSDF's blocks), before allocating it.
+    Voxel (i, j, k) has its centre at origin + voxel * (i, j, k): x along i, y along j, z along k
+    (camera frame, metres). Grids of the volume are (nx, ny, nz) arrays indexed [i, j, k]. With
+    blocks of b^3 voxels, block (p, q, r) holds the voxels [p b, (p + 1) b) x [q b, (q + 1) b) x
+    [r b, (r + 1) b); the blocks on the far faces reach past the grid. Each method checks what it
+    allocates besides (`check_grids`, the TSDF's blocks), before allocating it.
+
+    Attributes
+    ----------
+    origin : (float, float, float)
+        Metres, centre of voxel (0, 0, 0).
+    voxel : float
+        Edge, metres.
+    shape : (int, int, int)
+        (nx, ny, nz).
+
+    Raises
+    ------
+    MirrorscanError
+        A non-positive voxel size or an empty shape.
+    MemoryBudgetError
+        The grid's smallest blocks (BLOCK_GRID_BYTES a block) would not fit in the memory budget
+        (mirrorcore.base.budget).
     """
 
     origin: tuple[float, float, float]
@@ -62,9 +76,22 @@ class Volume:
 
     @classmethod
     def from_bounds(cls, lo, hi, voxel: float) -> "Volume":
-        """The grid of `voxel`-sized cells covering the box lo..hi ((3,) metres, camera frame). A
-        box a whole number of voxels wide, up to rounding, keeps that number: the box of a grid
-        gives the same grid back."""
+        """Return the grid of `voxel`-sized cells covering a box.
+
+        A box a whole number of voxels wide, up to rounding, keeps that number: the box of a grid
+        gives the same grid back.
+
+        Parameters
+        ----------
+        lo, hi : (3,) array
+            The box's corners, metres, camera frame.
+        voxel : float
+            Metres.
+
+        Returns
+        -------
+        Volume
+        """
         lo, hi = np.asarray(lo, float).reshape(3), np.asarray(hi, float).reshape(3)
         if not np.all(hi > lo):
             raise MirrorscanError(
@@ -74,8 +101,26 @@ class Volume:
 
     @classmethod
     def around(cls, points: np.ndarray, voxel: float, margin: float) -> "Volume":
-        """The bounding box of points (n, 3) metres, camera frame, grown by `margin` metres on every
-        side. Raises MirrorscanError when there are no points."""
+        """Return the bounding box of points grown by `margin` on every side.
+
+        Parameters
+        ----------
+        points : (n, 3) array
+            Metres, camera frame.
+        voxel : float
+            Metres.
+        margin : float
+            Metres.
+
+        Returns
+        -------
+        Volume
+
+        Raises
+        ------
+        MirrorscanError
+            There are no points.
+        """
         points = np.asarray(points, float).reshape(-1, 3)
         if not len(points):
             raise MirrorscanError(
@@ -88,17 +133,48 @@ class Volume:
         return int(np.prod(self.shape, dtype=np.int64))
 
     def block_shape(self, block: int) -> tuple[int, int, int]:
-        """Blocks of block^3 voxels along x, y, z: ceil(shape / block)."""
+        """Return the number of blocks of block^3 voxels along x, y, z: ceil(shape / block).
+
+        Parameters
+        ----------
+        block : int
+
+        Returns
+        -------
+        (int, int, int)
+        """
         return tuple(-(-int(s) // block) for s in self.shape)
 
     def padded_shape(self, block: int) -> tuple[int, int, int]:
-        """The grid grown to whole blocks of block^3 voxels."""
+        """Return the grid's shape grown to whole blocks of block^3 voxels.
+
+        Parameters
+        ----------
+        block : int
+
+        Returns
+        -------
+        (int, int, int)
+        """
         return tuple(block * b for b in self.block_shape(block))
 
     def check_grids(self, voxel_bytes: float, what: str, block: int) -> None:
-        """Refuse (MemoryBudgetError naming the volume and `what`) grids of `voxel_bytes` a voxel of
-        the grid padded to whole blocks of block^3 voxels that would not fit in the memory
-        budget."""
+        """Refuse grids that would not fit in the memory budget.
+
+        Parameters
+        ----------
+        voxel_bytes : float
+            Bytes a voxel of the grid padded to whole blocks.
+        what : str
+            The grids, for the message.
+        block : int
+            Voxels along a block's edge.
+
+        Raises
+        ------
+        MemoryBudgetError
+            Naming the volume and `what`.
+        """
         check_memory(float(np.prod(np.asarray(self.padded_shape(block), float))) * voxel_bytes,
                      f"{self._what()}: {what}")
 
@@ -107,8 +183,17 @@ class Volume:
         return tuple(o + self.voxel * np.arange(n) for o, n in zip(self.origin, self.shape))
 
     def padded_axes(self, block: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The voxel centres along x, y, z of the grid padded to whole blocks of block^3 voxels:
-        float32 metres, NaN past the volume."""
+        """Return the voxel centres along x, y, z of the grid padded to whole blocks.
+
+        Parameters
+        ----------
+        block : int
+
+        Returns
+        -------
+        x, y, z : float32 array
+            Metres, NaN past the volume.
+        """
         return tuple(np.concatenate([a.astype(np.float32), np.full(p - len(a), np.nan, np.float32)])
                      for a, p in zip(self.axes(), self.padded_shape(block)))
 
@@ -119,19 +204,39 @@ class Volume:
         return np.stack(np.meshgrid(*np.stack([lo, hi]).T, indexing="ij"), axis=-1).reshape(-1, 3)
 
     def centres(self, flat_index: np.ndarray) -> np.ndarray:
-        """flat_index : (n,) int, C-order indices into the (nx, ny, nz) grid -> (n, 3) float32
-        centres, metres."""
+        """Return the centres of voxels.
+
+        Parameters
+        ----------
+        flat_index : (n,) integer array
+            C-order indices into the (nx, ny, nz) grid.
+
+        Returns
+        -------
+        (n, 3) float32 array
+            Metres.
+        """
         ijk = np.stack(np.unravel_index(flat_index, self.shape), axis=-1)
         return (np.asarray(self.origin) + self.voxel * ijk).astype(np.float32)
 
     def nearest_index(self, points: np.ndarray) -> np.ndarray:
-        """points (n, 3) metres -> (n,) int64 C-order index of the nearest voxel (clipped to the
-        grid)."""
+        """Return the C-order index of the nearest voxel of points (clipped to the grid).
+
+        Parameters
+        ----------
+        points : (n, 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (n,) int64 array
+        """
         ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - self.origin) / self.voxel).astype(
             np.int64)
         return np.ravel_multi_index(tuple(np.clip(ijk, 0, np.array(self.shape) - 1).T), self.shape)
 
     def _what(self) -> str:
+        """The volume in words, for a memory budget message."""
         return (f"volume: {'x'.join(str(int(s)) for s in self.shape)} voxels of "
                 f"{self.voxel * 1e3:g} mm "
                 "(use larger voxels or a smaller box)")
@@ -140,14 +245,29 @@ class Volume:
 def run_chunks(items: Sequence[Item], work: Callable[[Item], None],
                progress: Progress | None = None,
                cancel=None, workers: int | None = None) -> None:
-    """Call work(item) for every item, in this thread for one worker, else on `workers` threads
-    (default: the CPU count; numpy releases the GIL in its array operations) with at most
-    QUEUED_PER_WORKER items per thread submitted at a time, so that memory stays bounded and no
-    thread waits for the next item.
+    """Call work(item) for every item, in this thread for one worker, else on `workers` threads.
 
-    progress(fraction) is called in this thread after each item (0 < fraction <= 1). cancel is
-    polled before each item starts (is submitted): the running items finish, then Cancelled is
-    raised. Exceptions of `work` propagate.
+    On threads, at most QUEUED_PER_WORKER items per thread are submitted at a time, so that memory
+    stays bounded and no thread waits for the next item (numpy releases the GIL in its array
+    operations).
+
+    Parameters
+    ----------
+    items : sequence
+    work : callable
+        Called with each item. Its exceptions propagate.
+    progress : Progress, optional
+        progress(fraction) is called in this thread after each item (0 < fraction <= 1).
+    cancel : threading.Event or callable, optional
+        Asks to stop when set or when it returns True.
+        Polled before each item starts (is submitted): the running items finish, then Cancelled is
+        raised.
+    workers : int, optional
+        Default: the CPU count.
+
+    Raises
+    ------
+    Cancelled
     """
     workers = max(1, workers or os.cpu_count() or 1)
     done = 0

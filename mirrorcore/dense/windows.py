@@ -38,9 +38,18 @@ PLANE_MARGIN = 1e-5    # metres: the float32 rounding of voxel centres against a
 
 @dataclass(frozen=True, eq=False)
 class Window:
-    """A view's window tables: to_view (3, 4) its extrinsic; half : the window's half size in
-    pixels; least, most : (H*W,) float32, the least depth that a voxel test of the view may read in
-    the window centred on each pixel, and the greatest (None: that test never holds)."""
+    """A view's window tables.
+
+    Attributes
+    ----------
+    to_view : (3, 4) array
+        Its extrinsic.
+    half : int
+        The window's half size, pixels.
+    least, most : (H*W,) float32 array or None
+        Metres, the least depth that a voxel test of the view may read in the window centred on each
+        pixel, and the greatest (None: that test never holds).
+    """
 
     to_view: np.ndarray
     half: int
@@ -49,11 +58,23 @@ class Window:
 
     @classmethod
     def for_carving(cls, view: View, half: int) -> "Window":
-        """The tables of carving for `view`. The camera's least depth is its cull depth (+inf off
-        the image: a voxel projected there is carved); a mirror's is its depth with unknown pixels
-        and the outside as -inf (they carve nothing, so they decide nothing). The greatest ignores
-        unknown pixels; off the image it is +inf for the camera (undecided) and ignored for the
-        others."""
+        """Return the tables of carving for a view.
+
+        The camera's least depth is its cull depth (+inf off the image: a voxel projected there is
+        carved); a mirror's is its depth with unknown pixels and the outside as -inf (they carve
+        nothing, so they decide nothing). The greatest ignores unknown pixels; off the image it is
+        +inf for the camera (undecided) and ignored for the others.
+
+        Parameters
+        ----------
+        view : View
+        half : int
+            Pixels.
+
+        Returns
+        -------
+        Window
+        """
         camera = view.source == 0
         depth = view.depth[:-1].reshape(view.shape)
         known = np.where(np.isnan(depth), np.float32(-np.inf), depth)
@@ -64,9 +85,22 @@ class Window:
 
     @classmethod
     def for_fusion(cls, views: list[View], half: int) -> "Window":
-        """The tables of fusion for one view of every frame (`views`, the same virtual camera): the
-        greatest depth of the pixels that show the surface in some frame (nothing elsewhere, nor off
-        the image)."""
+        """Return the tables of fusion for one view of every frame.
+
+        The greatest depth of the pixels that show the surface in some frame (nothing elsewhere, nor
+        off the image).
+
+        Parameters
+        ----------
+        views : list of View
+            The same virtual camera in each frame.
+        half : int
+            Pixels.
+
+        Returns
+        -------
+        Window
+        """
         shown = np.full(views[0].shape, -np.inf, np.float32)
         for view in views:
             np.copyto(shown.reshape(-1), np.fmax(shown.reshape(-1), view.depth[:-1]),
@@ -75,18 +109,49 @@ class Window:
 
     @classmethod
     def for_cull(cls, cull: np.ndarray, shape: tuple[int, int], half: int) -> "Window":
-        """The camera's cull depth (H*W + 1,) float32 (View.cull_depth) over windows: its least and
-        greatest, +inf off the image (a voxel whose nearest pixel is off the image is culled)."""
+        """Return the camera's cull depth over windows: its least and greatest.
+
+        +inf off the image (a voxel whose nearest pixel is off the image is culled).
+
+        Parameters
+        ----------
+        cull : (H*W + 1,) float32 array
+            View.cull_depth.
+        shape : (int, int)
+            (H, W).
+        half : int
+            Pixels.
+
+        Returns
+        -------
+        Window
+        """
         image = cull[:-1].reshape(shape)
         return cls(np.eye(3, 4), half, _extreme(cv2.erode, image, half, np.inf),
                    _extreme(cv2.dilate, image, half, np.inf))
 
     def test(self, intr: Intrinsics, box: tuple[np.ndarray, np.ndarray],
              th: float) -> tuple[np.ndarray, np.ndarray]:
-        """box : (centre (3, m), half size (3, m)) float64 of m blocks (Blocks.bounds) -> (m,) bool
-        each: the view sees through every voxel, the view sees every voxel behind its surface by
-        more than th (or nothing of it). The block's x, y, z ranges in the view's frame are exact
-        for its box; its pixels are bounded by the ratios of their ends (a box a little larger)."""
+        """Test blocks against the view.
+
+        The block's x, y, z ranges in the view's frame are exact for its box; its pixels are bounded
+        by the ratios of their ends (a box a little larger).
+
+        Parameters
+        ----------
+        intr : Intrinsics
+        box : ((3, m), (3, m)) float64 arrays
+            Centre and half size of m blocks (Blocks.bounds).
+        th : float
+            Metres.
+
+        Returns
+        -------
+        free : (m,) bool array
+            The view sees through every voxel.
+        behind : (m,) bool array
+            The view sees every voxel behind its surface by more than th (or nothing of it).
+        """
         (x0, x1), (y0, y1), (z0, z1) = box_ranges(self.to_view, box)
         ahead = z0 > Z_MIN
         z_near, z_far = np.where(ahead, z0, 1), np.where(ahead, z1, 1)
@@ -111,9 +176,23 @@ class Window:
 
 
 def mirror_sides(rig: Rig, box: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """For m blocks (box: Blocks.bounds()) -> (m,) bool each: the block lies wholly behind some
-    calibrated mirror's plane, and it lies wholly in front of every one (by more than PLANE_MARGIN:
-    the float32 rounding of voxel centres)."""
+    """Tell which blocks lie wholly behind a mirror, and which wholly in front of every one.
+
+    By more than PLANE_MARGIN (the float32 rounding of voxel centres).
+
+    Parameters
+    ----------
+    rig : Rig
+    box : ((3, m), (3, m)) float64 arrays
+        Blocks.bounds().
+
+    Returns
+    -------
+    behind : (m,) bool array
+        Wholly behind some calibrated mirror's plane.
+    in_front : (m,) bool array
+        Wholly in front of every one.
+    """
     behind_one, in_front = np.zeros(box[0].shape[1], bool), np.ones(box[0].shape[1], bool)
     for mirror in rig.mirrors:
         if mirror.plane is not None:
@@ -125,8 +204,20 @@ def mirror_sides(rig: Rig, box: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarr
 
 def box_ranges(transform: np.ndarray,
                box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The range (least, greatest) of each row of transform (r, 4) (a linear function and offset per
-    row) over boxes (centre (3, m), half size (3, m)): r pairs of (m,) float64."""
+    """Return the range of each row of a transform over boxes.
+
+    Parameters
+    ----------
+    transform : (r, 4) array
+        A linear function and offset per row.
+    box : ((3, m), (3, m)) float64 arrays
+        Centre and half size.
+
+    Returns
+    -------
+    list of ((m,) float64 array, (m,) float64 array)
+        r pairs (least, greatest).
+    """
     centre, half = box
     ranges = []
     for row in np.asarray(transform, float):
@@ -146,10 +237,25 @@ def _extreme(operation, image: np.ndarray, half: int, border: float) -> np.ndarr
 
 def window_half(intr: Intrinsics, to_view: np.ndarray, volume_corners: np.ndarray,
                 block_extent: float) -> int:
-    """The half size in pixels (at most MAX_HALF) of a window holding the projection of any block of
-    edge `block_extent` metres in a volume with corners volume_corners (8, 3) float64 (camera
-    frame), seen by a view of extrinsic to_view (3, 4), and two pixels more each side (the quads and
-    rounding)."""
+    """Return the half size of a window holding the projection of any block in a volume.
+
+    Plus two pixels each side (the quads and rounding).
+
+    Parameters
+    ----------
+    intr : Intrinsics
+    to_view : (3, 4) array
+        The view's extrinsic.
+    volume_corners : (8, 3) float64 array
+        Metres, camera frame.
+    block_extent : float
+        Metres, a block's edge.
+
+    Returns
+    -------
+    int
+        Pixels, at most MAX_HALF.
+    """
     p = volume_corners @ to_view[:, :3].T + to_view[:, 3]
     z = p[:, 2]
     if not (z > Z_MIN).all():

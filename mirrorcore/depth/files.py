@@ -22,9 +22,28 @@ FILE_SLACK = 1 << 20
 
 def read_depth_png(path: str | Path, depth_scale: float,
                    shape: tuple[int, int] | None = None) -> np.ndarray:
-    """Read a 16-bit depth PNG as metres (see decode_depth_png); FileFormatError naming the file
-    when it is missing, or when it is larger than an image of its size can be (checked before
-    reading it: see max_file_bytes)."""
+    """Read a 16-bit depth PNG as metres (see `decode_depth_png`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    depth_scale : float
+        Metres per unit.
+    shape : (int, int), optional
+        Expected (H, W), checked when given.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, 0 = no reading.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, larger than an image of its size can be (checked before reading
+        it: see `max_file_bytes`), or not a depth image of the expected size.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such depth image")
@@ -46,9 +65,21 @@ def read_depth_png(path: str | Path, depth_scale: float,
 
 
 def max_file_bytes(pixels: int) -> int:
-    """The largest file a 16-bit depth image of `pixels` pixels may be: twice its raw size (PNG's
-    worst case, stored without compression, is the raw size plus a byte a row and a few bytes a
-    block), plus FILE_SLACK."""
+    """Return the largest file a 16-bit depth image of `pixels` pixels may be.
+
+    That is twice its raw size (PNG's worst case, stored without compression, is the raw size plus
+    a byte a row and a few bytes a block), plus FILE_SLACK.
+
+    Parameters
+    ----------
+    pixels : int
+        H * W.
+
+    Returns
+    -------
+    int
+        Bytes.
+    """
     return 4 * pixels + FILE_SLACK
 
 
@@ -56,9 +87,27 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
                      where: str = "depth image") -> np.ndarray:
     """Decode a 16-bit depth image (PNG, or another format OpenCV reads) from its bytes.
 
-    depth_scale : metres per unit; shape : expected (H, W), checked when given (for a PNG, from its
-    header before decoding: a small file can hold an image of gigabytes). returns (H, W) float32
-    metres, 0 = no reading. Raises FileFormatError naming `where` (the file) and what is wrong.
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    depth_scale : float
+        Metres per unit.
+    shape : (int, int), optional
+        Expected (H, W), checked when given (for a PNG, from its header before decoding: a small
+        file can hold an image of gigabytes).
+    where : str
+        The file, for the messages.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, 0 = no reading.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where` and what is wrong.
     """
     _png_pixels(data[:24], shape, where)
     raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
@@ -95,9 +144,27 @@ def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int |
 
 
 def require_readings(depth: np.ndarray, where: str) -> np.ndarray:
-    """Return `depth` ((..., H, W) metres) when any pixel has a reading; MirrorscanError naming
-    `where` when every pixel is 0 (or not finite): a covered or unplugged camera, or a blank file,
-    has nothing to calibrate or scan."""
+    """Check that a depth image has a reading.
+
+    A covered or unplugged camera, or a blank file, has nothing to calibrate or scan.
+
+    Parameters
+    ----------
+    depth : (..., H, W) array
+        Metres.
+    where : str
+        What the image is, for the message.
+
+    Returns
+    -------
+    (..., H, W) array
+        `depth`, unchanged.
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `where`, when every pixel is 0 (or not finite).
+    """
     if not np.any(np.isfinite(depth) & (depth > 0)):
         raise MirrorscanError(
             f"{where}: no depth reading at all (every pixel is 0); is the camera covered or "
@@ -106,10 +173,22 @@ def require_readings(depth: np.ndarray, where: str) -> np.ndarray:
 
 
 def encode_depth_png(depth: np.ndarray, depth_scale: float) -> bytes:
-    """depth : (H, W) float metres (0 or non-finite = no reading) -> PNG bytes of uint16 units.
+    """Encode a depth image as PNG bytes of uint16 units.
 
     Depths beyond the uint16 range (65535 * depth_scale) become 0: a reading that cannot be stored
     is no reading.
+
+    Parameters
+    ----------
+    depth : (H, W) float array
+        Metres; 0 or non-finite = no reading.
+    depth_scale : float
+        Metres per unit.
+
+    Returns
+    -------
+    bytes
+        The PNG.
     """
     depth = np.asarray(depth, dtype=np.float64)
     units = np.where(np.isfinite(depth), np.round(depth / depth_scale), 0)
@@ -121,5 +200,15 @@ def encode_depth_png(depth: np.ndarray, depth_scale: float) -> bytes:
 
 
 def write_depth_png(path: str | Path, depth: np.ndarray, depth_scale: float) -> None:
-    """Write metres as a uint16 PNG atomically (see encode_depth_png)."""
+    """Write a depth image as a uint16 PNG atomically (see `encode_depth_png`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file written.
+    depth : (H, W) float array
+        Metres; 0 or non-finite = no reading.
+    depth_scale : float
+        Metres per unit.
+    """
     write_atomic(path, encode_depth_png(depth, depth_scale))

@@ -14,10 +14,20 @@ DISPARITY_LIMIT = int(np.ceil(-BURRUS_B / BURRUS_A))
 
 
 def depth_to_disparity(depth: np.ndarray) -> np.ndarray:
-    """Metres -> Kinect v1 11-bit disparity counts (the inverse of the Burrus formula), uint16; 0 or
-    out of range ->
-    DISPARITY_INVALID. depth : (...) float metres. Counts 0..1084 hold depths from 0.30 m to about
-    530 m."""
+    """Convert metres to Kinect v1 11-bit disparity counts (the inverse of the Burrus formula).
+
+    Counts 0..1084 hold depths from 0.30 m to about 530 m.
+
+    Parameters
+    ----------
+    depth : (...) float array
+        Metres.
+
+    Returns
+    -------
+    (...) uint16 array
+        Counts; DISPARITY_INVALID for 0 or out of range.
+    """
     depth = np.asarray(depth, dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         counts = np.round((1.0 / depth - BURRUS_B) / BURRUS_A)
@@ -26,8 +36,18 @@ def depth_to_disparity(depth: np.ndarray) -> np.ndarray:
 
 
 def disparity_to_depth(counts: np.ndarray) -> np.ndarray:
-    """Kinect v1 11-bit disparity counts (...) -> metres (Burrus: z = 1 / (counts * A + B)),
-    float32; DISPARITY_INVALID and counts with no positive depth (>= DISPARITY_LIMIT) -> 0."""
+    """Convert Kinect v1 11-bit disparity counts to metres (Burrus: z = 1 / (counts * A + B)).
+
+    Parameters
+    ----------
+    counts : (...) integer array
+        Disparity counts.
+
+    Returns
+    -------
+    (...) float32 array
+        Metres; 0 for DISPARITY_INVALID and counts with no positive depth (>= DISPARITY_LIMIT).
+    """
     counts = np.asarray(counts, dtype=np.float64)
     ok = (counts < DISPARITY_LIMIT) & (counts >= 0)
     return np.where(ok, 1.0 / np.where(ok, counts * BURRUS_A + BURRUS_B, 1.0),

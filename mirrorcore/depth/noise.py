@@ -13,8 +13,18 @@ MIN_SIGMA = 0.5e-3
 
 
 def axial_sigma(z: np.ndarray | float) -> np.ndarray:
-    """Standard deviation (metres) of a depth reading at depth z (metres), Kinect v1 model, floored
-    at MIN_SIGMA. float32 input gives float32 (per-pixel images), anything else float64."""
+    """Return the standard deviation of a depth reading, Kinect v1 model, floored at MIN_SIGMA.
+
+    Parameters
+    ----------
+    z : float or array
+        Depth, metres.
+
+    Returns
+    -------
+    array
+        Metres, shaped as `z`; float32 for float32 input (per-pixel images), float64 otherwise.
+    """
     z = np.asarray(z)
     z = z if z.dtype == np.float32 else z.astype(np.float64)
     return np.maximum(z.dtype.type(KINECT_AXIAL_COEF) * np.square(z), z.dtype.type(MIN_SIGMA))

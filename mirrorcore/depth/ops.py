@@ -27,10 +27,17 @@ OCCLUDER_SIGMAS = 5.0
 
 
 def median_depth(frames: np.ndarray) -> np.ndarray:
-    """Per-pixel median of the readings of several frames, ignoring frames with no reading there.
+    """Return the per-pixel median of several frames, ignoring frames with no reading there.
 
-    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame
-    has a reading.
+    Parameters
+    ----------
+    frames : (k, H, W) or (H, W) float array
+        Metres, 0 = no reading.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, 0 where no frame has a reading.
     """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim == 2:
@@ -43,13 +50,22 @@ def median_depth(frames: np.ndarray) -> np.ndarray:
 
 
 def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
-    """Per-pixel mean of the readings of several frames within MEAN_SIGMAS of the depth noise
-    (noise.axial_sigma) of their median: what passed in front in a few frames is left out as by the
-    median, and the mean of the rest averages the camera's disparity steps, where the median snaps
-    to one of them (11 mm apart at 2 m: markers read on the median of 10 frames of a static mirror
-    came out up to 1 mm off the glass).
-    frames : (k, H, W) or (H, W) float metres, 0 = no reading -> (H, W) float32, 0 where no frame
-    has a reading."""
+    """Return the per-pixel mean of the readings within MEAN_SIGMAS of the noise of their median.
+
+    The noise is `noise.axial_sigma`. What passed in front in a few frames is left out as by the
+    median, and the mean of the rest averages the camera's disparity steps (11 mm apart at 2 m),
+    where the median snaps to one of them.
+
+    Parameters
+    ----------
+    frames : (k, H, W) or (H, W) float array
+        Metres, 0 = no reading.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, 0 where no frame has a reading.
+    """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim == 2:
         return frames
@@ -61,12 +77,24 @@ def robust_mean_depth(frames: np.ndarray) -> np.ndarray:
 
 
 def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """The frames with no reading (0) where they read more than OCCLUDER_SIGMAS depth-noise sigmas
-    in front of the background's reading: what passes in front of a static surface (a person walking
-    past a mirror's markers in most frames, whose median then read the person, 0.4 to 0.55 m off the
-    glass) is left out of it; pixels where
-    the background has no reading keep theirs. frames : (k, H, W) float metres; background : (H, W)
-    -> (k, H, W) float32."""
+    """Remove from frames what passes in front of a static background.
+
+    A reading more than OCCLUDER_SIGMAS depth-noise sigmas in front of the background's reading
+    becomes no reading (0), such as a person walking past a mirror's markers. Pixels where the
+    background has no reading keep theirs.
+
+    Parameters
+    ----------
+    frames : (k, H, W) float array
+        Metres, 0 = no reading.
+    background : (H, W) float array
+        Metres, 0 = no reading.
+
+    Returns
+    -------
+    (k, H, W) float32 array
+        Metres.
+    """
     frames, background = np.asarray(frames, dtype=np.float32), np.asarray(background,
                                                                           dtype=np.float32)
     nearest = background - np.float32(OCCLUDER_SIGMAS) * axial_sigma(background)
@@ -75,8 +103,20 @@ def without_occluders(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
 
 
 def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:
-    """(rows, columns) slices of the smallest box holding every True pixel of (H, W) bool `mask`,
-    grown by `pad` pixels on each side within the image (empty slices when the mask is empty)."""
+    """Return the smallest box holding every True pixel of a mask, grown by `pad` pixels.
+
+    Parameters
+    ----------
+    mask : (H, W) bool array
+        The pixels.
+    pad : int
+        Pixels added on each side, within the image.
+
+    Returns
+    -------
+    (slice, slice)
+        (rows, columns); empty slices when the mask is empty.
+    """
     u, v, w, h = cv2.boundingRect(mask.view(np.uint8))
     if w == 0:
         return slice(0, 0), slice(0, 0)
@@ -87,15 +127,28 @@ def bounding_window(mask: np.ndarray, pad: int = 0) -> tuple[slice, slice]:
 
 def smooth_depth(depth: np.ndarray, mask: np.ndarray, radius: int = 2,
                  strength: float = 3.0) -> np.ndarray:
-    """Edge-aware smoothing of the masked pixels of a depth image, in inverse depth (disparity).
+    """Smooth the masked pixels of a depth image, edge-aware, in inverse depth (disparity).
 
-    A structured-light camera's noise is constant in disparity (sigma_z = 1.425e-3 z^2 is sigma_w =
-    1.425e-3 in w = 1/z), so a bilateral filter on w with a range sigma of `strength` * 1.425e-3
-    averages a pixel with neighbours of the same surface and ignores those across a depth edge, at
-    every depth. Pixels outside `mask` neither change nor contribute.
+    A structured-light camera's noise is constant in disparity (sigma_z = 1.425e-3 z^2 is
+    sigma_w = 1.425e-3 in w = 1/z), so a bilateral filter on w with a range sigma of `strength` *
+    1.425e-3 averages a pixel with neighbours of the same surface and ignores those across a depth
+    edge, at every depth. Pixels outside `mask` neither change nor contribute.
 
-    depth : (H, W) float metres; mask : (H, W) bool -> (H, W) float32 metres (unmasked pixels as
-    they were)
+    Parameters
+    ----------
+    depth : (H, W) float array
+        Metres.
+    mask : (H, W) bool array
+        The pixels smoothed.
+    radius : int
+        Pixels, the filter's half-width and its spatial sigma.
+    strength : float
+        The range sigma in units of the disparity noise 1.425e-3 / m.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres; unmasked pixels as they were.
     """
     depth = np.asarray(depth, dtype=np.float32)
     out = depth.copy()
@@ -116,24 +169,42 @@ def local_quadratic_depth(depth: np.ndarray, reference: np.ndarray, pixels: np.n
                           labels: np.ndarray,
                           radius: int = QUADRATIC_RADIUS, sigma: float = QUADRATIC_SIGMA,
                           strength: float = QUADRATIC_STRENGTH) -> np.ndarray:
-    """Edge-aware smoothing that follows curvature: at each of `pixels`, a weighted least-squares
-    quadratic surface in disparity w = 1/z (six coefficients in the pixel offsets; a plane's
-    disparity is linear in them, so planes are fitted exactly and curved surfaces to second order)
-    through the readings of the (2 radius + 1)^2 pixels around it that carry the same label,
-    evaluated at the pixel.
+    """Smooth depth along the surface's curvature by local quadratic fits in disparity.
 
-    The weights are a spatial Gaussian (sigma pixels) times a range Gaussian of the neighbour's
+    At each of `pixels`, a weighted least-squares quadratic surface in disparity w = 1/z (six
+    coefficients in the pixel offsets; a plane's disparity is linear in them, so planes are fitted
+    exactly and curved surfaces to second order) goes through the readings of the
+    (2 radius + 1)^2 pixels around it that carry the same label, and is evaluated at the pixel.
+
+    The weights are a spatial Gaussian (`sigma` pixels) times a range Gaussian of the neighbour's
     disparity against the pixel's `reference` (sigma `strength` * 1.425e-3 / m, the sensor's
-    disparity noise): readings of another surface across a depth edge drop out, as in smooth_depth.
-    Unlike an average (smooth_depth), the fit does not sag on a curved surface, so it can span more
-    pixels. A pixel with less neighbours' weight than coefficients, or whose fit lands more than one
-    range sigma from its reference, keeps its reference; a small ridge keeps the fit on a strip one
-    or two pixels wide solvable (it then tends to a fit of lower degree).
+    disparity noise): readings of another surface across a depth edge drop out, as in
+    `smooth_depth`. Unlike an average (`smooth_depth`), the fit does not sag on a curved surface,
+    so it can span more pixels. A pixel with less neighbours' weight than coefficients, or whose fit
+    lands more than one range sigma from its reference, keeps its reference; a small ridge keeps the
+    fit on a strip one or two pixels wide solvable (it then tends to a fit of lower degree).
 
-    depth : (H, W) float metres, the readings (0 = none); reference : (H, W) float metres, e.g.
-    smooth_depth's result, > 0 at `pixels`; pixels : (n,) int flat indices v * W + u; labels : (H,
-    W) int, neighbours count only where equal to the pixel's -> (H, W) float32 metres: `reference`
-    with `pixels` replaced by their fits.
+    Parameters
+    ----------
+    depth : (H, W) float array
+        Metres, the readings (0 = none).
+    reference : (H, W) float array
+        Metres, e.g. `smooth_depth`'s result; > 0 at `pixels`.
+    pixels : (n,) integer array
+        Flat indices v * W + u.
+    labels : (H, W) integer array
+        Neighbours count only where equal to the pixel's.
+    radius : int
+        Pixels, the window's half-width.
+    sigma : float
+        Pixels, the spatial Gaussian's sigma.
+    strength : float
+        The range sigma in units of the disparity noise 1.425e-3 / m.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres: `reference` with `pixels` replaced by their fits.
     """
     out = np.asarray(reference, np.float32).copy()
     pixels = np.asarray(pixels, np.int64)
@@ -185,6 +256,7 @@ class _QuadraticWindow:
 
     @classmethod
     def of(cls, radius: int, sigma: float, strength: float) -> _QuadraticWindow:
+        """Build the window of `radius` with spatial `sigma` (pixels) and range `strength`."""
         offsets = np.arange(-radius, radius + 1, dtype=np.float32)
         dy, dx = (a.ravel() for a in np.meshgrid(offsets, offsets, indexing="ij"))
         design = np.stack([dx, dy, dx * dx, dx * dy, dy * dy, np.ones_like(dx)], axis=1)
@@ -195,10 +267,12 @@ class _QuadraticWindow:
 
     def neighbours(self, depth: np.ndarray, same: np.ndarray,
                    box: tuple[slice, slice]) -> np.ndarray:
-        """The windows around the pixels of `box` (h, w): depth (H, W) metres and same (H, W) bool,
-        the pixels whose readings count -> (h, w, 2 radius + 1, 2 radius + 1) float32 view of their
-        disparities, NO_READING where a reading does not count or is missing or lies outside the
-        image."""
+        """Return a view of the disparities in the windows around the pixels of `box` (h, w).
+
+        depth (H, W) metres and same (H, W) bool, the pixels whose readings count -> (h, w, 2 radius
+        + 1, 2 radius + 1) float32, NO_READING where a reading does not count or is missing or lies
+        outside the image.
+        """
         r, (height, width) = self.radius, np.shape(depth)
         grow = (slice(max(box[0].start - r, 0), min(box[0].stop + r, height)),
                 slice(max(box[1].start - r, 0), min(box[1].stop + r, width)))
@@ -212,9 +286,11 @@ class _QuadraticWindow:
         return np.lib.stride_tricks.sliding_window_view(w, (2 * r + 1, 2 * r + 1))
 
     def fit(self, readings: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,)
-        float32 metres -> (n,) float32 metres, the fitted depths, or the reference where the fit is
-        not determined or lands more than a range sigma from it."""
+        """Fit the pixels' windows and return the fitted depths, (n,) float32 metres.
+
+        readings : (n, k) float32 disparities (1/m) of the pixels' windows; reference : (n,) float32
+        metres, returned where the fit is not determined or lands more than a range sigma from it.
+        """
         ref_w = inverse(reference)
         residual = readings - ref_w[:, None]
         # exp(-80) is 2e-35, no weight; the clamp keeps cv2.exp off its slow path for arguments
@@ -248,13 +324,34 @@ def _eliminate(products: np.ndarray, rhs: np.ndarray, ridge: np.ndarray) -> np.n
 
 
 def inverse(values: np.ndarray) -> np.ndarray:
-    """1 / values, elementwise (inf where 0), float32 as given."""
+    """Return 1 / values, elementwise (inf where 0).
+
+    Parameters
+    ----------
+    values : array
+        Float32 values stay float32.
+
+    Returns
+    -------
+    array
+        Same shape and float dtype.
+    """
     with np.errstate(divide="ignore"):
         return np.divide(np.float32(1), values)
 
 
 def masked_copy(source: np.ndarray, mask: np.ndarray, target: np.ndarray) -> None:
-    """target[mask] = source[mask], in place: (H, W) arrays of one dtype, mask (H, W) bool; target
-    may be a window of a larger image (rows apart, pixels contiguous). OpenCV's masked copy: 3-8x
-    faster than numpy's `where=` writes on the live loop's windows, the same values."""
+    """Copy ``target[mask] = source[mask]`` in place, with OpenCV's masked copy.
+
+    It writes the same values as numpy's ``where=``, faster on the live loop's windows.
+
+    Parameters
+    ----------
+    source : (H, W) array
+        The values copied.
+    mask : (H, W) bool array
+        The pixels copied.
+    target : (H, W) array
+        Of `source`'s dtype; may be a window of a larger image (rows apart, pixels contiguous).
+    """
     cv2.copyTo(source, mask.view(np.uint8), target)

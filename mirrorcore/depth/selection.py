@@ -18,21 +18,27 @@ from mirrorcore.depth.noise import axial_sigma
 class Selection:
     """How to find the object in a frame. Distances in metres.
 
-    depth_min, depth_max : readings outside [depth_min, depth_max] are not the object (mirror views
-    read the virtual
-        depth, farther than the object itself: leave room for it)
-    background_sigmas : a pixel is the object when it is closer than the background by more than
-    this many standard
-        deviations of the difference of two readings (sqrt(2) * sigma(z)), and at least min_gap
-    min_gap : metres, the smallest difference that counts as the object
-    flying_sigmas, flying_gap : a pixel whose depth is farther than the nearest object neighbour by
-    more than
+    Attributes
+    ----------
+    depth_min, depth_max : float
+        Readings outside [depth_min, depth_max] are not the object (mirror views read the virtual
+        depth, farther than the object itself: leave room for it).
+    background_sigmas : float
+        A pixel is the object when it is closer than the background by more than this many standard
+        deviations of the difference of two readings (sqrt(2) * sigma(z)), and at least `min_gap`.
+    min_gap : float
+        Metres, the smallest difference that counts as the object.
+    flying_sigmas, flying_gap : float
+        A pixel whose depth is farther than the nearest object neighbour by more than
         max(flying_sigmas * sigma(z), flying_gap * z) is a flying pixel at a depth edge and is
-        dropped
-    min_blob : connected pieces of the object with fewer pixels than this are specks and are dropped
-    roi : optional polygon (u, v) pixels; only pixels inside it (or on its edge) can be the object
-    smooth : smooth the object's depth (edge-aware, in disparity; pipeline.prepare_frame) before
-    reconstruction
+        dropped.
+    min_blob : int
+        Connected pieces of the object with fewer pixels than this are specks and are dropped.
+    roi : tuple of (float, float), optional
+        Polygon (u, v), pixels; only pixels inside it (or on its edge) can be the object.
+    smooth : bool
+        Smooth the object's depth (edge-aware, in disparity; pipeline.prepare_frame) before
+        reconstruction.
     """
 
     depth_min: float = 0.4
@@ -47,8 +53,25 @@ class Selection:
 
     @classmethod
     def from_json(cls, data, where: str = "selection") -> "Selection":
-        """From a session.json 'selection' object; unknown keys are refused, missing ones take the
-        defaults."""
+        """Read a session.json 'selection' object.
+
+        Parameters
+        ----------
+        data : dict or None
+            The object; unknown keys are refused, missing ones take the defaults (None: all
+            defaults).
+        where : str
+            What the object is, for the messages.
+
+        Returns
+        -------
+        Selection
+
+        Raises
+        ------
+        FileFormatError
+            Naming `where`: not an object, unknown keys, or values refused.
+        """
         if data is None:
             return cls()
         if not isinstance(data, dict):
@@ -76,6 +99,7 @@ class Selection:
         return sel
 
     def to_json(self) -> dict:
+        """The session.json 'selection' object."""
         data = asdict(self)
         data["roi"] = None if self.roi is None else [list(p) for p in self.roi]
         return data
@@ -87,13 +111,20 @@ CORE_MARGIN = 16
 
 @dataclass(frozen=True, eq=False)
 class Backdrop:
-    """The scene without the object, ready for subtraction: a pixel is the object where its depth is
-    below `limit`.
+    """The scene without the object, ready for subtraction.
 
-    depth : (H, W) float32 metres, 0 = no reading; limit : (H, W) float32 metres, the background's
-    depth less the tolerance max(background_sigmas * sqrt(2) * sigma(z), min_gap) (the noise of the
-    difference of two readings), +inf where the background has no reading (any reading there counts
-    as the object). Made once per background and selection (Backdrop.of), not per frame.
+    A pixel is the object where its depth is below `limit`. Made once per background and selection
+    (`Backdrop.of`), not per frame.
+
+    Attributes
+    ----------
+    depth : (H, W) float32 array
+        Metres, 0 = no reading.
+    limit : (H, W) float32 array
+        Metres: the background's depth less the tolerance
+        max(background_sigmas * sqrt(2) * sigma(z), min_gap) (the noise of the difference of two
+        readings); +inf where the background has no reading (any reading there counts as the
+        object).
     """
 
     depth: np.ndarray
@@ -101,6 +132,19 @@ class Backdrop:
 
     @classmethod
     def of(cls, background: np.ndarray, selection: "Selection" = None) -> "Backdrop":
+        """Make the backdrop of a background for a selection.
+
+        Parameters
+        ----------
+        background : (H, W) float array
+            Metres, 0 = no reading.
+        selection : Selection, optional
+            Its background_sigmas and min_gap make the tolerance (default Selection()).
+
+        Returns
+        -------
+        Backdrop
+        """
         selection = Selection() if selection is None else selection
         depth = np.asarray(background, np.float32)
         tolerance = np.maximum(np.float32(selection.background_sigmas * np.sqrt(2.0)) * axial_sigma(
@@ -112,15 +156,29 @@ class Backdrop:
 
 def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Backdrop | None,
                 selection: Selection = Selection()) -> np.ndarray:
-    """The object's pixels in a depth frame.
+    """Find the object's pixels in a depth frame.
 
-    depth : (H, W) float metres, 0 = no reading; background : the scene without the object, (H, W)
-    float metres (0 = no reading there) or a Backdrop made once for it, or None to select by depth
-    range and region only. returns (H, W) bool. A pixel with no background reading counts as the
-    object when it has a reading now. The clean-up (flying pixels, specks) looks only within
-    CORE_MARGIN pixels of the candidates that have a solid 3x3 core: the scattered single pixels
-    that background subtraction leaves are dropped without a pass over the whole frame (a piece with
-    no 3x3 core reaching farther than that would be dropped too).
+    A pixel with no background reading counts as the object when it has a reading now. The clean-up
+    (flying pixels, specks) looks only within CORE_MARGIN pixels of the candidates that have a
+    solid 3x3 core: the scattered single pixels that background subtraction leaves are dropped
+    without a pass over the whole frame (a piece with no 3x3 core reaching farther than that is
+    dropped too).
+
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    depth : (H, W) float array
+        Metres, 0 = no reading.
+    background : (H, W) float array, Backdrop or None
+        The scene without the object, metres (0 = no reading there), or a Backdrop made once for
+        it; None selects by depth range and region only.
+    selection : Selection
+        How to find the object.
+
+    Returns
+    -------
+    (H, W) bool array
     """
     depth = check_depth_shape(intr, depth)
     mask = (depth >= selection.depth_min) & (depth <= selection.depth_max)
@@ -143,10 +201,26 @@ def object_mask(intr: Intrinsics, depth: np.ndarray, background: np.ndarray | Ba
 
 def flying_pixels(depth: np.ndarray, mask: np.ndarray,
                   selection: Selection = Selection()) -> np.ndarray:
-    """(H, W) bool: masked pixels lying well behind their nearest masked 8-neighbour (mixed readings
-    at depth edges), by more than max(flying_sigmas * sigma(z), flying_gap * z). The depth-dependent
-    gap is computed only where the pixel is behind by more than its part flying_gap * z (a few
-    hundred pixels of a frame): twice as fast on the live loop's windows, with the same bits."""
+    """Find masked pixels lying well behind their nearest masked 8-neighbour.
+
+    These are mixed readings at depth edges, behind by more than max(flying_sigmas * sigma(z),
+    flying_gap * z). The depth-dependent gap is computed only where the pixel is behind by more than
+    its part flying_gap * z (a few hundred pixels of a frame), with the same result.
+
+    Parameters
+    ----------
+    depth : (H, W) float array
+        Metres.
+    mask : (H, W) bool array
+        The candidate pixels.
+    selection : Selection
+        Its flying_sigmas and flying_gap.
+
+    Returns
+    -------
+    (H, W) bool array
+        The flying pixels.
+    """
     depth = np.asarray(depth, dtype=np.float32)
     nearest = np.full(depth.shape, np.inf, np.float32)
     masked_copy(depth, mask, nearest)
@@ -163,8 +237,18 @@ def flying_pixels(depth: np.ndarray, mask: np.ndarray,
 
 
 def remove_specks(mask: np.ndarray, min_blob: int) -> np.ndarray:
-    """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels. mask : (H, W) bool ->
-    (H, W) bool."""
+    """Drop the 8-connected pieces of a mask smaller than `min_blob` pixels.
+
+    Parameters
+    ----------
+    mask : (H, W) bool array
+    min_blob : int
+        Pixels.
+
+    Returns
+    -------
+    (H, W) bool array
+    """
     count, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
     # (its ...WithStats is 4x slower here)
     keep = np.bincount(labels[mask], minlength=count) >= min_blob

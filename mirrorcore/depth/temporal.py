@@ -25,19 +25,46 @@ DEFAULT_PATCH = 5      # pixels: side of the window whose mean difference tells 
 
 
 def frame_window(index: int, radius: int, count: int) -> range:
-    """The frames index - radius .. index + radius of a recording of `count` frames, clipped to 0 ..
-    count - 1."""
+    """Return the frames index - radius .. index + radius of a recording, clipped to 0 .. count - 1.
+
+    Parameters
+    ----------
+    index : int
+        The centre frame.
+    radius : int
+        Frames on each side.
+    count : int
+        Frames in the recording.
+
+    Returns
+    -------
+    range
+    """
     return range(max(index - radius, 0), min(index + radius + 1, count))
 
 
 def temporal_smooth(frames: np.ndarray, centre: int, sigmas: float = DEFAULT_SIGMAS,
                     patch: int = DEFAULT_PATCH) -> np.ndarray:
-    """The centre frame of a stack of consecutive frames, each pixel averaged (in disparity) with
-    the neighbour frames that are static there (see the module docstring).
+    """Filter the centre frame of a stack, each pixel averaged with the frames static there.
 
-    frames : (k, H, W) float metres, 0 (or not finite) = no reading, consecutive frames of one
-    camera; centre : the index in the stack of the frame to filter. returns (H, W) float32 metres, 0
-    where the centre frame has no reading.
+    The average is in disparity, over the neighbour frames that are static at the pixel (see the
+    module docstring).
+
+    Parameters
+    ----------
+    frames : (k, H, W) float array
+        Metres, 0 (or not finite) = no reading; consecutive frames of one camera.
+    centre : int
+        The index in the stack of the frame to filter.
+    sigmas : float
+        Acceptance, in standard deviations of a difference of two readings.
+    patch : int
+        Pixels, the side of the window whose mean difference tells motion from noise.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, 0 where the centre frame has no reading.
     """
     frames = np.asarray(frames, dtype=np.float32)
     if frames.ndim != 3 or not 0 <= centre < len(frames):

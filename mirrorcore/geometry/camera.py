@@ -28,10 +28,21 @@ MAX_IMAGE_SIDE = 16384
 class Intrinsics:
     """A depth camera's pinhole model.
 
-    width, height : int, pixels
-    fx, fy : float, focal lengths in pixels
-    cx, cy : float, principal point in pixels (pixel centres are integers)
-    depth_scale : float, metres per unit of the uint16 depth images on disk
+    Attributes
+    ----------
+    width, height : int
+        Image size, pixels (1 to MAX_IMAGE_SIDE).
+    fx, fy : float
+        Focal lengths, pixels.
+    cx, cy : float
+        Principal point, pixels (pixel centres are integers).
+    depth_scale : float
+        Metres per unit of the uint16 depth images on disk.
+
+    Raises
+    ------
+    FileFormatError
+        A size outside 1..MAX_IMAGE_SIDE, or fx, fy or depth_scale not finite and positive.
     """
 
     width: int
@@ -59,8 +70,27 @@ class Intrinsics:
     # ----------------------------------------------------------------- constructors and presets
     @classmethod
     def from_dict(cls, data: dict, where: str = "camera") -> "Intrinsics":
-        """Build from a mapping with the keys of the session's `camera` object (docs/DESIGN.md);
-        raises FileFormatError naming `where`."""
+        """Build intrinsics from a mapping with the keys of a session's `camera` object.
+
+        The keys are those of docs/DESIGN.md.
+
+        Parameters
+        ----------
+        data : dict
+            width, height, fx, fy, cx, cy and optionally depth_scale.
+        where : str
+            What the mapping is, for the messages.
+
+        Returns
+        -------
+        Intrinsics
+
+        Raises
+        ------
+        FileFormatError
+            Naming `where`: not a mapping, a key missing, a value not a number, a size not an
+            integer, or values the camera refuses.
+        """
         if not isinstance(data, dict):
             raise FileFormatError(f"{where}: expected an object with {', '.join(_FIELDS)}")
         missing = [k for k in _FIELDS[:6] if k not in data]
@@ -79,6 +109,7 @@ class Intrinsics:
             raise FileFormatError(f"{where}: {str(exc).removeprefix('camera: ')}") from None
 
     def to_dict(self) -> dict:
+        """The fields as a dict (the session's `camera` object)."""
         return asdict(self)
 
     @classmethod
@@ -89,13 +120,21 @@ class Intrinsics:
 
     @classmethod
     def primesense(cls) -> "Intrinsics":
-        """OpenNI / PrimeSense default depth intrinsics (also Open3D's PrimeSenseDefault),
-        640x480."""
+        """OpenNI / PrimeSense default depth intrinsics (Open3D's PrimeSenseDefault), 640x480."""
         return cls(640, 480, 525.0, 525.0, 319.5, 239.5)
 
     def scaled(self, factor: float) -> "Intrinsics":
-        """The same camera at `factor` times the resolution (pixel centres stay at integer
-        coordinates)."""
+        """Return the same camera at `factor` times the resolution.
+
+        Parameters
+        ----------
+        factor : float
+            The scale of the image size; pixel centres stay at integer coordinates.
+
+        Returns
+        -------
+        Intrinsics
+        """
         w, h = round(self.width * factor), round(self.height * factor)
         return replace(self, width=w, height=h, fx=self.fx * factor, fy=self.fy * factor,
                        cx=(self.cx + 0.5) * factor - 0.5, cy=(self.cy + 0.5) * factor - 0.5)
@@ -113,9 +152,11 @@ class Intrinsics:
 
     @cached_property
     def rays(self) -> np.ndarray:
-        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel: a pixel at depth z
-        reprojects to (rays[0] * z, rays[1] * z, z). Two planes rather than (H, W, 3) so that
-        gathers and products stay contiguous."""
+        """(2, H, W) float32 read-only table of (x/z, y/z) for every pixel.
+
+        A pixel at depth z reprojects to (rays[0] * z, rays[1] * z, z). Two planes rather than
+        (H, W, 3) so that gathers and products stay contiguous.
+        """
         table = np.empty((2, self.height, self.width), dtype=np.float32)
         table[0] = ((np.arange(self.width) - self.cx) / self.fx)[None, :]
         table[1] = ((np.arange(self.height) - self.cy) / self.fy)[:, None]
@@ -124,18 +165,31 @@ class Intrinsics:
 
     @cached_property
     def axis_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The same x/z of each column (W,) and y/z of each row (H,), float32 read-only (two tables
-        small enough to stay in cache)."""
+        """The x/z of each column, (W,), and the y/z of each row, (H,), float32 read-only.
+
+        The same values as `rays`, in two tables small enough to stay in cache.
+        """
         x, y = np.array(self.rays[0, 0]), np.array(self.rays[1, :, 0])
         x.flags.writeable = y.flags.writeable = False
         return x, y
 
 
 def reproject_pixels(intr: Intrinsics, u: np.ndarray, v: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """Paper eq. 1: pixels with depth to points in the camera frame.
+    """Reproject pixels with depth to points in the camera frame (paper eq. 1).
 
-    u, v : (n,) pixel coordinates (any real values); z : (n,) depth in metres
-    returns points_cam : (n, 3) float32, metres, camera frame
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    u, v : (n,) array
+        Pixel coordinates (any real values).
+    z : (n,) array
+        Depth, metres.
+
+    Returns
+    -------
+    (n, 3) float32 array
+        Points, metres, camera frame.
     """
     z = np.asarray(z, dtype=np.float32)
     x = (np.asarray(u, dtype=np.float32) - np.float32(intr.cx)) * (z / np.float32(intr.fx))
@@ -146,8 +200,26 @@ def reproject_pixels(intr: Intrinsics, u: np.ndarray, v: np.ndarray, z: np.ndarr
 def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None = None):
     """Reproject the valid pixels of a depth image (paper eq. 1, through the cached ray table).
 
-    depth : (H, W) float, metres, 0 = no reading; mask : optional (H, W) bool, pixels to keep
-    returns points_cam (n, 3) float32 and pixels (n, 2) int32 as (u, v), in row-major pixel order
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    depth : (H, W) float array
+        Depth, metres; 0 = no reading.
+    mask : (H, W) bool array, optional
+        The pixels to keep.
+
+    Returns
+    -------
+    points_cam : (n, 3) float32 array
+        Metres, camera frame, in row-major pixel order.
+    pixels : (n, 2) int32 array
+        (u, v) of each point.
+
+    Raises
+    ------
+    FileFormatError
+        The depth image's size does not match the intrinsics.
     """
     depth = check_depth_shape(intr, depth)
     keep = depth > 0
@@ -160,10 +232,23 @@ def reproject_depth(intr: Intrinsics, depth: np.ndarray, mask: np.ndarray | None
 
 
 def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
-    """Where the rays of pixels meet a plane: uv (n, 2) pixel coordinates -> (n, 3) float64 metres,
-    camera frame
-    (NaN where the ray is parallel to the plane or meets it behind the camera). plane : a
-    mirrorcore.plane.Plane."""
+    """Find where the rays of pixels meet a plane.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    uv : (n, 2) array
+        Pixel coordinates.
+    plane : mirrorcore.geometry.plane.Plane
+        The plane.
+
+    Returns
+    -------
+    (n, 3) float64 array
+        Metres, camera frame; NaN where the ray is parallel to the plane or meets it behind the
+        camera.
+    """
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     rays = np.stack([(uv[:, 0] - intr.cx) / intr.fx, (uv[:, 1] - intr.cy) / intr.fy,
                      np.ones(len(uv))], axis=-1)
@@ -176,8 +261,19 @@ def pixels_on_plane(intr: Intrinsics, uv: np.ndarray, plane) -> np.ndarray:
 def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Project camera-frame points to pixel coordinates (inverse of eq. 1).
 
-    points_cam : (n, 3) float, metres, camera frame; only points with z > 0 project.
-    returns uv : (n, 2) float64 pixel coordinates (NaN where z <= 0) and z : (n,) float64 depth
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    points_cam : (n, 3) float array
+        Metres, camera frame; only points with z > 0 project.
+
+    Returns
+    -------
+    uv : (n, 2) float64 array
+        Pixel coordinates, NaN where z <= 0.
+    z : (n,) float64 array
+        Depth, metres.
     """
     p = np.asarray(points_cam, dtype=np.float64).reshape(-1, 3)
     z = p[:, 2]
@@ -189,8 +285,27 @@ def project_points(intr: Intrinsics, points_cam: np.ndarray) -> tuple[np.ndarray
 
 def check_depth_shape(intr: Intrinsics, depth: np.ndarray,
                       where: str = "depth image") -> np.ndarray:
-    """Return `depth` as an (H, W) array, or raise FileFormatError when its size does not match the
-    intrinsics."""
+    """Check that a depth image has the size of the intrinsics.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    depth : array_like
+        The depth image.
+    where : str
+        What the image is, for the message.
+
+    Returns
+    -------
+    (H, W) array
+        `depth` as an array.
+
+    Raises
+    ------
+    FileFormatError
+        Its size does not match the intrinsics.
+    """
     depth = np.asarray(depth)
     if depth.shape != intr.shape:
         raise FileFormatError(
@@ -202,14 +317,39 @@ def check_depth_shape(intr: Intrinsics, depth: np.ndarray,
 
 # --------------------------------------------------------------------- intrinsics files
 def save_open3d_json(intr: Intrinsics, path: str | Path) -> None:
-    """Write Open3D's PinholeCameraIntrinsic JSON (column-major intrinsic_matrix)."""
+    """Write Open3D's PinholeCameraIntrinsic JSON (column-major intrinsic_matrix).
+
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    path : str or Path
+        The file written.
+    """
     data = {"width": intr.width, "height": intr.height,
             "intrinsic_matrix": intr.K.T.reshape(-1).tolist()}
     Path(path).write_text(json.dumps(data, indent=2))
 
 
 def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
-    """Read Open3D's PinholeCameraIntrinsic JSON; raises FileFormatError naming the file."""
+    """Read Open3D's PinholeCameraIntrinsic JSON.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    depth_scale : float
+        Metres per unit of the depth images (the file has none).
+
+    Returns
+    -------
+    Intrinsics
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file.
+    """
     try:
         data = json.loads(Path(path).read_text())
         K = np.asarray(data["intrinsic_matrix"], dtype=float).reshape(3, 3).T
@@ -223,8 +363,17 @@ def load_open3d_json(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
 
 
 def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
-    """Write OpenCV's camera YAML (camera_matrix, image_width, image_height, depth_scale) with
-    cv2.FileStorage."""
+    """Write OpenCV's camera YAML with cv2.FileStorage.
+
+    The keys are camera_matrix, image_width, image_height and depth_scale.
+
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    path : str or Path
+        The file written.
+    """
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
     try:
         fs.write("image_width", intr.width)
@@ -236,10 +385,28 @@ def save_opencv_yaml(intr: Intrinsics, path: str | Path) -> None:
 
 
 def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics:
-    """Read OpenCV's camera YAML (camera_matrix plus image_width/image_height, optional
-    depth_scale); raises FileFormatError. Parsed with PyYAML's safe loader (after OpenCV's
-    '%YAML:1.0' line and '!!opencv-matrix' tags are set aside), not with OpenCV's own parser:
-    damaged bytes made that one abort the whole process."""
+    """Read OpenCV's camera YAML (camera_matrix, image_width, image_height, optional depth_scale).
+
+    Parsed with PyYAML's safe loader (after OpenCV's '%YAML:1.0' line and '!!opencv-matrix' tags
+    are set aside), not with OpenCV's own parser, which aborts the whole process on damaged bytes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (at most MAX_YAML_BYTES).
+    depth_scale : float
+        Metres per unit of the depth images when the file has no depth_scale.
+
+    Returns
+    -------
+    Intrinsics
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, too large, not UTF-8, not an OpenCV YAML file, or without a 3x3
+        camera_matrix, image_width and image_height.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
@@ -269,8 +436,7 @@ def load_opencv_yaml(path: str | Path, depth_scale: float = 0.001) -> Intrinsics
 
 
 def _opencv_matrix(node) -> np.ndarray | None:
-    """An OpenCV YAML matrix node ({rows: 3, cols: 3, dt: d, data: [9 numbers]}) -> (3, 3) float64,
-    or None."""
+    """Read an OpenCV YAML 3x3 matrix node as (3, 3) float64, or None."""
     if not isinstance(node, dict) or node.get("rows") != 3 or node.get("cols") != 3:
         return None
     values = node.get("data")

@@ -46,15 +46,42 @@ def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = 
                progress: Progress | None = None, cancel=None) -> ShapeFit:
     """Fit a sphere by RANSAC (4-point closed-form samples) and least squares on the inliers.
 
-    points : (n, 3) float, metres, camera frame; rng : the only source of randomness (same seed,
-    same fit);
-    threshold : inlier distance |dist(P, c) - R| in metres; sources : optional (n,) labels (0
-    direct, j mirror j) for per-source errors; radius_range : (min, max) metres, samples outside are
-    rejected and so is a refined model. Errors in the result are over ALL points (paper eq. 4) and
-    also over the inliers only. progress(fraction) follows RANSAC's samples (up to 20,000 on a cloud
-    that is not one sphere: 1.8 s for a walking person's 41,000 points); cancel (an Event or
-    callable, progress.cancel_requested) stops it with Cancelled. Raises MirrorscanError naming
-    `where` for non-finite or too few points (< 4) and when no sphere is found.
+    Errors in the result are over ALL points (paper eq. 4) and also over the inliers only.
+
+    Parameters
+    ----------
+    points : (n, 3) float array
+        Metres, camera frame.
+    rng : numpy.random.Generator
+        The only source of randomness (same seed, same fit).
+    threshold : float
+        Inlier distance |dist(P, c) - R|, metres.
+    sources : (n,) integer array, optional
+        Labels (0 direct, j mirror j) for per-source errors.
+    radius_range : (float, float)
+        (min, max) radius, metres; samples outside are rejected, and so is a refined model.
+    confidence : float
+        RANSAC's probability of drawing one all-inlier sample.
+    max_iterations : int
+        The most samples drawn.
+    where : str
+        What the cloud is, for the messages.
+    progress : Progress, optional
+        progress(fraction) follows RANSAC's samples (up to `max_iterations` on a cloud that is not
+        one sphere).
+    cancel : threading.Event-like or callable, optional
+        Stops the fit with Cancelled when it asks to (see `cancel_requested`).
+
+    Returns
+    -------
+    ShapeFit
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `where`: non-finite or too few points (< 4), or no sphere found.
+    Cancelled
+        `cancel` asked to stop.
     """
     return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence,
                 max_iterations, where,
@@ -70,13 +97,46 @@ def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float 
                  cancel=None) -> ShapeFit:
     """Fit a cylinder by RANSAC (2 points with normals) and geometric least squares on the inliers.
 
-    points : (n, 3) float, metres, camera frame; normals : optional (n, 3) (any sign, any length >
-    0); estimated from the nearest neighbours with Open3D when None. Other parameters and the errors
-    as in fit_sphere (paper eq. 5). The axis point is the point of the axis closest to the inliers'
-    centroid; the direction's largest component is positive. Estimated normals make rough 2-point
-    samples: keep the threshold above a few mm (a few times the noise). Raises MirrorscanError
-    naming `where` for non-finite or too few points (< 5), normals of the wrong shape, and when no
-    cylinder is found.
+    The axis point is the point of the axis closest to the inliers' centroid; the direction's
+    largest component is positive. Estimated normals make rough 2-point samples: keep the threshold
+    above a few mm (a few times the noise). Errors as in `fit_sphere` (paper eq. 5).
+
+    Parameters
+    ----------
+    points : (n, 3) float array
+        Metres, camera frame.
+    rng : numpy.random.Generator
+        The only source of randomness (same seed, same fit).
+    threshold : float
+        Inlier distance |dist(P, axis) - R|, metres.
+    sources : (n,) integer array, optional
+        Labels (0 direct, j mirror j) for per-source errors.
+    normals : (n, 3) array, optional
+        Any sign, any length > 0; estimated from the nearest neighbours with Open3D when None.
+    radius_range : (float, float)
+        (min, max) radius, metres; samples outside are rejected, and so is a refined model.
+    confidence : float
+        RANSAC's probability of drawing one all-inlier sample.
+    max_iterations : int
+        The most samples drawn.
+    where : str
+        What the cloud is, for the messages.
+    progress : Progress, optional
+        progress(fraction) follows RANSAC's samples.
+    cancel : threading.Event-like or callable, optional
+        Stops the fit with Cancelled when it asks to.
+
+    Returns
+    -------
+    ShapeFit
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `where`: non-finite or too few points (< 5), normals of the wrong shape, or no
+        cylinder found.
+    Cancelled
+        `cancel` asked to stop.
     """
     return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence,
                 max_iterations, where,
@@ -84,8 +144,20 @@ def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float 
 
 
 def estimate_normals(points: np.ndarray, neighbours: int = _NORMAL_NEIGHBOURS) -> np.ndarray:
-    """Unit normals (n, 3) float64 (sign arbitrary) of points (n, 3) metres, by PCA of each point's
-    nearest neighbours."""
+    """Estimate unit normals by PCA of each point's nearest neighbours.
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        Metres.
+    neighbours : int
+        The number of nearest neighbours.
+
+    Returns
+    -------
+    (n, 3) float64 array
+        Unit normals, sign arbitrary.
+    """
     xyz = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(xyz))
     cloud.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(neighbours))
@@ -198,6 +270,7 @@ def _ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], 
 
 
 def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> np.ndarray | bool:
+    """Whether each radius lies within radius_range (min, max), metres."""
     return (radius >= radius_range[0]) & (radius <= radius_range[1])
 
 
@@ -293,6 +366,7 @@ def _sphere_refine(points: np.ndarray, model: Model) -> Model:
 
 
 def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
+    """The Sphere of a centred model [cx, cy, cz, R], moved back by `origin`."""
     return Sphere(tuple(float(x) for x in model[:3] + origin), float(model[3]))
 
 

@@ -17,20 +17,43 @@ from mirrorcore.geometry.ransac import ransac_iterations
 
 @dataclass(frozen=True)
 class Plane:
-    """An oriented plane n.P + d = 0 with |n| = 1 and the camera (origin) on the positive side (d >
-    0)."""
+    """An oriented plane n.P + d = 0, |n| = 1, the camera (origin) on the positive side (d > 0).
+
+    Attributes
+    ----------
+    normal : (float, float, float)
+        The unit normal n, towards the camera.
+    d : float
+        Metres, > 0.
+    """
 
     normal: tuple[float, float, float]
     d: float
 
     @classmethod
     def from_abcd(cls, abcd, where: str = "plane", orient: bool = True) -> "Plane":
-        """Normalise (a, b, c, d); raises CalibrationError for a zero normal or a plane through the
-        camera (d = 0).
+        """Build a plane from (a, b, c, d), normalised.
 
-        orient : True flips a plane given with d < 0 to the camera's side; False refuses it (the
-        convention says the camera is in front, d > 0: a stored plane with d < 0 would put the
-        camera behind the mirror).
+        Parameters
+        ----------
+        abcd : array_like
+            4 finite numbers [a, b, c, d].
+        where : str
+            What the plane is, for the messages.
+        orient : bool
+            True flips a plane given with d < 0 to the camera's side; False refuses it (the
+            convention says the camera is in front, d > 0: a stored plane with d < 0 would put the
+            camera behind the mirror).
+
+        Returns
+        -------
+        Plane
+
+        Raises
+        ------
+        CalibrationError
+            Not 4 finite numbers, a zero normal, a plane through the camera (d = 0), or d < 0 with
+            `orient` False.
         """
         try:
             p = np.asarray(abcd, dtype=np.float64).reshape(-1)
@@ -58,8 +81,24 @@ class Plane:
 
     @classmethod
     def from_point_normal(cls, point, normal) -> "Plane":
-        """The plane through `point` (3,) with normal `normal` (3,), oriented to the camera's
-        side."""
+        """Return the plane through a point with a normal, oriented to the camera's side.
+
+        Parameters
+        ----------
+        point : (3,) array
+            Metres, camera frame.
+        normal : (3,) array
+            Any length > 0, any sign.
+
+        Returns
+        -------
+        Plane
+
+        Raises
+        ------
+        CalibrationError
+            A zero normal, or a plane through the camera.
+        """
         n = np.asarray(normal, dtype=np.float64)
         return cls.from_abcd([*n, -float(np.dot(n, point))])
 
@@ -74,18 +113,40 @@ class Plane:
         return np.array([*self.normal, self.d])
 
     def to_list(self) -> list[float]:
+        """[a, b, c, d] as floats."""
         return [float(x) for x in self.abcd]
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
-        """points : (..., 3) metres -> (...,) metres, > 0 on the camera's side, < 0 behind the
-        mirror."""
+        """Return the signed distances of points to the plane.
+
+        Parameters
+        ----------
+        points : (..., 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (...,) array
+            Metres, > 0 on the camera's side, < 0 behind the mirror; float32 for float32 points,
+            else float64.
+        """
         points = np.asarray(points)
         return points @ self.n.astype(points.dtype if points.dtype == np.float32
                                       else np.float64) + self.d
 
     def reflect(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 3: P_r = P - 2 (n.P + d) n. points : (..., 3) -> (..., 3), same float dtype
-        (float32 stays float32)."""
+        """Reflect points through the plane (paper eq. 3): P_r = P - 2 (n.P + d) n.
+
+        Parameters
+        ----------
+        points : (..., 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (..., 3) array
+            Same float dtype (float32 stays float32; other dtypes give float64).
+        """
         points = np.asarray(points)
         dtype = points.dtype if points.dtype in (np.float32, np.float64) else np.float64
         points = points.astype(dtype, copy=False)
@@ -93,8 +154,10 @@ class Plane:
         return points - (2 * (points @ n + dtype.type(self.d)))[..., None] * n
 
     def reflection_matrix(self) -> np.ndarray:
-        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1]. It is its own
-        inverse, det = -1."""
+        """(4, 4) float64 homogeneous reflection: [I - 2 n n^T, -2 d n; 0, 1].
+
+        It is its own inverse, det = -1.
+        """
         n = self.n
         M = np.eye(4)
         M[:3, :3] -= 2.0 * np.outer(n, n)
@@ -102,32 +165,67 @@ class Plane:
         return M
 
     def virtual_camera_pose(self) -> np.ndarray:
-        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image,
-        as a proper rigid transform: the reflection of the camera's axes with its x axis flipped
-        back (images seen through a mirror are flipped left-right). Its origin is the camera
-        reflected through the plane, -2 d n."""
+        """(4, 4) float64 pose (camera frame <- virtual camera frame) of the camera's mirror image.
+
+        A proper rigid transform: the reflection of the camera's axes with its x axis flipped back
+        (images seen through a mirror are flipped left-right). Its origin is the camera reflected
+        through the plane, -2 d n.
+        """
         M = self.reflection_matrix()
         M[:3, 0] = -M[:3, 0]
         return M
 
     def project(self, points: np.ndarray) -> np.ndarray:
-        """Orthogonal projection of points (..., 3) onto the plane."""
+        """Project points orthogonally onto the plane.
+
+        Parameters
+        ----------
+        points : (..., 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (..., 3) float64 array
+        """
         points = np.asarray(points, dtype=np.float64)
         return points - self.signed_distance(points)[..., None] * self.n
 
     def angle_to(self, other: "Plane") -> float:
-        """Angle between the two normals, degrees (atan2 of the cross and dot products: exact near 0
-        and 180)."""
+        """Return the angle between the two normals, degrees.
+
+        Computed as atan2 of the cross and dot products: exact near 0 and 180.
+
+        Parameters
+        ----------
+        other : Plane
+
+        Returns
+        -------
+        float
+            Degrees, 0 to 180.
+        """
         return float(np.degrees(np.arctan2(np.linalg.norm(np.cross(self.n, other.n)),
                                            np.dot(self.n, other.n))))
 
 
 def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
-    """Least-squares plane through points (n >= 3, not collinear), paper eq. 2 solved by SVD of the
-    centred points.
+    """Fit a least-squares plane (paper eq. 2) by SVD of the centred points.
 
-    points : (n, 3) metres, camera frame. Raises CalibrationError when fewer than 3 points or they
-    are collinear.
+    Parameters
+    ----------
+    points : (n, 3) array
+        Metres, camera frame; n >= 3, not collinear.
+    where : str
+        What the points are, for the messages.
+
+    Returns
+    -------
+    Plane
+
+    Raises
+    ------
+    CalibrationError
+        Fewer than 3 points, or collinear points.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(points) < 3:
@@ -143,8 +241,17 @@ def fit_plane_svd(points: np.ndarray, where: str = "plane") -> Plane:
 
 @dataclass(frozen=True)
 class PlaneFit:
-    """A RANSAC + SVD plane fit: the plane, which points are inliers, and residuals (metres, signed)
-    of all points."""
+    """A RANSAC + SVD plane fit.
+
+    Attributes
+    ----------
+    plane : Plane
+        The fitted plane.
+    inliers : (n,) bool array
+        Which points are inliers.
+    residuals : (n,) float64 array
+        Signed distances of all points to the plane, metres.
+    """
 
     plane: Plane
     inliers: np.ndarray
@@ -159,14 +266,35 @@ class PlaneFit:
 def fit_plane_ransac(points: np.ndarray, threshold: float | np.ndarray, rng: np.random.Generator,
                      confidence: float = 0.999, max_iterations: int = 2000,
                      where: str = "plane") -> PlaneFit:
-    """RANSAC on 3-point samples scored by MSAC (squared distances in units of each point's
-    threshold, capped at 1, summed: every outlier costs the same wherever it lies, and among planes
-    with as many inliers the closest wins), then an SVD refit on the inliers, repeated until they
-    settle.
+    """Fit a plane by RANSAC on 3-point samples, then an SVD refit on the inliers until they settle.
 
-    points : (n, 3) metres; threshold : scalar or (n,) inlier distance in metres (per point for
-    depth-dependent noise). Degenerate (collinear) samples are skipped. Raises CalibrationError when
-    no plane can be fitted.
+    Samples are scored by MSAC (squared distances in units of each point's threshold, capped at 1,
+    summed: every outlier costs the same wherever it lies, and among planes with as many inliers the
+    closest wins). Degenerate (collinear) samples are skipped.
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        Metres, camera frame.
+    threshold : float or (n,) array
+        Inlier distance, metres (per point for depth-dependent noise).
+    rng : numpy.random.Generator
+        The only source of randomness.
+    confidence : float
+        RANSAC's probability of drawing one all-inlier sample.
+    max_iterations : int
+        The most samples drawn.
+    where : str
+        What the points are, for the messages.
+
+    Returns
+    -------
+    PlaneFit
+
+    Raises
+    ------
+    CalibrationError
+        Fewer than 3 points, collinear points, or no plane can be fitted.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     fit_plane_svd(points, where)  # refuses fewer than 3 or collinear points with a clear message

@@ -15,11 +15,28 @@ PAIR_BLOCK = 1 << 18    # edge pairs tested at once by first_crossing (a few MB 
 
 def validate_polygon(points, shape: tuple[int, int] | None = None,
                      where: str = "polygon") -> np.ndarray:
-    """Check a closed polygon of pixel coordinates and return it as (n, 2) float64 (u, v).
+    """Check a closed polygon of pixel coordinates.
 
-    Refuses (MirrorscanError naming `where`): fewer than MIN_VERTICES or more than MAX_VERTICES
-    vertices, non-finite values, vertices outside the image of size `shape` = (H, W) when given, a
-    polygon with no area, and a polygon whose edges cross each other.
+    Parameters
+    ----------
+    points : array_like
+        The vertices, [u, v] pairs, pixels.
+    shape : (int, int), optional
+        (H, W) of the image the vertices must lie in.
+    where : str
+        What the polygon is, for the messages.
+
+    Returns
+    -------
+    (n, 2) float64 array
+        The vertices (u, v).
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `where`: fewer than MIN_VERTICES or more than MAX_VERTICES vertices, non-finite
+        values, vertices outside the image, a polygon with no area, or a polygon whose edges cross
+        each other.
     """
     try:
         poly = np.asarray(points, dtype=np.float64)
@@ -55,18 +72,38 @@ def validate_polygon(points, shape: tuple[int, int] | None = None,
 
 
 def polygon_area(poly: np.ndarray) -> float:
-    """Signed area (shoelace) of (n, 2) vertices, pixels^2."""
+    """Return the signed area (shoelace) of a polygon.
+
+    Parameters
+    ----------
+    poly : (n, 2) array
+        Vertices (u, v), pixels.
+
+    Returns
+    -------
+    float
+        Pixels^2.
+    """
     x, y = poly[:, 0], poly[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 def first_crossing(poly: np.ndarray) -> tuple[int, int] | None:
-    """The first pair (i, j), i < j, of non-adjacent edges that intersect (edge i runs from vertex i
-    to i+1), or None.
+    """Find the first pair of non-adjacent edges of a polygon that intersect.
 
     Memory stays bounded whatever the polygon's size: the pairs are tested in blocks of rows of at
     most PAIR_BLOCK pairs, and only pairs whose bounding boxes overlap are tested exactly. Time is
     quadratic in the worst case, which is why polygons are limited to MAX_VERTICES.
+
+    Parameters
+    ----------
+    poly : (n, 2) array
+        Vertices (u, v); edge i runs from vertex i to i+1.
+
+    Returns
+    -------
+    (int, int) or None
+        The first pair (i, j), i < j, in row-major order, or None.
     """
     a = np.asarray(poly, dtype=np.float64)
     b = np.roll(a, -1, axis=0)
@@ -109,8 +146,21 @@ def _segments_meet(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarra
 
 
 def edge_distance(poly, uv: tuple[float, float]) -> float:
-    """The signed distance (pixels) from pixel uv to the polygon's edge (n, 2) (u, v): > 0 inside, <
-    0 outside; -inf for fewer than MIN_VERTICES vertices (no polygon: nothing is inside)."""
+    """Return the signed distance from a pixel to a polygon's edge.
+
+    Parameters
+    ----------
+    poly : (n, 2) array
+        Vertices (u, v), pixels.
+    uv : (float, float)
+        The pixel.
+
+    Returns
+    -------
+    float
+        Pixels, > 0 inside, < 0 outside; -inf for fewer than MIN_VERTICES vertices (no polygon:
+        nothing is inside).
+    """
     if len(poly) < MIN_VERTICES:
         return -np.inf
     contour = np.asarray(poly, np.float32).reshape(-1, 1, 2)
@@ -118,11 +168,22 @@ def edge_distance(poly, uv: tuple[float, float]) -> float:
 
 
 def polygon_mask(poly: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """Rasterise a polygon to an (H, W) bool mask with OpenCV.
+    """Rasterise a polygon to a pixel mask with OpenCV.
 
-    Vertices (u, v) snap to the nearest pixel centre. A pixel is in the mask when its centre is
-    inside the snapped polygon or on an edge (and, as OpenCV rasterises, within half a pixel outside
-    an edge): every pixel a user sees under the drawn outline counts as inside.
+    Vertices snap to the nearest pixel centre. A pixel is in the mask when its centre is inside the
+    snapped polygon or on an edge (and, as OpenCV rasterises, within half a pixel outside an edge):
+    every pixel a user sees under the drawn outline counts as inside.
+
+    Parameters
+    ----------
+    poly : (n, 2) array
+        Vertices (u, v), pixels.
+    shape : (int, int)
+        (H, W) of the mask.
+
+    Returns
+    -------
+    (H, W) bool array
     """
     pts = np.round(np.asarray(poly, dtype=np.float64)).astype(np.int32).reshape(-1, 1, 2)
     mask = np.zeros(shape, dtype=np.uint8)

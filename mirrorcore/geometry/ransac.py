@@ -5,10 +5,21 @@ import math
 
 
 def ransac_iterations(inlier_ratio: float, sample_size: int, confidence: float = 0.999) -> int:
-    """Number of random samples needed to draw one all-inlier sample with probability `confidence`.
+    """Return the number of random samples needed to draw one all-inlier sample.
 
-    inlier_ratio in [0, 1]; returns at least 1 (inlier_ratio 1) and a large number for inlier_ratio
-    near 0.
+    Parameters
+    ----------
+    inlier_ratio : float
+        In [0, 1] (clipped).
+    sample_size : int
+        Points per sample.
+    confidence : float
+        The probability of drawing one all-inlier sample.
+
+    Returns
+    -------
+    int
+        At least 1 (inlier_ratio 1), and a large number (up to 10**9) for inlier_ratio near 0.
     """
     w = min(max(inlier_ratio, 0.0), 1.0) ** sample_size
     if w >= 1.0:

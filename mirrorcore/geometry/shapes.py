@@ -21,7 +21,15 @@ def _as_points(points: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Sphere:
-    """centre : (3,) metres, camera frame; radius : metres."""
+    """A fitted sphere.
+
+    Attributes
+    ----------
+    centre : (float, float, float)
+        Metres, camera frame.
+    radius : float
+        Metres.
+    """
 
     centre: tuple[float, float, float]
     radius: float
@@ -29,18 +37,38 @@ class Sphere:
     kind = "sphere"
 
     def deviations(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 4's terms: points (n, 3) metres -> (n,) float64 signed dist(P, centre) - R,
-        metres."""
+        """Return the terms of paper eq. 4: the signed dist(P, centre) - R.
+
+        Parameters
+        ----------
+        points : (n, 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (n,) float64 array
+            Metres, > 0 outside the surface.
+        """
         return np.linalg.norm(_as_points(points) - np.array(self.centre), axis=1) - self.radius
 
     def to_json(self) -> dict:
+        """{'shape', 'radius_mm', 'center'} (the centre in metres, camera frame)."""
         return {"shape": self.kind, "radius_mm": 1e3 * self.radius, "center": list(self.centre)}
 
 
 @dataclass(frozen=True)
 class Cylinder:
-    """axis_point : (3,) metres, camera frame, a point of the axis; axis_direction : (3,) unit
-    vector; radius : metres."""
+    """A fitted cylinder.
+
+    Attributes
+    ----------
+    axis_point : (float, float, float)
+        A point of the axis, metres, camera frame.
+    axis_direction : (float, float, float)
+        Unit vector.
+    radius : float
+        Metres.
+    """
 
     axis_point: tuple[float, float, float]
     axis_direction: tuple[float, float, float]
@@ -49,13 +77,24 @@ class Cylinder:
     kind = "cylinder"
 
     def deviations(self, points: np.ndarray) -> np.ndarray:
-        """Paper eq. 5's terms: points (n, 3) metres -> (n,) float64 signed dist(P, axis line) - R,
-        metres."""
+        """Return the terms of paper eq. 5: the signed dist(P, axis line) - R.
+
+        Parameters
+        ----------
+        points : (n, 3) array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (n,) float64 array
+            Metres, > 0 outside the surface.
+        """
         q = _as_points(points) - np.array(self.axis_point)
         direction = np.array(self.axis_direction)
         return np.linalg.norm(q - np.outer(q @ direction, direction), axis=1) - self.radius
 
     def to_json(self) -> dict:
+        """{'shape', 'radius_mm', 'axis_point', 'axis_direction'} (metres, camera frame)."""
         return {"shape": self.kind, "radius_mm": 1e3 * self.radius,
                 "axis_point": list(self.axis_point),
                 "axis_direction": list(self.axis_direction)}
@@ -63,11 +102,19 @@ class Cylinder:
 
 @dataclass(frozen=True)
 class FitErrors:
-    """The error figures of a set of points against a fitted shape, metres.
+    """The error figures of a set of points against a fitted shape, metres; NaN for an empty set.
 
-    rmse : paper eq. 4 / 5, sqrt(mean(dev^2)); mean_error : the paper's "mean error", mean(dev)
-    (signed: > 0 when the points lie outside the fitted surface on average); mean_abs_error :
-    mean(|dev|). NaN for an empty set.
+    Attributes
+    ----------
+    points : int
+        How many points.
+    rmse : float
+        Paper eq. 4 / 5, sqrt(mean(dev^2)).
+    mean_error : float
+        The paper's "mean error", mean(dev); signed: > 0 when the points lie outside the fitted
+        surface on average.
+    mean_abs_error : float
+        mean(|dev|).
     """
 
     points: int
@@ -77,7 +124,17 @@ class FitErrors:
 
     @classmethod
     def from_deviations(cls, deviations: np.ndarray) -> "FitErrors":
-        """deviations : (n,) signed metres (Sphere.deviations, Cylinder.deviations)."""
+        """Measure signed deviations.
+
+        Parameters
+        ----------
+        deviations : (n,) array
+            Signed metres (Sphere.deviations, Cylinder.deviations).
+
+        Returns
+        -------
+        FitErrors
+        """
         return per_source_errors(deviations, np.zeros(np.shape(deviations), dtype=np.int64)).get(
             0, cls(0, float("nan"), float("nan"), float("nan")))
 
@@ -90,9 +147,25 @@ class FitErrors:
 
 
 def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, FitErrors]:
-    """FitErrors of each source present: deviations (n,) signed metres, sources (n,) int labels (0
-    direct, j mirror j) -> {source: FitErrors}, sorted by source. Raises ValueError when the lengths
-    differ or a label is negative."""
+    """Measure the deviations of each source present.
+
+    Parameters
+    ----------
+    deviations : (n,) array
+        Signed metres.
+    sources : (n,) integer array
+        Labels (0 direct, j mirror j).
+
+    Returns
+    -------
+    dict of int to FitErrors
+        {source: FitErrors}, sorted by source.
+
+    Raises
+    ------
+    ValueError
+        The lengths differ, or a label is negative.
+    """
     deviations = np.asarray(deviations, dtype=np.float64).reshape(-1)
     sources = np.asarray(sources).reshape(-1).astype(np.int64)
     if len(sources) != len(deviations):
@@ -112,11 +185,18 @@ def per_source_errors(deviations: np.ndarray, sources: np.ndarray) -> dict[int, 
 class ShapeFit:
     """A fitted shape and how the cloud deviates from it.
 
-    shape : Sphere or Cylinder; inliers : (n,) bool, points within the RANSAC threshold of the final
-    shape;
-    deviations : (n,) float64 signed metres of ALL points (eq. 4 / 5 terms); sources : (n,) uint8
-    labels or None;
-    threshold : the inlier distance used, metres.
+    Attributes
+    ----------
+    shape : Sphere or Cylinder
+        The fitted shape.
+    inliers : (n,) bool array
+        Points within the RANSAC threshold of the final shape.
+    deviations : (n,) float64 array
+        Signed metres of ALL points (eq. 4 / 5 terms).
+    sources : (n,) uint8 array or None
+        Source labels.
+    threshold : float
+        The inlier distance used, metres.
     """
 
     shape: Sphere | Cylinder
@@ -141,10 +221,13 @@ class ShapeFit:
         return {} if self.sources is None else per_source_errors(self.deviations, self.sources)
 
     def to_json(self) -> dict:
-        """The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres,
+        """Return the fit as JSON.
+
+        The shape (radius_mm; "center" (the centre), or axis_point and axis_direction, in metres,
         camera frame), the figures over all points (points, rmse_mm, mean_error_mm,
         mean_abs_error_mm), inliers, threshold_mm, inlier_errors and per_source {"direct": {...},
-        "mirror 1": {...}}."""
+        "mirror 1": {...}}.
+        """
         return {**self.shape.to_json(), **self.errors.to_json(),
                 "inliers": int(np.count_nonzero(self.inliers)),
                 "threshold_mm": 1e3 * self.threshold, "inlier_errors": self.inlier_errors.to_json(),

@@ -13,7 +13,23 @@ Pixels = tuple[tuple[float, float], ...]
 
 
 def read_list(value, where: str, limit: int | None = None, what: str = "items") -> list:
-    """`value` when it is a list of at most `limit` items.
+    """Read a list of at most `limit` items.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    where : str
+        The key, for the messages.
+    limit : int, optional
+        The most items.
+    what : str
+        What the items are, for the message.
+
+    Returns
+    -------
+    list
+        `value`.
 
     Raises
     ------
@@ -29,7 +45,23 @@ def read_list(value, where: str, limit: int | None = None, what: str = "items") 
 
 
 def read_pixels(value, camera: Intrinsics, where: str, limit: int = MAX_VERTICES) -> Pixels:
-    """A list of at most `limit` [u, v] inside the image, as a tuple of (u, v) float pixels.
+    """Read a list of at most `limit` [u, v] inside the image.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    camera : Intrinsics
+        The image the pixels lie in.
+    where : str
+        The key, for the messages.
+    limit : int
+        The most pixels.
+
+    Returns
+    -------
+    tuple of (float, float)
+        (u, v) pixels.
 
     Raises
     ------
@@ -52,7 +84,27 @@ def read_pixels(value, camera: Intrinsics, where: str, limit: int = MAX_VERTICES
 
 
 def read_polygon(value, camera: Intrinsics, where: str) -> Pixels:
-    """A polygon of pixels (empty allowed), checked by validate_polygon when it has vertices."""
+    """Read a polygon of pixels (empty allowed), checked by `validate_polygon` when it has vertices.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    camera : Intrinsics
+        The image the polygon lies in.
+    where : str
+        The key, for the messages.
+
+    Returns
+    -------
+    tuple of (float, float)
+        (u, v) pixels.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where`.
+    """
     pixels = read_pixels(value, camera, where)
     if pixels:
         try:
@@ -63,13 +115,54 @@ def read_polygon(value, camera: Intrinsics, where: str) -> Pixels:
 
 
 def read_paths(value, folder: Path, where: str, limit: int) -> tuple[str, ...]:
-    """A list of at most `limit` paths, each read by read_relative_path."""
+    """Read a list of at most `limit` paths, each read by `read_relative_path`.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    folder : Path
+        The session folder.
+    where : str
+        The key, for the messages.
+    limit : int
+        The most paths.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where`.
+    """
     items = read_list(value, where, limit, "paths")
     return tuple(read_relative_path(p, folder, f"{where}[{i}]") for i, p in enumerate(items))
 
 
 def read_relative_path(value, folder: Path, where: str) -> str:
-    """A path relative to the session folder that stays inside it, in POSIX form."""
+    """Read a path relative to the session folder that stays inside it.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    folder : Path
+        The session folder.
+    where : str
+        The key, for the messages.
+
+    Returns
+    -------
+    str
+        The path in POSIX form.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where`: not a relative path, or a path that leaves the folder.
+    """
     if not isinstance(value, str) or not value or not encodable(value) or "\0" in value:
         raise FileFormatError(f"{where}: must be a path relative to the session folder")
     rel = PurePosixPath(value.replace("\\", "/"))
@@ -79,7 +172,27 @@ def read_relative_path(value, folder: Path, where: str) -> str:
 
 
 def read_timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
-    """One number of seconds per frame, as a tuple of n_frames floats."""
+    """Read one number of seconds per frame.
+
+    Parameters
+    ----------
+    value : object
+        The parsed JSON value.
+    n_frames : int
+        The number of frames.
+    where : str
+        The key, for the messages.
+
+    Returns
+    -------
+    tuple of float
+        n_frames seconds.
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where` (and the item).
+    """
     stamps = read_list(value, where)
     if len(stamps) != n_frames:
         raise FileFormatError(f"{where}: {len(stamps)} timestamps for {n_frames} frames")
@@ -92,8 +205,18 @@ def read_timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
 
 
 def encodable(text: str) -> bool:
-    """True when `text` can be written as UTF-8 (a JSON string may hold lone surrogates, which
-    cannot)."""
+    """Tell whether `text` can be written as UTF-8.
+
+    A JSON string may hold lone surrogates, which cannot.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    bool
+    """
     try:
         text.encode("utf-8")
     except UnicodeEncodeError:

@@ -64,6 +64,10 @@ def check_limits(session: Session) -> Session:
     MAX_MIRRORS, MAX_MARKERS, MAX_POLYGON_VERTICES, names and MAX_FRAMES, so that an edit that
     would make a session unreadable is refused before it is saved.
 
+    Parameters
+    ----------
+    session : Session
+
     Returns
     -------
     Session

@@ -11,14 +11,29 @@ from mirrorcore.io.session import BACKGROUND_FILE, FRAMES_FOLDER, SESSION_FILE, 
 
 
 def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
-    """Refuse to write `path` when that would replace a file that belongs to a session, or one of
-    the command's own `inputs` (files or folders it reads). Every command that writes a file a user
-    named calls this first.
+    """Refuse to write a file that belongs to a session, or one of the command's own inputs.
 
-    A file belongs to the session of the nearest folder above it that holds session.json when it is
-    that session.json, its .bak, its background, its truth.json, a frame or colour frame it lists,
-    or its frames/ folder and anything in it. Paths are compared after resolving symbolic links and
-    '..'. Returns `path`; MirrorscanError naming it otherwise.
+    Every command that writes a file a user named calls this first. A file belongs to the session
+    of the nearest folder above it that holds session.json when it is that session.json, its .bak,
+    its background, its truth.json, a frame or colour frame it lists, or its frames/ folder and
+    anything in it. Paths are compared after resolving symbolic links and '..'.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    inputs : tuple of str or Path
+        The files or folders the command reads.
+
+    Returns
+    -------
+    Path
+        `path`.
+
+    Raises
+    ------
+    MirrorscanError
+        Naming `path`.
     """
     target = Path(path).resolve()
     if (target / SESSION_FILE).is_file():
@@ -39,10 +54,22 @@ def check_output(path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
 
 
 def session_files(folder: str | Path) -> set[str]:
-    """The files (POSIX paths relative to `folder`) that belong to the session there: session.json
-    and its .bak, background.png and truth.json, and the background, frames and colour frames that
-    its session.json lists (read leniently: a damaged session.json still protects its files by their
-    usual names)."""
+    """Return the files that belong to the session in a folder.
+
+    They are session.json and its .bak, background.png and truth.json, and the background, frames
+    and colour frames that its session.json lists (read leniently: a damaged session.json still
+    protects its files by their usual names).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The session folder.
+
+    Returns
+    -------
+    set of str
+        POSIX paths relative to `folder`.
+    """
     files = {SESSION_FILE, SESSION_FILE + ".bak", BACKGROUND_FILE, TRUTH_FILE}
     try:
         data = json.loads((Path(folder) / SESSION_FILE).read_text(encoding="utf-8"))

@@ -23,9 +23,27 @@ _HEADER_LINES, _HEADER_LINE = 200, 1024
 
 
 def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
-    """points : (n, 3) float metres, camera frame; sources : (n,) int labels (0 direct, j mirror j,
-    33.. several mirrors in turn: mirrorcore.base.palette); faces : optional (m, 3) int vertex
-    indices of triangles -> PLY bytes. Raises ValueError on mismatched or out-of-range input."""
+    """Encode a labelled cloud, or a mesh with `faces`, as PLY bytes.
+
+    Parameters
+    ----------
+    points : (n, 3) float array
+        Metres, camera frame.
+    sources : (n,) integer array
+        Labels 0..255 (0 direct, j mirror j, 33.. several mirrors in turn:
+        mirrorcore.base.palette).
+    faces : (m, 3) integer array, optional
+        Vertex indices of triangles.
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ValueError
+        Mismatched or out-of-range input.
+    """
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
     sources = np.asarray(sources).reshape(-1)
     if len(sources) != len(points):
@@ -64,15 +82,46 @@ def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
 
 def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray,
               faces: np.ndarray | None = None) -> None:
-    """Write a labelled cloud, or a mesh with `faces`, atomically (see encode_ply)."""
+    """Write a labelled cloud, or a mesh with `faces`, atomically (see `encode_ply`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file written.
+    points : (n, 3) float array
+        Metres, camera frame.
+    sources : (n,) integer array
+        Labels 0..255.
+    faces : (m, 3) integer array, optional
+        Vertex indices of triangles.
+
+    Raises
+    ------
+    ValueError
+        Mismatched or out-of-range input.
+    """
     write_atomic(path, encode_ply(points, sources, faces))
 
 
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """Read the vertices of any PLY (ours, Open3D's, MeshLab's...).
 
-    returns points (n, 3) float32 and sources (n,) uint8, or None when the file has no `source`
-    property. Raises FileFormatError naming the file when it is missing, not a PLY, or broken.
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    points : (n, 3) float32 array
+        The vertices.
+    sources : (n,) uint8 array or None
+        None when the file has no `source` property.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, not a PLY, or broken.
     """
     path = Path(path)
     if not path.is_file():
@@ -99,9 +148,23 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def ply_element_counts(path: str | Path) -> dict[str, int]:
-    """The element counts of a PLY file's header ({'vertex': n, 'face': m}), read without loading
-    the data. Raises FileFormatError naming the file when it is missing or its header is not a PLY
-    header."""
+    """Read the element counts of a PLY file's header without loading the data.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    dict of str to int
+        {'vertex': n, 'face': m}.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, or a header that is not a PLY header.
+    """
     path = Path(path)
     counts: dict[str, int] = {}
     try:

@@ -83,8 +83,10 @@ class SessionMirror:
 
     @property
     def glass_set(self) -> bool:
-        """Whether the glass was typed in or measured (0 measured by a refinement is set; 0 alone is
-        not)."""
+        """Whether the glass was typed in or measured.
+
+        0 measured by a refinement is set; 0 alone is not.
+        """
         return self.marker_offset != 0.0 or self.marker_offset_std is not None
 
     @property
@@ -93,23 +95,39 @@ class SessionMirror:
         return self.marker_offset != 0.0 and self.marker_offset_std is None
 
     def marker_name(self, k: int) -> str:
-        """Marker k's (0-based) name as the tool shows it: '2.3' is mirror 2's third (by the
-        mirror's id)."""
+        """Return marker k's name as the tool shows it.
+
+        '2.3' is mirror 2's third (by the mirror's id).
+
+        Parameters
+        ----------
+        k : int
+            0-based marker index.
+
+        Returns
+        -------
+        str
+        """
         return f"{self.id}.{k + 1}"
 
     @property
     def marker_names(self) -> list[str]:
+        """The names of all markers, in order (see `marker_name`)."""
         return [self.marker_name(k) for k in range(len(self.markers))]
 
     @property
     def marker_plane(self) -> Plane | None:
-        """The plane of the markers' faces: the calibrated reflecting surface moved towards the
-        camera by marker_offset (the stickers sit on the glass), or None while uncalibrated."""
+        """The plane of the markers' faces, or None while uncalibrated.
+
+        The calibrated reflecting surface moved towards the camera by marker_offset (the stickers
+        sit on the glass).
+        """
         if self.plane is None:
             return None
         return Plane(self.plane.normal, self.plane.d - self.marker_offset)
 
     def to_json(self) -> dict:
+        """The mirror's session.json object, its extra keys included."""
         data = {"id": self.id, "name": self.name, "markers": [list(m) for m in self.markers],
                 "boundary": [list(b) for b in self.boundary],
                 "plane": None if self.plane is None else self.plane.to_list()}
@@ -124,19 +142,34 @@ class SessionMirror:
 
 @dataclass(frozen=True)
 class Session:
-    """A session folder in memory. Paths in `background`, `frames` and `colour_frames` are relative
-    to `root` (POSIX style).
-
-    selection : how the object is found in a frame (the defaults unless the file says otherwise)
-    timestamps : (n,) seconds, one per frame, or None (a recording has them; frames then play at i /
-    fps)
-    colour_frames : n colour PNG paths, one per frame, or None
-    extra : top-level keys this mirrorscan does not read, kept as they were
-    bounces : the most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to
-    MAX_ORDER (mirrorcore.rig.model)
+    """A session folder in memory.
 
     Mirrors without an id (0) get the smallest unused ones, in order, so that every mirror has a
     stable identity.
+
+    Attributes
+    ----------
+    root : Path
+        The session folder.
+    camera : Intrinsics
+        The depth camera.
+    mirrors : tuple of SessionMirror
+        The mirrors, in label order.
+    background : str or None
+        The background frame's path, relative to `root` (POSIX style).
+    frames : tuple of str
+        The frames' paths, relative to `root` (POSIX style).
+    selection : Selection
+        How the object is found in a frame (the defaults unless the file says otherwise).
+    timestamps : tuple of float or None
+        (n,) seconds, one per frame (a recording has them; without, frames play at i / fps).
+    colour_frames : tuple of str or None
+        n colour PNG paths relative to `root`, one per frame.
+    extra : dict
+        Top-level keys this mirrorscan does not read, kept as they were.
+    bounces : int
+        The most mirrors Algorithm 1 and the dense methods follow a ray through, 1 to MAX_ORDER
+        (mirrorcore.rig.model).
     """
 
     root: Path
@@ -156,9 +189,11 @@ class Session:
 
     @property
     def path(self) -> Path:
+        """The session's session.json."""
         return Path(self.root) / SESSION_FILE
 
     def to_json(self) -> dict:
+        """The session.json object, its extra keys included."""
         data = {"version": VERSION, "camera": self.camera.to_dict(),
                 "mirrors": [m.to_json() for m in self.mirrors],
                 "background": self.background, "frames": list(self.frames)}
@@ -173,21 +208,65 @@ class Session:
         return {**data, **self.extra}
 
     def with_mirror(self, index: int, mirror: SessionMirror) -> "Session":
-        """A copy with mirror `index` (0-based) replaced."""
+        """Return a copy with one mirror replaced.
+
+        Parameters
+        ----------
+        index : int
+            0-based.
+        mirror : SessionMirror
+
+        Returns
+        -------
+        Session
+        """
         mirrors = list(self.mirrors)
         mirrors[index] = mirror
         return replace(self, mirrors=tuple(mirrors))
 
     def mirror_index(self, mirror_id: int) -> int:
-        """The position (0-based) of the mirror with identity `mirror_id`; MirrorscanError when
-        there is none."""
+        """Return the position of the mirror with an identity.
+
+        Parameters
+        ----------
+        mirror_id : int
+            The mirror's id.
+
+        Returns
+        -------
+        int
+            0-based.
+
+        Raises
+        ------
+        MirrorscanError
+            There is no such mirror.
+        """
         for i, m in enumerate(self.mirrors):
             if m.id == mirror_id:
                 return i
         raise MirrorscanError(f"{self.path}: no mirror with id {mirror_id} (it was removed?)")
 
     def read_frame(self, index: int) -> np.ndarray:
-        """Frame `index` (0-based, negative counts from the end) as (H, W) float32 metres."""
+        """Read one frame.
+
+        Parameters
+        ----------
+        index : int
+            0-based, negative counts from the end.
+
+        Returns
+        -------
+        (H, W) float32 array
+            Metres.
+
+        Raises
+        ------
+        MirrorscanError
+            The session has no frames, or no such frame.
+        FileFormatError
+            The frame's file is missing or unreadable.
+        """
         if not self.frames:
             raise MirrorscanError(f"{self.path}: the session has no frames")
         if not -len(self.frames) <= index < len(self.frames):
@@ -197,22 +276,42 @@ class Session:
         return self._read(self.frames[index])
 
     def spread_frames(self, most: int) -> np.ndarray:
-        """(k,) int: up to `most` frame indices, evenly spaced over the session's frames (none
-        without frames)."""
+        """Pick up to `most` frame indices, evenly spaced over the session's frames.
+
+        Parameters
+        ----------
+        most : int
+
+        Returns
+        -------
+        (k,) int array
+            Empty without frames.
+        """
         if not self.frames:
             return np.zeros(0, int)
         return np.unique(np.linspace(0, len(self.frames) - 1,
                                      min(len(self.frames), most)).astype(int))
 
     def read_frames(self, indices) -> np.ndarray:
-        """Frames `indices` (k,) as (k, H, W) float32 metres (read_frame each)."""
+        """Read frames (`read_frame` each).
+
+        Parameters
+        ----------
+        indices : (k,) integer array_like
+
+        Returns
+        -------
+        (k, H, W) float32 array
+            Metres.
+        """
         return np.stack([self.read_frame(int(i)) for i in indices])
 
     def read_background(self) -> np.ndarray | None:
-        """The background frame as (H, W) float32 metres, or None when the session has none."""
+        """Read the background frame as (H, W) float32 metres, or None when the session has none."""
         return None if self.background is None else self._read(self.background)
 
     def _read(self, rel: str) -> np.ndarray:
+        """Read the depth PNG at a path relative to the session folder, in metres."""
         return read_depth_png(Path(self.root) / rel, self.camera.depth_scale, self.camera.shape)
 
 
@@ -248,8 +347,24 @@ def load_session(folder: str | Path) -> Session:
 
 
 def session_from_json(data, folder: Path) -> Session:
-    """Validate a parsed session.json (see docs/DESIGN.md); `folder` is the session folder that
-    paths are relative to. Raises FileFormatError naming the file and the key."""
+    """Validate a parsed session.json (see docs/DESIGN.md).
+
+    Parameters
+    ----------
+    data : object
+        The parsed JSON.
+    folder : Path
+        The session folder that paths are relative to.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the key.
+    """
     where = str(Path(folder) / SESSION_FILE)
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
@@ -291,6 +406,7 @@ def session_from_json(data, folder: Path) -> Session:
 
 
 def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
+    """Validate one mirror object of session.json."""
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: a mirror must be a JSON object")
     try:
@@ -334,6 +450,7 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
+    """Refuse an id given to more than one mirror."""
     ids = [m.id for m in mirrors if m.id]
     if len(set(ids)) != len(ids):
         twice = sorted({i for i in ids if ids.count(i) > 1})
@@ -359,8 +476,24 @@ _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_ .-]{0,99}$")
 
 
 def session_folder(sessions_dir: str | Path, name: str) -> Path:
-    """The folder of session `name` inside `sessions_dir`; refuses names that are empty, too long,
-    or could leave the folder (separators, '..', leading dots)."""
+    """Return the folder of a session inside the sessions folder.
+
+    Parameters
+    ----------
+    sessions_dir : str or Path
+        The folder that holds the sessions.
+    name : str
+        The session's name.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    MirrorscanError
+        The name is empty, too long, or could leave the folder (separators, '..', leading dots).
+    """
     name = name.strip()
     if not _NAME.match(name) or ".." in name:
         raise MirrorscanError(
@@ -370,9 +503,26 @@ def session_folder(sessions_dir: str | Path, name: str) -> Path:
 
 
 def copy_session(session: Session, folder: str | Path) -> Session:
-    """Save a session under a new folder with its background, frames and colour frames; all or
-    nothing. Refuses an existing folder that is not empty. Returns the session as it now lives in
-    `folder`."""
+    """Save a session under a new folder with its background, frames and colour frames.
+
+    All or nothing.
+
+    Parameters
+    ----------
+    session : Session
+    folder : str or Path
+        The new folder; it must not exist or be empty.
+
+    Returns
+    -------
+    Session
+        The session as it now lives in `folder`.
+
+    Raises
+    ------
+    MirrorscanError
+        `folder` exists and is not empty.
+    """
     folder = Path(folder)
     with new_folder(folder) as work:
         for rel in ([session.background] if session.background else []) + list(session.frames) \

@@ -11,11 +11,21 @@ from mirrorcore.base.palette import source_colours, source_name
 
 @dataclass(frozen=True, eq=False)
 class Cloud:
-    """points : (n, 3) float32 metres, camera frame (possibly a strided view: np.ascontiguousarray
-    before handing its buffer on); sources : (n,) uint8, 0 = direct, j = mirror j, from 33 through
-    several mirrors in turn (mirrorcore.base.palette);
-    pixel_index : (n,) int64 flat index v * width + u of the depth pixel each point came from; width
-    : image width."""
+    """A source-labelled point cloud of one depth image.
+
+    Attributes
+    ----------
+    points : (n, 3) float32 array
+        Metres, camera frame (possibly a strided view: np.ascontiguousarray before handing its
+        buffer on).
+    sources : (n,) uint8 array
+        0 = direct, j = mirror j, from 33 through several mirrors in turn
+        (mirrorcore.base.palette).
+    pixel_index : (n,) int64 array
+        Flat index v * width + u of the depth pixel each point came from.
+    width : int
+        Image width, pixels.
+    """
 
     points: np.ndarray
     sources: np.ndarray
@@ -37,21 +47,53 @@ class Cloud:
         return source_colours(self.sources)
 
     def select(self, keep: np.ndarray) -> "Cloud":
-        """The sub-cloud of a boolean mask or index array over the points."""
+        """Return the sub-cloud of a boolean mask or index array over the points.
+
+        Parameters
+        ----------
+        keep : (n,) bool array or (k,) integer array
+
+        Returns
+        -------
+        Cloud
+        """
         return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
 
     def counts(self, n_mirrors: int) -> dict[str, int]:
-        """Points per source name of the direct view and every mirror, listed even when absent:
-        {'direct': n0, 'mirror 1': n1, ...}. The views through several mirrors are in
-        `source_counts`."""
+        """Count the points per source name of the direct view and every mirror, even when absent.
+
+        The views through several mirrors are in `source_counts`.
+
+        Parameters
+        ----------
+        n_mirrors : int
+            The rig's mirrors.
+
+        Returns
+        -------
+        dict of str to int
+            {'direct': n0, 'mirror 1': n1, ...}.
+        """
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         return {source_name(j): int(counts[j]) for j in range(n_mirrors + 1)}
 
     def source_counts(self, n_mirrors: int) -> dict[int, int]:
-        """Points per source label: the direct view and every mirror listed even when absent, then
-        each view through several mirrors in turn that has points, in label order: {0: n0, 1: n1,
-        ..., 33: n33, ...} (name and colour of a label: mirrorcore.base.palette.source_name,
-        source_colour)."""
+        """Count the points per source label.
+
+        The direct view and every mirror are listed even when absent, then each view through several
+        mirrors in turn that has points, in label order (name and colour of a label:
+        mirrorcore.base.palette.source_name, source_colour).
+
+        Parameters
+        ----------
+        n_mirrors : int
+            The rig's mirrors.
+
+        Returns
+        -------
+        dict of int to int
+            {0: n0, 1: n1, ..., 33: n33, ...}.
+        """
         counts = np.bincount(self.sources, minlength=n_mirrors + 1)
         listed = [*range(n_mirrors + 1), *(int(s) for s in np.flatnonzero(counts) if s > n_mirrors)]
         return {j: int(counts[j]) for j in listed}

@@ -25,8 +25,16 @@ PIXEL_BYTES = 64
 
 @dataclass(frozen=True)
 class Mirror:
-    """One mirror: its name, its plane (None until calibrated) and its boundary polygon (m, 2)
-    pixels (u, v), or None."""
+    """One mirror of a rig.
+
+    Attributes
+    ----------
+    name : str
+    plane : Plane or None
+        None until calibrated.
+    boundary : (m, 2) array or None
+        Polygon (u, v), pixels.
+    """
 
     name: str
     plane: Plane | None
@@ -43,10 +51,19 @@ class Mirror:
 
 @dataclass(frozen=True, eq=False)
 class Rig:
-    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]);
-    bounces : the most mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths;
-    at 1, Algorithm 1 as the paper writes it, with the points seen through a second mirror left out
-    rather than misplaced)."""
+    """The camera and its mirrors, in session order (mirror j of the sources is mirrors[j - 1]).
+
+    Attributes
+    ----------
+    intrinsics : Intrinsics
+        The depth camera.
+    mirrors : tuple of Mirror
+        Session order.
+    bounces : int
+        The most mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths; at 1,
+        Algorithm 1 as the paper writes it, with the points seen through a second mirror left out
+        rather than misplaced).
+    """
 
     intrinsics: Intrinsics
     mirrors: tuple[Mirror, ...]
@@ -62,16 +79,36 @@ class Rig:
         check_bounces(self.bounces)
 
     def same_rays(self, other: "Rig") -> bool:
-        """Whether `other` traces the same rays (same camera, mirrors with their names, planes and
-        boundaries, and bounces): then its per-pixel tables serve this rig too (rigs compare by
-        identity, as they hold caches)."""
+        """Tell whether `other` traces the same rays: then its per-pixel tables serve this rig too.
+
+        Same camera, mirrors with their names, planes and boundaries, and bounces (rigs compare by
+        identity, as they hold caches).
+
+        Parameters
+        ----------
+        other : Rig
+
+        Returns
+        -------
+        bool
+        """
         return (self.intrinsics, self.mirrors, self.bounces) == (
             other.intrinsics, other.mirrors, other.bounces)
 
     @classmethod
     def from_session(cls, session: Session, bounces: int | None = None) -> "Rig":
-        """The session's rig, followed through `bounces` reflections (default: the session's
-        setting)."""
+        """Return the session's rig.
+
+        Parameters
+        ----------
+        session : Session
+        bounces : int, optional
+            The reflections followed (default: the session's setting).
+
+        Returns
+        -------
+        Rig
+        """
         mirrors = tuple(
             Mirror(m.name, m.plane,
                    validate_polygon(m.boundary, session.camera.shape,
@@ -86,8 +123,7 @@ class Rig:
 
     @cached_property
     def inside_bits(self) -> np.ndarray:
-        """(H, W) uint32: bit j-1 set where the pixel is inside (or on the edge of) mirror j's
-        boundary."""
+        """(H, W) uint32: bit j-1 set where the pixel is inside (or on) mirror j's boundary."""
         bits = np.zeros(self.intrinsics.shape, dtype=np.uint32)
         for j, mirror in enumerate(self.mirrors):
             if mirror.boundary is not None:
@@ -101,10 +137,16 @@ class Rig:
         return ReflectionTable.from_rig(self)
 
     def virtual_cameras(self) -> tuple[VirtualCamera, ...]:
-        """The views of the rig up to `bounces` mirrors: the camera, each calibrated mirror with a
-        boundary, then each sequence of mirrors that some pixel's ray follows
-        (mirrorcore.rig.raypaths), in label order. A mirror's `pixels` are those Algorithm 1 gives
-        it first; a sequence's, those whose ray meets its mirrors in turn."""
+        """Return the views of the rig up to `bounces` mirrors.
+
+        The camera, each calibrated mirror with a boundary, then each sequence of mirrors that some
+        pixel's ray follows (mirrorcore.rig.raypaths), in label order. A mirror's `pixels` are those
+        Algorithm 1 gives it first; a sequence's, those whose ray meets its mirrors in turn.
+
+        Returns
+        -------
+        tuple of VirtualCamera
+        """
         table = self.reflection_table
         counts = np.bincount(table.label.reshape(-1), minlength=len(self.mirrors) + 1)
         views = [VirtualCamera.of(self.planes, (), self.intrinsics.width * self.intrinsics.height)]
@@ -118,8 +160,22 @@ class Rig:
 
 
 def check_bounces(bounces: int) -> int:
-    """`bounces` when it is a whole number from 1 to MAX_ORDER, else MirrorscanError naming
-    --bounces."""
+    """Check a number of reflections to follow.
+
+    Parameters
+    ----------
+    bounces : int
+
+    Returns
+    -------
+    int
+        `bounces`.
+
+    Raises
+    ------
+    MirrorscanError
+        Naming --bounces, when it is not a whole number from 1 to MAX_ORDER.
+    """
     if isinstance(bounces, bool) or not isinstance(bounces, (
         int, np.integer)) or not 1 <= bounces <= MAX_ORDER:
         raise MirrorscanError(
@@ -128,9 +184,24 @@ def check_bounces(bounces: int) -> int:
 
 
 def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
-    """The session's rig followed through `bounces` mirrors in turn (default: the session's
-    setting), refusing (MirrorscanError naming session.json) a session without mirrors or with a
-    mirror that cannot reconstruct (no plane or no boundary)."""
+    """Return the session's rig, refusing one that cannot reconstruct.
+
+    Parameters
+    ----------
+    session : Session
+    bounces : int, optional
+        The mirrors followed in turn (default: the session's setting).
+
+    Returns
+    -------
+    Rig
+
+    Raises
+    ------
+    MirrorscanError
+        Naming session.json: a session without mirrors, or with a mirror that cannot reconstruct
+        (no plane or no boundary).
+    """
     if not session.mirrors:
         raise MirrorscanError(f"{session.path}: the session has no mirrors")
     for m in session.mirrors:
@@ -144,23 +215,34 @@ def calibrated_rig(session: Session, bounces: int | None = None) -> Rig:
 
 @dataclass(frozen=True, eq=False)
 class ReflectionTable:
-    """Algorithm 1 per pixel, precomputed: a pixel at depth z is reflected through the first
-    calibrated mirror whose boundary holds it (`label`) exactly when z > threshold, since its point
-    z * ray is behind plane (n, d) when z (n . ray) + d < 0. The per-pixel arrays are (H, W); all
-    are read-only. `chains` holds the few pixels whose ray then meets further mirrors
-    (mirrorcore.rig.raypaths), followed up to the rig's `bounces`.
+    """Algorithm 1 per pixel, precomputed.
 
-    label : uint8, that mirror (1-based), 0 for pixels in no calibrated mirror's boundary
-    threshold : float32 metres, inf where the pixel can never be behind it (label 0, or its ray
-    leaves the glass)
-    ray_dot : float32, n . (x/z, y/z, 1) of the pixel's ray, n that mirror's normal (0 for label 0)
-    overlap : bool, inside the boundaries of more than one calibrated mirror (later mirrors are
-    tried there too)
-    uncalibrated : bool, inside the boundary of a mirror that has no plane yet
-    planes : (M + 1, 4) float32, row j the offset d and normal nx, ny, nz of mirror j (row 0 and
-    uncalibrated mirrors zeros): a frame reads a reflected pixel's plane from this small table by
-    its label, and only ray_dot per pixel (a fifth of the bytes of per-pixel rows of all five,
-    with the same values bit for bit)
+    A pixel at depth z is reflected through the first calibrated mirror whose boundary holds it
+    (`label`) exactly when z > threshold, since its point z * ray is behind plane (n, d) when
+    z (n . ray) + d < 0. The per-pixel arrays are (H, W); all are read-only. `chains` holds the few
+    pixels whose ray then meets further mirrors (mirrorcore.rig.raypaths), followed up to the rig's
+    `bounces`.
+
+    Attributes
+    ----------
+    label : (H, W) uint8 array
+        That mirror (1-based), 0 for pixels in no calibrated mirror's boundary.
+    threshold : (H, W) float32 array
+        Metres; inf where the pixel can never be behind it (label 0, or its ray leaves the glass).
+    ray_dot : (H, W) float32 array
+        n . (x/z, y/z, 1) of the pixel's ray, n that mirror's normal (0 for label 0).
+    overlap : (H, W) bool array
+        Inside the boundaries of more than one calibrated mirror (later mirrors are tried there
+        too).
+    uncalibrated : (H, W) bool array
+        Inside the boundary of a mirror that has no plane yet.
+    planes : (M + 1, 4) float32 array
+        Row j the offset d and normal nx, ny, nz of mirror j (row 0 and uncalibrated mirrors zeros):
+        a frame reads a reflected pixel's plane from this small table by its label, and only ray_dot
+        per pixel (a fifth of the bytes of per-pixel rows of all five, with the same values bit for
+        bit).
+    chains : Chains
+        The pixels whose ray meets further mirrors.
     """
 
     label: np.ndarray
@@ -173,10 +255,12 @@ class ReflectionTable:
 
     @cached_property
     def any_overlap(self) -> bool:
+        """Whether any pixel is inside more than one calibrated mirror."""
         return bool(self.overlap.any())
 
     @cached_property
     def any_uncalibrated(self) -> bool:
+        """Whether any pixel is inside a mirror that has no plane yet."""
         return bool(self.uncalibrated.any())
 
     @cached_property
@@ -189,6 +273,16 @@ class ReflectionTable:
 
     @classmethod
     def from_rig(cls, rig: Rig) -> "ReflectionTable":
+        """Compute the table of a rig.
+
+        Parameters
+        ----------
+        rig : Rig
+
+        Returns
+        -------
+        ReflectionTable
+        """
         shape, rays = rig.intrinsics.shape, rig.intrinsics.rays
         label = np.zeros(shape, np.uint8)
         count = np.zeros(shape, np.uint8)

@@ -27,21 +27,28 @@ MIN_PATH = 1e-6
 
 @dataclass(frozen=True, eq=False)
 class Chains:
-    """The c pixels whose ray, after its first mirror, meets another one (sorted by pixel), for a
-    rig followed up to K reflections. Depths are z in metres along the pixel's own (unfolded) ray.
-    Row k of the per-level arrays is about the (k + 2)-th mirror the rays meet (level-major, so that
-    a frame reads each level contiguously).
+    """The c pixels whose ray, after its first mirror, meets another one, sorted by pixel.
 
-    pixel : (c,) int64 flat index v * W + u
-    threshold : (K - 1, c) float32, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no
-    more, or the
-        encoding has no label for the sequence; see cutoff)
-    label : (K - 1, c) uint8, the source label of a point beyond that threshold
-    (palette.sequence_label)
-    normal : (K - 1, c, 3) float32 and offset : (K - 1, c) float32, that mirror's plane (n, d)
-    cutoff : (c,) float32, beyond this depth a point came through more mirrors than are followed (or
-    a sequence that
-        no label names): its place is not known and it is left out; inf when it never is
+    For a rig followed up to K reflections. Depths are z in metres along the pixel's own (unfolded)
+    ray. Row k of the per-level arrays is about the (k + 2)-th mirror the rays meet (level-major, so
+    that a frame reads each level contiguously).
+
+    Attributes
+    ----------
+    pixel : (c,) int64 array
+        Flat index v * W + u.
+    threshold : (K - 1, c) float32 array
+        Metres, where the ray meets its 2nd, 3rd, ... mirror (inf: it meets no more, or the encoding
+        has no label for the sequence; see cutoff).
+    label : (K - 1, c) uint8 array
+        The source label of a point beyond that threshold (palette.sequence_label).
+    normal : (K - 1, c, 3) float32 array
+        That mirror's plane normal n.
+    offset : (K - 1, c) float32 array
+        That mirror's plane offset d, metres.
+    cutoff : (c,) float32 array
+        Metres; beyond this depth a point came through more mirrors than are followed (or a sequence
+        that no label names): its place is not known and it is left out; inf when it never is.
     """
 
     pixel: np.ndarray
@@ -58,13 +65,26 @@ class Chains:
 def trace_chains(intr: Intrinsics, planes: tuple[Plane | None, ...], inside_bits: np.ndarray,
                  first: np.ndarray,
                  threshold: np.ndarray, bounces: int) -> Chains:
-    """Follow every pixel's ray past its first mirror, up to `bounces` reflections in all (see the
-    module docstring).
+    """Follow every pixel's ray past its first mirror (see the module docstring).
 
-    planes : each mirror's plane in session order (None: uncalibrated, never met); inside_bits : (H,
-    W) uint32, bit j - 1 set inside mirror j's boundary; first : (H, W) uint8 the first mirror
-    (1-based, 0 none) and threshold : (H, W) float32 the depth where the ray meets it (inf: never),
-    as ReflectionTable holds them.
+    Parameters
+    ----------
+    intr : Intrinsics
+        The camera.
+    planes : tuple of Plane or None
+        Each mirror's plane in session order (None: uncalibrated, never met).
+    inside_bits : (H, W) uint32 array
+        Bit j - 1 set inside mirror j's boundary.
+    first : (H, W) uint8 array
+        The first mirror (1-based, 0 none), as ReflectionTable holds it.
+    threshold : (H, W) float32 array
+        Metres, the depth where the ray meets the first mirror (inf: never).
+    bounces : int
+        The most reflections in all.
+
+    Returns
+    -------
+    Chains
     """
     pixel = np.flatnonzero(np.isfinite(threshold))
     levels = bounces - 1
@@ -184,9 +204,22 @@ _NEXT_LABEL = _next_labels()
 
 
 def sequence_reflection(planes: tuple[Plane | None, ...], sequence: tuple[int, ...]) -> np.ndarray:
-    """(4, 4) float64 M_1 M_2 ... M_k for mirrors `sequence` (1-based, ray order): camera-frame real
-    points -> the virtual points the camera measures through them (det (-1)^k; the identity for
-    ())."""
+    """Return M_1 M_2 ... M_k for mirrors `sequence`.
+
+    It maps camera-frame real points to the virtual points the camera measures through them.
+
+    Parameters
+    ----------
+    planes : tuple of Plane or None
+        Each mirror's plane in session order.
+    sequence : tuple of int
+        1-based mirrors, ray order.
+
+    Returns
+    -------
+    (4, 4) float64 array
+        det (-1)^k; the identity for ().
+    """
     matrix = np.eye(4)
     for j in sequence:
         matrix = matrix @ planes[j - 1].reflection_matrix()
@@ -197,12 +230,22 @@ def sequence_reflection(planes: tuple[Plane | None, ...], sequence: tuple[int, .
 class VirtualCamera:
     """One view of the rig: the camera itself (source 0) or the camera seen through mirrors in turn.
 
-    source : its label (palette); name : palette.source_name; sequence : the mirrors (1-based,
-    session order) its rays meet, in order; to_view : (4, 4) float64 camera-frame points -> the
-    points this view measures (M_1 M_2 ... M_k, det (-1)^k); pose : (4, 4) float64 proper rigid pose
-    (camera frame <- virtual camera frame): the inverse of to_view with its x axis flipped back
-    after an odd number of mirrors (an image seen through a mirror is flipped left-right), as
-    Plane.virtual_camera_pose; pixels : how many pixels of the image see through it.
+    Attributes
+    ----------
+    source : int
+        Its label (palette).
+    name : str
+        palette.source_name.
+    sequence : tuple of int
+        The mirrors (1-based, session order) its rays meet, in order.
+    to_view : (4, 4) float64 array
+        Camera-frame points -> the points this view measures (M_1 M_2 ... M_k, det (-1)^k).
+    pose : (4, 4) float64 array
+        Proper rigid pose (camera frame <- virtual camera frame): the inverse of to_view with its x
+        axis flipped back after an odd number of mirrors (an image seen through a mirror is flipped
+        left-right), as Plane.virtual_camera_pose.
+    pixels : int
+        How many pixels of the image see through it.
     """
 
     source: int
@@ -215,6 +258,21 @@ class VirtualCamera:
     @classmethod
     def of(cls, planes: tuple[Plane | None, ...], sequence: tuple[int, ...],
            pixels: int) -> "VirtualCamera":
+        """Build the view through mirrors `sequence`.
+
+        Parameters
+        ----------
+        planes : tuple of Plane or None
+            Each mirror's plane in session order.
+        sequence : tuple of int
+            1-based mirrors, ray order.
+        pixels : int
+            How many pixels see through it.
+
+        Returns
+        -------
+        VirtualCamera
+        """
         to_view = sequence_reflection(planes, sequence)
         pose = np.linalg.inv(to_view)
         if len(sequence) % 2:

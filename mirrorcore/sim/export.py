@@ -24,9 +24,23 @@ from mirrorcore.sim.simulator import Simulator
 
 
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
-    """The mirror's 4 corners projected into the image and clipped to it: (b, 2) float64 (u, v), a
-    convex simple polygon. Raises MirrorscanError when a corner is behind the camera or the mirror
-    is out of view."""
+    """Project a mirror's 4 corners into the image, clipped to it.
+
+    Parameters
+    ----------
+    camera : Intrinsics
+    mirror : SceneMirror
+
+    Returns
+    -------
+    (b, 2) float64 array
+        (u, v) pixels, a convex simple polygon.
+
+    Raises
+    ------
+    MirrorscanError
+        A corner is behind the camera, or the mirror is out of view.
+    """
     uv, z = project_points(camera, mirror.corners())
     if np.any(z <= 0):
         raise MirrorscanError(f"{mirror.name}: part of the mirror is behind the camera")
@@ -39,8 +53,23 @@ def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
 
 
 def true_rig(scene: Scene) -> Rig:
-    """The rig of a scene as a perfect calibration would give it: the true planes and each mirror's
-    outline in the image (mirror_outline), in session order."""
+    """Return the rig of a scene as a perfect calibration would give it.
+
+    The true planes and each mirror's outline in the image (`mirror_outline`), in session order.
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    Rig
+
+    Raises
+    ------
+    MirrorscanError
+        A mirror is out of view.
+    """
     return Rig(scene.camera,
                tuple(Mirror(m.name, m.plane, mirror_outline(scene.camera, m))
                                    for m in scene.mirrors))
@@ -48,8 +77,24 @@ def true_rig(scene: Scene) -> Rig:
 
 def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int,
                     truth: GroundTruth) -> np.ndarray:
-    """Pixels (k, 2) float64 (u, v) of the marker centres of mirror `index` (1-based) that the
-    camera sees directly (the ideal render shows that mirror's marker face at the rounded pixel)."""
+    """Return the marker centres of a mirror that the camera sees directly.
+
+    A centre is seen when the ideal render shows that mirror's marker face at the rounded pixel.
+
+    Parameters
+    ----------
+    camera : Intrinsics
+    mirror : SceneMirror
+    index : int
+        The mirror, 1-based.
+    truth : GroundTruth
+        The ideal render.
+
+    Returns
+    -------
+    (k, 2) float64 array
+        (u, v) pixels.
+    """
     uv, z = project_points(camera, mirror.marker_centres())
     pix = np.round(uv[z > 0]).astype(int)
     inside = (pix[:, 0] >= 0) & (pix[:, 0] < camera.width) & (pix[:, 1] >= 0) & (pix[
@@ -65,20 +110,52 @@ def visible_markers(camera: Intrinsics, mirror: SceneMirror, index: int,
 
 def jitter_clicks(camera: Intrinsics, uv: np.ndarray, jitter_px: float,
                   rng: np.random.Generator) -> np.ndarray:
-    """Clicks as a person makes them: uv (k, 2) float64 pixels, each moved by a Gaussian offset of
-    radial RMS `jitter_px` pixels (std jitter_px / sqrt(2) per axis) drawn from `rng`, kept inside
-    the image."""
+    """Move pixels as a person's clicks do, kept inside the image.
+
+    Parameters
+    ----------
+    camera : Intrinsics
+    uv : (k, 2) float64 array
+        Pixels.
+    jitter_px : float
+        Radial RMS of the Gaussian offsets, pixels (std jitter_px / sqrt(2) per axis).
+    rng : numpy.random.Generator
+        The offsets' source.
+
+    Returns
+    -------
+    (k, 2) float64 array
+        Pixels.
+    """
     moved = uv + rng.normal(0.0, jitter_px / np.sqrt(2.0), np.shape(uv))
     return np.clip(moved, -0.5, [camera.width - 0.5, camera.height - 0.5])
 
 
 def session_mirrors(rig: Simulator, truth: GroundTruth, rng: np.random.Generator | None = None
                     ) -> tuple[SessionMirror, ...]:
-    """The rig's mirrors as a session holds them (session order): the pixels (u, v) of the marker
-    centres that `truth` shows directly (see `visible_markers`), clicked with the scene's
-    click_jitter_px (`jitter_clicks`, drawn from `rng`, by default np.random.default_rng([rig.seed,
-    3])), and each mirror's outline in the image (`mirror_outline`); no planes, and marker_offset 0
-    (the glass is the user's unknown). Raises MirrorscanError when a mirror is out of view."""
+    """Return the rig's mirrors as a session holds them (session order).
+
+    The pixels (u, v) of the marker centres that `truth` shows directly (`visible_markers`),
+    clicked with the scene's click_jitter_px (`jitter_clicks`), and each mirror's outline in the
+    image (`mirror_outline`); no planes, and marker_offset 0 (the glass is the user's unknown).
+
+    Parameters
+    ----------
+    rig : Simulator
+    truth : GroundTruth
+        The ideal render of the background.
+    rng : numpy.random.Generator, optional
+        The clicks' jitter; by default np.random.default_rng([rig.seed, 3]).
+
+    Returns
+    -------
+    tuple of SessionMirror
+
+    Raises
+    ------
+    MirrorscanError
+        A mirror is out of view.
+    """
     camera, jitter = rig.intrinsics, rig.scene.click_jitter_px
     rng = np.random.default_rng([rig.seed, 3]) if rng is None else rng
     mirrors = []
@@ -92,9 +169,22 @@ def session_mirrors(rig: Simulator, truth: GroundTruth, rng: np.random.Generator
 
 
 def truth_json(rig: Simulator, noise: str) -> dict:
-    """The truth.json object: scene, true planes [a, b, c, d] (docs/DESIGN.md convention; the
-    reflecting surfaces), objects, seed, fps, noise; per mirror its plane, corners, marker face
-    centres and marker_offset (metres)."""
+    """Return the truth.json object.
+
+    Scene, true planes [a, b, c, d] (docs/DESIGN.md convention; the reflecting surfaces), objects,
+    seed, fps, noise; per mirror its plane, corners, marker face centres and marker_offset
+    (metres).
+
+    Parameters
+    ----------
+    rig : Simulator
+    noise : str
+        The sensor model's name.
+
+    Returns
+    -------
+    dict
+    """
     scene = rig.scene
     objects = [o.to_json() for o in scene.objects]
     return {"version": 1, "seed": rig.seed, "fps": rig.fps, "noise": noise,
@@ -109,12 +199,33 @@ def truth_json(rig: Simulator, noise: str) -> dict:
 
 def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "kinect",
                   progress: bool = True, true_planes: bool = False) -> Path:
-    """Render the background and `n_frames` frames of `rig` into a new session folder `out` with
-    truth.json; with `true_planes`, the mirrors' planes are the true ones (a perfect calibration),
-    otherwise they are left to calibrate.
+    """Render a simulated rig's background and frames into a new session folder with truth.json.
 
-    `out` must not exist or be an empty folder; nothing is left behind on error (MirrorscanError,
-    OSError). Returns the folder's path.
+    Nothing is left behind on error.
+
+    Parameters
+    ----------
+    rig : Simulator
+    out : str or Path
+        The folder; it must not exist or be an empty folder.
+    n_frames : int
+        Frames rendered.
+    noise : str
+        The sensor model's name, for truth.json.
+    progress : bool
+        Show progress.
+    true_planes : bool
+        Give the mirrors their true planes (a perfect calibration); otherwise they are left to
+        calibrate.
+
+    Returns
+    -------
+    Path
+        The folder.
+
+    Raises
+    ------
+    MirrorscanError, OSError
     """
     out = Path(out)
     if n_frames < 1:
@@ -126,6 +237,7 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
 
 def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool,
            true_planes: bool) -> None:
+    """Write the background, frames, session.json and truth.json into `folder`."""
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)

@@ -35,20 +35,51 @@ _UP = np.array([0.0, -1.0, 0.0])
 
 
 def default_distance(spec: str) -> float:
-    """Metres from the camera to an object of that name when none is given: FIGURE_DISTANCE for the
-    figure (nearer, its head or feet leave the image and the mirrors' markers with them), else
-    OBJECT_DISTANCE."""
+    """Return the metres from the camera to an object of that name when none is given.
+
+    FIGURE_DISTANCE for the figure (nearer, its head or feet leave the image and the mirrors'
+    markers with them), else OBJECT_DISTANCE.
+
+    Parameters
+    ----------
+    spec : str
+        The object's name.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return FIGURE_DISTANCE if spec == "figure" else OBJECT_DISTANCE
 
 
 def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
                 gait_hz: float = 1.0) -> SceneObject:
-    """'sphere' | 'cylinder' | 'box' | 'figure' | 'mesh:PATH' -> a SceneObject on the optical axis
-    at `distance` m (default_distance when None).
+    """Make a scene object on the optical axis.
 
     The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box
-    is a 0.3 m cube; the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at y =
-    floor_y. Raises MirrorscanError for an unknown name.
+    is a 0.3 m cube; the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at
+    y = floor_y.
+
+    Parameters
+    ----------
+    spec : str
+        'sphere', 'cylinder', 'box', 'figure' or 'mesh:PATH'.
+    distance : float, optional
+        Metres from the camera (`default_distance` when None).
+    floor_y : float
+        Metres below the camera.
+    gait_hz : float
+        The figure's strides per second.
+
+    Returns
+    -------
+    SceneObject
+
+    Raises
+    ------
+    MirrorscanError
+        An unknown name.
     """
     distance = default_distance(spec) if distance is None else distance
     centre = (0.0, 0.0, float(distance))
@@ -69,8 +100,23 @@ def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
 
 
 def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
-    """The middle (3,) of an object, its horizontal half-size and its height, metres (a mesh counts
-    as 0.3 m wide)."""
+    """Return the middle of an object, its horizontal half-size and its height.
+
+    A mesh counts as 0.3 m wide.
+
+    Parameters
+    ----------
+    obj : SceneObject
+
+    Returns
+    -------
+    middle : (3,) array
+        Metres, camera frame.
+    half_width : float
+        Metres.
+    height : float
+        Metres.
+    """
     centre = np.asarray(obj.centre, dtype=np.float64)
     if obj.type == "figure":
         return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
@@ -89,6 +135,7 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
 
 def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
             marker_size: float = MARKER_SIZE) -> SceneMirror:
+    """A vertical SceneMirror of `size` at `centre`, facing `normal`, with markers."""
     return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()),
                        size[0], size[1],
                   _markers(*size), marker_size)
@@ -119,12 +166,26 @@ def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_
 
 def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
               size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, SceneMirror]:
-    """Two vertical mirrors in a V behind `target` (3,), apex on the far side, `angle_deg` between
-    their surfaces.
+    """Place two vertical mirrors in a V behind a target, apex on the far side.
 
     Each plane is `mirror_distance` metres from the target; each mirror is centred where the
     camera's ray to the target's virtual image crosses its plane (kept clear of the apex). Mirror 1
     is on the left (-x), mirror 2 right.
+
+    Parameters
+    ----------
+    angle_deg : float
+        Degrees between the mirrors' surfaces.
+    target : (3,) array
+        Metres, camera frame.
+    mirror_distance : float
+        Metres.
+    size : (float, float)
+        (width, height) of each mirror, metres.
+
+    Returns
+    -------
+    (SceneMirror, SceneMirror)
     """
     apex, sides = _v_frame(angle_deg, target, mirror_distance)
     mirrors = []
@@ -140,10 +201,27 @@ def v_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
 def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
                    size: tuple[float, float],
                    turn_deg: float) -> tuple[SceneMirror, SceneMirror]:
-    """Two vertical mirrors that meet at the apex of a V behind `target` (a hinged pair: the
-    kaleidoscope), each `size` = (width, height) metres from HINGE_GAP off the apex outwards,
-    `mirror_distance` m from the target, the V turned by `turn_deg` about the vertical (see
-    _v_frame). Mirror 1 is on the left, mirror 2 right."""
+    """Place two vertical mirrors that meet at the apex of a V behind a target (the kaleidoscope).
+
+    Mirror 1 is on the left, mirror 2 right.
+
+    Parameters
+    ----------
+    angle_deg : float
+        Degrees between the mirrors' surfaces.
+    target : (3,) array
+        Metres, camera frame.
+    mirror_distance : float
+        Metres from the target to each mirror.
+    size : (float, float)
+        (width, height) of each mirror, metres, from HINGE_GAP off the apex outwards.
+    turn_deg : float
+        Degrees the V is turned about the vertical (see `_v_frame`).
+
+    Returns
+    -------
+    (SceneMirror, SceneMirror)
+    """
     apex, sides = _v_frame(angle_deg, target, mirror_distance, turn_deg)
     return tuple(_mirror(f"mirror {j + 1}", apex + (HINGE_GAP + size[0] / 2) * along, normal, size,
                          HINGED_MARKER_SIZE) for j, (normal, along) in enumerate(sides))
@@ -152,11 +230,29 @@ def hinged_mirrors(angle_deg: float, target: np.ndarray, mirror_distance: float,
 def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: float,
                 clearance: float,
                 size: tuple[float, float] = MIRROR_SIZE) -> tuple[SceneMirror, ...]:
-    """`n_mirrors` vertical-ish mirrors on an arc of `radius` m around `target` (3,), spread over
-    `span_deg` degrees centred on the far side, left to right. Each faces the half-way direction
-    between the camera and the target, so the camera sees the target's image in the mirror's middle.
-    A mirror whose image would hide behind the real object (within 25 deg of straight behind) is
-    raised by `clearance` m and tilted down to it.
+    """Place mirrors on an arc around a target, left to right.
+
+    Each faces the half-way direction between the camera and the target, so the camera sees the
+    target's image in the mirror's middle. A mirror whose image would hide behind the real object
+    (within 25 deg of straight behind) is raised by `clearance` and tilted down to it.
+
+    Parameters
+    ----------
+    n_mirrors : int
+    target : (3,) array
+        Metres, camera frame.
+    radius : float
+        Metres.
+    span_deg : float
+        Degrees spanned, centred on the far side.
+    clearance : float
+        Metres.
+    size : (float, float)
+        (width, height) of each mirror, metres.
+
+    Returns
+    -------
+    tuple of SceneMirror
     """
     mirrors = []
     for j, phi in enumerate(np.radians(np.linspace(-span_deg / 2, span_deg / 2, n_mirrors))):
@@ -174,10 +270,32 @@ def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sph
                 mirror_distance: float | None = None, camera: Intrinsics | None = None,
                 room: Room | None = Room(),
                 gait_hz: float = 1.0) -> Scene:
-    """The paper's setup (its figure 2): a Kinect v1 (640x480), the object on the optical axis
-    `distance` m away (default_distance when None), two mirrors in a V at `angle_deg` behind it,
-    `mirror_distance` m from the object's middle (default: its half-width + 0.25 m), a floor 1 m
-    below the camera and a back wall. n_mirrors > 2 gives `arc_scene` instead.
+    """Build the paper's setup (its figure 2).
+
+    A Kinect v1 (640x480), the object on the optical axis, two mirrors in a V behind it, a floor 1 m
+    below the camera and a back wall.
+
+    Parameters
+    ----------
+    angle_deg : float
+        Degrees between the mirrors.
+    n_mirrors : int
+        More than 2 gives `arc_scene` instead.
+    object : str
+        As `make_object`.
+    distance : float, optional
+        Metres to the object (`default_distance` when None).
+    mirror_distance : float, optional
+        Metres from the object's middle (default: its half-width + 0.25 m).
+    camera : Intrinsics, optional
+        Default Kinect v1.
+    room : Room or None
+    gait_hz : float
+        The figure's strides per second.
+
+    Returns
+    -------
+    Scene
     """
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
@@ -196,10 +314,31 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None
               span_deg: float | None = None, camera: Intrinsics | None = None,
               room: Room | None = Room(),
               gait_hz: float = 1.0) -> Scene:
-    """Three or more mirrors on an arc behind the object (see `arc_mirrors`); radius defaults to the
-    object's half-width + 0.45 m, the span to 60 deg per gap between mirrors (at most 200 deg). A
-    mirror of which the camera sees fewer than 3 markers has the hidden ones moved to where it sees
-    them (placement.markers_in_view)."""
+    """Build a scene with three or more mirrors on an arc behind the object (see `arc_mirrors`).
+
+    A mirror of which the camera sees fewer than 3 markers has the hidden ones moved to where it
+    sees them (placement.markers_in_view).
+
+    Parameters
+    ----------
+    n_mirrors : int
+    object : str
+        As `make_object`.
+    distance : float, optional
+        Metres to the object.
+    radius : float, optional
+        Metres; default the object's half-width + 0.45 m.
+    span_deg : float, optional
+        Degrees; default 60 per gap between mirrors (at most 200).
+    camera : Intrinsics, optional
+    room : Room or None
+    gait_hz : float
+        The figure's strides per second.
+
+    Returns
+    -------
+    Scene
+    """
     if n_mirrors < 2:
         raise MirrorscanError(f"--mirrors: at least 2 mirrors are needed, got {n_mirrors}")
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
@@ -213,12 +352,27 @@ def arc_scene(n_mirrors: int = 3, object: str = "sphere", distance: float | None
 
 
 def kaleidoscope_placement(angle_deg: float, half_width: float) -> tuple[float, float]:
-    """Where the object stands in a hinged pair by default: (turn_deg, offset metres). When 180 /
-    angle is a whole number, an image of the object through several mirrors lies straight behind it,
-    hidden from the camera; then, from 90 degrees up, the object moves sideways by its half-width
-    (offset), and below, the V is turned by a quarter of the angle (turning a 90-degree V shows one
-    mirror so obliquely that its markers calibrate it poorly, and moving the object at 60 degrees
-    hides its images through two mirrors instead). Otherwise neither."""
+    """Return where the object stands in a hinged pair by default.
+
+    When 180 / angle is a whole number, an image of the object through several mirrors lies
+    straight behind it, hidden from the camera; then, from 90 degrees up, the object moves sideways
+    by its half-width (offset), and below, the V is turned by a quarter of the angle (turning a
+    90-degree V shows one mirror so obliquely that its markers calibrate it poorly, and moving the
+    object at 60 degrees hides its images through two mirrors instead). Otherwise neither.
+
+    Parameters
+    ----------
+    angle_deg : float
+        Degrees between the mirrors.
+    half_width : float
+        The object's half-width, metres.
+
+    Returns
+    -------
+    turn_deg : float
+    offset : float
+        Metres.
+    """
     ratio = 180.0 / angle_deg
     if abs(ratio - round(ratio)) > 1e-9:
         return 0.0, 0.0
@@ -231,13 +385,38 @@ def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere",
                        offset: float | None = None, camera: Intrinsics | None = None,
                        room: Room | None = Room(),
                        gait_hz: float = 1.0) -> Scene:
-    """The paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V: the
-    mirrors meet at the apex, so that below about 90 degrees the camera sees the object through two
-    and three mirrors in turn (the
-    kaleidoscope). mirror_distance : from the object's middle to each mirror, default its half-width
-    + HINGED_CLEARANCE; turn_deg : the V turned about the vertical; offset : metres the object
-    stands to the side of the V's bisector (+x: towards mirror 2); both default to
-    `kaleidoscope_placement`."""
+    """Build the paper's scene with a hinged pair of mirrors (`hinged_mirrors`) instead of its V.
+
+    The mirrors meet at the apex, so that below about 90 degrees the camera sees the object through
+    two and three mirrors in turn (the kaleidoscope).
+
+    Parameters
+    ----------
+    angle_deg : float
+        Degrees between the mirrors.
+    object : str
+        As `make_object`.
+    distance : float, optional
+        Metres to the object.
+    mirror_distance : float, optional
+        Metres from the object's middle to each mirror; default its half-width + HINGED_CLEARANCE.
+    turn_deg : float, optional
+        The V turned about the vertical, degrees.
+    offset : float, optional
+        Metres the object stands to the side of the V's bisector (+x: towards mirror 2).
+    camera : Intrinsics, optional
+    room : Room or None
+    gait_hz : float
+        The figure's strides per second.
+
+    Returns
+    -------
+    Scene
+
+    Notes
+    -----
+    `turn_deg` and `offset` default to `kaleidoscope_placement`.
+    """
     obj = make_object(object, distance, room.floor_y if room else Room.floor_y, gait_hz)
     target, half, tall = object_extent(obj)
     md = half + HINGED_CLEARANCE if mirror_distance is None else mirror_distance

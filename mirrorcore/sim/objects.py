@@ -17,8 +17,14 @@ CYLINDER_SECTIONS = 128     # faces within 0.05 mm of a 0.15 m cylinder
 
 @dataclass(frozen=True)
 class StaticMesh:
-    """A mesh that does not move. vertices : (n, 3) float32 metres, camera frame; faces : (m, 3)
-    uint32."""
+    """A mesh that does not move.
+
+    Attributes
+    ----------
+    vertices : (n, 3) float32 array
+        Metres, camera frame.
+    faces : (m, 3) uint32 array
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -26,11 +32,33 @@ class StaticMesh:
 
     @classmethod
     def from_trimesh(cls, mesh: trimesh.Trimesh) -> "StaticMesh":
+        """Copy a trimesh's vertices and faces.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh
+            Metres, camera frame.
+
+        Returns
+        -------
+        StaticMesh
+        """
         return cls(np.ascontiguousarray(mesh.vertices, dtype=np.float32),
                    np.ascontiguousarray(mesh.faces, dtype=np.uint32))
 
     def mesh_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """The mesh at time t seconds (always the same)."""
+        """Return the mesh at a time (always the same).
+
+        Parameters
+        ----------
+        t : float
+            Seconds.
+
+        Returns
+        -------
+        vertices : (n, 3) float32 array
+        faces : (m, 3) uint32 array
+        """
         return self.vertices, self.faces
 
 
@@ -61,10 +89,15 @@ def _x_rotation(angle: np.ndarray) -> np.ndarray:
 
 
 class WalkingFigure:
-    """A human-like figure of capsules (torso, head, arms, legs) and box feet, walking in place at
-    `gait_hz` strides per second: hips swing +-25 deg, the swinging leg's knee bends, arms swing
-    opposite; the lower foot stays on the floor. The figure faces the camera; `obj.centre` is the
-    point on the floor between its feet, `obj.height` its height.
+    """A human-like figure of capsules (torso, head, arms, legs) and box feet, walking in place.
+
+    At `gait_hz` strides per second: hips swing +-25 deg, the swinging leg's knee bends, arms swing
+    opposite; the lower foot stays on the floor. The figure faces the camera.
+
+    Parameters
+    ----------
+    obj : SceneObject
+        `obj.centre` is the point on the floor between its feet, `obj.height` its height.
     """
 
     def __init__(self, obj: SceneObject):
@@ -113,8 +146,19 @@ class WalkingFigure:
         return R, np.array([starts[name] for name, *_ in _LIMBS])
 
     def mesh_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """The posed mesh at time t seconds: vertices (n, 3) float32 metres, camera frame; faces (m,
-        3) uint32."""
+        """Return the posed mesh at a time.
+
+        Parameters
+        ----------
+        t : float
+            Seconds.
+
+        Returns
+        -------
+        vertices : (n, 3) float32 array
+            Metres, camera frame.
+        faces : (m, 3) uint32 array
+        """
         R, starts = self._joint_poses(2 * np.pi * self.gait_hz * t)
         ankles = starts[[1, 3]] + R[[1, 3]] @ np.array([0.0, _LIMBS[1][3], 0.0])
         # the lower foot's sole on the floor (y = 0)
@@ -128,7 +172,21 @@ class WalkingFigure:
 
 
 def object_geometry(obj: SceneObject) -> StaticMesh | WalkingFigure:
-    """The mesh source of one scene object; raises FileFormatError for an unreadable mesh file."""
+    """Return the mesh source of one scene object.
+
+    Parameters
+    ----------
+    obj : SceneObject
+
+    Returns
+    -------
+    StaticMesh or WalkingFigure
+
+    Raises
+    ------
+    FileFormatError
+        An unreadable mesh file.
+    """
     centre = np.asarray(obj.centre)
     if obj.type == "sphere":
         mesh = trimesh.creation.icosphere(SPHERE_SUBDIVISIONS, obj.radius)
@@ -148,6 +206,7 @@ def object_geometry(obj: SceneObject) -> StaticMesh | WalkingFigure:
 
 
 def _load_mesh(path: str) -> trimesh.Trimesh:
+    """Load a mesh file with trimesh; FileFormatError if unreadable or without triangles."""
     try:
         mesh = trimesh.load(path, force="mesh")
     except Exception as exc:  # trimesh raises many types for unreadable files

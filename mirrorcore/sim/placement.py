@@ -27,10 +27,22 @@ MOMENTS = 4
 
 
 def markers_in_view(scene: Scene, max_range: float) -> Scene:
-    """The scene with each mirror's markers where the camera sees them: a mirror of which fewer than
-    MIN_SEEN markers are seen (within max_range metres, in every moment) has each hidden one moved
-    to the nearest place on its glass that is seen, SPACING of its smaller side from the others
-    (where none is left, it stays). The other mirrors keep their markers."""
+    """Move each mirror's markers where the camera sees them.
+
+    A mirror of which fewer than MIN_SEEN markers are seen (within `max_range`, in every moment)
+    has each hidden one moved to the nearest place on its glass that is seen, SPACING of its smaller
+    side from the others (where none is left, it stays). The other mirrors keep their markers.
+
+    Parameters
+    ----------
+    scene : Scene
+    max_range : float
+        Metres.
+
+    Returns
+    -------
+    Scene
+    """
     renderer = Renderer(scene, 1)
     moments = np.arange(MOMENTS) / MOMENTS if renderer.animated else np.zeros(1)
     views = [renderer.render(float(t)) for t in moments]

@@ -41,15 +41,23 @@ MAX_BOUNCES = MAX_ORDER
 
 @dataclass(frozen=True)
 class GroundTruth:
-    """What the ideal camera sees, per pixel (H, W):
+    """What the ideal camera sees, per pixel.
 
-    depth : float32 metres, z of the unfolded (virtual) point, 0 where no surface (surface == NONE)
-    surface : uint8 code NONE / ROOM / OBJECT / MARKER / MIRROR_BACK of the real surface hit
-    mirrors : (MAX_BOUNCES, H, W) uint8, the full sequence of mirrors the pixel's ray met:
-    mirrors[k] is the mirror j
-        (1-based) of its (k+1)-th reflection, 0 once it made no more
-    object_index : int16 index into scene.objects of the object hit, -1 elsewhere
-    camera, planes : the intrinsics and the true mirror planes (session order), for `points`
+    Attributes
+    ----------
+    camera : Intrinsics
+        The intrinsics, for `points`.
+    planes : tuple of Plane
+        The true mirror planes (session order), for `points`.
+    depth : (H, W) float32 array
+        Metres, z of the unfolded (virtual) point, 0 where no surface (surface == NONE).
+    surface : (H, W) uint8 array
+        Code NONE / ROOM / OBJECT / MARKER / MIRROR_BACK of the real surface hit.
+    mirrors : (MAX_BOUNCES, H, W) uint8 array
+        The full sequence of mirrors the pixel's ray met: mirrors[k] is the mirror j (1-based) of
+        its (k+1)-th reflection, 0 once it made no more.
+    object_index : (H, W) int16 array
+        Index into scene.objects of the object hit, -1 elsewhere.
     """
 
     camera: Intrinsics
@@ -81,9 +89,11 @@ class GroundTruth:
 
     @property
     def source(self) -> np.ndarray:
-        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette): 0 = direct, j =
-        through mirror j, the label of the sequence for several mirrors; -1 where no surface (or a
-        sequence the labels do not cover)."""
+        """(H, W) int16 source labels (docs/DESIGN.md, mirrorcore.base.palette).
+
+        0 = direct, j = through mirror j, the label of the sequence for several mirrors; -1 where no
+        surface (or a sequence the labels do not cover).
+        """
         keys, inverse = np.unique(self.mirrors.reshape(len(self.mirrors), -1), axis=1,
                                   return_inverse=True)
         labels = np.array([_label(tuple(int(j) for j in key if j)) for key in keys.T], np.int16)
@@ -94,8 +104,10 @@ class GroundTruth:
     @cached_property
     def points(self) -> np.ndarray:
         """(H, W, 3) float32 metres, camera frame: the REAL surface point hit, NaN where no surface.
+
         The virtual point depth * ray is folded back through the first mirror's plane, then the
-        second's... (X = M3(M2(M1(V))))."""
+        second's... (X = M3(M2(M1(V)))).
+        """
         rays = self.camera.rays
         pts = np.stack([rays[0] * self.depth, rays[1] * self.depth, self.depth], axis=-1)
         for labels in self.mirrors:
@@ -200,8 +212,17 @@ class _Segment:
 class Renderer:
     """Ideal ray-cast rendering of a Scene: `render(t)` -> GroundTruth.
 
-    bounces : the most reflections a ray may make, 1 to MAX_BOUNCES (a real rig shows them all); a
-    ray that meets one more mirror reads no surface. Raises MirrorscanError for another number.
+    Parameters
+    ----------
+    scene : Scene
+    bounces : int
+        The most reflections a ray may make, 1 to MAX_BOUNCES (a real rig shows them all); a ray
+        that meets one more mirror reads no surface.
+
+    Raises
+    ------
+    MirrorscanError
+        `bounces` out of range.
     """
 
     def __init__(self, scene: Scene, bounces: int = MAX_BOUNCES):
@@ -232,6 +253,7 @@ class Renderer:
 
     @property
     def animated(self) -> bool:
+        """True when an object moves."""
         return any(g.animated for g in self._objects)
 
     def _reflected(self, origins, dirs, t, mirror) -> tuple[np.ndarray, np.ndarray]:
@@ -317,8 +339,19 @@ class Renderer:
         return np.flatnonzero(take)
 
     def render(self, t: float = 0.0, with_objects: bool = True) -> GroundTruth:
-        """The ideal view at time t seconds (objects left out when `with_objects` is False: the
-        background)."""
+        """Return the ideal view at a time.
+
+        Parameters
+        ----------
+        t : float
+            Seconds.
+        with_objects : bool
+            False leaves the objects out (the background).
+
+        Returns
+        -------
+        GroundTruth
+        """
         depth, surface, mirrors = (a.copy() for a in self._background)
         obj = np.full(len(depth), -1, np.int16)
         if with_objects and self._objects:

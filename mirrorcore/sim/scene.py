@@ -61,6 +61,7 @@ def _vec(value, where: str, unit: bool = False) -> tuple[float, float, float]:
 
 
 def _positive(value, where: str) -> float:
+    """`value` as a positive finite float; FileFormatError naming `where` otherwise."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
         value) or value <= 0:
         raise FileFormatError(f"{where}: must be a positive number, got {value!r}")
@@ -71,12 +72,23 @@ def _positive(value, where: str) -> float:
 class SceneMirror:
     """A flat rectangular mirror with matte square markers stuck on its glass.
 
-    centre : (3,) metres, camera frame; normal : (3,) unit, the reflective side, facing the camera;
-    up : (3,) unit, the direction of `height` (orthogonal to normal); width, height : metres;
-    markers : ((s, t), ...) metres from the centre along `right` and `up`; marker_size : side of a
-    marker, metres;
-    marker_offset : metres from the reflecting surface to the markers' faces, towards the camera (>=
-    0).
+    Attributes
+    ----------
+    name : str
+    centre : (float, float, float)
+        Metres, camera frame.
+    normal : (float, float, float)
+        Unit, the reflective side, facing the camera.
+    up : (float, float, float)
+        Unit, the direction of `height` (orthogonal to normal).
+    width, height : float
+        Metres.
+    markers : tuple of (float, float)
+        (s, t) metres from the centre along `right` and `up`.
+    marker_size : float
+        Side of a marker, metres.
+    marker_offset : float
+        Metres from the reflecting surface to the markers' faces, towards the camera (>= 0).
     """
 
     name: str
@@ -110,12 +122,22 @@ class SceneMirror:
 
     @property
     def plane(self) -> Plane:
-        """The true mirror plane in the docs/DESIGN.md convention (unit normal towards the camera, d
-        > 0)."""
+        """The true mirror plane (docs/DESIGN.md: unit normal towards the camera, d > 0)."""
         return Plane.from_point_normal(self.centre, self.normal)
 
     def local_to_camera(self, st: np.ndarray) -> np.ndarray:
-        """st : (k, 2) metres on the glass (right, up) -> (k, 3) float64 points, camera frame."""
+        """Map points on the glass to the camera frame.
+
+        Parameters
+        ----------
+        st : (k, 2) array
+            Metres on the glass (right, up).
+
+        Returns
+        -------
+        (k, 3) float64 array
+            Metres, camera frame.
+        """
         st = np.asarray(st, dtype=np.float64).reshape(-1, 2)
         return np.asarray(self.centre) + st @ self.axes[:2]
 
@@ -126,17 +148,19 @@ class SceneMirror:
 
     @property
     def marker_lift(self) -> float:
-        """Metres from the reflecting surface to the markers' faces: marker_offset, at least
-        MARKER_LIFT."""
+        """Metres from the silver to the marker faces: max(marker_offset, MARKER_LIFT)."""
         return max(self.marker_offset, MARKER_LIFT)
 
     def marker_centres(self) -> np.ndarray:
-        """(k, 3) float64 centres of the markers' faces (marker_lift in front of the reflecting
-        surface), camera frame."""
+        """Return the (k, 3) float64 centres of the markers' faces, metres, camera frame.
+
+        They lie marker_lift in front of the reflecting surface.
+        """
         st = np.asarray(self.markers, dtype=np.float64).reshape(-1, 2)
         return self.local_to_camera(st) + self.marker_lift * np.asarray(self.normal)
 
     def to_json(self) -> dict:
+        """The mirror's scene-file object."""
         return {"name": self.name, "centre": list(self.centre), "normal": list(self.normal),
                 "up": list(self.up),
                 "width": self.width, "height": self.height,
@@ -148,14 +172,27 @@ class SceneMirror:
 class SceneObject:
     """An object in front of the mirrors.
 
-    type : one of OBJECT_TYPES. centre : (3,) metres, camera frame: the sphere's centre, the middle
-    of a cylinder's axis, a box's centre, where a mesh's bounding-box centre goes, the point on the
-    floor between a figure's feet.
-    radius : sphere/cylinder radius, metres. height : cylinder length or figure height, metres.
-    axis : (3,) unit cylinder axis. size : (3,) box edges along x, y, z, metres.
-    path : mesh file (any format trimesh reads), its coordinates taken as camera-frame axes; scale :
-    metres per unit.
-    gait_hz : strides per second of a figure walking in place (0 = standing still).
+    Attributes
+    ----------
+    type : str
+        One of OBJECT_TYPES.
+    centre : (float, float, float)
+        Metres, camera frame: the sphere's centre, the middle of a cylinder's axis, a box's centre,
+        where a mesh's bounding-box centre goes, the point on the floor between a figure's feet.
+    radius : float
+        Sphere/cylinder radius, metres.
+    height : float
+        Cylinder length or figure height, metres.
+    axis : (float, float, float)
+        Unit cylinder axis.
+    size : (float, float, float)
+        Box edges along x, y, z, metres.
+    path : str or None
+        Mesh file (any format trimesh reads), its coordinates taken as camera-frame axes.
+    scale : float
+        Metres per unit of the mesh.
+    gait_hz : float
+        Strides per second of a figure walking in place (0 = standing still).
     """
 
     type: str
@@ -170,6 +207,7 @@ class SceneObject:
 
     @property
     def animated(self) -> bool:
+        """True for a figure that walks (gait_hz > 0)."""
         return self.type == "figure" and self.gait_hz > 0
 
     def to_json(self) -> dict:
@@ -184,23 +222,41 @@ class SceneObject:
 
 @dataclass(frozen=True)
 class Room:
-    """A floor (the plane y = floor_y, metres below the camera) and a back wall (z = back_z), each 2
-    * half_width wide."""
+    """A floor and a back wall, each 2 * half_width wide.
+
+    Attributes
+    ----------
+    floor_y : float
+        The floor is the plane y = floor_y, metres below the camera.
+    back_z : float
+        The back wall is the plane z = back_z, metres.
+    half_width : float
+        Metres.
+    """
 
     floor_y: float = 1.0
     back_z: float = 4.2
     half_width: float = 4.0
 
     def to_json(self) -> dict:
+        """The room's scene-file object."""
         return {"floor_y": self.floor_y, "back_z": self.back_z, "half_width": self.half_width}
 
 
 @dataclass(frozen=True)
 class Scene:
-    """A depth camera, its mirrors (session order: mirror j is mirrors[j - 1]), the objects and the
-    room (or None);
-    click_jitter_px : radial RMS error (pixels) of the marker clicks in a session made from the
-    scene."""
+    """A depth camera, its mirrors, the objects and the room.
+
+    Attributes
+    ----------
+    camera : Intrinsics
+    mirrors : tuple of SceneMirror
+        Session order: mirror j is mirrors[j - 1].
+    objects : tuple of SceneObject
+    room : Room or None
+    click_jitter_px : float
+        Radial RMS error (pixels) of the marker clicks in a session made from the scene.
+    """
 
     camera: Intrinsics
     mirrors: tuple[SceneMirror, ...]
@@ -209,6 +265,7 @@ class Scene:
     click_jitter_px: float = 0.0
 
     def to_json(self) -> dict:
+        """The scene file's object."""
         return {"version": SCENE_VERSION, "camera": self.camera.to_dict(),
                 "mirrors": [m.to_json() for m in self.mirrors],
                 "objects": [o.to_json() for o in self.objects],
@@ -217,8 +274,19 @@ class Scene:
 
     def with_markers(self, marker_offset: float | None = None,
                      click_jitter_px: float | None = None) -> "Scene":
-        """A copy with every mirror's marker_offset (metres) and/or the click jitter (pixels)
-        replaced (None keeps)."""
+        """Return a copy with every mirror's marker_offset and/or the click jitter replaced.
+
+        Parameters
+        ----------
+        marker_offset : float, optional
+            Metres; None keeps.
+        click_jitter_px : float, optional
+            Pixels; None keeps.
+
+        Returns
+        -------
+        Scene
+        """
         mirrors = self.mirrors if marker_offset is None else tuple(
             replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
         jitter = self.click_jitter_px if click_jitter_px is None else _jitter(
@@ -228,7 +296,24 @@ class Scene:
 
 # --------------------------------------------------------------- JSON reading with one-line errors
 def scene_from_json(data, where: str = "scene") -> Scene:
-    """Validate a parsed scene file; raises FileFormatError naming `where` and the offending key."""
+    """Validate a parsed scene file.
+
+    Parameters
+    ----------
+    data : object
+        The parsed JSON.
+    where : str
+        The file, for the messages.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where` and the offending key.
+    """
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
     for key in ("camera", "mirrors", "objects"):
@@ -282,6 +367,7 @@ def _jitter(value, where: str) -> float:
 
 
 def _number(data: dict, key: str, where: str, default: float) -> float:
+    """data[key] (or `default`) as a finite float; FileFormatError otherwise."""
     value = data.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         raise FileFormatError(f"{where}.{key}: must be a number, got {value!r}")
@@ -289,6 +375,7 @@ def _number(data: dict, key: str, where: str, default: float) -> float:
 
 
 def _require(data, keys: tuple[str, ...], where: str) -> None:
+    """Refuse `data` that is not an object or misses one of `keys`."""
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: must be a JSON object")
     missing = [k for k in keys if k not in data]
@@ -297,6 +384,7 @@ def _require(data, keys: tuple[str, ...], where: str) -> None:
 
 
 def _mirror(data, where: str) -> SceneMirror:
+    """Validate one mirror object of a scene file."""
     _require(data, ("centre", "normal", "up", "width", "height"), where)
     markers = data.get("markers", [])
     try:
@@ -317,6 +405,7 @@ def _mirror(data, where: str) -> SceneMirror:
 
 
 def _object(data, where: str) -> SceneObject:
+    """Validate one object of a scene file."""
     _require(data, ("type", "centre"), where)
     kind = data["type"]
     if kind not in OBJECT_TYPES:
@@ -339,9 +428,22 @@ def _object(data, where: str) -> SceneObject:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read a scene file; raises FileFormatError naming the file (and the key) on any problem.
+    """Read a scene file.
 
     A relative mesh `path` inside the file is taken relative to the scene file's folder.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file (and the key) on any problem.
     """
     path = Path(path)
     scene = scene_from_json(read_json(path, "scene file"), str(path))
@@ -351,5 +453,11 @@ def load_scene(path: str | Path) -> Scene:
 
 
 def save_scene(scene: Scene, path: str | Path) -> None:
-    """Write a scene file atomically (UTF-8 JSON, indented)."""
+    """Write a scene file atomically (UTF-8 JSON, indented).
+
+    Parameters
+    ----------
+    scene : Scene
+    path : str or Path
+    """
     write_atomic(path, (json.dumps(scene.to_json(), indent=2) + "\n").encode("utf-8"))

@@ -37,12 +37,25 @@ from mirrorcore.geometry.camera import Intrinsics
 class SensorModel:
     """What the sensor does to the ideal depth; every stage can be switched off.
 
-    axial_k : total axial std = axial_k * Z^2 (1/m); 0 = no noise. quantise : round disparity to
-    `disparity_step` px.
-    baseline : projector-camera distance along +x, metres. lateral_sigma : std of the lateral jitter
-    in pixels (each pixel reads the depth of a neighbour at a rounded Gaussian offset); 0 = none.
-    min_range, max_range : metres; pixels whose true depth is outside read 0. shadow : zero the IR
-    shadow.
+    Attributes
+    ----------
+    axial_k : float
+        Total axial std = axial_k * Z^2 (1/m); 0 = no noise.
+    quantise : bool
+        Round disparity to `disparity_step`.
+    disparity_step : float
+        Pixels.
+    baseline : float
+        Projector-camera distance along +x, metres.
+    lateral_sigma : float
+        Std of the lateral jitter in pixels (each pixel reads the depth of a neighbour at a rounded
+        Gaussian offset); 0 = none.
+    min_range, max_range : float
+        Metres; pixels whose true depth is outside read 0.
+    shadow : bool
+        Zero the IR shadow.
+    shadow_tolerance : float
+        Pixels (see `ir_shadow`).
     """
 
     axial_k: float = 1.425e-3
@@ -63,26 +76,69 @@ class SensorModel:
 
     @classmethod
     def kinect_v1(cls, noise: bool = True) -> "SensorModel":
-        """Kinect v1; noise=False keeps the range, the shadow and the disparity quantisation but
-        adds no noise."""
+        """Return the Kinect v1 model.
+
+        Parameters
+        ----------
+        noise : bool
+            False keeps the range, the shadow and the disparity quantisation but adds no noise.
+
+        Returns
+        -------
+        SensorModel
+        """
         return cls() if noise else cls(axial_k=0.0, lateral_sigma=0.0)
 
     @classmethod
     def from_name(cls, name: str) -> "SensorModel":
-        """'none' -> ideal(), 'kinect' -> kinect_v1(), 'kinect-noiseless' ->
-        kinect_v1(noise=False)."""
+        """Return a model by name.
+
+        Parameters
+        ----------
+        name : str
+            'none' -> ideal(), 'kinect' -> kinect_v1(), 'kinect-noiseless' ->
+            kinect_v1(noise=False).
+
+        Returns
+        -------
+        SensorModel
+        """
         return {"none": cls.ideal, "kinect": cls.kinect_v1,
                 "kinect-noiseless": lambda: cls.kinect_v1(False)}[name]()
 
     def disparity_noise_std(self, fx: float) -> float:
-        """Std (pixels) of the Gaussian added to the disparity, before quantisation."""
+        """Return the std of the Gaussian added to the disparity, before quantisation.
+
+        Parameters
+        ----------
+        fx : float
+            Focal length, pixels.
+
+        Returns
+        -------
+        float
+            Pixels.
+        """
         total = self.axial_k * fx * self.baseline
         quant = self.disparity_step ** 2 / 12 if self.quantise else 0.0
         return float(np.sqrt(max(total ** 2 - quant, 0.0)))
 
     def apply(self, camera: Intrinsics, depth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """depth : (H, W) float32 ideal metres (0 = nothing) -> (H, W) float32 measured metres, 0 =
-        no reading."""
+        """Measure an ideal depth image.
+
+        Parameters
+        ----------
+        camera : Intrinsics
+        depth : (H, W) float32 array
+            Ideal metres, 0 = nothing.
+        rng : numpy.random.Generator
+            The noise's source.
+
+        Returns
+        -------
+        (H, W) float32 array
+            Measured metres, 0 = no reading.
+        """
         depth = np.asarray(depth, dtype=np.float32)
         fb = np.float32(camera.fx * self.baseline)
         valid = (depth >= self.min_range) & (depth <= self.max_range)
@@ -116,20 +172,42 @@ def _normal_quantiles() -> np.ndarray:
 
 
 def standard_normal(rng: np.random.Generator, shape: tuple[int, ...]) -> np.ndarray:
-    """`shape` float32 draws of N(0, 1): quantiles of 16-bit uniform integers from `rng` (see
-    `_normal_quantiles`), so the probability of any interval is within 1/65536 of the Gaussian's;
-    tails stop at 4.33 std."""
+    """Draw float32 samples of N(0, 1) as quantiles of 16-bit uniform integers.
+
+    The probability of any interval is within 1/65536 of the Gaussian's (see
+    `_normal_quantiles`); tails stop at 4.33 std.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+    shape : tuple of int
+
+    Returns
+    -------
+    float32 array of `shape`
+    """
     return np.take(_normal_quantiles(), rng.integers(0, 65536, shape, dtype=np.uint16))
 
 
 def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarray:
-    """(H, W) bool: pixels the projector (at +x, f*b = `fb` pixel-metres) cannot light (see the
-    module docstring).
+    """Find the pixels the projector cannot light (see the module docstring).
 
-    depth : (H, W) float32 metres, 0 = nothing there (never an occluder). tolerance : pixels, >= 0.
     A pixel u can only be shadowed by a pixel u' < u + D_max (D_max = the largest disparity f b / z
     in the image), since x_p(u') >= u' - D_max and x_p(u) < u: a running minimum over that window
     (an erosion) is enough.
+
+    Parameters
+    ----------
+    depth : (H, W) float32 array
+        Metres, 0 = nothing there (never an occluder).
+    fb : float
+        f * b of the projector at +x, pixel-metres.
+    tolerance : float
+        Pixels, >= 0.
+
+    Returns
+    -------
+    (H, W) bool array
     """
     depth = np.asarray(depth, dtype=np.float32)
     cols = np.arange(depth.shape[1], dtype=np.float32)
@@ -149,10 +227,21 @@ def ir_shadow(depth: np.ndarray, fb: float, tolerance: float = 0.1) -> np.ndarra
 
 
 def lateral_jitter(depth: np.ndarray, sigma: float, rng: np.random.Generator) -> np.ndarray:
-    """Each pixel reads the pixel at an offset of a Gaussian (std `sigma` px) rounded to -1, 0 or +1
-    per axis (probabilities to 1/256; offsets of 2 px, 0.3 % at sigma = 0.5, are left out).
+    """Make each pixel read the pixel at a Gaussian offset rounded to -1, 0 or +1 per axis.
 
-    depth : (H, W) float32 -> (H, W) float32; outside the image reads 0.
+    Probabilities to 1/256; offsets of 2 px (0.3 % at sigma = 0.5) are left out.
+
+    Parameters
+    ----------
+    depth : (H, W) float32 array
+    sigma : float
+        The offset's std, pixels.
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (H, W) float32 array
+        Outside the image reads 0.
     """
     h, w = depth.shape
     # 256 * P(N(0, sigma) > 0.5): rounds to +1

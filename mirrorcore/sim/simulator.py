@@ -17,9 +17,17 @@ FPS = 30.0
 
 @dataclass(frozen=True)
 class SimFrame:
-    """One simulated frame: `depth` (H, W) float32 metres as the sensor reports it (0 = no reading),
-    the ideal `truth` behind it (GroundTruth: ideal depth, surfaces, mirrors, real points) and its
-    time `t` in seconds."""
+    """One simulated frame.
+
+    Attributes
+    ----------
+    depth : (H, W) float32 array
+        Metres as the sensor reports it, 0 = no reading.
+    truth : GroundTruth
+        The ideal view behind it (ideal depth, surfaces, mirrors, real points).
+    t : float
+        Its time, seconds.
+    """
 
     depth: np.ndarray
     truth: GroundTruth
@@ -27,13 +35,20 @@ class SimFrame:
 
 
 class Simulator:
-    """A depth camera and mirrors in a simulated scene, rendered by ray casting and passed through a
-    sensor model.
+    """A depth camera and mirrors in a simulated scene, ray cast and passed through a sensor model.
 
-    scene : the Scene; sensor : SensorModel (default Kinect v1 with noise); seed : frame i draws its
-    noise from np.random.default_rng([seed, i]), so frames are reproducible in any order; bounces :
-    the most reflections a rendered ray may make (1 to MAX_BOUNCES, see Renderer); fps : frame rate
-    of `frame(i)` (time i / fps).
+    Parameters
+    ----------
+    scene : Scene
+    sensor : SensorModel, optional
+        Default Kinect v1 with noise.
+    seed : int
+        Frame i draws its noise from np.random.default_rng([seed, i]), so frames are reproducible
+        in any order.
+    bounces : int
+        The most reflections a rendered ray may make (1 to MAX_BOUNCES, see Renderer).
+    fps : float
+        Frame rate of `frame(i)` (time i / fps).
     """
 
     def __init__(self, scene: Scene, sensor: SensorModel | None = None, seed: int = 0,
@@ -47,6 +62,7 @@ class Simulator:
 
     @property
     def intrinsics(self) -> Intrinsics:
+        """The scene's camera."""
         return self.scene.camera
 
     @property
@@ -60,16 +76,38 @@ class Simulator:
         return self._renderer.animated
 
     def render(self, t: float, rng: np.random.Generator, with_objects: bool = True) -> SimFrame:
-        """The frame at time t seconds with noise drawn from `rng`; without the objects when
-        `with_objects` is False."""
+        """Return the frame at a time.
+
+        Parameters
+        ----------
+        t : float
+            Seconds.
+        rng : numpy.random.Generator
+            The noise's source.
+        with_objects : bool
+            False leaves the objects out.
+
+        Returns
+        -------
+        SimFrame
+        """
         truth = self._renderer.render(t, with_objects)
         return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t))
 
     def frame(self, i: int) -> SimFrame:
-        """Frame i (0-based) at time i / fps, reproducible from (seed, i)."""
+        """Return frame i at time i / fps, reproducible from (seed, i).
+
+        Parameters
+        ----------
+        i : int
+            0-based.
+
+        Returns
+        -------
+        SimFrame
+        """
         return self.render(i / self.fps, np.random.default_rng([self.seed, 0, int(i)]))
 
     def background(self) -> SimFrame:
-        """The scene without its objects (for background subtraction), reproducible from the
-        seed."""
+        """The scene without its objects (for background subtraction), reproducible from seed."""
         return self.render(0.0, np.random.default_rng([self.seed, 1]), with_objects=False)

@@ -17,10 +17,23 @@ from mirrorcore.sim.scene import Scene
 
 @dataclass(frozen=True)
 class PlaneError:
-    """One mirror's plane against its true plane, at the object's middle (layouts.object_extent: a
-    figure's is half its height above the floor point between its feet): offset_mm along the normal
-    (> 0: the plane too far from the camera) and tilt_deg, both None while it has no plane; its
-    glass (the session's marker_offset) beside the true one, mm."""
+    """One mirror's plane against its true plane.
+
+    Measured at the object's middle (layouts.object_extent: a figure's is half its height above the
+    floor point between its feet).
+
+    Attributes
+    ----------
+    name : str
+    offset_mm : float or None
+        Along the normal, mm (> 0: the plane too far from the camera); None while it has no plane.
+    tilt_deg : float or None
+        Degrees; None while it has no plane.
+    glass_mm : float
+        The session's marker_offset, mm.
+    true_glass_mm : float
+        The true one, mm.
+    """
 
     name: str
     offset_mm: float | None
@@ -31,8 +44,14 @@ class PlaneError:
 
 @dataclass(frozen=True)
 class SurfaceError:
-    """A cloud's distances to the true surfaces of the scene's objects, mm: RMSE, mean and 95th
-    percentile, over `points` points."""
+    """A cloud's distances to the true surfaces of the scene's objects, mm.
+
+    Attributes
+    ----------
+    points : int
+    rmse_mm, mean_mm, p95_mm : float
+        RMSE, mean and 95th percentile, mm.
+    """
 
     points: int
     rmse_mm: float
@@ -41,9 +60,20 @@ class SurfaceError:
 
 
 def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
-    """Each mirror of `session` against the scene's mirror in the same place (session order is the
-    scene's order, as `mirrorcore.sim.export` writes it); the offsets at the first object's middle
-    (the origin without objects)."""
+    """Measure each mirror of a session against the scene's mirror in the same place.
+
+    Session order is the scene's order, as `mirrorcore.sim.export` writes it; the offsets are at the
+    first object's middle (the origin without objects).
+
+    Parameters
+    ----------
+    session : Session
+    scene : Scene
+
+    Returns
+    -------
+    list of PlaneError
+    """
     if len(session.mirrors) != len(scene.mirrors):
         raise MirrorscanError(
             f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
@@ -62,9 +92,23 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
 
 
 def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceError:
-    """The distances of `points` (n, 3) metres to the nearest surface of the scene's objects as they
-    are at `t` seconds (a walking figure moves), by Open3D's raycasting scene over their meshes (the
-    sphere's icosphere lies within 0.1 mm of the true sphere)."""
+    """Measure the distances of points to the nearest surface of the scene's objects.
+
+    By Open3D's raycasting scene over their meshes (the sphere's icosphere lies within 0.1 mm of
+    the true sphere).
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        Metres, camera frame.
+    scene : Scene
+    t : float
+        Seconds: the objects as they are then (a walking figure moves).
+
+    Returns
+    -------
+    SurfaceError
+    """
     if not scene.objects:
         raise MirrorscanError("the scene has no object to compare with")
     if len(points) == 0:

@@ -34,8 +34,19 @@ _OPTIONS = ("camera", "scale", "fps")
 
 @dataclass(frozen=True)
 class SourceKind:
-    """One kind of source: its spec form, what it reads, and a check that returns None when it can
-    be used here or a one-line reason why not."""
+    """One kind of source.
+
+    Attributes
+    ----------
+    name : str
+        The kind.
+    spec : str
+        Its spec form.
+    what : str
+        What it reads.
+    unavailable : callable
+        Returns None when the kind can be used here, or a one-line reason why not.
+    """
 
     name: str
     spec: str
@@ -44,11 +55,13 @@ class SourceKind:
 
 
 def _library(module: str, install: str) -> Callable[[], str | None]:
+    """A check that names what to install when `module` is missing."""
     return lambda: None if importlib.util.find_spec(module.split(".")[
         0]) else f"needs {module}: install {install}"
 
 
 def _freenect_devices() -> str | None:
+    """Why freenect cannot be used here (library missing, no Kinect v1), or None."""
     missing = _library("freenect", FREENECT_INSTALL)()
     if missing:
         return missing
@@ -58,6 +71,7 @@ def _freenect_devices() -> str | None:
 
 
 def _openni2_devices() -> str | None:
+    """Why OpenNI2 cannot be used here (library missing, no device), or None."""
     missing = _library("openni", OPENNI2_INSTALL)()
     if missing:
         return missing
@@ -72,6 +86,7 @@ def _openni2_devices() -> str | None:
 
 
 def _realsense_devices() -> str | None:
+    """Why RealSense cannot be used here (library missing, no camera), or None."""
     missing = _library("pyrealsense2", REALSENSE_INSTALL)()
     if missing:
         return missing
@@ -103,9 +118,26 @@ KINDS = (
 
 
 def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
-    """'KIND:TARGET?key=value&...' -> (kind, target, options). A spec without a known kind is a
-    path; its kind is guessed from what is there (see the module docstring). Raises MirrorscanError
-    for an unknown kind or option."""
+    """Split a spec 'KIND:TARGET?key=value&...' into its kind, target and options.
+
+    A spec without a known kind is a path; its kind is guessed from what is there (see the module
+    docstring).
+
+    Parameters
+    ----------
+    spec : str
+
+    Returns
+    -------
+    kind : str
+    target : str
+    options : dict of str to str
+
+    Raises
+    ------
+    MirrorscanError
+        An unknown kind or option.
+    """
     body, _, query = spec.partition("?")
     options = dict(parse_qsl(query, keep_blank_values=True))
     unknown = sorted(set(options) - set(_OPTIONS))
@@ -121,6 +153,7 @@ def parse_spec(spec: str) -> tuple[str, str, dict[str, str]]:
 
 
 def _guess_kind(path: Path, spec: str) -> str:
+    """The kind of a spec that names a path, from what is there."""
     suffix = path.suffix.lower()
     if path.is_file() and suffix in (".npz", ".bag", ".oni"):
         return {".npz": "npz", ".bag": "bag", ".oni": "openni2"}[suffix]
@@ -132,10 +165,26 @@ def _guess_kind(path: Path, spec: str) -> str:
 
 
 def open_source(spec: str | None, session: Session | None = None) -> DepthSource:
-    """Open the source a spec names (see the module docstring and KINDS). None picks 'session' for a
-    session with frames, else 'sim'. `session` is the session that 'session' and 'sim' refer to.
-    Raises MirrorscanError (a missing library or device: what to install or plug in) or
-    FileFormatError (a bad file: which and why)."""
+    """Open the source a spec names (see the module docstring and KINDS).
+
+    Parameters
+    ----------
+    spec : str or None
+        None picks 'session' for a session with frames, else 'sim'.
+    session : Session, optional
+        The session that 'session' and 'sim' refer to.
+
+    Returns
+    -------
+    DepthSource
+
+    Raises
+    ------
+    MirrorscanError
+        A missing library or device: what to install or plug in.
+    FileFormatError
+        A bad file: which and why.
+    """
     if spec is None:
         spec = "session" if session is not None and session.frames else "sim"
     kind, target, options = parse_spec(spec)
@@ -158,6 +207,7 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
 
 
 def _number(options: dict[str, str], key: str, spec: str) -> float | None:
+    """Option `key` as a positive finite number, None when absent."""
     if key not in options:
         return None
     try:
@@ -171,6 +221,7 @@ def _number(options: dict[str, str], key: str, spec: str) -> float | None:
 
 
 def _index(target: str, spec: str) -> int:
+    """A freenect device index."""
     if not target.strip().isdigit():
         raise MirrorscanError(f"source {spec!r}: freenect needs a device index (freenect:0)")
     return int(target)

@@ -18,13 +18,18 @@ from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
 class Frame:
     """One frame of a depth source.
 
-    depth : (H, W) float32, metres, 0 = no reading (never NaN or inf)
-    timestamp : float, seconds on the source's clock (a recording's own times, or seconds since a
-    live source opened)
-    colour : (H, W, 3) uint8 RGB registered to the depth image, or None
-    units : (H, W) uint16, the sensor's own values before conversion to metres (Kinect v1: 11-bit
-    disparity,
-          2047 = no reading; RealSense: z16 units), or None
+    Attributes
+    ----------
+    depth : (H, W) float32 array
+        Metres, 0 = no reading (never NaN or inf).
+    timestamp : float
+        Seconds on the source's clock (a recording's own times, or seconds since a live source
+        opened).
+    colour : (H, W, 3) uint8 array or None
+        RGB registered to the depth image.
+    units : (H, W) uint16 array or None
+        The sensor's own values before conversion to metres (Kinect v1: 11-bit disparity, 2047 = no
+        reading; RealSense: z16 units).
     """
 
     depth: np.ndarray
@@ -36,15 +41,21 @@ class Frame:
 class DepthSource(ABC):
     """Frames of one depth camera, live or recorded.
 
-    name : str, for people; intrinsics : the depth camera's Intrinsics (depth_scale = the units its
-    recording uses);
-    fps : float, nominal frame rate; frame_count : int for a seekable source (a recording), None for
-    a live one.
-
     read(i): a seekable source returns frame i modulo frame_count (so playing i = 0, 1, 2... loops
     and any i seeks); a live source ignores i and returns its next frame, blocking until it arrives.
     Use a source as a context manager (close() releases the device or the file) and as an iterator
     (a recording's frames once; a live source's forever).
+
+    Attributes
+    ----------
+    name : str
+        For people.
+    intrinsics : Intrinsics
+        The depth camera's (depth_scale = the units its recording uses).
+    fps : float
+        Nominal frame rate.
+    frame_count : int or None
+        The frames of a seekable source (a recording); None for a live one.
     """
 
     name: str
@@ -64,17 +75,32 @@ class DepthSource(ABC):
 
     @abstractmethod
     def read(self, i: int) -> Frame:
-        """Frame i (see the class docstring); raises MirrorscanError or FileFormatError with a
-        one-line message."""
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+
+        Raises
+        ------
+        MirrorscanError, FileFormatError
+            With a one-line message.
+        """
 
     def background(self) -> np.ndarray | None:
-        """The scene without the object as (H, W) float32 metres, or None when the source has
-        none."""
+        """The scene without the object as (H, W) float32 metres, or None if the source has none."""
         return None
 
     def close(self) -> None:
-        """Release the device or files; reading after close is an error. Closing twice does
-        nothing."""
+        """Release the device or files; reading after close is an error.
+
+        Closing twice does nothing.
+        """
 
     def __enter__(self) -> "DepthSource":
         return self
@@ -97,17 +123,51 @@ class DepthSource(ABC):
 
 
 def checked_depth(depth: np.ndarray, intr: Intrinsics, where: str) -> np.ndarray:
-    """A depth image checked against the camera and cleaned: (H, W) float32 metres with NaN, inf and
-    negative values set to 0 (no reading). Raises FileFormatError naming `where` when the size does
-    not match."""
+    """Check a depth image against the camera and clean it.
+
+    Parameters
+    ----------
+    depth : (H, W) array
+        Metres.
+    intr : Intrinsics
+    where : str
+        The image, for the message.
+
+    Returns
+    -------
+    (H, W) float32 array
+        Metres, with NaN, inf and negative values set to 0 (no reading).
+
+    Raises
+    ------
+    FileFormatError
+        Naming `where`, when the size does not match.
+    """
     depth = np.asarray(check_depth_shape(intr, depth, where), dtype=np.float32)
     return np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(0))
 
 
 def require(module: str, what: str, install: str) -> ModuleType:
-    """Import an optional library when a source needs it; MirrorscanError saying what to install
-    when it is missing.
-    what : the source, for the message ('freenect:0'); install : how to get the library."""
+    """Import an optional library when a source needs it.
+
+    Parameters
+    ----------
+    module : str
+        The module to import.
+    what : str
+        The source, for the message ('freenect:0').
+    install : str
+        How to get the library.
+
+    Returns
+    -------
+    module
+
+    Raises
+    ------
+    MirrorscanError
+        Saying what to install, when the library is missing.
+    """
     try:
         return importlib.import_module(module)
     except ImportError as exc:

@@ -24,12 +24,25 @@ _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM"
 class FreenectSource(DepthSource):
     """A Kinect v1 through libfreenect's sync wrapper, live.
 
-    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres
-    by `disparity_model` ((H, W) uint16 -> (H, W) float32 metres, 0 = no reading), by default
-    Nicolas Burrus' calibration z = 1 / (counts * -0.0030711016 + 3.3309495161)
-    (mirrorcore.depth.kinect.disparity_to_depth); pass another function to
-    use your own calibration. intrinsics : the IR (depth) camera's, default Intrinsics.kinect_v1()
-    (Burrus). Timestamps are seconds since the source opened, on the host's clock.
+    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres.
+    Timestamps are seconds since the source opened, on the host's clock.
+
+    Parameters
+    ----------
+    index : int
+        The device.
+    intrinsics : Intrinsics, optional
+        The IR (depth) camera's, default Intrinsics.kinect_v1() (Burrus).
+    disparity_model : callable
+        (H, W) uint16 counts -> (H, W) float32 metres, 0 = no reading; by default Nicolas Burrus'
+        calibration z = 1 / (counts * -0.0030711016 + 3.3309495161)
+        (mirrorcore.depth.kinect.disparity_to_depth). Pass another function to use your own
+        calibration.
+
+    Raises
+    ------
+    MirrorscanError
+        libfreenect is missing: what to install.
     """
 
     def __init__(self, index: int = 0, intrinsics: Intrinsics | None = None,
@@ -43,6 +56,7 @@ class FreenectSource(DepthSource):
         self._first: Frame | None = self._grab()
 
     def _grab(self) -> Frame:
+        """Read the next frame from the device."""
         got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
         if got is None:
             raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and "
@@ -51,20 +65,44 @@ class FreenectSource(DepthSource):
         return Frame(self.disparity_model(counts), time.monotonic() - self._t0, units=counts)
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+        """
         frame, self._first = self._first or self._grab(), None
         return frame
 
     def close(self) -> None:
+        """Stop the device."""
         self._freenect.sync_stop()
 
 
 class OpenNI2Source(DepthSource):
-    """An OpenNI2 device (target '' = the first one, or a device URI) or an .oni recording
-    (seekable).
+    """An OpenNI2 device or an .oni recording (seekable).
 
     Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units
     holds those units); intrinsics from the stream's fields of view (principal point at the image
     centre); timestamps from the device, seconds.
+
+    Parameters
+    ----------
+    target : str
+        '' = the first device, or a device URI, or an .oni file.
+
+    Raises
+    ------
+    MirrorscanError
+        OpenNI2 is missing, the device cannot be opened, or its depth pixel format is not one of
+        those read.
+    FileFormatError
+        No such .oni recording.
     """
 
     def __init__(self, target: str = ""):
@@ -102,6 +140,17 @@ class OpenNI2Source(DepthSource):
                             else self._playback.get_number_of_frames(self._stream))
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+        """
         if self._playback is not None:
             self._playback.seek(self._stream, self._wrap(i))
         frame = self._stream.read_frame()
@@ -112,13 +161,26 @@ class OpenNI2Source(DepthSource):
                      units=units)
 
     def close(self) -> None:
+        """Stop the stream and close the device."""
         self._stream.stop()
         self._device.close()
 
 
 def initialise_openni2(openni2, what: str) -> None:
-    """Load libOpenNI2 from the usual library folders; MirrorscanError saying what to install when
-    it is missing."""
+    """Load libOpenNI2 from the usual library folders.
+
+    Parameters
+    ----------
+    openni2 : module
+        openni.openni2.
+    what : str
+        The source, for the message.
+
+    Raises
+    ------
+    MirrorscanError
+        Saying what to install, when it is missing.
+    """
     try:
         openni2.initialize([d for d in OPENNI2_LIBRARY_DIRS if (Path(d) / "libOpenNI2.so").exists()]
                            or ["."])

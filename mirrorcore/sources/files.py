@@ -30,11 +30,24 @@ PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesens
 
 
 class ImageSequenceSource(DepthSource):
-    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with their timestamps and
-    optional colour.
+    """Depth PNGs (uint16, depth_scale metres per unit) played in order, with timestamps and colour.
 
-    paths : N depth images; timestamps : (N,) float64 seconds; colour_paths : N colour images (or
-    None entries), or None for none.
+    Parameters
+    ----------
+    name : str
+    intrinsics : Intrinsics
+    paths : list of Path
+        N depth images.
+    timestamps : (N,) float64 array
+        Seconds.
+    colour_paths : list of (Path or None), optional
+        N colour images (or None entries); None for none.
+    fps : float
+
+    Raises
+    ------
+    FileFormatError
+        No depth frames.
     """
 
     def __init__(self, name: str, intrinsics: Intrinsics, paths: list[Path], timestamps: np.ndarray,
@@ -47,6 +60,22 @@ class ImageSequenceSource(DepthSource):
             raise FileFormatError(f"{name}: no depth frames")
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+
+        Raises
+        ------
+        MirrorscanError, FileFormatError
+            With a one-line message.
+        """
         i = self._wrap(i)
         depth = read_depth_png(self.paths[i], self.intrinsics.depth_scale, self.intrinsics.shape)
         colour = None if self.colour_paths is None else read_colour(self.colour_paths[i],
@@ -55,8 +84,13 @@ class ImageSequenceSource(DepthSource):
 
 
 class SessionSource(ImageSequenceSource):
-    """A session's recorded frames at `fps`, with the session's timestamps (else i / fps) and colour
-    frames."""
+    """A session's recorded frames at `fps`, with its timestamps (else i / fps) and colour frames.
+
+    Parameters
+    ----------
+    session : Session
+    fps : float
+    """
 
     def __init__(self, session: Session, fps: float = 30.0):
         self.session = session
@@ -70,17 +104,31 @@ class SessionSource(ImageSequenceSource):
                          np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
+        """The session's background as (H, W) float32 metres, or None."""
         return self.session.read_background()
 
 
 def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
                     depth_scale: float | None = None,
                     fps: float = 30.0) -> ImageSequenceSource:
-    """A folder of 16-bit depth PNGs played in name order at `fps` (timestamps i / fps).
+    """Play a folder of 16-bit depth PNGs in name order at `fps` (timestamps i / fps).
 
-    The camera: `camera` when given, else the folder's camera.json (docs/DESIGN.md's camera object)
-    or intrinsic.json (Open3D). depth_scale (metres per unit): the argument, else camera.json's,
-    else 0.001. Raises FileFormatError.
+    Parameters
+    ----------
+    folder : str or Path
+    camera : Intrinsics, optional
+        Else the folder's camera.json (docs/DESIGN.md's camera object) or intrinsic.json (Open3D).
+    depth_scale : float, optional
+        Metres per unit; else camera.json's, else 0.001.
+    fps : float
+
+    Returns
+    -------
+    ImageSequenceSource
+
+    Raises
+    ------
+    FileFormatError
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -96,8 +144,21 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
 
 
 def folder_camera(folder: Path) -> Intrinsics:
-    """The camera described beside a folder's images: camera.json, else intrinsic.json;
-    FileFormatError if neither."""
+    """Return the camera described beside a folder's images: camera.json, else intrinsic.json.
+
+    Parameters
+    ----------
+    folder : Path
+
+    Returns
+    -------
+    Intrinsics
+
+    Raises
+    ------
+    FileFormatError
+        Neither file, or a bad one.
+    """
     if (folder / CAMERA_SIDECAR).is_file():
         path = folder / CAMERA_SIDECAR
         return Intrinsics.from_dict(read_json(path, "camera file"), str(path))
@@ -108,8 +169,24 @@ def folder_camera(folder: Path) -> Intrinsics:
 
 
 def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
-    """A camera from a preset name (kinect_v1, primesense) or a file: .yaml/.yml (OpenCV), .json
-    (the session's camera object, docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic)."""
+    """Load a camera from a preset name (kinect_v1, primesense) or a file.
+
+    Parameters
+    ----------
+    value : str
+        A preset, or a .yaml/.yml (OpenCV) or .json file (the session's camera object,
+        docs/DESIGN.md, or Open3D's PinholeCameraIntrinsic).
+    depth_scale : float
+        Metres per unit, where the camera does not say.
+
+    Returns
+    -------
+    Intrinsics
+
+    Raises
+    ------
+    FileFormatError
+    """
     if value in PRESETS:
         return Intrinsics(**{**PRESETS[value]().to_dict(), "depth_scale": depth_scale})
     path = Path(value)
@@ -124,9 +201,27 @@ def load_camera(value: str, depth_scale: float = 0.001) -> Intrinsics:
 
 def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: float | None = None
              ) -> ImageSequenceSource:
-    """A TUM RGB-D folder: depth.txt (timestamp path per line, '#' comments), depth PNGs in metres x
-    5000, colour from rgb.txt associated by nearest timestamp (within 0.02 s, else none). The camera
-    defaults to TUM's recommended 525 / 525 / 319.5 / 239.5 at 640x480."""
+    """Play a TUM RGB-D folder.
+
+    depth.txt lists a timestamp and a path per line ('#' comments); depth PNGs are in metres x 5000;
+    colour comes from rgb.txt associated by nearest timestamp (within 0.02 s, else none).
+
+    Parameters
+    ----------
+    folder : str or Path
+    camera : Intrinsics, optional
+        Default TUM's recommended 525 / 525 / 319.5 / 239.5 at 640x480.
+    depth_scale : float, optional
+        Metres per unit.
+
+    Returns
+    -------
+    ImageSequenceSource
+
+    Raises
+    ------
+    FileFormatError
+    """
     folder = Path(folder)
     depth_stamps, depth_paths = read_tum_list(folder / "depth.txt")
     scale = TUM_DEPTH_SCALE if depth_scale is None else depth_scale
@@ -143,8 +238,19 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
 
 
 def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
-    """A TUM list file -> (N,) float64 timestamps (sorted) and N paths relative to the file's
-    folder."""
+    """Read a TUM list file.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    timestamps : (N,) float64 array
+        Seconds, sorted.
+    paths : list of Path
+        N paths relative to the file's folder.
+    """
     if not path.is_file():
         raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
     stamps, paths = [], []
@@ -163,6 +269,7 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
 
 
 def _parses(text: str) -> bool:
+    """Whether `text` is a finite number."""
     try:
         return bool(np.isfinite(float(text)))
     except ValueError:
@@ -170,15 +277,37 @@ def _parses(text: str) -> bool:
 
 
 def nearest_stamps(stamps: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """Index into sorted `stamps` (n,) float of the nearest one to each of `queries` (m,) float ->
-    (m,) int."""
+    """Find the nearest of sorted timestamps to each query.
+
+    Parameters
+    ----------
+    stamps : (n,) float array
+        Sorted.
+    queries : (m,) float array
+
+    Returns
+    -------
+    (m,) int array
+        Indices into `stamps`.
+    """
     right = np.searchsorted(stamps, queries).clip(0, len(stamps) - 1)
     left = (right - 1).clip(0)
     return np.where(np.abs(stamps[left] - queries) <= np.abs(stamps[right] - queries), left, right)
 
 
 def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
-    """A colour image as (H, W, 3) uint8 RGB of the camera's size, or None for no path."""
+    """Read a colour image of the camera's size.
+
+    Parameters
+    ----------
+    path : Path or None
+    intr : Intrinsics
+
+    Returns
+    -------
+    (H, W, 3) uint8 array or None
+        RGB; None for no path.
+    """
     if path is None:
         return None
     bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
@@ -194,10 +323,22 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
 class StackSource(DepthSource):
     """Frames held in memory as a stack of sensor units.
 
-    units : (N, H, W) integer or float stack, metres = units * scale; timestamps : (N,) float
-    seconds;
-    colour : (N, H, W, 3) uint8 RGB or None. Integer units are also given as Frame.units (uint16).
-    NaN, inf and values <= 0 read as no reading.
+    Integer units are also given as Frame.units (uint16). NaN, inf and values <= 0 read as no
+    reading.
+
+    Parameters
+    ----------
+    name : str
+    intrinsics : Intrinsics
+    units : (N, H, W) integer or float array
+        Metres = units * scale.
+    scale : float
+        Metres per unit.
+    timestamps : (N,) float array
+        Seconds.
+    colour : (N, H, W, 3) uint8 array, optional
+        RGB.
+    fps : float
     """
 
     def __init__(self, name: str, intrinsics: Intrinsics, units: np.ndarray, scale: float,
@@ -209,6 +350,17 @@ class StackSource(DepthSource):
         self.timestamps, self.colour = np.asarray(timestamps, float), colour
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+        """
         i = self._wrap(i)
         units = self.units[i]
         with np.errstate(invalid="ignore", over="ignore"):
@@ -219,10 +371,24 @@ class StackSource(DepthSource):
 
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
-    """A .npz stack, loaded without pickles: `depth` (N, H, W) or (H, W) in units of `depth_scale`
-    metres (integer stacks need depth_scale; float stacks are metres unless it is given), `K` (3, 3)
-    camera matrix, optional `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3)
-    uint8 RGB. Raises FileFormatError."""
+    """Play a .npz stack, loaded without pickles.
+
+    Parameters
+    ----------
+    path : str or Path
+        Holds `depth` (N, H, W) or (H, W) in units of `depth_scale` metres (integer stacks need
+        depth_scale; float stacks are metres unless it is given), `K` (3, 3) camera matrix, optional
+        `timestamps` (N,) seconds (default i / fps) and `colour` (N, H, W, 3) uint8 RGB.
+    fps : float
+
+    Returns
+    -------
+    StackSource
+
+    Raises
+    ------
+    FileFormatError
+    """
     path = Path(path)
     arrays = load_npz(path)
     for key in ("depth", "K"):
@@ -268,9 +434,24 @@ def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[typ
 
 
 def load_npz(path: Path) -> dict[str, np.ndarray]:
-    """Every array of a .npz file, read with allow_pickle=False; FileFormatError if missing, corrupt
-    or pickled, and MemoryBudgetError when the arrays' declared shapes (read from their .npy headers
-    first) would not fit in the memory budget."""
+    """Read every array of a .npz file with allow_pickle=False.
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    dict of str to array
+
+    Raises
+    ------
+    FileFormatError
+        Missing, corrupt or pickled.
+    MemoryBudgetError
+        The arrays' declared shapes (read from their .npy headers first) would not fit in the memory
+        budget.
+    """
     if not path.is_file():
         raise FileFormatError(f"{path}: no such .npz file")
     if not zipfile.is_zipfile(path):
@@ -292,9 +473,25 @@ def load_npz(path: Path) -> dict[str, np.ndarray]:
 
 
 def npz_declared_bytes(file) -> dict[str, int]:
-    """The bytes each .npy member of an open .npz (zip) file declares in its header (shape x item
-    size), read without loading any array: {member name: bytes}. Raises ValueError for a member that
-    is not an .npy array."""
+    """Read the bytes each .npy member of an open .npz file declares, without loading any array.
+
+    Shape x item size, from each member's header.
+
+    Parameters
+    ----------
+    file : zipfile.ZipFile
+        The open .npz.
+
+    Returns
+    -------
+    dict of str to int
+        {member name: bytes}.
+
+    Raises
+    ------
+    ValueError
+        A member that is not an .npy array.
+    """
     sizes = {}
     with zipfile.ZipFile(file) as archive:
         for info in archive.infolist():

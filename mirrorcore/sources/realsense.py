@@ -20,9 +20,21 @@ BAG_START_S = 5.0
 
 
 class RealSenseSource(DepthSource):
-    """A live RealSense camera (serial '' = the first one): z16 depth times the device's depth units
-    (Frame.units holds the z16 values), intrinsics from the depth stream's profile, timestamps from
-    the device in seconds."""
+    """A live RealSense camera.
+
+    z16 depth times the device's depth units (Frame.units holds the z16 values), intrinsics from
+    the depth stream's profile, timestamps from the device in seconds.
+
+    Parameters
+    ----------
+    serial : str
+        '' = the first one.
+
+    Raises
+    ------
+    MirrorscanError
+        pyrealsense2 is missing, or no camera can be started.
+    """
 
     def __init__(self, serial: str = ""):
         self.name = f"realsense:{serial}"
@@ -43,6 +55,17 @@ class RealSenseSource(DepthSource):
         self.frame_count = None
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+        """
         depth = self._pipe.wait_for_frames().get_depth_frame()
         units = np.asanyarray(depth.get_data()).copy()
         return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
@@ -50,12 +73,25 @@ class RealSenseSource(DepthSource):
                      units=units)
 
     def close(self) -> None:
+        """Stop the pipeline."""
         self._pipe.stop()
 
 
 def profile_camera(rs, profile) -> tuple[Intrinsics, float]:
-    """A started pipeline profile -> the depth camera's Intrinsics (depth_scale = the device's depth
-    units) and fps."""
+    """Read the depth camera of a started pipeline profile.
+
+    Parameters
+    ----------
+    rs : module
+        pyrealsense2.
+    profile : pyrealsense2.pipeline_profile
+
+    Returns
+    -------
+    intrinsics : Intrinsics
+        depth_scale = the device's depth units.
+    fps : float
+    """
     stream = profile.get_stream(rs.stream.depth).as_video_stream_profile()
     return _camera(stream,
                    profile.get_device().first_depth_sensor().get_depth_scale()), float(stream.fps())
@@ -68,21 +104,48 @@ def _camera(stream, units: float) -> Intrinsics:
 
 
 def open_bag(path: str | Path) -> "BagSource":
-    """A RealSense .bag recording (ROS1, as pyrealsense2 up to 2.55 writes), read one frame at a
-    time (see BagSource). Raises FileFormatError for a missing or unreadable bag."""
+    """Open a RealSense .bag recording to read one frame at a time (see BagSource).
+
+    ROS1 bags, as pyrealsense2 up to 2.55 writes them.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    BagSource
+
+    Raises
+    ------
+    FileFormatError
+        A missing or unreadable bag.
+    """
     return BagSource(path)
 
 
 class BagSource(DepthSource):
-    """A .bag played from its file one frame at a time, so that memory does not grow with its
-    length: depth frames as z16 units (Frame.units) times the recorded depth units, device
-    timestamps in seconds.
+    """A .bag played from its file one frame at a time.
 
-    Opening plays the bag once to count its frames (keeping only their timestamps). read(i) for the
-    next frame takes it from the playback; any other i restarts the playback from the start and
-    skips to it (seeking costs a replay). The depth sensor is read through a callback with real-time
-    playback off, so the playback waits for each frame (a pipeline drops frames on a busy machine);
-    the callback hands frames over through a queue of BAG_QUEUE."""
+    Memory does not grow with its length. Depth frames as z16 units (Frame.units) times the recorded
+    depth units, device timestamps in seconds. Opening plays the bag once to count its frames
+    (keeping only their timestamps). read(i) for the next frame takes it from the playback; any
+    other i restarts the playback from the start and skips to it (seeking costs a replay). The depth
+    sensor is read through a callback with real-time playback off, so the playback waits for each
+    frame (a pipeline drops frames on a busy machine); the callback hands frames over through a
+    queue of BAG_QUEUE.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Raises
+    ------
+    FileFormatError
+        A missing bag, one without depth frames, or one that cannot be read.
+    MirrorscanError
+        pyrealsense2 is missing.
+    """
 
     def __init__(self, path: str | Path):
         self.path = Path(path)
@@ -102,6 +165,22 @@ class BagSource(DepthSource):
             raise FileFormatError(f"{self.path}: the recording has no depth frames")
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+
+        Raises
+        ------
+        MirrorscanError, FileFormatError
+            With a one-line message.
+        """
         i = self._wrap(i)
         if self._player is None or i < self._next:
             self.close()
@@ -118,6 +197,7 @@ class BagSource(DepthSource):
                              stamp, units=units)
 
     def close(self) -> None:
+        """Stop the playback."""
         if self._player is not None:
             self._player.close()
             self._player = None
@@ -156,6 +236,7 @@ class _Playback:
         self.close()
 
     def start(self) -> "_Playback":
+        """Start the playback; returns self."""
         try:
             self.sensor.open(self.profile)
             self.sensor.start(self._take)
@@ -178,9 +259,15 @@ class _Playback:
                 continue
 
     def next(self) -> tuple | None:
-        """The next frame, or None once the playback has stopped after delivering its frames (it
-        reads 'stopped' before it starts too: BAG_START_S). Raises FileFormatError when it has not
-        ended within BAG_TIMEOUT_S."""
+        """Return the next frame, or None once the playback has stopped after delivering its frames.
+
+        It reads 'stopped' before it starts too (BAG_START_S).
+
+        Raises
+        ------
+        FileFormatError
+            The playback has not ended within BAG_TIMEOUT_S.
+        """
         while True:
             try:
                 item = self._queue.get(timeout=0.02)
@@ -197,6 +284,7 @@ class _Playback:
                     f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
 
     def close(self) -> None:
+        """Stop the playback, even while the callback waits for room in the queue."""
         self._stopping.set()
         if self._started:
             self._started = False

@@ -36,15 +36,34 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
            frames: int | None = None,
            progress: Callable[[int, Frame], None] = lambda n, frame: None,
            cancel: Callable[[], bool] = lambda: False) -> Session:
-    """Record `source` into a new session folder and return its Session.
+    """Record a source into a new session folder.
 
     Stops at the first of: `frames` frames; a frame whose timestamp is `seconds` or more after the
     first one; the end of the source's iteration (one pass of a recording); cancel() returning True;
     Ctrl-C. session.json is valid from the start and rewritten every SAVE_EVERY_S seconds and at the
     end (see the module docstring). Ctrl-C, or an error after the first frame (a camera unplugged),
     keeps what was recorded as a valid session and is raised again; an error before any frame
-    removes the folder. progress(n, frame) is called after frame n (1-based) is written.
-    folder : must not exist, or be empty. Raises MirrorscanError, FileFormatError, OSError.
+    removes the folder.
+
+    Parameters
+    ----------
+    source : DepthSource
+    folder : str or Path
+        Must not exist, or be empty.
+    seconds : float, optional
+    frames : int, optional
+    progress : callable
+        progress(n, frame) is called after frame n (1-based) is written.
+    cancel : callable
+        Returns True to stop.
+
+    Returns
+    -------
+    Session
+
+    Raises
+    ------
+    MirrorscanError, FileFormatError, OSError
     """
     folder = Path(folder)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
@@ -89,8 +108,10 @@ class _Take:
         self._saved_at = time.monotonic()
 
     def add(self, frame: Frame) -> None:
-        """Write one frame (atomically), then list it; session.json follows when it is SAVE_EVERY_S
-        old."""
+        """Write one frame (atomically), then list it.
+
+        session.json follows when it is SAVE_EVERY_S old.
+        """
         n = len(self.names)
         write_depth_png(self.folder / FRAME_NAME.format(n), frame.depth,
                         self.source.intrinsics.depth_scale)
@@ -103,6 +124,7 @@ class _Take:
             self.save()
 
     def save(self) -> Session:
+        """Write session.json now and return the session."""
         session = Session(self.folder, self.source.intrinsics, (), self.background,
                           tuple(self.names),
                           timestamps=tuple(self.stamps),
@@ -115,9 +137,20 @@ class _Take:
 
 
 def new_recording_folder(parent: str | Path, prefix: str = "recording") -> Path:
-    """Create and return a new empty folder `parent`/PREFIX-YYYYmmdd-HHMMSS (with -2, -3... when
-    that name is taken): made with an exclusive mkdir, so two recordings started in the same second
-    never share a folder."""
+    """Create a new empty folder `parent`/PREFIX-YYYYmmdd-HHMMSS.
+
+    With -2, -3... when that name is taken: made with an exclusive mkdir, so two recordings started
+    in the same second never share a folder.
+
+    Parameters
+    ----------
+    parent : str or Path
+    prefix : str
+
+    Returns
+    -------
+    Path
+    """
     parent = Path(parent)
     parent.mkdir(parents=True, exist_ok=True)
     stem = f"{prefix}-{time.strftime('%Y%m%d-%H%M%S')}"
@@ -132,7 +165,14 @@ def new_recording_folder(parent: str | Path, prefix: str = "recording") -> Path:
 
 
 def write_colour_png(path: Path, colour) -> None:
-    """(H, W, 3) uint8 RGB -> an 8-bit colour PNG, written atomically."""
+    """Write an 8-bit colour PNG atomically.
+
+    Parameters
+    ----------
+    path : Path
+    colour : (H, W, 3) uint8 array
+        RGB.
+    """
     ok, buf = cv2.imencode(".png", cv2.cvtColor(colour, cv2.COLOR_RGB2BGR))
     if not ok:
         raise FileFormatError(f"{path}: PNG encoding failed")
@@ -140,12 +180,29 @@ def write_colour_png(path: Path, colour) -> None:
 
 
 class Recorder:
-    """record() on a background thread, for a UI: start(), then stop() (or wait for the limit) to
-    get the Session.
+    """record() on a background thread, for a UI: start(), then stop() (or wait for the limit).
 
-    frames : int, frames written so far; done : bool; error : the exception that ended it, or None.
     stop() returns within its timeout whatever the source does (a source blocked in a read is left
     to end on its own; the recording's session.json is valid all along).
+
+    Parameters
+    ----------
+    source : DepthSource
+    folder : str or Path
+    seconds : float, optional
+    frames : int, optional
+        As for `record`.
+
+    Attributes
+    ----------
+    frames : int
+        Frames written so far.
+    done : bool
+        The recording has ended.
+    error : Exception or None
+        The exception that ended it.
+    session : Session or None
+        The recorded session, once written.
     """
 
     def __init__(self, source: DepthSource, folder: str | Path, seconds: float | None = None,
@@ -157,16 +214,33 @@ class Recorder:
 
     @property
     def done(self) -> bool:
+        """True once the recording thread has started and ended."""
         return self._thread.ident is not None and not self._thread.is_alive()
 
     def start(self) -> "Recorder":
+        """Start recording on the background thread; returns self."""
         self._thread.start()
         return self
 
     def stop(self, timeout: float = 10.0) -> Session:
-        """Stop recording, wait (at most `timeout` seconds) for the session to be written and return
-        it; raises the error that ended it, or MirrorscanError when the recording has not ended in
-        time."""
+        """Stop recording and wait for the session to be written.
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds to wait at most.
+
+        Returns
+        -------
+        Session
+
+        Raises
+        ------
+        Exception
+            The error that ended it.
+        MirrorscanError
+            The recording has not ended in time.
+        """
         self._cancel.set()
         if self._thread.ident is not None:
             self._thread.join(timeout)
@@ -179,6 +253,7 @@ class Recorder:
         return self.session
 
     def _run(self) -> None:
+        """Record; keep the session, or the exception that ended it."""
         try:
             self.session = record(self.source, self.folder, self.seconds, self.limit, self._count,
                                   self._cancel.is_set)
@@ -186,4 +261,5 @@ class Recorder:
             self.error = exc
 
     def _count(self, n: int, frame: Frame) -> None:
+        """Keep the number of frames written."""
         self.frames = n

@@ -16,10 +16,17 @@ from mirrorcore.sources.base import DepthSource, Frame
 
 
 class SimulatedSource(DepthSource):
-    """The simulated rig as a live source: read(i) renders frame i at time i / fps (animated
-    objects, Kinect v1 noise reproducible from the rig's seed), so it has no frame count but any
-    frame can be asked for. `objects_in_view` False renders the scene without its objects, as when
-    the person steps out to capture the background."""
+    """The simulated rig as a live source.
+
+    read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise reproducible from the
+    rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view` False
+    renders the scene without its objects, as when the person steps out to capture the background.
+
+    Parameters
+    ----------
+    rig : Simulator
+    name : str
+    """
 
     def __init__(self, rig: Simulator, name: str = "simulated rig"):
         self.rig, self.name = rig, name
@@ -28,9 +35,21 @@ class SimulatedSource(DepthSource):
 
     @property
     def camera(self) -> bool:
+        """False: a rendering, not a physical camera."""
         return False
 
     def read(self, i: int) -> Frame:
+        """Return frame i (see `DepthSource.read`).
+
+        Parameters
+        ----------
+        i : int
+            The frame's index.
+
+        Returns
+        -------
+        Frame
+        """
         if not self.objects_in_view:
             return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
                                          False).depth,
@@ -39,12 +58,29 @@ class SimulatedSource(DepthSource):
         return Frame(frame.depth, frame.t)
 
     def background(self) -> np.ndarray:
+        """The scene without its objects as (H, W) float32 metres."""
         return self.rig.background().depth
 
 
 def open_simulated(target: str, session: Session | None) -> SimulatedSource:
-    """'sim' (target ''): the session's simulated scene when it has a truth.json, else the paper's
-    rig with a walking figure at 3 m; 'sim:SCENE.json': a scene file."""
+    """Open a simulated rig.
+
+    Parameters
+    ----------
+    target : str
+        '' (spec 'sim'): the session's simulated scene when it has a truth.json, else the paper's
+        rig with a walking figure at 3 m; a scene file (spec 'sim:SCENE.json').
+    session : Session or None
+
+    Returns
+    -------
+    SimulatedSource
+
+    Raises
+    ------
+    FileFormatError
+        A bad scene file.
+    """
     if target:
         return SimulatedSource(Simulator(load_scene(target)), f"simulated {Path(target).name}")
     return SimulatedSource(Simulator(session_scene(session)
@@ -52,14 +88,33 @@ def open_simulated(target: str, session: Session | None) -> SimulatedSource:
 
 
 def session_scene(session: Session | None) -> Scene | None:
-    """The simulated scene a session was made from (its truth.json), or None."""
+    """Return the simulated scene a session was made from (its truth.json), or None.
+
+    Parameters
+    ----------
+    session : Session or None
+
+    Returns
+    -------
+    Scene or None
+    """
     truth = session_truth(session)
     return None if truth is None else truth[0]
 
 
 def session_truth(session: Session | None) -> tuple[Scene, float] | None:
-    """(the simulated scene a session was made from, its frames per second: frame i shows the scene
-    at i / fps), from its truth.json, or None without one."""
+    """Return the simulated scene a session was made from and its frame rate, from its truth.json.
+
+    Parameters
+    ----------
+    session : Session or None
+
+    Returns
+    -------
+    (Scene, float) or None
+        The scene and its frames per second (frame i shows the scene at i / fps); None without
+        truth.json.
+    """
     if session is None or not (Path(session.root) / TRUTH_FILE).is_file():
         return None
     path = Path(session.root) / TRUTH_FILE
