@@ -15,6 +15,7 @@ from ...jobs import AGREEMENT, REFINE, planes_key
 from ...overlays import QUALITY_COLOURS
 from ...results import AgreementReport, CalibrationReport, Cancelled, Fit
 from ...wording import joined
+from ...wording import agreement as agreement_words
 from ...wording import refinement as words
 from ...wording.jobs import say
 from ...wording.mirrors import (
@@ -90,7 +91,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self._names = {m.id: m.name for m in self.services.editor.session.mirrors}
         self.result = gui.add_markdown(self._result_text)
         self.agreement = gui.add_markdown(
-            "" if jobs.agreement is None else joined(words.agreement(jobs.agreement))
+            "" if jobs.agreement is None else joined(agreement_words.agreement(jobs.agreement))
         )
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
@@ -202,12 +203,12 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
 
         Not again for the same lines.
         """
-        flagged = tuple(m.name for m in report.mirrors if words.disagrees(m.found))
+        flagged = tuple(m.name for m in report.mirrors if agreement_words.disagrees(m.found))
         if flagged and lines != self._flagged:
             self.services.notify(
                 self.tab.client,
                 "The views disagree",
-                words.disagreement_note(flagged).plain,
+                agreement_words.disagreement_note(flagged).plain,
                 "warning",
                 logged=False,
             )
