@@ -18,12 +18,12 @@ from ...wording import joined
 from ...wording import agreement as agreement_words
 from ...wording import refinement as words
 from ...wording.jobs import say
+from ...wording.greyed import greyed_out
+from ...wording.markers import marker_list
 from ...wording.mirrors import (
     CLOSED_HELP,
     FIT_MARKERS,
     HELP,
-    greyed_out,
-    marker_list,
     mirror_status,
     report_markdown,
 )
