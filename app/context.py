@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from .editor import SessionEditor
     from .events import EventBus
     from .jobs import Jobs
-    from .live import LiveFrame
+    from .liveframe import LiveFrame
     from .state import Snapshot
 
 MODES = ("inspect", "markers", "boundary", "region")

@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 
     from mirrorcore.sources import DepthSource
 
-    from .live import LiveFrame
+    from .liveframe import LiveFrame
     from .results import DenseResult
     from .state import Snapshot
 

@@ -14,7 +14,7 @@ from mirrorcore.base.budget import memory_budget
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.sources import DepthSource, Frame
 
-from .live import LiveFrame
+from .liveframe import LiveFrame
 
 # frames waiting to be written before new ones are dropped (a slow disk must not stall the view)
 BACKLOG = 120

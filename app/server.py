@@ -16,18 +16,18 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
 import viser
 
-from mirrorcore.depth.files import write_depth_png
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import BACKGROUND_FILE, Session
-from mirrorcore.sources import DepthSource, SessionSource
+from mirrorcore.io.session import Session
+from mirrorcore.sources import DepthSource
 
+from .appsources import IN_MEMORY, AppSources
 from .editor import SessionEditor
 from .events import EventBus, FrameReady, LoopChanged, SessionChanged
 from .jobs import BATCH, DENSE, RECORD, REFINE, Jobs
-from .live import RECENT_FRAMES, LiveFrame, LiveLoop
+from .live import RECENT_FRAMES, LiveLoop
+from .liveframe import LiveFrame
 from .notices import Notifier
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
@@ -55,8 +55,6 @@ AMBIENT_LIGHT = 1.5
 PANEL_WIDTH = 400
 # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
 RESUME_S = 600.0
-# where the background in use lives when it was captured for a session that is not saved
-IN_MEMORY = ":memory:"
 GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
 
 
@@ -78,7 +76,7 @@ def quiet_closed_connections() -> None:
 quiet_closed_connections()
 
 
-class MirrorscanApp(Notifier):
+class MirrorscanApp(Notifier, AppSources):
     """Wires the session editor, the live loop, the jobs and the tabs (see the module docstring).
 
     The server is protected before it accepts a page.
@@ -332,91 +330,6 @@ class MirrorscanApp(Notifier):
         else:
             fps, why = IDLE_FPS, "while no tab shows the 3D scene"
         return (fps, why) if self.loop.source.fps > fps else None
-
-    def open_session(self, session: Session, play: bool = False) -> None:
-        """Edit another session, autosaved in its folder from now on.
-
-        Its recorded frames play when `play`, or when it has some and no camera is live, as
-        `mirrorscan serve SESSION` does (its mirrors belong to them, not to the simulator or
-        recording playing before); a live camera stays, to be used with the session's calibration.
-
-        Parameters
-        ----------
-        session : Session
-            The session to edit.
-        play : bool, optional
-            Play its recorded frames even when a camera is live.
-        """
-        if session.frames and (play or not self._source.camera):
-            # the session served from the start is not a replay
-            start = self.start_source
-            served = (isinstance(start, SessionSource)
-                      and Path(start.session.root).resolve() == Path(session.root).resolve())
-            # refused when its camera differs
-            self.use_source(start if served else SessionSource(session))
-        self.editor.autosave = True
-        # the session's own, if any, is read on the change
-        self._background = (None, self._source.background())
-        self.editor.replace_session(session)
-
-    def use_source(self, source: DepthSource) -> None:
-        """Take frames from another source of the same camera (a recording to replay).
-
-        Parameters
-        ----------
-        source : DepthSource
-            The new source.
-
-        Raises
-        ------
-        MirrorscanError
-            When its frames' size differs from this session's camera.
-        """
-        if source.intrinsics.shape != self._source.intrinsics.shape:
-            size = f"{source.intrinsics.width}x{source.intrinsics.height}"
-            raise MirrorscanError(f"{source.name}: its {size} frames do not fit this session's "
-                                  "camera; replay a recording of the same camera")
-        self._source = source
-        self.loop.use_source(source)
-        self.bus.publish(LoopChanged(self.loop.paused, source))
-
-    def back_to_start_source(self) -> None:
-        """Take frames from the source served from the start again, playing (not paused).
-
-        After a recording played (Record's replay, or a session opened over the simulator); the
-        session being edited stays (its calibration is this rig's).
-        """
-        self.use_source(self.start_source)
-        self.pause(False)
-
-    def set_background(self, depth: np.ndarray) -> None:
-        """Use `depth` as the background.
-
-        Saved beside a saved session as background.png, held in memory for one that is not saved
-        (Save as writes it).
-
-        Parameters
-        ----------
-        depth : np.ndarray, shape (H, W)
-            Depth in metres.
-        """
-        if self.editor.autosave:
-            root = Path(self.editor.session.root)
-            root.mkdir(parents=True, exist_ok=True)
-            write_depth_png(root / BACKGROUND_FILE, depth, self.editor.session.camera.depth_scale)
-            self._background = (BACKGROUND_FILE, depth)
-            self.editor.set_background(BACKGROUND_FILE)
-        else:
-            self._background = (IN_MEMORY, depth)
-            self._on_session_change()
-
-    @property
-    def background_captured(self) -> bool:
-        """Whether the background in use was captured, not the source's own.
-
-        One read from the session's file counts as captured.
-        """
-        return self._background[0] is not None
 
     # ------------------------------------------------------------------ reactions
     def _on_session_change(self) -> None:

@@ -16,19 +16,20 @@ from typing import Callable
 import numpy as np
 import viser
 
-from mirrorcore.base.palette import SOURCE_COLOURS, source_colour
+from mirrorcore.base.palette import source_colour
 
 from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .framing import TabFraming
-from .live import LiveFrame
+from .liveframe import LiveFrame
 from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
 from .panels import PANELS
 from .panels.live import LivePanel
 from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, TabPresence
 from .stream import HALVES
+from .tabheat import TabHeat
 from .view import TabScene
 
 __all__ = ["DEPTH_HZ", "DEPTH_HZ_BEHIND", "MAX_LAG_S", "PAGE_KEY", "SETTLING_S", "Resume", "Tab"]
@@ -55,7 +56,7 @@ class Resume:
     heat: bool
 
 
-class Tab(TabPresence, TabFraming):
+class Tab(TabPresence, TabFraming, TabHeat):
     """Everything of one connected browser tab (see the module docstring).
 
     Parameters
@@ -273,75 +274,6 @@ class Tab(TabPresence, TabFraming):
     def shows_cloud(self) -> bool:
         """Whether this tab is sent the live cloud: it looks at the 3D scene and is not hidden."""
         return self.state.view == "3d" and not self.hidden
-
-    def show_heat(self, on: bool) -> None:
-        """Show the heat map of HEAT_HZ frames a second instead of the live cloud, or go back.
-
-        The first heat map is of the last frame, at once: while paused no new frame comes. The view
-        frames the object, whose rims carry the heat map's colours.
-
-        Parameters
-        ----------
-        on : bool
-            Show the heat map (True) or go back to the live cloud (False).
-        """
-        with self._heat_lock:
-            self.heat, self._stale, self._last_heat = on, True, 0.0
-            if not on:
-                self.scene.show_heat(None, None)
-                self.heat_figures, self._heat_event = {}, None
-        if on:
-            self._heat_now()
-        self.scene.show_clouds(not on and self.state.view == "3d")
-        if on and self.state.view == "3d":
-            self.look_at_object()
-
-    def _heat_now(self) -> None:
-        """The heat map of the last frame, now (when the tab looks at the 3D scene)."""
-        frame = self.services.last_frame
-        if frame is not None and self.shows_cloud:
-            self._last_heat = time.perf_counter()
-            self.services.jobs.start_heat(frame)
-
-    def _on_heat(self, event: HeatChanged) -> None:
-        # a map whose check passed before a switch-off must not be drawn after it
-        """Draw a heat map that came, unless the heat map was switched off meanwhile."""
-        with self._heat_lock:
-            if self.heat and not self.closed:
-                self._heat_event = event
-                self._draw_heat()
-                self.heat_figures, self.heat_frames = event.figures, event.frames
-
-    def heat_only(self, mirror_id: int | None) -> None:
-        """Colour only this mirror's points on the heat map.
-
-        The others' are grey and small, as the camera's, so that each strip can be told apart.
-
-        Parameters
-        ----------
-        mirror_id : int or None
-            The mirror; None colours every mirror's.
-        """
-        with self._heat_lock:
-            self.heat_of = mirror_id
-            if self.heat and self._heat_event is not None and not self.closed:
-                self._draw_heat()
-
-    def _draw_heat(self) -> None:
-        """Draw the last heat map (under _heat_lock).
-
-        The camera's points, and those of the mirrors not chosen (heat_of), small and grey.
-        """
-        event = self._heat_event
-        if event.sources is None:
-            self.scene.show_heat(event.points, event.colours)
-            return
-        mirrors = self.services.snapshot.session.mirrors
-        label = next((k for k, m in enumerate(mirrors, start=1) if m.id == self.heat_of), None)
-        small = event.sources == 0 if label is None else event.sources != label
-        grey = (small & (event.sources != 0))[:, None]
-        colours = np.where(grey, SOURCE_COLOURS[0], event.colours)
-        self.scene.show_heat(event.points, colours.astype(np.uint8), small)
 
     def show_dense(self, result) -> None:
         """Show the shared dense result in this tab's scene as the tab's Dense step says.

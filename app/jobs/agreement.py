@@ -13,7 +13,7 @@ from mirrorcore.calibration.residuals import view_agreement
 from mirrorcore.rig.pipeline import prepare_frame
 
 from ..results import AgreementReport, Checking, MirrorAgreement
-from ..wording.refinement import disagrees
+from ..wording.agreement import disagrees
 from .runner import AGREEMENT, Runner
 
 if TYPE_CHECKING:

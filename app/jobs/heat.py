@@ -12,11 +12,11 @@ from mirrorcore.base.palette import heat_map_colours
 from mirrorcore.calibration.agreement import heat_figures, local_means, surface_distances
 
 from ..events import HeatChanged
-from ..live import frame_number
+from ..liveframe import frame_number
 from .runner import HEAT, Runner
 
 if TYPE_CHECKING:
-    from ..live import LiveFrame
+    from ..liveframe import LiveFrame
 
 HEAT_LIMIT_MM = 10.0  # the heat map's colours saturate at this distance to the direct surface
 # heat maps whose distances the legend's figures pool: on the sphere at the true planes one frame's

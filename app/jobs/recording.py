@@ -11,7 +11,7 @@ from mirrorcore.io.session import Session, save_session
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from ..events import FrameReady
-from ..live import frame_number
+from ..liveframe import frame_number
 from ..recording import LiveTap
 from ..results import Recorded, RecordingState, Replay
 from .runner import RECORD, Runner

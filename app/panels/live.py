@@ -11,14 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from mirrorcore.io.session import Session
 from mirrorcore.sources import SessionSource
 
 from ..context import TabContext
 from ..events import JobProgress, LoopChanged, SessionChanged
-from ..jobs import AGREEMENT, BATCH, RECORD, REFINE, Jobs
-from ..live import LiveFrame, frame_number
+from ..jobs import AGREEMENT, BATCH, RECORD, REFINE
+from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
+from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
 from ..wording.jobs import recording_headline
@@ -32,32 +32,6 @@ PROCESS_WINDOW = 30
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 PROGRESS_STEP = 0.05  # the start hint gives a calibration's progress in steps of this
 EVERY_MIRROR = "every mirror"  # the heat map of every mirror's points (Heat map of)
-
-
-def _from_markers(jobs: Jobs, editor, session: Session) -> tuple[str, ...]:
-    """The names of the mirrors whose planes a markers fit set behind the glass typed in.
-
-    A markers fit of this editor (SessionEditor.fitted_on_its_markers); a refinement then still
-    makes them more accurate (on the walking figure at 3 m, 2 px clicks: tilts of 0.08 to 0.28
-    degrees from the markers, 0.01 to 0.02 refined).
-    """
-    return tuple(
-        m.name
-        for m in session.mirrors
-        if m.plane is not None
-        and m.glass_typed
-        and not jobs.from_object(m.id, m.plane)
-        and editor.fitted_on_its_markers(m.id)
-    )
-
-
-def _from_object(jobs: Jobs, session: Session) -> bool:
-    """Whether every plane of the session came from a refinement or search of this app.
-
-    False when there is no plane.
-    """
-    planes = [(m.id, m.plane) for m in session.mirrors if m.plane is not None]
-    return bool(planes) and all(jobs.from_object(*plane) for plane in planes)
 
 
 def source_root(source) -> Path | None:
@@ -97,21 +71,6 @@ def source_title(source: str, played: Path | None, edited: Path | None) -> str:
     if edited is None or (played is not None and played.resolve() == Path(edited).resolve()):
         return f"**{source}**"
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
-
-
-def _no_glass(jobs: Jobs, session: Session) -> tuple[str, ...]:
-    """The names of the mirrors whose planes come from their markers, with no glass set.
-
-    Not from the object; on an ordinary mirror the markers stand 3 to 6 mm in front of the silver.
-    """
-    return tuple(
-        m.name
-        for m in session.mirrors
-        if m.markers
-        and m.plane is not None
-        and not m.glass_set
-        and not jobs.from_object(m.id, m.plane)
-    )
 
 
 class LivePanel:
@@ -282,13 +241,13 @@ class LivePanel:
             playback,
             self._calibrating,
             self._recording,
-            _no_glass(jobs, session),
+            no_glass(jobs, session),
             unused,
             jobs.refusals(session),
             services.start_source.name,
             self._batch,
             jobs.disagreeing,
-            _from_markers(jobs, services.editor, session),
+            from_markers(jobs, services.editor, session),
         )
         self.hint.content = "➜ " + markdown(hint)
 
@@ -333,9 +292,9 @@ class LivePanel:
                 self.tab.heat_figures,
                 self.tab.heat_frames,
                 names,
-                _from_object(services.jobs, session),
+                from_object(services.jobs, session),
                 any(m.plane is not None for m in session.mirrors),
-                bool(_no_glass(services.jobs, session)),
+                bool(no_glass(services.jobs, session)),
             )
             if heat
             else legend_html(

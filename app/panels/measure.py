@@ -24,7 +24,7 @@ from ..wording.jobs import left_out
 from ..wording.legend import source_names
 
 if TYPE_CHECKING:
-    from ..live import LiveFrame
+    from ..liveframe import LiveFrame
 
 TITLE = "Measure"
 

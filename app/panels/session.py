@@ -15,7 +15,7 @@ from ..context import TabContext
 from ..events import SessionChanged
 from ..exports import export_ply
 from ..jobs import unplaned
-from ..live import frame_number
+from ..liveframe import frame_number
 from ..markup import markdown
 from ..wording.jobs import left_out
 

@@ -24,7 +24,7 @@ from ..results import (
     Refused,
 )
 from . import Message, joined, refusal
-from . import refinement
+from . import agreement, refinement
 
 CANCELLED = Message("cancelled")
 
@@ -283,10 +283,10 @@ SAYS = {
     RecordingState: recording,
     Recorded: recorded,
     CalibrationWork: refinement.working,
-    Checking: lambda _: refinement.CHECKING,
+    Checking: lambda _: agreement.CHECKING,
     CalibrationRefused: lambda r: refinement.calibration_refused(r.reason, r.mirrors, r.search),
 }
-REPORTS = {CalibrationReport: refinement.report, AgreementReport: refinement.agreement}
+REPORTS = {CalibrationReport: refinement.report, AgreementReport: agreement.agreement}
 
 
 def say(result: object) -> list[Message]:

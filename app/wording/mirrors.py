@@ -1,5 +1,6 @@
 """The words of the Mirrors step: the click modes' help, the markers fits (notification, report,
-proposal), a mirror's status line, the removal question and why buttons are greyed out."""
+proposal), a mirror's status line and the removal question (the markers' words are in
+wording.markers, why buttons are greyed out in wording.greyed)."""
 
 from __future__ import annotations
 
@@ -7,9 +8,9 @@ import numpy as np
 
 from mirrorcore.base.words import listed
 from mirrorcore.calibration.markers import GRADES, MAX_SHIFT_MM, MAX_TILT_DEG
-from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.session import SessionMirror
 
-from ..markup import escape, markdown
+from ..markup import markdown
 from ..results import Fit, FitsApplied
 from . import Message, joined, refinement
 
@@ -328,164 +329,6 @@ def removal_question(mirror: SessionMirror) -> str:
     )
     back = "*Undo*, or *Bring back* below the Remove button, brings it back."
     return f"{what} the session.{shows} {back}"
-
-
-def greyed_out(
-    session: Session,
-    selected: SessionMirror | None,
-    refused: dict[int, str],
-    undo_elsewhere: tuple[str, ...] = (),
-) -> str:
-    """Why Fit plane, Fit all planes, Refine from the object, Find and Undo are greyed out.
-
-    The fits' reasons only while a plane is missing.
-
-    Parameters
-    ----------
-    session : Session
-    selected : SessionMirror or None
-        The selected mirror.
-    refused : dict of int to str
-        As Jobs.refusals.
-    undo_elsewhere : tuple of str, optional
-        The other mirrors with a change to undo while the selected one has none.
-
-    Returns
-    -------
-    str
-        Small print (HTML, names escaped), '' when nothing is greyed out.
-    """
-    if not session.mirrors:
-        return ""
-    reasons = []
-    if selected is not None and selected.plane is None and len(selected.markers) < FIT_MARKERS:
-        reasons.append(
-            f"<b>Fit plane</b>: {escape(selected.name)} has {len(selected.markers)} of the "
-            f"{FIT_MARKERS} markers it needs"
-        )
-    missing = any(m.plane is None for m in session.mirrors)
-    if missing and not any(len(m.markers) >= FIT_MARKERS for m in session.mirrors):
-        reasons.append(f"<b>Fit all planes</b>: no mirror has {FIT_MARKERS} markers")
-    if all(m.plane is None for m in session.mirrors):
-        reasons.append("<b>Refine</b>: no mirror has a plane yet")
-    bare = [m for m in session.mirrors if m.boundary and m.plane is None]
-    if bare and all(refused.get(m.id) == "scene" for m in bare):
-        names = escape(listed([m.name for m in bare]))
-        reasons.append(
-            f"<b>Find</b>: {names} not found as {'it is' if len(bare) == 1 else 'they are'} (why: "
-            "in the report below); offered again once an outline or a marker changes"
-        )
-    if undo_elsewhere and selected is not None:
-        reasons.append(
-            f"<b>Undo</b>: nothing to take back on {escape(selected.name)}; select "
-            f"{escape(listed(undo_elsewhere, 'or'))} for "
-            f"{'its' if len(undo_elsewhere) == 1 else 'their'} changes"
-        )
-    if not reasons:
-        return ""
-    return (
-        f'<div style="{SMALL_TEXT};color:#666;padding-bottom:0.4em">Greyed out: '
-        + " · ".join(reasons)
-        + "</div>"
-    )
-
-
-def no_depth_note() -> Message:
-    """A marker clicked where the camera reads nothing."""
-    return Message(
-        "the camera reads nothing there in the recent frames: a fit cannot use it (click the "
-        "sticker's centre; Undo takes it back)"
-    )
-
-
-def marker_off_note(mirror: str, signed_mm: float, sigma_mm: float) -> Message:
-    """A marker clicked far off its mirror's plane: how far (mm and σ) and on which side.
-
-    Parameters
-    ----------
-    mirror : str
-        The mirror's name.
-    signed_mm : float
-        Its distance to the plane (mm); > 0: in front of it, behind something.
-    sigma_mm : float
-        The depth noise there (mm).
-
-    Returns
-    -------
-    Message
-    """
-    where = (
-        "behind something in front of the mirror"
-        if signed_mm > 0
-        else "off the glass (on the object seen in it?)"
-    )
-    return Message(
-        f"{abs(signed_mm):.0f} mm ({abs(signed_mm) / sigma_mm:.0f}σ) from {mirror}'s plane: "
-        f"{where}. "
-        "Undo takes it back; a fit would ask first."
-    )
-
-
-def _dot(grade: str, colours: dict[str, str]) -> str:
-    """A round dot in the grade's colour (HTML)."""
-    return (
-        '<span style="display:inline-block;width:0.7em;height:0.7em;border-radius:50%;margin:0 '
-        "0.25em;"
-        f'background:{colours[grade]}"></span>'
-    )
-
-
-def marker_list(
-    mirror: SessionMirror | None, residuals, picked: int | None, colours: dict[str, str]
-) -> str:
-    """Every marker of the mirror with its distance to the plane and the noise there (HTML).
-
-    Each in its grade's colour, as its centre on the depth frame; a poor one says which way it is
-    off.
-
-    Parameters
-    ----------
-    mirror : SessionMirror or None
-    residuals : MarkerResiduals or None
-        The markers' grades and distances; None lists their pixels.
-    picked : int or None
-        The picked marker (0-based), in bold.
-    colours : dict of str to str
-        Grade -> CSS colour.
-
-    Returns
-    -------
-    str
-        '' when the mirror has no markers.
-    """
-    if mirror is None or not mirror.markers:
-        return ""
-    rows = []
-    for k, (u, v) in enumerate(mirror.markers):
-        name = escape(mirror.marker_name(k))
-        if k == picked:
-            name = f"<b>{name}</b>"
-        if residuals is None:
-            rows.append(_dot("unknown", colours) + f"{name} ({u:.0f}, {v:.0f})")
-            continue
-        grade, d, s = residuals.grades[k], residuals.signed_mm[k], residuals.sigma_mm[k]
-        text = "no depth" if not np.isfinite(d) else f"{abs(d):.1f} mm ({abs(d) / s:.1f}σ)"
-        if grade == "poor":
-            text += " (hidden by something in front?)" if d > 0 else " (off the glass?)"
-        rows.append(_dot(grade, colours) + f"{name} {text}")
-    legend = (
-        ""
-        if residuals is None
-        else (
-            f"{_dot('good', colours)}within 2σ of the plane {_dot('fair', colours)}3σ "
-            f"{_dot('poor', colours)}beyond (σ: the depth noise at the marker)"
-        )
-    )
-    return (
-        f'<div style="{SMALL_TEXT}">{legend}<br>'
-        + " · ".join(f'<span style="white-space:nowrap">{r}</span>' for r in rows)
-        + "</div>"
-    )
 
 
 def report_markdown(report) -> str:

@@ -4,7 +4,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from mirrorscan.results import MirrorAgreement
-from mirrorscan.wording.refinement import agreement_line
+from mirrorscan.wording.agreement import agreement_line
 
 from mirrorcore.calibration.refine import MirrorRefinement
 from mirrorcore.geometry.plane import Plane

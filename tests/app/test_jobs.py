@@ -13,6 +13,7 @@ from mirrorscan.panels.mirrors import MirrorsPanel
 from mirrorscan.results import AgreementReport, BackgroundCaptured, MirrorAgreement, NotFound
 from mirrorscan.server import MirrorscanApp
 from mirrorscan.wording import joined
+from mirrorscan.wording import agreement as agreement_words
 from mirrorscan.wording import refinement as calibration_words
 
 from mirrorcore.base.errors import CalibrationError, Cancelled, MirrorscanError
@@ -30,7 +31,7 @@ def test_a_session_opened_with_its_planes_tells_how_its_views_agree():
     try:
         report = wait_for(lambda: app.jobs.agreement, 60, "the agreement")
         assert [m.name for m in report.mirrors] == ["mirror 1", "mirror 2"]
-        said = joined(calibration_words.agreement(report))
+        said = joined(agreement_words.agreement(report))
         assert said.startswith("mirror 1: agrees") and "\n\nmirror 2: agrees" in said
     finally:
         app.stop()
@@ -83,7 +84,7 @@ def test_without_planes_the_agreement_says_what_to_do(demo, monkeypatch):
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
     assert app_.jobs.agreement == AgreementReport(())
-    assert calibration_words.agreement(app_.jobs.agreement) == [calibration_words.NO_AGREEMENT]
+    assert agreement_words.agreement(app_.jobs.agreement) == [agreement_words.NO_AGREEMENT]
     monkeypatch.undo()
     app_.jobs.start_agreement(frame.depth)
     wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
@@ -250,7 +251,7 @@ def test_a_mirror_the_agreement_flags_is_told_in_a_notification_once(demo, notes
         report = AgreementReport(
             tuple(MirrorAgreement(f"mirror {k}", v, True) for k, v in enumerate(views, 1))
         )
-        return JobProgress("agreement", None, joined(calibration_words.agreement(report)), report)
+        return JobProgress("agreement", None, joined(agreement_words.agreement(report)), report)
 
     mirrors._on_job(ended(good))
     assert said == []

@@ -12,7 +12,7 @@ from mirrorcore.io.session import SessionMirror
 
 from ...context import TabContext
 from ...editor import PICK_RADIUS
-from ...wording.mirrors import marker_off_note, no_depth_note
+from ...wording.markers import marker_off_note, no_depth_note
 
 
 def nearest(points, uv) -> int | None:

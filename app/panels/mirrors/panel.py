@@ -11,23 +11,23 @@ from mirrorcore.io.session import MAX_MARKER_OFFSET
 from ...context import TabContext
 from ...editor import SESSION_SCOPE, SessionEditor
 from ...events import JobProgress
-from ...jobs import AGREEMENT, REFINE, planes_key
+from ...jobs import REFINE, planes_key
 from ...overlays import QUALITY_COLOURS
-from ...results import AgreementReport, CalibrationReport, Cancelled, Fit
+from ...results import Fit
 from ...wording import joined
-from ...wording import refinement as words
-from ...wording.jobs import say
+from ...wording import agreement as agreement_words
+from ...wording.greyed import greyed_out
+from ...wording.markers import marker_list
 from ...wording.mirrors import (
     CLOSED_HELP,
     FIT_MARKERS,
     HELP,
-    greyed_out,
-    marker_list,
     mirror_status,
     report_markdown,
 )
 from .clicks import MirrorClicks
 from .fits import MirrorFits
+from .jobs import MirrorJobs
 from .reports import MirrorReports
 
 TITLE = "Mirrors"
@@ -36,7 +36,7 @@ CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
 
 
-class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
+class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
     """Step 1: add and select mirrors, click their boundaries and markers, fit and calibrate them.
 
     Their boundaries and markers are clicked on the depth frame, their planes fitted to the
@@ -90,7 +90,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
         self._names = {m.id: m.name for m in self.services.editor.session.mirrors}
         self.result = gui.add_markdown(self._result_text)
         self.agreement = gui.add_markdown(
-            "" if jobs.agreement is None else joined(words.agreement(jobs.agreement))
+            "" if jobs.agreement is None else joined(agreement_words.agreement(jobs.agreement))
         )
         self.move = gui.add_button("Move the picked marker", visible=False)
         self.delete = gui.add_button("Delete the picked marker", visible=False)
@@ -143,75 +143,6 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorReports):
     def detach(self) -> None:
         """Stop listening to the app (the tab closed)."""
         self._unsubscribe()
-
-    def _on_job(self, event: JobProgress) -> None:
-        """The calibration's progress and report, and the views' agreement after a fit."""
-        if event.job == REFINE:
-            self._on_calibration(event)
-        elif event.job == AGREEMENT:
-            self.agreement.content = event.status
-            if isinstance(event.result, AgreementReport):
-                self._warn_disagreement(event.result, event.status)
-
-    def _on_calibration(self, event: JobProgress) -> None:
-        """A calibration from the object moved on or ended.
-
-        The buttons, its progress, its report; its end in a notification (in view whatever the
-        panel's scroll) until the planes change again.
-        """
-        running, result = event.fraction is not None, event.result
-        self.refine.disabled, self.refine_cancel.visible = running, running
-        self.scene.disabled = self.undo.disabled = self.redo.disabled = running
-        self.greyed.visible = self.greyed.visible and not running
-        # after it, refresh() says what is offered
-        if running:
-            self.fit.disabled = self.fit_all.disabled = True
-            self.refine_progress.value = event.percent
-        self.refine_progress.visible = running
-        cancelled = isinstance(result, Cancelled)
-        self._report(self._cancelled() if cancelled else event.status)
-        if not running and not cancelled:
-            if isinstance(result, CalibrationReport):
-                note, kind = words.note(result), "warning" if result.not_found else "info"
-            else:
-                note, kind = say(result)[0], "error"
-            self._result_note = self.services.notify(
-                self.tab.client,
-                "Calibration from the object",
-                note.plain,
-                kind,
-                stay=True,
-                logged=False,
-            )
-        if not running:
-            # Undo and Redo as they now stand (a refusal changes nothing)
-            self.refresh()
-
-    def _cancelled(self) -> str:
-        """A calibration from the object cancelled.
-
-        The planes are as they were, and so is their report.
-        """
-        before = report_markdown(
-            self.services.jobs.report(planes_key(self.services.editor.session))
-        )
-        return words.CANCELLED.markdown() + (f"\n\n{before}" if before else "")
-
-    def _warn_disagreement(self, report: AgreementReport, lines: str) -> None:
-        """Notify of the mirrors the agreement lines flag (they may be out of view).
-
-        Not again for the same lines.
-        """
-        flagged = tuple(m.name for m in report.mirrors if words.disagrees(m.found))
-        if flagged and lines != self._flagged:
-            self.services.notify(
-                self.tab.client,
-                "The views disagree",
-                words.disagreement_note(flagged).plain,
-                "warning",
-                logged=False,
-            )
-        self._flagged = lines if flagged else ""
 
     def _wire(self) -> None:
         """Connect the panel's controls to their actions."""

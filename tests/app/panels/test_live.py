@@ -1,10 +1,11 @@
-"""The Live panel (mirrorscan.panels.live): the glass, planes sent to the refinement, the header,
-the legend."""
+"""The Live panel (mirrorscan.panels.live, panels.planes): the glass, planes sent to the
+refinement, the header, the legend."""
 from dataclasses import replace
 from types import SimpleNamespace
 
 from mirrorscan.context import TabState
-from mirrorscan.panels.live import _from_markers, _no_glass, legend_html, source_title
+from mirrorscan.panels.live import legend_html, source_title
+from mirrorscan.panels.planes import from_markers, no_glass
 from mirrorscan.wording.hints import start_hint
 
 from mirrorcore.geometry.camera import Intrinsics
@@ -21,7 +22,7 @@ def test_a_glass_measured_as_0_is_not_said_to_be_missing(tmp_path):
         SessionMirror("right", ((1.0, 1.0),) * 3, plane=plane, id=2, marker_offset_std=8e-4),
     )
     jobs = SimpleNamespace(from_object=lambda mirror_id, plane: False)
-    assert _no_glass(jobs, Session(tmp_path, Intrinsics.kinect_v1(), mirrors)) == ("left",)
+    assert no_glass(jobs, Session(tmp_path, Intrinsics.kinect_v1(), mirrors)) == ("left",)
 
 
 def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_path):
@@ -50,7 +51,7 @@ def test_planes_fitted_behind_the_glass_typed_in_are_sent_to_the_refinement(tmp_
     )
     jobs = SimpleNamespace(from_object=lambda mirror_id, plane: mirror_id == 2)
     editor = SimpleNamespace(fitted_on_its_markers=lambda mirror_id: mirror_id != 3)
-    assert _from_markers(jobs, editor, session) == ("left",)
+    assert from_markers(jobs, editor, session) == ("left",)
     assert start_hint(session, TabState(mirror_id=1), True, True, from_markers=("left",)) == (
         "Ready. The planes of left come from markers alone: **Mirrors › Refine from the object** "
         "makes them more "

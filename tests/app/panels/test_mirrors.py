@@ -8,7 +8,8 @@ from mirrorscan.editor import SESSION_SCOPE
 from mirrorscan.jobs import planes_key
 from mirrorscan.panels.mirrors import MirrorsPanel
 from mirrorscan.results import CalibrationReport, FramesUsed
-from mirrorscan.wording.mirrors import greyed_out, removal_question, report_markdown
+from mirrorscan.wording.greyed import greyed_out
+from mirrorscan.wording.mirrors import removal_question, report_markdown
 
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane

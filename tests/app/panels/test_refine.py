@@ -14,7 +14,7 @@ from mirrorscan.results import AgreementReport, MirrorAgreement
 from mirrorscan.view import HEAT_DIRECT_SIZE
 from mirrorscan.wording import Message, joined
 from mirrorscan.wording import mirrors as mirror_words
-from mirrorscan.wording import refinement as calibration_words
+from mirrorscan.wording import agreement as agreement_words
 from mirrorscan.wording.mirrors import fit_report
 
 from mirrorcore.base.errors import MirrorscanError
@@ -47,7 +47,7 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     # with its own figures, over frames
     found = view_agreement(snapshot.rig, depths, np.stack(masks))
     expected = joined(
-        calibration_words.agreement(
+        agreement_words.agreement(
             AgreementReport(
                 tuple(
                     MirrorAgreement(m.name, found[j], True)

@@ -4,6 +4,7 @@
 from mirrorscan.events import JobProgress
 from mirrorscan.results import CalibrationReport, FramesUsed, NotFound
 from mirrorscan.wording import HEADLINE_WORDS, words
+from mirrorscan.wording import agreement as agreement_words
 from mirrorscan.wording import refinement as calibration_words
 
 from mirrorcore.calibration.residuals import ViewAgreement
@@ -50,6 +51,6 @@ def test_every_message_of_the_wording_has_a_short_headline():
                 calibration_words.note(report),
                 calibration_words.undone(report, "Undone"),
             ]
-    messages.append(calibration_words.disagreement_note(("mirror 1", "mirror 2", "mirror 3")))
+    messages.append(agreement_words.disagreement_note(("mirror 1", "mirror 2", "mirror 3")))
     for message in messages:
         assert words(message.headline) <= HEADLINE_WORDS, message.headline
