@@ -8,6 +8,7 @@ from mirrorscan.wording import HEADLINE_WORDS, words
 from mirrorscan.wording.mirrors import NO_GLASS_NOTE, fit_note
 from mirrorscan.wording.mirrors import fit_report as markers_report
 
+from mirrorcore.calibration.markers import FitReview
 from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
 from mirrorcore.io.session import SessionMirror
 
@@ -47,7 +48,7 @@ def test_a_markers_fit_without_glass_says_how_to_measure_it():
         calibration = SimpleNamespace(
             rms_mm=2.0, n_inliers=90, n_points=100, markers=None, marker_offset=glass
         )
-        return Fit(calibration, mirror, SimpleNamespace(poor=(), tilt_deg=0.0, shift_mm=0.0))
+        return Fit(calibration, mirror, FitReview(0.0, 0.0, ()))
 
     left, right = fit("left", 0.0), fit("right", 0.004, mirror_id=2)
     # right's waited for Apply, left's did not
