@@ -13,7 +13,8 @@ import numpy as np
 from mirrorcore.base.budget import check_memory
 from mirrorcore.depth.files import read_depth_png
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.geometry.camera import Intrinsics, load_open3d_json, load_opencv_yaml
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.camerafiles import load_open3d_json, load_opencv_yaml
 from mirrorcore.base.jsonfile import read_json
 from mirrorcore.io.session import Session
 from mirrorcore.sources.base import DepthSource, Frame, checked_depth

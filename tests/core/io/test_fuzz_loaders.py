@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 from mirrorcore.depth.files import encode_depth_png, read_depth_png
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.geometry.camera import (
-    Intrinsics,
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.camerafiles import (
     load_open3d_json,
     load_opencv_yaml,
     save_open3d_json,
