@@ -13,7 +13,7 @@ from pathlib import Path
 
 from mirrorcore.dense.volume import cancel_requested
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder

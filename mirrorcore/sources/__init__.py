@@ -15,7 +15,8 @@ from typing import Callable
 from urllib.parse import parse_qsl
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import SESSION_FILE, Session, load_session
+from mirrorcore.io.session import SESSION_FILE, Session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources.base import DepthSource, Frame, require
 from mirrorcore.sources.devices import (FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource,
                                         OpenNI2Source, initialise_openni2)

@@ -18,7 +18,8 @@ from mirrorcore.depth.files import encode_depth_png, read_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics
 from mirrorcore.geometry.camerafiles import load_opencv_yaml
-from mirrorcore.io.session import Session, load_session, session_folder
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session, session_folder
 from mirrorcore.sources import open_source
 
 ROOT = Path(__file__).resolve().parents[2]

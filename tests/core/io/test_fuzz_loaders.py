@@ -22,7 +22,8 @@ from mirrorcore.geometry.camerafiles import (
     save_opencv_yaml,
 )
 from mirrorcore.io.ply import encode_ply, read_ply
-from mirrorcore.io.session import Session, SessionMirror, load_session, session_from_json
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
 from mirrorcore.sources.files import open_npz
