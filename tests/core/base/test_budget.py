@@ -29,7 +29,7 @@ from mirrorcore.depth.files import read_depth_png
 from mirrorcore.io.sessionfile import load_session
 from mirrorcore.rig.model import Rig
 from mirrorcore.sources import open_source
-from mirrorcore.sources.files import load_npz
+from mirrorcore.sources.npz import load_npz
 
 DEMO = "sessions/demo"
 

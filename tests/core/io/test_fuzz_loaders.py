@@ -26,7 +26,7 @@ from mirrorcore.io.session import Session, SessionMirror
 from mirrorcore.io.sessionfile import load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import load_scene
-from mirrorcore.sources.files import open_npz
+from mirrorcore.sources.npz import open_npz
 
 EXAMPLES = settings(max_examples=120, deadline=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
