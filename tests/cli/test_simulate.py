@@ -22,7 +22,7 @@ from mirrorcore.sim.layouts import (
     kaleidoscope_scene,
     paper_scene,
 )
-from mirrorcore.sim.scene import load_scene, save_scene
+from mirrorcore.sim.scenefile import load_scene, save_scene
 from mirrorcore.sim.simulator import Simulator
 
 

@@ -25,7 +25,7 @@ from mirrorcore.io.ply import encode_ply, read_ply
 from mirrorcore.io.session import Session, SessionMirror
 from mirrorcore.io.sessionfile import load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.scene import load_scene
+from mirrorcore.sim.scenefile import load_scene
 from mirrorcore.sources.npz import open_npz
 
 EXAMPLES = settings(max_examples=120, deadline=None,
