@@ -13,7 +13,7 @@ from tests.cli.output import details, headlines
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.ply import read_ply
 from mirrorcore.io.sessionfile import load_session, save_session
-from mirrorcore.sim.layouts import object_extent
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.truth import surface_error
 from mirrorcore.sources import session_truth
 
