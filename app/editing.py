@@ -17,7 +17,8 @@ from dataclasses import replace
 from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import Session, SessionMirror, save_session
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import save_session
 from mirrorcore.io.limits import check_limits
 
 from .sessionfile import SessionFile

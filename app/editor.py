@@ -16,12 +16,8 @@ from mirrorcore.base.words import listed
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
-from mirrorcore.io.session import (
-    MAX_MARKER_OFFSET,
-    MAX_MIRRORS,
-    Pixels,
-    SessionMirror,
-)
+from mirrorcore.io.session import MAX_MARKER_OFFSET, Pixels, SessionMirror
+from mirrorcore.io.sessionfile import MAX_MIRRORS
 from mirrorcore.rig.model import check_bounces
 
 from .editing import EditorCore, edits

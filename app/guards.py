@@ -9,7 +9,8 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import edge_distance
-from mirrorcore.io.session import Session, SessionMirror, check_name
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import check_name
 
 ON_EDGE = 1.5            # pixels: a marker this close outside its mirror's boundary is on it
 

@@ -6,7 +6,8 @@ import os
 from pathlib import Path
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.io.session import Session, load_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session
 
 Stamp = tuple[int, int, int]
 

@@ -27,7 +27,7 @@ import websockets.asyncio.client
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.server import MirrorscanApp
 from mirrorscan.bench.tabs import CAMERA_MESSAGE
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 WARM_UP = 0.2  # fraction of the run after which memory is taken as the baseline
 EDIT_EVERY_S = 5.0  # a mirror is renamed (and autosaved) this often

@@ -17,7 +17,8 @@ from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.server import MirrorscanApp, quiet_closed_connections
 from mirrorscan.bench.tabs import HeadlessTab
 from tests.waiting import wait_for
-from mirrorcore.io.session import Session, save_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource

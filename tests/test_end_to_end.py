@@ -11,7 +11,7 @@ import pytest
 from mirrorscan.cli import main
 from tests.cli.output import details, headlines
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 TRUE_RADIUS = 0.115
 

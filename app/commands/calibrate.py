@@ -15,7 +15,8 @@ from mirrorcore.base.words import listed, sentences
 from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
 from mirrorcore.calibration.scene import calibrate_scene
-from mirrorcore.io.session import Session, load_session, save_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 

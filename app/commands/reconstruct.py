@@ -24,7 +24,8 @@ from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depth.files import require_readings
 from mirrorcore.io.outputs import check_output
 from mirrorcore.io.ply import write_ply
-from mirrorcore.io.session import Session, load_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 

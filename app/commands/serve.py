@@ -12,7 +12,8 @@ from pathlib import Path
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.model import check_bounces
-from mirrorcore.io.session import Session, load_session, save_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source

@@ -9,7 +9,8 @@ from mirrorcore.io.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import MAX_BOUNCES
-from mirrorcore.sim.scene import Scene, load_scene
+from mirrorcore.sim.scene import Scene
+from mirrorcore.sim.scenefile import load_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 

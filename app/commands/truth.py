@@ -11,7 +11,8 @@ import json
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import TRUTH_FILE, load_session
+from mirrorcore.io.session import TRUTH_FILE
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.truth import plane_errors, surface_error
 from mirrorcore.sources import session_truth
 

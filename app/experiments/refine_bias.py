@@ -21,7 +21,8 @@ from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.calibration.planestep import offset_at
 from mirrorcore.calibration.refine import refine_planes
 from mirrorcore.sim.export import true_rig
-from mirrorcore.sim.layouts import object_extent, paper_scene
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 

@@ -7,7 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import Session, save_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import save_session
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from ..events import FrameReady

@@ -9,7 +9,8 @@ from pathlib import Path
 from mirrorcore.depth.files import decode_depth_png, require_readings
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.ply import encode_ply
-from mirrorcore.io.session import SESSION_FILE, copy_session, load_session, session_folder
+from mirrorcore.io.session import SESSION_FILE
+from mirrorcore.io.sessionfile import copy_session, load_session, session_folder
 
 from ..context import TabContext
 from ..events import SessionChanged

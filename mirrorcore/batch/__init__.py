@@ -8,8 +8,9 @@ this machine's cores or a Dask cluster, resumable (a rerun does only the frames 
     run = BatchRun(BatchJob(session, out)).start()
     run.progress; run.cancel(); run.wait()
 """
-from mirrorcore.batch.engine import (BatchProgress, BatchReport, BatchRun, Where,
-                                     default_frames_per_task, run_batch)
+from mirrorcore.batch.engine import (BatchProgress, BatchReport, BatchRun, default_frames_per_task,
+                                     run_batch)
+from mirrorcore.batch.executor import Where
 from mirrorcore.batch.frames import FrameContext, read_depth, reconstruct_frames
 from mirrorcore.batch.job import BATCH_METHODS, BatchJob, exports_folder
 from mirrorcore.batch.manifest import MANIFEST_FILE, FrameRecord, Manifest, OutputFolder

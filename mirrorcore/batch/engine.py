@@ -1,66 +1,24 @@
 """Running a batch: the frames still to do, split into tasks of a few frames, run in this process or
-on Dask (a local cluster, or an existing one), the manifest kept up to date, progress reported,
-stopped cleanly on cancel. `run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
+on Dask (a local cluster, or an existing one: executor), the manifest kept up to date, progress
+reported, stopped cleanly on cancel. `run_batch` blocks; `BatchRun` runs it in a thread for a UI."""
 from __future__ import annotations
 
-import os
 import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mirrorcore.dense.volume import cancel_requested
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import load_session
-from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
+from mirrorcore.io.sessionfile import load_session
+from mirrorcore.batch.executor import Where, _executor
+from mirrorcore.batch.frames import FrameContext
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
 
 # how often a Dask run looks at the cancel request and the cluster's events
 POLL_SECONDS = 0.25
-
-
-@dataclass(frozen=True)
-class Where:
-    """Where a batch runs.
-
-    Attributes
-    ----------
-    workers : int or None
-        Local worker processes (default: one per core; 1 runs in this process, without Dask).
-    scheduler : str or None
-        The address of an existing Dask cluster ('tcp://HOST:8786') instead.
-    dashboard : bool
-        Serve the Dask dashboard of a local cluster.
-    """
-
-    workers: int | None = None
-    scheduler: str | None = None
-    dashboard: bool = True
-
-    def __post_init__(self) -> None:
-        if self.workers is not None and self.workers < 1:
-            raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
-        if self.workers is not None and self.scheduler is not None:
-            raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own "
-                                  "workers; give one or "
-                                  "the other")
-
-    @property
-    def in_process(self) -> bool:
-        """True when the batch runs in this process (one local worker, no scheduler)."""
-        return self.scheduler is None and self.local_workers == 1
-
-    @property
-    def local_workers(self) -> int:
-        """The local worker processes: `workers`, or the cores this process may use."""
-        if self.workers:
-            return self.workers
-        if hasattr(os, "sched_getaffinity"):
-            return len(os.sched_getaffinity(0))
-        return os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
@@ -251,56 +209,6 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
         folder.close()
 
 
-@contextmanager
-def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
-    """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
-    if where.in_process:
-        yield _InProcess(context, cancel)
-        return
-    # distributed is imported only when used
-    from mirrorcore.batch.cluster import DaskExecutor, dask_client
-    with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
-        local = where.scheduler is None
-        executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
-        try:
-            yield executor
-        finally:
-            executor.close()
-
-
-class _InProcess:
-    """Runs the chunks one by one in this process (same interface as cluster.DaskExecutor)."""
-
-    dashboard = None
-    workers = 1
-
-    def __init__(self, context: FrameContext, cancel):
-        self.context = context
-        self.cancel = cancel
-        self.chunks: list[tuple[int, ...]] = []
-
-    @property
-    def pending(self) -> int:
-        return len(self.chunks)
-
-    def submit(self, chunks: list[tuple[int, ...]]) -> None:
-        self.chunks.extend(chunks)
-
-    def wait(self, timeout: float) -> list:
-        """Run the next chunk now; an unexpected error fails its frames (others go on)."""
-        chunk = self.chunks.pop(0)
-        try:
-            records, failures = reconstruct_frames(self.context, chunk,
-                                                   lambda: cancel_requested(self.cancel))
-        # a frame's bug or MemoryError must not end hours of work
-        except Exception as exc:  # noqa: BLE001
-            records, failures = [], {i: task_error(exc) for i in chunk}
-        return [(chunk, records, failures)]
-
-    def deaths(self) -> dict[int, str]:
-        return {}
-
-
 class _Run:
     """The client's side of one run: results into the manifest, progress, the figures of the
     report."""
@@ -447,3 +355,4 @@ class BatchRun:
                                     self._cancel)
         except BaseException as exc:       # noqa: BLE001 (kept for wait() and the UI)
             self.error = exc
+

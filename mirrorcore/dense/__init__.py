@@ -1,7 +1,7 @@
 """Floor 7, dense reconstruction of frames of a static object: frames prepared as for Algorithm 1
 (mirrorcore.rig.pipeline.prepare_frame), a volume around the raw cloud (volume, blocks), then
-space carving (methods 'paper', 'carve'; carve) or volumetric fusion ('tsdf'; tsdf, mesh), with
-the views through the mirrors as virtual cameras (views, sampling, windows).
+space carving (methods 'paper', 'carve'; carve) or volumetric fusion ('tsdf'; tsdf, blockfusion,
+mesh), with the views through the mirrors as virtual cameras (views, sampling, windows).
 
     volume = dense_volume(rig, depths[0], masks[0], DenseOptions(voxel=0.004))
     result = reconstruct_dense(rig, depths, masks, volume, "tsdf")

@@ -1,6 +1,7 @@
-"""Floor 1, geometry of the camera frame: the pinhole camera and its files (camera), planes and
-reflection (plane), image polygons (polygon), RANSAC's stopping rule (ransac), and the sphere and
-cylinder fits with their per-source errors (shapes, fitting)."""
+"""Floor 1, geometry of the camera frame: the pinhole camera (camera) and its files
+(camerafiles), planes and reflection (plane), image polygons (polygon), RANSAC's stopping rule
+(ransac), and the sphere and cylinder fits with their per-source errors (shapes, fitting, and
+their shared LO-RANSAC and Gauss-Newton loops, loransac)."""
 from mirrorcore.geometry.camera import (Intrinsics, project_points, reproject_depth,
                                         reproject_pixels)
 from mirrorcore.geometry.fitting import estimate_normals, fit_cylinder, fit_sphere

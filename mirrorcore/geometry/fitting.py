@@ -5,8 +5,8 @@ Sphere: 4-point samples solved in closed form; refined by an algebraic then a ge
 (Gauss-Newton) least-squares fit. Cylinder: 2 points with normals (axis direction = n1 x n2, axis
 through the closest points of the normal lines); refined by geometric least squares over axis
 direction, axis point and radius. Both share one batched LO-RANSAC loop (each new best sample is
-replaced by its least-squares local optimum) and one Gauss-Newton loop. Metres, camera frame; models
-are flat float64 vectors internally, radius last.
+replaced by its least-squares local optimum) and one Gauss-Newton loop (loransac). Metres, camera
+frame; models are flat float64 vectors internally, radius last.
 """
 from __future__ import annotations
 
@@ -15,9 +15,10 @@ from typing import Callable
 import numpy as np
 import open3d as o3d
 
-from mirrorcore.base.errors import Cancelled, MirrorscanError
-from mirrorcore.geometry.ransac import ransac_iterations
-from mirrorcore.base.progress import Progress, cancel_requested
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.progress import Progress
+from mirrorcore.geometry.loransac import (Model, _gauss_newton, _in_range, _local_optimum, _ransac,
+                                          _ticker)
 from mirrorcore.geometry.shapes import Cylinder, ShapeFit, Sphere
 
 DEFAULT_THRESHOLD = 0.02
@@ -27,15 +28,8 @@ radius (TUM globe: 232.5 mm with 10 mm, 225.6 mm with 20 mm, same pixels)."""
 DEFAULT_RADIUS_RANGE = (0.005, 5.0)
 """Radii (metres) outside which a RANSAC model is absurd for a depth-camera scene and is
 rejected."""
-_SCORE_BUDGET = 4_000_000
-"""Point-model distances evaluated per RANSAC batch (bounds memory to ~32 MB whatever the cloud
-size)."""
 _NORMAL_NEIGHBOURS = 24
 _MIN_POINTS = {"sphere": 4, "cylinder": 5}
-
-Model = np.ndarray
-"""(p,) float64: a sphere [cx, cy, cz, R]; a cylinder [ax, ay, az, dx, dy, dz, R] (axis point, unit
-direction)."""
 
 
 # -------------------------------------------------------------------------------------- public API
@@ -226,96 +220,6 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
                     float(threshold))
 
 
-def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.ndarray], np.ndarray],
-            distances: Callable[[np.ndarray], np.ndarray],
-            optimise: Callable[[Model], tuple[Model, int]],
-            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float],
-            confidence: float,
-            max_iterations: int, tick: Callable[[float], None]) -> Model | None:
-    """Batched LO-RANSAC: `propose` maps samples (m, sample_size) int to models (m, p) (NaN rows =
-    degenerate sample); `distances` maps models (m, p) to signed point-model deviations (n, m); each
-    new best sample is replaced by its local optimum `optimise(model) -> (model, inlier count)` when
-    that has as many inliers and a radius in range. Returns the model with most inliers (at least
-    min_inliers), or None. Stops by ransac_iterations' rule or after max_iterations samples;
-    tick(fraction of the samples it will draw) after each batch."""
-    batch = int(np.clip(_SCORE_BUDGET // n, 1, 64))
-    best, best_count, needed, drawn = None, min_inliers - 1, max_iterations, 0
-    while drawn < min(needed, max_iterations):
-        models = propose(rng.integers(0, n, size=(batch, sample_size)))
-        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1],
-                                                                        radius_range)]
-        if len(models):
-            counts = np.count_nonzero(np.abs(distances(models)) < threshold, axis=0)
-            k = int(np.argmax(counts))
-            if counts[k] > best_count:
-                best, best_count = models[k], int(counts[k])
-                local, local_count = optimise(best)
-                if local_count >= best_count and _in_range(local[-1], radius_range):
-                    best, best_count = local, local_count
-                needed = ransac_iterations(best_count / n, sample_size, confidence)
-        drawn += batch
-        tick(min(drawn / min(needed, max_iterations), 1.0))
-    return best
-
-
-def _ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], None]:
-    """tick(fraction): report the fraction done to `progress`, and raise Cancelled when `cancel`
-    asks to stop."""
-    def tick(fraction: float) -> None:
-        if cancel_requested(cancel):
-            raise Cancelled(f"{where}: the fit was cancelled")
-        if progress is not None:
-            progress(fraction)
-    return tick
-
-
-def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> np.ndarray | bool:
-    """Whether each radius lies within radius_range (min, max), metres."""
-    return (radius >= radius_range[0]) & (radius <= radius_range[1])
-
-
-def _local_optimum(points: np.ndarray, model: Model, threshold: float,
-                   distances: Callable[[np.ndarray], np.ndarray],
-                   refine: Callable[[np.ndarray, Model], Model],
-                   min_points: int) -> tuple[Model, int]:
-    """Least-squares refit on the inliers, repeated with the refit's inliers until they stop
-    changing (at most 10 refits) -> (model, its inlier count). Stops, keeping the last model, when
-    fewer than min_points are inliers."""
-    inliers = np.abs(distances(model[None])[:, 0]) < threshold
-    for _ in range(10):
-        if np.count_nonzero(inliers) < min_points:
-            break
-        model = refine(points[inliers], model)
-        refit = np.abs(distances(model[None])[:, 0]) < threshold
-        if np.array_equal(refit, inliers):
-            break
-        inliers = refit
-    return model, int(np.count_nonzero(np.abs(distances(model[None])[:, 0]) < threshold))
-
-
-def _gauss_newton(model: Model,
-                  residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
-                  step: Callable[[Model, np.ndarray], Model], iterations: int = 100) -> Model:
-    """Minimise sum(r^2) from `model`: residuals_jacobian(model) -> r (n,), J (n, k); step(model,
-    delta (k,)) -> model. Halves a step that does not lower the cost; stops when the cost stops
-    falling (relative 1e-15) or after `iterations` steps."""
-    r, J = residuals_jacobian(model)
-    cost = r @ r
-    for _ in range(iterations):
-        delta = np.linalg.lstsq(J, -r, rcond=None)[0]
-        for scale in 0.5 ** np.arange(12):
-            trial = step(model, scale * delta)
-            r_trial, J_trial = residuals_jacobian(trial)
-            if r_trial @ r_trial <= cost:
-                break
-        else:
-            return model
-        previous, (model, r, J, cost) = cost, (trial, r_trial, J_trial, r_trial @ r_trial)
-        if previous - cost <= 1e-15 * previous:
-            break
-    return model
-
-
 # ------------------------------------------------------------------------------------------ sphere
 def _sphere_propose(points: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """Closed-form sphere through 4 points: 2 (p_i - p_0).c = |p_i|^2 - |p_0|^2, i = 1..3, by
@@ -459,3 +363,4 @@ def _cylinder_shape(model: Model, origin: np.ndarray, points: np.ndarray,
     centroid = points[np.abs(distances(model[None])[:, 0]) < threshold].mean(axis=0)
     a = a + ((centroid - a) @ d) * d + origin
     return Cylinder(tuple(float(x) for x in a), tuple(float(x) for x in d), float(model[6]))
+

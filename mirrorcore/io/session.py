@@ -1,28 +1,21 @@
-"""The session folder (docs/DESIGN.md): session.json with every key typed, parsed and validated
-here in one place (camera, mirrors, background, frames, and the extensions selection, bounces,
-timestamps, colour_frames, a mirror's id, region and marker_offset), saved atomically with one
-backup (session.json.bak). Keys that this mirrorscan does not read are kept as they were."""
+"""The session folder (docs/DESIGN.md): a session and its mirrors, every key of session.json
+typed (camera, mirrors, background, frames, and the extensions selection, bounces, timestamps,
+colour_frames, a mirror's id, region and marker_offset); sessionfile reads, validates and saves
+it. Keys that this mirrorscan does not read are kept as they were."""
 from __future__ import annotations
 
-import json
-import re
-import shutil
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from mirrorcore.base.atomic import new_folder, write_atomic
-from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.base.jsonfile import read_json
-from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER
+from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.depth.files import read_depth_png
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.fields import (Pixels, read_list, read_paths, read_pixels, read_polygon,
-                                  read_relative_path, read_timestamps)
-from mirrorcore.io.limits import (MAX_FRAMES, MAX_MARKERS, MAX_SESSION_BYTES, check_name)
+from mirrorcore.io.fields import Pixels
 
 VERSION = 1
 SESSION_FILE = "session.json"
@@ -32,10 +25,6 @@ BACKGROUND_FILE = "background.png"
 TRUTH_FILE = "truth.json"
 # Every file in it belongs to the session (a recording lists frames as they land).
 FRAMES_FOLDER = "frames"
-_TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps",
-             "colour_frames", "bounces")
-_MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset",
-                "marker_offset_std")
 # Metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake.
 MAX_MARKER_OFFSET = 0.05
 
@@ -321,213 +310,3 @@ def _with_ids(mirrors: tuple[SessionMirror, ...]) -> tuple[SessionMirror, ...]:
     free = (k for k in range(1, len(mirrors) + len(taken) + 1) if k not in taken)
     return tuple(m if m.id >= 1 else replace(m, id=next(free)) for m in mirrors)
 
-
-# --------------------------------------------------------------------- reading
-def load_session(folder: str | Path) -> Session:
-    """Read and validate a session folder's session.json.
-
-    Parameters
-    ----------
-    folder : str or Path
-        The session folder.
-
-    Returns
-    -------
-    Session
-
-    Raises
-    ------
-    FileFormatError
-        Naming the file and the offending key.
-    """
-    folder = Path(folder)
-    return session_from_json(read_json(folder / SESSION_FILE,
-                                       f"file (is {folder} a session folder?)",
-                                       MAX_SESSION_BYTES), folder)
-
-
-def session_from_json(data, folder: Path) -> Session:
-    """Validate a parsed session.json (see docs/DESIGN.md).
-
-    Parameters
-    ----------
-    data : object
-        The parsed JSON.
-    folder : Path
-        The session folder that paths are relative to.
-
-    Returns
-    -------
-    Session
-
-    Raises
-    ------
-    FileFormatError
-        Naming the file and the key.
-    """
-    where = str(Path(folder) / SESSION_FILE)
-    if not isinstance(data, dict):
-        raise FileFormatError(f"{where}: the top level must be a JSON object")
-    missing = [k for k in ("version", "camera", "mirrors", "frames") if k not in data]
-    if missing:
-        raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
-    if data["version"] != VERSION:
-        raise FileFormatError(
-            f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
-                              f"{VERSION}")
-    camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
-    mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
-                    for i,
-                    m in enumerate(read_list(data["mirrors"], f"{where}: mirrors", MAX_MIRRORS,
-                                                    "mirrors")))
-    _check_ids(mirrors, where)
-    background = data.get("background")
-    if background is not None:
-        background = read_relative_path(background, folder, f"{where}: background")
-    frames = read_paths(data["frames"], folder, f"{where}: frames", MAX_FRAMES)
-    timestamps = data.get("timestamps")
-    if timestamps is not None:
-        timestamps = read_timestamps(timestamps, len(frames), f"{where}: timestamps")
-    colour_frames = data.get("colour_frames")
-    if colour_frames is not None:
-        colour_frames = read_paths(colour_frames, folder, f"{where}: colour_frames", MAX_FRAMES)
-        if len(colour_frames) != len(frames):
-            raise FileFormatError(
-                f"{where}: colour_frames: {len(colour_frames)} paths for {len(frames)} frames")
-    bounces = data.get("bounces", MAX_ORDER)
-    if isinstance(bounces, bool) or not isinstance(bounces, int) or not 1 <= bounces <= MAX_ORDER:
-        raise FileFormatError(
-            f"{where}: bounces: must be a whole number from 1 to {MAX_ORDER}, got {bounces!r}")
-    extra = {k: v for k, v in data.items() if k not in _TOP_KEYS}
-    return Session(Path(folder), camera, mirrors, background, frames,
-                   Selection.from_json(data.get("selection"), f"{where}: selection"), timestamps,
-                   colour_frames, extra,
-                   bounces)
-
-
-def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
-    """Validate one mirror object of session.json."""
-    if not isinstance(data, dict):
-        raise FileFormatError(f"{where}: a mirror must be a JSON object")
-    try:
-        check_name(data.get("name"), f"{where}: name")
-    except MirrorscanError as exc:
-        raise FileFormatError(str(exc)) from None
-    where = f"{where} ({data['name']})"
-    mirror_id = data.get("id", 0)                # none yet: the session gives it one
-    if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int)
-                         or not 1 <= mirror_id < 2**31):
-        raise FileFormatError(
-            f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
-    markers = read_pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
-    boundary = read_polygon(data.get("boundary", []), camera, f"{where}: boundary")
-    region = data.get("region")
-    if region is not None:
-        region = read_polygon(region, camera, f"{where}: region")
-    plane = data.get("plane")
-    if plane is not None:
-        try:
-            plane = Plane.from_abcd(plane, f"{where}: plane", orient=False)
-        except MirrorscanError as exc:
-            raise FileFormatError(str(exc)) from None
-    offset = data.get("marker_offset", 0.0)
-    if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
-            or abs(offset) > MAX_MARKER_OFFSET):
-        raise FileFormatError(
-            f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
-                              f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
-    std = data.get("marker_offset_std")
-    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
-                            or not 0 <= std
-                            <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
-        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to "
-                              f"{MAX_MARKER_OFFSET:g}) to which "
-                              f"a refinement measured the glass, got {std!r}")
-    extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset),
-                         extra,
-                         None if std is None else float(std))
-
-
-def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
-    """Refuse an id given to more than one mirror."""
-    ids = [m.id for m in mirrors if m.id]
-    if len(set(ids)) != len(ids):
-        twice = sorted({i for i in ids if ids.count(i) > 1})
-        raise FileFormatError(f"{where}: mirrors: id {twice[0]} is given to more than one mirror")
-
-
-# --------------------------------------------------------------------- writing
-def save_session(session: Session) -> None:
-    """Write the session's session.json atomically, creating its folder.
-
-    The previous version is kept as session.json.bak.
-
-    Parameters
-    ----------
-    session : Session
-    """
-    Path(session.root).mkdir(parents=True, exist_ok=True)
-    text = json.dumps(session.to_json(), indent=2) + "\n"
-    write_atomic(session.path, text.encode("utf-8"), backup=True)
-
-
-_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_ .-]{0,99}$")
-
-
-def session_folder(sessions_dir: str | Path, name: str) -> Path:
-    """Return the folder of a session inside the sessions folder.
-
-    Parameters
-    ----------
-    sessions_dir : str or Path
-        The folder that holds the sessions.
-    name : str
-        The session's name.
-
-    Returns
-    -------
-    Path
-
-    Raises
-    ------
-    MirrorscanError
-        The name is empty, too long, or could leave the folder (separators, '..', leading dots).
-    """
-    name = name.strip()
-    if not _NAME.match(name) or ".." in name:
-        raise MirrorscanError(
-            f"session name {name!r}: use letters, digits, spaces, '_', '-' and '.' (not '..'), "
-                              "at most 100 characters, starting with a letter, digit or '_'")
-    return Path(sessions_dir) / name
-
-
-def copy_session(session: Session, folder: str | Path) -> Session:
-    """Save a session under a new folder with its background, frames and colour frames.
-
-    All or nothing.
-
-    Parameters
-    ----------
-    session : Session
-    folder : str or Path
-        The new folder; it must not exist or be empty.
-
-    Returns
-    -------
-    Session
-        The session as it now lives in `folder`.
-
-    Raises
-    ------
-    MirrorscanError
-        `folder` exists and is not empty.
-    """
-    folder = Path(folder)
-    with new_folder(folder) as work:
-        for rel in ([session.background] if session.background else []) + list(session.frames) \
-                + list(session.colour_frames or ()):
-            (work / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(Path(session.root) / rel, work / rel)
-        save_session(replace(session, root=work))
-    return replace(session, root=folder)

@@ -17,7 +17,8 @@ from mirrorcore.depth.files import write_depth_png
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.rig.model import Mirror, Rig
-from mirrorcore.io.session import BACKGROUND_FILE, TRUTH_FILE, Session, SessionMirror, save_session
+from mirrorcore.io.session import BACKGROUND_FILE, TRUTH_FILE, Session, SessionMirror
+from mirrorcore.io.sessionfile import save_session
 from mirrorcore.sim.render import MARKER, GroundTruth
 from mirrorcore.sim.scene import Scene, SceneMirror
 from mirrorcore.sim.simulator import Simulator

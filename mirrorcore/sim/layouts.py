@@ -1,7 +1,7 @@
 """Ready-made scenes: the paper's two mirrors in a V behind the object (`paper_scene`), a hinged
 pair that meets at the apex (`kaleidoscope_scene`: views through several mirrors in turn), and three
-or more mirrors on an arc around it (`arc_scene`); `make_object` turns a command-line object name
-into a SceneObject."""
+or more mirrors on an arc around it (`arc_scene`), each around an object of
+mirrorcore.sim.presets."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -11,12 +11,10 @@ import numpy as np
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim.placement import markers_in_view
-from mirrorcore.sim.scene import Room, Scene, SceneMirror, SceneObject
+from mirrorcore.sim.presets import _UP, make_object, object_extent
+from mirrorcore.sim.scene import Room, Scene, SceneMirror
 from mirrorcore.sim.sensor import SensorModel
 
-SPHERE_RADIUS = 0.115       # the paper's sphere (figure 4)
-CYLINDER_RADIUS = 0.150     # the paper's cylinder (figure 5)
-FIGURE_HEIGHT = 1.75
 MIRROR_SIZE = (0.6, 1.0)    # width, height, metres
 MARKER_SIZE = 0.04
 APEX_GAP = 0.02             # clearance between a V mirror's inner edge and the apex, metres
@@ -28,102 +26,6 @@ HINGED_WIDTH = 1.4
 HINGED_CLEARANCE = 0.135
 # a hinged pair is seen obliquely: larger markers keep several pixels wide in the image
 HINGED_MARKER_SIZE = 0.08
-OBJECT_DISTANCE = 2.0       # metres from the camera to the object by default: the paper's...
-# ... and to the figure, which a Kinect sees whole, feet to head, only from about 3 m
-FIGURE_DISTANCE = 3.0
-_UP = np.array([0.0, -1.0, 0.0])
-
-
-def default_distance(spec: str) -> float:
-    """Return the metres from the camera to an object of that name when none is given.
-
-    FIGURE_DISTANCE for the figure (nearer, its head or feet leave the image and the mirrors'
-    markers with them), else OBJECT_DISTANCE.
-
-    Parameters
-    ----------
-    spec : str
-        The object's name.
-
-    Returns
-    -------
-    float
-        Metres.
-    """
-    return FIGURE_DISTANCE if spec == "figure" else OBJECT_DISTANCE
-
-
-def make_object(spec: str, distance: float | None = None, floor_y: float = 1.0,
-                gait_hz: float = 1.0) -> SceneObject:
-    """Make a scene object on the optical axis.
-
-    The sphere has the paper's radius 0.115 m, the cylinder 0.15 m (0.6 m tall, vertical), the box
-    is a 0.3 m cube; the figure (1.75 m, walking at `gait_hz` strides/s) stands on the floor at
-    y = floor_y.
-
-    Parameters
-    ----------
-    spec : str
-        'sphere', 'cylinder', 'box', 'figure' or 'mesh:PATH'.
-    distance : float, optional
-        Metres from the camera (`default_distance` when None).
-    floor_y : float
-        Metres below the camera.
-    gait_hz : float
-        The figure's strides per second.
-
-    Returns
-    -------
-    SceneObject
-
-    Raises
-    ------
-    MirrorscanError
-        An unknown name.
-    """
-    distance = default_distance(spec) if distance is None else distance
-    centre = (0.0, 0.0, float(distance))
-    if spec == "sphere":
-        return SceneObject("sphere", centre, radius=SPHERE_RADIUS)
-    if spec == "cylinder":
-        return SceneObject("cylinder", centre, radius=CYLINDER_RADIUS, height=0.6,
-                           axis=(0.0, 1.0, 0.0))
-    if spec == "box":
-        return SceneObject("box", centre, size=(0.3, 0.3, 0.3))
-    if spec == "figure":
-        return SceneObject("figure", (0.0, floor_y, float(distance)), height=FIGURE_HEIGHT,
-                           gait_hz=gait_hz)
-    if spec.startswith("mesh:") and len(spec) > 5:
-        return SceneObject("mesh", centre, path=spec[5:])
-    raise MirrorscanError(
-        f"unknown object {spec!r}: use sphere, cylinder, box, figure or mesh:PATH")
-
-
-def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
-    """Return the middle of an object, its horizontal half-size and its height.
-
-    A mesh counts as 0.3 m wide.
-
-    Parameters
-    ----------
-    obj : SceneObject
-
-    Returns
-    -------
-    middle : (3,) array
-        Metres, camera frame.
-    half_width : float
-        Metres.
-    height : float
-        Metres.
-    """
-    centre = np.asarray(obj.centre, dtype=np.float64)
-    if obj.type == "figure":
-        return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
-    half = {"sphere": obj.radius, "cylinder": obj.radius,
-            "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
-    tall = {"sphere": 2 * obj.radius, "cylinder": obj.height, "box": obj.size[1]}.get(obj.type, 0.3)
-    return centre, half, tall
 
 
 def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
@@ -284,7 +186,7 @@ def paper_scene(angle_deg: float = 120.0, n_mirrors: int = 2, object: str = "sph
     object : str
         As `make_object`.
     distance : float, optional
-        Metres to the object (`default_distance` when None).
+        Metres to the object (`presets.default_distance` when None).
     mirror_distance : float, optional
         Metres from the object's middle (default: its half-width + 0.25 m).
     camera : Intrinsics, optional
@@ -427,3 +329,4 @@ def kaleidoscope_scene(angle_deg: float = 72.0, object: str = "sphere",
     size = (max(HINGED_WIDTH, 4 * half), max(MIRROR_SIZE[1], 1.1 * tall))
     return Scene(camera or Intrinsics.kinect_v1(),
                  hinged_mirrors(angle_deg, target, md, size, turn), (obj,), room)
+

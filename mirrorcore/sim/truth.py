@@ -11,7 +11,7 @@ import open3d as o3d
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session
 from mirrorcore.sim.objects import object_geometry
-from mirrorcore.sim.layouts import object_extent
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.scene import Scene
 
 
@@ -19,7 +19,7 @@ from mirrorcore.sim.scene import Scene
 class PlaneError:
     """One mirror's plane against its true plane.
 
-    Measured at the object's middle (layouts.object_extent: a figure's is half its height above the
+    Measured at the object's middle (presets.object_extent: a figure's is half its height above the
     floor point between its feet).
 
     Attributes

@@ -15,12 +15,14 @@ from typing import Callable
 from urllib.parse import parse_qsl
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import SESSION_FILE, Session, load_session
+from mirrorcore.io.session import SESSION_FILE, Session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources.base import DepthSource, Frame, require
 from mirrorcore.sources.devices import (FREENECT_INSTALL, OPENNI2_INSTALL, FreenectSource,
                                         OpenNI2Source, initialise_openni2)
-from mirrorcore.sources.files import (ImageSequenceSource, SessionSource, StackSource, load_camera,
-                                      open_npz, open_png_folder, open_tum)
+from mirrorcore.sources.files import (ImageSequenceSource, SessionSource, load_camera,
+                                      open_png_folder, open_tum)
+from mirrorcore.sources.npz import StackSource, open_npz
 from mirrorcore.sources.realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
 from mirrorcore.sources.record import Recorder, new_recording_folder, record
 from mirrorcore.sources.sim import SimulatedSource, open_simulated, session_scene, session_truth

@@ -24,7 +24,8 @@ import cv2
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.depth.files import write_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.io.session import BACKGROUND_FILE, Session, save_session
+from mirrorcore.io.session import BACKGROUND_FILE, Session
+from mirrorcore.io.sessionfile import save_session
 from mirrorcore.sources.base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"

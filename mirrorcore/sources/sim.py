@@ -10,7 +10,8 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.base.jsonfile import finite_number, read_json
 from mirrorcore.io.session import TRUTH_FILE, Session
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.scene import Scene, load_scene, scene_from_json
+from mirrorcore.sim.scene import Scene
+from mirrorcore.sim.scenefile import load_scene, scene_from_json
 from mirrorcore.sim.simulator import FPS, Simulator
 from mirrorcore.sources.base import DepthSource, Frame
 

@@ -13,7 +13,8 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.session import Session, load_session, save_session
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session, save_session
 
 SQUARE = [(10, 10), (100, 10), (100, 100), (10, 100)]
 PLANE = Plane.from_abcd([0.5, 0, -0.8, 2.4])

@@ -25,7 +25,8 @@ from mirrorscan.server import MirrorscanApp
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.dense import DenseOptions
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import DepthSource, Frame, SimulatedSource
@@ -37,7 +38,8 @@ SAVER = textwrap.dedent("""
     import sys
     from pathlib import Path
     from mirrorcore.geometry.camera import Intrinsics
-    from mirrorcore.io.session import SessionMirror, Session, save_session
+    from mirrorcore.io.session import SessionMirror, Session
+    from mirrorcore.io.sessionfile import save_session
     root, k = Path(sys.argv[1]), 0
     # sessions of changing size (0 to 20 kB), saved as fast as possible until killed
     while True:

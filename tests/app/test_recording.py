@@ -18,7 +18,7 @@ from mirrorscan.recording import LiveTap
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources import DepthSource, Frame, Recorder, new_recording_folder
 from tests.waiting import wait_for
 

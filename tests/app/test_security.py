@@ -25,7 +25,8 @@ from mirrorscan.server import MirrorscanApp
 from viser import _messages
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource

@@ -7,7 +7,7 @@ import numpy as np
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.server import MirrorscanApp, quiet_closed_connections
 
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources import StackSource
 
 

@@ -11,7 +11,7 @@ import pytest
 from mirrorscan.cli import main
 from tests.cli.output import headlines
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.truth import plane_errors as truth_plane_errors, surface_error
 from mirrorcore.sources import session_truth
 

@@ -13,7 +13,7 @@ import pytest
 from mirrorscan.cli import main
 from mirrorscan.experiments import kaleidoscope as experiment_kaleidoscope
 from mirrorscan.experiments.paper import ANGLES, COLUMNS, MIRROR_DISTANCES
-from mirrorcore.sim.layouts import CYLINDER_RADIUS, SPHERE_RADIUS
+from mirrorcore.sim.presets import CYLINDER_RADIUS, SPHERE_RADIUS
 
 EXPERIMENTS = {"angle": (ANGLES, SPHERE_RADIUS), "distance": (MIRROR_DISTANCES, CYLINDER_RADIUS)}
 

@@ -28,7 +28,7 @@ from mirrorcore.batch.engine import task_chunks
 from mirrorcore.batch.manifest import LOCK_FILE
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.session import load_session, save_session
+from mirrorcore.io.sessionfile import load_session, save_session
 
 TSDF = OPTIONS["tsdf"]
 

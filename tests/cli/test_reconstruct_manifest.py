@@ -23,7 +23,7 @@ from mirrorcore.batch import (
 )
 from mirrorcore.batch.manifest import MAX_FLUSH_SECONDS, MIN_FLUSH_SECONDS, FrameRecord
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 ROOT = Path(__file__).resolve().parents[2]
 TSDF = OPTIONS["tsdf"]

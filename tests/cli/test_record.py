@@ -8,7 +8,7 @@ import pytest
 from mirrorscan.cli import main
 from mirrorcore.depth.files import encode_depth_png
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -16,8 +16,10 @@ from mirrorscan.cli import build_parser, main
 from mirrorscan.panels.session import SessionPanel
 from mirrorcore.depth.files import encode_depth_png, read_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics, load_opencv_yaml
-from mirrorcore.io.session import Session, load_session, session_folder
+from mirrorcore.geometry.camera import MAX_IMAGE_SIDE, Intrinsics
+from mirrorcore.geometry.camerafiles import load_opencv_yaml
+from mirrorcore.io.session import Session
+from mirrorcore.io.sessionfile import load_session, session_folder
 from mirrorcore.sources import open_source
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -286,7 +288,8 @@ def test_the_source_has_no_eval_exec_pickle_or_shell():
 def test_opencv_yaml_is_read_without_opencvs_parser(tmp_path):
     """Damaged camera YAML once made cv2.FileStorage abort the process (found by the fuzzer); files
     written by OpenCV still read back exactly."""
-    from mirrorcore.geometry.camera import Intrinsics, save_opencv_yaml
+    from mirrorcore.geometry.camera import Intrinsics
+    from mirrorcore.geometry.camerafiles import save_opencv_yaml
 
     camera = Intrinsics(640, 480, 580.5, 581.25, 319.5, 239.75, 0.00025)
     save_opencv_yaml(camera, tmp_path / "k.yaml")

@@ -4,7 +4,7 @@ import pytest
 
 from mirrorscan.commands.serve import session_and_source
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources import SessionSource, SimulatedSource
 
 

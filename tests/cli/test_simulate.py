@@ -13,7 +13,7 @@ from tests.cli.output import details
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics, reproject_pixels
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import (
     HINGE_GAP,
@@ -22,7 +22,7 @@ from mirrorcore.sim.layouts import (
     kaleidoscope_scene,
     paper_scene,
 )
-from mirrorcore.sim.scene import load_scene, save_scene
+from mirrorcore.sim.scenefile import load_scene, save_scene
 from mirrorcore.sim.simulator import Simulator
 
 

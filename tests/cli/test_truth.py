@@ -12,8 +12,8 @@ from mirrorscan.cli import main
 from tests.cli.output import details, headlines
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session, save_session
-from mirrorcore.sim.layouts import object_extent
+from mirrorcore.io.sessionfile import load_session, save_session
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.truth import surface_error
 from mirrorcore.sources import session_truth
 

@@ -13,7 +13,8 @@ import viser
 from mirrorscan.security import new_token
 from mirrorscan.server import MirrorscanApp
 
-from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource

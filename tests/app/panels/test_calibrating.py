@@ -15,7 +15,7 @@ from mirrorscan.server import MirrorscanApp
 from mirrorscan.wording.mirrors import NO_GLASS_NOTE
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.session import load_session, save_session
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from mirrorscan.panels.object import ObjectPanel
 
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from tests.app.panels.support import capture_background, panel
 from tests.waiting import wait_for
 

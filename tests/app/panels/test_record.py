@@ -22,7 +22,7 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.calibration.fit import calibration_depth
 from mirrorcore.calibration.markers import marker_residuals
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session, save_session
+from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator

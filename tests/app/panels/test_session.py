@@ -17,7 +17,7 @@ from mirrorscan.server import MirrorscanApp
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.ply import read_ply
-from mirrorcore.io.session import load_session, save_session
+from mirrorcore.io.sessionfile import load_session, save_session
 from tests.app.panels.support import panel
 from tests.conftest import sphere_app
 from tests.waiting import wait_for

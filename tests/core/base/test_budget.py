@@ -26,10 +26,10 @@ from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.dense import DenseOptions, dense_volume
 from mirrorcore.dense.volume import Volume
 from mirrorcore.depth.files import read_depth_png
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.rig.model import Rig
 from mirrorcore.sources import open_source
-from mirrorcore.sources.files import load_npz
+from mirrorcore.sources.npz import load_npz
 
 DEMO = "sessions/demo"
 

@@ -16,7 +16,8 @@ from mirrorcore.calibration.markers import review_fit
 from mirrorcore.depth.noise import axial_sigma
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.session import SessionMirror, load_session
+from mirrorcore.io.session import SessionMirror
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.sensor import SensorModel

@@ -22,7 +22,8 @@ from mirrorcore.rig.model import Mirror, Rig
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.sim.export import session_mirrors, true_rig
-from mirrorcore.sim.layouts import object_extent, paper_scene
+from mirrorcore.sim.layouts import paper_scene
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 from tests.core.calibration.planes import nearer, with_planes

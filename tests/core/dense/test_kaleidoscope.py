@@ -18,7 +18,7 @@ from mirrorcore.dense.volume import Volume
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.rig.model import Rig
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import kaleidoscope_scene
 from mirrorcore.sim.sensor import SensorModel

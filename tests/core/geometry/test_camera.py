@@ -5,13 +5,10 @@ import numpy as np
 import pytest
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.geometry.camera import (
-    Intrinsics,
+from mirrorcore.geometry.camera import Intrinsics, project_points, reproject_depth, reproject_pixels
+from mirrorcore.geometry.camerafiles import (
     load_open3d_json,
     load_opencv_yaml,
-    project_points,
-    reproject_depth,
-    reproject_pixels,
     save_open3d_json,
     save_opencv_yaml,
 )

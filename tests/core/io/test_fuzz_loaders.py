@@ -14,18 +14,19 @@ from hypothesis import strategies as st
 
 from mirrorcore.depth.files import encode_depth_png, read_depth_png
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.geometry.camera import (
-    Intrinsics,
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.geometry.camerafiles import (
     load_open3d_json,
     load_opencv_yaml,
     save_open3d_json,
     save_opencv_yaml,
 )
 from mirrorcore.io.ply import encode_ply, read_ply
-from mirrorcore.io.session import Session, SessionMirror, load_session, session_from_json
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, session_from_json
 from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.scene import load_scene
-from mirrorcore.sources.files import open_npz
+from mirrorcore.sim.scenefile import load_scene
+from mirrorcore.sources.npz import open_npz
 
 EXAMPLES = settings(max_examples=120, deadline=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -11,7 +11,8 @@ import pytest
 
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.io.limits import MAX_MARKERS, check_limits, check_name
-from mirrorcore.io.session import MAX_MIRRORS, SessionMirror, load_session
+from mirrorcore.io.session import SessionMirror
+from mirrorcore.io.sessionfile import MAX_MIRRORS, load_session
 from mirrorcore.rig.model import Rig
 
 DEMO = "sessions/demo"
@@ -99,7 +100,7 @@ def test_the_editor_check_refuses_what_the_reader_would_refuse():
 
 
 def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
-    from mirrorcore.io.session import save_session
+    from mirrorcore.io.sessionfile import save_session
     session = replace(load_session(DEMO), root=tmp_path)
     m = session.mirrors[0]
     full = tuple(replace(m, id=i, name=f"mirror {i}", plane=None)

@@ -12,7 +12,7 @@ import pytest
 from mirrorscan.cli import main
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.outputs import check_output
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 
 @pytest.fixture

@@ -13,7 +13,8 @@ from mirrorcore.depth.files import write_depth_png
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.io.session import Session, SessionMirror, load_session, save_session
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import load_session, save_session
 
 CAMERA = Intrinsics.primesense()
 

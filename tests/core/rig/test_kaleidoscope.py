@@ -17,7 +17,7 @@ from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.io.ply import read_ply
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 TRUE_RADIUS = 0.115
 

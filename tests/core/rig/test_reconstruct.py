@@ -12,7 +12,7 @@ from mirrorcore.geometry.plane import Plane
 from mirrorcore.rig.pipeline import object_cloud
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Mirror, Rig
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 
 CAMERA = Intrinsics(8, 6, fx=4.0, fy=4.0, cx=3.5, cy=2.5)
 PLANE = Plane.from_abcd([0, 0, -1, 2.0])               # glass at z = 2, facing the camera

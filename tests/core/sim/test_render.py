@@ -9,8 +9,8 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim import render
 from mirrorcore.sim.export import visible_markers
-from mirrorcore.sim.layouts import (arc_mirrors, arc_scene, kaleidoscope_scene, object_extent,
-                                    paper_scene)
+from mirrorcore.sim.layouts import arc_mirrors, arc_scene, kaleidoscope_scene, paper_scene
+from mirrorcore.sim.presets import object_extent
 from mirrorcore.sim.placement import SPACING as MARKER_SPACING
 from mirrorcore.sim.render import MARKER, MAX_BOUNCES, NONE, Renderer
 

@@ -8,7 +8,7 @@ from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.fitting import fit_sphere
 from mirrorcore.rig.pipeline import object_cloud
 from mirrorcore.rig.model import Rig
-from mirrorcore.io.session import load_session
+from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sources import SessionSource, SimulatedSource, open_source, session_scene
 
 DEMO = Path(__file__).resolve().parents[3] / "sessions" / "demo"
