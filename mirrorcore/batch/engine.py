@@ -12,7 +12,7 @@ from pathlib import Path
 from mirrorcore.dense.volume import cancel_requested
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.sessionfile import load_session
-from mirrorcore.batch.executor import Where, _executor
+from mirrorcore.batch.executor import Where, task_executor
 from mirrorcore.batch.frames import FrameContext
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
@@ -201,7 +201,7 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
         todo = [i for i in range(len(context.names)) if i not in folder.kept]
         run = _Run(folder, len(context.names), progress)
         if todo and not cancel_requested(cancel):
-            with _executor(where, context, cancel) as executor:
+            with task_executor(where, context, cancel) as executor:
                 run.drive(executor, task_chunks(todo, per_task, executor.workers), cancel)
         return run.report(job.out, cancelled=cancel_requested(cancel))
     finally:

@@ -54,7 +54,7 @@ class Where:
 
 
 @contextmanager
-def _executor(where: Where, context: FrameContext, cancel) -> Iterator:
+def task_executor(where: Where, context: FrameContext, cancel) -> Iterator:
     """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
     if where.in_process:
         yield _InProcess(context, cancel)

@@ -1,6 +1,6 @@
 """TSDF fusion inside the allocated blocks: which views and tests each block needs, decided for
-whole blocks first (_Plan), then the per-voxel sums of the views' truncated distances and weights
-(_fuse_blocks); mirrorcore.dense.tsdf describes the fusion."""
+whole blocks first (BlockPlan), then the per-voxel sums of the views' truncated distances and
+weights (fuse_blocks); mirrorcore.dense.tsdf describes the fusion."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,12 +20,12 @@ BLOCK = SMALLEST_BLOCK
 Z_TINY = 1e-6
 
 
-# _Plan codes: cull voxel by voxel; test the mirror planes; view k sees: SEEN << k
+# BlockPlan codes: cull voxel by voxel; test the mirror planes; view k sees: SEEN << k
 CUT, STRADDLE, SEEN = 1, 2, 4
 
 
 @dataclass(frozen=True, eq=False)
-class _Plan:
+class BlockPlan:
     """What fusion computes in some blocks, decided for whole blocks first
     (mirrorcore.dense.windows): rows (k,) int, the blocks that hold a voxel the camera does not see
     empty beyond the truncation and that are not behind a mirror, ordered by their code (k,) int:
@@ -38,7 +38,7 @@ class _Plan:
 
     @classmethod
     def of(cls, rig: Rig, frames: list[tuple[View, ...]], cull: np.ndarray, blocks: Blocks,
-           trunc: float) -> "_Plan":
+           trunc: float) -> "BlockPlan":
         """The plan for `blocks` of the views of `frames`; `cull`, the camera's cull depth."""
         intr, volume = rig.intrinsics, blocks.volume
         extent = (BLOCK - 1) * volume.voxel
@@ -69,13 +69,13 @@ class _Plan:
                 for i in range(start, end, step)]
 
 
-def _fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
+def fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
                  views: tuple[View, ...],
                  cull: np.ndarray, trunc: float, blocks: Blocks, code: int, tsdf: np.ndarray,
                  weight: np.ndarray,
                  source: np.ndarray) -> None:
-    """Fuse the views that `code` (_Plan) names (their tables over the frames, extrinsics, and the
-    views of one frame for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B)
+    """Fuse the views that `code` (BlockPlan) names (their tables over the frames, extrinsics, and
+    the views of one frame for their labels) into `blocks`, writing their tsdf, weight (m, B, B, B)
     float32 and source uint8 (as they start: 1, 0, NO_SOURCE). A view is projected once for every
     frame (they share the rig)."""
     intr = rig.intrinsics

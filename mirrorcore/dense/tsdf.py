@@ -36,7 +36,7 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
 from mirrorcore.dense.mesh import Mesh, block_marching_cubes
-from mirrorcore.dense.blockfusion import BLOCK, _fuse_blocks, _Plan
+from mirrorcore.dense.blockfusion import BLOCK, fuse_blocks, BlockPlan
 from mirrorcore.dense.sampling import BORDER, QuadTable
 from mirrorcore.dense.views import cull_depth, rig_views
 from mirrorcore.dense.volume import NO_SOURCE, Progress, Volume, run_chunks
@@ -178,7 +178,7 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
                  f"tsdf: {len(blocks):,} blocks of {BLOCK}^3 voxels of {volume.voxel * 1e3:g} mm "
                  "(use larger voxels or a smaller truncation)")
     cull = cull_depth(np.minimum.reduce([views[0].depth for views in frames]), frames[0][0].shape)
-    plan = _Plan.of(rig, frames, cull, blocks, trunc)
+    plan = BlockPlan.of(rig, frames, cull, blocks, trunc)
     blocks = blocks.take(plan.rows)
     tsdf = np.ones((len(blocks), BLOCK, BLOCK, BLOCK), np.float32)
     weight = np.zeros_like(tsdf)
@@ -186,7 +186,7 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
 
     def work(item: tuple[slice, int]) -> None:
         rows, code = item
-        _fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code,
+        fuse_blocks(rig, tables, to_views, frames[0], cull, trunc, blocks.take(rows), code,
                      tsdf[rows],
                      weight[rows], source[rows])
 

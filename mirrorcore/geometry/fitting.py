@@ -17,8 +17,8 @@ import open3d as o3d
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.base.progress import Progress
-from mirrorcore.geometry.loransac import (Model, _gauss_newton, _in_range, _local_optimum, _ransac,
-                                          _ticker)
+from mirrorcore.geometry.loransac import (Model, gauss_newton, in_range, local_optimum, lo_ransac,
+                                          ticker)
 from mirrorcore.geometry.shapes import Cylinder, ShapeFit, Sphere
 
 DEFAULT_THRESHOLD = 0.02
@@ -79,7 +79,7 @@ def fit_sphere(points: np.ndarray, rng: np.random.Generator, threshold: float = 
     """
     return _fit("sphere", points, None, sources, rng, threshold, radius_range, confidence,
                 max_iterations, where,
-                _ticker(progress, cancel, where))
+                ticker(progress, cancel, where))
 
 
 def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float = DEFAULT_THRESHOLD,
@@ -134,7 +134,7 @@ def fit_cylinder(points: np.ndarray, rng: np.random.Generator, threshold: float 
     """
     return _fit("cylinder", points, normals, sources, rng, threshold, radius_range, confidence,
                 max_iterations, where,
-                _ticker(progress, cancel, where))
+                ticker(progress, cancel, where))
 
 
 def estimate_normals(points: np.ndarray, neighbours: int = _NORMAL_NEIGHBOURS) -> np.ndarray:
@@ -195,8 +195,8 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
     radius_mm = f"{1e3 * radius_range[0]:g}-{1e3 * radius_range[1]:g} mm"
 
     def optimise(model: Model) -> tuple[Model, int]:
-        return _local_optimum(centred, model, threshold, distances, refine, min_points)
-    model = _ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold,
+        return local_optimum(centred, model, threshold, distances, refine, min_points)
+    model = lo_ransac(len(points), sample_size, min_points, propose, distances, optimise, threshold,
                     rng, radius_range,
                     confidence, max_iterations, tick)
     if model is None:
@@ -205,7 +205,7 @@ def _fit(kind: str, points: np.ndarray, normals: np.ndarray | None, sources: np.
                               f"within {1e3 * threshold:g} mm)")
     # the least-squares fit on the inliers (unchanged if RANSAC's best was one)
     model, count = optimise(model)
-    if count < min_points or not _in_range(model[-1], radius_range):
+    if count < min_points or not in_range(model[-1], radius_range):
         raise MirrorscanError(f"{where}: the least-squares {kind} (radius {1e3 * model[-1]:.1f} "
                               f"mm) has {count} points "
                               f"within {1e3 * threshold:g} mm or a radius outside {radius_mm} (is "
@@ -266,7 +266,7 @@ def _sphere_refine(points: np.ndarray, model: Model) -> Model:
         dist = np.linalg.norm(q, axis=1)
         return dist - m[3], np.column_stack([-q / np.maximum(dist, 1e-300)[:, None],
                                              -np.ones(len(points))])
-    return _gauss_newton(start, residuals_jacobian, lambda m, delta: m + delta)
+    return gauss_newton(start, residuals_jacobian, lambda m, delta: m + delta)
 
 
 def _sphere_shape(model: Model, origin: np.ndarray) -> Sphere:
@@ -351,7 +351,7 @@ def _cylinder_refine(points: np.ndarray, model: Model) -> Model:
         d = m[3:6] + delta[0] * u + delta[1] * v
         return np.concatenate([m[:3] + delta[2] * u + delta[3] * v, d / np.linalg.norm(d),
                                [m[6] + delta[4]]])
-    return _gauss_newton(model, residuals_jacobian, step)
+    return gauss_newton(model, residuals_jacobian, step)
 
 
 def _cylinder_shape(model: Model, origin: np.ndarray, points: np.ndarray,

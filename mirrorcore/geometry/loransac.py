@@ -20,12 +20,20 @@ Model = np.ndarray
 direction)."""
 
 
-def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.ndarray], np.ndarray],
-            distances: Callable[[np.ndarray], np.ndarray],
-            optimise: Callable[[Model], tuple[Model, int]],
-            threshold: float, rng: np.random.Generator, radius_range: tuple[float, float],
-            confidence: float,
-            max_iterations: int, tick: Callable[[float], None]) -> Model | None:
+def lo_ransac(
+    n: int,
+    sample_size: int,
+    min_inliers: int,
+    propose: Callable[[np.ndarray], np.ndarray],
+    distances: Callable[[np.ndarray], np.ndarray],
+    optimise: Callable[[Model], tuple[Model, int]],
+    threshold: float,
+    rng: np.random.Generator,
+    radius_range: tuple[float, float],
+    confidence: float,
+    max_iterations: int,
+    tick: Callable[[float], None],
+) -> Model | None:
     """Batched LO-RANSAC: `propose` maps samples (m, sample_size) int to models (m, p) (NaN rows =
     degenerate sample); `distances` maps models (m, p) to signed point-model deviations (n, m); each
     new best sample is replaced by its local optimum `optimise(model) -> (model, inlier count)` when
@@ -36,15 +44,14 @@ def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.nd
     best, best_count, needed, drawn = None, min_inliers - 1, max_iterations, 0
     while drawn < min(needed, max_iterations):
         models = propose(rng.integers(0, n, size=(batch, sample_size)))
-        models = models[np.all(np.isfinite(models), axis=1) & _in_range(models[:, -1],
-                                                                        radius_range)]
+        models = models[np.all(np.isfinite(models), axis=1) & in_range(models[:, -1], radius_range)]
         if len(models):
             counts = np.count_nonzero(np.abs(distances(models)) < threshold, axis=0)
             k = int(np.argmax(counts))
             if counts[k] > best_count:
                 best, best_count = models[k], int(counts[k])
                 local, local_count = optimise(best)
-                if local_count >= best_count and _in_range(local[-1], radius_range):
+                if local_count >= best_count and in_range(local[-1], radius_range):
                     best, best_count = local, local_count
                 needed = ransac_iterations(best_count / n, sample_size, confidence)
         drawn += batch
@@ -52,26 +59,32 @@ def _ransac(n: int, sample_size: int, min_inliers: int, propose: Callable[[np.nd
     return best
 
 
-def _ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], None]:
+def ticker(progress: Progress | None, cancel, where: str) -> Callable[[float], None]:
     """tick(fraction): report the fraction done to `progress`, and raise Cancelled when `cancel`
     asks to stop."""
+
     def tick(fraction: float) -> None:
         if cancel_requested(cancel):
             raise Cancelled(f"{where}: the fit was cancelled")
         if progress is not None:
             progress(fraction)
+
     return tick
 
 
-def _in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> np.ndarray | bool:
+def in_range(radius: np.ndarray | float, radius_range: tuple[float, float]) -> np.ndarray | bool:
     """Whether each radius lies within radius_range (min, max), metres."""
     return (radius >= radius_range[0]) & (radius <= radius_range[1])
 
 
-def _local_optimum(points: np.ndarray, model: Model, threshold: float,
-                   distances: Callable[[np.ndarray], np.ndarray],
-                   refine: Callable[[np.ndarray, Model], Model],
-                   min_points: int) -> tuple[Model, int]:
+def local_optimum(
+    points: np.ndarray,
+    model: Model,
+    threshold: float,
+    distances: Callable[[np.ndarray], np.ndarray],
+    refine: Callable[[np.ndarray, Model], Model],
+    min_points: int,
+) -> tuple[Model, int]:
     """Least-squares refit on the inliers, repeated with the refit's inliers until they stop
     changing (at most 10 refits) -> (model, its inlier count). Stops, keeping the last model, when
     fewer than min_points are inliers."""
@@ -87,9 +100,12 @@ def _local_optimum(points: np.ndarray, model: Model, threshold: float,
     return model, int(np.count_nonzero(np.abs(distances(model[None])[:, 0]) < threshold))
 
 
-def _gauss_newton(model: Model,
-                  residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
-                  step: Callable[[Model, np.ndarray], Model], iterations: int = 100) -> Model:
+def gauss_newton(
+    model: Model,
+    residuals_jacobian: Callable[[Model], tuple[np.ndarray, np.ndarray]],
+    step: Callable[[Model, np.ndarray], Model],
+    iterations: int = 100,
+) -> Model:
     """Minimise sum(r^2) from `model`: residuals_jacobian(model) -> r (n,), J (n, k); step(model,
     delta (k,)) -> model. Halves a step that does not lower the cost; stops when the cost stops
     falling (relative 1e-15) or after `iterations` steps."""
@@ -108,4 +124,3 @@ def _gauss_newton(model: Model,
         if previous - cost <= 1e-15 * previous:
             break
     return model
-

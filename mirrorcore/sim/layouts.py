@@ -11,7 +11,7 @@ import numpy as np
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim.placement import markers_in_view
-from mirrorcore.sim.presets import _UP, make_object, object_extent
+from mirrorcore.sim.presets import UP, make_object, object_extent
 from mirrorcore.sim.scene import Room, Scene, SceneMirror
 from mirrorcore.sim.sensor import SensorModel
 
@@ -38,7 +38,7 @@ def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
 def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float, float],
             marker_size: float = MARKER_SIZE) -> SceneMirror:
     """A vertical SceneMirror of `size` at `centre`, facing `normal`, with markers."""
-    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(_UP.tolist()),
+    return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(UP.tolist()),
                        size[0], size[1],
                   _markers(*size), marker_size)
 
@@ -55,7 +55,7 @@ def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_
     half, turn = np.radians(angle_deg) / 2, np.radians(turn_deg)
     toward = target * [1.0, 0.0, 1.0]                  # horizontal: the mirrors stand vertical
     toward /= np.linalg.norm(toward)
-    across = np.cross(toward, _UP)
+    across = np.cross(toward, UP)
     across /= np.linalg.norm(across)                  # +x for a target on the optical axis
     forward = np.cos(turn) * toward + np.sin(turn) * across
     side = np.cos(turn) * across - np.sin(turn) * toward
@@ -160,7 +160,7 @@ def arc_mirrors(n_mirrors: int, target: np.ndarray, radius: float, span_deg: flo
     for j, phi in enumerate(np.radians(np.linspace(-span_deg / 2, span_deg / 2, n_mirrors))):
         centre = target + radius * np.array([np.sin(phi), 0.0, np.cos(phi)])
         if abs(phi) < np.radians(25.0):
-            centre = centre + _UP * clearance
+            centre = centre + UP * clearance
         normal = -centre / np.linalg.norm(centre) + (target - centre) / np.linalg.norm(
             target - centre)
         mirrors.append(_mirror(f"mirror {j + 1}", centre, normal / np.linalg.norm(normal), size))

@@ -13,7 +13,7 @@ FIGURE_HEIGHT = 1.75
 OBJECT_DISTANCE = 2.0       # metres from the camera to the object by default: the paper's...
 # ... and to the figure, which a Kinect sees whole, feet to head, only from about 3 m
 FIGURE_DISTANCE = 3.0
-_UP = np.array([0.0, -1.0, 0.0])
+UP = np.array([0.0, -1.0, 0.0])
 
 
 def default_distance(spec: str) -> float:
@@ -101,7 +101,7 @@ def object_extent(obj: SceneObject) -> tuple[np.ndarray, float, float]:
     """
     centre = np.asarray(obj.centre, dtype=np.float64)
     if obj.type == "figure":
-        return centre + _UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
+        return centre + UP * obj.height / 2, 0.3 * obj.height / 1.75, obj.height
     half = {"sphere": obj.radius, "cylinder": obj.radius,
             "box": max(obj.size[0], obj.size[2]) / 2}.get(obj.type, 0.15)
     tall = {"sphere": 2 * obj.radius, "cylinder": obj.height, "box": obj.size[1]}.get(obj.type, 0.3)

@@ -258,27 +258,39 @@ class Scene:
         Scene
         """
         mirrors = self.mirrors if marker_offset is None else tuple(
-            replace(m, marker_offset=_offset(marker_offset, "marker offset")) for m in self.mirrors)
-        jitter = self.click_jitter_px if click_jitter_px is None else _jitter(
-            click_jitter_px, "click jitter")
+            replace(m, marker_offset=checked_offset(marker_offset, "marker offset"))
+            for m in self.mirrors)
+        jitter = (
+            self.click_jitter_px
+            if click_jitter_px is None
+            else checked_jitter(click_jitter_px, "click jitter")
+        )
         return replace(self, mirrors=mirrors, click_jitter_px=jitter)
 
 
-def _offset(value, where: str) -> float:
+def checked_offset(value, where: str) -> float:
     """A marker offset in metres, 0 to MAX_MARKER_OFFSET; FileFormatError naming `where`
     otherwise."""
-    if (isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value)
-            or not 0 <= value <= MAX_MARKER_OFFSET):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not np.isfinite(value)
+        or not 0 <= value <= MAX_MARKER_OFFSET
+    ):
         raise FileFormatError(
             f"{where}: must be 0 to {MAX_MARKER_OFFSET:g} metres (markers in front of the "
-                              f"reflecting surface), got {value!r}")
+            f"reflecting surface), got {value!r}"
+        )
     return float(value)
 
 
-def _jitter(value, where: str) -> float:
+def checked_jitter(value, where: str) -> float:
     """A click jitter in pixels, 0 to 50; FileFormatError naming `where` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(
-        value) or not 0 <= value <= 50:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not np.isfinite(value)
+        or not 0 <= value <= 50
+    ):
         raise FileFormatError(f"{where}: must be 0 to 50 pixels, got {value!r}")
     return float(value)
-

@@ -13,7 +13,7 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.base.jsonfile import read_json
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim.scene import (OBJECT_TYPES, SCENE_VERSION, Room, Scene, SceneMirror,
-                                  SceneObject, _jitter, _offset)
+                                  SceneObject, checked_jitter, checked_offset)
 
 _CAMERA_PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
@@ -93,7 +93,7 @@ def scene_from_json(data, where: str = "scene") -> Scene:
                     half_width=_positive(room.get("half_width", Room.half_width),
                                          f"{where}: room.half_width"))
     return Scene(camera, mirrors, objects, room,
-                 _jitter(data.get("click_jitter_px", 0.0), f"{where}: click_jitter_px"))
+                 checked_jitter(data.get("click_jitter_px", 0.0), f"{where}: click_jitter_px"))
 
 
 def _number(data: dict, key: str, where: str, default: float) -> float:
@@ -131,7 +131,7 @@ def _mirror(data, where: str) -> SceneMirror:
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
                   _positive(data.get("marker_size", SceneMirror.marker_size),
                             f"{where}.marker_size"),
-                  _offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
+                  checked_offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
 
 
 def _object(data, where: str) -> SceneObject:
