@@ -18,6 +18,7 @@ from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import AGREEMENT, BATCH, RECORD, REFINE
 from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
+from ..notices import place_notes
 from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
@@ -83,6 +84,7 @@ class LivePanel:
     """
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
+        place_notes(tab.client)
         self.title = gui.add_markdown("")
         self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False)
         self.rate = gui.add_markdown("starting…")
