@@ -238,6 +238,7 @@ class MirrorscanApp(Notifier, AppSources):
                     tabs = list(self.tabs.values())
                 for tab in tabs:
                     tab.poll_visibility()
+                    tab.header.poll_draws()
             self.act(None, self._reload_if_changed)
 
     def _visibility_poll_s(self) -> float:

@@ -5,10 +5,12 @@ point size)."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import deque
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from mirrorcore.sources import SessionSource
@@ -19,6 +21,7 @@ from ..jobs import AGREEMENT, BATCH, RECORD, REFINE
 from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
 from ..notices import place_notes
+from ..page import SHORTCUTS, draw_rate, start_page
 from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
@@ -33,6 +36,9 @@ PROCESS_WINDOW = 30
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 PROGRESS_STEP = 0.05  # the start hint gives a calibration's progress in steps of this
 EVERY_MIRROR = "every mirror"  # the heat map of every mirror's points (Heat map of)
+GUIDE = "docs/browser-tool.md"  # the guide to the browser tool, in mirrorscan's source
+VIEW_PNG = "mirrorscan-view.png"  # the name of the view saved as a picture
+RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is asked for
 
 
 def source_root(source) -> Path | None:
@@ -74,6 +80,17 @@ def source_title(source: str, played: Path | None, edited: Path | None) -> str:
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
 
 
+def keys_help() -> str:
+    """The keyboard shortcuts and where the guide is, as Markdown.
+
+    Returns
+    -------
+    str
+    """
+    keys = " · ".join(f"**{keys}** {what}" for keys, what, _ in SHORTCUTS)
+    return f"Keys: {keys}. The guide: `{GUIDE}` in mirrorscan's source."
+
+
 class LivePanel:
     """The status header above the steps, in one tab (see the module docstring).
 
@@ -84,7 +101,13 @@ class LivePanel:
     """
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
+        # imported here: the steps' package imports this module's package
+        from . import PANELS
+
         place_notes(tab.client)
+        start_page(tab.client, tuple(panel.TITLE for panel in PANELS))
+        # frames a second the page drew its 3D scene (poll_draws), None before it told
+        self.draws: float | None = None
         self.title = gui.add_markdown("")
         self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False)
         self.rate = gui.add_markdown("starting…")
@@ -124,6 +147,10 @@ class LivePanel:
                 hint="the camera as each mirror, and each sequence of mirrors, shows it",
             )
             self.pixel = gui.add_markdown("Last pixel read: none yet")
+            self.save_view = gui.add_button(
+                "Save the view as PNG", hint="what the 3D view shows now, at its size on the page"
+            )
+            gui.add_markdown(keys_help())
         self._pixel_note = None  # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
@@ -134,6 +161,7 @@ class LivePanel:
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
         self.heat.on_update(lambda e: self._show_heat(ticked=e.client is not None))
         self.heat_of.on_update(lambda _: tab.heat_only(self._heat_mirror()))
+        self.save_view.on_click(lambda _: tab.act(self._save_view))
         self.frame_object.on_click(
             lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object()))
         )
@@ -272,6 +300,8 @@ class LivePanel:
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
+        if self.draws is not None:
+            rate += f" · page draws {self.draws:.1f}/s"
         state = services.jobs.recording_state()
         recording = None if state is None else recording_headline(state)
         self.rate.content = (
@@ -309,6 +339,29 @@ class LivePanel:
         self._heat_choices()
         if first:
             self.refresh_hint()
+
+    def poll_draws(self) -> None:
+        """Read how often the tab's page draws its 3D scene (the header shows it)."""
+        self.draws = draw_rate(self.tab.client)
+
+    def _save_view(self) -> None:
+        """Download what the tab's 3D view shows now as a PNG, at the canvas's size.
+
+        The page draws it on request (viser's get_render), on a thread of its own: the button's
+        callback returns at once.
+        """
+        camera = self.tab.client.camera
+        width, height = int(camera.image_width), int(camera.image_height)
+
+        def render() -> None:
+            image = self.tab.client.get_render(height, width, transport_format="png",
+                                               timeout=RENDER_TIMEOUT_S)
+            ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
+            if ok:
+                self.tab.client.send_file_download(VIEW_PNG, data.tobytes(), save_immediately=True)
+
+        threading.Thread(target=lambda: self.tab.act(render), name="mirrorscan-render",
+                         daemon=True).start()
 
     def _show_heat(self, ticked: bool = False) -> None:
         """The heat map on or off as the box says.
