@@ -1,5 +1,5 @@
-"""What a tab's page does on its own: count how often it draws its 3D scene, and turn keyboard
-shortcuts into presses of the side panel's buttons.
+"""What a tab's page does on its own: count how often it draws its 3D scene, turn keyboard
+shortcuts into presses of the side panel's buttons, and draw its view as a picture to download.
 
 viser's page sends the server no acknowledgement of what it drew and no key presses. Both are
 scripts given to the page through viser's message that runs one (as it loads plotly): the draw
@@ -10,11 +10,17 @@ button does.
 from __future__ import annotations
 
 import json
+import threading
+from typing import Callable
 
+import cv2
 import viser
 
 from .presence import run_js
 
+GUIDE = "docs/browser-tool.md"  # the guide to the browser tool, in mirrorscan's source
+VIEW_PNG = "mirrorscan-view.png"  # the name of the view saved as a picture
+RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is asked for
 DRAWS_KEY = "mirrorscan-draws"
 DRAWS_WINDOW_MS = 2000    # ms: the draw rate counts the frames drawn over this
 # A frame counts as drawn when WebGL was asked to draw during it (three.js draws the whole scene
@@ -59,7 +65,8 @@ DRAWS_JS = """(() => {{
 SHORTCUTS = (
     ("Ctrl+Z", "undo", "Undo"),
     ("Ctrl+Shift+Z, Ctrl+Y", "redo", "Redo"),
-    ("Delete, Backspace", "delete the picked marker or corner", "Delete marker …, Delete corner …"),
+    ("Delete, Backspace", "delete the picked marker or corner",
+     "Delete marker …, Delete corner …"),
     ("Esc", "cancel the outline being drawn", "Clear boundary, while Close boundary shows"),
     ("1 to 6", "open the steps Mirrors, Object, Measure, Dense, Record, Session", "the step's tab"),
 )
@@ -101,7 +108,11 @@ KEYS_JS = """(() => {{
     }} else if (/^[1-9]$/.test(key) && Number(key) <= steps.length) {{
       const tab = [...document.querySelectorAll("[role=tab]")]
         .find((t) => inView(t) && t.textContent.trim() === steps[Number(key) - 1]);
-      if (tab) {{ tab.click(); done = true; }}
+      // viser's tabs open on Enter (a click is a drag's start)
+      if (tab) {{
+        tab.dispatchEvent(new KeyboardEvent("keydown", {{ key: "Enter", bubbles: true }}));
+        done = true;
+      }}
     }}
     if (done) event.preventDefault();
   }});
@@ -145,3 +156,38 @@ def draw_rate(client: viser.ClientHandle, timeout: float = 2.0) -> float | None:
         return float(value) if value else None
     except ValueError:
         return None
+
+
+def keys_help() -> str:
+    """The keyboard shortcuts and where the guide is, as Markdown (the header's folder).
+
+    Returns
+    -------
+    str
+    """
+    keys = " · ".join(f"**{keys}** {what}" for keys, what, _ in SHORTCUTS)
+    return f"Keys: {keys}. The guide: `{GUIDE}` in mirrorscan's source."
+
+
+def save_view(client: viser.ClientHandle, act: Callable[[Callable[[], object]], None]) -> None:
+    """Download what the tab's 3D view shows now as a PNG (VIEW_PNG), at the canvas's size.
+
+    The page draws it on request (viser's get_render), on a thread of its own, so that the
+    button's callback returns at once.
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+    act : callable
+        Runs the work as the tab's action (a failure becomes a notification).
+    """
+    camera = client.camera
+    width, height = int(camera.image_width), int(camera.image_height)
+
+    def render() -> None:
+        image = client.get_render(height, width, transport_format="png", timeout=RENDER_TIMEOUT_S)
+        ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
+        if ok:
+            client.send_file_download(VIEW_PNG, data.tobytes(), save_immediately=True)
+
+    threading.Thread(target=lambda: act(render), name="mirrorscan-render", daemon=True).start()

@@ -5,12 +5,10 @@ point size)."""
 
 from __future__ import annotations
 
-import threading
 import time
 from collections import deque
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from mirrorcore.sources import SessionSource
@@ -21,7 +19,7 @@ from ..jobs import AGREEMENT, BATCH, RECORD, REFINE
 from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
 from ..notices import place_notes
-from ..page import SHORTCUTS, draw_rate, start_page
+from ..page import draw_rate, keys_help, save_view, start_page
 from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
@@ -36,9 +34,6 @@ PROCESS_WINDOW = 30
 VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
 PROGRESS_STEP = 0.05  # the start hint gives a calibration's progress in steps of this
 EVERY_MIRROR = "every mirror"  # the heat map of every mirror's points (Heat map of)
-GUIDE = "docs/browser-tool.md"  # the guide to the browser tool, in mirrorscan's source
-VIEW_PNG = "mirrorscan-view.png"  # the name of the view saved as a picture
-RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is asked for
 
 
 def source_root(source) -> Path | None:
@@ -78,17 +73,6 @@ def source_title(source: str, played: Path | None, edited: Path | None) -> str:
     if edited is None or (played is not None and played.resolve() == Path(edited).resolve()):
         return f"**{source}**"
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
-
-
-def keys_help() -> str:
-    """The keyboard shortcuts and where the guide is, as Markdown.
-
-    Returns
-    -------
-    str
-    """
-    keys = " · ".join(f"**{keys}** {what}" for keys, what, _ in SHORTCUTS)
-    return f"Keys: {keys}. The guide: `{GUIDE}` in mirrorscan's source."
 
 
 class LivePanel:
@@ -161,7 +145,7 @@ class LivePanel:
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
         self.heat.on_update(lambda e: self._show_heat(ticked=e.client is not None))
         self.heat_of.on_update(lambda _: tab.heat_only(self._heat_mirror()))
-        self.save_view.on_click(lambda _: tab.act(self._save_view))
+        self.save_view.on_click(lambda _: save_view(tab.client, tab.act))
         self.frame_object.on_click(
             lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object()))
         )
@@ -343,25 +327,6 @@ class LivePanel:
     def poll_draws(self) -> None:
         """Read how often the tab's page draws its 3D scene (the header shows it)."""
         self.draws = draw_rate(self.tab.client)
-
-    def _save_view(self) -> None:
-        """Download what the tab's 3D view shows now as a PNG, at the canvas's size.
-
-        The page draws it on request (viser's get_render), on a thread of its own: the button's
-        callback returns at once.
-        """
-        camera = self.tab.client.camera
-        width, height = int(camera.image_width), int(camera.image_height)
-
-        def render() -> None:
-            image = self.tab.client.get_render(height, width, transport_format="png",
-                                               timeout=RENDER_TIMEOUT_S)
-            ok, data = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
-            if ok:
-                self.tab.client.send_file_download(VIEW_PNG, data.tobytes(), save_immediately=True)
-
-        threading.Thread(target=lambda: self.tab.act(render), name="mirrorscan-render",
-                         daemon=True).start()
 
     def _show_heat(self, ticked: bool = False) -> None:
         """The heat map on or off as the box says.

@@ -148,8 +148,8 @@ def start_hint(
     # "Ready" only once the rig has its mirrors: the tool needs two or more
     if len(session.mirrors) == 1:
         return (
-            f"{session.mirrors[0].name} is fitted; the cloud merges its view alone: **Mirrors › Add "
-            "a mirror** for each other mirror of the rig."
+            f"{session.mirrors[0].name} is fitted; the cloud merges its view alone: "
+            "**Mirrors › Add a mirror** for each other mirror of the rig."
         )
     if no_glass and "refine" in refused.values():
         return (

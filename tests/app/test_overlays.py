@@ -1,7 +1,7 @@
-"""The depth frame as the tabs see it (mirrorscan.overlays): the shared depth layer (grey by depth in
-shaded relief, the object tinted, no reading dark) and a tab's overlay over it, checked pixel by
-pixel against the plain definitions; a crease between two floors of the same grey shows, and the
-outline's handles stand out on black and on white."""
+"""The depth frame as the tabs see it (mirrorscan.overlays): the shared depth layer (grey by depth
+in shaded relief, the object tinted, no reading dark) and a tab's overlay over it, checked pixel
+by pixel against the plain definitions; a crease between two floors of the same grey shows, and
+the outline's handles stand out on black and on white."""
 import cv2
 import numpy as np
 from mirrorscan.overlays import (
