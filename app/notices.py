@@ -4,7 +4,8 @@ a line of the server's log, and the refusal or failure of a user's action.
 viser shows notifications at the top left of the 3D view, over the depth frame's corner; it offers
 no option to place them. Each tab's page is given a style sheet (`place_notes`, through viser's
 message that runs a script, as it loads plotly) that stacks them over the foot of the side panel,
-newest at the bottom, every older one collapsed to its title (its text shows under the pointer).
+newest at the bottom, every older one collapsed to its title (its text shows under the pointer), as
+is viser's own notice that the browser draws without a GPU, which stays until closed.
 """
 from __future__ import annotations
 
@@ -38,9 +39,8 @@ NOTES_CSS = """
   width: {width}px !important; --notifications-container-width: {width}px !important;
 }}
 .mantine-Notification-root:not(:last-child):not(:hover) {{ padding-top: 4px; padding-bottom: 4px; }}
-.mantine-Notification-root:not(:last-child):not(:hover) .mantine-Notification-description {{
-  display: none;
-}}
+.mantine-Notification-root:not(:last-child):not(:hover) .mantine-Notification-description,
+#webgl-software-rendering:not(:hover) .mantine-Notification-description {{ display: none; }}
 """
 NOTES_JS = """(() => {{
   let style = document.getElementById("{id}");

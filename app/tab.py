@@ -8,6 +8,7 @@ edit. A page reloaded takes up the work of its tab before (Resume); the page tel
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from dataclasses import dataclass, replace
@@ -110,6 +111,10 @@ class Tab(TabPresence, TabFraming, TabHeat):
         self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
+        # the page may have reported its camera while the tab was built: no report follows
+        with contextlib.suppress(AssertionError):
+            client.camera.wxyz  # noqa: B018 (viser asserts until the page has reported it)
+            self._first_view(None)
         self._watch_visibility()
 
     def take_up(self, resume: Resume) -> None:

@@ -293,7 +293,7 @@ class LivePanel:
             + f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
             + (f" · at most {paced[0]:.0f} fps {paced[1]}" if paced and not services.paused else "")
             + (
-                " · ⚠ this browser draws slower than frames come: it is sent fewer of them"
+                " · ⚠ the page draws slower than frames come: sent fewer"
                 if now - self.tab.lagged_at < LAG_NOTE_S
                 else ""
             )
