@@ -21,6 +21,9 @@ from .presence import run_js
 GUIDE = "docs/browser-tool.md"  # the guide to the browser tool, in mirrorscan's source
 VIEW_PNG = "mirrorscan-view.png"  # the name of the view saved as a picture
 RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is asked for
+# seconds after a tab is built when its view is framed if the page reported its camera meanwhile:
+# by then the page has applied the scene's up direction
+LATE_VIEW_S = 2.0
 DRAWS_KEY = "mirrorscan-draws"
 DRAWS_WINDOW_MS = 2000    # ms: the draw rate counts the frames drawn over this
 # A frame counts as drawn when WebGL was asked to draw during it (three.js draws the whole scene
@@ -191,3 +194,27 @@ def save_view(client: viser.ClientHandle, act: Callable[[Callable[[], object]], 
             client.send_file_download(VIEW_PNG, data.tobytes(), save_immediately=True)
 
     threading.Thread(target=lambda: act(render), name="mirrorscan-render", daemon=True).start()
+
+
+def frame_late(client: viser.ClientHandle, first_view: Callable[[None], None]) -> None:
+    """Call first_view(None) LATE_VIEW_S from now if the page has reported its camera by then.
+
+    A page may report its camera while its tab is still being built, before the tab listens to
+    the reports; no other report follows until the camera moves. `first_view` frames the view once
+    (later calls do nothing).
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+    first_view : callable
+    """
+    def late() -> None:
+        try:
+            client.camera.wxyz  # noqa: B018 (viser asserts until the page has reported it)
+        except AssertionError:
+            return
+        first_view(None)
+
+    timer = threading.Timer(LATE_VIEW_S, late)
+    timer.daemon = True
+    timer.start()

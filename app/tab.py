@@ -8,7 +8,6 @@ edit. A page reloaded takes up the work of its tab before (Resume); the page tel
 """
 from __future__ import annotations
 
-import contextlib
 import threading
 import time
 from dataclasses import dataclass, replace
@@ -26,6 +25,7 @@ from .framing import TabFraming
 from .liveframe import LiveFrame
 from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
+from .page import frame_late
 from .panels import PANELS
 from .panels.live import LivePanel
 from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, TabPresence
@@ -111,10 +111,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
-        # the page may have reported its camera while the tab was built: no report follows
-        with contextlib.suppress(AssertionError):
-            client.camera.wxyz  # noqa: B018 (viser asserts until the page has reported it)
-            self._first_view(None)
+        frame_late(client, self._first_view)
         self._watch_visibility()
 
     def take_up(self, resume: Resume) -> None:
