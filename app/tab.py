@@ -150,7 +150,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         The rig and the cloud, the object under a heat map (a reload), or the depth frame when the
         tab was switched to it before the report.
         """
-        if not self._framed:
+        if not self._framed and not self.closed:
             self._framed = True
             if self.state.view == "depth":
                 self.screen.look_at()
