@@ -20,7 +20,8 @@ import websockets.exceptions
 from mirrorscan.bench.tabs import HeadlessTab
 from mirrorscan.panels.mirrors import MirrorsPanel
 from mirrorscan.panels.session import SessionPanel
-from mirrorscan.security import MAX_MESSAGE_BYTES, install_log_filter, new_token, protect
+from mirrorscan.security import (MAX_MESSAGE_BYTES, TOKEN_COOKIE, install_log_filter, new_token,
+                                 protect)
 from mirrorscan.server import MirrorscanApp
 from viser import _messages
 
@@ -189,6 +190,18 @@ def test_beyond_loopback_a_token_is_made_and_required(remote):
     bearer = {"Authorization": f"Bearer {guard.token}"}
     assert ws_open(port, additional_headers=bearer) == "accepted"
     assert ws_open(port, origin="https://evil.example", additional_headers={"Cookie": jar}) == "403"
+
+
+@pytest.mark.parametrize("other", ['prefs={"a":1}', 'x=a b', 'broken', 'q="unclosed', '=v',
+                                   'a=1;;b', 'caf\xe9=1'])
+def test_another_applications_malformed_cookie_never_hides_the_token(remote, other):
+    guard, port = remote.guard, remote.port
+    token = f"{TOKEN_COOKIE.format(port=port)}={guard.token}"
+    for header in (f"{other}; {token}", f"{token}; {other}"):
+        assert http_get(port, "/", cookie=header)[0] == 200, header
+        page = f"http://127.0.0.1:{port}"
+        assert ws_open(port, origin=page, additional_headers={"Cookie": header}) == "accepted"
+    assert http_get(port, "/", cookie=f"{other}; {token[:-1]}x")[0] == 403
 
 
 def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_path):
