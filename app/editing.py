@@ -18,8 +18,7 @@ from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror
-from mirrorcore.io.sessionfile import save_session
-from mirrorcore.io.limits import check_limits
+from mirrorcore.io.sessionfile import check_session, save_session
 
 from .sessionfile import SessionFile
 from .undo import SESSION_SCOPE, History, Step, inverse, restore
@@ -348,8 +347,8 @@ class EditorCore:
 
         `save` is False for one of several steps that the last saves.
         """
-        # the limits of a session that is read: past them it would not reopen
-        check_limits(session)
+        # what the session reader would refuse (or read back otherwise) would not reopen
+        check_session(session, self._session)
         self._history.record(scope, step)
         self._session = session
         self._save_and_notify(save)

@@ -74,7 +74,7 @@ def read_pixels(value, camera: Intrinsics, where: str, limit: int = MAX_VERTICES
         uv = [finite_number(c) for c in p] if pair else [None]
         if None in uv:
             raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got "
-                                  f"{str(p)[:80]}")
+                                  f"{repr(p)[:80]}")
         u, v = uv
         if not (-0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
             raise FileFormatError(f"{where}[{i}]: pixel ({u:g}, {v:g}) is outside the "
@@ -200,7 +200,7 @@ def read_timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
     if None in out:
         i = out.index(None)
         raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got "
-                              f"{str(stamps[i])[:80]}")
+                              f"{repr(stamps[i])[:80]}")
     return out
 
 

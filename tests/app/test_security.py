@@ -19,6 +19,7 @@ import websockets.asyncio.client
 import websockets.exceptions
 from mirrorscan.bench.tabs import HeadlessTab
 from mirrorscan.panels.mirrors import MirrorsPanel
+from mirrorscan.panels.object import ObjectPanel
 from mirrorscan.panels.session import SessionPanel
 from mirrorscan.security import (MAX_MESSAGE_BYTES, TOKEN_COOKIE, install_log_filter, new_token,
                                  protect)
@@ -132,6 +133,25 @@ def test_another_sites_websocket_cannot_rename_a_mirror(app):
         assert asyncio.run(attack()) == "403"
     names = [m.name for m in load_session(app.editor.session.root).mirrors]
     assert names == ["mirror 1", "mirror 2"]
+
+
+# --------------------------------------------------------------------- what a message may set
+def test_a_depth_range_the_reader_refuses_is_refused_from_a_websocket_message(app, caplog):
+    """The depth range [-1e308, 1e308] sent as the slider's value is refused in one line; the
+    session on disk and in memory keeps its range and opens."""
+    caplog.set_level(logging.INFO, "mirrorscan")
+    root = app.editor.session.root
+    before = app.editor.session.selection
+    with HeadlessTab(app) as headless:
+        objects = next(p for p in headless.tab.panels if isinstance(p, ObjectPanel))
+        headless.ws.send(send(_messages.GuiUpdateMessage(objects.range._impl.uuid,
+                                                         {"value": (-1e308, 1e308)})))
+        wait_for(lambda: "selection: depth_min" in caplog.text, what="the refusal")
+        assert objects.range.value == (before.depth_min, before.depth_max)
+    assert app.editor.session.selection == before
+    assert load_session(root).selection == before
+    with HeadlessTab(app) as again:
+        assert again.tab.panels
 
 
 @pytest.mark.parametrize("host", ["evil.example", "evil.example:{port}",
