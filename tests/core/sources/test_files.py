@@ -120,6 +120,21 @@ def test_png_folder_and_tum_errors(tmp_path):
         open_source(f"tum:{tmp_path}")
 
 
+
+@pytest.mark.parametrize("stamps, message", [
+    (("-1e308", "1e308"), r"depth.txt: line 2: timestamp -1e308 is not seconds of a recording"),
+    (("0", "1e9"), r"depth.txt: 2 frames over 1e\+09 s is not a camera's rate"),
+    (("5", "5", "5"), r"depth.txt: 3 frames over 0 s is not a camera's rate"),
+])
+def test_a_tum_folder_with_absurd_timestamps_is_refused_in_one_line(tmp_path, stamps, message):
+    cv2.imwrite(str(tmp_path / "d.png"), np.zeros((480, 640), np.uint16))
+    lines = "".join(f"{t} d.png\n" for t in stamps)
+    (tmp_path / "depth.txt").write_text(f"# depth maps\n{lines}")
+    with pytest.raises(FileFormatError, match=message):
+        open_source(f"tum:{tmp_path}")
+    (tmp_path / "depth.txt").write_text("1305031102.16 d.png\n1305031102.19 d.png\n")
+    assert open_source(f"tum:{tmp_path}").fps == pytest.approx(1 / 0.03)
+
 def test_spec_strings_split_into_kind_target_and_options():
     assert parse_spec("freenect:0") == ("freenect", "0", {})
     assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x", {
