@@ -13,6 +13,7 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.camerafiles import load_open3d_json, load_opencv_yaml
 from mirrorcore.base.jsonfile import read_json
+from mirrorcore.io.fields import shown
 from mirrorcore.io.session import Session
 from mirrorcore.sources.base import DepthSource, Frame
 
@@ -98,7 +99,8 @@ class SessionSource(ImageSequenceSource):
             stamps = np.arange(len(session.frames)) / fps
         colour = None if session.colour_frames is None else [root / c
                                                              for c in session.colour_frames]
-        super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
+        super().__init__(f"session {shown(root.name)}", session.camera,
+                         [root / f for f in session.frames],
                          np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
@@ -137,7 +139,7 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
     camera = camera or folder_camera(folder)
     if depth_scale is not None:
         camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
-    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths,
+    return ImageSequenceSource(f"PNG folder {shown(folder.name)}", camera, paths,
                                np.arange(len(paths)) / fps, fps=fps)
 
 
@@ -231,7 +233,8 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
         ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
         colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
     fps = tum_rate(depth_stamps, folder / "depth.txt")
-    return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
+    return ImageSequenceSource(f"TUM {shown(folder.name)}", camera, depth_paths, depth_stamps,
+                               colour, fps)
 
 
 def tum_rate(stamps: np.ndarray, where: Path) -> float:

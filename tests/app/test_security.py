@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import socket
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 from types import SimpleNamespace
 
 import msgspec
@@ -368,3 +370,35 @@ def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(t
     assert f"mirrorscan serve: stopped; every edit is saved in {tmp_path / 'new'}" in rest
     assert "cancelled" not in rest
     assert load_session(tmp_path / "new").mirrors == ()
+
+
+# --------------------------------------------------------------------- names that are not UTF-8
+def test_folder_names_that_are_not_utf8_never_close_a_tab(tmp_path, caplog):
+    """A session in a folder named b'scan\\xe9', beside b'caf\\xe9' (a session) and b'vide\\xe9'
+    (empty): a tab connects and stays; the Open list leaves them out and says so; the session's
+    place and a refusal naming such a path are shown with replacement characters."""
+    base = os.fsencode(tmp_path)
+    for name in (b"caf\xe9", b"vide\xe9"):
+        os.mkdir(base + b"/" + name)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=5.0)
+    save_session(Session(Path(os.fsdecode(base + b"/caf\xe9")), rig.intrinsics))
+    save_session(Session(tmp_path / "plain", rig.intrinsics))
+    root = Path(os.fsdecode(base + b"/scan\xe9"))
+    save_session(Session(root, rig.intrinsics, (SessionMirror("mirror 1"),)))
+    app = MirrorscanApp(load_session(root), SimulatedSource(rig), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            sessions = next(p for p in headless.tab.panels if isinstance(p, SessionPanel))
+            assert sessions.open_choice.options == ("", "plain")
+            assert "Not listed: 2 session folders whose name" in sessions.skipped.content
+            assert "scan\ufffd" in sessions.where.content
+            app.act(headless.tab.client,
+                    lambda: load_session(Path(os.fsdecode(base + b"/caf\xe9/x\xe9"))))
+            # deliberate: time for a close that must not come
+            time.sleep(1)
+            assert headless.tab.client.client_id in app.tabs
+            assert headless._reader.is_alive()
+    finally:
+        app.stop()
+    assert "UnicodeEncodeError" not in caplog.text
