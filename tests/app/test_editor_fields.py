@@ -25,7 +25,7 @@ from mirrorcore.io.sessionfile import load_session, save_session, session_from_j
 
 CAMERA = Intrinsics(64, 48, 60.0, 60.0, 31.5, 23.5)
 SQUARE = ((10.0, 10.0), (30.0, 10.0), (30.0, 30.0), (10.0, 30.0))
-EDITS = settings(max_examples=60, deadline=None,
+EDITS = settings(max_examples=40, deadline=None,
                  suppress_health_check=[HealthCheck.too_slow])
 
 # what a crafted websocket message or a fit can hand the editor (the glass comes as a float: mm
