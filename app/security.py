@@ -205,6 +205,7 @@ def cookie_values(headers: list[str], name: str) -> list[str]:
             values.append(value)
     return values
 
+
 def new_token() -> str:
     """A secret token: 32 random bytes, URL-safe, never beginning with '-'.
 

@@ -88,7 +88,7 @@ class ObjectPanel:
             lambda e: (
                 e.client is not None
                 and act(lambda: self._edit(lambda: self.services.editor.set_bounces(
-                    self.bounces.value)))
+                    int(self.bounces.value))))
             )
         )
         self.draw.on_click(lambda _: act(self._start_region))
