@@ -349,7 +349,12 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
     """
     if path is None:
         return None
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    # read by Python, not by OpenCV, which cannot open a path that is not UTF-8
+    try:
+        data = Path(path).read_bytes()
+    except OSError:
+        data = b""
+    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR) if data else None
     if bgr is None:
         raise FileFormatError(f"{path}: not a readable colour image")
     if bgr.shape[:2] != intr.shape:

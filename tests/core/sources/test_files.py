@@ -1,6 +1,7 @@
 """Recorded depth sources: real frames through the PNG-folder and TUM readers, .npz stacks, spec
 strings."""
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -148,3 +149,20 @@ def test_spec_strings_split_into_kind_target_and_options():
         open_source("sim?fps=-1")
     with pytest.raises(MirrorscanError, match="freenect needs a device index"):
         open_source("freenect:first")
+
+
+def test_a_tum_folder_named_in_no_utf8_plays_and_is_named_with_replacement_characters(tmp_path):
+    folder = os.fsencode(tmp_path) + b"/caf\xe9"
+    os.mkdir(folder)
+    # written by Python: OpenCV cannot open such a path
+    for name, image in ((b"d.png", np.zeros((480, 640), np.uint16)),
+                        (b"c.png", np.full((480, 640, 3), 200, np.uint8))):
+        with open(folder + b"/" + name, "wb") as f:
+            f.write(cv2.imencode(".png", image)[1].tobytes())
+    for name, image in ((b"depth.txt", "d.png"), (b"rgb.txt", "c.png")):
+        with open(folder + b"/" + name, "w") as f:
+            f.write(f"1305031102.16 {image}\n")
+    source = open_source(f"tum:{os.fsdecode(folder)}")
+    assert source.name == "TUM caf\ufffd" and source.name.encode("utf-8")
+    frame = source.read(0)
+    assert frame.depth.shape == (480, 640) and frame.colour[0, 0].tolist() == [200, 200, 200]
