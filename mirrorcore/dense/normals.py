@@ -1,0 +1,68 @@
+"""Outward normals of a dense result's points: the direction by principal components of each
+point's neighbours (Open3D's estimate_normals), the sign towards the view that saw the point (the
+camera, or the virtual camera of its mirror or sequence of mirrors), since a view sees only the
+side of a surface that faces it."""
+from __future__ import annotations
+
+import numpy as np
+import open3d as o3d
+
+from mirrorcore.rig.model import Rig
+
+# the neighbourhood of a point's normal: this many voxels around it, at most this many points
+NORMAL_RADIUS = 3.0
+NORMAL_NEIGHBOURS = 30
+
+
+def view_centres(rig: Rig) -> np.ndarray:
+    """Return where each view of the rig looks from, by source label.
+
+    Parameters
+    ----------
+    rig : Rig
+
+    Returns
+    -------
+    (256, 3) float64 array
+        Metres, camera frame; NaN for the labels of no view.
+    """
+    centres = np.full((256, 3), np.nan)
+    for camera in rig.virtual_cameras():
+        centres[camera.source] = camera.pose[:3, 3]
+    return centres
+
+
+def surface_normals(points: np.ndarray, sources: np.ndarray, rig: Rig,
+                    voxel: float) -> np.ndarray:
+    """Return unit normals of surface points, each towards the view that saw it.
+
+    A point of no view's label (or on no view's side) is turned away from the points' centroid.
+
+    Parameters
+    ----------
+    points : (n, 3) float array
+        Metres, camera frame (a carving's surface voxels' centres).
+    sources : (n,) uint8 array
+        The view that saw each point (0 camera, j mirror j, from 33 a sequence of mirrors).
+    rig : Rig
+        The rig whose views made the points.
+    voxel : float
+        The voxel's edge, metres: the neighbourhood is NORMAL_RADIUS voxels.
+
+    Returns
+    -------
+    (n, 3) float32 array
+        Unit vectors; zero where a point has too few neighbours to fit a plane.
+    """
+    points = np.asarray(points, np.float64).reshape(-1, 3)
+    if len(points) == 0:
+        return np.zeros((0, 3), np.float32)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(
+        radius=NORMAL_RADIUS * voxel, max_nn=NORMAL_NEIGHBOURS))
+    normals = np.asarray(cloud.normals)
+    towards = view_centres(rig)[np.asarray(sources, np.intp)] - points
+    unknown = np.isnan(towards).any(axis=1)
+    towards[unknown] = points[unknown] - points.mean(axis=0)
+    normals *= np.where(np.einsum("ij,ij->i", normals, towards) < 0, -1.0, 1.0)[:, None]
+    return normals.astype(np.float32)
