@@ -19,11 +19,13 @@ from mirrorscan.server import MirrorscanApp
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources import SimulatedSource
+from scripts.screenshots import CLOSE_WEBGL_NOTICE
 from tests.browser import button, canvas_point, open_tab, step, text
 from tests.waiting import wait_for
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
-LIVE_FPS = 5.0      # software WebGL on 2 cores: keep the stream light while the test drives the page
+# software WebGL on 2 cores: keep the stream light while the test drives the page
+LIVE_FPS = 5.0
 SPHERE_RADIUS = 0.115
 VIEW_DISTANCE = 0.7     # metres from the sphere's centre to the camera set from the server
 
@@ -77,6 +79,7 @@ def sphere_on_page(page, tab, centre: np.ndarray, name: str) -> np.ndarray:
 def test_a_carved_sphere_reads_round_and_run_keeps_the_view(app, browser, size):
     page, tab = open_tab(browser, app, *size)
     try:
+        wait_for(lambda: page.evaluate(CLOSE_WEBGL_NOTICE), 30, "viser's notice closed")
         step(page, "Dense")
         run(page, app)
         result = app.jobs.dense_result
