@@ -1,8 +1,9 @@
 """Step 4, "Dense": carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the
 recent frames of a static object inside a box (around the live cloud and following it until a corner
 is typed in, shown in 3D and in the fields), with a progress bar and a cancel button. The result is
-shared by every tab, drawn in its own colour and layer with a label (hidden while another source
-plays), and exported under a new name each time."""
+shared by every tab, drawn in its own colour and layer with a label (a carving shaded by its
+normals, a fusion's mesh lit and closed where the views saw; hidden while another source plays),
+framed the first time only, and exported under a new name each time."""
 
 from __future__ import annotations
 
