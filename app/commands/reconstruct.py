@@ -34,7 +34,8 @@ from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 from . import ctrl_c_cancels, wording
 from .reconstruct_batch import run_all
 
-# bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed then stacked
+# bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed and
+# stacked
 PREPARED_BYTES = 10
 
 

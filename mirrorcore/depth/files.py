@@ -86,7 +86,7 @@ def max_file_bytes(pixels: int) -> int:
 
 def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | None = None,
                      where: str = "depth image") -> np.ndarray:
-    """Decode a 16-bit depth image (PNG, or another format of `imageheader.READABLE`) from its bytes.
+    """Decode a 16-bit depth image (PNG, or another of `imageheader.READABLE`) from its bytes.
 
     The format is read from the bytes and must be the one `where`'s suffix names (when it names
     one); the size is read from the header and checked before decoding.

@@ -27,19 +27,16 @@ def encode(message: _messages.Message) -> bytes:
 
 
 class Served:
-    """`mirrorscan [--memory M] serve FOLDER --port 0` in a process; `port`, `rss()`, `stop()`.
+    """`mirrorscan serve FOLDER --port 0` in a process; `port`, `rss()`, `stop()`.
 
     Parameters
     ----------
     folder : Path
         The session folder (a new one is made).
-    memory : str, optional
-        The --memory budget.
     """
 
-    def __init__(self, folder: Path, memory: str | None = None):
-        command = [sys.executable, "-m", "mirrorscan.cli", *(["--memory", memory] if memory else []),
-                   "serve", str(folder), "--port", "0"]
+    def __init__(self, folder: Path):
+        command = [sys.executable, "-m", "mirrorscan.cli", "serve", str(folder), "--port", "0"]
         self.process = subprocess.Popen(command, cwd=ROOT, stderr=subprocess.PIPE, text=True,
                                         env={**os.environ, "PYTHONPATH": str(ROOT)})
         lines = []

@@ -105,8 +105,8 @@ def app(tmp_path_factory):
 
 
 def test_a_crafted_message_cannot_set_a_slider_past_its_max(app, caplog):
-    """The worker slider offers 1 to the cores: 40, a NaN, a new max and a string are refused with one
-    log line each; a value it offers goes through."""
+    """The worker slider offers 1 to the cores: 40, a NaN, a new max and a string are refused with
+    one log line each; a value it offers goes through."""
     caplog.set_level(logging.WARNING, logger="mirrorscan.security")
     with HeadlessTab(app) as headless:
         panel = next(p for p in headless.tab.panels if isinstance(p, RecordPanel))
