@@ -31,6 +31,11 @@ def served(tmp_path_factory):
     served.stop()
 
 
+def refusals(tab: CraftedTab) -> list[str]:
+    """The upload refusals the tab was told."""
+    return [n for n in tab.notes if n.startswith("Upload refused: ")]
+
+
 def _settled_rss(served: Served) -> int:
     """The server's resident memory once two readings in a row (20 ms apart) agree within 5 MB."""
     readings = [served.rss()]
@@ -55,9 +60,8 @@ def test_uploads_that_declare_little_and_send_much_hold_nothing(served):
             tab.send(_messages.FileTransferStartUpload(button, f"s{i}", "small.png", "image/png",
                                                        2, 1000))
             tab.send(_messages.FileTransferPart(button, f"s{i}", 0, part))
-        refused = wait_for(lambda: [n for n in tab.notes if "more bytes than it declared" in n]
-                           if len(tab.notes) >= 40 else None, 60, "40 refusals")
-        assert len(refused) == 40
+        refused = wait_for(lambda: len(refusals(tab)) >= 40 and refusals(tab), 60, "40 refusals")
+        assert len(refused) == 40 and all("more bytes than it declared" in n for n in refused)
         grown = _settled_rss(served) - before
         assert grown < 60 * MB, f"the server grew by {grown / MB:.0f} MB"
     finally:
@@ -78,15 +82,15 @@ def test_uploads_in_flight_are_capped_per_tab_and_in_total(served):
 
         for i in range(MAX_UPLOADS_PER_TAB + 1):
             start(first, buttons[0], f"a{i}", 10 * MB)
-        wait_for(lambda: first.notes, 30, "the refusal")
-        assert first.notes == [f"Upload refused: a{MAX_UPLOADS_PER_TAB}.png: "
+        wait_for(lambda: refusals(first), 30, "the refusal")
+        assert refusals(first) == [f"Upload refused: a{MAX_UPLOADS_PER_TAB}.png: "
                                f"{MAX_UPLOADS_PER_TAB} uploads from this tab are still coming; "
                                "wait for them, then try again"]
         # 40 MB declared so far: 20 more fit, 40 more do not
         start(second, buttons[1], "b0", 20 * MB)
         start(second, buttons[1], "b1", 20 * MB)
-        wait_for(lambda: second.notes, 30, "the refusal")
-        assert second.notes == ["Upload refused: b1.png: too many uploads at once; try again"]
+        wait_for(lambda: refusals(second), 30, "the refusal")
+        assert refusals(second) == ["Upload refused: b1.png: too many uploads at once; try again"]
     finally:
         first.close()
         second.close()

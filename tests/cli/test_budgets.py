@@ -28,12 +28,14 @@ def budget():
 def refused(capsys, argv, message, seconds: float = 10.0) -> str:
     """Run argv: exit 2 within `seconds` with `message` on one stderr line, no process started."""
     capsys.readouterr()
+    children = {p.pid for p in psutil.Process().children(recursive=True)}
     start = time.monotonic()
     assert main([str(a) for a in argv]) == 2
     assert time.monotonic() - start < seconds
     out, err = capsys.readouterr()
     assert len(err.strip().splitlines()) == 1 and message in err, err
-    assert "starting" not in out + err and not psutil.Process().children(recursive=True)
+    started = {p.pid for p in psutil.Process().children(recursive=True)} - children
+    assert "starting" not in out + err and not started
     return err
 
 
