@@ -1,6 +1,6 @@
 """What a tab may send: uploads within their budgets, and GUI values within their inputs' ranges.
 
-limit_inputs() puts two checks first in line for viser's upload and GUI update messages. viser
+limit_inputs() puts its checks first in line for viser's upload and GUI update messages. viser
 hands each message to the server's handlers (in the order registered) and then, in a later step of
 its event loop, to the handlers of the tab's own GUI; a check registered first on the server runs
 before either of them stores anything.
