@@ -15,9 +15,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.batch import read_depth
+from mirrorcore.batch.executor import WORKERS_PER_CORE
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
@@ -31,6 +33,10 @@ from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 
 from . import ctrl_c_cancels, wording
 from .reconstruct_batch import run_all
+
+# bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed and
+# stacked
+PREPARED_BYTES = 10
 
 
 def register(sub) -> None:
@@ -103,7 +109,8 @@ def register(sub) -> None:
     batch.add_argument(
         "--workers",
         type=int,
-        help="local worker processes (default: one per core; 1: in this process, without Dask)",
+        help="local worker processes (default: one per core; 1: in this process, without Dask; "
+        f"at most {WORKERS_PER_CORE} per core)",
     )
     batch.add_argument(
         "--scheduler",
@@ -259,7 +266,8 @@ def run_dense(
     Raises
     ------
     MirrorscanError
-        When --frames is below 1 or runs past the session's end.
+        When --frames is below 1 or runs past the session's end; MemoryBudgetError when its
+        frames would not fit in the memory budget.
     """
     count = args.frames if args.method == "tsdf" else 1
     if count < 1:
@@ -274,6 +282,9 @@ def run_dense(
             f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
             "the end"
         )
+    check_memory(float(count) * session.camera.width * session.camera.height * PREPARED_BYTES,
+                 f"--frames {count}: {count:,} frames of "
+                 f"{session.camera.width}x{session.camera.height} at once")
     prepared = [
         prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
         for i in range(first, first + count)

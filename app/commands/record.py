@@ -12,6 +12,7 @@ from typing import Iterator
 from tqdm import tqdm
 
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.limits import MAX_FRAMES
 from mirrorcore.io.outputs import check_output
 from mirrorcore.sources import open_source, record
 
@@ -93,11 +94,14 @@ def run(args: argparse.Namespace) -> int:
     Raises
     ------
     MirrorscanError
-        When --seconds or --frames is not positive.
+        When --seconds or --frames is not positive, or --frames is more than MAX_FRAMES.
     """
     for name in ("seconds", "frames"):
         if getattr(args, name) is not None and not getattr(args, name) > 0:
             raise MirrorscanError(f"--{name}: must be positive, got {getattr(args, name):g}")
+    if args.frames is not None and args.frames > MAX_FRAMES:
+        raise MirrorscanError(f"--frames: at most {MAX_FRAMES:,} (the frames a session may hold), "
+                              f"got {args.frames:,}")
     check_output(args.session)
     with open_source(args.source) as source, stop_signals() as signals:
         if source.live and args.seconds is None and args.frames is None:

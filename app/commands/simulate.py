@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.limits import MAX_FRAMES
 from mirrorcore.io.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
@@ -109,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
         if args.object and args.object.startswith("mesh:")
         else None
     )
+    if args.frames > MAX_FRAMES:
+        raise MirrorscanError(f"--frames: at most {MAX_FRAMES:,} (the frames a session may hold), "
+                              f"got {args.frames:,}")
     check_output(args.out, tuple(p for p in (args.scene, mesh) if p))
     scene = _scene(args)
     if args.marker_offset is not None and not 0 <= args.marker_offset <= 50:

@@ -12,6 +12,7 @@ from pathlib import Path
 from mirrorcore.dense.volume import cancel_requested
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.sessionfile import load_session
+from mirrorcore.depth.temporal import check_window_memory
 from mirrorcore.batch.executor import Where, task_executor
 from mirrorcore.batch.frames import FrameContext
 from mirrorcore.batch.job import BatchJob, session_inputs
@@ -193,6 +194,9 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
     per_task = default_frames_per_task(job.method) if frames_per_task is None else frames_per_task
     if per_task < 1:
         raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
+    if job.temporal:
+        check_window_memory(min(2 * job.temporal + 1, len(session.frames)), session.camera.shape,
+                            f"--temporal {job.temporal}")
     context = FrameContext.build(session, job, threads=None if where.in_process else 1)
     folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session),
                           context.names,

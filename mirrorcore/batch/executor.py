@@ -11,6 +11,9 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
 from mirrorcore.dense.volume import cancel_requested
 
+# local worker processes a core may have: more only wait for the cores and take memory
+WORKERS_PER_CORE = 2
+
 
 @dataclass(frozen=True)
 class Where:
@@ -19,7 +22,8 @@ class Where:
     Attributes
     ----------
     workers : int or None
-        Local worker processes (default: one per core; 1 runs in this process, without Dask).
+        Local worker processes (default: one per core; 1 runs in this process, without Dask; at
+        most `max_workers()`).
     scheduler : str or None
         The address of an existing Dask cluster ('tcp://HOST:8786') instead.
     dashboard : bool
@@ -33,6 +37,9 @@ class Where:
     def __post_init__(self) -> None:
         if self.workers is not None and self.workers < 1:
             raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
+        if self.workers is not None and self.workers > max_workers():
+            raise MirrorscanError(f"--workers: at most {max_workers()} on this machine "
+                                  f"({WORKERS_PER_CORE} per core), got {self.workers}")
         if self.workers is not None and self.scheduler is not None:
             raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own "
                                   "workers; give one or "
@@ -46,11 +53,19 @@ class Where:
     @property
     def local_workers(self) -> int:
         """The local worker processes: `workers`, or the cores this process may use."""
-        if self.workers:
-            return self.workers
-        if hasattr(os, "sched_getaffinity"):
-            return len(os.sched_getaffinity(0))
-        return os.cpu_count() or 1
+        return self.workers or cores()
+
+
+def cores() -> int:
+    """The cores this process may use."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def max_workers() -> int:
+    """The most local worker processes: WORKERS_PER_CORE per core this process may use."""
+    return WORKERS_PER_CORE * cores()
 
 
 @contextmanager

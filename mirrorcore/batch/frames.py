@@ -18,7 +18,7 @@ from mirrorcore.io.ply import encode_ply
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.io.session import Session
-from mirrorcore.depth.temporal import frame_window, temporal_smooth
+from mirrorcore.depth.temporal import check_window_memory, frame_window, temporal_smooth
 from mirrorcore.batch.job import BatchJob, output_names
 from mirrorcore.batch.manifest import FrameRecord
 
@@ -100,6 +100,8 @@ def read_depth(session: Session, index: int, temporal: int = 0,
     index %= count
     cache = {} if cache is None else cache
     window = frame_window(index, temporal, count)
+    if temporal:
+        check_window_memory(len(window), session.camera.shape, f"--temporal {temporal}")
     for i in window:
         if i not in cache:
             cache[i] = session.read_frame(i)
