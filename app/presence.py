@@ -1,5 +1,6 @@
-"""Whether a browser tab is there for the live cloud: which page it is (kept through reloads),
-whether it is hidden, and whether it keeps up with what it is sent.
+"""Whether a browser tab is there for the live cloud: which page it is (kept through reloads, the
+work of its tab before taken up), whether it is hidden, and whether it keeps up with what it is
+sent.
 
 viser has no message for a tab's visibility: the page notes it in its localStorage, which the
 server reads (`poll_visibility`); how long that answer takes tells whether the tab lags.
@@ -7,10 +8,13 @@ server reads (`poll_visibility`); how long that answer takes tells whether the t
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 import viser
 from viser import _messages
+
+from .context import TabState
 
 # seconds: a tab that takes longer to answer the visibility poll lags. Frames wait in its
 # browser to be drawn, so it is sent no live cloud and no depth frame until it answers in time;
@@ -50,11 +54,30 @@ def run_js(client: viser.ClientHandle, source: str) -> None:
     client._websock_connection.queue_message(_messages.RunJavascriptMessage(source=source))
 
 
+@dataclass(frozen=True)
+class Resume:
+    """What a closed tab leaves to the next tab of its page (a reload).
+
+    Attributes
+    ----------
+    state : TabState
+        As the technician left it: the click mode, the selected mirror, the boundaries and region
+        being drawn, the view; not a pick, nor a proposal, which were that tab's.
+    heat : bool
+        Whether its heat map was on.
+    """
+
+    state: TabState
+    heat: bool
+
+
 class TabPresence:
-    """The page, visibility and lag of a tab; mixed into `mirrorscan.tab.Tab`.
+    """The page, visibility and lag of a tab, and the work it takes up from the page's tab before;
+    mixed into `mirrorscan.tab.Tab`.
 
     Uses the tab's `client`, `closed`, `_stale` (send both halves of the cloud next) and
-    `_send_screen`.
+    `_send_screen`; to take up work, its `_lock`, `state`, `heat`, `header`, `_on_session`, `look`
+    and `show_heat`.
     """
 
     client: viser.ClientHandle
@@ -137,3 +160,33 @@ class TabPresence:
             self.lagging, self._stale = not keeps_up, True
             if keeps_up:
                 self._send_screen(force=True)
+
+    def take_up(self, resume: Resume) -> None:
+        """Go on with the work of the page's tab before (a reload): its state, view and heat map.
+
+        Nothing is taken up when this tab was closed meanwhile.
+
+        Parameters
+        ----------
+        resume : Resume
+        """
+        with self._lock:
+            # closed meanwhile (reloaded again at once): too late
+            if self.closed:
+                return
+            self.state = resume.state
+        # drafts of mirrors gone since are dropped; the panels follow
+        self._on_session()
+        if resume.state.view == "depth":
+            self.look("depth")
+        if resume.heat:
+            self.header.heat.value = True
+            self.show_heat(True)
+
+    def resume(self) -> Resume:
+        """This tab's work, for the next tab to take up (see Resume)."""
+        with self._lock:
+            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
+                            picked_marker=None, moving_marker=False, flagged_markers=(),
+                            proposal_for=())
+        return Resume(state, self.heat)
