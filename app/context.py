@@ -227,6 +227,9 @@ class TabContext(Protocol):
     lagged_at: float
     # the session as the tab last drew it: what its actions are made on
     drawn: "Session"
+    # the session its page is known to have been sent (presence.py): what a click that comes
+    # before the page's next answer was made on
+    seen: "Session"
 
     @property
     def gui(self):

@@ -7,10 +7,9 @@ SESSION` in a terminal): the editor never saves over such a change. It reloads t
 been saved over it, naming what happened.
 
 Several browser tabs edit one session: an edit made inside `guards.made_on(session)` (a tab's
-action,
-with the session as that tab drew it) is refused (`guards.StaleEdit`) when what it changes (the
-mirror, or the session's own scope) is no longer as drawn. The check, the change and the save are
-one step under the editor's lock.
+action, with the session as that tab drew it) is refused (`guards.StaleEdit`) when what it
+changes (the mirror, or the session's own scope) is no longer as drawn. The check, the change and
+the save are one step under the editor's lock.
 
 `EditorCore` holds no edit of its own: `SessionEditor` (mirrorscan.editor) defines them, each
 decorated with `edits`.
@@ -353,7 +352,7 @@ class EditorCore:
             if m.id == mirror_id:
                 return i
         raise StaleEdit(f"mirror {mirror_id} is no longer in the session "
-                              "(removed in another tab?)")
+                        "(removed in another tab?)")
 
     def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "",
                     save: bool = True, **changes) -> None:

@@ -4,15 +4,21 @@ sent.
 
 viser has no message for a tab's visibility: the page notes it in its localStorage, which the
 server reads (`poll_visibility`); how long that answer takes tells whether the tab lags.
+
+What the page has been sent is known to be there once the page answers a question sent after it
+(`seen`): a click that comes before that answer was made on the page as it was before.
 """
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 import viser
 from viser import _messages
+
+from mirrorcore.io.session import Session
 
 from .context import TabState
 
@@ -21,6 +27,7 @@ from .context import TabState
 # otherwise a tab that draws slower than the loop sends would show frames minutes late.
 MAX_LAG_S = 0.5
 SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, unreported
+ACK_TIMEOUT_S = 2.0     # seconds the page may take to answer that it has what it was sent
 HIDDEN_KEY = "mirrorscan-hidden"
 PAGE_KEY = "mirrorscan-page"
 PAGE_NAME_CHARS = 64
@@ -75,13 +82,14 @@ class TabPresence:
     """The page, visibility and lag of a tab, and the work it takes up from the page's tab before;
     mixed into `mirrorscan.tab.Tab`.
 
-    Uses the tab's `client`, `closed`, `_stale` (send both halves of the cloud next) and
+    Uses the tab's `client`, `closed`, `drawn`, `_stale` (send both halves of the cloud next) and
     `_send_screen`; to take up work, its `_lock`, `state`, `heat`, `header`, `_on_session`, `look`
     and `show_heat`.
     """
 
     client: viser.ClientHandle
     closed: bool
+    drawn: Session
     _stale: bool
 
     def _init_presence(self) -> None:
@@ -92,6 +100,10 @@ class TabPresence:
         # time.perf_counter() when it last lagged, once settled (SETTLING_S)
         self.lagged_at = -np.inf
         self._opened = time.perf_counter()
+        # the session the page is known to have been sent (its `drawn` before a question it
+        # answered), and whether it was sent a newer one since
+        self.seen = self.drawn
+        self._unseen = threading.Event()
 
     def identify(self, timeout: float = 10.0) -> str | None:
         """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs).
@@ -120,6 +132,26 @@ class TabPresence:
     def _watch_visibility(self) -> None:
         """Ask the browser to note in its localStorage whether this tab is hidden."""
         run_js(self.client, VISIBILITY_JS.format(key=f"{HIDDEN_KEY}-{self.client.client_id}"))
+
+    def _watch_acknowledgements(self) -> None:
+        """Ask the page, after each session drawn (`_unseen` set), whether it is there: then it has
+        what it was sent before, and `seen` moves on to it."""
+        def loop() -> None:
+            while not self.closed:
+                if not self._unseen.wait(1.0) or self.closed:
+                    continue
+                self._unseen.clear()
+                drawn = self.drawn
+                try:
+                    self.client.local_storage.get_item(
+                        f"{HIDDEN_KEY}-{self.client.client_id}", timeout=ACK_TIMEOUT_S)
+                except TimeoutError:
+                    self._unseen.set()
+                    continue
+                except RuntimeError:             # the tab is going away
+                    return
+                self.seen = drawn
+        threading.Thread(target=loop, name="mirrorscan-tab-seen", daemon=True).start()
 
     def poll_visibility(self, timeout: float = 2.0) -> None:
         """Read whether the tab is hidden, and whether it lags.

@@ -57,13 +57,13 @@ class Tab(TabPresence, TabFraming, TabHeat):
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
         self.state = TabState()
+        # the session as the tab last drew it: what its actions are made on
+        self.drawn = services.editor.session
         self._init_presence()
         self.closed = False
         self._lock = threading.RLock()
         # the tab's actions, one at a time: each is made on what the one before left drawn
         self._acting = threading.RLock()
-        # the session as the tab last drew it: what its actions are made on
-        self.drawn = services.editor.session
         self._state_listeners: list[Callable[[TabState], None]] = []
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
@@ -102,6 +102,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
         self._watch_visibility()
+        self._watch_acknowledgements()
 
     def _first_view(self, _) -> None:
         """Once the tab has reported its canvas, frame what it looks at.
@@ -320,6 +321,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         if rig_changed and self.state.view == "3d" and not self.heat and self._still_home():
             self.look_home()
         self.changed()
+        self._unseen.set()
         for mirror in taken:
             self.services.notify(self.client, *outline_taken_note(mirror.name), kind="warning")
 
@@ -374,6 +376,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
     def close(self) -> None:
         """Stop listening to the app's events and detach the panels; the tab is closed."""
         self.closed = True
+        self._unseen.set()
         for unsubscribe in self._unsubscribe:
             unsubscribe()
         for panel in [self.header, *self.panels]:

@@ -67,7 +67,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         self._flagged = ""  # the agreement lines last warned of in a notification
         # (time.monotonic(), the session it was made on) of the last click on Add a mirror that
         # was not the second of a double click
-        self._last_add = (float("-inf"), tab.drawn)
+        self._last_add = (float("-inf"), tab.seen)
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         # the selected mirror's plane, glass and markers
         self.status = gui.add_markdown("")
@@ -208,15 +208,15 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         self.tab.changed()
 
     async def _add_clicked(self, _) -> None:
-        """Add a mirror on the session as the tab drew it when the click came.
+        """Add a mirror on the session the page had when the click came (the tab's `seen`).
 
-        Taken in on viser's event loop, in the order the clicks came. A click within
+        Taken in on viser's event loop, in the order the page's messages came. A click within
         DOUBLE_CLICK_S of the one before is the second of a double click: made on the same session
         as the first, it is refused once the first has added its mirror.
         """
         now = time.monotonic()
         if now - self._last_add[0] > DOUBLE_CLICK_S:
-            self._last_add = (now, self.tab.drawn)
+            self._last_add = (now, self.tab.seen)
         drawn = self._last_add[1]
         asyncio.get_running_loop().run_in_executor(None, self.tab.act, self._add, drawn)
 
