@@ -1,7 +1,7 @@
-"""The Mirrors panel with several tabs on the demo, without a browser: a double click on Add a mirror
-adds one mirror, an edit made on a stale drawing is refused and its tab redrawn, a draft gives
-way to an outline closed in another tab, and a Redo that removes a mirror asks first while every
-tab is told of each removal."""
+"""The Mirrors panel with several tabs on the demo, without a browser: a double click on Add a
+mirror adds one mirror, an edit made on a stale drawing is refused and its tab redrawn, a draft
+gives way to an outline closed in another tab, and a Redo that removes a mirror asks first while
+every tab is told of each removal."""
 import asyncio
 
 import mirrorscan.panels.mirrors.panel as panel_module
