@@ -6,6 +6,11 @@ SESSION` in a terminal): the editor never saves over such a change. It reloads t
 (`reload_if_changed`, which the server calls twice a second) and refuses an edit that would have
 been saved over it, naming what happened.
 
+Several browser tabs edit one session: an edit made inside `guards.made_on(session)` (a tab's
+action, with the session as that tab drew it) is refused (`guards.StaleEdit`) when what it
+changes (the mirror, or the session's own scope) is no longer as drawn. The check, the change and
+the save are one step under the editor's lock.
+
 `EditorCore` holds no edit of its own: `SessionEditor` (mirrorscan.editor) defines them, each
 decorated with `edits`.
 """
@@ -21,8 +26,9 @@ from mirrorcore.io.session import Session, SessionMirror
 from mirrorcore.io.sessionfile import save_session
 from mirrorcore.io.limits import check_limits
 
+from .guards import StaleEdit, check_drawn, drawn_moves_to
 from .sessionfile import SessionFile
-from .undo import SESSION_SCOPE, History, Step, inverse, restore
+from .undo import SESSION_SCOPE, History, Step, inverse, restore, touched
 
 
 def edits(method):
@@ -40,7 +46,8 @@ def edits(method):
     -------
     callable
         The wrapped method. It raises MirrorscanError, and the session is reloaded, when another
-        program changed session.json since the editor read or wrote it.
+        program changed session.json since the editor read or wrote it; StaleEdit when it is
+        made on a drawing (`guards.made_on`) that what it changes no longer matches.
     """
 
     @functools.wraps(method)
@@ -52,7 +59,9 @@ def edits(method):
                     message, reloaded = self._reload_external()
                     if reloaded:
                         raise MirrorscanError(f"{message}; this change was not made: make it again")
-                    return method(self, *args, **kwargs)
+                    result = method(self, *args, **kwargs)
+                    drawn_moves_to(self._session)
+                    return result
                 finally:
                     session, changed, self._changed = self._session, self._changed, False
         finally:
@@ -263,6 +272,21 @@ class EditorCore:
             now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
             return self._history.fitted_on(mirror_id, now)
 
+    def removal(self, scope: int, redo: bool = False) -> SessionMirror | None:
+        """The mirror that undo (or redo) in `scope` would remove, as it now is, else None.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror id, or SESSION_SCOPE.
+        redo : bool, optional
+            For redo rather than undo.
+        """
+        with self._lock:
+            ids = [m.id for m in self._session.mirrors]
+            mirror_id = self._history.removal(scope, redo, ids)
+            return None if mirror_id is None else self._session.mirrors[ids.index(mirror_id)]
+
     @edits
     def undo(self, scope: int) -> str:
         """Take back the last change in a scope.
@@ -311,7 +335,10 @@ class EditorCore:
         Its `after` (redo) or `before` (undo) is put back.
         """
         label = self._label(scope, redo)
-        moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
+        ids = [m.id for m in self._session.mirrors]
+        for s, step in self._history.peek(scope, redo, ids):
+            check_drawn(self._session, touched(s, step.after if redo else step.before))
+        moved = self._history.travel(scope, redo, ids)
         if not moved:
             raise MirrorscanError(f"nothing to {'redo' if redo else 'undo'}")
         for s, step in moved:
@@ -320,12 +347,12 @@ class EditorCore:
         return label
 
     def _index(self, mirror_id: int) -> int:
-        """The mirror's position in the session; MirrorscanError when it is gone."""
+        """The mirror's position in the session; StaleEdit when it is gone."""
         for i, m in enumerate(self._session.mirrors):
             if m.id == mirror_id:
                 return i
-        raise MirrorscanError(f"mirror {mirror_id} is no longer in the session "
-                              "(removed in another tab?)")
+        raise StaleEdit(f"mirror {mirror_id} is no longer in the session "
+                        "(removed in another tab?)")
 
     def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "",
                     save: bool = True, **changes) -> None:
@@ -348,6 +375,7 @@ class EditorCore:
 
         `save` is False for one of several steps that the last saves.
         """
+        check_drawn(self._session, touched(scope, step.after))
         # the limits of a session that is read: past them it would not reopen
         check_limits(session)
         self._history.record(scope, step)
