@@ -18,10 +18,9 @@ from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror
-from mirrorcore.io.sessionfile import save_session
 from mirrorcore.io.limits import check_limits
 
-from .sessionfile import SessionFile
+from .sessionfile import SavedEdits, SessionFile
 from .undo import SESSION_SCOPE, History, Step, inverse, restore
 
 
@@ -61,7 +60,7 @@ def edits(method):
     return wrapper
 
 
-class EditorCore:
+class EditorCore(SavedEdits):
     """A session under edit: its lock, undo history, autosave and listeners.
 
     Parameters
@@ -69,27 +68,35 @@ class EditorCore:
     session : Session
         The session to edit.
     autosave : bool, optional
-        Save it after every change.
+        Save it after every change; its folder is then locked until `close`.
+    read_only : str, optional
+        Why it is open read-only (another program edits it): its folder is not locked and every
+        edit is refused with this reason.
 
     Attributes
     ----------
     autosave : bool
         Save it after every change.
     listeners : list of callable
-        Called with the session after every change.
-    last_save_error : str or None
-        Why the last save failed (the previous file is intact), else None.
+        Called with the session after every change, and when saving fails or works again.
+    read_only : str or None
+        As given; None once another session is opened.
+
+    Raises
+    ------
+    SessionLocked
+        Another editor (in this process or another) holds the session's folder.
     """
 
-    def __init__(self, session: Session, autosave: bool = True):
+    def __init__(self, session: Session, autosave: bool = True, read_only: str | None = None):
         self._lock = threading.RLock()
         self._session = session
         self._history = History()
         self.autosave = autosave
+        self.read_only = read_only
         self.listeners: list[Callable[[Session], None]] = []
-        self.last_save_error: str | None = None
         self._changed = False
-        self._file = SessionFile(session)
+        self._file = SessionFile(session, lock=autosave and read_only is None)
 
     @property
     def session(self) -> Session:
@@ -117,14 +124,23 @@ class EditorCore:
             return self._session.mirrors[self._index(mirror_id)]
 
     def replace_session(self, session: Session) -> None:
-        """Open another session (the undo history is dropped) and tell the listeners.
+        """Open another session, autosaved (the undo history is dropped), and tell the listeners.
+
+        Its folder is locked (see `claim`), the previous one's let go.
 
         Parameters
         ----------
         session : Session
+
+        Raises
+        ------
+        SessionLocked
+            Another editor holds its folder; nothing changed.
         """
         with self._lock:
+            self._file.take(session)
             self._open(session)
+            self.autosave, self.read_only = True, None
             self._changed = False
         self._tell(session)
 
@@ -310,6 +326,7 @@ class EditorCore:
 
         Its `after` (redo) or `before` (undo) is put back.
         """
+        self._writable()
         label = self._label(scope, redo)
         moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
         if not moved:
@@ -348,6 +365,7 @@ class EditorCore:
 
         `save` is False for one of several steps that the last saves.
         """
+        self._writable()
         # the limits of a session that is read: past them it would not reopen
         check_limits(session)
         self._history.record(scope, step)
@@ -355,14 +373,10 @@ class EditorCore:
         self._save_and_notify(save)
 
     def _save_and_notify(self, save: bool = True) -> None:
-        """Autosave (unless `save` is False) and mark the session changed."""
-        self.last_save_error = None
-        if self.autosave and save:
-            try:
-                save_session(self._session)
-            except OSError as exc:
-                # the previous file is intact (atomic write): say so and go on
-                self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
-            self._file.written(self._session)
-        self._changed = True
+        """Autosave (unless `save` is False) and mark the session changed.
 
+        A failed save keeps the session in memory (`last_save_error`).
+        """
+        if self.autosave and save:
+            self._file.save(self._session)
+        self._changed = True
