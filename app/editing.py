@@ -48,6 +48,7 @@ def edits(method):
         try:
             with self._lock:
                 try:
+                    self._writable()
                     message, reloaded = self._reload_external()
                     if reloaded:
                         raise MirrorscanError(f"{message}; this change was not made: make it again")
@@ -326,7 +327,6 @@ class EditorCore(SavedEdits):
 
         Its `after` (redo) or `before` (undo) is put back.
         """
-        self._writable()
         label = self._label(scope, redo)
         moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
         if not moved:
@@ -365,7 +365,6 @@ class EditorCore(SavedEdits):
 
         `save` is False for one of several steps that the last saves.
         """
-        self._writable()
         # the limits of a session that is read: past them it would not reopen
         check_limits(session)
         self._history.record(scope, step)

@@ -108,6 +108,12 @@ class LastingNote:
         """(title, message, kind) while it is shown, else None."""
         return self._shown
 
+    @property
+    def tabs(self) -> set[int]:
+        """The client ids of the tabs that show it."""
+        with self._lock:
+            return set(self._notes)
+
     def set(self, note: tuple[str, str, str] | None) -> None:
         """Show it on every tab (replacing what it said), unless it says that already.
 

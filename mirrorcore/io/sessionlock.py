@@ -104,9 +104,10 @@ class SessionLock:
     """
 
     def __init__(self, folder: str | Path, command: str):
+        self._fd: int | None = None
         self.folder = Path(folder)
         self.holder = Holder(command, os.getpid(), socket.gethostname(), time.time())
-        self._fd: int | None = _take(self.folder / LOCK_FILE)
+        self._fd = _take(self.folder / LOCK_FILE)
         line = json.dumps({"command": command, "pid": self.holder.pid,
                            "host": self.holder.host, "since": self.holder.since}) + "\n"
         os.ftruncate(self._fd, 0)
