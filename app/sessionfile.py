@@ -270,7 +270,7 @@ class SavedEdits:
     def _writable(self) -> None:
         """Refuse an edit of a session open read-only, naming why."""
         if self.read_only is not None:
-            raise MirrorscanError(f"not changed: this session is open read-only ({self.read_only})")
+            raise MirrorscanError(f"not changed: the session is open read-only ({self.read_only})")
 
 
 def keep_elsewhere(session: Session) -> Path | None:

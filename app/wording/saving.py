@@ -26,7 +26,7 @@ def unsaved(root: str | Path, error: str) -> Message:
     Message
     """
     reason = error.rsplit(": ", 1)[-1]
-    return Message(f"**Not saved** ({reason}): your edits are kept in memory and saved when the "
+    return Message(f"Not saved ({reason}): your edits are kept in memory and saved when the "
                    "disk allows; free space, or *Save elsewhere* below.",
                    (f"folder `{root}`", f"error: {error}"))
 

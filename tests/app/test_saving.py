@@ -54,7 +54,7 @@ def test_a_failed_save_stays_on_every_tab_and_in_the_header_until_a_save_works(a
                 header = headless.tab.header.title.content
                 assert "⚠ **not saved**: edits kept in memory" in header, header
                 session = panel(headless.tab, SessionPanel)
-                assert "**Not saved** (No space left on device)" in session.where.content
+                assert "Not saved (No space left on device)" in session.where.content
                 assert session.save_elsewhere.visible
         # a later edit and the retry fail too: the edit stays in memory, the file as it was
         app.editor.add_mirror("middle")
@@ -143,7 +143,7 @@ def test_a_session_open_read_only_refuses_every_edit_and_says_so(tmp_path):
             with HeadlessTab(app) as headless:
                 with pytest.raises(MirrorscanError) as refused:
                     app.editor.add_mirror()
-                assert str(refused.value) == f"not changed: this session is open read-only ({why})"
+                assert str(refused.value) == f"not changed: the session is open read-only ({why})"
                 assert app.unsaved.shown[0] == "Session open read-only"
                 assert "⚠ **read-only**" in headless.tab.header.title.content
                 assert panel(headless.tab, SessionPanel).save_elsewhere.visible

@@ -79,7 +79,7 @@ def test_a_second_serve_opens_the_session_read_only_and_no_edit_is_lost(session,
             for served, who in ((first, "a"), (second, "b")):
                 answers[served].append(served.say(f"add {who}{i}"))
         assert all(a.startswith("ok") for a in answers[first]), answers[first]
-        refused = f"refused not changed: this session is open read-only ({session} is being " \
+        refused = f"refused not changed: the session is open read-only ({session} is being " \
                   f"edited by mirrorscan serve (pid {first.process.pid}, since "
         assert all(a.startswith(refused) for a in answers[second]), answers[second][0]
         assert second.state()["note"][0] == "Session open read-only"
