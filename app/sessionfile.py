@@ -74,6 +74,9 @@ class SessionFile:
         self.stamp = stamp(session.path)
         self.error: str | None = None
         self._tried = 0.0           # time.monotonic() of the last save that failed
+        if lock and not Path(session.root).exists():
+            # a new session, saved at its first change
+            Path(session.root).mkdir(parents=True)
         self._held = SessionLock(session.root, EDITOR) if lock else None
         self._claimed: SessionLock | None = None
 

@@ -223,7 +223,7 @@ def test_a_session_on_a_read_only_disk_is_served_read_only_and_says_so(session, 
         try:
             why = served.state()["read_only"]
             assert why == f"{disk}: cannot be locked for editing (Read-only file system)"
-            assert served.say("add left") == f"refused not changed: this session is open " \
+            assert served.say("add left") == f"refused not changed: the session is open " \
                                              f"read-only ({why})"
             assert f"mirrorscan serve: stopped; {disk} was open read-only: nothing was written " \
                    "to it" in served.stop()
