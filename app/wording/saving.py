@@ -26,8 +26,8 @@ def unsaved(root: str | Path, error: str) -> Message:
     Message
     """
     reason = error.rsplit(": ", 1)[-1]
-    return Message(f"Not saved ({reason}): your edits are kept in memory and saved when the "
-                   "disk allows; free space, or *Save elsewhere* below.",
+    return Message(f"Not saved ({reason}): edits are kept in memory and saved when the disk "
+                   "allows; free space, or *Save elsewhere* below.",
                    (f"folder `{root}`", f"error: {error}"))
 
 

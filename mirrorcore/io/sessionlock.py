@@ -110,8 +110,12 @@ class SessionLock:
         self._fd = _take(self.folder / LOCK_FILE)
         line = json.dumps({"command": command, "pid": self.holder.pid,
                            "host": self.holder.host, "since": self.holder.since}) + "\n"
-        os.ftruncate(self._fd, 0)
-        os.pwrite(self._fd, line.encode("utf-8"), 0)
+        try:
+            os.ftruncate(self._fd, 0)
+            os.pwrite(self._fd, line.encode("utf-8"), 0)
+        except OSError:
+            # a full disk: held all the same, its holder unnamed ("another program")
+            pass
 
     @property
     def held(self) -> bool:

@@ -13,6 +13,8 @@ from mirrorscan.demo import demo_source
 from mirrorscan.editor import SessionEditor
 from mirrorscan.panels.session import SessionPanel
 from mirrorscan.server import MirrorscanApp
+from mirrorscan.wording import HEADLINE_WORDS, words
+from mirrorscan.wording.saving import read_only, unsaved
 
 import mirrorcore.io.sessionfile as sessionfile
 from mirrorcore.base.errors import MirrorscanError
@@ -162,3 +164,14 @@ def test_opening_a_session_another_program_edits_is_refused_and_nothing_changes(
     app.open_session(load_session(other))
     assert app.editor.session.root == other
     SessionLock(tmp_path / "scan", "test").release()
+
+
+def test_what_is_said_of_saving_leads_with_a_short_headline(tmp_path):
+    for reason in ("No space left on device", "Read-only file system", "Disk quota exceeded"):
+        message = unsaved(tmp_path, f"{tmp_path}/session.json: {reason}")
+        assert message.headline.startswith(f"Not saved ({reason}): edits are kept in memory")
+        assert words(message.headline) <= HEADLINE_WORDS, message.headline
+    with SessionLock(tmp_path, "mirrorscan calibrate") as held:
+        why = str(SessionLocked(tmp_path, held.holder))
+    assert words(read_only(why).headline) <= HEADLINE_WORDS
+    assert why in read_only(why).details[0]
