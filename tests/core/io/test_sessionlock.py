@@ -7,6 +7,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -17,6 +18,7 @@ from mirrorcore.io.sessionfile import copy_session, save_session
 from mirrorcore.io.sessionlock import (LOCK_FILE, SessionLock, SessionLocked, SessionUnwritable,
                                        lock_holder)
 
+ROOT = Path(__file__).resolve().parents[3]
 HOLD = """
 import sys, time
 from mirrorcore.io.sessionlock import SessionLock
@@ -42,7 +44,7 @@ def test_a_second_lock_in_the_same_process_is_refused_naming_the_first(tmp_path)
 
 def test_a_lock_of_another_process_is_refused_until_the_kernel_drops_it_with_its_holder(tmp_path):
     holder = subprocess.Popen([sys.executable, "-c", HOLD, str(tmp_path)], stdout=subprocess.PIPE,
-                              text=True, env={**os.environ, "PYTHONPATH": os.getcwd()})
+                              text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
     try:
         assert holder.stdout.readline() == "held\n"
         with pytest.raises(SessionLocked, match=re.escape(
