@@ -23,11 +23,11 @@ from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror
-from mirrorcore.io.sessionfile import save_session
 from mirrorcore.io.limits import check_limits
 
 from .guards import StaleEdit, check_drawn, drawn_moves_to
-from .sessionfile import SessionFile
+from .history import HistoryView
+from .sessionfile import SavedEdits, SessionFile
 from .undo import SESSION_SCOPE, History, Step, inverse, restore, touched
 
 
@@ -56,6 +56,7 @@ def edits(method):
         try:
             with self._lock:
                 try:
+                    self._writable()
                     message, reloaded = self._reload_external()
                     if reloaded:
                         raise MirrorscanError(f"{message}; this change was not made: make it again")
@@ -70,7 +71,7 @@ def edits(method):
     return wrapper
 
 
-class EditorCore:
+class EditorCore(SavedEdits, HistoryView):
     """A session under edit: its lock, undo history, autosave and listeners.
 
     Parameters
@@ -78,27 +79,35 @@ class EditorCore:
     session : Session
         The session to edit.
     autosave : bool, optional
-        Save it after every change.
+        Save it after every change; its folder is then locked until `close`.
+    read_only : str, optional
+        Why it is open read-only (another program edits it): its folder is not locked and every
+        edit is refused with this reason.
 
     Attributes
     ----------
     autosave : bool
         Save it after every change.
     listeners : list of callable
-        Called with the session after every change.
-    last_save_error : str or None
-        Why the last save failed (the previous file is intact), else None.
+        Called with the session after every change, and when saving fails or works again.
+    read_only : str or None
+        As given; None once another session is opened.
+
+    Raises
+    ------
+    SessionLocked
+        Another editor (in this process or another) holds the session's folder.
     """
 
-    def __init__(self, session: Session, autosave: bool = True):
+    def __init__(self, session: Session, autosave: bool = True, read_only: str | None = None):
         self._lock = threading.RLock()
         self._session = session
         self._history = History()
         self.autosave = autosave
+        self.read_only = read_only
         self.listeners: list[Callable[[Session], None]] = []
-        self.last_save_error: str | None = None
         self._changed = False
-        self._file = SessionFile(session)
+        self._file = SessionFile(session, lock=autosave and read_only is None)
 
     @property
     def session(self) -> Session:
@@ -126,14 +135,23 @@ class EditorCore:
             return self._session.mirrors[self._index(mirror_id)]
 
     def replace_session(self, session: Session) -> None:
-        """Open another session (the undo history is dropped) and tell the listeners.
+        """Open another session, autosaved (the undo history is dropped), and tell the listeners.
+
+        Its folder is locked (see `claim`), the previous one's let go.
 
         Parameters
         ----------
         session : Session
+
+        Raises
+        ------
+        SessionLocked
+            Another editor holds its folder; nothing changed.
         """
         with self._lock:
+            self._file.take(session)
             self._open(session)
+            self.autosave, self.read_only = True, None
             self._changed = False
         self._tell(session)
 
@@ -185,108 +203,6 @@ class EditorCore:
         return message, True
 
     # ------------------------------------------------------------------ undo and redo
-    def travel_scope(self, mirror_id: int | None, redo: bool = False) -> int:
-        """Where undo (or redo) acts for the selected mirror: its own history or the session's.
-
-        Parameters
-        ----------
-        mirror_id : int or None
-            The selected mirror.
-        redo : bool, optional
-            For redo rather than undo.
-
-        Returns
-        -------
-        int
-            A mirror id, or SESSION_SCOPE (see `History.scope`).
-        """
-        with self._lock:
-            return self._history.scope(mirror_id, redo)
-
-    def undo_label(self, scope: int) -> str | None:
-        """What undo in this scope would take back.
-
-        Parameters
-        ----------
-        scope : int
-            A mirror id, or SESSION_SCOPE.
-
-        Returns
-        -------
-        str or None
-            None when there is nothing to undo.
-        """
-        with self._lock:
-            return self._label(scope, redo=False)
-
-    def redo_label(self, scope: int) -> str | None:
-        """What redo in this scope would put back.
-
-        Parameters
-        ----------
-        scope : int
-            A mirror id, or SESSION_SCOPE.
-
-        Returns
-        -------
-        str or None
-            None when there is nothing to redo.
-        """
-        with self._lock:
-            return self._label(scope, redo=True)
-
-    def _label(self, scope: int, redo: bool) -> str | None:
-        """What undo or redo in `scope` would move, or None."""
-        ids = [m.id for m in self._session.mirrors]
-        return self._history.label(scope, redo, ids, lambda i: self.mirror(i).name)
-
-    def glass_unused(self, mirror_id: int) -> bool:
-        """Whether the mirror's glass was typed in after its plane was set (History.glass_unused).
-
-        Parameters
-        ----------
-        mirror_id : int
-
-        Returns
-        -------
-        bool
-        """
-        with self._lock:
-            return self._history.glass_unused(mirror_id)
-
-    def fitted_on_its_markers(self, mirror_id: int) -> bool:
-        """Whether the mirror's plane was set by a markers fit of this editor on what it has now.
-
-        On the markers, boundary, region and glass it has now: a fit of them again only refits them
-        on other frames.
-
-        Parameters
-        ----------
-        mirror_id : int
-
-        Returns
-        -------
-        bool
-        """
-        with self._lock:
-            now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
-            return self._history.fitted_on(mirror_id, now)
-
-    def removal(self, scope: int, redo: bool = False) -> SessionMirror | None:
-        """The mirror that undo (or redo) in `scope` would remove, as it now is, else None.
-
-        Parameters
-        ----------
-        scope : int
-            A mirror id, or SESSION_SCOPE.
-        redo : bool, optional
-            For redo rather than undo.
-        """
-        with self._lock:
-            ids = [m.id for m in self._session.mirrors]
-            mirror_id = self._history.removal(scope, redo, ids)
-            return None if mirror_id is None else self._session.mirrors[ids.index(mirror_id)]
-
     @edits
     def undo(self, scope: int) -> str:
         """Take back the last change in a scope.
@@ -383,14 +299,10 @@ class EditorCore:
         self._save_and_notify(save)
 
     def _save_and_notify(self, save: bool = True) -> None:
-        """Autosave (unless `save` is False) and mark the session changed."""
-        self.last_save_error = None
-        if self.autosave and save:
-            try:
-                save_session(self._session)
-            except OSError as exc:
-                # the previous file is intact (atomic write): say so and go on
-                self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
-            self._file.written(self._session)
-        self._changed = True
+        """Autosave (unless `save` is False) and mark the session changed.
 
+        A failed save keeps the session in memory (`last_save_error`).
+        """
+        if self.autosave and save:
+            self._file.save(self._session)
+        self._changed = True

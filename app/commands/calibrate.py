@@ -17,6 +17,7 @@ from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement
 from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import load_session, save_session
+from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 
@@ -122,6 +123,13 @@ def run(args: argparse.Namespace) -> int:
         When the session has no mirrors, --refine-with is given without --refine or --method
         scene, or mirrors could not be calibrated (the planes found are written first).
     """
+    # one writer at a time: refused while another program edits the session
+    with SessionLock(args.session, "mirrorscan calibrate"):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """`run` under the session's lock."""
     session = load_session(args.session)
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")

@@ -26,10 +26,12 @@ from mirrorcore.depth.files import write_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.io.session import BACKGROUND_FILE, Session
 from mirrorcore.io.sessionfile import save_session
+from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.sources.base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"
 COLOUR_NAME = "frames/{:06d}_colour.png"
+RECORDER = "mirrorscan record"     # who holds a recording's lock
 SAVE_EVERY_S = 1.0          # session.json is rewritten this often while recording (and at the end)
 
 
@@ -72,6 +74,15 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
     limit = min(n for n in (frames, source.frame_count, float("inf")) if n is not None)
     created = not folder.exists()
     (folder / "frames").mkdir(parents=True, exist_ok=True)
+    # one writer at a time: no editor opens it while it records
+    with SessionLock(folder, RECORDER):
+        return _record(source, folder, seconds, progress, cancel, created, limit)
+
+
+def _record(source: DepthSource, folder: Path, seconds: float | None,
+            progress: Callable[[int, Frame], None], cancel: Callable[[], bool], created: bool,
+            limit: float) -> Session:
+    """`record` under the folder's lock."""
     take = _Take(source, folder)
     try:
         take.save()
