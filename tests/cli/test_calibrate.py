@@ -272,7 +272,8 @@ def test_refine_alone_fits_the_mirrors_without_a_plane_from_their_markers_first(
     capsys.readouterr()
     run_ok("calibrate", session, "--refine", "--frame", 0, "--quiet")
     out = headlines(capsys.readouterr().out)
-    assert out[0].startswith("mirror 1: ") and "plane refined" in out[1] and "plane refined" in out[2]
+    assert out[0].startswith("mirror 1: ")
+    assert "plane refined" in out[1] and "plane refined" in out[2]
 
 
 def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
@@ -283,7 +284,8 @@ def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
     # no plane and no markers: the markers fit that --refine starts with refuses
     assert main(["calibrate", str(session), "--refine"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and err.endswith("mirror 1: 0 usable marker(s) of 0, 3 are needed"), err
+    assert len(err.splitlines()) == 1, err
+    assert err.endswith("mirror 1: 0 usable marker(s) of 0, 3 are needed"), err
     box = tmp_path / "box"
     run_ok("simulate", box, "--object", "box", "--quiet")
     run_ok("calibrate", box)
