@@ -73,7 +73,11 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status: the command's, 2 after an error, 130 after Ctrl-C.
     """
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    # a refusal of the parser (printed in one line) or --help
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         if args.memory is not None:
             set_memory_budget(args.memory)
