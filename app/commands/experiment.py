@@ -44,13 +44,19 @@ def register(sub) -> None:
         help="output prefix: writes PREFIX.csv and PREFIX.png (default experiment-NAME)",
     )
     p.add_argument(
-        "--seeds", type=whole(1), default=3, help="angle, distance: noise seeds per point (default 3)"
+        "--seeds",
+        type=whole(1),
+        default=3,
+        help="angle, distance: noise seeds per point (default 3)",
     )
     p.add_argument(
         "--neighbours", type=whole(1), default=2, help="temporal: frames on each side (default 2)"
     )
     p.add_argument(
-        "--frames", type=whole(1), default=30, help="temporal: frames measured (default 30, one stride)"
+        "--frames",
+        type=whole(1),
+        default=30,
+        help="temporal: frames measured (default 30, one stride)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)

@@ -248,7 +248,8 @@ def run_dense(
 ) -> int:
     """Carve or fuse the frames from `index` on (mirrorcore.dense) with a progress bar.
 
-    Ctrl-C cancels; nothing is written then.
+    The bar is cleared at the end (a refusal stays one line); Ctrl-C cancels, nothing is
+    written then.
 
     Parameters
     ----------
@@ -295,7 +296,11 @@ def run_dense(
     volume = dense_volume(rig, depths[0], masks[0], options)
     with (
         tqdm(
-            total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}"
+            total=1.0,
+            desc=args.method,
+            unit="volume",
+            leave=False,
+            bar_format="{l_bar}{bar}| {elapsed}",
         ) as bar,
         ctrl_c_cancels() as cancel,
     ):

@@ -1,6 +1,9 @@
-"""What a batch's frames were made from: each frame's depth file as a SHA-256 of its bytes, with its
-size and modification time so that a rerun hashes only the files that changed (as rsync decides),
-and the session's identity, a SHA-256 of its calibration and other inputs and its frames' digests."""
+"""What a batch's frames were made from.
+
+Each frame's depth file as a SHA-256 of its bytes, with its size and modification time so that a
+rerun hashes only the files that changed (as rsync decides); the session's identity, a SHA-256 of
+its calibration and other inputs and its frames' digests.
+"""
 from __future__ import annotations
 
 import hashlib

@@ -1,7 +1,10 @@
-"""An existing Dask scheduler's address, checked before Dask is handed it: its form ('tcp://HOST:PORT'
-or 'HOST:PORT'), then a probe that connects and reads the handshake a Dask scheduler sends first,
-within a few seconds and stopping at once on a cancel request (Dask's own client waits on a silent
-peer for its whole timeout, and reads an HTTP answer as a frame length of exbibytes)."""
+"""An existing Dask scheduler's address, checked before Dask is handed it.
+
+Its form ('tcp://HOST:PORT' or 'HOST:PORT'), then a probe that connects and reads the handshake a
+Dask scheduler sends first, within a few seconds and stopping at once on a cancel request (Dask's
+own client waits on a silent peer for its whole timeout, and reads an HTTP answer as a frame
+length of exbibytes).
+"""
 from __future__ import annotations
 
 import errno
