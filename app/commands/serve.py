@@ -19,6 +19,7 @@ from mirrorcore.sources import DepthSource, open_source
 from ..demo import calibrated_session, demo_source
 from ..security import install_log_filter, is_loopback
 from ..server import MirrorscanApp
+from .numbers import whole
 from .reconstruct import add_bounces_option
 from .record import STOP_SIGNALS
 
@@ -51,7 +52,10 @@ def register(sub) -> None:
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     p.add_argument(
-        "--port", type=int, default=8080, help="port (default 8080; the next free one if taken)"
+        "--port",
+        type=whole(0, 65535),
+        default=8080,
+        help="port (default 8080; the next free one if taken)",
     )
     p.add_argument(
         "--token",

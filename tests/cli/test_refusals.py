@@ -88,6 +88,7 @@ def test_simulate_refuses_numbers_out_of_range(tmp_path, capsys, argv, option):
     (["experiment", "temporal", "--neighbours", "0"], "--neighbours: expected a whole number >= 1"),
     (["experiment", "angle", "--seeds", "0"], "--seeds: expected a whole number >= 1, got 0"),
     (["reconstruct", "s", "-o", "x.ply", "--frames", "two"], "--frames: expected a whole number"),
+    (["serve", "--port", "99999"], "--port: expected a whole number from 0 to 65535, got 99999"),
 ])
 def test_other_numbers_are_refused_where_parsed(tmp_path, capsys, monkeypatch, argv, option):
     monkeypatch.chdir(tmp_path)
