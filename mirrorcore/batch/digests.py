@@ -55,7 +55,7 @@ class DepthStamp:
 
 
 def depth_stamps(files: Sequence[Path], known: Mapping[int, DepthStamp] | None = None
-                 ) -> list[DepthStamp]:
+                 ) -> list[DepthStamp | None]:
     """Return the stamp of every depth file, hashing only those whose size or time changed.
 
     Parameters
@@ -68,17 +68,13 @@ def depth_stamps(files: Sequence[Path], known: Mapping[int, DepthStamp] | None =
 
     Returns
     -------
-    list of DepthStamp
-        One per file.
-
-    Raises
-    ------
-    FileFormatError
-        A file is missing or unreadable, named.
+    list of DepthStamp or None
+        One per file; None for a file that is missing or cannot be read (its frame fails when it
+        is reconstructed, with the error).
     """
     known = known or {}
 
-    def stamp(index: int) -> DepthStamp:
+    def stamp(index: int) -> DepthStamp | None:
         path = files[index]
         try:
             info = path.stat()
@@ -86,8 +82,8 @@ def depth_stamps(files: Sequence[Path], known: Mapping[int, DepthStamp] | None =
             if old is not None and (old.size, old.mtime_ns) == (info.st_size, info.st_mtime_ns):
                 return old
             digest = hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError as exc:
-            raise FileFormatError(f"{path}: {exc.strerror or exc}") from None
+        except OSError:
+            return None
         return DepthStamp(digest, info.st_size, info.st_mtime_ns)
 
     threads = min(HASH_THREADS, os.cpu_count() or 1)
@@ -95,22 +91,23 @@ def depth_stamps(files: Sequence[Path], known: Mapping[int, DepthStamp] | None =
         return list(pool.map(stamp, range(len(files))))
 
 
-def session_digest(inputs: dict, stamps: Sequence[DepthStamp]) -> str:
+def session_digest(inputs: dict, stamps: Sequence[DepthStamp | None]) -> str:
     """Return the identity of a session's contents.
 
     The SHA-256 of what the output depends on in it (job.session_inputs: the calibration, the
-    selection, the background's digest, the frame list) and of its frames' digests, in order.
+    selection, the background's digest, the frame list) and of its frames' digests, in order (an
+    empty line for a file that cannot be read).
 
     Parameters
     ----------
     inputs : dict
         JSON.
-    stamps : sequence of DepthStamp
+    stamps : sequence of DepthStamp or None
 
     Returns
     -------
     str
         Hex.
     """
-    text = json.dumps(inputs, sort_keys=True) + "\n" + "\n".join(s.sha256 for s in stamps)
+    text = json.dumps(inputs, sort_keys=True) + "\n" + "\n".join("" if s is None else s.sha256 for s in stamps)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

@@ -1,11 +1,12 @@
-"""The output folder of a batch: one PLY file per frame and manifest.json (the session, the method
-and its options, what the output depends on in the session, every frame done with its counts and
-time, the frames that failed), written atomically; a lock so that one run at a time writes into it;
-the frames of an earlier run that can be kept.
+"""The output folder of a batch: one PLY file per frame and manifest.json (the session and the
+identity of its contents, the method and its options, what the output depends on in the session,
+every frame done with its counts, time and depth file's digest, the frames that failed), written
+atomically; a lock so that one run at a time writes into it; the frames of an earlier run that can
+be kept.
 
-A frame is done when the manifest lists it and its file is there with the size and the element
-counts the manifest gives (a file is only ever replaced whole, so this finds files removed or
-replaced since). Frames written by a run that was killed before it wrote them into the manifest are
+A frame is done when the manifest lists it, its file is there with the size and the element counts
+the manifest gives (a file is only ever replaced whole, so this finds files removed or replaced
+since) and the depth files it was made from still have the digests the manifest gives. Frames written by a run that was killed before it wrote them into the manifest are
 simply done again.
 """
 from __future__ import annotations
@@ -168,8 +169,8 @@ class OutputFolder:
 
     Attributes
     ----------
-    depths : list of DepthStamp
-        Each frame's depth file as hashed now.
+    depths : list of DepthStamp or None
+        Each frame's depth file as hashed now (None: it cannot be read).
 
     Raises
     ------
@@ -177,8 +178,6 @@ class OutputFolder:
         One line: a folder that holds other files and no manifest, a folder another run is writing
         into, or a manifest of another session or made with other settings or inputs unless
         `overwrite`.
-    FileFormatError
-        A depth file is missing or unreadable.
     """
 
     def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
@@ -247,7 +246,7 @@ class OutputFolder:
         def unchanged(index: int) -> bool:
             if old.done[index].depth is None:
                 return True
-            return all(j in old.done and old.done[j].depth is not None
+            return all(j in old.done and None not in (old.done[j].depth, self.depths[j])
                        and old.done[j].depth.sha256 == self.depths[j].sha256
                        for j in frame_window(index, temporal, len(names)))
 

@@ -88,6 +88,13 @@ def test_a_changed_depth_file_redoes_the_frames_made_from_it(sessions, tmp_path,
     assert [i for i in after if after[i] != before[i]] == [7]
 
 
+def test_a_missing_depth_file_fails_its_frame_and_the_others_go_on(sessions, tmp_path):
+    a, _ = sessions
+    (a / load_session(a).frames[4]).unlink()
+    report = run_batch(BatchJob(a, tmp_path / "out"), IN_PROCESS)
+    assert list(report.failed) == [4] and report.written == FRAMES - 1
+
+
 def test_a_rerun_hashes_only_the_files_that_changed(sessions, tmp_path, monkeypatch):
     a, _ = sessions
     out = tmp_path / "out"
