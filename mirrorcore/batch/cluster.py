@@ -120,7 +120,7 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool, cancel=Non
     dashboard : bool
         Serve the dashboard of a local cluster.
     cancel : threading.Event or callable, optional
-        Stops the wait for an existing cluster's scheduler and first worker.
+        Stops the wait for an existing cluster's first worker.
 
     Yields
     ------
@@ -132,7 +132,7 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool, cancel=Non
     MirrorscanError
         One line: no Dask client could connect to `scheduler`, or it has no workers.
     Cancelled
-        A cancel request while connecting.
+        A cancel request while waiting for an existing cluster's first worker.
     """
     if scheduler is not None:
         try:
