@@ -109,5 +109,6 @@ def session_digest(inputs: dict, stamps: Sequence[DepthStamp | None]) -> str:
     str
         Hex.
     """
-    text = json.dumps(inputs, sort_keys=True) + "\n" + "\n".join("" if s is None else s.sha256 for s in stamps)
+    frames = "\n".join("" if s is None else s.sha256 for s in stamps)
+    text = json.dumps(inputs, sort_keys=True) + "\n" + frames
     return hashlib.sha256(text.encode("utf-8")).hexdigest()

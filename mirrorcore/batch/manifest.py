@@ -6,8 +6,8 @@ be kept.
 
 A frame is done when the manifest lists it, its file is there with the size and the element counts
 the manifest gives (a file is only ever replaced whole, so this finds files removed or replaced
-since) and the depth files it was made from still have the digests the manifest gives. Frames written by a run that was killed before it wrote them into the manifest are
-simply done again.
+since) and the depth files it was made from still have the digests the manifest gives. Frames
+written by a run that was killed before it wrote them into the manifest are simply done again.
 """
 from __future__ import annotations
 
