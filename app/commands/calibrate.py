@@ -22,6 +22,7 @@ from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 
 from . import percent_bar, wording
+from .numbers import seed
 
 
 def register(sub) -> None:
@@ -67,7 +68,7 @@ def register(sub) -> None:
         "without one); surfaces: any object's shared surfaces; auto (default): sphere if every "
         "view sees one",
     )
-    p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
+    p.add_argument("--seed", type=seed, default=0, help="RANSAC and search seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 

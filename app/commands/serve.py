@@ -22,6 +22,7 @@ from ..editing import EditorCore
 from ..sessionfile import EDITOR, keep_elsewhere
 from ..security import install_log_filter, is_loopback
 from ..server import MirrorscanApp
+from .numbers import whole
 from .reconstruct import add_bounces_option
 from .record import STOP_SIGNALS
 
@@ -54,7 +55,10 @@ def register(sub) -> None:
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     p.add_argument(
-        "--port", type=int, default=8080, help="port (default 8080; the next free one if taken)"
+        "--port",
+        type=whole(0, 65535),
+        default=8080,
+        help="port (default 8080; the next free one if taken)",
     )
     p.add_argument(
         "--token",

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
+from mirrorcore.batch.scheduler import scheduler_address
 from mirrorcore.dense.volume import cancel_requested
 
 # local worker processes a core may have: more only wait for the cores and take memory
@@ -25,7 +26,7 @@ class Where:
         Local worker processes (default: one per core; 1 runs in this process, without Dask; at
         most `max_workers()`).
     scheduler : str or None
-        The address of an existing Dask cluster ('tcp://HOST:8786') instead.
+        The address of an existing Dask cluster ('tcp://HOST:8786' or 'HOST:8786') instead.
     dashboard : bool
         Serve the Dask dashboard of a local cluster.
     """
@@ -35,6 +36,8 @@ class Where:
     dashboard: bool = True
 
     def __post_init__(self) -> None:
+        if self.scheduler is not None:
+            scheduler_address(self.scheduler)
         if self.workers is not None and self.workers < 1:
             raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
         if self.workers is not None and self.workers > max_workers():
@@ -70,13 +73,21 @@ def max_workers() -> int:
 
 @contextmanager
 def task_executor(where: Where, context: FrameContext, cancel) -> Iterator:
-    """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
+    """Yield the executor of `where`: in this process, or on a Dask cluster closed after.
+
+    Raises
+    ------
+    MirrorscanError
+        An existing cluster without workers.
+    Cancelled
+        A cancel request while waiting for them.
+    """
     if where.in_process:
         yield _InProcess(context, cancel)
         return
     # distributed is imported only when used
     from mirrorcore.batch.cluster import DaskExecutor, dask_client
-    with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
+    with dask_client(where.local_workers, where.scheduler, where.dashboard, cancel) as client:
         local = where.scheduler is None
         executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
         try:

@@ -54,9 +54,9 @@ def test_workers_past_the_machine_are_refused_before_any_process_starts(recordin
 
 def test_simulate_and_record_refuse_more_frames_than_a_session_holds(tmp_path, capsys):
     refused(capsys, ["simulate", tmp_path / "sim", "--frames", 2_000_000, "--quiet"],
-            f"--frames: at most {MAX_FRAMES:,} (the frames a session may hold), got 2,000,000")
+            f"--frames: expected a whole number from 1 to {MAX_FRAMES:,}, got 2000000")
     refused(capsys, ["record", "sim", tmp_path / "rec", "--frames", MAX_FRAMES + 1,
-                     "--quiet"], f"--frames: at most {MAX_FRAMES:,}")
+                     "--quiet"], f"--frames: expected a whole number from 1 to {MAX_FRAMES:,}")
     assert not (tmp_path / "sim").exists() and not (tmp_path / "rec").exists()
 
 
