@@ -5,10 +5,10 @@ progress, time left and a cancel. One recording and one batch at a time, shared 
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from mirrorcore.batch import BATCH_METHODS
+from mirrorcore.batch.executor import cores
 from mirrorcore.dense import DenseOptions
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.fields import shown
@@ -89,7 +89,7 @@ class RecordPanel:
             )
 
             self.workers = gui.add_slider(
-                "Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1, initial_value=1
+                "Worker processes", min=1, max=cores(), step=1, initial_value=1
             )
             self.batch = gui.add_button(batch_label(self.services.editor.session))
             self.batch_cancel = gui.add_button("Cancel the batch", visible=False)

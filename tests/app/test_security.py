@@ -251,8 +251,7 @@ def test_a_new_token_never_begins_with_a_dash(monkeypatch):
 # --------------------------------------------------------------------- sizes
 def test_an_upload_is_refused_from_its_declared_size_before_its_parts(app):
     """A tab uploads to its own Session step's button: declared too large, or sending more than it
-    declared, its parts are dropped as they come (at most one part is ever held) and the tab is
-    told."""
+    declared, its parts are dropped as they come (none is stored) and the tab is told."""
     with HeadlessTab(app) as headless:
         client = headless.tab.client
         panel = next(p for p in headless.tab.panels if isinstance(p, SessionPanel))
