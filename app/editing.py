@@ -23,7 +23,7 @@ from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror
-from mirrorcore.io.limits import check_limits
+from mirrorcore.io.sessionfile import check_session
 
 from .guards import StaleEdit, check_drawn, drawn_moves_to
 from .history import HistoryView
@@ -292,8 +292,8 @@ class EditorCore(SavedEdits, HistoryView):
         `save` is False for one of several steps that the last saves.
         """
         check_drawn(self._session, touched(scope, step.after))
-        # the limits of a session that is read: past them it would not reopen
-        check_limits(session)
+        # what the session reader would refuse (or read back otherwise) would not reopen
+        check_session(session, self._session)
         self._history.record(scope, step)
         self._session = session
         self._save_and_notify(save)

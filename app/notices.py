@@ -11,6 +11,8 @@ import viser
 
 from mirrorcore.base.errors import MirrorscanError
 
+from .markup import shown
+
 log = logging.getLogger("mirrorscan")
 # a notification's colour by its kind
 NOTE_COLOURS = {"error": "red", "warning": "orange", "info": "blue"}
@@ -79,7 +81,7 @@ class Notifier:
             log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
         seconds = RESULT_NOTE_SECONDS if stay else NOTE_SECONDS
-        notes = [target.add_notification(title, message, color=NOTE_COLOURS[kind],
+        notes = [target.add_notification(shown(title), shown(message), color=NOTE_COLOURS[kind],
                                          auto_close_seconds=seconds)
                  for target in targets]
         return notes[0] if client is not None else None

@@ -31,7 +31,6 @@ import secrets
 import socket
 import threading
 from dataclasses import dataclass, field
-from http.cookies import CookieError, SimpleCookie
 from urllib.parse import parse_qs, urlsplit
 
 import viser
@@ -150,13 +149,8 @@ class Guard:
         bool
         """
         given = parse_qs(urlsplit(request.path).query).get("token", [])
-        try:
-            cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
-        except CookieError:
-            cookie = SimpleCookie()
-        name = TOKEN_COOKIE.format(port=self.port)
-        if name in cookie:
-            given.append(cookie[name].value)
+        given += cookie_values(request.headers.get_all("Cookie"),
+                               TOKEN_COOKIE.format(port=self.port))
         given += [auth[7:].strip() for auth in request.headers.get_all("Authorization")
                   if auth.lower().startswith("bearer ")]
         return any(hmac.compare_digest(t.encode(), self.token.encode())
@@ -176,6 +170,35 @@ class Guard:
         """The Set-Cookie value that carries the token (30 days, HttpOnly, SameSite=Strict)."""
         return (f"{TOKEN_COOKIE.format(port=self.port)}={self.token}; HttpOnly; SameSite=Strict; "
                 "Path=/; Max-Age=2592000")
+
+
+def cookie_values(headers: list[str], name: str) -> list[str]:
+    """The values of every cookie called `name` in Cookie headers, read pair by pair.
+
+    Another application on the same host may set cookies that a strict parser refuses
+    (`prefs={"a":1}`): such a pair is skipped, never the whole header.
+
+    Parameters
+    ----------
+    headers : list of str
+        The Cookie headers' values.
+    name : str
+        The cookie's name.
+
+    Returns
+    -------
+    list of str
+        Its values (surrounding double quotes taken off), in order.
+    """
+    values = []
+    for pair in ";".join(headers).split(";"):
+        key, equals, value = pair.partition("=")
+        if equals and key.strip() == name:
+            value = value.strip()
+            if len(value) >= 2 and value[0] == value[-1] == '"':
+                value = value[1:-1]
+            values.append(value)
+    return values
 
 
 def new_token() -> str:

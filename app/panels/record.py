@@ -11,6 +11,7 @@ from mirrorcore.batch import BATCH_METHODS
 from mirrorcore.batch.executor import cores
 from mirrorcore.dense import DenseOptions
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.fields import shown
 from mirrorcore.io.session import Session
 from mirrorcore.sources import DepthSource, SessionSource
 
@@ -52,7 +53,8 @@ def batch_label(session: Session) -> str:
     """
     count = len(session.frames)
     frames = f"{count} frame{'s' if count != 1 else ''}"
-    return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
+    name = shown(Path(session.root).name)
+    return f"Reconstruct every frame of session {name} ({frames})"
 
 
 class RecordPanel:

@@ -27,6 +27,32 @@ CHOOSE = ""  # the Open list's first entry: nothing is opened by a stray click o
 MAX_UPLOAD_MB = 20  # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
 
 
+def session_names(sessions_dir: Path) -> tuple[list[str], int]:
+    """The names of the session folders in `sessions_dir` that can be opened, sorted.
+
+    Parameters
+    ----------
+    sessions_dir : Path
+
+    Returns
+    -------
+    names : list of str
+        Those that `session_folder` accepts.
+    skipped : int
+        How many others hold a session.json (names that are not UTF-8 among them, which the
+        browser could not be sent).
+    """
+    names, skipped = [], 0
+    for path in sessions_dir.glob(f"*/{SESSION_FILE}"):
+        try:
+            session_folder(sessions_dir, path.parent.name)
+        except MirrorscanError:
+            skipped += 1
+            continue
+        names.append(path.parent.name)
+    return sorted(names), skipped
+
+
 class SessionPanel:
     """The "Session" step of one tab (see the module docstring).
 
@@ -44,6 +70,8 @@ class SessionPanel:
         self.exported = gui.add_markdown("")
         self._root = self.services.editor.session.root  # the session the export line speaks of
         self.open_choice = gui.add_dropdown("Open", (CHOOSE,))
+        # the session folders left out of the Open list, said under it
+        self.skipped = gui.add_markdown("")
         self.open = gui.add_button("Open session")
         self.new_name = gui.add_text("Save as", "")
         self.save_as = gui.add_button("Save as new session")
@@ -94,12 +122,17 @@ class SessionPanel:
         # another session: the last export was another's
         if editor.session.root != self._root:
             self._root, self.exported.content = editor.session.root, ""
-        names = (
-            CHOOSE,
-            *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")),
+        names, skipped = session_names(self.services.sessions_dir)
+        if self.open_choice.options != (CHOOSE, *names):
+            self.open_choice.options = (CHOOSE, *names)
+        self.skipped.content = (
+            markdown(
+                f"Not listed: {skipped} session folder{'s' if skipped > 1 else ''} whose name has "
+                "more than letters, digits, spaces and _ - . (rename it to open it)"
+            )
+            if skipped
+            else ""
         )
-        if self.open_choice.options != names:
-            self.open_choice.options = names
 
     def _open(self) -> None:
         """Open the chosen session.

@@ -15,6 +15,7 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.camerafiles import load_open3d_json, load_opencv_yaml
 from mirrorcore.base.jsonfile import read_json
+from mirrorcore.io.fields import shown
 from mirrorcore.io.session import Session
 from mirrorcore.sources.base import DepthSource, Frame
 
@@ -22,6 +23,10 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
+# seconds: TUM stamps are Unix times (1.3e9 in the benchmark); 1e10 is the year 2286
+TUM_MAX_STAMP = 1e10
+# frames per second that a TUM list's stamps may imply: depth cameras deliver 1 to 100
+TUM_FPS_RANGE = (0.1, 1000.0)
 COLOUR_SAMPLES = 4   # 16-bit samples a pixel of the largest colour file (RGBA)
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
@@ -97,7 +102,8 @@ class SessionSource(ImageSequenceSource):
             stamps = np.arange(len(session.frames)) / fps
         colour = None if session.colour_frames is None else [root / c
                                                              for c in session.colour_frames]
-        super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
+        super().__init__(f"session {shown(root.name)}", session.camera,
+                         [root / f for f in session.frames],
                          np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
@@ -136,7 +142,7 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
     camera = camera or folder_camera(folder)
     if depth_scale is not None:
         camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
-    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths,
+    return ImageSequenceSource(f"PNG folder {shown(folder.name)}", camera, paths,
                                np.arange(len(paths)) / fps, fps=fps)
 
 
@@ -229,9 +235,39 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
         nearest = nearest_stamps(colour_stamps, depth_stamps)
         ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
         colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
-    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0],
-                                        1e-9) if len(depth_stamps) > 1 else 30.0
-    return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
+    fps = tum_rate(depth_stamps, folder / "depth.txt")
+    return ImageSequenceSource(f"TUM {shown(folder.name)}", camera, depth_paths, depth_stamps,
+                               colour, fps)
+
+
+def tum_rate(stamps: np.ndarray, where: Path) -> float:
+    """The frames per second that sorted TUM stamps imply (30 for a single frame).
+
+    Parameters
+    ----------
+    stamps : (N,) float64 array
+        Seconds, sorted.
+    where : Path
+        The list file, for the message.
+
+    Returns
+    -------
+    float
+        Within TUM_FPS_RANGE.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file, when the stamps imply a rate outside TUM_FPS_RANGE.
+    """
+    if len(stamps) < 2:
+        return 30.0
+    span = float(stamps[-1] - stamps[0])
+    low, high = TUM_FPS_RANGE
+    if not (len(stamps) - 1) / high <= span <= (len(stamps) - 1) / low:
+        raise FileFormatError(f"{where}: {len(stamps)} frames over {span:g} s is not a camera's "
+                              f"rate ({low:g} to {high:g} frames a second); check the timestamps")
+    return (len(stamps) - 1) / span
 
 
 def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
@@ -244,9 +280,15 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
     Returns
     -------
     timestamps : (N,) float64 array
-        Seconds, sorted.
+        Seconds, sorted, within ±TUM_MAX_STAMP.
     paths : list of Path
         N paths relative to the file's folder.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the line: no such file, a line that is not 'timestamp path', a
+        timestamp beyond ±TUM_MAX_STAMP, or no frames.
     """
     if not path.is_file():
         raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
@@ -257,6 +299,9 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
             continue
         if len(parts) < 2 or not _parses(parts[0]):
             raise FileFormatError(f"{path}: line {n} is not 'timestamp path'")
+        if abs(float(parts[0])) > TUM_MAX_STAMP:
+            raise FileFormatError(f"{path}: line {n}: timestamp {parts[0][:40]} is not seconds of "
+                                  f"a recording (at most {TUM_MAX_STAMP:g})")
         stamps.append(float(parts[0]))
         paths.append(path.parent / parts[1])
     if not stamps:
