@@ -50,7 +50,13 @@ class AppSources:
             The session to edit.
         play : bool, optional
             Play its recorded frames even when a camera is live.
+
+        Raises
+        ------
+        SessionLocked
+            Another program edits it; nothing changed.
         """
+        self.editor.claim(session.root)
         if session.frames and (play or not self._source.camera):
             # the session served from the start is not a replay
             start = self.start_source
@@ -58,7 +64,6 @@ class AppSources:
                       and Path(start.session.root).resolve() == Path(session.root).resolve())
             # refused when its camera differs
             self.use_source(start if served else SessionSource(session))
-        self.editor.autosave = True
         # the session's own, if any, is read on the change
         self._background = (None, self._source.background())
         self.editor.replace_session(session)

@@ -28,9 +28,18 @@ COMMANDS = [
 VERBOSE_HELP = "also print the figures behind each line (sigma, counts, before and after), indented"
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose refusals are one line naming the option, without the usage."""
+
+    def error(self, message: str):
+        """Print 'PROG: error: --option: what is wrong (see PROG --help)' and exit with 2."""
+        said = message.removeprefix("argument ")
+        self.exit(2, f"{self.prog}: error: {said} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of `mirrorscan`: --memory, then one subcommand, each with -v/--verbose."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="mirrorscan",
         description="3D scanning with one depth camera and mirrors.",
         epilog="Each command prints one headline per result; add -v/--verbose after the command "
@@ -64,7 +73,11 @@ def main(argv: list[str] | None = None) -> int:
     int
         The exit status: the command's, 2 after an error, 130 after Ctrl-C.
     """
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    # a refusal of the parser (printed in one line) or --help
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         if args.memory is not None:
             set_memory_budget(args.memory)

@@ -14,6 +14,8 @@ import viser
 from mirrorcore.sources import DepthSource
 
 if TYPE_CHECKING:
+    from mirrorcore.io.session import Session
+
     from .editor import SessionEditor
     from .events import EventBus
     from .jobs import Jobs
@@ -223,6 +225,11 @@ class TabContext(Protocol):
     lagging: bool
     # when it last lagged, once its page was built (time.perf_counter())
     lagged_at: float
+    # the session as the tab last drew it: what its actions are made on
+    drawn: "Session"
+    # the session its page is known to have been sent (presence.py): what a click that comes
+    # before the page's next answer was made on
+    seen: "Session"
 
     @property
     def gui(self):
@@ -260,13 +267,18 @@ class TabContext(Protocol):
             '3d' or 'depth'.
         """
 
-    def act(self, action: Callable[[], object]) -> None:
+    def act(self, action: Callable[[], object], drawn: "Session | None" = None) -> None:
         """Run a user's action of this tab; a refusal becomes a notification on this tab.
+
+        Its edits are made on `drawn` (by default the session the tab drew last): one made stale
+        by another tab is refused and the tab redrawn.
 
         Parameters
         ----------
         action : callable
             The action, called with no arguments.
+        drawn : Session, optional
+            The session the action was made on.
         """
 
     def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,

@@ -6,6 +6,11 @@ SESSION` in a terminal): the editor never saves over such a change. It reloads t
 (`reload_if_changed`, which the server calls twice a second) and refuses an edit that would have
 been saved over it, naming what happened.
 
+Several browser tabs edit one session: an edit made inside `guards.made_on(session)` (a tab's
+action, with the session as that tab drew it) is refused (`guards.StaleEdit`) when what it
+changes (the mirror, or the session's own scope) is no longer as drawn. The check, the change and
+the save are one step under the editor's lock.
+
 `EditorCore` holds no edit of its own: `SessionEditor` (mirrorscan.editor) defines them, each
 decorated with `edits`.
 """
@@ -18,11 +23,12 @@ from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session, SessionMirror
-from mirrorcore.io.sessionfile import save_session
-from mirrorcore.io.limits import check_limits
+from mirrorcore.io.sessionfile import check_session
 
-from .sessionfile import SessionFile
-from .undo import SESSION_SCOPE, History, Step, inverse, restore
+from .guards import StaleEdit, check_drawn, drawn_moves_to
+from .history import HistoryView
+from .sessionfile import SavedEdits, SessionFile
+from .undo import SESSION_SCOPE, History, Step, inverse, restore, touched
 
 
 def edits(method):
@@ -40,7 +46,8 @@ def edits(method):
     -------
     callable
         The wrapped method. It raises MirrorscanError, and the session is reloaded, when another
-        program changed session.json since the editor read or wrote it.
+        program changed session.json since the editor read or wrote it; StaleEdit when it is
+        made on a drawing (`guards.made_on`) that what it changes no longer matches.
     """
 
     @functools.wraps(method)
@@ -49,10 +56,13 @@ def edits(method):
         try:
             with self._lock:
                 try:
+                    self._writable()
                     message, reloaded = self._reload_external()
                     if reloaded:
                         raise MirrorscanError(f"{message}; this change was not made: make it again")
-                    return method(self, *args, **kwargs)
+                    result = method(self, *args, **kwargs)
+                    drawn_moves_to(self._session)
+                    return result
                 finally:
                     session, changed, self._changed = self._session, self._changed, False
         finally:
@@ -61,7 +71,7 @@ def edits(method):
     return wrapper
 
 
-class EditorCore:
+class EditorCore(SavedEdits, HistoryView):
     """A session under edit: its lock, undo history, autosave and listeners.
 
     Parameters
@@ -69,27 +79,35 @@ class EditorCore:
     session : Session
         The session to edit.
     autosave : bool, optional
-        Save it after every change.
+        Save it after every change; its folder is then locked until `close`.
+    read_only : str, optional
+        Why it is open read-only (another program edits it): its folder is not locked and every
+        edit is refused with this reason.
 
     Attributes
     ----------
     autosave : bool
         Save it after every change.
     listeners : list of callable
-        Called with the session after every change.
-    last_save_error : str or None
-        Why the last save failed (the previous file is intact), else None.
+        Called with the session after every change, and when saving fails or works again.
+    read_only : str or None
+        As given; None once another session is opened.
+
+    Raises
+    ------
+    SessionLocked
+        Another editor (in this process or another) holds the session's folder.
     """
 
-    def __init__(self, session: Session, autosave: bool = True):
+    def __init__(self, session: Session, autosave: bool = True, read_only: str | None = None):
         self._lock = threading.RLock()
         self._session = session
         self._history = History()
         self.autosave = autosave
+        self.read_only = read_only
         self.listeners: list[Callable[[Session], None]] = []
-        self.last_save_error: str | None = None
         self._changed = False
-        self._file = SessionFile(session)
+        self._file = SessionFile(session, lock=autosave and read_only is None)
 
     @property
     def session(self) -> Session:
@@ -117,14 +135,23 @@ class EditorCore:
             return self._session.mirrors[self._index(mirror_id)]
 
     def replace_session(self, session: Session) -> None:
-        """Open another session (the undo history is dropped) and tell the listeners.
+        """Open another session, autosaved (the undo history is dropped), and tell the listeners.
+
+        Its folder is locked (see `claim`), the previous one's let go.
 
         Parameters
         ----------
         session : Session
+
+        Raises
+        ------
+        SessionLocked
+            Another editor holds its folder; nothing changed.
         """
         with self._lock:
+            self._file.take(session)
             self._open(session)
+            self.autosave, self.read_only = True, None
             self._changed = False
         self._tell(session)
 
@@ -176,93 +203,6 @@ class EditorCore:
         return message, True
 
     # ------------------------------------------------------------------ undo and redo
-    def travel_scope(self, mirror_id: int | None, redo: bool = False) -> int:
-        """Where undo (or redo) acts for the selected mirror: its own history or the session's.
-
-        Parameters
-        ----------
-        mirror_id : int or None
-            The selected mirror.
-        redo : bool, optional
-            For redo rather than undo.
-
-        Returns
-        -------
-        int
-            A mirror id, or SESSION_SCOPE (see `History.scope`).
-        """
-        with self._lock:
-            return self._history.scope(mirror_id, redo)
-
-    def undo_label(self, scope: int) -> str | None:
-        """What undo in this scope would take back.
-
-        Parameters
-        ----------
-        scope : int
-            A mirror id, or SESSION_SCOPE.
-
-        Returns
-        -------
-        str or None
-            None when there is nothing to undo.
-        """
-        with self._lock:
-            return self._label(scope, redo=False)
-
-    def redo_label(self, scope: int) -> str | None:
-        """What redo in this scope would put back.
-
-        Parameters
-        ----------
-        scope : int
-            A mirror id, or SESSION_SCOPE.
-
-        Returns
-        -------
-        str or None
-            None when there is nothing to redo.
-        """
-        with self._lock:
-            return self._label(scope, redo=True)
-
-    def _label(self, scope: int, redo: bool) -> str | None:
-        """What undo or redo in `scope` would move, or None."""
-        ids = [m.id for m in self._session.mirrors]
-        return self._history.label(scope, redo, ids, lambda i: self.mirror(i).name)
-
-    def glass_unused(self, mirror_id: int) -> bool:
-        """Whether the mirror's glass was typed in after its plane was set (History.glass_unused).
-
-        Parameters
-        ----------
-        mirror_id : int
-
-        Returns
-        -------
-        bool
-        """
-        with self._lock:
-            return self._history.glass_unused(mirror_id)
-
-    def fitted_on_its_markers(self, mirror_id: int) -> bool:
-        """Whether the mirror's plane was set by a markers fit of this editor on what it has now.
-
-        On the markers, boundary, region and glass it has now: a fit of them again only refits them
-        on other frames.
-
-        Parameters
-        ----------
-        mirror_id : int
-
-        Returns
-        -------
-        bool
-        """
-        with self._lock:
-            now = next((m for m in self._session.mirrors if m.id == mirror_id), None)
-            return self._history.fitted_on(mirror_id, now)
-
     @edits
     def undo(self, scope: int) -> str:
         """Take back the last change in a scope.
@@ -311,7 +251,10 @@ class EditorCore:
         Its `after` (redo) or `before` (undo) is put back.
         """
         label = self._label(scope, redo)
-        moved = self._history.travel(scope, redo, [m.id for m in self._session.mirrors])
+        ids = [m.id for m in self._session.mirrors]
+        for s, step in self._history.peek(scope, redo, ids):
+            check_drawn(self._session, touched(s, step.after if redo else step.before))
+        moved = self._history.travel(scope, redo, ids)
         if not moved:
             raise MirrorscanError(f"nothing to {'redo' if redo else 'undo'}")
         for s, step in moved:
@@ -320,12 +263,12 @@ class EditorCore:
         return label
 
     def _index(self, mirror_id: int) -> int:
-        """The mirror's position in the session; MirrorscanError when it is gone."""
+        """The mirror's position in the session; StaleEdit when it is gone."""
         for i, m in enumerate(self._session.mirrors):
             if m.id == mirror_id:
                 return i
-        raise MirrorscanError(f"mirror {mirror_id} is no longer in the session "
-                              "(removed in another tab?)")
+        raise StaleEdit(f"mirror {mirror_id} is no longer in the session "
+                        "(removed in another tab?)")
 
     def _set_mirror(self, mirror_id: int, label: str, group: int = 0, what: str = "",
                     save: bool = True, **changes) -> None:
@@ -348,21 +291,18 @@ class EditorCore:
 
         `save` is False for one of several steps that the last saves.
         """
-        # the limits of a session that is read: past them it would not reopen
-        check_limits(session)
+        check_drawn(self._session, touched(scope, step.after))
+        # what the session reader would refuse (or read back otherwise) would not reopen
+        check_session(session, self._session)
         self._history.record(scope, step)
         self._session = session
         self._save_and_notify(save)
 
     def _save_and_notify(self, save: bool = True) -> None:
-        """Autosave (unless `save` is False) and mark the session changed."""
-        self.last_save_error = None
-        if self.autosave and save:
-            try:
-                save_session(self._session)
-            except OSError as exc:
-                # the previous file is intact (atomic write): say so and go on
-                self.last_save_error = f"{exc.filename}: {exc.strerror or exc}"
-            self._file.written(self._session)
-        self._changed = True
+        """Autosave (unless `save` is False) and mark the session changed.
 
+        A failed save keeps the session in memory (`last_save_error`).
+        """
+        if self.autosave and save:
+            self._file.save(self._session)
+        self._changed = True

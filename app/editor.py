@@ -21,12 +21,12 @@ from mirrorcore.io.sessionfile import MAX_MIRRORS
 from mirrorcore.rig.model import check_bounces
 
 from .editing import EditorCore, edits
-from .guards import (ON_EDGE, fit_inputs, has_marker, has_vertex, on_mirror, pixel, planes_to_set,
-                     unused_name)
+from .guards import (ON_EDGE, StaleEdit, check_drawn, fit_inputs, has_marker, has_vertex, made_on,
+                     on_mirror, pixel, planes_to_set, unused_name)
 from .undo import PARTIAL, SESSION_SCOPE, UNDO_DEPTH
 
 __all__ = ["ON_EDGE", "PARTIAL", "PICK_RADIUS", "SESSION_SCOPE", "UNDO_DEPTH", "SessionEditor",
-           "fit_inputs"]
+           "StaleEdit", "fit_inputs", "made_on"]
 
 PICK_RADIUS = 8.0        # pixels: a click this close to a vertex or a marker picks it
 
@@ -285,6 +285,8 @@ class SessionEditor(EditorCore):
         changes = planes_to_set(mirrors, planes, glass or {}, what)
         if not changes:
             return False
+        # all or none: a refusal after the first mirror's step would leave only some
+        check_drawn(self._session, changes)
         names = [mirrors[mirror_id].name for mirror_id in changes]
         label = f"{what}{'s' if len(names) > 1 else ''} of {listed(names)}"
         group = self._history.new_group() if len(names) > 1 else 0

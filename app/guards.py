@@ -1,7 +1,12 @@
 """What the session editor checks before an edit: pixels in the image, markers on their mirror,
-markers and corners that exist, unique names, and the inputs a computed plane depends on. Each
-check raises MirrorscanError with a one-line message naming the mirror."""
+markers and corners that exist, unique names, the inputs a computed plane depends on, and that
+what an edit changes is still as the tab that made it drew it. Each check raises MirrorscanError
+with a one-line message naming the mirror."""
 from __future__ import annotations
+
+import contextlib
+from contextvars import ContextVar
+from typing import Iterable, Iterator
 
 import numpy as np
 
@@ -13,6 +18,122 @@ from mirrorcore.io.session import Session, SessionMirror
 from mirrorcore.io.sessionfile import check_name
 
 ON_EDGE = 1.5            # pixels: a marker this close outside its mirror's boundary is on it
+# The undo scope of changes that are not one mirror's (mirror ids start at 1).
+SESSION_SCOPE = 0
+# The end of a refusal of an edit made on a stale state (StaleEdit).
+REDRAWN = "this tab now shows it as it is: make the change again if it still applies"
+
+
+# The session as the tab whose action runs drew it (None: edits are not checked against it).
+_DRAWN: ContextVar[Session | None] = ContextVar("mirrorscan_drawn", default=None)
+
+
+class StaleEdit(MirrorscanError):
+    """An edit made on a state of the session that changed since (in another tab): refused."""
+
+
+@contextlib.contextmanager
+def made_on(session: Session | None) -> Iterator[None]:
+    """Make the session editor's edits inside the block on `session`, as a tab drew it.
+
+    Each edit is refused (StaleEdit) when what it changes differs from `session`
+    (`check_drawn`); each edit made moves the drawing on to its result (`drawn_moves_to`), so
+    that an action's edits in turn are made on the one before.
+
+    Parameters
+    ----------
+    session : Session or None
+        None: the edits are not checked.
+    """
+    token = _DRAWN.set(session)
+    try:
+        yield
+    finally:
+        _DRAWN.reset(token)
+
+
+def check_drawn(now: Session, scopes: Iterable[int]) -> None:
+    """Refuse an edit of `scopes` made (`made_on`) on a drawing they differ from.
+
+    Parameters
+    ----------
+    now : Session
+        The session as it is.
+    scopes : iterable of int
+        The mirror ids (or SESSION_SCOPE) the edit changes.
+
+    Raises
+    ------
+    StaleEdit
+    """
+    drawn = _DRAWN.get()
+    if drawn is not None:
+        unchanged_since(drawn, now, scopes)
+
+
+def drawn_moves_to(session: Session) -> None:
+    """After an edit made on a drawing (`made_on`), the next is made on its result.
+
+    Parameters
+    ----------
+    session : Session
+        The session the edit left.
+    """
+    if _DRAWN.get() is not None:
+        _DRAWN.set(session)
+
+
+def scope_state(session: Session, scope: int) -> object:
+    """What an edit in `scope` depends on and changes.
+
+    Parameters
+    ----------
+    session : Session
+    scope : int
+        A mirror's id, or SESSION_SCOPE.
+
+    Returns
+    -------
+    object
+        The mirror's record (None when the session has no such mirror); of SESSION_SCOPE, the
+        mirrors' ids in order, the object selection, the bounces followed and the background.
+    """
+    if scope == SESSION_SCOPE:
+        return (tuple(m.id for m in session.mirrors), session.selection, session.bounces,
+                session.background)
+    return next((m for m in session.mirrors if m.id == scope), None)
+
+
+def unchanged_since(drawn: Session, now: Session, scopes: Iterable[int]) -> None:
+    """Refuse an edit made on `drawn` when what it changes is no longer as drawn.
+
+    Only the scopes the edit changes are compared: a change of another mirror, or of the
+    session's own scope, made meanwhile does not refuse it.
+
+    Parameters
+    ----------
+    drawn : Session
+        The session as the tab that made the edit drew it.
+    now : Session
+        The session as it is.
+    scopes : iterable of int
+        The mirror ids (or SESSION_SCOPE) the edit changes.
+
+    Raises
+    ------
+    StaleEdit
+        Naming what changed.
+    """
+    for scope in scopes:
+        before, after = scope_state(drawn, scope), scope_state(now, scope)
+        if before == after:
+            continue
+        if scope == SESSION_SCOPE:
+            raise StaleEdit(f"the session's mirrors or settings changed since this tab drew "
+                            f"them; {REDRAWN}")
+        if after is None:
+            raise StaleEdit(f"{before.name} was removed in another tab; {REDRAWN}")
+        raise StaleEdit(f"{after.name} changed in another tab; {REDRAWN}")
 
 
 def fit_inputs(mirror: SessionMirror | None) -> tuple | None:

@@ -3,6 +3,7 @@ to one callback (the app publishes it to the tabs); on its own thread, with paus
 seeking and a measured frame rate."""
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -22,6 +23,8 @@ RECENT_FRAMES = 5   # the last depth frames kept for calibrating on (markers.mar
 # seconds: while the loop waits for its next frame it looks at its pace this often, so that the
 # frame after a job comes at once
 PACE_CHECK_S = 0.1
+# frames per second of a source whose own rate is not a positive number
+FALLBACK_FPS = 2.0
 
 
 class RateMeter:
@@ -69,7 +72,8 @@ class LiveLoop:
     rate, or at fps_wanted() frames per second when that is given and lower (the app asks for fewer
     while no tab shows the cloud: see MirrorscanApp.fps_wanted). on_frame(LiveFrame) is called on
     the loop's thread; an exception there or in the source is passed to on_error and the loop goes
-    on with the next frame after a short pause (a camera may come back).
+    on with the next frame after a short pause (a camera may come back; a recording's frame that
+    fails to read is skipped). A source without a positive rate plays at FALLBACK_FPS, told once.
 
     Parameters
     ----------
@@ -111,6 +115,8 @@ class LiveLoop:
         self._steps = 0
         self._step_lock = threading.Lock()
         self._thread = threading.Thread(target=self._run, name="mirrorscan-live", daemon=True)
+        # the source whose rate was found wrong and told (_source_fps)
+        self._told_rate: DepthSource | None = None
 
     def start(self) -> None:
         """Start the loop's thread."""
@@ -164,7 +170,12 @@ class LiveLoop:
         LiveFrame
         """
         with self._turn:
-            source_frame = self._read(self.index)
+            try:
+                source_frame = self._read(self.index)
+            except Exception:
+                # a recording's frame that fails to read is skipped: playing goes on
+                self.index += 1
+                raise
             self._ahead = (self.index + 1, self._reader.submit(self.source.read, self.index + 1))
             frame = process_frame(self.snapshot(), self.index, source_frame, self.anchors)
             self.index += 1
@@ -304,11 +315,11 @@ class LiveLoop:
             started = time.perf_counter()
             try:
                 self.run_once()
-            # a bad frame or a lost camera must not end the loop
+                self._rest(started)
+            # a bad frame, a lost camera or a source's bad rate must not end the loop
             except Exception as exc:  # noqa: BLE001
                 self.on_error(exc)
                 self._stop.wait(0.5)
-            self._rest(started)
 
     def _rest(self, started: float) -> None:
         """Wait until the next frame is due at the pace, the last one `started` at perf_counter().
@@ -330,4 +341,17 @@ class LiveLoop:
         with self._recent_lock:
             collecting = bool(self._collectors)
         wanted = None if collecting else self.fps_wanted()
-        return min(self.source.fps, wanted) if wanted else self.source.fps
+        fps = self._source_fps()
+        return min(fps, wanted) if wanted else fps
+
+    def _source_fps(self) -> float:
+        """The source's frames per second; FALLBACK_FPS, told once (on_error), when it has no
+        positive rate."""
+        source, fps = self.source, self.source.fps
+        if math.isfinite(fps) and fps > 0:
+            return fps
+        if self._told_rate is not source:
+            self._told_rate = source
+            self.on_error(MirrorscanError(f"{source.name}: plays at {fps:g} frames a second; "
+                                          f"played at {FALLBACK_FPS:g} instead"))
+        return FALLBACK_FPS

@@ -2,13 +2,19 @@
 unsanitised, script handlers included, so a mirror named `<img src=x onerror=...>` in a session file
 would run its script in the technician's browser. Every Markdown content the tool shows goes through
 `markdown`; the HTML elements (legends, marker lists) pass each piece of text through `escape`.
-Notifications, labels and buttons are text already."""
+Notifications, labels and buttons are text already.
+
+A file name that is not UTF-8 reaches Python with lone surrogates (os.fsdecode), which viser cannot
+send: the tab's connection would close. `markdown` and the notifications pass their text through
+`shown` (mirrorcore.io.fields), which puts the replacement character in their place."""
 
 from __future__ import annotations
 
 from html import escape
 
-__all__ = ["escape", "fold", "markdown"]
+from mirrorcore.io.fields import shown
+
+__all__ = ["escape", "fold", "markdown", "shown"]
 
 FOLD_TITLE = "Details"
 
@@ -17,6 +23,7 @@ def markdown(text: str) -> str:
     """Markdown `text` with any HTML tag in it shown as text.
 
     '<' becomes an entity, so that no tag (and no autolink) starts; the rest of the Markdown stays.
+    Lone surrogates become U+FFFD (`shown`).
 
     Parameters
     ----------
@@ -27,7 +34,7 @@ def markdown(text: str) -> str:
     -------
     str
     """
-    return text.replace("<", "&lt;")
+    return shown(text).replace("<", "&lt;")
 
 
 def fold(headline: str, details: list[str]) -> str:

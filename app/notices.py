@@ -1,5 +1,6 @@
 """What the browser tool tells the technician: notifications on one tab or every tab, each also
-a line of the server's log, and the refusal or failure of a user's action.
+a line of the server's log, the refusal or failure of a user's action, and a notification that
+stays on every tab while it is true (LastingNote).
 
 viser shows notifications at the top left of the 3D view, over the depth frame's corner; it offers
 no option to place them. Each tab's page is given a style sheet (`place_notes`, through viser's
@@ -11,12 +12,14 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 from typing import Callable
 
 import viser
 
 from mirrorcore.base.errors import MirrorscanError
 
+from .markup import shown
 from .presence import run_js
 from .wording import refusal
 
@@ -127,8 +130,89 @@ class Notifier:
         targets = [client] if client is not None else list(self.server.get_clients().values())
         seconds = RESULT_NOTE_SECONDS if stay else NOTE_SECONDS
         # no longer than a headline: the whole message is in the log
-        shown = refusal(message).headline
-        notes = [target.add_notification(title, shown, color=NOTE_COLOURS[kind],
+        headline = refusal(message).headline
+        notes = [target.add_notification(shown(title), shown(headline), color=NOTE_COLOURS[kind],
                                          auto_close_seconds=seconds)
                  for target in targets]
         return notes[0] if client is not None else None
+
+
+class LastingNote:
+    """A notification on every tab, new tabs too, until it is no longer true (a failed save).
+
+    It has no close button and closes only on `clear`.
+
+    Parameters
+    ----------
+    server : viser.ViserServer
+        The app's server.
+    """
+
+    def __init__(self, server: viser.ViserServer):
+        self._server = server
+        self._lock = threading.Lock()
+        # (title, message, kind) while it is shown
+        self._shown: tuple[str, str, str] | None = None
+        self._notes: dict[int, viser.NotificationHandle] = {}
+
+    @property
+    def shown(self) -> tuple[str, str, str] | None:
+        """(title, message, kind) while it is shown, else None."""
+        return self._shown
+
+    @property
+    def tabs(self) -> set[int]:
+        """The client ids of the tabs that show it."""
+        with self._lock:
+            return set(self._notes)
+
+    def set(self, note: tuple[str, str, str] | None) -> None:
+        """Show it on every tab (replacing what it said), unless it says that already.
+
+        Parameters
+        ----------
+        note : tuple of str or None
+            (title, message, kind), kind a key of NOTE_COLOURS; None takes it away.
+        """
+        with self._lock:
+            if self._shown == note:
+                return
+            self._remove()
+            self._shown = note
+            if note is not None:
+                for client in list(self._server.get_clients().values()):
+                    self._add(client)
+
+    def connected(self, client: viser.ClientHandle) -> None:
+        """Show it on a tab that just connected, while it is shown.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle
+        """
+        with self._lock:
+            if self._shown is not None and client.client_id not in self._notes:
+                self._add(client)
+
+    def disconnected(self, client: viser.ClientHandle) -> None:
+        """Forget a tab that closed.
+
+        Parameters
+        ----------
+        client : viser.ClientHandle
+        """
+        with self._lock:
+            self._notes.pop(client.client_id, None)
+
+    def _add(self, client: viser.ClientHandle) -> None:
+        """Show it on one tab."""
+        title, message, kind = self._shown
+        self._notes[client.client_id] = client.add_notification(
+            title, message, color=NOTE_COLOURS[kind], auto_close_seconds=None,
+            with_close_button=False)
+
+    def _remove(self) -> None:
+        """Take it away from the tabs that show it."""
+        notes, self._notes = self._notes, {}
+        for note in notes.values():
+            note.remove()

@@ -1,22 +1,33 @@
-"""Whether a browser tab is there for the live cloud: which page it is (kept through reloads),
-whether it is hidden, and whether it keeps up with what it is sent.
+"""Whether a browser tab is there for the live cloud: which page it is (kept through reloads, the
+work of its tab before taken up), whether it is hidden, and whether it keeps up with what it is
+sent.
 
 viser has no message for a tab's visibility: the page notes it in its localStorage, which the
 server reads (`poll_visibility`); how long that answer takes tells whether the tab lags.
+
+What the page has been sent is known to be there once the page answers a question sent after it
+(`seen`): a click that comes before that answer was made on the page as it was before.
 """
 from __future__ import annotations
 
+import threading
 import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 import viser
 from viser import _messages
+
+from mirrorcore.io.session import Session
+
+from .context import TabState
 
 # seconds: a tab that takes longer to answer the visibility poll lags. Frames wait in its
 # browser to be drawn, so it is sent no live cloud and no depth frame until it answers in time;
 # otherwise a tab that draws slower than the loop sends would show frames minutes late.
 MAX_LAG_S = 0.5
 SETTLING_S = 5.0        # seconds after a tab opens while its page builds: it may lag, unreported
+ACK_TIMEOUT_S = 2.0     # seconds the page may take to answer that it has what it was sent
 HIDDEN_KEY = "mirrorscan-hidden"
 PAGE_KEY = "mirrorscan-page"
 PAGE_NAME_CHARS = 64
@@ -50,15 +61,35 @@ def run_js(client: viser.ClientHandle, source: str) -> None:
     client._websock_connection.queue_message(_messages.RunJavascriptMessage(source=source))
 
 
-class TabPresence:
-    """The page, visibility and lag of a tab; mixed into `mirrorscan.tab.Tab`.
+@dataclass(frozen=True)
+class Resume:
+    """What a closed tab leaves to the next tab of its page (a reload).
 
-    Uses the tab's `client`, `closed`, `_stale` (send both halves of the cloud next) and
-    `_send_screen`.
+    Attributes
+    ----------
+    state : TabState
+        As the technician left it: the click mode, the selected mirror, the boundaries and region
+        being drawn, the view; not a pick, nor a proposal, which were that tab's.
+    heat : bool
+        Whether its heat map was on.
+    """
+
+    state: TabState
+    heat: bool
+
+
+class TabPresence:
+    """The page, visibility and lag of a tab, and the work it takes up from the page's tab before;
+    mixed into `mirrorscan.tab.Tab`.
+
+    Uses the tab's `client`, `closed`, `drawn`, `_stale` (send both halves of the cloud next) and
+    `_send_screen`; to take up work, its `_lock`, `state`, `heat`, `header`, `_on_session`, `look`
+    and `show_heat`.
     """
 
     client: viser.ClientHandle
     closed: bool
+    drawn: Session
     _stale: bool
 
     def _init_presence(self) -> None:
@@ -69,6 +100,10 @@ class TabPresence:
         # time.perf_counter() when it last lagged, once settled (SETTLING_S)
         self.lagged_at = -np.inf
         self._opened = time.perf_counter()
+        # the session the page is known to have been sent (its `drawn` before a question it
+        # answered), and whether it was sent a newer one since
+        self.seen = self.drawn
+        self._unseen = threading.Event()
 
     def identify(self, timeout: float = 10.0) -> str | None:
         """Ask the page which it is (PAGE_JS: the same through its reloads, its own among tabs).
@@ -97,6 +132,26 @@ class TabPresence:
     def _watch_visibility(self) -> None:
         """Ask the browser to note in its localStorage whether this tab is hidden."""
         run_js(self.client, VISIBILITY_JS.format(key=f"{HIDDEN_KEY}-{self.client.client_id}"))
+
+    def _watch_acknowledgements(self) -> None:
+        """Ask the page, after each session drawn (`_unseen` set), whether it is there: then it has
+        what it was sent before, and `seen` moves on to it."""
+        def loop() -> None:
+            while not self.closed:
+                if not self._unseen.wait(1.0) or self.closed:
+                    continue
+                self._unseen.clear()
+                drawn = self.drawn
+                try:
+                    self.client.local_storage.get_item(
+                        f"{HIDDEN_KEY}-{self.client.client_id}", timeout=ACK_TIMEOUT_S)
+                except TimeoutError:
+                    self._unseen.set()
+                    continue
+                except RuntimeError:             # the tab is going away
+                    return
+                self.seen = drawn
+        threading.Thread(target=loop, name="mirrorscan-tab-seen", daemon=True).start()
 
     def poll_visibility(self, timeout: float = 2.0) -> None:
         """Read whether the tab is hidden, and whether it lags.
@@ -137,3 +192,33 @@ class TabPresence:
             self.lagging, self._stale = not keeps_up, True
             if keeps_up:
                 self._send_screen(force=True)
+
+    def take_up(self, resume: Resume) -> None:
+        """Go on with the work of the page's tab before (a reload): its state, view and heat map.
+
+        Nothing is taken up when this tab was closed meanwhile.
+
+        Parameters
+        ----------
+        resume : Resume
+        """
+        with self._lock:
+            # closed meanwhile (reloaded again at once): too late
+            if self.closed:
+                return
+            self.state = resume.state
+        # drafts of mirrors gone since are dropped; the panels follow
+        self._on_session()
+        if resume.state.view == "depth":
+            self.look("depth")
+        if resume.heat:
+            self.header.heat.value = True
+            self.show_heat(True)
+
+    def resume(self) -> Resume:
+        """This tab's work, for the next tab to take up (see Resume)."""
+        with self._lock:
+            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
+                            picked_marker=None, moving_marker=False, flagged_markers=(),
+                            proposal_for=())
+        return Resume(state, self.heat)

@@ -75,6 +75,7 @@ class LiveTap(DepthSource):
         self.name = f"recording of {source.name}"
         self.intrinsics, self.fps, self.frame_count = source.intrinsics, source.fps, None
         self._background = source.background()
+        self._truth = source.truth()
         backlog = backlog_frames(source.intrinsics.shape)
         self._frames: queue.Queue[Frame | None] = queue.Queue(maxsize=backlog)
         self._closed = threading.Event()
@@ -161,6 +162,10 @@ class LiveTap(DepthSource):
     def background(self) -> np.ndarray | None:
         """The source's background when the tap opened."""
         return self._background
+
+    def truth(self) -> dict | None:
+        """The source's truth when the tap opened (DepthSource.truth)."""
+        return self._truth
 
     def close(self) -> None:
         """Stop tapping; the frames already taken are still delivered, then iteration ends.

@@ -74,6 +74,10 @@ class DenseResult:
         The name of the source whose frames it was made of.
     left_out : tuple of str
         The names of the mirrors with an outline and no plane, whose view is not in it.
+    normals : np.ndarray, shape (n, 3), float32, or None
+        The carved points' outward unit normals (mirrorcore.dense.normals); None for a mesh.
+    colours : np.ndarray, shape (n, 3), uint8, or None
+        Each vertex's colour where the session has colour; None draws the dense result's own.
     """
 
     vertices: np.ndarray
@@ -86,6 +90,8 @@ class DenseResult:
     made: float
     source: str
     left_out: tuple[str, ...] = ()
+    normals: np.ndarray | None = None
+    colours: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -13,9 +13,8 @@ these checks into a running viser.ViserServer, before any client is let in:
   page's address (the server then sets a cookie, HttpOnly and SameSite=Strict, that the page's
   websocket carries), the cookie, or an `Authorization: Bearer T` header (scripts). Without it the
   page says where to find the address to open.
-- **Sizes**: a websocket message is at most MAX_MESSAGE_BYTES; an upload is refused as soon as its
-  declared size, or the bytes received, pass `max_upload_bytes` (or the memory budget, or
-  MAX_UPLOADS_IN_FLIGHT over all uploads), and the parts received so far are dropped.
+- **Sizes and values**: a websocket message is at most MAX_MESSAGE_BYTES; uploads are counted by
+  the bytes received and GUI values kept within their inputs' ranges (inputlimits).
 - **Log**: a plain TCP probe (connect, close: a health check, a port scan) is not logged at all
   (counted in QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a
   traceback.
@@ -32,27 +31,22 @@ import secrets
 import socket
 import threading
 from dataclasses import dataclass, field
-from http.cookies import CookieError, SimpleCookie
 from urllib.parse import parse_qs, urlsplit
 
 import viser
 import websockets.asyncio.server as ws_server
-from viser import _messages
 from websockets.datastructures import Headers
 from websockets.http11 import Request, Response
 
-from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import MirrorscanError
 
+from .inputlimits import MAX_UPLOAD_BYTES, limit_inputs
 from .quietlog import QuietProbes, install_log_filter
 
 log = logging.getLogger("mirrorscan.security")
 
 # one websocket message; uploads come in 512 KiB parts, GUI messages are small
 MAX_MESSAGE_BYTES = 8 << 20
-MAX_UPLOAD_BYTES = 20 << 20          # one upload (the Session panel's background PNG)
-MAX_UPLOADS_IN_FLIGHT = 64 << 20     # every upload being received at once, all tabs together
-MAX_REFUSED_REMEMBERED = 1000        # refused transfers whose late parts are still dropped
 TOKEN_COOKIE = "mirrorscan-token-{port}"
 
 
@@ -155,13 +149,8 @@ class Guard:
         bool
         """
         given = parse_qs(urlsplit(request.path).query).get("token", [])
-        try:
-            cookie = SimpleCookie("; ".join(request.headers.get_all("Cookie")))
-        except CookieError:
-            cookie = SimpleCookie()
-        name = TOKEN_COOKIE.format(port=self.port)
-        if name in cookie:
-            given.append(cookie[name].value)
+        given += cookie_values(request.headers.get_all("Cookie"),
+                               TOKEN_COOKIE.format(port=self.port))
         given += [auth[7:].strip() for auth in request.headers.get_all("Authorization")
                   if auth.lower().startswith("bearer ")]
         return any(hmac.compare_digest(t.encode(), self.token.encode())
@@ -181,6 +170,35 @@ class Guard:
         """The Set-Cookie value that carries the token (30 days, HttpOnly, SameSite=Strict)."""
         return (f"{TOKEN_COOKIE.format(port=self.port)}={self.token}; HttpOnly; SameSite=Strict; "
                 "Path=/; Max-Age=2592000")
+
+
+def cookie_values(headers: list[str], name: str) -> list[str]:
+    """The values of every cookie called `name` in Cookie headers, read pair by pair.
+
+    Another application on the same host may set cookies that a strict parser refuses
+    (`prefs={"a":1}`): such a pair is skipped, never the whole header.
+
+    Parameters
+    ----------
+    headers : list of str
+        The Cookie headers' values.
+    name : str
+        The cookie's name.
+
+    Returns
+    -------
+    list of str
+        Its values (surrounding double quotes taken off), in order.
+    """
+    values = []
+    for pair in ";".join(headers).split(";"):
+        key, equals, value = pair.partition("=")
+        if equals and key.strip() == name:
+            value = value.strip()
+            if len(value) >= 2 and value[0] == value[-1] == '"':
+                value = value[1:-1]
+            values.append(value)
+    return values
 
 
 def new_token() -> str:
@@ -264,7 +282,7 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
     except (LookupError, TimeoutError) as exc:
         raise MirrorscanError("cannot protect the browser tool's server; refusing to run "
                               f"unprotected (check the viser version): {exc}") from None
-    _limit_uploads(server, guard)
+    limit_inputs(server, max_upload_bytes)
     install_log_filter()
     server._mirrorscan_guard = guard
     return guard
@@ -303,74 +321,6 @@ def _websockets_server(loop: asyncio.AbstractEventLoop) -> ws_server.Server:
             if isinstance(value, ws_server.Server):
                 return value
     raise LookupError("viser's websockets server was not found")
-
-
-# ---------------------------------------------------------------------- uploads
-def _limit_uploads(server: viser.ViserServer, guard: Guard) -> None:
-    """Refuse an upload by its declared size as it starts; drop one whose parts pass it.
-
-    viser keeps an upload's parts in the upload state of the GUI that owns its button (the server's,
-    or a tab's own, whose handlers may run before or after these), so a refused transfer is
-    remembered and dropped at its first part whichever ran first; at most one 512 KiB part of it is
-    ever held.
-    """
-    # transfer id -> why
-    refused: dict[str, str] = {}
-    lock = threading.Lock()
-
-    def states(client_id: int) -> list[dict]:
-        client = server.get_clients().get(client_id)
-        own = [client.gui._current_file_upload_states] if client else []
-        return [server.gui._current_file_upload_states] + own
-
-    def drop(client_id: int, uuid: str) -> None:
-        for held in states(client_id):
-            held.pop(uuid, None)
-
-    def refuse(client_id: int, uuid: str, reason: str) -> None:
-        with lock:
-            first = uuid not in refused
-            refused[uuid] = reason
-            if len(refused) > MAX_REFUSED_REMEMBERED:
-                refused.pop(next(iter(refused)))
-        drop(client_id, uuid)
-        if first:
-            log.warning("refused an upload: %s", reason)
-            client = server.get_clients().get(client_id)
-            if client is not None:
-                client.add_notification("Upload refused", reason, color="red",
-                                        auto_close_seconds=8.0)
-
-    def on_start(client_id: int, message: _messages.FileTransferStartUpload) -> None:
-        in_flight = sum(s["total_bytes"] for held in states(client_id) for s in held.values())
-        name, size = message.filename[:80], message.size_bytes
-        if size > guard.max_upload_bytes:
-            most = guard.max_upload_bytes / 2**20
-            refuse(client_id, message.transfer_uuid, f"{name}: {size / 2**20:.1f} MB is more than "
-                   f"the {most:g} MB an upload may have; upload a smaller file")
-        elif in_flight > MAX_UPLOADS_IN_FLIGHT:
-            refuse(client_id, message.transfer_uuid, f"{name}: too many uploads at once; try again")
-        else:
-            try:
-                check_memory(2 * size, f"upload {name}")
-            except MirrorscanError as exc:
-                refuse(client_id, message.transfer_uuid, str(exc))
-
-    def on_part(client_id: int, message: _messages.FileTransferPart) -> None:
-        uuid = message.transfer_uuid
-        with lock:
-            reason = refused.get(uuid)
-        if reason is not None:
-            drop(client_id, uuid)
-            return
-        for held in states(client_id):
-            state = held.get(uuid)
-            most = min(state["total_bytes"], guard.max_upload_bytes) if state is not None else 0
-            if state is not None and state["transferred_bytes"] > most:
-                refuse(client_id, uuid, f"{state['filename'][:80]}: more bytes than it declared")
-
-    server._websock_server.register_handler(_messages.FileTransferStartUpload, on_start)
-    server._websock_server.register_handler(_messages.FileTransferPart, on_part)
 
 
 __all__ = ["Guard", "MAX_MESSAGE_BYTES", "MAX_UPLOAD_BYTES", "QuietProbes", "install_log_filter",

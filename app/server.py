@@ -28,11 +28,12 @@ from .events import EventBus, FrameReady, LoopChanged, SessionChanged
 from .jobs import BATCH, DENSE, RECORD, REFINE, Jobs
 from .live import RECENT_FRAMES, LiveLoop
 from .liveframe import LiveFrame
-from .notices import Notifier
+from .notices import LastingNote, Notifier
 from .panels.session import MAX_UPLOAD_MB
 from .security import protect
 from .state import Snapshot
 from .tab import Resume, Tab
+from .wording.saving import saving_note
 
 log = logging.getLogger("mirrorscan")
 # how often session.json is looked at: did another program change it (it is then reloaded)
@@ -53,6 +54,8 @@ BUSY_JOBS = {REFINE: "the calibration from the object", DENSE: "the dense recons
 AMBIENT_LIGHT = 1.5
 # CSS pixels: the side panel, docked right; the 3D view and the depth frame use the rest
 PANEL_WIDTH = 400
+# seconds between two tries to save a session whose save failed (each edit tries too)
+SAVE_RETRY_S = 3.0
 # seconds: a page reloaded within this takes up its work (Tab.identify tells the page)
 RESUME_S = 600.0
 GRADING_WAIT_S = 10.0     # seconds a stop waits for the first frames' grading of the markers to end
@@ -94,11 +97,20 @@ class MirrorscanApp(Notifier, AppSources):
     token : str or None
         The secret a browser must give (required beyond loopback; a new one when None; see
         mirrorscan.security).
+    read_only : str or None
+        Why the session is open read-only (another program edits it), else None.
+
+    Raises
+    ------
+    SessionLocked
+        Another editor holds the session's folder (see mirrorscan.editing.EditorCore).
     """
 
     def __init__(self, session: Session, source: DepthSource, host: str = "127.0.0.1",
                  port: int = 8080, autosave: bool = True, sessions_dir: str | Path = "sessions",
-                 token: str | None = None):
+                 token: str | None = None, read_only: str | None = None):
+        # first: refused while another editor holds the session
+        self.editor = SessionEditor(session, autosave, read_only)
         self._source, self.sessions_dir = source, Path(sessions_dir)
         # the camera or simulator served from the start: replays come back to it
         self.start_source = source
@@ -121,7 +133,9 @@ class MirrorscanApp(Notifier, AppSources):
         self.server.scene.add_light_ambient("/ambient", intensity=AMBIENT_LIGHT)
         self.server.gui.main_panel.set_width(PANEL_WIDTH)
         self.bus = EventBus()
-        self.editor = SessionEditor(session, autosave)
+        # what stays on every tab while the session is not saved (or open read-only)
+        self.unsaved = LastingNote(self.server)
+        self.unsaved.set(saving_note(self.editor))
         self._background = (session.background, session.read_background() if session.background
                             else source.background())
         self._snapshot = Snapshot.build(session, self._background[1])
@@ -142,6 +156,7 @@ class MirrorscanApp(Notifier, AppSources):
         self._poller = threading.Thread(target=self._poll_tabs, name="mirrorscan-tabs",
                                         daemon=True)
         self.editor.listeners.append(lambda _: self._on_session_change())
+        self.editor.listeners.append(lambda _: self.unsaved.set(saving_note(self.editor)))
         self.server.on_client_connect(self._connect)
         self.server.on_client_disconnect(self._disconnect)
 
@@ -173,11 +188,13 @@ class MirrorscanApp(Notifier, AppSources):
             self._grading.join(GRADING_WAIT_S)
         with contextlib.redirect_stdout(io.StringIO()):
             self.server.stop()
+        self.editor.close()
 
     # ------------------------------------------------------------------ tabs
     def _connect(self, client: viser.ClientHandle) -> None:
         """Make a Tab for a new client and find out which page it is."""
         tab = Tab(client, self)
+        self.unsaved.connected(client)
         with self._tabs_lock:
             # viser runs this and _disconnect on its thread pool, side by side: a tab closed (or
             # reloaded) while its Tab was built may have run its _disconnect already, which found
@@ -205,6 +222,7 @@ class MirrorscanApp(Notifier, AppSources):
 
     def _disconnect(self, client: viser.ClientHandle) -> None:
         """Close a client's Tab, keeping its work for a reload of its page."""
+        self.unsaved.disconnected(client)
         with self._tabs_lock:
             tab = self.tabs.pop(client.client_id, None)
             if tab is not None and tab.page is not None:
@@ -240,6 +258,7 @@ class MirrorscanApp(Notifier, AppSources):
                     tab.poll_visibility()
                     tab.header.poll_draws()
             self.act(None, self._reload_if_changed)
+            self.act(None, lambda: self.editor.retry_save(SAVE_RETRY_S))
 
     def _visibility_poll_s(self) -> float:
         """Seconds between two questions to the tabs.

@@ -5,12 +5,14 @@ It is sent the live cloud only while it looks at the 3D scene, is not hidden and
 (`mirrorscan.presence`), and the depth frame at most DEPTH_HZ times a second and at once after an
 edit. A page reloaded takes up the work of its tab before (Resume); the page tells which it is
 (identify).
+
+Its actions run one at a time, each on the session as the tab last drew it (`drawn`): an edit
+that another tab has made stale is refused and the tab redrawn (`mirrorscan.guards.made_on`).
 """
 from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -22,39 +24,24 @@ from .context import MODES, Question, Services, TabState
 from .depthscreen import DepthScreen
 from .events import DenseChanged, FrameReady, HeatChanged, SessionChanged
 from .framing import TabFraming
+from .guards import StaleEdit, made_on
 from .liveframe import LiveFrame
 from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
 from .page import frame_late
 from .panels import PANELS
 from .panels.live import LivePanel
-from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, TabPresence
+from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, Resume, TabPresence
 from .stream import HALVES
 from .tabheat import TabHeat
 from .view import TabScene
+from .wording.mirrors import outline_taken_note
 
 __all__ = ["DEPTH_HZ", "DEPTH_HZ_BEHIND", "MAX_LAG_S", "PAGE_KEY", "SETTLING_S", "Resume", "Tab"]
 
 DEPTH_HZ = 8.0          # the depth frame is re-sent at most this often while it is in view
 DEPTH_HZ_BEHIND = 1.0   # the same while the tab looks at the 3D scene
 HEAT_HZ = 1.0           # heat maps a second while the heat map is on
-
-
-@dataclass(frozen=True)
-class Resume:
-    """What a closed tab leaves to the next tab of its page (a reload).
-
-    Attributes
-    ----------
-    state : TabState
-        As the technician left it: the click mode, the selected mirror, the boundaries and region
-        being drawn, the view; not a pick, nor a proposal, which were that tab's.
-    heat : bool
-        Whether its heat map was on.
-    """
-
-    state: TabState
-    heat: bool
 
 
 class Tab(TabPresence, TabFraming, TabHeat):
@@ -71,9 +58,13 @@ class Tab(TabPresence, TabFraming, TabHeat):
     def __init__(self, client: viser.ClientHandle, services: Services):
         self.client, self.services = client, services
         self.state = TabState()
+        # the session as the tab last drew it: what its actions are made on
+        self.drawn = services.editor.session
         self._init_presence()
         self.closed = False
         self._lock = threading.RLock()
+        # the tab's actions, one at a time: each is made on what the one before left drawn
+        self._acting = threading.RLock()
         self._state_listeners: list[Callable[[TabState], None]] = []
         self._click_handlers: dict[str, Callable[[float, float], None]] = {}
         self._last_screen = 0.0
@@ -113,36 +104,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         client.camera.on_update(self._first_view)
         frame_late(client, self._first_view)
         self._watch_visibility()
-
-    def take_up(self, resume: Resume) -> None:
-        """Go on with the work of the page's tab before (a reload): its state, view and heat map.
-
-        Nothing is taken up when this tab was closed meanwhile.
-
-        Parameters
-        ----------
-        resume : Resume
-        """
-        with self._lock:
-            # closed meanwhile (reloaded again at once): too late
-            if self.closed:
-                return
-            self.state = resume.state
-        # drafts of mirrors gone since are dropped; the panels follow
-        self._on_session()
-        if resume.state.view == "depth":
-            self.look("depth")
-        if resume.heat:
-            self.header.heat.value = True
-            self.show_heat(True)
-
-    def resume(self) -> Resume:
-        """This tab's work, for the next tab to take up (see Resume)."""
-        with self._lock:
-            state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
-                            picked_marker=None, moving_marker=False, flagged_markers=(),
-                            proposal_for=())
-        return Resume(state, self.heat)
+        self._watch_acknowledgements()
 
     def _first_view(self, _) -> None:
         """Once the tab has reported its canvas, frame what it looks at.
@@ -195,15 +157,29 @@ class Tab(TabPresence, TabFraming, TabHeat):
         assert mode in MODES, mode
         self._click_handlers[mode] = handler
 
-    def act(self, action: Callable[[], object]) -> None:
+    def act(self, action: Callable[[], object], drawn=None) -> None:
         """Run a user's action of this tab; a refusal becomes a notification on this tab.
+
+        Actions run one at a time, their edits made on the session as this tab drew it: an edit
+        that another tab made stale is refused (StaleEdit) and the tab redrawn.
 
         Parameters
         ----------
         action : callable
             The action, called with no arguments.
+        drawn : Session, optional
+            The session the action was made on (a click taken in as it came, a question's
+            answer); by default, the one the tab drew last.
         """
-        self.services.act(self.client, action)
+        def run() -> None:
+            try:
+                with made_on(self.drawn if drawn is None else drawn):
+                    action()
+            except StaleEdit:
+                self._on_session()
+                raise
+        with self._acting:
+            self.services.act(self.client, run)
 
     def ask(self, title: str, text: str, yes: str, on_yes: Callable[[], object], no: str,
             on_no: Callable[[], object] = lambda: None) -> Question:
@@ -233,9 +209,12 @@ class Tab(TabPresence, TabFraming, TabHeat):
             yes_button = gui.add_button(yes, color="red")
             no_button = gui.add_button(no)
 
+        # answered on the session it was asked on
+        drawn = self.drawn
+
         def answer(action: Callable[[], object]) -> None:
             modal.close()
-            self.act(action)
+            self.act(action, drawn)
         question = Question(modal, lambda: answer(on_yes), lambda: answer(on_no))
         yes_button.on_click(lambda _: question.yes())
         no_button.on_click(lambda _: question.no())
@@ -319,10 +298,16 @@ class Tab(TabPresence, TabFraming, TabHeat):
         """
         with self._lock:
             snapshot = self.services.snapshot
+            before = {m.id: m.boundary for m in self.drawn.mirrors}
+            self.drawn = self.services.editor.session
             ids = tuple(m.id for m in snapshot.session.mirrors)
             # dropped in place: a boundary click on a GUI thread may add to the drafts meanwhile
             for gone in [k for k in list(self.state.drafts) if k not in ids]:
                 self.state.drafts.pop(gone, None)
+            # a draft of a mirror whose outline was closed in another tab since: not over it
+            taken = [m for m in self.drawn.mirrors
+                     if m.boundary and m.boundary != before.get(m.id)
+                     and self.state.drafts.pop(m.id, None) is not None]
             # a new tab starts at the first mirror
             if self.state.mirror_id not in ids:
                 self.state.mirror_id = ids[0] if ids else None
@@ -338,6 +323,9 @@ class Tab(TabPresence, TabFraming, TabHeat):
         if rig_changed and self.state.view == "3d" and not self.heat and self._still_home():
             self.look_home()
         self.changed()
+        self._unseen.set()
+        for mirror in taken:
+            self.services.notify(self.client, *outline_taken_note(mirror.name), kind="warning")
 
     def _clicked(self, u: float, v: float) -> None:
         """Route a click on the depth frame to the current mode's handler, as an action."""
@@ -390,6 +378,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
     def close(self) -> None:
         """Stop listening to the app's events and detach the panels; the tab is closed."""
         self.closed = True
+        self._unseen.set()
         for unsubscribe in self._unsubscribe:
             unsubscribe()
         for panel in [self.header, *self.panels]:

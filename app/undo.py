@@ -14,11 +14,9 @@ from typing import Callable, Iterable
 from mirrorcore.base.words import listed
 from mirrorcore.io.session import Session, SessionMirror
 
-from .guards import fit_inputs
+from .guards import SESSION_SCOPE, fit_inputs
 
 UNDO_DEPTH = 100
-# The undo scope of changes that are not one mirror's (mirror ids start at 1).
-SESSION_SCOPE = 0
 # In the label of a group's step that moves only part of its mirrors (the others changed since).
 PARTIAL = " only: "
 
@@ -73,6 +71,25 @@ def inverse(change: tuple) -> tuple:
     if kind == "remove":
         return ("add", a, b)
     return (kind, b, a)
+
+
+def touched(scope: int, change) -> list[int]:
+    """The scopes a step's side changes: its own and, adding or removing a mirror, that mirror's.
+
+    Parameters
+    ----------
+    scope : int
+        A mirror's id, or SESSION_SCOPE.
+    change : SessionMirror or tuple
+        One side of the step, as `restore` reads it.
+
+    Returns
+    -------
+    list of int
+    """
+    if scope == SESSION_SCOPE and change[0] in ("add", "remove"):
+        return [scope, change[2].id]
+    return [scope]
 
 
 def restore(session: Session, scope: int, state) -> Session:
@@ -257,15 +274,59 @@ class History:
             Empty when `scope` has nothing to move.
         """
         source, target = (self.redo, self.undo) if redo else (self.undo, self.redo)
+        moving = self.peek(scope, redo, mirror_ids)
+        order = next(self._orders)
+        for s, step in moving:
+            source[s].pop()
+            target.setdefault(s, []).append(replace(step, order=order))
+        return moving
+
+    def peek(self, scope: int, redo: bool, mirror_ids: Iterable[int]) -> list[tuple[int, Step]]:
+        """What `travel` would move, without moving it.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror's id, or SESSION_SCOPE.
+        redo : bool
+            Read the redo stacks instead of the undo stacks.
+        mirror_ids : iterable of int
+            The mirrors present, in session order.
+
+        Returns
+        -------
+        list of (scope, Step)
+            Empty when `scope` has nothing to move.
+        """
+        source = self.stacks(redo)
         steps = source.get(scope)
         if not steps:
             return []
-        scopes = self.split(steps[-1], redo, mirror_ids)[0] or [scope]
-        order = next(self._orders)
-        moved = [(s, source[s].pop()) for s in scopes]
-        for s, step in moved:
-            target.setdefault(s, []).append(replace(step, order=order))
-        return moved
+        return [(s, source[s][-1]) for s in self.split(steps[-1], redo, mirror_ids)[0] or [scope]]
+
+    def removal(self, scope: int, redo: bool, mirror_ids: Iterable[int]) -> int | None:
+        """The mirror that `travel` of `scope` would remove.
+
+        Parameters
+        ----------
+        scope : int
+            A mirror's id, or SESSION_SCOPE.
+        redo : bool
+            Read the redo stacks instead of the undo stacks.
+        mirror_ids : iterable of int
+            The mirrors present, in session order.
+
+        Returns
+        -------
+        int or None
+            Its id; None when it would remove none.
+        """
+        mirror_ids = list(mirror_ids)
+        for s, step in self.peek(scope, redo, mirror_ids):
+            change = step.after if redo else step.before
+            if s == SESSION_SCOPE and change[0] == "remove" and change[2].id in mirror_ids:
+                return change[2].id
+        return None
 
     def glass_unused(self, mirror_id: int) -> bool:
         """Whether the mirror's glass was typed in after its plane was set.

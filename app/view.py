@@ -13,6 +13,7 @@ import viser.transforms as tf
 from mirrorcore.base.palette import source_colour, source_name
 from mirrorcore.rig.model import Rig
 
+from .densedraw import draw_dense
 from .results import DenseResult
 from .placement import (CAMERA_LABEL, FRUSTUM_SCALE, SEQUENCE_FONT, beside_offset, box_edges,
                         frustum_angles, frustum_scale, home_pose, label_anchor, mirror_outline,
@@ -24,7 +25,6 @@ __all__ = ["HEAT_DIRECT_SIZE", "TabScene", "beside_offset", "home_pose", "label_
 
 # the heat map's points seen directly, as large as the point size times this
 HEAT_DIRECT_SIZE = 0.5
-DENSE_COLOUR = (120, 200, 190)   # the dense result's own colour (a pale teal, unlike any source)
 BOX_COLOUR = (90, 90, 90)
 
 
@@ -261,7 +261,7 @@ class TabScene:
                 handle.point_size = size
 
     def show_dense(self, result: DenseResult | None, visible: bool, beside: bool) -> None:
-        """The dense result in its own colour, with a label, or nothing.
+        """The dense result (mirrorscan.densedraw), with a label, or nothing.
 
         Parameters
         ----------
@@ -288,12 +288,7 @@ class TabScene:
         shift = beside_offset(result) if beside else np.zeros(3)
         frame = self.scene.add_frame("/dense", show_axes=False, position=tuple(shift),
                                      visible=visible)
-        if result.faces is None:
-            node = self.scene.add_point_cloud("/dense/result", result.vertices, DENSE_COLOUR,
-                                              point_size=result.voxel, precision="float32")
-        else:
-            node = self.scene.add_mesh_simple("/dense/result", result.vertices.astype(np.float32),
-                                              result.faces.astype(np.uint32), color=DENSE_COLOUR)
+        node = draw_dense(self.scene, "/dense/result", result)
         top = np.array([(result.low[0] + result.high[0]) / 2, result.low[1],
                         (result.low[2] + result.high[2]) / 2])
         label = self.scene.add_label("/dense/label", f"dense: {result.method}", position=top)

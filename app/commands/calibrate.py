@@ -17,10 +17,12 @@ from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement
 from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import load_session, save_session
+from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 
 from . import percent_bar, wording
+from .numbers import seed
 
 
 def register(sub) -> None:
@@ -55,7 +57,8 @@ def register(sub) -> None:
         "--refine",
         action="store_true",
         help="refine the planes until the object in the mirrors agrees with the object seen "
-        "directly (after --method, or alone when the planes are set)",
+        "directly (after --method; alone, the mirrors without a plane are fitted from their "
+        "markers first)",
     )
     p.add_argument(
         "--refine-with",
@@ -65,7 +68,7 @@ def register(sub) -> None:
         "without one); surfaces: any object's shared surfaces; auto (default): sphere if every "
         "view sees one",
     )
-    p.add_argument("--seed", type=int, default=0, help="RANSAC and search seed")
+    p.add_argument("--seed", type=seed, default=0, help="RANSAC and search seed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -122,10 +125,17 @@ def run(args: argparse.Namespace) -> int:
         When the session has no mirrors, --refine-with is given without --refine or --method
         scene, or mirrors could not be calibrated (the planes found are written first).
     """
+    # one writer at a time: refused while another program edits the session
+    with SessionLock(args.session, "mirrorscan calibrate"):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """`run` under the session's lock."""
     session = load_session(args.session)
     if not session.mirrors:
         raise CalibrationError(f"{session.path}: the session has no mirrors")
-    method = args.method or (None if args.refine else "markers")
+    method = args.method or _default_method(session, args.refine)
     if args.refine_with != "auto" and not (args.refine or method == "scene"):
         raise CalibrationError(
             f"--refine-with {args.refine_with} applies to --refine or --method scene; add one"
@@ -161,6 +171,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _default_method(session: Session, refine: bool) -> str | None:
+    """The method without --method: markers, or with --refine none when every mirror has a plane
+    (the planes are refined as they are; otherwise the mirrors without one are fitted first)."""
+    if refine and all(m.plane is not None for m in session.mirrors):
+        return None
+    return "markers"
+
+
 def _unset(session: Session) -> list[int] | None:
     """The mirrors `--method scene` searches.
 
@@ -192,20 +210,16 @@ def _calibrate(
             with_=args.refine_with,
         )
     if method is not None:
+        # --refine alone fits only the mirrors without a plane; the others start where they are
+        fit = _unset(session) if args.refine and args.method is None else None
         session, results = calibrate_session(
-            session, calibration_depth(session, args.frame), rng, method=method
+            session, calibration_depth(session, args.frame), rng, fit, method=method
         )
         for i, fit in results:
             mirror = session.mirrors[i]
             wording.show(wording.fitted(mirror.name, fit, mirror.marker_names), args.verbose)
     if not args.refine:
         return session, None
-    unset = [m.name for m in session.mirrors if m.plane is None]
-    if method is None and unset:
-        raise CalibrationError(
-            f"{listed(unset)}: no plane to refine yet; fit the planes first and then refine them: "
-            f"mirrorscan calibrate {session.root} --method markers --refine"
-        )
     try:
         return refine_session(
             session,

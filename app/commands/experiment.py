@@ -19,6 +19,8 @@ from mirrorcore.base.atomic import write_atomic
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.outputs import check_output
 
+from .numbers import whole
+
 
 def register(sub) -> None:
     """Add `mirrorscan experiment` to the command line; its parser's `run` default is `run`.
@@ -42,13 +44,19 @@ def register(sub) -> None:
         help="output prefix: writes PREFIX.csv and PREFIX.png (default experiment-NAME)",
     )
     p.add_argument(
-        "--seeds", type=int, default=3, help="angle, distance: noise seeds per point (default 3)"
+        "--seeds",
+        type=whole(1),
+        default=3,
+        help="angle, distance: noise seeds per point (default 3)",
     )
     p.add_argument(
-        "--neighbours", type=int, default=2, help="temporal: frames on each side (default 2)"
+        "--neighbours", type=whole(1), default=2, help="temporal: frames on each side (default 2)"
     )
     p.add_argument(
-        "--frames", type=int, default=30, help="temporal: frames measured (default 30, one stride)"
+        "--frames",
+        type=whole(1),
+        default=30,
+        help="temporal: frames measured (default 30, one stride)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
@@ -70,10 +78,8 @@ def run(args: argparse.Namespace) -> int:
     Raises
     ------
     MirrorscanError
-        When --seeds is below 1 or --out's folder does not exist.
+        When --out's folder does not exist.
     """
-    if args.seeds < 1:
-        raise MirrorscanError(f"--seeds: at least 1, got {args.seeds}")
     prefix = Path(args.out or f"experiment-{args.name}")
     if not prefix.parent.is_dir():
         raise MirrorscanError(f"{prefix.parent}: no such folder")
@@ -107,16 +113,7 @@ def run_temporal(args: argparse.Namespace, prefix: Path) -> int:
     -------
     int
         The exit status: 0.
-
-    Raises
-    ------
-    MirrorscanError
-        When --neighbours or --frames is below 1.
     """
-    if args.neighbours < 1 or args.frames < 1:
-        raise MirrorscanError(
-            f"--neighbours, --frames: at least 1, got {args.neighbours}, {args.frames}"
-        )
     rows = temporal_experiment.run_temporal_experiment(
         args.neighbours, args.frames, progress=not args.quiet
     )

@@ -20,6 +20,7 @@ from mirrorcore.geometry.fitting import (
 from mirrorcore.io.ply import read_ply
 
 from . import percent_bar, wording
+from .numbers import real, seed
 
 _FITS = {"sphere": fit_sphere, "cylinder": fit_cylinder}
 
@@ -49,27 +50,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--threshold",
-        type=float,
+        type=real(0, unit="mm", above=True),
         default=1e3 * DEFAULT_THRESHOLD,
         metavar="MM",
         help="RANSAC inlier distance in mm (default %(default)g)",
     )
     parser.add_argument(
         "--min-radius",
-        type=float,
+        type=real(0, unit="mm", above=True),
         default=1e3 * DEFAULT_RADIUS_RANGE[0],
         metavar="MM",
         help="reject models with a smaller radius, mm (default %(default)g)",
     )
     parser.add_argument(
         "--max-radius",
-        type=float,
+        type=real(0, unit="mm", above=True),
         default=1e3 * DEFAULT_RADIUS_RANGE[1],
         metavar="MM",
         help="reject models with a larger radius, mm (default %(default)g)",
     )
     parser.add_argument(
-        "--seed", type=int, default=0, help="RANSAC random seed (default %(default)s)"
+        "--seed", type=seed, default=0, help="RANSAC random seed (default %(default)s)"
     )
     parser.set_defaults(run=run)
 

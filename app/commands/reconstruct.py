@@ -15,9 +15,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.batch import read_depth
+from mirrorcore.batch.executor import WORKERS_PER_CORE
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
@@ -30,7 +32,16 @@ from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.rig.pipeline import object_cloud, prepare_frame
 
 from . import ctrl_c_cancels, wording
+from .numbers import real, whole
 from .reconstruct_batch import run_all
+
+# bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed and
+# stacked
+PREPARED_BYTES = 10
+# the dense methods' voxel edge: from a tenth of a millimetre to a metre
+VOXEL_METRES = (1e-4, 1.0)
+# the largest length or coordinate in metres (margin, box, threshold, truncation)
+LENGTH_METRES = 100.0
 
 
 def register(sub) -> None:
@@ -61,36 +72,43 @@ def register(sub) -> None:
         "consistent carving (cloud); tsdf: fusion of --frames frames (mesh)",
     )
     p.add_argument(
-        "--voxel", type=float, default=DenseOptions.voxel, help="dense methods: voxel edge, metres"
+        "--voxel",
+        type=real(*VOXEL_METRES, "metres"),
+        default=DenseOptions.voxel,
+        help=f"dense methods: voxel edge, metres ({VOXEL_METRES[0]:g} to {VOXEL_METRES[1]:g})",
     )
     p.add_argument(
         "--margin",
-        type=float,
+        type=real(0, LENGTH_METRES, "metres"),
         default=DenseOptions.margin,
         help="dense methods: metres added around the raw cloud's bounding box",
     )
     p.add_argument(
         "--bounds",
-        type=float,
+        type=real(-LENGTH_METRES, LENGTH_METRES, "metres"),
         nargs=6,
         metavar=("X0", "Y0", "Z0", "X1", "Y1", "Z1"),
         help="dense methods: the box in metres (camera frame) instead of the automatic one",
     )
     p.add_argument(
-        "--threshold", type=float, help="paper, carve: th in metres (default: the voxel size)"
+        "--threshold",
+        type=real(0, LENGTH_METRES, "metres", above=True),
+        help="paper, carve: th in metres (default: the voxel size)"
     )
     p.add_argument(
-        "--truncation", type=float, help="tsdf: truncation in metres (default: 3 voxels)"
+        "--truncation",
+        type=real(0, LENGTH_METRES, "metres", above=True),
+        help="tsdf: truncation in metres (default: 3 voxels)"
     )
     p.add_argument(
         "--frames",
-        type=int,
+        type=whole(1),
         default=1,
         help="tsdf: fuse this many frames from --frame on (static object)",
     )
     p.add_argument(
         "--temporal",
-        type=int,
+        type=whole(0),
         default=0,
         metavar="N",
         help="smooth each frame's depth with its N neighbours on each side where the scene is "
@@ -103,7 +121,8 @@ def register(sub) -> None:
     batch.add_argument(
         "--workers",
         type=int,
-        help="local worker processes (default: one per core; 1: in this process, without Dask)",
+        help="local worker processes (default: one per core; 1: in this process, without Dask; "
+        f"at most {WORKERS_PER_CORE} per core)",
     )
     batch.add_argument(
         "--scheduler",
@@ -113,7 +132,7 @@ def register(sub) -> None:
     )
     batch.add_argument(
         "--frames-per-task",
-        type=int,
+        type=whole(1),
         metavar="N",
         help="frames in one Dask task (default 8 raw, 1 dense; the last tasks are smaller)",
     )
@@ -164,7 +183,7 @@ def add_bounces_option(p) -> None:
     """
     p.add_argument(
         "--bounces",
-        type=int,
+        type=whole(1, MAX_ORDER),
         help=f"follow a camera ray through at most this many mirrors in turn, 1 to {MAX_ORDER} "
         f"(default: the session's setting, {MAX_ORDER} unless set)",
     )
@@ -207,6 +226,7 @@ def run(args: argparse.Namespace) -> int:
         cloud, _ = object_cloud(
             rig, read_scan_frame(session, index, args.temporal), background, selection
         )
+        _refuse_empty(out, len(cloud), "object's cloud", "the background and the depth range")
         write_ply(out, cloud.points, cloud.sources)
         counts = cloud.source_counts(len(rig.mirrors))
         wording.show(wording.cloud_written(out, len(cloud), counts), args.verbose)
@@ -234,7 +254,8 @@ def run_dense(
 ) -> int:
     """Carve or fuse the frames from `index` on (mirrorcore.dense) with a progress bar.
 
-    Ctrl-C cancels; nothing is written then.
+    The bar is cleared at the end (a refusal stays one line); Ctrl-C cancels, nothing is
+    written then.
 
     Parameters
     ----------
@@ -259,11 +280,10 @@ def run_dense(
     Raises
     ------
     MirrorscanError
-        When --frames is below 1 or runs past the session's end.
+        When --frames is below 1 or runs past the session's end; MemoryBudgetError when its
+        frames would not fit in the memory budget.
     """
     count = args.frames if args.method == "tsdf" else 1
-    if count < 1:
-        raise MirrorscanError(f"--frames: expected a positive number, got {count}")
     first = (
         index % len(session.frames)
         if -len(session.frames) <= index < len(session.frames)
@@ -274,6 +294,9 @@ def run_dense(
             f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
             "the end"
         )
+    check_memory(float(count) * session.camera.width * session.camera.height * PREPARED_BYTES,
+                 f"--frames {count}: {count:,} frames of "
+                 f"{session.camera.width}x{session.camera.height} at once")
     prepared = [
         prepare_frame(rig, read_scan_frame(session, i, args.temporal), background, selection)
         for i in range(first, first + count)
@@ -283,7 +306,11 @@ def run_dense(
     volume = dense_volume(rig, depths[0], masks[0], options)
     with (
         tqdm(
-            total=1.0, desc=args.method, unit="volume", bar_format="{l_bar}{bar}| {elapsed}"
+            total=1.0,
+            desc=args.method,
+            unit="volume",
+            leave=False,
+            bar_format="{l_bar}{bar}| {elapsed}",
         ) as bar,
         ctrl_c_cancels() as cancel,
     ):
@@ -302,16 +329,24 @@ def run_dense(
             raise KeyboardInterrupt from None
     if isinstance(result, CarveResult):
         points, sources = result.surface_points()
+        _refuse_empty(out, len(points), "carved surface", "--voxel, --bounds and --margin")
         write_ply(out, points, sources)
         message = wording.carved_written(out, len(points), volume.shape, volume.voxel)
     else:
         mesh = result.mesh()
+        _refuse_empty(out, len(mesh.vertices), "mesh", "--voxel, --bounds and --margin")
         write_ply(out, mesh.vertices, mesh.sources, mesh.faces)
         message = wording.mesh_written(
             out, len(mesh.vertices), len(mesh.faces), count, volume.shape, volume.voxel
         )
     wording.show(message, args.verbose)
     return 0
+
+
+def _refuse_empty(out: Path, count: int, what: str, check: str) -> None:
+    """Refuse to write an empty result (MirrorscanError naming the file) when `count` is 0."""
+    if count == 0:
+        raise MirrorscanError(f"{out}: the {what} is empty, nothing written; check {check}")
 
 
 def _dense_options(args: argparse.Namespace) -> DenseOptions:

@@ -11,9 +11,11 @@ from typing import Iterator
 
 from tqdm import tqdm
 
-from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.limits import MAX_FRAMES
 from mirrorcore.io.outputs import check_output
 from mirrorcore.sources import open_source, record
+
+from .numbers import real, whole
 
 # a clean stop, like Ctrl-C: the session keeps every frame
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
@@ -44,8 +46,9 @@ def register(sub) -> None:
         metavar="SESSION",
         help="the session folder to create (must not exist, or be empty)",
     )
-    p.add_argument("--seconds", type=float, help="stop after this many seconds of frames")
-    p.add_argument("--frames", type=int, help="stop after this many frames")
+    p.add_argument("--seconds", type=real(0, unit="seconds", above=True),
+                   help="stop after this many seconds of frames")
+    p.add_argument("--frames", type=whole(1, MAX_FRAMES), help="stop after this many frames")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(run=run)
 
@@ -93,11 +96,8 @@ def run(args: argparse.Namespace) -> int:
     Raises
     ------
     MirrorscanError
-        When --seconds or --frames is not positive.
+        When the session folder exists and is not empty, or the source cannot be opened.
     """
-    for name in ("seconds", "frames"):
-        if getattr(args, name) is not None and not getattr(args, name) > 0:
-            raise MirrorscanError(f"--{name}: must be positive, got {getattr(args, name):g}")
     check_output(args.session)
     with open_source(args.source) as source, stop_signals() as signals:
         if source.live and args.seconds is None and args.frames is None:

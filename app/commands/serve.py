@@ -14,11 +14,15 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.model import check_bounces
 from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import load_session, save_session
+from mirrorcore.io.sessionlock import SessionLock, SessionLocked, SessionUnwritable
 from mirrorcore.sources import DepthSource, open_source
 
 from ..demo import calibrated_session, demo_source
+from ..editing import EditorCore
+from ..sessionfile import EDITOR, keep_elsewhere
 from ..security import install_log_filter, is_loopback
 from ..server import MirrorscanApp
+from .numbers import whole
 from .reconstruct import add_bounces_option
 from .record import STOP_SIGNALS
 
@@ -51,7 +55,10 @@ def register(sub) -> None:
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     p.add_argument(
-        "--port", type=int, default=8080, help="port (default 8080; the next free one if taken)"
+        "--port",
+        type=whole(0, 65535),
+        default=8080,
+        help="port (default 8080; the next free one if taken)",
     )
     p.add_argument(
         "--token",
@@ -113,7 +120,10 @@ def _session_and_source(folder: str | None, spec: str | None) -> tuple[Session, 
         raise MirrorscanError(f"{root}: not a session folder (no session.json) and not empty")
     source = open_source(spec or "sim", None)
     session = Session(root, source.intrinsics)
-    save_session(session)
+    root.mkdir(parents=True, exist_ok=True)
+    # made under its lock: refused while another serve makes it too
+    with SessionLock(root, EDITOR):
+        save_session(session)
     log.info("started an empty session in %s", root)
     return session, source, True
 
@@ -137,7 +147,13 @@ def run(args: argparse.Namespace) -> int:
     install_log_filter()
     session, source, autosave = session_and_source(args.session, args.source, args.bounces)
     sessions_dir = Path(args.session).resolve().parent if args.session else Path("sessions")
-    app = MirrorscanApp(session, source, args.host, args.port, autosave, sessions_dir, args.token)
+    served = (session, source, args.host, args.port, autosave, sessions_dir, args.token)
+    try:
+        app = MirrorscanApp(*served)
+    except (SessionLocked, SessionUnwritable) as exc:
+        # another program edits it, or its folder cannot be written: shown, not changed
+        log.warning("opened read-only: %s", exc)
+        app = MirrorscanApp(*served, read_only=str(exc))
     if not is_loopback(args.host):
         log.warning(
             "listening on %s: whoever has the address with its token can see and change the "
@@ -152,21 +168,41 @@ def run(args: argparse.Namespace) -> int:
             time.sleep(3600)
     except KeyboardInterrupt:  # the way to stop it: not a cancelled command
         # the session being edited now: another may have been opened or saved as
-        edited = app.editor
-        print(
-            "mirrorscan serve: stopped"
-            + (
-                f"; every edit is saved in {edited.session.root}"
-                if edited.autosave
-                else "; the demo's session was kept in memory only"
-            ),
-            file=sys.stderr,
-        )
+        print(f"mirrorscan serve: stopped; {stopped(app.editor)}", file=sys.stderr)
         return 130
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
         app.stop()
+
+
+def stopped(editor: EditorCore) -> str:
+    """Where the edits are, as the stop message says it: saved, or kept elsewhere, or lost.
+
+    A session whose saves fail is tried once more, then its session.json is written where it can
+    be (mirrorscan.sessionfile.keep_elsewhere).
+
+    Parameters
+    ----------
+    editor : EditorCore
+        The session being edited now (another may have been opened or saved as).
+
+    Returns
+    -------
+    str
+        One line.
+    """
+    root = editor.session.root
+    if editor.read_only is not None:
+        return f"{root} was open read-only: nothing was written to it"
+    if not editor.autosave:
+        return "the demo's session was kept in memory only"
+    if editor.retry_save():
+        return f"every edit is saved in {root}"
+    kept = keep_elsewhere(editor.session)
+    where = (f"kept in {kept}: copy it over {root}/session.json once that disk can be written"
+             if kept else "lost: no disk could be written")
+    return f"the last edits are NOT saved in {root} ({editor.last_save_error}); they are {where}"
 
 
 def _stop(signum, frame) -> None:

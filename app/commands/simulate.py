@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.palette import MAX_MIRRORS
+from mirrorcore.io.limits import MAX_FRAMES
 from mirrorcore.io.outputs import check_output
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
@@ -13,6 +15,8 @@ from mirrorcore.sim.scene import Scene
 from mirrorcore.sim.scenefile import load_scene
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
+
+from .numbers import real, seed, whole
 
 _LAYOUT_OPTIONS = ("object", "angle", "mirrors", "distance", "kaleidoscope")
 
@@ -34,11 +38,13 @@ def register(sub) -> None:
         "--angle", type=float, help="angle between the two mirrors, degrees (default 120)"
     )
     p.add_argument(
-        "--mirrors", type=int, help="number of mirrors: 2 in a V (default), 3 or more on an arc"
+        "--mirrors",
+        type=whole(2, MAX_MIRRORS),
+        help=f"number of mirrors: 2 in a V (default), 3 to {MAX_MIRRORS} on an arc",
     )
     p.add_argument(
         "--distance",
-        type=float,
+        type=real(0.5, 100, "metres", above=True),
         help="camera to object, metres (default 2.0; 3.0 for the figure, which the camera sees "
         "whole only from there)",
     )
@@ -55,11 +61,12 @@ def register(sub) -> None:
         default="kinect",
         help="sensor model (default kinect)",
     )
-    p.add_argument("--frames", type=int, default=1, help="number of frames at 30 fps (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--frames", type=whole(1, MAX_FRAMES), default=1,
+                   help="number of frames at 30 fps (default 1)")
+    p.add_argument("--seed", type=seed, default=0, help="noise seed (default 0)")
     p.add_argument(
         "--bounces",
-        type=int,
+        type=whole(1, MAX_BOUNCES),
         help=f"the most reflections a ray may make, 1 to {MAX_BOUNCES} (default {MAX_BOUNCES}); a "
         "ray meeting one more mirror reads nothing",
     )
@@ -70,14 +77,14 @@ def register(sub) -> None:
     )
     p.add_argument(
         "--marker-offset",
-        type=float,
+        type=real(0, 50, "mm"),
         metavar="MM",
         help="the markers' faces this many millimetres in front of every mirror's reflecting "
         "surface, as stickers on the glass of an ordinary mirror (default 0, or the scene file's)",
     )
     p.add_argument(
         "--click-jitter",
-        type=float,
+        type=real(0, 50, "pixels"),
         metavar="PX",
         help="radial RMS error, pixels, of the session's marker clicks (seeded; default 0, or the "
         "scene file's)",
@@ -111,10 +118,6 @@ def run(args: argparse.Namespace) -> int:
     )
     check_output(args.out, tuple(p for p in (args.scene, mesh) if p))
     scene = _scene(args)
-    if args.marker_offset is not None and not 0 <= args.marker_offset <= 50:
-        raise MirrorscanError(f"--marker-offset: must be 0 to 50 mm, got {args.marker_offset:g}")
-    if args.click_jitter is not None and not 0 <= args.click_jitter <= 50:
-        raise MirrorscanError(f"--click-jitter: must be 0 to 50 pixels, got {args.click_jitter:g}")
     offset = None if args.marker_offset is None else args.marker_offset / 1000
     scene = scene.with_markers(offset, args.click_jitter)
     if args.single_bounce and args.bounces not in (None, 1):
@@ -144,8 +147,6 @@ def _scene(args: argparse.Namespace) -> Scene:
         if given:
             raise MirrorscanError(f"--scene describes the whole rig; drop {', '.join(given)}")
         return load_scene(args.scene)
-    if args.distance is not None and args.distance <= 0.5:
-        raise MirrorscanError(f"--distance: must be more than 0.5 m, got {args.distance:g}")
     angle, distance = 120.0 if args.angle is None else args.angle, args.distance
     if not args.kaleidoscope:
         return paper_scene(angle, args.mirrors or 2, args.object or "sphere", distance)

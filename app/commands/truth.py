@@ -13,10 +13,11 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.ply import read_ply
 from mirrorcore.io.session import TRUTH_FILE
 from mirrorcore.io.sessionfile import load_session
-from mirrorcore.sim.truth import plane_errors, surface_error
+from mirrorcore.sim.truth import frame_time, plane_errors, surface_error
 from mirrorcore.sources import session_truth
 
 from . import wording
+from .wording.accuracy import no_mirrors
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -30,14 +31,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "truth",
         help="compare a simulated session's planes, and a cloud of it, with the simulator's truth",
-        description=f"Needs the {TRUTH_FILE} that `mirrorscan simulate` writes. Per mirror: its "
+        description=f"Needs the {TRUTH_FILE} that `mirrorscan simulate` and a recording of the "
+        "simulated source (`mirrorscan record sim`, the browser's Record) write. Per mirror: its "
         "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
         "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
         "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
         "mean and 95th percentile, mm).",
     )
     parser.add_argument(
-        "session", metavar="SESSION", help="a session folder written by `mirrorscan simulate`"
+        "session",
+        metavar="SESSION",
+        help="a session folder written by `mirrorscan simulate` or recorded from the simulator",
     )
     parser.add_argument(
         "--cloud", metavar="CLOUD.ply", help="a cloud of the session (`mirrorscan reconstruct`)"
@@ -70,17 +74,17 @@ def run(args: argparse.Namespace) -> int:
     Raises
     ------
     MirrorscanError
-        When the session has no truth file, or no frame --frame.
+        When the session has no truth file, or, with --cloud, no frame --frame.
     """
     session = load_session(args.session)
     truth = session_truth(session)
     if truth is None:
         raise MirrorscanError(
-            f"{args.session}: no {TRUTH_FILE}: only a session `mirrorscan simulate` wrote has a "
-            "truth to compare with"
+            f"{args.session}: no {TRUTH_FILE}: only a session `mirrorscan simulate` wrote, or one "
+            "recorded from the simulated source, has a truth to compare with"
         )
     scene, fps = truth
-    if not 0 <= args.frame < len(session.frames):
+    if args.cloud is not None and not 0 <= args.frame < len(session.frames):
         # as reconstruct and calibrate say it
         raise MirrorscanError(
             f"{session.path}: no frame {args.frame}; the session has {len(session.frames)} (0 to "
@@ -90,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
     surface = None
     if args.cloud is not None:
         points, _ = read_ply(args.cloud)
-        surface = surface_error(points, scene, args.frame / fps)
+        surface = surface_error(points, scene, frame_time(session, args.frame, fps))
     if args.json:
         print(
             json.dumps(
@@ -106,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
             )
         )
     else:
+        if not planes:
+            wording.show(no_mirrors(args.session), args.verbose)
         for plane in planes:
             wording.show(wording.plane_error(plane), args.verbose)
         if surface is not None:

@@ -20,16 +20,18 @@ import numpy as np
 import open3d as o3d
 from tqdm import tqdm
 
+from mirrorcore.base.budget import check_memory
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.pipeline import object_cloud
 from mirrorcore.sim.export import true_rig
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.objects import object_geometry
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.depth.temporal import temporal_smooth
+from mirrorcore.depth.temporal import WINDOW_PIXEL_BYTES, temporal_smooth
 
 STILL, MOVING = 0.02, 0.2  # m/s along the surface's normal
 INLIER = 0.03  # metres
+DEPTH_BYTES = 4  # a pixel of a depth frame held: float32 metres
 PARTS = ("still", "moving")
 COLUMNS = (
     "frame",
@@ -94,8 +96,20 @@ def run_temporal_experiment(
     Returns
     -------
     list of dict
+
+    Raises
+    ------
+    MemoryBudgetError
+        When the frames held and one window being smoothed would pass the memory budget (checked
+        before any frame is rendered).
     """
-    scene = paper_scene(object="figure", distance=3.0, camera=Intrinsics.kinect_v1().scaled(scale))
+    camera = Intrinsics.kinect_v1().scaled(scale)
+    held = frames + 2 * neighbours
+    check_memory(float(camera.width * camera.height) * (
+        held * DEPTH_BYTES + (2 * neighbours + 1) * WINDOW_PIXEL_BYTES),
+                 f"--neighbours {neighbours}, --frames {frames}: {held:,} frames of "
+                 f"{camera.width}x{camera.height} held")
+    scene = paper_scene(object="figure", distance=3.0, camera=camera)
     sim = Simulator(scene, seed=seed)
     rig, background = true_rig(scene), sim.background().depth
     geometry = object_geometry(scene.objects[0])

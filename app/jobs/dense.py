@@ -10,6 +10,7 @@ import numpy as np
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.dense import DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
+from mirrorcore.dense.normals import surface_normals
 from mirrorcore.io.session import Session
 from mirrorcore.rig.pipeline import prepare_frame
 
@@ -100,12 +101,14 @@ class DenseJob(Runner):
         )
         low = np.asarray(volume.origin) - volume.voxel / 2
         high = low + volume.voxel * np.asarray(volume.shape)
+        # a carving's points are shaded by their normals; a fusion's mesh is closed where seen
         if isinstance(result, CarveResult):
             vertices, sources = result.surface_points()
             faces = None
+            normals = surface_normals(vertices, sources, snapshot.rig, volume.voxel)
         else:
-            mesh = result.mesh()
-            vertices, sources, faces = mesh.vertices, mesh.sources, mesh.faces
+            mesh = result.closed_mesh()
+            vertices, sources, faces, normals = mesh.vertices, mesh.sources, mesh.faces, None
         dense = DenseResult(
             vertices,
             sources,
@@ -117,6 +120,7 @@ class DenseJob(Runner):
             time.time(),
             source,
             unplaned(snapshot.session),
+            normals,
         )
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))

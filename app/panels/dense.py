@@ -1,8 +1,9 @@
 """Step 4, "Dense": carve (the paper's Algorithm 2, or the consistent carving) or fuse (TSDF) the
 recent frames of a static object inside a box (around the live cloud and following it until a corner
 is typed in, shown in 3D and in the fields), with a progress bar and a cancel button. The result is
-shared by every tab, drawn in its own colour and layer with a label (hidden while another source
-plays), and exported under a new name each time."""
+shared by every tab, drawn in its own colour and layer with a label (a carving shaded by its
+normals, a fusion's mesh lit and closed where the views saw; hidden while another source plays),
+framed the first time only, and exported under a new name each time."""
 
 from __future__ import annotations
 
@@ -50,8 +51,10 @@ class DensePanel:
         self._refit = True
         # the result hidden by this tab while another source plays
         self._hidden_elsewhere = False
-        # this tab ran the job: its result is framed when it comes
+        # this tab ran the job: its result is framed when it comes, the first time only (a view
+        # the technician turned is kept; Look at the dense result frames it again)
         self._look = False
+        self._framed = False
         self.method = gui.add_dropdown("Method", tuple(METHODS), initial_value="carve (consistent)")
         self.voxel = gui.add_slider("Voxel (mm)", min=1.0, max=20.0, step=0.5, initial_value=4.0)
         self.threshold = gui.add_slider(
@@ -67,6 +70,7 @@ class DensePanel:
         # in view at 1024x600
         self.export = gui.add_button("Export the dense result as PLY", disabled=True)
         self.show = gui.add_checkbox("Show the dense result", initial_value=True)
+        self.look = gui.add_button("Look at the dense result", disabled=True)
         self.beside = gui.add_checkbox(
             "Beside the live cloud",
             initial_value=True,
@@ -96,6 +100,7 @@ class DensePanel:
         self.beside.on_update(lambda _: self._layer())
         self.show_box.on_update(lambda _: self._show_box())
         self.export.on_click(lambda _: act(self.export_result))
+        self.look.on_click(lambda _: act(self.look_at_result))
         self._unsubscribe = [
             self.services.bus.subscribe(JobProgress, self._on_job),
             self.services.bus.subscribe(DenseChanged, self._on_result),
@@ -269,14 +274,27 @@ class DensePanel:
     def _on_result(self, event: DenseChanged) -> None:
         """Show a dense result: its box, its message, and the view on it in the tab that ran it."""
         result = event.result
-        self.export.disabled = result is None
+        self.export.disabled = self.look.disabled = result is None
         if result is not None:
             self.low.value, self.high.value = tuple(result.low), tuple(result.high)
             self.status.content = dense_message(result).markdown()
-            # the tab that ran it sees it
-            if self._look and self.show.value and self.tab.state.view == "3d":
+            # the tab that ran it sees its first result; later ones keep the view it has
+            if (self._look and not self._framed and self.show.value
+                    and self.tab.state.view == "3d"):
                 self.tab.look_at_dense(result)
+                self._framed = True
             self._look = False
+
+    def look_at_result(self) -> None:
+        """'Look at the dense result': show it and frame it with the object in this tab's view."""
+        result = self.services.jobs.dense_result
+        if result is None:
+            raise MirrorscanError("no dense result yet: Run one first")
+        self.show.value = True
+        if self.tab.state.view != "3d":
+            self.tab.look("3d")
+        self.tab.look_at_dense(result)
+        self._framed = True
 
     def export_result(self) -> None:
         """Export the last dense result as PLY, under a new name.

@@ -24,6 +24,7 @@ from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
 from ..wording.jobs import recording_headline
+from ..wording.saving import header_state
 
 STATS_HZ = 4.0
 # seconds the header says a tab lagged after it last did (it catches up and lags again)
@@ -219,15 +220,18 @@ class LivePanel:
         """The header's title.
 
         The source, and the session being edited where it is saved and is not the one that plays
-        (after Record's replay and Back to, the edits go to the recording's session).
+        (after Record's replay and Back to, the edits go to the recording's session); then whether
+        its edits are not saved, or it is open read-only.
         """
         services = self.tab.services
+        editor = services.editor
         self.title.content = markdown(
             source_title(
                 services.source.name,
                 source_root(services.source),
-                services.editor.session.root if services.editor.autosave else None,
+                editor.session.root if editor.autosave else None,
             )
+            + header_state(editor.last_save_error, editor.read_only)
         )
 
     def refresh_hint(self) -> None:

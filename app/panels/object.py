@@ -87,7 +87,8 @@ class ObjectPanel:
         self.bounces.on_update(
             lambda e: (
                 e.client is not None
-                and act(lambda: self.services.editor.set_bounces(int(self.bounces.value)))
+                and act(lambda: self._edit(lambda: self.services.editor.set_bounces(
+                    int(self.bounces.value))))
             )
         )
         self.draw.on_click(lambda _: act(self._start_region))
@@ -131,18 +132,34 @@ class ObjectPanel:
         self.close.visible = drawing
         self.close.disabled = len(state.region_draft) < MIN_VERTICES
 
+    def _edit(self, change) -> None:
+        """Make a change; refused, the controls show the session's selection again."""
+        try:
+            change()
+        except MirrorscanError:
+            self.refresh()
+            raise
+
     def _set(self, **changes) -> None:
-        """Change fields of the session's object selection."""
-        self.services.editor.set_selection(
-            replace(self.services.snapshot.session.selection, **changes)
-        )
+        """Change fields of the session's object selection (what the session reader refuses is
+        refused by the editor, naming the field)."""
+        self._edit(lambda: self.services.editor.set_selection(
+            replace(self.services.snapshot.session.selection, **changes)))
 
     def _set_range(self) -> None:
         """Set the depth range from the slider; at least 5 cm wide."""
+        self._edit(self._check_range)
         low, high = self.range.value
-        if high - low < 0.05:
-            raise MirrorscanError("the depth range must be at least 5 cm wide")
         self._set(depth_min=float(low), depth_max=float(high))
+
+    def _check_range(self) -> None:
+        """Refuse a depth range that is not two numbers at least 5 cm apart (a message of another
+        client may hold anything)."""
+        value = self.range.value
+        numbers = (isinstance(value, (list, tuple)) and len(value) == 2
+                   and all(isinstance(x, (int, float)) for x in value))
+        if not numbers or value[1] - value[0] < 0.05:
+            raise MirrorscanError("the depth range must be at least 5 cm wide")
 
     # ------------------------------------------------------------------ region of interest
     def _start_region(self) -> None:

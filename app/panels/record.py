@@ -5,12 +5,13 @@ progress, time left and a cancel. One recording and one batch at a time, shared 
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from mirrorcore.batch import BATCH_METHODS
+from mirrorcore.batch.executor import cores
 from mirrorcore.dense import DenseOptions
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.io.fields import shown
 from mirrorcore.io.session import Session
 from mirrorcore.sources import DepthSource, SessionSource
 
@@ -52,7 +53,8 @@ def batch_label(session: Session) -> str:
     """
     count = len(session.frames)
     frames = f"{count} frame{'s' if count != 1 else ''}"
-    return f"Reconstruct every frame of session {Path(session.root).name} ({frames})"
+    name = shown(Path(session.root).name)
+    return f"Reconstruct every frame of session {name} ({frames})"
 
 
 class RecordPanel:
@@ -87,7 +89,7 @@ class RecordPanel:
             )
 
             self.workers = gui.add_slider(
-                "Worker processes", min=1, max=max(os.cpu_count() or 1, 1), step=1, initial_value=1
+                "Worker processes", min=1, max=cores(), step=1, initial_value=1
             )
             self.batch = gui.add_button(batch_label(self.services.editor.session))
             self.batch_cancel = gui.add_button("Cancel the batch", visible=False)

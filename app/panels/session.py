@@ -1,6 +1,7 @@
-"""The "Session" step: where the session lives, open another, save it under a new name, upload a
-depth PNG as the background, and export the current cloud as PLY (downloaded by the tab, kept in the
-session's exports/ folder under a new name each time)."""
+"""The "Session" step: where the session lives and whether it is saved, open another, save it under
+a new name (or, while it cannot be saved, in another folder), upload a depth PNG as the background,
+and export the current cloud as PLY (downloaded by the tab, kept in the session's exports/ folder
+under a new name each time)."""
 
 from __future__ import annotations
 
@@ -19,10 +20,37 @@ from ..jobs import unplaned
 from ..liveframe import frame_number
 from ..markup import markdown
 from ..wording.jobs import left_out
+from ..wording.saving import read_only, unsaved
 
 TITLE = "Session"
 CHOOSE = ""  # the Open list's first entry: nothing is opened by a stray click on the button
 MAX_UPLOAD_MB = 20  # a 16-bit 640x480 depth PNG is under 1 MB; 4096x4096 uncompressed is 32 MB
+
+
+def session_names(sessions_dir: Path) -> tuple[list[str], int]:
+    """The names of the session folders in `sessions_dir` that can be opened, sorted.
+
+    Parameters
+    ----------
+    sessions_dir : Path
+
+    Returns
+    -------
+    names : list of str
+        Those that `session_folder` accepts.
+    skipped : int
+        How many others hold a session.json (names that are not UTF-8 among them, which the
+        browser could not be sent).
+    """
+    names, skipped = [], 0
+    for path in sessions_dir.glob(f"*/{SESSION_FILE}"):
+        try:
+            session_folder(sessions_dir, path.parent.name)
+        except MirrorscanError:
+            skipped += 1
+            continue
+        names.append(path.parent.name)
+    return sorted(names), skipped
 
 
 class SessionPanel:
@@ -42,9 +70,15 @@ class SessionPanel:
         self.exported = gui.add_markdown("")
         self._root = self.services.editor.session.root  # the session the export line speaks of
         self.open_choice = gui.add_dropdown("Open", (CHOOSE,))
+        # the session folders left out of the Open list, said under it
+        self.skipped = gui.add_markdown("")
         self.open = gui.add_button("Open session")
         self.new_name = gui.add_text("Save as", "")
         self.save_as = gui.add_button("Save as new session")
+        # while the session cannot be saved where it is (or is open read-only)
+        self.elsewhere = gui.add_text("Folder", "", visible=False,
+                                      hint="a new or empty folder on a disk that can be written")
+        self.save_elsewhere = gui.add_button("Save elsewhere", visible=False)
         # the question asked before an unsaved session goes
         self.confirm_open = None
         self.upload = gui.add_upload_button(
@@ -54,6 +88,7 @@ class SessionPanel:
         act = tab.act
         self.open.on_click(lambda _: act(self._open))
         self.save_as.on_click(lambda _: act(self._save_as))
+        self.save_elsewhere.on_click(lambda _: act(self._save_elsewhere))
         self.upload.on_upload(
             lambda e: act(
                 lambda: self.upload_background(e.target.value.name, e.target.value.content)
@@ -75,19 +110,29 @@ class SessionPanel:
             if editor.autosave
             else "not saved yet: *Save as* to keep it"
         )
-        error = (
-            f" — **last save failed**: {editor.last_save_error}" if editor.last_save_error else ""
-        )
-        self.where.content = markdown(f"`{editor.session.root}` ({state}){error}")
+        if editor.read_only is not None:
+            trouble = read_only(editor.read_only)
+        elif editor.last_save_error is not None:
+            trouble = unsaved(editor.session.root, editor.last_save_error)
+        else:
+            trouble = None
+        self.where.content = markdown(f"`{editor.session.root}` ({state})") + (
+            "\n\n" + trouble.markdown() if trouble else "")
+        self.elsewhere.visible = self.save_elsewhere.visible = trouble is not None
         # another session: the last export was another's
         if editor.session.root != self._root:
             self._root, self.exported.content = editor.session.root, ""
-        names = (
-            CHOOSE,
-            *sorted(p.parent.name for p in self.services.sessions_dir.glob(f"*/{SESSION_FILE}")),
+        names, skipped = session_names(self.services.sessions_dir)
+        if self.open_choice.options != (CHOOSE, *names):
+            self.open_choice.options = (CHOOSE, *names)
+        self.skipped.content = (
+            markdown(
+                f"Not listed: {skipped} session folder{'s' if skipped > 1 else ''} whose name has "
+                "more than letters, digits, spaces and _ - . (rename it to open it)"
+            )
+            if skipped
+            else ""
         )
-        if self.open_choice.options != names:
-            self.open_choice.options = names
 
     def _open(self) -> None:
         """Open the chosen session.
@@ -130,6 +175,25 @@ class SessionPanel:
         if held is not None:
             services.set_background(held)
         self.new_name.value = ""
+
+    def _save_elsewhere(self) -> None:
+        """Save the session, as edited, in the folder typed, and go on editing it there.
+
+        Raises
+        ------
+        MirrorscanError
+            One line: no folder typed, or it cannot be written (nothing changed).
+        """
+        typed = self.elsewhere.value.strip()
+        if not typed:
+            raise MirrorscanError("type a folder to save in first (a new or empty one)")
+        folder = Path(typed).expanduser()
+        try:
+            copy = copy_session(self.services.editor.session, folder)
+        except OSError as exc:
+            raise MirrorscanError(f"{folder}: cannot save there ({exc.strerror or exc})") from None
+        self.services.open_session(copy)
+        self.elsewhere.value = ""
 
     def upload_background(self, name: str, data: bytes) -> None:
         """Use an uploaded depth PNG as the background, saved as the session's background.png.

@@ -8,7 +8,7 @@ import numpy as np
 from mirrorcore.base.words import listed
 from mirrorcore.calibration.results import CAMERA_MEAN_EXPLAINS, MEAN_EXPLAINS, NOISE_EXPLAINS
 from mirrorcore.calibration.fixing import MIN_AGREEMENTS
-from mirrorcore.calibration.residuals import ViewAgreement
+from mirrorcore.calibration.residuals import ViewAgreement, reads_as_glass
 
 from ..results import AgreementReport, MirrorAgreement
 from . import Message
@@ -74,17 +74,29 @@ def _apart(value: float, limit: float) -> tuple[str, str]:
     return f"{value:.{places}f}", f"{limit:.{places}f}"
 
 
-def agreement_line(line: MirrorAgreement) -> Message:
+def _step(found: ViewAgreement) -> str:
+    """How a refinement step would move the plane (the figures behind the advice)."""
+    return (
+        f"A refinement step would move it {found.step_shift_mm:+.1f} mm (> 0: away from the "
+        f"camera) and turn it {found.step_tilt_deg:.2f}°."
+    )
+
+
+def agreement_line(line: MirrorAgreement, glass: bool = False) -> Message:
     """One mirror's agreement with the other views against what the depth noise explains.
 
     A mirror that disagrees with the camera may be tilted or have its boundary off; one that
     agrees with the camera but not with another mirror has a plane off along its normal (its own
-    or another's). Fewer than MIN_AGREEMENTS comparisons judge nothing. The advice names the
-    markers and the glass only for a plane from markers.
+    or another's). Fewer than MIN_AGREEMENTS comparisons judge nothing. A mirror is sent to its
+    glass only when the measurement reads as glass (`glass`, residuals.reads_as_glass; an offset
+    along the normal the lines' RMS and mean hardly show) and its plane comes from markers; a
+    flagged mirror otherwise to the refinement.
 
     Parameters
     ----------
     line : MirrorAgreement
+    glass : bool
+        The views' disagreement reads as glass over the markers of every markers fit.
 
     Returns
     -------
@@ -108,6 +120,18 @@ def agreement_line(line: MirrorAgreement) -> Message:
             ),
         )
     kind = doubt(found)
+    if glass and line.by_markers:
+        warn = "⚠ " if kind else ""
+        return Message(
+            f"{name}: {warn}its plane reads too near, as glass over the markers makes it: set each "
+            "mirror's glass and fit again.",
+            (
+                f"RMS {found.rms_mm:.1f} mm against {found.noise_mm:.1f} mm of depth noise, mean "
+                f"{found.mean_mm:+.1f} mm, {found.points:,} points {_over(found)}.",
+                _step(found) + " Every plane from markers moves back alike: the glass's "
+                "thickness. Refine from the object measures it.",
+            ),
+        )
     if kind == "camera":
         rms, noise = _apart(found.camera_rms_mm, found.camera_noise_mm)
         check = "markers" if line.by_markers else "boundary"
@@ -121,6 +145,7 @@ def agreement_line(line: MirrorAgreement) -> Message:
                 f"{rms} "
                 f"mm, the depth noise {noise} mm; {found.camera_points:,} points seen both ways "
                 f"{_over(found)}.",
+                *((_step(found),) if np.isfinite(found.step_shift_mm) else ()),
             ),
         )
     if kind == "mirrors":
@@ -142,16 +167,8 @@ def agreement_line(line: MirrorAgreement) -> Message:
         ]
         if found.camera_points >= MIN_AGREEMENTS:
             details.append(f"Against the camera: mean {found.camera_mean_mm:+.1f} mm.")
-        details.append(
-            "Another mirror flagged against the camera is the one off; if none is, a plane is off "
-            "along its normal"
-            + (
-                ": markers on glass put it that much too near (set each mirror's "
-                "glass and fit again)."
-                if line.by_markers
-                else "."
-            )
-        )
+        if np.isfinite(found.step_shift_mm):
+            details.append(_step(found))
         return Message(head, tuple(details))
     return Message(
         f"{name}: agrees with the other views as the depth noise explains.",
@@ -174,7 +191,11 @@ def agreement(report: AgreementReport) -> list[Message]:
     -------
     list of Message
     """
-    return [agreement_line(m) for m in report.mirrors] or [NO_AGREEMENT]
+    glass = reads_as_glass(
+        [m.found for m in report.mirrors if m.by_markers],
+        [m.found for m in report.mirrors if not m.by_markers],
+    )
+    return [agreement_line(m, glass) for m in report.mirrors] or [NO_AGREEMENT]
 
 
 def disagreement_note(names: tuple[str, ...]) -> Message:

@@ -348,3 +348,50 @@ def report_markdown(report) -> str:
     if isinstance(report, FitsApplied):
         return joined(fit_report(report))
     return joined(refinement.report(report))
+
+
+def removed_note(name: str) -> tuple[str, str]:
+    """The note every tab gets when a mirror leaves the session (Remove, Undo or Redo).
+
+    Parameters
+    ----------
+    name : str
+        The mirror's name.
+
+    Returns
+    -------
+    title, message : str
+    """
+    return f"{name} removed", f"{name} left the session; Undo in the Mirrors step brings it back."
+
+
+def outline_taken_note(name: str) -> tuple[str, str]:
+    """The note of a tab whose unfinished outline of a mirror another tab's outline replaced.
+
+    Parameters
+    ----------
+    name : str
+        The mirror's name.
+
+    Returns
+    -------
+    title, message : str
+    """
+    return (f"Outline of {name} drawn in another tab",
+            f"{name} now has the outline drawn in another tab; this tab's unfinished outline of it "
+            "is dropped.")
+
+
+def redo_removal_title(name: str, redo: bool) -> str:
+    """The title of the question before an undo or redo that removes a mirror.
+
+    Parameters
+    ----------
+    name : str
+    redo : bool
+
+    Returns
+    -------
+    str
+    """
+    return f"{'Redo' if redo else 'Undo'}: remove {name}?"

@@ -15,6 +15,7 @@ import shutil
 import signal
 import tempfile
 import threading
+import time
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -24,9 +25,11 @@ import cv2
 import dask
 from distributed import Client, LocalCluster, WorkerPlugin, get_worker, wait
 
-from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.errors import Cancelled, MirrorscanError
+from mirrorcore.base.progress import cancel_requested
 from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
-from mirrorcore.batch.manifest import FrameRecord
+from mirrorcore.batch.records import FrameRecord
+from mirrorcore.batch.scheduler import POLL_SECONDS
 
 CONNECT_SECONDS = 20.0     # to reach a scheduler and see a first worker
 DASHBOARD = ":8787"        # Dask's usual dashboard port (another free one if it is taken)
@@ -103,7 +106,8 @@ def run_task(plugin: str, indices: tuple[int, ...]) -> tuple[list[FrameRecord], 
 
 
 @contextmanager
-def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterator[Client]:
+def dask_client(workers: int, scheduler: str | None, dashboard: bool, cancel=None
+                ) -> Iterator[Client]:
     """Connect to a Dask cluster, or start a local one, closed on the way out.
 
     Parameters
@@ -111,14 +115,24 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
     workers : int
         Processes of a new local cluster, one thread each, listening on 127.0.0.1 only.
     scheduler : str or None
-        The address of an existing cluster ('tcp://HOST:8786').
+        The address of an existing cluster ('tcp://HOST:8786'), answering as Dask
+        (scheduler.probe_scheduler).
     dashboard : bool
         Serve the dashboard of a local cluster.
+    cancel : threading.Event or callable, optional
+        Stops the wait for an existing cluster's first worker.
 
     Yields
     ------
     distributed.Client
         Closed (processes, ports, scratch folder) on the way out.
+
+    Raises
+    ------
+    MirrorscanError
+        One line: no Dask client could connect to `scheduler`, or it has no workers.
+    Cancelled
+        A cancel request while waiting for an existing cluster's first worker.
     """
     if scheduler is not None:
         try:
@@ -126,12 +140,8 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
         except (OSError, ValueError) as exc:
             raise MirrorscanError(
                 f"--scheduler {scheduler}: no Dask scheduler answered ({exc})") from None
-        try:
-            client.wait_for_workers(1, timeout=CONNECT_SECONDS)
-        except TimeoutError:
-            client.close()
-            raise MirrorscanError(f"--scheduler {scheduler}: the cluster has no workers") from None
         with client:
+            _wait_for_a_worker(client, scheduler, cancel)
             yield client
         return
     scratch = tempfile.mkdtemp(prefix="mirrorscan-dask-")
@@ -148,6 +158,17 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool) -> Iterato
             yield client
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _wait_for_a_worker(client: Client, scheduler: str, cancel) -> None:
+    """Wait up to CONNECT_SECONDS for the cluster's first worker, looking at `cancel` meanwhile."""
+    deadline = time.monotonic() + CONNECT_SECONDS
+    while not client.nthreads():
+        if cancel_requested(cancel):
+            raise Cancelled("cancelled while waiting for the Dask cluster's workers")
+        if time.monotonic() > deadline:
+            raise MirrorscanError(f"--scheduler {scheduler}: the cluster has no workers")
+        time.sleep(POLL_SECONDS)
 
 
 def worker_environment() -> dict:

@@ -10,12 +10,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mirrorcore.dense.volume import cancel_requested
-from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.io.sessionfile import load_session
+from mirrorcore.depth.temporal import check_window_memory
 from mirrorcore.batch.executor import Where, task_executor
 from mirrorcore.batch.frames import FrameContext
 from mirrorcore.batch.job import BatchJob, session_inputs
 from mirrorcore.batch.manifest import MANIFEST_FILE, OutputFolder
+from mirrorcore.batch.scheduler import probe_scheduler
 
 # how often a Dask run looks at the cancel request and the cluster's events
 POLL_SECONDS = 0.25
@@ -186,23 +188,39 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
     Raises
     ------
     MirrorscanError
-        One line, for a bad session, output folder or cluster.
+        One line, for a bad session, output folder or cluster (a scheduler that does not answer
+        as Dask within scheduler.PROBE_SECONDS: nothing is written then).
     """
     session = load_session(Path(job.session).resolve())
     job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
     per_task = default_frames_per_task(job.method) if frames_per_task is None else frames_per_task
     if per_task < 1:
         raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
+    if job.temporal:
+        check_window_memory(min(2 * job.temporal + 1, len(session.frames)), session.camera.shape,
+                            f"--temporal {job.temporal}")
     context = FrameContext.build(session, job, threads=None if where.in_process else 1)
+    # a peer that is not a Dask scheduler is refused before the folder is made or distributed
+    # imported (a second)
+    try:
+        if where.scheduler is not None:
+            probe_scheduler(where.scheduler, cancel)
+    except Cancelled:
+        return BatchReport(job.out, len(context.names), 0, 0, cancelled=True)
     folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session),
-                          context.names,
+                          context.names, [Path(session.root) / f for f in session.frames],
                           overwrite)
     try:
         todo = [i for i in range(len(context.names)) if i not in folder.kept]
         run = _Run(folder, len(context.names), progress)
         if todo and not cancel_requested(cancel):
-            with task_executor(where, context, cancel) as executor:
-                run.drive(executor, task_chunks(todo, per_task, executor.workers), cancel)
+            try:
+                with task_executor(where, context, cancel) as executor:
+                    run.drive(executor, task_chunks(todo, per_task, executor.workers), cancel)
+            # a cancel request while waiting for the cluster's workers: the report says cancelled
+            except Cancelled:
+                if not cancel_requested(cancel):
+                    raise
         return run.report(job.out, cancelled=cancel_requested(cancel))
     finally:
         folder.flush()

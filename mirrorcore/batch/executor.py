@@ -9,7 +9,11 @@ from dataclasses import dataclass
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.batch.frames import FrameContext, reconstruct_frames, task_error
+from mirrorcore.batch.scheduler import scheduler_address
 from mirrorcore.dense.volume import cancel_requested
+
+# local worker processes a core may have: more only wait for the cores and take memory
+WORKERS_PER_CORE = 2
 
 
 @dataclass(frozen=True)
@@ -19,9 +23,10 @@ class Where:
     Attributes
     ----------
     workers : int or None
-        Local worker processes (default: one per core; 1 runs in this process, without Dask).
+        Local worker processes (default: one per core; 1 runs in this process, without Dask; at
+        most `max_workers()`).
     scheduler : str or None
-        The address of an existing Dask cluster ('tcp://HOST:8786') instead.
+        The address of an existing Dask cluster ('tcp://HOST:8786' or 'HOST:8786') instead.
     dashboard : bool
         Serve the Dask dashboard of a local cluster.
     """
@@ -31,8 +36,13 @@ class Where:
     dashboard: bool = True
 
     def __post_init__(self) -> None:
+        if self.scheduler is not None:
+            scheduler_address(self.scheduler)
         if self.workers is not None and self.workers < 1:
             raise MirrorscanError(f"--workers: at least 1, got {self.workers}")
+        if self.workers is not None and self.workers > max_workers():
+            raise MirrorscanError(f"--workers: at most {max_workers()} on this machine "
+                                  f"({WORKERS_PER_CORE} per core), got {self.workers}")
         if self.workers is not None and self.scheduler is not None:
             raise MirrorscanError(f"--workers: the cluster at {self.scheduler} has its own "
                                   "workers; give one or "
@@ -46,22 +56,38 @@ class Where:
     @property
     def local_workers(self) -> int:
         """The local worker processes: `workers`, or the cores this process may use."""
-        if self.workers:
-            return self.workers
-        if hasattr(os, "sched_getaffinity"):
-            return len(os.sched_getaffinity(0))
-        return os.cpu_count() or 1
+        return self.workers or cores()
+
+
+def cores() -> int:
+    """The cores this process may use."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def max_workers() -> int:
+    """The most local worker processes: WORKERS_PER_CORE per core this process may use."""
+    return WORKERS_PER_CORE * cores()
 
 
 @contextmanager
 def task_executor(where: Where, context: FrameContext, cancel) -> Iterator:
-    """Yield the executor of `where`: in this process, or on a Dask cluster closed after."""
+    """Yield the executor of `where`: in this process, or on a Dask cluster closed after.
+
+    Raises
+    ------
+    MirrorscanError
+        An existing cluster without workers.
+    Cancelled
+        A cancel request while waiting for them.
+    """
     if where.in_process:
         yield _InProcess(context, cancel)
         return
     # distributed is imported only when used
     from mirrorcore.batch.cluster import DaskExecutor, dask_client
-    with dask_client(where.local_workers, where.scheduler, where.dashboard) as client:
+    with dask_client(where.local_workers, where.scheduler, where.dashboard, cancel) as client:
         local = where.scheduler is None
         executor = DaskExecutor(client, context, local, dashboard=where.dashboard or not local)
         try:

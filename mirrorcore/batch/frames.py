@@ -12,15 +12,15 @@ import numpy as np
 
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.dense import dense_volume, reconstruct_dense, result_geometry
-from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.io.ply import encode_ply
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.io.session import Session
-from mirrorcore.depth.temporal import frame_window, temporal_smooth
+from mirrorcore.depth.temporal import check_window_memory, frame_window, temporal_smooth
 from mirrorcore.batch.job import BatchJob, output_names
-from mirrorcore.batch.manifest import FrameRecord
+from mirrorcore.batch.records import FrameRecord
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,6 +100,8 @@ def read_depth(session: Session, index: int, temporal: int = 0,
     index %= count
     cache = {} if cache is None else cache
     window = frame_window(index, temporal, count)
+    if temporal:
+        check_window_memory(len(window), session.camera.shape, f"--temporal {temporal}")
     for i in window:
         if i not in cache:
             cache[i] = session.read_frame(i)
@@ -120,7 +122,8 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
     context : FrameContext
     indices : iterable of int
     cancel : callable, optional
-        Asked before each frame (returns True to stop): the frames done so far are returned.
+        Asked before each frame and during a dense one (returns True to stop): the frames done
+        so far are returned.
 
     Returns
     -------
@@ -140,9 +143,11 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         try:
             data, sources, faces = _frame_ply(context,
                                               read_depth(context.session, index,
-                                                         context.job.temporal, cache))
+                                                         context.job.temporal, cache), cancel)
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
+        except Cancelled:
+            break
         except (MirrorscanError, OSError) as exc:
             failures[index] = _one_line(exc)
             continue
@@ -153,7 +158,8 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
     return records, failures
 
 
-def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndarray, int | None]:
+def _frame_ply(context: FrameContext, depth: np.ndarray, cancel=None
+               ) -> tuple[bytes, np.ndarray, int | None]:
     """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds).
     A dense frame with no object pixels (and no fixed box) gives an empty file rather than an error:
     the person left the view."""
@@ -168,7 +174,7 @@ def _frame_ply(context: FrameContext, depth: np.ndarray) -> tuple[bytes, np.ndar
     else:
         volume = dense_volume(rig, depth, mask, job.options)
         points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[
-            None], volume, job.method, job.options, workers=context.threads))
+            None], volume, job.method, job.options, cancel=cancel, workers=context.threads))
     return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
 
 

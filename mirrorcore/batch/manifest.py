@@ -1,12 +1,13 @@
-"""The output folder of a batch: one PLY file per frame and manifest.json (the session, the method
-and its options, what the output depends on in the session, every frame done with its counts and
-time, the frames that failed), written atomically; a lock so that one run at a time writes into it;
-the frames of an earlier run that can be kept.
+"""The output folder of a batch: one PLY file per frame and manifest.json (the session and the
+identity of its contents, the method and its options, what the output depends on in the session,
+every frame done with its counts, time and depth file's digest, the frames that failed), written
+atomically; a lock so that one run at a time writes into it; the frames of an earlier run that can
+be kept.
 
-A frame is done when the manifest lists it and its file is there with the size and the element
-counts the manifest gives (a file is only ever replaced whole, so this finds files removed or
-replaced since). Frames written by a run that was killed before it wrote them into the manifest are
-simply done again.
+A frame is done when the manifest lists it, its file is there with the size and the element counts
+the manifest gives (a file is only ever replaced whole, so this finds files removed or replaced
+since) and the depth files it was made from still have the digests the manifest gives. Frames
+written by a run that was killed before it wrote them into the manifest are simply done again.
 """
 from __future__ import annotations
 
@@ -14,14 +15,17 @@ import fcntl
 import json
 import os
 import time
-from dataclasses import asdict, dataclass, field
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from mirrorcore.base.atomic import make_durable, write_atomic
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.base.jsonfile import read_json
-from mirrorcore.io.ply import ply_element_counts
+from mirrorcore.batch.digests import depth_stamps, session_digest
 from mirrorcore.batch.job import differences
+from mirrorcore.batch.records import FrameRecord, require_count
+from mirrorcore.depth.temporal import frame_window
 
 MANIFEST_FILE = "manifest.json"
 LOCK_FILE = ".mirrorscan-batch.lock"
@@ -30,87 +34,10 @@ FLUSH_SHARE = 0.05
 MIN_FLUSH_SECONDS = 0.1
 # ...but never further apart than this, however long one write took (a busy disk)
 MAX_FLUSH_SECONDS = 2.0
-VERSION = 1
+VERSION = 2
+# the versions read: 1 has no digests of the session's contents (see OutputFolder)
+READS = (1, 2)
 KIND = "mirrorscan batch reconstruction"
-
-
-@dataclass(frozen=True)
-class FrameRecord:
-    """One frame done.
-
-    Attributes
-    ----------
-    index : int
-        Its index in the session (0-based).
-    file : str
-        Its file name in the folder.
-    vertices : int
-        The PLY's vertex count (points of a cloud, vertices of a mesh).
-    faces : int or None
-        Face count (None for clouds).
-    sources : tuple of int
-        Vertices per source (direct, mirror 1, ...).
-    bytes : int
-        The file's size.
-    seconds : float
-        The time it took (read, reconstruct, write).
-    """
-
-    index: int
-    file: str
-    vertices: int
-    faces: int | None
-    sources: tuple[int, ...]
-    bytes: int
-    seconds: float
-
-    @classmethod
-    def from_json(cls, data, where: str) -> FrameRecord:
-        """Read a record of manifest.json.
-
-        Parameters
-        ----------
-        data : object
-            The parsed JSON.
-        where : str
-            For the messages.
-
-        Returns
-        -------
-        FrameRecord
-
-        Raises
-        ------
-        FileFormatError
-        """
-        try:
-            record = cls(**{**data, "sources": tuple(data["sources"])})
-        except (TypeError, KeyError) as exc:
-            raise FileFormatError(f"{where}: not a frame record ({exc})") from None
-        if Path(record.file).name != record.file or not record.file.endswith(".ply"):
-            raise FileFormatError(
-                f"{where}: file {record.file!r} is not a PLY file name of this folder")
-        return record
-
-    def intact(self, folder: Path) -> bool:
-        """Tell whether the file is in `folder` with this record's size and element counts.
-
-        Parameters
-        ----------
-        folder : Path
-
-        Returns
-        -------
-        bool
-        """
-        path = folder / self.file
-        try:
-            if path.stat().st_size != self.bytes:
-                return False
-            counts = ply_element_counts(path)
-        except (OSError, FileFormatError):
-            return False
-        return counts.get("vertex") == self.vertices and counts.get("face") == self.faces
 
 
 @dataclass
@@ -130,6 +57,9 @@ class Manifest:
         Index -> record.
     failed : dict of int to str
         Index -> one-line error of the last attempt.
+    session_sha256 : str or None
+        The identity of the session's contents (digests.session_digest; None in a version-1
+        manifest).
     """
 
     session: str
@@ -138,6 +68,7 @@ class Manifest:
     total: int
     done: dict[int, FrameRecord] = field(default_factory=dict)
     failed: dict[int, str] = field(default_factory=dict)
+    session_sha256: str | None = None
     _lines: dict[int, tuple[FrameRecord, str]] = field(default_factory=dict, repr=False,
                                                        compare=False)
 
@@ -151,7 +82,8 @@ class Manifest:
 
         Each line is made once and kept: 18,000 frames are rewritten in a few tens of milliseconds.
         """
-        head = {"version": VERSION, "kind": KIND, "session": self.session, **self.settings,
+        head = {"version": VERSION, "kind": KIND, "session": self.session,
+                "session_sha256": self.session_sha256, **self.settings,
                 "inputs": self.inputs,
                 "total": self.total, "complete": self.complete,
                 "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -184,7 +116,7 @@ class Manifest:
         """
         if not isinstance(data, dict) or data.get("kind") != KIND:
             raise FileFormatError(f"{where}: not the manifest of a batch reconstruction")
-        if data.get("version") != VERSION:
+        if data.get("version") not in READS:
             raise FileFormatError(
                 f"{where}: unknown version {data.get('version')!r}; this mirrorscan writes "
                                   f"version {VERSION}")
@@ -192,9 +124,14 @@ class Manifest:
             settings = {"method": str(data["method"]), "options": dict(data["options"])}
             records = [FrameRecord.from_json(r, f"{where}: frames[{k}]") for k,
                        r in enumerate(data["frames"])]
-            failed = {int(f["index"]): str(f["error"]) for f in data["failed"]}
-            return cls(str(data["session"]), settings, dict(data["inputs"]), int(data["total"]),
-                       {r.index: r for r in records}, failed)
+            failed = {require_count(f["index"], f"{where}: failed[{k}].index"): str(f["error"])
+                      for k, f in enumerate(data["failed"])}
+            identity = data.get("session_sha256")
+            if identity is not None and not isinstance(identity, str):
+                raise TypeError(f"session_sha256 is {identity!r}")
+            return cls(str(data["session"]), settings, dict(data["inputs"]),
+                       require_count(data["total"], f"{where}: total"),
+                       {r.index: r for r in records}, failed, identity)
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(
                 f"{where}: missing or malformed key ({type(exc).__name__}: {exc})") from None
@@ -204,31 +141,47 @@ class OutputFolder:
     """A batch's output folder, held for one run.
 
     Created when missing, locked against a second run, stale temporary files of a killed run
-    removed, the manifest read and checked against this run's settings and inputs.
+    removed, the manifest read and checked against this run's session, settings and inputs.
+
+    A frame of the manifest is kept when its file is intact and the depth files it was made from
+    (its own, and its neighbours with temporal smoothing) have the digests the manifest gives;
+    a depth file is hashed again only when its size or time changed. A manifest of another
+    session folder is refused unless the session's contents are the same (a session moved or
+    copied whole). A version-1 manifest (no digests) is read: for the same session folder its
+    frames are kept and their depth files taken as they are now; for another folder, refused.
 
     Parameters
     ----------
     path : Path
     session : str
+        The session folder (absolute).
     settings : dict
         The job's settings (BatchJob.settings).
     inputs : dict
         What the output depends on (job.session_inputs).
     names : tuple of str
         Each frame's output file name.
+    depth_files : sequence of Path
+        Each frame's depth file.
     overwrite : bool
-        Accept a manifest made with other settings or inputs: every frame is done again, and the
-        files of frames that are not in the session are removed.
+        Accept a manifest of another session, or made with other settings or inputs: every frame
+        is done again, and the files of frames that are not in the session are removed.
+
+    Attributes
+    ----------
+    depths : list of DepthStamp or None
+        Each frame's depth file as hashed now (None: it cannot be read).
 
     Raises
     ------
     MirrorscanError
         One line: a folder that holds other files and no manifest, a folder another run is writing
-        into, or a manifest made with other settings or inputs unless `overwrite`.
+        into, or a manifest of another session or made with other settings or inputs unless
+        `overwrite`.
     """
 
     def __init__(self, path: Path, session: str, settings: dict, inputs: dict,
-                 names: tuple[str, ...],
+                 names: tuple[str, ...], depth_files: Sequence[Path],
                  overwrite: bool = False):
         self.path = Path(path)
         self._flushed = self._flush_seconds = 0.0
@@ -240,7 +193,12 @@ class OutputFolder:
             old = self._read_old()
             # as read back
             settings, inputs = json.loads(json.dumps(settings)), json.loads(json.dumps(inputs))
-            self.manifest = Manifest(session, settings, inputs, len(names))
+            # the sizes and times of the same folder's files spare hashing them again
+            known = {} if old is None or old.session != session else {
+                i: r.depth for i, r in old.done.items() if r.depth is not None}
+            self.depths = depth_stamps(depth_files, known)
+            self.manifest = Manifest(session, settings, inputs, len(names),
+                                     session_sha256=session_digest(inputs, self.depths))
             self.kept = self._keep(old, names, overwrite)
             self.manifest.done.update(self.kept)
             self.flush()
@@ -265,6 +223,12 @@ class OutputFolder:
         """The frames of the old manifest that this run keeps (see the class docstring)."""
         if old is None:
             return {}
+        new = self.manifest
+        if old.session != new.session and old.session_sha256 != new.session_sha256 and (
+                not overwrite):
+            raise MirrorscanError(f"{self.path / MANIFEST_FILE}: its frames are of the session "
+                                  f"{old.session}, not {new.session}; use --overwrite to redo "
+                                  "every frame, or another folder")
         changed = differences({**old.settings, **old.inputs},
                               {**self.manifest.settings, **self.manifest.inputs})
         if changed and not overwrite:
@@ -277,8 +241,17 @@ class OutputFolder:
                 if record.file not in names:
                     (self.path / record.file).unlink(missing_ok=True)
             return {}
-        return {i: r for i,
-                r in old.done.items() if i < len(names) and r.file == names[i]
+        temporal = new.settings["options"].get("temporal", 0)
+
+        def unchanged(index: int) -> bool:
+            if old.done[index].depth is None:
+                return True
+            return all(j in old.done and None not in (old.done[j].depth, self.depths[j])
+                       and old.done[j].depth.sha256 == self.depths[j].sha256
+                       for j in frame_window(index, temporal, len(names)))
+
+        return {i: replace(r, depth=self.depths[i]) for i, r in old.done.items()
+                if i < len(names) and r.file == names[i] and unchanged(i)
                 and r.intact(self.path)}
 
     def add(self, records: list[FrameRecord], failures: dict[int, str]) -> None:
@@ -295,6 +268,7 @@ class OutputFolder:
         failures : dict of int to str
             {frame: one-line error}.
         """
+        records = [replace(r, depth=self.depths[r.index]) for r in records]
         for r in records:
             self.manifest.done[r.index] = r
             self.manifest.failed.pop(r.index, None)
@@ -353,3 +327,4 @@ def _remove_stale_temporaries(folder: Path) -> None:
     for path in folder.glob(".*.tmp"):
         if path.name.startswith(f".{MANIFEST_FILE}.") or ".ply." in path.name:
             path.unlink(missing_ok=True)
+

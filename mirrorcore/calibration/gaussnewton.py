@@ -75,12 +75,7 @@ def solve(frames, planes, refined, centre, gate, progress, cancel,
     for _ in range(MAX_ITERATIONS):
         if cancel_requested(cancel):
             raise Cancelled("refinement cancelled")
-        found = residuals(frames, planes, refined, centre, gate)
-        weights = found.weights()
-        hessian = found.jacobian.T @ (weights[:, None] * found.jacobian)
-        # no view may see a mirror yet
-        hessian += np.eye(len(hessian)) * 1e-9 * max(np.trace(hessian), 1.0)
-        step = -np.linalg.solve(hessian, found.jacobian.T @ (weights * found.residual))
+        step, hessian = residuals(frames, planes, refined, centre, gate).step()
         for i, j in enumerate(refined):
             planes[j] = moved_plane(planes[j], centre, step[3 * i:3 * i + 3])
         iterations, gate = iterations + 1, gate / 2

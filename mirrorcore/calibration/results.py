@@ -79,7 +79,9 @@ class MirrorRefinement:
         How well the data determined the plane (1 sigma): the fit's own estimate, or with
         SCATTER_FRAMES frames or more the spread of the planes each frame alone gives over the
         square root of their number, whichever is larger (the fit's own misses that the
-        comparisons themselves change with the noise).
+        comparisons themselves change with the noise); from the surfaces, with the object's
+        pose's part added in quadrature (fixing.POSE_SHIFT, POSE_TILT_DEG), so that a refinement on
+        other frames moves the plane within 2 sigma.
     agreements : int
         Comparisons of its readings that agree with those of the views that fix it (both ways,
         all frames: the camera's, or on an arc the mirrors' beside it; fixing.fixed_by).

@@ -35,6 +35,7 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
+from mirrorcore.dense.holes import close_holes
 from mirrorcore.dense.mesh import Mesh, block_marching_cubes
 from mirrorcore.dense.blockfusion import BLOCK, fuse_blocks, BlockPlan
 from mirrorcore.dense.sampling import BORDER, QuadTable
@@ -45,6 +46,9 @@ from mirrorcore.dense.volume import NO_SOURCE, Progress, Volume, run_chunks
 TSDF_VOXEL_BYTES = 12
 # pixels, and voxels: the float32 rounding of a voxel's projection and centre
 PIXEL_MARGIN = 0.01
+# the longest hole closed_mesh closes, in voxels of boundary: on the simulated sphere the holes the
+# views saw around are 3-35 voxels long, the caps no view saw over 250 (docs/recording-and-dense.md)
+HOLE_VOXELS = 40
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,6 +96,56 @@ class TsdfResult:
             There is no surface in the volume.
         """
         return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
+
+    def closed_mesh(self, max_length: float | None = None) -> Mesh:
+        """The mesh with its short holes closed where a view observed the voxels.
+
+        mirrorcore.dense.holes.close_holes with `observed`: a hole where no view saw stays open.
+
+        Parameters
+        ----------
+        max_length : float, optional
+            The longest hole closed, metres of boundary (default HOLE_VOXELS voxels).
+
+        Returns
+        -------
+        Mesh
+
+        Raises
+        ------
+        MirrorscanError
+            There is no surface in the volume.
+        """
+        limit = HOLE_VOXELS * self.volume.voxel if max_length is None else max_length
+        return close_holes(self.mesh(), self.observed, limit)
+
+    def observed(self, points: np.ndarray) -> np.ndarray:
+        """Whether a view observed the voxel nearest each point (its weight is above 0).
+
+        Parameters
+        ----------
+        points : (k, 3) float array
+            Metres, camera frame.
+
+        Returns
+        -------
+        (k,) bool array
+            False outside the volume and in the blocks not fused.
+        """
+        volume = self.volume
+        if not len(self.blocks):
+            return np.zeros(len(np.reshape(points, (-1, 3))), bool)
+        ijk = np.rint((np.asarray(points, float).reshape(-1, 3) - volume.origin)
+                      / volume.voxel).astype(np.int64)
+        inside = np.all((ijk >= 0) & (ijk < np.asarray(volume.shape)), axis=1)
+        ijk = np.where(inside[:, None], ijk, 0)
+        keys = np.ravel_multi_index(tuple((ijk // BLOCK).T), volume.block_shape(BLOCK))
+        # the blocks are in C order
+        rows = np.minimum(np.searchsorted(self.blocks.keys, keys), len(self.blocks) - 1)
+        found = inside & (self.blocks.keys[rows] == keys)
+        local = ijk % BLOCK
+        weight = self.weight[rows, local[:, 0], local[:, 1], local[:, 2]]
+        return found & (weight > 0)
 
     def grids(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return the whole grids (nx, ny, nz).

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import struct
 from pathlib import Path
 
 import cv2
@@ -12,10 +11,10 @@ import numpy as np
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.geometry.camera import MAX_IMAGE_SIDE
+from mirrorcore.depth.imageheader import check_format, check_image
 
-_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-DECODED_BYTES = 6         # a decoded pixel: uint16 as read, then float32 metres
+METRE_BYTES = 4           # a pixel's float32 metres, beside the image as decoded
+HEAD_BYTES = 64           # enough for a PNG's size
 # bytes a depth file may hold beyond twice its raw pixels (headers, text chunks)
 FILE_SLACK = 1 << 20
 
@@ -47,17 +46,19 @@ def read_depth_png(path: str | Path, depth_scale: float,
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such depth image")
+    where = str(path)
     with open(path, "rb") as f:
-        head = f.read(24)
+        head = f.read(HEAD_BYTES)
         size = os.fstat(f.fileno()).st_size
-        pixels = _png_pixels(head, shape,
-                             str(path)) or (shape[0] * shape[1] if shape is not None else None)
+        pixels = shape[0] * shape[1] if shape is not None else None
+        if check_format(head, where, where) == "PNG":
+            header = check_image(head, where, where, shape, METRE_BYTES, "a depth image")
+            pixels = header.width * header.height
         limit = max_file_bytes(pixels) if pixels is not None else None
         if limit is not None and size > limit:
             raise FileFormatError(
                 f"{path}: {size:,} bytes is more than a depth image of {pixels:,} pixels can "
-                                  f"hold (at most {limit:,}); the file is damaged or not a depth "
-                                  "image")
+                f"hold (at most {limit:,}); the file is damaged or not a depth image")
         check_memory(size, f"{path}: reading the file")
         f.seek(0)
         data = f.read()
@@ -85,7 +86,10 @@ def max_file_bytes(pixels: int) -> int:
 
 def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | None = None,
                      where: str = "depth image") -> np.ndarray:
-    """Decode a 16-bit depth image (PNG, or another format OpenCV reads) from its bytes.
+    """Decode a 16-bit depth image (PNG, or another of `imageheader.READABLE`) from its bytes.
+
+    The format is read from the bytes and must be the one `where`'s suffix names (when it names
+    one); the size is read from the header and checked before decoding.
 
     Parameters
     ----------
@@ -94,10 +98,10 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
     depth_scale : float
         Metres per unit.
     shape : (int, int), optional
-        Expected (H, W), checked when given (for a PNG, from its header before decoding: a small
-        file can hold an image of gigabytes).
+        Expected (H, W), checked when given, from the header before decoding (a small file can
+        hold an image of gigabytes).
     where : str
-        The file, for the messages.
+        The file (its name, or a path), for the messages.
 
     Returns
     -------
@@ -108,9 +112,11 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
     ------
     FileFormatError
         Naming `where` and what is wrong.
+    MemoryBudgetError
+        Decoding would need more than the memory budget.
     """
-    _png_pixels(data[:24], shape, where)
-    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    check_image(data, where, where, shape, METRE_BYTES, "a depth image")
+    raw = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if raw is None:
         raise FileFormatError(f"{where}: not a readable image (corrupt or not a PNG)")
     if raw.ndim != 2:
@@ -124,23 +130,6 @@ def decode_depth_png(data: bytes, depth_scale: float, shape: tuple[int, int] | N
             f"{where}: size {raw.shape[1]}x{raw.shape[0]} does not match the camera's "
                               f"{shape[1]}x{shape[0]}")
     return raw.astype(np.float32) * np.float32(depth_scale)
-
-
-def _png_pixels(head: bytes, shape: tuple[int, int] | None, where: str) -> int | None:
-    """From a PNG's first 24 bytes: refuse a size other than `shape` (H, W), a side above
-    MAX_IMAGE_SIDE, or an image whose decoding would not fit in the memory budget; return its number
-    of pixels. Other formats pass (None: they are checked after decoding)."""
-    if len(head) < 24 or head[:8] != _PNG_SIGNATURE or head[12:16] != b"IHDR":
-        return None
-    width, height = struct.unpack(">II", head[16:24])
-    if max(width, height) > MAX_IMAGE_SIDE:
-        raise FileFormatError(f"{where}: size {width}x{height} is too large for a depth image "
-                              f"(at most {MAX_IMAGE_SIDE} pixels a side)")
-    if shape is not None and (height, width) != tuple(shape):
-        raise FileFormatError(
-            f"{where}: size {width}x{height} does not match the camera's {shape[1]}x{shape[0]}")
-    check_memory(width * height * DECODED_BYTES, f"{where}: decoding a {width}x{height} image")
-    return width * height
 
 
 def require_readings(depth: np.ndarray, where: str) -> np.ndarray:

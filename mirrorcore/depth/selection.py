@@ -9,9 +9,23 @@ import numpy as np
 
 from mirrorcore.depth.ops import bounding_window, masked_copy
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.base.jsonfile import finite_number
 from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
 from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
 from mirrorcore.depth.noise import axial_sigma
+
+
+# the keys of a selection in metres, and in standard deviations: numbers from 0
+_METRES = ("depth_min", "depth_max", "min_gap", "flying_gap")
+_SIGMAS = ("background_sigmas", "flying_sigmas")
+
+
+def _number(value, where: str) -> float:
+    """A finite number from 0 (not a boolean), as a float; FileFormatError naming `where`."""
+    number = finite_number(value)
+    if number is None or number < 0:
+        raise FileFormatError(f"{where}: must be a finite number from 0, got {repr(value)[:40]}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -70,7 +84,10 @@ class Selection:
         Raises
         ------
         FileFormatError
-            Naming `where`: not an object, unknown keys, or values refused.
+            Naming `where` and the key: not an object, unknown keys, a length or number of
+            deviations that is not a finite number from 0, a depth range not 0 <= depth_min <
+            depth_max, a min_blob not a whole number from 0, a smooth not a boolean, an invalid
+            roi.
         """
         if data is None:
             return cls()
@@ -88,14 +105,22 @@ class Selection:
                                                            f"{where}: roi").tolist()))
             except MirrorscanError as exc:
                 raise FileFormatError(str(exc)) from None
-        try:
-            sel = cls(**values)
-            numbers = [float(getattr(sel, f.name)) for f in fields(cls)
-                       if f.name not in ("roi", "smooth")]
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise FileFormatError(f"{where}: {exc}") from None
-        if not all(np.isfinite(numbers)) or sel.depth_min < 0 or sel.depth_max <= sel.depth_min:
-            raise FileFormatError(f"{where}: needs finite numbers and 0 <= depth_min < depth_max")
+        for key in _METRES + _SIGMAS:
+            if key in values:
+                values[key] = _number(values[key], f"{where}: {key}")
+        if "min_blob" in values:
+            blob = finite_number(values["min_blob"])
+            if blob is None or blob != int(blob) or blob < 0:
+                raise FileFormatError(f"{where}: min_blob: must be a whole number of pixels from "
+                                      f"0, got {repr(values['min_blob'])[:40]}")
+            values["min_blob"] = int(blob)
+        if not isinstance(values.get("smooth", True), bool):
+            raise FileFormatError(f"{where}: smooth: must be true or false, got "
+                                  f"{repr(values['smooth'])[:40]}")
+        sel = cls(**values)
+        if not 0 <= sel.depth_min < sel.depth_max:
+            raise FileFormatError(f"{where}: depth_min, depth_max: need 0 <= depth_min < "
+                                  f"depth_max metres, got {sel.depth_min:g}, {sel.depth_max:g}")
         return sel
 
     def to_json(self) -> dict:

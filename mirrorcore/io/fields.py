@@ -2,6 +2,7 @@
 read with a FileFormatError that names the file and the key."""
 from __future__ import annotations
 
+import re
 from pathlib import Path, PurePosixPath
 
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
@@ -10,6 +11,7 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.polygon import MAX_VERTICES, validate_polygon
 
 Pixels = tuple[tuple[float, float], ...]
+_SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 def read_list(value, where: str, limit: int | None = None, what: str = "items") -> list:
@@ -74,7 +76,7 @@ def read_pixels(value, camera: Intrinsics, where: str, limit: int = MAX_VERTICES
         uv = [finite_number(c) for c in p] if pair else [None]
         if None in uv:
             raise FileFormatError(f"{where}[{i}]: must be a pair of numbers [u, v], got "
-                                  f"{str(p)[:80]}")
+                                  f"{repr(p)[:80]}")
         u, v = uv
         if not (-0.5 <= u <= camera.width - 0.5 and -0.5 <= v <= camera.height - 0.5):
             raise FileFormatError(f"{where}[{i}]: pixel ({u:g}, {v:g}) is outside the "
@@ -200,7 +202,7 @@ def read_timestamps(value, n_frames: int, where: str) -> tuple[float, ...]:
     if None in out:
         i = out.index(None)
         raise FileFormatError(f"{where}[{i}]: must be a number of seconds, got "
-                              f"{str(stamps[i])[:80]}")
+                              f"{repr(stamps[i])[:80]}")
     return out
 
 
@@ -222,3 +224,20 @@ def encodable(text: str) -> bool:
     except UnicodeEncodeError:
         return False
     return True
+
+
+def shown(text: str) -> str:
+    """`text` with each lone surrogate replaced by U+FFFD, so that it can be written as UTF-8.
+
+    A file name that is not UTF-8 reaches Python with such surrogates (os.fsdecode); a browser, a
+    JSON file or a log cannot be sent them.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    return _SURROGATE.sub("\ufffd", text)

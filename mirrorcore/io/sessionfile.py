@@ -6,14 +6,12 @@ from __future__ import annotations
 import json
 import re
 import shutil
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
-
-import numpy as np
 
 from mirrorcore.base.atomic import new_folder, write_atomic
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.base.jsonfile import read_json
+from mirrorcore.base.jsonfile import finite_number, read_json
 from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
@@ -54,7 +52,7 @@ def load_session(folder: str | Path) -> Session:
                                        MAX_SESSION_BYTES), folder)
 
 
-def session_from_json(data, folder: Path) -> Session:
+def session_from_json(data, folder: Path, where: str | None = None) -> Session:
     """Validate a parsed session.json (see docs/DESIGN.md).
 
     Parameters
@@ -63,6 +61,8 @@ def session_from_json(data, folder: Path) -> Session:
         The parsed JSON.
     folder : Path
         The session folder that paths are relative to.
+    where : str, optional
+        What the messages call the file (its path by default).
 
     Returns
     -------
@@ -73,7 +73,7 @@ def session_from_json(data, folder: Path) -> Session:
     FileFormatError
         Naming the file and the key.
     """
-    where = str(Path(folder) / SESSION_FILE)
+    where = str(Path(folder) / SESSION_FILE) if where is None else where
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
     missing = [k for k in ("version", "camera", "mirrors", "frames") if k not in data]
@@ -81,7 +81,7 @@ def session_from_json(data, folder: Path) -> Session:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
     if data["version"] != VERSION:
         raise FileFormatError(
-            f"{where}: unknown version {str(data['version'])[:40]}; this mirrorscan reads version "
+            f"{where}: unknown version {repr(data['version'])[:40]}; this mirrorscan reads version "
                               f"{VERSION}")
     camera = Intrinsics.from_dict(data["camera"], f"{where}: camera")
     mirrors = tuple(_mirror_from_json(m, camera, f"{where}: mirrors[{i}]")
@@ -126,7 +126,7 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
     if "id" in data and (isinstance(mirror_id, bool) or not isinstance(mirror_id, int)
                          or not 1 <= mirror_id < 2**31):
         raise FileFormatError(
-            f"{where}: 'id' must be a whole number from 1, got {str(mirror_id)[:40]}")
+            f"{where}: 'id' must be a whole number from 1, got {repr(mirror_id)[:40]}")
     markers = read_pixels(data.get("markers", []), camera, f"{where}: markers", MAX_MARKERS)
     boundary = read_polygon(data.get("boundary", []), camera, f"{where}: boundary")
     region = data.get("region")
@@ -138,23 +138,21 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
             plane = Plane.from_abcd(plane, f"{where}: plane", orient=False)
         except MirrorscanError as exc:
             raise FileFormatError(str(exc)) from None
-    offset = data.get("marker_offset", 0.0)
-    if (isinstance(offset, bool) or not isinstance(offset, (int, float)) or not np.isfinite(offset)
-            or abs(offset) > MAX_MARKER_OFFSET):
+    offset = finite_number(data.get("marker_offset", 0.0))
+    if offset is None or abs(offset) > MAX_MARKER_OFFSET:
         raise FileFormatError(
             f"{where}: 'marker_offset' must be metres from the markers to the reflecting surface, "
-                              f"within ±{MAX_MARKER_OFFSET:g}, got {offset!r}")
+            f"within ±{MAX_MARKER_OFFSET:g}, got {repr(data['marker_offset'])[:40]}")
     std = data.get("marker_offset_std")
-    if std is not None and (isinstance(std, bool) or not isinstance(std, (int, float))
-                            or not 0 <= std
-                            <= MAX_MARKER_OFFSET):          # NaN fails the comparison too
-        raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to "
-                              f"{MAX_MARKER_OFFSET:g}) to which "
-                              f"a refinement measured the glass, got {std!r}")
+    if std is not None:
+        std = finite_number(std)
+        if std is None or not 0 <= std <= MAX_MARKER_OFFSET:
+            raise FileFormatError(f"{where}: 'marker_offset_std' must be the metres (0 to "
+                                  f"{MAX_MARKER_OFFSET:g}) to which a refinement measured the "
+                                  f"glass, got {repr(data['marker_offset_std'])[:40]}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
-    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, float(offset),
-                         extra,
-                         None if std is None else float(std))
+    return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, offset, extra,
+                         std)
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
@@ -163,6 +161,63 @@ def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:
     if len(set(ids)) != len(ids):
         twice = sorted({i for i in ids if ids.count(i) > 1})
         raise FileFormatError(f"{where}: mirrors: id {twice[0]} is given to more than one mirror")
+
+
+def check_session(session: Session, known: Session | None = None) -> Session:
+    """Check that a session, saved, opens again as itself.
+
+    The session's JSON goes through the reader (`session_from_json`), so that the browser's
+    editor refuses exactly what `load_session` would refuse, before it saves.
+
+    Parameters
+    ----------
+    session : Session
+    known : Session, optional
+        A session already checked: frame lists that are the very same objects as its own are not
+        read again (a million frames take seconds).
+
+    Returns
+    -------
+    Session
+        `session`, unchanged.
+
+    Raises
+    ------
+    FileFormatError
+        In one line naming session.json and the key (as `load_session` would), or the field that
+        would read back as another value.
+    """
+    checked = session
+    if known is not None and all(getattr(session, k) is getattr(known, k)
+                                 for k in ("frames", "timestamps", "colour_frames")):
+        checked = replace(session, frames=(), timestamps=None, colour_frames=None)
+    try:
+        text = json.dumps(checked.to_json())
+    except (TypeError, ValueError) as exc:
+        raise FileFormatError(f"{SESSION_FILE}: cannot be written: {exc}") from None
+    back = session_from_json(json.loads(text), checked.root, SESSION_FILE)
+    differs = next(_differences(checked, back), None)
+    if differs is not None:
+        key, ours, theirs = differs
+        raise FileFormatError(f"{SESSION_FILE}: {key}: {repr(ours)[:80]} would read back as "
+                              f"{repr(theirs)[:80]}")
+    return session
+
+
+def _differences(session: Session, back: Session):
+    """(key, value, value read back) of every field saved that differs, mirrors field by field."""
+    for f in fields(Session):
+        ours, theirs = getattr(session, f.name), getattr(back, f.name)
+        if f.name == "root" or not f.compare or ours == theirs:
+            continue
+        if f.name == "mirrors" and len(ours) == len(theirs):
+            for i, (m, n) in enumerate(zip(ours, theirs)):
+                for g in fields(SessionMirror):
+                    if g.compare and getattr(m, g.name) != getattr(n, g.name):
+                        yield (f"mirrors[{i}] ({m.name}): {g.name}", getattr(m, g.name),
+                               getattr(n, g.name))
+        else:
+            yield f.name, ours, theirs
 
 
 # --------------------------------------------------------------------- writing

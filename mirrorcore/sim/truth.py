@@ -1,6 +1,7 @@
 """How far a simulated session's calibration, and a cloud of one of its frames, lie from the
 simulator's truth (the scene its truth.json holds): the figures the README's accuracy tables give,
-for any session `mirrorscan simulate` wrote (`mirrorscan truth`)."""
+for any session `mirrorscan simulate` wrote or recorded from the simulated source
+(`mirrorscan truth`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -9,10 +10,15 @@ import numpy as np
 import open3d as o3d
 
 from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.geometry.camera import project_points
 from mirrorcore.io.session import Session
 from mirrorcore.sim.objects import object_geometry
 from mirrorcore.sim.presets import object_extent
-from mirrorcore.sim.scene import Scene
+from mirrorcore.sim.scene import Scene, SceneMirror
+from mirrorcore.sim.sensor import SensorModel
+
+# the sensor models truth.json names (SensorModel.from_name)
+SENSOR_NAMES = ("kinect", "none", "kinect-noiseless")
 
 
 @dataclass(frozen=True)
@@ -62,8 +68,8 @@ class SurfaceError:
 def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
     """Measure each mirror of a session against the scene's mirror in the same place.
 
-    Session order is the scene's order, as `mirrorcore.sim.export` writes it; the offsets are at the
-    first object's middle (the origin without objects).
+    The offsets are at the first object's middle (the origin without objects). Which scene mirror
+    a session mirror is comes from `true_mirrors`.
 
     Parameters
     ----------
@@ -73,14 +79,11 @@ def plane_errors(session: Session, scene: Scene) -> list[PlaneError]:
     Returns
     -------
     list of PlaneError
+        In session order; empty for a session without mirrors.
     """
-    if len(session.mirrors) != len(scene.mirrors):
-        raise MirrorscanError(
-            f"the session has {len(session.mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
-                              "mirror was added or removed since it was simulated")
     at = object_extent(scene.objects[0])[0] if scene.objects else np.zeros(3)
     out = []
-    for mirror, true in zip(session.mirrors, scene.mirrors):
+    for mirror, true in zip(session.mirrors, true_mirrors(session, scene)):
         plane = mirror.plane
         out.append(PlaneError(
             mirror.name,
@@ -123,3 +126,81 @@ def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceEr
     return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))),
                         float(distances.mean()),
                         float(np.percentile(distances, 95)))
+
+
+def true_mirrors(session: Session, scene: Scene) -> list[SceneMirror]:
+    """The scene's mirror each of a session's mirrors is.
+
+    When every session mirror has an outline, the one whose middle, in the image, is nearest the
+    outline's (a session recorded from the simulated source, its mirrors added in any order, some
+    perhaps not yet); otherwise the scene's order, as `mirrorcore.sim.export` writes it.
+
+    Parameters
+    ----------
+    session : Session
+    scene : Scene
+
+    Returns
+    -------
+    list of SceneMirror
+        In session order.
+
+    Raises
+    ------
+    MirrorscanError
+        When the mirrors cannot be matched: more of them than in the scene, or a count that differs
+        with a mirror without an outline.
+    """
+    mirrors = session.mirrors
+    if not mirrors:
+        return []
+    if all(len(m.boundary) for m in mirrors) and len(mirrors) <= len(scene.mirrors):
+        middles = np.array([m.corners().mean(axis=0) for m in scene.mirrors])
+        uv = project_points(session.camera, middles)[0]
+        outlines = np.array([np.mean(m.boundary, axis=0) for m in mirrors])
+        nearest = np.argmin(np.linalg.norm(outlines[:, None] - uv[None], axis=2), axis=1)
+        if len(set(nearest.tolist())) == len(mirrors):
+            return [scene.mirrors[k] for k in nearest]
+    if len(mirrors) != len(scene.mirrors):
+        raise MirrorscanError(
+            f"the session has {len(mirrors)} mirrors, its truth {len(scene.mirrors)}: a "
+            "mirror was added or removed since it was simulated")
+    return list(scene.mirrors)
+
+
+def sensor_name(sensor: SensorModel) -> str:
+    """The name truth.json gives a sensor model: one of SENSOR_NAMES, or 'custom'.
+
+    Parameters
+    ----------
+    sensor : SensorModel
+
+    Returns
+    -------
+    str
+    """
+    return next((name for name in SENSOR_NAMES if SensorModel.from_name(name) == sensor),
+                "custom")
+
+
+def frame_time(session: Session, frame: int, fps: float) -> float:
+    """The simulator's time (seconds) of a session's frame.
+
+    Its timestamp when the session has them (a recording of the simulated source: the simulator's
+    own times), else frame / fps (`mirrorscan simulate` writes frame i at i / fps).
+
+    Parameters
+    ----------
+    session : Session
+    frame : int
+        0-based.
+    fps : float
+
+    Returns
+    -------
+    float
+    """
+    stamps = session.timestamps
+    if stamps and len(stamps) == len(session.frames):
+        return float(stamps[frame])
+    return frame / fps

@@ -96,6 +96,11 @@ class DepthSource(ABC):
         """The scene without the object as (H, W) float32 metres, or None if the source has none."""
         return None
 
+    def truth(self) -> dict | None:
+        """What a simulated source knows of its scene (the truth.json object a recording of it
+        holds, sim.export.truth_json), or None for any other source."""
+        return None
+
     def close(self) -> None:
         """Release the device or files; reading after close is an error.
 

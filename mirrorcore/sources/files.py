@@ -3,16 +3,19 @@ RGB-D folders (.npz stacks are in npz). All are seekable: frame_count frames, re
 (modulo frame_count: playing loops)."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from mirrorcore.depth.files import read_depth_png
+from mirrorcore.depth.files import max_file_bytes, read_depth_png
+from mirrorcore.depth.imageheader import check_image
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.camerafiles import load_open3d_json, load_opencv_yaml
 from mirrorcore.base.jsonfile import read_json
+from mirrorcore.io.fields import shown
 from mirrorcore.io.session import Session
 from mirrorcore.sources.base import DepthSource, Frame
 
@@ -20,6 +23,11 @@ CAMERA_SIDECAR = "camera.json"             # docs/DESIGN.md's camera object, bes
 OPEN3D_SIDECAR = "intrinsic.json"          # Open3D's PinholeCameraIntrinsic JSON
 TUM_DEPTH_SCALE = 1.0 / 5000.0             # TUM RGB-D: metres x 5000
 TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
+# seconds: TUM stamps are Unix times (1.3e9 in the benchmark); 1e10 is the year 2286
+TUM_MAX_STAMP = 1e10
+# frames per second that a TUM list's stamps may imply: depth cameras deliver 1 to 100
+TUM_FPS_RANGE = (0.1, 1000.0)
+COLOUR_SAMPLES = 4   # 16-bit samples a pixel of the largest colour file (RGBA)
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
@@ -94,7 +102,8 @@ class SessionSource(ImageSequenceSource):
             stamps = np.arange(len(session.frames)) / fps
         colour = None if session.colour_frames is None else [root / c
                                                              for c in session.colour_frames]
-        super().__init__(f"session {root.name}", session.camera, [root / f for f in session.frames],
+        super().__init__(f"session {shown(root.name)}", session.camera,
+                         [root / f for f in session.frames],
                          np.asarray(stamps, float), colour, fps)
 
     def background(self) -> np.ndarray | None:
@@ -133,7 +142,7 @@ def open_png_folder(folder: str | Path, camera: Intrinsics | None = None,
     camera = camera or folder_camera(folder)
     if depth_scale is not None:
         camera = Intrinsics(**{**camera.to_dict(), "depth_scale": depth_scale})
-    return ImageSequenceSource(f"PNG folder {folder.name}", camera, paths,
+    return ImageSequenceSource(f"PNG folder {shown(folder.name)}", camera, paths,
                                np.arange(len(paths)) / fps, fps=fps)
 
 
@@ -226,9 +235,39 @@ def open_tum(folder: str | Path, camera: Intrinsics | None = None, depth_scale: 
         nearest = nearest_stamps(colour_stamps, depth_stamps)
         ok = np.abs(colour_stamps[nearest] - depth_stamps) <= TUM_MAX_COLOUR_GAP
         colour = [colour_paths[j] if good else None for j, good in zip(nearest, ok)]
-    fps = (len(depth_stamps) - 1) / max(depth_stamps[-1] - depth_stamps[0],
-                                        1e-9) if len(depth_stamps) > 1 else 30.0
-    return ImageSequenceSource(f"TUM {folder.name}", camera, depth_paths, depth_stamps, colour, fps)
+    fps = tum_rate(depth_stamps, folder / "depth.txt")
+    return ImageSequenceSource(f"TUM {shown(folder.name)}", camera, depth_paths, depth_stamps,
+                               colour, fps)
+
+
+def tum_rate(stamps: np.ndarray, where: Path) -> float:
+    """The frames per second that sorted TUM stamps imply (30 for a single frame).
+
+    Parameters
+    ----------
+    stamps : (N,) float64 array
+        Seconds, sorted.
+    where : Path
+        The list file, for the message.
+
+    Returns
+    -------
+    float
+        Within TUM_FPS_RANGE.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file, when the stamps imply a rate outside TUM_FPS_RANGE.
+    """
+    if len(stamps) < 2:
+        return 30.0
+    span = float(stamps[-1] - stamps[0])
+    low, high = TUM_FPS_RANGE
+    if not (len(stamps) - 1) / high <= span <= (len(stamps) - 1) / low:
+        raise FileFormatError(f"{where}: {len(stamps)} frames over {span:g} s is not a camera's "
+                              f"rate ({low:g} to {high:g} frames a second); check the timestamps")
+    return (len(stamps) - 1) / span
 
 
 def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
@@ -241,9 +280,15 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
     Returns
     -------
     timestamps : (N,) float64 array
-        Seconds, sorted.
+        Seconds, sorted, within ±TUM_MAX_STAMP.
     paths : list of Path
         N paths relative to the file's folder.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file and the line: no such file, a line that is not 'timestamp path', a
+        timestamp beyond ±TUM_MAX_STAMP, or no frames.
     """
     if not path.is_file():
         raise FileFormatError(f"{path}: no such TUM list (a TUM RGB-D folder has depth.txt)")
@@ -254,6 +299,9 @@ def read_tum_list(path: Path) -> tuple[np.ndarray, list[Path]]:
             continue
         if len(parts) < 2 or not _parses(parts[0]):
             raise FileFormatError(f"{path}: line {n} is not 'timestamp path'")
+        if abs(float(parts[0])) > TUM_MAX_STAMP:
+            raise FileFormatError(f"{path}: line {n}: timestamp {parts[0][:40]} is not seconds of "
+                                  f"a recording (at most {TUM_MAX_STAMP:g})")
         stamps.append(float(parts[0]))
         paths.append(path.parent / parts[1])
     if not stamps:
@@ -301,14 +349,28 @@ def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
     -------
     (H, W, 3) uint8 array or None
         RGB; None for no path.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, larger than a 16-bit RGBA image of the camera's size can be, of
+        a format other than its name's (see `imageheader.check_image`), or not the camera's size.
+    MemoryBudgetError
+        Decoding it would need more than the memory budget.
     """
     if path is None:
         return None
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if not Path(path).is_file():
+        raise FileFormatError(f"{path}: no such colour image")
+    with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        limit = max_file_bytes(intr.width * intr.height * COLOUR_SAMPLES)
+        if size > limit:
+            raise FileFormatError(f"{path}: {size:,} bytes is more than a colour image of the "
+                                  f"camera's size can hold (at most {limit:,})")
+        data = f.read()
+    check_image(data, str(path), str(path), intr.shape, 0, "a colour image")
+    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
     if bgr is None:
         raise FileFormatError(f"{path}: not a readable colour image")
-    if bgr.shape[:2] != intr.shape:
-        raise FileFormatError(f"{path}: size {bgr.shape[1]}x{bgr.shape[0]} does not match the "
-                              "depth camera's "
-                              f"{intr.width}x{intr.height}")
     return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)

@@ -11,6 +11,7 @@ import numpy as np
 from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.io.fields import shown
 from mirrorcore.sources.base import DepthSource, Frame, checked_depth
 
 # the dtypes of a .npz's numbers (np.number also takes complex ones)
@@ -116,7 +117,7 @@ def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
     stamps = _optional(path, arrays, "timestamps", (len(depth),), REAL,
                        np.arange(len(depth)) / fps)
     colour = _optional(path, arrays, "colour", (*depth.shape, 3), (np.uint8,), None)
-    return StackSource(f"npz {path.name}", camera, depth, scale, stamps, colour, fps)
+    return StackSource(f"npz {shown(path.name)}", camera, depth, scale, stamps, colour, fps)
 
 
 def _optional(path: Path, arrays: dict, key: str, shape: tuple, kinds: tuple[type, ...], default):

@@ -1,6 +1,6 @@
 """Recording any depth source into a session folder (docs/DESIGN.md's format: uint16 PNG frames,
-session.json with 'timestamps' and, when the source has colour, 'colour_frames'): record() and the
-threaded Recorder.
+session.json with 'timestamps' and, when the source has colour, 'colour_frames'; truth.json when the
+source is the simulator): record() and the threaded Recorder.
 
 A recording is a valid session at every moment: session.json is written (atomically) before the
 first frame and rewritten every SAVE_EVERY_S seconds with the frames that have landed, so a process
@@ -12,6 +12,7 @@ what is written; .stop() returns the Session and never waits longer than its tim
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import threading
@@ -24,12 +25,14 @@ import cv2
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.depth.files import write_depth_png
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.io.session import BACKGROUND_FILE, Session
+from mirrorcore.io.session import BACKGROUND_FILE, TRUTH_FILE, Session
 from mirrorcore.io.sessionfile import save_session
+from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.sources.base import DepthSource, Frame
 
 FRAME_NAME = "frames/{:06d}.png"
 COLOUR_NAME = "frames/{:06d}_colour.png"
+RECORDER = "mirrorscan record"     # who holds a recording's lock
 SAVE_EVERY_S = 1.0          # session.json is rewritten this often while recording (and at the end)
 
 
@@ -72,6 +75,15 @@ def record(source: DepthSource, folder: str | Path, seconds: float | None = None
     limit = min(n for n in (frames, source.frame_count, float("inf")) if n is not None)
     created = not folder.exists()
     (folder / "frames").mkdir(parents=True, exist_ok=True)
+    # one writer at a time: no editor opens it while it records
+    with SessionLock(folder, RECORDER):
+        return _record(source, folder, seconds, progress, cancel, created, limit)
+
+
+def _record(source: DepthSource, folder: Path, seconds: float | None,
+            progress: Callable[[int, Frame], None], cancel: Callable[[], bool], created: bool,
+            limit: float) -> Session:
+    """`record` under the folder's lock."""
     take = _Take(source, folder)
     try:
         take.save()
@@ -106,6 +118,9 @@ class _Take:
         if background is not None:
             write_depth_png(folder / BACKGROUND_FILE, background, source.intrinsics.depth_scale)
             self.background = BACKGROUND_FILE
+        truth = source.truth()
+        if truth is not None:
+            write_atomic(folder / TRUTH_FILE, (json.dumps(truth, indent=2) + "\n").encode())
         self._saved_at = time.monotonic()
 
     def add(self, frame: Frame) -> None:

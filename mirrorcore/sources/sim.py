@@ -9,10 +9,12 @@ import numpy as np
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.base.jsonfile import finite_number, read_json
 from mirrorcore.io.session import TRUTH_FILE, Session
+from mirrorcore.sim.export import truth_json
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scene import Scene
 from mirrorcore.sim.scenefile import load_scene, scene_from_json
 from mirrorcore.sim.simulator import FPS, Simulator
+from mirrorcore.sim.truth import sensor_name
 from mirrorcore.sources.base import DepthSource, Frame
 
 
@@ -61,6 +63,11 @@ class SimulatedSource(DepthSource):
     def background(self) -> np.ndarray:
         """The scene without its objects as (H, W) float32 metres."""
         return self.rig.background().depth
+
+    def truth(self) -> dict:
+        """The truth.json object of the rig (sim.export.truth_json): a recording of this source
+        can be compared with it (`mirrorscan truth`)."""
+        return truth_json(self.rig, sensor_name(self.rig.sensor))
 
 
 def open_simulated(target: str, session: Session | None) -> SimulatedSource:

@@ -179,7 +179,7 @@ def test_planes_of_several_mirrors_are_set_together_and_undone_together(editor, 
     """A fit or refinement of several mirrors is one action: undone and redone from any of its
     mirrors, for every mirror whose last change it still is; saved once, with all of them, so that
     no file with only some of them becomes the backup."""
-    import mirrorscan.editing as editor_module
+    import mirrorscan.sessionfile as editor_module
     editor.add_mirror()
     other = Plane.from_abcd([-0.5, 0, -0.8, 2.4])
     written = []

@@ -7,11 +7,13 @@ from dataclasses import replace
 import mirrorscan.server as server_module
 import numpy as np
 import pytest
-from mirrorscan.live import RECENT_FRAMES, RateMeter
+from mirrorscan.live import RECENT_FRAMES, LiveLoop, RateMeter
 from mirrorscan.server import BUSY_FPS, IDLE_FPS
 from mirrorscan.state import Snapshot
 
+from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.sources import DepthSource, Frame
 from tests.waiting import wait_for
 
 
@@ -233,3 +235,34 @@ def test_the_frame_rate_follows_a_slowdown_within_seconds():
     for k in range(2):
         slow.tick(5.0 * k)  # one frame in 5 s: the last two still make a rate
     assert slow.fps == pytest.approx(0.2)
+
+
+class _NoRate(DepthSource):
+    """The demo's frames at a rate of 0 frames a second, as a TUM folder whose stamps span ±1e308
+    made; its third frame fails to read."""
+
+    def __init__(self, inner: DepthSource):
+        self.inner, self.name, self.intrinsics = inner, "TUM broken", inner.intrinsics
+        self.fps, self.frame_count = 0.0, None
+
+    def read(self, i: int) -> Frame:
+        if i == 2:
+            raise FileFormatError("d.png: not a 16-bit PNG")
+        return self.inner.read(i)
+
+
+def test_the_live_thread_never_dies_on_a_sources_error(demo):
+    """A rate of 0 and a frame that fails are each told once; the thread plays on past them."""
+    app, _ = demo
+    frames, errors = [], []
+    loop = LiveLoop(_NoRate(app.source), lambda: app.snapshot, frames.append, errors.append)
+    loop.start()
+    try:
+        wait_for(lambda: len(frames) >= 4, what="frames after the errors")
+        assert loop._thread.is_alive()
+    finally:
+        loop.stop()
+    said = {str(e) for e in errors}
+    assert said == {"TUM broken: plays at 0 frames a second; played at 2 instead",
+                    "d.png: not a 16-bit PNG"}
+    assert len(errors) == 2

@@ -149,6 +149,7 @@ def _loop() -> SimpleNamespace:
         listeners.append(take)
         return lambda: listeners.remove(take)
     source = SimpleNamespace(name="sim", intrinsics=CAMERA, fps=30.0, background=lambda: None,
+                             truth=lambda: None,
                              frame_count=None)
     return SimpleNamespace(source=source, listeners=listeners,
                            tap=lambda: LiveTap(source, subscribe))

@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
 import socket
 import time
 import urllib.error
 import urllib.request
+from pathlib import Path
 from types import SimpleNamespace
 
 import msgspec
@@ -19,8 +21,10 @@ import websockets.asyncio.client
 import websockets.exceptions
 from mirrorscan.bench.tabs import HeadlessTab
 from mirrorscan.panels.mirrors import MirrorsPanel
+from mirrorscan.panels.object import ObjectPanel
 from mirrorscan.panels.session import SessionPanel
-from mirrorscan.security import MAX_MESSAGE_BYTES, install_log_filter, new_token, protect
+from mirrorscan.security import (MAX_MESSAGE_BYTES, TOKEN_COOKIE, install_log_filter, new_token,
+                                 protect)
 from mirrorscan.server import MirrorscanApp
 from viser import _messages
 
@@ -133,6 +137,28 @@ def test_another_sites_websocket_cannot_rename_a_mirror(app):
     assert names == ["mirror 1", "mirror 2"]
 
 
+# --------------------------------------------------------------------- what a message may set
+def test_a_depth_range_the_reader_refuses_is_refused_from_a_websocket_message(app, caplog):
+    """The depth range [-1e308, 1e308] sent as the slider's value is refused in one line (past the
+    slider's limits; the editor's check, which the reader shares, is tested in test_editor_fields);
+    the session on disk and in memory keeps its range and opens."""
+    caplog.set_level(logging.INFO, "mirrorscan")
+    root = app.editor.session.root
+    before = app.editor.session.selection
+    with HeadlessTab(app) as headless:
+        objects = next(p for p in headless.tab.panels if isinstance(p, ObjectPanel))
+        headless.ws.send(send(_messages.GuiUpdateMessage(objects.range._impl.uuid,
+                                                         {"value": (-1e308, 1e308)})))
+        wait_for(lambda: "refused a GUI update of 'Depth range (m)'" in caplog.text,
+                 what="the refusal")
+        wait_for(lambda: objects.range.value == (before.depth_min, before.depth_max),
+                 what="the slider back on the session's range")
+    assert app.editor.session.selection == before
+    assert load_session(root).selection == before
+    with HeadlessTab(app) as again:
+        assert again.tab.panels
+
+
 @pytest.mark.parametrize("host", ["evil.example", "evil.example:{port}",
                                   "127.0.0.1.evil.example:{port}", ""])
 def test_unknown_host_headers_are_refused(app, host):
@@ -191,6 +217,18 @@ def test_beyond_loopback_a_token_is_made_and_required(remote):
     assert ws_open(port, origin="https://evil.example", additional_headers={"Cookie": jar}) == "403"
 
 
+@pytest.mark.parametrize("other", ['prefs={"a":1}', 'x=a b', 'broken', 'q="unclosed', '=v',
+                                   'a=1;;b', 'caf\xe9=1'])
+def test_another_applications_malformed_cookie_never_hides_the_token(remote, other):
+    guard, port = remote.guard, remote.port
+    token = f"{TOKEN_COOKIE.format(port=port)}={guard.token}"
+    for header in (f"{other}; {token}", f"{token}; {other}"):
+        assert http_get(port, "/", cookie=header)[0] == 200, header
+        page = f"http://127.0.0.1:{port}"
+        assert ws_open(port, origin=page, additional_headers={"Cookie": header}) == "accepted"
+    assert http_get(port, "/", cookie=f"{other}; {token[:-1]}x")[0] == 403
+
+
 def test_a_given_token_is_checked_and_protecting_twice_keeps_the_first(app, tmp_path):
     assert protect(app.server, "127.0.0.1") is app.guard
     with pytest.raises(MirrorscanError, match="--token: at least 16 characters"):
@@ -216,8 +254,7 @@ def test_a_new_token_never_begins_with_a_dash(monkeypatch):
 # --------------------------------------------------------------------- sizes
 def test_an_upload_is_refused_from_its_declared_size_before_its_parts(app):
     """A tab uploads to its own Session step's button: declared too large, or sending more than it
-    declared, its parts are dropped as they come (at most one part is ever held) and the tab is
-    told."""
+    declared, its parts are dropped as they come (none is stored) and the tab is told."""
     with HeadlessTab(app) as headless:
         client = headless.tab.client
         panel = next(p for p in headless.tab.panels if isinstance(p, SessionPanel))
@@ -335,3 +372,35 @@ def test_serve_prints_its_token_address_refuses_strangers_and_stops_on_sigterm(t
     assert f"mirrorscan serve: stopped; every edit is saved in {tmp_path / 'new'}" in rest
     assert "cancelled" not in rest
     assert load_session(tmp_path / "new").mirrors == ()
+
+
+# --------------------------------------------------------------------- names that are not UTF-8
+def test_folder_names_that_are_not_utf8_never_close_a_tab(tmp_path, caplog):
+    """A session in a folder named b'scan\\xe9', beside b'caf\\xe9' (a session) and b'vide\\xe9'
+    (empty): a tab connects and stays; the Open list leaves them out and says so; the session's
+    place and a refusal naming such a path are shown with replacement characters."""
+    base = os.fsencode(tmp_path)
+    for name in (b"caf\xe9", b"vide\xe9"):
+        os.mkdir(base + b"/" + name)
+    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=5.0)
+    save_session(Session(Path(os.fsdecode(base + b"/caf\xe9")), rig.intrinsics))
+    save_session(Session(tmp_path / "plain", rig.intrinsics))
+    root = Path(os.fsdecode(base + b"/scan\xe9"))
+    save_session(Session(root, rig.intrinsics, (SessionMirror("mirror 1"),)))
+    app = MirrorscanApp(load_session(root), SimulatedSource(rig), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app) as headless:
+            sessions = next(p for p in headless.tab.panels if isinstance(p, SessionPanel))
+            assert sessions.open_choice.options == ("", "plain")
+            assert "Not listed: 2 session folders whose name" in sessions.skipped.content
+            assert "scan\ufffd" in sessions.where.content
+            app.act(headless.tab.client,
+                    lambda: load_session(Path(os.fsdecode(base + b"/caf\xe9/x\xe9"))))
+            # deliberate: time for a close that must not come
+            time.sleep(1)
+            assert headless.tab.client.client_id in app.tabs
+            assert headless._reader.is_alive()
+    finally:
+        app.stop()
+    assert "UnicodeEncodeError" not in caplog.text

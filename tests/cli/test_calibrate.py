@@ -248,19 +248,44 @@ def test_scene_method_on_the_walking_person(tmp_path):
         assert abs(offset) < 2.5 and angle < 0.1
 
 
+def test_refine_alone_fits_the_mirrors_without_a_plane_from_their_markers_first(
+    rigs, capsys, tmp_path
+):
+    """Markers are the default method: `--refine` on a session without planes fits them from the
+    markers, then refines; a mirror with a plane starts from it, not from its markers."""
+    session = tmp_path / "s"
+    shutil.copytree(rigs / "glass", session)
+    data = json.loads((session / "session.json").read_text())
+    for mirror in data["mirrors"]:
+        mirror["plane"] = None
+    (session / "session.json").write_text(json.dumps(data))
+    capsys.readouterr()
+    run_ok("calibrate", session, "--refine", "--frame", 0, "--quiet")
+    out = headlines(capsys.readouterr().out)
+    assert [line.split(":")[0] for line in out[:2]] == ["mirror 1", "mirror 2"]
+    assert all("plane refined" in line for line in out[2:4]) and out[-1].startswith("wrote ")
+    assert all(abs(offset) < 1.0 and angle < 0.1 for offset, angle in plane_errors(session))
+    # mirror 2's plane kept where it is: only mirror 1 is fitted from its markers
+    data = json.loads((session / "session.json").read_text())
+    data["mirrors"][0]["plane"] = None
+    (session / "session.json").write_text(json.dumps(data))
+    capsys.readouterr()
+    run_ok("calibrate", session, "--refine", "--frame", 0, "--quiet")
+    out = headlines(capsys.readouterr().out)
+    assert out[0].startswith("mirror 1: ")
+    assert "plane refined" in out[1] and "plane refined" in out[2]
+
+
 def test_refusals_are_one_line_and_change_nothing(rigs, capsys, tmp_path):
     root = rigs
     session = tmp_path / "s"
     without_markers(root / "glass", session)
-    before = (session / "session.json").read_bytes()
     capsys.readouterr()
+    # no plane and no markers: the markers fit that --refine starts with refuses
     assert main(["calibrate", str(session), "--refine"]) == 2
     err = capsys.readouterr().err.strip()
-    assert (
-        len(err.splitlines()) == 1
-        and "mirror 1 and mirror 2: no plane to refine yet; fit the planes first" in err
-    )
-    assert f"mirrorscan calibrate {session} --method markers --refine" in err
+    assert len(err.splitlines()) == 1, err
+    assert err.endswith("mirror 1: 0 usable marker(s) of 0, 3 are needed"), err
     box = tmp_path / "box"
     run_ok("simulate", box, "--object", "box", "--quiet")
     run_ok("calibrate", box)

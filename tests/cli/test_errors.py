@@ -111,7 +111,7 @@ def test_reconstruct_needs_a_calibration(session, tmp_path, capsys):
 
 def test_missing_session_and_bad_frame_index(session, tmp_path, capsys):
     fails(
-        capsys, tmp_path, ["calibrate", tmp_path / "nowhere"], "nowhere/session.json: no such file"
+        capsys, tmp_path, ["calibrate", tmp_path / "nowhere"], "nowhere: no such session folder"
     )
     assert main(["calibrate", str(session)]) == 0
     fails(

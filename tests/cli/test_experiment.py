@@ -69,7 +69,7 @@ def test_png_is_a_plot(experiment):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["--seeds", "0"], "--seeds: at least 1, got 0"),
+        (["--seeds", "0"], "--seeds: expected a whole number >= 1, got 0"),
         (["-o", "{tmp}/missing/exp"], "missing: no such folder"),
     ],
 )

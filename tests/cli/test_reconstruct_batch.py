@@ -217,7 +217,10 @@ def test_the_output_folder_is_refused_when_it_is_not_a_batchs(recording, tmp_pat
 
 def test_one_run_at_a_time_writes_into_a_folder(recording, tmp_path):
     job = BatchJob(recording, tmp_path / "out")
-    held = OutputFolder(tmp_path / "out", str(recording), job.settings(), {}, ("000000.ply",))
+    first = recording / load_session(recording).frames[0]
+    held = OutputFolder(
+        tmp_path / "out", str(recording), job.settings(), {}, ("000000.ply",), [first]
+    )
     try:
         with pytest.raises(
             MirrorscanError, match="another mirrorscan run is writing into this folder"
@@ -245,7 +248,7 @@ def test_tasks_shrink_towards_the_end_so_that_the_workers_finish_together():
         (["--frames", "3"], "--frames: with --frame all each frame is reconstructed alone"),
         (["--workers", "0"], "--workers: at least 1"),
         (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "has its own workers"),
-        (["--frames-per-task", "0", "--workers", "1"], "--frames-per-task: at least 1"),
+        (["--frames-per-task", "0", "--workers", "1"], "--frames-per-task: expected a whole"),
         (["--temporal", "-1"], "--temporal: expected a whole number"),
     ],
 )
@@ -319,10 +322,10 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(
 
     real = frames._frame_ply
 
-    def broken_on_frame_9(context, depth):
+    def broken_on_frame_9(context, depth, cancel=None):
         if np.array_equal(depth, frames.read_depth(context.session, 9)):
             raise RuntimeError("a bug\non two lines")
-        return real(context, depth)
+        return real(context, depth, cancel)
 
     monkeypatch.setattr(frames, "_frame_ply", broken_on_frame_9)
     report = run_batch(BatchJob(recording, tmp_path / "out"), IN_PROCESS, frames_per_task=4)

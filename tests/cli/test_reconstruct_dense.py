@@ -69,8 +69,8 @@ def test_cancelled_run_writes_nothing(tmp_path, monkeypatch, capsys):
             "each frame is reconstructed alone",
         ),
         (["--method", "tsdf", "--frames", "99"], "past the end"),
-        (["--method", "tsdf", "--frames", "0"], "positive"),
-        (["--method", "carve", "--voxel", "-1"], "voxel size"),
+        (["--method", "tsdf", "--frames", "0"], "--frames: expected a whole number >= 1, got 0"),
+        (["--method", "carve", "--voxel", "-1"], "--voxel: expected a number of metres from"),
         (["--method", "carve", "--bounds", "0", "0", "5", "0.1", "0.1", "4"], "upper corner"),
     ],
 )

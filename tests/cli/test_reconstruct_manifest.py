@@ -63,6 +63,7 @@ def test_the_manifest_is_written_often_but_not_too_often(recording, tmp_path):
         BatchJob(recording, tmp_path / "out").settings(),
         {},
         names,
+        [recording / f for f in load_session(recording).frames[:4]],
     )
 
     def listed_after_add(index: int, since_last: float, last_took: float) -> bool:

@@ -163,9 +163,9 @@ def test_markers_in_front_of_the_glass_and_clicks_off_their_centres(tmp_path):
 @pytest.mark.parametrize(
     "option, value, message",
     [
-        ("--marker-offset", "-1", "--marker-offset: must be 0 to 50 mm, got -1"),
-        ("--marker-offset", "nan", "--marker-offset: must be 0 to 50 mm, got nan"),
-        ("--click-jitter", "99", "--click-jitter: must be 0 to 50 pixels, got 99"),
+        ("--marker-offset", "-1", "--marker-offset: expected a number of mm from 0 to 50, got -1"),
+        ("--marker-offset", "nan", "--marker-offset: expected a number of mm from 0 to 50"),
+        ("--click-jitter", "99", "--click-jitter: expected a number of pixels from 0 to 50"),
     ],
 )
 def test_bad_glass_and_jitter_options(tmp_path, capsys, option, value, message):
@@ -279,7 +279,7 @@ def test_simulate_kaleidoscope_and_bounces(tmp_path, capsys):
         "gives such views"
     )
     for argv, message in [
-        (["--bounces", "4"], "--bounces: the simulator renders 1 to 3 reflections, got 4"),
+        (["--bounces", "4"], "--bounces: expected a whole number from 1 to 3, got 4"),
         (["--single-bounce", "--bounces", "2"], "--single-bounce means --bounces 1"),
         (["--kaleidoscope", "--mirrors", "3"], "--kaleidoscope: a hinged pair has 2 mirrors"),
         (["--kaleidoscope", "--scene", str(out / "truth.json")], "drop --kaleidoscope"),

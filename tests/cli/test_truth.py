@@ -163,21 +163,68 @@ def test_refusals_are_one_line(glass, tmp_path, capsys):
     status, _, err = run(capsys, "truth", plain)
     assert status == 2 and err == (
         f"mirrorscan truth: error: {plain}: no truth.json: only a session `mirrorscan "
-        "simulate` wrote has a truth to compare with\n"
+        "simulate` wrote, or one recorded from the simulated source, has a truth to compare with\n"
     )
     (plain / "truth.json").write_bytes((glass / "truth.json").read_bytes())
     session = load_session(plain)
-    save_session(replace(session, mirrors=session.mirrors[:1]))
+    extra = replace(session.mirrors[0], id=99, name="mirror 3")
+    save_session(replace(session, mirrors=session.mirrors + (extra,)))
     status, _, err = run(capsys, "truth", plain)
     assert status == 2 and err == (
-        "mirrorscan truth: error: the session has 1 mirrors, its truth 2: a mirror was "
+        "mirrorscan truth: error: the session has 3 mirrors, its truth 2: a mirror was "
         "added or removed since it was simulated\n"
     )
     for frame in (-1, 2):
-        status, _, err = run(capsys, "truth", glass, "--frame", frame)
+        status, _, err = run(capsys, "truth", glass, "--frame", frame, "--cloud", "c.ply")
         assert status == 2
         assert err == (
             f"mirrorscan truth: error: {glass / 'session.json'}: no frame {frame}; the session has "
             "2 "
             "(0 to 1)\n"
         )
+
+
+def test_a_recording_of_the_simulated_source_has_the_truth_and_its_own_times(tmp_path, capsys):
+    """`mirrorscan record sim` (and the browser's recording, through its tap) writes the truth the
+    simulator knows; its frames are compared at their own times; planes need no frame, and the
+    mirrors may be added in any order."""
+    from mirrorcore.sim.export import session_mirrors
+    from mirrorcore.sim.simulator import Simulator
+    from mirrorcore.sim.truth import frame_time
+    from mirrorcore.sources import open_source
+    from mirrorscan.recording import LiveTap
+
+    folder = tmp_path / "rec"
+    assert main(["record", "sim", str(folder), "--frames", "3", "--quiet"]) == 0
+    session = load_session(folder)
+    scene, fps = session_truth(session)
+    assert [frame_time(session, k, fps) for k in range(3)] == pytest.approx([0, 1 / fps, 2 / fps])
+    status, out, _ = run(capsys, "truth", folder)
+    assert status == 0 and headlines(out) == [
+        f"{folder}: no mirror yet, so no plane to compare: add the mirrors and calibrate them "
+        "(mirrorscan serve), then compare again."
+    ]
+    # the mirrors added the other way round, with their true planes; no frame at all
+    sim = Simulator(scene)
+    mirrors = session_mirrors(sim, sim.background().truth)[::-1]
+    planes = [m.plane for m in scene.mirrors][::-1]
+    save_session(
+        replace(
+            session,
+            mirrors=tuple(replace(m, plane=p) for m, p in zip(mirrors, planes)),
+            frames=(),
+            timestamps=(),
+        )
+    )
+    status, out, _ = run(capsys, "truth", folder, "--json")
+    errors = json.loads(out)["planes"]
+    assert status == 0 and [p["name"] for p in errors] == ["mirror 2", "mirror 1"]
+    assert all(p["offset_mm"] == pytest.approx(0, abs=1e-9) for p in errors)
+    status, _, err = run(capsys, "truth", folder, "--cloud", tmp_path / "none.ply")
+    assert status == 2 and "no frame 0; the session has 0" in err
+    with open_source("sim") as source:
+        tap = LiveTap(source, lambda take: lambda: None)
+        try:
+            assert tap.truth() == source.truth() and tap.truth()["scene"] == scene.to_json()
+        finally:
+            tap.close()

@@ -83,6 +83,24 @@ def plane_error(error: PlaneError) -> Message:
     )
 
 
+def no_mirrors(session: str) -> Message:
+    """A session without mirrors has no plane to compare (mirrorscan truth).
+
+    Parameters
+    ----------
+    session : str
+        The session's folder.
+
+    Returns
+    -------
+    Message
+    """
+    return Message(
+        f"{session}: no mirror yet, so no plane to compare: add the mirrors and calibrate them "
+        "(mirrorscan serve), then compare again."
+    )
+
+
 def surface_error(error: SurfaceError, cloud: str) -> Message:
     """A cloud's distances to the objects' true surfaces (mirrorscan truth --cloud).
 

@@ -126,12 +126,18 @@ class MirrorClicks:
 
     def _close_boundary(self) -> None:
         """Make the selected mirror's draft its boundary, then go on to its markers."""
-        mirror_id = self._id()
-        draft = self.tab.state.drafts.get(mirror_id)
+        mirror_id, drafts = self._id(), self.tab.state.drafts
+        # out of the drafts first: the tab redrawn on the new outline keeps no draft over it
+        draft = drafts.pop(mirror_id, None)
         if not draft:
             raise MirrorscanError("no open boundary to close; click its corners first")
-        self.services.editor.set_boundary(mirror_id, draft)
-        del self.tab.state.drafts[mirror_id]
+        try:
+            self.services.editor.set_boundary(mirror_id, draft)
+        except MirrorscanError:
+            # kept to be mended or closed again, unless an outline was closed in another tab
+            if not self.services.editor.mirror(mirror_id).boundary:
+                drafts[mirror_id] = draft
+            raise
         self.tab.state.mode = "markers" if len(self._mirror().markers) < 3 else "inspect"
         self.tab.changed()
 

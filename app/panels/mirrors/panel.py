@@ -3,6 +3,8 @@ calibration from the object, undo and redo, and what the buttons offer."""
 
 from __future__ import annotations
 
+import asyncio
+import time
 from typing import Callable
 
 from mirrorcore.base.errors import MirrorscanError
@@ -34,6 +36,8 @@ TITLE = "Mirrors"
 NO_MIRROR = "(no mirror yet)"
 CLICK_MODES = {"Inspect": "inspect", "Markers": "markers", "Boundary": "boundary"}
 GRADE_CSS = {grade: f"rgb{colour}" for grade, colour in QUALITY_COLOURS.items()}
+# seconds: two clicks on Add a mirror this close are a double click (a desktop's usual setting)
+DOUBLE_CLICK_S = 0.5
 
 
 class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
@@ -61,6 +65,9 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         self._proposal_note = None
         self._ready: dict[int, Fit] = {}  # the fits applied at once beside the last proposal
         self._flagged = ""  # the agreement lines last warned of in a notification
+        # (time.monotonic(), the session it was made on) of the last click on Add a mirror that
+        # was not the second of a double click
+        self._last_add = (float("-inf"), tab.seen)
         self.mirror = gui.add_dropdown("Mirror", (NO_MIRROR,))
         # the selected mirror's plane, glass and markers
         self.status = gui.add_markdown("")
@@ -149,7 +156,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         editor, act, jobs = self.services.editor, self.tab.act, self.services.jobs
         self.mirror.on_update(lambda e: e.client is not None and self._select(self.mirror.value))
         self.mode.on_click(lambda e: self._set_mode(CLICK_MODES[e.target.value]))
-        self.add.on_click(lambda _: act(self._add))
+        self.add.on_click(self._add_clicked)
         self.fit.on_click(lambda _: act(lambda: self.fit_planes([self._id()])))
         self.fit_all.on_click(lambda _: act(self.fit_all_planes))
         self.apply.on_click(lambda _: act(self._apply))
@@ -199,6 +206,19 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         if mode != "inspect" and state.view != "depth":
             self.tab.look("depth")
         self.tab.changed()
+
+    async def _add_clicked(self, _) -> None:
+        """Add a mirror on the session the page had when the click came (the tab's `seen`).
+
+        Taken in on viser's event loop, in the order the page's messages came. A click within
+        DOUBLE_CLICK_S of the one before is the second of a double click: made on the same session
+        as the first, it is refused once the first has added its mirror.
+        """
+        now = time.monotonic()
+        if now - self._last_add[0] > DOUBLE_CLICK_S:
+            self._last_add = (now, self.tab.seen)
+        drawn = self._last_add[1]
+        asyncio.get_running_loop().run_in_executor(None, self.tab.act, self._add, drawn)
 
     def _add(self) -> None:
         """Add a mirror, select it and start its boundary."""

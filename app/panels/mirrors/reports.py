@@ -6,13 +6,19 @@ from __future__ import annotations
 from typing import Callable
 
 from mirrorcore.base.words import listed
-from mirrorcore.io.session import Session
+from mirrorcore.io.session import Session, SessionMirror
 
 from ...editor import PARTIAL
 from ...jobs import planes_key
 from ...wording import Message, joined
 from ...wording import refinement as words
-from ...wording.mirrors import fit_report, removal_question, report_markdown
+from ...wording.mirrors import (
+    fit_report,
+    redo_removal_title,
+    removal_question,
+    removed_note,
+    report_markdown,
+)
 
 
 class MirrorReports:
@@ -22,6 +28,8 @@ class MirrorReports:
         """Undo or redo in the selected mirror's scope, or the session's if it holds the newer step.
 
         See SessionEditor.travel_scope; undo while an outline is drawn takes its last corner back.
+        One that removes a mirror asks first, as Remove does: a redo always, an undo (of an Add)
+        when the mirror holds anything.
         """
         editor, state = self.services.editor, self.tab.state
         draft = state.drafts.get(state.mirror_id)
@@ -32,16 +40,41 @@ class MirrorReports:
                 del state.drafts[state.mirror_id]
             self.tab.changed()
             return
-        before = planes_key(editor.session)
-        label = move(editor.travel_scope(state.mirror_id, redo=move == editor.redo))
+        redo = move == editor.redo
+        scope = editor.travel_scope(state.mirror_id, redo=redo)
+        mirror = editor.removal(scope, redo)
+        if mirror is None or not (redo or holds_work(mirror)):
+            self._move(move, scope)
+            return
+        self.tab.ask(
+            redo_removal_title(mirror.name, redo),
+            removal_question(mirror),
+            f"Remove {mirror.name}",
+            lambda: self._move(move, scope),
+            "Keep it",
+        )
+
+    def _move(self, move, scope: int) -> None:
+        """Undo or redo in `scope` (travel_scope), its report, and every tab told of a removal."""
+        editor, state = self.services.editor, self.tab.state
+        before, mirrors = planes_key(editor.session), editor.session.mirrors
+        label = move(scope)
         state.picked_marker = state.picked_corner = None
         self._report(
             self._report_after_travel(
                 before, planes_key(editor.session), label, move == editor.undo
             )
         )
+        self._tell_removed(mirrors)
         self._check_agreement()  # the views' agreement with the planes now
         self.tab.changed()
+
+    def _tell_removed(self, before: tuple[SessionMirror, ...]) -> None:
+        """Tell every tab of the mirrors of `before` that an action of this tab removed."""
+        ids = {m.id for m in self.services.editor.session.mirrors}
+        for mirror in before:
+            if mirror.id not in ids:
+                self.services.notify(None, *removed_note(mirror.name), kind="warning")
 
     def _report(self, text: str, gone: tuple[str, ...] = ()) -> None:
         """Show a report (Markdown) for the planes as they are, and the mirrors since removed.
@@ -119,6 +152,23 @@ class MirrorReports:
         )
 
     def _travel_mirrors(self, change: Callable[[], object]) -> None:
-        """A mirror removed, or brought back (its Undo): then how the views agree."""
+        """A mirror removed (every tab told), or brought back (its Undo): then how the views
+        agree."""
+        before = self.services.editor.session.mirrors
         change()
+        self._tell_removed(before)
         self._check_agreement()
+
+
+def holds_work(mirror: SessionMirror) -> bool:
+    """Whether removing the mirror loses anything: markers, an outline or a plane.
+
+    Parameters
+    ----------
+    mirror : SessionMirror
+
+    Returns
+    -------
+    bool
+    """
+    return bool(mirror.markers or mirror.boundary or mirror.plane is not None)

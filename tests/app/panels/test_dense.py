@@ -1,5 +1,5 @@
 """The Dense panel (mirrorscan.panels.dense) on the simulated sphere rig, its mirrors calibrated:
-the box, runs of each method shown and exported, cancel."""
+the box, runs of each method shown and exported, cancel, the view kept on Run, the shading."""
 
 import numpy as np
 import pytest
@@ -129,3 +129,37 @@ def test_the_dense_box_follows_the_cloud_until_a_corner_is_typed(calibrated):
         # ... to the whole voxel, no more
         assert np.all(np.array(dense.high.value) - typed[1] < 0.004 + 1e-9)
     dense.follow_cloud()
+
+
+def test_run_keeps_the_view_the_technician_turned(dense_shown):
+    """The first result is framed; a later Run keeps a view the technician turned, and Look at the
+    dense result frames it again on request."""
+    app, headless = dense_shown
+    dense = panel(headless.tab, DensePanel)
+    camera = headless.tab.client.camera
+    wait_for(lambda: not app.jobs.running("dense"), 60, "the dense job's end")
+    assert not dense.look.disabled
+    # turned by the technician
+    turned = np.asarray(camera.position) + [0.4, -0.2, 0.1]
+    camera.position = tuple(turned)
+    target = np.asarray(camera.look_at)
+    made = app.jobs.dense_result.made
+    dense.start()
+    wait_for(lambda: app.jobs.dense_result.made > made, 180, "the second carving")
+    wait_for(lambda: not app.jobs.running("dense"), 60, "the dense job's end")
+    assert np.allclose(camera.position, turned) and np.allclose(camera.look_at, target)
+    dense.look_at_result()
+    assert not np.allclose(camera.position, turned, atol=0.01)
+
+
+def test_a_carving_is_drawn_shaded_by_its_outward_normals(dense_shown):
+    """The carved sphere's points carry outward normals and are drawn in varied shades."""
+    app, headless = dense_shown
+    result = app.jobs.dense_result
+    assert result.normals is not None and result.normals.shape == result.vertices.shape
+    outward = result.vertices - np.array([0.0, 0.0, 2.0])
+    outward /= np.linalg.norm(outward, axis=1)[:, None]
+    assert np.mean(np.einsum("ij,ij->i", result.normals, outward) > 0.7) > 0.9
+    node = headless.tab.scene._dense[1]
+    grey = np.asarray(node.colors, float).mean(axis=1)
+    assert node.colors.shape == (len(result.vertices), 3) and grey.std() > 15

@@ -4,15 +4,20 @@ saved and opens again."""
 from __future__ import annotations
 
 import json
+import tempfile
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
-from mirrorcore.io.limits import MAX_MARKERS, check_limits, check_name
-from mirrorcore.io.session import SessionMirror
-from mirrorcore.io.sessionfile import MAX_MIRRORS, load_session
+from mirrorcore.io.limits import MAX_MARKERS, check_name
+from mirrorcore.geometry.camera import Intrinsics
+from mirrorcore.io.session import Session, SessionMirror
+from mirrorcore.io.sessionfile import MAX_MIRRORS, check_session, load_session, save_session
 from mirrorcore.rig.model import Rig
 
 DEMO = "sessions/demo"
@@ -49,7 +54,7 @@ BIG = 10 ** 400     # a JSON number no float can hold
     (lambda d: d["mirrors"][0].update(plane=[BIG, 0, 0, 1]),
      "plane: a plane needs 4 finite numbers"),
     (lambda d: d["mirrors"][0]["markers"].append([BIG, 1]), "must be a pair of numbers"),
-    (lambda d: d.update(selection={"min_blob": BIG}), "selection: int too large"),
+    (lambda d: d.update(selection={"min_blob": BIG}), "selection: min_blob: must be a whole"),
     (lambda d: d.update(selection={"roi": [[BIG, 1], [2, 3], [4, 5]]}), "roi: vertices must be"),
     (lambda d: d.update(timestamps=[BIG] * len(d["frames"])), "must be a number of seconds"),
 ])
@@ -82,17 +87,17 @@ def test_a_session_file_too_large_is_refused_before_reading(tmp_path):
 
 def test_the_editor_check_refuses_what_the_reader_would_refuse():
     session = load_session(DEMO)
-    assert check_limits(session) is session
+    assert check_session(session) is session
     mirrors = tuple(SessionMirror(f"mirror {i}", id=i) for i in range(1, MAX_MIRRORS + 1))
-    check_limits(replace(session, mirrors=mirrors))                            # 32: fine
+    check_session(replace(session, mirrors=mirrors))                            # 32: fine
     with pytest.raises(MirrorscanError, match="33 mirrors, more than the 32"):
-        check_limits(replace(session, mirrors=mirrors + (SessionMirror("one more", id=99),)))
+        check_session(replace(session, mirrors=mirrors + (SessionMirror("one more", id=99),)))
     m = session.mirrors[0]
     with pytest.raises(MirrorscanError,
-                       match=r"mirrors\[0\] \(mirror 1\): 501 markers, more than the 500"):
-        check_limits(session.with_mirror(0, replace(m, markers=((1.0, 1.0),) * (MAX_MARKERS + 1))))
-    with pytest.raises(MirrorscanError, match="boundary: 1,001 vertices"):
-        check_limits(session.with_mirror(0, replace(m, boundary=((1.0, 1.0),) * 1001)))
+                       match=r"mirrors\[0\] \(mirror 1\): markers: 501 points, more than the 500"):
+        check_session(session.with_mirror(0, replace(m, markers=((1.0, 1.0),) * (MAX_MARKERS + 1))))
+    with pytest.raises(MirrorscanError, match="boundary: 1,001 points"):
+        check_session(session.with_mirror(0, replace(m, boundary=((1.0, 1.0),) * 1001)))
     for bad in ("", "   ", "x" * 101, "a\nb", "\ud800"):
         with pytest.raises(MirrorscanError):
             check_name(bad)
@@ -100,11 +105,33 @@ def test_the_editor_check_refuses_what_the_reader_would_refuse():
 
 
 def test_a_session_at_the_limits_is_saved_and_opens_again(tmp_path):
-    from mirrorcore.io.sessionfile import save_session
     session = replace(load_session(DEMO), root=tmp_path)
     m = session.mirrors[0]
     full = tuple(replace(m, id=i, name=f"mirror {i}", plane=None)
                  for i in range(1, MAX_MIRRORS + 1))
-    save_session(check_limits(replace(session, mirrors=full, frames=(), timestamps=None)))
+    save_session(check_session(replace(session, mirrors=full, frames=(), timestamps=None)))
     again = load_session(tmp_path)
     assert len(again.mirrors) == MAX_MIRRORS and Rig.from_session(again).mirrors
+
+
+CAMERA_NUMBERS = st.one_of(st.floats(), st.integers(-10**6, 10**6), st.booleans(),
+                           st.sampled_from([1e308, -1e308, 5e-324, 2**53 + 1, 2**64]))
+
+
+@settings(max_examples=80, deadline=None)
+@given(size=st.tuples(st.integers(1, 5000), st.integers(1, 5000)),
+       values=st.tuples(*[CAMERA_NUMBERS] * 5))
+def test_a_camera_the_check_accepts_is_saved_and_opens_again(size, values):
+    try:
+        camera = Intrinsics(*size, *values)
+    except (MirrorscanError, TypeError, ValueError, OverflowError):
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        session = Session(Path(tmp), camera, (SessionMirror("m"),))
+        try:
+            check_session(session)
+        except MirrorscanError as exc:
+            assert str(exc).startswith("session.json: camera")
+            return
+        save_session(session)
+        assert load_session(tmp) == session

@@ -178,3 +178,16 @@ def test_saved_files_follow_the_umask_and_keep_their_mode(tmp_path):
         assert (tmp_path / "session.json").stat().st_mode & 0o777 == 0o600
     finally:
         os.umask(old)
+
+
+@pytest.mark.parametrize("key", ["marker_offset", "marker_offset_std"])
+def test_glass_values_past_a_float_are_refused_in_one_line(tmp_path, key):
+    save_session(make_session(tmp_path))
+    text = (tmp_path / "session.json").read_text()
+    data = json.loads(text)
+    data["mirrors"][0][key] = 0
+    # JSON holds integers no float can: 10^400 written out
+    text = json.dumps(data).replace(f'"{key}": 0', f'"{key}": 1{"0" * 400}')
+    (tmp_path / "session.json").write_text(text)
+    with pytest.raises(FileFormatError, match=rf"mirrors\[0\] \(mirror 1\): '{key}' must be"):
+        load_session(tmp_path)

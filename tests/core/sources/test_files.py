@@ -1,6 +1,7 @@
 """Recorded depth sources: real frames through the PNG-folder and TUM readers, .npz stacks, spec
 strings."""
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -120,6 +121,21 @@ def test_png_folder_and_tum_errors(tmp_path):
         open_source(f"tum:{tmp_path}")
 
 
+
+@pytest.mark.parametrize("stamps, message", [
+    (("-1e308", "1e308"), r"depth.txt: line 2: timestamp -1e308 is not seconds of a recording"),
+    (("0", "1e9"), r"depth.txt: 2 frames over 1e\+09 s is not a camera's rate"),
+    (("5", "5", "5"), r"depth.txt: 3 frames over 0 s is not a camera's rate"),
+])
+def test_a_tum_folder_with_absurd_timestamps_is_refused_in_one_line(tmp_path, stamps, message):
+    cv2.imwrite(str(tmp_path / "d.png"), np.zeros((480, 640), np.uint16))
+    lines = "".join(f"{t} d.png\n" for t in stamps)
+    (tmp_path / "depth.txt").write_text(f"# depth maps\n{lines}")
+    with pytest.raises(FileFormatError, match=message):
+        open_source(f"tum:{tmp_path}")
+    (tmp_path / "depth.txt").write_text("1305031102.16 d.png\n1305031102.19 d.png\n")
+    assert open_source(f"tum:{tmp_path}").fps == pytest.approx(1 / 0.03)
+
 def test_spec_strings_split_into_kind_target_and_options():
     assert parse_spec("freenect:0") == ("freenect", "0", {})
     assert parse_spec("dir:/data/x?scale=0.0002&camera=cam.yaml") == ("dir", "/data/x", {
@@ -133,3 +149,20 @@ def test_spec_strings_split_into_kind_target_and_options():
         open_source("sim?fps=-1")
     with pytest.raises(MirrorscanError, match="freenect needs a device index"):
         open_source("freenect:first")
+
+
+def test_a_tum_folder_named_in_no_utf8_plays_and_is_named_with_replacement_characters(tmp_path):
+    folder = os.fsencode(tmp_path) + b"/caf\xe9"
+    os.mkdir(folder)
+    # written by Python: OpenCV cannot open such a path
+    for name, image in ((b"d.png", np.zeros((480, 640), np.uint16)),
+                        (b"c.png", np.full((480, 640, 3), 200, np.uint8))):
+        with open(folder + b"/" + name, "wb") as f:
+            f.write(cv2.imencode(".png", image)[1].tobytes())
+    for name, image in ((b"depth.txt", "d.png"), (b"rgb.txt", "c.png")):
+        with open(folder + b"/" + name, "w") as f:
+            f.write(f"1305031102.16 {image}\n")
+    source = open_source(f"tum:{os.fsdecode(folder)}")
+    assert source.name == "TUM caf\ufffd" and source.name.encode("utf-8")
+    frame = source.read(0)
+    assert frame.depth.shape == (480, 640) and frame.colour[0, 0].tolist() == [200, 200, 200]
