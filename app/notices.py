@@ -1,8 +1,16 @@
 """What the browser tool tells the technician: notifications on one tab or every tab, each also
 a line of the server's log, the refusal or failure of a user's action, and a notification that
-stays on every tab while it is true (LastingNote)."""
+stays on every tab while it is true (LastingNote).
+
+viser shows notifications at the top left of the 3D view, over the depth frame's corner; it offers
+no option to place them. Each tab's page is given a style sheet (`place_notes`, through viser's
+message that runs a script, as it loads plotly) that stacks them over the foot of the side panel,
+newest at the bottom, every older one collapsed to its title (its text shows under the pointer), as
+is viser's own notice that the browser draws without a GPU, which stays until closed.
+"""
 from __future__ import annotations
 
+import json
 import logging
 import threading
 from typing import Callable
@@ -12,6 +20,8 @@ import viser
 from mirrorcore.base.errors import MirrorscanError
 
 from .markup import shown
+from .presence import run_js
+from .wording import refusal
 
 log = logging.getLogger("mirrorscan")
 # a notification's colour by its kind
@@ -20,6 +30,41 @@ NOTE_SECONDS = 8.0        # seconds: a notification closes after this
 # seconds: the note of long work's result closes after this; its report stays in the panel, and
 # the note must not cover the depth frame's corner for long at 1024x600
 RESULT_NOTE_SECONDS = 45.0
+# CSS px: the notifications' width, within the side panel (400 px wide, docked right) and clear
+# of its scroll bar
+NOTE_WIDTH = 360
+NOTE_MARGIN = 16          # CSS px from the page's right and bottom edges
+NOTES_STYLE_ID = "mirrorscan-notes"
+NOTES_CSS = """
+.mantine-Notifications-root {{
+  top: auto !important; left: auto !important;
+  right: {margin}px !important; bottom: {margin}px !important;
+  width: {width}px !important; --notifications-container-width: {width}px !important;
+}}
+.mantine-Notification-root:not(:last-child):not(:hover) {{ padding-top: 4px; padding-bottom: 4px; }}
+.mantine-Notification-root:not(:last-child):not(:hover) .mantine-Notification-description,
+#webgl-software-rendering:not(:hover) .mantine-Notification-description {{ display: none; }}
+"""
+NOTES_JS = """(() => {{
+  let style = document.getElementById("{id}");
+  if (!style) {{
+    style = document.createElement("style");
+    style.id = "{id}";
+    document.head.appendChild(style);
+  }}
+  style.textContent = {css};
+}})();"""
+
+
+def place_notes(client: viser.ClientHandle) -> None:
+    """Stack the tab's notifications over the foot of the side panel (see the module docstring).
+
+    Parameters
+    ----------
+    client : viser.ClientHandle
+    """
+    css = NOTES_CSS.format(margin=NOTE_MARGIN, width=NOTE_WIDTH)
+    run_js(client, NOTES_JS.format(id=NOTES_STYLE_ID, css=json.dumps(css)))
 
 
 class Notifier:
@@ -58,6 +103,9 @@ class Notifier:
                logged: bool = True) -> viser.NotificationHandle | None:
         """Show a notification on one tab or every tab in its kind's colour (NOTE_COLOURS); log it.
 
+        A message longer than a headline (HEADLINE_WORDS) is cut to its first clause
+        (`mirrorscan.wording.refusal`); the log keeps it whole.
+
         It closes after NOTE_SECONDS, or RESULT_NOTE_SECONDS when `stay` (the result of long work,
         whose report may be out of view).
 
@@ -81,7 +129,9 @@ class Notifier:
             log.info("%s: %s", title, message)
         targets = [client] if client is not None else list(self.server.get_clients().values())
         seconds = RESULT_NOTE_SECONDS if stay else NOTE_SECONDS
-        notes = [target.add_notification(shown(title), shown(message), color=NOTE_COLOURS[kind],
+        # no longer than a headline: the whole message is in the log
+        headline = refusal(message).headline
+        notes = [target.add_notification(shown(title), shown(headline), color=NOTE_COLOURS[kind],
                                          auto_close_seconds=seconds)
                  for target in targets]
         return notes[0] if client is not None else None

@@ -256,6 +256,7 @@ class MirrorscanApp(Notifier, AppSources):
                     tabs = list(self.tabs.values())
                 for tab in tabs:
                     tab.poll_visibility()
+                    tab.header.poll_draws()
             self.act(None, self._reload_if_changed)
             self.act(None, lambda: self.editor.retry_save(SAVE_RETRY_S))
 

@@ -28,6 +28,7 @@ from .guards import StaleEdit, made_on
 from .liveframe import LiveFrame
 from .markup import markdown
 from .overlays import MarkerMark, MirrorMarks, Overlay
+from .page import frame_late
 from .panels import PANELS
 from .panels.live import LivePanel
 from .presence import MAX_LAG_S, PAGE_KEY, SETTLING_S, Resume, TabPresence
@@ -101,6 +102,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         self._on_session()
         self.show_dense(services.jobs.dense_result)
         client.camera.on_update(self._first_view)
+        frame_late(client, self._first_view)
         self._watch_visibility()
         self._watch_acknowledgements()
 
@@ -110,7 +112,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
         The rig and the cloud, the object under a heat map (a reload), or the depth frame when the
         tab was switched to it before the report.
         """
-        if not self._framed:
+        if not self._framed and not self.closed:
             self._framed = True
             if self.state.view == "depth":
                 self.screen.look_at()

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mirrorcore.base.palette import SOURCE_COLOURS
+from mirrorcore.base.palette import HEAT_UNCOMPARED, SOURCE_COLOURS
 
 from .events import HeatChanged
 
@@ -88,7 +88,8 @@ class TabHeat:
     def _draw_heat(self) -> None:
         """Draw the last heat map (under _heat_lock).
 
-        The camera's points, and those of the mirrors not chosen (heat_of), small and grey.
+        The camera's points, those of the mirrors not chosen (heat_of) and those with nothing to
+        compare with, small and grey.
         """
         event = self._heat_event
         if event.sources is None:
@@ -96,7 +97,11 @@ class TabHeat:
             return
         mirrors = self.services.snapshot.session.mirrors
         label = next((k for k, m in enumerate(mirrors, start=1) if m.id == self.heat_of), None)
-        small = event.sources == 0 if label is None else event.sources != label
+        # the mirrors' points with nothing to compare with (the camera does not see their part of
+        # the object: most of a person's back and sides) are drawn as the camera's, so that the
+        # points compared show in their colours
+        uncompared = np.all(event.colours == HEAT_UNCOMPARED, axis=1) & (event.sources != 0)
+        small = (event.sources == 0 if label is None else event.sources != label) | uncompared
         grey = (small & (event.sources != 0))[:, None]
         colours = np.where(grey, SOURCE_COLOURS[0], event.colours)
         self.scene.show_heat(event.points, colours.astype(np.uint8), small)

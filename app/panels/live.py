@@ -18,6 +18,8 @@ from ..events import JobProgress, LoopChanged, SessionChanged
 from ..jobs import AGREEMENT, BATCH, RECORD, REFINE
 from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
+from ..notices import place_notes
+from ..page import draw_rate, keys_help, save_view, start_page
 from .planes import from_markers, from_object, no_glass
 from ..wording.hints import start_hint
 from ..wording.legend import heat_legend_html, legend_html, source_names
@@ -84,6 +86,13 @@ class LivePanel:
     """
     def __init__(self, tab: TabContext):
         gui, self.tab, services = tab.gui, tab, tab.services
+        # imported here: the steps' package imports this module's package
+        from . import PANELS
+
+        place_notes(tab.client)
+        start_page(tab.client, tuple(panel.TITLE for panel in PANELS))
+        # frames a second the page drew its 3D scene (poll_draws), None before it told
+        self.draws: float | None = None
         self.title = gui.add_markdown("")
         self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False)
         self.rate = gui.add_markdown("starting…")
@@ -123,6 +132,10 @@ class LivePanel:
                 hint="the camera as each mirror, and each sequence of mirrors, shows it",
             )
             self.pixel = gui.add_markdown("Last pixel read: none yet")
+            self.save_view = gui.add_button(
+                "Save the view as PNG", hint="what the 3D view shows now, at its size on the page"
+            )
+            gui.add_markdown(keys_help())
         self._pixel_note = None  # the notification showing the last pixel read
         self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
@@ -133,6 +146,7 @@ class LivePanel:
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
         self.heat.on_update(lambda e: self._show_heat(ticked=e.client is not None))
         self.heat_of.on_update(lambda _: tab.heat_only(self._heat_mirror()))
+        self.save_view.on_click(lambda _: save_view(tab.client, tab.act))
         self.frame_object.on_click(
             lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object()))
         )
@@ -274,6 +288,8 @@ class LivePanel:
         number = frame_number(frame.index, count)
         which = f"frame {number} of {count}" if count else f"frame {number}"
         rate = "**paused**" if services.paused else f"**{services.fps():.1f} fps**"
+        if self.draws is not None:
+            rate += f" · page draws {self.draws:.1f}/s"
         state = services.jobs.recording_state()
         recording = None if state is None else recording_headline(state)
         self.rate.content = (
@@ -281,7 +297,7 @@ class LivePanel:
             + f"{which} · {rate} · processing {np.median(self._process_ms):.1f} ms"
             + (f" · at most {paced[0]:.0f} fps {paced[1]}" if paced and not services.paused else "")
             + (
-                " · ⚠ this browser draws slower than frames come: it is sent fewer of them"
+                " · ⚠ the page draws slower than frames come: sent fewer"
                 if now - self.tab.lagged_at < LAG_NOTE_S
                 else ""
             )
@@ -311,6 +327,10 @@ class LivePanel:
         self._heat_choices()
         if first:
             self.refresh_hint()
+
+    def poll_draws(self) -> None:
+        """Read how often the tab's page draws its 3D scene (the header shows it)."""
+        self.draws = draw_rate(self.tab.client)
 
     def _show_heat(self, ticked: bool = False) -> None:
         """The heat map on or off as the box says.

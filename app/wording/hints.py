@@ -145,6 +145,12 @@ def start_hint(
             f"⚠ {listed(disagreeing)}: {views} with the others (why: under *Mirrors*): "
             "**Mirrors › Refine from the object**, or fit again."
         )
+    # "Ready" only once the rig has its mirrors: the tool needs two or more
+    if len(session.mirrors) == 1:
+        return (
+            f"{session.mirrors[0].name} is fitted; the cloud merges its view alone: "
+            "**Mirrors › Add a mirror** for each other mirror of the rig."
+        )
     if no_glass and "refine" in refused.values():
         return (
             f"Ready. No glass on {listed(no_glass)}, and this object could not measure it: type it "

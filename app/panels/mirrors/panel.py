@@ -346,10 +346,11 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         )
         has = selected is not None
         picked = state.picked_marker is not None and has
-        self.move.visible = self.delete.visible = state.mode == "markers"
-        self.move.disabled = self.delete.disabled = not picked
-        which = f"marker {selected.id}.{state.picked_marker + 1}" if picked else "the picked marker"
-        self.move.label, self.delete.label = f"Move {which}", f"Delete {which}"
+        # only once a marker is picked: nothing to say before
+        self.move.visible = self.delete.visible = state.mode == "markers" and picked
+        if picked:
+            which = f"marker {selected.id}.{state.picked_marker + 1}"
+            self.move.label, self.delete.label = f"Move {which}", f"Delete {which}"
         self._outline_buttons(
             state.mode == "boundary" and has,
             has and bool(selected.boundary),

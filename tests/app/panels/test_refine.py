@@ -18,7 +18,7 @@ from mirrorscan.wording import agreement as agreement_words
 from mirrorscan.wording.mirrors import fit_report
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.base.palette import SOURCE_COLOURS
+from mirrorcore.base.palette import HEAT_UNCOMPARED, SOURCE_COLOURS
 from mirrorcore.calibration.residuals import view_agreement
 from mirrorcore.rig.pipeline import prepare_frame
 from tests.app.panels.support import panel
@@ -299,17 +299,19 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
         "mirror 2",
     )
     sources = tab._heat_event.sources
+    # points with nothing to compare with are drawn small and grey, as the camera's
+    compared = ~np.all(tab._heat_event.colours == HEAT_UNCOMPARED, axis=1)
     header.heat_of.value = "mirror 2"
     tab.heat_only(header._heat_mirror())
     nodes = tab.client.scene._handle_from_node_name
-    assert len(nodes["/heat"].points) == np.count_nonzero(sources == 2)
+    assert len(nodes["/heat"].points) == np.count_nonzero((sources == 2) & compared) > 0
     assert np.all(nodes["/heat/direct"].colors == grey) and len(
         nodes["/heat/direct"].points
-    ) == np.count_nonzero(sources != 2)
+    ) == np.count_nonzero((sources != 2) | ~compared)
     header.heat_of.value = "every mirror"
     tab.heat_only(header._heat_mirror())
     assert len(tab.client.scene._handle_from_node_name["/heat"].points) == np.count_nonzero(
-        sources != 0
+        (sources != 0) & compared
     )
     tab.show_heat(False)
     app.pause(False)

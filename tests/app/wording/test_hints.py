@@ -64,15 +64,21 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
             ),
         ),
     )
-    assert start_hint(done, TabState(mirror_id=1), True, True).startswith(
+    # one mirror fitted: not ready before the rig's other mirrors are added
+    assert start_hint(done, TabState(mirror_id=1), True, True) == (
+        "left is fitted; the cloud merges its view alone: **Mirrors › Add a mirror** for each "
+        "other mirror of the rig."
+    )
+    done_two = replace(done, mirrors=(*done.mirrors, replace(done.mirrors[0], name="right", id=2)))
+    assert start_hint(done_two, TabState(mirror_id=1), True, True).startswith(
         "Ready: the merged cloud is live"
     )
-    assert start_hint(done, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
+    assert start_hint(done_two, TabState(mirror_id=1), True, True, no_glass=("left",)) == (
         "Ready: the merged cloud is live. No glass set on left: **Mirrors › Refine from the "
         "object** measures it."
     )
     assert start_hint(
-        done, TabState(mirror_id=1), True, True, no_glass=("left",), refused={1: "refine"}
+        done_two, TabState(mirror_id=1), True, True, no_glass=("left",), refused={1: "refine"}
     ) == (
         "Ready. No glass on left, and this object could not measure it: type it under **Mirrors › "
         "Rename, glass, "
@@ -132,7 +138,7 @@ def test_the_hint_names_the_next_step_and_not_a_mode_already_chosen(tmp_path):
         "Recording (see above)"
     )
     # no markers, as for calibrate --method scene
-    unmarked = Session(tmp_path, session.camera, mirrors=(replace(done.mirrors[0], markers=()),))
+    unmarked = replace(done_two, mirrors=tuple(replace(m, markers=()) for m in done_two.mirrors))
     assert start_hint(unmarked, TabState(mirror_id=1), True, True).startswith("Ready: ")
     # flagged mirrors before "Ready"
     assert start_hint(done, TabState(mirror_id=1), True, True, disagreeing=("left", "right")) == (
