@@ -17,6 +17,7 @@ from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import validate_polygon
 from mirrorcore.io.session import MAX_MARKER_OFFSET, Pixels, SessionMirror
+from mirrorcore.io.sessionfile import check_session
 from mirrorcore.io.sessionfile import MAX_MIRRORS
 from mirrorcore.rig.model import check_bounces
 
@@ -287,6 +288,13 @@ class SessionEditor(EditorCore):
             return False
         # all or none: a refusal after the first mirror's step would leave only some
         check_drawn(self._session, changes)
+        final = self._session
+        for mirror_id, (plane, offset, std) in changes.items():
+            index = self._index(mirror_id)
+            final = final.with_mirror(index, replace(final.mirrors[index], plane=plane,
+                                                     marker_offset=offset,
+                                                     marker_offset_std=std))
+        check_session(final, self._session)
         names = [mirrors[mirror_id].name for mirror_id in changes]
         label = f"{what}{'s' if len(names) > 1 else ''} of {listed(names)}"
         group = self._history.new_group() if len(names) > 1 else 0

@@ -224,12 +224,19 @@ def _differences(session: Session, back: Session):
 def save_session(session: Session) -> None:
     """Write the session's session.json atomically, creating its folder.
 
-    The previous version is kept as session.json.bak.
+    The previous version is kept as session.json.bak. What the reader would refuse is not
+    written (`check_session`; the frame lists, which the recorder builds, are not read again).
 
     Parameters
     ----------
     session : Session
+
+    Raises
+    ------
+    FileFormatError
+        When `load_session` would refuse the session or read it back otherwise; nothing written.
     """
+    check_session(session, known=session)
     Path(session.root).mkdir(parents=True, exist_ok=True)
     text = json.dumps(session.to_json(), indent=2) + "\n"
     write_atomic(session.path, text.encode("utf-8"), backup=True)

@@ -159,7 +159,14 @@ def test_a_plane_and_its_glass_are_saved_only_when_the_reader_opens_them(abcd, o
         mirror = editor.mirror(1)
         editor.set_planes({1: (plane, mirror)}, {1: (offset, std)})
 
+    def set_both(editor: SessionEditor) -> None:
+        """A good plane for mirror 1 and this one for mirror 2: both or neither (`_edit`)."""
+        good = Plane((0.0, 0.0, -1.0), 2.0)
+        editor.set_planes({1: (good, editor.mirror(1)), 2: (plane, editor.mirror(2))},
+                          {2: (offset, std)})
+
     _edit(set_plane)
+    _edit(set_both)
 
 
 @EDITS
