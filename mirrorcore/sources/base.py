@@ -73,6 +73,13 @@ class DepthSource(ABC):
         """True for a physical camera: live, and not a rendering of a simulated rig."""
         return self.live
 
+    @property
+    def has_colour(self) -> bool:
+        """True when the source's frames carry `Frame.colour` (RGB registered to the depth
+        image); False when every frame's colour is None and the views fall back to the source
+        colours."""
+        return False
+
     @abstractmethod
     def read(self, i: int) -> Frame:
         """Return frame i (see `DepthSource.read`).
