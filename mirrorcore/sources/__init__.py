@@ -2,9 +2,10 @@
 open_source(spec) and the table of kinds with what each needs on this machine (`mirrorscan
 sources`).
 
-Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT,
-fps=N, colour=registered|none (the cameras: freenect, openni2, realsense; default none). A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz,
-.bag or .oni file.
+Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense,
+scale=METRES_PER_UNIT, fps=N, colour=registered|none (the cameras: freenect, openni2, realsense;
+default none). A bare path works too: a session folder, a TUM folder (depth.txt), a folder of
+PNGs, a .npz, .bag or .oni file.
 """
 from __future__ import annotations
 
