@@ -19,13 +19,15 @@ def register(sub) -> None:
         "sources",
         help="list the depth sources, their specs, and which are available here",
         description="Depth source specs for --source and `mirrorscan record`: KIND:TARGET, "
-        "options after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N.",
+        "options after '?': camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT, fps=N, "
+        "colour=registered (the cameras).",
     )
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print each kind of depth source: its spec, what it is, and whether it works here.
+    """Print each kind of depth source: its spec, what it is, what it does with colour, and
+    whether it works here.
 
     Parameters
     ----------
@@ -41,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     for kind in KINDS:
         reason = kind.unavailable()
         print(
-            f"{kind.spec:<{width}}  {kind.what}\n{'':<{width}}  "
-            f"{'available' if reason is None else reason}"
+            f"{kind.spec:<{width}}  {kind.what}\n{'':<{width}}  {kind.colour}\n"
+            f"{'':<{width}}  {'available' if reason is None else reason}"
         )
     return 0

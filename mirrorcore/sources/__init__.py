@@ -2,9 +2,10 @@
 open_source(spec) and the table of kinds with what each needs on this machine (`mirrorscan
 sources`).
 
-Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense, scale=METRES_PER_UNIT,
-fps=N. A bare path works too: a session folder, a TUM folder (depth.txt), a folder of PNGs, a .npz,
-.bag or .oni file.
+Specs: KIND:TARGET[?key=value&...]; options camera=FILE|kinect_v1|primesense,
+scale=METRES_PER_UNIT, fps=N, colour=registered|none (the cameras: freenect, openni2, realsense;
+default none). A bare path works too: a session folder, a TUM folder (depth.txt), a folder of
+PNGs, a .npz, .bag or .oni file.
 """
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ __all__ = ["DepthSource", "Frame", "FreenectSource", "ImageSequenceSource", "KIN
            "OpenNI2Source", "RealSenseSource", "Recorder", "SessionSource", "SimulatedSource",
            "SourceKind", "StackSource", "new_recording_folder", "open_source", "parse_spec",
            "record", "session_scene", "session_truth"]
-_OPTIONS = ("camera", "scale", "fps")
+_OPTIONS = ("camera", "scale", "fps", "colour")
+_COLOUR = ("none", "registered")
 
 
 @dataclass(frozen=True)
@@ -48,12 +50,15 @@ class SourceKind:
         What it reads.
     unavailable : callable
         Returns None when the kind can be used here, or a one-line reason why not.
+    colour : str
+        What it does with colour.
     """
 
     name: str
     spec: str
     what: str
     unavailable: Callable[[], str | None]
+    colour: str = "no colour"
 
 
 def _library(module: str, install: str) -> Callable[[], str | None]:
@@ -98,24 +103,27 @@ def _realsense_devices() -> str | None:
     return "pyrealsense2 is installed; no camera is plugged in"
 
 
+_OPT_IN = "colour with ?colour=registered"
 KINDS = (
     SourceKind("sim", "sim | sim:SCENE.json", "the simulated rig (live, Kinect v1 noise)",
-               lambda: None),
-    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None),
+               lambda: None, "as the simulator renders it"),
+    SourceKind("session", "session | SESSION_FOLDER", "a session's recorded frames", lambda: None,
+               "colour when the session has colour_frames"),
     SourceKind("dir", "dir:FOLDER",
                "16-bit depth PNGs; camera.json or intrinsic.json beside them, or ?camera=",
                lambda: None),
     SourceKind("tum", "tum:FOLDER", "a TUM RGB-D folder (depth.txt, rgb.txt, metres x 5000)",
-               lambda: None),
+               lambda: None, "colour from rgb.txt, nearest stamp within 0.02 s"),
     SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]",
-               lambda: None),
+               lambda: None, "colour when the stack has a colour array"),
     SourceKind("bag", "bag:FILE", "a RealSense .bag recording",
                _library("pyrealsense2", REALSENSE_INSTALL)),
     SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)",
-               _freenect_devices),
+               _freenect_devices, f"{_OPT_IN} (registered depth in mm on the RGB grid)"),
     SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording",
-               _openni2_devices),
-    SourceKind("realsense", "realsense:SERIAL", "a RealSense camera (live)", _realsense_devices),
+               _openni2_devices, f"{_OPT_IN} (depth registered to colour)"),
+    SourceKind("realsense", "realsense:SERIAL", "a RealSense camera (live)", _realsense_devices,
+               f"{_OPT_IN} (colour aligned to depth)"),
 )
 
 
@@ -193,6 +201,12 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
     fps = _number(options, "fps", spec) or 30.0
     scale = _number(options, "scale", spec)
     camera = load_camera(options["camera"], scale or 0.001) if "camera" in options else None
+    colour = options.get("colour", "none")
+    if colour not in _COLOUR or (colour != "none"
+                                 and kind not in ("freenect", "openni2", "realsense")):
+        raise MirrorscanError(f"source {spec!r}: colour={colour} is not read here; the cameras "
+                              "take colour=registered (freenect, openni2, realsense)")
+    registered = colour == "registered"
     if kind == "sim":
         return open_simulated(target, session)
     if kind == "session":
@@ -202,9 +216,10 @@ def open_source(spec: str | None, session: Session | None = None) -> DepthSource
     openers = {"dir": lambda: open_png_folder(target, camera, scale, fps),
                "tum": lambda: open_tum(target, camera, scale),
                "npz": lambda: open_npz(target, fps), "bag": lambda: open_bag(target),
-               "freenect": lambda: FreenectSource(_index(target, spec), camera),
-               "openni2": lambda: OpenNI2Source(target),
-               "realsense": lambda: RealSenseSource(target)}
+               "freenect": lambda: FreenectSource(_index(target, spec), camera,
+                                                  colour=registered),
+               "openni2": lambda: OpenNI2Source(target, registered),
+               "realsense": lambda: RealSenseSource(target, registered)}
     return openers[kind]()
 
 

@@ -26,10 +26,11 @@ class Frame:
         Seconds on the source's clock (a recording's own times, or seconds since a live source
         opened).
     colour : (H, W, 3) uint8 array or None
-        RGB registered to the depth image.
+        RGB registered to the depth image: pixel (v, u) is the colour of depth pixel (v, u). None
+        for a frame without colour (see `DepthSource.has_colour`).
     units : (H, W) uint16 array or None
         The sensor's own values before conversion to metres (Kinect v1: 11-bit disparity, 2047 = no
-        reading; RealSense: z16 units).
+        reading, or millimetres in its registered mode; RealSense: z16 units).
     """
 
     depth: np.ndarray
@@ -72,6 +73,13 @@ class DepthSource(ABC):
     def camera(self) -> bool:
         """True for a physical camera: live, and not a rendering of a simulated rig."""
         return self.live
+
+    @property
+    def has_colour(self) -> bool:
+        """True when the source's frames carry `Frame.colour` (RGB registered to the depth
+        image); False when every frame's colour is None and the views fall back to the source
+        colours."""
+        return False
 
     @abstractmethod
     def read(self, i: int) -> Frame:

@@ -11,21 +11,27 @@ import numpy as np
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.depth.kinect import disparity_to_depth
-from mirrorcore.sources.base import DepthSource, Frame, require
+from mirrorcore.sources.base import DepthSource, Frame, checked_depth, require
 
 FREENECT_INSTALL = ("Debian's libfreenect-dev, then pip install 'mirrorscan[devices]' "
                     "(PyPI freenect builds against it)")
 OPENNI2_INSTALL = "Debian's libopenni2-dev, then pip install 'mirrorscan[devices]' (PyPI openni)"
 OPENNI2_LIBRARY_DIRS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib",
                         "/usr/local/lib")
+# Nicolas Burrus' calibration of the Kinect v1's RGB camera, the grid of its registered depth (mm)
+KINECT_V1_RGB = Intrinsics(640, 480, 529.21508098293293, 525.56393630057437, 328.94272028759258,
+                           267.48068171871557, 0.001)
 _OPENNI2_SCALES = {"PIXEL_FORMAT_DEPTH_1_MM": 0.001, "PIXEL_FORMAT_DEPTH_100_UM": 0.0001}
 
 
 class FreenectSource(DepthSource):
     """A Kinect v1 through libfreenect's sync wrapper, live.
 
-    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres.
-    Timestamps are seconds since the source opened, on the host's clock.
+    Frames are 11-bit disparity counts (Frame.units, uint16, 2047 = no reading) converted to metres,
+    without colour. With `colour`, frames are libfreenect's registered depth instead (millimetres
+    on the RGB camera's 640x480 grid, warped by the device's own calibration tables; Frame.units
+    holds the millimetres) with the RGB image (sync_get_video) as Frame.colour. Timestamps are
+    seconds since the source opened, on the host's clock.
 
     Parameters
     ----------
@@ -38,6 +44,8 @@ class FreenectSource(DepthSource):
         calibration z = 1 / (counts * -0.0030711016 + 3.3309495161)
         (mirrorcore.depth.kinect.disparity_to_depth). Pass another function to use your own
         calibration.
+    colour : bool
+        Registered depth and colour; `intrinsics` then default to KINECT_V1_RGB.
 
     Raises
     ------
@@ -46,23 +54,38 @@ class FreenectSource(DepthSource):
     """
 
     def __init__(self, index: int = 0, intrinsics: Intrinsics | None = None,
-                 disparity_model: Callable[[np.ndarray], np.ndarray] = disparity_to_depth):
+                 disparity_model: Callable[[np.ndarray], np.ndarray] = disparity_to_depth,
+                 colour: bool = False):
         self.name, self.index = f"freenect:{index}", int(index)
         self._freenect = require("freenect", self.name, FREENECT_INSTALL)
-        self.intrinsics = intrinsics or Intrinsics.kinect_v1()
+        self._colour = bool(colour)
+        self.intrinsics = intrinsics or (KINECT_V1_RGB if colour else Intrinsics.kinect_v1())
         self.fps, self.frame_count = 30.0, None
         self.disparity_model, self._t0 = disparity_model, time.monotonic()
         # fails here, at open, when there is no Kinect
         self._first: Frame | None = self._grab()
 
+    @property
+    def has_colour(self) -> bool:
+        """True when opened with `colour` (registered depth and the RGB image)."""
+        return self._colour
+
     def _grab(self) -> Frame:
         """Read the next frame from the device."""
-        got = self._freenect.sync_get_depth(self.index, self._freenect.DEPTH_11BIT)
-        if got is None:
+        fn = self._freenect
+        got = fn.sync_get_depth(self.index, fn.DEPTH_REGISTERED if self._colour else fn.DEPTH_11BIT)
+        video = fn.sync_get_video(self.index, fn.VIDEO_RGB) if self._colour and got else None
+        if got is None or (self._colour and video is None):
             raise MirrorscanError(f"{self.name}: no Kinect v1 found (plugged in, powered, and "
                                   "readable by this user?)")
-        counts = np.array(got[0], dtype=np.uint16)        # a copy: the binding reuses its buffer
-        return Frame(self.disparity_model(counts), time.monotonic() - self._t0, units=counts)
+        stamp = time.monotonic() - self._t0
+        # copies: the binding reuses its buffers
+        units = np.array(got[0], dtype=np.uint16)
+        if not self._colour:
+            return Frame(self.disparity_model(units), stamp, units=units)
+        depth = checked_depth(units * np.float32(0.001), self.intrinsics, self.name)
+        colour = np.array(video[0], dtype=np.uint8).reshape(*self.intrinsics.shape, 3)
+        return Frame(depth, stamp, colour, units)
 
     def read(self, i: int) -> Frame:
         """Return frame i (see `DepthSource.read`).
@@ -89,12 +112,17 @@ class OpenNI2Source(DepthSource):
 
     Depth comes in millimetres or 100 micrometres as the stream's pixel format says (Frame.units
     holds those units); intrinsics from the stream's fields of view (principal point at the image
-    centre); timestamps from the device, seconds.
+    centre); timestamps from the device, seconds. With `colour`, the device registers depth to its
+    colour camera (IMAGE_REGISTRATION_DEPTH_TO_COLOR, where it supports it; a recording keeps the
+    registration it was made with) and the colour stream (RGB888 of the depth stream's size) is
+    Frame.colour.
 
     Parameters
     ----------
     target : str
         '' = the first device, or a device URI, or an .oni file.
+    colour : bool
+        Read the colour stream too.
 
     Raises
     ------
@@ -105,8 +133,9 @@ class OpenNI2Source(DepthSource):
         No such .oni recording.
     """
 
-    def __init__(self, target: str = ""):
+    def __init__(self, target: str = "", colour: bool = False):
         self.name = f"openni2:{target}"
+        self._colour_stream = None
         self._openni2 = openni2 = require("openni.openni2", self.name, OPENNI2_INSTALL)
         initialise_openni2(openni2, self.name)
         is_file = target.lower().endswith(".oni")
@@ -120,6 +149,8 @@ class OpenNI2Source(DepthSource):
                                 else openni2.Device.open_any())
             self._stream = self._device.create_depth_stream()
             self._stream.start()
+            if colour:
+                self._colour_stream = _registered_colour(openni2, self._device)
         except openni2.OpenNIError as exc:
             raise MirrorscanError(f"{self.name}: {_openni2_message(exc)}") from None
         mode = self._stream.get_video_mode()
@@ -128,6 +159,12 @@ class OpenNI2Source(DepthSource):
             raise MirrorscanError(f"{self.name}: depth pixel format {fmt} is not one of "
                                   f"{', '.join(_OPENNI2_SCALES)}")
         w, h = int(mode.resolutionX), int(mode.resolutionY)
+        if self._colour_stream is not None:
+            colour_mode = self._colour_stream.get_video_mode()
+            if (int(colour_mode.resolutionX), int(colour_mode.resolutionY)) != (w, h):
+                raise MirrorscanError(
+                    f"{self.name}: colour {colour_mode.resolutionX}x{colour_mode.resolutionY} "
+                    f"is not the depth's {w}x{h}; registration needs one size")
         fx = w / 2 / np.tan(self._stream.get_horizontal_fov() / 2)
         fy = h / 2 / np.tan(self._stream.get_vertical_fov() / 2)
         self.intrinsics = Intrinsics(w, h, fx, fy, (w - 1) / 2, (h - 1) / 2, _OPENNI2_SCALES[fmt])
@@ -151,19 +188,42 @@ class OpenNI2Source(DepthSource):
         -------
         Frame
         """
+        streams = [s for s in (self._stream, self._colour_stream) if s is not None]
         if self._playback is not None:
-            self._playback.seek(self._stream, self._wrap(i))
+            for stream in streams:
+                self._playback.seek(stream, self._wrap(i))
         frame = self._stream.read_frame()
         h, w = self.intrinsics.shape
         units = np.frombuffer(frame.get_buffer_as_uint16(), np.uint16, h * w).reshape(h, w).copy()
+        colour = None
+        if self._colour_stream is not None:
+            image = self._colour_stream.read_frame().get_buffer_as_uint8()
+            colour = np.frombuffer(image, np.uint8, h * w * 3).reshape(h, w, 3).copy()
         return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
-                     frame.timestamp * 1e-6,
-                     units=units)
+                     frame.timestamp * 1e-6, colour, units)
+
+    @property
+    def has_colour(self) -> bool:
+        """True when opened with `colour` (registered colour stream)."""
+        return self._colour_stream is not None
 
     def close(self) -> None:
-        """Stop the stream and close the device."""
-        self._stream.stop()
+        """Stop the streams and close the device."""
+        for stream in (self._stream, self._colour_stream):
+            if stream is not None:
+                stream.stop()
         self._device.close()
+
+
+def _registered_colour(openni2, device):
+    """Register the device's depth to its colour camera (where it can) and start its colour
+    stream as RGB888; returns the stream."""
+    mode = openni2.IMAGE_REGISTRATION_DEPTH_TO_COLOR
+    if device.is_image_registration_mode_supported(mode):
+        device.set_image_registration_mode(mode)
+    stream = device.create_color_stream()
+    stream.start()
+    return stream
 
 
 def initialise_openni2(openni2, what: str) -> None:

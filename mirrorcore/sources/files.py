@@ -84,6 +84,11 @@ class ImageSequenceSource(DepthSource):
                                                                     self.intrinsics)
         return Frame(depth, float(self.timestamps[i]), colour)
 
+    @property
+    def has_colour(self) -> bool:
+        """True when a colour image goes with at least one frame (frames without one read None)."""
+        return self.colour_paths is not None and any(p is not None for p in self.colour_paths)
+
 
 class SessionSource(ImageSequenceSource):
     """A session's recorded frames at `fps`, with its timestamps (else i / fps) and colour frames.

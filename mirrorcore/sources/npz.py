@@ -69,6 +69,11 @@ class StackSource(DepthSource):
         return Frame(depth, float(self.timestamps[i]),
                      None if self.colour is None else self.colour[i], sensor_units)
 
+    @property
+    def has_colour(self) -> bool:
+        """True when the stack has a colour array."""
+        return self.colour is not None
+
 
 def open_npz(path: str | Path, fps: float = 30.0) -> StackSource:
     """Play a .npz stack, loaded without pickles.

@@ -23,12 +23,16 @@ class RealSenseSource(DepthSource):
     """A live RealSense camera.
 
     z16 depth times the device's depth units (Frame.units holds the z16 values), intrinsics from
-    the depth stream's profile, timestamps from the device in seconds.
+    the depth stream's profile, timestamps from the device in seconds. With `colour`, the colour
+    stream (RGB8) is mapped onto the depth image by `rs.align(rs.stream.depth)`, which keeps the
+    depth grid and values, and is Frame.colour.
 
     Parameters
     ----------
     serial : str
         '' = the first one.
+    colour : bool
+        Read the colour stream too, aligned to depth.
 
     Raises
     ------
@@ -36,7 +40,7 @@ class RealSenseSource(DepthSource):
         pyrealsense2 is missing, or no camera can be started.
     """
 
-    def __init__(self, serial: str = ""):
+    def __init__(self, serial: str = "", colour: bool = False):
         self.name = f"realsense:{serial}"
         rs = require("pyrealsense2", self.name, REALSENSE_INSTALL)
         if not rs.context().query_devices().size():
@@ -46,6 +50,10 @@ class RealSenseSource(DepthSource):
         if serial:
             config.enable_device(serial)
         config.enable_stream(rs.stream.depth)
+        self._align = None
+        if colour:
+            config.enable_stream(rs.stream.color, rs.format.rgb8)
+            self._align = rs.align(rs.stream.depth)
         self._pipe = rs.pipeline()
         try:
             profile = self._pipe.start(config)
@@ -66,11 +74,24 @@ class RealSenseSource(DepthSource):
         -------
         Frame
         """
-        depth = self._pipe.wait_for_frames().get_depth_frame()
+        frames = self._pipe.wait_for_frames()
+        if self._align is not None:
+            frames = self._align.process(frames)
+        depth = frames.get_depth_frame()
         units = np.asanyarray(depth.get_data()).copy()
+        colour = None
+        if self._align is not None:
+            colour = np.asanyarray(frames.get_color_frame().get_data()).copy()
+            if colour.shape != (*self.intrinsics.shape, 3):
+                raise MirrorscanError(f"{self.name}: aligned colour is {colour.shape}, not the "
+                                      f"depth's {self.intrinsics.shape} x 3")
         return Frame(units.astype(np.float32) * np.float32(self.intrinsics.depth_scale),
-                     depth.get_timestamp() * 1e-3,
-                     units=units)
+                     depth.get_timestamp() * 1e-3, colour, units)
+
+    @property
+    def has_colour(self) -> bool:
+        """True when opened with `colour` (aligned to depth)."""
+        return self._align is not None
 
     def close(self) -> None:
         """Stop the pipeline."""
