@@ -110,12 +110,36 @@ class GroundTruth:
         """
         rays = self.camera.rays
         pts = np.stack([rays[0] * self.depth, rays[1] * self.depth, self.depth], axis=-1)
-        for labels in self.mirrors:
+        self._fold(pts, self.mirrors)
+        pts[self.surface == NONE] = np.nan
+        return pts
+
+    def points_at(self, mask: np.ndarray) -> np.ndarray:
+        """Return the real surface points of some pixels (`points[mask]` within float32 rounding,
+        without folding the whole image).
+
+        Parameters
+        ----------
+        mask : (H, W) bool array
+            The pixels, each with a surface.
+
+        Returns
+        -------
+        (k, 3) float32 array
+            Metres, camera frame, in row-major order of `mask`.
+        """
+        depth, rays = self.depth[mask], self.camera.rays[:, mask]
+        pts = np.stack([rays[0] * depth, rays[1] * depth, depth], axis=-1)
+        self._fold(pts, self.mirrors[:, mask])
+        return pts
+
+    def _fold(self, pts: np.ndarray, mirrors: np.ndarray) -> None:
+        """Fold virtual points (..., 3) in place through the mirrors (MAX_BOUNCES, ...) of their
+        rays, first reflection first."""
+        for labels in mirrors:
             for j, plane in enumerate(self.planes, start=1):
                 sel = labels == j
                 pts[sel] = plane.reflect(pts[sel])
-        pts[self.surface == NONE] = np.nan
-        return pts
 
 
 def _label(sequence: tuple[int, ...]) -> int:

@@ -22,7 +22,7 @@ class SimulatedSource(DepthSource):
     """The simulated rig as a live source.
 
     read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise reproducible from the
-    rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view` False
+    rig's seed) with its colour image (the albedo through the mirrors' tints, sim.albedo), so it has no frame count but any frame can be asked for. `objects_in_view` False
     renders the scene without its objects, as when the person steps out to capture the background.
 
     Parameters
@@ -54,11 +54,11 @@ class SimulatedSource(DepthSource):
         Frame
         """
         if not self.objects_in_view:
-            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
-                                         False).depth,
-                         i / self.fps)
-        frame = self.rig.frame(i)
-        return Frame(frame.depth, frame.t)
+            frame = self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
+                                    False)
+        else:
+            frame = self.rig.frame(i)
+        return Frame(frame.depth, frame.t, colour=frame.colour)
 
     def background(self) -> np.ndarray:
         """The scene without its objects as (H, W) float32 metres."""
