@@ -137,6 +137,8 @@ class GroundTruth:
         """Fold virtual points (..., 3) in place through the mirrors (MAX_BOUNCES, ...) of their
         rays, first reflection first."""
         for labels in mirrors:
+            if not labels.any():
+                break
             for j, plane in enumerate(self.planes, start=1):
                 sel = labels == j
                 pts[sel] = plane.reflect(pts[sel])
