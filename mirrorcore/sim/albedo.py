@@ -2,10 +2,11 @@
 mirror a ray reflected on, on the depth pixel grid.
 
 What is modelled: each object carries a 3-D checker of two known colours (cells CHECKER_M wide in
-the object's frame, the hit point minus the object's centre, offset by CHECKER_PHASE), the floor, the back wall, the markers
-and the mirrors' backs one colour each, and each mirror reflects a fraction `tint` (per channel,
-linear in 8-bit levels) of what it shows. No lighting, shading, exposure or sensor noise; the
-colour is that of the ideal render (registered exactly to the ideal depth).
+the object's frame, the hit point minus the object's centre, offset by CHECKER_PHASE), the floor,
+the back wall, the markers and the mirrors' backs one colour each, and each mirror reflects a
+fraction `tint` (per channel, linear in 8-bit levels) of what it shows. No lighting, shading,
+exposure or sensor noise; the colour is that of the ideal render (registered exactly to the ideal
+depth).
 """
 from __future__ import annotations
 

@@ -115,19 +115,9 @@ class GroundTruth:
         return pts
 
     def points_at(self, mask: np.ndarray) -> np.ndarray:
-        """Return the real surface points of some pixels (`points[mask]` within float32 rounding,
-        without folding the whole image).
-
-        Parameters
-        ----------
-        mask : (H, W) bool array
-            The pixels, each with a surface.
-
-        Returns
-        -------
-        (k, 3) float32 array
-            Metres, camera frame, in row-major order of `mask`.
-        """
+        """(k, 3) float32 metres, camera frame: the real surface points of the pixels of `mask`
+        (H, W) bool, each with a surface, in row-major order; `points[mask]` within float32
+        rounding, without folding the whole image."""
         depth, rays = self.depth[mask], self.camera.rays[:, mask]
         pts = np.stack([rays[0] * depth, rays[1] * depth, depth], axis=-1)
         self._fold(pts, self.mirrors[:, mask])

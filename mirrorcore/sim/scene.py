@@ -18,10 +18,10 @@ the reflective side, which must face the camera; `up` is the direction of its he
 orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its
 right (up x normal) and up axes; markers are matte squares of side `marker_size` whose faces are
 `marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on the glass of a
-back-silvered mirror). `tint` (optional) is the fraction of each colour channel (red, green,
-blue; 0 to 1) the mirror reflects; without it mirror j gets DEFAULT_TINTS[(j - 1) % 3], ordinary
-mirrors of 82-89 %, slightly green or blue. `click_jitter_px` (optional) is the radial RMS in pixels of the random error
-of each marker click in the session made from the scene (sim/export.py).
+back-silvered mirror). `tint` (optional) is the fraction of each colour channel (red, green, blue; 0
+to 1) the mirror reflects; without it mirror j gets DEFAULT_TINTS[(j - 1) % 3], ordinary mirrors of
+82-89 %, slightly green or blue. `click_jitter_px` (optional) is the radial RMS in pixels of the
+random error of each marker click in the session made from the scene (sim/export.py).
 """
 from __future__ import annotations
 

@@ -22,8 +22,9 @@ class SimulatedSource(DepthSource):
     """The simulated rig as a live source.
 
     read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise reproducible from the
-    rig's seed) with its colour image (the albedo through the mirrors' tints, sim.albedo), so it has no frame count but any frame can be asked for. `objects_in_view` False
-    renders the scene without its objects, as when the person steps out to capture the background.
+    rig's seed) with its colour image (the albedo through the mirrors' tints, sim.albedo), so it has
+    no frame count but any frame can be asked for. `objects_in_view` False renders the scene without
+    its objects, as when the person steps out to capture the background.
 
     Parameters
     ----------

@@ -13,8 +13,8 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.io.session import TRUTH_FILE
 from mirrorcore.io.sessionfile import load_session
-from mirrorcore.sim.albedo import (CHECKER_M, CHECKER_PHASE, FLOOR_COLOUR, OBJECT_COLOURS, WALL_COLOUR,
-                                   object_albedo)
+from mirrorcore.sim.albedo import (CHECKER_M, CHECKER_PHASE, FLOOR_COLOUR, OBJECT_COLOURS,
+                                   WALL_COLOUR, object_albedo)
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import OBJECT, ROOM
