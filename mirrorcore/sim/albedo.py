@@ -43,10 +43,9 @@ def object_albedo(index: int, local: np.ndarray) -> np.ndarray:
     (k, 3) float32 array
         RGB levels 0 to 255: the even or odd colour of the checker cell the point lies in.
     """
-    even, odd = np.asarray(OBJECT_COLOURS[index % len(OBJECT_COLOURS)], dtype=np.float32)
+    colours = np.asarray(OBJECT_COLOURS[index % len(OBJECT_COLOURS)], dtype=np.float32)
     cells = np.floor((np.asarray(local) + CHECKER_PHASE) / CHECKER_M).astype(np.int64)
-    parity = cells.sum(axis=-1) % 2
-    return np.where(parity[:, None] == 1, odd, even)
+    return colours[cells.sum(axis=-1) % 2]
 
 
 def _tints(scene: Scene) -> np.ndarray:
@@ -87,7 +86,7 @@ class ColourModel:
         out = np.zeros((*background.depth.shape, 3), np.float32)
         if scene.room is not None:
             room = background.surface == ROOM
-            p = background.points_at(room)
+            p = background.points_at(np.flatnonzero(room))
             floor = np.abs(p[:, 1] - scene.room.floor_y) < np.abs(p[:, 2] - scene.room.back_z)
             out[room] = np.where(floor[:, None], np.float32(FLOOR_COLOUR),
                                  np.float32(WALL_COLOUR))
@@ -113,14 +112,15 @@ class ColourModel:
             surface.
         """
         colour = self._background.copy()
-        hit = truth.surface == OBJECT
-        if not hit.any():
+        hit = np.flatnonzero(truth.surface.reshape(-1) == OBJECT)
+        if len(hit) == 0:
             return colour
-        index, points = truth.object_index[hit], truth.points_at(hit)
+        index, points = truth.object_index.reshape(-1)[hit], truth.points_at(hit)
         centres = np.asarray([o.centre for o in self.scene.objects], np.float32)
         albedo = np.zeros((len(index), 3), np.float32)
-        for i in np.unique(index):
+        for i in range(len(centres)):
             sel = index == i
-            albedo[sel] = object_albedo(int(i), points[sel] - centres[i])
-        colour[hit] = _levels(albedo * _gain(self._tints, truth.mirrors[:, hit]))
+            albedo[sel] = object_albedo(i, points[sel] - centres[i])
+        mirrors = truth.mirrors.reshape(len(truth.mirrors), -1)[:, hit]
+        colour.reshape(-1, 3)[hit] = _levels(albedo * _gain(self._tints, mirrors))
         return colour

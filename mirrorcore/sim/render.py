@@ -114,13 +114,14 @@ class GroundTruth:
         pts[self.surface == NONE] = np.nan
         return pts
 
-    def points_at(self, mask: np.ndarray) -> np.ndarray:
-        """(k, 3) float32 metres, camera frame: the real surface points of the pixels of `mask`
-        (H, W) bool, each with a surface, in row-major order; `points[mask]` within float32
-        rounding, without folding the whole image."""
-        depth, rays = self.depth[mask], self.camera.rays[:, mask]
+    def points_at(self, pixels: np.ndarray) -> np.ndarray:
+        """(k, 3) float32 metres, camera frame: the real surface points of `pixels` (k,) int flat
+        (row-major) indices, each with a surface; `points` there within float32 rounding,
+        without folding the whole image."""
+        depth = self.depth.reshape(-1)[pixels]
+        rays = self.camera.rays.reshape(2, -1)[:, pixels]
         pts = np.stack([rays[0] * depth, rays[1] * depth, depth], axis=-1)
-        self._fold(pts, self.mirrors[:, mask])
+        self._fold(pts, self.mirrors.reshape(len(self.mirrors), -1)[:, pixels])
         return pts
 
     def _fold(self, pts: np.ndarray, mirrors: np.ndarray) -> None:
