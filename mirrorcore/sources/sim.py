@@ -42,6 +42,11 @@ class SimulatedSource(DepthSource):
         """False: a rendering, not a physical camera."""
         return False
 
+    @property
+    def has_colour(self) -> bool:
+        """True: every frame carries its colour image."""
+        return True
+
     def read(self, i: int) -> Frame:
         """Return frame i (see `DepthSource.read`).
 

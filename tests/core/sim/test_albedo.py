@@ -154,6 +154,7 @@ def test_simulate_writes_colour_frames_and_truth_the_tints(tmp_path):
     truth = json.loads((folder / TRUTH_FILE).read_text())
     assert [m["tint"] for m in truth["mirrors"]] == [list(t) for t in TINTS[:2]]
     assert [m["tint"] for m in truth["scene"]["mirrors"]] == [list(t) for t in TINTS[:2]]
+    assert SimulatedSource(rig).has_colour
     live = SimulatedSource(rig).read(1)
     assert live.colour.dtype == np.uint8 and live.colour.shape == (*CAMERA.shape, 3)
     assert np.array_equal(live.colour, rig.frame(1).colour)
