@@ -1,7 +1,7 @@
 """Writing a simulated rig to disk: a session folder (docs/DESIGN.md: markers and mirror outlines in
-pixels, background, frames) plus truth.json with the true objects and planes, all or nothing (built
-in a temporary folder, then renamed); `session_mirrors` gives the session's mirrors in memory and
-`true_rig` the rig of a perfect calibration."""
+pixels, background, frames and colour frames) plus truth.json with the true objects, planes and
+tints, all or nothing (built in a temporary folder, then renamed); `session_mirrors` gives the
+session's mirrors in memory and `true_rig` the rig of a perfect calibration."""
 from __future__ import annotations
 
 import json
@@ -22,6 +22,8 @@ from mirrorcore.io.sessionfile import save_session
 from mirrorcore.sim.render import MARKER, GroundTruth
 from mirrorcore.sim.scene import Scene, SceneMirror
 from mirrorcore.sim.simulator import Simulator
+
+COLOUR_NAME = "frames/{:06d}_colour.png"
 
 
 def mirror_outline(camera: Intrinsics, mirror: SceneMirror) -> np.ndarray:
@@ -173,8 +175,8 @@ def truth_json(rig: Simulator, noise: str) -> dict:
     """Return the truth.json object.
 
     Scene, true planes [a, b, c, d] (docs/DESIGN.md convention; the reflecting surfaces), objects,
-    seed, fps, noise; per mirror its plane, corners, marker face centres and marker_offset
-    (metres).
+    seed, fps, noise; per mirror its plane, corners, marker face centres, marker_offset
+    (metres) and tint (red, green, blue reflectance, 0 to 1).
 
     Parameters
     ----------
@@ -193,14 +195,16 @@ def truth_json(rig: Simulator, noise: str) -> dict:
             "planes": [p.to_list() for p in rig.planes],
             "mirrors": [{"name": m.name, "plane": m.plane.to_list(),
                          "corners": m.corners().tolist(),
-                         "markers": m.marker_centres().tolist(), "marker_offset": m.marker_offset}
+                         "markers": m.marker_centres().tolist(), "marker_offset": m.marker_offset,
+                         "tint": list(m.tint)}
                         for m in scene.mirrors],
             "scene": scene.to_json()}
 
 
 def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "kinect",
                   progress: bool = True, true_planes: bool = False) -> Path:
-    """Render a simulated rig's background and frames into a new session folder with truth.json.
+    """Render a simulated rig's background, frames and colour frames into a new session folder with
+    truth.json.
 
     Nothing is left behind on error.
 
@@ -238,20 +242,26 @@ def write_session(rig: Simulator, out: str | Path, n_frames: int, noise: str = "
 
 def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bool,
            true_planes: bool) -> None:
-    """Write the background, frames, session.json and truth.json into `folder`."""
+    """Write the background, frames, colour frames, session.json and truth.json into
+    `folder`."""
     camera, scale = rig.intrinsics, rig.intrinsics.depth_scale
     (folder / "frames").mkdir()
     write_depth_png(folder / BACKGROUND_FILE, rig.background().depth, scale)
-    frames = []
+    frames, colours = [], []
     for i in tqdm(range(n_frames), desc="frames", unit="frame", disable=not progress):
         frame = rig.frame(i)
         if i == 0:
             first_truth = frame.truth
         frames.append(f"frames/{i:06d}.png")
         write_depth_png(folder / frames[-1], frame.depth, scale)
+        colours.append(COLOUR_NAME.format(i))
+        if not cv2.imwrite(str(folder / colours[-1]), cv2.cvtColor(frame.colour,
+                                                                  cv2.COLOR_RGB2BGR)):
+            raise OSError(f"{folder / colours[-1]}: the colour frame could not be written")
     mirrors = session_mirrors(rig, first_truth)
     if true_planes:
         mirrors = tuple(replace(m, plane=plane) for m, plane in zip(mirrors, rig.planes))
-    save_session(Session(folder, camera, mirrors, BACKGROUND_FILE, tuple(frames)))
+    save_session(Session(folder, camera, mirrors, BACKGROUND_FILE, tuple(frames),
+                         colour_frames=tuple(colours)))
     (folder / TRUTH_FILE).write_text(json.dumps(truth_json(rig, noise), indent=2) + "\n",
                                      encoding="utf-8")

@@ -110,12 +110,29 @@ class GroundTruth:
         """
         rays = self.camera.rays
         pts = np.stack([rays[0] * self.depth, rays[1] * self.depth, self.depth], axis=-1)
-        for labels in self.mirrors:
+        self._fold(pts, self.mirrors)
+        pts[self.surface == NONE] = np.nan
+        return pts
+
+    def points_at(self, pixels: np.ndarray) -> np.ndarray:
+        """(k, 3) float32 metres, camera frame: the real surface points of `pixels` (k,) int flat
+        (row-major) indices, each with a surface; `points` there within float32 rounding,
+        without folding the whole image."""
+        depth = self.depth.reshape(-1)[pixels]
+        rays = self.camera.rays.reshape(2, -1)[:, pixels]
+        pts = np.stack([rays[0] * depth, rays[1] * depth, depth], axis=-1)
+        self._fold(pts, self.mirrors.reshape(len(self.mirrors), -1)[:, pixels])
+        return pts
+
+    def _fold(self, pts: np.ndarray, mirrors: np.ndarray) -> None:
+        """Fold virtual points (..., 3) in place through the mirrors (MAX_BOUNCES, ...) of their
+        rays, first reflection first."""
+        for labels in mirrors:
+            if not labels.any():
+                break
             for j, plane in enumerate(self.planes, start=1):
                 sel = labels == j
                 pts[sel] = plane.reflect(pts[sel])
-        pts[self.surface == NONE] = np.nan
-        return pts
 
 
 def _label(sequence: tuple[int, ...]) -> int:

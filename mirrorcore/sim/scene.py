@@ -8,7 +8,7 @@ forward), origin at the depth camera. "Up" in the room is -y. A scene file is JS
      "camera": {"width": 640, ...} or "kinect_v1" or "primesense", "mirrors": [{"name": "mirror 1",
      "centre": [x, y, z], "normal": [nx, ny, nz], "up": [ux, uy, uz],
                   "width": 0.6, "height": 1.0, "markers": [[s, t], ...], "marker_size": 0.04,
-                  "marker_offset": 0.0}],
+                  "marker_offset": 0.0, "tint": [0.84, 0.88, 0.86]}],
      "objects": [{"type": "sphere", "centre": [0, 0, 2], "radius": 0.115}, ...],
      "room": {"floor_y": 1.0, "back_z": 4.2, "half_width": 4.0} or null,
      "click_jitter_px": 0.0}
@@ -18,8 +18,10 @@ the reflective side, which must face the camera; `up` is the direction of its he
 orthogonal to the normal); marker (s, t) are offsets in metres from the mirror's centre along its
 right (up x normal) and up axes; markers are matte squares of side `marker_size` whose faces are
 `marker_offset` metres in front of the reflecting surface (0 to 0.05: stickers on the glass of a
-back-silvered mirror). `click_jitter_px` (optional) is the radial RMS in pixels of the random error
-of each marker click in the session made from the scene (sim/export.py).
+back-silvered mirror). `tint` (optional) is the fraction of each colour channel (red, green, blue; 0
+to 1) the mirror reflects; without it mirror j gets DEFAULT_TINTS[(j - 1) % 3], ordinary mirrors of
+82-89 %, slightly green or blue. `click_jitter_px` (optional) is the radial RMS in pixels of the
+random error of each marker click in the session made from the scene (sim/export.py).
 """
 from __future__ import annotations
 
@@ -36,6 +38,8 @@ OBJECT_TYPES = ("sphere", "cylinder", "box", "mesh", "figure")
 # metres: the least a marker's face stands in front of the glass (no coplanar faces)
 MARKER_LIFT = 1e-4
 MAX_MARKER_OFFSET = 0.05      # metres
+# (red, green, blue) reflectance of mirrors without a `tint`: mirror j gets [(j - 1) % 3]
+DEFAULT_TINTS = ((0.84, 0.88, 0.86), (0.82, 0.85, 0.89), (0.87, 0.89, 0.85))
 
 
 @dataclass(frozen=True)
@@ -59,6 +63,9 @@ class SceneMirror:
         Side of a marker, metres.
     marker_offset : float
         Metres from the reflecting surface to the markers' faces, towards the camera (>= 0).
+    tint : (float, float, float) or None
+        The fraction of red, green and blue the mirror reflects (0 to 1); None takes the scene's
+        default for the mirror's place (DEFAULT_TINTS).
     """
 
     name: str
@@ -70,6 +77,7 @@ class SceneMirror:
     markers: tuple[tuple[float, float], ...] = ()
     marker_size: float = 0.04
     marker_offset: float = 0.0
+    tint: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         n = np.asarray(self.normal, dtype=np.float64)
@@ -135,7 +143,8 @@ class SceneMirror:
                 "up": list(self.up),
                 "width": self.width, "height": self.height,
                 "markers": [list(m) for m in self.markers],
-                "marker_size": self.marker_size, "marker_offset": self.marker_offset}
+                "marker_size": self.marker_size, "marker_offset": self.marker_offset,
+                "tint": None if self.tint is None else list(self.tint)}
 
 
 @dataclass(frozen=True)
@@ -221,7 +230,8 @@ class Scene:
     ----------
     camera : Intrinsics
     mirrors : tuple of SceneMirror
-        Session order: mirror j is mirrors[j - 1].
+        Session order: mirror j is mirrors[j - 1]; one without a tint gets DEFAULT_TINTS[(j - 1)
+        % 3].
     objects : tuple of SceneObject
     room : Room or None
     click_jitter_px : float
@@ -233,6 +243,11 @@ class Scene:
     objects: tuple[SceneObject, ...] = ()
     room: Room | None = field(default_factory=Room)
     click_jitter_px: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "mirrors", tuple(
+            m if m.tint is not None else replace(m, tint=DEFAULT_TINTS[j % len(DEFAULT_TINTS)])
+            for j, m in enumerate(self.mirrors)))
 
     def to_json(self) -> dict:
         """The scene file's object."""

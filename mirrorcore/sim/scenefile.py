@@ -131,7 +131,20 @@ def _mirror(data, where: str) -> SceneMirror:
                   _positive(data["height"], f"{where}.height"), tuple(map(tuple, st.tolist())),
                   _positive(data.get("marker_size", SceneMirror.marker_size),
                             f"{where}.marker_size"),
-                  checked_offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"))
+                  checked_offset(data.get("marker_offset", 0.0), f"{where}.marker_offset"),
+                  _tint(data.get("tint"), f"{where}.tint"))
+
+
+def _tint(value, where: str) -> tuple[float, float, float] | None:
+    """A mirror's tint: None, or 3 reflectances 0 to 1 (red, green, blue); FileFormatError
+    naming `where` otherwise."""
+    if value is None:
+        return None
+    tint = _vec(value, where)
+    if not all(0 <= c <= 1 for c in tint):
+        raise FileFormatError(f"{where}: must be 3 reflectances 0 to 1 (red, green, blue), "
+                              f"got {value!r}")
+    return tint
 
 
 def _object(data, where: str) -> SceneObject:

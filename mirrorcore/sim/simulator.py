@@ -1,13 +1,15 @@
 """The simulated rig as a depth source: Simulator renders frames (30 fps, animated objects) with the
-sensor model."""
+sensor model, and their colour images (sim.albedo)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.sim.albedo import ColourModel
 from mirrorcore.sim.render import MAX_BOUNCES, GroundTruth, Renderer
 from mirrorcore.sim.scene import Scene
 from mirrorcore.sim.sensor import SensorModel
@@ -27,11 +29,20 @@ class SimFrame:
         The ideal view behind it (ideal depth, surfaces, mirrors, real points).
     t : float
         Its time, seconds.
+    painter : ColourModel
+        The scene's colours, for `colour`.
     """
 
     depth: np.ndarray
     truth: GroundTruth
     t: float
+    painter: ColourModel = field(repr=False, compare=False)
+
+    @cached_property
+    def colour(self) -> np.ndarray:
+        """(H, W, 3) uint8 RGB on the depth pixel grid: the ideal view's albedo times the tints
+        of the mirrors on each ray (sim.albedo), made when first asked for."""
+        return self.painter.image(self.truth)
 
 
 class Simulator:
@@ -70,6 +81,11 @@ class Simulator:
         """The true mirror planes, session order, docs/DESIGN.md convention."""
         return tuple(m.plane for m in self.scene.mirrors)
 
+    @cached_property
+    def painter(self) -> ColourModel:
+        """The colour images of the scene's renders (made when first asked for)."""
+        return ColourModel(self.scene, self._renderer.render(0.0, with_objects=False))
+
     @property
     def animated(self) -> bool:
         """True when an object moves (frames differ beyond noise)."""
@@ -92,7 +108,8 @@ class Simulator:
         SimFrame
         """
         truth = self._renderer.render(t, with_objects)
-        return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t))
+        return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t),
+                        self.painter)
 
     def frame(self, i: int) -> SimFrame:
         """Return frame i at time i / fps, reproducible from (seed, i).

@@ -22,8 +22,9 @@ class SimulatedSource(DepthSource):
     """The simulated rig as a live source.
 
     read(i) renders frame i at time i / fps (animated objects, Kinect v1 noise reproducible from the
-    rig's seed), so it has no frame count but any frame can be asked for. `objects_in_view` False
-    renders the scene without its objects, as when the person steps out to capture the background.
+    rig's seed) with its colour image (the albedo through the mirrors' tints, sim.albedo), so it has
+    no frame count but any frame can be asked for. `objects_in_view` False renders the scene without
+    its objects, as when the person steps out to capture the background.
 
     Parameters
     ----------
@@ -41,6 +42,11 @@ class SimulatedSource(DepthSource):
         """False: a rendering, not a physical camera."""
         return False
 
+    @property
+    def has_colour(self) -> bool:
+        """True: every frame carries its colour image."""
+        return True
+
     def read(self, i: int) -> Frame:
         """Return frame i (see `DepthSource.read`).
 
@@ -54,11 +60,11 @@ class SimulatedSource(DepthSource):
         Frame
         """
         if not self.objects_in_view:
-            return Frame(self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
-                                         False).depth,
-                         i / self.fps)
-        frame = self.rig.frame(i)
-        return Frame(frame.depth, frame.t)
+            frame = self.rig.render(i / self.fps, np.random.default_rng([self.rig.seed, 2, i]),
+                                    False)
+        else:
+            frame = self.rig.frame(i)
+        return Frame(frame.depth, frame.t, colour=frame.colour)
 
     def background(self) -> np.ndarray:
         """The scene without its objects as (H, W) float32 metres."""

@@ -214,6 +214,7 @@ def test_a_recording_of_the_simulated_source_has_the_truth_and_its_own_times(tmp
             mirrors=tuple(replace(m, plane=p) for m, p in zip(mirrors, planes)),
             frames=(),
             timestamps=(),
+            colour_frames=None,
         )
     )
     status, out, _ = run(capsys, "truth", folder, "--json")

@@ -1,0 +1,126 @@
+"""The simulated scene's colour: a shading-free albedo per surface, dimmed and tinted by every
+mirror a ray reflected on, on the depth pixel grid.
+
+What is modelled: each object carries a 3-D checker of two known colours (cells CHECKER_M wide in
+the object's frame, the hit point minus the object's centre, offset by CHECKER_PHASE), the floor,
+the back wall, the markers and the mirrors' backs one colour each, and each mirror reflects a
+fraction `tint` (per channel, linear in 8-bit levels) of what it shows. No lighting, shading,
+exposure or sensor noise; the colour is that of the ideal render (registered exactly to the ideal
+depth).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from mirrorcore.sim.render import MARKER, MIRROR_BACK, NONE, OBJECT, ROOM, GroundTruth
+from mirrorcore.sim.scene import Scene
+
+CHECKER_M = 0.05            # metres: the side of an object's checker cell
+# metres: the cells' offset from the object's centre, so that the faces of boxes of round sizes
+# do not lie on a cell edge (where the cell would flicker with rounding)
+CHECKER_PHASE = 0.0173
+# (even cell, odd cell) RGB levels of object i's checker: OBJECT_COLOURS[i % len]
+OBJECT_COLOURS = (((200, 60, 40), (235, 205, 70)), ((40, 90, 200), (225, 225, 225)),
+                  ((50, 160, 80), (150, 60, 170)))
+FLOOR_COLOUR = (110, 100, 85)
+WALL_COLOUR = (190, 185, 170)
+MARKER_COLOUR = (245, 245, 245)
+MIRROR_BACK_COLOUR = (60, 60, 60)
+
+
+def object_albedo(index: int, local: np.ndarray) -> np.ndarray:
+    """Return the albedo of object `index` at points of its own frame.
+
+    Parameters
+    ----------
+    index : int
+        The object's index in scene.objects.
+    local : (k, 3) array
+        Metres, the hit points minus the object's centre.
+
+    Returns
+    -------
+    (k, 3) float32 array
+        RGB levels 0 to 255: the even or odd colour of the checker cell the point lies in.
+    """
+    colours = np.asarray(OBJECT_COLOURS[index % len(OBJECT_COLOURS)], dtype=np.float32)
+    cells = np.floor((np.asarray(local) + CHECKER_PHASE) / CHECKER_M).astype(np.int64)
+    return colours[cells.sum(axis=-1) % 2]
+
+
+def _tints(scene: Scene) -> np.ndarray:
+    """(m + 1, 3) float32: row 0 ones (no mirror), row j the tint of mirror j."""
+    return np.array([(1.0, 1.0, 1.0), *(m.tint for m in scene.mirrors)], np.float32)
+
+
+def _gain(tints: np.ndarray, mirrors: np.ndarray) -> np.ndarray:
+    """(B, k) mirror sequences (0 = none) -> (k, 3) float32 product of the tints on each ray."""
+    gain = np.ones((mirrors.shape[1], 3), np.float32)
+    for labels in mirrors:
+        if labels.any():
+            gain *= tints[labels]
+    return gain
+
+
+def _levels(colour: np.ndarray) -> np.ndarray:
+    """Float RGB levels -> uint8, rounded."""
+    return np.clip(np.rint(colour), 0, 255).astype(np.uint8)
+
+
+class ColourModel:
+    """The colour images of a scene's renders.
+
+    The background (room, markers, mirrors' backs) does not change, so its image is made once from
+    the render without objects; a frame then colours only its object pixels.
+
+    Parameters
+    ----------
+    scene : Scene
+    background : GroundTruth
+        The scene rendered without its objects.
+    """
+
+    def __init__(self, scene: Scene, background: GroundTruth):
+        self.scene = scene
+        self._tints = _tints(scene)
+        out = np.zeros((*background.depth.shape, 3), np.float32)
+        if scene.room is not None:
+            room = background.surface == ROOM
+            p = background.points_at(np.flatnonzero(room))
+            floor = np.abs(p[:, 1] - scene.room.floor_y) < np.abs(p[:, 2] - scene.room.back_z)
+            out[room] = np.where(floor[:, None], np.float32(FLOOR_COLOUR),
+                                 np.float32(WALL_COLOUR))
+        out[background.surface == MARKER] = MARKER_COLOUR
+        out[background.surface == MIRROR_BACK] = MIRROR_BACK_COLOUR
+        seen = background.surface != NONE
+        out[seen] *= _gain(self._tints, background.mirrors[:, seen])
+        self._background = _levels(out)
+
+    def image(self, truth: GroundTruth) -> np.ndarray:
+        """Return the colour image the ideal camera sees.
+
+        Parameters
+        ----------
+        truth : GroundTruth
+            A render of the scene (with or without its objects).
+
+        Returns
+        -------
+        (H, W, 3) uint8 array
+            RGB on the depth pixel grid (the `Frame.colour` contract): the albedo of the surface
+            each ray ends on times the tints of the mirrors it reflected on, rounded; 0 where no
+            surface.
+        """
+        colour = self._background.copy()
+        hit = np.flatnonzero(truth.surface.reshape(-1) == OBJECT)
+        if len(hit) == 0:
+            return colour
+        index, points = truth.object_index.reshape(-1)[hit], truth.points_at(hit)
+        centres = np.asarray([o.centre for o in self.scene.objects], np.float32)
+        albedo = np.zeros((len(index), 3), np.float32)
+        for i in range(len(centres)):
+            sel = index == i
+            albedo[sel] = object_albedo(i, points[sel] - centres[i])
+        mirrors = truth.mirrors.reshape(len(truth.mirrors), -1)[:, hit]
+        colour.reshape(-1, 3)[hit] = _levels(albedo * _gain(self._tints, mirrors))
+        return colour
