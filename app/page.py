@@ -1,5 +1,6 @@
 """What a tab's page does on its own: count how often it draws its 3D scene, turn keyboard
-shortcuts into presses of the side panel's buttons, and draw its view as a picture to download.
+shortcuts into presses of the side panel's buttons, take a double click on *Add a mirror* as one
+click, and draw its view as a picture to download.
 
 viser's page sends the server no acknowledgement of what it drew and no key presses. Both are
 scripts given to the page through viser's message that runs one (as it loads plotly): the draw
@@ -121,9 +122,25 @@ KEYS_JS = """(() => {{
   }});
 }})();"""
 
+# Buttons whose second click of a double click is dropped in the page (event.detail counts the
+# clicks of one double click however late the busy page dispatches them): each click adds one.
+ONCE_BUTTONS = ("Add a mirror",)
+ONCE_JS = """(() => {{
+  if (window.__mirrorscanOnce) return;
+  window.__mirrorscanOnce = true;
+  const once = {labels};
+  window.addEventListener("click", (event) => {{
+    const b = event.target.closest && event.target.closest("button");
+    if (b && event.detail > 1 && once.includes(b.textContent.trim())) {{
+      event.stopPropagation();
+      event.preventDefault();
+    }}
+  }}, true);
+}})();"""
+
 
 def start_page(client: viser.ClientHandle, steps: tuple[str, ...]) -> None:
-    """Give the tab's page its draw counter and its keyboard shortcuts.
+    """Give the tab's page its draw counter, its keyboard shortcuts and its once-only buttons.
 
     Parameters
     ----------
@@ -134,6 +151,7 @@ def start_page(client: viser.ClientHandle, steps: tuple[str, ...]) -> None:
     run_js(client, DRAWS_JS.format(key=f"{DRAWS_KEY}-{client.client_id}",
                                    window=DRAWS_WINDOW_MS))
     run_js(client, KEYS_JS.format(steps=json.dumps(list(steps))))
+    run_js(client, ONCE_JS.format(labels=json.dumps(list(ONCE_BUTTONS))))
 
 
 def draw_rate(client: viser.ClientHandle, timeout: float = 2.0) -> float | None:

@@ -33,6 +33,17 @@ time.sleep(600)  # deliberate: the recorder runs until the test kills it
 """
 
 
+def depth_files(folder: Path) -> list[str]:
+    """The depth frames' file names in the session's frames/ folder, in order."""
+    return sorted(p.name for p in (folder / "frames").glob("[0-9]*.png")
+                  if not p.stem.endswith("_colour"))
+
+
+def colour_files(folder: Path) -> list[str]:
+    """The colour frames' file names in the session's frames/ folder, in order."""
+    return sorted(p.name for p in (folder / "frames").glob("[0-9]*_colour.png"))
+
+
 def _env() -> dict:
     return {**os.environ, "PYTHONPATH": str(ROOT)}
 
@@ -62,7 +73,7 @@ def _check_opens_with_its_frames(folder: Path) -> int:
     session = load_session(folder)
     for i in range(len(session.frames)):
         assert session.read_frame(i).shape == session.camera.shape
-    on_disk = sorted(p.name for p in (folder / "frames").glob("[0-9]*.png"))
+    on_disk = depth_files(folder)
     assert [Path(f).name for f in session.frames] == on_disk[:len(session.frames)]
     # at most ~1 s of frames after the last save
     assert len(on_disk) - len(session.frames) <= 60
@@ -102,9 +113,9 @@ def test_record_stops_cleanly_on_sigterm_and_sighup(tmp_path, signum, status):
     assert process.returncode == status, err
     assert f"stopped by {signal.Signals(signum).name}" in err
     session = load_session(folder)
-    on_disk = sorted(p.name for p in (folder / "frames").glob("*.png"))
-    # every frame written is listed
-    assert [Path(f).name for f in session.frames] == on_disk
+    # every frame written is listed, and its colour image (the simulated source has colour)
+    assert [Path(f).name for f in session.frames] == depth_files(folder)
+    assert [Path(f).name for f in session.colour_frames or ()] == colour_files(folder)
     assert not list(folder.rglob(".*.tmp"))
 
 

@@ -141,7 +141,9 @@ def test_a_bad_frame_fails_alone_and_is_done_on_the_next_run(
 def test_dense_frames_are_the_single_frame_commands_files(recording, tmp_path):
     out = tmp_path / "out"
     session = load_session(recording)
-    short = replace(session, frames=session.frames[:3])  # three frames are enough here
+    # three frames are enough here
+    short = replace(session, frames=session.frames[:3],
+                    colour_frames=session.colour_frames and session.colour_frames[:3])
     short_root = tmp_path / "short"
     subprocess.run(["cp", "-r", str(recording), str(short_root)], check=True)
     save_session(replace(short, root=short_root))
