@@ -1,12 +1,15 @@
 """Benchmark of Algorithm 1, beside Open3D's plain reprojection, and through several mirrors.
 
 A 640x480 two-mirror frame of the simulated rig (the walking figure, Kinect noise), beside Open3D's
-plain reprojection of the same frame (the three measured in turn), and on a frame of two hinged
+plain reprojection of the same frame (the four measured in turn, one with the frame's colour
+through the mirrors' colour gains), and on a frame of two hinged
 mirrors at 72 degrees, where rays go on through a second mirror (the kaleidoscope), with the time to
 trace them and to prepare that frame (select the object, smooth it, fit the views through two
 mirrors)."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import open3d as o3d
@@ -34,9 +37,12 @@ def run() -> dict[str, float]:
     sim = Simulator(paper_scene(object="figure", distance=3.0), seed=0)
     camera = sim.intrinsics
     rig = true_rig(sim.scene)
-    depth = sim.frame(0).depth
+    frame = sim.frame(0)
+    depth, colour = frame.depth, frame.colour
     mask = object_mask(camera, depth, sim.background().depth, Selection())
-    rig.reflection_table  # built once per rig, as the live loop does
+    tinted = replace(rig, colour_gains=tuple(m.tint for m in sim.scene.mirrors))
+    # built once per rig, as the live loop does
+    rig.reflection_table, tinted.reflection_table, tinted.colour_correction
     image = o3d.geometry.Image(np.round(depth / camera.depth_scale).astype(np.uint16))
     pinhole = o3d.camera.PinholeCameraIntrinsic(
         camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
@@ -51,6 +57,7 @@ def run() -> dict[str, float]:
     figures = interleaved_ms(
         {
             "alg1_object_ms": lambda: reconstruct_raw(rig, depth, mask),
+            "alg1_colour_object_ms": lambda: reconstruct_raw(tinted, depth, mask, colour),
             "alg1_full_frame_ms": lambda: reconstruct_raw(rig, depth),
             "open3d_reproject_ms": open3d_reproject,
         },

@@ -27,6 +27,9 @@ TRUTH_FILE = "truth.json"
 FRAMES_FOLDER = "frames"
 # Metres: no mirror's glass is this thick; a larger marker_offset in a file is a mistake.
 MAX_MARKER_OFFSET = 0.05
+# A mirror's colour gain per channel lies in (0, MAX_COLOUR_GAIN]: a mirror reflects at most all
+# of the light, and an exposure that differs between views may brighten a little.
+MAX_COLOUR_GAIN = 2.0
 
 
 @dataclass(frozen=True)
@@ -58,6 +61,11 @@ class SessionMirror:
         Metres, 1 sigma of a marker_offset that a refinement measured; None when it was typed in
         (or is unset: 0). A refinement measures and replaces an unset or measured glass, never
         one typed in (glass_typed).
+    colour_gain : (3,) tuple of float or None
+        The fraction of red, green and blue the mirror reflects, as measured where the direct view
+        and the mirror's view see the same surface (a level seen through the mirror is the level
+        seen directly times the gain); None until measured (taken as 1). Each in
+        (0, MAX_COLOUR_GAIN].
     """
 
     name: str
@@ -69,6 +77,7 @@ class SessionMirror:
     marker_offset: float = 0.0
     extra: dict = field(default_factory=dict, compare=False)
     marker_offset_std: float | None = None
+    colour_gain: tuple[float, float, float] | None = None
 
     @property
     def glass_set(self) -> bool:
@@ -126,6 +135,8 @@ class SessionMirror:
             data["marker_offset"] = self.marker_offset
         if self.marker_offset_std is not None:
             data["marker_offset_std"] = self.marker_offset_std
+        if self.colour_gain is not None:
+            data["colour_gain"] = list(self.colour_gain)
         return {**data, **self.extra}
 
 

@@ -19,13 +19,13 @@ from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.fields import (read_list, read_paths, read_pixels, read_polygon,
                                   read_relative_path, read_timestamps)
 from mirrorcore.io.limits import MAX_FRAMES, MAX_MARKERS, MAX_SESSION_BYTES, check_name
-from mirrorcore.io.session import (MAX_MARKER_OFFSET, SESSION_FILE, VERSION, Session,
-                                   SessionMirror)
+from mirrorcore.io.session import (MAX_COLOUR_GAIN, MAX_MARKER_OFFSET, SESSION_FILE, VERSION,
+                                   Session, SessionMirror)
 
 _TOP_KEYS = ("version", "camera", "mirrors", "background", "frames", "selection", "timestamps",
              "colour_frames", "bounces")
 _MIRROR_KEYS = ("id", "name", "markers", "boundary", "plane", "region", "marker_offset",
-                "marker_offset_std")
+                "marker_offset_std", "colour_gain")
 
 
 # --------------------------------------------------------------------- reading
@@ -152,7 +152,19 @@ def _mirror_from_json(data, camera: Intrinsics, where: str) -> SessionMirror:
                                   f"glass, got {repr(data['marker_offset_std'])[:40]}")
     extra = {k: v for k, v in data.items() if k not in _MIRROR_KEYS}
     return SessionMirror(data["name"], markers, boundary, plane, mirror_id, region, offset, extra,
-                         std)
+                         std, _colour_gain(data.get("colour_gain"), where))
+
+
+def _colour_gain(gain, where: str) -> tuple[float, float, float] | None:
+    """Validate a mirror's colour_gain: None or three numbers in (0, MAX_COLOUR_GAIN]."""
+    if gain is None:
+        return None
+    values = [finite_number(g) for g in gain] if isinstance(gain, list) else []
+    if len(values) != 3 or any(g is None or not 0 < g <= MAX_COLOUR_GAIN for g in values):
+        raise FileFormatError(f"{where}: 'colour_gain' must be 3 numbers (red, green, blue) "
+                              f"above 0 and at most {MAX_COLOUR_GAIN:g}, "
+                              f"got {repr(gain)[:40]}")
+    return tuple(values)
 
 
 def _check_ids(mirrors: tuple[SessionMirror, ...], where: str) -> None:

@@ -25,12 +25,16 @@ class Cloud:
         Flat index v * width + u of the depth pixel each point came from.
     width : int
         Image width, pixels.
+    rgb : (n, 3) uint8 array or None
+        Each point's colour with its view's colour gain undone (mirrorcore.rig.colour); None for a
+        frame without colour.
     """
 
     points: np.ndarray
     sources: np.ndarray
     pixel_index: np.ndarray
     width: int
+    rgb: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.points)
@@ -46,6 +50,11 @@ class Cloud:
         """(n, 3) uint8 source colours (palette.py)."""
         return source_colours(self.sources)
 
+    @property
+    def true_colours(self) -> np.ndarray:
+        """(n, 3) uint8: the scene's colours (`rgb`), or the source colours without them."""
+        return self.colours if self.rgb is None else self.rgb
+
     def select(self, keep: np.ndarray) -> "Cloud":
         """Return the sub-cloud of a boolean mask or index array over the points.
 
@@ -57,7 +66,8 @@ class Cloud:
         -------
         Cloud
         """
-        return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width)
+        return Cloud(self.points[keep], self.sources[keep], self.pixel_index[keep], self.width,
+                     None if self.rgb is None else self.rgb[keep])
 
     def counts(self, n_mirrors: int) -> dict[str, int]:
         """Count the points per source name of the direct view and every mirror, even when absent.

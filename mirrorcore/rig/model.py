@@ -14,6 +14,7 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.geometry.polygon import polygon_mask, validate_polygon
 from mirrorcore.base.palette import MAX_MIRRORS, MAX_ORDER, source_sequence
+from mirrorcore.rig.colour import correction_table
 from mirrorcore.rig.raypaths import Chains, VirtualCamera, trace_chains
 from mirrorcore.io.session import Session
 
@@ -63,11 +64,15 @@ class Rig:
         The most mirrors a ray is followed through, 1 to MAX_ORDER (mirrorcore.rig.raypaths; at 1,
         Algorithm 1 as the paper writes it, with the points seen through a second mirror left out
         rather than misplaced).
+    colour_gains : tuple of (3,) tuple of float or None
+        Each mirror's colour gain (SessionMirror.colour_gain), session order, None where not
+        measured; empty for none at all. Not part of the rays (`same_rays`).
     """
 
     intrinsics: Intrinsics
     mirrors: tuple[Mirror, ...]
     bounces: int = DEFAULT_BOUNCES
+    colour_gains: tuple[tuple[float, float, float] | None, ...] = ()
 
     def __post_init__(self) -> None:
         """Raises MirrorscanError for more than MAX_MIRRORS mirrors, MemoryBudgetError for a camera
@@ -114,7 +119,8 @@ class Rig:
                    validate_polygon(m.boundary, session.camera.shape,
                                     f"{m.name}: boundary") if m.boundary else None)
             for m in session.mirrors)
-        return cls(session.camera, mirrors, session.bounces if bounces is None else bounces)
+        return cls(session.camera, mirrors, session.bounces if bounces is None else bounces,
+                   tuple(m.colour_gain for m in session.mirrors))
 
     @property
     def planes(self) -> tuple[Plane | None, ...]:
@@ -130,6 +136,12 @@ class Rig:
                 bits[polygon_mask(mirror.boundary, self.intrinsics.shape)] |= np.uint32(1 << j)
         bits.flags.writeable = False
         return bits
+
+    @cached_property
+    def colour_correction(self) -> np.ndarray:
+        """(LAST_LABEL + 1, 4) float32: by source label, the factors that undo the colour gains of
+        the mirrors the label's view reflects on (mirrorcore.rig.colour.correction_table)."""
+        return correction_table(self.colour_gains)
 
     @cached_property
     def reflection_table(self) -> "ReflectionTable":

@@ -60,13 +60,16 @@ def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray,
 
 
 def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop | None,
-                 selection: Selection = Selection()) -> tuple[Cloud, np.ndarray]:
+                 selection: Selection = Selection(),
+                 colour: np.ndarray | None = None) -> tuple[Cloud, np.ndarray]:
     """The object's source-labelled cloud of one frame, and the object mask it came from.
 
     Parameters
     ----------
     rig, depth, background, selection
         As for prepare_frame.
+    colour : (H, W, 3) uint8, optional
+        The frame's colour registered to the depth image (see reconstruct_raw).
 
     Returns
     -------
@@ -74,4 +77,4 @@ def object_cloud(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop 
     mask : (H, W) bool
     """
     depth, mask = prepare_frame(rig, depth, background, selection)
-    return reconstruct_raw(rig, depth, mask), mask
+    return reconstruct_raw(rig, depth, mask, colour), mask

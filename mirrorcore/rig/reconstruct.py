@@ -6,11 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from mirrorcore.rig.cloud import Cloud
+from mirrorcore.rig.colour import check_colour_image, point_colours
 from mirrorcore.geometry.camera import Intrinsics, check_depth_shape
 from mirrorcore.rig.model import ReflectionTable, Rig
 
 
-def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None) -> Cloud:
+def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None,
+                    colour: np.ndarray | None = None) -> Cloud:
     """Paper Algorithm 1, vectorised over the pixels with the rig's precomputed ReflectionTable.
 
     A pixel inside mirror j's boundary whose point lies behind plane j (n.P + d < 0) is reflected
@@ -33,6 +35,9 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
         Metres, 0 = no reading.
     mask : (H, W) bool, optional
         The pixels to use (the object).
+    colour : (H, W, 3) uint8, optional
+        RGB registered to the depth image: each point takes its pixel's colour with its view's
+        colour gain undone (Cloud.rgb; mirrorcore.rig.colour).
 
     Returns
     -------
@@ -65,8 +70,10 @@ def reconstruct_raw(rig: Rig, depth: np.ndarray, mask: np.ndarray | None = None)
     if drop is not None and drop.any():
         kept = np.flatnonzero(~drop)
         index, sources, xyz = index[kept], sources[kept], np.take(xyz, kept, axis=1)
+    rgb = None if colour is None else point_colours(
+        check_colour_image(intr, colour), index, sources, rig.colour_correction)
     # (n, 3) as a view of the (3, n) rows: no interleaving pass
-    return Cloud(xyz.T, sources, index, intr.width)
+    return Cloud(xyz.T, sources, index, intr.width, rgb)
 
 
 def _rays(intr: Intrinsics, index: np.ndarray, whole: bool) -> tuple[np.ndarray, np.ndarray]:
