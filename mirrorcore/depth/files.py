@@ -1,5 +1,5 @@
 """Depth images on disk: uint16 PNG in `depth_scale` metres per unit, 0 = no reading
-(docs/DESIGN.md)."""
+(docs/DESIGN.md); and the colour images beside them (8-bit RGB on the depth pixel grid)."""
 from __future__ import annotations
 
 import os
@@ -12,11 +12,13 @@ from mirrorcore.base.atomic import write_atomic
 from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.depth.imageheader import check_format, check_image
+from mirrorcore.geometry.camera import Intrinsics
 
 METRE_BYTES = 4           # a pixel's float32 metres, beside the image as decoded
 HEAD_BYTES = 64           # enough for a PNG's size
 # bytes a depth file may hold beyond twice its raw pixels (headers, text chunks)
 FILE_SLACK = 1 << 20
+COLOUR_SAMPLES = 4   # 16-bit samples a pixel of the largest colour file (RGBA)
 
 
 def read_depth_png(path: str | Path, depth_scale: float,
@@ -201,3 +203,57 @@ def write_depth_png(path: str | Path, depth: np.ndarray, depth_scale: float) -> 
         Metres per unit.
     """
     write_atomic(path, encode_depth_png(depth, depth_scale))
+
+
+def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
+    """Read a colour image of the camera's size.
+
+    Parameters
+    ----------
+    path : Path or None
+    intr : Intrinsics
+
+    Returns
+    -------
+    (H, W, 3) uint8 array or None
+        RGB; None for no path.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, larger than a 16-bit RGBA image of the camera's size can be, of
+        a format other than its name's (see `imageheader.check_image`), or not the camera's size.
+    MemoryBudgetError
+        Decoding it would need more than the memory budget.
+    """
+    if path is None:
+        return None
+    if not Path(path).is_file():
+        raise FileFormatError(f"{path}: no such colour image")
+    with open(path, "rb") as f:
+        size = os.fstat(f.fileno()).st_size
+        limit = max_file_bytes(intr.width * intr.height * COLOUR_SAMPLES)
+        if size > limit:
+            raise FileFormatError(f"{path}: {size:,} bytes is more than a colour image of the "
+                                  f"camera's size can hold (at most {limit:,})")
+        data = f.read()
+    check_image(data, str(path), str(path), intr.shape, 0, "a colour image")
+    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise FileFormatError(f"{path}: not a readable colour image")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def write_colour_png(path: Path, colour) -> None:
+    """Write an 8-bit colour PNG atomically.
+
+    Parameters
+    ----------
+    path : Path
+    colour : (H, W, 3) uint8 array
+        RGB.
+    """
+    ok, buf = cv2.imencode(".png", cv2.cvtColor(colour, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise FileFormatError(f"{path}: PNG encoding failed")
+    write_atomic(path, buf.tobytes())

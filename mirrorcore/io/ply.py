@@ -1,6 +1,6 @@
 """PLY files of source-labelled clouds and meshes (docs/DESIGN.md layout): binary_little_endian, x y
-z float32 (metres, camera frame), red green blue uchar (source colour), source uchar; faces
-(vertex_indices, uchar count + int32) for meshes."""
+z float32 (metres, camera frame), red green blue uchar (the scene's colour, or the source colour),
+source uchar; faces (vertex_indices, uchar count + int32) for meshes."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -22,7 +22,8 @@ _FACE = np.dtype([("count", "u1"), ("vertex_indices", "<i4", (3,))])
 _HEADER_LINES, _HEADER_LINE = 200, 1024
 
 
-def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None) -> bytes:
+def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None = None,
+               colours: np.ndarray | None = None) -> bytes:
     """Encode a labelled cloud, or a mesh with `faces`, as PLY bytes.
 
     Parameters
@@ -34,6 +35,8 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
         mirrorcore.base.palette).
     faces : (m, 3) integer array, optional
         Vertex indices of triangles.
+    colours : (n, 3) uint8 array, optional
+        RGB of each vertex (the scene's colour); the source colours without.
 
     Returns
     -------
@@ -50,10 +53,14 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
         raise ValueError(f"encode_ply: {len(points)} points but {len(sources)} source labels")
     if len(sources) and (sources.min() < 0 or sources.max() > 255):
         raise ValueError("encode_ply: source labels must be in 0..255")
+    if colours is None:
+        colours = source_colours(sources)
+    elif np.shape(colours) != (len(points), 3):
+        raise ValueError(f"encode_ply: {len(points)} points but colours of shape "
+                         f"{np.shape(colours)}")
     vertex = np.empty(len(points), dtype=_VERTEX)
     vertex["x"], vertex["y"], vertex["z"] = points.T
-    colours = source_colours(sources)
-    vertex["red"], vertex["green"], vertex["blue"] = colours.T
+    vertex["red"], vertex["green"], vertex["blue"] = np.asarray(colours, np.uint8).T
     vertex["source"] = sources
     header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame "
               "(OpenCV axes); "
@@ -81,7 +88,7 @@ def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
 
 
 def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray,
-              faces: np.ndarray | None = None) -> None:
+              faces: np.ndarray | None = None, colours: np.ndarray | None = None) -> None:
     """Write a labelled cloud, or a mesh with `faces`, atomically (see `encode_ply`).
 
     Parameters
@@ -94,13 +101,15 @@ def write_ply(path: str | Path, points: np.ndarray, sources: np.ndarray,
         Labels 0..255.
     faces : (m, 3) integer array, optional
         Vertex indices of triangles.
+    colours : (n, 3) uint8 array, optional
+        RGB of each vertex; the source colours without.
 
     Raises
     ------
     ValueError
         Mismatched or out-of-range input.
     """
-    write_atomic(path, encode_ply(points, sources, faces))
+    write_atomic(path, encode_ply(points, sources, faces, colours))
 
 
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:

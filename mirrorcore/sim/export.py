@@ -13,7 +13,7 @@ import numpy as np
 from tqdm import tqdm
 
 from mirrorcore.base.atomic import new_folder
-from mirrorcore.depth.files import write_depth_png
+from mirrorcore.depth.files import write_colour_png, write_depth_png
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics, project_points
 from mirrorcore.rig.model import Mirror, Rig
@@ -255,9 +255,7 @@ def _write(rig: Simulator, folder: Path, n_frames: int, noise: str, progress: bo
         frames.append(f"frames/{i:06d}.png")
         write_depth_png(folder / frames[-1], frame.depth, scale)
         colours.append(COLOUR_NAME.format(i))
-        if not cv2.imwrite(str(folder / colours[-1]), cv2.cvtColor(frame.colour,
-                                                                  cv2.COLOR_RGB2BGR)):
-            raise OSError(f"{folder / colours[-1]}: the colour frame could not be written")
+        write_colour_png(folder / colours[-1], frame.colour)
     mirrors = session_mirrors(rig, first_truth)
     if true_planes:
         mirrors = tuple(replace(m, plane=plane) for m, plane in zip(mirrors, rig.planes))

@@ -3,14 +3,11 @@ RGB-D folders (.npz stacks are in npz). All are seekable: frame_count frames, re
 (modulo frame_count: playing loops)."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from mirrorcore.depth.files import max_file_bytes, read_depth_png
-from mirrorcore.depth.imageheader import check_image
+from mirrorcore.depth.files import read_colour, read_depth_png
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.camerafiles import load_open3d_json, load_opencv_yaml
@@ -27,7 +24,6 @@ TUM_MAX_COLOUR_GAP = 0.02                  # seconds; TUM's associate.py default
 TUM_MAX_STAMP = 1e10
 # frames per second that a TUM list's stamps may imply: depth cameras deliver 1 to 100
 TUM_FPS_RANGE = (0.1, 1000.0)
-COLOUR_SAMPLES = 4   # 16-bit samples a pixel of the largest colour file (RGBA)
 PRESETS = {"kinect_v1": Intrinsics.kinect_v1, "primesense": Intrinsics.primesense}
 
 
@@ -340,42 +336,3 @@ def nearest_stamps(stamps: np.ndarray, queries: np.ndarray) -> np.ndarray:
     right = np.searchsorted(stamps, queries).clip(0, len(stamps) - 1)
     left = (right - 1).clip(0)
     return np.where(np.abs(stamps[left] - queries) <= np.abs(stamps[right] - queries), left, right)
-
-
-def read_colour(path: Path | None, intr: Intrinsics) -> np.ndarray | None:
-    """Read a colour image of the camera's size.
-
-    Parameters
-    ----------
-    path : Path or None
-    intr : Intrinsics
-
-    Returns
-    -------
-    (H, W, 3) uint8 array or None
-        RGB; None for no path.
-
-    Raises
-    ------
-    FileFormatError
-        Naming the file: missing, larger than a 16-bit RGBA image of the camera's size can be, of
-        a format other than its name's (see `imageheader.check_image`), or not the camera's size.
-    MemoryBudgetError
-        Decoding it would need more than the memory budget.
-    """
-    if path is None:
-        return None
-    if not Path(path).is_file():
-        raise FileFormatError(f"{path}: no such colour image")
-    with open(path, "rb") as f:
-        size = os.fstat(f.fileno()).st_size
-        limit = max_file_bytes(intr.width * intr.height * COLOUR_SAMPLES)
-        if size > limit:
-            raise FileFormatError(f"{path}: {size:,} bytes is more than a colour image of the "
-                                  f"camera's size can hold (at most {limit:,})")
-        data = f.read()
-    check_image(data, str(path), str(path), intr.shape, 0, "a colour image")
-    bgr = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise FileFormatError(f"{path}: not a readable colour image")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)

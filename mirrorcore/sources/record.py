@@ -20,11 +20,10 @@ import time
 from pathlib import Path
 from typing import Callable
 
-import cv2
 
 from mirrorcore.base.atomic import write_atomic
-from mirrorcore.depth.files import write_depth_png
-from mirrorcore.base.errors import FileFormatError, MirrorscanError
+from mirrorcore.depth.files import write_colour_png, write_depth_png
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import BACKGROUND_FILE, TRUTH_FILE, Session
 from mirrorcore.io.sessionfile import save_session
 from mirrorcore.io.sessionlock import SessionLock
@@ -178,21 +177,6 @@ def new_recording_folder(parent: str | Path, prefix: str = "recording") -> Path:
             continue
         return folder
     raise MirrorscanError(f"{parent}: no free name for a recording {stem}-N")
-
-
-def write_colour_png(path: Path, colour) -> None:
-    """Write an 8-bit colour PNG atomically.
-
-    Parameters
-    ----------
-    path : Path
-    colour : (H, W, 3) uint8 array
-        RGB.
-    """
-    ok, buf = cv2.imencode(".png", cv2.cvtColor(colour, cv2.COLOR_RGB2BGR))
-    if not ok:
-        raise FileFormatError(f"{path}: PNG encoding failed")
-    write_atomic(path, buf.tobytes())
 
 
 class Recorder:

@@ -16,7 +16,7 @@ from mirrorcore.base.errors import FileFormatError
 from mirrorcore.depth.files import decode_depth_png, read_depth_png
 from mirrorcore.depth.imageheader import read_header, sniff
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.sources.files import read_colour
+from mirrorcore.depth.files import read_colour
 
 ROOT = Path(__file__).resolve().parents[3]
 CAMERA = Intrinsics.primesense()
