@@ -9,11 +9,13 @@ from pathlib import Path
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import save_session
+from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.sources.record import Recorder, new_recording_folder
 
 from ..events import FrameReady
 from ..liveframe import frame_number
 from ..recording import LiveTap
+from ..sessionfile import EDITOR
 from ..results import Recorded, RecordingState, Replay
 from .runner import RECORD, Runner
 
@@ -121,7 +123,9 @@ class RecordingJob(Runner):
                 self._running.pop(RECORD, None)
             self.recorder = self._tap = None
         recorded = replace(recorded, mirrors=current.mirrors, selection=current.selection)
-        save_session(recorded)
+        # the recorder released the folder's lock: take it again for the session's last save
+        with SessionLock(recorded.root, EDITOR):
+            save_session(recorded)
         self.progress(
             RECORD, None, Recorded(len(recorded.frames), Path(recorded.root), tap.dropped)
         )

@@ -14,11 +14,13 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+import mirrorscan.jobs.recording as recording_job
 from mirrorscan.recording import LiveTap
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.io.sessionfile import load_session
+from mirrorcore.io.sessionfile import load_session, save_session
+from mirrorcore.io.sessionlock import SessionLock, SessionLocked
 from mirrorcore.sources import DepthSource, Frame, Recorder, new_recording_folder
 from tests.waiting import wait_for
 
@@ -245,3 +247,26 @@ def test_recordings_started_in_the_same_second_get_their_own_folders(tmp_path):
     for t in threads:
         t.join()
     assert len(set(folders)) == 8 and all(f.is_dir() and not any(f.iterdir()) for f in folders)
+
+
+def test_the_browser_recording_is_saved_under_its_folder_lock(demo, tmp_path, monkeypatch):
+    """Stop saves the recording with the session's mirrors while it holds the folder's lock: no
+    other writer can take the folder between the recorder's end and that save."""
+    app, _ = demo
+    saved = []
+
+    def save_while_locked(session) -> None:
+        with pytest.raises(SessionLocked):
+            SessionLock(session.root, "another writer")
+        saved.append(session)
+        save_session(session)
+
+    monkeypatch.setattr(recording_job, "save_session", save_while_locked)
+    folder = app.jobs.start_recording(tmp_path)
+    wait_for(lambda: app.loop.run_once() is not None and app.jobs.recorder.frames >= 2, 30,
+             "2 frames recorded")
+    recorded = app.jobs.stop_recording(app.editor.session)
+    assert [s.root for s in saved] == [recorded.root] and recorded.root == folder
+    assert load_session(folder).mirrors == app.editor.session.mirrors
+    # and released after it
+    SessionLock(folder, "another writer").release()
