@@ -25,6 +25,8 @@ RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is aske
 # seconds after a tab is built when its view is framed if the page reported its camera meanwhile:
 # by then the page has applied the scene's up direction
 LATE_VIEW_S = 2.0
+# seconds after which a page that has not reported its camera is no longer waited for
+LATE_VIEW_GIVE_UP_S = 30.0
 DRAWS_KEY = "mirrorscan-draws"
 DRAWS_WINDOW_MS = 2000    # ms: the draw rate counts the frames drawn over this
 # A frame counts as drawn when WebGL was asked to draw during it (three.js draws the whole scene
@@ -215,24 +217,32 @@ def save_view(client: viser.ClientHandle, act: Callable[[Callable[[], object]], 
 
 
 def frame_late(client: viser.ClientHandle, first_view: Callable[[None], None]) -> None:
-    """Call first_view(None) LATE_VIEW_S from now if the page has reported its camera by then.
+    """Call first_view(None) once the page has reported its camera, from LATE_VIEW_S on.
 
     A page may report its camera while its tab is still being built, before the tab listens to
-    the reports; no other report follows until the camera moves. `first_view` frames the view once
-    (later calls do nothing).
+    the reports; no other report follows until the camera moves. A page still loading reports it
+    later: it is asked again every LATE_VIEW_S, for at most LATE_VIEW_GIVE_UP_S. `first_view`
+    frames the view once (later calls do nothing).
 
     Parameters
     ----------
     client : viser.ClientHandle
     first_view : callable
     """
-    def late() -> None:
+    def late(waited: float) -> None:
         try:
             client.camera.wxyz  # noqa: B018 (viser asserts until the page has reported it)
         except AssertionError:
+            if waited < LATE_VIEW_GIVE_UP_S:
+                _after(LATE_VIEW_S, late, waited + LATE_VIEW_S)
             return
         first_view(None)
 
-    timer = threading.Timer(LATE_VIEW_S, late)
+    _after(LATE_VIEW_S, late, LATE_VIEW_S)
+
+
+def _after(seconds: float, call: Callable, *args) -> None:
+    """Call `call(*args)` on a daemon timer `seconds` from now."""
+    timer = threading.Timer(seconds, call, args)
     timer.daemon = True
     timer.start()

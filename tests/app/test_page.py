@@ -47,7 +47,10 @@ def test_every_shortcut_is_in_the_header_and_in_the_docs():
 
 
 def test_a_view_reported_before_the_tab_listened_is_framed_late(monkeypatch):
+    """A page that reported its camera is framed LATE_VIEW_S on; one that reports it later is
+    framed when it does; one that never reports is given up."""
     monkeypatch.setattr(page, "LATE_VIEW_S", 0.01)
+    monkeypatch.setattr(page, "LATE_VIEW_GIVE_UP_S", 0.1)
     framed = []
 
     class Camera:
@@ -59,8 +62,13 @@ def test_a_view_reported_before_the_tab_listened_is_framed_late(monkeypatch):
             assert self.known, "not reported yet"
             return (1.0, 0.0, 0.0, 0.0)
 
-    for known in (True, False):
-        page.frame_late(SimpleNamespace(camera=Camera(known)), framed.append)
-    wait_for(lambda: framed, 5, "the late view")
-    time.sleep(0.2)  # deliberate: the other timer, whose page never reported, has run meanwhile
-    assert framed == [None]
+    early, late, never = Camera(True), Camera(False), Camera(False)
+    for camera, name in ((early, "early"), (late, "late"), (never, "never")):
+        page.frame_late(SimpleNamespace(camera=camera), lambda _, name=name: framed.append(name))
+    wait_for(lambda: framed == ["early"], 5, "the view reported early framed")
+    late.known = True
+    wait_for(lambda: framed == ["early", "late"], 5, "the view reported late framed")
+    time.sleep(0.3)  # deliberate: the page that never reported has been given up meanwhile
+    never.known = True
+    time.sleep(0.1)  # deliberate: no timer is left to frame it
+    assert framed == ["early", "late"]
