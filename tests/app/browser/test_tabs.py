@@ -139,6 +139,6 @@ def test_a_redo_that_removes_a_mirror_asks_and_every_tab_is_told(app, tabs):
     wait_for(lambda: "Redo: remove mirror 1?" in text(page_a), 30, "the question again")
     button(page_a, "Remove mirror 1")
     wait_for(lambda: not app.editor.session.mirrors, 30, "mirror 1 removed by the redo")
-    assert tab_c.state.mirror_id is None
+    wait_for(lambda: tab_c.state.mirror_id is None, 30, "C's selection cleared")
     for page in (page_b, page_c):
         wait_for(lambda: text(page).count("mirror 1 removed") >= 1, 30, "every tab told")
