@@ -4,9 +4,10 @@ mirror a ray reflected on, on the depth pixel grid.
 What is modelled: each object carries a 3-D checker of two known colours (cells CHECKER_M wide in
 the object's frame, the hit point minus the object's centre, offset by CHECKER_PHASE), the floor,
 the back wall, the markers and the mirrors' backs one colour each, and each mirror reflects a
-fraction `tint` (per channel, linear in 8-bit levels) of what it shows. No lighting, shading,
-exposure or sensor noise; the colour is that of the ideal render (registered exactly to the ideal
-depth).
+fraction `tint` (per channel, linear in 8-bit levels) of what it shows. The colour camera adds
+Gaussian noise of the sensor model's `colour_sigma` levels to each channel (rounded, drawn afresh
+each frame), so that a view a mirror dims reads its colour with less signal to the same noise. No
+lighting, shading or exposure; the colour is registered exactly to the ideal depth.
 """
 from __future__ import annotations
 
@@ -26,6 +27,8 @@ FLOOR_COLOUR = (110, 100, 85)
 WALL_COLOUR = (190, 185, 170)
 MARKER_COLOUR = (245, 245, 245)
 MIRROR_BACK_COLOUR = (60, 60, 60)
+# a frame's colour noise is a window of one table of noise, starting at one of this many offsets
+NOISE_OFFSETS = 1 << 16
 
 
 def object_albedo(index: int, local: np.ndarray) -> np.ndarray:
@@ -78,10 +81,17 @@ class ColourModel:
     scene : Scene
     background : GroundTruth
         The scene rendered without its objects.
+    sigma : float
+        The colour camera's noise, levels per channel (0: none).
+    seed : int
+        The noise table's seed.
     """
 
-    def __init__(self, scene: Scene, background: GroundTruth):
+    def __init__(self, scene: Scene, background: GroundTruth, sigma: float = 0.0, seed: int = 0):
         self.scene = scene
+        size = background.depth.size * 3 + NOISE_OFFSETS
+        self._noise = (np.rint(np.random.default_rng([seed, 3]).normal(0.0, sigma, size))
+                       .astype(np.int16) if sigma > 0 else None)
         self._tints = _tints(scene)
         out = np.zeros((*background.depth.shape, 3), np.float32)
         if scene.room is not None:
@@ -96,21 +106,34 @@ class ColourModel:
         out[seen] *= _gain(self._tints, background.mirrors[:, seen])
         self._background = _levels(out)
 
-    def image(self, truth: GroundTruth) -> np.ndarray:
-        """Return the colour image the ideal camera sees.
+    def image(self, truth: GroundTruth, noise_offset: int | None = None) -> np.ndarray:
+        """Return the colour image the camera sees.
 
         Parameters
         ----------
         truth : GroundTruth
             A render of the scene (with or without its objects).
+        noise_offset : int, optional
+            Where in the noise table this frame's noise starts, 0 to NOISE_OFFSETS - 1; None
+            for none.
 
         Returns
         -------
         (H, W, 3) uint8 array
             RGB on the depth pixel grid (the `Frame.colour` contract): the albedo of the surface
-            each ray ends on times the tints of the mirrors it reflected on, rounded; 0 where no
-            surface.
+            each ray ends on times the tints of the mirrors it reflected on, rounded, plus the
+            noise; 0 where no surface.
         """
+        colour = self._albedo(truth)
+        if self._noise is None or noise_offset is None:
+            return colour
+        noise = self._noise[noise_offset:noise_offset + colour.size].reshape(colour.shape)
+        noisy = np.add(colour, noise, dtype=np.int16)
+        noisy[truth.surface == NONE] = 0
+        return np.clip(noisy, 0, 255).astype(np.uint8)
+
+    def _albedo(self, truth: GroundTruth) -> np.ndarray:
+        """(H, W, 3) uint8: `image` without noise."""
         colour = self._background.copy()
         hit = np.flatnonzero(truth.surface.reshape(-1) == OBJECT)
         if len(hit) == 0:

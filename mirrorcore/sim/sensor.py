@@ -56,6 +56,9 @@ class SensorModel:
         Zero the IR shadow.
     shadow_tolerance : float
         Pixels (see `ir_shadow`).
+    colour_sigma : float
+        Std of the colour camera's noise, 8-bit levels per channel, added before rounding; 0 =
+        none (mirrorcore.sim.albedo).
     """
 
     axial_k: float = 1.425e-3
@@ -67,12 +70,13 @@ class SensorModel:
     max_range: float = 4.5
     shadow: bool = True
     shadow_tolerance: float = 0.1
+    colour_sigma: float = 2.0
 
     @classmethod
     def ideal(cls) -> "SensorModel":
         """The exact ideal depth: no noise, no quantisation, no range limits, no shadow."""
         return cls(axial_k=0.0, quantise=False, lateral_sigma=0.0, min_range=0.0, max_range=np.inf,
-                   shadow=False)
+                   shadow=False, colour_sigma=0.0)
 
     @classmethod
     def kinect_v1(cls, noise: bool = True) -> "SensorModel":
@@ -81,13 +85,14 @@ class SensorModel:
         Parameters
         ----------
         noise : bool
-            False keeps the range, the shadow and the disparity quantisation but adds no noise.
+            False keeps the range, the shadow and the disparity quantisation but adds no noise
+            (to the depth or the colour).
 
         Returns
         -------
         SensorModel
         """
-        return cls() if noise else cls(axial_k=0.0, lateral_sigma=0.0)
+        return cls() if noise else cls(axial_k=0.0, lateral_sigma=0.0, colour_sigma=0.0)
 
     @classmethod
     def from_name(cls, name: str) -> "SensorModel":

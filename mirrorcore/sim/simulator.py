@@ -9,7 +9,7 @@ import numpy as np
 
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
-from mirrorcore.sim.albedo import ColourModel
+from mirrorcore.sim.albedo import NOISE_OFFSETS, ColourModel
 from mirrorcore.sim.render import MAX_BOUNCES, GroundTruth, Renderer
 from mirrorcore.sim.scene import Scene
 from mirrorcore.sim.sensor import SensorModel
@@ -31,18 +31,22 @@ class SimFrame:
         Its time, seconds.
     painter : ColourModel
         The scene's colours, for `colour`.
+    noise_offset : int or None
+        Where the frame's colour noise starts in the painter's table (None: no noise).
     """
 
     depth: np.ndarray
     truth: GroundTruth
     t: float
     painter: ColourModel = field(repr=False, compare=False)
+    noise_offset: int | None = None
 
     @cached_property
     def colour(self) -> np.ndarray:
         """(H, W, 3) uint8 RGB on the depth pixel grid: the ideal view's albedo times the tints
-        of the mirrors on each ray (sim.albedo), made when first asked for."""
-        return self.painter.image(self.truth)
+        of the mirrors on each ray, plus the colour camera's noise (sim.albedo), made when first
+        asked for."""
+        return self.painter.image(self.truth, self.noise_offset)
 
 
 class Simulator:
@@ -84,7 +88,8 @@ class Simulator:
     @cached_property
     def painter(self) -> ColourModel:
         """The colour images of the scene's renders (made when first asked for)."""
-        return ColourModel(self.scene, self._renderer.render(0.0, with_objects=False))
+        return ColourModel(self.scene, self._renderer.render(0.0, with_objects=False),
+                           self.sensor.colour_sigma, self.seed)
 
     @property
     def animated(self) -> bool:
@@ -108,8 +113,10 @@ class Simulator:
         SimFrame
         """
         truth = self._renderer.render(t, with_objects)
-        return SimFrame(self.sensor.apply(self.intrinsics, truth.depth, rng), truth, float(t),
-                        self.painter)
+        depth = self.sensor.apply(self.intrinsics, truth.depth, rng)
+        # drawn after the depth's noise, which stays as it is without colour
+        offset = int(rng.integers(NOISE_OFFSETS)) if self.sensor.colour_sigma > 0 else None
+        return SimFrame(depth, truth, float(t), self.painter, offset)
 
     def frame(self, i: int) -> SimFrame:
         """Return frame i at time i / fps, reproducible from (seed, i).

@@ -20,10 +20,13 @@ from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import OBJECT, ROOM
 from mirrorcore.sim.scene import DEFAULT_TINTS, Scene, SceneObject
 from mirrorcore.sim.scenefile import scene_from_json
+from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 from mirrorcore.sources.sim import SimulatedSource
 
 CAMERA = Intrinsics.kinect_v1().scaled(0.5)
+# the Kinect model without its colour noise: each level is the albedo times the tints, rounded
+EXACT = replace(SensorModel.kinect_v1(), colour_sigma=0.0)
 # distinct per-channel reflectances: a missing or swapped tint moves a level by 20 or more
 TINTS = ((0.55, 0.9, 0.75), (0.85, 0.6, 0.95), (0.7, 0.8, 0.6))
 
@@ -57,7 +60,7 @@ def test_a_pixel_seen_directly_has_the_albedo_of_its_hit_point():
     # a box whose front face z = 1.9 m faces the camera; each ray meets it at z = 1.9
     box = SceneObject("box", (0.02, 0.01, 2.0), size=(0.6, 0.5, 0.2))
     scene = Scene(CAMERA, (), (box,), room=None)
-    frame = Simulator(scene).frame(0)
+    frame = Simulator(scene, EXACT).frame(0)
     x, y = CAMERA.rays
     z0 = 1.9
     local = np.stack([x * z0, y * z0, np.full_like(x, z0)], axis=-1) - np.asarray(box.centre)
@@ -80,7 +83,7 @@ def test_a_pixel_seen_directly_has_the_albedo_of_its_hit_point():
 @pytest.fixture(scope="module")
 def paper():
     scene = _tinted(paper_scene(camera=CAMERA))
-    return scene, Simulator(scene).frame(0)
+    return scene, Simulator(scene, EXACT).frame(0)
 
 
 def test_a_pixel_seen_through_a_mirror_has_albedo_times_its_tint(paper):
@@ -115,7 +118,7 @@ def test_the_room_has_its_own_colours_through_the_mirrors(paper):
 
 def test_through_two_mirrors_in_turn_the_product_of_both_tints():
     scene = _tinted(kaleidoscope_scene(camera=CAMERA))
-    frame = Simulator(scene).frame(0)
+    frame = Simulator(scene, EXACT).frame(0)
     truth, colour = frame.truth, frame.colour.astype(np.float64)
     seen = 0
     for first, second in ((1, 2), (2, 1)):
@@ -168,3 +171,22 @@ def test_the_depth_does_not_depend_on_the_colour():
     assert np.array_equal(plain.depth, tinted.depth)
     assert np.array_equal(plain.truth.depth, tinted.truth.depth)
     assert not np.array_equal(plain.colour, tinted.colour)
+    # nor on the colour's noise
+    assert np.array_equal(Simulator(scene, EXACT).frame(3).depth, plain.depth)
+
+
+def test_the_colour_camera_adds_its_noise_afresh_each_frame_and_reproducibly():
+    scene = paper_scene(camera=CAMERA)
+    noisy, exact = Simulator(scene, seed=4), Simulator(scene, EXACT, seed=4)
+    seen = exact.frame(0).truth.surface != 0
+    errors = [noisy.frame(i).colour[seen].astype(float) - exact.frame(i).colour[seen]
+              for i in range(2)]
+    # away from 0 and 255, where the levels clip
+    inside = [(e, (exact.frame(i).colour[seen] > 10) & (exact.frame(i).colour[seen] < 245))
+              for i, e in enumerate(errors)]
+    for error, sel in inside:
+        assert abs(error[sel].mean()) < 0.05
+        assert abs(error[sel].std() - SensorModel().colour_sigma) < 0.1
+    assert not np.array_equal(errors[0], errors[1])
+    assert np.array_equal(Simulator(scene, seed=4).frame(1).colour, noisy.frame(1).colour)
+    assert np.all(noisy.frame(0).colour[~seen] == 0)
