@@ -10,7 +10,7 @@ import trimesh
 
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.base.palette import source_colours
-from mirrorcore.io.ply import write_ply
+from mirrorcore.io.ply import checked_colours, checked_faces, write_ply
 
 GLB_SUFFIX = ".glb"
 # the node's transform: OpenCV's camera frame (x right, y down, z forward) to glTF's axes
@@ -43,19 +43,12 @@ def encode_glb(points: np.ndarray, colours: np.ndarray,
         Mismatched or out-of-range input.
     """
     points = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-    colours = np.asarray(colours)
-    if colours.shape != (len(points), 3):
-        raise ValueError(f"encode_glb: {len(points)} points but colours of shape "
-                         f"{colours.shape}")
-    colours = colours.astype(np.uint8, copy=False)
+    colours = checked_colours(colours, len(points), "encode_glb")
     if faces is None:
         geometry = trimesh.PointCloud(points, colors=colours)
     else:
-        faces = np.asarray(faces).reshape(-1, 3)
-        if len(faces) and (faces.min() < 0 or faces.max() >= len(points)):
-            raise ValueError(f"encode_glb: face indices must be in 0..{len(points) - 1}")
-        geometry = trimesh.Trimesh(points, faces, vertex_colors=colours, process=False,
-                                   validate=False)
+        geometry = trimesh.Trimesh(points, checked_faces(faces, len(points), "encode_glb"),
+                                   vertex_colors=colours, process=False, validate=False)
     scene = trimesh.Scene()
     name = "cloud" if faces is None else "mesh"
     scene.add_geometry(geometry, node_name=name, geom_name=name, transform=CAMERA_TO_GLTF)
