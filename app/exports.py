@@ -1,16 +1,19 @@
-"""Exports of the browser tool: PLY bytes downloaded by the tab and, for a saved session, kept in
-its exports/ folder under a name that never overwrites an earlier export (time-stamped, numbered if
-needed)."""
+"""Exports of the browser tool: PLY bytes (the scene's colours when the cloud has them) downloaded
+by the tab and, for a saved session, kept in its exports/ folder under a name that never overwrites
+an earlier export (time-stamped, numbered if needed)."""
 from __future__ import annotations
 
 import os
 import time
 from pathlib import Path
 
+import numpy as np
 import viser
 
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.io.outputs import check_output
+from mirrorcore.io.ply import encode_ply
+from mirrorcore.rig.cloud import Cloud
 
 EXPORTS = "exports"
 
@@ -46,6 +49,22 @@ def free_name(folder: Path, stem: str, suffix: str = ".ply") -> Path:
         except FileExistsError:
             continue
     raise FileExistsError(f"{folder}: no free name for {stem}; export again in a second")
+
+
+def cloud_ply(cloud: Cloud) -> bytes:
+    """Encode a cloud as PLY: red, green, blue its scene's colours (Cloud.rgb) when it has them.
+
+    Parameters
+    ----------
+    cloud : Cloud
+
+    Returns
+    -------
+    bytes
+        The PLY file (docs/DESIGN.md layout); the source colours for a cloud without rgb.
+    """
+    rgb = None if cloud.rgb is None else np.ascontiguousarray(cloud.rgb)
+    return encode_ply(cloud.points, cloud.sources, colours=rgb)
 
 
 def export_ply(session_root: Path | None, stem: str, data: bytes,

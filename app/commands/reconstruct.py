@@ -1,6 +1,6 @@
 """`mirrorscan reconstruct SESSION -o OUT`.
 
-The merged cloud of frames, a carved cloud or a fused mesh, as PLY.
+The merged cloud of frames, a carved cloud or a fused mesh, as PLY (or GLB by OUT's suffix).
 
 --method raw is the paper's Algorithm 1, paper its Algorithm 2 as written, carve the consistent
 carving, tsdf a fused mesh; with `--frame all`, one PLY per frame and a manifest, on this machine's
@@ -20,12 +20,14 @@ from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.batch import read_depth
 from mirrorcore.batch.executor import WORKERS_PER_CORE
+from mirrorcore.batch.frames import read_frame_colour
+from mirrorcore.batch.job import COLOURS
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
 from mirrorcore.dense.carve import CarveResult
 from mirrorcore.depth.files import require_readings
+from mirrorcore.io.glb import write_result
 from mirrorcore.io.outputs import check_output
-from mirrorcore.io.ply import write_ply
 from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import load_session
 from mirrorcore.rig.model import Rig, calibrated_rig
@@ -58,8 +60,8 @@ def register(sub) -> None:
         "-o",
         "--output",
         required=True,
-        help="PLY file, or with --frame all a folder of PLY files (new, or one this command made: "
-        "it goes on)",
+        help="PLY file (GLB when it ends in .glb), or with --frame all a folder of PLY files "
+        "(new, or one this command made: it goes on)",
     )
     p.add_argument(
         "--frame", default="0", help="frame index (0-based, negative from the end) or 'all'"
@@ -113,6 +115,13 @@ def register(sub) -> None:
         metavar="N",
         help="smooth each frame's depth with its N neighbours on each side where the scene is "
         "static (moving people; default 0: off)",
+    )
+    p.add_argument(
+        "--colour",
+        choices=COLOURS,
+        default="scene",
+        help="the points' red, green, blue: scene (default): the scene's colour when the session "
+        "has colour frames, each mirror's colour gain undone; source: the source colours",
     )
     batch = p.add_argument_group(
         "--frame all (one PLY per frame and manifest.json in the folder OUT; a rerun does only "
@@ -223,13 +232,16 @@ def run(args: argparse.Namespace) -> int:
         _not_over_a_batch_record(out)
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
-        cloud, _ = object_cloud(
-            rig, read_scan_frame(session, index, args.temporal), background, selection
-        )
+        depth = read_scan_frame(session, index, args.temporal)
+        colour = read_frame_colour(session, index) if args.colour == "scene" else None
+        cloud, _ = object_cloud(rig, depth, background, selection, colour)
         _refuse_empty(out, len(cloud), "object's cloud", "the background and the depth range")
-        write_ply(out, cloud.points, cloud.sources)
+        rgb = None if cloud.rgb is None else np.ascontiguousarray(cloud.rgb)
+        write_result(out, cloud.points, cloud.sources, colours=rgb)
         counts = cloud.source_counts(len(rig.mirrors))
-        wording.show(wording.cloud_written(out, len(cloud), counts), args.verbose)
+        wording.show(wording.cloud_written(out, len(cloud), counts,
+                                           wording.colours_line(args.colour, session)),
+                     args.verbose)
         return 0
     return run_all(args, out, _dense_options(args))
 
@@ -330,12 +342,12 @@ def run_dense(
     if isinstance(result, CarveResult):
         points, sources = result.surface_points()
         _refuse_empty(out, len(points), "carved surface", "--voxel, --bounds and --margin")
-        write_ply(out, points, sources)
+        write_result(out, points, sources)
         message = wording.carved_written(out, len(points), volume.shape, volume.voxel)
     else:
         mesh = result.mesh()
         _refuse_empty(out, len(mesh.vertices), "mesh", "--voxel, --bounds and --margin")
-        write_ply(out, mesh.vertices, mesh.sources, mesh.faces)
+        write_result(out, mesh.vertices, mesh.sources, mesh.faces)
         message = wording.mesh_written(
             out, len(mesh.vertices), len(mesh.faces), count, volume.shape, volume.voxel
         )

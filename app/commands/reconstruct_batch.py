@@ -48,7 +48,8 @@ def run_all(args: argparse.Namespace, out: Path, options: DenseOptions) -> int:
             "--frames: with --frame all each frame is reconstructed alone (people move); --frames "
             "fuses several frames into one result"
         )
-    job = BatchJob(Path(args.session), out, args.method, options, args.temporal, args.bounces)
+    job = BatchJob(Path(args.session), out, args.method, options, args.temporal, args.bounces,
+                   args.colour)
     where = Where(args.workers, args.scheduler)
     if where.scheduler:
         print(f"connecting to the Dask cluster at {where.scheduler}...", flush=True)

@@ -1,7 +1,7 @@
 """The "Session" step: where the session lives and whether it is saved, open another, save it under
 a new name (or, while it cannot be saved, in another folder), upload a depth PNG as the background,
-and export the current cloud as PLY (downloaded by the tab, kept in the session's exports/ folder
-under a new name each time)."""
+and export the current cloud as PLY, in the scene's colours when it has them (downloaded by the
+tab, kept in the session's exports/ folder under a new name each time)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,12 @@ from pathlib import Path
 
 from mirrorcore.depth.files import decode_depth_png, require_readings
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.ply import encode_ply
 from mirrorcore.io.session import SESSION_FILE
 from mirrorcore.io.sessionfile import copy_session, load_session, session_folder
 
 from ..context import TabContext
 from ..events import SessionChanged
-from ..exports import export_ply
+from ..exports import cloud_ply, export_ply
 from ..jobs import unplaned
 from ..liveframe import frame_number
 from ..markup import markdown
@@ -225,7 +224,7 @@ class SessionPanel:
         self.services.set_background(depth)
 
     def export_cloud(self) -> Path | None:
-        """Export the current cloud as PLY.
+        """Export the current cloud as PLY, in the scene's colours when the frame has them.
 
         Downloaded and, for a saved session, kept under a new name in exports/.
 
@@ -237,7 +236,7 @@ class SessionPanel:
         frame = self.services.last_frame
         if frame is None:
             raise MirrorscanError("no cloud yet to export")
-        data = encode_ply(frame.cloud.points, frame.cloud.sources)
+        data = cloud_ply(frame.cloud)
         root = self.services.editor.session.root if self.services.editor.autosave else None
         count = self.services.source.frame_count
         # as the header names it

@@ -192,7 +192,8 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
         as Dask within scheduler.PROBE_SECONDS: nothing is written then).
     """
     session = load_session(Path(job.session).resolve())
-    job = replace(job, session=Path(session.root), out=Path(job.out).resolve())
+    job = replace(job, session=Path(session.root),
+                  out=Path(job.out).resolve()).for_session(session)
     per_task = default_frames_per_task(job.method) if frames_per_task is None else frames_per_task
     if per_task < 1:
         raise MirrorscanError(f"--frames-per-task: at least 1, got {per_task}")
@@ -207,7 +208,8 @@ def run_batch(job: BatchJob, where: Where = Where(), frames_per_task: int | None
             probe_scheduler(where.scheduler, cancel)
     except Cancelled:
         return BatchReport(job.out, len(context.names), 0, 0, cancelled=True)
-    folder = OutputFolder(job.out, str(session.root), job.settings(), session_inputs(session),
+    folder = OutputFolder(job.out, str(session.root), job.settings(),
+                          session_inputs(session, job.scene_colour),
                           context.names, [Path(session.root) / f for f in session.frames],
                           overwrite)
     try:

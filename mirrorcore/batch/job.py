@@ -4,7 +4,7 @@ files depend on."""
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mirrorcore.dense import METHODS, DenseOptions
@@ -12,6 +12,9 @@ from mirrorcore.base.errors import FileFormatError, MirrorscanError
 from mirrorcore.io.session import Session
 
 BATCH_METHODS = ("raw", *METHODS)
+# what a cloud's red, green and blue carry: the scene's colour (from the colour frames), or the
+# source colours
+COLOURS = ("scene", "source")
 
 
 @dataclass(frozen=True)
@@ -34,6 +37,10 @@ class BatchJob:
         static (mirrorcore.depth.temporal); 0 = off.
     bounces : int or None
         The most mirrors in turn a camera ray is followed through (None: the session's setting).
+    colour : str or None
+        'scene': the frames' red, green and blue carry the scene's colour (each mirror's colour
+        gain undone); 'source': the source colours; None: the session has no colour frames (see
+        `for_session`), the source colours.
     """
 
     session: Path
@@ -42,6 +49,7 @@ class BatchJob:
     options: DenseOptions = field(default_factory=DenseOptions)
     temporal: int = 0
     bounces: int | None = None
+    colour: str | None = "scene"
 
     def __post_init__(self) -> None:
         if self.method not in BATCH_METHODS:
@@ -52,13 +60,35 @@ class BatchJob:
             raise MirrorscanError(
                 f"--temporal: expected a whole number of neighbour frames >= 0, got "
                                   f"{self.temporal!r}")
+        if self.colour is not None and self.colour not in COLOURS:
+            raise MirrorscanError(f"--colour: expected one of {', '.join(COLOURS)}, got "
+                                  f"{self.colour!r}")
         object.__setattr__(self, "session", Path(self.session))
         object.__setattr__(self, "out", Path(self.out))
+
+    @property
+    def scene_colour(self) -> bool:
+        """True when the frames' PLY files carry the scene's colour."""
+        return self.colour == "scene"
+
+    def for_session(self, session: Session) -> BatchJob:
+        """Return this job with colour None when `session` has no colour frames.
+
+        Parameters
+        ----------
+        session : Session
+
+        Returns
+        -------
+        BatchJob
+        """
+        return self if session.colour_frames is not None else replace(self, colour=None)
 
     def settings(self) -> dict:
         """Return the choices that shape the output, as JSON.
 
-        {'method': ..., 'options': {the dense options the method uses, 'temporal'}}.
+        {'method': ..., 'options': {the dense options the method uses, 'temporal', 'bounces'
+        when set, 'colour' ('scene' or 'source') on a session with colour frames}}.
         """
         options: dict = {}
         if self.method != "raw":
@@ -71,6 +101,8 @@ class BatchJob:
         options["temporal"] = self.temporal
         if self.bounces is not None:
             options["bounces"] = self.bounces
+        if self.colour is not None:
+            options["colour"] = self.colour
         return {"method": self.method, "options": options}
 
 
@@ -124,16 +156,19 @@ def output_names(session: Session) -> tuple[str, ...]:
     return names
 
 
-def session_inputs(session: Session) -> dict:
+def session_inputs(session: Session, colour: bool = False) -> dict:
     """Return what the output depends on in the session, as JSON.
 
     The calibration (the camera; each mirror's plane and boundary, in session order; the mirrors
     followed in turn), the object selection, the background image's SHA-256 and the frames' paths
-    (their count and a SHA-256 of the list).
+    (their count and a SHA-256 of the list); with `colour`, the mirrors' colour gains
+    (calibration.colour_gains) and a SHA-256 of the colour frames' paths (colour_frames).
 
     Parameters
     ----------
     session : Session
+    colour : bool, optional
+        The output carries the scene's colour (BatchJob.scene_colour).
 
     Returns
     -------
@@ -148,11 +183,21 @@ def session_inputs(session: Session) -> dict:
         if not path.is_file():
             raise FileFormatError(f"{path}: no such depth image")
         background = hashlib.sha256(path.read_bytes()).hexdigest()
-    frames = hashlib.sha256("\n".join(session.frames).encode("utf-8")).hexdigest()
-    return {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors,
+    frames = _list_digest(session.frames)
+    inputs = {"calibration": {"camera": session.camera.to_dict(), "mirrors": mirrors,
                             "bounces": session.bounces},
             "selection": session.selection.to_json(), "background_sha256": background,
             "frames": {"count": len(session.frames), "sha256": frames}}
+    if colour:
+        inputs["calibration"]["colour_gains"] = [
+            None if m.colour_gain is None else list(m.colour_gain) for m in session.mirrors]
+        inputs["colour_frames"] = {"sha256": _list_digest(session.colour_frames or ())}
+    return inputs
+
+
+def _list_digest(paths) -> str:
+    """The SHA-256 (hex) of a list of paths, one a line."""
+    return hashlib.sha256("\n".join(paths).encode("utf-8")).hexdigest()
 
 
 def differences(old: dict, new: dict, prefix: str = "") -> list[str]:

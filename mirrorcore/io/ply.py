@@ -53,14 +53,11 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
         raise ValueError(f"encode_ply: {len(points)} points but {len(sources)} source labels")
     if len(sources) and (sources.min() < 0 or sources.max() > 255):
         raise ValueError("encode_ply: source labels must be in 0..255")
-    if colours is None:
-        colours = source_colours(sources)
-    elif np.shape(colours) != (len(points), 3):
-        raise ValueError(f"encode_ply: {len(points)} points but colours of shape "
-                         f"{np.shape(colours)}")
+    colours = (source_colours(sources) if colours is None
+               else checked_colours(colours, len(points), "encode_ply"))
     vertex = np.empty(len(points), dtype=_VERTEX)
     vertex["x"], vertex["y"], vertex["z"] = points.T
-    vertex["red"], vertex["green"], vertex["blue"] = np.asarray(colours, np.uint8).T
+    vertex["red"], vertex["green"], vertex["blue"] = colours.T
     vertex["source"] = sources
     header = ("ply\nformat binary_little_endian 1.0\ncomment mirrorscan: metres, camera frame "
               "(OpenCV axes); "
@@ -76,11 +73,62 @@ def encode_ply(points: np.ndarray, sources: np.ndarray, faces: np.ndarray | None
                                                         else _face_bytes(faces, len(points)))
 
 
-def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
-    """(m, 3) int triangles -> the binary face element (a uchar 3 then three int32 per face)."""
+def checked_colours(colours: np.ndarray, n_vertices: int, where: str) -> np.ndarray:
+    """Check the vertices' colours of a file being encoded.
+
+    Parameters
+    ----------
+    colours : (n, 3) array
+        RGB levels.
+    n_vertices : int
+        n.
+    where : str
+        The encoder, for the message.
+
+    Returns
+    -------
+    (n, 3) uint8 array
+
+    Raises
+    ------
+    ValueError
+        Not one colour a vertex.
+    """
+    if np.shape(colours) != (n_vertices, 3):
+        raise ValueError(f"{where}: {n_vertices} points but colours of shape {np.shape(colours)}")
+    return np.asarray(colours, np.uint8)
+
+
+def checked_faces(faces: np.ndarray, n_vertices: int, where: str) -> np.ndarray:
+    """Check the triangles of a mesh being encoded.
+
+    Parameters
+    ----------
+    faces : (m, 3) integer array
+        Vertex indices.
+    n_vertices : int
+        The mesh's vertex count.
+    where : str
+        The encoder, for the message.
+
+    Returns
+    -------
+    (m, 3) integer array
+
+    Raises
+    ------
+    ValueError
+        An index outside 0..n_vertices - 1.
+    """
     faces = np.asarray(faces).reshape(-1, 3)
     if len(faces) and (faces.min() < 0 or faces.max() >= n_vertices):
-        raise ValueError(f"encode_ply: face indices must be in 0..{n_vertices - 1}")
+        raise ValueError(f"{where}: face indices must be in 0..{n_vertices - 1}")
+    return faces
+
+
+def _face_bytes(faces: np.ndarray, n_vertices: int) -> bytes:
+    """(m, 3) int triangles -> the binary face element (a uchar 3 then three int32 per face)."""
+    faces = checked_faces(faces, n_vertices, "encode_ply")
     face = np.empty(len(faces), dtype=_FACE)
     face["count"] = 3
     face["vertex_indices"] = faces

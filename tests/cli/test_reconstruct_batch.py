@@ -157,6 +157,7 @@ def test_dense_frames_are_the_single_frame_commands_files(recording, tmp_path):
         "bounds": None,
         "truncation": None,
         "temporal": 0,
+        "colour": "scene",
     }
     assert all(f["faces"] > 1000 for f in manifest["frames"])
     assert (
@@ -324,10 +325,10 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(
 
     real = frames._frame_ply
 
-    def broken_on_frame_9(context, depth, cancel=None):
-        if np.array_equal(depth, frames.read_depth(context.session, 9)):
+    def broken_on_frame_9(context, index, depth, cancel=None):
+        if index == 9:
             raise RuntimeError("a bug\non two lines")
-        return real(context, depth, cancel)
+        return real(context, index, depth, cancel)
 
     monkeypatch.setattr(frames, "_frame_ply", broken_on_frame_9)
     report = run_batch(BatchJob(recording, tmp_path / "out"), IN_PROCESS, frames_per_task=4)

@@ -38,7 +38,8 @@ def test_the_manifest_lists_every_frame_with_its_counts(recording, reference, tm
     manifest = json.loads((out / MANIFEST_FILE).read_text())
     assert manifest["session"] == str(recording) and manifest["method"] == "raw"
     assert (
-        manifest["options"] == {"temporal": 0} and manifest["complete"] and manifest["failed"] == []
+        manifest["options"] == {"temporal": 0, "colour": "scene"}
+        and manifest["complete"] and manifest["failed"] == []
     )
     plane = load_session(recording).mirrors[0].plane
     assert manifest["inputs"]["calibration"]["mirrors"][0]["plane"] == plane.to_list()

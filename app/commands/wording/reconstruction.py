@@ -6,11 +6,35 @@ from pathlib import Path
 
 from mirrorcore.base.palette import source_name
 from mirrorcore.batch import BatchReport
+from mirrorcore.io.session import Session
 
 from .message import Message
 
 
-def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
+def colours_line(choice: str, session: Session) -> str:
+    """What a written cloud's red, green and blue carry, as a details line.
+
+    Parameters
+    ----------
+    choice : str
+        --colour: 'scene' or 'source'.
+    session : Session
+        The session reconstructed.
+
+    Returns
+    -------
+    str
+    """
+    if choice == "source":
+        return "colours: the source colours (--colour source)"
+    if session.colour_frames is None:
+        return "colours: the source colours, the session has no colour frames"
+    unset = [m.name for m in session.mirrors if m.colour_gain is None]
+    return "colours: the scene's, each mirror's colour gain undone" + (
+        f" ({', '.join(unset)}: no colour gain, as seen)" if unset else "")
+
+
+def cloud_written(out: Path, points: int, counts: dict[int, int], colours: str = "") -> Message:
     """One frame's merged cloud (Algorithm 1).
 
     Parameters
@@ -21,6 +45,8 @@ def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
         Points in it.
     counts : dict of int to int
         {source: points}; source 0 is the direct view, > 0 the mirror views.
+    colours : str, optional
+        A details line saying what the points' colours are (colours_line).
 
     Returns
     -------
@@ -30,7 +56,8 @@ def cloud_written(out: Path, points: int, counts: dict[int, int]) -> Message:
     return Message(
         f"wrote {out}: {points} points seen directly and in {mirrors} "
         + ("mirror view." if mirrors == 1 else "mirror views."),
-        ("points per view: " + ", ".join(f"{source_name(k)} {v}" for k, v in counts.items()),),
+        ("points per view: " + ", ".join(f"{source_name(k)} {v}" for k, v in counts.items()),
+         *([colours] if colours else [])),
     )
 
 

@@ -1,4 +1,5 @@
-"""PLY files (io/ply.py): the layout, readers of other tools' files, broken files refused."""
+"""PLY files (io/ply.py): the layout, the scene's colours in red green blue with the labels in
+source, readers of other tools' files, broken files refused."""
 
 import numpy as np
 import open3d as o3d
@@ -6,7 +7,8 @@ import pytest
 import trimesh
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.io.ply import read_ply, write_ply
+from mirrorcore.base.palette import source_colours
+from mirrorcore.io.ply import encode_ply, read_ply, write_ply
 
 
 def test_ply_layout_and_readers(tmp_path):
@@ -28,6 +30,27 @@ def test_ply_layout_and_readers(tmp_path):
     # colour by source
     assert (colours[:10] == colours[0]).all() and not (colours[10] == colours[0]).all()
     assert len(trimesh.load(tmp_path / "c.ply").vertices) == 50
+
+
+def test_the_scenes_colours_go_in_red_green_blue_and_the_labels_stay_in_source(tmp_path):
+    rng = np.random.default_rng(3)
+    pts = rng.normal(size=(40, 3)).astype(np.float32)
+    src = np.repeat([0, 1, 2, 33], 10).astype(np.uint8)
+    rgb = rng.integers(0, 256, (40, 4), dtype=np.uint8)[:, :3]      # a strided view, as Cloud.rgb
+    faces = np.array([[0, 1, 2], [3, 4, 39]])
+    write_ply(tmp_path / "m.ply", pts, src, faces, rgb)
+    mesh = trimesh.load(tmp_path / "m.ply", process=False)
+    np.testing.assert_array_equal(mesh.visual.vertex_colors[:, :3], rgb)
+    np.testing.assert_array_equal(mesh.faces, faces)
+    np.testing.assert_array_equal(read_ply(tmp_path / "m.ply")[1], src)
+    o3d_cloud = o3d.io.read_point_cloud(str(tmp_path / "m.ply"))
+    np.testing.assert_array_equal((np.asarray(o3d_cloud.colors) * 255).round(), rgb)
+    # without colours, the source colours; the same layout and size either way
+    plain = encode_ply(pts, src, faces)
+    assert len(plain) == len((tmp_path / "m.ply").read_bytes())
+    assert plain == encode_ply(pts, src, faces, source_colours(src))
+    with pytest.raises(ValueError, match="40 points but colours of shape"):
+        encode_ply(pts, src, colours=rgb[:5])
 
 
 def test_ascii_ply_from_another_tool(tmp_path):
