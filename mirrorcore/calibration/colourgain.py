@@ -35,6 +35,8 @@ BRIGHT = 250
 TRIM = 0.06
 # The fewest kept pairs that measure a mirror's gain.
 MIN_PAIRS = 50
+# A saved gain's decimals (a pair's level is known to 1 in 250 at best).
+GAIN_DECIMALS = 4
 # Why a mirror has no gain (MirrorGain.reason).
 NO_PLANE = "no plane"
 TOO_FEW_PAIRS = "too few pairs"
@@ -300,7 +302,8 @@ def read_colour_frames(session: Session, picks) -> np.ndarray | None:
 def with_gains(session: Session, measured: ColourGains) -> Session:
     """Return the session with each measured mirror's colour_gain set.
 
-    A mirror not measured keeps the gain it had (a gain is the glass's, not the plane's).
+    A mirror not measured keeps the gain it had (a gain is the glass's, not the plane's). Gains are
+    rounded to GAIN_DECIMALS.
 
     Parameters
     ----------
@@ -314,6 +317,7 @@ def with_gains(session: Session, measured: ColourGains) -> Session:
     """
     for m in measured.mirrors:
         if m.gain is not None:
+            gain = tuple(round(g, GAIN_DECIMALS) for g in m.gain)
             session = session.with_mirror(m.index, replace(session.mirrors[m.index],
-                                                           colour_gain=m.gain))
+                                                           colour_gain=gain))
     return session
