@@ -270,7 +270,7 @@ def mirror_status(
     str
         The glass is mm in front of the silver: typed in, or measured by a refinement with its
         1 sigma; none without markers. Its colour gain, when it has one, in a details fold
-        (colour_line).
+        (refinement.colour_line).
     """
     if mirror is None:
         return ""
@@ -299,28 +299,10 @@ def mirror_status(
     line = " · ".join(
         [plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]
     )
-    gain = [] if mirror.colour_gain is None else [markdown(colour_line(mirror.colour_gain))]
-    return fold(markdown(line), gain)
+    gain = mirror.colour_gain
+    colour = [] if gain is None else [markdown(refinement.colour_line(gain))]
+    return fold(markdown(line), colour)
 
-
-def colour_line(gain: tuple[float, float, float]) -> str:
-    """A mirror's colour gain, for its details fold.
-
-    Parameters
-    ----------
-    gain : (float, float, float)
-        SessionMirror.colour_gain.
-
-    Returns
-    -------
-    str
-        'colour 84 / 88 / 86 % (the red, green and blue it reflects; ...)'.
-    """
-    percent = " / ".join(f"{100 * g:.0f}" for g in gain)
-    return (
-        f"colour {percent} % (the red, green and blue it reflects; its points are corrected by "
-        "it)"
-    )
 
 
 def removal_question(mirror: SessionMirror) -> str:

@@ -266,6 +266,26 @@ def report(result: CalibrationReport) -> list[Message]:
     return lines
 
 
+def colour_line(gain: tuple[float, float, float]) -> str:
+    """A mirror's colour gain, for its details fold.
+
+    Parameters
+    ----------
+    gain : (float, float, float)
+        SessionMirror.colour_gain.
+
+    Returns
+    -------
+    str
+        'colour 84 / 88 / 86 % (the red, green and blue it reflects; ...)'.
+    """
+    percent = " / ".join(f"{100 * g:.0f}" for g in gain)
+    return (
+        f"colour {percent} % (the red, green and blue it reflects; its points are corrected by "
+        "it)"
+    )
+
+
 def gains_line(gains: ColourGains) -> Message:
     """The colour gains a calibration from the object measured on frames with colour.
 

@@ -80,6 +80,9 @@ def test_markers_on_glass_are_off_and_the_refinement_brings_them_back(rigs, caps
             "noise allows."
             for k in (1, 2)
         ),
+        # the session has colour frames
+        *(f"mirror {k}: colour gain measured; its points show the scene's own colour."
+          for k in (1, 2)),
         f"wrote {session / 'session.json'}",
     ]
     # the markers were too near

@@ -123,8 +123,9 @@ def test_too_few_pairs_or_no_plane_leave_a_mirror_unmeasured(rig_frames):
 
 def test_with_gains_sets_the_measured_and_keeps_the_others(rig_frames):
     _, scene, rig, _, depths, masks, colours = rig_frames
-    session = Session(Path("."), rig.intrinsics, (SessionMirror("mirror 1", colour_gain=(0.5, 0.5, 0.5)),
-                                       SessionMirror("mirror 2")))
+    session = Session(Path("."), rig.intrinsics,
+                      (SessionMirror("mirror 1", colour_gain=(0.5, 0.5, 0.5)),
+                       SessionMirror("mirror 2")))
     unset = replace(rig, mirrors=(Mirror("mirror 1", None, rig.mirrors[0].boundary),
                                   rig.mirrors[1]))
     out = with_gains(session, estimate_gains(unset, depths[:1], masks[:1], colours[:1]))
