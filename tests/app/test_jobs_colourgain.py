@@ -11,6 +11,7 @@ from mirrorscan.server import MirrorscanApp
 from mirrorscan.wording import joined
 from mirrorscan.wording.jobs import say
 
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
@@ -70,3 +71,23 @@ def test_refine_from_the_object_sets_the_colour_gains_with_the_planes(tmp_path, 
             assert app.editor.session.mirrors == mirrors
     finally:
         app.stop()
+
+
+def test_gains_alone_are_one_undo_step_and_a_gain_the_session_refuses_changes_nothing(demo):
+    app, _ = demo
+    editor = app.editor
+    first, second = editor.session.mirrors
+    gains = {first.id: (0.8, 0.9, 0.85), second.id: (0.85, 0.8, 0.9)}
+    plane_only = {first.id: (first.plane, first)}
+    assert editor.set_planes(plane_only, gains=gains)
+    assert [m.colour_gain for m in editor.session.mirrors] == list(gains.values())
+    assert [m.plane for m in editor.session.mirrors] == [first.plane, second.plane]
+    # the same again: no step
+    assert not editor.set_planes(plane_only, gains=gains)
+    assert editor.undo(first.id) == "colour gains of mirror 1 and mirror 2"
+    assert [m.colour_gain for m in editor.session.mirrors] == [None, None]
+    # beyond what a session holds (more than all of the light, twice): refused, nothing set
+    with pytest.raises(MirrorscanError, match="colour_gain"):
+        editor.set_planes(plane_only, gains={first.id: (0.8, 0.9, 0.85),
+                                              second.id: (2.5, 0.8, 0.9)})
+    assert [m.colour_gain for m in editor.session.mirrors] == [None, None]

@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 
+from mirrorcore.calibration.colourgain import MIN_PAIRS, TOO_FEW_PAIRS, MirrorGain
 from mirrorcore.io.sessionfile import load_session
 from mirrorscan.cli import main
+from mirrorscan.commands import wording
 from tests.cli.output import details, headlines
 
 
@@ -71,3 +73,18 @@ def test_every_method_measures_the_gains_and_a_session_without_colour_gets_none(
     run_ok("calibrate", session, "--refine", "--quiet")
     assert "nothing changed" in capsys.readouterr().out
     assert (session / "session.json").read_text() == before
+
+
+def test_a_mirror_not_measured_says_why_and_what_it_rests_on(capsys):
+    missed = MirrorGain(1, "right", None, 12, 3, 4, (0.01, 0.01, 0.02), TOO_FEW_PAIRS)
+    wording.show(wording.colour_gain(missed, 10), True)
+    out = capsys.readouterr().out
+    assert headlines(out) == [
+        "right: colour gain not measured: too little of the object is seen both in it and in "
+        "another view; its colours stay as they are."
+    ]
+    assert details(out) == [
+        "from 12 pairs of its points with the other views' over 10 frames (3 with the camera's; "
+        "4 left out across the texture's edges)",
+        f"at least {MIN_PAIRS} pairs needed",
+    ]
