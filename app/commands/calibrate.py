@@ -29,6 +29,7 @@ from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 
 from . import percent_bar, wording
+from .wording.calibration import colour_gain
 from .numbers import seed
 
 
@@ -194,7 +195,7 @@ def _run(args: argparse.Namespace) -> int:
                 wording.show(wording.markers_unused(marked), args.verbose)
     for measured in gains.mirrors if gains is not None else ():
         if session.mirrors[measured.index].plane is not None:
-            wording.show(wording.colour_gain(measured, gains.frames), args.verbose)
+            wording.show(colour_gain(measured, gains.frames), args.verbose)
     if not changed:
         wording.show(wording.unchanged(session.path), args.verbose)
         return 0

@@ -11,6 +11,7 @@ from mirrorcore.calibration.colourgain import MIN_PAIRS, TOO_FEW_PAIRS, MirrorGa
 from mirrorcore.io.sessionfile import load_session
 from mirrorscan.cli import main
 from mirrorscan.commands import wording
+from mirrorscan.commands.wording.calibration import colour_gain
 from tests.cli.output import details, headlines
 
 
@@ -77,7 +78,7 @@ def test_every_method_measures_the_gains_and_a_session_without_colour_gets_none(
 
 def test_a_mirror_not_measured_says_why_and_what_it_rests_on(capsys):
     missed = MirrorGain(1, "right", None, 12, 3, 4, (0.01, 0.01, 0.02), TOO_FEW_PAIRS)
-    wording.show(wording.colour_gain(missed, 10), True)
+    wording.show(colour_gain(missed, 10), True)
     out = capsys.readouterr().out
     assert headlines(out) == [
         "right: colour gain not measured: too little of the object is seen both in it and in "

@@ -10,7 +10,7 @@ accuracy); all are named here.
 from __future__ import annotations
 
 from .accuracy import plane_error, shape_fitted, surface_error
-from .calibration import colour_gain, fitted, markers_unused, refined, unchanged
+from .calibration import fitted, markers_unused, refined, unchanged
 from .message import HEADLINE_WORDS, INDENT, Message, plane_figures, show
 from .reconstruction import (
     batch_done,
@@ -28,7 +28,6 @@ __all__ = [
     "batch_done",
     "carved_written",
     "cloud_written",
-    "colour_gain",
     "fitted",
     "frame_list",
     "markers_unused",
