@@ -256,12 +256,14 @@ class SessionEditor(EditorCore):
     @edits
     def set_planes(self, planes: dict[int, tuple[Plane | None, SessionMirror]],
                    glass: dict[int, tuple[float, float | None]] | None = None,
-                   what: str = "plane") -> bool:
-        """Set the planes of several mirrors, and their glass, all or nothing.
+                   what: str = "plane",
+                   gains: dict[int, tuple[float, float, float]] | None = None) -> bool:
+        """Set the planes of several mirrors, their glass and colour gains, all or nothing.
 
         Each mirror's change is an undo step in its own scope; the steps of several mirrors are
-        undone together ('{what}s of NAME and NAME'). A mirror whose plane and glass stay as they
-        are is left out: a fit of the same frames again is no undo step.
+        undone together ('{what}s of NAME and NAME', 'colour gains of ...' when only gains
+        change). A mirror whose plane, glass and gain stay as they are is left out: a fit of the
+        same frames again is no undo step.
 
         Parameters
         ----------
@@ -271,6 +273,9 @@ class SessionEditor(EditorCore):
             By mirror id: (marker_offset, marker_offset_std), metres, when measured (a refinement).
         what : str
             What the change is ('plane', 'refined plane', 'found plane'): names the undo step.
+        gains : dict of int to (float, float, float), optional
+            By mirror id: the colour gain measured with the planes (a refinement on frames with
+            colour); the others keep theirs.
 
         Returns
         -------
@@ -282,18 +287,22 @@ class SessionEditor(EditorCore):
         MirrorscanError
             When a mirror is gone or changed since (`guards.planes_to_set`).
         """
-        mirrors = {i: self.mirror(i) for i in planes}
+        mirrors = {i: self.mirror(i) for i in {*planes, *(gains or {})}}
         changes = planes_to_set(mirrors, planes, glass or {}, what)
-        if not changes:
+        gains = {i: g for i, g in (gains or {}).items() if g != mirrors[i].colour_gain}
+        if not changes and not gains:
             return False
+        what = what if changes else "colour gain"
+        for i in gains.keys() - changes.keys():
+            changes[i] = (mirrors[i].plane, mirrors[i].marker_offset, mirrors[i].marker_offset_std)
         # all or none: a refusal after the first mirror's step would leave only some
         check_drawn(self._session, changes)
         final = self._session
         for mirror_id, (plane, offset, std) in changes.items():
             index = self._index(mirror_id)
-            final = final.with_mirror(index, replace(final.mirrors[index], plane=plane,
-                                                     marker_offset=offset,
-                                                     marker_offset_std=std))
+            final = final.with_mirror(index, replace(
+                final.mirrors[index], plane=plane, marker_offset=offset, marker_offset_std=std,
+                colour_gain=gains.get(mirror_id, final.mirrors[index].colour_gain)))
         check_session(final, self._session)
         names = [mirrors[mirror_id].name for mirror_id in changes]
         label = f"{what}{'s' if len(names) > 1 else ''} of {listed(names)}"
@@ -301,7 +310,8 @@ class SessionEditor(EditorCore):
         # Saved once, with all of them: a file with only some would become the backup.
         for k, (mirror_id, (plane, offset, std)) in enumerate(changes.items()):
             self._set_mirror(mirror_id, label, group, what, save=k == len(changes) - 1, plane=plane,
-                             marker_offset=offset, marker_offset_std=std)
+                             marker_offset=offset, marker_offset_std=std,
+                             colour_gain=gains.get(mirror_id, mirrors[mirror_id].colour_gain))
         return True
 
     @edits

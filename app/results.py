@@ -11,6 +11,7 @@ import numpy as np
 
 from mirrorcore.calibration.fit import Calibration
 from mirrorcore.calibration.markers import FitReview
+from mirrorcore.calibration.colourgain import ColourGains
 from mirrorcore.calibration.refine import MirrorRefinement
 from mirrorcore.calibration.residuals import ViewAgreement
 from mirrorcore.io.session import SessionMirror
@@ -179,6 +180,8 @@ class CalibrationReport:
         The frames it read.
     not_found : tuple of NotFound
         The mirrors a search could not find.
+    gains : ColourGains or None
+        The mirrors' colour gains measured with the planes (frames with colour), else None.
     """
 
     mirrors: tuple[MirrorRefinement, ...]
@@ -187,6 +190,7 @@ class CalibrationReport:
     changed: bool
     used: FramesUsed
     not_found: tuple[NotFound, ...] = ()
+    gains: ColourGains | None = None
 
 
 @dataclass(frozen=True)

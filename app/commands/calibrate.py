@@ -1,7 +1,8 @@
 """`mirrorscan calibrate SESSION`: fit every mirror's plane and write it into session.json.
 
 Options: --frame I, --method markers|region|scene, --refine (from the agreement of the views),
---refine-with auto|sphere|surfaces.
+--refine-with auto|sphere|surfaces. A session with colour frames also gets each mirror's colour
+gain, measured on the object frames with the planes just fitted.
 """
 
 from __future__ import annotations
@@ -12,6 +13,12 @@ import numpy as np
 
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.base.words import listed, sentences
+from mirrorcore.calibration.colourgain import (
+    ColourGains,
+    estimate_gains,
+    read_colour_frames,
+    with_gains,
+)
 from mirrorcore.calibration.fit import MAX_MARKER_FRAMES, calibrate_session, calibration_depth
 from mirrorcore.calibration.refine import REFINE_FRAMES, REFINE_WITH, Refinement, refine_session
 from mirrorcore.calibration.scene import calibrate_scene
@@ -22,6 +29,7 @@ from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 
 from . import percent_bar, wording
+from .wording.calibration import colour_gain
 from .numbers import seed
 
 
@@ -99,11 +107,38 @@ def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.n
         raise CalibrationError(
             f"{session.path}: the session has no frames with the object to calibrate from"
         )
-    picks = [frame] if frame is not None else session.spread_frames(REFINE_FRAMES)
+    picks = _picks(session, frame)
     rig, background = Rig.from_session(session), session.read_background()
     depths = session.read_frames(picks)
     masks = np.stack([prepare_frame(rig, d, background, session.selection)[1] for d in depths])
     return depths, masks
+
+
+def _picks(session: Session, frame: int | None) -> np.ndarray:
+    """The frames the object-based steps use: `frame`, or up to REFINE_FRAMES evenly spaced."""
+    return np.array([frame]) if frame is not None else session.spread_frames(REFINE_FRAMES)
+
+
+def colour_gains(session: Session, frame: int | None) -> tuple[Session, ColourGains | None]:
+    """Measure the mirrors' colour gains on the object frames, with the session's planes.
+
+    Parameters
+    ----------
+    session : Session
+    frame : int or None
+        As for object_frames.
+
+    Returns
+    -------
+    (Session, ColourGains or None)
+        The session with each measured mirror's colour_gain (colourgain.with_gains) and what was
+        measured; the session as it is and None without colour frames.
+    """
+    if not session.colour_frames:
+        return session, None
+    colours = read_colour_frames(session, _picks(session, frame))
+    measured = estimate_gains(Rig.from_session(session), *object_frames(session, frame), colours)
+    return with_gains(session, measured), measured
 
 
 def run(args: argparse.Namespace) -> int:
@@ -145,8 +180,10 @@ def _run(args: argparse.Namespace) -> int:
     refining = args.refine or method == "scene"
     with percent_bar("refining", disable=args.quiet or not refining) as progress:
         session, result = _calibrate(session, method, args, rng, progress)
+    fitted = session
+    session, gains = colour_gains(session, args.frame)
     # --refine alone may change nothing
-    changed = method is not None or result.changed(loaded, session)
+    changed = method is not None or result.changed(loaded, fitted) or session != fitted
     if result is not None:
         for report in result.mirrors:
             wording.show(wording.refined(report, method == "scene", saved=changed), args.verbose)
@@ -156,6 +193,9 @@ def _run(args: argparse.Namespace) -> int:
             ]
             if marked:
                 wording.show(wording.markers_unused(marked), args.verbose)
+    for measured in gains.mirrors if gains is not None else ():
+        if session.mirrors[measured.index].plane is not None:
+            wording.show(colour_gain(measured, gains.frames), args.verbose)
     if not changed:
         wording.show(wording.unchanged(session.path), args.verbose)
         return 0

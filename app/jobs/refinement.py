@@ -11,11 +11,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mirrorcore.base.errors import CalibrationError, MirrorscanError
+from mirrorcore.calibration.colourgain import (
+    ColourGains,
+    estimate_gains,
+    read_colour_frames,
+    with_gains,
+)
 from mirrorcore.calibration.fit import calibration_depth, static_frames
 from mirrorcore.calibration.refine import REFINE_FRAMES, refine_session
 from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.session import Session
+from mirrorcore.rig.model import Rig
 from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.sources import SessionSource
 
@@ -124,7 +131,8 @@ class RefinementJob(Runner):
         """Refine the planes of the session's calibrated mirrors from the agreement of the views.
 
         refine_session over object_frames, then the planes and marker offsets are applied (one undo
-        step per mirror); the job's result is a CalibrationReport.
+        step per mirror), with the mirrors' colour gains measured on the same frames when they
+        have colour (object_colours); the job's result is a CalibrationReport.
 
         Parameters
         ----------
@@ -234,6 +242,37 @@ class RefinementJob(Runner):
             raise MirrorscanError("no frame yet to calibrate from")
         return depths, FramesUsed(tuple(range(len(depths))))
 
+    def object_colours(self, used: FramesUsed) -> np.ndarray | None:
+        """The colour of the frames object_frames gave, or None without colour.
+
+        The recording that plays has it when it has colour frames.
+
+        Parameters
+        ----------
+        used : FramesUsed
+            As object_frames gave it.
+
+        Returns
+        -------
+        np.ndarray, shape (k, H, W, 3), uint8, or None
+        """
+        source = self.loop.source
+        if used.count is not None and isinstance(source, SessionSource):
+            return read_colour_frames(source.session, used.picks)
+        return None
+
+    def _gains(self, session: Session, depths: np.ndarray, masks: np.ndarray,
+               used: FramesUsed, cancel) -> tuple[dict[int, tuple], ColourGains | None]:
+        """The colour gains measured with a calibration's planes: ({mirror id: gain} of the
+        mirrors measured, the result), or ({}, None) without colour."""
+        colours = self.object_colours(used)
+        if colours is None:
+            return {}, None
+        measured = estimate_gains(Rig.from_session(session), depths, masks, colours, cancel)
+        coloured = with_gains(session, measured).mirrors
+        return {coloured[m.index].id: coloured[m.index].colour_gain
+                for m in measured.mirrors if m.gain is not None}, measured
+
     def _refuse(self, session: Session, ids: list[int], kind: str) -> None:
         """Mark the mirrors `ids` refused by `kind` ('refine' or 'scene') as they now are.
 
@@ -309,10 +348,12 @@ class RefinementJob(Runner):
             )
             for r in result.mirrors
         }
+        gains, measured = self._gains(refined, depths, masks, used, cancel)
         changed = bool(
-            (search is not None or result.changed(session, refined))
+            (search is not None or result.changed(session, refined) or gains)
             and editor.set_planes(
-                planes, glass, what="refined plane" if search is None else "found plane"
+                planes, glass, what="refined plane" if search is None else "found plane",
+                gains=gains,
             )
         )
         self._object_planes.update((i, editor.mirror(i).plane) for i in planes)
@@ -323,7 +364,8 @@ class RefinementJob(Runner):
             for i, why in result.refused
         )
         report = CalibrationReport(
-            tuple(result.mirrors), search is not None, result.compared, changed, used, not_found
+            tuple(result.mirrors), search is not None, result.compared, changed, used, not_found,
+            measured,
         )
         if changed:
             self.refinements[planes_key(editor.session)] = report

@@ -10,7 +10,7 @@ from mirrorcore.base.words import listed
 from mirrorcore.calibration.markers import GRADES, MAX_SHIFT_MM, MAX_TILT_DEG
 from mirrorcore.io.session import SessionMirror
 
-from ..markup import markdown
+from ..markup import fold, markdown
 from ..results import Fit, FitsApplied
 from . import Message, joined, refinement
 
@@ -269,7 +269,8 @@ def mirror_status(
     -------
     str
         The glass is mm in front of the silver: typed in, or measured by a refinement with its
-        1 sigma; none without markers.
+        1 sigma; none without markers. Its colour gain, when it has one, in a details fold
+        (refinement.colour_line).
     """
     if mirror is None:
         return ""
@@ -295,11 +296,13 @@ def mirror_status(
             else ", not in the plane yet: **Fit plane** moves it behind the glass"
         )
     count = len(mirror.markers)
-    return markdown(
-        " · ".join(
-            [plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]
-        )
+    line = " · ".join(
+        [plane, *([glass] if count else []), f"{count} marker{'s' if count != 1 else ''}"]
     )
+    gain = mirror.colour_gain
+    colour = [] if gain is None else [markdown(refinement.colour_line(gain))]
+    return fold(markdown(line), colour)
+
 
 
 def removal_question(mirror: SessionMirror) -> str:

@@ -4,6 +4,7 @@ from its typed results."""
 from __future__ import annotations
 
 from mirrorcore.base.words import listed
+from mirrorcore.calibration.colourgain import MIN_PAIRS, NO_PLANE, ColourGains
 from mirrorcore.calibration.results import (
     METHOD_BIAS, NOISE_EXPLAINS,
 )
@@ -260,7 +261,62 @@ def report(result: CalibrationReport) -> list[Message]:
     lines = [headline(result)]
     lines += [mirror_line(r, result.search, result.changed) for r in result.mirrors]
     lines += [not_found_line(m) for m in result.not_found]
+    if result.gains is not None:
+        lines.append(gains_line(result.gains))
     return lines
+
+
+def colour_line(gain: tuple[float, float, float]) -> str:
+    """A mirror's colour gain, for its details fold.
+
+    Parameters
+    ----------
+    gain : (float, float, float)
+        SessionMirror.colour_gain.
+
+    Returns
+    -------
+    str
+        'colour 84 / 88 / 86 % (the red, green and blue it reflects; ...)'.
+    """
+    percent = " / ".join(f"{100 * g:.0f}" for g in gain)
+    return (
+        f"colour {percent} % (the red, green and blue it reflects; its points are corrected by "
+        "it)"
+    )
+
+
+def gains_line(gains: ColourGains) -> Message:
+    """The colour gains a calibration from the object measured on frames with colour.
+
+    Parameters
+    ----------
+    gains : ColourGains
+
+    Returns
+    -------
+    Message
+        Which mirrors have their gain; per mirror its percentages, the pairs it rests on and
+        their spread, or why not measured, in the details.
+    """
+    done = [m.name for m in gains.mirrors if m.gain is not None]
+    missed = [m.name for m in gains.mirrors if m.gain is None and m.reason != NO_PLANE]
+    heads = []
+    if done:
+        heads.append(f"Colour gain measured for {listed(done)}: their points show the scene's "
+                     "own colour.")
+    if missed:
+        heads.append(f"Colour gain not measured for {listed(missed)}: see the details.")
+    details = []
+    for m in gains.mirrors:
+        if m.gain is not None:
+            details.append(
+                f"{m.name}: colour {' / '.join(f'{100 * g:.1f}' for g in m.gain)} % from "
+                f"{m.pairs} pairs ({m.with_camera} with the camera's), one pair's spread "
+                f"{' / '.join(f'{100 * v:.1f}' for v in m.spread)} %")
+        elif m.reason != NO_PLANE:
+            details.append(f"{m.name}: {m.pairs} pairs, {MIN_PAIRS} needed ({m.reason})")
+    return Message(" ".join(heads) or "No colour gain measured.", tuple(details))
 
 
 def note(result: CalibrationReport) -> Message:

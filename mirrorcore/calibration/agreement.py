@@ -73,6 +73,8 @@ class Comparison:
     ----------
     index : (m,) int64 array
         Into the points.
+    reading : (m,) int64 array
+        Into the other view's readings: the one each point is compared with.
     residual : (m,) float64 array
         Metres, each point's signed distance to the other view's surface (> 0 outside it).
     sigma : (m,) float64 array
@@ -83,6 +85,7 @@ class Comparison:
     """
 
     index: np.ndarray
+    reading: np.ndarray
     residual: np.ndarray
     sigma: np.ndarray
     direction: np.ndarray
@@ -167,7 +170,7 @@ class TargetView:
         residual = np.einsum("ij,ij->i", normal, mapped.points[index] - surface)
         residual -= 0.5 * mapped.anchor_var[index] * self._curvature(
             reading, uv, surface, normal, velocity)
-        return Comparison(index, residual, sigma[agree], normal)
+        return Comparison(index, reading, residual, sigma[agree], normal)
 
     def _velocity(self, mapped: ViewPoints, index: np.ndarray) -> np.ndarray:
         """(m, 2) pixels per metre: how fast the anchors of points `index` (m,) of `mapped` move

@@ -1,4 +1,5 @@
-"""What `mirrorscan calibrate` prints: planes fitted, found or refined, and their glass."""
+"""What `mirrorscan calibrate` prints: planes fitted, found or refined, their glass, and the
+mirrors' colour gains."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from mirrorcore.base.words import listed
+from mirrorcore.calibration.colourgain import MIN_PAIRS, OUT_OF_RANGE, TOO_FEW_PAIRS, MirrorGain
 from mirrorcore.calibration.fit import Calibration
 from mirrorcore.calibration.markers import GRADES
 from mirrorcore.calibration.results import METHOD_BIAS, NOISE_EXPLAINS, SAME_GLASS_MM, SAME_PLANE
@@ -183,4 +185,45 @@ def markers_unused(names: list[str]) -> Message:
     return Message(
         f"{listed(names)}: {planes} found from the object alone; the markers only read the glass.",
         ("--method markers fits the planes to the markers",),
+    )
+
+
+def colour_gain(measured: MirrorGain, frames: int) -> Message:
+    """A mirror's colour gain measured by calibrate (or why not).
+
+    Parameters
+    ----------
+    measured : MirrorGain
+        The mirror's result.
+    frames : int
+        The frames it was measured on.
+
+    Returns
+    -------
+    Message
+        What the mirror reflects of each channel, then the pairs it rests on and their spread.
+    """
+    pairs = (
+        f"from {measured.pairs} pairs of its points with the other views' over {frames} "
+        f"frame{'s' if frames != 1 else ''} ({measured.with_camera} with the camera's; "
+        f"{measured.trimmed} left out across the texture's edges)"
+    )
+    if measured.gain is None:
+        why = {
+            TOO_FEW_PAIRS: "too little of the object is seen both in it and in another view",
+            OUT_OF_RANGE: "the pairs make it reflect more than all of the light",
+        }.get(measured.reason, measured.reason)
+        return Message(
+            f"{measured.name}: colour gain not measured: {why}; its colours stay as they are.",
+            (pairs, f"at least {MIN_PAIRS} pairs needed"),
+        )
+    spread = " / ".join(f"{100 * s:.1f}" for s in measured.spread)
+    return Message(
+        f"{measured.name}: colour gain measured; its points show the scene's own colour.",
+        (
+            "reflects " + " / ".join(f"{100 * g:.1f}" for g in measured.gain)
+            + " % of red / green / blue",
+            pairs,
+            f"one pair's spread: {spread} %",
+        ),
     )
