@@ -132,6 +132,30 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     FileFormatError
         Naming the file: missing, not a PLY, or broken.
     """
+    return read_ply_colours(path)[:2]
+
+
+def read_ply_colours(path: str | Path) -> tuple[np.ndarray, np.ndarray | None,
+                                                np.ndarray | None]:
+    """Read the vertices of any PLY with their colours (see `read_ply`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    points : (n, 3) float32 array
+    sources : (n,) uint8 array or None
+    colours : (n, 3) uint8 array or None
+        `red green blue`; None when the file has no such properties.
+
+    Raises
+    ------
+    FileFormatError
+        Naming the file: missing, not a PLY, or broken.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
@@ -153,7 +177,9 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
                       axis=-1).astype(np.float32).reshape(-1, 3)
     sources = np.asarray(vertex["source"],
                          dtype=np.uint8).reshape(-1) if "source" in names else None
-    return points, sources
+    colours = (np.stack([np.asarray(vertex[c]).reshape(-1) for c in ("red", "green", "blue")],
+                        axis=-1).astype(np.uint8) if {"red", "green", "blue"} <= names else None)
+    return points, sources, colours
 
 
 def ply_element_counts(path: str | Path) -> dict[str, int]:

@@ -46,8 +46,8 @@ class BagSource(DepthSource):
     Memory does not grow with its length. Depth frames as z16 units (Frame.units) times the recorded
     depth units, device timestamps in seconds. A bag with a colour stream (rgb8, bgr8, rgba8 or
     bgra8) delivers it as Frame.colour, RGB mapped onto the depth image by
-    `rs.align(rs.stream.depth)` (as RealSenseSource with `colour`): each depth frame takes the colour
-    frame nearest it in time. Opening plays the bag once to count its frames
+    `rs.align(rs.stream.depth)` (as RealSenseSource with `colour`): each depth frame takes the
+    colour frame nearest it in time. Opening plays the bag once to count its frames
     (keeping only their timestamps). read(i) for the next frame takes it from the playback; any
     other i restarts the playback from the start and skips to it (seeking costs a replay). The depth
     sensor is read through a callback with real-time playback off, so the playback waits for each
@@ -154,7 +154,8 @@ class _Playback:
             if self.sensor is None:
                 raise FileFormatError(f"{path}: the recording has no depth stream")
             self.profile = _depth_profile(rs, self.sensor)
-            self.camera = stream_camera(self.profile, self.sensor.as_depth_sensor().get_depth_scale())
+            self.camera = stream_camera(self.profile,
+                                        self.sensor.as_depth_sensor().get_depth_scale())
             self.fps = float(self.profile.fps())
             self._to_rgb = _colour_formats(rs)
             self.colour_sensor, self.colour_profile = next(
