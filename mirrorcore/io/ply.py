@@ -137,24 +137,14 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
 
 def read_ply_colours(path: str | Path) -> tuple[np.ndarray, np.ndarray | None,
                                                 np.ndarray | None]:
-    """Read the vertices of any PLY with their colours (see `read_ply`).
-
-    Parameters
-    ----------
-    path : str or Path
-        The file.
+    """Read the vertices of any PLY with their colours.
 
     Returns
     -------
-    points : (n, 3) float32 array
-    sources : (n,) uint8 array or None
+    points, sources
+        As `read_ply` returns them (which also says what it raises).
     colours : (n, 3) uint8 array or None
         `red green blue`; None when the file has no such properties.
-
-    Raises
-    ------
-    FileFormatError
-        Naming the file: missing, not a PLY, or broken.
     """
     path = Path(path)
     if not path.is_file():

@@ -5,7 +5,6 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +51,8 @@ class BagSource(DepthSource):
     other i restarts the playback from the start and skips to it (seeking costs a replay). The depth
     sensor is read through a callback with real-time playback off, so the playback waits for each
     frame (a pipeline drops frames on a busy machine); the callback hands frames over through a
-    queue of BAG_QUEUE.
+    queue of BAG_QUEUE. The colour stream plays in a second playback of the same file (one sensor
+    each: a playback whose second sensor starts late drops that sensor's first frames).
 
     Parameters
     ----------
@@ -72,7 +72,7 @@ class BagSource(DepthSource):
             raise FileFormatError(f"{self.path}: no such .bag recording")
         self.name = f"bag {self.path.name}"
         self._rs = require("pyrealsense2", f"bag:{self.path}", REALSENSE_INSTALL)
-        self._player: _Playback | None = None
+        self._player: _Playback | _AlignedPass | None = None
         self._next = 0
         with _Playback(self._rs, self.path, keep_data=False) as index:
             self.intrinsics, self.fps = index.camera, index.fps
@@ -104,7 +104,9 @@ class BagSource(DepthSource):
         i = self._wrap(i)
         if self._player is None or i < self._next:
             self.close()
-            self._player, self._next = _Playback(self._rs, self.path).start(), 0
+            self._player = (_AlignedPass(self._rs, self.path) if self._colour
+                            else _Playback(self._rs, self.path).start())
+            self._next = 0
         while True:
             item = self._player.next()
             if item is None:
@@ -132,42 +134,39 @@ BAG_QUEUE = 2           # frames decoded ahead of the reader
 
 
 class _Playback:
-    """One pass over a bag's frames: start(), then next() -> (units (H, W) uint16 or None, seconds,
-    colour (H, W, 3) uint8 RGB aligned to depth or None) until None at the end; close() (or the
-    with block) stops it, even while a callback waits for room in the queue.
+    """One pass over one stream of a bag, the depth's or (with `colour`) the colour's: start(),
+    then next() until None at the end; close() (or the with block) stops it, even while the
+    callback waits for room in the queue.
 
-    Without keep_data (counting frames) or without a colour stream, only the depth sensor plays.
-    With both, each sensor's callback queues its frames in the order the playback hands them
-    out; a depth frame is paired with the colour frame nearest it in time once a colour frame at or
-    after it has come (or the playback has ended), then both go through `rs.align(rs.stream.depth)`.
+    next() gives (units (H, W) uint16 or None without keep_data, seconds, None), or with `frames`
+    (pyrealsense2 frame, seconds) to align.
     """
 
-    def __init__(self, rs, path: Path, keep_data: bool = True):
-        self.rs, self.path, self.keep_data = rs, path, keep_data
+    def __init__(self, rs, path: Path, keep_data: bool = True, colour: bool = False,
+                 frames: bool = False):
+        self.rs, self.path, self.keep_data, self.frames = rs, path, keep_data, frames
         self._queue: queue.Queue = queue.Queue(maxsize=BAG_QUEUE)
         self._stopping = threading.Event()
         self._started, self._delivered = False, 0
         try:
             self.playback = rs.context().load_device(str(path)).as_playback()
             sensors = self.playback.query_sensors()
-            self.sensor = next((s for s in sensors if _depth_profile(rs, s) is not None), None)
-            if self.sensor is None:
+            self.depth_sensor = next((s for s in sensors if _depth_profile(rs, s) is not None),
+                                     None)
+            if self.depth_sensor is None:
                 raise FileFormatError(f"{path}: the recording has no depth stream")
-            self.profile = _depth_profile(rs, self.sensor)
-            self.camera = stream_camera(self.profile,
-                                        self.sensor.as_depth_sensor().get_depth_scale())
-            self.fps = float(self.profile.fps())
-            self._to_rgb = _colour_formats(rs)
+            self.depth_profile = _depth_profile(rs, self.depth_sensor)
+            self.camera = stream_camera(self.depth_profile,
+                                        self.depth_sensor.as_depth_sensor().get_depth_scale())
+            self.fps = float(self.depth_profile.fps())
             self.colour_sensor, self.colour_profile = next(
-                ((s, c) for s in sensors if s != self.sensor
-                 and (c := _colour_profile(rs, s, self._to_rgb)) is not None), (None, None))
+                ((s, c) for s in sensors if s != self.depth_sensor
+                 and (c := _colour_profile(rs, s)) is not None), (None, None))
+            self.sensor, self.profile = ((self.colour_sensor, self.colour_profile) if colour
+                                         else (self.depth_sensor, self.depth_profile))
             self.playback.set_real_time(False)
         except RuntimeError as exc:
             raise FileFormatError(f"{path}: not a readable RealSense recording ({exc})") from None
-        self._aligning = keep_data and self.colour_sensor is not None
-        self._depths: deque = deque()
-        self._colours: list = []
-        self._ended = False
 
     def __enter__(self) -> "_Playback":
         return self.start()
@@ -178,21 +177,8 @@ class _Playback:
     def start(self) -> "_Playback":
         """Start the playback; returns self."""
         try:
-            if self._aligning:
-                # both sensors started before the first frame is played
-                self.playback.pause()
-                self._pair: list = []
-                self._compose = self.rs.processing_block(
-                    lambda frame, out: out.frame_ready(out.allocate_composite_frame(self._pair)))
-                self._composed = self.rs.frame_queue(1)
-                self._compose.start(self._composed)
-                self._align = self.rs.align(self.rs.stream.depth)
-                self.colour_sensor.open(self.colour_profile)
-                self.colour_sensor.start(lambda frame: self._put((False, frame)))
             self.sensor.open(self.profile)
             self.sensor.start(self._take)
-            if self._aligning:
-                self.playback.resume()
         except RuntimeError as exc:
             raise FileFormatError(
                 f"{self.path}: not a readable RealSense recording ({exc})") from None
@@ -200,15 +186,13 @@ class _Playback:
         return self
 
     def _take(self, frame) -> None:
-        """The depth sensor's callback (librealsense's thread)."""
-        if self._aligning:
-            self._put((True, frame))
+        """The sensor's callback (librealsense's thread): wait for room, so that the playback waits
+        too."""
+        stamp = frame.get_timestamp() * 1e-3
+        if self.frames:
+            item = (frame, stamp)
         else:
-            self._put((np.asanyarray(frame.get_data()).copy() if self.keep_data else None,
-                       frame.get_timestamp() * 1e-3, None))
-
-    def _put(self, item) -> None:
-        """Queue an item; wait for room, so that the playback waits too."""
+            item = (np.asanyarray(frame.get_data()).copy() if self.keep_data else None, stamp, None)
         while not self._stopping.is_set():
             try:
                 self._queue.put(item, timeout=0.05)
@@ -217,53 +201,15 @@ class _Playback:
                 continue
 
     def next(self) -> tuple | None:
-        """Return the next depth frame, or None once the playback has stopped after delivering its
-        frames.
+        """Return the next frame, or None once the playback has stopped after delivering its frames.
+
+        It reads 'stopped' before it starts too (BAG_START_S).
 
         Raises
         ------
         FileFormatError
             The playback has not ended within BAG_TIMEOUT_S.
         """
-        if not self._aligning:
-            return self._next_item()
-        while True:
-            if self._depths:
-                depth, t = self._depths[0], self._depths[0].get_timestamp()
-                if self._ended or any(c.get_timestamp() >= t for c in self._colours):
-                    self._depths.popleft()
-                    if self._colours:
-                        gaps = [abs(c.get_timestamp() - t) for c in self._colours]
-                        del self._colours[:int(np.argmin(gaps))]
-                    return self._aligned(depth, self._colours[0] if self._colours else None)
-            elif self._ended:
-                return None
-            item = self._next_item()
-            if item is None:
-                self._ended = True
-                continue
-            is_depth, frame = item
-            if is_depth:
-                self._depths.append(frame)
-            else:
-                # the older ones can no longer be the nearest to a later depth frame
-                self._colours = self._colours[-BAG_QUEUE:] + [frame]
-
-    def _aligned(self, depth, colour) -> tuple:
-        """A depth frame and its colour frame (or None) -> (units, seconds, RGB aligned or None)."""
-        stamp = depth.get_timestamp() * 1e-3
-        if colour is None:
-            return np.asanyarray(depth.get_data()).copy(), stamp, None
-        self._pair = [depth, colour]
-        self._compose.invoke(depth)
-        frames = self._align.process(self._composed.wait_for_frame().as_frameset())
-        to_rgb = self._to_rgb[frames.get_color_frame().get_profile().format()]
-        return (np.asanyarray(frames.get_depth_frame().get_data()).copy(), stamp,
-                np.ascontiguousarray(to_rgb(np.asanyarray(frames.get_color_frame().get_data()))))
-
-    def _next_item(self) -> tuple | None:
-        """The next item of the queue, or None once the playback has stopped after delivering its
-        frames. It reads 'stopped' before it starts too (BAG_START_S)."""
         while True:
             try:
                 item = self._queue.get(timeout=0.02)
@@ -280,19 +226,77 @@ class _Playback:
                     f"{self.path}: the playback did not end within {BAG_TIMEOUT_S:g} s")
 
     def close(self) -> None:
-        """Stop the playback, even while a callback waits for room in the queue."""
+        """Stop the playback, even while the callback waits for room in the queue."""
         self._stopping.set()
         if self._started:
             self._started = False
-            sensors = (self.sensor, self.colour_sensor) if self._aligning else (self.sensor,)
-            for sensor in sensors:
-                try:
-                    sensor.stop()
-                    sensor.close()
-                except RuntimeError:
-                    pass
-            self._depths.clear()
-            self._colours.clear()
+            try:
+                self.sensor.stop()
+                self.sensor.close()
+            except RuntimeError:
+                pass
+
+
+class _AlignedPass:
+    """One pass over a bag's depth frames with its colour, from two playbacks of the file.
+
+    next() -> (units (H, W) uint16, seconds, colour (H, W, 3) uint8 RGB aligned to depth) until
+    None at the end. Each depth frame takes the colour frame nearest it in time (the colour
+    playback is read until a colour frame at or after the depth frame, or its end); both go
+    through `rs.align(rs.stream.depth)` as one frameset, the recorded extrinsics between the two
+    streams registered across the two playbacks.
+    """
+
+    def __init__(self, rs, path: Path):
+        self.rs = rs
+        self.depth = _Playback(rs, path, frames=True)
+        self.colour = _Playback(rs, path, colour=True, frames=True)
+        try:
+            extrinsics = self.depth.depth_profile.get_extrinsics_to(self.depth.colour_profile)
+            self.depth.depth_profile.register_extrinsics_to(self.colour.colour_profile,
+                                                            extrinsics)
+        except RuntimeError as exc:
+            raise FileFormatError(f"{path}: not a readable RealSense recording ({exc})") from None
+        self._pair: list = []
+        self._compose = rs.processing_block(
+            lambda frame, out: out.frame_ready(out.allocate_composite_frame(self._pair)))
+        self._composed = rs.frame_queue(1)
+        self._compose.start(self._composed)
+        self._align = rs.align(rs.stream.depth)
+        self._to_rgb = _to_rgb(rs)
+        # the last two colour frames read: one before the depth frame, one at or after it
+        self._colours: list = []
+        self._colour_ended = False
+        self.depth.start()
+        self.colour.start()
+
+    def next(self) -> tuple | None:
+        """Return the next depth frame with its colour aligned, or None at the end."""
+        item = self.depth.next()
+        if item is None:
+            return None
+        depth, stamp = item
+        while not self._colour_ended and (not self._colours or self._colours[-1][1] < stamp):
+            colour = self.colour.next()
+            if colour is None:
+                self._colour_ended = True
+            else:
+                self._colours = self._colours[-1:] + [colour]
+        if not self._colours:
+            return np.asanyarray(depth.get_data()).copy(), stamp, None
+        colour = min(self._colours, key=lambda c: abs(c[1] - stamp))[0]
+        self._pair = [depth, colour]
+        self._compose.invoke(depth)
+        frames = self._align.process(self._composed.wait_for_frame().as_frameset())
+        to_rgb = self._to_rgb[frames.get_color_frame().get_profile().format()]
+        return (np.asanyarray(frames.get_depth_frame().get_data()).copy(), stamp,
+                np.ascontiguousarray(to_rgb(np.asanyarray(frames.get_color_frame().get_data()))))
+
+    def close(self) -> None:
+        """Stop both playbacks."""
+        self._colours, self._pair = [], []
+        self.depth.close()
+        self.colour.close()
 
 
 def _depth_profile(rs, sensor):
@@ -301,13 +305,13 @@ def _depth_profile(rs, sensor):
                  if p.stream_type() == rs.stream.depth), None)
 
 
-def _colour_formats(rs) -> dict:
+def _to_rgb(rs) -> dict:
     """The colour formats read: rs.format -> a function of (H, W, channels) uint8 giving RGB."""
     return {rs.format.rgb8: lambda a: a, rs.format.bgr8: lambda a: a[..., ::-1],
             rs.format.rgba8: lambda a: a[..., :3], rs.format.bgra8: lambda a: a[..., 2::-1]}
 
 
-def _colour_profile(rs, sensor, formats: dict):
+def _colour_profile(rs, sensor):
     """The sensor's colour stream profile of a format read, or None."""
     return next((p.as_video_stream_profile() for p in sensor.get_stream_profiles()
-                 if p.stream_type() == rs.stream.color and p.format() in formats), None)
+                 if p.stream_type() == rs.stream.color and p.format() in _to_rgb(rs)), None)

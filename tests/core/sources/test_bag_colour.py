@@ -40,6 +40,21 @@ def test_bag_colour_is_aligned_to_the_depth_grid(tmp_path):
         assert not frame.colour[:, 10].any()
 
 
+def test_a_larger_colour_image_is_brought_to_the_depth_grid(tmp_path):
+    depth = np.full((1, H, W), WALL_UNITS, np.uint16)
+    v, u = np.mgrid[:2 * H, :2 * W]
+    # red = the colour image's column, green = its row
+    colour = np.stack([u, v, np.zeros_like(u)], axis=-1)[None].astype(np.uint8)
+    write_bag(tmp_path / "big.bag", depth, 0.001, colour)
+    with open_source(str(tmp_path / "big.bag")) as source:
+        frame = source.read(0)
+    assert frame.colour.shape == (H, W, 3)
+    # depth pixel u's centre is colour column 2u + 0.5
+    dv, du = np.mgrid[1:H - 1, 1:W - 1]
+    assert np.all(np.isin(frame.colour[1:-1, 1:-1, 0] - 2 * du, (0, 1)))
+    assert np.all(np.isin(frame.colour[1:-1, 1:-1, 1] - 2 * dv, (0, 1)))
+
+
 def test_each_depth_frame_takes_the_colour_frame_nearest_in_time(tmp_path):
     depth = np.full((4, H, W), WALL_UNITS, np.uint16)
     # depth at 0, 33.3, 66.7, 100 ms; colour at 2, 30, 40, 75 ms: 0, 1, 3 and 3 are nearest
@@ -77,3 +92,18 @@ def test_a_recording_of_a_bag_keeps_its_colour(tmp_path):
     assert session.colour_frames is not None and len(session.colour_frames) == 2
     with open_source(str(tmp_path / "rec")) as played:
         np.testing.assert_array_equal(played.read(1).colour, _colours(2)[1])
+
+
+def test_every_frame_of_a_longer_bag_keeps_its_own_colour(tmp_path):
+    """Neither playback drops a frame: frame k's colour (blue 8 k) comes with depth frame k."""
+    n = 30
+    depth = np.full((n, H, W), WALL_UNITS, np.uint16)
+    colour = np.zeros((n, H, W, 3), np.uint8)
+    colour[..., 2] = 8 * np.arange(n)[:, None, None]
+    write_bag(tmp_path / "long.bag", depth, 0.001, colour)
+    with open_source(str(tmp_path / "long.bag")) as source:
+        assert source.frame_count == n
+        blues = [int(source.read(i).colour[..., 2].max()) for i in range(n)]
+        # seeking back replays both playbacks
+        assert int(source.read(4).colour[..., 2].max()) == 32
+    assert blues == [8 * k for k in range(n)]
