@@ -10,9 +10,11 @@ import argparse
 import json
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.io.ply import read_ply
+from mirrorcore.base.palette import source_name
+from mirrorcore.io.ply import read_ply_colours
 from mirrorcore.io.session import TRUTH_FILE
 from mirrorcore.io.sessionfile import load_session
+from mirrorcore.sim.colourtruth import WITHIN_LEVELS, colour_errors, has_scene_colour
 from mirrorcore.sim.truth import frame_time, plane_errors, surface_error
 from mirrorcore.sources import session_truth
 
@@ -36,7 +38,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
         "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
         "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
-        "mean and 95th percentile, mm).",
+        "mean and 95th percentile, mm), and, when its colours are the scene's (not the source "
+        "palette), its colours against the scene's albedo per source: the mean bias per channel "
+        "and the RMSE (levels of 255) and the share of points within "
+        f"{WITHIN_LEVELS} levels.",
     )
     parser.add_argument(
         "session",
@@ -91,24 +96,24 @@ def run(args: argparse.Namespace) -> int:
             f"{len(session.frames) - 1})"
         )
     planes = plane_errors(session, scene)
-    surface = None
+    surface, colour, coloured = None, None, None
     if args.cloud is not None:
-        points, _ = read_ply(args.cloud)
-        surface = surface_error(points, scene, frame_time(session, args.frame, fps))
+        points, sources, colours = read_ply_colours(args.cloud)
+        t = frame_time(session, args.frame, fps)
+        surface = surface_error(points, scene, t)
+        if has_scene_colour(colours, sources):
+            colour = colour_errors(points, sources, colours, scene, t)
+        coloured = colours is not None
+    names = [m.name for m in session.mirrors]
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "session": args.session,
-                    "planes": [vars(p) for p in planes],
-                    **(
-                        {"cloud": args.cloud, "frame": args.frame, **vars(surface)}
-                        if surface
-                        else {}
-                    ),
-                }
-            )
-        )
+        cloud = {}
+        if surface is not None:
+            cloud = {"cloud": args.cloud, "frame": args.frame, **vars(surface),
+                     "colour": None if colour is None else [
+                         {**vars(e), "name": "all points" if e.source is None
+                          else source_name(e.source, names)} for e in colour]}
+        print(json.dumps({"session": args.session, "planes": [vars(p) for p in planes],
+                          **cloud}))
     else:
         if not planes:
             wording.show(no_mirrors(args.session), args.verbose)
@@ -116,4 +121,6 @@ def run(args: argparse.Namespace) -> int:
             wording.show(wording.plane_error(plane), args.verbose)
         if surface is not None:
             wording.show(wording.surface_error(surface, args.cloud), args.verbose)
+            wording.show(wording.no_scene_colour(args.cloud, coloured) if colour is None
+                         else wording.colour_error(colour, args.cloud, names), args.verbose)
     return 0

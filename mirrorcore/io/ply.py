@@ -180,6 +180,20 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     FileFormatError
         Naming the file: missing, not a PLY, or broken.
     """
+    return read_ply_colours(path)[:2]
+
+
+def read_ply_colours(path: str | Path) -> tuple[np.ndarray, np.ndarray | None,
+                                                np.ndarray | None]:
+    """Read the vertices of any PLY with their colours.
+
+    Returns
+    -------
+    points, sources
+        As `read_ply` returns them (which also says what it raises).
+    colours : (n, 3) uint8 array or None
+        `red green blue`; None when the file has no such properties.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
@@ -201,7 +215,9 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
                       axis=-1).astype(np.float32).reshape(-1, 3)
     sources = np.asarray(vertex["source"],
                          dtype=np.uint8).reshape(-1) if "source" in names else None
-    return points, sources
+    colours = (np.stack([np.asarray(vertex[c]).reshape(-1) for c in ("red", "green", "blue")],
+                        axis=-1).astype(np.uint8) if {"red", "green", "blue"} <= names else None)
+    return points, sources, colours
 
 
 def ply_element_counts(path: str | Path) -> dict[str, int]:

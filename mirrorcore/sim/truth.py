@@ -116,16 +116,37 @@ def surface_error(points: np.ndarray, scene: Scene, t: float = 0.0) -> SurfaceEr
         raise MirrorscanError("the scene has no object to compare with")
     if len(points) == 0:
         raise MirrorscanError("the cloud has no points")
-    raycasting = o3d.t.geometry.RaycastingScene()
-    for obj in scene.objects:
-        vertices, faces = object_geometry(obj).mesh_at(t)
-        raycasting.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
-                                 o3d.core.Tensor(np.asarray(faces, np.uint32)))
+    raycasting, _ = objects_raycasting(scene, t)
     distances = 1e3 * raycasting.compute_distance(o3d.core.Tensor(np.asarray(
         points, np.float32))).numpy()
     return SurfaceError(len(points), float(np.sqrt(np.mean(distances ** 2))),
                         float(distances.mean()),
                         float(np.percentile(distances, 95)))
+
+
+def objects_raycasting(scene: Scene, t: float = 0.0
+                       ) -> tuple[o3d.t.geometry.RaycastingScene, list[int]]:
+    """Open3D's raycasting scene over the meshes of the scene's objects.
+
+    Parameters
+    ----------
+    scene : Scene
+    t : float
+        Seconds: the objects as they are then.
+
+    Returns
+    -------
+    raycasting : open3d.t.geometry.RaycastingScene
+    ids : list of int
+        The geometry id of each object, in scene order.
+    """
+    raycasting = o3d.t.geometry.RaycastingScene()
+    ids = []
+    for obj in scene.objects:
+        vertices, faces = object_geometry(obj).mesh_at(t)
+        ids.append(raycasting.add_triangles(o3d.core.Tensor(np.asarray(vertices, np.float32)),
+                                            o3d.core.Tensor(np.asarray(faces, np.uint32))))
+    return raycasting, ids
 
 
 def true_mirrors(session: Session, scene: Scene) -> list[SceneMirror]:

@@ -24,7 +24,8 @@ from mirrorcore.sources.devices import (FREENECT_INSTALL, OPENNI2_INSTALL, Freen
 from mirrorcore.sources.files import (ImageSequenceSource, SessionSource, load_camera,
                                       open_png_folder, open_tum)
 from mirrorcore.sources.npz import StackSource, open_npz
-from mirrorcore.sources.realsense import REALSENSE_INSTALL, RealSenseSource, open_bag
+from mirrorcore.sources.bag import open_bag
+from mirrorcore.sources.realsense import REALSENSE_INSTALL, RealSenseSource
 from mirrorcore.sources.record import Recorder, new_recording_folder, record
 from mirrorcore.sources.sim import SimulatedSource, open_simulated, session_scene, session_truth
 
@@ -117,7 +118,8 @@ KINDS = (
     SourceKind("npz", "npz:FILE", "a .npz stack: depth, K, depth_scale[, timestamps, colour]",
                lambda: None, "colour when the stack has a colour array"),
     SourceKind("bag", "bag:FILE", "a RealSense .bag recording",
-               _library("pyrealsense2", REALSENSE_INSTALL)),
+               _library("pyrealsense2", REALSENSE_INSTALL),
+               "its colour stream aligned to depth, when it has one"),
     SourceKind("freenect", "freenect:INDEX", "a Kinect v1 through libfreenect (live)",
                _freenect_devices, f"{_OPT_IN} (registered depth in mm on the RGB grid)"),
     SourceKind("openni2", "openni2:FILE.oni|URI", "an OpenNI2 device or .oni recording",

@@ -12,7 +12,8 @@ from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import Frame, Recorder, SessionSource, SimulatedSource, open_source, record
+from mirrorcore.sources import (KINDS, Frame, Recorder, SessionSource, SimulatedSource,
+                                open_source, record)
 
 
 @pytest.fixture(scope="module")
@@ -103,3 +104,6 @@ def test_sources_command_lists_every_kind(capsys):
     ):
         assert spec in out
     assert "available" in out
+    # what each kind does with colour
+    for kind in KINDS:
+        assert kind.colour in out

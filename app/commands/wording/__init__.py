@@ -9,7 +9,7 @@ accuracy); all are named here.
 
 from __future__ import annotations
 
-from .accuracy import plane_error, shape_fitted, surface_error
+from .accuracy import colour_error, no_scene_colour, plane_error, shape_fitted, surface_error
 from .calibration import fitted, markers_unused, refined, unchanged
 from .message import HEADLINE_WORDS, INDENT, Message, plane_figures, show
 from .reconstruction import (
@@ -29,11 +29,13 @@ __all__ = [
     "batch_done",
     "carved_written",
     "cloud_written",
+    "colour_error",
     "colours_line",
     "fitted",
     "frame_list",
     "markers_unused",
     "mesh_written",
+    "no_scene_colour",
     "plane_error",
     "plane_figures",
     "refined",

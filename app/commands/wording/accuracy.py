@@ -7,6 +7,7 @@ import numpy as np
 
 from mirrorcore.base.palette import source_name
 from mirrorcore.geometry.shapes import FitErrors, ShapeFit
+from mirrorcore.sim.colourtruth import WITHIN_LEVELS, ColourError
 from mirrorcore.sim.truth import PlaneError, SurfaceError
 
 from .message import Message
@@ -118,4 +119,66 @@ def surface_error(error: SurfaceError, cloud: str) -> Message:
     return Message(
         f"{cloud}: RMSE {error.rmse_mm:.2f} mm to the true surface over {error.points:,} points.",
         (f"mean {error.mean_mm:.2f} mm, 95 % within {error.p95_mm:.2f} mm",),
+    )
+
+
+def colour_error(errors: list[ColourError], cloud: str, names: list[str]) -> Message:
+    """A cloud's colours against the scene's albedo (mirrorscan truth --cloud).
+
+    Parameters
+    ----------
+    errors : list of ColourError
+        Per source: mean bias per channel and RMSE (levels of 255), the share within
+        WITHIN_LEVELS.
+    cloud : str
+        The cloud's name for the headline.
+    names : list of str
+        The session's mirror names in label order.
+
+    Returns
+    -------
+    Message
+        The RMSE over every point and the largest mean bias of any source and channel, then each
+        source's figures.
+    """
+    points = sum(e.points for e in errors)
+    rmse = float(np.sqrt(sum(e.points * e.rmse**2 for e in errors) / points))
+    worst = max(errors, key=lambda e: max(abs(b) for b in e.bias))
+    channel = int(np.argmax(np.abs(worst.bias)))
+    return Message(
+        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the scene's albedo; largest mean "
+        f"bias {worst.bias[channel]:+.1f}, {('red', 'green', 'blue')[channel]} of "
+        f"{_source(worst, names)}.",
+        tuple(
+            f"{_source(e, names)}: {e.points:,} points, mean bias red {e.bias[0]:+.1f} green "
+            f"{e.bias[1]:+.1f} blue {e.bias[2]:+.1f} levels, RMSE {e.rmse:.1f} levels, "
+            f"{100 * e.within:.1f} % within {WITHIN_LEVELS} levels"
+            for e in errors
+        ),
+    )
+
+
+def _source(error: ColourError, names: list[str]) -> str:
+    """The source a ColourError is of: its view's name, or 'all points' without labels."""
+    return "all points" if error.source is None else source_name(error.source, names)
+
+
+def no_scene_colour(cloud: str, has_colours: bool) -> Message:
+    """A cloud without the scene's colour has no colour figures (mirrorscan truth --cloud).
+
+    Parameters
+    ----------
+    cloud : str
+        The cloud's name for the headline.
+    has_colours : bool
+        Whether the file has colours at all (then they are the source palette).
+
+    Returns
+    -------
+    Message
+    """
+    why = "its colours are the source palette" if has_colours else "it has no colours"
+    return Message(
+        f"{cloud}: no colour figures, {why}, not the scene's; reconstruct it from a session with "
+        "colour frames to compare colours."
     )

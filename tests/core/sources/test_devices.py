@@ -82,38 +82,65 @@ def test_kinect_v1_through_fakenect_gives_the_simulators_depth(tmp_path):
     assert 0.002 < np.abs(got["depth"] - truth)[valid].max()
 
 
-def write_bag(path: Path, frames: np.ndarray, units: float) -> None:
-    """A RealSense ROS1 .bag of z16 depth frames (N, H, W) uint16, written without a camera."""
+def write_bag(path: Path, frames: np.ndarray, units: float, colour: np.ndarray | None = None,
+              colour_ms: list[float] | None = None, shift_m: float = 0.0,
+              colour_format: str = "rgb8") -> None:
+    """A RealSense ROS1 .bag of z16 depth frames (N, H, W) uint16, written without a camera.
+
+    With `colour` ((M, H', W', 3) uint8 in `colour_format` order), a colour sensor too: frame k at
+    colour_ms[k] (default the depth frames' times), the colour camera's intrinsics those of the
+    depth camera scaled to W', shift_m metres along x from it.
+    """
     rs = pytest.importorskip("pyrealsense2")
     if not hasattr(rs, "software_device") or not hasattr(rs, "recorder"):
         pytest.skip("this pyrealsense2 has no software device or recorder")
-    h, w = frames.shape[1:]
     device = rs.software_device()
-    sensor = device.add_sensor("Depth")
-    k = rs.intrinsics()
-    k.width, k.height, k.fx, k.fy, k.ppx, k.ppy = w, h, 580.0, 581.0, 319.5, 239.5
-    k.model, k.coeffs = rs.distortion.none, [0.0] * 5
-    stream = rs.video_stream()
-    stream.type, stream.index, stream.uid, stream.width, stream.height = rs.stream.depth, 0, 0, w, h
-    stream.fps, stream.bpp, stream.fmt, stream.intrinsics = 30, 2, rs.format.z16, k
-    profile = sensor.add_video_stream(stream)
-    sensor.add_read_only_option(rs.option.depth_units, units)
+
+    def add(sensor, kind, fmt, bpp, uid, h, w):
+        k = rs.intrinsics()
+        k.width, k.height, k.fx, k.fy, k.ppx, k.ppy = w, h, 580.0 * w / 640, 581.0 * w / 640, \
+            (w - 1) / 2, (h - 1) / 2
+        k.model, k.coeffs = rs.distortion.none, [0.0] * 5
+        stream = rs.video_stream()
+        stream.type, stream.index, stream.uid, stream.width, stream.height = kind, 0, uid, w, h
+        stream.fps, stream.bpp, stream.fmt, stream.intrinsics = 30, bpp, fmt, k
+        return sensor.add_video_stream(stream)
+    depth_sensor = device.add_sensor("Depth")
+    streams = [(depth_sensor, add(depth_sensor, rs.stream.depth, rs.format.z16, 2, 0,
+                                  *frames.shape[1:]), frames,
+                [n * 1000 / 30 for n in range(len(frames))])]
+    depth_sensor.add_read_only_option(rs.option.depth_units, units)
+    if colour is not None:
+        colour_sensor = device.add_sensor("Color")
+        profile = add(colour_sensor, rs.stream.color, getattr(rs.format, colour_format), 3, 1,
+                      *colour.shape[1:3])
+        extrinsics = rs.extrinsics()
+        extrinsics.rotation, extrinsics.translation = [1, 0, 0, 0, 1, 0, 0, 0, 1], [shift_m, 0, 0]
+        streams[0][1].register_extrinsics_to(profile, extrinsics)
+        streams.append((colour_sensor, profile, colour, colour_ms or streams[0][3]))
     device.register_info(rs.camera_info.name, "mirrorscan test")
     device.register_info(rs.camera_info.serial_number, "0001")
     recorder = rs.recorder(str(path), device)
     queue = rs.frame_queue(4)
-    sensor.open(profile)
-    sensor.start(queue)
-    for n, units_frame in enumerate(frames):
+    for sensor, profile, _, _ in streams:
+        sensor.open(profile)
+        sensor.start(queue)
+    # every frame in the order of its time, as a camera delivers them
+    order = sorted((ms, s, n) for s, (_, _, _, times) in enumerate(streams)
+                   for n, ms in enumerate(times))
+    for ms, s, n in order:
+        sensor, profile, images, _ = streams[s]
         frame = rs.software_video_frame()
-        frame.pixels, frame.stride, frame.bpp = units_frame, 2 * w, 2
-        frame.timestamp, frame.frame_number = n * 1000 / 30, n
+        bpp = images.itemsize * (3 if images.ndim == 4 else 1)
+        frame.pixels, frame.stride, frame.bpp = images[n], bpp * images.shape[2], bpp
+        frame.timestamp, frame.frame_number = ms, n
         frame.domain = rs.timestamp_domain.hardware_clock
         frame.profile = profile.as_video_stream_profile()
         sensor.on_video_frame(frame)
         queue.wait_for_frame()
-    sensor.stop()
-    sensor.close()
+    for sensor, _, _, _ in streams:
+        sensor.stop()
+        sensor.close()
     del recorder                                                       # closes the bag
 
 
