@@ -30,9 +30,12 @@ from mirrorcore.rig.model import Rig
 # says little of the ratio (rounding, clipping) and is left out.
 DARK = 8
 BRIGHT = 250
-# A pair whose log-ratio in any channel is this far from its views' median compares two colours
-# (across an edge of the texture): the simulator's two checker colours differ by 16 % and more.
+# A pair whose log-ratio in any channel is further from its views' median than TRIM, or than
+# TRIM_SIGMAS robust standard deviations of the log-ratios (the colour camera's noise), compares two
+# colours (across an edge of the texture): the simulator's checker colours differ by 16 % and more
+# in one channel, by 50 % and more in another.
 TRIM = 0.06
+TRIM_SIGMAS = 3.0
 # The fewest kept pairs that measure a mirror's gain.
 MIN_PAIRS = 50
 # A saved gain's decimals (a pair's level is known to 1 in 250 at best).
@@ -202,8 +205,7 @@ def estimate_gains(rig: Rig, depths: np.ndarray, masks: np.ndarray, colours: np.
     for key, (source, target) in pair_levels(rig, depths, masks, colours, cancel,
                                              progress).items():
         logs = np.log(source) - np.log(target)
-        inlier = np.all(np.abs(logs - np.median(logs, axis=0)) <= TRIM, axis=1) if len(
-            logs) else np.zeros(0, bool)
+        inlier = _inliers(logs)
         kept[key], trimmed[key] = int(inlier.sum()), int((~inlier).sum())
         if kept[key]:
             ratios[key] = np.log(source[inlier].sum(axis=0) / target[inlier].sum(axis=0))
@@ -228,6 +230,16 @@ def estimate_gains(rig: Rig, depths: np.ndarray, masks: np.ndarray, colours: np.
                               sum(kept[key] for key in mine if 0 in key),
                               sum(trimmed[key] for key in mine), spread, reason))
     return ColourGains(tuple(out), len(depths))
+
+
+def _inliers(logs: np.ndarray) -> np.ndarray:
+    """(k, 3) log-ratios of a pair of views -> (k,) bool: within the TRIM band of their median in
+    every channel."""
+    if not len(logs):
+        return np.zeros(0, bool)
+    deviation = np.abs(logs - np.median(logs, axis=0))
+    band = np.maximum(TRIM, TRIM_SIGMAS * 1.4826 * np.median(deviation, axis=0))
+    return np.all(deviation <= band, axis=1)
 
 
 def log_gains(ratios: dict[tuple[int, int], np.ndarray],

@@ -58,8 +58,9 @@ def test_the_gains_are_the_tints_within_2_percent(rig_frames):
         assert m.reason is None and m.pairs >= MIN_PAIRS, m
         np.testing.assert_allclose(m.gain, tint, rtol=0.02)
         assert 0 < m.trimmed < m.pairs
-        # a pair's levels are rounded: about 1 % of a level of 100
-        assert all(0 < s < 0.03 for s in m.spread), m.spread
+        # a pair's levels carry the colour camera's noise (2 levels) and rounding: a few % of a
+        # level of 100
+        assert all(0 < s < 0.08 for s in m.spread), m.spread
 
 
 def _colour_errors(scene, rig, frame, mask, gains) -> dict[int, np.ndarray]:

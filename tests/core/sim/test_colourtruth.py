@@ -14,6 +14,7 @@ from mirrorcore.sim.colourtruth import (WITHIN_LEVELS, colour_errors, has_scene_
                                         true_albedo)
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.render import OBJECT, ROOM
+from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
 
 CAMERA = Intrinsics.kinect_v1().scaled(0.5)
@@ -25,7 +26,8 @@ def rendered():
     the room or the object, through at most one mirror), the label (0 or the mirror), the real
     points and the tints on each ray."""
     scene = paper_scene(camera=CAMERA)
-    frame = Simulator(scene).frame(0)
+    # without the colour camera's noise: each level is the albedo times the tints, rounded
+    frame = Simulator(scene, replace(SensorModel.kinect_v1(), colour_sigma=0.0)).frame(0)
     truth = frame.truth
     mirrors = truth.mirrors.reshape(len(truth.mirrors), -1)
     seen = (np.isin(truth.surface.reshape(-1), (OBJECT, ROOM))
