@@ -184,6 +184,8 @@ class CoverageModel:
         self._scene = o3d.t.geometry.RaycastingScene()
         self._scene.add_triangles(o3d.core.Tensor(subject.mesh.vertices.astype(np.float32)),
                                   o3d.core.Tensor(subject.mesh.faces.astype(np.uint32)))
+        # the direct view's paths never change: what the subject hides of them, once
+        self._direct_clear = self._subject_clear(np.zeros_like(samples.points), samples.points)
 
     def evaluate(self, glass: Glass, tilt_deg: float = 0.0) -> Coverage:
         """Which samples each view of the layout sees.
@@ -205,17 +207,18 @@ class CoverageModel:
         depth = np.zeros((len(views), n), np.float32)
         R = tilt_rotation(tilt_deg)
         paths = [self._path(glass, view, R) for view in views]
-        segments = [s for _, _, segs in paths for s in segs]
+        segments = [s for _, _, segs in paths[1:] for s in segs]
         if segments:
-            origin = np.concatenate([s[0] for s in segments])
-            end = np.concatenate([s[1] for s in segments])
-            clear = self._clear(origin, end, glass)
+            clear = self._subject_clear(np.concatenate([s[0] for s in segments]),
+                                        np.concatenate([s[1] for s in segments]))
         at = 0
         for v, (idx, z, segs) in enumerate(paths):
-            ok = np.ones(len(idx), bool)
-            for _ in segs:
-                ok &= clear[at:at + len(idx)]
-                at += len(idx)
+            ok = self._direct_clear[idx] if v == 0 else np.ones(len(idx), bool)
+            for start, end in segs:
+                if v:
+                    ok &= clear[at:at + len(idx)]
+                    at += len(idx)
+                ok &= _glass_clear(start, end, glass)
             seen[v, idx[ok]] = True
             depth[v, idx[ok]] = z[ok]
         return Coverage(views, seen, depth, self.samples.weight)
@@ -265,24 +268,33 @@ class CoverageModel:
         ends = starts[1:] + [X[idx]]
         return idx, z[idx], list(zip(starts, ends))
 
-    def _clear(self, start: np.ndarray, end: np.ndarray, glass: Glass) -> np.ndarray:
-        """(k,) bool: nothing of the subject and no mirror lies on the segments start -> end (k, 3)
-        (their ends excepted)."""
+    def _subject_clear(self, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """(k,) bool: nothing of the subject lies on the segments start -> end (k, 3), their ends
+        excepted."""
         seg = end - start
         length = np.linalg.norm(seg, axis=1)
         d = seg / np.maximum(length, 1e-12)[:, None]
         # cast back from the far end, which may lie on the subject's surface
         rays = np.concatenate([end - _END * d, -d], axis=1).astype(np.float32)
         t_hit = self._scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy()
-        clear = t_hit >= length - 2 * _END
-        for j in range(len(glass)):
-            n = glass.normal[j]
-            denom = d @ n
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = ((glass.centre[j] - start) @ n) / denom
-            hit = (t > _END) & (t < length - _END)
-            p = start + np.where(hit, t, 0.0)[:, None] * d - glass.centre[j]
-            hit &= (np.abs(p @ glass.right[j]) <= glass.half[j, 0]) & (
-                np.abs(p @ glass.up[j]) <= glass.half[j, 1])
-            clear &= ~hit
-        return clear
+        return t_hit >= length - 2 * _END
+
+
+def _glass_clear(start: np.ndarray, end: np.ndarray, glass: Glass) -> np.ndarray:
+    """(k,) bool: no mirror (front or back) lies on the segments start -> end (k, 3), their ends
+    excepted."""
+    seg = end - start
+    length = np.linalg.norm(seg, axis=1)
+    d = seg / np.maximum(length, 1e-12)[:, None]
+    clear = np.ones(len(start), bool)
+    for j in range(len(glass)):
+        n = glass.normal[j]
+        denom = d @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((glass.centre[j] - start) @ n) / denom
+        hit = (t > _END) & (t < length - _END)
+        p = start + np.where(hit, t, 0.0)[:, None] * d - glass.centre[j]
+        hit &= (np.abs(p @ glass.right[j]) <= glass.half[j, 0]) & (
+            np.abs(p @ glass.up[j]) <= glass.half[j, 1])
+        clear &= ~hit
+    return clear
