@@ -60,6 +60,8 @@ class PlanResult:
 
     Attributes
     ----------
+    spec : str
+        The subject's SPEC.
     space : LayoutSpace
     x : (1 + 7 m,) array
         The plan's vector (x[0] the camera's tilt, degrees).
@@ -74,6 +76,7 @@ class PlanResult:
     settings : SearchSettings
     """
 
+    spec: str
     space: LayoutSpace
     x: np.ndarray
     coverage: Coverage
@@ -243,7 +246,7 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     if score(hand) > score(planned):
         x, planned = start, hand
     bar(1.0)
-    return PlanResult(space, np.asarray(x), planned, params, hand, camera, bounces, settings)
+    return PlanResult(spec, space, np.asarray(x), planned, params, hand, camera, bounces, settings)
 
 
 def _evolve(space: LayoutSpace, model: CoverageModel, start: np.ndarray,
