@@ -61,8 +61,8 @@ def plan_camera(name: str) -> PlanCamera:
         return PlanCamera(*CAMERA_PRESETS[name])
     path = Path(name)
     if not path.is_file():
-        raise MirrorscanError(f"--camera: {name!r} is neither {', '.join(CAMERA_PRESETS)} nor a "
-                              "camera file")
+        raise MirrorscanError(f"--camera: {name!r} is neither kinect_v1, primesense, "
+                              "realsense_d435 nor a camera file")
     load = load_opencv_yaml if path.suffix.lower() in (".yaml", ".yml") else load_open3d_json
     return PlanCamera(load(path), *FILE_DEPTH_RANGE)
 

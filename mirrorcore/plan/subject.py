@@ -83,7 +83,8 @@ def parse_spec(spec: str) -> tuple[str, tuple[float, ...] | str]:
     try:
         values = tuple(float(v) for v in rest.split(","))
     except ValueError:
-        raise MirrorscanError(f"--subject: {spec!r}: the sizes must be numbers, in metres") from None
+        raise MirrorscanError(
+            f"--subject: {spec!r}: the sizes must be numbers, in metres") from None
     if len(values) != counts[kind] or not all(np.isfinite(v) and 0 < v <= 10 for v in values):
         raise MirrorscanError(
             f"--subject: {spec!r}: {kind} takes {counts[kind]} size(s) of 0 to 10 metres")
