@@ -17,12 +17,14 @@ from scipy.optimize import differential_evolution
 from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.progress import Progress, Ratchet, cancel_requested
 from mirrorcore.plan.coverage import Coverage, CoverageModel, Glass
-from mirrorcore.plan.layout import CLEARANCE, TILT_LIMIT, LayoutSpace
+from mirrorcore.plan.layout import CLEARANCE, PER_MIRROR, TILT_LIMIT, LayoutSpace
 from mirrorcore.plan.setup import PlanCamera, PlanRoom
 from mirrorcore.plan.subject import Subject, make_subject, sample_surface
 
 OVERLAP_WEIGHT = 0.1       # 10 points of overlap weigh as 1 point of coverage
 NOISE_WEIGHT = 0.0005      # 1 mm of mean noise weighs as 0.05 points of coverage
+# a mirror whose views see less than this share of the surface is placed anew (_revive)
+IDLE_SHARE = 0.01
 # metres the subject keeps from the room's walls, and from the camera beyond its nearest depth
 _WALL_MARGIN = 0.3
 
@@ -239,6 +241,7 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     start = space.hand_made(*params)
     bar(0.3)
     x = _evolve(space, fine, start, settings, bar, cancel)
+    x = _revive(space, fine, x, settings, cancel)
     final = CoverageModel(subject, sample_surface(subject, settings.final_samples,
                                                   settings.seed + 2), camera, bounces)
     planned = final.evaluate(space.glass(x), float(x[0]))
@@ -274,3 +277,33 @@ def _evolve(space: LayoutSpace, model: CoverageModel, start: np.ndarray,
     if stopped[0]:
         raise Cancelled("the plan's search was cancelled")
     return result.x
+
+
+def _revive(space: LayoutSpace, model: CoverageModel, x: np.ndarray, settings: SearchSettings,
+            cancel) -> np.ndarray:
+    """Place anew each mirror that sees (almost) nothing: differential evolution over that
+    mirror's seven numbers alone, the others held, from a population spread over the whole room.
+    """
+    bounds = np.array(space.bounds())
+    x = np.array(x, dtype=np.float64)
+    cov = model.evaluate(space.glass(x), float(x[0]))
+    for j in range(space.mirrors):
+        shares = [share for view, share in zip(cov.views, cov.per_view) if j in view]
+        if max(shares) >= IDLE_SHARE:
+            continue
+        part = slice(1 + PER_MIRROR * j, 1 + PER_MIRROR * (j + 1))
+
+        def value(y: np.ndarray, part: slice = part) -> float:
+            trial = x.copy()
+            trial[part] = y
+            return _objective(space, model, trial)
+
+        result = differential_evolution(
+            value, bounds[part], popsize=settings.population * 2, maxiter=settings.generations,
+            seed=settings.seed, polish=False, tol=1e-3, x0=np.clip(x[part], *bounds[part].T),
+            callback=lambda intermediate_result: cancel_requested(cancel))
+        if cancel_requested(cancel):
+            raise Cancelled("the plan's search was cancelled")
+        if result.fun < value(x[part]):
+            x[part] = result.x
+    return x
