@@ -93,13 +93,14 @@ def run(args: argparse.Namespace) -> int:
     size = _size(args.mirror_size)
     room = parse_room(args.room, args.camera_height)
     camera = plan_camera(args.camera)
-    with ctrl_c_cancels() as cancel, percent_bar("plan", args.quiet) as bar:
-        try:
-            result = plan_rig(args.subject, args.mirrors, size, room, camera, args.distance,
-                              args.bounces, progress=bar, cancel=cancel)
-        except Cancelled:
-            raise KeyboardInterrupt from None
+    # the folder is made whole at the end, or not at all
     with new_folder(args.out) as work:
+        with ctrl_c_cancels() as cancel, percent_bar("plan", args.quiet) as bar:
+            try:
+                result = plan_rig(args.subject, args.mirrors, size, room, camera,
+                                  args.distance, args.bounces, progress=bar, cancel=cancel)
+            except Cancelled:
+                raise KeyboardInterrupt from None
         write_plan(result, work)
         write_drawing_and_report(work)
     plan = json.loads((Path(args.out) / PLAN_FILE).read_text(encoding="utf-8"))

@@ -27,6 +27,13 @@ def test_a_bad_subject_is_refused_in_one_line(tmp_path, capsys, spec):
     assert not (tmp_path / "p").exists()
 
 
+def test_a_folder_in_use_is_refused_before_the_search(tmp_path, capsys):
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "x").write_text("")
+    _refused(capsys, ["plan", "-o", str(tmp_path / "p"), "--subject", "sphere:0.2",
+                      "--mirrors", "2"], f"{tmp_path / 'p'}: already exists")
+
+
 def test_an_impossible_room_is_refused_in_one_line(tmp_path, capsys):
     err = _refused(capsys, ["plan", "-o", str(tmp_path / "p"), "--subject", "person:1.75",
                             "--mirrors", "2", "--room", "1.0,1.2"], "--room: ")

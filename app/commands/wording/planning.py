@@ -44,5 +44,5 @@ def plan_written(folder: Path, plan: dict) -> Message:
 
 
 def _mm(value: float | None) -> str:
-    """A noise in mm, or 'no view' for a view that sees nothing."""
+    """A noise in mm, or 'no reading' for a view that sees nothing."""
     return "no reading" if value is None else f"{value:.1f} mm"

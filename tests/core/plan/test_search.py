@@ -73,3 +73,17 @@ def test_search_is_cancellable():
     with pytest.raises(Cancelled):
         plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, distance=2.0, settings=QUICK,
                  cancel=event)
+
+
+def test_search_stops_between_generations_when_asked():
+    calls = []
+
+    def cancel():
+        calls.append(1)
+        # the hand-made layouts ask 7 times; the 8th is the evolution's first generation
+        return len(calls) >= 8
+
+    with pytest.raises(Cancelled):
+        plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, distance=2.0, settings=QUICK,
+                 cancel=cancel)
+    assert len(calls) == 8
