@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mirrorcore.plan.coverage import Glass, glass_from
-from mirrorcore.plan.setup import PlanRoom
+from mirrorcore.plan.coverage import Glass, glass_from, tilt_rotation
+from mirrorcore.plan.setup import PlanCamera, PlanRoom
 from mirrorcore.plan.subject import Subject
 
 PER_MIRROR = 7
@@ -25,6 +25,7 @@ PITCH_LIMIT = 30.0         # degrees
 SMALLEST_SIZE = 0.5        # of the largest size, per side
 CLEARANCE = 0.05           # metres between a mirror and the subject's bounding cylinder
 APEX_GAP = 0.02            # metres between a V's mirrors and its apex
+IN_FRONT = 0.05            # metres every corner of a mirror keeps ahead of the camera
 
 
 @dataclass(frozen=True)
@@ -38,12 +39,14 @@ class LayoutSpace:
         The largest width and height, metres.
     room : PlanRoom
     subject : Subject
+    camera : PlanCamera
     """
 
     mirrors: int
     size: tuple[float, float]
     room: PlanRoom
     subject: Subject
+    camera: PlanCamera
 
     def bounds(self) -> list[tuple[float, float]]:
         """The search's bounds of each entry of the vector."""
@@ -67,8 +70,9 @@ class LayoutSpace:
     def violation(self, x: np.ndarray) -> float:
         """How far vector x is from a layout that can be built: 0 when it keeps every limit.
 
-        Metres outside the room, inside the subject's bounding cylinder (plus CLEARANCE) or
-        short of facing the camera, plus 1 per pair of mirrors that cross.
+        Metres outside the room, inside the subject's bounding cylinder (plus CLEARANCE), short of
+        facing the camera or of IN_FRONT ahead of it, plus 1 per pair of mirrors that cross and per
+        mirror out of the image (a simulated rig needs every mirror in view).
         """
         glass = self.glass(x)
         corners = glass.corners()
@@ -81,9 +85,24 @@ class LayoutSpace:
         facing = (glass.normal * -glass.centre).sum(axis=1) / np.linalg.norm(glass.centre, axis=1)
         out += np.maximum(0.05 - facing, 0).sum()
         out += self._into_subject(glass)
+        out += self._out_of_view(glass, float(x[0]))
         out += sum(_crossing(corners[a], corners[b]) for a in range(len(glass))
                    for b in range(a + 1, len(glass)))
         return float(out)
+
+    def _out_of_view(self, glass: Glass, tilt: float) -> float:
+        """Metres of corners less than IN_FRONT ahead of the tilted camera, plus 1 per mirror of
+        which neither a corner nor the centre projects into the image."""
+        points = np.concatenate([glass.corners(), glass.centre[:, None]], axis=1)
+        cam = points @ tilt_rotation(tilt).T
+        z = cam[..., 2]
+        behind = np.maximum(IN_FRONT - z[:, :4], 0).sum()
+        intr = self.camera.intrinsics
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = intr.fx * cam[..., 0] / z + intr.cx
+            v = intr.fy * cam[..., 1] / z + intr.cy
+        inside = (z > 0) & (u >= 0) & (u <= intr.width - 1) & (v >= 0) & (v <= intr.height - 1)
+        return float(behind + np.count_nonzero(~inside.any(axis=1)))
 
     def _into_subject(self, glass: Glass) -> float:
         """Metres by which the mirrors enter the subject's bounding cylinder widened by

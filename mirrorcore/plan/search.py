@@ -218,7 +218,7 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     subjects = subject_distances(spec, room, camera, distance)
     best = None
     for k, subject in enumerate(subjects):
-        space = LayoutSpace(mirrors, size, room, subject)
+        space = LayoutSpace(mirrors, size, room, subject, camera)
         model = CoverageModel(subject, sample_surface(subject, settings.coarse_samples,
                                                       settings.seed), camera, bounces)
         grid = _hand_made_grid(space)

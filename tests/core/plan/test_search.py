@@ -19,7 +19,8 @@ QUICK = SearchSettings(coarse_samples=400, fine_samples=600, final_samples=3000,
 
 @pytest.fixture(scope="module")
 def space():
-    return LayoutSpace(2, (0.8, 1.9), ROOM, make_subject("person:1.75", 2.0, ROOM.floor_y))
+    return LayoutSpace(2, (0.8, 1.9), ROOM, make_subject("person:1.75", 2.0, ROOM.floor_y),
+                       CAMERA)
 
 
 def test_symmetric_v_keeps_every_limit(space):
@@ -45,6 +46,9 @@ def test_limits_refuse_a_mirror_outside_the_room_or_through_the_subject(space):
     away = x.copy()
     away[3] = 180.0 - away[3]   # turned to face away from the camera
     assert space.violation(away) > 0
+    beside = x.copy()
+    beside[1:3] = [1.3, 0.3]    # beside the camera: partly behind it and out of the image
+    assert space.violation(beside) >= 1.0
     crossing = x.copy()
     crossing[8:10] = crossing[1:3] + [0.1, 0.0]
     crossing[10] = -crossing[3]
