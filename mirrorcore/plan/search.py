@@ -1,7 +1,8 @@
-"""The search for a rig's layout: the hand-made layouts first (a symmetric V, or an arc, over their
-angle, reach and the camera's tilt; coarse samples), then differential evolution (scipy) from the
-best of them over every mirror's place, turn, lean, height and size and the camera's tilt (finer
-samples), each result judged on many samples at the end.
+"""The search for a rig's layout (docs/planning.md, "The search"): the hand-made layouts first (a
+symmetric V, or an arc, over their angle, reach and the camera's tilt; coarse samples) and a compass
+search of the best; then differential evolution (scipy) from it over every mirror's place, turn,
+lean, height and size and the camera's tilt (finer samples); a mirror left seeing almost nothing
+placed anew; each result judged on many samples at the end.
 
 A layout's score puts coverage first, then the overlap between views, then low noise:
 coverage + OVERLAP_WEIGHT * coverage_2 - NOISE_WEIGHT * mean noise in mm; a layout that breaks a
@@ -115,6 +116,18 @@ def _objective(space: LayoutSpace, model: CoverageModel, x: np.ndarray) -> float
 def subject_distances(spec: str, room: PlanRoom, camera: PlanCamera,
                       distance: float | None) -> list[Subject]:
     """The subject at the given distance, or at three distances the room allows.
+
+    Parameters
+    ----------
+    spec : str
+    room : PlanRoom
+    camera : PlanCamera
+    distance : float or None
+        Metres from the camera to the subject's middle.
+
+    Returns
+    -------
+    list of Subject
 
     Raises
     ------
