@@ -19,6 +19,7 @@ COMMANDS = [
     "reconstruct",
     "fit",
     "simulate",
+    "plan",
     "truth",
     "experiment",
     "sources",

@@ -17,6 +17,7 @@ MODULES = [
     "mirrorscan.bench.tsdf",
     "mirrorscan.bench.refine",
     "mirrorscan.bench.batch",
+    "mirrorscan.bench.plan",
 ]
 
 

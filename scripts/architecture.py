@@ -20,7 +20,7 @@ END = "<!-- end of the import graph -->"
 # above them.
 FLOORS = {
     "base": 0, "geometry": 1, "depth": 2, "io": 3, "rig": 4, "sim": 5,
-    "calibration": 6, "dense": 7, "sources": 8, "batch": 9,
+    "calibration": 6, "plan": 6, "dense": 7, "sources": 8, "batch": 9,
     "experiments": 10, "services": 10, "panels": 11, "browser": 12, "bench": 13, "cli": 14,
 }
 # mirrorscan's modules by part; a top-level module named nowhere here is one of the services.

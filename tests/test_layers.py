@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[1] / "mirrorcore"
 ARCHITECTURE = load("architecture")
 FLOORS = {
     "base": 0, "geometry": 1, "depth": 2, "io": 3, "rig": 4, "sim": 5,
-    "calibration": 6, "dense": 7, "sources": 8, "batch": 9,
+    "calibration": 6, "plan": 6, "dense": 7, "sources": 8, "batch": 9,
 }
 # the simulator renders; fits measure
 NOT_IN_SIM = ("mirrorcore.geometry.shapes", "mirrorcore.geometry.fitting")

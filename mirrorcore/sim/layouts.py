@@ -28,7 +28,7 @@ HINGED_CLEARANCE = 0.135
 HINGED_MARKER_SIZE = 0.08
 
 
-def _markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
+def corner_markers(width: float, height: float) -> tuple[tuple[float, float], ...]:
     """Six markers near the corners and the middles of the top and bottom edges (spread, not
     collinear)."""
     s, t = 0.42 * width, 0.42 * height
@@ -40,7 +40,7 @@ def _mirror(name: str, centre: np.ndarray, normal: np.ndarray, size: tuple[float
     """A vertical SceneMirror of `size` at `centre`, facing `normal`, with markers."""
     return SceneMirror(name, tuple(centre.tolist()), tuple(normal.tolist()), tuple(UP.tolist()),
                        size[0], size[1],
-                  _markers(*size), marker_size)
+                  corner_markers(*size), marker_size)
 
 
 def _v_frame(angle_deg: float, target: np.ndarray, mirror_distance: float, turn_deg: float = 0.0):

@@ -12,6 +12,7 @@ from __future__ import annotations
 from .accuracy import colour_error, no_scene_colour, plane_error, shape_fitted, surface_error
 from .calibration import fitted, markers_unused, refined, unchanged
 from .message import HEADLINE_WORDS, INDENT, Message, plane_figures, show
+from .planning import plan_written
 from .reconstruction import (
     batch_done,
     carved_written,
@@ -36,6 +37,7 @@ __all__ = [
     "markers_unused",
     "mesh_written",
     "no_scene_colour",
+    "plan_written",
     "plane_error",
     "plane_figures",
     "refined",
