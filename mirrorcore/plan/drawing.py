@@ -1,0 +1,291 @@
+"""The plan's drawing: the layout seen from above and from the side, with every dimension a person
+needs to build it, written as SVG and PNG (docs/planning.md, "The drawing and the report").
+
+Lengths are labelled in millimetres and angles in degrees. Every dimension's text carries a
+`data-key` in the SVG (e.g. "mirror 1 width", "mirror 1 / mirror 2 angle") for programs that read
+the drawing back.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from mirrorcore.base.atomic import write_atomic
+from mirrorcore.base.palette import source_colour
+from mirrorcore.depth.files import write_colour_png
+from mirrorcore.plan.measures import Measures, measure
+from mirrorcore.plan.planfile import Plan
+from mirrorcore.plan.sheet import INK, Sheet
+
+DRAWING_PNG = "drawing.png"
+DRAWING_SVG = "drawing.svg"
+PAGE = (2400, 1400)                  # pixels: A4 landscape at about 200 dpi
+WALL = (120, 120, 120)
+LIGHT = (170, 170, 170)
+SUBJECT = (215, 215, 215)
+_TOP = (20, 90, 1130, 1380)          # the panels' boxes on the page: x0, y0, x1, y1
+_SIDE = (1170, 90, 2380, 900)
+_FIGURES = (1170, 930, 2380, 1380)
+_MARGIN = 130                        # pixels around a view, for its dimensions
+
+
+def mm(metres: float) -> str:
+    """A length in whole millimetres."""
+    return str(round(metres * 1000))
+
+
+def degrees(value: float) -> str:
+    """An angle to a tenth of a degree, without a trailing '.0'."""
+    text = f"{round(value, 1) + 0.0:.1f}"
+    return text.removesuffix(".0") + "°"
+
+
+class _View:
+    """A panel's mapping from metres (a, b: right and up on the page) to pixels."""
+
+    def __init__(self, box, low, high):
+        x0, y0, x1, y1 = box
+        span = np.maximum(np.asarray(high, float) - low, 1e-6)
+        self.scale = min((x1 - x0 - 2 * _MARGIN) / span[0], (y1 - y0 - 2 * _MARGIN - 40) / span[1])
+        middle = (np.asarray(low, float) + high) / 2
+        self.origin = np.array([(x0 + x1) / 2, (y0 + 40 + y1) / 2])
+        self.middle = middle
+        self.box = box
+
+    def __call__(self, a, b) -> tuple[float, float]:
+        return (float(self.origin[0] + (a - self.middle[0]) * self.scale),
+                float(self.origin[1] - (b - self.middle[1]) * self.scale))
+
+
+def drawing(plan: Plan, measures: Measures | None = None) -> Sheet:
+    """Draw a plan's layout from above and from the side, with its dimensions.
+
+    Parameters
+    ----------
+    plan : Plan
+    measures : Measures, optional
+        `measure(plan)` when not given.
+
+    Returns
+    -------
+    Sheet
+    """
+    m = measure(plan) if measures is None else measures
+    sheet = Sheet(*PAGE)
+    sheet.label((PAGE[0] / 2, 40), [f"Mirror layout: {len(m.mirrors)} mirrors and a "
+                                    f"{plan.subject.kind}. Lengths in mm, angles in degrees."],
+                scale=0.95)
+    for box, title in ((_TOP, "Top view (camera at the bottom, looking up the page)"),
+                       (_SIDE, "Side view (from the camera's left, camera looking right)"),
+                       (_FIGURES, "Predicted figures")):
+        sheet.polyline([(box[0], box[1]), (box[2], box[1]), (box[2], box[3]), (box[0], box[3])],
+                       LIGHT, 1, closed=True)
+        sheet.label((box[0] + 12, box[1] + 22), [title], bounds=box, leader=False)
+    _top_view(sheet, plan, m)
+    _side_view(sheet, plan, m)
+    _figures(sheet, plan, m)
+    return sheet
+
+
+def write_drawing(plan: Plan, folder: str | Path | None = None) -> tuple[Path, Path]:
+    """Write the drawing as drawing.png and drawing.svg.
+
+    Parameters
+    ----------
+    plan : Plan
+    folder : str or Path, optional
+        Where to write them (the plan folder by default).
+
+    Returns
+    -------
+    (Path, Path)
+        The PNG's and the SVG's paths.
+    """
+    folder = plan.folder if folder is None else Path(folder)
+    sheet = drawing(plan)
+    png, svg = folder / DRAWING_PNG, folder / DRAWING_SVG
+    write_colour_png(png, sheet.png())
+    write_atomic(svg, sheet.svg().encode("utf-8"))
+    return png, svg
+
+
+def _colour(k: int) -> tuple[int, int, int]:
+    return tuple(int(c) for c in source_colour(k + 1))
+
+
+def _top_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
+    room = plan.room
+    outline = np.concatenate([m.subject_points[:, [0, 2]],
+                              *[c.corners[:, [0, 2]] for c in m.mirrors],
+                              [[-room.width / 2, 0], [room.width / 2, room.depth], [0, -0.25]]])
+    view = _View(_TOP, outline.min(axis=0), outline.max(axis=0))
+    w, d = room.width / 2, room.depth
+    sheet.polyline([view(-w, 0), view(-w, d), view(w, d), view(w, 0)], WALL, 4)
+    sheet.line(view(-w, 0), view(w, 0), LIGHT, 1, dashed=True)
+    sheet.dimension(view(-w, d), view(w, d), mm(room.width), "room width", 40, WALL)
+    sheet.dimension(view(w, 0), view(w, d), mm(room.depth), "room depth", 40, WALL)
+    _field_of_view(sheet, plan, m, view)
+    _subject_top(sheet, plan, m, view)
+    camera = np.array(view(0, 0))
+    for k, mirror in enumerate(m.mirrors):
+        colour = _colour(k)
+        sheet.polyline([view(x, z) for x, _, z in mirror.corners], colour, 6, closed=True)
+        a, b = (np.array(view(*s)) for s in mirror.sides)
+        facing = np.array([mirror.normal[0], -mirror.normal[2]])
+        left = np.array([(b - a)[1], -(b - a)[0]])
+        sign = -1 if left @ facing > 0 else 1
+        sheet.dimension(tuple(a), tuple(b), mm(mirror.width), f"{mirror.name} width",
+                        sign * 34, colour)
+        centre = np.array(view(mirror.centre[0], mirror.centre[2]))
+        sheet.line(tuple(camera), tuple(centre), colour, 1, dashed=True)
+        sheet.label(tuple(camera + (centre - camera) * 0.62), [mm(mirror.centre_distance)],
+                    [f"{mirror.name} centre distance"], colour=colour)
+        sheet.label(tuple(centre - facing * 120), [
+            mirror.name, f"{mm(mirror.width)} x {mm(mirror.height)}",
+            f"{degrees(mirror.to_axis)} to camera axis",
+            f"edge {mm(mirror.edge_distance)} from camera"],
+            [None, f"{mirror.name} size", f"{mirror.name} angle to axis",
+             f"{mirror.name} edge distance"], colour=colour, bounds=_TOP)
+    for pair in m.pairs:
+        _pair_top(sheet, m, pair, view)
+    sheet.label(tuple(camera + (0, 40)), ["camera"], bounds=_TOP)
+
+
+def _field_of_view(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
+    """The camera's icon and its horizontal field of view, up to its range or the walls."""
+    cam = plan.camera
+    for u in (0.0, cam.width - 1.0):
+        ray = m.level.points(np.array([(u - cam.cx) / cam.fx, 0.0, 1.0]))[0] - [0, m.level.height, 0]
+        flat = ray[[0, 2]] / np.linalg.norm(ray[[0, 2]])
+        reach = plan.max_depth * np.linalg.norm(ray[[0, 2]]) / np.linalg.norm(ray)
+        limits = [reach, plan.room.depth / flat[1] if flat[1] > 0 else reach,
+                  plan.room.width / 2 / abs(flat[0]) if flat[0] else reach]
+        end = flat * min(limits)
+        sheet.line(view(0, 0), view(*end), LIGHT, 1.5, dashed=True)
+    c = np.array(view(0, 0))
+    sheet.polyline([c + (-14, 10), c + (14, 10), c + (0, -16)], INK, 2, closed=True, fill=INK)
+
+
+def _subject_top(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
+    s = plan.subject
+    flat = m.subject_points[:, [0, 2]]
+    hull = cv2.convexHull(flat.astype(np.float32))[:, 0]
+    sheet.polyline([view(*p) for p in hull], INK, 2, closed=True, fill=SUBJECT)
+    low, high = flat.min(axis=0), flat.max(axis=0)
+    centre = (low + high) / 2
+    size = (mm(2 * s.radius) + " across" if s.kind != "mesh"
+            else f"{mm(high[0] - low[0])} x {mm(high[1] - low[1])}")
+    place = f"{mm(centre[1])} ahead" + ("" if abs(centre[0]) < 5e-4 else
+                                         f", {mm(centre[0])} right")
+    sheet.line(view(0, 0), view(*centre), INK, 1, dashed=True)
+    beside = np.array(view(high[0], centre[1])) + (130, 0)
+    sheet.label(tuple(beside), [f"subject: {s.kind}", size, place],
+                [None, "subject size", "subject position"], bounds=_TOP)
+
+
+def _pair_top(sheet: Sheet, m: Measures, pair, view: _View) -> None:
+    a, b = m.mirrors[pair.first], m.mirrors[pair.second]
+    names = f"{a.name} / {b.name}"
+    if pair.apex is None:
+        near = min(((p, q) for p in a.sides for q in b.sides),
+                   key=lambda pq: np.linalg.norm(pq[0] - pq[1]))
+        sheet.label(view(*(near[0] + near[1]) / 2), [f"gap {mm(pair.gap)}",
+                                                     degrees(pair.angle)],
+                    [f"{names} gap", f"{names} angle"], bounds=_TOP)
+        return
+    apex = np.array(view(*pair.apex))
+    ends = []
+    for mirror in (a, b):
+        far = max(mirror.sides, key=lambda s: np.linalg.norm(s - pair.apex))
+        ends.append(np.array(view(*far)) - apex)
+    turns = [np.arctan2(e[1], e[0]) for e in ends]
+    if abs(turns[1] - turns[0]) > np.pi:
+        turns[int(turns[1] < turns[0])] += 2 * np.pi
+    sheet.arc(tuple(apex), 60, min(turns), max(turns))
+    middle = (turns[0] + turns[1]) / 2
+    sheet.label(tuple(apex + 95 * np.array([np.cos(middle), np.sin(middle)])),
+                [degrees(pair.angle), f"gap {mm(pair.gap)}"],
+                [f"{names} angle", f"{names} gap"], bounds=_TOP)
+
+
+def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
+    room, h = plan.room, m.level.height
+    points = np.concatenate([m.subject_points[:, [2, 1]],
+                             *[c.corners[:, [2, 1]] for c in m.mirrors],
+                             [[-0.25, 0], [room.depth, room.height or h]]])
+    view = _View(_SIDE, points.min(axis=0), points.max(axis=0))
+    top = room.height or points[:, 1].max()
+    sheet.line(view(-0.25, 0), view(room.depth, 0), WALL, 4)
+    sheet.line(view(room.depth, 0), view(room.depth, top), WALL, 4)
+    if room.height is not None:
+        sheet.line(view(-0.25, room.height), view(room.depth, room.height), WALL, 2, dashed=True)
+        sheet.dimension(view(room.depth, 0), view(room.depth, room.height), mm(room.height),
+                        "room height", -40, WALL)
+    subject = points[:len(m.subject_points)]
+    hull = cv2.convexHull(subject.astype(np.float32))[:, 0]
+    sheet.polyline([view(*p) for p in hull], INK, 2, closed=True, fill=SUBJECT)
+    near = subject[:, 0].min()
+    for k, (value, key) in enumerate(((subject[:, 1].min(), "subject bottom"),
+                                      (subject[:, 1].max(), "subject top"))):
+        sheet.dimension(view(near, 0), view(near, value), mm(value), key, 30 + 60 * k)
+    groups: dict[tuple, list[int]] = {}
+    for k, mirror in enumerate(m.mirrors):
+        zs = mirror.corners[:, 2]
+        key = tuple(round(v * 1000) for v in (mirror.bottom, mirror.top, zs.min(), zs.max()))
+        groups.setdefault(key, []).append(k)
+    for g, members in enumerate(groups.values()):
+        first = m.mirrors[members[0]]
+        names = " and ".join(m.mirrors[k].name for k in members)
+        colour = _colour(members[0])
+        hull = cv2.convexHull(first.corners[:, [2, 1]].astype(np.float32))[:, 0]
+        sheet.polyline([view(*p) for p in hull], colour, 4, closed=True)
+        far = first.corners[:, 2].max()
+        for value, what, offset in ((first.bottom, "bottom", 40), (first.top, "top", 100)):
+            sheet.dimension(view(far, value), view(far, 0), mm(value), f"{names} {what}",
+                            offset + 130 * g, colour)
+        lines = [names] + ([f"leans {degrees(first.lean)} from upright"]
+                           if first.lean >= 0.05 else [])
+        sheet.label(view(first.centre[2], first.top + 0.12), lines,
+                    [None] + [f"{names} lean"] * (len(lines) - 1), colour=colour, bounds=_SIDE)
+    _camera_side(sheet, plan, m, view)
+
+
+def _camera_side(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
+    h, tilt = m.level.height, m.level.tilt
+    c = np.array(view(0, h))
+    d = np.array([np.cos(np.radians(tilt)), np.sin(np.radians(tilt))])
+    n = np.array([-d[1], d[0]])
+    sheet.polyline([c - 16 * d + 12 * n, c - 16 * d - 12 * n, c + 16 * d], INK, 2, closed=True,
+                   fill=INK)
+    reach = np.array([np.cos(np.radians(tilt)), -np.sin(np.radians(tilt))]) * plan.max_depth
+    # the axis up to the sensor's range, the floor or the back wall, whichever comes first
+    limits = [1.0, plan.room.depth / reach[0] if reach[0] > 0 else 1.0,
+              h / -reach[1] if reach[1] < 0 else 1.0]
+    end = np.array([0, h]) + reach * min(limits)
+    sheet.line(tuple(c), view(*end), LIGHT, 1.5, dashed=True)
+    sheet.dimension(view(0, 0), view(0, h), mm(h), "camera height", 40)
+    text = "level" if abs(tilt) < 0.05 else f"{'down' if tilt > 0 else 'up'} {degrees(abs(tilt))}"
+    sheet.label(tuple(c + (0, -50)), ["camera", f"tilt: {text}"], [None, "camera tilt"],
+                bounds=_SIDE)
+
+
+def _figures(sheet: Sheet, plan: Plan, m: Measures) -> None:
+    p = plan.predicted
+    lines = [f"Seen by one view or more: {p.coverage * 100:.0f} % of the subject's surface",
+             f"Seen by two views or more: {p.coverage_2 * 100:.0f} %"]
+    keys = ["coverage", "coverage 2"]
+    for view, share in p.per_view.items():
+        lines.append(f"  {view}: {share * 100:.0f} % seen, noise {p.noise_mm[view]:.1f} mm")
+        keys.append(f"{view} view")
+    room = plan.room
+    lines.append(f"Room {mm(room.width)} wide, {mm(room.depth)} deep"
+                 + ("" if room.height is None else f", {mm(room.height)} high"))
+    keys.append("room")
+    lines.append(f"Camera {plan.camera.width} x {plan.camera.height} pixels, range "
+                 f"{mm(plan.min_depth)}-{mm(plan.max_depth)}")
+    keys.append("camera")
+    x0, y0, x1, _ = _FIGURES
+    sheet.label(((x0 + x1) / 2, y0 + 70 + 15 * len(lines)), lines, keys, bounds=_FIGURES,
+                leader=False)
