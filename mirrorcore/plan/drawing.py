@@ -229,7 +229,9 @@ def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
     near = subject[:, 0].min()
     for k, (value, key) in enumerate(((subject[:, 1].min(), "subject bottom"),
                                       (subject[:, 1].max(), "subject top"))):
-        sheet.dimension(view(near, 0), view(near, value), mm(value), key, 30 + 60 * k)
+        # a subject standing on the floor has no bottom to measure
+        if value >= 0.005:
+            sheet.dimension(view(near, 0), view(near, value), mm(value), key, 30 + 60 * k)
     groups: dict[tuple, list[int]] = {}
     for k, mirror in enumerate(m.mirrors):
         zs = mirror.corners[:, 2]

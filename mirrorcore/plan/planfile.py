@@ -247,7 +247,10 @@ def _camera(data, where: str) -> tuple[Intrinsics, float, float]:
     camera = Intrinsics.from_dict({k: v for k, v in data.items()
                                    if k not in ("min_depth", "max_depth")}, where)
     min_depth = _number(data, "min_depth", where, 0.0)
-    max_depth = _number(data, "max_depth", where, min_depth)
+    max_depth = _number(data, "max_depth", where, 0.0)
+    if max_depth <= min_depth:
+        raise FileFormatError(f"{where}: 'max_depth' ({max_depth:g}) must be above 'min_depth' "
+                              f"({min_depth:g})")
     return camera, min_depth, max_depth
 
 
@@ -279,14 +282,22 @@ def _check_outline(points: np.ndarray, where: str) -> None:
     normal = turns.sum(axis=0)
     area = np.linalg.norm(normal) / 2
     if area < 1e-4:
-        raise FileFormatError(f"{where}: the 4 corners enclose no area (under 1 cm²)")
+        raise FileFormatError(f"{where}: the 4 corners enclose no area (under 1 cm²); give "
+                              "them in order around the outline")
     normal /= 2 * area
-    off = np.abs((points - points.mean(axis=0)) @ normal).max()
+    off = max(_off_plane(points[k], *np.delete(points, k, axis=0)) for k in range(4))
     if off > MAX_CORNER_OFF_PLANE:
-        raise FileFormatError(f"{where}: a corner lies {off * 1000:.0f} mm off the mirror's "
-                              f"plane (at most {MAX_CORNER_OFF_PLANE * 1000:g})")
+        raise FileFormatError(f"{where}: a corner lies {off * 1000:.0f} mm off the plane of the "
+                              f"other three (at most {MAX_CORNER_OFF_PLANE * 1000:g})")
     if np.any(turns @ normal <= 0):
         raise FileFormatError(f"{where}: the corners must go around the outline in order")
+
+
+def _off_plane(point, a, b, c) -> float:
+    """Metres from point to the plane through a, b and c (0 when they are in a line)."""
+    n = np.cross(b - a, c - a)
+    size = np.linalg.norm(n)
+    return 0.0 if size < 1e-12 else float(abs((point - a) @ n) / size)
 
 
 def _floor(data: dict, where: str) -> Plane:

@@ -181,7 +181,8 @@ class Sheet:
     def svg(self) -> str:
         """The sheet as an SVG document (text)."""
         out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{self.width}" '
-               f'height="{self.height}" viewBox="0 0 {self.width} {self.height}">',
+               f'height="{self.height}" viewBox="0 0 {self.width} {self.height}" '
+               'xml:space="preserve">',
                f'<rect width="{self.width}" height="{self.height}" fill="white"/>']
         for shape in self.shapes:
             out.append(_svg_shape(shape))
@@ -193,8 +194,9 @@ class Sheet:
             for text, key in zip(box.lines, box.keys):
                 w, h = _text_size(text, box.scale)
                 data = "" if key is None else f' data-key="{escape(key)}"'
+                weight = ' font-weight="bold"' if _thickness(box.scale) > 1 else ""
                 out.append(f'<text x="{box.x:.1f}" y="{y + h:.1f}" font-family="DejaVu Sans, '
-                           f'Arial, sans-serif" font-size="{h * 1.36:.1f}" '
+                           f'Arial, sans-serif" font-size="{h * 1.36:.1f}"{weight} '
                            f'textLength="{w}" lengthAdjust="spacingAndGlyphs" '
                            f'fill="{_hex(box.colour)}"{data}>{escape(text)}</text>')
                 y += h + LINE_GAP
