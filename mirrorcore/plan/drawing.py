@@ -16,7 +16,7 @@ from mirrorcore.base.atomic import write_atomic
 from mirrorcore.base.palette import source_colour
 from mirrorcore.depth.files import write_colour_png
 from mirrorcore.plan.measures import Measures, measure
-from mirrorcore.plan.planfile import Plan
+from mirrorcore.plan.planread import Plan
 from mirrorcore.plan.sheet import INK, Sheet
 
 DRAWING_PNG = "drawing.png"
@@ -279,7 +279,9 @@ def _figures(sheet: Sheet, plan: Plan, m: Measures) -> None:
              f"Seen by two views or more: {p.coverage_2 * 100:.0f} %"]
     keys = ["coverage", "coverage 2"]
     for view, share in p.per_view.items():
-        lines.append(f"  {view}: {share * 100:.0f} % seen, noise {p.noise_mm[view]:.1f} mm")
+        noise = p.noise_mm[view]
+        lines.append(f"  {view}: {share * 100:.0f} % seen"
+                     + ("" if noise is None else f", noise {noise:.1f} mm"))
         keys.append(f"{view} view")
     room = plan.room
     lines.append(f"Room {mm(room.width)} wide, {mm(room.depth)} deep"

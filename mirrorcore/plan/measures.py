@@ -12,7 +12,7 @@ import numpy as np
 import trimesh
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.plan.planfile import Plan
+from mirrorcore.plan.planread import Plan
 
 # below this, two mirrors' top-view lines are parallel: no apex to mark
 MIN_APEX_ANGLE = 1.0     # degrees
@@ -229,9 +229,14 @@ def subject_outline(plan: Plan) -> np.ndarray:
         return np.asarray(mesh.vertices, np.float64)
     if s.kind == "cylinder":
         turn = np.linspace(0, 2 * np.pi, 72, endpoint=False)
-        ring = np.stack([np.cos(turn), np.zeros_like(turn), np.sin(turn)], axis=1) * s.radius
-        axis = [np.array([s.axis_xz[0], y, s.axis_xz[1]]) for y in s.y_range]
-        return np.concatenate([ring + a for a in axis])
+        ends = s.ends or [(s.axis_xz[0], y, s.axis_xz[1]) for y in s.y_range]
+        axis = np.subtract(ends[1], ends[0])
+        axis /= np.linalg.norm(axis)
+        # the rims: circles about the axis
+        u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 0.0, 1.0])
+        u /= np.linalg.norm(u)
+        rim = s.radius * (np.outer(np.cos(turn), u) + np.outer(np.sin(turn), np.cross(axis, u)))
+        return np.concatenate([rim + e for e in ends])
     # a Fibonacci lattice: its outline from any side is the sphere's to within 1 %
     k = np.arange(800) + 0.5
     y = 1 - 2 * k / len(k)

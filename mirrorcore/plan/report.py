@@ -10,7 +10,7 @@ import numpy as np
 from mirrorcore.base.atomic import write_atomic
 from mirrorcore.plan.drawing import degrees, mm
 from mirrorcore.plan.measures import Measures, measure
-from mirrorcore.plan.planfile import Plan
+from mirrorcore.plan.planread import Plan
 
 REPORT_FILE = "report.txt"
 
@@ -70,7 +70,8 @@ def report(plan: Plan, measures: Measures | None = None) -> str:
               f"  seen by one view or more: {p.coverage * 100:.1f} % of the subject's surface",
               f"  seen by two views or more: {p.coverage_2 * 100:.1f} %",
               f"  {'view':<30} {'seen':>7} {'noise':>9}"]
-    lines += [f"  {view:<30} {share * 100:>5.1f} % {p.noise_mm[view]:>6.1f} mm"
+    lines += [f"  {view:<30} {share * 100:>5.1f} % "
+              + ("     -" if p.noise_mm[view] is None else f"{p.noise_mm[view]:>6.1f} mm")
               for view, share in p.per_view.items()]
     if plan.search:
         lines += ["", "Search settings"]

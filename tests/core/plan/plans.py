@@ -23,14 +23,13 @@ CAMERA = {"width": 640, "height": 480, "fx": 525.0, "fy": 525.0, "cx": 319.5, "c
 
 V_PLAN = {
     "camera": CAMERA,
-    "camera_height": 1.0,
     "mirrors": [
         {"name": "mirror 1", "corners": [[0.0, 0.8, 2.6], [-0.69282032, 0.8, 2.2],
                                          [-0.69282032, -1.1, 2.2], [0.0, -1.1, 2.6]]},
         {"name": "mirror 2", "corners": [[0.0, 0.8, 2.6], [0.69282032, 0.8, 2.2],
                                          [0.69282032, -1.1, 2.2], [0.0, -1.1, 2.6]]}],
     "subject": {"kind": "sphere", "center": [0.0, 0.0, 1.8], "radius": 0.15},
-    "room": {"width": 3.0, "depth": 3.6, "height": 2.5},
+    "room": {"width": 3.0, "depth": 3.6, "height": 2.5, "camera_height": 1.0},
     "predicted": {"coverage": 0.812, "coverage_2": 0.365,
                   "per_view": {"direct": 0.5, "mirror 1": 0.31, "mirror 2": 0.31},
                   "noise_mm": {"direct": 2.3, "mirror 1": 7.9, "mirror 2": 7.9}},
@@ -39,7 +38,6 @@ V_PLAN = {
 
 THREE_PLAN = {
     "camera": CAMERA,
-    "camera_height": 1.2,
     "mirrors": [
         {"name": "left", "corners": [[-0.42, 0.9, 2.6], [-0.72, 0.9, 2.08038],
                                      [-0.72, -0.6, 2.08038], [-0.42, -0.6, 2.6]]},
@@ -49,7 +47,7 @@ THREE_PLAN = {
                                       [0.72, -0.6, 2.08038], [0.42, -0.6, 2.6]]}],
     "subject": {"kind": "cylinder", "axis_xz": [0.0, 1.9], "radius": 0.2,
                 "y_range": [-0.5, 1.2]},
-    "room": {"width": 3.0, "depth": 3.6},
+    "room": {"width": 3.0, "depth": 3.6, "camera_height": 1.2},
     "predicted": {"coverage": 0.9, "coverage_2": 0.5,
                   "per_view": {"direct": 0.4, "left": 0.3, "middle": 0.35, "right": 0.3},
                   "noise_mm": {"direct": 2.0, "left": 6.0, "middle": 6.5, "right": 6.0}},
@@ -58,17 +56,20 @@ THREE_PLAN = {
 
 def tilted(plan: dict, down: float) -> dict:
     """The same layout stated in the frame of the camera turned `down` degrees about its x axis,
-    with the floor plane that gives its height."""
+    with the `up` that gives the floor (a cylinder's axis by its `ends`)."""
     t = np.radians(down)
     # rows: the tilted camera's axes in the level camera's frame
     rotation = np.array([[1, 0, 0], [0, np.cos(t), -np.sin(t)], [0, np.sin(t), np.cos(t)]])
     out = copy.deepcopy(plan)
-    height = out.pop("camera_height")
-    out["floor"] = [*(rotation @ [0.0, -1.0, 0.0]).tolist(), height]
+    out["up"] = (rotation @ [0.0, -1.0, 0.0]).tolist()
     for mirror in out["mirrors"]:
         mirror["corners"] = (np.asarray(mirror["corners"]) @ rotation.T).tolist()
-    if out["subject"]["kind"] == "sphere":
-        out["subject"]["center"] = (rotation @ out["subject"]["center"]).tolist()
+    subject = out["subject"]
+    if subject["kind"] == "sphere":
+        subject["center"] = (rotation @ subject["center"]).tolist()
+    if subject["kind"] == "cylinder":
+        ends = [[subject["axis_xz"][0], y, subject["axis_xz"][1]] for y in subject["y_range"]]
+        subject["ends"] = (np.asarray(ends) @ rotation.T).tolist()
     return out
 
 

@@ -12,7 +12,7 @@ import pytest
 import trimesh
 
 from mirrorcore.plan.drawing import PAGE, drawing, write_drawing
-from mirrorcore.plan.planfile import load_plan
+from mirrorcore.plan.planread import load_plan
 from mirrorcore.plan.report import write_report
 from tests.core.plan.plans import THREE_PLAN, V_PLAN, tilted, write_plan
 
@@ -54,8 +54,11 @@ def test_the_v_drawing_states_its_dimensions(tmp_path, down):
     assert orange.sum() > 500
 
 
-def test_three_mirrors_each_pair_its_angle_and_gap(tmp_path):
-    _, svg = write_drawing(load_plan(write_plan(tmp_path, THREE_PLAN)))
+@pytest.mark.parametrize("down", [0, -8])
+def test_three_mirrors_each_pair_its_angle_and_gap(tmp_path, down):
+    data = tilted(THREE_PLAN, down) if down else copy.deepcopy(THREE_PLAN)
+    data["predicted"]["noise_mm"]["left"] = None
+    _, svg = write_drawing(load_plan(write_plan(tmp_path, data)))
     texts = keyed_texts(svg)
     assert texts["left / middle angle"] == texts["middle / right angle"] == "120°"
     assert texts["left / middle gap"] == texts["middle / right gap"] == "gap 20"
@@ -67,6 +70,8 @@ def test_three_mirrors_each_pair_its_angle_and_gap(tmp_path):
     assert texts["camera height"] == "1200" and "room height" not in texts
     # a cylinder standing on the floor: no bottom to measure
     assert texts["subject top"] == "1700" and "subject bottom" not in texts
+    assert texts["left view"] == "  left: 30 % seen"
+    assert texts["camera tilt"] == ("tilt: level" if down == 0 else "tilt: up 8°")
 
 
 @pytest.mark.parametrize("data", [V_PLAN, THREE_PLAN, tilted(V_PLAN, 20)])
@@ -105,3 +110,11 @@ def test_the_report_gives_the_layout_in_numbers(tmp_path):
     assert "seen by two views or more: 36.5 %" in text
     assert "mirror 1                        31.0 %    7.9 mm" in text
     assert "3000 wide (centred on the camera), 3600 deep" in text
+
+
+def test_a_view_that_sees_nothing_has_no_noise(tmp_path):
+    data = copy.deepcopy(THREE_PLAN)
+    data["predicted"]["per_view"]["left"] = 0.0
+    data["predicted"]["noise_mm"]["left"] = None
+    text = write_report(load_plan(write_plan(tmp_path, data))).read_text()
+    assert "  left                             0.0 %      -\n" in text

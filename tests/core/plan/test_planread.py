@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from mirrorcore.base.errors import FileFormatError
-from mirrorcore.plan.planfile import load_plan
+from mirrorcore.plan.planread import load_plan
 from tests.core.plan.plans import THREE_PLAN, V_PLAN, tilted, write_plan
 
 
@@ -24,16 +24,28 @@ def test_the_v_plan_reads_as_written(tmp_path):
     assert (plan.subject.kind, plan.subject.center, plan.subject.radius) == (
         "sphere", (0.0, 0.0, 1.8), 0.15)
     assert (plan.room.width, plan.room.depth, plan.room.height) == (3.0, 3.6, 2.5)
+    assert plan.room.camera_height == 1.0
     assert plan.predicted.coverage_2 == 0.365
     assert plan.predicted.noise_mm == {"direct": 2.3, "mirror 1": 7.9, "mirror 2": 7.9}
     assert plan.search == {"mirrors": 2, "bounces": 1}
 
 
-def test_a_tilted_camera_states_its_floor(tmp_path):
+def test_a_tilted_camera_states_its_up(tmp_path):
     plan = load_plan(write_plan(tmp_path, tilted(V_PLAN, 12)))
     assert plan.floor.d == pytest.approx(1.0)
-    # the floor's normal (up) in the frame of a camera looking down has a negative z
+    # up, in the frame of a camera looking down, has a negative z
     assert plan.floor.normal[2] == pytest.approx(-np.sin(np.radians(12)))
+
+
+def test_the_planners_own_keys_are_kept_or_ignored(tmp_path):
+    data = copy.deepcopy(THREE_PLAN)
+    data.update(version=1, level_from_camera=np.eye(3).tolist(), hand_made={"kind": "arc"})
+    data["camera"]["tilt_deg"] = 0.0
+    data["mirrors"][0].update(width=0.6, height=1.5)
+    data["subject"]["spec"] = "cylinder:0.2,1.7"
+    data["predicted"]["noise_mm"]["left"] = None
+    plan = load_plan(write_plan(tmp_path, data))
+    assert plan.predicted.noise_mm["left"] is None and plan.mirrors[0].name == "left"
 
 
 def test_three_mirrors_and_a_cylinder_without_a_ceiling(tmp_path):
@@ -66,8 +78,10 @@ def _set(path: str, value):
 
 BAD = [
     ("room", _set("room", ...), "missing key(s) room"),
-    ("camera_height", _set("camera_height", ...), "floor (or camera_height)"),
-    ("camera_height", _set("camera_height", -1.0), "'camera_height' must be a number above 0"),
+    ("camera_height", _set("room.camera_height", ...), "room: missing key(s) camera_height"),
+    ("camera_height", _set("room.camera_height", -1.0),
+     "room: 'camera_height' must be a number above 0"),
+    ("camera_height", _set("room.camera_height", 2.6), "room: 'camera_height' (2.6) must be below"),
     ("min_depth", _set("camera.min_depth", 5.0), "camera: 'max_depth'"),
     ("camera", _set("camera.fx", "wide"), "camera values must be numbers"),
     ("corners", _set("mirrors.0.corners", [[0, 0, 2]] * 3), "mirrors[0]: corners: must be 4"),
@@ -93,8 +107,14 @@ BAD = [
     ("coverage", _set("predicted.coverage", 1.5), "predicted: 'coverage' must be a share"),
     ("noise_mm", _set("predicted.noise_mm", {"direct": 2.0}),
      "predicted: noise_mm: must name the views of per_view"),
-    ("floor", _set("floor", [0, 1, 0, 1]), "floor: its normal must point up"),
-    ("floor", _set("floor", [0, -1, 0, -1]), "floor"),
+    ("up", _set("up", [0, 1, 0]), "up: must be a unit vector pointing up"),
+    ("up", _set("up", [0, -2, 0]), "up: must be a unit vector pointing up"),
+    ("up", _set("up", [0, -1]), "up: must be 3 numbers"),
+    ("version", _set("version", 2), "unknown version 2"),
+    ("noise_mm", _set("predicted.noise_mm.direct", "low"), "predicted: noise_mm: 'direct'"),
+    ("ends", _set("subject", {"kind": "cylinder", "axis_xz": [0, 2], "radius": 0.2,
+                              "y_range": [-1, 1], "ends": [[0, -1, 2]]}),
+     "subject: ends: must be 2 points"),
     ("search", _set("search", [1]), "search: must be an object"),
 ]
 

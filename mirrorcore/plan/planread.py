@@ -2,8 +2,8 @@
 each error one line naming the file and the key (docs/DESIGN.md, "Plan folders").
 
 Everything is in the final camera's frame: metres, OpenCV axes (x right, y down, z forward), origin
-at the depth camera. The `floor` plane gives "up" and the camera's height when the camera is
-tilted; without it the camera is level and `camera_height` metres above the floor.
+at the depth camera. `up` gives the floor's direction when the camera is tilted; without it the
+camera is level. The camera stands the room's `camera_height` metres above the floor.
 """
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
 
 PLAN_FILE = "plan.json"
+PLAN_VERSION = 1
 SUBJECT_KINDS = ("sphere", "cylinder", "mesh")
 # metres: how far a mirror's fourth corner may lie off the plane of the other three
 MAX_CORNER_OFF_PLANE = 0.002
@@ -57,6 +58,9 @@ class Subject:
         Cylinder: the axis x = axis_xz[0], z = axis_xz[1], metres.
     y_range : (float, float) or None
         Cylinder: the axis's extent in y, metres, low to high.
+    ends : ((float, float, float), (float, float, float)) or None
+        Cylinder: its axis's two ends, metres, when the camera is tilted (the axis then is not
+        along y); None: (axis_xz[0], y, axis_xz[1]) for y in y_range.
     path : Path or None
         Mesh: the triangle mesh file (metres, camera frame) inside the plan folder.
     """
@@ -66,6 +70,7 @@ class Subject:
     radius: float | None = None
     axis_xz: tuple[float, float] | None = None
     y_range: tuple[float, float] | None = None
+    ends: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     path: Path | None = None
 
 
@@ -81,11 +86,14 @@ class Room:
         Metres from the camera forward to the back wall.
     height : float or None
         Metres from the floor to the ceiling, None when not limited.
+    camera_height : float
+        Metres from the floor to the camera.
     """
 
     width: float
     depth: float
     height: float | None
+    camera_height: float
 
 
 @dataclass(frozen=True)
@@ -100,14 +108,15 @@ class Predicted:
         Share seen by two or more views.
     per_view : dict of str to float
         Each view's share, by view name ('direct', 'mirror 1', 'mirror 1 then mirror 2').
-    noise_mm : dict of str to float
-        Each view's depth noise (1 sigma, mm) at the subject, same keys as `per_view`.
+    noise_mm : dict of str to float or None
+        Each view's depth noise (1 sigma, mm) at the subject, same keys as `per_view`; None for a
+        view that sees none of it.
     """
 
     coverage: float
     coverage_2: float
     per_view: dict[str, float]
-    noise_mm: dict[str, float]
+    noise_mm: dict[str, float | None]
 
 
 @dataclass(frozen=True)
@@ -121,7 +130,7 @@ class Plan:
     min_depth, max_depth : float
         The sensor's depth range, metres.
     floor : Plane
-        The floor in the camera frame; its normal points up, `floor.d` is the camera's height.
+        The floor in the camera frame: its normal is `up`, `floor.d` the camera's height.
     mirrors : tuple of PlanMirror
     subject : Subject
     room : Room
@@ -188,18 +197,20 @@ def plan_from_json(data, folder: Path, where: str | None = None) -> Plan:
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
     missing = [k for k in ("camera", "mirrors", "subject", "room", "predicted") if k not in data]
-    if "floor" not in data and "camera_height" not in data:
-        missing.append("floor (or camera_height)")
     if missing:
         raise FileFormatError(f"{where}: missing key(s) {', '.join(missing)}")
+    if data.get("version", PLAN_VERSION) != PLAN_VERSION:
+        raise FileFormatError(f"{where}: unknown version {repr(data['version'])[:40]}; this "
+                              f"mirrorscan reads version {PLAN_VERSION}")
     camera, min_depth, max_depth = _camera(data["camera"], f"{where}: camera")
     mirrors = _mirrors(data["mirrors"], f"{where}: mirrors")
     search = data.get("search", {})
     if not isinstance(search, dict):
         raise FileFormatError(f"{where}: search: must be an object")
-    return Plan(Path(folder), camera, min_depth, max_depth, _floor(data, where), mirrors,
-                _subject(data["subject"], Path(folder), f"{where}: subject"),
-                _room(data["room"], f"{where}: room"),
+    room = _room(data["room"], f"{where}: room")
+    return Plan(Path(folder), camera, min_depth, max_depth,
+                _floor(data.get("up"), room.camera_height, where), mirrors,
+                _subject(data["subject"], Path(folder), f"{where}: subject"), room,
                 _predicted(data["predicted"], f"{where}: predicted"), search)
 
 
@@ -300,18 +311,17 @@ def _off_plane(point, a, b, c) -> float:
     return 0.0 if size < 1e-12 else float(abs((point - a) @ n) / size)
 
 
-def _floor(data: dict, where: str) -> Plane:
-    """The floor plane: `floor` [a, b, c, d] (up normal, d the camera's height), or level."""
-    if "floor" in data:
-        try:
-            floor = Plane.from_abcd(data["floor"], f"{where}: floor", orient=False)
-        except MirrorscanError as exc:
-            raise FileFormatError(str(exc)) from None
-        if floor.normal[1] >= 0:
-            raise FileFormatError(f"{where}: floor: its normal must point up (negative y), got "
-                                  f"{repr(data['floor'])[:60]}")
-        return floor
-    return Plane((0.0, -1.0, 0.0), _number(data, "camera_height", where, 0.0))
+def _floor(up, camera_height: float, where: str) -> Plane:
+    """The floor plane from `up` (the unit up vector in the camera frame) and the camera's height;
+    level ([0, -1, 0]) without it."""
+    if up is None:
+        return Plane((0.0, -1.0, 0.0), camera_height)
+    n = np.array(_point(up, 3, f"{where}: up"))
+    size = np.linalg.norm(n)
+    if not 0.99 < size < 1.01 or n[1] >= 0:
+        raise FileFormatError(f"{where}: up: must be a unit vector pointing up (negative y), got "
+                              f"{repr(up)[:60]}")
+    return Plane(tuple((n / size).tolist()), camera_height)
 
 
 def _subject(data, folder: Path, where: str) -> Subject:
@@ -330,9 +340,14 @@ def _subject(data, folder: Path, where: str) -> Subject:
         low, high = _point(data["y_range"], 2, f"{where}: y_range")
         if not low < high:
             raise FileFormatError(f"{where}: y_range: must be [low, high] with low < high")
+        ends = data.get("ends")
+        if ends is not None:
+            if not isinstance(ends, list) or len(ends) != 2:
+                raise FileFormatError(f"{where}: ends: must be 2 points [x, y, z]")
+            ends = tuple(_point(e, 3, f"{where}: ends[{k}]") for k, e in enumerate(ends))
         return Subject(kind, radius=_number(data, "radius", where, 0.0),
                        axis_xz=_point(data["axis_xz"], 2, f"{where}: axis_xz"),
-                       y_range=(low, high))
+                       y_range=(low, high), ends=ends)
     _object(data, where, ("path",))
     path = data["path"]
     rel = PurePosixPath(path.replace("\\", "/")) if isinstance(path, str) and path else None
@@ -345,11 +360,16 @@ def _subject(data, folder: Path, where: str) -> Subject:
 
 
 def _room(data, where: str) -> Room:
-    """The room's width, depth and (optional) height."""
-    data = _object(data, where, ("width", "depth"))
+    """The room's width, depth, (optional) height and the camera's height in it."""
+    data = _object(data, where, ("width", "depth", "camera_height"))
     height = data.get("height")
-    return Room(_number(data, "width", where, 0.0), _number(data, "depth", where, 0.0),
-                None if height is None else _number(data, "height", where, 0.0))
+    room = Room(_number(data, "width", where, 0.0), _number(data, "depth", where, 0.0),
+                None if height is None else _number(data, "height", where, 0.0),
+                _number(data, "camera_height", where, 0.0))
+    if room.height is not None and room.camera_height >= room.height:
+        raise FileFormatError(f"{where}: 'camera_height' ({room.camera_height:g}) must be below "
+                              f"the ceiling ('height' {room.height:g})")
+    return room
 
 
 def _predicted(data, where: str) -> Predicted:
@@ -361,7 +381,8 @@ def _predicted(data, where: str) -> Predicted:
         if not isinstance(value, dict) or not value:
             raise FileFormatError(f"{where}: {key}: must be an object of view names to numbers")
         views[key] = {k: _share(value, k, f"{where}: {key}") if key == "per_view"
-                      else _number(value, k, f"{where}: {key}", 0.0) for k in value}
+                      else None if value[k] is None
+                      else _number(value, k, f"{where}: {key}", -1e-9) for k in value}
     if views["per_view"].keys() != views["noise_mm"].keys():
         raise FileFormatError(f"{where}: noise_mm: must name the views of per_view")
     return Predicted(_share(data, "coverage", where), _share(data, "coverage_2", where),
