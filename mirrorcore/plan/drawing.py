@@ -157,9 +157,11 @@ def _field_of_view(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
     """The camera's icon and its horizontal field of view, up to its range or the walls."""
     cam = plan.camera
     for u in (0.0, cam.width - 1.0):
-        ray = m.level.points(np.array([(u - cam.cx) / cam.fx, 0.0, 1.0]))[0] - [0, m.level.height, 0]
-        flat = ray[[0, 2]] / np.linalg.norm(ray[[0, 2]])
-        reach = plan.max_depth * np.linalg.norm(ray[[0, 2]]) / np.linalg.norm(ray)
+        # the point at the far end of the depth range on the image's side, on the floor's plan
+        far = np.array([(u - cam.cx) / cam.fx, 0.0, 1.0]) * plan.max_depth
+        far = np.array([far @ m.level.right, far @ m.level.forward])
+        reach = np.linalg.norm(far)
+        flat = far / reach
         limits = [reach, plan.room.depth / flat[1] if flat[1] > 0 else reach,
                   plan.room.width / 2 / abs(flat[0]) if flat[0] else reach]
         end = flat * min(limits)
