@@ -89,7 +89,8 @@ def drawing(plan: Plan, measures: Measures | None = None) -> Sheet:
     return sheet
 
 
-def write_drawing(plan: Plan, folder: str | Path | None = None) -> tuple[Path, Path]:
+def write_drawing(plan: Plan, folder: str | Path | None = None,
+                  measures: Measures | None = None) -> tuple[Path, Path]:
     """Write the drawing as drawing.png and drawing.svg.
 
     Parameters
@@ -97,6 +98,8 @@ def write_drawing(plan: Plan, folder: str | Path | None = None) -> tuple[Path, P
     plan : Plan
     folder : str or Path, optional
         Where to write them (the plan folder by default).
+    measures : Measures, optional
+        `measure(plan)` when not given.
 
     Returns
     -------
@@ -104,7 +107,7 @@ def write_drawing(plan: Plan, folder: str | Path | None = None) -> tuple[Path, P
         The PNG's and the SVG's paths.
     """
     folder = plan.folder if folder is None else Path(folder)
-    sheet = drawing(plan)
+    sheet = drawing(plan, measures)
     png, svg = folder / DRAWING_PNG, folder / DRAWING_SVG
     write_colour_png(png, sheet.png())
     write_atomic(svg, sheet.svg().encode("utf-8"))

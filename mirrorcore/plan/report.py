@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from mirrorcore.base.atomic import write_atomic
-from mirrorcore.plan.drawing import degrees, mm
+from mirrorcore.plan.drawing import degrees, mm, write_drawing
 from mirrorcore.plan.measures import Measures, measure
-from mirrorcore.plan.planread import Plan
+from mirrorcore.plan.planread import Plan, load_plan
 
 REPORT_FILE = "report.txt"
 
@@ -91,8 +91,32 @@ def _subject(plan: Plan, m: Measures) -> str:
             f"({mm(float(np.hypot(middle[0], middle[2])))} from the camera)")
 
 
-def write_report(plan: Plan, folder: str | Path | None = None) -> Path:
+def write_report(plan: Plan, folder: str | Path | None = None,
+                 measures: Measures | None = None) -> Path:
     """Write report.txt into `folder` (the plan folder by default) and return its path."""
     path = (plan.folder if folder is None else Path(folder)) / REPORT_FILE
-    write_atomic(path, report(plan).encode("utf-8"))
+    write_atomic(path, report(plan, measures).encode("utf-8"))
     return path
+
+
+def write_documents(folder: str | Path) -> list[Path]:
+    """Read a plan folder's plan.json and write its drawing (PNG, SVG) and report.txt beside it.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The plan folder.
+
+    Returns
+    -------
+    list of Path
+        drawing.png, drawing.svg and report.txt.
+
+    Raises
+    ------
+    FileFormatError
+        plan.json (or the subject's mesh) refused, in one line naming the file and the key.
+    """
+    plan = load_plan(folder)
+    measures = measure(plan)
+    return [*write_drawing(plan, measures=measures), write_report(plan, measures=measures)]

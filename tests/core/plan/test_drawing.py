@@ -13,7 +13,7 @@ import trimesh
 
 from mirrorcore.plan.drawing import PAGE, drawing, write_drawing
 from mirrorcore.plan.planread import load_plan
-from mirrorcore.plan.report import write_report
+from mirrorcore.plan.report import write_documents, write_report
 from tests.core.plan.plans import THREE_PLAN, V_PLAN, tilted, write_plan
 
 
@@ -118,3 +118,9 @@ def test_a_view_that_sees_nothing_has_no_noise(tmp_path):
     data["predicted"]["noise_mm"]["left"] = None
     text = write_report(load_plan(write_plan(tmp_path, data))).read_text()
     assert "  left                             0.0 %      -\n" in text
+
+
+def test_a_plan_folder_gets_its_drawing_and_report(tmp_path):
+    written = write_documents(write_plan(tmp_path, V_PLAN))
+    assert [p.name for p in written] == ["drawing.png", "drawing.svg", "report.txt"]
+    assert all(p.stat().st_size > 1000 for p in written)
