@@ -17,7 +17,7 @@ from mirrorcore.base.palette import source_colour
 from mirrorcore.depth.files import write_colour_png
 from mirrorcore.plan.measures import Measures, measure
 from mirrorcore.plan.planread import Plan
-from mirrorcore.plan.sheet import INK, Sheet
+from mirrorcore.plan.sheet import INK, LINE_GAP, TEXT_SCALE, Sheet, text_size
 
 DRAWING_PNG = "drawing.png"
 DRAWING_SVG = "drawing.svg"
@@ -82,10 +82,10 @@ def drawing(plan: Plan, measures: Measures | None = None) -> Sheet:
                        (_FIGURES, "Predicted figures")):
         sheet.polyline([(box[0], box[1]), (box[2], box[1]), (box[2], box[3]), (box[0], box[3])],
                        LIGHT, 1, closed=True)
-        sheet.label((box[0] + 12, box[1] + 22), [title], bounds=box, leader=False)
+        sheet.text((box[0] + 12, box[1] + 12), [title])
     _top_view(sheet, plan, m)
     _side_view(sheet, plan, m)
-    _figures(sheet, plan, m)
+    _figures(sheet, plan)
     return sheet
 
 
@@ -278,23 +278,29 @@ def _camera_side(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
                 bounds=_SIDE)
 
 
-def _figures(sheet: Sheet, plan: Plan, m: Measures) -> None:
-    p = plan.predicted
-    lines = [f"Seen by one view or more: {p.coverage * 100:.0f} % of the subject's surface",
-             f"Seen by two views or more: {p.coverage_2 * 100:.0f} %"]
-    keys = ["coverage", "coverage 2"]
-    for view, share in p.per_view.items():
-        noise = p.noise_mm[view]
-        lines.append(f"  {view}: {share * 100:.0f} % seen"
-                     + ("" if noise is None else f", noise {noise:.1f} mm"))
-        keys.append(f"{view} view")
-    room = plan.room
-    lines.append(f"Room {mm(room.width)} wide, {mm(room.depth)} deep"
-                 + ("" if room.height is None else f", {mm(room.height)} high"))
-    keys.append("room")
-    lines.append(f"Camera {plan.camera.width} x {plan.camera.height} pixels, range "
-                 f"{mm(plan.min_depth)}-{mm(plan.max_depth)}")
-    keys.append("camera")
-    x0, y0, x1, _ = _FIGURES
-    sheet.label(((x0 + x1) / 2, y0 + 70 + 15 * len(lines)), lines, keys, bounds=_FIGURES,
-                leader=False)
+def _figures(sheet: Sheet, plan: Plan) -> None:
+    """The predicted figures, the room and the camera; the views' lines in two columns when
+    there are many (several mirrors in turn), in smaller letters when even these overflow."""
+    p, room = plan.predicted, plan.room
+    sheet.text((_FIGURES[0] + 30, _FIGURES[1] + 55), [
+        f"Seen by one view or more: {p.coverage * 100:.0f} % of the subject's surface",
+        f"Seen by two views or more: {p.coverage_2 * 100:.0f} %",
+        f"Room {mm(room.width)} wide, {mm(room.depth)} deep"
+        + ("" if room.height is None else f", {mm(room.height)} high"),
+        f"Camera {plan.camera.width} x {plan.camera.height} pixels, range "
+        f"{mm(plan.min_depth)}-{mm(plan.max_depth)}"], ["coverage", "coverage 2", "room", "camera"])
+    lines = [f"{view}: {share * 100:.0f} % seen" + (
+        "" if p.noise_mm[view] is None else f", noise {p.noise_mm[view]:.1f} mm")
+        for view, share in p.per_view.items()]
+    keys = [f"{view} view" for view in p.per_view]
+    top = _FIGURES[1] + 55 + 5 * (text_size("0", TEXT_SCALE)[1] + LINE_GAP)
+    room_for = (_FIGURES[3] - top - 10)
+    columns = 1 if len(lines) * (text_size("0", TEXT_SCALE)[1] + LINE_GAP) <= room_for else 2
+    rows = -(-len(lines) // columns)
+    scale = TEXT_SCALE
+    while scale > 0.4 and rows * (text_size("0", scale)[1] + LINE_GAP) > room_for:
+        scale -= 0.05
+    width = (_FIGURES[2] - _FIGURES[0] - 60) / 2
+    for c in range(columns):
+        chunk = slice(c * rows, (c + 1) * rows)
+        sheet.text((_FIGURES[0] + 30 + c * width, top), lines[chunk], keys[chunk], scale)

@@ -28,7 +28,7 @@ _DIRECTIONS = ((0, 0), (0, -1), (0, 1), (1, 0), (-1, 0), (1, -1), (-1, -1), (1, 
 Point = tuple[float, float]
 
 
-def _text_size(text: str, scale: float) -> tuple[int, int]:
+def text_size(text: str, scale: float) -> tuple[int, int]:
     """Width and height (pixels) of one line; a degree sign takes a space's width."""
     (w, h), _ = cv2.getTextSize(text.replace("°", " ") or " ", FONT, scale, _thickness(scale))
     return w, h
@@ -148,7 +148,7 @@ class Sheet:
             Draw a thin line from the anchor to a label that moved away from it.
         """
         keys = keys or [None] * len(lines)
-        sizes = [_text_size(t, scale) for t in lines]
+        sizes = [text_size(t, scale) for t in lines]
         w = max(s[0] for s in sizes)
         h = sum(s[1] for s in sizes) + LINE_GAP * (len(lines) - 1)
         x0, y0, x1, y1 = bounds or (0, 0, self.width, self.height)
@@ -166,6 +166,17 @@ class Sheet:
                 if not any(box.overlaps(other) for other in self.labels):
                     return self._place(box, anchor, leader)
         return self._place(first, anchor, leader)
+
+    def text(self, corner: Point, lines: list[str], keys: list[str | None] | None = None,
+             scale: float = TEXT_SCALE, colour=INK) -> Label:
+        """A label with its top-left corner at `corner` (pixels), placed there whatever it
+        overlaps."""
+        sizes = [text_size(t, scale) for t in lines]
+        box = Label(corner[0], corner[1], list(lines), list(keys or [None] * len(lines)), scale,
+                    colour, max(s[0] for s in sizes),
+                    sum(s[1] for s in sizes) + LINE_GAP * (len(lines) - 1))
+        self.labels.append(box)
+        return box
 
     def _place(self, box: Label, anchor: Point, leader: bool) -> Label:
         cx, cy = box.x + box.width / 2, box.y + box.height / 2
@@ -192,7 +203,7 @@ class Sheet:
                        f'fill="white" fill-opacity="0.88"/>')
             y = box.y
             for text, key in zip(box.lines, box.keys):
-                w, h = _text_size(text, box.scale)
+                w, h = text_size(text, box.scale)
                 data = "" if key is None else f' data-key="{escape(key)}"'
                 weight = ' font-weight="bold"' if _thickness(box.scale) > 1 else ""
                 out.append(f'<text x="{box.x:.1f}" y="{y + h:.1f}" font-family="DejaVu Sans, '
@@ -215,7 +226,7 @@ class Sheet:
             patch[:] = (patch * 0.12 + 255 * 0.88).astype(np.uint8)
             y = box.y
             for text in box.lines:
-                h = _text_size(text, box.scale)[1]
+                h = text_size(text, box.scale)[1]
                 _put_text(image, text, (box.x, y + h), box.scale, box.colour)
                 y += h + LINE_GAP
         return image
@@ -274,12 +285,12 @@ def _put_text(image: np.ndarray, text: str, origin: Point, scale: float, colour)
     thickness = _thickness(scale)
     for k, piece in enumerate(text.split("°")):
         if k:
-            w, h = _text_size("°", scale)
+            w, h = text_size("°", scale)
             ring = max(2, round(scale * 4))
-            cv2.circle(image, (round(x + w / 2), round(y - _text_size("0", scale)[1] + ring)),
+            cv2.circle(image, (round(x + w / 2), round(y - text_size("0", scale)[1] + ring)),
                        ring, colour, 1, cv2.LINE_AA)
             x += w
         if piece:
             cv2.putText(image, piece, (round(x), round(y)), FONT, scale, colour, thickness,
                         cv2.LINE_AA)
-            x += _text_size(piece, scale)[0]
+            x += text_size(piece, scale)[0]

@@ -70,11 +70,23 @@ def test_three_mirrors_each_pair_its_angle_and_gap(tmp_path, down):
     assert texts["camera height"] == "1200" and "room height" not in texts
     # a cylinder standing on the floor: no bottom to measure
     assert texts["subject top"] == "1700" and "subject bottom" not in texts
-    assert texts["left view"] == "  left: 30 % seen"
+    assert texts["left view"] == "left: 30 % seen"
     assert texts["camera tilt"] == ("tilt: level" if down == 0 else "tilt: up 8°")
 
 
-@pytest.mark.parametrize("data", [V_PLAN, THREE_PLAN, tilted(V_PLAN, 20)])
+def _many_views() -> dict:
+    """THREE_PLAN followed through up to two mirrors: ten views."""
+    data = copy.deepcopy(THREE_PLAN)
+    names = ["direct", "left", "middle", "right"] + [
+        f"{a} then {b}" for a in ("left", "middle", "right") for b in ("left", "middle", "right")
+        if a != b]
+    data["predicted"]["per_view"] = {n: 0.1 for n in names}
+    data["predicted"]["noise_mm"] = {n: 9.5 for n in names}
+    return data
+
+
+@pytest.mark.parametrize("data", [V_PLAN, THREE_PLAN, tilted(V_PLAN, 20), _many_views()],
+                         ids=["v", "three", "v tilted", "ten views"])
 def test_no_label_overlaps_another_or_leaves_the_page(tmp_path, data):
     sheet = drawing(load_plan(write_plan(tmp_path, data)))
     for a, b in itertools.combinations(sheet.labels, 2):
