@@ -29,6 +29,7 @@ _TOP = (20, 90, 1130, 1380)          # the panels' boxes on the page: x0, y0, x1
 _SIDE = (1170, 90, 2380, 900)
 _FIGURES = (1170, 930, 2380, 1380)
 _MARGIN = 130                        # pixels around a view, for its dimensions
+_TITLE = 40                          # pixels of a panel's title
 
 
 def mm(metres: float) -> str:
@@ -47,12 +48,11 @@ class _View:
 
     def __init__(self, box, low, high):
         x0, y0, x1, y1 = box
+        y0 += _TITLE
         span = np.maximum(np.asarray(high, float) - low, 1e-6)
-        self.scale = min((x1 - x0 - 2 * _MARGIN) / span[0], (y1 - y0 - 2 * _MARGIN - 40) / span[1])
-        middle = (np.asarray(low, float) + high) / 2
-        self.origin = np.array([(x0 + x1) / 2, (y0 + 40 + y1) / 2])
-        self.middle = middle
-        self.box = box
+        self.scale = min((x1 - x0 - 2 * _MARGIN) / span[0], (y1 - y0 - 2 * _MARGIN) / span[1])
+        self.middle = (np.asarray(low, float) + high) / 2
+        self.origin = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
 
     def __call__(self, a, b) -> tuple[float, float]:
         return (float(self.origin[0] + (a - self.middle[0]) * self.scale),
