@@ -74,8 +74,9 @@ def drawing(plan: Plan, measures: Measures | None = None) -> Sheet:
     """
     m = measure(plan) if measures is None else measures
     sheet = Sheet(*PAGE)
-    sheet.label((PAGE[0] / 2, 40), [f"Mirror layout: {len(m.mirrors)} mirrors and a "
-                                    f"{plan.subject.kind}. Lengths in mm, angles in degrees."],
+    subject = plan.subject.spec or f"a {plan.subject.kind}"
+    sheet.label((PAGE[0] / 2, 40), [f"Mirror layout: {len(m.mirrors)} mirrors and {subject}. "
+                                    "Lengths in mm, angles in degrees."],
                 scale=0.95)
     for box, title in ((_TOP, "Top view (camera at the bottom, looking up the page)"),
                        (_SIDE, "Side view (from the camera's left, camera looking right)"),
@@ -130,17 +131,24 @@ def _top_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
     sheet.dimension(view(-w, d), view(w, d), mm(room.width), "room width", 40, WALL)
     sheet.dimension(view(w, 0), view(w, d), mm(room.depth), "room depth", 40, WALL)
     _field_of_view(sheet, plan, m, view)
+    # the outlines first: no label is placed over one
+    for k, mirror in enumerate(m.mirrors):
+        outline = [view(x, z) for x, _, z in mirror.corners]
+        sheet.polyline(outline, _colour(k), 6, closed=True)
+        sheet.keep_clear(outline, closed=True)
     _subject_top(sheet, plan, m, view)
     camera = np.array(view(0, 0))
     for k, mirror in enumerate(m.mirrors):
         colour = _colour(k)
-        sheet.polyline([view(x, z) for x, _, z in mirror.corners], colour, 6, closed=True)
         a, b = (np.array(view(*s)) for s in mirror.sides)
         facing = np.array([mirror.normal[0], -mirror.normal[2]])
         left = np.array([(b - a)[1], -(b - a)[0]])
+        left /= np.linalg.norm(left)
         sign = -1 if left @ facing > 0 else 1
+        # beyond the outline (a leaning mirror's is a parallelogram seen from above)
+        beyond = max(sign * (np.array(view(x, z)) - a) @ left for x, _, z in mirror.corners)
         sheet.dimension(tuple(a), tuple(b), mm(mirror.width), f"{mirror.name} width",
-                        sign * 34, colour)
+                        sign * (34 + max(beyond, 0)), colour)
         centre = np.array(view(mirror.centre[0], mirror.centre[2]))
         sheet.line(tuple(camera), tuple(centre), colour, 1, dashed=True)
         sheet.label(tuple(camera + (centre - camera) * 0.62), [mm(mirror.centre_distance)],
@@ -176,8 +184,9 @@ def _field_of_view(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
 def _subject_top(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
     s = plan.subject
     flat = m.subject_points[:, [0, 2]]
-    hull = cv2.convexHull(flat.astype(np.float32))[:, 0]
-    sheet.polyline([view(*p) for p in hull], INK, 2, closed=True, fill=SUBJECT)
+    hull = [view(*p) for p in cv2.convexHull(flat.astype(np.float32))[:, 0]]
+    sheet.polyline(hull, INK, 2, closed=True, fill=SUBJECT)
+    sheet.keep_clear(hull, closed=True)
     low, high = flat.min(axis=0), flat.max(axis=0)
     centre = (low + high) / 2
     size = (mm(2 * s.radius) + " across" if s.kind != "mesh"
@@ -186,7 +195,7 @@ def _subject_top(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
                                          f", {mm(centre[0])} right")
     sheet.line(view(0, 0), view(*centre), INK, 1, dashed=True)
     beside = np.array(view(high[0], centre[1])) + (130, 0)
-    sheet.label(tuple(beside), [f"subject: {s.kind}", size, place],
+    sheet.label(tuple(beside), [f"subject: {s.spec or s.kind}", size, place],
                 [None, "subject size", "subject position"], bounds=_TOP)
 
 
@@ -252,8 +261,8 @@ def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
         for value, what, offset in ((first.bottom, "bottom", 40), (first.top, "top", 100)):
             sheet.dimension(view(far, value), view(far, 0), mm(value), f"{names} {what}",
                             offset + 130 * g, colour)
-        lines = [names] + ([f"leans {degrees(first.lean)} from upright"]
-                           if first.lean >= 0.05 else [])
+        lines = [names] + ([] if abs(first.lean) < 0.05 else [
+            f"leans {degrees(abs(first.lean))} {'back' if first.lean > 0 else 'forward'}"])
         sheet.label(view(first.centre[2], first.top + 0.12), lines,
                     [None] + [f"{names} lean"] * (len(lines) - 1), colour=colour, bounds=_SIDE)
     _camera_side(sheet, plan, m, view)

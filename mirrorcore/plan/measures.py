@@ -83,7 +83,8 @@ class MirrorMeasure:
     to_axis : float
         Degrees between its face and the camera's axis in the top view (0 to 90).
     lean : float
-        Degrees its face leans from the vertical.
+        Degrees its face leans from the vertical: above 0 its top leans back (away from the
+        camera), below 0 forward.
     centre_distance : float
         Metres from the camera to its centre, along the floor.
     edge_distance : float
@@ -150,7 +151,8 @@ def mirror_measure(name: str, corners: np.ndarray, level: Level) -> MirrorMeasur
     # flat has none: 0)
     to_axis = 0.0 if flat_norm < 1e-9 else 90.0 - float(
         np.degrees(np.arccos(np.clip(abs(flat[1]) / flat_norm, 0, 1))))
-    lean = float(np.degrees(np.arcsin(np.clip(abs(n[1]), 0, 1))))
+    # a face turned up to the camera leans back
+    lean = float(np.degrees(np.arcsin(np.clip(n[1], -1, 1))))
     return MirrorMeasure(name, c, width, height, float(c[:, 1].min()), float(c[:, 1].max()),
                          centre, n, sides, to_axis, lean, float(np.hypot(centre[0], centre[2])),
                          float(np.linalg.norm(sides, axis=1).min()))

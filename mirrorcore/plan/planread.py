@@ -50,6 +50,8 @@ class Subject:
     ----------
     kind : str
         'sphere', 'cylinder' or 'mesh'.
+    spec : str or None
+        The `--subject` it was planned for ('person:1.75'), when given.
     center : (float, float, float) or None
         Sphere: its centre, metres.
     radius : float or None
@@ -66,6 +68,7 @@ class Subject:
     """
 
     kind: str
+    spec: str | None = None
     center: tuple[float, float, float] | None = None
     radius: float | None = None
     axis_xz: tuple[float, float] | None = None
@@ -327,13 +330,15 @@ def _floor(up, camera_height: float, where: str) -> Plane:
 def _subject(data, folder: Path, where: str) -> Subject:
     """A sphere, a cylinder or a mesh file in the plan folder."""
     data = _object(data, where, ("kind",))
-    kind = data["kind"]
+    kind, spec = data["kind"], data.get("spec")
+    if spec is not None and (not isinstance(spec, str) or len(spec) > 200):
+        raise FileFormatError(f"{where}: 'spec' must be the text of --subject")
     if kind not in SUBJECT_KINDS:
         raise FileFormatError(f"{where}: 'kind' must be one of {', '.join(SUBJECT_KINDS)}, got "
                               f"{repr(kind)[:40]}")
     if kind == "sphere":
         _object(data, where, ("center", "radius"))
-        return Subject(kind, center=_point(data["center"], 3, f"{where}: center"),
+        return Subject(kind, spec, center=_point(data["center"], 3, f"{where}: center"),
                        radius=_number(data, "radius", where, 0.0))
     if kind == "cylinder":
         _object(data, where, ("axis_xz", "radius", "y_range"))
@@ -345,7 +350,7 @@ def _subject(data, folder: Path, where: str) -> Subject:
             if not isinstance(ends, list) or len(ends) != 2:
                 raise FileFormatError(f"{where}: ends: must be 2 points [x, y, z]")
             ends = tuple(_point(e, 3, f"{where}: ends[{k}]") for k, e in enumerate(ends))
-        return Subject(kind, radius=_number(data, "radius", where, 0.0),
+        return Subject(kind, spec, radius=_number(data, "radius", where, 0.0),
                        axis_xz=_point(data["axis_xz"], 2, f"{where}: axis_xz"),
                        y_range=(low, high), ends=ends)
     _object(data, where, ("path",))
@@ -356,7 +361,7 @@ def _subject(data, folder: Path, where: str) -> Subject:
                               f"{repr(path)[:60]}")
     if not (folder / rel).is_file():
         raise FileFormatError(f"{where}: path: no such file {folder / rel}")
-    return Subject(kind, path=folder / rel)
+    return Subject(kind, spec, path=folder / rel)
 
 
 def _room(data, where: str) -> Room:

@@ -33,7 +33,8 @@ def report(plan: Plan, measures: Measures | None = None) -> str:
     level, cam = m.level, plan.camera
     tilt = "level" if abs(level.tilt) < 0.05 else (
         f"{degrees(abs(level.tilt))} {'down' if level.tilt > 0 else 'up'}")
-    lines = [f"Mirror layout: {len(m.mirrors)} mirrors and a {plan.subject.kind}.",
+    subject = plan.subject.spec or f"a {plan.subject.kind}"
+    lines = [f"Mirror layout: {len(m.mirrors)} mirrors and {subject}.",
              "Lengths in mm, angles in degrees. Positions are taken from the floor under the "
              "camera: x to the camera's right, height above the floor, z forward along the floor.",
              "", "Camera",
@@ -43,8 +44,9 @@ def report(plan: Plan, measures: Measures | None = None) -> str:
              f"{mm(plan.min_depth)} to {mm(plan.max_depth)}", "", "Mirrors"]
     for mirror in m.mirrors:
         c = mirror.centre
-        upright = ("upright" if mirror.lean < 0.05
-                   else f"leaning {degrees(mirror.lean)} from upright")
+        upright = ("upright" if abs(mirror.lean) < 0.05 else
+                   f"its top leaning {degrees(abs(mirror.lean))} "
+                   + ("away from" if mirror.lean > 0 else "towards") + " the camera")
         lines += [f"  {mirror.name}: {mm(mirror.width)} wide x {mm(mirror.height)} high",
                   f"    bottom edge {mm(mirror.bottom)} above the floor, top {mm(mirror.top)}",
                   f"    face at {degrees(mirror.to_axis)} to the camera's axis, {upright}",
@@ -86,7 +88,7 @@ def _subject(plan: Plan, m: Measures) -> str:
     middle = (low + high) / 2
     size = (f"{mm(2 * s.radius)} across" if s.kind != "mesh" else
             f"{mm(high[0] - low[0])} wide x {mm(high[2] - low[2])} deep ({s.path.name})")
-    return (f"{s.kind} {size}, from {mm(low[1])} to {mm(high[1])} above the floor, its middle "
+    return (f"{s.kind}{'' if s.spec is None else f' ({s.spec})'} {size}, from {mm(low[1])} to {mm(high[1])} above the floor, its middle "
             f"at x {mm(middle[0])}, z {mm(middle[2])} "
             f"({mm(float(np.hypot(middle[0], middle[2])))} from the camera)")
 

@@ -72,6 +72,17 @@ class Sheet:
     height: int
     shapes: list[tuple] = field(default_factory=list)
     labels: list[Label] = field(default_factory=list)
+    obstacles: list[Label] = field(default_factory=list)
+
+    def keep_clear(self, points, closed: bool = False, step: float = 12.0):
+        """Keep labels placed from now on off a line through points (pixels)."""
+        points = [np.asarray(p, float) for p in points]
+        if closed:
+            points.append(points[0])
+        for a, b in zip(points, points[1:]):
+            for t in np.linspace(0, 1, max(2, int(np.linalg.norm(b - a) / step) + 1)):
+                x, y = a + (b - a) * t
+                self.obstacles.append(Label(x - 2, y - 2, [], [], 0, INK, 4, 4))
 
     # ------------------------------------------------------------------ shapes
     def line(self, p: Point, q: Point, colour=INK, width: float = 2, dashed: bool = False):
@@ -163,7 +174,7 @@ class Sheet:
                 y = min(max(y, y0 + PAD), y1 - h - PAD)
                 box = Label(x, y, list(lines), list(keys), scale, colour, w, h)
                 first = first or box
-                if not any(box.overlaps(other) for other in self.labels):
+                if not any(box.overlaps(other) for other in self.labels + self.obstacles):
                     return self._place(box, anchor, leader)
         return self._place(first, anchor, leader)
 

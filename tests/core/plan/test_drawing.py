@@ -91,10 +91,13 @@ def _many_views() -> dict:
 
 @pytest.mark.parametrize("data", [V_PLAN, THREE_PLAN, tilted(V_PLAN, 20), _many_views()],
                          ids=["v", "three", "v tilted", "22 views"])
-def test_no_label_overlaps_another_or_leaves_the_page(tmp_path, data):
+def test_no_label_overlaps_another_or_an_outline_or_leaves_the_page(tmp_path, data):
     sheet = drawing(load_plan(write_plan(tmp_path, data)))
     for a, b in itertools.combinations(sheet.labels, 2):
         assert not a.overlaps(b), (a.lines, b.lines)
+    # nor a mirror's or the subject's outline in the top view
+    for a, b in itertools.product(sheet.labels, sheet.obstacles):
+        assert not a.overlaps(b), a.lines
     for label in sheet.labels:
         assert 0 <= label.x and label.x + label.width <= PAGE[0], label.lines
         # the panels end 20 pixels above the page's edge
@@ -141,3 +144,21 @@ def test_a_plan_folder_gets_its_drawing_and_report(tmp_path):
     written = write_documents(write_plan(tmp_path, V_PLAN))
     assert [p.name for p in written] == ["drawing.png", "drawing.svg", "report.txt"]
     assert all(p.stat().st_size > 1000 for p in written)
+
+
+def test_mirrors_leaning_back_say_so(tmp_path):
+    # each top edge moved 1.9 sin 5 back along the mirror's outward normal (-/+0.5, 0.866 in
+    # x, z) and 1.9 (1 - cos 5) down: 1900 along the face, 5 degrees back from upright
+    data = copy.deepcopy(V_PLAN)
+    back, drop = 1.9 * np.sin(np.radians(5)), 1.9 * (1 - np.cos(np.radians(5)))
+    for side, mirror in zip((-1, 1), data["mirrors"]):
+        for corner in mirror["corners"][2:]:
+            corner[0] += side * 0.5 * back
+            corner[1] += drop
+            corner[2] += 0.8660254 * back
+    plan = load_plan(write_plan(tmp_path, data))
+    texts = keyed_texts(write_drawing(plan)[1])
+    assert texts["mirror 1 and mirror 2 lean"] == "leans 5° back"
+    assert texts["mirror 1 size"] == "800 x 1900"
+    assert texts["mirror 1 and mirror 2 top"] == str(round(200 + 1900 * np.cos(np.radians(5))))
+    assert "its top leaning 5° away from the camera" in write_report(plan).read_text()

@@ -24,6 +24,9 @@ def test_a_mirror_leaning_back_gives_its_lean_and_heights():
     assert (m.width, m.height) == pytest.approx((0.6, 1.0))
     assert (m.bottom, m.top) == pytest.approx((0.0, np.cos(t)))
     assert m.lean == pytest.approx(10)
+    # the same mirror turned over, its top towards the camera, leans forward
+    forward = np.array(corners) * [1, 1, -1] + [0, 0, 4]
+    assert mirror_measure("m", forward, LEVEL).lean == pytest.approx(-10)
     assert m.to_axis == pytest.approx(90)
     # its face turned to the camera: the normal points back (z < 0) and up
     assert m.normal[2] < 0 and m.normal[1] > 0
