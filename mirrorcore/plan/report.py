@@ -88,7 +88,8 @@ def _subject(plan: Plan, m: Measures) -> str:
     middle = (low + high) / 2
     size = (f"{mm(2 * s.radius)} across" if s.kind != "mesh" else
             f"{mm(high[0] - low[0])} wide x {mm(high[2] - low[2])} deep ({s.path.name})")
-    return (f"{s.kind}{'' if s.spec is None else f' ({s.spec})'} {size}, from {mm(low[1])} to {mm(high[1])} above the floor, its middle "
+    kind = s.kind if s.spec is None else f"{s.kind} ({s.spec})"
+    return (f"{kind} {size}, from {mm(low[1])} to {mm(high[1])} above the floor, its middle "
             f"at x {mm(middle[0])}, z {mm(middle[2])} "
             f"({mm(float(np.hypot(middle[0], middle[2])))} from the camera)")
 
