@@ -7,7 +7,6 @@ camera is level. The camera stands the room's `camera_height` metres above the f
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
@@ -25,6 +24,8 @@ SUBJECT_KINDS = ("sphere", "cylinder", "mesh")
 # metres: how far a mirror's fourth corner may lie off the plane of the other three
 MAX_CORNER_OFF_PLANE = 0.002
 MAX_PLAN_BYTES = 16 << 20
+# metres (and noise mm): far beyond any room, so that no sum of them overflows
+MAX_NUMBER = 1000.0
 
 
 @dataclass(frozen=True)
@@ -175,7 +176,7 @@ def load_plan(folder: str | Path) -> Plan:
     return plan_from_json(data, folder)
 
 
-def plan_from_json(data, folder: Path, where: str | None = None) -> Plan:
+def plan_from_json(data, folder: Path) -> Plan:
     """Validate a parsed plan.json (see docs/DESIGN.md, "Plan folders").
 
     Parameters
@@ -184,8 +185,6 @@ def plan_from_json(data, folder: Path, where: str | None = None) -> Plan:
         The parsed JSON.
     folder : Path
         The plan folder that the mesh's path is relative to.
-    where : str, optional
-        What the messages call the file (its path by default).
 
     Returns
     -------
@@ -196,7 +195,7 @@ def plan_from_json(data, folder: Path, where: str | None = None) -> Plan:
     FileFormatError
         Naming the file and the key.
     """
-    where = str(Path(folder) / PLAN_FILE) if where is None else where
+    where = str(Path(folder) / PLAN_FILE)
     if not isinstance(data, dict):
         raise FileFormatError(f"{where}: the top level must be a JSON object")
     missing = [k for k in ("camera", "mirrors", "subject", "room", "predicted") if k not in data]
@@ -217,14 +216,12 @@ def plan_from_json(data, folder: Path, where: str | None = None) -> Plan:
                 _predicted(data["predicted"], f"{where}: predicted"), search)
 
 
-def _number(data: dict, key: str, where: str, low: float = -math.inf,
-            high: float = math.inf) -> float:
+def _number(data: dict, key: str, where: str, low: float, high: float = MAX_NUMBER) -> float:
     """A finite number data[key] with low < value <= high."""
     value = finite_number(data.get(key))
     if value is None or not low < value <= high:
-        raise FileFormatError(f"{where}: '{key}' must be a number above {low:g}"
-                              + ("" if high == math.inf else f" and at most {high:g}")
-                              + f", got {repr(data.get(key))[:40]}")
+        raise FileFormatError(f"{where}: '{key}' must be a number above {low:g} and at most "
+                              f"{high:g}, got {repr(data.get(key))[:40]}")
     return value
 
 
@@ -237,11 +234,23 @@ def _share(data: dict, key: str, where: str) -> float:
     return value
 
 
+def _noise(data: dict, key: str, where: str) -> float | None:
+    """Millimetres from 0 to MAX_NUMBER, or None (null)."""
+    if data[key] is None:
+        return None
+    value = finite_number(data[key])
+    if value is None or not 0 <= value <= MAX_NUMBER:
+        raise FileFormatError(f"{where}: '{key}' must be millimetres from 0 to {MAX_NUMBER:g} or "
+                              f"null, got {repr(data[key])[:40]}")
+    return value
+
+
 def _point(value, n: int, where: str) -> tuple[float, ...]:
-    """n finite numbers."""
+    """n finite numbers within ±MAX_NUMBER."""
     numbers = [finite_number(v) for v in value] if isinstance(value, list) else []
-    if len(numbers) != n or any(v is None for v in numbers):
-        raise FileFormatError(f"{where}: must be {n} numbers, got {repr(value)[:60]}")
+    if len(numbers) != n or any(v is None or abs(v) > MAX_NUMBER for v in numbers):
+        raise FileFormatError(f"{where}: must be {n} numbers within ±{MAX_NUMBER:g}, got "
+                              f"{repr(value)[:60]}")
     return tuple(numbers)
 
 
@@ -299,19 +308,17 @@ def _check_outline(points: np.ndarray, where: str) -> None:
         raise FileFormatError(f"{where}: the 4 corners enclose no area (under 1 cm²); give "
                               "them in order around the outline")
     normal /= 2 * area
-    off = max(_off_plane(points[k], *np.delete(points, k, axis=0)) for k in range(4))
+    off = 0.0
+    for k in range(4):
+        # corner k against the plane through the other three
+        a, b, c = np.delete(points, k, axis=0)
+        n = np.cross(b - a, c - a)
+        off = max(off, float(abs((points[k] - a) @ n) / max(np.linalg.norm(n), 1e-12)))
     if off > MAX_CORNER_OFF_PLANE:
         raise FileFormatError(f"{where}: a corner lies {off * 1000:.0f} mm off the plane of the "
                               f"other three (at most {MAX_CORNER_OFF_PLANE * 1000:g})")
     if np.any(turns @ normal <= 0):
         raise FileFormatError(f"{where}: the corners must go around the outline in order")
-
-
-def _off_plane(point, a, b, c) -> float:
-    """Metres from point to the plane through a, b and c (0 when they are in a line)."""
-    n = np.cross(b - a, c - a)
-    size = np.linalg.norm(n)
-    return 0.0 if size < 1e-12 else float(abs((point - a) @ n) / size)
 
 
 def _floor(up, camera_height: float, where: str) -> Plane:
@@ -386,8 +393,7 @@ def _predicted(data, where: str) -> Predicted:
         if not isinstance(value, dict) or not value:
             raise FileFormatError(f"{where}: {key}: must be an object of view names to numbers")
         views[key] = {k: _share(value, k, f"{where}: {key}") if key == "per_view"
-                      else None if value[k] is None
-                      else _number(value, k, f"{where}: {key}", -1e-9) for k in value}
+                      else _noise(value, k, f"{where}: {key}") for k in value}
     if views["per_view"].keys() != views["noise_mm"].keys():
         raise FileFormatError(f"{where}: noise_mm: must name the views of per_view")
     return Predicted(_share(data, "coverage", where), _share(data, "coverage_2", where),

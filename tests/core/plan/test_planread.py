@@ -139,3 +139,28 @@ def test_a_folder_without_a_plan_or_with_bad_json_is_named(tmp_path):
     (tmp_path / "plan.json").write_text("[1, 2]")
     with pytest.raises(FileFormatError, match="plan.json: the top level must be a JSON object"):
         load_plan(tmp_path)
+
+
+def _paths(data, prefix=()):
+    """Every (key or index) path into nested dicts and lists."""
+    items = data.items() if isinstance(data, dict) else enumerate(data)
+    for key, value in items:
+        yield prefix + (key,)
+        if isinstance(value, (dict, list)):
+            yield from _paths(value, prefix + (key,))
+
+
+def test_any_value_replaced_by_any_other_is_read_or_refused_in_one_line(tmp_path):
+    strange = [None, True, -1, 0, 1e308, "x", [], {}, [1, 2], {"kind": "sphere"}, float("nan")]
+    rng = np.random.default_rng(0)
+    for data in (V_PLAN, THREE_PLAN, tilted(V_PLAN, 10)):
+        for path in _paths(data):
+            changed = copy.deepcopy(data)
+            target = changed
+            for key in path[:-1]:
+                target = target[key]
+            target[path[-1]] = strange[rng.integers(len(strange))]
+            try:
+                load_plan(write_plan(tmp_path, changed))
+            except FileFormatError as exc:
+                assert "\n" not in str(exc)
