@@ -238,25 +238,27 @@ def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
         sheet.dimension(view(room.depth, 0), view(room.depth, room.height), mm(room.height),
                         "room height", -40, WALL)
     subject = points[:len(m.subject_points)]
-    hull = cv2.convexHull(subject.astype(np.float32))[:, 0]
-    sheet.polyline([view(*p) for p in hull], INK, 2, closed=True, fill=SUBJECT)
+    groups: dict[tuple, list[int]] = {}
+    for k, mirror in enumerate(m.mirrors):
+        zs = mirror.corners[:, 2]
+        key = tuple(round(v * 1000) for v in (mirror.bottom, mirror.top, zs.min(), zs.max()))
+        groups.setdefault(key, []).append(k)
+    # the outlines first: no label is placed over one
+    for outline, colour, fill in [(subject, INK, SUBJECT)] + [
+            (m.mirrors[k[0]].corners[:, [2, 1]], _colour(k[0]), None) for k in groups.values()]:
+        hull = [view(*p) for p in cv2.convexHull(outline.astype(np.float32))[:, 0]]
+        sheet.polyline(hull, colour, 2 if fill else 4, closed=True, fill=fill)
+        sheet.keep_clear(hull, closed=True)
     near = subject[:, 0].min()
     for k, (value, key) in enumerate(((subject[:, 1].min(), "subject bottom"),
                                       (subject[:, 1].max(), "subject top"))):
         # a subject standing on the floor has no bottom to measure
         if value >= 0.005:
             sheet.dimension(view(near, 0), view(near, value), mm(value), key, 30 + 60 * k)
-    groups: dict[tuple, list[int]] = {}
-    for k, mirror in enumerate(m.mirrors):
-        zs = mirror.corners[:, 2]
-        key = tuple(round(v * 1000) for v in (mirror.bottom, mirror.top, zs.min(), zs.max()))
-        groups.setdefault(key, []).append(k)
     for g, members in enumerate(groups.values()):
         first = m.mirrors[members[0]]
         names = " and ".join(m.mirrors[k].name for k in members)
         colour = _colour(members[0])
-        hull = cv2.convexHull(first.corners[:, [2, 1]].astype(np.float32))[:, 0]
-        sheet.polyline([view(*p) for p in hull], colour, 4, closed=True)
         far = first.corners[:, 2].max()
         for value, what, offset in ((first.bottom, "bottom", 40), (first.top, "top", 100)):
             sheet.dimension(view(far, value), view(far, 0), mm(value), f"{names} {what}",
