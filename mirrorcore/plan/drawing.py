@@ -116,10 +116,12 @@ def write_drawing(plan: Plan, folder: str | Path | None = None,
 
 
 def _colour(k: int) -> tuple[int, int, int]:
+    """Mirror k's (0-based) RGB, as the browser colours its view."""
     return tuple(int(c) for c in source_colour(k + 1))
 
 
 def _top_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
+    """The top view: the room, the camera, the subject, the mirrors and their dimensions."""
     room = plan.room
     outline = np.concatenate([m.subject_points[:, [0, 2]],
                               *[c.corners[:, [0, 2]] for c in m.mirrors],
@@ -182,6 +184,7 @@ def _field_of_view(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
 
 
 def _subject_top(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
+    """The subject's outline in the top view, its size and place."""
     s = plan.subject
     flat = m.subject_points[:, [0, 2]]
     hull = [view(*p) for p in cv2.convexHull(flat.astype(np.float32))[:, 0]]
@@ -200,6 +203,7 @@ def _subject_top(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
 
 
 def _pair_top(sheet: Sheet, m: Measures, pair, view: _View) -> None:
+    """Two neighbouring mirrors in the top view: their angle and gap."""
     a, b = m.mirrors[pair.first], m.mirrors[pair.second]
     names = f"{a.name} / {b.name}"
     if pair.apex is None:
@@ -225,6 +229,7 @@ def _pair_top(sheet: Sheet, m: Measures, pair, view: _View) -> None:
 
 
 def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
+    """The side view: floor, wall and ceiling, the subject, the mirrors' heights."""
     room, h = plan.room, m.level.height
     points = np.concatenate([m.subject_points[:, [2, 1]],
                              *[c.corners[:, [2, 1]] for c in m.mirrors],
@@ -271,6 +276,7 @@ def _side_view(sheet: Sheet, plan: Plan, m: Measures) -> None:
 
 
 def _camera_side(sheet: Sheet, plan: Plan, m: Measures, view: _View) -> None:
+    """The camera in the side view: its height, its tilt and its axis."""
     h, tilt = m.level.height, m.level.tilt
     c = np.array(view(0, h))
     d = np.array([np.cos(np.radians(tilt)), np.sin(np.radians(tilt))])

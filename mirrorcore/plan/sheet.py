@@ -35,6 +35,7 @@ def text_size(text: str, scale: float) -> tuple[int, int]:
 
 
 def _thickness(scale: float) -> int:
+    """The Hershey stroke (pixels) of text at `scale`: bold from TEXT_SCALE's size up."""
     return 2 if scale >= 0.7 else 1
 
 
@@ -52,6 +53,7 @@ class Label:
     height: float
 
     def overlaps(self, other: "Label") -> bool:
+        """Whether the two boxes, each with its white ground, touch."""
         return not (self.x + self.width + PAD <= other.x - PAD
                     or other.x + other.width + PAD <= self.x - PAD
                     or self.y + self.height + PAD <= other.y - PAD
@@ -66,6 +68,12 @@ class Sheet:
     ----------
     width, height : int
         Pixels.
+    shapes : list of tuple
+        (points, colour, width, dashed, fill) of each line, in drawing order.
+    labels : list of Label
+        The placed labels, drawn over the shapes.
+    obstacles : list of Label
+        Small boxes along lines that labels keep off (`keep_clear`).
     """
 
     width: int
@@ -87,7 +95,7 @@ class Sheet:
     # ------------------------------------------------------------------ shapes
     def line(self, p: Point, q: Point, colour=INK, width: float = 2, dashed: bool = False):
         """A straight line from p to q."""
-        self.shapes.append(("poly", [p, q], colour, width, dashed, None))
+        self.shapes.append(([p, q], colour, width, dashed, None))
 
     def polyline(self, points, colour=INK, width: float = 2, closed: bool = False,
                  fill=None, dashed: bool = False):
@@ -95,12 +103,7 @@ class Sheet:
         points = [tuple(map(float, p)) for p in points]
         if closed:
             points.append(points[0])
-        self.shapes.append(("poly", points, colour, width, dashed, fill))
-
-    def circle(self, centre: Point, radius: float, colour=INK, width: float = 2, fill=None):
-        """A circle of `radius` pixels."""
-        self.shapes.append(("circle", tuple(map(float, centre)), float(radius), colour, width,
-                            fill))
+        self.shapes.append((points, colour, width, dashed, fill))
 
     def arrowhead(self, tip: Point, tail: Point, colour=INK):
         """A filled arrowhead at `tip`, pointing away from `tail`."""
@@ -244,15 +247,13 @@ class Sheet:
 
 
 def _hex(colour) -> str:
+    """An RGB triple as an SVG colour, '#rrggbb'."""
     return "#" + "".join(f"{int(c):02x}" for c in colour)
 
 
 def _svg_shape(shape: tuple) -> str:
-    if shape[0] == "circle":
-        _, (x, y), r, colour, width, fill = shape
-        return (f'<circle cx="{x:.1f}" cy="{y:.1f}" r="{r:.1f}" stroke="{_hex(colour)}" '
-                f'stroke-width="{width}" fill="{"none" if fill is None else _hex(fill)}"/>')
-    _, points, colour, width, dashed, fill = shape
+    """One of Sheet.shapes as an SVG polyline."""
+    points, colour, width, dashed, fill = shape
     coords = " ".join(f"{x:.1f},{y:.1f}" for x, y in points)
     dash = f' stroke-dasharray="{DASH[0]:g},{DASH[1]:g}"' if dashed else ""
     return (f'<polyline points="{coords}" stroke="{_hex(colour)}" stroke-width="{width}" '
@@ -260,16 +261,9 @@ def _svg_shape(shape: tuple) -> str:
 
 
 def _draw_shape(image: np.ndarray, shape: tuple) -> None:
+    """Draw one of Sheet.shapes on an RGB image, anti-aliased."""
     shift = 4          # cv2 draws at 1/16 pixel
-    if shape[0] == "circle":
-        _, (x, y), r, colour, width, fill = shape
-        centre = (round(x * 16), round(y * 16))
-        if fill is not None:
-            cv2.circle(image, centre, round(r * 16), fill, -1, cv2.LINE_AA, shift)
-        cv2.circle(image, centre, round(r * 16), colour, max(1, round(width)), cv2.LINE_AA,
-                   shift)
-        return
-    _, points, colour, width, dashed, fill = shape
+    points, colour, width, dashed, fill = shape
     pts = np.round(np.asarray(points) * 16).astype(np.int32)
     if fill is not None:
         cv2.fillPoly(image, [pts], fill, cv2.LINE_AA, shift)
