@@ -12,6 +12,7 @@ from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_MIRRORS
 from mirrorcore.io.outputs import check_output
 from mirrorcore.plan.planfile import PLAN_FILE, write_plan
+from mirrorcore.plan.report import write_documents
 from mirrorcore.plan.search import plan_rig
 from mirrorcore.plan.setup import CAMERA_PRESETS, parse_room, plan_camera
 from mirrorcore.plan.subject import SPEC_HELP, parse_spec
@@ -102,24 +103,7 @@ def run(args: argparse.Namespace) -> int:
             except Cancelled:
                 raise KeyboardInterrupt from None
         write_plan(result, work)
-        write_drawing_and_report(work)
+        write_documents(work)
     plan = json.loads((Path(args.out) / PLAN_FILE).read_text(encoding="utf-8"))
     wording.show(wording.plan_written(Path(args.out), plan), args.verbose)
     return 0
-
-
-def write_drawing_and_report(folder: Path) -> list[Path]:
-    """The hook where the layout's drawing (PNG and SVG, from above and from the side) and the
-    short text report are written from the folder's plan.json.
-
-    Parameters
-    ----------
-    folder : Path
-        The plan folder being built, plan.json already in it.
-
-    Returns
-    -------
-    list of Path
-        The files written (none until the drawing is connected).
-    """
-    return []

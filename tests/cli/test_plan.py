@@ -2,6 +2,7 @@
 bad subject, an impossible room and a bad mirror size."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -47,7 +48,7 @@ def test_an_impossible_room_is_refused_in_one_line(tmp_path, capsys):
                       "--mirrors", "2", "--mirror-size", "0.8"], "--mirror-size: ")
 
 
-def test_plan_folder_holds_plan_and_scene_the_simulator_runs(tmp_path, capsys):
+def test_plan_folder_holds_plan_scene_drawing_and_report(tmp_path, capsys):
     out = tmp_path / "plan"
     argv = ["plan", "-o", str(out), "--subject", "cylinder:0.15,0.6", "--mirrors", "2",
             "--mirror-size", "0.6,1.0", "--distance", "2.0", "--quiet", "-v"]
@@ -76,3 +77,12 @@ def test_plan_folder_holds_plan_and_scene_the_simulator_runs(tmp_path, capsys):
     assert main(["simulate", str(tmp_path / "session"), "--scene", str(out / "scene.json"),
                  "--quiet"]) == 0
     assert (tmp_path / "session" / "session.json").is_file()
+    # the drawing and the report a person builds it from
+    assert said.splitlines()[0].endswith("build it from drawing.png.")
+    svg = (out / "drawing.svg").read_text()
+    corners = np.array(plan["mirrors"][0]["corners"])
+    sides = [round(1e3 * np.linalg.norm(corners[k + 1] - corners[k])) for k in (0, 1)]
+    size = re.search(r'data-key="mirror 1 size">(\d+) x (\d+)<', svg)
+    assert size and sorted(int(v) for v in size.groups()) == sorted(sides), (size, sides)
+    assert (out / "drawing.png").stat().st_size > 10_000
+    assert "mirror 1" in (out / "report.txt").read_text()

@@ -38,7 +38,7 @@ def plan_written(folder: Path, plan: dict) -> Message:
     ]
     return Message(
         f"wrote the plan {folder}: it sees {100 * predicted['coverage']:.1f} % of the subject, "
-        f"{gain:+.1f} points against the best symmetric {shape}; build it from plan.json.",
+        f"{gain:+.1f} points against the best symmetric {shape}; build it from drawing.png.",
         tuple(details),
     )
 
