@@ -38,6 +38,8 @@ from .reconstruct_batch import run_all
 # bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed and
 # stacked
 PREPARED_BYTES = 10
+# and with colour frames: the colour (RGB) listed and stacked, and packed for fusion (RGB1)
+COLOUR_BYTES = 10
 # the dense methods' voxel edge: from a tenth of a millimetre to a metre
 VOXEL_METRES = (1e-4, 1.0)
 # the largest length or coordinate in metres (margin, box, threshold, truncation)
@@ -294,7 +296,8 @@ def run_dense(
             f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
             "the end"
         )
-    check_memory(float(count) * session.camera.width * session.camera.height * PREPARED_BYTES,
+    pixel_bytes = PREPARED_BYTES + (COLOUR_BYTES if session.colour_frames else 0)
+    check_memory(float(count) * session.camera.width * session.camera.height * pixel_bytes,
                  f"--frames {count}: {count:,} frames of "
                  f"{session.camera.width}x{session.camera.height} at once")
     prepared = [
@@ -302,6 +305,7 @@ def run_dense(
         for i in range(first, first + count)
     ]
     depths, masks = (np.stack(a) for a in zip(*prepared))
+    colours = [session.read_colour(i) for i in range(first, first + count)]
     options = _dense_options(args)
     volume = dense_volume(rig, depths[0], masks[0], options)
     with (
@@ -324,18 +328,19 @@ def run_dense(
                 options,
                 progress=lambda f: bar.update(f - bar.n),
                 cancel=cancel,
+                colours=None if colours[0] is None else np.stack(colours),
             )
         except Cancelled:
             raise KeyboardInterrupt from None
     if isinstance(result, CarveResult):
         points, sources = result.surface_points()
         _refuse_empty(out, len(points), "carved surface", "--voxel, --bounds and --margin")
-        write_ply(out, points, sources)
+        write_ply(out, points, sources, colours=result.colours)
         message = wording.carved_written(out, len(points), volume.shape, volume.voxel)
     else:
         mesh = result.mesh()
         _refuse_empty(out, len(mesh.vertices), "mesh", "--voxel, --bounds and --margin")
-        write_ply(out, mesh.vertices, mesh.sources, mesh.faces)
+        write_ply(out, mesh.vertices, mesh.sources, mesh.faces, colours=mesh.colours)
         message = wording.mesh_written(
             out, len(mesh.vertices), len(mesh.faces), count, volume.shape, volume.voxel
         )

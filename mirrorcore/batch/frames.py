@@ -143,7 +143,8 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         try:
             data, sources, faces = _frame_ply(context,
                                               read_depth(context.session, index,
-                                                         context.job.temporal, cache), cancel)
+                                                         context.job.temporal, cache), cancel,
+                                              index=index)
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
         except Cancelled:
@@ -158,24 +159,29 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
     return records, failures
 
 
-def _frame_ply(context: FrameContext, depth: np.ndarray, cancel=None
+def _frame_ply(context: FrameContext, depth: np.ndarray, cancel=None, *, index: int
                ) -> tuple[bytes, np.ndarray, int | None]:
     """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds).
     A dense frame with no object pixels (and no fixed box) gives an empty file rather than an error:
-    the person left the view."""
+    the person left the view. A dense frame of a session with colour frames is coloured with frame
+    `index`'s colour."""
     rig, job = context.rig, context.job
     depth, mask = prepare_frame(rig, depth, context.background, context.session.selection)
     if job.method == "raw":
         cloud = reconstruct_raw(rig, depth, mask)
         return encode_ply(cloud.points, cloud.sources), cloud.sources, None
+    colour = context.session.read_colour(index)
     if job.options.bounds is None and len(reconstruct_raw(rig, depth, mask)) == 0:
         points, sources = np.zeros((0, 3), np.float32), np.zeros(0, np.uint8)
         faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
+        colours = None if colour is None else np.zeros((0, 3), np.uint8)
     else:
         volume = dense_volume(rig, depth, mask, job.options)
-        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[
-            None], volume, job.method, job.options, cancel=cancel, workers=context.threads))
-    return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
+        points, sources, faces, colours = result_geometry(reconstruct_dense(
+            rig, depth[None], mask[None], volume, job.method, job.options, cancel=cancel,
+            workers=context.threads, colours=None if colour is None else colour[None]))
+    return (encode_ply(points, sources, faces, colours), sources,
+            None if faces is None else len(faces))
 
 
 def _one_line(exc: BaseException) -> str:

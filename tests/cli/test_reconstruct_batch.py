@@ -324,10 +324,10 @@ def test_an_unexpected_error_fails_its_task_and_the_others_go_on(
 
     real = frames._frame_ply
 
-    def broken_on_frame_9(context, depth, cancel=None):
+    def broken_on_frame_9(context, depth, *args, **kwargs):
         if np.array_equal(depth, frames.read_depth(context.session, 9)):
             raise RuntimeError("a bug\non two lines")
-        return real(context, depth, cancel)
+        return real(context, depth, *args, **kwargs)
 
     monkeypatch.setattr(frames, "_frame_ply", broken_on_frame_9)
     report = run_batch(BatchJob(recording, tmp_path / "out"), IN_PROCESS, frames_per_task=4)
