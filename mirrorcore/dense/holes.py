@@ -75,8 +75,9 @@ def close_holes(mesh: Mesh, seen: Callable[[np.ndarray], np.ndarray], max_length
 
     A hole whose loop is at most `max_length` long is closed by one new vertex, the mean of its
     loop's vertices, and a triangle from each of its edges to it, wound as the mesh; the new vertex
-    takes the source of a vertex of the loop and the mean colour of the loop's vertices. It is closed only when `seen` holds at the new vertex
-    and at every new triangle's centroid, and its loop passes each of its vertices once.
+    takes the source of a vertex of the loop and the mean colour of the loop's vertices. It is
+    closed only when `seen` holds at the new vertex and at every new triangle's centroid, and its
+    loop passes each of its vertices once.
 
     Parameters
     ----------

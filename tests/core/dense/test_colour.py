@@ -1,5 +1,5 @@
-"""The colour of dense results (mirrorcore.dense.colour) on the simulated sphere with Kinect noise and
-two tinted mirrors: the fused mesh's vertex colours and the carved voxels' colours match the
+"""The colour of dense results (mirrorcore.dense.colour) on the simulated sphere with Kinect noise
+and two tinted mirrors: the fused mesh's vertex colours and the carved voxels' colours match the
 sphere's albedo at their positions, within a few levels of mean bias per channel on every view,
 with the mirrors' colour gains applied (left out, the mirrors' sides are darker); without colour
 images the results are those of a fusion or carving without colour; the vertex colours are
