@@ -28,10 +28,12 @@ from mirrorcore.dense.blockfusion import view_weight
 from mirrorcore.dense.sampling import (BORDER, QuadTable, in_front_of_mirrors, nearest_pixels,
                                        pixel_index, project, project_blocks, transform)
 from mirrorcore.dense.views import View
-from mirrorcore.dense.volume import CHUNK_VOXELS, Volume
+from mirrorcore.dense.volume import Volume, run_chunks
 
 # bytes per kept voxel while carving's colours are computed (float32 sums, takes, pixels)
 CARVE_COLOUR_BYTES = 96
+# voxels coloured at a time, on the worker threads (a mesh's edges end on tens of thousands)
+COLOUR_CHUNK = 1 << 15
 
 
 def colour_frames(intr: Intrinsics, colours, count: int) -> np.ndarray:
@@ -150,10 +152,13 @@ class FusedColour:
         ijk = np.asarray(ijk).reshape(-1, 3)
         axes = [a.astype(np.float32) for a in volume.axes()]
         out = np.empty((len(ijk), 4), np.uint8)
-        for start in range(0, len(ijk), CHUNK_VOXELS):
-            rows = ijk[start:start + CHUNK_VOXELS]
-            x, y, z = (np.take(a, rows[:, c]) for c, a in enumerate(axes))
-            out[start:start + CHUNK_VOXELS] = self._colours(x, y, z)
+
+        def work(rows: slice) -> None:
+            x, y, z = (np.take(a, ijk[rows, c]) for c, a in enumerate(axes))
+            out[rows] = self._colours(x, y, z)
+
+        run_chunks([slice(start, start + COLOUR_CHUNK)
+                    for start in range(0, len(ijk), COLOUR_CHUNK)], work)
         return out
 
     def _colours(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
