@@ -17,6 +17,7 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.carve import CarveResult, carve
+from mirrorcore.dense.colour import colour_frames
 from mirrorcore.dense.tsdf import TsdfResult, fuse
 from mirrorcore.dense.volume import Progress, Volume
 
@@ -124,8 +125,8 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
         return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers,
                     colours=colours)
     return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel,
-                 workers, None if colours is None else np.asarray(colours).reshape(
-                     -1, *np.shape(colours)[-3:])[0])
+                 workers,
+                 None if colours is None else colour_frames(rig.intrinsics, colours, len(depths))[0])
 
 
 def result_geometry(result: CarveResult | TsdfResult) -> tuple[

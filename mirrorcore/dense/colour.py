@@ -15,6 +15,7 @@ and its weight's 1 are one take; the 1 sums the weights beside the colours.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import cv2
@@ -25,15 +26,13 @@ from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.rig.colour import check_colour_image
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blockfusion import view_weight
-from mirrorcore.dense.sampling import (BORDER, QuadTable, in_front_of_mirrors, nearest_pixels,
-                                       pixel_index, project, project_blocks, transform)
+from mirrorcore.dense.sampling import (BORDER, QuadTable, pixel_index, project, project_blocks,
+                                       transform)
 from mirrorcore.dense.views import View
-from mirrorcore.dense.volume import Volume, run_chunks
+from mirrorcore.dense.volume import CHUNK_VOXELS, Volume, run_chunks
 
 # bytes per kept voxel while carving's colours are computed (float32 sums, takes, pixels)
 CARVE_COLOUR_BYTES = 96
-# voxels coloured at a time, on the worker threads (a mesh's edges end on tens of thousands)
-COLOUR_CHUNK = 1 << 15
 
 
 def colour_frames(intr: Intrinsics, colours, count: int) -> np.ndarray:
@@ -116,8 +115,6 @@ class FusedColour:
         Each view's extrinsic.
     labels : list of int
         Each view's source label.
-    cull : (H*W + 1,) float32 array
-        The camera's cull depth over the frames.
     truncation : float
         Metres.
     packed : list of (Hp*Wp,) uint32 array
@@ -128,14 +125,16 @@ class FusedColour:
     tables: list[QuadTable]
     to_views: list[np.ndarray]
     labels: list[int]
-    cull: np.ndarray
     truncation: float
     packed: list[np.ndarray]
 
     def colours(self, volume: Volume, ijk: np.ndarray) -> np.ndarray:
         """Return the fused colours of voxels (see the module docstring).
 
-        The weights, the views' depths and the camera's culling are the fusion's for each voxel.
+        The weights and the views' depths are the fusion's. The fusion's culling (the camera's
+        empty space, the mirrors' back sides) sets every view's weight of a voxel to 0, so it does
+        not concern the voxels it observed (weight > 0), the ones a mesh asks for; a voxel of
+        weight 0 gets the colour its views give.
 
         Parameters
         ----------
@@ -157,21 +156,20 @@ class FusedColour:
             x, y, z = (np.take(a, ijk[rows, c]) for c, a in enumerate(axes))
             out[rows] = self._colours(x, y, z)
 
-        run_chunks([slice(start, start + COLOUR_CHUNK)
-                    for start in range(0, len(ijk), COLOUR_CHUNK)], work)
+        # one chunk per thread, each at most CHUNK_VOXELS
+        step = max(1, min(CHUNK_VOXELS, -(-len(ijk) // (os.cpu_count() or 1))))
+        run_chunks([slice(start, start + step) for start in range(0, len(ijk), step)], work)
         return out
 
     def _colours(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """The colours (k, 4) uint8 of voxel centres x, y, z (k,) float32."""
         rig, trunc = self.rig, np.float32(self.truncation)
         intr, correction = rig.intrinsics, rig.colour_correction
-        keep = z >= self.cull[nearest_pixels(intr, x, y, z)] - trunc
-        keep &= in_front_of_mirrors(rig, x, y, z)
         total = np.zeros((len(x), 4), np.float32)
         width = intr.width + 2 * BORDER
         for table, to_view, label in zip(self.tables, self.to_views, self.labels):
             projection = project_blocks(intr, to_view, x, y, z)
-            weight = view_weight(projection, keep)
+            weight = view_weight(projection, None)
             slots = table.slots(projection)
             pixel = np.add(projection.index, projection.fu >= 0.5)
             pixel += (projection.fv >= 0.5) * width

@@ -283,7 +283,8 @@ def _edge_colours(colour: Callable[[np.ndarray], np.ndarray], blocks: Blocks, lo
     marks[low] = True
     marks[high] = True
     voxels = np.flatnonzero(marks)
-    number = np.cumsum(marks, dtype=np.int64) - 1
+    number = np.empty(len(marks), np.int32)
+    number[voxels] = np.arange(len(voxels), dtype=np.int32)
     row, local = np.divmod(voxels, b ** 3)
     ijk = np.take(b * blocks.ijk, row, axis=0) + np.take(_block_voxels(b), local, axis=0)
     painted = colour(ijk)

@@ -286,7 +286,7 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
     # C order
     kept = kept[np.argsort(blocks.take(kept).keys)]
     paint = None if packed is None else FusedColour(
-        rig, tables, to_views, [view.source for view in frames[0]], cull, trunc, packed)
+        rig, tables, to_views, [view.source for view in frames[0]], trunc, packed)
     return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc,
                       paint)
 
