@@ -28,7 +28,7 @@ from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blockfusion import view_weight
 from mirrorcore.dense.sampling import (BORDER, QuadTable, pixel_index, project, project_blocks,
                                        transform)
-from mirrorcore.dense.views import View
+from mirrorcore.dense.views import View, padded_flat
 from mirrorcore.dense.volume import CHUNK_VOXELS, Volume, run_chunks
 
 # bytes per kept voxel while carving's colours are computed (float32 sums, takes, pixels)
@@ -77,11 +77,7 @@ def packed_padded(image: np.ndarray) -> np.ndarray:
     ((H + 2 BORDER) * (W + 2 BORDER),) uint32 array
         Each pixel's bytes red, green, blue, 1 (zeros in the padding).
     """
-    h, w = image.shape[:2]
-    out = np.zeros((h + 2 * BORDER, w + 2 * BORDER, 4), np.uint8)
-    out[BORDER:-BORDER, BORDER:-BORDER, :3] = image
-    out[BORDER:-BORDER, BORDER:-BORDER, 3] = 1
-    return out.view(np.uint32).reshape(-1)
+    return np.pad(_words(image), BORDER).reshape(-1)
 
 
 def packed_flat(image: np.ndarray) -> np.ndarray:
@@ -96,10 +92,15 @@ def packed_flat(image: np.ndarray) -> np.ndarray:
     (H*W + 1,) uint32 array
         Each pixel's bytes red, green, blue, 1; the pad cell last, zero.
     """
-    out = np.zeros((image.shape[0] * image.shape[1] + 1, 4), np.uint8)
-    out[:-1, :3] = image.reshape(-1, 3)
-    out[:-1, 3] = 1
-    return out.view(np.uint32).reshape(-1)
+    return padded_flat(_words(image), 0)
+
+
+def _words(image: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 RGB -> (H, W) uint32, each pixel's bytes red, green, blue, 1."""
+    out = np.empty((*image.shape[:2], 4), np.uint8)
+    out[..., :3] = image
+    out[..., 3] = 1
+    return out.view(np.uint32)[..., 0]
 
 
 @dataclass(frozen=True, eq=False)
