@@ -124,9 +124,9 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
     if method == "tsdf":
         return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers,
                     colours=colours)
+    colour = None if colours is None else colour_frames(rig.intrinsics, colours, len(depths))[0]
     return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel,
-                 workers,
-                 None if colours is None else colour_frames(rig.intrinsics, colours, len(depths))[0])
+                 workers, colour)
 
 
 def result_geometry(result: CarveResult | TsdfResult) -> tuple[
