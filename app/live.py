@@ -98,8 +98,9 @@ class LiveLoop:
         self.rate = RateMeter()
         self.anchors = Anchors()          # the stream's centres, kept from frame to frame
         self.index = 0
-        # frame_number -> depth, oldest first (RECENT_FRAMES at most)
-        self._recent: dict[int, np.ndarray] = {}
+        # frame_number -> depth and colour (None: the source has none), oldest first
+        # (RECENT_FRAMES at most)
+        self._recent: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         # appended on the loop's thread, copied on the browser's
         self._recent_lock = threading.Lock()
         self._collectors: list[Callable[[LiveFrame], None]] = []
@@ -183,7 +184,7 @@ class LiveLoop:
         with self._recent_lock:
             number = frame_number(frame.index, self.source.frame_count)
             self._recent.pop(number, None)
-            self._recent[number] = frame.depth
+            self._recent[number] = (frame.depth, source_frame.colour)
             while len(self._recent) > RECENT_FRAMES:
                 del self._recent[next(iter(self._recent))]
             collectors = list(self._collectors)
@@ -242,8 +243,28 @@ class LiveLoop:
             Metres; None before the first frame.
         """
         with self._recent_lock:
-            frames = list(self._recent.values())
+            frames = [depth for depth, _ in self._recent.values()]
         return np.stack(frames) if frames else None
+
+    def recent_frames(self) -> tuple[np.ndarray, np.ndarray | None] | None:
+        """The frames `recent_depths` gives, with their colour images, taken together.
+
+        Returns
+        -------
+        depths : np.ndarray, shape (k, H, W)
+            Metres.
+        colours : np.ndarray, shape (k, H, W, 3), uint8, or None
+            RGB registered to the depth; None when a frame has no colour.
+        None
+            Before the first frame.
+        """
+        with self._recent_lock:
+            frames = list(self._recent.values())
+        if not frames:
+            return None
+        colours = [colour for _, colour in frames]
+        return (np.stack([depth for depth, _ in frames]),
+                None if any(c is None for c in colours) else np.stack(colours))
 
     def collect(self, n: int, progress: Callable[[int], None] = lambda k: None,
                 timeout: float = 60.0, cancel: threading.Event | None = None) -> list[np.ndarray]:

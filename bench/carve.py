@@ -9,7 +9,7 @@ tracer serve bench.tsdf too.
 from __future__ import annotations
 
 import tracemalloc
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -21,6 +21,7 @@ from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.rig.model import Rig
 from mirrorcore.geometry.shapes import FitErrors, Sphere
 from mirrorcore.sim.export import true_rig
+from mirrorcore.sim.albedo import object_albedo
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
 
@@ -41,6 +42,8 @@ class SphereFrames:
         The sphere's centre, metres, camera frame.
     radius : float
         Metres.
+    colours : np.ndarray, shape (F, H, W, 3), uint8
+        The frames' colour (the rig's colour gains are the mirrors' tints).
     """
 
     rig: Rig
@@ -48,6 +51,7 @@ class SphereFrames:
     masks: np.ndarray
     centre: np.ndarray
     radius: float
+    colours: np.ndarray
 
     def volume(self, n: int) -> Volume:
         """n^3 voxels over the box of edge BOX around the sphere.
@@ -83,6 +87,24 @@ class SphereFrames:
         )
 
 
+    def colour_rmse_levels(self, points: np.ndarray, colours: np.ndarray) -> float:
+        """RMS difference of colours to the sphere's albedo at their points.
+
+        Parameters
+        ----------
+        points : np.ndarray, shape (n, 3)
+            Metres.
+        colours : np.ndarray, shape (n, 3), uint8
+
+        Returns
+        -------
+        float
+            Levels of 255, over the three channels.
+        """
+        error = colours.astype(float) - object_albedo(0, points - self.centre)
+        return float(np.sqrt(np.mean(error**2)))
+
+
 def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
     """Frames of the paper's sphere scene, ready for Algorithm 1.
 
@@ -98,9 +120,10 @@ def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
     SphereFrames
     """
     sim = Simulator(paper_scene(object="sphere"), seed=seed)
-    rig = true_rig(sim.scene)
+    rig = replace(true_rig(sim.scene), colour_gains=tuple(m.tint for m in sim.scene.mirrors))
     background = sim.background().depth
-    prepared = [prepare_frame(rig, sim.frame(i).depth, background) for i in range(count)]
+    shot = [sim.frame(i) for i in range(count)]
+    prepared = [prepare_frame(rig, frame.depth, background) for frame in shot]
     sphere = sim.scene.objects[0]
     return SphereFrames(
         rig,
@@ -108,6 +131,7 @@ def sphere_frames(count: int = 1, seed: int = 0) -> SphereFrames:
         np.stack([p[1] for p in prepared]),
         np.asarray(sphere.centre, float),
         float(sphere.radius),
+        np.stack([frame.colour for frame in shot]),
     )
 
 

@@ -5,7 +5,10 @@ views (the camera and each mirror's virtual camera, with its det -1 extrinsic) o
 the simulated sphere, both with a truncation of 3 voxels and their meshes extracted, timed
 interleaved: one frame at 200^3 voxels (2 mm over 40 cm), five frames, and the traced peak memory at
 300^3 (1.33 mm). Each mesh's RMSE to the true sphere is reported beside. tsdf_fuse_ms and
-open3d_integrate_ms time the fusion alone (one frame, 200^3), without the meshes.
+open3d_integrate_ms time the fusion alone (one frame, 200^3), without the meshes. tsdf_colour_ms is
+tsdf_ms fusing the frame's colour too (the mirrors' gains applied) and its mesh with vertex
+colours, timed in the same run; tsdf_colour_rmse_levels the RMS difference of those colours to the
+sphere's albedo at the vertices (levels of 255).
 """
 
 from __future__ import annotations
@@ -75,7 +78,8 @@ def open3d_tsdf(frames: SphereFrames, volume: Volume, count: int, mesh: bool = T
     return grid.extract_triangle_mesh(weight_threshold=O3D_MIN_WEIGHT) if mesh else grid
 
 
-def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
+def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True,
+         colour: bool = False):
     """The sparse fusion's mesh of the first `count` frames (truncation TRUNCATION_VOXELS voxels).
 
     Parameters
@@ -86,6 +90,8 @@ def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
         Frames to fuse.
     mesh : bool, optional
         Extract the mesh; without it, the fused result.
+    colour : bool, optional
+        Fuse the frames' colour too.
 
     Returns
     -------
@@ -97,6 +103,7 @@ def ours(frames: SphereFrames, volume: Volume, count: int, mesh: bool = True):
         frames.masks[:count],
         volume,
         TRUNCATION_VOXELS * volume.voxel,
+        colours=frames.colours[:count] if colour else None,
     )
     return fused.mesh() if mesh else fused
 
@@ -114,6 +121,7 @@ def run() -> dict[str, float]:
     times = interleaved_ms(
         {
             "tsdf_ms": lambda: ours(frames, small, 1),
+            "tsdf_colour_ms": lambda: ours(frames, small, 1, colour=True),
             "open3d_tsdf_ms": lambda: open3d_tsdf(frames, small, 1),
             "tsdf_5_ms": lambda: ours(frames, small, 5),
             "open3d_tsdf_5_ms": lambda: open3d_tsdf(frames, small, 5),
@@ -123,8 +131,10 @@ def run() -> dict[str, float]:
         repeat=7,
         warmup=1,
     )
+    coloured = ours(frames, small, 1, colour=True)
     return {
         **times,
+        "tsdf_colour_rmse_levels": frames.colour_rmse_levels(coloured.vertices, coloured.colours),
         "tsdf_peak_mb": peak_mb(lambda: ours(frames, large, 1)),
         "tsdf_rmse_mm": frames.rmse_mm(ours(frames, small, 1).vertices),
         "open3d_tsdf_rmse_mm": frames.rmse_mm(

@@ -20,7 +20,6 @@ from mirrorcore.base.errors import Cancelled, MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
 from mirrorcore.batch import read_depth
 from mirrorcore.batch.executor import WORKERS_PER_CORE
-from mirrorcore.batch.frames import read_frame_colour
 from mirrorcore.batch.job import COLOURS
 from mirrorcore.batch.manifest import LOCK_FILE, MANIFEST_FILE
 from mirrorcore.dense import METHODS, DenseOptions, dense_volume, reconstruct_dense
@@ -40,6 +39,8 @@ from .reconstruct_batch import run_all
 # bytes a pixel of each frame fused takes: its prepared depth (float32) and mask, listed and
 # stacked
 PREPARED_BYTES = 10
+# and with colour frames: the colour (RGB) listed and stacked, and packed for fusion (RGB1)
+COLOUR_BYTES = 10
 # the dense methods' voxel edge: from a tenth of a millimetre to a metre
 VOXEL_METRES = (1e-4, 1.0)
 # the largest length or coordinate in metres (margin, box, threshold, truncation)
@@ -233,7 +234,7 @@ def run(args: argparse.Namespace) -> int:
         if args.method != "raw":
             return run_dense(args, rig, session, index, background, selection, out)
         depth = read_scan_frame(session, index, args.temporal)
-        colour = read_frame_colour(session, index) if args.colour == "scene" else None
+        colour = session.read_colour(index) if args.colour == "scene" else None
         cloud, _ = object_cloud(rig, depth, background, selection, colour)
         _refuse_empty(out, len(cloud), "object's cloud", "the background and the depth range")
         rgb = None if cloud.rgb is None else np.ascontiguousarray(cloud.rgb)
@@ -306,7 +307,8 @@ def run_dense(
             f"--frames: the session has {len(session.frames)} frames, {first} + {count} is past "
             "the end"
         )
-    check_memory(float(count) * session.camera.width * session.camera.height * PREPARED_BYTES,
+    pixel_bytes = PREPARED_BYTES + (COLOUR_BYTES if session.colour_frames else 0)
+    check_memory(float(count) * session.camera.width * session.camera.height * pixel_bytes,
                  f"--frames {count}: {count:,} frames of "
                  f"{session.camera.width}x{session.camera.height} at once")
     prepared = [
@@ -314,6 +316,8 @@ def run_dense(
         for i in range(first, first + count)
     ]
     depths, masks = (np.stack(a) for a in zip(*prepared))
+    colours = [session.read_colour(i) if args.colour == "scene" else None
+               for i in range(first, first + count)]
     options = _dense_options(args)
     volume = dense_volume(rig, depths[0], masks[0], options)
     with (
@@ -336,18 +340,19 @@ def run_dense(
                 options,
                 progress=lambda f: bar.update(f - bar.n),
                 cancel=cancel,
+                colours=None if colours[0] is None else np.stack(colours),
             )
         except Cancelled:
             raise KeyboardInterrupt from None
     if isinstance(result, CarveResult):
         points, sources = result.surface_points()
         _refuse_empty(out, len(points), "carved surface", "--voxel, --bounds and --margin")
-        write_result(out, points, sources)
+        write_result(out, points, sources, colours=result.colours)
         message = wording.carved_written(out, len(points), volume.shape, volume.voxel)
     else:
         mesh = result.mesh()
         _refuse_empty(out, len(mesh.vertices), "mesh", "--voxel, --bounds and --margin")
-        write_result(out, mesh.vertices, mesh.sources, mesh.faces)
+        write_result(out, mesh.vertices, mesh.sources, mesh.faces, colours=mesh.colours)
         message = wording.mesh_written(
             out, len(mesh.vertices), len(mesh.faces), count, volume.shape, volume.voxel
         )

@@ -61,13 +61,16 @@ class DenseJob(Runner):
         MirrorscanError
             Before the first frame, or while a dense reconstruction runs.
         """
-        depths = self.loop.recent_depths()
-        if depths is None:
+        recent = self.loop.recent_frames()
+        if recent is None:
             raise MirrorscanError("no frame yet")
+        depths, colours = recent
+        colours = None if colours is None else colours[-frames:]
         snapshot, source = self.snapshot(), self.loop.source.name
         return self._start(
             DENSE,
-            lambda cancel: self._dense(snapshot, source, depths[-frames:], method, options, cancel),
+            lambda cancel: self._dense(snapshot, source, depths[-frames:], method, options, cancel,
+                                       colours),
             "a dense reconstruction is already running; cancel it first",
         )
 
@@ -79,8 +82,10 @@ class DenseJob(Runner):
         method: str,
         options: DenseOptions,
         cancel: threading.Event,
+        colours: np.ndarray | None = None,
     ) -> DenseResult:
-        """Carve or fuse the frames with the snapshot's rig; keep and publish the result."""
+        """Carve or fuse the frames with the snapshot's rig, coloured with their colour images
+        (k, H, W, 3) when given; keep and publish the result."""
         self.progress(DENSE, 0.0, DenseWork(method, len(depths)))
         prepared = [
             prepare_frame(snapshot.rig, d, snapshot.backdrop, snapshot.session.selection)
@@ -98,17 +103,19 @@ class DenseJob(Runner):
             options,
             lambda f: self.progress(DENSE, f, work),
             cancel,
+            colours=colours,
         )
         low = np.asarray(volume.origin) - volume.voxel / 2
         high = low + volume.voxel * np.asarray(volume.shape)
         # a carving's points are shaded by their normals; a fusion's mesh is closed where seen
         if isinstance(result, CarveResult):
             vertices, sources = result.surface_points()
-            faces = None
+            faces, vertex_colours = None, result.colours
             normals = surface_normals(vertices, sources, snapshot.rig, volume.voxel)
         else:
             mesh = result.closed_mesh()
             vertices, sources, faces, normals = mesh.vertices, mesh.sources, mesh.faces, None
+            vertex_colours = mesh.colours
         dense = DenseResult(
             vertices,
             sources,
@@ -121,6 +128,7 @@ class DenseJob(Runner):
             source,
             unplaned(snapshot.session),
             normals,
+            vertex_colours,
         )
         self.dense_result = dense
         self.bus.publish(DenseChanged(dense))

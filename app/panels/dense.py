@@ -299,12 +299,13 @@ class DensePanel:
     def export_result(self) -> None:
         """Export the last dense result as PLY, under a new name.
 
-        Carved voxels, or the fused mesh with its faces.
+        Carved voxels, or the fused mesh with its faces; in the result's colours where it has
+        them.
         """
         result = self.services.jobs.dense_result
         if result is None:
             raise MirrorscanError("no dense result yet: Run one first")
-        data = encode_ply(result.vertices, result.sources, result.faces)
+        data = encode_ply(result.vertices, result.sources, result.faces, result.colours)
         root = self.services.editor.session.root if self.services.editor.autosave else None
         saved = export_ply(root, f"dense-{result.method}", data, self.tab.client)
         self.status.content = markdown(

@@ -18,7 +18,6 @@ from mirrorcore.io.ply import encode_ply
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig, calibrated_rig
 from mirrorcore.io.session import Session
-from mirrorcore.depth.files import read_colour
 from mirrorcore.depth.temporal import check_window_memory, frame_window, temporal_smooth
 from mirrorcore.batch.job import BatchJob, output_names
 from mirrorcore.batch.records import FrameRecord
@@ -111,30 +110,6 @@ def read_depth(session: Session, index: int, temporal: int = 0,
     return temporal_smooth(np.stack([cache[i] for i in window]), window.index(index))
 
 
-def read_frame_colour(session: Session, index: int) -> np.ndarray | None:
-    """Read a frame's colour image (registered to its depth image).
-
-    Parameters
-    ----------
-    session : Session
-    index : int
-        0-based, negative from the end (a valid frame index).
-
-    Returns
-    -------
-    (H, W, 3) uint8 array or None
-        RGB; None for a session without colour_frames.
-
-    Raises
-    ------
-    FileFormatError
-        Naming the file: missing, unreadable or not the camera's size.
-    """
-    if session.colour_frames is None:
-        return None
-    return read_colour(Path(session.root) / session.colour_frames[index], session.camera)
-
-
 def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=None
                        ) -> tuple[list[FrameRecord], dict[int, str]]:
     """Reconstruct frames (in order) into context.job.out, one PLY file each.
@@ -168,7 +143,8 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         try:
             data, sources, faces = _frame_ply(context, index,
                                               read_depth(context.session, index,
-                                                         context.job.temporal, cache), cancel)
+                                                         context.job.temporal, cache), cancel,
+                                              index=index)
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
         except Cancelled:
@@ -186,24 +162,27 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
 def _frame_ply(context: FrameContext, index: int, depth: np.ndarray, cancel=None
                ) -> tuple[bytes, np.ndarray, int | None]:
     """One frame's PLY bytes, its vertices' sources (n,) uint8 and its face count (None for clouds).
-    A raw frame's vertices carry the scene's colour with job.colour 'scene' and a session with
-    colour frames. A dense frame with no object pixels (and no fixed box) gives an empty file
-    rather than an error: the person left the view."""
+    The vertices carry the scene's colour (frame `index`'s colour image) with job.colour 'scene'
+    and a session with colour frames. A dense frame with no object pixels (and no fixed box) gives
+    an empty file rather than an error: the person left the view."""
     rig, job = context.rig, context.job
     depth, mask = prepare_frame(rig, depth, context.background, context.session.selection)
+    colour = context.session.read_colour(index) if job.colour == "scene" else None
     if job.method == "raw":
-        colour = read_frame_colour(context.session, index) if job.colour == "scene" else None
         cloud = reconstruct_raw(rig, depth, mask, colour)
         rgb = None if cloud.rgb is None else np.ascontiguousarray(cloud.rgb)
         return encode_ply(cloud.points, cloud.sources, colours=rgb), cloud.sources, None
     if job.options.bounds is None and len(reconstruct_raw(rig, depth, mask)) == 0:
         points, sources = np.zeros((0, 3), np.float32), np.zeros(0, np.uint8)
         faces = np.zeros((0, 3), np.int32) if job.method == "tsdf" else None
+        colours = None if colour is None else np.zeros((0, 3), np.uint8)
     else:
         volume = dense_volume(rig, depth, mask, job.options)
-        points, sources, faces = result_geometry(reconstruct_dense(rig, depth[None], mask[
-            None], volume, job.method, job.options, cancel=cancel, workers=context.threads))
-    return encode_ply(points, sources, faces), sources, None if faces is None else len(faces)
+        points, sources, faces, colours = result_geometry(reconstruct_dense(
+            rig, depth[None], mask[None], volume, job.method, job.options, cancel=cancel,
+            workers=context.threads, colours=None if colour is None else colour[None]))
+    return (encode_ply(points, sources, faces, colours), sources,
+            None if faces is None else len(faces))
 
 
 def _one_line(exc: BaseException) -> str:

@@ -15,14 +15,12 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from mirrorcore.base.errors import Cancelled
 from mirrorcore.base.progress import Progress, cancel_requested
 from mirrorcore.calibration.agreement import frame_views, in_view
-from mirrorcore.depth.files import read_colour
 from mirrorcore.io.session import MAX_COLOUR_GAIN, Session
 from mirrorcore.rig.model import Rig
 
@@ -303,12 +301,11 @@ def read_colour_frames(session: Session, picks) -> np.ndarray | None:
     Raises
     ------
     FileFormatError
-        Naming a colour frame that is missing or unreadable (depth.files.read_colour).
+        Naming a colour frame that is missing or unreadable (Session.read_colour).
     """
     if not session.colour_frames:
         return None
-    return np.stack([read_colour(Path(session.root) / session.colour_frames[int(i)],
-                                 session.camera) for i in picks])
+    return np.stack([session.read_colour(int(i)) for i in picks])
 
 
 def with_gains(session: Session, measured: ColourGains) -> Session:

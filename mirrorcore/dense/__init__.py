@@ -5,7 +5,7 @@ mesh), with the views through the mirrors as virtual cameras (views, sampling, w
 
     volume = dense_volume(rig, depths[0], masks[0], DenseOptions(voxel=0.004))
     result = reconstruct_dense(rig, depths, masks, volume, "tsdf")
-    points, sources, faces = result_geometry(result)
+    points, sources, faces, colours = result_geometry(result)
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.carve import CarveResult, carve
+from mirrorcore.dense.colour import colour_frames
 from mirrorcore.dense.tsdf import TsdfResult, fuse
 from mirrorcore.dense.volume import Progress, Volume
 
@@ -84,7 +85,8 @@ def dense_volume(rig: Rig, depth: np.ndarray, mask: np.ndarray, options: DenseOp
 
 def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume, method: str,
                       options: DenseOptions = DenseOptions(), progress: Progress | None = None,
-                      cancel=None, workers: int | None = None) -> CarveResult | TsdfResult:
+                      cancel=None, workers: int | None = None,
+                      colours: np.ndarray | None = None) -> CarveResult | TsdfResult:
     """Carve ('paper', 'carve': the first frame) or fuse ('tsdf': every frame) prepared frames.
 
     Parameters
@@ -101,6 +103,9 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
         Asks to stop when set or when it returns True.
     workers : int, optional
         Threads for the chunks (default the CPU count).
+    colours : (F, H, W, 3) uint8 array, optional
+        The frames' colour registered to their depth: the result is coloured too (each view's
+        pixels corrected by Rig.colour_correction; mirrorcore.dense.colour).
 
     Returns
     -------
@@ -117,13 +122,15 @@ def reconstruct_dense(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: V
         raise MirrorscanError(f"--method: unknown dense method {method!r} (expected one of "
                               f"{', '.join(METHODS)})")
     if method == "tsdf":
-        return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers)
+        return fuse(rig, depths, masks, volume, options.truncation, progress, cancel, workers,
+                    colours=colours)
+    colour = None if colours is None else colour_frames(rig.intrinsics, colours, len(depths))[0]
     return carve(rig, depths[0], masks[0], volume, method, options.threshold, progress, cancel,
-                 workers)
+                 workers, colour)
 
 
 def result_geometry(result: CarveResult | TsdfResult) -> tuple[
-    np.ndarray, np.ndarray, np.ndarray | None]:
+    np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
     """Return what a PLY file holds of a dense result.
 
     The surface voxels' centres of a carving, the mesh of a fusion.
@@ -138,6 +145,8 @@ def result_geometry(result: CarveResult | TsdfResult) -> tuple[
         Metres, camera frame.
     sources : (n,) uint8 array
     faces : (m, 3) int32 array or None
+    colours : (n, 3) uint8 array or None
+        The vertices' colours of a result made with colour images.
 
     Raises
     ------
@@ -145,6 +154,6 @@ def result_geometry(result: CarveResult | TsdfResult) -> tuple[
         When the volume holds no surface.
     """
     if isinstance(result, CarveResult):
-        return (*result.surface_points(), None)
+        return (*result.surface_points(), None, result.colours)
     mesh = result.mesh()
-    return mesh.vertices, mesh.sources, mesh.faces
+    return mesh.vertices, mesh.sources, mesh.faces, mesh.colours

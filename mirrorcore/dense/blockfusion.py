@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mirrorcore.dense.blocks import Blocks
-from mirrorcore.dense.sampling import QuadTable, in_front_of_mirrors, nearest_pixels, project_blocks
+from mirrorcore.dense.sampling import (Projection, QuadTable, in_front_of_mirrors, nearest_pixels,
+                                       project_blocks)
 from mirrorcore.dense.views import View
 from mirrorcore.dense.volume import CHUNK_VOXELS, NO_SOURCE, SMALLEST_BLOCK
 from mirrorcore.dense.windows import Window, mirror_sides, window_half
@@ -94,13 +95,7 @@ def fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
             continue
         projection = project_blocks(intr, to_views[k], x, y, z)
         clipped, count = _sampled_sdf(tables[k], projection, trunc)
-        # finite weights: voxels past the volume are NaN
-        w = np.fmax(projection.z, np.float32(Z_TINY))
-        np.square(w, out=w)
-        np.square(w, out=w)
-        np.divide(np.float32(1), w, out=w)                         # (1 m / z)^4
-        if keep is not None:
-            w *= keep.reshape(-1)
+        w = view_weight(projection, keep)
         clipped *= w
         total += clipped
         count *= w
@@ -115,6 +110,31 @@ def fuse_blocks(rig: Rig, tables: list[QuadTable], to_views: list[np.ndarray],
     values = (total + unseen) / (sum_w + unseen)                   # 1 where no view weighs in
     for out, a in ((tsdf, values), (weight, sum_w), (source, best_source)):
         out[:] = np.moveaxis(a.reshape(BLOCK, BLOCK, BLOCK, -1), -1, 0)
+
+
+def view_weight(projection: Projection, keep: np.ndarray | None) -> np.ndarray:
+    """Return a view's weight of voxels: (1 m / z)^4, z their depth in the view.
+
+    Parameters
+    ----------
+    projection : Projection
+        The voxels in the view.
+    keep : bool array of n elements or None
+        The voxels the camera does not cull and in front of every mirror (None: all).
+
+    Returns
+    -------
+    (n,) float32 array
+        0 where not kept.
+    """
+    # finite weights: voxels past the volume are NaN
+    w = np.fmax(projection.z, np.float32(Z_TINY))
+    np.square(w, out=w)
+    np.square(w, out=w)
+    np.divide(np.float32(1), w, out=w)
+    if keep is not None:
+        w *= keep.reshape(-1)
+    return w
 
 
 def _sampled_sdf(table: QuadTable, projection, trunc: float) -> tuple[np.ndarray, np.ndarray]:

@@ -35,13 +35,15 @@ surface or a silhouette, are carved voxel by voxel, with the same result.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mirrorcore.base.budget import check_memory
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.rig.model import Rig
 from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
+from mirrorcore.dense.colour import CARVE_COLOUR_BYTES, colour_frames, voxel_colours
 from mirrorcore.dense.sampling import (QuadTable, in_front_of_mirrors, nearest_pixels, pixel_index,
                                        project, project_blocks, transform)
 from mirrorcore.dense.views import View, padded_flat, rig_views
@@ -73,6 +75,10 @@ class CarveResult:
     method : str
     threshold : float
         th, metres.
+    colours : (n, 3) uint8 array or None
+        Carved with a colour image: the SURFACE voxels' colours (in the order of
+        `surface_points`) from the views that see them (mirrorcore.dense.colour.voxel_colours);
+        None without.
     """
 
     volume: Volume
@@ -80,6 +86,7 @@ class CarveResult:
     source: np.ndarray
     method: str
     threshold: float
+    colours: np.ndarray | None = None
 
     def surface_points(self) -> tuple[np.ndarray, np.ndarray]:
         """Return the SURFACE voxels' centres and their sources.
@@ -96,7 +103,7 @@ class CarveResult:
 
 def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method: str = "carve",
           threshold: float | None = None, progress: Progress | None = None, cancel=None,
-          workers: int | None = None) -> CarveResult:
+          workers: int | None = None, colour: np.ndarray | None = None) -> CarveResult:
     """Carve a volume with one depth frame (see the module docstring for the methods).
 
     Parameters
@@ -116,6 +123,8 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
         Asks to stop when set or when it returns True.
     workers : int, optional
         Threads (default the CPU count).
+    colour : (H, W, 3) uint8 array, optional
+        The frame's colour registered to its depth: the kept voxels are coloured from it.
 
     Returns
     -------
@@ -137,6 +146,7 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
     if not th > 0:
         raise MirrorscanError(f"carve: the threshold must be positive, got {threshold}")
     volume.check_grids(CARVE_VOXEL_BYTES, "the carving's state and source grids", BLOCK)
+    image = None if colour is None else colour_frames(rig.intrinsics, colour, 1)[0]
     views = rig_views(rig, depth, mask)
     state = padded_grid(volume, FREE, np.uint8, BLOCK)
     source = padded_grid(volume, NO_SOURCE, np.uint8, BLOCK)
@@ -162,7 +172,13 @@ def carve(rig: Rig, depth: np.ndarray, mask: np.ndarray, volume: Volume, method:
         chunk.write(source, sources)
 
     run_chunks(blocks.chunks(), work, progress, cancel, workers)
-    return CarveResult(volume, cropped(volume, state), cropped(volume, source), method, th)
+    result = CarveResult(volume, cropped(volume, state), cropped(volume, source), method, th)
+    if image is None:
+        return result
+    points, sources = result.surface_points()
+    check_memory(len(points) * CARVE_COLOUR_BYTES,
+                 f"carve: the colours of {len(points):,} surface voxels")
+    return replace(result, colours=voxel_colours(rig, views, image, points, sources, th))
 
 
 @dataclass(frozen=True, eq=False)

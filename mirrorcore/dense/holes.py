@@ -75,8 +75,9 @@ def close_holes(mesh: Mesh, seen: Callable[[np.ndarray], np.ndarray], max_length
 
     A hole whose loop is at most `max_length` long is closed by one new vertex, the mean of its
     loop's vertices, and a triangle from each of its edges to it, wound as the mesh; the new vertex
-    takes the source of a vertex of the loop. It is closed only when `seen` holds at the new vertex
-    and at every new triangle's centroid, and its loop passes each of its vertices once.
+    takes the source of a vertex of the loop and the mean colour of the loop's vertices. It is
+    closed only when `seen` holds at the new vertex and at every new triangle's centroid, and its
+    loop passes each of its vertices once.
 
     Parameters
     ----------
@@ -116,6 +117,11 @@ def close_holes(mesh: Mesh, seen: Callable[[np.ndarray], np.ndarray], max_length
     faces = np.stack([edges[:, 1], edges[:, 0], number[loop]], axis=1).astype(np.int32)
     first = np.zeros(len(short), np.int64)
     first[loop[::-1]] = edges[::-1, 0]
+    colours = mesh.colours
+    if colours is not None:
+        mean = np.stack([np.bincount(loop, weights=colours[edges[:, 0], c], minlength=len(short))
+                         for c in range(3)], axis=1) / np.maximum(count, 1)[:, None]
+        colours = np.concatenate([colours, np.rint(mean[kept]).astype(np.uint8)])
     return Mesh(np.concatenate([vertices, centres[kept].astype(np.float32)]),
                 np.concatenate([mesh.faces, faces]),
-                np.concatenate([mesh.sources, mesh.sources[first[kept]]]))
+                np.concatenate([mesh.sources, mesh.sources[first[kept]]]), colours)

@@ -26,9 +26,11 @@ or one negligible beside the other end's) is one vertex for that point, whatever
 on, and the faces that this makes degenerate are dropped; vertices used by no face are dropped."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 
+import cv2
 import numpy as np
 from skimage.measure import marching_cubes as _skimage_marching_cubes
 
@@ -61,15 +63,19 @@ class Mesh:
     sources : (n,) uint8 array
         0 = direct, j = mirror j, from 33 a sequence of mirrors (the view that saw each vertex
         best).
+    colours : (n, 3) uint8 array or None
+        RGB levels of each vertex (a fusion with colour), else None.
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     sources: np.ndarray
+    colours: np.ndarray | None = None
 
 
 def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
-                         source: np.ndarray) -> Mesh:
+                         source: np.ndarray,
+                         colour: Callable[[np.ndarray], np.ndarray] | None = None) -> Mesh:
     """Extract the surface values == 0 of blocks' voxels by marching cubes.
 
     On the edges with both ends where `mask` holds: the mesh of classic marching cubes on the whole
@@ -77,6 +83,8 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
     vertex takes the label in `source` of the nearer end of its edge (the lower end on ties), or of
     the other end when that one has none (NO_SOURCE); NO_SOURCE when neither has one (a fusion
     labels every voxel it observes, so not there); a vertex on a grid point takes that point's.
+    With `colour`, each vertex's colour is interpolated between its edge's ends' as its position is
+    (an end without colour takes the other end's).
 
     Parameters
     ----------
@@ -85,6 +93,9 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
         One block after another, in the order of `blocks`.
     mask : (m, B, B, B) bool array
     source : (m, B, B, B) uint8 array
+    colour : callable, optional
+        (k, 3) int64 voxel indices in the volume -> (k, 4) uint8 their red, green, blue and 1 (0:
+        no colour; TsdfResult.voxel_colours).
 
     Returns
     -------
@@ -106,13 +117,14 @@ def block_marching_cubes(blocks: Blocks, values: np.ndarray, mask: np.ndarray,
     ext = [_extended(rows, a, fill) for a,
            fill in ((values.astype(np.float32, copy=False), 1.0), (mask, False),
                                                    (source, NO_SOURCE))]
-    ids, grid, labels, points = _edge_vertices(blocks, rows, *ext)
+    ids, grid, labels, points, colours = _edge_vertices(blocks, rows, *ext, colour)
     faces = _faces(rows, _cases(ext[0] <= 0, ext[1]), ids, points, blocks.size)
     used = np.zeros(len(grid), bool)
     used[faces.reshape(-1)] = True
     volume = blocks.volume
     vertices = (np.asarray(volume.origin) + volume.voxel * grid[used]).astype(np.float32)
-    return Mesh(vertices, np.take(np.cumsum(used, dtype=np.int32) - 1, faces), labels[used])
+    return Mesh(vertices, np.take(np.cumsum(used, dtype=np.int32) - 1, faces), labels[used],
+                None if colours is None else colours[used])
 
 
 @cache
@@ -216,13 +228,15 @@ def _cases(below: np.ndarray, observed: np.ndarray) -> np.ndarray:
 
 
 def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: np.ndarray,
-                   source: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+                   source: np.ndarray, colour: Callable[[np.ndarray], np.ndarray] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, np.ndarray | None]:
     """The vertices on the crossing, observed edges of the m `blocks`, the first of the extended
     blocks (values float32, mask bool, source uint8, (B + 1, B + 1, B + 1, M + 1); the others,
     unobserved ghosts, own none) -> ids (B^3 * 3 * m,) int32, the vertex on the edge of each voxel
     along each axis (index [voxel in C order, axis, row]), -1 where there is none; grid (n, 3)
-    float64 the vertices' voxel index coordinates in the volume; labels (n,) uint8; and how many of
-    them lie on grid points (the last ones, one per point)."""
+    float64 the vertices' voxel index coordinates in the volume; labels (n,) uint8; how many of
+    them lie on grid points (the last ones, one per point); and with colour (block_marching_cubes)
+    their colours (n, 3) uint8, else None."""
     b, span, m = values.shape[0] - 1, values.shape[3], len(blocks)
     edge = _crossing_edges(values[..., :m], mask[..., :m])              # [voxel, axis, row]
     voxel, axis, row = edge // (3 * m), edge // m % 3, edge % m
@@ -232,6 +246,11 @@ def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: n
     v0, v1 = np.take(values, low * span + row), np.take(values, high * span + row)
     # float32 in [0, 1]: the signs differ
     t = v0 / (v0 - v1)
+    colours = None
+    if colour is not None:
+        owner, local = _ext_owner(b)
+        colours = _edge_colours(colour, blocks, *(
+            rows[row, owner[ends]] * b ** 3 + local[ends] for ends in (low, high)), t)
     s0, s1 = np.take(source, low * span + row), np.take(source, high * span + row)
     near, far = np.where(t <= 0.5, s0, s1), np.where(t <= 0.5, s1, s0)
     labels = np.where(near == NO_SOURCE, far, near)
@@ -248,7 +267,44 @@ def _edge_vertices(blocks: Blocks, rows: np.ndarray, values: np.ndarray, mask: n
                                                                      axis=0)).astype(np.float64)
     grid[np.arange(len(off)), axis[off]] += t[off]
     sources = np.concatenate([labels[off], np.take(source, point[one] * span + row[len(off):])])
-    return ids, grid, sources, len(one)
+    if colours is not None:
+        colours = np.concatenate([colours[off], colours[on][one]])
+    return ids, grid, sources, len(one), colours
+
+
+def _edge_colours(colour: Callable[[np.ndarray], np.ndarray], blocks: Blocks, low: np.ndarray,
+                  high: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The colours (k, 3) uint8 at t (k,) float32 along the edges from voxel low to voxel high (k,
+    int64, block row * B^3 + voxel in C order, in `blocks`) of colour's voxels
+    (block_marching_cubes; an end without colour takes the other end's). Each voxel is coloured
+    once (it ends up to 6 edges), found by marks rather than a sort."""
+    b = blocks.size
+    marks = np.zeros(len(blocks) * b ** 3, bool)
+    marks[low] = True
+    marks[high] = True
+    voxels = np.flatnonzero(marks)
+    number = np.empty(len(marks), np.int32)
+    number[voxels] = np.arange(len(voxels), dtype=np.int32)
+    row, local = np.divmod(voxels, b ** 3)
+    ijk = np.take(b * blocks.ijk, row, axis=0) + np.take(_block_voxels(b), local, axis=0)
+    painted = colour(ijk)
+    c0, c1 = (np.take(painted, np.take(number, ends), axis=0).astype(np.float32)
+              for ends in (low, high))
+    lost = c0[:, 3] == 0
+    c0[lost] = c1[lost]
+    lost = c1[:, 3] == 0
+    c1[lost] = c0[lost]
+    c1 -= c0
+    c1 *= t[:, None]
+    c1 += c0
+    # rounded and saturated in one pass (the values are not negative)
+    return cv2.convertScaleAbs(c1)[:, :3]
+
+
+@cache
+def _block_voxels(b: int) -> np.ndarray:
+    """(B^3, 3) int64: the voxels of a block in C order."""
+    return np.argwhere(np.ones((b, b, b), bool)).astype(np.int64)
 
 
 def _grid_points(rows: np.ndarray, row: np.ndarray, point: np.ndarray, b: int) -> tuple[np.ndarray,

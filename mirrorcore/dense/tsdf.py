@@ -23,6 +23,11 @@ quad of pixels that shows the surface (mirrorcore.dense.sampling), the box aroun
 frustum between its least depth minus the truncation and its greatest plus the truncation. Every
 voxel whose value some view sets below 1 is in them, with the value a fusion of the whole grid gives
 it; the voxels left out are those every view sees empty (or not at all).
+
+With the frames' colour images, the voxels are coloured with the same weights, each view's pixels
+divided by its mirrors' colour gains (mirrorcore.dense.colour); the mesh's vertices take the colour
+interpolated along their edges. The colours are computed for the voxels the mesh reads (the ends
+of its edges), from the tables the fusion read, so fusing them costs nothing until then.
 """
 from __future__ import annotations
 
@@ -38,6 +43,7 @@ from mirrorcore.dense.blocks import Blocks, cropped, padded_grid
 from mirrorcore.dense.holes import close_holes
 from mirrorcore.dense.mesh import Mesh, block_marching_cubes
 from mirrorcore.dense.blockfusion import BLOCK, fuse_blocks, BlockPlan
+from mirrorcore.dense.colour import FusedColour, colour_frames, packed_padded
 from mirrorcore.dense.sampling import BORDER, QuadTable
 from mirrorcore.dense.views import cull_depth, rig_views
 from mirrorcore.dense.volume import NO_SOURCE, Progress, Volume, run_chunks
@@ -71,6 +77,8 @@ class TsdfResult:
         NO_SOURCE where weight is 0.
     truncation : float
         Metres.
+    paint : FusedColour or None
+        Fused with colour images: what colours the voxels (`voxel_colours`); None without.
     """
 
     volume: Volume
@@ -79,12 +87,13 @@ class TsdfResult:
     weight: np.ndarray
     source: np.ndarray
     truncation: float
+    paint: FusedColour | None = None
 
     def mesh(self) -> Mesh:
         """Extract the zero level set by marching cubes (mirrorcore.dense.mesh).
 
         On the edges between voxels with weight > 0; each vertex takes the source of the nearer end
-        of its edge.
+        of its edge and, fused with colour, the colour interpolated along it.
 
         Returns
         -------
@@ -95,7 +104,30 @@ class TsdfResult:
         MirrorscanError
             There is no surface in the volume.
         """
-        return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source)
+        return block_marching_cubes(self.blocks, self.tsdf, self.weight > 0, self.source,
+                                    None if self.paint is None else self.voxel_colours)
+
+    def voxel_colours(self, ijk: np.ndarray) -> np.ndarray:
+        """Return the fused colours of voxels (mirrorcore.dense.colour).
+
+        Parameters
+        ----------
+        ijk : (k, 3) integer array
+            The voxels' indices in the volume.
+
+        Returns
+        -------
+        (k, 4) uint8 array
+            Red, green, blue levels, and 1 where some view gave a colour (0 and black elsewhere).
+
+        Raises
+        ------
+        MirrorscanError
+            The fusion had no colour images.
+        """
+        if self.paint is None:
+            raise MirrorscanError("tsdf: fused without colour images, so the voxels have no colour")
+        return self.paint.colours(self.volume, ijk)
 
     def closed_mesh(self, max_length: float | None = None) -> Mesh:
         """The mesh with its short holes closed where a view observed the voxels.
@@ -178,7 +210,7 @@ class TsdfResult:
 def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
          truncation: float | None = None,
          progress: Progress | None = None, cancel=None, workers: int | None = None,
-         blocks: Blocks | None = None) -> TsdfResult:
+         blocks: Blocks | None = None, colours: np.ndarray | None = None) -> TsdfResult:
     """Fuse the views of frames of a static object into a TSDF volume (see the module docstring).
 
     Parameters
@@ -200,6 +232,9 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
     blocks : Blocks, optional
         The blocks of BLOCK^3 voxels to compute (default `surface_blocks`; Blocks.all(volume, BLOCK)
         computes every voxel).
+    colours : (H, W, 3) or (F, H, W, 3) uint8 array, optional
+        Each frame's colour registered to its depth: the voxels' colours are fused too (each view's
+        pixels corrected by Rig.colour_correction, mirrorcore.dense.colour).
 
     Returns
     -------
@@ -228,6 +263,8 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
     to_views = [view.to_view for view in frames[0]]
     if blocks is None:
         blocks = surface_blocks(rig.intrinsics, tables, to_views, volume, trunc)
+    packed = None if colours is None else [
+        packed_padded(image) for image in colour_frames(rig.intrinsics, colours, len(depths))]
     check_memory(blocks.voxels * TSDF_VOXEL_BYTES,
                  f"tsdf: {len(blocks):,} blocks of {BLOCK}^3 voxels of {volume.voxel * 1e3:g} mm "
                  "(use larger voxels or a smaller truncation)")
@@ -248,7 +285,10 @@ def fuse(rig: Rig, depths: np.ndarray, masks: np.ndarray, volume: Volume,
     kept = np.flatnonzero(weight.reshape(len(blocks), BLOCK ** 3).max(axis=1, initial=0) > 0)
     # C order
     kept = kept[np.argsort(blocks.take(kept).keys)]
-    return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc)
+    paint = None if packed is None else FusedColour(
+        rig, tables, to_views, [view.source for view in frames[0]], trunc, packed)
+    return TsdfResult(volume, blocks.take(kept), tsdf[kept], weight[kept], source[kept], trunc,
+                      paint)
 
 
 def surface_blocks(intr: Intrinsics, tables: list[QuadTable], to_views: list[np.ndarray],

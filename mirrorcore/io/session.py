@@ -11,7 +11,7 @@ import numpy as np
 
 from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.base.palette import MAX_ORDER
-from mirrorcore.depth.files import read_depth_png
+from mirrorcore.depth.files import read_colour, read_depth_png
 from mirrorcore.depth.selection import Selection
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.geometry.plane import Plane
@@ -305,6 +305,28 @@ class Session:
             Metres.
         """
         return np.stack([self.read_frame(int(i)) for i in indices])
+
+    def read_colour(self, index: int) -> np.ndarray | None:
+        """Read one frame's colour image.
+
+        Parameters
+        ----------
+        index : int
+            0-based, negative counts from the end (a frame `read_frame` reads).
+
+        Returns
+        -------
+        (H, W, 3) uint8 array or None
+            RGB registered to the depth; None when the session has no colour frames.
+
+        Raises
+        ------
+        FileFormatError
+            The colour file is missing or unreadable.
+        """
+        if self.colour_frames is None:
+            return None
+        return read_colour(Path(self.root) / self.colour_frames[index], self.camera)
 
     def read_background(self) -> np.ndarray | None:
         """Read the background frame as (H, W) float32 metres, or None when the session has none."""

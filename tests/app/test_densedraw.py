@@ -4,8 +4,8 @@ result has one, is what is shaded; a mesh with colours per vertex is drawn in th
 import time
 
 import numpy as np
-from mirrorscan.densedraw import (AMBIENT, DENSE_COLOUR, FILL_LIGHT, KEY_LIGHT, UNLIT, draw_dense,
-                                  shade)
+from mirrorscan.densedraw import (AMBIENT, DENSE_COLOUR, FILL_LIGHT, KEY, KEY_LIGHT, UNLIT,
+                                  draw_dense, shade)
 from mirrorscan.results import DenseResult
 
 
@@ -62,6 +62,14 @@ def test_a_carving_is_drawn_as_shaded_points_and_a_coloured_mesh_in_its_colours(
                                                                      normals=normals))
     assert kind == "add_point_cloud" and kwargs["point_shading"] == "flat"
     np.testing.assert_array_equal(args[2], shade(normals, None, 500))
+    # a carving in the scene's colour is shaded the same way, in its points' own colours
+    colours = np.random.default_rng(0).integers(0, 256, (500, 3), dtype=np.uint8)
+    _, args, _ = draw_dense(Scene(), "/dense/result", result(normals * 0.1, normals=normals,
+                                                             colours=colours))
+    np.testing.assert_array_equal(args[2], shade(normals, colours, 500))
+    lit = normals @ KEY_LIGHT > 0.5
+    assert (args[2][lit].astype(int) <= colours[lit]).all()
+    assert (args[2][lit].astype(int) >= np.floor(colours[lit] * (AMBIENT + 0.5 * KEY))).all()
     faces = np.array([[0, 1, 2]], np.int32)
     colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255]], np.uint8)
     kind, args, _ = draw_dense(Scene(), "/dense/result", result(np.eye(3), faces,

@@ -1,8 +1,10 @@
 """The Dense panel (mirrorscan.panels.dense) on the simulated sphere rig, its mirrors calibrated:
-the box, runs of each method shown and exported, cancel, the view kept on Run, the shading."""
+the box, runs of each method shown and exported in the frames' colour, cancel, the view kept on
+Run, the shading."""
 
 import numpy as np
 import pytest
+import trimesh
 from mirrorscan.panels.dense import DensePanel
 from mirrorscan.view import beside_offset
 
@@ -61,6 +63,8 @@ def test_dense_runs_shows_and_exports(calibrated, method):
     )
     assert set(np.unique(result.sources)) <= {0, 1, 2} and len(result.vertices) > 500
     assert (result.faces is not None) == (method.startswith("TSDF"))
+    # the simulated source has colour: the result carries it
+    assert result.colours.shape == (len(result.vertices), 3)
     assert (
         np.median(np.abs(np.linalg.norm(result.vertices - [0.0, 0.0, 2.0], axis=1) - 0.115)) < 0.004
     )
@@ -80,6 +84,9 @@ def test_dense_runs_shows_and_exports(calibrated, method):
     saved = sorted((app.editor.session.root / "exports").glob(f"dense-{result.method}-*.ply"))[-1]
     points, _ = read_ply(saved)
     assert len(points) == len(result.vertices)
+    loaded = trimesh.load(saved, process=False)
+    exported = loaded.visual.vertex_colors if fuse else loaded.colors
+    np.testing.assert_array_equal(exported[:, :3], result.colours)
 
 
 def test_dense_cancel(calibrated):

@@ -1,7 +1,8 @@
 """Holes of a mesh and their closing (mirrorcore.dense.holes, TsdfResult.closed_mesh): a hole is
 closed only when it is short enough and every new triangle lies where a view observed the voxels,
-wound as the mesh; on the simulated sphere most holes close, the caps that no view saw stay open
-and the fused surface is as accurate as before."""
+wound as the mesh, its new vertex in the mean colour of the hole's loop; on the simulated sphere
+most holes close, the caps that no view saw stay open and the fused surface is as accurate as
+before."""
 import numpy as np
 import pytest
 
@@ -47,6 +48,15 @@ def test_a_short_seen_hole_is_closed_wound_as_the_mesh():
     # every edge is used once each way at most: one winding
     assert len(np.unique(directed_edges(closed.faces), axis=0)) == 3 * len(closed.faces)
     assert closed.sources[-1] in (16, 17, 23, 24)
+    assert closed.colours is None
+    # the new vertex takes the mean colour of the hole's loop (vertices 16, 17, 23, 24)
+    colours = np.zeros((49, 3), np.uint8)
+    colours[[16, 17, 23, 24], 0] = (10, 20, 30, 41)
+    colours[:, 2] = 200
+    painted = close_holes(Mesh(mesh.vertices, mesh.faces, mesh.sources, colours),
+                          lambda p: np.ones(len(p), bool), 4.0)
+    np.testing.assert_array_equal(painted.colours[:49], colours)
+    np.testing.assert_array_equal(painted.colours[49], (25, 0, 200))
 
 
 def test_a_hole_too_long_or_not_seen_stays_open():
