@@ -143,8 +143,7 @@ def reconstruct_frames(context: FrameContext, indices: Iterable[int], cancel=Non
         try:
             data, sources, faces = _frame_ply(context, index,
                                               read_depth(context.session, index,
-                                                         context.job.temporal, cache), cancel,
-                                              index=index)
+                                                         context.job.temporal, cache), cancel)
             path = Path(context.job.out) / context.names[index]
             write_atomic(path, data, durable=False)
         except Cancelled:
