@@ -1,7 +1,8 @@
 """One tab's 3D scene: the depth camera, each mirror (a translucent pane) and the virtual cameras of
 the mirrors and of their sequences, each named; the live cloud (one node per source, float16 offsets
-from a centre, in the source's colour or each point's), and the dense result in a layer of its own (its own colours, a label, its box).
-Every node belongs to the tab's client, so each tab shows and streams only what it looks at."""
+from a centre, in the source's colour or each point's), and the dense result in a layer of its own
+(its own colours, a label, its box). Every node belongs to the tab's client, so each tab shows and
+streams only what it looks at."""
 from __future__ import annotations
 
 import threading

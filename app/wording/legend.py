@@ -78,7 +78,7 @@ def legend_html(
         HTML.
     """
     if true_colour:
-        items = TRUE_COLOUR_LINE + " · ".join(
+        items = TRUE_COLOUR_HEAD + " · ".join(
             f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
             for j, count in counts.items()
         )
@@ -99,13 +99,11 @@ def legend_html(
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
-# the true-colour legend's first line, and what it says of mirrors with no colour gain
-TRUE_COLOUR_LINE = (
-    "<b>True colour</b>: each point as the camera saw it, the mirrors' tint undone<br>"
-)
+# the true-colour legend's head, and what it says of mirrors with no colour gain
+TRUE_COLOUR_HEAD = "<b>True colour</b>, each mirror's tint undone by its colour gain: "
 NO_GAIN = (
-    "no colour gain yet, so {their} points keep the tint of the glass (calibrate or Refine "
-    "from the object measures it)"
+    "no colour gain yet: {their} points keep the tint of the glass (Refine from the object "
+    "measures it)"
 )
 
 HEAT_KEY = (
