@@ -134,16 +134,32 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
     cloud = downsample(cloud, max_points)
     # (3, n): numpy gathers and reduces rows about 30 times faster than columns
     rows = cloud.points.T
+    words = _colour_words(cloud.rgb) if true_colour else None
     parts = []
     for j in labels:
         mine = np.flatnonzero(cloud.sources == j)
         for half in halves:
             taken = mine[half::HALVES]
             part = _part(j, half, np.take(rows, taken, axis=1), anchors)
-            if true_colour:
-                part = replace(part, colours=np.take(cloud.rgb, taken, axis=0))
+            if words is not None:
+                part = replace(part, colours=_colours(words, taken))
             parts.append(part)
     return parts
+
+
+def _colour_words(rgb: np.ndarray) -> np.ndarray:
+    """(n,) uint32: each point's (n, 3) uint8 colour as one 4-byte word (RGBA, A = 255).
+
+    A part's colours are then single-element takes: about 20 times faster than taking (n, 3) rows
+    of a strided view, as Algorithm 1 gives them.
+    """
+    return cv2.cvtColor(rgb.reshape(-1, 1, 3), cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
+
+
+def _colours(words: np.ndarray, taken: np.ndarray) -> np.ndarray:
+    """(k, 3) uint8 C-ordered: the colours of the points `taken` (k,) from _colour_words."""
+    rgba = np.take(words, taken).view(np.uint8).reshape(-1, 1, 4)
+    return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB).reshape(-1, 3)
 
 
 def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:
