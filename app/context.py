@@ -198,6 +198,8 @@ class TabState:
         The mirrors whose fitted plane waits for Apply or Discard.
     view : str
         '3d' or 'depth'.
+    colour_image : bool
+        The depth frame's screen shows the colour image (when the frame has one).
     """
 
     mode: str = "inspect"
@@ -213,6 +215,7 @@ class TabState:
     # the mirrors whose fitted plane waits for Apply or Discard
     proposal_for: tuple[str, ...] = ()
     view: str = "3d"
+    colour_image: bool = False
 
 
 class TabContext(Protocol):

@@ -40,6 +40,8 @@ class LiveFrame:
         The processing time, ms.
     anchors : Anchors
         The stream's centres kept from the frames before (mirrorscan.stream.Anchors).
+    colour : (H, W, 3) uint8 ndarray or None
+        The source's colour image registered to the depth (Frame.colour); None without colour.
     """
 
     index: int
@@ -51,6 +53,7 @@ class LiveFrame:
     snapshot: Snapshot
     process_ms: float
     anchors: Anchors
+    colour: np.ndarray | None = None
 
     # What the tabs show of it, made once by the first tab that asks (a frozen dataclass keeps
     # cached properties).
@@ -67,30 +70,34 @@ class LiveFrame:
         """
         return self.cloud.source_counts(len(self.snapshot.rig.mirrors))
 
-    def parts(self, half: int | None = None) -> list[SourcePart]:
+    def parts(self, half: int | None = None, true_colour: bool = False) -> list[SourcePart]:
         """The cloud as it is streamed (see mirrorscan.stream).
 
-        Each half is made once, by the first tab that asks for it.
+        Each half is made once for each colouring, by the first tab that asks for it.
 
         Parameters
         ----------
         half : int or None, optional
             One half's parts, or both halves' (None).
+        true_colour : bool, optional
+            Each point's colour with it (the cloud's `rgb`, when it has one), rather than its
+            source's.
 
         Returns
         -------
         list of SourcePart
         """
         if half is None:
-            return [part for h in range(HALVES) for part in self.parts(h)]
-        if half not in self._parts:
-            self._parts[half] = stream_parts(self.cloud, list(self.counts), halves=(half,),
-                                             anchors=self.anchors)
-        return self._parts[half]
+            return [part for h in range(HALVES) for part in self.parts(h, true_colour)]
+        key = (half, true_colour and self.cloud.rgb is not None)
+        if key not in self._parts:
+            self._parts[key] = stream_parts(self.cloud, list(self.counts), halves=(half,),
+                                            anchors=self.anchors, true_colour=key[1])
+        return self._parts[key]
 
     @cached_property
-    def _parts(self) -> dict[int, list[SourcePart]]:
-        """The halves' parts made so far, by half."""
+    def _parts(self) -> dict[tuple[int, bool], list[SourcePart]]:
+        """The parts made so far, by (half, true colour)."""
         return {}
 
     @cached_property
@@ -102,6 +109,16 @@ class LiveFrame:
     def depth_rgb(self) -> np.ndarray:
         """(H, W, 3) uint8: the depth frame with the object tinted, under every tab's overlay."""
         return depth_layer(self.depth, self.mask, *self.depth_range)
+
+    def screen_rgb(self, colour_image: bool) -> np.ndarray:
+        """(H, W, 3) uint8: what a tab's depth-frame screen shows under its overlay.
+
+        Parameters
+        ----------
+        colour_image : bool
+            The colour image, when the frame has one; else (or without one) depth_rgb.
+        """
+        return self.colour if colour_image and self.colour is not None else self.depth_rgb
 
 
 def frame_number(index: int, frame_count: int | None) -> int:
@@ -133,7 +150,7 @@ def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors
     index : int
         The loop's running index.
     frame : Frame
-        The source's frame (depth in metres).
+        The source's frame (depth in metres; its colour, when it has one, colours the cloud).
     anchors : Anchors
         The stream's centres, kept from frame to frame.
 
@@ -145,6 +162,6 @@ def process_frame(snapshot: Snapshot, index: int, frame: Frame, anchors: Anchors
     t0 = time.perf_counter()
     prepared, mask = prepare_frame(snapshot.rig, frame.depth, snapshot.backdrop,
                                    snapshot.session.selection)
-    cloud = reconstruct_raw(snapshot.rig, prepared, mask)
+    cloud = reconstruct_raw(snapshot.rig, prepared, mask, frame.colour)
     return LiveFrame(index, frame.timestamp, frame.depth, prepared, mask, cloud, snapshot,
-                     (time.perf_counter() - t0) * 1e3, anchors)
+                     (time.perf_counter() - t0) * 1e3, anchors, frame.colour)

@@ -72,10 +72,13 @@ class Resume:
         being drawn, the view; not a pick, nor a proposal, which were that tab's.
     heat : bool
         Whether its heat map was on.
+    true_colour : bool
+        Whether its cloud was in true colour (else in its sources' colours).
     """
 
     state: TabState
     heat: bool
+    true_colour: bool = True
 
 
 class TabPresence:
@@ -83,8 +86,8 @@ class TabPresence:
     mixed into `mirrorscan.tab.Tab`.
 
     Uses the tab's `client`, `closed`, `drawn`, `_stale` (send both halves of the cloud next) and
-    `_send_screen`; to take up work, its `_lock`, `state`, `heat`, `header`, `_on_session`, `look`
-    and `show_heat`.
+    `_send_screen`; to take up work, its `_lock`, `state`, `heat`, `true_colour`, `header`,
+    `_on_session` and `look`.
     """
 
     client: viser.ClientHandle
@@ -194,7 +197,7 @@ class TabPresence:
                 self._send_screen(force=True)
 
     def take_up(self, resume: Resume) -> None:
-        """Go on with the work of the page's tab before (a reload): its state, view and heat map.
+        """Go on with the work of the page's tab before (a reload): its state, view and colouring.
 
         Nothing is taken up when this tab was closed meanwhile.
 
@@ -211,9 +214,7 @@ class TabPresence:
         self._on_session()
         if resume.state.view == "depth":
             self.look("depth")
-        if resume.heat:
-            self.header.heat.value = True
-            self.show_heat(True)
+        self.header.colours.take_up(resume.heat, resume.true_colour)
 
     def resume(self) -> Resume:
         """This tab's work, for the next tab to take up (see Resume)."""
@@ -221,4 +222,4 @@ class TabPresence:
             state = replace(self.state, drafts=dict(self.state.drafts), picked_corner=None,
                             picked_marker=None, moving_marker=False, flagged_markers=(),
                             proposal_for=())
-        return Resume(state, self.heat)
+        return Resume(state, self.heat, self.true_colour)

@@ -3,7 +3,7 @@ every marker) as one immutable Snapshot, replaced whole (one reference, assigned
 that the live loop and the browser callbacks always see one consistent state."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -55,12 +55,12 @@ class Snapshot:
         depths : (k, H, W) ndarray, optional
             Metres: the recent frames, which grade the markers (none are graded without).
         previous : Snapshot, optional
-            What it holds for the same inputs is reused: a marker added keeps the rig's tables,
-            which take tens of ms to build.
+            What it holds for the same inputs is reused: a marker added or a colour gain changed
+            keeps the rig's tables, which take tens of ms to build.
         """
         rig = Rig.from_session(session)
         if previous is not None and rig.same_rays(previous.rig):
-            rig = previous.rig
+            rig = with_gains(previous.rig, rig.colour_gains)
         # built here, once, not in the first live frame
         rig.reflection_table
         residuals = {}
@@ -74,3 +74,31 @@ class Snapshot:
             backdrop = None if background is None else Backdrop.of(background, session.selection)
         return cls(session, rig, background, backdrop, residuals)
 
+
+
+# the rig's cached tables that depend on its rays alone (Rig.same_rays), not on its colour gains
+RAY_TABLES = ("inside_bits", "reflection_table")
+
+
+def with_gains(rig: Rig, gains: tuple) -> Rig:
+    """The rig with other colour gains, keeping its per-pixel tables.
+
+    Parameters
+    ----------
+    rig : Rig
+    gains : tuple of (3,) tuple of float or None
+        Each mirror's colour gain, session order (Rig.colour_gains).
+
+    Returns
+    -------
+    Rig
+        `rig` itself when its gains are `gains`; else a new rig sharing the tables already built
+        (they depend on the rays only), its colour correction made from `gains`.
+    """
+    if rig.colour_gains == gains:
+        return rig
+    other = replace(rig, colour_gains=gains)
+    built = vars(rig)
+    # cached_property keeps a table in the instance's __dict__, which a frozen dataclass allows
+    vars(other).update({name: built[name] for name in RAY_TABLES if name in built})
+    return other

@@ -1,8 +1,10 @@
 """The live cloud as it travels to a browser tab.
 
-At most MAX_POINTS points a frame, one node per source and half (a single colour each), positions
-as float16 offsets from the part's centre (6 bytes a point instead of 12) wherever that keeps every
-point within 0.3 mm, float32 where a part is too large for it.
+At most MAX_POINTS points a frame, one node per source and half, positions as float16 offsets from
+the part's centre (6 bytes a point instead of 12) wherever that keeps every point within 0.3 mm,
+float32 where a part is too large for it. A node takes its source's colour (one colour for all its
+points), or in true colour each point's colour as 3 bytes (uint8 RGB, the cloud's `rgb`): 9 bytes
+a point.
 
 Each source's points are split into two interleaved halves (every other point); a live frame
 refreshes one half (even frames the first, odd frames the second), so a tab always shows every
@@ -12,7 +14,7 @@ moves no node: viser's pose update costs about half of a node's update.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -36,12 +38,15 @@ class SourcePart:
         Metres, camera frame.
     offsets : (n, 3) float16 or float32 ndarray
         Metres from the centre.
+    colours : (n, 3) uint8 ndarray or None
+        Each point's RGB; None: its source's colour.
     """
 
     source: int
     half: int
     centre: np.ndarray
     offsets: np.ndarray
+    colours: np.ndarray | None = None
 
     @property
     def key(self) -> tuple[int, int]:
@@ -102,7 +107,7 @@ def downsample(cloud: Cloud, max_points: int) -> Cloud:
 
 
 def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=range(HALVES),
-                 anchors: Anchors | None = None) -> list[SourcePart]:
+                 anchors: Anchors | None = None, true_colour: bool = False) -> list[SourcePart]:
     """The `halves` of the sources `labels`, downsampled to at most `max_points`.
 
     A part's centre is the middle of its points' box, or the one `anchors` kept for its source. A
@@ -119,6 +124,8 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
     halves : iterable of int, optional
         All by default.
     anchors : Anchors, optional
+    true_colour : bool, optional
+        Each part carries its points' colours (the cloud's `rgb`, which it must have).
 
     Returns
     -------
@@ -127,12 +134,32 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
     cloud = downsample(cloud, max_points)
     # (3, n): numpy gathers and reduces rows about 30 times faster than columns
     rows = cloud.points.T
+    words = _colour_words(cloud.rgb) if true_colour else None
     parts = []
     for j in labels:
         mine = np.flatnonzero(cloud.sources == j)
         for half in halves:
-            parts.append(_part(j, half, np.take(rows, mine[half::HALVES], axis=1), anchors))
+            taken = mine[half::HALVES]
+            part = _part(j, half, np.take(rows, taken, axis=1), anchors)
+            if words is not None:
+                part = replace(part, colours=_colours(words, taken))
+            parts.append(part)
     return parts
+
+
+def _colour_words(rgb: np.ndarray) -> np.ndarray:
+    """(n,) uint32: each point's (n, 3) uint8 colour as one 4-byte word (RGBA, A = 255).
+
+    A part's colours are then single-element takes: about 20 times faster than taking (n, 3) rows
+    of a strided view, as Algorithm 1 gives them.
+    """
+    return cv2.cvtColor(rgb.reshape(-1, 1, 3), cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
+
+
+def _colours(words: np.ndarray, taken: np.ndarray) -> np.ndarray:
+    """(k, 3) uint8 C-ordered: the colours of the points `taken` (k,) from _colour_words."""
+    rgba = np.take(words, taken).view(np.uint8).reshape(-1, 1, 4)
+    return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB).reshape(-1, 3)
 
 
 def _part(source: int, half: int, columns: np.ndarray, anchors: Anchors | None) -> SourcePart:

@@ -72,6 +72,8 @@ class Tab(TabPresence, TabFraming, TabHeat):
         self._stale = True
         self.dense_visible, self.dense_beside = True, True
         self.heat, self._last_heat = False, 0.0
+        # the cloud in its points' colours (else its sources'), when the heat map is off
+        self.true_colour = True
         # the last heat map's figures per mirror view (HeatChanged), over heat_frames heat maps
         self.heat_figures: dict[int, tuple[float, float]] = {}
         self.heat_frames = 0
@@ -283,7 +285,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
                     self.services.jobs.start_heat(frame)
             else:
                 half = None if self.services.paused or self._stale else frame.index % HALVES
-                self.scene.show_cloud(frame.parts(half), frame.mirror_ids, half)
+                self.scene.show_cloud(frame.parts(half, self.true_colour), frame.mirror_ids, half)
                 self._stale = False
         self._send_screen(frame=frame)
         self.header.show(frame)
@@ -372,7 +374,7 @@ class Tab(TabPresence, TabFraming, TabHeat):
             return
         self._last_screen = now
         with self._lock:
-            rgb = self.overlay.over(frame.depth_rgb)
+            rgb = self.overlay.over(frame.screen_rgb(self.state.colour_image))
         self.screen.show(rgb)
 
     def close(self) -> None:

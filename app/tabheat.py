@@ -1,5 +1,6 @@
-"""A tab's heat map: shown instead of the live cloud, drawn when the heat worker's map comes, of
-one mirror's points or every mirror's."""
+"""How a tab colours its live cloud: in true colour or its sources' colours, or the heat map, shown
+instead of the live cloud, drawn when the heat worker's map comes, of one mirror's points or every
+mirror's."""
 from __future__ import annotations
 
 import threading
@@ -17,14 +18,15 @@ if TYPE_CHECKING:
 
 
 class TabHeat:
-    """The heat map of a tab's 3D view; mixed into `mirrorscan.tab.Tab`.
+    """The colouring of a tab's live cloud and its heat map; mixed into `mirrorscan.tab.Tab`.
 
-    Uses the tab's `services`, `scene`, `state`, `closed`, `shows_cloud`, `_stale` and
-    `look_at_object`.
+    Uses the tab's `services`, `scene`, `state`, `header`, `closed`, `lagging`, `shows_cloud`,
+    `_stale` and `look_at_object`.
     """
 
     services: Services
     heat: bool
+    true_colour: bool
     heat_of: int | None
     heat_figures: dict[int, tuple[float, float]]
     heat_frames: int
@@ -53,6 +55,28 @@ class TabHeat:
         self.scene.show_clouds(not on and self.state.view == "3d")
         if on and self.state.view == "3d":
             self.look_at_object()
+        self.header.colours.follow()
+
+    def colour_by(self, true_colour: bool) -> None:
+        """Show the live cloud in its points' colours or in its sources', the heat map off.
+
+        The last frame's cloud is drawn so at once: while paused no new frame comes.
+
+        Parameters
+        ----------
+        true_colour : bool
+            Each point's colour (a frame without colour shows its sources' instead), or its
+            source's.
+        """
+        self.true_colour = true_colour
+        if self.heat:
+            self.show_heat(False)
+        self._stale = True
+        frame = self.services.last_frame
+        if frame is not None and self.shows_cloud and not self.lagging:
+            self.scene.show_cloud(frame.parts(None, true_colour), frame.mirror_ids)
+            self._stale = False
+        self.header.colours.follow()
 
     def _heat_now(self) -> None:
         """The heat map of the last frame, now (when the tab looks at the 3D scene)."""

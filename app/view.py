@@ -1,7 +1,8 @@
 """One tab's 3D scene: the depth camera, each mirror (a translucent pane) and the virtual cameras of
 the mirrors and of their sequences, each named; the live cloud (one node per source, float16 offsets
-from a centre), and the dense result in a layer of its own (its own colours, a label, its box).
-Every node belongs to the tab's client, so each tab shows and streams only what it looks at."""
+from a centre, in the source's colour or each point's), and the dense result in a layer of its own
+(its own colours, a label, its box). Every node belongs to the tab's client, so each tab shows and
+streams only what it looks at."""
 from __future__ import annotations
 
 import threading
@@ -184,17 +185,20 @@ class TabScene:
         """Update one part's node in place, or add it (again, when its precision changed)."""
         handle = self._clouds.get(part.key)
         precision = "float16" if part.offsets.dtype == np.float16 else "float32"
+        colours = (source_colour(part.source, mirror_ids) if part.colours is None
+                   else part.colours)
         if handle is not None and handle.precision == precision:
+            # points and colours in one batch (the caller's atomic()): their counts always agree
             handle.points = part.offsets
+            handle.colors = colours
             # a kept centre (mirrorscan.stream.Anchors): no update
             if not np.array_equal(handle.position, part.centre):
                 handle.position = tuple(part.centre)
             return
         if handle is not None:
             handle.remove()
-        colour = tuple(int(c) for c in source_colour(part.source, mirror_ids))
         self._clouds[part.key] = self.scene.add_point_cloud(
-            f"/cloud/{part.source}/{part.half}", part.offsets, colour, point_size=self.point_size,
+            f"/cloud/{part.source}/{part.half}", part.offsets, colours, point_size=self.point_size,
             precision=precision, point_shape="circle", position=tuple(part.centre),
             visible=self.clouds_visible)
 
@@ -233,7 +237,9 @@ class TabScene:
         """
         with self._clouds_lock:
             for (source, _), handle in self._clouds.items():
-                handle.colors = source_colour(source, mirror_ids)
+                # a node in true colour keeps its points' colours
+                if handle.colors.shape == (3,):
+                    handle.colors = source_colour(source, mirror_ids)
 
     def show_clouds(self, visible: bool) -> None:
         """Show or hide the live cloud.

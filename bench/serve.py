@@ -1,8 +1,8 @@
 """Benchmark of the browser tool's live loop with one tab attached.
 
 The tab is bench.tabs.HeadlessTab, a websocket client that reads what a browser would; the built-in
-demo (walking figure, two mirrors, Kinect noise), its frames rendered beforehand so that reading
-the source costs nothing.
+demo (walking figure, two mirrors, Kinect noise), its frames and colour images rendered beforehand
+so that reading the source costs nothing. The tab shows the cloud in true colour (its default).
 
 serve_loop_fps : frames per second as fast as the loop goes, the tab looking at the 3D scene (the
     cloud each frame)
@@ -10,7 +10,7 @@ live_cpu_ms : the loop thread's CPU time per frame at the demo's 30 fps, the dep
     the larger of the tab looking at the 3D scene (the cloud each frame, the depth frame once a
     second) and at the depth frame (eight times a second, no cloud)
 live_kb_per_frame : kilobytes the tab receives per frame over the websocket at 30 fps, looking at
-    the 3D scene
+    the 3D scene, the cloud in true colour (each point's colour, 3 bytes, beside its 6-byte offset)
 live_points : points a frame carries to the tab (all of the cloud: none are dropped to save
     bandwidth)
 click_ms : from a click on the depth frame (a marker added) until the depth frame that shows it is
@@ -46,11 +46,14 @@ def demo_frames(n: int) -> StackSource:
     Returns
     -------
     StackSource
-        At FPS frames a second, with the demo's background.
+        At FPS frames a second, with the demo's background and its colour images.
     """
     source = demo_source()
-    depth = np.stack([source.read(i).depth for i in range(n)])
-    replay = StackSource("demo frames", source.intrinsics, depth, 1.0, np.arange(n) / FPS, fps=FPS)
+    frames = [source.read(i) for i in range(n)]
+    depth = np.stack([frame.depth for frame in frames])
+    colour = np.stack([frame.colour for frame in frames])
+    replay = StackSource("demo frames", source.intrinsics, depth, 1.0, np.arange(n) / FPS,
+                         colour, fps=FPS)
     replay.background = source.background
     return replay
 

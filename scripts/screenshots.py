@@ -3,9 +3,11 @@
 Run `.venv/bin/python scripts/screenshots.py`.
 
 Serves the demo (`mirrorscan serve`) on 127.0.0.1 at a free port, opens it in headless Chromium at
-1400x900 and 1024x600, visits each step of the side panel and the depth frame, and writes
-docs/images/<step>-<width>x<height>.png; the Mirrors step at 1400x900 is also the README's
-docs/screenshot.png. Needs the test extras (Playwright, Debian's chromium).
+1400x900 and 1024x600, visits each step of the side panel (the cloud in its sources' colours, which
+tell the views apart) and the depth frame, and writes docs/images/<step>-<width>x<height>.png; then
+the live cloud in true colour (live-colour-<size>.png, the colour control in view) and the colour
+image on the depth frame's screen (colour-image-<size>.png). The Mirrors step at 1400x900 is also
+the README's docs/screenshot.png. Needs the test extras (Playwright, Debian's chromium).
 """
 from __future__ import annotations
 
@@ -29,6 +31,16 @@ ARGS = ["--no-sandbox", "--disable-background-networking", "--disable-component-
         "--disable-sync", "--no-first-run"]
 SETTLE_S = 2.0       # the page redraws after a step opens; software WebGL takes a second or two
 START_S = 20.0       # the demo calibrates its mirrors and the first cloud reaches the page
+# the live cloud in true colour is turned so that the views through the mirrors (the person's
+# sides and back) show: a drag across this fraction of the 3D view's width
+TURN = 0.125
+# the 3D scene's canvas (the largest of the page) on the page, CSS px
+SCENE_BOX = """() => {
+  const canvas = [...document.querySelectorAll("canvas")]
+    .reduce((a, b) => a.clientWidth * a.clientHeight >= b.clientWidth * b.clientHeight ? a : b);
+  const r = canvas.getBoundingClientRect();
+  return {x: r.x, y: r.y, width: r.width, height: r.height};
+}"""
 # viser's notice that the browser draws WebGL in software (as headless Chromium does)
 CLOSE_WEBGL_NOTICE = """() => {
   for (const el of document.querySelectorAll("div")) {
@@ -59,6 +71,28 @@ def wait_until_served(url: str, timeout: float = 120.0) -> None:
     raise SystemExit(f"mirrorscan serve did not answer at {url} within {timeout:.0f} s")
 
 
+def colour(page, choice: str) -> None:
+    """Pick a choice of the header's Colour control (under Playback and view)."""
+    folder = page.get_by_text("Playback and view", exact=True)
+    control = page.get_by_label("Colour", exact=True)
+    if not control.is_visible():
+        folder.click()
+    control.click()
+    page.get_by_role("option", name=choice, exact=True).click()
+
+
+def turn(page, fraction: float) -> None:
+    """Turn the 3D view about what it looks at: a drag across `fraction` of the canvas's width."""
+    box = page.evaluate(SCENE_BOX)
+    x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(x + fraction * box["width"] * k / 10, y + 0.02 * box["height"] * k / 10)
+        time.sleep(0.05)  # the page takes the drag as a movement, not a jump
+    page.mouse.up()
+
+
 def shoot(url: str, out: Path) -> list[Path]:
     from playwright.sync_api import sync_playwright
 
@@ -71,6 +105,8 @@ def shoot(url: str, out: Path) -> list[Path]:
             page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
             time.sleep(START_S)  # the demo's first frames and calibration reach the page
             page.evaluate(CLOSE_WEBGL_NOTICE)
+            colour(page, "source")
+            page.get_by_text("Playback and view", exact=True).click()
             for step in STEPS:  # a first pass: the view settles and every step has been drawn once
                 page.get_by_role("tab", name=step, exact=True).click()
                 time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
@@ -83,6 +119,18 @@ def shoot(url: str, out: Path) -> list[Path]:
             page.get_by_role("button", name="Depth frame", exact=True).click()
             time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
             written.append(out / f"depth-frame-{width}x{height}.png")
+            page.screenshot(path=str(written[-1]))
+            page.get_by_role("button", name="Colour image", exact=True).click()
+            time.sleep(2 * SETTLE_S)  # the colour image reaches the page and is drawn
+            written.append(out / f"colour-image-{width}x{height}.png")
+            page.screenshot(path=str(written[-1]))
+            page.get_by_role("button", name="3D scene", exact=True).click()
+            colour(page, "true colour")
+            page.get_by_role("button", name="Look at the object", exact=True).click()
+            time.sleep(SETTLE_S)  # the camera moves to the object
+            turn(page, TURN)
+            time.sleep(2 * SETTLE_S)  # the cloud comes in true colour and is drawn
+            written.append(out / f"live-colour-{width}x{height}.png")
             page.screenshot(path=str(written[-1]))
             page.close()
         browser.close()

@@ -1,7 +1,7 @@
 """The status header above the steps: the source and frame rate, one 'Start here' line that says
-what to do next, the view (3D scene or depth frame), the legend with the points per source (or,
-while the heat map shows, its key and each mirror's figures), and playback (pause, step, frame,
-point size)."""
+what to do next, the view (3D scene, depth frame or colour image), the legend with the points per
+source (or, while the heat map shows, its key and each mirror's figures), the colour control
+(mirrorscan.panels.colouring) and playback (pause, step, frame, point size)."""
 
 from __future__ import annotations
 
@@ -20,9 +20,9 @@ from ..liveframe import LiveFrame, frame_number
 from ..markup import markdown
 from ..notices import place_notes
 from ..page import draw_rate, keys_help, save_view, start_page
-from .planes import from_markers, from_object, no_glass
+from .colouring import ColourControl
+from .planes import from_markers, no_glass
 from ..wording.hints import start_hint
-from ..wording.legend import heat_legend_html, legend_html, source_names
 from ..wording.jobs import recording_headline
 from ..wording.saving import header_state
 
@@ -32,9 +32,9 @@ LAG_NOTE_S = 5.0
 # frames: the header gives the median of their processing times (one frame's jumps with whatever
 # else the machine does)
 PROCESS_WINDOW = 30
-VIEWS = {"3D scene": "3d", "Depth frame": "depth"}
+COLOUR_IMAGE = "Colour image"  # the depth frame's screen showing the colour image
+VIEWS = {"3D scene": "3d", "Depth frame": "depth", COLOUR_IMAGE: "depth"}
 PROGRESS_STEP = 0.05  # the start hint gives a calibration's progress in steps of this
-EVERY_MIRROR = "every mirror"  # the heat map of every mirror's points (Heat map of)
 
 
 def source_root(source) -> Path | None:
@@ -76,6 +76,20 @@ def source_title(source: str, played: Path | None, edited: Path | None) -> str:
     return f"**{source}** · edits saved in session **{Path(edited).name}**"
 
 
+def views(has_colour: bool) -> tuple[str, ...]:
+    """The View buttons: the colour image only for a source that gives colour.
+
+    Parameters
+    ----------
+    has_colour : bool
+
+    Returns
+    -------
+    tuple of str
+    """
+    return tuple(VIEWS) if has_colour else tuple(v for v in VIEWS if v != COLOUR_IMAGE)
+
+
 class LivePanel:
     """The status header above the steps, in one tab (see the module docstring).
 
@@ -97,26 +111,12 @@ class LivePanel:
         self.back = gui.add_button(f"Back to {services.start_source.name}", visible=False)
         self.rate = gui.add_markdown("starting…")
         self.hint = gui.add_markdown("")
-        self.view = gui.add_button_group("View", tuple(VIEWS))
+        self.view = gui.add_button_group("View", views(services.source.has_colour))
         self.legend = gui.add_html("")
         with gui.add_folder("Playback and view", expand_by_default=False):
-            # the heat map first: its legend, above the folder, would push its box below the fold
-            # at 1024x600
-            self.heat = gui.add_checkbox(
-                "Heat map",
-                initial_value=False,
-                hint="the mirrors' points by their distance to the surface the camera sees "
-                "directly: white on it, red outside, blue inside (10 mm and more "
-                "saturated), grey where there is nothing to compare; a frame a "
-                "second, in the 3D scene, on the object (the colours are on its rims). It "
-                "shows a tilt, hardly the glass: Refine from the object measures that",
-            )
-            self.heat_of = gui.add_dropdown(
-                "Heat map of",
-                (EVERY_MIRROR,),
-                initial_value=EVERY_MIRROR,
-                visible=False,
-            )
+            # the colour first: the heat map's legend, above the folder, would push the control
+            # below the fold at 1024x600
+            self.colours = ColourControl(tab, self.legend)
             self.pause = gui.add_checkbox("Pause", initial_value=services.paused)
             self.step = gui.add_button("Step one frame", disabled=not services.paused)
             self.seek = gui.add_slider(
@@ -137,15 +137,13 @@ class LivePanel:
             )
             gui.add_markdown(keys_help())
         self._pixel_note = None  # the notification showing the last pixel read
-        self.view.on_click(lambda e: tab.look(VIEWS[e.target.value]))
+        self.view.on_click(lambda e: self._look(e.target.value))
         self.pause.on_update(lambda e: e.client is not None and services.pause(self.pause.value))
         self.step.on_click(lambda _: services.step())
         self.back.on_click(lambda _: tab.act(services.back_to_start_source))
         self.seek.on_update(lambda e: e.client is not None and services.seek(int(self.seek.value)))
         self.size.on_update(lambda _: tab.scene.set_point_size(self.size.value / 1000))
         self.virtual.on_update(lambda _: tab.scene.show_virtual_cameras(bool(self.virtual.value)))
-        self.heat.on_update(lambda e: self._show_heat(ticked=e.client is not None))
-        self.heat_of.on_update(lambda _: tab.heat_only(self._heat_mirror()))
         self.save_view.on_click(lambda _: save_view(tab.client, tab.act))
         self.frame_object.on_click(
             lambda _: tab.act(lambda: (tab.look("3d"), tab.look_at_object()))
@@ -202,6 +200,7 @@ class LivePanel:
         self.pause.value = event.paused
         self.step.disabled = not event.paused
         self._follow(event.source)
+        self.colours.follow()
         self.refresh_hint()
 
     def _follow(self, source) -> None:
@@ -212,6 +211,7 @@ class LivePanel:
         """
         self._name()
         self.back.visible = source is not self.tab.services.start_source
+        self.view.options = views(source.has_colour)
         if source.frame_count:
             self.seek.max = max(source.frame_count - 1, 1)
         self.seek.visible = bool(source.frame_count)
@@ -304,27 +304,7 @@ class LivePanel:
         )
         if count:
             self.seek.value = number
-        names = source_names(frame.snapshot.session)
-        heat = self.tab.heat and self.tab.state.view == "3d"  # its key only where it shows
-        session = frame.snapshot.session
-        self.legend.content = (
-            heat_legend_html(
-                self.tab.heat_figures,
-                self.tab.heat_frames,
-                names,
-                from_object(services.jobs, session),
-                any(m.plane is not None for m in session.mirrors),
-                bool(no_glass(services.jobs, session)),
-            )
-            if heat
-            else legend_html(
-                frame.counts,
-                names,
-                frame.mirror_ids,
-                tuple(m.name for m in frame.snapshot.session.mirrors if m.plane is None),
-            )
-        )
-        self._heat_choices()
+        self.colours.show_legend(frame)
         if first:
             self.refresh_hint()
 
@@ -332,39 +312,11 @@ class LivePanel:
         """Read how often the tab's page draws its 3D scene (the header shows it)."""
         self.draws = draw_rate(self.tab.client)
 
-    def _show_heat(self, ticked: bool = False) -> None:
-        """The heat map on or off as the box says.
-
-        `ticked` by the technician while the depth frame is in view, the view goes to the 3D scene,
-        where it is drawn (a reload taking up a heat map keeps its view).
-        """
-        on = bool(self.heat.value)
-        if on and ticked and self.tab.state.view == "depth":
-            self.tab.look("3d")
-        self.tab.show_heat(on)
-        self._heat_choices()
-
-    def _heat_choices(self) -> None:
-        """Offer, while the heat map shows, to colour one mirror's points alone.
-
-        Every mirror with a plane, when there are two or more; a mirror chosen and since removed (or
-        its plane cleared) goes back to all.
-        """
-        names = tuple(
-            m.name for m in self.tab.services.snapshot.session.mirrors if m.plane is not None
-        )
-        choices = (EVERY_MIRROR, *names)
-        if self.heat_of.options != choices:
-            if self.heat_of.value not in choices:
-                self.heat_of.value = EVERY_MIRROR
-                self.tab.heat_only(None)
-            self.heat_of.options = choices
-        self.heat_of.visible = self.tab.heat and len(names) > 1
-
-    def _heat_mirror(self) -> int | None:
-        """The id of the mirror the heat map is of (the dropdown's name), None for every mirror."""
-        session = self.tab.services.snapshot.session
-        return next((m.id for m in session.mirrors if m.name == self.heat_of.value), None)
+    def _look(self, view: str) -> None:
+        """Show a view of the View buttons (VIEWS): the colour image is the depth frame's screen
+        showing the colour image."""
+        self.tab.state.colour_image = view == COLOUR_IMAGE
+        self.tab.look(VIEWS[view])
 
     def show_pixel(self, u: float, v: float) -> None:
         """Show the depth read at a clicked pixel, in the header and in a notification.

@@ -1,4 +1,5 @@
-"""Why the Mirrors step's buttons are greyed out, in the panel's small print."""
+"""Why buttons and choices are greyed out, in the panel's small print: the Mirrors step's buttons,
+the colour control's true colour."""
 
 from __future__ import annotations
 
@@ -66,4 +67,24 @@ def greyed_out(
         f'<div style="{SMALL_TEXT};color:#666;padding-bottom:0.4em">Greyed out: '
         + " · ".join(reasons)
         + "</div>"
+    )
+
+
+def true_colour_greyed(source: str) -> str:
+    """Why the colour control offers no true colour: the source gives no colour image.
+
+    Parameters
+    ----------
+    source : str
+        The source's name.
+
+    Returns
+    -------
+    str
+        Small print (HTML, the name escaped).
+    """
+    return (
+        f'<div style="{SMALL_TEXT};color:#666;padding:0 12px 0.4em">Greyed out: '
+        f"<b>true colour</b>: {escape(source)} has no colour image, so the points show their "
+        "source's colour</div>"
     )

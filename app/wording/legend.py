@@ -48,10 +48,14 @@ def legend_html(
     name: Callable[[int], str],
     mirror_ids: tuple[int, ...],
     unplaned: tuple[str, ...] = (),
+    true_colour: bool = False,
+    no_gain: tuple[str, ...] = (),
 ) -> str:
     """One line: a swatch in each source's colour, its name and its point count.
 
-    Then the mirrors with no plane yet, whose part of the frame is left out.
+    In true colour, the sources' names and counts without swatches, after a line saying that the
+    points show the scene's colour, and the mirrors whose tint is not undone. Then the mirrors with
+    no plane yet, whose part of the frame is left out.
 
     Parameters
     ----------
@@ -63,16 +67,29 @@ def legend_html(
         The mirrors' ids, which set the sources' colours.
     unplaned : tuple of str, optional
         The names of the mirrors with no plane yet.
+    true_colour : bool, optional
+        The points show the colour the camera saw.
+    no_gain : tuple of str, optional
+        In true colour, the names of the mirrors with no colour gain yet.
 
     Returns
     -------
     str
         HTML.
     """
-    items = "".join(
-        _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
-        for j, count in counts.items()
-    )
+    if true_colour:
+        items = TRUE_COLOUR_HEAD + " · ".join(
+            f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
+            for j, count in counts.items()
+        )
+        if no_gain:
+            their = "its" if len(no_gain) == 1 else "their"
+            items += f"<br>{escape(listed(no_gain))}: " + NO_GAIN.format(their=their)
+    else:
+        items = "".join(
+            _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
+            for j, count in counts.items()
+        )
     if unplaned:
         items += (
             f"<br>{escape(listed(unplaned))}: no plane yet, so all inside "
@@ -81,6 +98,13 @@ def legend_html(
         )
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
+
+# the true-colour legend's head, and what it says of mirrors with no colour gain
+TRUE_COLOUR_HEAD = "<b>True colour</b>, each mirror's tint undone by its colour gain: "
+NO_GAIN = (
+    "no colour gain yet: {their} points keep the tint of the glass (Refine from the object "
+    "measures it)"
+)
 
 HEAT_KEY = (
     (HEAT_ZERO, "on the direct surface"),

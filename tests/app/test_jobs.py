@@ -8,7 +8,7 @@ import numpy as np
 from mirrorscan.demo import calibrated_session, demo_source
 from mirrorscan.events import EventBus, JobProgress
 from mirrorscan.jobs import HEAT_POOL, Jobs, planes_key
-from mirrorscan.panels.live import heat_legend_html
+from mirrorscan.wording.legend import heat_legend_html
 from mirrorscan.panels.mirrors import MirrorsPanel
 from mirrorscan.results import AgreementReport, BackgroundCaptured, MirrorAgreement, NotFound
 from mirrorscan.server import MirrorscanApp

@@ -3,16 +3,21 @@ with and without jobs or tabs showing the cloud, pause and step, snapshots, the 
 import threading
 import time
 from dataclasses import replace
+from functools import cached_property
 
 import mirrorscan.server as server_module
 import numpy as np
 import pytest
 from mirrorscan.live import RECENT_FRAMES, LiveLoop, RateMeter
 from mirrorscan.server import BUSY_FPS, IDLE_FPS
-from mirrorscan.state import Snapshot
+from mirrorscan.liveframe import process_frame
+from mirrorscan.state import RAY_TABLES, Snapshot
+from mirrorscan.stream import Anchors
 
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.geometry.plane import Plane
+from mirrorcore.rig.colour import point_colours
+from mirrorcore.rig.model import Rig
 from mirrorcore.sources import DepthSource, Frame
 from tests.waiting import wait_for
 
@@ -193,6 +198,61 @@ def test_a_new_snapshot_keeps_the_rig_tables_while_the_geometry_stays(demo):
         Snapshot.build(session, before.background.copy(), previous=before).backdrop
         is not before.backdrop
     )
+
+
+def test_a_live_frame_carries_the_colour_of_its_points(demo):
+    """The simulated source gives colour: each point of the live cloud takes its pixel's colour,
+    the direct view's as the camera saw it, a mirror's with the mirror's gain undone."""
+    app, _ = demo
+    assert app.source.has_colour
+    frame = app.loop.run_once()
+    cloud, image = frame.cloud, frame.colour
+    assert image is not None and image.shape == (*frame.depth.shape, 3)
+    assert cloud.rgb is not None and cloud.rgb.shape == (len(cloud), 3)
+    seen = image.reshape(-1, 3)[cloud.pixel_index]
+    direct = cloud.sources == 0
+    assert direct.any() and (~direct).any()
+    np.testing.assert_array_equal(cloud.rgb[direct], seen[direct])
+    np.testing.assert_array_equal(
+        cloud.rgb, point_colours(image, cloud.pixel_index, cloud.sources,
+                                 frame.snapshot.rig.colour_correction))
+
+
+def test_a_colour_gain_set_is_applied_to_the_next_frame_keeping_the_rig_tables(demo):
+    """A gain set (by calibrate, the refinement or an edit) gives a rig with the new gains and the
+    tables of the one before (they depend on the rays alone); the next frame's mirror points are
+    divided by it. The same gains keep the rig itself."""
+    app, _ = demo
+    before = app._snapshot
+    before.rig.reflection_table
+    session = before.session
+    gain = (0.5, 0.8, 1.0)
+    tinted = replace(session, mirrors=(replace(session.mirrors[0], colour_gain=gain),
+                                       *session.mirrors[1:]))
+    after = Snapshot.build(tinted, before.background, previous=before)
+    assert after.rig is not before.rig and after.rig.colour_gains[0] == gain
+    assert after.rig.reflection_table is before.rig.reflection_table
+    assert after.rig.inside_bits is before.rig.inside_bits
+    np.testing.assert_allclose(after.rig.colour_correction[1, :3], 1 / np.array(gain), rtol=1e-6)
+    np.testing.assert_array_equal(after.rig.colour_correction[2], 1.0)
+    assert Snapshot.build(tinted, before.background, previous=after).rig is after.rig
+    # every table the rig caches but the colour correction depends on the rays alone
+    cached = {name for name, value in vars(Rig).items() if isinstance(value, cached_property)}
+    assert cached - set(RAY_TABLES) == {"colour_correction"}
+    frame = app.source.read(3)
+    plain = process_frame(before, 3, frame, Anchors()).cloud
+    gained = process_frame(after, 3, frame, Anchors()).cloud
+    first = plain.sources == 1
+    assert first.any()
+    raw = frame.colour.reshape(-1, 3)[plain.pixel_index[first]].astype(float)
+    np.testing.assert_allclose(gained.rgb[first], np.minimum(np.rint(raw / gain), 255), atol=1)
+    # before the gain, the levels as the camera saw them; after it, red doubled and blue kept
+    np.testing.assert_array_equal(plain.rgb[first], raw)
+    dark = raw[:, 0] < 100
+    assert dark.sum() > 100
+    np.testing.assert_array_equal(gained.rgb[first][dark, 0], 2 * raw[dark, 0])
+    np.testing.assert_array_equal(gained.rgb[first, 2], raw[:, 2])
+    np.testing.assert_array_equal(gained.rgb[~first], plain.rgb[~first])
 
 
 def test_loop_thread_pause_and_step(demo):

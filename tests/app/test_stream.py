@@ -1,11 +1,13 @@
 """What the live loop streams to a tab (mirrorscan.stream): float16 offsets within 0.3 mm of every
-point, one node per source, views through several mirrors named and drawn."""
+point, one node per source, each point's colour in true colour, views through several mirrors
+named and drawn."""
 
 import numpy as np
 import pytest
 from mirrorscan.editor import SESSION_SCOPE
-from mirrorscan.stream import FLOAT16_EXTENT, Anchors, stream_parts
+from mirrorscan.stream import FLOAT16_EXTENT, MAX_POINTS, Anchors, downsample, stream_parts
 
+from mirrorcore.base.palette import source_colour
 from mirrorcore.rig.cloud import Cloud
 from tests.app.support import simulated_app
 
@@ -70,6 +72,55 @@ def test_a_source_keeps_its_centre_while_its_points_stay_within_reach():
     assert len(moved) == 1 and moved[0] in (7, 8), centres
     # then the middle of the box again
     assert centres[moved[0]] == pytest.approx(0.1 * moved[0], abs=0.01)
+
+
+def test_parts_in_true_colour_carry_each_points_colour():
+    """Each part's colours are its points' `rgb` (a strided view, as Algorithm 1 gives it), in the
+    order of its offsets, downsampled with them; without true colour a part has none."""
+    rng = np.random.default_rng(2)
+    n = 9_001
+    points = (rng.uniform(-0.5, 0.5, (n, 3)) + [0.0, 0.0, 2.0]).astype(np.float32)
+    sources = rng.integers(0, 3, n).astype(np.uint8)
+    rgba = rng.integers(0, 256, (n, 4), dtype=np.uint8)
+    cloud = Cloud(points, sources, np.arange(n), 640, rgba[:, :3])
+    for max_points in (MAX_POINTS, 4_000):
+        parts = stream_parts(cloud, range(3), max_points=max_points, true_colour=True)
+        thinned = downsample(cloud, max_points)
+        assert sum(len(p.colours) for p in parts) == len(thinned)
+        for part in parts:
+            mine = thinned.sources == part.source
+            assert part.colours.dtype == np.uint8 and part.colours.flags.c_contiguous
+            np.testing.assert_array_equal(part.colours, thinned.rgb[mine][part.half :: 2])
+            np.testing.assert_array_equal(
+                part.offsets,
+                (thinned.points[mine][part.half :: 2] - part.centre.astype(np.float32)).astype(
+                    np.float16
+                ),
+            )
+    assert all(p.colours is None for p in stream_parts(cloud, range(3)))
+
+
+def test_a_tab_in_true_colour_is_sent_each_points_colour(demo):
+    """Two frames in a row: every node's colours are its points' `rgb`; in the sources' colours a
+    node has its source's one colour (the live frame's parts of each colouring made once)."""
+    app, headless = demo
+    tab = headless.tab
+    assert tab.true_colour
+    frames = [app.loop.run_once(), app.loop.run_once()]
+    for (j, half), handle in tab.scene._clouds.items():
+        cloud = next(f for f in frames if f.index % 2 == half).cloud
+        assert handle.colors.shape == (len(handle.points), 3)
+        np.testing.assert_array_equal(handle.colors, cloud.rgb[cloud.sources == j][half::2])
+    assert frames[1].parts(1, True) is frames[1].parts(1, True)
+    tab.colour_by(False)
+    try:
+        for (j, _), handle in tab.scene._clouds.items():
+            np.testing.assert_array_equal(handle.colors, source_colour(j, frames[1].mirror_ids))
+        app.loop.run_once()
+        assert all(h.colors.shape == (3,) for h in tab.scene._clouds.values())
+    finally:
+        tab.colour_by(True)
+    assert all(h.colors.shape == (len(h.points), 3) for h in tab.scene._clouds.values())
 
 
 def test_live_frames_reach_the_tab_every_point_within_a_third_of_a_millimetre(demo):

@@ -60,7 +60,7 @@ def test_a_reloaded_page_takes_up_the_work_of_the_page_before(demo, monkeypatch)
         assert (
             state.drafts == {second: ((10.0, 20.0), (30.0, 20.0))} and state.picked_corner is None
         )
-        assert after.tab.heat and after.tab.header.heat.value
+        assert after.tab.heat and after.tab.header.colours.choice.value == "heat map"
         mirrors = next(p for p in after.tab.panels if isinstance(p, MirrorsPanel))
         assert mirrors.mirror.value == app.snapshot.session.mirrors[1].name
         after.tab.show_heat(False)

@@ -4,7 +4,8 @@ from dataclasses import replace
 from types import SimpleNamespace
 
 from mirrorscan.context import TabState
-from mirrorscan.panels.live import legend_html, source_title
+from mirrorscan.panels.live import source_title
+from mirrorscan.wording.legend import legend_html
 from mirrorscan.panels.planes import from_markers, no_glass
 from mirrorscan.wording.hints import start_hint
 

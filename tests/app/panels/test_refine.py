@@ -292,8 +292,8 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     wait_for(lambda: not app.jobs.running(HEAT) and tab._heat_event, 10, "the paused frame's map")
     # one mirror's points alone
     header = tab.header
-    header._heat_choices()
-    assert header.heat_of.visible and header.heat_of.options == (
+    header.colours.heat_choices()
+    assert header.colours.heat_of.visible and header.colours.heat_of.options == (
         "every mirror",
         "mirror 1",
         "mirror 2",
@@ -301,15 +301,15 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     sources = tab._heat_event.sources
     # points with nothing to compare with are drawn small and grey, as the camera's
     compared = ~np.all(tab._heat_event.colours == HEAT_UNCOMPARED, axis=1)
-    header.heat_of.value = "mirror 2"
-    tab.heat_only(header._heat_mirror())
+    header.colours.heat_of.value = "mirror 2"
+    tab.heat_only(header.colours.heat_mirror())
     nodes = tab.client.scene._handle_from_node_name
     assert len(nodes["/heat"].points) == np.count_nonzero((sources == 2) & compared) > 0
     assert np.all(nodes["/heat/direct"].colors == grey) and len(
         nodes["/heat/direct"].points
     ) == np.count_nonzero((sources != 2) | ~compared)
-    header.heat_of.value = "every mirror"
-    tab.heat_only(header._heat_mirror())
+    header.colours.heat_of.value = "every mirror"
+    tab.heat_only(header.colours.heat_mirror())
     assert len(tab.client.scene._handle_from_node_name["/heat"].points) == np.count_nonzero(
         (sources != 0) & compared
     )
@@ -323,9 +323,7 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     assert np.all(target > points.min(axis=0)) and np.all(target < points.max(axis=0))
     tab.show_heat(False)
     tab.look("depth")
-    header.heat.value = True
-    header._show_heat(ticked=True)
-    assert tab.state.view == "3d" and tab.heat
-    header.heat.value = False
-    header._show_heat(ticked=True)
-    assert tab.state.view == "3d" and not tab.heat
+    header.colours.choose("heat map", ticked=True)
+    assert tab.state.view == "3d" and tab.heat and header.colours.choice.value == "heat map"
+    header.colours.choose("source", ticked=True)
+    assert tab.state.view == "3d" and not tab.heat and header.colours.choice.value == "source"
