@@ -132,7 +132,7 @@ class RefinementJob(Runner):
 
         refine_session over object_frames, then the planes and marker offsets are applied (one undo
         step per mirror), with the mirrors' colour gains measured on the same frames when they
-        have colour (object_colours); the job's result is a CalibrationReport.
+        have colour; the job's result is a CalibrationReport.
 
         Parameters
         ----------
@@ -143,11 +143,12 @@ class RefinementJob(Runner):
         threading.Thread
             The job's thread.
         """
-        depths, used = self.object_frames()
+        depths, colours, used = self.object_frames()
         session, snapshot = editor.session, self.snapshot()
         return self._start(
             REFINE,
-            lambda cancel: self._calibrate(editor, session, snapshot, depths, used, cancel, None),
+            lambda cancel: self._calibrate(editor, session, snapshot, (depths, colours), used,
+                                           cancel, None),
             BUSY,
         )
 
@@ -179,11 +180,12 @@ class RefinementJob(Runner):
                 "no mirror has a boundary and no plane: draw a mirror's boundary first (a "
                 "mirror with a plane is refined with Refine from the object)"
             )
-        depths, used = self.object_frames()
+        depths, colours, used = self.object_frames()
         snapshot = self.snapshot()
         return self._start(
             REFINE,
-            lambda cancel: self._calibrate(editor, session, snapshot, depths, used, cancel, todo),
+            lambda cancel: self._calibrate(editor, session, snapshot, (depths, colours), used,
+                                           cancel, todo),
             BUSY,
         )
 
@@ -220,8 +222,8 @@ class RefinementJob(Runner):
         recent = self.loop.recent_depths()
         return None if recent is None else static_frames(recent, self.snapshot().background)
 
-    def object_frames(self) -> tuple[np.ndarray, FramesUsed]:
-        """The frames a calibration from the object uses, and which they are.
+    def object_frames(self) -> tuple[np.ndarray, np.ndarray | None, FramesUsed]:
+        """The frames a calibration from the object uses, their colour, and which they are.
 
         REFINE_FRAMES spread over the recording that plays (as `mirrorscan calibrate` picks them),
         else the last live frames.
@@ -230,42 +232,26 @@ class RefinementJob(Runner):
         -------
         depths : np.ndarray, shape (k, H, W), float32
             Metres.
+        colours : np.ndarray, shape (k, H, W, 3), uint8, or None
+            RGB registered to the depths; None without colour.
         used : FramesUsed
         """
         source = self.loop.source
         if isinstance(source, SessionSource) and source.session.frames:
             picks = source.session.spread_frames(REFINE_FRAMES)
             depths = source.session.read_frames(picks)
-            return depths, FramesUsed(tuple(picks), len(source.session.frames))
-        depths = self.loop.recent_depths()
-        if depths is None:
+            return (depths, read_colour_frames(source.session, picks),
+                    FramesUsed(tuple(picks), len(source.session.frames)))
+        recent = self.loop.recent_frames()
+        if recent is None:
             raise MirrorscanError("no frame yet to calibrate from")
-        return depths, FramesUsed(tuple(range(len(depths))))
-
-    def object_colours(self, used: FramesUsed) -> np.ndarray | None:
-        """The colour of the frames object_frames gave, or None without colour.
-
-        The recording that plays has it when it has colour frames.
-
-        Parameters
-        ----------
-        used : FramesUsed
-            As object_frames gave it.
-
-        Returns
-        -------
-        np.ndarray, shape (k, H, W, 3), uint8, or None
-        """
-        source = self.loop.source
-        if used.count is not None and isinstance(source, SessionSource):
-            return read_colour_frames(source.session, used.picks)
-        return None
+        depths, colours = recent
+        return depths, colours, FramesUsed(tuple(range(len(depths))))
 
     def _gains(self, session: Session, depths: np.ndarray, masks: np.ndarray,
-               used: FramesUsed, cancel) -> tuple[dict[int, tuple], ColourGains | None]:
+               colours: np.ndarray | None, cancel) -> tuple[dict[int, tuple], ColourGains | None]:
         """The colour gains measured with a calibration's planes: ({mirror id: gain} of the
         mirrors measured, the result), or ({}, None) without colour."""
-        colours = self.object_colours(used)
         if colours is None:
             return {}, None
         measured = estimate_gains(Rig.from_session(session), depths, masks, colours, cancel)
@@ -288,15 +274,17 @@ class RefinementJob(Runner):
         editor: "SessionEditor",
         session: Session,
         snapshot,
-        depths: np.ndarray,
+        frames: tuple[np.ndarray, np.ndarray | None],
         used: FramesUsed,
         cancel: threading.Event,
         search: list[int] | None,
     ) -> CalibrationReport | CalibrationRefused:
         """Refine the calibrated planes, or find those of the mirrors at `search`.
 
-        `search` is None for a refinement, else 0-based mirror indices.
+        `frames` are object_frames' depths and colours; `search` is None for a refinement, else
+        0-based mirror indices.
         """
+        depths, colours = frames
         self.progress(REFINE, 0.0, CalibrationWork(search is not None, used))
         masks = np.stack(
             [
@@ -348,7 +336,7 @@ class RefinementJob(Runner):
             )
             for r in result.mirrors
         }
-        gains, measured = self._gains(refined, depths, masks, used, cancel)
+        gains, measured = self._gains(refined, depths, masks, colours, cancel)
         changed = bool(
             (search is not None or result.changed(session, refined) or gains)
             and editor.set_planes(

@@ -1,6 +1,6 @@
-"""Refine from the object on a recording with colour also measures the mirrors' colour gains and
-applies them with the planes, through the editor (one undo step, saved); the Mirrors step shows
-each mirror's gain. A recording without colour leaves the gains as they are."""
+"""Refine from the object on a recording or a live source with colour also measures the mirrors'
+colour gains and applies them with the planes, through the editor (one undo step, saved); the
+Mirrors step shows each mirror's gain. A recording without colour leaves the gains as they are."""
 from dataclasses import replace
 
 import numpy as np
@@ -16,7 +16,7 @@ from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.sim.export import write_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import SessionSource
+from mirrorcore.sources import SessionSource, SimulatedSource
 from tests.app.panels.support import panel
 from tests.waiting import wait_for
 
@@ -69,6 +69,28 @@ def test_refine_from_the_object_sets_the_colour_gains_with_the_planes(tmp_path, 
                 m.plane for m in before.mirrors]
             app.editor.redo(mirrors[0].id)
             assert app.editor.session.mirrors == mirrors
+    finally:
+        app.stop()
+
+
+def test_refine_on_a_live_source_with_colour_measures_the_gains_on_its_last_frames(tmp_path):
+    scene = paper_scene(object="sphere")
+    scene = replace(scene, mirrors=tuple(replace(m, tint=t)
+                                         for m, t in zip(scene.mirrors, TINTS)))
+    rig = Simulator(scene, seed=3, fps=15.0)
+    session = replace(load_session(write_session(rig, tmp_path / "s", 1, progress=False,
+                                                 true_planes=True)),
+                      frames=(), colour_frames=None)
+    save_session(session)
+    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=tmp_path)
+    app.start()
+    try:
+        with HeadlessTab(app):
+            wait_for(lambda: (app.loop.recent_frames() or ((),))[0] is not None
+                     and len(app.loop.recent_frames()[0]) >= 3, 60, "three live frames")
+            app.jobs.start_refine(app.editor).join(120)
+            for m, tint in zip(app.editor.session.mirrors, TINTS):
+                np.testing.assert_allclose(m.colour_gain, tint, rtol=0.02)
     finally:
         app.stop()
 
