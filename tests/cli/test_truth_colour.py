@@ -77,13 +77,19 @@ def test_the_colour_figures_are_a_headline_and_one_line_per_source(session, tmp_
     worst = max(colour, key=lambda c: max(map(abs, c["bias"])))
     k = int(np.argmax(np.abs(worst["bias"])))
     assert headlines(out)[-1] == (
-        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the scene's albedo; largest mean "
-        f"bias {worst['bias'][k]:+.1f}, {('red', 'green', 'blue')[k]} of {worst['name']}.")
+        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the albedo each point's pixel sees; "
+        f"largest mean bias {worst['bias'][k]:+.1f}, {('red', 'green', 'blue')[k]} of "
+        f"{worst['name']}.")
     r, g, b = colour[1]["bias"]
+    unseen = colour[1]["unseen"]
+    # noiseless: the direct view's colours are exact, so no ratio to them
+    assert colour[0]["rmse"] == 0 and colour[1]["ratio"] is None
     assert details(out)[-3:][1] == (
         f"mirror 1: {colour[1]['points']:,} points, mean bias red {r:+.1f} green {g:+.1f} blue "
         f"{b:+.1f} levels, RMSE {colour[1]['rmse']:.1f} levels, "
-        f"{100 * colour[1]['within']:.1f} % within {WITHIN_LEVELS} levels")
+        f"{100 * colour[1]['within']:.1f} % within {WITHIN_LEVELS} levels "
+        f"({100 * colour[1]['within_at_point']:.1f} % at the point's own position)"
+        + (f", {unseen:,} left out (their pixel sees nothing)" if unseen else ""))
     _, quiet = run(capsys, "truth", session, "--cloud", cloud)
     assert headlines(quiet) == headlines(out) and not details(quiet)
 
