@@ -37,13 +37,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "simulated source (`mirrorscan record sim`, the browser's Record) write. Per mirror: its "
         "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
         "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
-        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
-        "mean and 95th percentile, mm), and, when its colours are the scene's (not the source "
-        "palette), its colours per source against the albedo of the surface each point's pixel "
-        "sees (the point mirrored back through its view's true planes to the camera): the mean "
-        "bias per channel and the RMSE (levels of 255), the RMSE's ratio to the direct view's, "
-        f"and the share of points within {WITHIN_LEVELS} levels of that albedo and of the albedo "
-        "at the point's own position.",
+        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (mm), "
+        "and, when its colours are the scene's, per source, its colours against the albedo each "
+        "point's pixel sees: mean bias per channel, RMSE (levels of 255), ratio to the direct "
+        f"view's RMSE, shares within {WITHIN_LEVELS} levels.",
     )
     parser.add_argument(
         "session",
