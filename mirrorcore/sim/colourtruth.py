@@ -239,9 +239,9 @@ def colour_errors(points: np.ndarray, sources: np.ndarray | None, colours: np.nd
     direct = next((np.sqrt(np.mean(error[sel & seen] ** 2)) for s, sel in groups
                    if not s and np.any(sel & seen)), None)
     out = []
-    for label, sel in groups:
-        unseen = int(np.count_nonzero(sel & ~seen))
-        sel &= seen
+    for label, of in groups:
+        unseen = int(np.count_nonzero(of & ~seen))
+        sel = of & seen
         if not sel.any():
             out.append(ColourError(label, 0, unseen, None, None, None, None, None))
             continue

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.base.palette import source_colours
+from mirrorcore.base.palette import source_colours, source_sequence
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim.albedo import FLOOR_COLOUR, WALL_COLOUR
 from mirrorcore.sim.colourtruth import (WITHIN_LEVELS, colour_errors, has_scene_colour,
-                                        true_albedo)
-from mirrorcore.sim.layouts import paper_scene
+                                        true_albedo, view_pixels)
+from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import OBJECT, ROOM
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
@@ -113,3 +113,22 @@ def test_refusals_name_what_is_missing(rendered):
                       truth=rendered[-1])
     with pytest.raises(MirrorscanError, match="the scene has no object to compare with"):
         true_albedo(points, replace(scene, objects=()))
+
+
+def test_a_point_seen_through_two_mirrors_maps_back_to_its_own_pixel_last_mirror_first():
+    scene = kaleidoscope_scene(camera=CAMERA)
+    truth = Simulator(scene).frame(0).truth
+    labels = truth.source.reshape(-1)
+    pixels = np.flatnonzero((truth.surface.reshape(-1) == OBJECT) & (labels >= 0))
+    labels = labels[pixels]
+    multi = [label for label in np.unique(labels) if len(source_sequence(label)) == 2]
+    assert {0, 1, 2} <= set(labels.tolist()) and len(multi) == 2
+    points = truth.points_at(pixels)
+    np.testing.assert_array_equal(view_pixels(points, labels, truth.planes, CAMERA), pixels)
+    # the two sequences through both mirrors swapped: the first mirror first lands elsewhere
+    a, b = multi
+    swapped = np.where(labels == a, b, np.where(labels == b, a, labels))
+    moved = view_pixels(points, swapped, truth.planes, CAMERA) != pixels
+    assert np.all(moved[np.isin(labels, multi)]) and not moved[~np.isin(labels, multi)].any()
+    # without labels every point is taken as seen directly
+    assert np.array_equal(view_pixels(points, None, truth.planes, CAMERA) == pixels, labels == 0)
