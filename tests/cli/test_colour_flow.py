@@ -14,6 +14,7 @@ from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.scenefile import save_scene
 from mirrorscan.cli import main
+from tests.cli.output import details
 from tests.cli.test_calibrate_colour import tints
 from tests.cli.test_reconstruct_colour import MIN_POINTS, _edit_session
 
@@ -82,6 +83,11 @@ def test_every_view_carries_the_albedo_and_a_gain_left_out_fails_its_views(layou
     assert views[0]["ratio"] == 1.0
     for label, view in views.items():
         assert carries_the_albedo(view), view
+    run_ok("truth", folder, "--cloud", folder.parent / "scan.ply", "-v")
+    lines = details(capsys.readouterr().out)
+    assert any(line.startswith("mirror 1: ") and f"({views[1]['ratio']:.2f}x the direct view's)"
+               in line for line in lines)
+    assert not any("x the direct view's" in line for line in lines if line.startswith("direct"))
 
     # mirror 1's gain left out (a copy of the session): its view and the views through it are
     # too dark; the other mirror's view still carries the albedo

@@ -163,7 +163,8 @@ def _source_colour(error: ColourError, names: list[str]) -> str:
     if not error.points:
         return f"{_source(error, names)}: no point measured{unseen}"
     r, g, b = error.bias
-    ratio = "" if error.ratio is None else f" ({error.ratio:.2f}x the direct view's)"
+    ratio = ("" if error.ratio is None or not error.source
+             else f" ({error.ratio:.2f}x the direct view's)")
     return (f"{_source(error, names)}: {error.points:,} points, mean bias red {r:+.1f} green "
             f"{g:+.1f} blue {b:+.1f} levels, RMSE {error.rmse:.1f} levels{ratio}, "
             f"{100 * error.within:.1f} % within {WITHIN_LEVELS} levels "
