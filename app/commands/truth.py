@@ -15,7 +15,7 @@ from mirrorcore.io.ply import read_ply_colours
 from mirrorcore.io.session import TRUTH_FILE
 from mirrorcore.io.sessionfile import load_session
 from mirrorcore.sim.colourtruth import WITHIN_LEVELS, colour_errors, has_scene_colour
-from mirrorcore.sim.truth import frame_time, plane_errors, surface_error
+from mirrorcore.sim.truth import frame_time, plane_errors, surface_error, true_mirrors
 from mirrorcore.sources import session_truth
 
 from . import wording
@@ -37,11 +37,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "simulated source (`mirrorscan record sim`, the browser's Record) write. Per mirror: its "
         "plane's offset from the true plane at the object's middle (mm, along the normal; > 0: "
         "too far from the camera), its tilt (degrees) and its glass beside the true one (mm). "
-        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (RMSE, "
-        "mean and 95th percentile, mm), and, when its colours are the scene's (not the source "
-        "palette), its colours against the scene's albedo per source: the mean bias per channel "
-        "and the RMSE (levels of 255) and the share of points within "
-        f"{WITHIN_LEVELS} levels.",
+        "With --cloud: the cloud's distances to the objects' true surfaces at that frame (mm), "
+        "and, when its colours are the scene's, per source, its colours against the albedo each "
+        "point's pixel sees: mean bias per channel, RMSE (levels of 255), ratio to the direct "
+        f"view's RMSE, shares within {WITHIN_LEVELS} levels.",
     )
     parser.add_argument(
         "session",
@@ -102,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
         t = frame_time(session, args.frame, fps)
         surface = surface_error(points, scene, t)
         if has_scene_colour(colours, sources):
-            colour = colour_errors(points, sources, colours, scene, t)
+            true_planes = [m.plane for m in true_mirrors(session, scene)]
+            colour = colour_errors(points, sources, colours, scene, true_planes, t)
         coloured = colours is not None
     names = [m.name for m in session.mirrors]
     if args.json:

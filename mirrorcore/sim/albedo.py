@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from mirrorcore.sim.render import MARKER, MIRROR_BACK, NONE, OBJECT, ROOM, GroundTruth
-from mirrorcore.sim.scene import Scene
+from mirrorcore.sim.scene import Room, Scene
 
 CHECKER_M = 0.05            # metres: the side of an object's checker cell
 # metres: the cells' offset from the object's centre, so that the faces of boxes of round sizes
@@ -49,6 +49,62 @@ def object_albedo(index: int, local: np.ndarray) -> np.ndarray:
     colours = np.asarray(OBJECT_COLOURS[index % len(OBJECT_COLOURS)], dtype=np.float32)
     cells = np.floor((np.asarray(local) + CHECKER_PHASE) / CHECKER_M).astype(np.int64)
     return colours[cells.sum(axis=-1) % 2]
+
+
+def room_albedo(points: np.ndarray, room: Room) -> np.ndarray:
+    """Return the room's colour at points on its floor or back wall.
+
+    Parameters
+    ----------
+    points : (k, 3) array
+        Metres, camera frame.
+    room : Room
+
+    Returns
+    -------
+    (k, 3) float32 array
+        FLOOR_COLOUR where the floor's plane is nearer than the back wall's, else WALL_COLOUR.
+    """
+    points = np.asarray(points).reshape(-1, 3)
+    floor = np.abs(points[:, 1] - room.floor_y) < np.abs(points[:, 2] - room.back_z)
+    return np.where(floor[:, None], np.float32(FLOOR_COLOUR), np.float32(WALL_COLOUR))
+
+
+def surface_albedo(scene: Scene, truth: GroundTruth, pixels: np.ndarray) -> np.ndarray:
+    """Return the albedo of the real surface each pixel's ray ends on, before any tint.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene `truth` is a render of.
+    truth : GroundTruth
+    pixels : (k,) int array
+        Flat (row-major) pixel indices.
+
+    Returns
+    -------
+    (k, 3) float32 array
+        RGB levels 0 to 255: an object's checker at its true hit point
+        (`object_albedo(index, point - centre)`), the room's colour (`room_albedo`), the
+        markers' and the mirrors' backs' colours; NaN where the ray meets no surface.
+    """
+    pixels = np.asarray(pixels, np.int64).reshape(-1)
+    surface = truth.surface.reshape(-1)[pixels]
+    albedo = np.full((len(pixels), 3), np.nan, np.float32)
+    albedo[surface == MARKER] = MARKER_COLOUR
+    albedo[surface == MIRROR_BACK] = MIRROR_BACK_COLOUR
+    room = np.flatnonzero(surface == ROOM)
+    if len(room) and scene.room is not None:
+        albedo[room] = room_albedo(truth.points_at(pixels[room]), scene.room)
+    on_object = np.flatnonzero(surface == OBJECT)
+    if len(on_object):
+        index = truth.object_index.reshape(-1)[pixels[on_object]]
+        points = truth.points_at(pixels[on_object])
+        for i, obj in enumerate(scene.objects):
+            sel = index == i
+            albedo[on_object[sel]] = object_albedo(
+                i, points[sel] - np.asarray(obj.centre, np.float32))
+    return albedo
 
 
 def _tints(scene: Scene) -> np.ndarray:
@@ -94,15 +150,8 @@ class ColourModel:
                        .astype(np.int16) if sigma > 0 else None)
         self._tints = _tints(scene)
         out = np.zeros((*background.depth.shape, 3), np.float32)
-        if scene.room is not None:
-            room = background.surface == ROOM
-            p = background.points_at(np.flatnonzero(room))
-            floor = np.abs(p[:, 1] - scene.room.floor_y) < np.abs(p[:, 2] - scene.room.back_z)
-            out[room] = np.where(floor[:, None], np.float32(FLOOR_COLOUR),
-                                 np.float32(WALL_COLOUR))
-        out[background.surface == MARKER] = MARKER_COLOUR
-        out[background.surface == MIRROR_BACK] = MIRROR_BACK_COLOUR
         seen = background.surface != NONE
+        out[seen] = surface_albedo(scene, background, np.flatnonzero(seen))
         out[seen] *= _gain(self._tints, background.mirrors[:, seen])
         self._background = _levels(out)
 
@@ -138,12 +187,7 @@ class ColourModel:
         hit = np.flatnonzero(truth.surface.reshape(-1) == OBJECT)
         if len(hit) == 0:
             return colour
-        index, points = truth.object_index.reshape(-1)[hit], truth.points_at(hit)
-        centres = np.asarray([o.centre for o in self.scene.objects], np.float32)
-        albedo = np.zeros((len(index), 3), np.float32)
-        for i in range(len(centres)):
-            sel = index == i
-            albedo[sel] = object_albedo(i, points[sel] - centres[i])
+        albedo = surface_albedo(self.scene, truth, hit)
         mirrors = truth.mirrors.reshape(len(truth.mirrors), -1)[:, hit]
         colour.reshape(-1, 3)[hit] = _levels(albedo * _gain(self._tints, mirrors))
         return colour

@@ -77,13 +77,19 @@ def test_the_colour_figures_are_a_headline_and_one_line_per_source(session, tmp_
     worst = max(colour, key=lambda c: max(map(abs, c["bias"])))
     k = int(np.argmax(np.abs(worst["bias"])))
     assert headlines(out)[-1] == (
-        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the scene's albedo; largest mean "
-        f"bias {worst['bias'][k]:+.1f}, {('red', 'green', 'blue')[k]} of {worst['name']}.")
+        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the albedo each point's pixel sees; "
+        f"largest mean bias {worst['bias'][k]:+.1f}, {('red', 'green', 'blue')[k]} of "
+        f"{worst['name']}.")
     r, g, b = colour[1]["bias"]
+    unseen = colour[1]["unseen"]
+    # noiseless: the direct view's colours are exact, so no ratio to them
+    assert colour[0]["rmse"] == 0 and colour[1]["ratio"] is None
     assert details(out)[-3:][1] == (
         f"mirror 1: {colour[1]['points']:,} points, mean bias red {r:+.1f} green {g:+.1f} blue "
         f"{b:+.1f} levels, RMSE {colour[1]['rmse']:.1f} levels, "
-        f"{100 * colour[1]['within']:.1f} % within {WITHIN_LEVELS} levels")
+        f"{100 * colour[1]['within']:.1f} % within {WITHIN_LEVELS} levels "
+        f"({100 * colour[1]['within_at_point']:.1f} % at the point's own position)"
+        + (f", {unseen:,} left out (their pixel sees nothing)" if unseen else ""))
     _, quiet = run(capsys, "truth", session, "--cloud", cloud)
     assert headlines(quiet) == headlines(out) and not details(quiet)
 
@@ -105,3 +111,24 @@ def test_a_cloud_in_the_source_palette_or_without_colours_has_no_colour_figures(
                      + "".join(" ".join(map(str, p)) + "\n" for p in xyz[:2]))
     _, out = run(capsys, "truth", session, "--cloud", plain)
     assert headlines(out)[-1].startswith(f"{plain}: no colour figures, it has no colours, not")
+
+
+def test_a_cloud_of_another_rig_says_so(session, tmp_path, capsys):
+    xyz, sources = read_ply(coloured_cloud(session, tmp_path / "c.ply", gains=True))
+    colours = np.full((len(xyz), 3), 90, np.uint8)
+    colours[::2] = 160
+    # behind the camera: no point's pixel sees the scene
+    away = tmp_path / "away.ply"
+    write_ply(away, xyz * (1, 1, -1), sources, colours=colours)
+    _, out = run(capsys, "truth", session, "--cloud", away, "--json")
+    assert all(c["points"] == 0 and c["bias"] is None and c["unseen"] > 0
+               for c in json.loads(out)["colour"])
+    _, out = run(capsys, "truth", session, "--cloud", away, "-v")
+    assert headlines(out)[-1] == (f"{away}: no colour figures, no point's pixel sees the scene; "
+                                  "is the cloud of this session and --frame?")
+    # a label through a third mirror the session does not have
+    third = tmp_path / "third.ply"
+    write_ply(third, xyz, np.where(sources == 2, 3, sources), colours=colours)
+    status = main(["truth", str(session), "--cloud", str(third)])
+    assert status != 0 and ("the cloud's source label 3 names a mirror the session does not "
+                            "have (2 mirrors)") in capsys.readouterr().err

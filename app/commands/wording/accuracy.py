@@ -123,13 +123,13 @@ def surface_error(error: SurfaceError, cloud: str) -> Message:
 
 
 def colour_error(errors: list[ColourError], cloud: str, names: list[str]) -> Message:
-    """A cloud's colours against the scene's albedo (mirrorscan truth --cloud).
+    """A cloud's colours against the albedo its points' pixels see (mirrorscan truth --cloud).
 
     Parameters
     ----------
     errors : list of ColourError
-        Per source: mean bias per channel and RMSE (levels of 255), the share within
-        WITHIN_LEVELS.
+        Per source: mean bias per channel and RMSE (levels of 255), the RMSE's ratio to the
+        direct view's, the shares within WITHIN_LEVELS.
     cloud : str
         The cloud's name for the headline.
     names : list of str
@@ -138,24 +138,37 @@ def colour_error(errors: list[ColourError], cloud: str, names: list[str]) -> Mes
     Returns
     -------
     Message
-        The RMSE over every point and the largest mean bias of any source and channel, then each
-        source's figures.
+        The RMSE over every point measured and the largest mean bias of any source and channel,
+        then each source's figures.
     """
-    points = sum(e.points for e in errors)
-    rmse = float(np.sqrt(sum(e.points * e.rmse**2 for e in errors) / points))
-    worst = max(errors, key=lambda e: max(abs(b) for b in e.bias))
+    measured = [e for e in errors if e.points]
+    if not measured:
+        return Message(f"{cloud}: no colour figures, no point's pixel sees the scene; is the "
+                       "cloud of this session and --frame?")
+    points = sum(e.points for e in measured)
+    rmse = float(np.sqrt(sum(e.points * e.rmse**2 for e in measured) / points))
+    worst = max(measured, key=lambda e: max(abs(b) for b in e.bias))
     channel = int(np.argmax(np.abs(worst.bias)))
     return Message(
-        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the scene's albedo; largest mean "
-        f"bias {worst.bias[channel]:+.1f}, {('red', 'green', 'blue')[channel]} of "
+        f"{cloud}: colour RMSE {rmse:.1f} levels (of 255) to the albedo each point's pixel sees; "
+        f"largest mean bias {worst.bias[channel]:+.1f}, {('red', 'green', 'blue')[channel]} of "
         f"{_source(worst, names)}.",
-        tuple(
-            f"{_source(e, names)}: {e.points:,} points, mean bias red {e.bias[0]:+.1f} green "
-            f"{e.bias[1]:+.1f} blue {e.bias[2]:+.1f} levels, RMSE {e.rmse:.1f} levels, "
-            f"{100 * e.within:.1f} % within {WITHIN_LEVELS} levels"
-            for e in errors
-        ),
+        tuple(_source_colour(e, names) for e in errors),
     )
+
+
+def _source_colour(error: ColourError, names: list[str]) -> str:
+    """One source's colour figures, a line."""
+    unseen = f", {error.unseen:,} left out (their pixel sees nothing)" if error.unseen else ""
+    if not error.points:
+        return f"{_source(error, names)}: no point measured{unseen}"
+    r, g, b = error.bias
+    ratio = ("" if error.ratio is None or not error.source
+             else f" ({error.ratio:.2f}x the direct view's)")
+    return (f"{_source(error, names)}: {error.points:,} points, mean bias red {r:+.1f} green "
+            f"{g:+.1f} blue {b:+.1f} levels, RMSE {error.rmse:.1f} levels{ratio}, "
+            f"{100 * error.within:.1f} % within {WITHIN_LEVELS} levels "
+            f"({100 * error.within_at_point:.1f} % at the point's own position){unseen}")
 
 
 def _source(error: ColourError, names: list[str]) -> str:

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from mirrorcore.base.errors import MirrorscanError
-from mirrorcore.base.palette import source_colours
+from mirrorcore.base.palette import source_colours, source_sequence
 from mirrorcore.geometry.camera import Intrinsics
 from mirrorcore.sim.albedo import FLOOR_COLOUR, WALL_COLOUR
 from mirrorcore.sim.colourtruth import (WITHIN_LEVELS, colour_errors, has_scene_colour,
-                                        true_albedo)
-from mirrorcore.sim.layouts import paper_scene
+                                        true_albedo, view_pixels)
+from mirrorcore.sim.layouts import kaleidoscope_scene, paper_scene
 from mirrorcore.sim.render import OBJECT, ROOM
 from mirrorcore.sim.sensor import SensorModel
 from mirrorcore.sim.simulator import Simulator
@@ -36,11 +36,17 @@ def rendered():
     labels = mirrors[0, index].astype(np.int64)
     tints = np.array([(1.0, 1.0, 1.0), *(m.tint for m in scene.mirrors)], np.float32)[labels]
     return (scene, frame.colour.reshape(-1, 3)[index], labels, truth.points_at(index), tints,
-            truth.surface.reshape(-1)[index])
+            truth.surface.reshape(-1)[index], truth)
+
+
+def _errors(rendered, points, labels, colours):
+    """colour_errors against the fixture's scene, its true planes and ideal render."""
+    scene, *_, truth = rendered
+    return colour_errors(points, labels, colours, scene, truth.planes, truth=truth)
 
 
 def test_the_albedo_at_the_true_points_is_the_colour_the_simulator_gives_them(rendered):
-    scene, colour, labels, points, tints, surface = rendered
+    scene, colour, labels, points, tints, surface, _ = rendered
     albedo = true_albedo(points, scene)
     assert set(labels.tolist()) == {0, 1, 2} and (surface == ROOM).sum() > 1000
     # the render is the albedo times the tints, rounded
@@ -52,15 +58,17 @@ def test_the_albedo_at_the_true_points_is_the_colour_the_simulator_gives_them(re
 
 
 def test_colours_with_the_tint_undone_match_and_a_gain_left_out_does_not(rendered):
-    scene, colour, labels, points, tints, _ = rendered
+    scene, colour, labels, points, tints, *_ = rendered
     undone = np.clip(np.rint(colour / tints), 0, 255).astype(np.uint8)
-    errors = colour_errors(points, labels, undone, scene)
+    errors = _errors(rendered, points, labels, undone)
     assert [e.source for e in errors] == [0, 1, 2]
-    assert sum(e.points for e in errors) == len(points)
+    assert sum(e.points for e in errors) == len(points) and not any(e.unseen for e in errors)
     for e in errors:
         # a tint's rounding, at most 0.5 / 0.82 levels
         assert np.all(np.abs(e.bias) < 0.7) and e.rmse < 0.7 and e.within == 1.0
-    left_out = colour_errors(points, labels, colour, scene)
+        # the direct view's colours are exact: no ratio to them
+        assert e.within_at_point == 1.0 and e.ratio is None and errors[0].rmse == 0
+    left_out = _errors(rendered, points, labels, colour)
     assert np.all(np.abs(left_out[0].bias) < 0.5)
     for e, mirror in zip(left_out[1:], scene.mirrors):
         # the tints dim every channel: 11 to 18 % of levels of 60 to 235
@@ -69,15 +77,16 @@ def test_colours_with_the_tint_undone_match_and_a_gain_left_out_does_not(rendere
 
 
 def test_the_bias_is_signed_and_the_rmse_and_share_count_every_channel(rendered):
-    scene, colour, labels, points, tints, _ = rendered
+    scene, colour, labels, points, *_ = rendered
     albedo = np.rint(true_albedo(points, scene))
     brighter = np.clip(albedo + (12, 0, -3), 0, 255).astype(np.uint8)
-    sel = np.all((albedo >= 3) & (albedo <= 243), axis=1)
-    (error,) = colour_errors(points[sel], None, brighter[sel], scene)
-    assert error.source is None and error.points == sel.sum()
+    # without labels every point is taken as seen directly
+    sel = np.all((albedo >= 3) & (albedo <= 243), axis=1) & (labels == 0)
+    (error,) = _errors(rendered, points[sel], None, brighter[sel])
+    assert error.source is None and error.points == sel.sum() and error.ratio == 1.0
     assert error.bias == pytest.approx((12.0, 0.0, -3.0), abs=1e-4)
     assert error.rmse == pytest.approx(np.sqrt((144 + 9) / 3), abs=1e-4)
-    assert error.within == 0.0 and 12 > WITHIN_LEVELS
+    assert error.within == error.within_at_point == 0.0 and 12 > WITHIN_LEVELS
 
 
 def test_a_cloud_in_the_source_palette_has_no_scene_colour(rendered):
@@ -97,6 +106,29 @@ def test_a_cloud_in_the_source_palette_has_no_scene_colour(rendered):
 def test_refusals_name_what_is_missing(rendered):
     scene, colour, labels, points, *_ = rendered
     with pytest.raises(MirrorscanError, match="the cloud has no points"):
-        colour_errors(points[:0], labels[:0], colour[:0], scene)
+        _errors(rendered, points[:0], labels[:0], colour[:0])
+    with pytest.raises(MirrorscanError, match="source label 2 names a mirror the session does "
+                       r"not have \(1 mirrors\)"):
+        colour_errors(points, labels, colour, scene, rendered[-1].planes[:1],
+                      truth=rendered[-1])
     with pytest.raises(MirrorscanError, match="the scene has no object to compare with"):
         true_albedo(points, replace(scene, objects=()))
+
+
+def test_a_point_seen_through_two_mirrors_maps_back_to_its_own_pixel_last_mirror_first():
+    scene = kaleidoscope_scene(camera=CAMERA)
+    truth = Simulator(scene).frame(0).truth
+    labels = truth.source.reshape(-1)
+    pixels = np.flatnonzero((truth.surface.reshape(-1) == OBJECT) & (labels >= 0))
+    labels = labels[pixels]
+    multi = [label for label in np.unique(labels) if len(source_sequence(label)) == 2]
+    assert {0, 1, 2} <= set(labels.tolist()) and len(multi) == 2
+    points = truth.points_at(pixels)
+    np.testing.assert_array_equal(view_pixels(points, labels, truth.planes, CAMERA), pixels)
+    # the two sequences through both mirrors swapped: the first mirror first lands elsewhere
+    a, b = multi
+    swapped = np.where(labels == a, b, np.where(labels == b, a, labels))
+    moved = view_pixels(points, swapped, truth.planes, CAMERA) != pixels
+    assert np.all(moved[np.isin(labels, multi)]) and not moved[~np.isin(labels, multi)].any()
+    # without labels every point is taken as seen directly
+    assert np.array_equal(view_pixels(points, None, truth.planes, CAMERA) == pixels, labels == 0)
