@@ -10,11 +10,12 @@ import shutil
 import numpy as np
 import pytest
 
-from mirrorcore.base.palette import source_colours, source_sequence
+from mirrorcore.base.palette import source_colours
 from mirrorcore.batch import MANIFEST_FILE
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.ply import _VERTEX
 from mirrorcore.sim.albedo import object_albedo
+from mirrorcore.sim.colourtruth import view_pixels
 from mirrorcore.sim.render import OBJECT
 from mirrorcore.sim.scenefile import scene_from_json
 from mirrorcore.sim.simulator import Simulator
@@ -62,17 +63,10 @@ def _errors(ply, folder) -> dict[int, np.ndarray]:
     scene = scene_from_json(truth["scene"])
     frame = Simulator(scene).frame(0).truth
     vertex = _vertices(ply)
-    seen = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1).astype(np.float64)
+    points = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=-1)
     planes = [Plane(np.asarray(p[:3]), p[3]) for p in truth["planes"]]
-    for label in np.unique(vertex["source"]):
-        of = vertex["source"] == label
-        for j in reversed(source_sequence(int(label))):
-            seen[of] = planes[j - 1].reflect(seen[of])
-    camera = scene.camera
-    u = np.rint(camera.fx * seen[:, 0] / seen[:, 2] + camera.cx).astype(np.int64)
-    v = np.rint(camera.fy * seen[:, 1] / seen[:, 2] + camera.cy).astype(np.int64)
-    pixels = v * camera.width + u
-    on = frame.surface.reshape(-1)[pixels] == OBJECT
+    pixels = view_pixels(points, vertex["source"], planes, scene.camera)
+    on = (pixels >= 0) & (frame.surface.reshape(-1)[pixels] == OBJECT)
     hits = frame.points_at(pixels[on])
     albedo = object_albedo(0, hits - np.asarray(scene.objects[0].centre, np.float32))
     rgb = np.stack([vertex["red"], vertex["green"], vertex["blue"]], axis=-1)[on]
