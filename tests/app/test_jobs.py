@@ -202,9 +202,11 @@ def test_find_applies_the_planes_it_found_and_names_the_mirror_it_did_not(demo, 
         f"Undo goes by mirror: select {second.name} to take the planes found back."
         in said[0].details
     )
-    assert said[-1].headline.startswith(f"**{first.name}** ⚠ not found") and said[-1].details == (
-        why.removeprefix(first.name + ": "),
-    )  # named once
+    # named once; the colour gain of the mirror found follows
+    missing = [m for m in said if m.headline.startswith(f"**{first.name}** ⚠ not found")]
+    assert [m.details for m in missing] == [(why.removeprefix(first.name + ": "),)]
+    assert said[-1].headline == f"Colour gain measured for {second.name}: their points show the " \
+        "scene's own colour."
     assert app_.jobs.refusals(app_.editor.session) == {first.id: "scene"}
     mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
     # the one not found: Find greyed out, saying
