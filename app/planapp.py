@@ -120,7 +120,7 @@ class PlanApp(Notifier):
         lo = np.array([-room.width / 2, room.ceiling_y, 0.0])
         hi = np.array([room.width / 2, room.floor_y, room.depth])
         self.server.scene.add_line_segments("/plan/room", _box_edges(lo, hi), (120, 120, 120),
-                                            line_width=1.5)
+                                            thickness=1.5, thickness_units="screen")
         self.frustum = self.server.scene.add_camera_frustum(
             "/plan/camera", fov=2 * np.arctan(cam.height / 2 / cam.fy),
             aspect=cam.width / cam.height, scale=FRUSTUM_SCALE, color=(40, 40, 40),
@@ -138,8 +138,7 @@ class PlanApp(Notifier):
             f"/plan/mirror {j + 1}", scale=HANDLE_SCALE, active_axes=(True, False, True),
             depth_test=False, position=position, wxyz=wxyz)
         self._draw_glass(j)
-        handle.on_update(lambda h, j=j: self._moved(j, h.target))
-        handle.on_drag_end(lambda h, j=j: self._put_back(j))
+        handle.on_update(lambda event, j=j: self._updated(j, event))
         return handle
 
     def _draw_glass(self, j: int) -> None:
@@ -165,6 +164,12 @@ class PlanApp(Notifier):
             self._draw_glass(j)
 
     # ------------------------------------------------------------------ dragging
+    def _updated(self, j: int, event) -> None:
+        """A handle moved (evaluate it) or was let go (put it where the desk has it)."""
+        self._moved(j, event.target)
+        if event.phase == "end":
+            self._put_back(j)
+
     def _moved(self, j: int, handle) -> None:
         """A mirror's handle moved: evaluate its latest pose (one evaluation at a time, the
         poses that came meanwhile dropped but the last)."""
