@@ -36,6 +36,8 @@ log = logging.getLogger("mirrorscan")
 POINT_SIZE = 0.02          # metres, the subject's samples
 HANDLE_SCALE = 0.5         # metres, the transform controls' size
 FRUSTUM_SCALE = 0.3        # metres, the camera's frustum
+# metres from the subject's middle to the page's first viewpoint (level frame, y down)
+VIEW_FROM = np.array([1.3, -1.8, -2.6])
 
 
 def _box_edges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -105,10 +107,11 @@ class PlanApp(Notifier):
             self.server.stop()
 
     def _connect(self, client: viser.ClientHandle) -> None:
-        """Place the tab's notifications and look at the subject from behind the camera."""
+        """Place the tab's notifications and look at the subject from above, behind the camera
+        and to its right."""
         place_notes(client)
         subject = self.desk.result.space.subject
-        client.camera.position = (0.0, subject.centre[1] - 1.6, -1.6)
+        client.camera.position = tuple(subject.centre + VIEW_FROM)
         client.camera.look_at = tuple(subject.centre)
         client.camera.up_direction = (0.0, -1.0, 0.0)
 
