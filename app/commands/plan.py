@@ -69,7 +69,7 @@ def register(sub) -> None:
     p.add_argument("--serve", action="store_true",
                    help="then show the plan in the browser: drag the mirrors, optimise, save "
                    "it again into PLAN_DIR, simulate it (127.0.0.1 only)")
-    p.add_argument("--port", type=int, default=8080,
+    p.add_argument("--port", type=whole(0, 65535), default=8080,
                    help="with --serve: port (default 8080; the next free one if taken)")
     p.set_defaults(run=run)
 
