@@ -18,9 +18,11 @@ from pathlib import Path
 import numpy as np
 import viser
 
-from mirrorcore.base.errors import MirrorscanError
+from mirrorcore.base.errors import CalibrationError, MirrorscanError
+from mirrorcore.io.session import Session
 from mirrorcore.base.palette import source_colour
 from mirrorcore.plan.planfile import SCENE_FILE
+from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sources.sim import open_simulated
 
 from .demo import calibrated_session
@@ -192,6 +194,9 @@ class PlanApp(Notifier):
     def move(self, j: int, position, wxyz) -> bool:
         """Put mirror j at `position`, turned to `wxyz`, and show the figures; or show why the
         limits refuse it. Returns whether it moved."""
+        if self.jobs.running(OPTIMISE):
+            self.note.content = words.refused(words.SEARCHING).markdown()
+            return False
         began = time.perf_counter()
         try:
             cov = self.desk.move(j, position, wxyz)
@@ -272,18 +277,25 @@ class PlanApp(Notifier):
 
     def _simulate(self) -> None:
         """Save the plan, then serve its scene.json as a live simulated rig on a port of its
-        own, calibrated from its markers (the demo's way); the panel links to it."""
+        own, calibrated from its markers (the demo's way), or with its markers and outlines
+        alone when they do not give its planes; the panel links to it."""
         self.save()
         if self.simulated is not None:
             self.simulated.stop()
             self.simulated = None
         source = open_simulated(str(self.folder / SCENE_FILE), None)
-        session = calibrated_session(source, self.folder / "session")
+        root = self.folder / "session"
+        try:
+            session, why = calibrated_session(source, root), None
+        except CalibrationError as exc:
+            rig = source.rig
+            mirrors = session_mirrors(rig, rig.background().truth)
+            session, why = Session(root, rig.intrinsics, mirrors), str(exc)
         app = MirrorscanApp(session, source, self.host, 0, autosave=False,
                             sessions_dir=self.folder)
         app.start()
         self.simulated = app
-        self.simulation.content = words.simulating(app.guard.url)
+        self.simulation.content = words.simulating(app.guard.url, why).markdown()
 
 
 def _yaw_matrix(wxyz) -> np.ndarray:

@@ -18,6 +18,7 @@ from .legend import LEGEND_STYLE, _swatch
 COUNT_COLOURS = np.array([[213, 94, 0], [240, 228, 66], [0, 158, 115], [0, 114, 178]], np.uint8)
 COUNT_NAMES = ("unseen", "1 view", "2 views", "3+ views")
 TITLE = "Plan the rig"
+SEARCHING = "the search runs from the layout as it was (wait for it, or cancel it)"
 HELP = ("Drag a mirror's arrows to move it on the floor, its ring to turn it. "
         "*Optimise* searches from this layout.")
 
@@ -71,6 +72,10 @@ def saved(folder: Path, files: list[Path]) -> Message:
                    (", ".join(f"`{f.name}`" for f in files),))
 
 
-def simulating(url: str) -> str:
-    """Markdown: where the simulated rig of the layout is served."""
-    return f"The simulated rig of this layout: [open it]({url})"
+def simulating(url: str, uncalibrated: str | None) -> Message:
+    """Where the simulated rig of the layout is served; why its planes are not fitted, if not."""
+    link = f"The simulated rig of this layout: [open it]({url})"
+    if uncalibrated is None:
+        return Message(f"{link}, its mirrors calibrated from their markers.")
+    return Message(f"{link}. Its markers do not give the planes: fit them there.",
+                   (uncalibrated,))

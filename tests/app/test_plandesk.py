@@ -1,6 +1,6 @@
 """The plan served in the browser, without a browser: a drag changes the figures, a layout out of
 the room is refused in one line and the mirror stays, the search from the layout can be cancelled,
-and Save plan writes the plan folder."""
+Save plan writes the plan folder, and Simulate serves the layout as a simulated rig."""
 
 from __future__ import annotations
 
@@ -111,5 +111,9 @@ def test_the_app_shows_a_drag_and_refuses_a_bad_one(result, tmp_path):
         wait_for(lambda: not app.jobs.running("optimise"), 60, "the search to stop")
         wait_for(lambda: "cancelled" in app.note.content.lower(), 10, "the cancel to be told")
         assert not app.optimise_button.disabled and not app.cancel_button.visible
+        app.jobs.simulate(app._simulate)
+        wait_for(lambda: "open it" in app.simulation.content, 120, "the simulated rig")
+        assert (tmp_path / "plan" / "scene.json").is_file()
+        wait_for(lambda: app.simulated.last_frame is not None, 60, "its first frame")
     finally:
         app.stop()
