@@ -13,6 +13,7 @@ import io
 import logging
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -277,8 +278,8 @@ class PlanApp(Notifier):
 
     def _simulate(self) -> None:
         """Save the plan, then serve its scene.json as a live simulated rig on a port of its
-        own, calibrated from its markers (the demo's way), or with its markers and outlines
-        alone when they do not give its planes; the panel links to it."""
+        own, calibrated from its markers (the demo's way), or with the simulator's true planes
+        when the markers do not give them; the panel links to it."""
         self.save()
         if self.simulated is not None:
             self.simulated.stop()
@@ -289,7 +290,8 @@ class PlanApp(Notifier):
             session, why = calibrated_session(source, root), None
         except CalibrationError as exc:
             rig = source.rig
-            mirrors = session_mirrors(rig, rig.background().truth)
+            mirrors = tuple(replace(m, plane=true.plane) for m, true in
+                            zip(session_mirrors(rig, rig.background().truth), rig.scene.mirrors))
             session, why = Session(root, rig.intrinsics, mirrors), str(exc)
         app = MirrorscanApp(session, source, self.host, 0, autosave=False,
                             sessions_dir=self.folder)

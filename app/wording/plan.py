@@ -77,5 +77,5 @@ def simulating(url: str, uncalibrated: str | None) -> Message:
     link = f"The simulated rig of this layout: [open it]({url})"
     if uncalibrated is None:
         return Message(f"{link}, its mirrors calibrated from their markers.")
-    return Message(f"{link}. Its markers do not give the planes: fit them there.",
-                   (uncalibrated,))
+    return Message(f"{link}. Its markers do not give the planes: it uses the simulator's true "
+                   "planes.", (uncalibrated,))
