@@ -62,55 +62,53 @@ def wait_until_served(url: str, timeout: float = 120.0) -> None:
     raise SystemExit(f"mirrorscan serve did not answer at {url} within {timeout:.0f} s")
 
 
-def shoot(url: str, out: Path) -> list[Path]:
+def pages(url: str):
+    """Yield a page on `url` at each size of SIZES, with its width and height; closed after."""
     from playwright.sync_api import sync_playwright
 
-    written = []
     with sync_playwright() as playwright:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         for width, height in SIZES:
             page = browser.new_page(viewport={"width": width, "height": height})
             page.goto(url)
-            page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
-            time.sleep(START_S)  # the demo's first frames and calibration reach the page
-            page.evaluate(CLOSE_WEBGL_NOTICE)
-            for step in STEPS:  # a first pass: the view settles and every step has been drawn once
-                page.get_by_role("tab", name=step, exact=True).click()
-                time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
-            for step in STEPS:
-                page.get_by_role("tab", name=step, exact=True).click()
-                time.sleep(SETTLE_S)  # let the software renderer draw the opened step
-                written.append(out / f"{step.lower()}-{width}x{height}.png")
-                page.screenshot(path=str(written[-1]))
-            page.get_by_role("tab", name=STEPS[0], exact=True).click()
-            page.get_by_role("button", name="Depth frame", exact=True).click()
-            time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
-            written.append(out / f"depth-frame-{width}x{height}.png")
-            page.screenshot(path=str(written[-1]))
+            yield page, width, height
             page.close()
         browser.close()
+
+
+def shoot(url: str, out: Path) -> list[Path]:
+    written = []
+    for page, width, height in pages(url):
+        page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
+        time.sleep(START_S)  # the demo's first frames and calibration reach the page
+        page.evaluate(CLOSE_WEBGL_NOTICE)
+        for step in STEPS:  # a first pass: the view settles and every step has been drawn once
+            page.get_by_role("tab", name=step, exact=True).click()
+            time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
+        for step in STEPS:
+            page.get_by_role("tab", name=step, exact=True).click()
+            time.sleep(SETTLE_S)  # let the software renderer draw the opened step
+            written.append(out / f"{step.lower()}-{width}x{height}.png")
+            page.screenshot(path=str(written[-1]))
+        page.get_by_role("tab", name=STEPS[0], exact=True).click()
+        page.get_by_role("button", name="Depth frame", exact=True).click()
+        time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
+        written.append(out / f"depth-frame-{width}x{height}.png")
+        page.screenshot(path=str(written[-1]))
     return written
 
 
 def shoot_plan(url: str, out: Path) -> list[Path]:
     """The plan's page at each size, its figures' details open."""
-    from playwright.sync_api import sync_playwright
-
     written = []
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
-        for width, height in SIZES:
-            page = browser.new_page(viewport={"width": width, "height": height})
-            page.goto(url)
-            page.get_by_role("button", name="Optimise", exact=True).wait_for(timeout=60_000)
-            time.sleep(2 * SETTLE_S)  # the subject's samples and the mirrors reach the page
-            page.evaluate(CLOSE_WEBGL_NOTICE)
-            page.get_by_text("Details").first.click()
-            time.sleep(SETTLE_S)  # let the software renderer draw the opened fold
-            written.append(out / f"plan-{width}x{height}.png")
-            page.screenshot(path=str(written[-1]))
-            page.close()
-        browser.close()
+    for page, width, height in pages(url):
+        page.get_by_role("button", name="Optimise", exact=True).wait_for(timeout=60_000)
+        time.sleep(2 * SETTLE_S)  # the subject's samples and the mirrors reach the page
+        page.evaluate(CLOSE_WEBGL_NOTICE)
+        page.get_by_text("Details").first.click()
+        time.sleep(SETTLE_S)  # let the software renderer draw the opened fold
+        written.append(out / f"plan-{width}x{height}.png")
+        page.screenshot(path=str(written[-1]))
     return written
 
 
