@@ -29,6 +29,7 @@ from mirrorcore.sources.sim import open_simulated
 from .demo import calibrated_session
 from .events import EventBus, JobProgress
 from .jobs.plan import OPTIMISE, PlanJobs
+from .results import Cancelled
 from .notices import Notifier, place_notes
 from .plandesk import PlanDesk
 from .security import protect
@@ -224,6 +225,7 @@ class PlanApp(Notifier):
 
     # ------------------------------------------------------------------ the panel
     def _build_panel(self) -> None:
+        """The side panel: the title, the key, the figures, the buttons and their lines."""
         gui = self.server.gui
         gui.add_markdown(f"**{words.TITLE}**\n\n{words.HELP}")
         gui.add_html(words.legend_html())
@@ -251,10 +253,14 @@ class PlanApp(Notifier):
             self.note.content = words.optimised(before, cov.coverage, seconds).markdown()
             self._busy(False)
 
-        thread = self.jobs.optimise(self.desk, lambda f: setattr(self.bar, "value", 100 * f),
-                                    done)
+        # busy first: a search cancelled at once must find the buttons to put back
         self._busy(True)
-        return thread
+        try:
+            return self.jobs.optimise(self.desk,
+                                      lambda f: setattr(self.bar, "value", 100 * f), done)
+        except MirrorscanError:
+            self._busy(False)
+            raise
 
     def _busy(self, running: bool) -> None:
         """The buttons while the search runs, or once it is over."""
@@ -266,7 +272,8 @@ class PlanApp(Notifier):
         """A job ended without its result (cancelled, refused, failed): say so."""
         if event.job == OPTIMISE:
             self._busy(False)
-        self.note.content = event.status
+        cancelled = isinstance(event.result, Cancelled)
+        self.note.content = words.CANCELLED if cancelled else event.status
 
     def save(self) -> list[Path]:
         """Write the plan folder of the layout as it stands."""

@@ -18,6 +18,7 @@ from .legend import LEGEND_STYLE, _swatch
 COUNT_COLOURS = np.array([[213, 94, 0], [240, 228, 66], [0, 158, 115], [0, 114, 178]], np.uint8)
 COUNT_NAMES = ("unseen", "1 view", "2 views", "3+ views")
 TITLE = "Plan the rig"
+CANCELLED = "Search cancelled: the layout is as it was."
 SEARCHING = "the search runs from the layout as it was (wait for it, or cancel it)"
 HELP = ("Drag a mirror's arrows to move it on the floor, its ring to turn it. "
         "*Optimise* searches from this layout.")

@@ -1,6 +1,7 @@
 """The plan in a real headless Chromium, as a technician uses it: the page shows the figures, a
 mirror's handle dragged with the mouse changes them, Optimise runs with its progress bar and can
-be cancelled, and Save plan writes the plan folder."""
+be cancelled, Save plan writes the plan folder; at 1024x600 every button is in view with the
+figures open."""
 
 from __future__ import annotations
 
@@ -66,5 +67,13 @@ def test_the_plan_in_the_browser(browser, tmp_path):
         button(page, "Save plan")
         wait_for(lambda: (tmp_path / "plan" / "drawing.png").is_file(), 60, "the plan folder")
         wait_for(lambda: "Plan saved" in text(page), 30, "the saved line")
+        page.close()
+        small = browser.new_page(viewport={"width": 1024, "height": 600})
+        small.goto(f"http://127.0.0.1:{app.port}/")
+        wait_for(lambda: "of the subject seen" in text(small), 30, "the figures at 1024x600")
+        small.get_by_text("Details").first.click()
+        for name in ("Optimise", "Save plan", "Simulate"):
+            box = small.get_by_role("button", name=name, exact=True).bounding_box()
+            assert box["y"] + box["height"] <= 600, name
     finally:
         app.stop()
