@@ -191,7 +191,8 @@ class PlanApp(Notifier):
                     self._evaluating = False
                     return
                 k, (position, wxyz) = self._pending.popitem()
-            self.move(k, position, wxyz)
+            # a bug in one evaluation is told and must not stop the next ones
+            self.act(None, lambda: self.move(k, position, wxyz))
 
     def move(self, j: int, position, wxyz) -> bool:
         """Put mirror j at `position`, turned to `wxyz`, and show the figures; or show why the
