@@ -5,9 +5,7 @@ Run `.venv/bin/python scripts/screenshots.py`.
 Serves the demo (`mirrorscan serve`) on 127.0.0.1 at a free port, opens it in headless Chromium at
 1400x900 and 1024x600, visits each step of the side panel and the depth frame, and writes
 docs/images/<step>-<width>x<height>.png; the Mirrors step at 1400x900 is also the README's
-docs/screenshot.png. Then plans two mirrors for a person (`mirrorscan plan --serve`, the plan in a
-temporary folder) and writes docs/images/plan-<width>x<height>.png (docs/planning.md); `--only plan`
-makes these alone. Needs the test extras (Playwright, Debian's chromium).
+docs/screenshot.png. Needs the test extras (Playwright, Debian's chromium).
 """
 from __future__ import annotations
 
@@ -62,54 +60,60 @@ def wait_until_served(url: str, timeout: float = 120.0) -> None:
     raise SystemExit(f"mirrorscan serve did not answer at {url} within {timeout:.0f} s")
 
 
-def pages(url: str):
-    """Yield a page on `url` at each size of SIZES, with its width and height; closed after."""
+def shoot(url: str, out: Path) -> list[Path]:
     from playwright.sync_api import sync_playwright
 
+    written = []
     with sync_playwright() as playwright:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         for width, height in SIZES:
             page = browser.new_page(viewport={"width": width, "height": height})
             page.goto(url)
-            yield page, width, height
+            page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
+            time.sleep(START_S)  # the demo's first frames and calibration reach the page
+            page.evaluate(CLOSE_WEBGL_NOTICE)
+            for step in STEPS:  # a first pass: the view settles and every step has been drawn once
+                page.get_by_role("tab", name=step, exact=True).click()
+                time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
+            for step in STEPS:
+                page.get_by_role("tab", name=step, exact=True).click()
+                time.sleep(SETTLE_S)  # let the software renderer draw the opened step
+                written.append(out / f"{step.lower()}-{width}x{height}.png")
+                page.screenshot(path=str(written[-1]))
+            page.get_by_role("tab", name=STEPS[0], exact=True).click()
+            page.get_by_role("button", name="Depth frame", exact=True).click()
+            time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
+            written.append(out / f"depth-frame-{width}x{height}.png")
+            page.screenshot(path=str(written[-1]))
             page.close()
         browser.close()
-
-
-def shoot(url: str, out: Path) -> list[Path]:
-    written = []
-    for page, width, height in pages(url):
-        page.get_by_role("tab", name=STEPS[0], exact=True).wait_for(timeout=60_000)
-        time.sleep(START_S)  # the demo's first frames and calibration reach the page
-        page.evaluate(CLOSE_WEBGL_NOTICE)
-        for step in STEPS:  # a first pass: the view settles and every step has been drawn once
-            page.get_by_role("tab", name=step, exact=True).click()
-            time.sleep(SETTLE_S / 2)  # the opened step is drawn before the next is clicked
-        for step in STEPS:
-            page.get_by_role("tab", name=step, exact=True).click()
-            time.sleep(SETTLE_S)  # let the software renderer draw the opened step
-            written.append(out / f"{step.lower()}-{width}x{height}.png")
-            page.screenshot(path=str(written[-1]))
-        page.get_by_role("tab", name=STEPS[0], exact=True).click()
-        page.get_by_role("button", name="Depth frame", exact=True).click()
-        time.sleep(2 * SETTLE_S)  # the camera moves to face the depth frame
-        written.append(out / f"depth-frame-{width}x{height}.png")
-        page.screenshot(path=str(written[-1]))
     return written
 
 
 def shoot_plan(url: str, out: Path) -> list[Path]:
-    """The plan's page at each size, its figures' details open."""
-    written = []
-    for page, width, height in pages(url):
-        page.get_by_role("button", name="Optimise", exact=True).wait_for(timeout=60_000)
-        time.sleep(2 * SETTLE_S)  # the subject's samples and the mirrors reach the page
-        page.evaluate(CLOSE_WEBGL_NOTICE)
-        page.get_by_text("Details").first.click()
-        time.sleep(SETTLE_S)  # let the software renderer draw the opened fold
-        written.append(out / f"plan-{width}x{height}.png")
-        page.screenshot(path=str(written[-1]))
+    """The plan's page (`mirrorscan plan --serve`) at each size, its figures' details open:
+    docs/images/plan-<width>x<height>.png for docs/planning.md."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        written = [_plan_page(browser, url, out / f"plan-{w}x{h}.png", w, h) for w, h in SIZES]
+        browser.close()
     return written
+
+
+def _plan_page(browser, url: str, path: Path, width: int, height: int) -> Path:
+    """One screenshot of the plan's page at width x height."""
+    page = browser.new_page(viewport={"width": width, "height": height})
+    page.goto(url)
+    page.get_by_role("button", name="Optimise", exact=True).wait_for(timeout=60_000)
+    time.sleep(2 * SETTLE_S)  # the subject's samples and the mirrors reach the page
+    page.evaluate(CLOSE_WEBGL_NOTICE)
+    page.get_by_text("Details").first.click()
+    time.sleep(SETTLE_S)  # let the software renderer draw the opened fold
+    page.screenshot(path=str(path))
+    page.close()
+    return path
 
 
 def serve_and_shoot(command: list[str], port: int, shooter, out: Path) -> list[Path]:
