@@ -41,7 +41,7 @@ POINT_SIZE = 0.02          # metres, the subject's samples
 HANDLE_SCALE = 0.5         # metres, the transform controls' size
 FRUSTUM_SCALE = 0.3        # metres, the camera's frustum
 # metres from the subject's middle to the page's first viewpoint (level frame, y down)
-VIEW_FROM = np.array([1.3, -1.8, -2.6])
+VIEW_FROM = np.array([1.2, -1.6, 2.4])
 
 
 def _box_edges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -111,8 +111,8 @@ class PlanApp(Notifier):
             self.server.stop()
 
     def _connect(self, client: viser.ClientHandle) -> None:
-        """Place the tab's notifications and look at the subject from above, behind the camera
-        and to its right."""
+        """Place the tab's notifications and look at the subject from above and behind it (the
+        side the mirrors see), the camera beyond it."""
         place_notes(client)
         subject = self.desk.result.space.subject
         client.camera.position = tuple(subject.centre + VIEW_FROM)
