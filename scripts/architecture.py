@@ -28,6 +28,7 @@ PARTS = {
     "experiments": "experiments", "panels": "panels", "bench": "bench",
     "cli": "cli", "commands": "cli",
     "": "cli", "server": "browser", "tab": "browser", "view": "browser", "depthscreen": "browser",
+    "planapp": "browser",
 }
 FOLDERS = {"mirrorcore": "mirrorcore", "app": "mirrorscan", "bench": "mirrorscan.bench"}
 DESIGN = ROOT / "docs" / "DESIGN.md"
@@ -39,7 +40,7 @@ PART_DOCS = {
                 "the event bus, the recorder's tap, exports, markup, security, the demo",
     "panels": "`mirrorscan.panels`: the header and one module per step of the side panel",
     "browser": "one browser tab (`tab`), its 3D scene (`view`), its depth frame (`depthscreen`) "
-               "and the server that holds them (`server`)",
+               "and the server that holds them (`server`); the plan's server (`planapp`)",
     "bench": "`mirrorscan.bench`: the benchmarks behind `mirrorscan bench`, and the soak",
     "cli": "`mirrorscan.cli` and `mirrorscan.commands`: the command line, one module per command",
 }

@@ -16,6 +16,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from pathlib import Path
@@ -137,29 +138,67 @@ def shoot(url: str, out: Path) -> list[Path]:
     return written
 
 
+def shoot_plan(url: str, out: Path) -> list[Path]:
+    """The plan's page (`mirrorscan plan --serve`) at each size, its figures' details open:
+    docs/images/plan-<width>x<height>.png for docs/planning.md."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
+        written = [_plan_page(browser, url, out / f"plan-{w}x{h}.png", w, h) for w, h in SIZES]
+        browser.close()
+    return written
+
+
+def _plan_page(browser, url: str, path: Path, width: int, height: int) -> Path:
+    """One screenshot of the plan's page at width x height."""
+    page = browser.new_page(viewport={"width": width, "height": height})
+    page.goto(url)
+    page.get_by_role("button", name="Optimise", exact=True).wait_for(timeout=60_000)
+    time.sleep(2 * SETTLE_S)  # the subject's samples and the mirrors reach the page
+    page.evaluate(CLOSE_WEBGL_NOTICE)
+    page.get_by_text("Details").first.click()
+    time.sleep(SETTLE_S)  # let the software renderer draw the opened fold
+    page.screenshot(path=str(path))
+    page.close()
+    return path
+
+
+def serve_and_shoot(command: list[str], port: int, shooter, out: Path) -> list[Path]:
+    """Run a serving command, shoot its page with `shooter`, stop it."""
+    server = subprocess.Popen(command + ["--port", str(port)], cwd=ROOT,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        url = f"http://127.0.0.1:{port}/"
+        wait_until_served(url)
+        return shooter(url, out)
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=OUT,
                         help="folder of the PNGs (default docs/images)")
+    parser.add_argument("--only", choices=("plan",), help="only the plan's screenshots")
     args = parser.parse_args(argv)
     if CHROMIUM is None:
         raise SystemExit("no chromium at /usr/bin/chromium: run scripts/setup.sh --test")
     args.out.mkdir(parents=True, exist_ok=True)
-    port = free_port()
-    command = [str(ROOT / ".venv" / "bin" / "mirrorscan"), "serve", "--port", str(port)]
-    server = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
-    try:
-        url = f"http://127.0.0.1:{port}/"
-        wait_until_served(url)
-        for path in shoot(url, args.out):
-            print(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
+    mirrorscan = str(ROOT / ".venv" / "bin" / "mirrorscan")
+    written = []
+    if args.only is None:
+        written += serve_and_shoot([mirrorscan, "serve"], free_port(), shoot, args.out)
         if args.out == OUT:
             shutil.copyfile(OUT / "mirrors-1400x900.png", FRONT)
-            print(FRONT.relative_to(ROOT))
-    finally:
-        server.terminate()
-        server.wait(timeout=30)
+            written.append(FRONT)
+    with tempfile.TemporaryDirectory() as work:
+        plan = [mirrorscan, "plan", "-o", str(Path(work) / "plan"), "--subject", "person:1.75",
+                "--mirrors", "2", "--quiet", "--serve"]
+        written += serve_and_shoot(plan, free_port(), shoot_plan, args.out)
+    for path in written:
+        print(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path)
     return 0
 
 

@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
+import signal
+import time
 from pathlib import Path
 
 from mirrorcore.base.atomic import new_folder
@@ -13,13 +16,19 @@ from mirrorcore.base.palette import MAX_MIRRORS
 from mirrorcore.io.outputs import check_output
 from mirrorcore.plan.planfile import PLAN_FILE, write_plan
 from mirrorcore.plan.report import write_documents
-from mirrorcore.plan.search import plan_rig
+from mirrorcore.plan.search import PlanResult, plan_rig
 from mirrorcore.plan.setup import CAMERA_PRESETS, parse_room, plan_camera
 from mirrorcore.plan.subject import SPEC_HELP, parse_spec
 from mirrorcore.sim.render import MAX_BOUNCES
 
+from ..plandesk import PlanDesk
+from ..planapp import PlanApp
 from . import ctrl_c_cancels, percent_bar, wording
 from .numbers import real, whole
+from .record import STOP_SIGNALS
+from .serve import _stop
+
+log = logging.getLogger("mirrorscan")
 
 DEFAULT_ROOM = "3.0,3.6"
 DEFAULT_SIZE = "0.8,1.9"
@@ -57,6 +66,11 @@ def register(sub) -> None:
                    help=f"the most mirrors a view goes through in turn, 1 to {MAX_BOUNCES} "
                    "(default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--serve", action="store_true",
+                   help="then show the plan in the browser: drag the mirrors, optimise, save "
+                   "it again into PLAN_DIR, simulate it (127.0.0.1 only)")
+    p.add_argument("--port", type=whole(0, 65535), default=8080,
+                   help="with --serve: port (default 8080; the next free one if taken)")
     p.set_defaults(run=run)
 
 
@@ -82,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        The exit status: 0.
+        The exit status: 0; with --serve, 130 once stopped.
 
     Raises
     ------
@@ -106,4 +120,28 @@ def run(args: argparse.Namespace) -> int:
         write_documents(work)
     plan = json.loads((Path(args.out) / PLAN_FILE).read_text(encoding="utf-8"))
     wording.show(wording.plan_written(Path(args.out), plan), args.verbose)
-    return 0
+    return serve(result, Path(args.out), args.port) if args.serve else 0
+
+
+def serve(result: PlanResult, folder: Path, port: int) -> int:
+    """Serve the plan in the browser on 127.0.0.1 until Ctrl-C, SIGTERM or SIGHUP.
+
+    Returns
+    -------
+    int
+        130.
+    """
+    logging.basicConfig(level=logging.INFO,
+                        format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    app = PlanApp(PlanDesk(result), folder, port=port)
+    log.info("the plan is at %s (Ctrl-C to stop)", app.guard.url)
+    previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:  # the way to stop it: not a cancelled command
+        return 130
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        app.stop()

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mirrorcore.base.errors import MirrorscanError
 from mirrorcore.plan.coverage import Glass, glass_from, tilt_rotation
 from mirrorcore.plan.setup import PlanCamera, PlanRoom
 from mirrorcore.plan.subject import Subject
@@ -26,6 +27,8 @@ SMALLEST_SIZE = 0.5        # of the largest size, per side
 CLEARANCE = 0.05           # metres between a mirror and the subject's bounding cylinder
 APEX_GAP = 0.02            # metres between a V's mirrors and its apex
 IN_FRONT = 0.05            # metres every corner of a mirror keeps ahead of the camera
+# the limits whose amount is in metres (LayoutSpace.check says by how much)
+_IN_METRES = ("outside the room", "too near the subject", "behind or beside the camera")
 
 
 @dataclass(frozen=True)
@@ -74,38 +77,66 @@ class LayoutSpace:
         facing the camera or of IN_FRONT ahead of it, plus 1 per pair of mirrors that cross and per
         mirror out of the image (a simulated rig needs every mirror in view).
         """
+        parts, crossing = self._limits(x)
+        return float(sum(p.sum() for p in parts.values()) + len(crossing))
+
+    def check(self, x: np.ndarray) -> None:
+        """Refuse a layout that breaks a limit, naming the first mirror and limit.
+
+        Parameters
+        ----------
+        x : (1 + 7 m,) array
+
+        Raises
+        ------
+        MirrorscanError
+            A mirror outside the room, not facing the camera, too near the subject, out of the
+            image, or crossing another.
+        """
+        parts, crossing = self._limits(x)
+        for limit, amount in parts.items():
+            for j in np.flatnonzero(amount > 0):
+                by = f" by {amount[j]:.2f} m" if limit in _IN_METRES else ""
+                raise MirrorscanError(f"mirror {j + 1}: {limit}{by}")
+        if crossing:
+            a, b = crossing[0]
+            raise MirrorscanError(f"mirror {a + 1} crosses mirror {b + 1}")
+
+    def _limits(self, x: np.ndarray) -> tuple[dict[str, np.ndarray], list[tuple[int, int]]]:
+        """Per limit, how far each mirror breaks it (m,), and the pairs of mirrors that cross."""
         glass = self.glass(x)
         corners = glass.corners()
         r = self.room
-        out = (np.maximum(np.abs(corners[..., 0]) - r.width / 2, 0).sum()
-               + np.maximum(-corners[..., 2], 0).sum() + np.maximum(corners[..., 2] - r.depth,
-                                                                    0).sum()
-               + np.maximum(corners[..., 1] - r.floor_y, 0).sum()
-               + np.maximum(r.ceiling_y - corners[..., 1], 0).sum())
+        out = (np.maximum(np.abs(corners[..., 0]) - r.width / 2, 0)
+               + np.maximum(-corners[..., 2], 0) + np.maximum(corners[..., 2] - r.depth, 0)
+               + np.maximum(corners[..., 1] - r.floor_y, 0)
+               + np.maximum(r.ceiling_y - corners[..., 1], 0)).sum(axis=1)
         facing = (glass.normal * -glass.centre).sum(axis=1) / np.linalg.norm(glass.centre, axis=1)
-        out += np.maximum(0.05 - facing, 0).sum()
-        out += self._into_subject(glass)
-        out += self._out_of_view(glass, float(x[0]))
-        out += sum(_crossing(corners[a], corners[b]) for a in range(len(glass))
-                   for b in range(a + 1, len(glass)))
-        return float(out)
+        parts = {"outside the room": out, "turned away from the camera":
+                 np.maximum(0.05 - facing, 0), "too near the subject": self._into_subject(glass)}
+        behind, unseen = self._out_of_view(glass, float(x[0]))
+        parts["behind or beside the camera"] = behind
+        parts["out of the camera's image"] = unseen
+        crossing = [(a, b) for a in range(len(glass)) for b in range(a + 1, len(glass))
+                    if _crossing(corners[a], corners[b])]
+        return parts, crossing
 
-    def _out_of_view(self, glass: Glass, tilt: float) -> float:
-        """Metres of corners less than IN_FRONT ahead of the tilted camera, plus 1 per mirror of
-        which neither a corner nor the centre projects into the image."""
+    def _out_of_view(self, glass: Glass, tilt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Per mirror (m,): metres of corners less than IN_FRONT ahead of the tilted camera, and
+        1 when neither a corner nor the centre projects into the image."""
         points = np.concatenate([glass.corners(), glass.centre[:, None]], axis=1)
         cam = points @ tilt_rotation(tilt).T
         z = cam[..., 2]
-        behind = np.maximum(IN_FRONT - z[:, :4], 0).sum()
+        behind = np.maximum(IN_FRONT - z[:, :4], 0).sum(axis=1)
         intr = self.camera.intrinsics
         with np.errstate(divide="ignore", invalid="ignore"):
             u = intr.fx * cam[..., 0] / z + intr.cx
             v = intr.fy * cam[..., 1] / z + intr.cy
         inside = (z > 0) & (u >= 0) & (u <= intr.width - 1) & (v >= 0) & (v <= intr.height - 1)
-        return float(behind + np.count_nonzero(~inside.any(axis=1)))
+        return behind, (~inside.any(axis=1)).astype(np.float64)
 
-    def _into_subject(self, glass: Glass) -> float:
-        """Metres by which the mirrors enter the subject's bounding cylinder widened by
+    def _into_subject(self, glass: Glass) -> np.ndarray:
+        """(m,) metres by which each mirror enters the subject's bounding cylinder widened by
         CLEARANCE."""
         s = np.linspace(-1, 1, 9)
         grid = np.stack(np.meshgrid(s, s), axis=-1).reshape(-1, 2)
@@ -115,8 +146,8 @@ class LayoutSpace:
         top, bottom = self.subject.y_range
         level = (pts[..., 1] > top - CLEARANCE) & (pts[..., 1] < bottom + CLEARANCE)
         near = np.linalg.norm(pts[..., [0, 2]] - self.subject.centre[[0, 2]], axis=-1)
-        return float(np.where(level, np.maximum(self.subject.radius + CLEARANCE - near, 0),
-                              0).sum())
+        return np.where(level, np.maximum(self.subject.radius + CLEARANCE - near, 0),
+                        0).sum(axis=1)
 
     def vector(self, tilt: float, centre: np.ndarray, normal: np.ndarray,
                fraction: np.ndarray | None = None) -> np.ndarray:

@@ -196,7 +196,7 @@ def _refine_hand_made(space: LayoutSpace, model: CoverageModel,
 def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
              camera: PlanCamera, distance: float | None = None, bounces: int = 1,
              settings: SearchSettings = SearchSettings(), progress: Progress | None = None,
-             cancel=None) -> PlanResult:
+             cancel=None, start: np.ndarray | None = None) -> PlanResult:
     """Search the layout that sees most of the subject (see the module docstring).
 
     Parameters
@@ -215,6 +215,9 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     settings : SearchSettings
     progress : Progress, optional
     cancel : threading.Event-like or callable, optional
+    start : (1 + 7 m,) array, optional
+        A layout to search from (LayoutSpace's vector; needs `distance`): the evolution starts
+        around it instead of the best hand-made layout, and the plan is the best of the three.
 
     Returns
     -------
@@ -223,10 +226,13 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     Raises
     ------
     MirrorscanError
-        A bad SPEC, a room that cannot hold the subject, no hand-made layout that fits.
+        A bad SPEC, a room that cannot hold the subject, no hand-made layout that fits, a
+        `start` without a `distance`.
     Cancelled
         When `cancel` asks to stop.
     """
+    if start is not None and distance is None:
+        raise MirrorscanError("a plan from a given layout needs the subject's distance")
     bar = Ratchet(progress, 0.1)
     subjects = subject_distances(spec, room, camera, distance)
     best = None
@@ -251,16 +257,19 @@ def plan_rig(spec: str, mirrors: int, size: tuple[float, float], room: PlanRoom,
     fine = CoverageModel(subject, sample_surface(subject, settings.fine_samples,
                                                  settings.seed + 1), camera, bounces)
     params = _refine_hand_made(space, fine, params)
-    start = space.hand_made(*params)
+    made = space.hand_made(*params)
     bar(0.3)
-    x = _evolve(space, fine, start, settings, bar, cancel)
+    x = _evolve(space, fine, made if start is None else start, settings, bar, cancel)
     x = _revive(space, fine, x, settings, cancel)
     final = CoverageModel(subject, sample_surface(subject, settings.final_samples,
                                                   settings.seed + 2), camera, bounces)
     planned = final.evaluate(space.glass(x), float(x[0]))
-    hand = final.evaluate(space.glass(start), float(start[0]))
-    if score(hand) > score(planned):
-        x, planned = start, hand
+    hand = final.evaluate(space.glass(made), float(made[0]))
+    given = [] if start is None or space.violation(start) > 0 else [np.asarray(start, float)]
+    for other in [made] + given:
+        cov = hand if other is made else final.evaluate(space.glass(other), float(other[0]))
+        if score(cov) > score(planned):
+            x, planned = other, cov
     bar(1.0)
     return PlanResult(spec, space, np.asarray(x), planned, params, hand, camera, bounces, settings)
 

@@ -1,8 +1,12 @@
 """`mirrorscan plan`: a plan folder that the simulator runs as it is, and one-line refusals of a
-bad subject, an impossible room and a bad mirror size."""
+bad subject, an impossible room and a bad mirror size; `--serve` serving the plan until stopped."""
 
 import json
 import re
+import signal
+import subprocess
+import sys
+import urllib.request
 
 import numpy as np
 import pytest
@@ -86,3 +90,24 @@ def test_plan_folder_holds_plan_scene_drawing_and_report(tmp_path, capsys):
     assert size and sorted(int(v) for v in size.groups()) == sorted(sides), (size, sides)
     assert (out / "drawing.png").stat().st_size > 10_000
     assert "mirror 1" in (out / "report.txt").read_text()
+
+
+def test_serve_shows_the_plan_until_stopped(tmp_path):
+    """`--serve` writes the plan folder, serves the page, and stops on SIGTERM with status 130."""
+    command = [sys.executable, "-m", "mirrorscan.cli", "plan", "-o", str(tmp_path / "p"),
+               "--subject", "sphere:0.2", "--mirrors", "2", "--distance", "1.5", "--quiet",
+               "--serve", "--port", "0"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    try:
+        served = ""
+        while "the plan is at" not in served:
+            served = process.stderr.readline()
+            assert served or process.poll() is None, "mirrorscan plan --serve ended"
+        url = re.search(r"http://\S+", served).group(0)
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200
+        assert (tmp_path / "p" / "drawing.png").is_file()
+    finally:
+        process.send_signal(signal.SIGTERM)
+        assert process.wait(timeout=60) == 130

@@ -91,3 +91,31 @@ def test_search_stops_between_generations_when_asked():
         plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, distance=2.0, settings=QUICK,
                  cancel=cancel)
     assert len(calls) == 8
+
+
+def test_check_names_the_mirror_and_the_limit(space):
+    x = space.hand_made(0.0, 120.0, 0.9, 0.0)
+    space.check(x)
+    outside = x.copy()
+    outside[1] = -1.6
+    with pytest.raises(MirrorscanError, match=r"^mirror 1: outside the room by 0\.\d\d m$"):
+        space.check(outside)
+    away = x.copy()
+    away[10] = 180.0 - away[10]
+    with pytest.raises(MirrorscanError, match="^mirror 2: turned away from the camera"):
+        space.check(away)
+    crossing = x.copy()
+    crossing[8:10] = crossing[1:3] + [0.1, 0.0]
+    crossing[10] = -crossing[3]
+    with pytest.raises(MirrorscanError, match="crosses|too near|behind"):
+        space.check(crossing)
+
+
+def test_search_from_a_layout_keeps_it_when_nothing_better_is_found():
+    with pytest.raises(MirrorscanError, match="needs the subject's distance"):
+        plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, start=np.zeros(15))
+    first = plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, distance=2.0, settings=QUICK)
+    again = plan_rig("sphere:0.15", 2, (0.6, 1.0), ROOM, CAMERA, distance=2.0, settings=QUICK,
+                     start=first.x)
+    assert score(again.coverage) >= score(first.coverage) - 1e-12
+    assert again.space.violation(again.x) == 0.0
