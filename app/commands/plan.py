@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import signal
-import time
 from pathlib import Path
 
 from mirrorcore.base.atomic import new_folder
@@ -25,8 +23,7 @@ from ..plandesk import PlanDesk
 from ..planapp import PlanApp
 from . import ctrl_c_cancels, percent_bar, wording
 from .numbers import real, whole
-from .record import STOP_SIGNALS
-from .serve import _stop
+from .serve import wait_for_stop
 
 log = logging.getLogger("mirrorscan")
 
@@ -135,13 +132,8 @@ def serve(result: PlanResult, folder: Path, port: int) -> int:
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
     app = PlanApp(PlanDesk(result), folder, port=port)
     log.info("the plan is at %s (Ctrl-C to stop)", app.guard.url)
-    previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
     try:
-        while True:
-            time.sleep(3600)
-    except KeyboardInterrupt:  # the way to stop it: not a cancelled command
+        wait_for_stop()
         return 130
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
         app.stop()

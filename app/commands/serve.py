@@ -162,17 +162,12 @@ def run(args: argparse.Namespace) -> int:
         )
     app.start()
     log.info("mirrorscan is at %s (Ctrl-C to stop)", app.guard.url)
-    previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
     try:
-        while True:
-            time.sleep(3600)
-    except KeyboardInterrupt:  # the way to stop it: not a cancelled command
+        wait_for_stop()
         # the session being edited now: another may have been opened or saved as
         print(f"mirrorscan serve: stopped; {stopped(app.editor)}", file=sys.stderr)
         return 130
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
         app.stop()
 
 
@@ -203,6 +198,20 @@ def stopped(editor: EditorCore) -> str:
     where = (f"kept in {kept}: copy it over {root}/session.json once that disk can be written"
              if kept else "lost: no disk could be written")
     return f"the last edits are NOT saved in {root} ({editor.last_save_error}); they are {where}"
+
+
+def wait_for_stop() -> None:
+    """Wait until Ctrl-C, SIGTERM or SIGHUP (the way to stop a server: not a cancelled command),
+    then put the signals' handlers back."""
+    previous = {s: signal.signal(s, _stop) for s in STOP_SIGNALS}
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        return
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _stop(signum, frame) -> None:
