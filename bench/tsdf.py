@@ -128,7 +128,7 @@ def run() -> dict[str, float]:
             "tsdf_fuse_ms": lambda: ours(frames, small, 1, mesh=False),
             "open3d_integrate_ms": lambda: open3d_tsdf(frames, small, 1, mesh=False),
         },
-        repeat=7,
+        repeat=15,
         warmup=1,
     )
     coloured = ours(frames, small, 1, colour=True)
