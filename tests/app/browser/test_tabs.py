@@ -63,9 +63,11 @@ def test_a_double_click_on_add_adds_one_mirror_and_undo_leaves_none(app, tabs):
     page.get_by_role("button", name="Add a mirror", exact=True).dblclick()
     # the page answered a question sent after it was sent the new mirror: a second click it sent
     # came before that answer
-    wait_for(lambda: [m.id for m in tab.seen.mirrors] == [1], 30, "the page's answer")
+    # a page busy drawing on a loaded machine answers late: generous
+    wait_for(lambda: tab.seen.mirrors, 60, "the page's answer")
     time.sleep(1.0)  # deliberate: a second add, had one come, runs on a worker thread by now
     assert [m.id for m in app.editor.session.mirrors] == [1]
+    assert [m.id for m in tab.seen.mirrors] == [1]
     wait_for(lambda: tab.state.mode == "boundary", 30, "boundary mode on the new mirror")
     button(page, "Undo: add mirror 1")
     wait_for(lambda: not app.editor.session.mirrors, 30, "the mirror taken back")
