@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from mirrorcore.rig.cloud import Cloud
+from mirrorcore.rig.colour import rgb_words
 
 MAX_POINTS = 60_000          # points shown per frame, all sources together (evenly strided)
 FLOAT16_EXTENT = 1.0         # metres: offsets below this round to float16 within 2^-12 m (0.24 mm)
@@ -134,7 +135,7 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
     cloud = downsample(cloud, max_points)
     # (3, n): numpy gathers and reduces rows about 30 times faster than columns
     rows = cloud.points.T
-    words = _colour_words(cloud.rgb) if true_colour else None
+    words = rgb_words(cloud.rgb) if true_colour else None
     parts = []
     for j in labels:
         mine = np.flatnonzero(cloud.sources == j)
@@ -147,17 +148,10 @@ def stream_parts(cloud: Cloud, labels, max_points: int = MAX_POINTS, halves=rang
     return parts
 
 
-def _colour_words(rgb: np.ndarray) -> np.ndarray:
-    """(n,) uint32: each point's (n, 3) uint8 colour as one 4-byte word (RGBA, A = 255).
-
-    A part's colours are then single-element takes: about 20 times faster than taking (n, 3) rows
-    of a strided view, as Algorithm 1 gives them.
-    """
-    return cv2.cvtColor(rgb.reshape(-1, 1, 3), cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
-
-
 def _colours(words: np.ndarray, taken: np.ndarray) -> np.ndarray:
-    """(k, 3) uint8 C-ordered: the colours of the points `taken` (k,) from _colour_words."""
+    """(k, 3) uint8 C-ordered: the colours of the points `taken` (k,) from their words (n,)
+    uint32 (mirrorcore.rig.colour.rgb_words: a part's colours are single-element takes, about 20
+    times faster than taking (n, 3) rows of the strided view Algorithm 1 gives)."""
     rgba = np.take(words, taken).view(np.uint8).reshape(-1, 1, 4)
     return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB).reshape(-1, 3)
 

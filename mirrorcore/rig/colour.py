@@ -59,6 +59,23 @@ def correction_table(gains: Sequence[Sequence[float] | None]) -> np.ndarray:
     return table
 
 
+def rgb_words(rgb: np.ndarray) -> np.ndarray:
+    """Pack RGB colours as one 4-byte word each, so that a selection of them is one take.
+
+    Parameters
+    ----------
+    rgb : (..., 3) uint8 array
+        An image (H, W, 3) or colours (n, 3); a strided view is fine.
+
+    Returns
+    -------
+    (N,) uint32 array
+        Each colour's bytes red, green, blue, 255, in C order of `rgb`'s leading axes.
+    """
+    rgb = np.asarray(rgb)
+    return cv2.cvtColor(rgb.reshape(-1, 1, 3), cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
+
+
 def point_colours(image: np.ndarray, pixel_index: np.ndarray, sources: np.ndarray,
                   correction: np.ndarray) -> np.ndarray:
     """Return the corrected colour of points from their pixels.
@@ -82,7 +99,7 @@ def point_colours(image: np.ndarray, pixel_index: np.ndarray, sources: np.ndarra
     """
     # one 4-byte word a pixel and one 16-byte row of factors a label: each point's colour and
     # factors are then single-element takes (a third of the time of (n, 3) takes)
-    rgba = cv2.cvtColor(image, cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
+    rgba = rgb_words(image)
     raw = np.take(rgba, pixel_index).view(np.uint8).reshape(-1, 4)
     rows = np.ascontiguousarray(correction, np.float32).view(np.complex128).reshape(-1)
     scale = np.take(rows, sources).view(np.float32)
