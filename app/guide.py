@@ -59,8 +59,8 @@ PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <meta name="viewport" content="width=device-width, initial-scale=1">
 <title>{title} · mirrorscan</title><style>{style}</style></head>
-<body><nav><a href="{prefix}{guide}">The browser tool</a><a href="{prefix}{index}">The docs</a>
-<a href="{prefix}README.md">README</a></nav>
+<body><nav><a href="{prefix}{guide}">The browser tool</a><a href="{prefix}{index}">The docs</a\
+><a href="{prefix}README.md">README</a></nav>
 <main>
 {body}</main></body></html>
 """

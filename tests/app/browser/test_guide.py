@@ -7,40 +7,20 @@ import time
 
 import pytest
 from mirrorscan.guide import source_root
-from mirrorscan.security import new_token
-from mirrorscan.server import MirrorscanApp
 
-from mirrorcore.io.session import Session
-from mirrorcore.io.sessionfile import save_session
-from mirrorcore.sim.layouts import paper_scene
-from mirrorcore.sim.simulator import Simulator
-from mirrorcore.sources import SimulatedSource
 from tests.waiting import wait_for
 
 pytestmark = pytest.mark.skipif(source_root() is None, reason="an install without the docs")
 
 
-@pytest.fixture(scope="module")
-def app(tmp_path_factory):
-    rig = Simulator(paper_scene(object="sphere"), seed=1, fps=5.0)
-    root = tmp_path_factory.mktemp("guide") / "scan"
-    session = Session(root, rig.intrinsics)
-    save_session(session)
-    # as shared on a network: the guide's tab must carry the token's cookie too
-    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent,
-                        token=new_token())
-    app.start()
-    yield app
-    app.stop()
-
-
-def test_the_guide_opens_in_a_new_tab_and_the_tool_stays(app, browser):
+def test_the_guide_opens_in_a_new_tab_and_the_tool_stays(shared, browser):
+    """On a tool that needs its token: the guide's tab carries the token's cookie too."""
     context = browser.new_context(viewport={"width": 1024, "height": 600})
     try:
         page = context.new_page()
-        page.goto(app.guard.url)
-        wait_for(lambda: app.server.get_clients(), 60, "the tool's tab to connect")
-        clients = set(app.server.get_clients())
+        page.goto(shared.guard.url)
+        wait_for(lambda: shared.server.get_clients(), 60, "the tool's tab to connect")
+        clients = set(shared.server.get_clients())
         page.get_by_text("Playback and view", exact=True).click()
         link = page.get_by_role("link", name="Open the guide")
         link.wait_for(timeout=60_000)
@@ -57,7 +37,7 @@ def test_the_guide_opens_in_a_new_tab_and_the_tool_stays(app, browser):
         assert widths and min(widths) > 0
         time.sleep(1.0)  # deliberate: a tool's tab that navigated away would disconnect meanwhile
         assert page.url == tool_url
-        assert set(app.server.get_clients()) == clients
+        assert set(shared.server.get_clients()) == clients
         assert page.get_by_role("button", name="Add a mirror").is_visible()
     finally:
         context.close()
