@@ -1,6 +1,6 @@
 """What a tab's page does on its own: count how often it draws its 3D scene, turn keyboard
 shortcuts into presses of the side panel's buttons, take a double click on *Add a mirror* as one
-click, and draw its view as a picture to download.
+click, open the guide in a new tab, and draw its view as a picture to download.
 
 viser's page sends the server no acknowledgement of what it drew and no key presses. Both are
 scripts given to the page through viser's message that runs one (as it loads plotly): the draw
@@ -17,9 +17,9 @@ from typing import Callable
 import cv2
 import viser
 
+from .guide import DOCS_INDEX, GUIDE, PREFIX, source_root
 from .presence import run_js
 
-GUIDE = "docs/browser-tool.md"  # the guide to the browser tool, in mirrorscan's source
 VIEW_PNG = "mirrorscan-view.png"  # the name of the view saved as a picture
 RENDER_TIMEOUT_S = 60.0  # seconds the page may take to draw the view it is asked for
 # seconds after a tab is built when its view is framed if the page reported its camera meanwhile:
@@ -140,9 +140,27 @@ ONCE_JS = """(() => {{
   }}, true);
 }})();"""
 
+# viser's Markdown links open in the tool's own tab: a link to the guide opens in a new one instead,
+# leaving the tool's page (and its connection) as it is. The new tab carries the token's cookie
+# (SameSite=Strict lets a same-site navigation send it).
+LINKS_JS = """(() => {{
+  if (window.__mirrorscanLinks) return;
+  window.__mirrorscanLinks = true;
+  window.addEventListener("click", (event) => {{
+    const a = event.target.closest && event.target.closest("a[href]");
+    if (!a || event.button !== 0) return;
+    const url = new URL(a.getAttribute("href"), location.href);
+    if (url.origin !== location.origin || !url.pathname.startsWith({prefix})) return;
+    event.preventDefault();
+    event.stopPropagation();
+    window.open(url.href, "_blank", "noopener");
+  }}, true);
+}})();"""
+
 
 def start_page(client: viser.ClientHandle, steps: tuple[str, ...]) -> None:
-    """Give the tab's page its draw counter, its keyboard shortcuts and its once-only buttons.
+    """Give the tab's page its draw counter, its keyboard shortcuts, its once-only buttons and its
+    links to the guide that open in a new tab.
 
     Parameters
     ----------
@@ -154,6 +172,7 @@ def start_page(client: viser.ClientHandle, steps: tuple[str, ...]) -> None:
                                    window=DRAWS_WINDOW_MS))
     run_js(client, KEYS_JS.format(steps=json.dumps(list(steps))))
     run_js(client, ONCE_JS.format(labels=json.dumps(list(ONCE_BUTTONS))))
+    run_js(client, LINKS_JS.format(prefix=json.dumps(PREFIX)))
 
 
 def draw_rate(client: viser.ClientHandle, timeout: float = 2.0) -> float | None:
@@ -182,14 +201,19 @@ def draw_rate(client: viser.ClientHandle, timeout: float = 2.0) -> float | None:
 
 
 def keys_help() -> str:
-    """The keyboard shortcuts and where the guide is, as Markdown (the header's folder).
+    """The keyboard shortcuts and the guide, as Markdown (the header's folder).
 
     Returns
     -------
     str
+        The guide as links to it served beside the page (guide.py), or as its path in
+        mirrorscan's source when the install has no docs.
     """
     keys = " · ".join(f"**{keys}** {what}" for keys, what, _ in SHORTCUTS)
-    return f"Keys: {keys}. The guide: `{GUIDE}` in mirrorscan's source."
+    if source_root() is None:
+        return f"Keys: {keys}. The guide: `{GUIDE}` in mirrorscan's source."
+    return (f"Keys: {keys}.\n\n[Open the guide]({PREFIX}{GUIDE}) · "
+            f"[all the docs]({PREFIX}{DOCS_INDEX}) (in a new tab)")
 
 
 def save_view(client: viser.ClientHandle, act: Callable[[Callable[[], object]], None]) -> None:

@@ -18,6 +18,8 @@ these checks into a running viser.ViserServer, before any client is let in:
 - **Log**: a plain TCP probe (connect, close: a health check, a port scan) is not logged at all
   (counted in QuietProbes.probes); a malformed HTTP request or websocket message is one line, not a
   traceback.
+
+A request that passes the checks gets the guide (GET /guide/..., `guide.respond`) or viser's page.
 """
 from __future__ import annotations
 
@@ -40,6 +42,7 @@ from websockets.http11 import Request, Response
 
 from mirrorcore.base.errors import MirrorscanError
 
+from .guide import respond, source_root
 from .inputlimits import MAX_UPLOAD_BYTES, limit_inputs
 from .quietlog import QuietProbes, install_log_filter
 
@@ -289,9 +292,11 @@ def protect(server: viser.ViserServer, host: str, token: str | None = None,
 
 
 async def _install(websock, guard: Guard) -> None:
-    """Wrap the websockets server's process_request with the guard's checks (on its event loop)."""
+    """Wrap the websockets server's process_request with the guard's checks (on its event loop),
+    then the guide's route (guide.respond), then viser's page."""
     server = _websockets_server(websock._background_event_loop)
     serve_page = server.process_request
+    root = source_root()
 
     def process_request(connection: ws_server.ServerConnection,
                         request: Request) -> Response | None:
@@ -299,7 +304,9 @@ async def _install(websock, guard: Guard) -> None:
         if refusal is not None:
             return refusal
         connection.protocol.max_message_size = MAX_MESSAGE_BYTES
-        response = serve_page(connection, request) if serve_page is not None else None
+        response = respond(root, request.path)
+        if response is None and serve_page is not None:
+            response = serve_page(connection, request)
         if response is not None and guard.token is not None and "token=" in request.path:
             response.headers["Set-Cookie"] = guard.cookie_header()
         return response

@@ -10,7 +10,6 @@ import time
 
 import pytest
 import viser
-from mirrorscan.security import new_token
 from mirrorscan.server import MirrorscanApp
 
 from mirrorcore.io.session import Session, SessionMirror
@@ -28,17 +27,8 @@ ws.onclose = () => { if (document.title !== "opened") document.title = "refused"
 
 
 @pytest.fixture(scope="module")
-def app(tmp_path_factory):
-    rig = Simulator(paper_scene(object="sphere"), seed=0, fps=5.0)
-    root = tmp_path_factory.mktemp("browser-guard") / "scan"
-    session = Session(root, rig.intrinsics, (SessionMirror("mirror 1"), SessionMirror("mirror 2")))
-    save_session(session)
-    # as shared on a network: a token
-    app = MirrorscanApp(session, SimulatedSource(rig), port=0, sessions_dir=root.parent,
-                        token=new_token())
-    app.start()
-    yield app
-    app.stop()
+def app(shared):
+    return shared
 
 
 def test_the_page_with_its_token_connects_and_without_it_is_told_what_to_open(app, browser):
