@@ -263,6 +263,9 @@ class DaskExecutor:
             return []
         results = []
         for future in finished:
+            # a result lost with its worker since wait() saw it is computed again: still pending
+            if future.status not in ("finished", "error"):
+                continue
             self._pending.discard(future)
             chunk = self._chunks[future.key]
             if future.status == "finished":
