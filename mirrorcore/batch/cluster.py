@@ -9,7 +9,9 @@ Imported only when a batch runs on Dask: importing distributed takes a second.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
 import queue
 import shutil
 import signal
@@ -155,9 +157,26 @@ def dask_client(workers: int, scheduler: str | None, dashboard: bool, cancel=Non
                 dashboard_address=DASHBOARD if dashboard else ":0",
                 scheduler_kwargs={"dashboard": dashboard},
                 silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
-            yield client
+            try:
+                yield client
+            finally:
+                if cancel_requested(cancel):
+                    _kill_workers(cluster)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _kill_workers(cluster: LocalCluster) -> None:
+    """Kill a local cluster's worker processes, so that closing it waits for no running task.
+
+    Their nannies are told first not to start them again. A frame a worker was writing is left as
+    a temporary file, which the batch folder removes when it is next opened (manifest.OutputFolder).
+    """
+    for nanny in list(cluster.workers.values()):
+        nanny.close_gracefully(reason="mirrorscan-cancelled")
+        if nanny.pid:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(nanny.pid, signal.SIGKILL)
 
 
 def _wait_for_a_worker(client: Client, scheduler: str, cancel) -> None:
