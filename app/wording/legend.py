@@ -53,9 +53,10 @@ def legend_html(
 ) -> str:
     """One line: a swatch in each source's colour, its name and its point count.
 
-    In true colour, the sources' names and counts without swatches, after a line saying that the
-    points show the scene's colour, and the mirrors whose tint is not undone. Then the mirrors with
-    no plane yet, whose part of the frame is left out.
+    In true colour, the sources' names and counts without swatches, after a head saying that the
+    points show the scene's colour (each mirror's tint undone when every mirror has its gain), then
+    the mirrors whose tint is not undone. Then the mirrors with no plane yet, whose part of the
+    frame is left out.
 
     Parameters
     ----------
@@ -78,13 +79,15 @@ def legend_html(
         HTML.
     """
     if true_colour:
-        items = TRUE_COLOUR_HEAD + " · ".join(
-            f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
-            for j, count in counts.items()
+        # the mirrors with no gain follow the counts in the same run of text: the panel's foot
+        # (Undo, Redo) stays in view at 1024x600
+        items = (TRUE_COLOUR_TINTED if no_gain else TRUE_COLOUR_HEAD) + " · ".join(
+            [
+                f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
+                for j, count in counts.items()
+            ]
+            + ([f"{escape(listed(no_gain))}: {NO_GAIN}"] if no_gain else [])
         )
-        if no_gain:
-            their = "its" if len(no_gain) == 1 else "their"
-            items += f"<br>{escape(listed(no_gain))}: " + NO_GAIN.format(their=their)
     else:
         items = "".join(
             _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
@@ -99,12 +102,11 @@ def legend_html(
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
-# the true-colour legend's head, and what it says of mirrors with no colour gain
+# the true-colour legend's head, its head while a mirror has no colour gain, and what it says of
+# those mirrors
 TRUE_COLOUR_HEAD = "<b>True colour</b>, each mirror's tint undone by its colour gain: "
-NO_GAIN = (
-    "no colour gain yet: {their} points keep the tint of the glass (Refine from the object "
-    "measures it)"
-)
+TRUE_COLOUR_TINTED = "<b>True colour</b>: "
+NO_GAIN = "no colour gain yet (the glass's tint shows)"
 
 HEAT_KEY = (
     (HEAT_ZERO, "on the direct surface"),
