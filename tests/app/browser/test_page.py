@@ -86,8 +86,9 @@ def test_notifications_stack_over_the_panel_clear_of_the_depth_frame(app, browse
         long = ("Marker 1.3 is 12.4 mm (5.1σ) off the plane fitted through the others: move it "
                 "onto the glass or delete it; the fit of the plane waits until then, and the "
                 "report under Mirrors gives every marker's distance")
+        # kept up while the test looks at them (a note closes after 8 s otherwise)
         for k in range(3):
-            app.notify(tab.client, f"Note {k}", long, "warning")
+            app.notify(tab.client, f"Note {k}", long, "warning", stay=True)
         ours = page.locator(NOTES).filter(has_text="Note ")
         wait_for(lambda: ours.count() == 3, 30, "three notifications")
         time.sleep(1.0)  # deliberate: the notifications' entry animation ends
