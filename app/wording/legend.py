@@ -54,9 +54,9 @@ def legend_html(
     """One line: a swatch in each source's colour, its name and its point count.
 
     In true colour, the sources' names and counts without swatches, after a head saying that the
-    points show the scene's colour (each mirror's tint undone when every mirror has its gain), then
-    the mirrors whose tint is not undone. Then the mirrors with no plane yet, whose part of the
-    frame is left out.
+    points show the scene's colour (each mirror's tint undone when there are mirrors and every one
+    has its gain), then the mirrors whose tint is not undone. Then the mirrors with no plane yet,
+    whose part of the frame is left out.
 
     Parameters
     ----------
@@ -79,9 +79,10 @@ def legend_html(
         HTML.
     """
     if true_colour:
-        # the mirrors with no gain follow the counts in the same run of text: the panel's foot
-        # (Undo, Redo) stays in view at 1024x600
-        items = (TRUE_COLOUR_TINTED if no_gain else TRUE_COLOUR_HEAD) + " · ".join(
+        undone = bool(mirror_ids) and not no_gain
+        # the mirrors with no gain follow the counts in the same run of text: fewer lines above
+        # the steps' buttons
+        items = (TRUE_COLOUR_HEAD if undone else TRUE_COLOUR_PLAIN) + " · ".join(
             [
                 f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
                 for j, count in counts.items()
@@ -102,10 +103,10 @@ def legend_html(
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
-# the true-colour legend's head, its head while a mirror has no colour gain, and what it says of
-# those mirrors
+# the true-colour legend's head, its head with no mirror or while a mirror has no colour gain, and
+# what it says of those mirrors
 TRUE_COLOUR_HEAD = "<b>True colour</b>, each mirror's tint undone by its colour gain: "
-TRUE_COLOUR_TINTED = "<b>True colour</b>: "
+TRUE_COLOUR_PLAIN = "<b>True colour</b>: "
 NO_GAIN = "no colour gain yet (the glass's tint shows)"
 
 HEAT_KEY = (
