@@ -152,6 +152,9 @@ def _colours(words: np.ndarray, taken: np.ndarray) -> np.ndarray:
     """(k, 3) uint8 C-ordered: the colours of the points `taken` (k,) from their words (n,)
     uint32 (mirrorcore.rig.colour.rgb_words: a part's colours are single-element takes, about 20
     times faster than taking (n, 3) rows of the strided view Algorithm 1 gives)."""
+    if not len(taken):
+        # a source with no points here: cvtColor refuses an empty image
+        return np.empty((0, 3), np.uint8)
     rgba = np.take(words, taken).view(np.uint8).reshape(-1, 1, 4)
     return cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB).reshape(-1, 3)
 

@@ -34,7 +34,7 @@ class AgreementJob(Runner):
     agreement : AgreementReport or None
         The last report (a tab opening later shows it).
     disagreeing : tuple of str
-        The names of the mirrors it flags.
+        The names of the mirrors it flags; none while a check of changed planes runs.
     """
 
     agreement: AgreementReport | None = None
@@ -57,7 +57,8 @@ class AgreementJob(Runner):
         if depths is None:
             return
         depths = depths.reshape(-1, *depths.shape[-2:])[-AGREEMENT_FRAMES:]
-        # every tab: the lines there are the old planes'
+        # the flags and every tab's lines are the old planes': no advice from them meanwhile
+        self.disagreeing = ()
         self.progress(AGREEMENT, 0.0, Checking())
 
         def work(cancel: threading.Event) -> AgreementReport:

@@ -53,9 +53,10 @@ def legend_html(
 ) -> str:
     """One line: a swatch in each source's colour, its name and its point count.
 
-    In true colour, the sources' names and counts without swatches, after a line saying that the
-    points show the scene's colour, and the mirrors whose tint is not undone. Then the mirrors with
-    no plane yet, whose part of the frame is left out.
+    In true colour, the sources' names and counts without swatches, after a head saying that the
+    points show the scene's colour (each mirror's tint undone when there are mirrors and every one
+    has its gain), then the mirrors whose tint is not undone. Then the mirrors with no plane yet,
+    whose part of the frame is left out.
 
     Parameters
     ----------
@@ -78,13 +79,16 @@ def legend_html(
         HTML.
     """
     if true_colour:
-        items = TRUE_COLOUR_HEAD + " · ".join(
-            f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
-            for j, count in counts.items()
+        undone = bool(mirror_ids) and not no_gain
+        # the mirrors with no gain follow the counts in the same run of text: fewer lines above
+        # the steps' buttons
+        items = (TRUE_COLOUR_HEAD if undone else TRUE_COLOUR_PLAIN) + " · ".join(
+            [
+                f'<span style="white-space:nowrap">{escape(name(j))} <b>{count:,}</b></span>'
+                for j, count in counts.items()
+            ]
+            + ([f"{escape(listed(no_gain))}: {NO_GAIN}"] if no_gain else [])
         )
-        if no_gain:
-            their = "its" if len(no_gain) == 1 else "their"
-            items += f"<br>{escape(listed(no_gain))}: " + NO_GAIN.format(their=their)
     else:
         items = "".join(
             _swatch(source_colour(j, mirror_ids), f"{escape(name(j))} <b>{count:,}</b>")
@@ -99,12 +103,11 @@ def legend_html(
     return f'<div style="{LEGEND_STYLE}">{items}</div>'
 
 
-# the true-colour legend's head, and what it says of mirrors with no colour gain
+# the true-colour legend's head, its head with no mirror or while a mirror has no colour gain, and
+# what it says of those mirrors
 TRUE_COLOUR_HEAD = "<b>True colour</b>, each mirror's tint undone by its colour gain: "
-NO_GAIN = (
-    "no colour gain yet: {their} points keep the tint of the glass (Refine from the object "
-    "measures it)"
-)
+TRUE_COLOUR_PLAIN = "<b>True colour</b>: "
+NO_GAIN = "no colour gain yet (the glass's tint shows)"
 
 HEAT_KEY = (
     (HEAT_ZERO, "on the direct surface"),

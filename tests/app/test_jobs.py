@@ -1,5 +1,6 @@
 """The jobs (mirrorscan.jobs) as the tool runs them: agreement of the views, refinement, finding
 mirrors from the object, a job's last word, the heat map's pool of recent frames."""
+import threading
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -70,6 +71,38 @@ def test_the_agreement_reported_is_that_of_the_current_planes(demo, monkeypatch)
     finally:
         unsubscribe()
         app_.editor.rename_mirror(1, "mirror 1")
+
+
+def test_while_the_views_are_checked_again_the_start_line_drops_the_old_advice(demo, monkeypatch):
+    """New planes (a refinement, a fit) are checked again: meanwhile the Start here line does not
+    repeat the warning about the planes before them."""
+    import mirrorscan.jobs.agreement as jobs_module
+
+    app_, headless = demo
+    frame = app_.loop.run_once()
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the start-up agreement")
+    # as the check of the planes before left it
+    app_.jobs.disagreeing = ("mirror 1", "mirror 2")
+    hint = headless.tab.header.hint
+    headless.tab.header.refresh_hint()
+    assert "their views disagree" in hint.content
+    release, real = threading.Event(), jobs_module.view_agreement
+
+    def held(rig, depths, masks):
+        release.wait(60)
+        return real(rig, depths, masks)
+
+    monkeypatch.setattr(jobs_module, "view_agreement", held)
+    app_.jobs.start_agreement(frame.depth)
+    try:
+        assert app_.jobs.running("agreement")
+        headless.tab.header.refresh_hint()
+        assert "disagree" not in hint.content
+    finally:
+        release.set()
+    wait_for(lambda: not app_.jobs.running("agreement"), 60, "the agreement")
+    # the demo's planes agree
+    assert app_.jobs.disagreeing == ()
 
 
 def test_without_planes_the_agreement_says_what_to_do(demo, monkeypatch):

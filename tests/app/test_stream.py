@@ -100,6 +100,20 @@ def test_parts_in_true_colour_carry_each_points_colour():
     assert all(p.colours is None for p in stream_parts(cloud, range(3)))
 
 
+def test_a_source_with_no_points_is_cleared_in_true_colour_too():
+    """A source that left the view (a mirror added, with no plane yet) or a half with none of its
+    points is an empty part with no colours, not an error that stops the frame."""
+    points = np.array([[0.0, 0.0, 2.0], [0.1, 0.0, 2.0], [0.2, 0.0, 2.0]], np.float32)
+    rgb = np.array([[10, 20, 30], [40, 50, 60], [70, 80, 90]], np.uint8)
+    cloud = Cloud(points, np.array([0, 0, 1], np.uint8), np.arange(3), 640, rgb)
+    parts = {(p.source, p.half): p for p in stream_parts(cloud, range(3), true_colour=True)}
+    assert len(parts) == 6
+    for empty in ((1, 1), (2, 0), (2, 1)):
+        assert parts[empty].colours.shape == (0, 3) and len(parts[empty].offsets) == 0
+    np.testing.assert_array_equal(parts[1, 0].colours, [[70, 80, 90]])
+    np.testing.assert_array_equal(parts[0, 1].colours, [[40, 50, 60]])
+
+
 def test_a_tab_in_true_colour_is_sent_each_points_colour(demo):
     """Two frames in a row: every node's colours are its points' `rgb`; in the sources' colours a
     node has its source's one colour (the live frame's parts of each colouring made once)."""

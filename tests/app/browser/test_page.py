@@ -5,6 +5,7 @@ the keyboard shortcuts press the buttons they name, and keys typed in a field st
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -21,6 +22,7 @@ from tests.browser import (
 from tests.conftest import sphere_app
 from tests.waiting import wait_for
 
+ARTIFACTS = Path(__file__).resolve().parents[2] / "artifacts"
 LIVE_FPS = 8.0  # software WebGL on 2 cores: keep the stream light while the test drives the page
 
 pytestmark = pytest.mark.steps("app")
@@ -75,25 +77,30 @@ def enabled(page, label: str) -> bool:
     return found.count() > 0 and found.first.is_enabled()
 
 
-def test_notifications_stack_over_the_panel_clear_of_the_depth_frame(app, browser):
-    page, tab = open_tab(browser, app, 1024, 600)
+@pytest.mark.parametrize("size", [(1400, 900), (1024, 600)])
+def test_notifications_stack_over_the_panel_clear_of_the_depth_frame(app, browser, size):
+    width, height = size
+    page, tab = open_tab(browser, app, width, height)
     try:
         look_at_the_depth_frame(page, tab)
         long = ("Marker 1.3 is 12.4 mm (5.1σ) off the plane fitted through the others: move it "
                 "onto the glass or delete it; the fit of the plane waits until then, and the "
                 "report under Mirrors gives every marker's distance")
+        # kept up while the test looks at them (a note closes after 8 s otherwise)
         for k in range(3):
-            app.notify(tab.client, f"Note {k}", long, "warning")
+            app.notify(tab.client, f"Note {k}", long, "warning", stay=True)
         ours = page.locator(NOTES).filter(has_text="Note ")
         wait_for(lambda: ours.count() == 3, 30, "three notifications")
         time.sleep(1.0)  # deliberate: the notifications' entry animation ends
+        ARTIFACTS.mkdir(exist_ok=True)
+        page.screenshot(path=ARTIFACTS / f"notifications-{width}x{height}.png")
         left, top = canvas_point(page, tab.client, tab.screen.world_of_pixel(-0.5, -0.5))
         right, bottom = canvas_point(page, tab.client, tab.screen.world_of_pixel(639.5, 479.5))
         panel = page.get_by_role("tab", name="Mirrors", exact=True).bounding_box()["x"]
         for k in range(3):
             box = ours.nth(k).bounding_box()
             assert overlap(box, (left, top, right, bottom)) == 0, box
-            assert box["x"] >= panel and box["y"] + box["height"] <= 600, box
+            assert box["x"] >= panel and box["y"] + box["height"] <= height, box
         # each no longer than its headline; the newest whole, the older ones their titles alone
         descriptions = ours.locator(".mantine-Notification-description")
         assert descriptions.nth(2).is_visible()

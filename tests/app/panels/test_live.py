@@ -90,3 +90,21 @@ def test_the_legend_says_which_mirrors_leave_their_part_out():
         "front "
         "too)"
     ) in legend_html({0: 1350}, name, (1, 2), ("left", "right"))
+
+
+def test_the_true_colour_legend_claims_the_tint_undone_only_when_every_mirror_has_its_gain():
+    """With no mirror, or while a mirror has no colour gain, the head does not say every tint is
+    undone; the mirrors without one follow the counts in the same run of text (no line of their
+    own)."""
+    name = {0: "direct", 1: "left", 2: "right"}.get
+    gained = legend_html({0: 1350, 1: 20, 2: 30}, name, (1, 2), true_colour=True)
+    assert "each mirror's tint undone" in gained and "no colour gain" not in gained
+    tinted = legend_html({0: 1350, 1: 20, 2: 30}, name, (1, 2), true_colour=True,
+                         no_gain=("left", "right"))
+    assert "tint undone" not in tinted and "<br>" not in tinted
+    assert legend_html({0: 1350}, name, (), true_colour=True).endswith(
+        "<b>True colour</b>: <span style=\"white-space:nowrap\">direct <b>1,350</b></span></div>"
+    )
+    assert tinted.endswith(
+        "right <b>30</b></span> · left and right: no colour gain yet (the glass's tint shows)</div>"
+    )
