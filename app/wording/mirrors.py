@@ -14,8 +14,11 @@ from ..markup import fold, markdown
 from ..results import Fit, FitsApplied
 from . import Message, joined, refinement
 
+# the modes of the Click to buttons, in their hint; Inspect, the default, has no line of its own
+CLICK_HINT = ("Inspect: a click on the depth frame reads the pixel. Markers: a click adds or picks "
+              "a marker. Boundary: clicks draw the mirror's outline.")
 HELP = {
-    "inspect": "**Inspect** mode: a click on the depth frame reads the pixel.",
+    "inspect": "",
     "markers": "**Markers** mode: click a marker's centre on **{name}** to add it; click an "
     "existing one to pick it.",
     "boundary": "**Boundary** mode: click the corners of **{name}** in order; click the first "

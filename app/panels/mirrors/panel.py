@@ -21,6 +21,7 @@ from ...wording import agreement as agreement_words
 from ...wording.greyed import greyed_out
 from ...wording.markers import marker_list
 from ...wording.mirrors import (
+    CLICK_HINT,
     CLOSED_HELP,
     FIT_MARKERS,
     HELP,
@@ -77,8 +78,9 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         self.discard = gui.add_button("Discard the proposal", visible=False)
         self.review = gui.add_markdown("", visible=False)
         self.add = gui.add_button("Add a mirror")
-        self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES))
-        self.help = gui.add_markdown(HELP["inspect"])
+        self.mode = gui.add_button_group("Click to", tuple(CLICK_MODES), hint=CLICK_HINT)
+        # the mode's line, but in Inspect mode (the Redo button in view at 1024x600)
+        self.help = gui.add_markdown("", visible=False)
         self.fit = gui.add_button("Fit plane", color="blue")
         self.fit_all = gui.add_button("Fit all planes")
         # Find above Refine: in view at 1024x600 where no plane is set
@@ -344,6 +346,7 @@ class MirrorsPanel(MirrorClicks, MirrorFits, MirrorJobs, MirrorReports):
         self.help.content = (CLOSED_HELP if closed else HELP[state.mode]).format(name=name) + (
             " Now click where it goes." if state.moving_marker else ""
         )
+        self.help.visible = bool(self.help.content)
         has = selected is not None
         picked = state.picked_marker is not None and has
         # only once a marker is picked: nothing to say before

@@ -293,3 +293,22 @@ def test_reading_pixels_shows_one_note_at_a_time(demo):
     header.show_pixel(10.4, 3.6)
     assert first._impl.removed and not header._pixel_note._impl.removed
     assert header.pixel.content.startswith("pixel (10.4, 3.6): ")
+
+
+def test_the_mode_line_shows_for_the_modes_whose_clicks_edit_and_the_hint_names_all(demo):
+    """Inspect, where a click only reads a pixel, has no line (its words are in the Click to
+    buttons' hint); Markers and Boundary name the mirror the clicks go to."""
+    _, headless = demo
+    mirrors = next(p for p in headless.tab.panels if isinstance(p, MirrorsPanel))
+    state = headless.tab.state
+    assert state.mode == "inspect"
+    mirrors.refresh()
+    assert not mirrors.help.visible and "Inspect: a click" in mirrors.mode.hint
+    for mode, start in (("markers", "**Markers** mode: click a marker's centre on **mirror 1**"),
+                        ("boundary", "**Boundary** mode: the outline of **mirror 1** is closed")):
+        state.mode = mode
+        mirrors.refresh()
+        assert mirrors.help.visible and mirrors.help.content.startswith(start)
+    state.mode = "inspect"
+    mirrors.refresh()
+    assert not mirrors.help.visible
