@@ -25,11 +25,8 @@ HELP = {
     "again to close.",
     "region": "**Region** mode: drawing the region of interest (Object step).",
 }
-CLOSED_HELP = (
-    "**Boundary** mode: the outline of **{name}** is closed: click a corner to pick it, click "
-    "again to "
-    "move it, or *Clear boundary* to draw it again."
-)
+CLOSED_HELP = ("**Boundary** mode: the outline of **{name}** is closed: click a corner to pick "
+               "it, click again to move it, or *Clear boundary* to draw it again.")
 NO_GLASS_NOTE = Message(
     "No glass set: **Refine from the object** measures it and moves the plane behind it.",
     (
