@@ -6,8 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mirrorcore.calibration.colourgain import estimate_gains, with_gains
 from mirrorcore.calibration.fit import calibrate_session
 from mirrorcore.io.session import Session
+from mirrorcore.rig.model import Rig
+from mirrorcore.rig.pipeline import prepare_frame
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
@@ -26,7 +29,8 @@ def calibrated_session(source: SimulatedSource, root: Path) -> Session:
     """A session for a simulated source, with its planes calibrated.
 
     Markers and boundaries where the simulator draws them, planes calibrated from the markers over
-    the median of the background and a few frames (RANSAC + SVD, as for a real rig).
+    the median of the background and a few frames (RANSAC + SVD, as for a real rig), and each
+    mirror's colour gain measured on those frames (as `mirrorscan calibrate` does).
 
     Parameters
     ----------
@@ -40,6 +44,13 @@ def calibrated_session(source: SimulatedSource, root: Path) -> Session:
     """
     rig = source.rig
     background = rig.background()
-    depth = np.stack([background.depth] + [rig.frame(i).depth for i in range(CALIBRATION_FRAMES)])
+    frames = [rig.frame(i) for i in range(CALIBRATION_FRAMES)]
+    depths = np.stack([f.depth for f in frames])
     session = Session(root, rig.intrinsics, session_mirrors(rig, background.truth))
-    return calibrate_session(session, depth, np.random.default_rng(0))[0]
+    session = calibrate_session(session, np.concatenate([background.depth[None], depths]),
+                                np.random.default_rng(0))[0]
+    fitted = Rig.from_session(session)
+    masks = np.stack([prepare_frame(fitted, d, background.depth, session.selection)[1]
+                      for d in depths])
+    colours = np.stack([f.colour for f in frames])
+    return with_gains(session, estimate_gains(fitted, depths, masks, colours))

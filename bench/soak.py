@@ -141,10 +141,12 @@ async def _tabs(url: str, n: int, until: float) -> list[tuple[int, float]]:
     return list(await asyncio.gather(*(listen(url, until) for _ in range(n))))
 
 
-def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> SoakReport:
+def run(seconds: float, clients: int = 4, folder: str | Path | None = None,
+        edit_every: float = EDIT_EVERY_S) -> SoakReport:
     """Serve the live demo on 127.0.0.1 (a free port) to `clients` tabs for `seconds`.
 
-    A mirror is renamed every EDIT_EVERY_S; the session is autosaved in `folder`. Stops by itself.
+    A mirror is renamed every `edit_every` seconds; the session is autosaved in `folder`. Stops by
+    itself.
 
     Parameters
     ----------
@@ -152,6 +154,8 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
     clients : int, optional
     folder : str or Path, optional
         A temporary folder by default.
+    edit_every : float, optional
+        Seconds between two edits.
 
     Returns
     -------
@@ -180,7 +184,7 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
         try:
             app.start()
             listener.start()
-            next_edit, rss = start + EDIT_EVERY_S, []
+            next_edit, rss = start + edit_every, []
             while (now := time.monotonic()) < until:
                 rss.append(rss_mb())
                 if "warm" not in report.rss_mb and now - start >= WARM_UP * seconds:
@@ -188,7 +192,7 @@ def run(seconds: float, clients: int = 4, folder: str | Path | None = None) -> S
                 if now >= next_edit:
                     report.edits += 1
                     app.editor.rename_mirror(1, f"mirror 1 edit {report.edits}")
-                    next_edit += EDIT_EVERY_S
+                    next_edit += edit_every
                 time.sleep(min(SAMPLE_EVERY_S, max(0.0, until - now)))
             report.frames = app.loop.index
             report.fps = report.frames / (time.monotonic() - start)

@@ -80,12 +80,19 @@ def sphere(tmp_path_factory):
     app.stop()
 
 
+@pytest.fixture(scope="session")
+def demo_calibration():
+    """The built-in demo's calibrated session (planes and colour gains), made once: it is the same
+    for every demo source."""
+    return calibrated_session(demo_source(), Path("unused"))
+
+
 @pytest.fixture(scope="module")
-def demo():
+def demo(demo_calibration):
     """(app, HeadlessTab) on the built-in demo (calibrated, not saved), the live loop not
     started."""
     source = demo_source()
-    app = MirrorscanApp(calibrated_session(source, Path("unused")), source, port=0, autosave=False)
+    app = MirrorscanApp(demo_calibration, source, port=0, autosave=False)
     with HeadlessTab(app) as tab:
         yield app, tab
     app.stop()

@@ -205,10 +205,10 @@ def test_an_unplugged_camera_is_reported_once_and_the_loop_recovers(monkeypatch)
 
 
 def test_short_soak_with_four_tabs():
-    """20 s of the live demo to 4 simulated tabs with a session edit every 5 s: no error, every tab
+    """12 s of the live demo to 4 simulated tabs with a session edit every 3 s: no error, every tab
     served, every edit on disk (`python -m mirrorscan.bench.soak` runs the long one; its speed
     figures are in `mirrorscan bench`)."""
-    report = soak(20.0, clients=4)
+    report = soak(12.0, clients=4, edit_every=3.0)
     assert report.errors == [] and report.frames > 0
     assert min(report.messages) > 0 and report.late_messages > 0
     assert report.edits >= 3 and report.edits_on_disk

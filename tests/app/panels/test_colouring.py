@@ -35,9 +35,9 @@ def test_one_control_switches_true_colour_source_and_heat_map(demo):
     assert per_point(tab) and not colours.greyed.visible
     header.show(app.loop.run_once())
     legend = header.legend.content
-    # true colour: no swatch of the sources' colours; the mirrors without a gain named
+    # true colour: no swatch of the sources' colours; the demo's mirrors have their gains
     assert "True colour" in legend and "background:rgb(" not in legend and "direct <b>" in legend
-    assert "mirror 1 and mirror 2: no colour gain yet" in legend
+    assert "each mirror's tint undone" in legend and "no colour gain yet" not in legend
     colours.choose(BY_SOURCE, ticked=True)
     assert not tab.true_colour and colours.choice.value == BY_SOURCE
     assert all(h.colors.shape == (3,) for h in tab.scene._clouds.values())
