@@ -10,11 +10,12 @@ send: the tab's connection would close. `markdown` and the notifications pass th
 
 from __future__ import annotations
 
+import re
 from html import escape
 
 from mirrorcore.io.fields import shown
 
-__all__ = ["escape", "fold", "markdown", "shown"]
+__all__ = ["escape", "fold", "fold_under", "markdown", "shown"]
 
 FOLD_TITLE = "Details"
 
@@ -57,3 +58,28 @@ def fold(headline: str, details: list[str]) -> str:
         return headline
     body = "\n\n".join(details)
     return f"{headline}\n\n<details><summary>{FOLD_TITLE}</summary>\n\n{body}\n\n</details>"
+
+
+def fold_under(headline: str, details: list[str]) -> str:
+    """Markdown: `headline` as the title of a collapsed <details> fold of `details`.
+
+    The fold takes no line of its own: a click on the headline opens it.
+
+    Parameters
+    ----------
+    headline : str
+        One line of Markdown of the tool's own; its **bold** is kept, any HTML shown as text.
+    details : list of str
+        Markdown paragraphs, already passed through `markdown`.
+
+    Returns
+    -------
+    str
+        The headline alone (through `markdown`) without details.
+    """
+    if not details:
+        return markdown(headline)
+    title = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", escape(shown(headline), quote=False))
+    body = "\n\n".join(details)
+    return f"<details><summary>{title}</summary>\n\n{body}\n\n</details>"
+

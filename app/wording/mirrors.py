@@ -10,7 +10,7 @@ from mirrorcore.base.words import listed
 from mirrorcore.calibration.markers import GRADES, MAX_SHIFT_MM, MAX_TILT_DEG
 from mirrorcore.io.session import SessionMirror
 
-from ..markup import fold, markdown
+from ..markup import fold_under, markdown
 from ..results import Fit, FitsApplied
 from . import Message, joined, refinement
 
@@ -269,8 +269,8 @@ def mirror_status(
     -------
     str
         The glass is mm in front of the silver: typed in, or measured by a refinement with its
-        1 sigma; none without markers. Its colour gain, when it has one, in a details fold
-        (refinement.colour_line).
+        1 sigma; none without markers. Its colour gain, when it has one, in a fold the line
+        opens (refinement.colour_line).
     """
     if mirror is None:
         return ""
@@ -301,7 +301,7 @@ def mirror_status(
     )
     gain = mirror.colour_gain
     colour = [] if gain is None else [markdown(refinement.colour_line(gain))]
-    return fold(markdown(line), colour)
+    return fold_under(line, colour)
 
 
 

@@ -73,6 +73,9 @@ def rgb_words(rgb: np.ndarray) -> np.ndarray:
         Each colour's bytes red, green, blue, 255, in C order of `rgb`'s leading axes.
     """
     rgb = np.asarray(rgb)
+    # OpenCV refuses an empty image: an empty cloud has no words
+    if rgb.size == 0:
+        return np.zeros(0, np.uint32)
     return cv2.cvtColor(rgb.reshape(-1, 1, 3), cv2.COLOR_RGB2RGBA).view(np.uint32).reshape(-1)
 
 

@@ -213,13 +213,13 @@ def test_refine_from_the_object_and_the_heat_map(calibrated, notes, caplog):
     # the selected mirror's line: its plane, glass and markers
     mirrors.refresh()
     markers = len(app.editor.mirror(1).markers)
-    line, fold = mirrors.status.content.split("\n", 1)
+    line, fold = mirrors.status.content.split("</summary>", 1)
     assert line == (
-        "plane from the object · glass 3.0 mm typed in: the next "
+        "<details><summary>plane from the object · glass 3.0 mm typed in: the next "
         "markers fit uses it, "
         f"this plane does not depend on it · {markers} markers"
     )
-    # the refinement measured the colour gain on the live frames: in the details
+    # the refinement measured the colour gain on the live frames: in the fold the line opens
     gain = " / ".join(f"{100 * g:.0f}" for g in app.editor.mirror(1).colour_gain)
     assert f"colour {gain} %" in fold
     with pytest.raises(MirrorscanError, match="must be 0 to 50 mm, got 80 mm"):

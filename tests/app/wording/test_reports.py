@@ -2,6 +2,7 @@
 headline and keep their figures in the details."""
 from dataclasses import replace
 
+from mirrorscan.markup import fold_under
 from mirrorscan.results import CalibrationReport, FramesUsed, NotFound
 from mirrorscan.wording import HEADLINE_WORDS, refusal, words
 from mirrorscan.wording import refinement as calibration_words
@@ -116,3 +117,12 @@ def test_a_mirrors_line_says_where_its_plane_comes_from_its_glass_and_its_marker
     assert mirror_status(measured, True) == "plane from the object · glass not measured · 1 marker"
     assert mirror_status(measured, False).startswith("plane calibrated · no glass set")
     assert mirror_status(replace(measured, markers=()), True) == "plane from the object · 0 markers"
+    # a colour gain: the line itself opens the fold that holds it (no line of its own), its bold
+    # kept and any HTML of a name shown as text
+    gained = replace(placed, colour_gain=(0.84, 0.88, 0.86))
+    status = mirror_status(gained, False, glass_unused=True)
+    assert status.startswith("<details><summary>plane calibrated · glass 4.2 mm typed in, not in "
+                             "the plane yet: <b>Fit plane</b> moves it")
+    assert "1 marker</summary>" in status and "colour 84 / 88 / 86 %" in status
+    assert fold_under("a <img onerror=x> name", ["x"]).startswith(
+        "<details><summary>a &lt;img onerror=x&gt; name</summary>")

@@ -9,7 +9,7 @@ import pytest
 from mirrorcore.base.errors import FileFormatError
 from mirrorcore.base.palette import sequence_label
 from mirrorcore.geometry.camera import Intrinsics
-from mirrorcore.rig.colour import correction_table, point_colours, view_gain
+from mirrorcore.rig.colour import correction_table, point_colours, rgb_words, view_gain
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.sim.albedo import object_albedo
 from mirrorcore.sim.export import true_rig
@@ -91,3 +91,14 @@ def test_a_frame_without_colour_has_no_rgb_and_falls_back_to_the_source_colours(
     assert np.array_equal(cloud.true_colours, cloud.colours)
     picked = cloud.select(cloud.sources == 1)
     assert picked.rgb is None and len(picked) > 0
+
+
+def test_rgb_words_pack_red_green_blue_and_255_and_an_empty_cloud_has_none():
+    rgb = np.array([[1, 2, 3], [250, 128, 0]], np.uint8)
+    words = rgb_words(rgb)
+    assert words.dtype == np.uint32
+    np.testing.assert_array_equal(words.view(np.uint8).reshape(-1, 4),
+                                  [[1, 2, 3, 255], [250, 128, 0, 255]])
+    np.testing.assert_array_equal(rgb_words(np.zeros((4, 8, 3), np.uint8)[:, ::2]),
+                                  np.full(16, 255 << 24 if np.little_endian else 255, np.uint32))
+    assert rgb_words(np.zeros((0, 3), np.uint8)).shape == (0,)
