@@ -34,21 +34,35 @@ from tests.waiting import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 KILLS = 12
-SAVER = textwrap.dedent("""
+# One process imports once, then forks a saver per line it reads (it has no other thread, so a
+# fork is safe): each saver saves sessions of changing size (0 to 20 kB) as fast as it can until
+# killed, and the parent reaps it (and says so) before reading the next line.
+SAVERS = textwrap.dedent("""
+    import os
     import sys
     from pathlib import Path
     from mirrorcore.geometry.camera import Intrinsics
     from mirrorcore.io.session import SessionMirror, Session
     from mirrorcore.io.sessionfile import save_session
-    root, k = Path(sys.argv[1]), 0
-    # sessions of changing size (0 to 20 kB), saved as fast as possible until killed
-    while True:
-        k += 1
-        markers = tuple((float(i % 600), float(i % 400)) for i in range(k % 500))
-        mirrors = (SessionMirror(f"mirror {k}", markers),)
-        save_session(Session(root, Intrinsics.primesense(), mirrors))
-        if k == 1:
-            print("saving", flush=True)
+    root = Path(sys.argv[1])
+
+    def save_until_killed():
+        k = 0
+        while True:
+            k += 1
+            markers = tuple((float(i % 600), float(i % 400)) for i in range(k % 500))
+            mirrors = (SessionMirror(f"mirror {k}", markers),)
+            save_session(Session(root, Intrinsics.primesense(), mirrors))
+            if k == 1:
+                print("saving", flush=True)
+
+    for _ in sys.stdin:
+        pid = os.fork()
+        if pid == 0:
+            save_until_killed()
+        print(pid, flush=True)
+        os.waitpid(pid, 0)
+        print("reaped", flush=True)
 """)
 
 
@@ -58,18 +72,26 @@ def test_a_process_killed_while_saving_leaves_a_session_that_loads(tmp_path):
     rng = np.random.default_rng(7)
     save_session(Session(tmp_path, Intrinsics.primesense(), (SessionMirror("first"),)))
     names = set()
-    for _ in range(KILLS):
-        saver = subprocess.Popen([sys.executable, "-c", SAVER, str(tmp_path)], cwd=ROOT,
-                                 stdout=subprocess.PIPE)
-        # started (however long the interpreter took), saving in a loop
-        assert saver.stdout.readline() == b"saving\n"
-        time.sleep(rng.uniform(0.0, 0.8))  # deliberate: the kill lands at a random moment
-        saver.send_signal(signal.SIGKILL)
-        saver.wait()
-        names.add(load_session(tmp_path).mirrors[0].name)
-        (tmp_path / "bak").mkdir(exist_ok=True)
-        shutil.copy(tmp_path / "session.json.bak", tmp_path / "bak/session.json")
-        load_session(tmp_path / "bak")
+    savers = subprocess.Popen([sys.executable, "-c", SAVERS, str(tmp_path)], cwd=ROOT,
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        for _ in range(KILLS):
+            savers.stdin.write("save\n")
+            savers.stdin.flush()
+            # the saver's process id and its first save, in either order
+            said = {savers.stdout.readline().strip() for _ in range(2)}
+            assert "saving" in said, said
+            pid = int((said - {"saving"}).pop())
+            time.sleep(rng.uniform(0.0, 0.8))  # deliberate: the kill lands at a random moment
+            os.kill(pid, signal.SIGKILL)
+            assert savers.stdout.readline() == "reaped\n"
+            names.add(load_session(tmp_path).mirrors[0].name)
+            (tmp_path / "bak").mkdir(exist_ok=True)
+            shutil.copy(tmp_path / "session.json.bak", tmp_path / "bak/session.json")
+            load_session(tmp_path / "bak")
+    finally:
+        savers.kill()
+        savers.wait()
     # the kills landed in different saves
     assert len(names) > KILLS // 2
 
