@@ -86,8 +86,8 @@ def test_refine_on_a_live_source_with_colour_measures_the_gains_on_its_last_fram
     app.start()
     try:
         with HeadlessTab(app):
-            wait_for(lambda: (app.loop.recent_frames() or ((),))[0] is not None
-                     and len(app.loop.recent_frames()[0]) >= 3, 60, "three live frames")
+            wait_for(lambda: len((app.loop.recent_frames() or ((),))[0]) >= 3, 60,
+                     "three live frames")
             app.jobs.start_refine(app.editor).join(120)
             for m, tint in zip(app.editor.session.mirrors, TINTS):
                 np.testing.assert_allclose(m.colour_gain, tint, rtol=0.02)
