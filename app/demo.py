@@ -10,7 +10,7 @@ from mirrorcore.calibration.colourgain import estimate_gains, with_gains
 from mirrorcore.calibration.fit import calibrate_session
 from mirrorcore.io.session import Session
 from mirrorcore.rig.model import Rig
-from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.pipeline import object_masks
 from mirrorcore.sim.export import session_mirrors
 from mirrorcore.sim.layouts import paper_scene
 from mirrorcore.sim.simulator import Simulator
@@ -50,7 +50,6 @@ def calibrated_session(source: SimulatedSource, root: Path) -> Session:
     session = calibrate_session(session, np.concatenate([background.depth[None], depths]),
                                 np.random.default_rng(0))[0]
     fitted = Rig.from_session(session)
-    masks = np.stack([prepare_frame(fitted, d, background.depth, session.selection)[1]
-                      for d in depths])
+    masks = object_masks(fitted, depths, background.depth, session.selection)
     colours = np.stack([f.colour for f in frames])
     return with_gains(session, estimate_gains(fitted, depths, masks, colours))

@@ -26,7 +26,7 @@ from mirrorcore.io.session import Session
 from mirrorcore.io.sessionfile import load_session, save_session
 from mirrorcore.io.sessionlock import SessionLock
 from mirrorcore.rig.model import Rig
-from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.pipeline import object_masks
 
 from . import percent_bar, wording
 from .wording.calibration import colour_gain
@@ -110,7 +110,7 @@ def object_frames(session: Session, frame: int | None) -> tuple[np.ndarray, np.n
     picks = _picks(session, frame)
     rig, background = Rig.from_session(session), session.read_background()
     depths = session.read_frames(picks)
-    masks = np.stack([prepare_frame(rig, d, background, session.selection)[1] for d in depths])
+    masks = object_masks(rig, depths, background, session.selection)
     return depths, masks
 
 

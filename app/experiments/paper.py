@@ -27,7 +27,7 @@ from mirrorcore.dense.carve import carve
 from mirrorcore.dense.tsdf import fuse
 from mirrorcore.base.errors import CalibrationError
 from mirrorcore.geometry.fitting import fit_cylinder, fit_sphere
-from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.pipeline import object_masks, prepare_frame
 from mirrorcore.rig.reconstruct import reconstruct_raw
 from mirrorcore.calibration.refine import refine_session
 from mirrorcore.rig.model import Rig
@@ -174,7 +174,7 @@ def glass_trial(scene: Scene, seed: int) -> dict[str, float]:
         return 1e3 * FitErrors.from_deviations(truth.deviations(cloud.points)).rmse
 
     rig = Rig.from_session(session)
-    masks = np.stack([prepare_frame(rig, depth, background)[1] for depth in frames])
+    masks = object_masks(rig, np.stack(frames), background)
     try:
         refined = rmse(refine_session(session, np.stack(frames), masks)[0])
     except CalibrationError:

@@ -23,7 +23,7 @@ from mirrorcore.calibration.scene import calibrate_scene
 from mirrorcore.geometry.plane import Plane
 from mirrorcore.io.session import Session
 from mirrorcore.rig.model import Rig
-from mirrorcore.rig.pipeline import prepare_frame
+from mirrorcore.rig.pipeline import object_masks
 from mirrorcore.sources import SessionSource
 
 from ..results import (
@@ -286,12 +286,7 @@ class RefinementJob(Runner):
         """
         depths, colours = frames
         self.progress(REFINE, 0.0, CalibrationWork(search is not None, used))
-        masks = np.stack(
-            [
-                prepare_frame(snapshot.rig, d, snapshot.backdrop, session.selection)[1]
-                for d in depths
-            ]
-        )
+        masks = object_masks(snapshot.rig, depths, snapshot.backdrop, session.selection)
         work = CalibrationWork(search is not None, used, started=True)
         kind, ids = (
             ("refine", [m.id for m in session.mirrors if m.plane is not None])

@@ -41,6 +41,27 @@ def prepare_frame(rig: Rig, depth: np.ndarray, background: np.ndarray | Backdrop
     return np.asarray(depth, np.float32), mask
 
 
+def object_masks(rig: Rig, depths: np.ndarray, background: np.ndarray | Backdrop | None,
+                 selection: Selection = Selection()) -> np.ndarray:
+    """The object's pixels in each of several frames: prepare_frame's masks, no depth smoothed.
+
+    Parameters
+    ----------
+    rig : Rig
+    depths : (F, H, W) float
+        Metres, as measured.
+    background : (H, W) float, Backdrop or None
+        Metres, the scene without the object, or its Backdrop.
+    selection : Selection
+        How the object is found.
+
+    Returns
+    -------
+    (F, H, W) bool array
+    """
+    return np.stack([object_mask(rig.intrinsics, d, background, selection) for d in depths])
+
+
 def _smooth_through_mirrors(rig: Rig, depth: np.ndarray, smoothed: np.ndarray,
                             mask: np.ndarray) -> np.ndarray:
     """The object's pixels seen through two or more mirrors, fitted by local quadratic surfaces over

@@ -102,3 +102,4 @@ def test_rgb_words_pack_red_green_blue_and_255_and_an_empty_cloud_has_none():
     np.testing.assert_array_equal(rgb_words(np.zeros((4, 8, 3), np.uint8)[:, ::2]),
                                   np.full(16, 255 << 24 if np.little_endian else 255, np.uint32))
     assert rgb_words(np.zeros((0, 3), np.uint8)).shape == (0,)
+
